@@ -1,0 +1,45 @@
+/*
+ * dynamics.h - forces, motor equation and the state-space model (eqs 6-15, 21, 23-27).
+ *
+ * Sign convention (see DESIGN.md): the paper's printed A (eq 25) has the back-EMF term with a
+ * plus sign; derived from eqs 9-15 and 21 it decelerates the robot, so here
+ *   A11 = -(2 Kt Kv l^2 / (r^2 R M) + Bv / M), A22 likewise with Bvn,
+ *   A33 = -(4 d^2 Kt Kv l^2 / (r^2 R J) + Bw / J).
+ * B (eq 26) and K (eq 27) are as printed.
+ */
+#ifndef OMNI4_DYNAMICS_H
+#define OMNI4_DYNAMICS_H
+
+#include "omni4/params.h"
+
+/* eqs 12-13: wheel traction force [N] from motor current [A]: f = l Kt i / r. */
+void dyn_wheel_forces(const struct model_params *p, const double current_a[4], double force_n[4]);
+
+/* eqs 9-11: robot forces [Fv, Fvn, T] ([N], [N], [N m]) from wheel forces. */
+void dyn_robot_forces(double d, const double force_n[4], double robot_f[3]);
+
+/* Motor speed [rad/s] before the gearbox for a wheel linear speed [m/s]: w_m = l v / r. */
+double motor_speed_rad_s(const struct model_params *p, double wheel_speed_m_s);
+
+/* eq 21 (L neglected): u = R i + Kv w_m. */
+double motor_voltage(const struct model_params *p, double current_a, double motor_speed_rad_s);
+/* eq 21 solved for i. */
+double motor_current(const struct model_params *p, double voltage_v, double motor_speed_rad_s);
+
+/* The model of eq 23: dx/dt = A x + B u + K sign(x); A and K are diagonal. */
+struct model_ss {
+	double A[3];    /* diagonal of A [1/s] */
+	double B[3][4]; /* [(m/s^2)/V] rows 0,1; [(rad/s^2)/V] row 2 */
+	double K[3];    /* diagonal of K [m/s^2], [m/s^2], [rad/s^2] */
+	double A_coast[3]; /* diagonal of A with the H-bridges off (no back-EMF braking) */
+};
+
+void dyn_state_space(const struct model_params *p, struct model_ss *ss);
+
+/*
+ * Steady velocity under constant voltages u: the x with A x + B u + K sign(x) = 0, axis by axis;
+ * an axis whose drive does not overcome its Coulomb friction stays at 0 (stiction).
+ */
+void dyn_steady_velocity(const struct model_ss *ss, const double u[4], double x[3]);
+
+#endif /* OMNI4_DYNAMICS_H */

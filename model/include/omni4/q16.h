@@ -1,0 +1,93 @@
+/*
+ * q16.h - the one fixed-point format of omni4.
+ *
+ * q16_t is Q16.16 in an int32_t: 16 integer bits (sign included), 16 fraction bits.
+ * Range [-32768, 32767.99998], resolution 2^-16 = 1.53e-5. Products and sums are formed in
+ * int64_t and saturated to the int32_t range: results never wrap. Rounding is to nearest
+ * (ties away from zero on the magnitude).
+ *
+ * The helpers are static inline, integer-only: the fixed-point path needs no libc and no
+ * floating-point support routine. Conversions to/from double are for set-up and tests only.
+ */
+#ifndef OMNI4_Q16_H
+#define OMNI4_Q16_H
+
+#include <stdint.h>
+
+typedef int32_t q16_t;
+
+#define Q16_FRAC_BITS 16
+#define Q16_ONE ((q16_t)1 << Q16_FRAC_BITS)
+#define Q16_MAX INT32_MAX
+#define Q16_MIN INT32_MIN
+
+/* Saturate a 64-bit intermediate to the q16_t range. */
+static inline q16_t q16_sat(int64_t x)
+{
+	if (x > (int64_t)Q16_MAX)
+		return Q16_MAX;
+	if (x < (int64_t)Q16_MIN)
+		return Q16_MIN;
+	return (q16_t)x;
+}
+
+static inline q16_t q16_add(q16_t a, q16_t b)
+{
+	return q16_sat((int64_t)a + b);
+}
+
+static inline q16_t q16_sub(q16_t a, q16_t b)
+{
+	return q16_sat((int64_t)a - b);
+}
+
+static inline q16_t q16_neg(q16_t a)
+{
+	return q16_sat(-(int64_t)a);
+}
+
+/*
+ * Scaling and overflow: Q16.16 x Q16.16 -> Q32.32 in int64_t (exact, |a*b| < 2^62), rounded
+ * back to Q16.16 and saturated.
+ */
+static inline q16_t q16_mul(q16_t a, q16_t b)
+{
+	int64_t p = (int64_t)a * b;
+	int64_t half = (int64_t)1 << (Q16_FRAC_BITS - 1);
+
+	p = p >= 0 ? (p + half) >> Q16_FRAC_BITS : -((-p + half) >> Q16_FRAC_BITS);
+	return q16_sat(p);
+}
+
+/* Multiply by a plain integer; saturating. */
+static inline q16_t q16_mul_int(q16_t a, int32_t k)
+{
+	return q16_sat((int64_t)a * k);
+}
+
+/* Clamp to [lo, hi] (lo <= hi). */
+static inline q16_t q16_clamp(q16_t x, q16_t lo, q16_t hi)
+{
+	return x < lo ? lo : (x > hi ? hi : x);
+}
+
+/* Set-up and test helpers (double; not part of the per-tick fixed-point path). */
+static inline q16_t q16_from_double(double x)
+{
+	double s = x * (double)Q16_ONE;
+
+	if (!(s == s))
+		return 0;
+	if (s >= (double)Q16_MAX)
+		return Q16_MAX;
+	if (s <= (double)Q16_MIN)
+		return Q16_MIN;
+	return (q16_t)(s >= 0 ? s + 0.5 : s - 0.5);
+}
+
+static inline double q16_to_double(q16_t x)
+{
+	return (double)x / (double)Q16_ONE;
+}
+
+#endif /* OMNI4_Q16_H */

@@ -1,0 +1,78 @@
+/* dynamics.c - forces, motor equation, state-space matrices (derived signs), steady state. */
+#include "omni4/dynamics.h"
+
+#include "omni4/kinematics.h"
+
+#include <math.h>
+
+void dyn_wheel_forces(const struct model_params *p, const double current_a[4], double force_n[4])
+{
+	const double k = p->l * p->Kt / p->r; /* eqs 12-13 */
+
+	for (int j = 0; j < 4; j++)
+		force_n[j] = k * current_a[j];
+}
+
+void dyn_robot_forces(double d, const double f[4], double robot_f[3])
+{
+	robot_f[0] = f[3] - f[1];                  /* eq 9 */
+	robot_f[1] = f[0] - f[2];                  /* eq 10 */
+	robot_f[2] = d * (f[0] + f[1] + f[2] + f[3]); /* eq 11 */
+}
+
+double motor_speed_rad_s(const struct model_params *p, double wheel_speed_m_s)
+{
+	return p->l * wheel_speed_m_s / p->r;
+}
+
+double motor_voltage(const struct model_params *p, double current_a, double w_m)
+{
+	return p->R * current_a + p->Kv * w_m; /* eq 21 */
+}
+
+double motor_current(const struct model_params *p, double voltage_v, double w_m)
+{
+	return (voltage_v - p->Kv * w_m) / p->R;
+}
+
+void dyn_state_space(const struct model_params *p, struct model_ss *ss)
+{
+	const double emf = p->Kt * p->Kv * p->l * p->l / (p->r * p->r * p->R);
+	const double b = p->l * p->Kt / (p->r * p->R); /* eq 26 common factor */
+	const double d = p->d;
+
+	ss->A_coast[0] = -p->Bv / p->M;
+	ss->A_coast[1] = -p->Bvn / p->M;
+	ss->A_coast[2] = -p->Bw / p->J;
+	ss->A[0] = -2.0 * emf / p->M + ss->A_coast[0];
+	ss->A[1] = -2.0 * emf / p->M + ss->A_coast[1];
+	ss->A[2] = -4.0 * d * d * emf / p->J + ss->A_coast[2];
+
+	const double B[3][4] = {
+		{0.0, -b / p->M, 0.0, b / p->M},
+		{b / p->M, 0.0, -b / p->M, 0.0},
+		{b * d / p->J, b * d / p->J, b * d / p->J, b * d / p->J},
+	};
+	for (int k = 0; k < 3; k++)
+		for (int j = 0; j < 4; j++)
+			ss->B[k][j] = B[k][j];
+
+	ss->K[0] = -p->Cv / p->M; /* eq 27 */
+	ss->K[1] = -p->Cvn / p->M;
+	ss->K[2] = -p->Cw / p->J;
+}
+
+void dyn_steady_velocity(const struct model_ss *ss, const double u[4], double x[3])
+{
+	for (int k = 0; k < 3; k++) {
+		double b = 0.0;
+
+		for (int j = 0; j < 4; j++)
+			b += ss->B[k][j] * u[j];
+		if (fabs(b) <= -ss->K[k]) {
+			x[k] = 0.0; /* stiction: drive below the Coulomb level */
+			continue;
+		}
+		x[k] = -(b + ss->K[k] * (b > 0 ? 1.0 : -1.0)) / ss->A[k];
+	}
+}

@@ -1,0 +1,57 @@
+/* feedforward.c - double feedforward and the set-up of its Q16.16 coefficients. */
+#include "omni4/feedforward.h"
+
+#include "omni4/kinematics.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stddef.h>
+
+double ff_sign(double x, double band)
+{
+	const double s = x / band;
+
+	return s > 1.0 ? 1.0 : (s < -1.0 ? -1.0 : s);
+}
+
+void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
+		 double u_max, double u[4])
+{
+	const double Fv = p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN);
+	const double Fvn =
+		p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN);
+	const double T = p->J * acc[2] + p->Bw * vel[2] + p->Cw * ff_sign(vel[2], FF_SIGN_BAND_ROT);
+	const double share[3] = {Fv / 2.0, Fvn / 2.0, T / (4.0 * p->d * p->d)};
+	double f[4], vw[4];
+
+	ik_wheel_speeds(p->d, share, f);
+	ik_wheel_speeds(p->d, vel, vw);
+	for (int j = 0; j < 4; j++) {
+		const double uj = p->R * p->r / (p->l * p->Kt) * f[j] + p->Kv * p->l / p->r * vw[j];
+
+		u[j] = uj > u_max ? u_max : (uj < -u_max ? -u_max : uj);
+	}
+}
+
+int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max)
+{
+	if (model_params_check(p, NULL) || !(u_max > 0.0) || !isfinite(u_max))
+		return -EINVAL;
+	const double kf = p->R * p->r / (p->l * p->Kt); /* [V/N] */
+	const double k4d = kf / (4.0 * p->d);
+	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
+	const double visc[3] = {kf * p->Bv / 2.0, kf * p->Bvn / 2.0, k4d * p->Bw};
+	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
+	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
+
+	ff->d = q16_from_double(p->d);
+	for (int k = 0; k < 3; k++) {
+		ff->k_acc[k] = q16_from_double(acc[k]);
+		ff->k_visc[k] = q16_from_double(visc[k]);
+		ff->k_coul[k] = q16_from_double(coul[k]);
+		ff->sgn_gain[k] = (int32_t)lround(1.0 / band[k]);
+	}
+	ff->k_emf = q16_from_double(p->Kv * p->l / p->r);
+	ff->u_max = q16_from_double(u_max);
+	return 0;
+}

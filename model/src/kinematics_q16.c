@@ -1,0 +1,33 @@
+/* kinematics_q16.c - eqs 2-5 in Q16.16 (integer only: this file is the fixed-point path). */
+#include "omni4/kinematics.h"
+
+void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4])
+{
+	const q16_t dw = q16_mul(d, x[2]);
+
+	v_wheel[0] = q16_add(x[1], dw);
+	v_wheel[1] = q16_sub(dw, x[0]);
+	v_wheel[2] = q16_sub(dw, x[1]);
+	v_wheel[3] = q16_add(x[0], dw);
+}
+
+/* Halve a 64-bit Q16.16 value, rounding to nearest, and saturate. */
+static q16_t half_round(int64_t s)
+{
+	return q16_sat(s >= 0 ? (s + 1) / 2 : -((-s + 1) / 2));
+}
+
+void fk_robot_velocity_q16(q16_t inv_4d, const q16_t v_wheel[4], q16_t x[3])
+{
+	const int64_t sum = (int64_t)v_wheel[0] + v_wheel[1] + v_wheel[2] + v_wheel[3];
+	const int64_t half = (int64_t)1 << 15;
+	int64_t p; /* Q32.32 */
+
+	if (__builtin_mul_overflow(sum, (int64_t)inv_4d, &p))
+		p = (sum < 0) != (inv_4d < 0) ? INT64_MIN / 2 : INT64_MAX / 2; /* saturates below */
+
+	x[0] = half_round((int64_t)v_wheel[3] - v_wheel[1]);
+	x[1] = half_round((int64_t)v_wheel[0] - v_wheel[2]);
+	p = p >= 0 ? (p + half) >> 16 : -((-p + half) >> 16);
+	x[2] = q16_sat(p);
+}

@@ -1,0 +1,58 @@
+/* params.c - Table III defaults, field access by name index, and the sanity check. */
+#include "omni4/params.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stddef.h>
+
+const struct model_params model_params_table3 = {
+	.d = 0.089, .r = 0.0325, .l = 5.0, .Kv = 0.0259, .Kt = 0.0259, .R = 4.3111,
+	.M = 2.34, .J = 0.0228, .Bv = 0.4978, .Bvn = 0.6763, .Bw = 0.0141,
+	.Cv = 1.8738, .Cvn = 2.2198, .Cw = 0.1385,
+};
+
+const char *const model_params_names[MODEL_PARAMS_COUNT] = {
+	"d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw",
+};
+
+static const size_t field_offset[MODEL_PARAMS_COUNT] = {
+	offsetof(struct model_params, d),   offsetof(struct model_params, r),
+	offsetof(struct model_params, l),   offsetof(struct model_params, Kv),
+	offsetof(struct model_params, Kt),  offsetof(struct model_params, R),
+	offsetof(struct model_params, M),   offsetof(struct model_params, J),
+	offsetof(struct model_params, Bv),  offsetof(struct model_params, Bvn),
+	offsetof(struct model_params, Bw),  offsetof(struct model_params, Cv),
+	offsetof(struct model_params, Cvn), offsetof(struct model_params, Cw),
+};
+
+/* The first 8 fields (d .. J) must be strictly positive; frictions may be zero. */
+#define MODEL_PARAMS_POSITIVE 8
+
+double *model_params_field(struct model_params *p, int i)
+{
+	if (i < 0 || i >= MODEL_PARAMS_COUNT)
+		return NULL;
+	return (double *)((char *)p + field_offset[i]);
+}
+
+double model_params_get(const struct model_params *p, int i)
+{
+	if (i < 0 || i >= MODEL_PARAMS_COUNT)
+		return NAN;
+	return *(const double *)((const char *)p + field_offset[i]);
+}
+
+int model_params_check(const struct model_params *p, int *bad)
+{
+	for (int i = 0; i < MODEL_PARAMS_COUNT; i++) {
+		double v = model_params_get(p, i);
+		int ok = isfinite(v) && (i < MODEL_PARAMS_POSITIVE ? v > 0.0 : v >= 0.0);
+
+		if (!ok) {
+			if (bad)
+				*bad = i;
+			return -EINVAL;
+		}
+	}
+	return 0;
+}

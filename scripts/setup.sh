@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs what omni4 needs to build, test and plot on a fresh Debian 12 machine.
+# Idempotent: packages already present are left alone. Needs root (or sudo).
+set -euo pipefail
+
+PKGS=(
+  build-essential cmake ninja-build pkg-config
+  liblcm-dev liblcm-bin libglib2.0-dev
+  libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev
+  python3 python3-numpy python3-matplotlib
+)
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+  echo "setup: all packages present"
+fi

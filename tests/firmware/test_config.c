@@ -1,0 +1,176 @@
+/* Tests for firmware/src/config.c: the INI file of a robot. */
+#include "omni4_test.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "omni4/config.h"
+
+static const char *good =
+	"; a robot\n"
+	"[model]\n"
+	"d = 0.1\nr = 0.03\nl = 4\nKv = 0.02\nKt = 0.021\nR = 3.5\nM = 2.5\nJ = 0.03\n"
+	"Bv = 0.5\nBvn = 0.6\nBw = 0.01\nCv = 1.5\nCvn = 2.0\nCw = 0.12\n"
+	"\n[loop]\nrate_hz = 500\nsched_fifo = yes\npriority = 70\n"
+	"[control]\nkp = 10\ncmd_timeout_ms = 150\nfeedforward = false\n"
+	"[lcm]\nurl = memq://\n"
+	"[hal]\nmotor = socketcan\nlines = gpiod\n"
+	"[can]\niface = vcan0\n"
+	"[gpio]\nestop_line = 17\nestop_active_low = off\n";
+
+static void expect_error(const char *text, int rc, int line, const char *fragment)
+{
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_int_equal(config_load_string(text, "robot.ini", &cfg, &err), rc);
+	assert_int_equal(err.line, line);
+	if (!strstr(err.msg, fragment))
+		fail_msg("message '%s' lacks '%s'", err.msg, fragment);
+}
+
+static void test_good_file_overrides_defaults(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_int_equal(config_load_string(good, "robot.ini", &cfg, &err), 0);
+	assert_near(cfg.model.d, 0.1, 0);
+	assert_near(cfg.model.Kt, 0.021, 0);
+	assert_near(cfg.model.Cw, 0.12, 0);
+	assert_near(cfg.loop.rate_hz, 500, 0);
+	assert_true(cfg.loop.sched_fifo);
+	assert_int_equal(cfg.loop.priority, 70);
+	assert_int_equal(cfg.control.cmd_timeout_ms, 150);
+	assert_false(cfg.control.feedforward);
+	assert_true(cfg.control.feedback); /* default kept */
+	assert_string_equal(cfg.lcm.url, "memq://");
+	assert_string_equal(cfg.hal.motor, "socketcan");
+	assert_string_equal(cfg.can.iface, "vcan0");
+	assert_int_equal(cfg.gpio.estop_line, 17);
+	assert_false(cfg.gpio.estop_active_low);
+}
+
+static void test_defaults_are_table3_and_safe(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_near(cfg.model.R, 4.3111, 0);
+	assert_near(cfg.limits.supply_v, 12.0, 0);
+	assert_non_null(strstr(cfg.lcm.url, "ttl=0"));
+	/* An empty file is valid: everything at its default. */
+	assert_int_equal(config_load_string("", "empty.ini", &cfg, &err), 0);
+	assert_near(cfg.model.M, 2.34, 0);
+}
+
+static void test_unknown_key_is_reported_with_its_line(void **state)
+{
+	(void)state;
+	expect_error("[loop]\nrate_hz = 100\nrat_hz = 5\n", -EINVAL, 3,
+		     "robot.ini:3: unknown key 'rat_hz' in [loop]");
+	expect_error("[motors]\nR = 1\n", -EINVAL, 2, "unknown key 'R' in [motors]");
+}
+
+static void test_bad_number_is_reported_with_its_line(void **state)
+{
+	(void)state;
+	expect_error("[loop]\n\nrate_hz = fast\n", -EINVAL, 3, "'fast' is not a finite number");
+	expect_error("[loop]\nrate_hz = 1e999\n", -EINVAL, 2, "not a finite number");
+	expect_error("[loop]\nrate_hz = nan\n", -EINVAL, 2, "not a finite number");
+	expect_error("[loop]\npriority = 3.5\n", -EINVAL, 2, "'3.5' is not an integer");
+	expect_error("[loop]\nmlockall = maybe\n", -EINVAL, 2, "is not true/false");
+	expect_error("[hal]\nmotor = serial\n", -EINVAL, 2, "'serial' is not one of sim|socketcan");
+}
+
+static void test_out_of_range_value_is_rejected(void **state)
+{
+	(void)state;
+	expect_error("[loop]\nrate_hz = 0\n", -EINVAL, 2, "out of range value for 'rate_hz'");
+	expect_error("[control]\ncmd_timeout_ms = -5\n", -EINVAL, 2, "out of range");
+}
+
+static void test_missing_model_key_is_named(void **state)
+{
+	(void)state;
+	expect_error("[model]\nd = 0.1\nr = 0.03\n", -EINVAL, 0, "missing key 'l' in [model]");
+}
+
+static void test_negative_resistance_is_rejected(void **state)
+{
+	(void)state;
+	char text[1024];
+
+	snprintf(text, sizeof(text), "%s", good);
+	char *p = strstr(text, "R = 3.5");
+
+	memcpy(p, "R =-3.5", 7);
+	expect_error(text, -EINVAL, 0, "invalid value for 'R' in [model]: must be > 0");
+}
+
+static void test_duplicate_key_and_syntax_error(void **state)
+{
+	(void)state;
+	expect_error("[loop]\nrate_hz = 100\nrate_hz = 200\n", -EINVAL, 3, "duplicate key 'rate_hz'");
+	expect_error("[loop]\nrate_hz 100\n", -EINVAL, 2, "robot.ini:2: syntax error");
+	expect_error("[loop\n", -EINVAL, 1, "syntax error");
+}
+
+static void test_missing_file_is_enoent(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_int_equal(config_load("/nonexistent/omni4.ini", &cfg, &err), -ENOENT);
+	assert_non_null(strstr(err.msg, "/nonexistent/omni4.ini: cannot open"));
+}
+
+static void test_written_model_section_reads_back_exactly(void **state)
+{
+	(void)state;
+	char path[] = "/tmp/omni4_test_config_XXXXXX";
+	const int fd = mkstemp(path);
+	struct omni4_config cfg;
+	struct config_error err;
+	struct model_params p = model_params_table3;
+
+	assert_true(fd >= 0);
+	FILE *f = fdopen(fd, "w");
+
+	p.J = 0.1 / 3.0; /* not representable in few digits */
+	assert_int_equal(config_write_model(f, &p), 0);
+	fclose(f);
+	config_defaults(&cfg);
+	assert_int_equal(config_load(path, &cfg, &err), 0);
+	unlink(path);
+	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
+		assert_near(model_params_get(&cfg.model, i), model_params_get(&p, i), 0);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_good_file_overrides_defaults),
+		cmocka_unit_test(test_defaults_are_table3_and_safe),
+		cmocka_unit_test(test_unknown_key_is_reported_with_its_line),
+		cmocka_unit_test(test_bad_number_is_reported_with_its_line),
+		cmocka_unit_test(test_out_of_range_value_is_rejected),
+		cmocka_unit_test(test_missing_model_key_is_named),
+		cmocka_unit_test(test_negative_resistance_is_rejected),
+		cmocka_unit_test(test_duplicate_key_and_syntax_error),
+		cmocka_unit_test(test_missing_file_is_enoent),
+		cmocka_unit_test(test_written_model_section_reads_back_exactly),
+	};
+
+	return cmocka_run_group_tests_name("config", tests, NULL, NULL);
+}

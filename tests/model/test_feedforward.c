@@ -1,0 +1,175 @@
+/* Tests for model/src/feedforward.c and feedforward_q16.c. */
+#include "omni4_test.h"
+
+#include <errno.h>
+#include <math.h>
+
+#include "omni4/dynamics.h"
+#include "omni4/feedforward.h"
+#include "omni4/plant.h"
+#include "omni4/rng.h"
+
+static const struct model_params *P = &model_params_table3;
+
+/* Bound on |u_q16 - u_double| over the envelope, in volts. */
+#define FF_Q16_BOUND_V 2e-3
+
+static double ff_q16_error(const struct ff_q16 *ff, const double vel[3], const double acc[3])
+{
+	const q16_t vq[3] = {q16_from_double(vel[0]), q16_from_double(vel[1]),
+			     q16_from_double(vel[2])};
+	const q16_t aq[3] = {q16_from_double(acc[0]), q16_from_double(acc[1]),
+			     q16_from_double(acc[2])};
+	double u[4], worst = 0;
+	q16_t uq[4];
+
+	ff_voltages(P, vel, acc, 12.0, u);
+	ff_voltages_q16(ff, vq, aq, uq);
+	for (int j = 0; j < 4; j++) {
+		const double e = fabs(q16_to_double(uq[j]) - u[j]);
+
+		worst = e > worst ? e : worst;
+	}
+	return worst;
+}
+
+static void test_ff_q16_within_bound_of_double_over_envelope(void **state)
+{
+	(void)state;
+	struct ff_q16 ff;
+	struct rng g;
+	double worst = 0;
+	const double lim[6] = {3, 3, 20, 10, 10, 10};
+
+	assert_int_equal(ff_q16_init(&ff, P, 12.0), 0);
+	/* Every corner and face centre of the 6-D box. */
+	for (int c = 0; c < 729; c++) {
+		double z[6];
+
+		for (int k = 0, m = c; k < 6; k++, m /= 3)
+			z[k] = (m % 3 - 1) * lim[k];
+		const double e = ff_q16_error(&ff, z, z + 3);
+
+		worst = e > worst ? e : worst;
+	}
+	/* Random points, half of them inside the sign dead band where the slope is steepest. */
+	rng_seed(&g, 11);
+	for (int n = 0; n < 200000; n++) {
+		double z[6];
+
+		for (int k = 0; k < 6; k++) {
+			const double s = (k < 3 && (n & 1)) ? (k < 2 ? 0.01 : 0.1) : lim[k];
+
+			z[k] = rng_uniform(&g, -s, s);
+		}
+		const double e = ff_q16_error(&ff, z, z + 3);
+
+		worst = e > worst ? e : worst;
+	}
+	print_message("feedforward q16 vs double: max |du| = %.3g V over |v|,|vn|<=3 m/s, "
+		      "|w|<=20 rad/s, |a|<=10 (bound %.3g V)\n", worst, FF_Q16_BOUND_V);
+	assert_true(worst <= FF_Q16_BOUND_V);
+}
+
+static void test_ff_clamps_to_supply(void **state)
+{
+	(void)state;
+	struct ff_q16 ff;
+	const double vel[3] = {3, 0, 20}, acc[3] = {10, 0, 10};
+	double u[4];
+	q16_t uq[4];
+	const q16_t vq[3] = {q16_from_double(3), 0, q16_from_double(20)};
+	const q16_t aq[3] = {q16_from_double(10), 0, q16_from_double(10)};
+
+	assert_int_equal(ff_q16_init(&ff, P, 12.0), 0);
+	ff_voltages(P, vel, acc, 12.0, u);
+	ff_voltages_q16(&ff, vq, aq, uq);
+	assert_near(u[3], 12.0, 0);
+	assert_int_equal(uq[3], q16_from_double(12.0));
+	assert_int_equal(ff_q16_init(&ff, P, 0.0), -EINVAL);
+	assert_int_equal(ff_q16_init(&ff, P, NAN), -EINVAL);
+}
+
+/* Constant desired velocity: the ff voltages make x a fixed point of eq 23 (derived signs). */
+static void test_ff_steady_velocity_is_an_equilibrium_of_eq23(void **state)
+{
+	(void)state;
+	struct model_ss ss;
+	const double vel[3] = {0.8, -0.5, 4.0}, acc[3] = {0, 0, 0};
+	double u[4];
+
+	dyn_state_space(P, &ss);
+	ff_voltages(P, vel, acc, 100.0, u);
+	for (int k = 0; k < 3; k++) {
+		double dx = ss.A[k] * vel[k] + ss.K[k] * (vel[k] > 0 ? 1 : -1);
+
+		for (int j = 0; j < 4; j++)
+			dx += ss.B[k][j] * u[j];
+		assert_near(dx, 0.0, 1e-12);
+	}
+}
+
+/* Desired profile: smooth ramps up, cruise, reverse (all three axes at once). */
+static void profile(double t, double vel[3], double acc[3])
+{
+	const double amp[3] = {1.0, 0.6, 6.0};
+	const double wn = 2 * M_PI * 0.25;
+
+	for (int k = 0; k < 3; k++) {
+		vel[k] = amp[k] * sin(wn * t + k);
+		acc[k] = amp[k] * wn * cos(wn * t + k);
+	}
+}
+
+static void test_ff_alone_makes_the_plant_follow_a_profile(void **state)
+{
+	(void)state;
+	struct plant pl;
+	struct ff_q16 ff;
+	const double dt = 1e-3, T = 8.0;
+	double sq[3] = {0}, worst[3] = {0};
+	long n = 0;
+
+	assert_int_equal(plant_init(&pl, P), 0);
+	assert_int_equal(ff_q16_init(&ff, P, 12.0), 0);
+	profile(0, pl.x, (double[3]){0});
+	for (double t = 0; t < T; t += dt, n++) {
+		double vel[3], acc[3], u[4];
+		q16_t vq[3], aq[3], uq[4];
+
+		/* Zero-order hold: aim at the mid-step state. */
+		profile(t + dt / 2, vel, acc);
+		for (int k = 0; k < 3; k++) {
+			vq[k] = q16_from_double(vel[k]);
+			aq[k] = q16_from_double(acc[k]);
+		}
+		ff_voltages_q16(&ff, vq, aq, uq);
+		for (int j = 0; j < 4; j++)
+			u[j] = q16_to_double(uq[j]);
+		plant_step(&pl, u, true, dt);
+		profile(t + dt, vel, acc);
+		for (int k = 0; k < 3; k++) {
+			const double e = fabs(pl.x[k] - vel[k]);
+
+			sq[k] += e * e;
+			worst[k] = e > worst[k] ? e : worst[k];
+		}
+	}
+	print_message("feedforward only, open loop, %.0f s: RMS error v %.4f m/s, vn %.4f m/s, "
+		      "w %.4f rad/s; max %.4f, %.4f, %.4f\n", T, sqrt(sq[0] / n), sqrt(sq[1] / n),
+		      sqrt(sq[2] / n), worst[0], worst[1], worst[2]);
+	assert_true(sqrt(sq[0] / n) < 0.01 && sqrt(sq[1] / n) < 0.01 && sqrt(sq[2] / n) < 0.1);
+	assert_true(worst[0] < 0.05 && worst[1] < 0.05 && worst[2] < 0.5);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_ff_q16_within_bound_of_double_over_envelope),
+		cmocka_unit_test(test_ff_clamps_to_supply),
+		cmocka_unit_test(test_ff_steady_velocity_is_an_equilibrium_of_eq23),
+		cmocka_unit_test(test_ff_alone_makes_the_plant_follow_a_profile),
+	};
+
+	return cmocka_run_group_tests_name("feedforward", tests, NULL, NULL);
+}
