@@ -1,0 +1,107 @@
+/*
+ * hal.h - hardware abstraction for the control loop: one ops struct per device kind, an opaque
+ * context, thin inline wrappers. The loop includes this header only, never a backend's.
+ *
+ * Calling context: every op marked "fast loop" runs inside the fixed-rate loop: it must not
+ * block, allocate or log; it returns 0 or a negative errno.
+ */
+#ifndef OMNI4_HAL_H
+#define OMNI4_HAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/* One reading of the four motor channels. */
+struct motor_sample {
+	float current_a[4];    /* measured motor current [A]; NaN if unknown */
+	float wheel_rad_s[4];  /* wheel angular speed after the gearbox [rad/s]; NaN if unknown */
+	float supply_v;        /* H-bridge supply [V]; NaN if not measured */
+	uint32_t faults;       /* driver-side fault bits (OMNI4_MOTORS_T_FAULT_*), 0 if healthy */
+};
+
+struct motor_hal_ops {
+	/* Fast loop. Turn the H-bridges on (driving) or off (free-wheeling, no braking). */
+	int (*enable)(void *ctx, bool on);
+	/* Fast loop. Set the four channel voltages [V]; the caller has clamped them. */
+	int (*write)(void *ctx, const float volts[4]);
+	/* Fast loop. Latest reading; -EAGAIN if none is available yet. */
+	int (*read)(void *ctx, struct motor_sample *out);
+	/* Not in the fast loop. Ask the drivers to clear their latched faults. */
+	int (*clear_faults)(void *ctx);
+	/* Start-up / shutdown only. Outputs off, resources released. */
+	void (*close)(void *ctx);
+};
+
+struct motor_hal {
+	const struct motor_hal_ops *ops;
+	void *ctx;
+};
+
+static inline int hal_motor_enable(const struct motor_hal *h, bool on)
+{
+	return h->ops->enable(h->ctx, on);
+}
+
+static inline int hal_motor_write(const struct motor_hal *h, const float volts[4])
+{
+	return h->ops->write(h->ctx, volts);
+}
+
+static inline int hal_motor_read(const struct motor_hal *h, struct motor_sample *out)
+{
+	return h->ops->read(h->ctx, out);
+}
+
+static inline int hal_motor_clear_faults(const struct motor_hal *h)
+{
+	return h->ops->clear_faults ? h->ops->clear_faults(h->ctx) : 0;
+}
+
+static inline void hal_motor_close(const struct motor_hal *h)
+{
+	if (h->ops && h->ops->close)
+		h->ops->close(h->ctx);
+}
+
+/* Digital lines: e-stop input, enable output, status LED. */
+struct line_hal_ops {
+	/* Fast loop. *active = e-stop pressed (after the configured polarity). */
+	int (*read_estop)(void *ctx, bool *active);
+	/* Fast loop. Drive the enable output of the power stage. */
+	int (*set_enable)(void *ctx, bool on);
+	/* Fast loop. Status LED. */
+	int (*set_led)(void *ctx, bool on);
+	/* Start-up / shutdown only. Lines released (enable low). */
+	void (*close)(void *ctx);
+};
+
+struct line_hal {
+	const struct line_hal_ops *ops;
+	void *ctx;
+};
+
+static inline int hal_line_read_estop(const struct line_hal *h, bool *active)
+{
+	return h->ops->read_estop(h->ctx, active);
+}
+
+static inline int hal_line_set_enable(const struct line_hal *h, bool on)
+{
+	return h->ops->set_enable(h->ctx, on);
+}
+
+static inline int hal_line_set_led(const struct line_hal *h, bool on)
+{
+	return h->ops->set_led(h->ctx, on);
+}
+
+static inline void hal_line_close(const struct line_hal *h)
+{
+	if (h->ops && h->ops->close)
+		h->ops->close(h->ctx);
+}
+
+/* A line backend with nothing wired: e-stop never active, outputs ignored. */
+extern const struct line_hal_ops line_none_ops;
+
+#endif /* OMNI4_HAL_H */

@@ -1,0 +1,88 @@
+/*
+ * sim_motor.h - the "sim" backend of the motor and line HALs: the model/ plant behind the HAL
+ * with the sensors of the paper's set-up (noisy currents, quantised encoders, a 25 Hz camera
+ * with 1 cm / 3 deg noise). Each read() advances the plant by one loop period with the
+ * voltages last written, so the loop and the plant run in lockstep whatever the wall clock.
+ */
+#ifndef OMNI4_SIM_MOTOR_H
+#define OMNI4_SIM_MOTOR_H
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/hal.h"
+#include "omni4/params.h"
+#include "omni4/plant.h"
+#include "omni4/rng.h"
+
+struct sim_motor_config {
+	struct model_params params;
+	double period_s;               /* loop period: plant step per read() [s] */
+	double supply_v;               /* [V] */
+	double current_noise_a;        /* std dev [A] */
+	int encoder_cpr;               /* counts per wheel revolution; 0 = exact speeds */
+	double camera_rate_hz;
+	double camera_pos_noise_m;     /* std dev [m] */
+	double camera_theta_noise_rad; /* std dev [rad] */
+	uint64_t seed;
+};
+
+/* Faults a test can inject (all off after init). */
+struct sim_motor_faults {
+	bool silent;              /* read() returns -ETIMEDOUT: the driver stopped answering */
+	bool encoder_stuck[4];    /* that wheel's speed reads 0 */
+	double encoder_jump_rad;  /* added once to every wheel angle at the next read, then cleared */
+	double current_clip_a;    /* > 0: currents saturate at this magnitude (sensor range) */
+	double current_offset_a;  /* added to every current reading */
+	double supply_v;          /* > 0: overrides the supply reading (sag) */
+	uint32_t driver_faults;   /* reported in motor_sample.faults */
+};
+
+typedef void (*sim_pose_cb)(void *user, int64_t utime, const double pose[3]);
+
+struct sim_motor {
+	struct sim_motor_config cfg;
+	struct plant plant;
+	struct rng rng;
+	struct sim_motor_faults inject;
+	double volts[4];
+	bool enabled;
+	double wheel_angle[4];  /* true wheel angle [rad] */
+	int64_t counts[4];      /* encoder counts at the last read */
+	int64_t t_us;           /* simulated time since start [us] */
+	int64_t period_us;
+	double cam_period_s;
+	double next_cam_s;
+	sim_pose_cb on_pose;
+	void *on_pose_user;
+	int64_t utime0;         /* added to t_us in pose timestamps */
+};
+
+extern const struct motor_hal_ops sim_motor_ops;
+extern const struct line_hal_ops sim_line_ops;
+
+/* -EINVAL for invalid parameters or settings. */
+int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg);
+
+static inline struct motor_hal sim_motor_hal(struct sim_motor *s)
+{
+	return (struct motor_hal){.ops = &sim_motor_ops, .ctx = s};
+}
+
+/* Camera samples are handed to cb (from inside read(), i.e. in the loop's context). */
+void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int64_t utime0);
+
+/* The sim line backend: an e-stop a test can press. */
+struct sim_lines {
+	atomic_bool estop; /* may be pressed from another thread */
+	bool enable;
+	bool led;
+};
+
+static inline struct line_hal sim_line_hal(struct sim_lines *l)
+{
+	return (struct line_hal){.ops = &sim_line_ops, .ctx = l};
+}
+
+#endif /* OMNI4_SIM_MOTOR_H */

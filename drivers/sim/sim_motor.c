@@ -1,0 +1,167 @@
+/* sim_motor.c - the model/ plant behind the motor HAL, with the paper's sensor noise. */
+#include "omni4/sim_motor.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#define TWO_PI 6.283185307179586477
+
+int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
+{
+	if (!(cfg->period_s > 0.0) || !(cfg->supply_v > 0.0) || cfg->encoder_cpr < 0 ||
+	    !(cfg->camera_rate_hz > 0.0) || !(cfg->current_noise_a >= 0.0) ||
+	    !(cfg->camera_pos_noise_m >= 0.0) || !(cfg->camera_theta_noise_rad >= 0.0))
+		return -EINVAL;
+	memset(s, 0, sizeof(*s));
+	if (plant_init(&s->plant, &cfg->params))
+		return -EINVAL;
+	s->cfg = *cfg;
+	rng_seed(&s->rng, cfg->seed);
+	s->period_us = (int64_t)llround(cfg->period_s * 1e6);
+	s->cam_period_s = 1.0 / cfg->camera_rate_hz;
+	s->next_cam_s = 0.0;
+	return 0;
+}
+
+void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int64_t utime0)
+{
+	s->on_pose = cb;
+	s->on_pose_user = user;
+	s->utime0 = utime0;
+}
+
+static int sim_enable(void *ctx, bool on)
+{
+	struct sim_motor *s = ctx;
+
+	s->enabled = on;
+	return 0;
+}
+
+static int sim_write(void *ctx, const float volts[4])
+{
+	struct sim_motor *s = ctx;
+
+	for (int j = 0; j < 4; j++) {
+		if (!isfinite(volts[j]))
+			return -EINVAL;
+		/* The H-bridge cannot exceed its supply. */
+		const double v = volts[j];
+
+		s->volts[j] = fmax(-s->cfg.supply_v, fmin(s->cfg.supply_v, v));
+	}
+	return 0;
+}
+
+static void camera(struct sim_motor *s, double t_s)
+{
+	if (t_s + 1e-9 < s->next_cam_s)
+		return;
+	s->next_cam_s += s->cam_period_s;
+	if (!s->on_pose)
+		return;
+	const double pose[3] = {
+		s->plant.pose[0] + rng_normal(&s->rng, s->cfg.camera_pos_noise_m),
+		s->plant.pose[1] + rng_normal(&s->rng, s->cfg.camera_pos_noise_m),
+		s->plant.pose[2] + rng_normal(&s->rng, s->cfg.camera_theta_noise_rad),
+	};
+
+	s->on_pose(s->on_pose_user, s->utime0 + s->t_us, pose);
+}
+
+static int sim_read(void *ctx, struct motor_sample *out)
+{
+	struct sim_motor *s = ctx;
+	const double dt = s->cfg.period_s;
+	double w_before[4], w_after[4];
+
+	plant_wheel_speeds(&s->plant, w_before);
+	plant_step(&s->plant, s->volts, s->enabled, dt);
+	plant_wheel_speeds(&s->plant, w_after);
+	s->t_us += s->period_us;
+	camera(s, (double)s->t_us * 1e-6);
+
+	if (s->inject.silent)
+		return -ETIMEDOUT;
+
+	const int cpr = s->cfg.encoder_cpr;
+
+	for (int j = 0; j < 4; j++) {
+		s->wheel_angle[j] += 0.5 * dt * (w_before[j] + w_after[j]) + s->inject.encoder_jump_rad;
+		double speed = w_after[j];
+
+		if (cpr > 0) {
+			const int64_t c = (int64_t)floor(s->wheel_angle[j] * cpr / TWO_PI);
+
+			speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
+			s->counts[j] = c;
+		}
+		if (s->inject.encoder_stuck[j])
+			speed = 0.0;
+		out->wheel_rad_s[j] = (float)speed;
+
+		double i = s->plant.current_a[j] + s->inject.current_offset_a;
+
+		if (s->enabled)
+			i += rng_normal(&s->rng, s->cfg.current_noise_a);
+		if (s->inject.current_clip_a > 0.0)
+			i = fmax(-s->inject.current_clip_a, fmin(s->inject.current_clip_a, i));
+		out->current_a[j] = (float)i;
+	}
+	s->inject.encoder_jump_rad = 0.0;
+	out->supply_v = (float)(s->inject.supply_v > 0.0 ? s->inject.supply_v : s->cfg.supply_v);
+	out->faults = s->inject.driver_faults;
+	return 0;
+}
+
+static int sim_clear_faults(void *ctx)
+{
+	struct sim_motor *s = ctx;
+
+	s->inject.driver_faults = 0;
+	return 0;
+}
+
+static void sim_close(void *ctx)
+{
+	struct sim_motor *s = ctx;
+
+	s->enabled = false;
+	memset(s->volts, 0, sizeof(s->volts));
+}
+
+const struct motor_hal_ops sim_motor_ops = {
+	.enable = sim_enable,
+	.write = sim_write,
+	.read = sim_read,
+	.clear_faults = sim_clear_faults,
+	.close = sim_close,
+};
+
+static int sim_read_estop(void *ctx, bool *active)
+{
+	struct sim_lines *l = ctx;
+
+	*active = atomic_load(&l->estop);
+	return 0;
+}
+
+static int sim_set_enable(void *ctx, bool on)
+{
+	((struct sim_lines *)ctx)->enable = on;
+	return 0;
+}
+
+static int sim_set_led(void *ctx, bool on)
+{
+	((struct sim_lines *)ctx)->led = on;
+	return 0;
+}
+
+const struct line_hal_ops sim_line_ops = {
+	.read_estop = sim_read_estop,
+	.set_enable = sim_set_enable,
+	.set_led = sim_set_led,
+	.close = NULL,
+};

@@ -1,0 +1,102 @@
+/*
+ * ctl.h - the controller of one robot: mode state machine, command validation, watchdog,
+ * fault latching, reference shaping, fixed-point IK + feedforward, PI on wheel speed.
+ * Pure logic: no time source, no I/O, no allocation. ctl_step runs once per loop tick.
+ *
+ * Modes (motors_t numbering): IDLE 0 (outputs off), VELOCITY 1 (feedforward + PI),
+ * VOLTAGE 2 (per-channel voltage reached through a ramp), COAST 3 (H-bridges off),
+ * FAULT 5 and ESTOP 6 (outputs off; left only by MODE_CLEAR_FAULT once the cause is gone).
+ */
+#ifndef OMNI4_CTL_H
+#define OMNI4_CTL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/config.h"
+#include "omni4/feedforward.h"
+#include "omni4/hal.h"
+#include "omni4/q16.h"
+
+enum ctl_mode {
+	CTL_IDLE = 0,
+	CTL_VELOCITY = 1,
+	CTL_VOLTAGE = 2,
+	CTL_COAST = 3,
+	CTL_CLEAR_FAULT = 4, /* command only */
+	CTL_FAULT = 5,
+	CTL_ESTOP = 6,
+};
+
+/* A command as received (command_t fields). */
+struct ctl_command {
+	int64_t utime;
+	int64_t seq;
+	int8_t mode;
+	double velocity[3]; /* [m/s, m/s, rad/s] */
+	double voltage[4];  /* [V] */
+	double ramp_s;      /* [s] */
+};
+
+struct ctl_output {
+	float volts[4];  /* [V], within +-supply_v; 0 whenever !enable */
+	bool enable;     /* H-bridges on */
+	int8_t mode;
+	int32_t faults;  /* OMNI4_MOTORS_T_FAULT_* */
+};
+
+struct ctl_counters {
+	uint64_t cmd_accepted;
+	uint64_t cmd_rejected;
+	uint64_t watchdog_trips;
+	uint64_t faults_latched;
+};
+
+struct ctl {
+	struct omni4_config cfg;
+	struct ff_q16 ff;
+	q16_t inv_4d;
+	double dt;              /* loop period [s] */
+	enum ctl_mode mode;
+	int32_t latched;        /* latching fault bits */
+	int32_t present;        /* fault conditions seen in the last tick */
+	int32_t warnings;       /* non-latching bits */
+	int64_t last_cmd_us;    /* controller time of the last valid motion command */
+	bool have_cmd;
+	/* VELOCITY */
+	double vel_target[3];
+	double vel_ref[3];      /* shaped reference [m/s, m/s, rad/s] */
+	double acc_ref[3];
+	double integ[4];        /* PI integrators [V] */
+	/* VOLTAGE ramp */
+	double ramp_from[4], ramp_to[4];
+	int64_t ramp_t0_us, ramp_len_us;
+	bool stopping;          /* watchdog stop ramp in progress */
+	/* Last output and plausibility state */
+	double out[4];
+	double x_est[3];        /* robot velocity from the wheel speeds (eqs 3-5) */
+	int encoder_bad_ticks;
+	struct ctl_counters n;
+};
+
+/* -EINVAL if the configuration is unusable (bad model, non-positive rate). */
+int ctl_init(struct ctl *c, const struct omni4_config *cfg);
+
+/*
+ * Fast loop. Validate and apply a command received at now_us. Returns 0 if accepted, -EINVAL
+ * if rejected (NaN/inf, out of range, unknown mode, clear while the cause persists); a
+ * rejection is counted and flagged, never applied.
+ */
+int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us);
+
+/*
+ * Fast loop. One tick at now_us: sample (NULL or read_rc < 0 = no reading this tick),
+ * estop = e-stop line state. Fills out.
+ */
+void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
+	      bool estop, struct ctl_output *out);
+
+/* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
+void ctl_flag(struct ctl *c, int32_t bits);
+
+#endif /* OMNI4_CTL_H */

@@ -1,0 +1,56 @@
+/*
+ * lcmio.h - the controller's LCM side: command_t bytes -> ctl_command, log entries ->
+ * motors_t / pose_t bytes, and the two threads that move them (receive, logger).
+ * Nothing here runs in the fast loop.
+ */
+#ifndef OMNI4_LCMIO_H
+#define OMNI4_LCMIO_H
+
+#include <lcm/lcm.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "omni4/ctl.h"
+#include "omni4/fw.h"
+
+#define LCMIO_CHANNEL_CMD "OMNI4_CMD"
+#define LCMIO_CHANNEL_MOTORS "OMNI4_MOTORS"
+#define LCMIO_CHANNEL_POSE "OMNI4_POSE"
+#define LCMIO_CHANNEL_EXPERIMENT "OMNI4_EXPERIMENT"
+#define LCMIO_MAX_MSG 256
+
+/* Decode a command_t; -EINVAL if the bytes are not a complete command_t. */
+int lcmio_decode_command(const void *data, size_t len, struct ctl_command *out);
+
+/* Encode a log entry; returns the length (> 0) or -ENOSPC, and the channel to use. */
+int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const char **channel);
+
+/* Where encoded messages go: lcm_publish in the robot, an event log in the simulator. */
+struct lcmio_sink {
+	int (*emit)(void *ctx, const char *channel, int64_t utime, const void *data, size_t len);
+	void *ctx;
+};
+
+/* Drain the ring into the sink; returns the number of entries written. */
+size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_errors);
+
+struct lcmio {
+	lcm_t *lcm;
+	struct fw *fw;
+	lcm_subscription_t *sub;
+	pthread_t rx_thread, log_thread;
+	atomic_bool stop;
+	_Atomic uint64_t rx_bad;   /* undecodable command messages */
+	_Atomic uint64_t published;
+	_Atomic uint64_t publish_errors;
+	int started;
+};
+
+/* Start the receive and logger threads on an open lcm_t. 0 or a negative errno. */
+int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw);
+/* Stop both threads; the logger drains what is left in the ring first. */
+void lcmio_stop(struct lcmio *io);
+
+#endif /* OMNI4_LCMIO_H */

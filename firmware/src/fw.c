@@ -1,0 +1,106 @@
+/* fw.c - the loop body: commands -> HAL read -> controller -> HAL write -> log ring. */
+#include "omni4/fw.h"
+
+#include <errno.h>
+#include <string.h>
+
+#include "omni4_motors_t.h"
+
+int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
+	    struct line_hal lines)
+{
+	memset(fw, 0, sizeof(*fw));
+	if (ctl_init(&fw->ctl, cfg))
+		return -EINVAL;
+	fw->motor = motor;
+	fw->lines = lines;
+	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
+	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
+	fw_outputs_off(fw);
+	return 0;
+}
+
+void fw_outputs_off(struct fw *fw)
+{
+	static const float zero[4] = {0, 0, 0, 0};
+
+	hal_motor_write(&fw->motor, zero);
+	hal_motor_enable(&fw->motor, false);
+	hal_line_set_enable(&fw->lines, false);
+	fw->hw_enabled = false;
+}
+
+bool fw_post_command(struct fw *fw, const struct ctl_command *cmd)
+{
+	if (spsc_push(&fw->cmd_ring, cmd))
+		return true;
+	atomic_fetch_add(&fw->n.cmd_dropped, 1);
+	return false;
+}
+
+static void log_push(struct fw *fw, const struct log_entry *e)
+{
+	if (!spsc_push(&fw->log_ring, e)) {
+		fw->n.log_dropped++;
+		ctl_flag(&fw->ctl, OMNI4_MOTORS_T_FAULT_LOG_OVERFLOW);
+	}
+}
+
+void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3])
+{
+	struct log_entry e = {.utime = utime, .kind = LOG_POSE};
+
+	memcpy(e.pose, pose, sizeof(e.pose));
+	log_push(fw, &e);
+}
+
+bool fw_pop_log(struct fw *fw, struct log_entry *e)
+{
+	return spsc_pop(&fw->log_ring, e);
+}
+
+void fw_tick(struct fw *fw, int64_t now_us)
+{
+	struct ctl_command cmd;
+	struct motor_sample s;
+	struct ctl_output out;
+	bool estop = false;
+
+	while (spsc_pop(&fw->cmd_ring, &cmd)) {
+		const bool was_fault = fw->ctl.mode == CTL_FAULT || fw->ctl.mode == CTL_ESTOP;
+
+		if (ctl_command(&fw->ctl, &cmd, now_us) == 0 && cmd.mode == CTL_CLEAR_FAULT &&
+		    was_fault)
+			hal_motor_clear_faults(&fw->motor);
+	}
+	if (hal_line_read_estop(&fw->lines, &estop) < 0)
+		estop = true; /* an unreadable e-stop line is a pressed e-stop */
+
+	const int rc = hal_motor_read(&fw->motor, &s);
+
+	if (rc == 0)
+		fw->last_sample = s;
+	else if (rc != -EAGAIN)
+		fw->n.read_errors++;
+	ctl_step(&fw->ctl, now_us, &fw->last_sample, rc, estop, &out);
+
+	if (out.enable != fw->hw_enabled) {
+		hal_motor_enable(&fw->motor, out.enable);
+		hal_line_set_enable(&fw->lines, out.enable);
+		fw->hw_enabled = out.enable;
+	}
+	if (hal_motor_write(&fw->motor, out.volts) < 0)
+		fw->n.write_errors++;
+	hal_line_set_led(&fw->lines, out.mode == CTL_FAULT || out.mode == CTL_ESTOP);
+	fw->last_out = out;
+
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
+			      .mode = out.mode, .faults = out.faults};
+
+	memcpy(e.voltage, out.volts, sizeof(e.voltage));
+	memcpy(e.current, fw->last_sample.current_a, sizeof(e.current));
+	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
+	log_push(fw, &e);
+	fw->seq++;
+	fw->n.ticks++;
+}

@@ -1,0 +1,156 @@
+/* lcmio.c - LCM command receive, log encoding and publishing threads. */
+#include "omni4/lcmio.h"
+
+#include <errno.h>
+#include <string.h>
+#include <time.h>
+
+#include "omni4_command_t.h"
+#include "omni4_motors_t.h"
+#include "omni4_pose_t.h"
+
+int lcmio_decode_command(const void *data, size_t len, struct ctl_command *out)
+{
+	omni4_command_t m;
+
+	if (len > INT32_MAX || omni4_command_t_decode(data, 0, (int)len, &m) != (int)len)
+		return -EINVAL;
+	out->utime = m.utime;
+	out->seq = m.seq;
+	out->mode = m.mode;
+	memcpy(out->velocity, m.velocity, sizeof(out->velocity));
+	memcpy(out->voltage, m.voltage, sizeof(out->voltage));
+	out->ramp_s = m.ramp_s;
+	omni4_command_t_decode_cleanup(&m);
+	return 0;
+}
+
+int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const char **channel)
+{
+	int n;
+
+	if (e->kind == LOG_POSE) {
+		const omni4_pose_t p = {.utime = e->utime, .x = e->pose[0], .y = e->pose[1],
+					.theta = e->pose[2]};
+
+		*channel = LCMIO_CHANNEL_POSE;
+		n = omni4_pose_t_encode(buf, 0, (int)cap, &p);
+	} else {
+		omni4_motors_t m = {.utime = e->utime, .seq = e->seq, .mode = e->mode,
+				    .faults = e->faults};
+
+		memcpy(m.voltage, e->voltage, sizeof(m.voltage));
+		memcpy(m.current, e->current, sizeof(m.current));
+		memcpy(m.wheel_speed, e->wheel_speed, sizeof(m.wheel_speed));
+		*channel = LCMIO_CHANNEL_MOTORS;
+		n = omni4_motors_t_encode(buf, 0, (int)cap, &m);
+	}
+	return n > 0 ? n : -ENOSPC;
+}
+
+size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_errors)
+{
+	struct log_entry e;
+	unsigned char buf[LCMIO_MAX_MSG];
+	const char *channel;
+	size_t n = 0;
+
+	while (fw_pop_log(fw, &e)) {
+		const int len = lcmio_encode_log(&e, buf, sizeof(buf), &channel);
+
+		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, buf, (size_t)len) < 0)
+			(*sink_errors)++;
+		n++;
+	}
+	return n;
+}
+
+static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct lcmio *io = user;
+	struct ctl_command cmd;
+
+	(void)channel;
+	if (lcmio_decode_command(rbuf->data, rbuf->data_size, &cmd)) {
+		atomic_fetch_add(&io->rx_bad, 1);
+		return;
+	}
+	fw_post_command(io->fw, &cmd);
+}
+
+static void *rx_main(void *arg)
+{
+	struct lcmio *io = arg;
+
+	while (!atomic_load(&io->stop))
+		lcm_handle_timeout(io->lcm, 50);
+	return NULL;
+}
+
+static int publish(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
+{
+	struct lcmio *io = ctx;
+
+	(void)utime;
+	return lcm_publish(io->lcm, channel, data, (unsigned int)len);
+}
+
+static void *log_main(void *arg)
+{
+	struct lcmio *io = arg;
+	const struct lcmio_sink sink = {.emit = publish, .ctx = io};
+	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 500000};
+
+	for (;;) {
+		uint64_t errors = 0;
+		const bool stopping = atomic_load(&io->stop);
+		const size_t n = lcmio_drain(io->fw, &sink, &errors);
+
+		atomic_fetch_add(&io->published, n - errors);
+		atomic_fetch_add(&io->publish_errors, errors);
+		if (stopping)
+			break; /* one last drain after the stop request */
+		if (n == 0)
+			nanosleep(&nap, NULL);
+	}
+	return NULL;
+}
+
+int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
+{
+	int rc;
+
+	memset(io, 0, sizeof(*io));
+	io->lcm = lcm;
+	io->fw = fw;
+	atomic_init(&io->stop, false);
+	io->sub = lcm_subscribe(lcm, LCMIO_CHANNEL_CMD, on_command, io);
+	if (!io->sub)
+		return -EIO;
+	rc = pthread_create(&io->rx_thread, NULL, rx_main, io);
+	if (rc)
+		goto err_unsub;
+	rc = pthread_create(&io->log_thread, NULL, log_main, io);
+	if (rc)
+		goto err_rx;
+	io->started = 1;
+	return 0;
+
+err_rx:
+	atomic_store(&io->stop, true);
+	pthread_join(io->rx_thread, NULL);
+err_unsub:
+	lcm_unsubscribe(lcm, io->sub);
+	return -rc;
+}
+
+void lcmio_stop(struct lcmio *io)
+{
+	if (!io->started)
+		return;
+	atomic_store(&io->stop, true);
+	pthread_join(io->rx_thread, NULL);
+	pthread_join(io->log_thread, NULL);
+	lcm_unsubscribe(io->lcm, io->sub);
+	io->started = 0;
+}
