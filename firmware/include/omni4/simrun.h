@@ -1,0 +1,68 @@
+/*
+ * simrun.h - the firmware loop in lockstep with the simulated plant, as fast as the machine
+ * allows (or paced by the caller), writing every message to an LCM event log.
+ *
+ * Per tick: commands handed in since the last tick go through the same decoding and mailbox as
+ * the robot's LCM receive thread, then fw_tick runs (sim HAL read = one plant step), then the
+ * log ring is drained into the event log. Plain C types only: usable from C++.
+ */
+#ifndef OMNI4_SIMRUN_H
+#define OMNI4_SIMRUN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "omni4/config.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+struct simrun;
+
+struct simrun_stats {
+	uint64_t ticks;
+	uint64_t messages;       /* written to the log, all channels */
+	uint64_t motors, pose, cmd, other;
+	uint64_t log_errors;     /* failed writes (never silently: the caller reports them) */
+	uint64_t log_dropped;    /* ring overflow */
+	uint64_t cmd_rejected;
+	int32_t faults;          /* OR of every motors_t.faults written */
+	int8_t mode;             /* controller mode after the last tick */
+};
+
+/*
+ * Start-up. plant_params: the simulated robot (truth); cfg: the firmware's settings and model.
+ * noise = false gives exact sensors. log_path NULL = no log. On error returns NULL and puts a
+ * one-line reason in err (size errlen).
+ */
+struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_params *plant_params,
+			     bool noise, const char *log_path, char *err, size_t errlen);
+void simrun_destroy(struct simrun *sr);
+
+/* Controller clock of the next tick [us]. */
+int64_t simrun_now_us(const struct simrun *sr);
+double simrun_period_s(const struct simrun *sr);
+
+/* Hand in an encoded command_t (logged on OMNI4_CMD). -EINVAL if it does not decode. */
+int simrun_command(struct simrun *sr, const void *data, size_t len);
+/* Log any other message (e.g. OMNI4_EXPERIMENT marks) at the next tick's time. */
+int simrun_publish(struct simrun *sr, const char *channel, const void *data, size_t len);
+
+/* One loop tick (firmware + plant) and the log drain. */
+void simrun_tick(struct simrun *sr);
+
+void simrun_get_stats(const struct simrun *sr, struct simrun_stats *out);
+
+/* Test access: the true plant state [v, vn, w] and pose [x, y, theta]. */
+void simrun_truth(const struct simrun *sr, double x[3], double pose[3]);
+/* Test access: press / release the simulated e-stop; inject faults via the returned struct. */
+void simrun_set_estop(struct simrun *sr, bool pressed);
+struct sim_motor_faults *simrun_faults(struct simrun *sr);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* OMNI4_SIMRUN_H */
