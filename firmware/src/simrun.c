@@ -192,3 +192,13 @@ struct sim_motor_faults *simrun_faults(struct simrun *sr)
 {
 	return &sr->sim.inject;
 }
+
+void simrun_reference(const struct simrun *sr, double ref[3])
+{
+	memcpy(ref, sr->fw.ctl.vel_ref, 3 * sizeof(double));
+}
+
+uint64_t simrun_watchdog_trips(const struct simrun *sr)
+{
+	return sr->fw.ctl.n.watchdog_trips;
+}

@@ -57,6 +57,10 @@ void simrun_get_stats(const struct simrun *sr, struct simrun_stats *out);
 
 /* Test access: the true plant state [v, vn, w] and pose [x, y, theta]. */
 void simrun_truth(const struct simrun *sr, double x[3], double pose[3]);
+/* Test access: the controller's shaped velocity reference and its counters. */
+void simrun_reference(const struct simrun *sr, double ref[3]);
+uint64_t simrun_watchdog_trips(const struct simrun *sr);
+
 /* Test access: press / release the simulated e-stop; inject faults via the returned struct. */
 void simrun_set_estop(struct simrun *sr, bool pressed);
 struct sim_motor_faults *simrun_faults(struct simrun *sr);

@@ -1,0 +1,228 @@
+/*
+ * omni4-fw - the robot controller: fixed-rate loop on the configured HAL backends, commands
+ * from OMNI4_CMD, one OMNI4_MOTORS per tick. Outputs are switched off on every exit path.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <lcm/lcm.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "omni4/config.h"
+#include "omni4/fw.h"
+#include "omni4/lcmio.h"
+#include "omni4/rtloop.h"
+#include "omni4/sim_motor.h"
+
+static volatile sig_atomic_t g_stop;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	g_stop = 1;
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+		"usage: omni4-fw --config ROBOT.ini [--duration S] [--quiet]\n"
+		"Runs the omni4 controller: the fixed-rate loop on the HAL backends of ROBOT.ini\n"
+		"([hal] motor = sim|socketcan, lines = none|sim|gpiod), commands from OMNI4_CMD,\n"
+		"one OMNI4_MOTORS message per tick on the [lcm] url.\n"
+		"  -c, --config FILE   robot INI file (required)\n"
+		"  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
+		"  -q, --quiet         no status line\n"
+		"  -h, --help          this text\n"
+		"example: omni4-fw --config /etc/omni4/robot.ini\n");
+}
+
+struct app {
+	struct fw fw;
+	struct sim_motor sim;
+	struct sim_lines sim_lines;
+};
+
+static void tick(void *ctx, int64_t now_us)
+{
+	fw_tick(ctx, now_us);
+}
+
+static void on_pose(void *user, int64_t utime, const double pose[3])
+{
+	fw_push_pose(user, utime, pose);
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
+		{"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
+		{NULL, 0, NULL, 0},
+	};
+	const char *config_path = NULL;
+	double duration_s = 0.0;
+	int quiet = 0, c;
+
+	while ((c = getopt_long(argc, argv, "c:d:qh", opts, NULL)) != -1) {
+		switch (c) {
+		case 'c':
+			config_path = optarg;
+			break;
+		case 'd': {
+			char *end;
+
+			duration_s = strtod(optarg, &end);
+			if (end == optarg || *end || !(duration_s > 0.0)) {
+				fprintf(stderr, "omni4-fw: --duration must be a positive number\n");
+				return 2;
+			}
+			break;
+		}
+		case 'q':
+			quiet = 1;
+			break;
+		case 'h':
+			usage(stdout);
+			return 0;
+		default:
+			usage(stderr);
+			return 2;
+		}
+	}
+	if (!config_path) {
+		fprintf(stderr, "omni4-fw: --config is required (try --help)\n");
+		return 2;
+	}
+
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	if (config_load(config_path, &cfg, &err)) {
+		fprintf(stderr, "omni4-fw: %s\n", err.msg);
+		return 2;
+	}
+
+	struct app *app = calloc(1, sizeof(*app)); /* start-up only */
+	struct motor_hal motor;
+	struct line_hal lines = {.ops = &line_none_ops, .ctx = NULL};
+	int rc = 1;
+
+	if (!app) {
+		fprintf(stderr, "omni4-fw: out of memory\n");
+		return 1;
+	}
+	if (!strcmp(cfg.hal.motor, "sim")) {
+		const struct sim_motor_config sc = {
+			.params = cfg.model,
+			.period_s = 1.0 / cfg.loop.rate_hz,
+			.supply_v = cfg.limits.supply_v,
+			.current_noise_a = cfg.sim.current_noise_a,
+			.encoder_cpr = cfg.sim.encoder_cpr,
+			.camera_rate_hz = cfg.sim.camera_rate_hz,
+			.camera_pos_noise_m = cfg.sim.camera_pos_noise_m,
+			.camera_theta_noise_rad = cfg.sim.camera_theta_noise_rad,
+			.seed = (uint64_t)cfg.sim.seed,
+		};
+
+		if (sim_motor_init(&app->sim, &sc)) {
+			fprintf(stderr, "omni4-fw: %s: invalid [sim] settings\n", config_path);
+			goto out_free;
+		}
+		motor = sim_motor_hal(&app->sim);
+	} else {
+		fprintf(stderr, "omni4-fw: %s: [hal] motor = %s is not available in this build\n",
+			config_path, cfg.hal.motor);
+		goto out_free;
+	}
+	if (!strcmp(cfg.hal.lines, "sim")) {
+		lines = sim_line_hal(&app->sim_lines);
+	} else if (strcmp(cfg.hal.lines, "none")) {
+		fprintf(stderr, "omni4-fw: %s: [hal] lines = %s is not available in this build\n",
+			config_path, cfg.hal.lines);
+		goto out_close_motor;
+	}
+	if (fw_init(&app->fw, &cfg, motor, lines)) {
+		fprintf(stderr, "omni4-fw: %s: invalid controller settings\n", config_path);
+		goto out_close_lines;
+	}
+	if (!strcmp(cfg.hal.motor, "sim"))
+		sim_motor_set_pose_cb(&app->sim, on_pose, &app->fw,
+				      rtloop_clock_us() - app->sim.period_us);
+
+	lcm_t *lcm = lcm_create(cfg.lcm.url);
+
+	if (!lcm) {
+		fprintf(stderr, "omni4-fw: cannot open LCM at '%s'\n", cfg.lcm.url);
+		goto out_close_lines;
+	}
+	if (cfg.loop.mlockall && (rc = rtloop_lock_memory()))
+		fprintf(stderr, "omni4-fw: warning: mlockall: %s\n", strerror(-rc));
+
+	struct sigaction sa = {.sa_handler = on_signal};
+
+	sigemptyset(&sa.sa_mask);
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+
+	struct lcmio io;
+	struct rtloop loop;
+
+	rc = lcmio_start(&io, lcm, &app->fw);
+	if (rc) {
+		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
+		rc = 1;
+		goto out_lcm;
+	}
+	rc = rtloop_start(&loop, cfg.loop.rate_hz, cfg.loop.sched_fifo ? cfg.loop.priority : 0,
+			  0, tick, &app->fw);
+	if (rc) {
+		fprintf(stderr, "omni4-fw: cannot start the loop: %s\n", strerror(-rc));
+		rc = 1;
+		goto out_io;
+	}
+	if (loop.warning[0])
+		fprintf(stderr, "omni4-fw: warning: %s\n", loop.warning);
+	if (!quiet)
+		fprintf(stderr, "omni4-fw: running at %.0f Hz, motor=%s lines=%s lcm=%s\n",
+			cfg.loop.rate_hz, cfg.hal.motor, cfg.hal.lines, cfg.lcm.url);
+
+	const int64_t t0 = rtloop_clock_us();
+
+	while (!g_stop && !(duration_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= duration_s)) {
+		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000000};
+
+		nanosleep(&nap, NULL);
+	}
+	rtloop_request_stop(&loop);
+	rtloop_join(&loop);
+	rc = 0;
+out_io:
+	fw_outputs_off(&app->fw);
+	lcmio_stop(&io);
+	if (!quiet || rc)
+		fprintf(stderr,
+			"omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
+			"max %.0f us; published %llu, log dropped %llu, commands rejected %llu, "
+			"undecodable %llu\n",
+			(unsigned long long)loop.ticks, (unsigned long long)loop.overruns,
+			rtloop_latency_percentile_us(&loop, 50), rtloop_latency_percentile_us(&loop, 99),
+			loop.latency_max_ns / 1e3, (unsigned long long)atomic_load(&io.published),
+			(unsigned long long)app->fw.n.log_dropped,
+			(unsigned long long)app->fw.ctl.n.cmd_rejected,
+			(unsigned long long)atomic_load(&io.rx_bad));
+out_lcm:
+	lcm_destroy(lcm);
+out_close_lines:
+	if (app->fw.motor.ops)
+		fw_outputs_off(&app->fw);
+	hal_line_close(&lines);
+out_close_motor:
+	hal_motor_close(&motor);
+out_free:
+	free(app);
+	return rc;
+}

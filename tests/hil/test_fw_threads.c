@@ -1,0 +1,136 @@
+/* The robot wiring with real threads and real LCM (memq://): the fixed-rate loop thread, the
+ * LCM receive thread and the logger thread, as in omni4-fw, on the sim backend. */
+#include "omni4_test.h"
+
+#include <lcm/lcm.h>
+#include <time.h>
+
+#include "omni4/fw.h"
+#include "omni4/lcmio.h"
+#include "omni4/rtloop.h"
+#include "omni4/sim_motor.h"
+#include "omni4_command_t.h"
+#include "omni4_motors_t.h"
+
+struct rx {
+	int64_t count;
+	int64_t next_seq;
+	int64_t gaps;
+	int64_t voltage_mode;
+	int64_t pose;
+};
+
+static void on_motors(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct rx *rx = user;
+	omni4_motors_t m;
+
+	(void)channel;
+	if (omni4_motors_t_decode(rbuf->data, 0, rbuf->data_size, &m) < 0)
+		return;
+	if (m.seq != rx->next_seq)
+		rx->gaps++;
+	rx->next_seq = m.seq + 1;
+	rx->count++;
+	rx->voltage_mode += m.mode == OMNI4_MOTORS_T_MODE_VOLTAGE;
+}
+
+static void on_pose(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	(void)rbuf;
+	(void)channel;
+	((struct rx *)user)->pose++;
+}
+
+static void tick(void *ctx, int64_t now_us)
+{
+	fw_tick(ctx, now_us);
+}
+
+static void sim_pose(void *user, int64_t utime, const double pose[3])
+{
+	fw_push_pose(user, utime, pose);
+}
+
+static void sleep_ms(int ms)
+{
+	const struct timespec t = {.tv_sec = ms / 1000, .tv_nsec = (ms % 1000) * 1000000L};
+
+	nanosleep(&t, NULL);
+}
+
+static void test_loop_thread_logs_every_tick_through_lcm(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	static struct sim_motor sim;
+	struct omni4_config cfg;
+	struct rx rx = {0};
+	const int64_t N = 3000;
+
+	config_defaults(&cfg);
+	const struct sim_motor_config sc = {
+		.params = cfg.model, .period_s = 1e-3, .supply_v = 12, .current_noise_a = 0.02,
+		.encoder_cpr = 10240, .camera_rate_hz = 25, .camera_pos_noise_m = 0.01,
+		.camera_theta_noise_rad = 0.05, .seed = 3,
+	};
+	assert_int_equal(sim_motor_init(&sim, &sc), 0);
+	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
+				 (struct line_hal){.ops = &line_none_ops}), 0);
+	sim_motor_set_pose_cb(&sim, sim_pose, &fw, 0);
+
+	lcm_t *lcm = lcm_create("memq://");
+
+	assert_non_null(lcm);
+	lcm_subscription_t *s1 = lcm_subscribe(lcm, LCMIO_CHANNEL_MOTORS, on_motors, &rx);
+	lcm_subscription_t *s2 = lcm_subscribe(lcm, LCMIO_CHANNEL_POSE, on_pose, &rx);
+
+	lcm_subscription_set_queue_capacity(s1, 1 << 20);
+	lcm_subscription_set_queue_capacity(s2, 1 << 20);
+
+	struct lcmio io;
+	struct rtloop loop;
+
+	assert_int_equal(lcmio_start(&io, lcm, &fw), 0);
+	assert_int_equal(rtloop_start(&loop, 1000.0, 0, N, tick, &fw), 0);
+
+	/* A voltage command through LCM while the loop runs. */
+	sleep_ms(500);
+	omni4_command_t c = {.mode = OMNI4_COMMAND_T_MODE_VOLTAGE, .voltage = {2, 2, 2, 2}};
+
+	assert_int_equal(omni4_command_t_publish(lcm, LCMIO_CHANNEL_CMD, &c), 0);
+	rtloop_join(&loop);
+	for (int i = 0; i < 200 && spsc_count(&fw.log_ring); i++)
+		sleep_ms(5);
+	sleep_ms(100);
+	lcmio_stop(&io);
+	while (lcm_handle_timeout(lcm, 50) > 0)
+		;
+
+	print_message("loop thread: %llu ticks, %llu overruns, latency p50 %.0f us p99 %.0f us "
+		      "max %.0f us; received %lld motors_t (%lld gaps), %lld poses\n",
+		      (unsigned long long)loop.ticks, (unsigned long long)loop.overruns,
+		      rtloop_latency_percentile_us(&loop, 50), rtloop_latency_percentile_us(&loop, 99),
+		      loop.latency_max_ns / 1e3, (long long)rx.count, (long long)rx.gaps,
+		      (long long)rx.pose);
+	assert_int_equal(loop.ticks, N);
+	assert_int_equal(fw.n.log_dropped, 0);
+	assert_int_equal(rx.count, N);
+	assert_int_equal(rx.gaps, 0);
+	assert_in_range(rx.pose, N / 40 - 1, N / 40 + 1);
+	/* The command took effect: the watchdog (200 ms) then stopped it. */
+	assert_true(rx.voltage_mode >= 150);
+	assert_int_equal(fw.ctl.n.watchdog_trips, 1);
+	lcm_unsubscribe(lcm, s1);
+	lcm_unsubscribe(lcm, s2);
+	lcm_destroy(lcm);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_loop_thread_logs_every_tick_through_lcm),
+	};
+
+	return cmocka_run_group_tests_name("fw_threads", tests, NULL, NULL);
+}
