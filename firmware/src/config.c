@@ -86,7 +86,7 @@ struct parse_state {
 	const char *name;
 	bool seen[N_KEYS];
 	bool failed;
-	int section_line;
+	bool partial_model; /* [model] may be incomplete; not checked */
 	int line; /* current line, counted by the handler from inih's reports */
 };
 
@@ -115,7 +115,7 @@ void config_defaults(struct omni4_config *cfg)
 	snprintf(cfg->hal.motor, sizeof(cfg->hal.motor), "sim");
 	snprintf(cfg->hal.lines, sizeof(cfg->hal.lines), "sim");
 	cfg->sim.current_noise_a = 0.02;
-	cfg->sim.encoder_cpr = 2048;
+	cfg->sim.encoder_cpr = 10240; /* 2048 counts per motor turn x gearbox 5 */
 	cfg->sim.camera_rate_hz = 25.0;
 	cfg->sim.camera_pos_noise_m = 0.01;
 	cfg->sim.camera_theta_noise_rad = 3.0 * M_PI / 180.0;
@@ -275,6 +275,8 @@ static int after_parse(struct parse_state *st, int rc)
 
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
 		any |= st->seen[i];
+	if (st->partial_model)
+		return 0;
 	for (int i = 0; any && i < MODEL_PARAMS_COUNT; i++)
 		if (!st->seen[i]) {
 			fail(st, 0, "missing key", "model", model_params_names[i], NULL);
@@ -346,17 +348,26 @@ static int handler(void *user, const char *section, const char *name, const char
 }
 
 static int parse(struct line_reader *reader, const char *name, struct omni4_config *cfg,
-		 struct config_error *err)
+		 struct config_error *err, uint32_t *model_seen)
 {
-	struct parse_state st = {.cfg = cfg, .err = err, .name = name};
+	struct parse_state st = {.cfg = cfg, .err = err, .name = name,
+				 .partial_model = model_seen != NULL};
 	struct handler_ctx h = {.st = &st, .reader = reader};
+	int rc;
 
 	err->line = 0;
 	err->msg[0] = '\0';
-	return after_parse(&st, ini_parse_stream(read_line, reader, handler, &h));
+	rc = after_parse(&st, ini_parse_stream(read_line, reader, handler, &h));
+	if (model_seen) {
+		*model_seen = 0;
+		for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
+			*model_seen |= st.seen[i] ? 1u << i : 0u;
+	}
+	return rc;
 }
 
-int config_load(const char *path, struct omni4_config *cfg, struct config_error *err)
+static int load_file(const char *path, struct omni4_config *cfg, struct config_error *err,
+		     uint32_t *model_seen)
 {
 	struct line_reader r = {.f = fopen(path, "r")};
 	int rc;
@@ -366,9 +377,20 @@ int config_load(const char *path, struct omni4_config *cfg, struct config_error 
 		err->line = 0;
 		return -ENOENT;
 	}
-	rc = parse(&r, path, cfg, err);
+	rc = parse(&r, path, cfg, err, model_seen);
 	fclose(r.f);
 	return rc;
+}
+
+int config_load(const char *path, struct omni4_config *cfg, struct config_error *err)
+{
+	return load_file(path, cfg, err, NULL);
+}
+
+int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *model_seen,
+			struct config_error *err)
+{
+	return load_file(path, cfg, err, model_seen);
 }
 
 int config_load_string(const char *text, const char *name, struct omni4_config *cfg,
@@ -376,7 +398,7 @@ int config_load_string(const char *text, const char *name, struct omni4_config *
 {
 	struct line_reader r = {.text = text};
 
-	return parse(&r, name, cfg, err);
+	return parse(&r, name, cfg, err, NULL);
 }
 
 int config_write_model(FILE *f, const struct model_params *p)

@@ -95,6 +95,14 @@ int config_load(const char *path, struct omni4_config *cfg, struct config_error 
 int config_load_string(const char *text, const char *name, struct omni4_config *cfg,
 		       struct config_error *err);
 
+/*
+ * Like config_load, but [model] may hold any subset of its keys (e.g. a BASE.ini with only the
+ * measured d r l M) and is not checked for physical sense. *model_seen gets bit i set for each
+ * model_params_names[i] present.
+ */
+int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *model_seen,
+			struct config_error *err);
+
 /* Write a [model] section that config_load reads back exactly (%.17g). Returns 0 or -EIO. */
 int config_write_model(FILE *f, const struct model_params *p);
 

@@ -1,0 +1,123 @@
+// logdata.cpp - event log reading (LCM C API) and segmentation.
+#include "logdata.hpp"
+
+#include <lcm/eventlog.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+
+#include "omni4/experiment_t.hpp"
+#include "omni4/motors_t.hpp"
+#include "omni4/pose_t.hpp"
+
+namespace omni4 {
+
+LogData read_log(const std::string &path) {
+  struct stat st {};
+  if (stat(path.c_str(), &st) != 0)
+    throw std::runtime_error(path + ": " + std::strerror(errno));
+  std::unique_ptr<lcm_eventlog_t, void (*)(lcm_eventlog_t *)> log(
+      lcm_eventlog_create(path.c_str(), "r"), lcm_eventlog_destroy);
+  if (!log) throw std::runtime_error(path + ": cannot open as an LCM event log");
+
+  LogData d;
+  d.path = path;
+  d.bytes_total = static_cast<uint64_t>(st.st_size);
+  int64_t last_seq = -1;
+  for (;;) {
+    lcm_eventlog_event_t *ev = lcm_eventlog_read_next_event(log.get());
+    if (!ev) break;
+    std::unique_ptr<lcm_eventlog_event_t, void (*)(lcm_eventlog_event_t *)> guard(
+        ev, lcm_eventlog_free_event);
+    ++d.events;
+    const std::string channel(ev->channel, ev->channellen);
+    const int len = ev->datalen;
+    if (channel == "OMNI4_MOTORS") {
+      motors_t m{};
+      if (m.decode(ev->data, 0, len) != len) {
+        ++d.undecodable;
+        continue;
+      }
+      MotorsSample s;
+      s.utime = m.utime;
+      s.seq = m.seq;
+      s.mode = m.mode;
+      s.faults = m.faults;
+      for (int j = 0; j < 4; ++j) {
+        s.u[j] = m.voltage[j];
+        s.i[j] = m.current[j];
+        s.w[j] = m.wheel_speed[j];
+      }
+      if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
+      last_seq = s.seq;
+      d.motors.push_back(s);
+    } else if (channel == "OMNI4_POSE") {
+      pose_t p{};
+      if (p.decode(ev->data, 0, len) != len) {
+        ++d.undecodable;
+        continue;
+      }
+      d.pose.push_back({p.utime, p.x, p.y, p.theta});
+    } else if (channel == "OMNI4_EXPERIMENT") {
+      experiment_t e{};
+      if (e.decode(ev->data, 0, len) != len) {
+        ++d.undecodable;
+        continue;
+      }
+      d.marks.push_back({e.utime, e.kind, e.direction, e.level});
+    } else {
+      ++d.other_channels;
+    }
+  }
+  // Where the reader stopped: anything after it was truncated or corrupt.
+  FILE *f = log->f;
+  const long pos = f ? std::ftell(f) : -1;
+  if (pos >= 0 && static_cast<uint64_t>(pos) < d.bytes_total)
+    d.bytes_skipped = d.bytes_total - static_cast<uint64_t>(pos);
+  if (d.events == 0) throw std::runtime_error(path + ": no intact LCM event in the file");
+  auto by_time = [](const auto &a, const auto &b) { return a.utime < b.utime; };
+  std::stable_sort(d.motors.begin(), d.motors.end(), by_time);
+  std::stable_sort(d.pose.begin(), d.pose.end(), by_time);
+  std::stable_sort(d.marks.begin(), d.marks.end(), by_time);
+  return d;
+}
+
+std::vector<Segment> split_segments(const LogData &log) {
+  std::vector<Segment> out;
+  auto motors_at = [&](int64_t t) {
+    return static_cast<size_t>(
+        std::lower_bound(log.motors.begin(), log.motors.end(), t,
+                         [](const MotorsSample &s, int64_t v) { return s.utime < v; }) -
+        log.motors.begin());
+  };
+  auto pose_at = [&](int64_t t) {
+    return static_cast<size_t>(
+        std::lower_bound(log.pose.begin(), log.pose.end(), t,
+                         [](const PoseSample &s, int64_t v) { return s.utime < v; }) -
+        log.pose.begin());
+  };
+  const int64_t t_end = log.motors.empty() ? 0 : log.motors.back().utime + 1;
+  for (size_t k = 0; k < log.marks.size(); ++k) {
+    const Mark &m = log.marks[k];
+    if (m.kind == "end") continue;
+    Segment s;
+    s.kind = m.kind;
+    s.direction = m.direction;
+    s.level = m.level;
+    s.log = &log;
+    s.t0 = m.utime;
+    s.t1 = k + 1 < log.marks.size() ? log.marks[k + 1].utime : t_end;
+    s.m0 = motors_at(s.t0);
+    s.m1 = motors_at(s.t1);
+    s.p0 = pose_at(s.t0);
+    s.p1 = pose_at(s.t1);
+    if (s.m1 > s.m0) out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace omni4

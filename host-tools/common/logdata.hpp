@@ -1,0 +1,62 @@
+// logdata.hpp - an omni4 LCM event log read into memory, and its experiment segments.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace omni4 {
+
+struct MotorsSample {
+  int64_t utime = 0;
+  int64_t seq = 0;
+  int8_t mode = 0;
+  int32_t faults = 0;
+  std::array<double, 4> u{};  // applied voltage [V]
+  std::array<double, 4> i{};  // current [A]
+  std::array<double, 4> w{};  // wheel speed after the gearbox [rad/s]
+};
+
+struct PoseSample {
+  int64_t utime = 0;
+  double x = 0, y = 0, theta = 0;  // world [m, m, rad]
+};
+
+struct Mark {
+  int64_t utime = 0;
+  std::string kind, direction;
+  double level = 0;
+};
+
+struct LogData {
+  std::string path;
+  std::vector<MotorsSample> motors;
+  std::vector<PoseSample> pose;
+  std::vector<Mark> marks;
+  uint64_t events = 0;         // events read
+  uint64_t undecodable = 0;    // events on our channels that failed to decode
+  uint64_t other_channels = 0;
+  uint64_t bytes_total = 0;    // file size
+  uint64_t bytes_skipped = 0;  // file bytes after the last intact event (truncation/corruption)
+  uint64_t seq_gaps = 0;       // missing motors_t samples (seq jumps)
+};
+
+// Reads a log; throws std::runtime_error("PATH: ...") if it cannot be opened or holds nothing.
+// A truncated or corrupt tail is skipped and counted, never fatal.
+LogData read_log(const std::string &path);
+
+struct Segment {
+  std::string kind, direction;
+  double level = 0;
+  const LogData *log = nullptr;
+  size_t m0 = 0, m1 = 0;  // motors index range [m0, m1)
+  size_t p0 = 0, p1 = 0;  // pose index range [p0, p1)
+  int64_t t0 = 0, t1 = 0;  // [us]
+};
+
+// Splits a log by its OMNI4_EXPERIMENT marks: each mark other than "end" opens a segment that
+// the next mark closes (or the end of the log).
+std::vector<Segment> split_segments(const LogData &log);
+
+}  // namespace omni4

@@ -1,0 +1,88 @@
+// regression.cpp - LS / IV solvers on Eigen.
+#include "regression.hpp"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace omni4 {
+
+Fit least_squares(const Eigen::MatrixXd &X, const Eigen::VectorXd &y, double corr_len,
+                  const std::string &what) {
+  const Eigen::Index n = X.rows(), p = X.cols();
+  if (n <= p) throw IdentError(what + ": too few samples (" + std::to_string(n) + ") for " +
+                               std::to_string(p) + " parameters");
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
+  qr.setThreshold(1e-10);
+  if (qr.rank() < p) throw IdentError(what + ": singular regression (regressors are collinear)");
+  Fit f;
+  f.theta = qr.solve(y);
+  const Eigen::VectorXd r = y - X * f.theta;
+  f.n = static_cast<size_t>(n);
+  f.sigma2 = r.squaredNorm() / static_cast<double>(n - p);
+  const Eigen::MatrixXd XtX = X.transpose() * X;
+  f.cov = f.sigma2 * std::max(1.0, corr_len) * XtX.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+  return f;
+}
+
+Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
+                           const Eigen::VectorXd &y, double corr_len, const std::string &what) {
+  const Eigen::Index n = X.rows(), p = X.cols();
+  if (n <= p) throw IdentError(what + ": too few samples for instrumental variables");
+  const Eigen::MatrixXd ZtX = Z.transpose() * X;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(ZtX);
+  if (qr.rank() < p) throw IdentError(what + ": singular instrumental-variable system");
+  Fit f;
+  f.theta = qr.solve(Z.transpose() * y);
+  const Eigen::VectorXd r = y - X * f.theta;
+  f.n = static_cast<size_t>(n);
+  f.sigma2 = r.squaredNorm() / static_cast<double>(n - p);
+  const Eigen::MatrixXd inv = qr.solve(Eigen::MatrixXd::Identity(p, p));
+  f.cov = f.sigma2 * std::max(1.0, corr_len) * inv * (Z.transpose() * Z) * inv.transpose();
+  return f;
+}
+
+Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov) {
+  Estimate e;
+  e.value = f(theta);
+  Eigen::VectorXd g(theta.size());
+  for (Eigen::Index k = 0; k < theta.size(); ++k) {
+    const double h = 1e-6 * std::max(1e-6, std::abs(theta[k]));
+    Eigen::VectorXd a = theta, b = theta;
+    a[k] += h;
+    b[k] -= h;
+    g[k] = (f(a) - f(b)) / (2 * h);
+  }
+  e.se = std::sqrt(std::max(0.0, g.dot(cov * g)));
+  return e;
+}
+
+Estimate combine(std::initializer_list<Estimate> list) {
+  double wsum = 0, vsum = 0;
+  size_t weighted = 0;
+  std::vector<double> plain;
+  for (const Estimate &e : list) {
+    if (!e.ok()) continue;
+    plain.push_back(e.value);
+    if (std::isfinite(e.se)) {
+      const double se = std::max(e.se, 1e-9 * std::abs(e.value) + 1e-300);
+      wsum += 1 / (se * se);
+      vsum += e.value / (se * se);
+      ++weighted;
+    }
+  }
+  Estimate out;
+  if (plain.empty()) return out;
+  if (weighted == plain.size()) {
+    out.value = vsum / wsum;
+    out.se = std::sqrt(1 / wsum);
+  } else {
+    double s = 0;
+    for (double v : plain) s += v;
+    out.value = s / plain.size();
+  }
+  return out;
+}
+
+}  // namespace omni4

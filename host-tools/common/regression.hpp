@@ -1,0 +1,48 @@
+// regression.hpp - least squares (eq 32), instrumental variables (eq 35), error propagation.
+#pragma once
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace omni4 {
+
+struct IdentError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Fit {
+  Eigen::VectorXd theta;
+  Eigen::MatrixXd cov;  // covariance of theta
+  double sigma2 = 0;    // residual variance
+  size_t n = 0;
+};
+
+// theta = argmin |X theta - y|^2, solved by column-pivoting QR (never an explicit inverse).
+// corr_len: samples per independent error (the filter length for filtered series): the naive
+// covariance sigma^2 (X^T X)^-1 is scaled by it. Throws IdentError("what: singular ...") when
+// X is rank deficient.
+Fit least_squares(const Eigen::MatrixXd &X, const Eigen::VectorXd &y, double corr_len,
+                  const std::string &what);
+
+// theta = (Z^T X)^-1 Z^T y with instruments Z (same shape as X).
+Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
+                           const Eigen::VectorXd &y, double corr_len, const std::string &what);
+
+struct Estimate {
+  double value = std::numeric_limits<double>::quiet_NaN();
+  double se = std::numeric_limits<double>::quiet_NaN();  // standard error
+  bool ok() const { return std::isfinite(value); }
+};
+
+// f(theta) with its standard error by first-order propagation (central differences).
+Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov);
+
+// Inverse-variance weighted mean of the valid estimates (plain mean where a SE is missing).
+Estimate combine(std::initializer_list<Estimate> list);
+
+}  // namespace omni4

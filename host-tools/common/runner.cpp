@@ -1,0 +1,132 @@
+// runner.cpp - experiment runner over LCM.
+#include "runner.hpp"
+
+#include <lcm/eventlog.h>
+
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <stdexcept>
+
+#include "experiments.hpp"
+
+namespace omni4 {
+
+namespace {
+
+volatile std::sig_atomic_t g_interrupted = 0;
+
+void on_signal(int) { g_interrupted = 1; }
+
+int64_t wall_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+struct Recorder {
+  lcm_eventlog_t *log = nullptr;
+  uint64_t written = 0, errors = 0;
+  void handle(const lcm::ReceiveBuffer *rbuf, const std::string &channel) {
+    lcm_eventlog_event_t ev{};
+    ev.timestamp = rbuf->recv_utime;
+    ev.channellen = static_cast<int32_t>(channel.size());
+    ev.datalen = static_cast<int32_t>(rbuf->data_size);
+    ev.channel = const_cast<char *>(channel.c_str());
+    ev.data = rbuf->data;
+    if (lcm_eventlog_write_event(log, &ev) == 0) ++written;
+    else ++errors;
+  }
+};
+
+std::vector<Phase> filtered(const std::vector<std::string> &only) {
+  std::vector<Phase> all = paper_sequence();
+  if (only.empty()) return all;
+  SequenceOptions none;
+  none.rotation_levels.clear();
+  none.coast_levels.clear();
+  none.motor_levels.clear();
+  none.step_levels.clear();
+  SequenceOptions full;
+  SequenceOptions pick = none;
+  for (const std::string &k : only) {
+    if (k == "steady_rotation") pick.rotation_levels = full.rotation_levels;
+    else if (k == "coast") pick.coast_levels = full.coast_levels;
+    else if (k == "motor") pick.motor_levels = full.motor_levels;
+    else if (k == "step") pick.step_levels = full.step_levels;
+    else throw std::invalid_argument("unknown experiment kind '" + k + "'");
+  }
+  return paper_sequence(pick);
+}
+
+}  // namespace
+
+int run_experiments(const RunOptions &opt) {
+  std::vector<Phase> phases;
+  try {
+    phases = filtered(opt.only);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "omni4-ident run: %s\n", e.what());
+    return 2;
+  }
+  lcm::LCM lcm(opt.url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n", opt.url.c_str());
+    return 1;
+  }
+  Recorder rec;
+  rec.log = lcm_eventlog_create(opt.out.c_str(), "w");
+  if (!rec.log) {
+    std::fprintf(stderr, "omni4-ident run: %s: %s\n", opt.out.c_str(), std::strerror(errno));
+    return 1;
+  }
+  lcm::Subscription *sub = lcm.subscribe(".*", &Recorder::handle, &rec);
+  sub->setQueueCapacity(100000);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+  SequencePlayer player(phases);
+  const double total = total_duration_s(phases);
+  const auto t0 = std::chrono::steady_clock::now();
+  int last_pct = -1;
+  while (!player.done() && !g_interrupted) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const auto out = player.due(t, wall_us());
+    for (const auto &m : out.marks) lcm.publish("OMNI4_EXPERIMENT", m.data(), m.size());
+    if (out.has_command) lcm.publish("OMNI4_CMD", out.command.data(), out.command.size());
+    lcm.handleTimeout(5);
+    const int pct = static_cast<int>(100 * t / total);
+    if (pct != last_pct) {
+      std::fprintf(stderr, "\romni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu",
+                   pct, t, total, player.phase_index() + 1, player.phase_count(),
+                   static_cast<unsigned long long>(rec.written));
+      last_pct = pct;
+    }
+  }
+  // Safe stop: IDLE (outputs off), close any open segment, collect the last messages.
+  const auto stop = SequencePlayer::stop_command(wall_us(), 1 << 30);
+  lcm.publish("OMNI4_CMD", stop.data(), stop.size());
+  {
+    std::vector<Phase> end_only(1);
+    end_only[0].end_mark = true;
+    end_only[0].duration_s = 1;
+    SequencePlayer endp(end_only);
+    const auto o = endp.due(0, wall_us());
+    for (const auto &m : o.marks) lcm.publish("OMNI4_EXPERIMENT", m.data(), m.size());
+  }
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+  while (std::chrono::steady_clock::now() < until) lcm.handleTimeout(20);
+  lcm.unsubscribe(sub);
+  lcm_eventlog_destroy(rec.log);
+  std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
+               g_interrupted ? "interrupted, robot stopped;" : "done;", opt.out.c_str(),
+               static_cast<unsigned long long>(rec.written),
+               rec.errors ? " (write errors!)" : "");
+  return g_interrupted ? 130 : (rec.errors ? 1 : 0);
+}
+
+}  // namespace omni4

@@ -1,0 +1,321 @@
+// omni4-ident: identify the paper's model from LCM logs, validate it, run the experiments.
+#include <CLI/CLI.hpp>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "identify.hpp"
+#include "logdata.hpp"
+#include "runner.hpp"
+#include "validate.hpp"
+
+extern "C" {
+#include "omni4/config.h"
+}
+
+namespace {
+
+using namespace omni4;
+
+[[noreturn]] void die(const std::string &msg, int code = 1) {
+  std::fprintf(stderr, "omni4-ident: %s\n", msg.c_str());
+  std::exit(code);
+}
+
+std::vector<LogData> load_logs(const std::vector<std::string> &paths) {
+  std::vector<LogData> logs;
+  logs.reserve(paths.size());
+  for (const std::string &p : paths) {
+    try {
+      logs.push_back(read_log(p));
+    } catch (const std::exception &e) {
+      die(e.what());
+    }
+    const LogData &d = logs.back();
+    std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", p.c_str(),
+                (unsigned long long)d.events, d.motors.size(), d.pose.size(), d.marks.size());
+    if (d.bytes_skipped || d.undecodable || d.seq_gaps)
+      std::printf("; skipped %llu of %llu bytes (truncated or corrupt), %llu undecodable "
+                  "events, %llu lost samples",
+                  (unsigned long long)d.bytes_skipped, (unsigned long long)d.bytes_total,
+                  (unsigned long long)d.undecodable, (unsigned long long)d.seq_gaps);
+    std::printf("\n");
+  }
+  return logs;
+}
+
+std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
+  std::vector<Segment> all;
+  for (const LogData &d : logs) {
+    auto s = split_segments(d);
+    all.insert(all.end(), s.begin(), s.end());
+  }
+  if (all.empty())
+    die("no experiment segments: the logs carry no OMNI4_EXPERIMENT marks (record them with "
+        "'omni4-ident run' or 'omni4-sim --experiments')");
+  return all;
+}
+
+model_params load_params(const std::string &path, bool partial) {
+  omni4_config cfg;
+  config_error err;
+  config_defaults(&cfg);
+  uint32_t seen = 0;
+  const int rc = partial ? config_load_partial(path.c_str(), &cfg, &seen, &err)
+                         : config_load(path.c_str(), &cfg, &err);
+  if (rc) die(err.msg, 2);
+  if (partial) {
+    for (int i : {0, 1, 2, 6})  // d r l M
+      if (!(seen & (1u << i)))
+        die(path + ": the robot file must give the measured '" + model_params_names[i] +
+                "' in [model]",
+            2);
+  }
+  return cfg.model;
+}
+
+// Write next to the target, then rename: never a half-written PARAMS file.
+void write_params(const std::string &path, const model_params &p, const std::string &comment) {
+  const std::string tmp = path + ".tmp" + std::to_string(getpid());
+  FILE *f = std::fopen(tmp.c_str(), "w");
+  if (!f) die(tmp + ": " + std::strerror(errno));
+  bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0 && config_write_model(f, &p) == 0;
+  ok = (std::fclose(f) == 0) && ok;
+  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    die(path + ": write failed: " + std::strerror(errno));
+  }
+}
+
+std::string fmt(const Estimate &e) {
+  if (!e.ok()) return "";
+  char buf[64];
+  if (std::isfinite(e.se))
+    std::snprintf(buf, sizeof(buf), "%.4g ±%.2g", e.value, e.se);
+  else
+    std::snprintf(buf, sizeof(buf), "%.4g", e.value);
+  return buf;
+}
+
+double field(const model_params &p, const std::string &name) {
+  for (int i = 0; i < MODEL_PARAMS_COUNT; ++i)
+    if (name == model_params_names[i]) return model_params_get(&p, i);
+  return NAN;
+}
+
+void print_table(const IdentResult &r, const model_params *truth) {
+  static const char *const headers[6] = {"motor test", "exp 1", "exp 2", "exp 3 LS",
+                                         "exp 3 IV", "final"};
+  std::printf("\n%-5s", "param");
+  for (const char *h : headers) std::printf(" %19s", h);
+  if (truth) std::printf(" %10s %8s", "true", "error");
+  std::printf("\n");
+  for (const char *p : kIdentParams) {
+    std::printf("%-5s", p);
+    for (const char *m : kIdentMethods) {
+      const auto mit = r.table.find(m);
+      Estimate e;
+      if (mit != r.table.end()) {
+        const auto pit = mit->second.find(p);
+        if (pit != mit->second.end()) e = pit->second;
+      }
+      std::printf(" %19s", fmt(e).c_str());
+    }
+    if (truth) {
+      const double t = field(*truth, p), v = r.table.at("final").at(p).value;
+      std::printf(" %10.4g %+7.2f%%", t, 100 * (v - t) / t);
+    }
+    std::printf("\n");
+  }
+  std::printf("(± standard error; final = inverse-variance weighted mean of motor test / exp 1 / "
+              "exp 2 and exp 3 IV; Kt = Kv)\n");
+  std::printf("R per motor (eq 22):");
+  for (int j = 0; j < 4; ++j) std::printf("  R%d %.4f", j, r.R_motor[j].value);
+  std::printf("\nKv per motor:       ");
+  for (int j = 0; j < 4; ++j) std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
+  std::printf("\n");
+}
+
+void ensure_dir(const std::string &dir) {
+  if (dir.empty()) return;
+  std::string cmd;
+  for (size_t k = 1; k <= dir.size(); ++k) {
+    if (k == dir.size() || dir[k] == '/') {
+      const std::string part = dir.substr(0, k);
+      if (mkdir(part.c_str(), 0777) != 0 && errno != EEXIST) die(part + ": " + std::strerror(errno));
+    }
+  }
+}
+
+std::ofstream open_csv(const std::string &dir, const std::string &name) {
+  std::ofstream f(dir + "/" + name);
+  if (!f) die(dir + "/" + name + ": cannot write");
+  return f;
+}
+
+void export_ident_csv(const std::string &dir, const IdentResult &r, const model_params *truth) {
+  ensure_dir(dir);
+  auto f = open_csv(dir, "motor_points.csv");
+  f << "motor,u_V,i_A,wm_rad_s\n";
+  for (const auto &p : r.motor_points) f << p.motor << ',' << p.u << ',' << p.i << ',' << p.wm << '\n';
+  auto g = open_csv(dir, "rotation_points.csv");
+  g << "level_V,omega_cam_rad_s,omega_enc_rad_s,torque_Nm\n";
+  for (const auto &p : r.rotation_points)
+    g << p.level << ',' << p.omega_cam << ',' << p.omega_enc << ',' << p.torque << '\n';
+  auto h = open_csv(dir, "coast_curves.csv");
+  h << "direction,segment,t_s,measured,fitted\n";
+  for (const auto &[dir_name, pts] : r.coast_curves)
+    for (const auto &p : pts)
+      h << dir_name << ',' << p.segment << ',' << p.t << ',' << p.measured << ',' << p.fitted << '\n';
+  auto t = open_csv(dir, "params.csv");
+  t << "param,method,value,se\n";
+  for (const auto &[m, row] : r.table)
+    for (const auto &[p, e] : row) t << p << ',' << m << ',' << e.value << ',' << e.se << '\n';
+  if (truth)
+    for (const char *p : kIdentParams) t << p << ",true," << field(*truth, p) << ",\n";
+  (void)r.final;
+}
+
+int cmd_identify(const std::string &robot, const std::string &out, const std::string &truth_path,
+                 const std::string &csv, const std::string &source,
+                 const std::vector<std::string> &paths) {
+  const model_params base = load_params(robot, true);
+  model_params truth{};
+  if (!truth_path.empty()) truth = load_params(truth_path, false);
+  const auto logs = load_logs(paths);
+  const auto segs = segments_of(logs);
+  IdentOptions opt;
+  if (source == "camera") opt.source = VelocitySource::Camera;
+  else if (source != "encoder") die("--velocity must be 'encoder' or 'camera'", 2);
+  IdentResult r;
+  try {
+    r = identify(segs, base, opt);
+  } catch (const IdentError &e) {
+    die(e.what());
+  }
+  std::printf("segments:");
+  for (const auto &[k, n] : r.segments_used) std::printf(" %s %zu", k.c_str(), n);
+  std::printf("; robot velocities from the %s\n", source.c_str());
+  print_table(r, truth_path.empty() ? nullptr : &truth);
+  write_params(out, r.final, "omni4-ident identify from " + std::to_string(paths.size()) + " log(s)");
+  if (!csv.empty()) export_ident_csv(csv, r, truth_path.empty() ? nullptr : &truth);
+  std::printf("wrote %s\n", out.c_str());
+  return 0;
+}
+
+void write_json(const std::string &path, const Validation &v) {
+  const std::string tmp = path + ".tmp" + std::to_string(getpid());
+  {
+    std::ofstream f(tmp);
+    if (!f) die(path + ": cannot write");
+    static const char *const names[3] = {"v", "vn", "w"};
+    f << "{";
+    for (int a = 0; a < 3; ++a) {
+      char buf[160];
+      std::snprintf(buf, sizeof(buf), "%s\"%s\": {\"e_max\": %.6g, \"e_mean\": %.6g, \"sigma\": %.6g}",
+                    a ? ", " : "", names[a], v.axis[a].e_max, v.axis[a].e_mean, v.axis[a].sigma);
+      f << buf;
+    }
+    f << "}\n";
+    if (!f) die(path + ": write failed");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) die(path + ": " + std::strerror(errno));
+}
+
+int cmd_validate(const std::vector<std::string> &params, const std::string &json,
+                 const std::string &csv, const std::vector<std::string> &paths) {
+  if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
+  std::vector<model_params> sets;
+  for (const auto &p : params) sets.push_back(load_params(p, false));
+  const auto logs = load_logs(paths);
+  const auto segs = segments_of(logs);
+  std::vector<Validation> vals;
+  try {
+    for (const auto &p : sets) vals.push_back(validate(segs, p));
+  } catch (const IdentError &e) {
+    die(e.what());
+  }
+  // Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
+  std::printf("\nvalidation on %zu step runs (measured = wheel encoders, eqs 3-5; simulated = "
+              "model driven by the logged voltages)\n%-5s", vals[0].runs, "vel");
+  for (const auto &p : params) std::printf(" | %-32.32s", p.c_str());
+  std::printf("\n%-5s", "");
+  for (size_t k = 0; k < params.size(); ++k) std::printf(" | %10s %10s %10s", "e_max", "mean", "sigma");
+  std::printf("\n");
+  static const char *const names[3] = {"v", "vn", "w"};
+  for (int a = 0; a < 3; ++a) {
+    std::printf("%-5s", names[a]);
+    for (const auto &v : vals)
+      std::printf(" | %10.4f %10.4f %10.4f", v.axis[a].e_max, v.axis[a].e_mean, v.axis[a].sigma);
+    std::printf("\n");
+  }
+  std::printf("paper Table IV (final): v 0.061 0.008 0.024 | vn 0.068 -0.009 0.026 | "
+              "w 2.504 -0.452 0.732\n");
+  write_json(json, vals[0]);
+  std::printf("wrote %s\n", json.c_str());
+  if (!csv.empty()) {
+    ensure_dir(csv);
+    for (size_t k = 0; k < vals.size(); ++k) {
+      auto f = open_csv(csv, k == 0 ? "validation.csv" : "validation_" + std::to_string(k) + ".csv");
+      f << "segment,direction,level_V,t_s,v,vn,w,v_sim,vn_sim,w_sim\n";
+      for (const auto &p : vals[k].points)
+        f << p.segment << ',' << p.direction << ',' << p.level << ',' << p.t << ','
+          << p.measured[0] << ',' << p.measured[1] << ',' << p.measured[2] << ','
+          << p.simulated[0] << ',' << p.simulated[1] << ',' << p.simulated[2] << '\n';
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  CLI::App app{"omni4 identification: fit the paper's model to LCM logs and validate it.\n"
+               "Examples:\n"
+               "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
+               "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
+               "  omni4-ident run --out robot.lcmlog"};
+  app.require_subcommand(1);
+
+  auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
+  std::string robot, out, truth, csv, source = "encoder";
+  std::vector<std::string> logs;
+  id->add_option("--robot", robot, "BASE.ini with the measured d, r, l, M in [model]")->required();
+  id->add_option("--out", out, "PARAMS.ini to write (firmware-loadable [model] section)")->required();
+  id->add_option("--truth", truth, "known parameters (simulation): print the error of each");
+  id->add_option("--csv", csv, "export every segment and fit as CSV into this folder");
+  id->add_option("--velocity", source, "robot velocity source: encoder (default) or camera");
+  id->add_option("logs", logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
+
+  auto *va = app.add_subcommand("validate", "simulate the model on the logged inputs (Table IV)");
+  std::vector<std::string> params;
+  std::string json, vcsv;
+  std::vector<std::string> vlogs;
+  va->add_option("--params", params, "PARAMS.ini (give twice to compare two sets)")->required();
+  va->add_option("--json", json, "write e_max, e_mean, sigma per velocity (first --params)")
+      ->required();
+  va->add_option("--csv", vcsv, "export measured and simulated velocities as CSV");
+  va->add_option("logs", vlogs, "LCM event logs")->required();
+
+  auto *ru = app.add_subcommand("run", "drive a robot (or omni4-fw on the sim backend) through "
+                                       "the experiment sequence over LCM, recording a log");
+  RunOptions ropt;
+  ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
+  ru->add_option("--out", ropt.out, "event log to record")->required();
+  ru->add_option("--only", ropt.only, "run only these kinds (steady_rotation coast motor step)");
+
+  CLI11_PARSE(app, argc, argv);
+  if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, logs);
+  if (va->parsed()) return cmd_validate(params, json, vcsv, vlogs);
+  if (ru->parsed()) return run_experiments(ropt);
+  return 2;
+}
