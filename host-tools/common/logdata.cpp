@@ -16,6 +16,29 @@
 
 namespace omni4 {
 
+namespace {
+
+constexpr uint8_t kSync[4] = {0xED, 0xA1, 0xDA, 0x01};  // event log sync word (big-endian)
+
+// Position of the next sync word at or after `from`, with the file positioned there; -1 if none.
+long resync(FILE *f, long from) {
+  if (std::fseek(f, from, SEEK_SET) != 0) return -1;
+  int matched = 0, c;
+  long pos = from;
+  while ((c = std::fgetc(f)) != EOF) {
+    ++pos;
+    matched = (c == kSync[matched]) ? matched + 1 : (c == kSync[0] ? 1 : 0);
+    if (matched == 4) {
+      const long start = pos - 4;
+      std::fseek(f, start, SEEK_SET);
+      return start;
+    }
+  }
+  return -1;
+}
+
+}  // namespace
+
 LogData read_log(const std::string &path) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0)
@@ -28,9 +51,19 @@ LogData read_log(const std::string &path) {
   d.path = path;
   d.bytes_total = static_cast<uint64_t>(st.st_size);
   int64_t last_seq = -1;
+  FILE *f = log->f;
+  long good_pos = 0;  // end of the last intact event
   for (;;) {
     lcm_eventlog_event_t *ev = lcm_eventlog_read_next_event(log.get());
-    if (!ev) break;
+    if (!ev) {
+      // Truncated or corrupt: resynchronise on the next event sync word, if any.
+      const long resume = resync(f, good_pos + 1);
+      if (resume < 0) break;
+      d.bytes_skipped += static_cast<uint64_t>(resume - good_pos);
+      good_pos = resume;
+      continue;
+    }
+    good_pos = std::ftell(f);
     std::unique_ptr<lcm_eventlog_event_t, void (*)(lcm_eventlog_event_t *)> guard(
         ev, lcm_eventlog_free_event);
     ++d.events;
@@ -73,11 +106,9 @@ LogData read_log(const std::string &path) {
       ++d.other_channels;
     }
   }
-  // Where the reader stopped: anything after it was truncated or corrupt.
-  FILE *f = log->f;
-  const long pos = f ? std::ftell(f) : -1;
-  if (pos >= 0 && static_cast<uint64_t>(pos) < d.bytes_total)
-    d.bytes_skipped = d.bytes_total - static_cast<uint64_t>(pos);
+  // Whatever follows the last intact event was truncated.
+  if (static_cast<uint64_t>(good_pos) < d.bytes_total)
+    d.bytes_skipped += d.bytes_total - static_cast<uint64_t>(good_pos);
   if (d.events == 0) throw std::runtime_error(path + ": no intact LCM event in the file");
   auto by_time = [](const auto &a, const auto &b) { return a.utime < b.utime; };
   std::stable_sort(d.motors.begin(), d.motors.end(), by_time);

@@ -2,6 +2,7 @@
 #include "runner.hpp"
 
 #include <lcm/eventlog.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
@@ -93,6 +94,7 @@ int run_experiments(const RunOptions &opt) {
   const double total = total_duration_s(phases);
   const auto t0 = std::chrono::steady_clock::now();
   int last_pct = -1;
+  const bool tty = isatty(STDERR_FILENO);
   while (!player.done() && !g_interrupted) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto out = player.due(t, wall_us());
@@ -100,10 +102,11 @@ int run_experiments(const RunOptions &opt) {
     if (out.has_command) lcm.publish("OMNI4_CMD", out.command.data(), out.command.size());
     lcm.handleTimeout(5);
     const int pct = static_cast<int>(100 * t / total);
-    if (pct != last_pct) {
-      std::fprintf(stderr, "\romni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu",
-                   pct, t, total, player.phase_index() + 1, player.phase_count(),
-                   static_cast<unsigned long long>(rec.written));
+    if (pct != last_pct && (tty || pct % 10 == 0)) {
+      std::fprintf(stderr, "%somni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu%s",
+                   tty ? "\r" : "", pct, t, total, player.phase_index() + 1,
+                   player.phase_count(), static_cast<unsigned long long>(rec.written),
+                   tty ? "" : "\n");
       last_pct = pct;
     }
   }

@@ -1,6 +1,6 @@
 // omni4-demo: the Table III robot's response to the paper's ramped voltage steps along v, vn
 // and w (model only: no firmware, no LCM), printed as a table.
-#include <CLI/CLI.hpp>
+#include "cli.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -40,7 +40,7 @@ int main(int argc, char **argv) {
       ->check(CLI::Range(0.01, 60.0));
   app.add_option("--print-every", print_every_s, "table row spacing [s]")
       ->check(CLI::Range(0.001, 10.0));
-  CLI11_PARSE(app, argc, argv);
+  OMNI4_CLI_PARSE(app, argc, argv);
 
   omni4_config cfg;
   config_defaults(&cfg);

@@ -1,5 +1,5 @@
 // omni4-ident: identify the paper's model from LCM logs, validate it, run the experiments.
-#include <CLI/CLI.hpp>
+#include "cli.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -313,7 +313,7 @@ int main(int argc, char **argv) {
   ru->add_option("--out", ropt.out, "event log to record")->required();
   ru->add_option("--only", ropt.only, "run only these kinds (steady_rotation coast motor step)");
 
-  CLI11_PARSE(app, argc, argv);
+  OMNI4_CLI_PARSE(app, argc, argv);
   if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, logs);
   if (va->parsed()) return cmd_validate(params, json, vcsv, vlogs);
   if (ru->parsed()) return run_experiments(ropt);

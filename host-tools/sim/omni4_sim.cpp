@@ -1,6 +1,7 @@
 // omni4-sim: the firmware loop in lockstep with the simulated plant, driven through OMNI4_CMD by
 // the paper's experiment sequence, every message written to an LCM event log.
-#include <CLI/CLI.hpp>
+#include "cli.hpp"
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
@@ -9,13 +10,8 @@
 #include <string>
 #include <thread>
 
-#include "experiments.hpp"
-#include "omni4/experiment_t.hpp"
+#include "simexp.hpp"
 
-extern "C" {
-#include "omni4/config.h"
-#include "omni4/simrun.h"
-}
 
 namespace {
 
@@ -55,7 +51,7 @@ int main(int argc, char **argv) {
   app.add_option("--seed", seed, "noise seed (default: [sim] seed)")->check(CLI::Range(0, 2147483647));
   app.add_flag("--no-noise", no_noise, "exact sensors (no current, encoder or camera noise)");
   app.add_flag("-q,--quiet", quiet, "no progress line");
-  CLI11_PARSE(app, argc, argv);
+  OMNI4_CLI_PARSE(app, argc, argv);
 
   double rtf = 0;  // 0 = max
   if (speed != "max") {
@@ -83,58 +79,26 @@ int main(int argc, char **argv) {
   }
   if (seed >= 0) cfg.sim.seed = seed;
 
-  char err[256];
-  simrun *sr = simrun_create(&cfg, &cfg.model, !no_noise, out_path.c_str(), err, sizeof(err));
-  if (!sr) {
-    std::fprintf(stderr, "omni4-sim: %s\n", err);
+  const bool tty = isatty(STDERR_FILENO);
+  int last_decile = -1;
+  auto progress = [&](double frac, size_t phase, size_t phases) {
+    const int pct = static_cast<int>(100 * frac);
+    if (quiet || (!tty && pct / 10 == last_decile)) return;
+    // On a terminal the line updates in place; in a log, one line per 10 %.
+    std::fprintf(stderr, "%somni4-sim: %3d%%  phase %zu/%zu%s", tty ? "\r" : "", pct,
+                 std::min(phase + 1, phases), phases, tty ? "" : "\n");
+    last_decile = pct / 10;
+  };
+  omni4::SimRunResult r;
+  try {
+    r = omni4::run_simulation(cfg, cfg.model, !no_noise, out_path, experiments, duration_s, rtf,
+                              progress);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "omni4-sim: %s\n", e.what());
     return 1;
   }
-
-  std::vector<omni4::Phase> phases;
-  if (experiments) phases = omni4::paper_sequence();
-  const double total_s = experiments ? omni4::total_duration_s(phases) : duration_s;
-  omni4::SequencePlayer player(phases);
-  const double dt = simrun_period_s(sr);
-  const long ticks = std::lround(total_s / dt);
-  const auto wall0 = std::chrono::steady_clock::now();
-  int last_pct = -1;
-
-  for (long k = 0; k < ticks; ++k) {
-    const double t = k * dt;
-    if (experiments) {
-      auto out = player.due(t, simrun_now_us(sr));
-      for (const auto &m : out.marks)
-        simrun_publish(sr, "OMNI4_EXPERIMENT", m.data(), m.size());
-      if (out.has_command) simrun_command(sr, out.command.data(), out.command.size());
-    }
-    simrun_tick(sr);
-    if (rtf > 0) {
-      std::this_thread::sleep_until(wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));
-    }
-    const int pct = static_cast<int>(100.0 * (k + 1) / ticks);
-    if (!quiet && pct / 10 != last_pct / 10) {
-      std::fprintf(stderr, "\romni4-sim: %3d%%  %7.1f / %.1f s simulated  phase %zu/%zu", pct,
-                   (k + 1) * dt, total_s, player.phase_index() + 1, phases.size());
-      std::fflush(stderr);
-      last_pct = pct;
-    }
-  }
-  // Close the last segment in the log.
-  if (experiments) {
-    omni4::experiment_t end{};
-    end.utime = simrun_now_us(sr);
-    end.kind = "end";
-    std::vector<uint8_t> buf(end.getEncodedSize());
-    end.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    simrun_publish(sr, "OMNI4_EXPERIMENT", buf.data(), buf.size());
-  }
-  const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  if (!quiet) std::fprintf(stderr, "\n");
-
-  simrun_stats st;
-  simrun_get_stats(sr, &st);
-  simrun_destroy(sr);
+  if (!quiet && tty) std::fprintf(stderr, "\n");
+  const simrun_stats &st = r.stats;
   std::printf("omni4-sim: wrote %s: %llu messages (OMNI4_MOTORS %llu, OMNI4_POSE %llu, "
               "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu)\n",
               out_path.c_str(), (unsigned long long)st.messages, (unsigned long long)st.motors,
@@ -142,7 +106,7 @@ int main(int argc, char **argv) {
               (unsigned long long)st.other);
   std::printf("omni4-sim: %.1f s simulated in %.2f s wall (real-time factor %.0fx), %llu ticks; "
               "faults seen: %s; commands rejected: %llu\n",
-              ticks * dt, wall_s, ticks * dt / wall_s, (unsigned long long)st.ticks,
+              r.simulated_s, r.wall_s, r.simulated_s / r.wall_s, (unsigned long long)st.ticks,
               fault_names(st.faults).c_str(), (unsigned long long)st.cmd_rejected);
   if (st.log_errors || st.log_dropped) {
     std::fprintf(stderr, "omni4-sim: %llu log write errors, %llu samples dropped\n",

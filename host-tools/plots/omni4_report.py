@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Plots and a one-page Markdown report from the CSV exports of omni4-ident.
+
+usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json]
+
+CSV_DIR holds what `omni4-ident identify --csv DIR` and `omni4-ident validate --csv DIR` wrote.
+Figures follow the paper: T vs w (exp 1, fig 4a), coast-down with its fit (exp 2, fig 4b),
+u/i vs w_m/i per motor (motor test, fig 5), measured vs simulated v, vn, w (figs 6-7).
+"""
+import argparse
+import csv
+import json
+import os
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_csv(path):
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def params_table(rows):
+    table = defaultdict(dict)
+    for r in rows:
+        table[r["param"]][r["method"]] = (float(r["value"]), r["se"])
+    return table
+
+
+def fig_rotation(rows, params, out):
+    if not rows:
+        return None
+    w = [float(r["omega_enc_rad_s"]) for r in rows]
+    wc = [float(r["omega_cam_rad_s"]) for r in rows]
+    T = [float(r["torque_Nm"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(w, T, "o", label="encoders")
+    ax.plot(wc, T, "x", label="camera")
+    if "Bw" in params and "final" in params["Bw"]:
+        Bw, Cw = params["Bw"]["final"][0], params["Cw"]["final"][0]
+        xs = [0, max(w) * 1.05]
+        ax.plot(xs, [Bw * x + Cw for x in xs], "-", label=f"T = {Bw:.4f} w + {Cw:.4f}")
+    ax.set_xlabel("w [rad/s]")
+    ax.set_ylabel("T [N m]")
+    ax.set_title("Experiment 1: steady rotation (eq 16)")
+    ax.grid(True)
+    ax.legend()
+    name = "exp1_torque.png"
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
+def fig_coast(rows, out):
+    names = []
+    by_dir = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        by_dir[r["direction"]][r["segment"]].append(
+            (float(r["t_s"]), float(r["measured"]), float(r["fitted"])))
+    for d, segs in by_dir.items():
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for seg, pts in segs.items():
+            t = [p[0] for p in pts]
+            ax.plot(t, [p[1] for p in pts], ".", ms=2, label=f"run {seg} measured")
+            ax.plot(t, [p[2] for p in pts], "-", lw=1, label=f"run {seg} fit")
+        unit = "rad/s" if d == "w" else "m/s"
+        ax.set_xlabel("t since null traction [s]")
+        ax.set_ylabel(f"{d} [{unit}]")
+        ax.set_title(f"Experiment 2: coast-down along {d} (eqs 17-19)")
+        ax.grid(True)
+        ax.legend(fontsize=7)
+        name = f"exp2_coast_{d}.png"
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, name), dpi=110)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def fig_motor(rows, params, out):
+    if not rows:
+        return None
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for m in sorted({r["motor"] for r in rows}):
+        pts = [r for r in rows if r["motor"] == m]
+        x = [float(r["wm_rad_s"]) / float(r["i_A"]) for r in pts]
+        y = [float(r["u_V"]) / float(r["i_A"]) for r in pts]
+        ax.plot(x, y, "o", label=f"motor {m}")
+    if "Kv" in params and "motor" in params["Kv"]:
+        Kv, R = params["Kv"]["motor"][0], params["R"]["motor"][0]
+        xs = sorted(float(r["wm_rad_s"]) / float(r["i_A"]) for r in rows)
+        ax.plot([xs[0], xs[-1]], [Kv * xs[0] + R, Kv * xs[-1] + R], "-",
+                label=f"u/i = {Kv:.4f} w/i + {R:.3f}")
+    ax.set_xlabel("w_m / i [rad/(s A)]")
+    ax.set_ylabel("u / i [ohm]")
+    ax.set_title("Motor test (eq 22)")
+    ax.grid(True)
+    ax.legend(fontsize=8)
+    name = "motor_test.png"
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
+def fig_validation(rows, out):
+    names = []
+    by_dir = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        by_dir[r["direction"]][(r["segment"], r["level_V"])].append(r)
+    labels = {"v": ("v", "m/s"), "vn": ("vn", "m/s"), "w": ("w", "rad/s")}
+    for d, runs in by_dir.items():
+        fig, axes = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        for (seg, level), pts in runs.items():
+            t = [float(p["t_s"]) for p in pts]
+            meas = [float(p[d]) for p in pts]
+            sim = [float(p[d + "_sim"]) for p in pts]
+            axes[0].plot(t, meas, "-", lw=1, label=f"{float(level):.0f} V measured")
+            axes[0].plot(t, sim, "--", lw=1, label=f"{float(level):.0f} V simulated")
+            axes[1].plot(t, [a - b for a, b in zip(meas, sim)], "-", lw=1,
+                         label=f"{float(level):.0f} V")
+        name_, unit = labels.get(d, (d, ""))
+        axes[0].set_ylabel(f"{name_} [{unit}]")
+        axes[0].set_title(f"Validation: ramped steps along {d} (figs 6-7)")
+        axes[0].grid(True)
+        axes[0].legend(fontsize=7, ncol=2)
+        axes[1].set_ylabel("measured - simulated")
+        axes[1].set_xlabel("t [s]")
+        axes[1].grid(True)
+        name = f"validation_{d}.png"
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, name), dpi=110)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("csv_dir")
+    ap.add_argument("out_dir")
+    ap.add_argument("--json", help="validation JSON of omni4-ident validate")
+    a = ap.parse_args()
+    if not os.path.isdir(a.csv_dir):
+        sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
+    os.makedirs(a.out_dir, exist_ok=True)
+    params = params_table(read_csv(os.path.join(a.csv_dir, "params.csv")))
+    figs = []
+    figs.append(fig_motor(read_csv(os.path.join(a.csv_dir, "motor_points.csv")), params, a.out_dir))
+    figs.append(fig_rotation(read_csv(os.path.join(a.csv_dir, "rotation_points.csv")), params,
+                             a.out_dir))
+    figs += fig_coast(read_csv(os.path.join(a.csv_dir, "coast_curves.csv")), a.out_dir)
+    figs += fig_validation(read_csv(os.path.join(a.csv_dir, "validation.csv")), a.out_dir)
+    figs = [f for f in figs if f]
+
+    lines = ["# omni4 identification report", ""]
+    if params:
+        methods = ["motor", "exp1", "exp2", "exp3_ls", "exp3_iv", "final", "true"]
+        present = [m for m in methods if any(m in params[p] for p in params)]
+        lines.append("| param | " + " | ".join(present) + " |")
+        lines.append("|---" * (len(present) + 1) + "|")
+        for p in ["Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"]:
+            cells = []
+            for m in present:
+                v = params.get(p, {}).get(m)
+                cells.append("" if v is None else f"{v[0]:.4g}")
+            lines.append(f"| {p} | " + " | ".join(cells) + " |")
+        lines.append("")
+    if a.json and os.path.exists(a.json):
+        with open(a.json) as f:
+            val = json.load(f)
+        paper = {"v": (0.061, 0.008, 0.024), "vn": (0.068, -0.009, 0.026),
+                 "w": (2.504, -0.452, 0.732)}
+        lines += ["## Validation (eqs 28-30) beside the paper's Table IV (final)", "",
+                  "| vel | e_max | mean | sigma | paper e_max | paper mean | paper sigma |",
+                  "|---|---|---|---|---|---|---|"]
+        for k in ["v", "vn", "w"]:
+            e = val[k]
+            p = paper[k]
+            lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
+                         f"{p[0]} | {p[1]} | {p[2]} |")
+        lines.append("")
+    lines += ["## Figures", ""]
+    for f in figs:
+        lines += [f"![{f}]({f})", ""]
+    with open(os.path.join(a.out_dir, "report.md"), "w") as f:
+        f.write("\n".join(lines))
+    print(f"omni4_report: wrote {len(figs)} figures and report.md to {a.out_dir}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,28 @@
+// simexp.hpp - run the paper's experiment sequence on the simulated robot into an event log.
+#pragma once
+
+#include <functional>
+#include <string>
+
+extern "C" {
+#include "omni4/config.h"
+#include "omni4/simrun.h"
+}
+
+namespace omni4 {
+
+struct SimRunResult {
+  simrun_stats stats{};
+  double simulated_s = 0;
+  double wall_s = 0;
+};
+
+// cfg: firmware settings; plant: the simulated robot. rtf <= 0: as fast as possible, else a
+// real-time factor. progress(fraction, phase, phases) is called every 1 % (may be empty).
+// experiments = false: an idle run of idle_s. Throws std::runtime_error on set-up errors.
+SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
+                            const std::string &log_path, bool experiments, double idle_s,
+                            double rtf,
+                            const std::function<void(double, size_t, size_t)> &progress = {});
+
+}  // namespace omni4

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# CLI contract of omni4-sim / omni4-ident on bad input: a clear one-line error, a non-zero
+# status, and no half-written output file.
+set -u
+BIN=$1
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+fail=0
+pass=0
+
+# expect STATUS PATTERN -- command...
+expect() {
+  local want=$1 pattern=$2
+  shift 3
+  local out rc
+  out=$("$@" 2>&1)
+  rc=$?
+  if [ "$rc" -ne "$want" ] || ! grep -q -- "$pattern" <<<"$out"; then
+    echo "FAIL: $* -> status $rc (want $want), output: $out"
+    fail=$((fail + 1))
+  else
+    echo "ok: $* -> $rc: $(grep -- "$pattern" <<<"$out" | head -1)"
+    pass=$((pass + 1))
+  fi
+}
+
+printf '[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 2.34\n' > "$T/base.ini"
+printf '[model]\nd = 0.089\n' > "$T/nomass.ini"
+printf '[model]\nd = 0.089\nr = 0.0325\nl = 5\nKv = 0.0259\nKt = 0.0259\nR = -4.3\nM = 2.34\nJ = 0.02\nBv = 0.5\nBvn = 0.6\nBw = 0.01\nCv = 1.8\nCvn = 2.2\nCw = 0.13\n' > "$T/negR.ini"
+printf '[model]\nR = 4.3\nbogus = 1\n' > "$T/bogus.ini"
+printf '; Table III\n' > "$T/t3.ini"
+
+"$BIN/omni4-sim" --duration 2 --out "$T/nomarks.lcmlog" -q >/dev/null
+"$BIN/omni4-sim" --experiments --out "$T/full.lcmlog" -q >/dev/null
+head -c 100000 "$T/full.lcmlog" > "$T/short.lcmlog"
+
+expect 2 "out is required" -- "$BIN/omni4-sim" --experiments
+expect 2 "nothing to do" -- "$BIN/omni4-sim" --out "$T/x.lcmlog"
+expect 2 "speed must be" -- "$BIN/omni4-sim" --experiments --speed fast --out "$T/x.lcmlog"
+expect 2 "bogus.ini:3: unknown key 'bogus' in \[model\]" -- "$BIN/omni4-sim" --params "$T/bogus.ini" --experiments --out "$T/x.lcmlog"
+expect 2 "invalid value for 'R' in \[model\]: must be > 0" -- "$BIN/omni4-sim" --params "$T/negR.ini" --experiments --out "$T/x.lcmlog"
+expect 1 "cannot create log" -- "$BIN/omni4-sim" --experiments --out /nonexistent/dir/x.lcmlog
+expect 1 "no experiment segments" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/nomarks.lcmlog"
+expect 1 "no 'motor' segments" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p2.ini" "$T/short.lcmlog"
+expect 2 "must give the measured 'r'" -- "$BIN/omni4-ident" identify --robot "$T/nomass.ini" --out "$T/p3.ini" "$T/full.lcmlog"
+expect 1 "No such file" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" "$T/missing.lcmlog"
+expect 2 "invalid value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
+expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
+expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
+expect 0 "Usage\|usage" -- "$BIN/omni4-ident" --help
+expect 0 "usage" -- "$BIN/omni4-fw" --help
+expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"
+
+for f in p1 p2 p3 p4; do
+  if ls "$T/$f.ini"* >/dev/null 2>&1; then
+    echo "FAIL: $f.ini (or a temporary) was written despite the error"
+    fail=$((fail + 1))
+  fi
+done
+[ -f "$T/v.json" ] && { echo "FAIL: v.json written despite the error"; fail=$((fail + 1)); }
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

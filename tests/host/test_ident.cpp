@@ -1,0 +1,212 @@
+// Tests for host-tools: filters, regressions, and identification accuracy on simulated robots.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "identify.hpp"
+#include "logdata.hpp"
+#include "regression.hpp"
+#include "signals.hpp"
+#include "simexp.hpp"
+#include "validate.hpp"
+
+using namespace omni4;
+
+namespace {
+
+std::string temp_path(const char *tag) {
+  char buf[] = "/tmp/omni4_test_XXXXXX";
+  const int fd = mkstemp(buf);
+  close(fd);
+  return std::string(buf) + tag;
+}
+
+model_params base_of(const model_params &p) {
+  model_params b = model_params_table3;
+  b.d = p.d;
+  b.r = p.r;
+  b.l = p.l;
+  b.M = p.M;
+  return b;
+}
+
+double rel(double got, double want) { return (got - want) / want; }
+
+}  // namespace
+
+TEST(SavitzkyGolay, ExactOnQuadratics) {
+  const SgFilter f = savitzky_golay(6, 2);
+  std::vector<double> y;
+  for (int k = -6; k <= 6; ++k) y.push_back(3.0 + 2.0 * k - 0.5 * k * k);
+  double s = 0, d = 0;
+  for (int k = 0; k < 13; ++k) {
+    s += f.smooth[k] * y[k];
+    d += f.deriv[k] * y[k];
+  }
+  EXPECT_NEAR(s, 3.0, 1e-12);  // value at the centre
+  EXPECT_NEAR(d, 2.0, 1e-12);  // slope at the centre
+}
+
+TEST(Regression, LeastSquaresRecoversExactParametersAndRefusesSingular) {
+  Eigen::MatrixXd X(50, 2);
+  Eigen::VectorXd y(50);
+  for (int k = 0; k < 50; ++k) {
+    X(k, 0) = k * 0.1;
+    X(k, 1) = 1.0;
+    y[k] = 0.7 * X(k, 0) - 1.3;
+  }
+  const Fit f = least_squares(X, y, 1, "line");
+  EXPECT_NEAR(f.theta[0], 0.7, 1e-12);
+  EXPECT_NEAR(f.theta[1], -1.3, 1e-12);
+  X.col(1) = X.col(0) * 2.0;
+  EXPECT_THROW(least_squares(X, y, 1, "collinear"), IdentError);
+}
+
+TEST(Regression, InstrumentalVariablesRemoveErrorsInVariablesBias) {
+  // y = 2 x_true; the regressor is measured with noise, the instrument is noise-free.
+  std::mt19937 g(1);
+  std::normal_distribution<double> n(0, 0.5);
+  const int N = 20000;
+  Eigen::MatrixXd X(N, 1), Z(N, 1);
+  Eigen::VectorXd y(N);
+  for (int k = 0; k < N; ++k) {
+    const double xt = std::sin(k * 0.01);
+    X(k, 0) = xt + n(g);
+    Z(k, 0) = xt;
+    y[k] = 2 * xt;
+  }
+  const double ls = least_squares(X, y, 1, "ls").theta[0];
+  const double iv = instrumental_variables(Z, X, y, 1, "iv").theta[0];
+  EXPECT_LT(ls, 1.5);  // attenuated towards zero
+  EXPECT_NEAR(iv, 2.0, 0.03);
+}
+
+TEST(Regression, CombineWeightsByInverseVariance) {
+  const Estimate e = combine({{1.0, 0.1}, {2.0, 0.2}, {}});
+  EXPECT_NEAR(e.value, (1.0 / 0.01 + 2.0 / 0.04) / (1 / 0.01 + 1 / 0.04), 1e-12);
+}
+
+struct Robot {
+  const char *name;
+  model_params p;
+};
+
+// Runs the experiment sequence on robot p (paper-grade noise), identifies, validates.
+void identify_robot(const model_params &p, unsigned seed, double bound) {
+  omni4_config cfg;
+  config_defaults(&cfg);
+  cfg.model = p;
+  cfg.sim.seed = static_cast<int>(seed);
+  const std::string log = temp_path(".lcmlog");
+  run_simulation(cfg, p, true, log, true, 0, 0);
+  const LogData d = read_log(log);
+  std::remove(log.c_str());
+  const auto segs = split_segments(d);
+  const IdentResult r = identify(segs, base_of(p));
+  std::string line;
+  double worst = 0;
+  for (const char *name : kIdentParams) {
+    double truth = 0;
+    for (int i = 0; i < MODEL_PARAMS_COUNT; ++i)
+      if (std::string(name) == model_params_names[i]) truth = model_params_get(&p, i);
+    const double e = rel(r.table.at("final").at(name).value, truth);
+    worst = std::max(worst, std::abs(e));
+    char buf[48];
+    std::snprintf(buf, sizeof(buf), " %s %+.2f%%", name, 100 * e);
+    line += buf;
+    EXPECT_LT(std::abs(e), bound) << name;
+  }
+  const Validation v = validate(segs, r.final);
+  std::printf("  errors:%s | worst %.2f%% | validation e_max v %.4f vn %.4f w %.4f, sigma "
+              "v %.4f vn %.4f w %.4f\n",
+              line.c_str(), 100 * worst, v.axis[0].e_max, v.axis[1].e_max, v.axis[2].e_max,
+              v.axis[0].sigma, v.axis[1].sigma, v.axis[2].sigma);
+  // No worse than the paper's Table IV (final).
+  EXPECT_LT(v.axis[0].e_max, 0.061);
+  EXPECT_LT(v.axis[1].e_max, 0.068);
+  EXPECT_LT(v.axis[2].e_max, 2.504);
+  EXPECT_LT(v.axis[0].sigma, 0.024);
+  EXPECT_LT(v.axis[1].sigma, 0.026);
+  EXPECT_LT(v.axis[2].sigma, 0.732);
+}
+
+TEST(Identification, Table3RobotWithinOnePercent) {
+  std::printf("Table III robot:\n");
+  identify_robot(model_params_table3, 1, 0.01);
+}
+
+TEST(Identification, PerturbedRobotsWithinFivePercent) {
+  std::mt19937 g(2024);
+  std::uniform_real_distribution<double> s(0.7, 1.3);
+  for (int k = 0; k < 4; ++k) {
+    model_params p = model_params_table3;
+    for (double *f : {&p.J, &p.Bv, &p.Bvn, &p.Bw, &p.Cv, &p.Cvn, &p.Cw, &p.R}) *f *= s(g);
+    p.Kv *= s(g);
+    p.Kt = p.Kv;
+    std::printf("perturbed robot %d: R %.3f Kv %.4f J %.4f Bv %.3f Bvn %.3f Bw %.4f Cv %.3f "
+                "Cvn %.3f Cw %.4f\n",
+                k, p.R, p.Kv, p.J, p.Bv, p.Bvn, p.Bw, p.Cv, p.Cvn, p.Cw);
+    identify_robot(p, 100 + k, 0.05);
+  }
+}
+
+TEST(BadInput, TruncatedLogIsReadUpToTheCutAndTheMissingKindIsNamed) {
+  omni4_config cfg;
+  config_defaults(&cfg);
+  const std::string log = temp_path(".lcmlog");
+  run_simulation(cfg, cfg.model, true, log, true, 0, 0);
+  const LogData full = read_log(log);
+  // Cut in the middle of an event, at 60 %.
+  const long cut = static_cast<long>(full.bytes_total * 0.6) + 7;
+  ASSERT_EQ(truncate(log.c_str(), cut), 0);
+  const LogData part = read_log(log);
+  EXPECT_GT(part.bytes_skipped, 0u);
+  EXPECT_LT(part.bytes_skipped, 200u);
+  EXPECT_GT(part.motors.size(), full.motors.size() / 2);
+  EXPECT_LT(part.motors.size(), full.motors.size());
+  try {
+    identify(split_segments(part), base_of(cfg.model));
+    FAIL() << "identify should refuse a log without step runs";
+  } catch (const IdentError &e) {
+    EXPECT_NE(std::string(e.what()).find("'step' segments"), std::string::npos) << e.what();
+  }
+  std::remove(log.c_str());
+}
+
+TEST(BadInput, CorruptBytesInTheMiddleAreSkippedAndTheRestIsRead) {
+  omni4_config cfg;
+  config_defaults(&cfg);
+  const std::string log = temp_path(".lcmlog");
+  run_simulation(cfg, cfg.model, false, log, false, 5.0, 0);
+  const LogData full = read_log(log);
+  {
+    std::fstream f(log, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(full.bytes_total / 2));
+    const char junk[64] = {0x55};
+    f.write(junk, sizeof(junk));
+  }
+  const LogData part = read_log(log);
+  std::printf("corrupt middle: %zu of %zu motors samples read, %llu lost (seq gaps), %llu bytes "
+              "skipped\n",
+              part.motors.size(), full.motors.size(), (unsigned long long)part.seq_gaps,
+              (unsigned long long)part.bytes_skipped);
+  // Only the events the junk overwrote are lost; reading resumes at the next sync word.
+  EXPECT_GE(part.motors.size(), full.motors.size() - 5);
+  EXPECT_LT(part.motors.size(), full.motors.size());
+  EXPECT_EQ(part.seq_gaps, full.motors.size() - part.motors.size());
+  EXPECT_GT(part.bytes_skipped, 0u);
+  std::remove(log.c_str());
+}
+
+TEST(BadInput, NotAnEventLogIsAClearError) {
+  const std::string path = temp_path(".txt");
+  std::ofstream(path) << "hello, not a log\n";
+  EXPECT_THROW(read_log(path), std::runtime_error);
+  EXPECT_THROW(read_log("/nonexistent/omni4.lcmlog"), std::runtime_error);
+  std::remove(path.c_str());
+}
