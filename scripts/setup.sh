@@ -7,7 +7,7 @@ PKGS=(
   build-essential cmake ninja-build pkg-config
   liblcm-dev liblcm-bin libglib2.0-dev
   libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev libgtest-dev
-  python3 python3-numpy python3-matplotlib
+  python3 python3-numpy python3-scipy python3-matplotlib
 )
 
 SUDO=""
