@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -44,17 +45,18 @@ struct Recorder {
   }
 };
 
-std::vector<Phase> filtered(const std::vector<std::string> &only) {
-  std::vector<Phase> all = paper_sequence();
-  if (only.empty()) return all;
-  SequenceOptions none;
+std::vector<Phase> filtered(const RunOptions &opt) {
+  SequenceOptions full;
+  full.hold_s = opt.hold_s;
+  full.settle_s = opt.settle_s;
+  if (opt.only.empty()) return paper_sequence(full);
+  SequenceOptions none = full;
   none.rotation_levels.clear();
   none.coast_levels.clear();
   none.motor_levels.clear();
   none.step_levels.clear();
-  SequenceOptions full;
   SequenceOptions pick = none;
-  for (const std::string &k : only) {
+  for (const std::string &k : opt.only) {
     if (k == "steady_rotation") pick.rotation_levels = full.rotation_levels;
     else if (k == "coast") pick.coast_levels = full.coast_levels;
     else if (k == "motor") pick.motor_levels = full.motor_levels;
@@ -69,7 +71,7 @@ std::vector<Phase> filtered(const std::vector<std::string> &only) {
 int run_experiments(const RunOptions &opt) {
   std::vector<Phase> phases;
   try {
-    phases = filtered(opt.only);
+    phases = filtered(opt);
   } catch (const std::exception &e) {
     std::fprintf(stderr, "omni4-ident run: %s\n", e.what());
     return 2;
@@ -104,7 +106,7 @@ int run_experiments(const RunOptions &opt) {
     const int pct = static_cast<int>(100 * t / total);
     if (pct != last_pct && (tty || pct % 10 == 0)) {
       std::fprintf(stderr, "%somni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu%s",
-                   tty ? "\r" : "", pct, t, total, player.phase_index() + 1,
+                   tty ? "\r" : "", pct, t, total, std::min(player.phase_index() + 1, player.phase_count()),
                    player.phase_count(), static_cast<unsigned long long>(rec.written),
                    tty ? "" : "\n");
       last_pct = pct;

@@ -11,6 +11,8 @@ struct RunOptions {
   std::string url = "udpm://239.255.76.67:7667?ttl=0";
   std::string out;
   std::vector<std::string> only;  // experiment kinds to keep (empty = all)
+  double hold_s = 3.0;            // constant-voltage part of each run [s]
+  double settle_s = 3.0;          // coasting to rest between runs [s]
 };
 
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close

@@ -312,6 +312,10 @@ int main(int argc, char **argv) {
   ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
   ru->add_option("--out", ropt.out, "event log to record")->required();
   ru->add_option("--only", ropt.only, "run only these kinds (steady_rotation coast motor step)");
+  ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
+      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
+  ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
+      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
 
   OMNI4_CLI_PARSE(app, argc, argv);
   if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, logs);
