@@ -7,7 +7,7 @@ PKGS=(
   build-essential cmake ninja-build pkg-config
   liblcm-dev liblcm-bin libglib2.0-dev
   libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev libgtest-dev
-  python3 python3-numpy python3-scipy python3-matplotlib
+  python3 python3-numpy python3-scipy python3-matplotlib python3-venv
 )
 
 SUDO=""
@@ -24,4 +24,15 @@ if [ "${#missing[@]}" -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 else
   echo "setup: all packages present"
+fi
+
+# Python packages that Debian lacks (cantools: checks drivers/can/omni4.dbc against the C code),
+# in a project venv that also sees the Debian ones (numpy, scipy, matplotlib).
+cd "$(dirname "$0")/.."
+if [ ! -x .venv/bin/python ]; then
+  /usr/bin/python3 -m venv --system-site-packages .venv
+fi
+if ! .venv/bin/python -c "import cantools" 2>/dev/null; then
+  echo "setup: pip install cantools (into .venv)"
+  .venv/bin/pip install --quiet cantools
 fi

@@ -1,0 +1,99 @@
+/*
+ * can_proto.h - the omni4 motor-driver CAN protocol: pure encode/decode, no I/O.
+ * Every frame is described in drivers/can/omni4.dbc (signals little-endian, start bit = LSB).
+ *
+ * Bus: classic CAN 2.0A (11-bit IDs), 1 Mbit/s. Two dual-channel driver boards: node 0 drives
+ * channels 0 and 1, node 1 channels 2 and 3.
+ *   0x010 CMD_VOLTAGE  controller -> drivers, every tick: 4 x 12-bit voltage (10 mV), enable
+ *   0x011 CMD_CONTROL  controller -> drivers, on event: enable / disable / clear faults
+ *   0x020+n STATUS     node n -> controller, every tick: 2 x 12-bit current (5 mA),
+ *                      2 x 14-bit wheel speed (0.05 rad/s)
+ *   0x030+n HEALTH     node n -> controller, 100 Hz (heartbeat): faults, supply, temperature
+ * Every frame is 8 bytes and ends with a 4-bit rolling counter (bits 52-55) and a CRC-8
+ * (SAE J1850: poly 0x1D, init 0xFF, xor-out 0xFF) in byte 7, computed over the 11-bit ID
+ * (2 bytes, little-endian) followed by data bytes 0-6: drops, replays and corruption show.
+ *
+ * Bus load at 1 kHz (worst-case bit stuffing, 8 data bytes: 135 bits with intermission):
+ * per tick CMD_VOLTAGE + 2 STATUS = 405 bits, plus 2 HEALTH at 100 Hz = 27 bit/ms:
+ * 432 kbit/s = 43 % of 1 Mbit/s (can_bus_load_1khz() computes it).
+ */
+#ifndef OMNI4_CAN_PROTO_H
+#define OMNI4_CAN_PROTO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define CAN_ID_CMD_VOLTAGE 0x010u
+#define CAN_ID_CMD_CONTROL 0x011u
+#define CAN_ID_STATUS(node) (0x020u + (unsigned)(node))
+#define CAN_ID_HEALTH(node) (0x030u + (unsigned)(node))
+#define CAN_NODES 2
+
+#define CAN_VOLT_LSB 0.01f    /* [V] */
+#define CAN_VOLT_MAX 20.47f   /* 12-bit signed */
+#define CAN_CURR_LSB 0.005f   /* [A] */
+#define CAN_CURR_MAX 10.235f
+#define CAN_SPEED_LSB 0.05f   /* [rad/s] */
+#define CAN_SPEED_MAX 409.55f /* 14-bit signed */
+
+enum can_control { CAN_CTL_ENABLE = 1, CAN_CTL_DISABLE = 2, CAN_CTL_CLEAR_FAULTS = 3 };
+
+/* Driver-side fault bits (HEALTH.faults). */
+#define CAN_DRV_OVERCURRENT 0x01u
+#define CAN_DRV_OVERTEMP 0x02u
+#define CAN_DRV_UNDERVOLTAGE 0x04u
+#define CAN_DRV_HW 0x08u
+#define CAN_DRV_CMD_TIMEOUT 0x10u /* no CMD_VOLTAGE for 50 ms: the board disabled itself */
+
+enum can_drv_state { CAN_STATE_DISABLED = 0, CAN_STATE_ENABLED = 1, CAN_STATE_FAULT = 2 };
+
+/* A classic CAN frame, independent of any OS header. */
+struct omni4_can_frame {
+	uint32_t id;
+	uint8_t dlc;
+	uint8_t data[8];
+};
+
+struct can_status {
+	float current_a[2];   /* [A] channels 2n, 2n+1 */
+	float speed_rad_s[2]; /* wheel speed after the gearbox [rad/s] */
+};
+
+struct can_health {
+	uint8_t faults;  /* CAN_DRV_* */
+	float supply_v;  /* [V] */
+	int8_t temp_c;   /* [deg C] */
+	uint8_t state;   /* enum can_drv_state */
+};
+
+uint8_t can_crc8(const uint8_t *p, size_t n);
+
+/* Encoders: -ERANGE for a value outside the signal's range or NaN; -EINVAL for a bad node. */
+int can_encode_cmd_voltage(const float volts[4], bool enable, uint8_t counter,
+			   struct omni4_can_frame *f);
+int can_encode_control(enum can_control cmd, uint8_t counter, struct omni4_can_frame *f);
+int can_encode_status(int node, const struct can_status *s, uint8_t counter,
+		      struct omni4_can_frame *f);
+int can_encode_health(int node, const struct can_health *h, uint8_t counter,
+		      struct omni4_can_frame *f);
+
+/* Decoders: -EINVAL wrong ID or DLC, -EBADMSG CRC mismatch. *counter gets the rolling counter. */
+int can_decode_cmd_voltage(const struct omni4_can_frame *f, float volts[4], bool *enable,
+			   uint8_t *counter);
+int can_decode_control(const struct omni4_can_frame *f, enum can_control *cmd, uint8_t *counter);
+int can_decode_status(const struct omni4_can_frame *f, int *node, struct can_status *s,
+		      uint8_t *counter);
+int can_decode_health(const struct omni4_can_frame *f, int *node, struct can_health *h,
+		      uint8_t *counter);
+
+/* Rolling counter check: 0 = the expected next value; -EALREADY = the same value again (stale
+ * or replayed frame); otherwise the number of frames missed (1..14). */
+int can_counter_gap(uint8_t prev, uint8_t now);
+
+/* Worst-case bits on the wire of a classic base frame with n data bytes (stuffing, IFS). */
+unsigned can_frame_bits_worst(unsigned n);
+/* Fraction of a bitrate used by the protocol with the control loop at 1 kHz. */
+double can_bus_load_1khz(double bitrate);
+
+#endif /* OMNI4_CAN_PROTO_H */
