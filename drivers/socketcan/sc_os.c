@@ -1,0 +1,106 @@
+/* sc_os.c - raw SocketCAN calls (the OS boundary of the socketcan backend). */
+#include "sc_os.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
+{
+	struct sockaddr_can addr = {.can_family = AF_CAN};
+	struct can_filter filters[16];
+	const can_err_mask_t err_mask = CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT |
+					CAN_ERR_TX_TIMEOUT | CAN_ERR_RESTARTED;
+	int s, rc;
+
+	if (n_ids < 0 || n_ids > 16 || strlen(iface) >= IFNAMSIZ)
+		return -EINVAL;
+	s = socket(PF_CAN, SOCK_RAW, CAN_RAW);
+	if (s < 0)
+		return -errno;
+	addr.can_ifindex = (int)if_nametoindex(iface);
+	if (!addr.can_ifindex) {
+		rc = -ENODEV;
+		goto err_close;
+	}
+	for (int i = 0; i < n_ids; i++) {
+		filters[i].can_id = ids[i];
+		filters[i].can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+	}
+	if (n_ids && setsockopt(s, SOL_CAN_RAW, CAN_RAW_FILTER, filters,
+				(socklen_t)(n_ids * sizeof(filters[0])))) {
+		rc = -errno;
+		goto err_close;
+	}
+	if (setsockopt(s, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof(err_mask))) {
+		rc = -errno;
+		goto err_close;
+	}
+	if (fcntl(s, F_SETFL, fcntl(s, F_GETFL) | O_NONBLOCK)) {
+		rc = -errno;
+		goto err_close;
+	}
+	if (bind(s, (struct sockaddr *)&addr, sizeof(addr))) {
+		rc = -errno;
+		goto err_close;
+	}
+	*fd = s;
+	return 0;
+
+err_close:
+	close(s);
+	return rc;
+}
+
+void sc_os_close(int fd)
+{
+	if (fd >= 0)
+		close(fd);
+}
+
+int sc_os_send(int fd, const struct omni4_can_frame *f)
+{
+	struct can_frame cf = {.can_id = f->id & CAN_SFF_MASK, .can_dlc = f->dlc};
+
+	memcpy(cf.data, f->data, sizeof(cf.data));
+	const ssize_t n = send(fd, &cf, sizeof(cf), MSG_DONTWAIT);
+
+	if (n < 0)
+		return errno == ENOBUFS ? -EAGAIN : -errno;
+	return n == (ssize_t)sizeof(cf) ? 0 : -EIO;
+}
+
+int sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
+{
+	struct can_frame cf;
+	const ssize_t n = recv(fd, &cf, sizeof(cf), MSG_DONTWAIT);
+
+	if (n < 0)
+		return errno == EWOULDBLOCK ? -EAGAIN : -errno;
+	if (n != (ssize_t)sizeof(cf))
+		return -EIO;
+	if (cf.can_id & CAN_ERR_FLAG) {
+		*err_class = (cf.can_id & CAN_ERR_BUSOFF) ? SC_ERR_BUSOFF : SC_ERR_OTHER;
+		return 2;
+	}
+	f->id = cf.can_id & (cf.can_id & CAN_EFF_FLAG ? CAN_EFF_MASK | CAN_EFF_FLAG : CAN_SFF_MASK);
+	f->dlc = cf.can_dlc > 8 ? 8 : cf.can_dlc;
+	memcpy(f->data, cf.data, 8);
+	return 1;
+}
+
+int64_t sc_os_now_us(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000 + t.tv_nsec / 1000;
+}
