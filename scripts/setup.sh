@@ -8,6 +8,7 @@ PKGS=(
   liblcm-dev liblcm-bin libglib2.0-dev
   libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev libgtest-dev
   python3 python3-numpy python3-scipy python3-matplotlib python3-venv
+  qemu-system-x86 busybox-static can-utils cpio iproute2
 )
 
 SUDO=""

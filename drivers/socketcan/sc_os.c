@@ -1,5 +1,5 @@
 /* sc_os.c - raw SocketCAN calls (the OS boundary of the socketcan backend). */
-#include "sc_os.h"
+#include "omni4/sc_os.h"
 
 #include <errno.h>
 #include <fcntl.h>

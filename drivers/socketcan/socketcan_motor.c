@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "omni4_motors_t.h"
-#include "sc_os.h"
+#include "omni4/sc_os.h"
 
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms)
 {
@@ -22,6 +22,8 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 	if (rc)
 		return rc;
 	m->timeout_us = (int64_t)status_timeout_ms * 1000;
+	for (int n = 0; n < CAN_NODES; n++)
+		m->node[n].status_candidate = m->node[n].health_candidate = -1;
 	m->opened_us = sc_os_now_us();
 	return 0;
 }
@@ -70,18 +72,29 @@ static int sc_write(void *ctx, const float volts[4])
 	return 0;
 }
 
-/* Accept a frame's counter: false for a replay (rejected); losses are counted. */
-static bool counter_ok(struct socketcan_motor *m, bool have, uint8_t *last, uint8_t now)
+#define SC_MAX_LOST 2
+
+/* Accept a frame's counter (see the policy in the header); losses and rejections counted. */
+static bool counter_ok(struct socketcan_motor *m, bool have, uint8_t *last, int *candidate,
+		       uint8_t now)
 {
 	if (have) {
 		const int gap = can_counter_gap(*last, now);
 
-		if (gap == -EALREADY) {
+		if (gap == -EALREADY || gap > SC_MAX_LOST) {
+			if (gap != -EALREADY && *candidate >= 0 &&
+			    can_counter_gap((uint8_t)*candidate, now) == 0) {
+				*candidate = -1; /* two in a row: the sender moved on, resync */
+				*last = now;
+				return true;
+			}
+			*candidate = gap == -EALREADY ? -1 : now;
 			m->n.replayed++;
 			return false;
 		}
 		m->n.lost += (uint64_t)gap;
 	}
+	*candidate = -1;
 	*last = now;
 	return true;
 }
@@ -101,7 +114,7 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
 		}
 		struct sc_node *n = &m->node[node];
 
-		if (!counter_ok(m, n->have_status, &n->status_counter, c))
+		if (!counter_ok(m, n->have_status, &n->status_counter, &n->status_candidate, c))
 			return;
 		n->status = s;
 		n->last_status_us = now;
@@ -114,7 +127,7 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
 		}
 		struct sc_node *n = &m->node[node];
 
-		if (!counter_ok(m, n->have_health, &n->health_counter, c))
+		if (!counter_ok(m, n->have_health, &n->health_counter, &n->health_candidate, c))
 			return;
 		n->health = h;
 		n->last_health_us = now;

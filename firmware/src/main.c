@@ -13,9 +13,11 @@
 
 #include "omni4/config.h"
 #include "omni4/fw.h"
+#include "omni4/gpiod_lines.h"
 #include "omni4/lcmio.h"
 #include "omni4/rtloop.h"
 #include "omni4/sim_motor.h"
+#include "omni4/socketcan_motor.h"
 
 static volatile sig_atomic_t g_stop;
 
@@ -43,6 +45,8 @@ struct app {
 	struct fw fw;
 	struct sim_motor sim;
 	struct sim_lines sim_lines;
+	struct socketcan_motor can;
+	struct gpiod_lines gpio;
 };
 
 static void tick(void *ctx, int64_t now_us)
@@ -133,6 +137,15 @@ int main(int argc, char **argv)
 			goto out_free;
 		}
 		motor = sim_motor_hal(&app->sim);
+	} else if (!strcmp(cfg.hal.motor, "socketcan")) {
+		rc = socketcan_motor_open(&app->can, cfg.can.iface, cfg.can.status_timeout_ms);
+		if (rc) {
+			fprintf(stderr, "omni4-fw: CAN interface '%s': %s\n", cfg.can.iface,
+				strerror(-rc));
+			rc = 1;
+			goto out_free;
+		}
+		motor = socketcan_motor_hal(&app->can);
 	} else {
 		fprintf(stderr, "omni4-fw: %s: [hal] motor = %s is not available in this build\n",
 			config_path, cfg.hal.motor);
@@ -140,6 +153,23 @@ int main(int argc, char **argv)
 	}
 	if (!strcmp(cfg.hal.lines, "sim")) {
 		lines = sim_line_hal(&app->sim_lines);
+	} else if (!strcmp(cfg.hal.lines, "gpiod")) {
+		const struct gpiod_lines_config gc = {
+			.chip = cfg.gpio.chip,
+			.estop_line = cfg.gpio.estop_line,
+			.estop_active_low = cfg.gpio.estop_active_low,
+			.enable_line = cfg.gpio.enable_line,
+			.led_line = cfg.gpio.led_line,
+		};
+
+		rc = gpiod_lines_open(&app->gpio, &gc);
+		if (rc) {
+			fprintf(stderr, "omni4-fw: GPIO chip '%s': %s\n", cfg.gpio.chip,
+				strerror(-rc));
+			rc = 1;
+			goto out_close_motor;
+		}
+		lines = gpiod_lines_hal(&app->gpio);
 	} else if (strcmp(cfg.hal.lines, "none")) {
 		fprintf(stderr, "omni4-fw: %s: [hal] lines = %s is not available in this build\n",
 			config_path, cfg.hal.lines);
@@ -214,6 +244,18 @@ out_io:
 			(unsigned long long)app->fw.n.log_dropped,
 			(unsigned long long)app->fw.ctl.n.cmd_rejected,
 			(unsigned long long)atomic_load(&io.rx_bad));
+	if (!strcmp(cfg.hal.motor, "socketcan")) {
+		const struct sc_counters *n = &app->can.n;
+
+		fprintf(stderr,
+			"omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
+			"lost %llu error_frames %llu bus_off %llu flood_cut %llu\n",
+			(unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
+			(unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
+			(unsigned long long)n->replayed, (unsigned long long)n->lost,
+			(unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
+			(unsigned long long)n->flood_cut);
+	}
 out_lcm:
 	lcm_destroy(lcm);
 out_close_lines:

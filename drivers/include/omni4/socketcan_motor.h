@@ -3,7 +3,11 @@
  * can_proto.h on a raw CAN socket. Never blocks: write sends one CMD_VOLTAGE frame per tick
  * (a full TX queue is counted), read drains what the kernel has queued (bounded per tick).
  * Faults: no STATUS from a node for status_timeout_ms -> DRIVER_TIMEOUT; bus-off -> BUS;
- * HEALTH fault bits -> DRIVER; CRC errors, replayed (same counter) and lost frames counted.
+ * HEALTH fault bits -> DRIVER; CRC errors, replayed and lost frames counted.
+ * Counter policy per ID: a frame is accepted if its counter is 1..3 ahead of the last accepted
+ * one (up to 2 frames lost); the same counter again or one further off is a stale or replayed
+ * frame and is rejected, unless the next frame continues from it (resynchronisation after an
+ * outage).
  */
 #ifndef OMNI4_SOCKETCAN_MOTOR_H
 #define OMNI4_SOCKETCAN_MOTOR_H
@@ -30,6 +34,7 @@ struct sc_node {
 	struct can_health health;
 	int64_t last_status_us, last_health_us;
 	uint8_t status_counter, health_counter;
+	int status_candidate, health_candidate; /* counter of a rejected frame, -1 = none */
 	bool have_status, have_health;
 };
 
