@@ -18,10 +18,13 @@ fi
 
 # 1. Debian's kernel image: vmlinuz and the four CAN modules (cached).
 if [ ! -f "$WORK/vmlinuz" ]; then
-  pkg=$(apt-cache depends linux-image-amd64 2>/dev/null | sed -n 's/.*Depends: \(linux-image-[0-9].*\)/\1/p' | head -1)
-  [ -n "$pkg" ] || { echo "vcan tier: cannot resolve the kernel package (apt-get update?)"; exit 1; }
+  resolve() { apt-cache depends linux-image-amd64 2>/dev/null | sed -n 's/.*Depends: \(linux-image-[0-9].*\)/\1/p' | head -1; }
+  pkg=$(resolve)
+  if [ -z "$pkg" ]; then apt-get update -qq >/dev/null 2>&1 || true; pkg=$(resolve); fi
+  [ -n "$pkg" ] || { echo "vcan tier: cannot resolve Debian's linux-image-amd64 package"; echo "0 passed, 1 failed"; exit 1; }
   rm -rf "$WORK/kpkg" && mkdir -p "$WORK/kpkg"
-  (cd "$WORK/kpkg" && apt-get download "$pkg" >/dev/null 2>&1 && dpkg -x ./*.deb x)
+  (cd "$WORK/kpkg" && apt-get download "$pkg" >/dev/null 2>&1 && dpkg -x ./*.deb x) ||
+    { echo "vcan tier: cannot download $pkg"; echo "0 passed, 1 failed"; exit 1; }
   mkdir -p "$WORK/modules"
   for m in can can-raw can-dev vcan; do
     find "$WORK/kpkg/x/lib/modules" -name "$m.ko" -exec cp {} "$WORK/modules/" \;
