@@ -9,6 +9,8 @@ PKGS=(
   libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev libgtest-dev
   python3 python3-numpy python3-scipy python3-matplotlib python3-venv
   qemu-system-x86 busybox-static can-utils cpio iproute2
+  gcc-aarch64-linux-gnu g++-aarch64-linux-gnu gcc-arm-linux-gnueabihf g++-arm-linux-gnueabihf
+  gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi qemu-user qemu-system-arm
 )
 
 SUDO=""

@@ -198,7 +198,7 @@ static int set_value(struct parse_state *st, const struct key_desc *k, const cha
 			snprintf(detail, sizeof(detail), "%g outside [%g, %g]", v, k->min, k->max);
 			return fail(st, line, "out of range value for", k->section, k->name, detail);
 		}
-		*(double *)base = v;
+		memcpy(base, &v, sizeof(v)); /* base: a double field of the struct */
 		return 1;
 	}
 	case KEY_INT: {
@@ -213,7 +213,9 @@ static int set_value(struct parse_state *st, const struct key_desc *k, const cha
 			snprintf(detail, sizeof(detail), "%ld outside [%g, %g]", v, k->min, k->max);
 			return fail(st, line, "out of range value for", k->section, k->name, detail);
 		}
-		*(int *)base = (int)v;
+		const int iv = (int)v;
+
+		memcpy(base, &iv, sizeof(iv));
 		return 1;
 	}
 	case KEY_BOOL:

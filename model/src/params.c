@@ -15,31 +15,24 @@ const char *const model_params_names[MODEL_PARAMS_COUNT] = {
 	"d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw",
 };
 
-static const size_t field_offset[MODEL_PARAMS_COUNT] = {
-	offsetof(struct model_params, d),   offsetof(struct model_params, r),
-	offsetof(struct model_params, l),   offsetof(struct model_params, Kv),
-	offsetof(struct model_params, Kt),  offsetof(struct model_params, R),
-	offsetof(struct model_params, M),   offsetof(struct model_params, J),
-	offsetof(struct model_params, Bv),  offsetof(struct model_params, Bvn),
-	offsetof(struct model_params, Bw),  offsetof(struct model_params, Cv),
-	offsetof(struct model_params, Cvn), offsetof(struct model_params, Cw),
-};
-
 /* The first 8 fields (d .. J) must be strictly positive; frictions may be zero. */
 #define MODEL_PARAMS_POSITIVE 8
 
 double *model_params_field(struct model_params *p, int i)
 {
-	if (i < 0 || i >= MODEL_PARAMS_COUNT)
-		return NULL;
-	return (double *)((char *)p + field_offset[i]);
+	double *const f[MODEL_PARAMS_COUNT] = {&p->d,  &p->r,  &p->l,   &p->Kv, &p->Kt,
+					       &p->R,  &p->M,  &p->J,   &p->Bv, &p->Bvn,
+					       &p->Bw, &p->Cv, &p->Cvn, &p->Cw};
+
+	return i < 0 || i >= MODEL_PARAMS_COUNT ? NULL : f[i];
 }
 
 double model_params_get(const struct model_params *p, int i)
 {
-	if (i < 0 || i >= MODEL_PARAMS_COUNT)
-		return NAN;
-	return *(const double *)((const char *)p + field_offset[i]);
+	/* model_params_field only takes addresses; nothing is written through p here. */
+	const double *f = model_params_field((struct model_params *)p, i);
+
+	return f ? *f : NAN;
 }
 
 int model_params_check(const struct model_params *p, int *bad)

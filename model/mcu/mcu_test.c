@@ -1,0 +1,95 @@
+/* mcu_test.c - the model on the Cortex-M4F: fixed-point IK and feedforward against their double
+ * twins over the operating envelope, run under qemu-system-arm (mps2-an386, semihosting).
+ * Prints "N passed, M failed". The double twin uses the soft-double helpers; the fixed-point
+ * path itself is checked separately to need none (check_no_undefined.cmake). */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "omni4/feedforward.h"
+#include "omni4/kinematics.h"
+#include "omni4/params.h"
+#include "omni4/rng.h"
+
+int main(void)
+{
+	struct ff_q16 ff;
+	struct rng g;
+	int pass = 0, fail = 0;
+	double worst = 0;
+
+	if (ff_q16_init(&ff, &model_params_table3, 12.0)) {
+		printf("ff_q16_init failed\n0 passed, 1 failed\n");
+		return 1;
+	}
+	rng_seed(&g, 5);
+	for (int n = 0; n < 2000; n++) {
+		const double vel[3] = {rng_uniform(&g, -3, 3), rng_uniform(&g, -3, 3),
+				       rng_uniform(&g, -20, 20)};
+		const double acc[3] = {rng_uniform(&g, -10, 10), rng_uniform(&g, -10, 10),
+				       rng_uniform(&g, -10, 10)};
+		q16_t vq[3], aq[3], uq[4];
+		double u[4];
+
+		for (int k = 0; k < 3; k++) {
+			vq[k] = q16_from_double(vel[k]);
+			aq[k] = q16_from_double(acc[k]);
+		}
+		ff_voltages(&model_params_table3, vel, acc, 12.0, u);
+		ff_voltages_q16(&ff, vq, aq, uq);
+		for (int j = 0; j < 4; j++) {
+			const double e = fabs(q16_to_double(uq[j]) - u[j]);
+
+			worst = e > worst ? e : worst;
+		}
+	}
+	if (worst <= 2e-3)
+		pass++;
+	else
+		fail++;
+	printf("cortex-m4: feedforward q16 vs double, 2000 points: max |du| = %.3g mV\n",
+	       worst * 1e3);
+
+	const q16_t x[3] = {q16_from_double(1.0), q16_from_double(-0.5), q16_from_double(2.0)};
+	q16_t v[4], back[3];
+
+	ik_wheel_speeds_q16(ff.d, x, v);
+	fk_robot_velocity_q16(q16_from_double(1.0 / (4 * 0.089)), v, back);
+	int ok = 1;
+
+	for (int k = 0; k < 3; k++)
+		ok &= fabs(q16_to_double(back[k]) - q16_to_double(x[k])) < 1e-3;
+	if (ok)
+		pass++;
+	else
+		fail++;
+	printf("cortex-m4: IK -> FK round trip %s\n", ok ? "ok" : "FAILED");
+	/* Cost of one tick's IK + feedforward: SysTick across 1000 calls. Under qemu -icount
+	 * virtual time advances per instruction, so SysTick counts instructions; the scale is
+	 * calibrated on a loop of 100 NOPs (an emulator count, not silicon cycles). */
+	volatile uint32_t *const syst = (volatile uint32_t *)0xE000E010;
+	q16_t u[4];
+
+	syst[1] = 0xFFFFFF; /* RVR */
+	syst[2] = 0;        /* CVR */
+	syst[0] = 5;        /* CSR: enable, processor clock */
+	uint32_t c0 = syst[2];
+
+	for (int n = 0; n < 1000; n++)
+		__asm volatile(".rept 100\n nop\n .endr");
+	const uint32_t cal = (c0 - syst[2]) & 0xFFFFFF; /* ticks for ~101000 instructions */
+	const uint32_t t0 = syst[2];
+
+	for (int n = 0; n < 1000; n++) {
+		ik_wheel_speeds_q16(ff.d, x, v);
+		ff_voltages_q16(&ff, x, x, u);
+	}
+	const uint32_t t1 = syst[2];
+	const uint32_t ticks = (t0 - t1) & 0xFFFFFF;
+
+	printf("cortex-m4: IK + feedforward (Q16.16) per tick: %lu instructions (qemu -icount, "
+	       "calibrated on NOPs, incl. call and loop overhead)\n",
+	       (unsigned long)((uint64_t)ticks * 101000 / cal / 1000));
+	printf("%d passed, %d failed\n", pass, fail);
+	return fail ? 1 : 0;
+}
