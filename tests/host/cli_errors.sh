@@ -50,6 +50,8 @@ expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/
 expect 0 "Usage\|usage" -- "$BIN/omni4-ident" --help
 expect 0 "usage" -- "$BIN/omni4-fw" --help
 expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"
+# The packaged default config parses; it then asks for the robot's CAN interface.
+expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
 
 for f in p1 p2 p3 p4; do
   if ls "$T/$f.ini"* >/dev/null 2>&1; then
