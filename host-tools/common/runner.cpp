@@ -10,7 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <lcm/lcm-cpp.hpp>
+#include <lcm/lcm.h>
 #include <memory>
 #include <stdexcept>
 
@@ -33,17 +33,24 @@ int64_t wall_us() {
 struct Recorder {
   lcm_eventlog_t *log = nullptr;
   uint64_t written = 0, errors = 0;
-  void handle(const lcm::ReceiveBuffer *rbuf, const std::string &channel) {
-    lcm_eventlog_event_t ev{};
-    ev.timestamp = rbuf->recv_utime;
-    ev.channellen = static_cast<int32_t>(channel.size());
-    ev.datalen = static_cast<int32_t>(rbuf->data_size);
-    ev.channel = const_cast<char *>(channel.c_str());
-    ev.data = rbuf->data;
-    if (lcm_eventlog_write_event(log, &ev) == 0) ++written;
-    else ++errors;
-  }
 };
+
+// Every message on the bus goes to the event log, stamped with its receive time.
+void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user) {
+  auto *rec = static_cast<Recorder *>(user);
+  lcm_eventlog_event_t ev{};
+  ev.timestamp = rbuf->recv_utime;
+  ev.channellen = static_cast<int32_t>(std::strlen(channel));
+  ev.datalen = static_cast<int32_t>(rbuf->data_size);
+  ev.channel = const_cast<char *>(channel);
+  ev.data = rbuf->data;
+  if (lcm_eventlog_write_event(rec->log, &ev) == 0) ++rec->written;
+  else ++rec->errors;
+}
+
+void publish(lcm_t *lcm, const char *channel, const std::vector<uint8_t> &msg) {
+  lcm_publish(lcm, channel, msg.data(), static_cast<unsigned>(msg.size()));
+}
 
 std::vector<Phase> filtered(const RunOptions &opt) {
   SequenceOptions full;
@@ -76,8 +83,8 @@ int run_experiments(const RunOptions &opt) {
     std::fprintf(stderr, "omni4-ident run: %s\n", e.what());
     return 2;
   }
-  lcm::LCM lcm(opt.url);
-  if (!lcm.good()) {
+  std::unique_ptr<lcm_t, void (*)(lcm_t *)> lcm(lcm_create(opt.url.c_str()), lcm_destroy);
+  if (!lcm) {
     std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n", opt.url.c_str());
     return 1;
   }
@@ -87,8 +94,8 @@ int run_experiments(const RunOptions &opt) {
     std::fprintf(stderr, "omni4-ident run: %s: %s\n", opt.out.c_str(), std::strerror(errno));
     return 1;
   }
-  lcm::Subscription *sub = lcm.subscribe(".*", &Recorder::handle, &rec);
-  sub->setQueueCapacity(100000);
+  lcm_subscription_t *sub = lcm_subscribe(lcm.get(), ".*", record, &rec);
+  lcm_subscription_set_queue_capacity(sub, 100000);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 
@@ -100,9 +107,9 @@ int run_experiments(const RunOptions &opt) {
   while (!player.done() && !g_interrupted) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto out = player.due(t, wall_us());
-    for (const auto &m : out.marks) lcm.publish("OMNI4_EXPERIMENT", m.data(), m.size());
-    if (out.has_command) lcm.publish("OMNI4_CMD", out.command.data(), out.command.size());
-    lcm.handleTimeout(5);
+    for (const auto &m : out.marks) publish(lcm.get(), "OMNI4_EXPERIMENT", m);
+    if (out.has_command) publish(lcm.get(), "OMNI4_CMD", out.command);
+    lcm_handle_timeout(lcm.get(), 5);
     const int pct = static_cast<int>(100 * t / total);
     if (pct != last_pct && (tty || pct % 10 == 0)) {
       std::fprintf(stderr, "%somni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu%s",
@@ -114,18 +121,18 @@ int run_experiments(const RunOptions &opt) {
   }
   // Safe stop: IDLE (outputs off), close any open segment, collect the last messages.
   const auto stop = SequencePlayer::stop_command(wall_us(), 1 << 30);
-  lcm.publish("OMNI4_CMD", stop.data(), stop.size());
+  publish(lcm.get(), "OMNI4_CMD", stop);
   {
     std::vector<Phase> end_only(1);
     end_only[0].end_mark = true;
     end_only[0].duration_s = 1;
     SequencePlayer endp(end_only);
     const auto o = endp.due(0, wall_us());
-    for (const auto &m : o.marks) lcm.publish("OMNI4_EXPERIMENT", m.data(), m.size());
+    for (const auto &m : o.marks) publish(lcm.get(), "OMNI4_EXPERIMENT", m);
   }
   const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
-  while (std::chrono::steady_clock::now() < until) lcm.handleTimeout(20);
-  lcm.unsubscribe(sub);
+  while (std::chrono::steady_clock::now() < until) lcm_handle_timeout(lcm.get(), 20);
+  lcm_unsubscribe(lcm.get(), sub);
   lcm_eventlog_destroy(rec.log);
   std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
                g_interrupted ? "interrupted, robot stopped;" : "done;", opt.out.c_str(),
