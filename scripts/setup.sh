@@ -11,6 +11,7 @@ PKGS=(
   qemu-system-x86 busybox-static can-utils cpio iproute2
   gcc-aarch64-linux-gnu g++-aarch64-linux-gnu gcc-arm-linux-gnueabihf g++-arm-linux-gnueabihf
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi qemu-user qemu-system-arm
+  clang libclang-rt-14-dev
 )
 
 SUDO=""

@@ -4,6 +4,9 @@
 #   aarch64   firmware + C tests cross-built, run under qemu-aarch64 (label qemu)
 #   armhf     the same for 32-bit ARM under qemu-arm
 #   cortex-m4 model/ bare metal: freestanding check, size, tests under qemu-system-arm
+#   asan      unit + hil tiers under AddressSanitizer + UndefinedBehaviorSanitizer
+#   tsan      unit + hil tiers under ThreadSanitizer (loop, rings, LCM threads)
+#   fuzz      libFuzzer on the CAN decoder, INI parser, command handler, log reader (45 s each)
 # Extra arguments go to every ctest run (e.g. -L unit). Ends with one summary line.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -50,6 +53,9 @@ for arch in aarch64 armhf; do
   fi
 done
 run_preset cortex-m4 "$@"
+run_preset asan "$@"
+run_preset tsan "$@"
+run_preset fuzz "$@"
 
 echo
 [ ${#failed_presets[@]} -eq 0 ] || echo "failing: ${failed_presets[*]}"

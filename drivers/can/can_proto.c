@@ -54,13 +54,18 @@ static int64_t sign_extend(uint64_t raw, unsigned len)
 	return (int64_t)((raw ^ sign) - sign);
 }
 
-/* Scale a physical value to a signed raw field; -ERANGE outside [-max, max] or NaN. */
-static int to_raw(float value, float lsb, float max, unsigned len, uint64_t *raw)
+/* Scale a physical value to a signed raw field of len bits; -ERANGE if it does not fit
+ * [-2^(len-1), 2^(len-1) - 1] LSB (the range every raw value decodes to) or is NaN. */
+static int to_raw(float value, float lsb, unsigned len, uint64_t *raw)
 {
-	if (!(fabsf(value) <= max + lsb * 0.5f))
+	const float lim = (float)(1l << (len - 1));
+
+	if (!(fabsf(value / lsb) <= lim + 0.5f))
 		return -ERANGE;
 	const long r = lroundf(value / lsb);
 
+	if (r < -(1l << (len - 1)) || r > (1l << (len - 1)) - 1)
+		return -ERANGE;
 	*raw = (uint64_t)r & ((1ull << len) - 1);
 	return 0;
 }
@@ -82,13 +87,22 @@ static void finish(uint32_t id, uint64_t w, uint8_t counter, struct omni4_can_fr
 	f->data[CRC_BYTE] = frame_crc(id, f->data);
 }
 
-static int check(const struct omni4_can_frame *f, uint32_t id, uint64_t *w, uint8_t *counter)
+/* Reserved bits per frame (must be 0: a frame that sets them is not one of ours). */
+#define RESERVED_CMD_VOLTAGE (0x7ull << 49)
+#define RESERVED_CMD_CONTROL (((1ull << 44) - 1) << 8)
+#define RESERVED_STATUS 0ull
+#define RESERVED_HEALTH (((1ull << 12) - 1) << 40)
+
+static int check(const struct omni4_can_frame *f, uint32_t id, uint64_t reserved, uint64_t *w,
+		 uint8_t *counter)
 {
 	if (f->id != id || f->dlc != 8)
 		return -EINVAL;
 	if (f->data[CRC_BYTE] != frame_crc(f->id, f->data))
 		return -EBADMSG;
 	*w = load(f->data);
+	if (*w & reserved)
+		return -EINVAL;
 	if (counter)
 		*counter = (uint8_t)get(*w, COUNTER_BIT, 4);
 	return 0;
@@ -100,7 +114,7 @@ int can_encode_cmd_voltage(const float volts[4], bool enable, uint8_t counter,
 	uint64_t w = 0, raw;
 
 	for (unsigned j = 0; j < 4; j++) {
-		if (to_raw(volts[j], CAN_VOLT_LSB, CAN_VOLT_MAX, 12, &raw))
+		if (to_raw(volts[j], CAN_VOLT_LSB, 12, &raw))
 			return -ERANGE;
 		put(&w, 12 * j, 12, raw);
 	}
@@ -113,7 +127,7 @@ int can_decode_cmd_voltage(const struct omni4_can_frame *f, float volts[4], bool
 			   uint8_t *counter)
 {
 	uint64_t w;
-	const int rc = check(f, CAN_ID_CMD_VOLTAGE, &w, counter);
+	const int rc = check(f, CAN_ID_CMD_VOLTAGE, RESERVED_CMD_VOLTAGE, &w, counter);
 
 	if (rc)
 		return rc;
@@ -134,7 +148,7 @@ int can_encode_control(enum can_control cmd, uint8_t counter, struct omni4_can_f
 int can_decode_control(const struct omni4_can_frame *f, enum can_control *cmd, uint8_t *counter)
 {
 	uint64_t w;
-	const int rc = check(f, CAN_ID_CMD_CONTROL, &w, counter);
+	const int rc = check(f, CAN_ID_CMD_CONTROL, RESERVED_CMD_CONTROL, &w, counter);
 
 	if (rc)
 		return rc;
@@ -154,10 +168,10 @@ int can_encode_status(int node, const struct can_status *s, uint8_t counter,
 	if (node < 0 || node >= CAN_NODES)
 		return -EINVAL;
 	for (unsigned k = 0; k < 2; k++) {
-		if (to_raw(s->current_a[k], CAN_CURR_LSB, CAN_CURR_MAX, 12, &raw))
+		if (to_raw(s->current_a[k], CAN_CURR_LSB, 12, &raw))
 			return -ERANGE;
 		put(&w, 12 * k, 12, raw);
-		if (to_raw(s->speed_rad_s[k], CAN_SPEED_LSB, CAN_SPEED_MAX, 14, &raw))
+		if (to_raw(s->speed_rad_s[k], CAN_SPEED_LSB, 14, &raw))
 			return -ERANGE;
 		put(&w, 24 + 14 * k, 14, raw);
 	}
@@ -172,7 +186,7 @@ int can_decode_status(const struct omni4_can_frame *f, int *node, struct can_sta
 	int rc = -EINVAL;
 
 	for (int n = 0; n < CAN_NODES && rc == -EINVAL; n++) {
-		rc = check(f, CAN_ID_STATUS(n), &w, counter);
+		rc = check(f, CAN_ID_STATUS(n), RESERVED_STATUS, &w, counter);
 		*node = n;
 	}
 	if (rc)
@@ -208,7 +222,7 @@ int can_decode_health(const struct omni4_can_frame *f, int *node, struct can_hea
 	int rc = -EINVAL;
 
 	for (int n = 0; n < CAN_NODES && rc == -EINVAL; n++) {
-		rc = check(f, CAN_ID_HEALTH(n), &w, counter);
+		rc = check(f, CAN_ID_HEALTH(n), RESERVED_HEALTH, &w, counter);
 		*node = n;
 	}
 	if (rc)

@@ -73,6 +73,12 @@ static void test_out_of_range_values_are_refused_not_clipped(void **state)
 	assert_int_equal(can_encode_cmd_voltage(nan_v, true, 0, &f), -ERANGE);
 	assert_int_equal(can_encode_status(0, &s, 0, &f), -ERANGE);
 	assert_int_equal(can_encode_status(2, &s, 0, &f), -EINVAL);
+	/* The most negative raw value is in range (it decodes, so it must encode). */
+	const float low[4] = {-20.48f, 20.47f, 0, 0};
+	const float over[4] = {20.48f, 0, 0, 0};
+
+	assert_int_equal(can_encode_cmd_voltage(low, true, 0, &f), 0);
+	assert_int_equal(can_encode_cmd_voltage(over, true, 0, &f), -ERANGE);
 	assert_int_equal(can_encode_control((enum can_control)7, 0, &f), -ERANGE);
 }
 

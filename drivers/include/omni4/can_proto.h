@@ -30,12 +30,13 @@
 #define CAN_ID_HEALTH(node) (0x030u + (unsigned)(node))
 #define CAN_NODES 2
 
-#define CAN_VOLT_LSB 0.01f    /* [V] */
-#define CAN_VOLT_MAX 20.47f   /* 12-bit signed */
-#define CAN_CURR_LSB 0.005f   /* [A] */
+/* Signal ranges are those of the signed raw fields: [-2^(n-1), 2^(n-1) - 1] LSB. */
+#define CAN_VOLT_LSB 0.01f    /* [V], 12 bit: -20.48 .. 20.47 */
+#define CAN_VOLT_MAX 20.47f
+#define CAN_CURR_LSB 0.005f   /* [A], 12 bit: -10.24 .. 10.235 */
 #define CAN_CURR_MAX 10.235f
-#define CAN_SPEED_LSB 0.05f   /* [rad/s] */
-#define CAN_SPEED_MAX 409.55f /* 14-bit signed */
+#define CAN_SPEED_LSB 0.05f   /* [rad/s], 14 bit: -409.6 .. 409.55 */
+#define CAN_SPEED_MAX 409.55f
 
 enum can_control { CAN_CTL_ENABLE = 1, CAN_CTL_DISABLE = 2, CAN_CTL_CLEAR_FAULTS = 3 };
 
@@ -78,7 +79,8 @@ int can_encode_status(int node, const struct can_status *s, uint8_t counter,
 int can_encode_health(int node, const struct can_health *h, uint8_t counter,
 		      struct omni4_can_frame *f);
 
-/* Decoders: -EINVAL wrong ID or DLC, -EBADMSG CRC mismatch. *counter gets the rolling counter. */
+/* Decoders: -EINVAL wrong ID, DLC or reserved bits set; -EBADMSG CRC mismatch. *counter gets
+ * the rolling counter. */
 int can_decode_cmd_voltage(const struct omni4_can_frame *f, float volts[4], bool *enable,
 			   uint8_t *counter);
 int can_decode_control(const struct omni4_can_frame *f, enum can_control *cmd, uint8_t *counter);
