@@ -97,9 +97,8 @@ static int sim_read(void *ctx, struct motor_sample *out)
 			speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
 			s->counts[j] = c;
 		}
-		if (s->inject.encoder_stuck[j])
-			speed = 0.0;
-		out->wheel_rad_s[j] = (float)speed;
+		out->wheel_rad_s[j] = s->inject.encoder_stuck[j] ? s->last_speed[j] : (float)speed;
+		s->last_speed[j] = out->wheel_rad_s[j];
 
 		double i = s->plant.current_a[j] + s->inject.current_offset_a;
 

@@ -59,6 +59,7 @@ static const struct key_desc keys[] = {
 	DBL("limits", "acc_lin_max", limits.acc_lin_max, 1e-3, 1000.0),
 	DBL("limits", "acc_rot_max", limits.acc_rot_max, 1e-3, 10000.0),
 	DBL("limits", "current_max_a", limits.current_max_a, 0.0, 1000.0),
+	DBL("limits", "current_sensor_max_a", limits.current_sensor_max_a, 0.0, 1000.0),
 	STR("lcm", "url", lcm.url, NULL),
 	STR("hal", "motor", hal.motor, "sim|socketcan"),
 	STR("hal", "lines", hal.lines, "none|sim|gpiod"),
@@ -111,6 +112,7 @@ void config_defaults(struct omni4_config *cfg)
 	cfg->limits.acc_lin_max = 3.0;
 	cfg->limits.acc_rot_max = 30.0;
 	cfg->limits.current_max_a = 5.0;
+	cfg->limits.current_sensor_max_a = 10.2; /* the CAN STATUS current range ends at 10.235 A */
 	snprintf(cfg->lcm.url, sizeof(cfg->lcm.url), "udpm://239.255.76.67:7667?ttl=0");
 	snprintf(cfg->hal.motor, sizeof(cfg->hal.motor), "sim");
 	snprintf(cfg->hal.lines, sizeof(cfg->hal.lines), "sim");

@@ -18,6 +18,9 @@
 /* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
 #define ENCODER_RESIDUAL_MAX_M_S 0.5
 #define ENCODER_BAD_TIME_S 0.05
+/* No wheel can change speed faster than this (about 10x what the motors can do): a larger
+ * step between two readings is an encoder jump. */
+#define ENCODER_MAX_ACCEL_RAD_S2 5000.0
 
 int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 {
@@ -153,16 +156,24 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	bool speeds_ok = true;
 
 	for (int j = 0; j < 4; j++) {
-		if (!isfinite(s->current_a[j]))
-			f |= OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR;
-		else if (fabsf(s->current_a[j]) > c->cfg.limits.current_max_a)
+		const float i = s->current_a[j], w = s->wheel_rad_s[j];
+
+		if (!isfinite(i) || fabsf(i) >= c->cfg.limits.current_sensor_max_a)
+			f |= OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
+		if (isfinite(i) && fabsf(i) > c->cfg.limits.current_max_a)
 			f |= OMNI4_MOTORS_T_FAULT_OVERCURRENT;
-		if (!isfinite(s->wheel_rad_s[j])) {
+		if (!isfinite(w)) {
 			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
 			speeds_ok = false;
+		} else if (c->have_wheel && fabs((double)w - c->last_wheel[j]) >
+						    ENCODER_MAX_ACCEL_RAD_S2 * c->dt) {
+			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
 		}
-		vw[j] = (double)s->wheel_rad_s[j] * c->cfg.model.r;
+		vw[j] = (double)w * c->cfg.model.r;
 	}
+	for (int j = 0; j < 4 && speeds_ok; j++)
+		c->last_wheel[j] = s->wheel_rad_s[j];
+	c->have_wheel = speeds_ok;
 	if (isfinite(s->supply_v) && s->supply_v < c->cfg.limits.supply_min_v)
 		f |= OMNI4_MOTORS_T_FAULT_SUPPLY;
 	if (!speeds_ok)

@@ -222,24 +222,48 @@ static void test_stuck_encoder_is_detected_by_the_redundant_wheel(void **state)
 {
 	(void)state;
 	struct simrun *sr = make_default(true);
-	const double v[3] = {1.0, 0, 0};
+	const double v[3] = {1.0, 0, 0}, stop[3] = {0, 0, 0};
 
 	for (int i = 0; i < 20; i++) {
 		hil_send(sr, VELOCITY, v, NULL, 0);
 		hil_run(sr, 0.05);
 	}
 	assert_int_equal(mode_of(sr), VELOCITY); /* noise alone does not trip it */
+	/* Wheel 3's reading freezes at 1 m/s while the robot brakes to a stop (3 m/s^2): the
+	 * rigid-body residual v0 - v1 + v2 - v3 grows until it passes 0.5 m/s for 50 ms. */
 	simrun_faults(sr)->encoder_stuck[3] = true;
 	int ms = 0;
 
-	while (mode_of(sr) != FAULT && ms < 1000) {
+	while (mode_of(sr) != FAULT && ms < 2000) {
 		if (ms % 50 == 0)
-			hil_send(sr, VELOCITY, v, NULL, 0);
+			hil_send(sr, VELOCITY, stop, NULL, 0);
 		simrun_tick(sr);
 		ms++;
 	}
-	print_message("stuck encoder (wheel 3 at 1 m/s): FAULT after %d ms\n", ms);
-	assert_in_range(ms, 40, 120);
+	print_message("frozen encoder (wheel 3 at 1 m/s, robot braking at 3 m/s^2): FAULT after "
+		      "%d ms\n", ms);
+	/* 1 m/s -> 0.5 m/s residual takes ~170 ms at 3 m/s^2, plus the 50 ms confirmation. */
+	assert_in_range(ms, 100, 400);
+	simrun_destroy(sr);
+}
+
+static void test_encoder_jump_faults_within_one_tick(void **state)
+{
+	(void)state;
+	struct simrun *sr = make_default(true);
+	const double v[3] = {0.5, 0, 0};
+
+	for (int i = 0; i < 10; i++) {
+		hil_send(sr, VELOCITY, v, NULL, 0);
+		hil_run(sr, 0.05);
+	}
+	simrun_faults(sr)->encoder_jump_rad = 0.5; /* every wheel jumps half a radian at once */
+	simrun_tick(sr);
+	struct simrun_stats st;
+
+	simrun_get_stats(sr, &st);
+	assert_int_equal(st.mode, FAULT);
+	assert_true(st.faults & OMNI4_MOTORS_T_FAULT_ENCODER);
 	simrun_destroy(sr);
 }
 
@@ -416,6 +440,7 @@ int main(void)
 		cmocka_unit_test(test_estop_disables_outputs_within_one_tick_and_latches),
 		cmocka_unit_test(test_fault_latches_and_clears_only_when_cause_is_gone),
 		cmocka_unit_test(test_stuck_encoder_is_detected_by_the_redundant_wheel),
+		cmocka_unit_test(test_encoder_jump_faults_within_one_tick),
 		cmocka_unit_test(test_bad_commands_are_rejected_counted_and_never_applied),
 		cmocka_unit_test(test_n_ticks_give_exactly_n_contiguous_motors_messages),
 		cmocka_unit_test(test_voltage_ramp_reproduces_the_papers_ramped_step),

@@ -50,6 +50,9 @@ expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/
 expect 0 "Usage\|usage" -- "$BIN/omni4-ident" --help
 expect 0 "usage" -- "$BIN/omni4-fw" --help
 expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"
+# LCM unavailable at start: a clear error, nothing runs.
+printf '[lcm]\nurl = udpm://300.1.1.1:7667?ttl=0\n' > "$T/badlcm.ini"
+expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-fw" --config "$T/badlcm.ini" --duration 1
 # The packaged default config parses; it then asks for the robot's CAN interface.
 expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
 

@@ -31,7 +31,7 @@ struct sim_motor_config {
 /* Faults a test can inject (all off after init). */
 struct sim_motor_faults {
 	bool silent;              /* read() returns -ETIMEDOUT: the driver stopped answering */
-	bool encoder_stuck[4];    /* that wheel's speed reads 0 */
+	bool encoder_stuck[4];    /* that wheel's speed reading freezes at its last value */
 	double encoder_jump_rad;  /* added once to every wheel angle at the next read, then cleared */
 	double current_clip_a;    /* > 0: currents saturate at this magnitude (sensor range) */
 	double current_offset_a;  /* added to every current reading */
@@ -50,6 +50,7 @@ struct sim_motor {
 	bool enabled;
 	double wheel_angle[4];  /* true wheel angle [rad] */
 	int64_t counts[4];      /* encoder counts at the last read */
+	float last_speed[4];    /* last reported wheel speeds [rad/s] */
 	int64_t t_us;           /* simulated time since start [us] */
 	int64_t period_us;
 	double cam_period_s;

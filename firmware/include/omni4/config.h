@@ -6,6 +6,7 @@
  *   [loop]    rate_hz sched_fifo priority mlockall
  *   [control] kp ki feedforward feedback cmd_timeout_ms stop_ramp_s
  *   [limits]  supply_v supply_min_v vel_lin_max vel_rot_max acc_lin_max acc_rot_max current_max_a
+ *             current_sensor_max_a
  *   [lcm]     url
  *   [hal]     motor (sim|socketcan)  lines (none|sim|gpiod)
  *   [sim]     current_noise_a encoder_cpr camera_rate_hz camera_pos_noise_m
@@ -49,6 +50,7 @@ struct omni4_config {
 		double acc_lin_max;   /* reference shaping [m/s^2] */
 		double acc_rot_max;   /* [rad/s^2] */
 		double current_max_a; /* over-current fault level [A] */
+		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor [A] */
 	} limits;
 	struct {
 		char url[CONFIG_STR_MAX];

@@ -76,6 +76,8 @@ struct ctl {
 	double out[4];
 	double x_est[3];        /* robot velocity from the wheel speeds (eqs 3-5) */
 	int encoder_bad_ticks;
+	double last_wheel[4];   /* last wheel speeds [rad/s], for the jump check */
+	bool have_wheel;
 	struct ctl_counters n;
 };
 

@@ -1,0 +1,237 @@
+/* Fault-injection matrix on the firmware loop + sim plant: each scenario asserts its safe
+ * outcome and prints the measured detection time (ticks of 1 ms). The table it prints is the
+ * one in docs/faults.md. CAN cases run in the vcan VM tier, start-up cases in cli_errors.sh. */
+#include "omni4_test.h"
+
+#include <errno.h>
+
+#include "hil_util.h"
+#include "omni4/fw.h"
+#include "omni4/sim_motor.h"
+
+enum { IDLE = 0, VELOCITY = 1, VOLTAGE = 2, COAST = 3, CLEAR = 4, FAULT = 5, ESTOP = 6 };
+
+static struct simrun_stats stats(struct simrun *sr)
+{
+	struct simrun_stats st;
+
+	simrun_get_stats(sr, &st);
+	return st;
+}
+
+/* A robot driving at 1 m/s along v with commands every 50 ms, for 1 s. */
+static struct simrun *driving(void)
+{
+	struct omni4_config cfg;
+	char err[256];
+
+	config_defaults(&cfg);
+	struct simrun *sr = simrun_create(&cfg, &cfg.model, true, NULL, err, sizeof(err));
+
+	assert_non_null(sr);
+	const double v[3] = {1.0, 0, 0};
+
+	for (int i = 0; i < 20; i++) {
+		hil_send(sr, VELOCITY, v, NULL, 0);
+		hil_run(sr, 0.05);
+	}
+	assert_int_equal(stats(sr).mode, VELOCITY);
+	return sr;
+}
+
+/* Ticks until the mode is `mode` with `bits` set (keeps commanding v = 1 m/s if keep). */
+static int ticks_until(struct simrun *sr, int8_t mode, int32_t bits, bool keep, int limit)
+{
+	const double v[3] = {1.0, 0, 0};
+
+	for (int t = 1; t <= limit; t++) {
+		if (keep && t % 50 == 0)
+			hil_send(sr, VELOCITY, v, NULL, 0);
+		simrun_tick(sr);
+		const struct simrun_stats st = stats(sr);
+
+		if (st.mode == mode && (st.faults & bits) == bits)
+			return t;
+	}
+	return -1;
+}
+
+static void row(const char *scenario, const char *outcome, int ms)
+{
+	if (ms >= 0)
+		print_message("| %-38s | %-48s | %4d ms |\n", scenario, outcome, ms);
+	else
+		print_message("| %-38s | %-48s | %7s |\n", scenario, outcome, "-");
+}
+
+static void test_fault_matrix(void **state)
+{
+	(void)state;
+	struct simrun *sr;
+	int t;
+
+	print_message("| scenario | safe outcome | detection |\n|---|---|---|\n");
+
+	sr = driving(); /* command stream stops (the last command was 50 ms ago) */
+	t = ticks_until(sr, VOLTAGE, OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT, false, 1000) + 50;
+	assert_in_range(t, 199, 203);
+	const int t_idle = ticks_until(sr, IDLE, 0, false, 1000);
+
+	assert_in_range(t_idle, 190, 210);
+	row("command stream stops (timeout 200 ms)", "ramp to 0 V in 200 ms, then IDLE", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* command flood: 10 commands per tick for 1 s */
+	{
+		const double v[3] = {0.8, 0, 0};
+		const uint64_t before = stats(sr).ticks;
+
+		for (int k = 0; k < 1000; k++) {
+			for (int c = 0; c < 10; c++)
+				hil_send(sr, VELOCITY, v, NULL, 0);
+			simrun_tick(sr);
+		}
+		const struct simrun_stats st = stats(sr);
+
+		assert_int_equal(st.ticks - before, 1000);
+		assert_int_equal(st.cmd_rejected, 0);
+		assert_int_equal(st.mode, VELOCITY);
+		row("command flood, 10 per tick (10 kHz)", "all applied in order, loop rate unchanged", -1);
+	}
+	simrun_destroy(sr);
+
+	sr = driving(); /* NaN / inf / huge / unknown mode */
+	{
+		const double nan_v[3] = {NAN, 0, 0}, huge[3] = {0, 1e9, 0};
+		const double inf_u[4] = {INFINITY, 0, 0, 0};
+
+		hil_send(sr, VELOCITY, nan_v, NULL, 0);
+		hil_send(sr, VELOCITY, huge, NULL, 0);
+		hil_send(sr, VOLTAGE, NULL, inf_u, 0);
+		hil_send(sr, 9, NULL, NULL, 0);
+		simrun_tick(sr);
+		const struct simrun_stats st = stats(sr);
+
+		assert_int_equal(st.cmd_rejected, 4);
+		assert_int_equal(st.mode, VELOCITY);
+		assert_true(st.faults & OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
+		row("NaN / inf / huge / unknown-mode command", "rejected, counted, last valid one kept", 0);
+	}
+	simrun_destroy(sr);
+
+	sr = driving(); /* e-stop pressed and released */
+	simrun_set_estop(sr, true);
+	t = ticks_until(sr, ESTOP, OMNI4_MOTORS_T_FAULT_ESTOP, true, 100);
+	assert_int_equal(t, 1);
+	simrun_set_estop(sr, false);
+	hil_run(sr, 0.1);
+	assert_int_equal(stats(sr).mode, ESTOP);
+	hil_send(sr, CLEAR, NULL, NULL, 0);
+	simrun_tick(sr);
+	assert_int_equal(stats(sr).mode, IDLE);
+	row("e-stop pressed mid-run, then released", "outputs off; ESTOP until CLEAR after release", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* encoder jump */
+	simrun_faults(sr)->encoder_jump_rad = 0.5;
+	t = ticks_until(sr, FAULT, OMNI4_MOTORS_T_FAULT_ENCODER, true, 100);
+	assert_int_equal(t, 1);
+	row("encoder jump (0.5 rad in one tick)", "FAULT ENCODER, outputs off", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* encoder stuck while the robot keeps moving: slows to a stop */
+	simrun_faults(sr)->encoder_stuck[1] = true;
+	{
+		const double stop[3] = {0, 0, 0};
+
+		hil_send(sr, VELOCITY, stop, NULL, 0);
+		t = 0;
+		while (stats(sr).mode != FAULT && t < 2000) {
+			if (++t % 50 == 0)
+				hil_send(sr, VELOCITY, stop, NULL, 0);
+			simrun_tick(sr);
+		}
+	}
+	assert_true(stats(sr).faults & OMNI4_MOTORS_T_FAULT_ENCODER);
+	assert_in_range(t, 50, 400);
+	row("encoder stuck (frozen reading)", "FAULT ENCODER (rigid-body residual)", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* current sensor saturated at its rail */
+	simrun_faults(sr)->current_offset_a = 30.0;
+	simrun_faults(sr)->current_clip_a = 10.235;
+	t = ticks_until(sr, FAULT, OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR, true, 100);
+	assert_int_equal(t, 1);
+	row("current sensor saturated (10.235 A)", "FAULT CURRENT_SENSOR + OVERCURRENT", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* over-current */
+	simrun_faults(sr)->current_offset_a = 6.0;
+	t = ticks_until(sr, FAULT, OMNI4_MOTORS_T_FAULT_OVERCURRENT, true, 100);
+	assert_int_equal(t, 1);
+	row("over-current (> 5 A)", "FAULT OVERCURRENT, outputs off", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* supply sag */
+	simrun_faults(sr)->supply_v = 8.0;
+	t = ticks_until(sr, FAULT, OMNI4_MOTORS_T_FAULT_SUPPLY, true, 100);
+	assert_int_equal(t, 1);
+	row("supply sag (8 V < 9 V)", "FAULT SUPPLY, outputs off", t);
+	simrun_destroy(sr);
+
+	sr = driving(); /* motor driver silent */
+	simrun_faults(sr)->silent = true;
+	t = ticks_until(sr, FAULT, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, true, 100);
+	assert_int_equal(t, 1);
+	hil_send(sr, CLEAR, NULL, NULL, 0);
+	hil_run(sr, 0.01);
+	assert_int_equal(stats(sr).mode, FAULT); /* no clear while the driver is silent */
+	row("motor driver silent (sim HAL read fails)", "FAULT DRIVER_TIMEOUT; no clear while silent", t);
+	simrun_destroy(sr);
+}
+
+static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	static struct sim_motor sim;
+	struct omni4_config cfg;
+
+	config_defaults(&cfg);
+	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
+					    .camera_rate_hz = 25};
+
+	assert_int_equal(sim_motor_init(&sim, &sc), 0);
+	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
+				 (struct line_hal){.ops = &line_none_ops}), 0);
+	/* Nobody drains the ring for 20 s of ticks. */
+	for (int k = 0; k < 20000; k++)
+		fw_tick(&fw, (int64_t)k * 1000);
+	assert_int_equal(fw.n.ticks, 20000);
+	assert_int_equal(fw.n.log_dropped, 20000 - FW_LOG_RING_SLOTS);
+	assert_true(fw.last_out.faults & OMNI4_MOTORS_T_FAULT_LOG_OVERFLOW);
+	/* The ring still holds the oldest samples, in order. */
+	struct log_entry e;
+	int64_t prev = -1;
+	size_t n = 0;
+
+	while (fw_pop_log(&fw, &e)) {
+		if (e.kind == LOG_MOTORS) {
+			assert_true(e.seq > prev);
+			prev = e.seq;
+		}
+		n++;
+	}
+	assert_int_equal(n, FW_LOG_RING_SLOTS);
+	row("logger stalled (ring full)", "loop keeps ticking; drops counted, LOG_OVERFLOW", -1);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_fault_matrix),
+		cmocka_unit_test(test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss),
+	};
+
+	return cmocka_run_group_tests_name("faults", tests, NULL, NULL);
+}
