@@ -16,6 +16,7 @@ int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal moto
 	fw->lines = lines;
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
+	atomic_init(&fw->halted, false);
 	fw_outputs_off(fw);
 	return 0;
 }
@@ -28,6 +29,12 @@ void fw_outputs_off(struct fw *fw)
 	hal_motor_enable(&fw->motor, false);
 	hal_line_set_enable(&fw->lines, false);
 	fw->hw_enabled = false;
+}
+
+void fw_emergency_off(struct fw *fw)
+{
+	atomic_store(&fw->halted, true);
+	fw_outputs_off(fw);
 }
 
 bool fw_post_command(struct fw *fw, const struct ctl_command *cmd)
@@ -84,6 +91,10 @@ void fw_tick(struct fw *fw, int64_t now_us)
 		fw->n.read_errors++;
 	ctl_step(&fw->ctl, now_us, &fw->last_sample, rc, estop, &out);
 
+	if (atomic_load_explicit(&fw->halted, memory_order_relaxed)) {
+		out.enable = false;
+		memset(out.volts, 0, sizeof(out.volts));
+	}
 	if (out.enable != fw->hw_enabled) {
 		hal_motor_enable(&fw->motor, out.enable);
 		hal_line_set_enable(&fw->lines, out.enable);

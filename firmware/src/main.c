@@ -21,6 +21,16 @@
 
 static volatile sig_atomic_t g_stop;
 
+struct app {
+	struct fw fw;
+	struct sim_motor sim;
+	struct sim_lines sim_lines;
+	struct socketcan_motor can;
+	struct gpiod_lines gpio;
+};
+
+static struct app *g_app; /* for the crash handler only */
+
 static void on_signal(int sig)
 {
 	(void)sig;
@@ -37,17 +47,30 @@ static void usage(FILE *f)
 		"  -c, --config FILE   robot INI file (required)\n"
 		"  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
 		"  -q, --quiet         no status line\n"
+		"      --crash-after S test only: crash (SIGSEGV) after S seconds, to check that the\n"
+		"                      crash handler switches the outputs off\n"
 		"  -h, --help          this text\n"
 		"example: omni4-fw --config /etc/omni4/robot.ini\n");
 }
 
-struct app {
-	struct fw fw;
-	struct sim_motor sim;
-	struct sim_lines sim_lines;
-	struct socketcan_motor can;
-	struct gpiod_lines gpio;
-};
+/* SIGSEGV/SIGABRT/...: switch the outputs off (the HAL writes are plain syscalls), then let
+ * the signal kill the process as it would have (SA_RESETHAND restored the default action). */
+static void on_crash(int sig)
+{
+	if (g_app)
+		fw_emergency_off(&g_app->fw);
+	raise(sig);
+}
+
+static void install_crash_handler(void)
+{
+	static const int sigs[] = {SIGSEGV, SIGABRT, SIGBUS, SIGFPE, SIGILL};
+	struct sigaction sa = {.sa_handler = on_crash, .sa_flags = SA_RESETHAND};
+
+	sigemptyset(&sa.sa_mask);
+	for (unsigned i = 0; i < sizeof(sigs) / sizeof(sigs[0]); i++)
+		sigaction(sigs[i], &sa, NULL);
+}
 
 static void tick(void *ctx, int64_t now_us)
 {
@@ -64,10 +87,11 @@ int main(int argc, char **argv)
 	static const struct option opts[] = {
 		{"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
 		{"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
+		{"crash-after", required_argument, NULL, 'X'},
 		{NULL, 0, NULL, 0},
 	};
 	const char *config_path = NULL;
-	double duration_s = 0.0;
+	double duration_s = 0.0, crash_after_s = 0.0;
 	int quiet = 0, c;
 
 	while ((c = getopt_long(argc, argv, "c:d:qh", opts, NULL)) != -1) {
@@ -87,6 +111,9 @@ int main(int argc, char **argv)
 		}
 		case 'q':
 			quiet = 1;
+			break;
+		case 'X':
+			crash_after_s = strtod(optarg, NULL);
 			break;
 		case 'h':
 			usage(stdout);
@@ -179,6 +206,8 @@ int main(int argc, char **argv)
 		fprintf(stderr, "omni4-fw: %s: invalid controller settings\n", config_path);
 		goto out_close_lines;
 	}
+	g_app = app;
+	install_crash_handler();
 	if (!strcmp(cfg.hal.motor, "sim"))
 		sim_motor_set_pose_cb(&app->sim, on_pose, &app->fw,
 				      rtloop_clock_us() - app->sim.period_us);
@@ -226,6 +255,8 @@ int main(int argc, char **argv)
 		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000000};
 
 		nanosleep(&nap, NULL);
+		if (crash_after_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= crash_after_s)
+			raise(SIGSEGV);
 	}
 	rtloop_request_stop(&loop);
 	rtloop_join(&loop);

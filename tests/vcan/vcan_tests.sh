@@ -62,4 +62,26 @@ if [ "${crc:-0}" -gt 0 ] && [ "${rep:-0}" -gt 0 ]; then
 else
   fail=$((fail + 1)); echo "FAIL: crc_errors ${crc:-?} replayed ${rep:-?}"
 fi
+# 7. the controller crashes (SIGSEGV) while driving: its crash handler sends 0 V with the
+# bridges disabled before it dies
+omni4-motorsim --iface vcan0 -q > /dev/null 2>&1 &
+MS=$!
+candump -L vcan0 > /tmp/crash.log &
+CD=$!
+omni4-fw --config /omni4/vcan.ini --crash-after 1.5 -q > /tmp/fw2.log 2>&1 &
+FW=$!
+vcan_check rate 2 100 > /dev/null
+wait $FW
+st=$?
+sleep 0.2
+kill $CD $MS 2>/dev/null
+last=$(grep " 010#" /tmp/crash.log | tail -1 | cut -d# -f2)
+drove=$(grep " 010#" /tmp/crash.log | cut -d# -f2 | cut -c1-12 | grep -vc "^000000000000$")
+lastv=$(echo "$last" | cut -c1-12)
+lasten=$(echo "$last" | cut -c14)
+if [ "$st" -ne 0 ] && [ "$drove" -gt 0 ] && [ "$lastv" = "000000000000" ] && [ "$lasten" = "0" ]; then
+  pass=$((pass + 1)); echo "ok: crash (status $st) after driving ($drove frames with voltage): last CMD_VOLTAGE 0 V, bridges disabled ($last)"
+else
+  fail=$((fail + 1)); echo "FAIL: crash: status $st, frames with voltage $drove, last CMD_VOLTAGE $last"
+fi
 echo "VCAN: $pass passed, $fail failed"

@@ -49,6 +49,7 @@ struct fw {
 	struct spsc_ring log_ring;
 	int64_t seq;
 	bool hw_enabled;
+	atomic_bool halted; /* fw_emergency_off was called: the loop writes nothing but 0 V */
 	struct ctl_output last_out;
 	struct motor_sample last_sample;
 	struct fw_counters n;
@@ -74,5 +75,7 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e);
 
 /* Shutdown / any exit path: outputs off (voltages 0, bridges and enable line off). */
 void fw_outputs_off(struct fw *fw);
+/* Crash handlers (any thread): outputs off now, and the loop stops driving for good. */
+void fw_emergency_off(struct fw *fw);
 
 #endif /* OMNI4_FW_H */
