@@ -46,6 +46,7 @@ static const struct key_desc keys[] = {
 	BOOL("loop", "sched_fifo", loop.sched_fifo),
 	INT("loop", "priority", loop.priority, 1, 99),
 	BOOL("loop", "mlockall", loop.mlockall),
+	INT("loop", "cpu_dma_latency_us", loop.cpu_dma_latency_us, -1, 100000),
 	DBL("control", "kp", control.kp, 0.0, 1e4),
 	DBL("control", "ki", control.ki, 0.0, 1e6),
 	BOOL("control", "feedforward", control.feedforward),
@@ -99,6 +100,7 @@ void config_defaults(struct omni4_config *cfg)
 	cfg->loop.sched_fifo = false;
 	cfg->loop.priority = 80;
 	cfg->loop.mlockall = false;
+	cfg->loop.cpu_dma_latency_us = -1;
 	cfg->control.kp = 20.0;
 	cfg->control.ki = 200.0;
 	cfg->control.feedforward = true;

@@ -220,6 +220,15 @@ int main(int argc, char **argv)
 	}
 	if (cfg.loop.mlockall && (rc = rtloop_lock_memory()))
 		fprintf(stderr, "omni4-fw: warning: mlockall: %s\n", strerror(-rc));
+	int dma_fd = -1; /* held open while the loop runs; closed at exit by the kernel */
+
+	if (cfg.loop.cpu_dma_latency_us >= 0) {
+		dma_fd = rtloop_cpu_dma_latency(cfg.loop.cpu_dma_latency_us);
+		if (dma_fd < 0)
+			fprintf(stderr, "omni4-fw: warning: /dev/cpu_dma_latency: %s\n",
+				strerror(-dma_fd));
+	}
+	(void)dma_fd;
 
 	struct sigaction sa = {.sa_handler = on_signal};
 

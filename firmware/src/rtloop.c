@@ -2,11 +2,13 @@
 #include "omni4/rtloop.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <sched.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <time.h>
+#include <unistd.h>
 
 static int64_t ts_ns(const struct timespec *t)
 {
@@ -47,6 +49,22 @@ int64_t rtloop_clock_us(void)
 int rtloop_lock_memory(void)
 {
 	return mlockall(MCL_CURRENT | MCL_FUTURE) ? -errno : 0;
+}
+
+int rtloop_cpu_dma_latency(int us)
+{
+	const int32_t v = us;
+	const int fd = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+
+	if (fd < 0)
+		return -errno;
+	if (write(fd, &v, sizeof(v)) != (ssize_t)sizeof(v)) {
+		const int e = errno;
+
+		close(fd);
+		return -e;
+	}
+	return fd;
 }
 
 static void *loop_main(void *arg)

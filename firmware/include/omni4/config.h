@@ -3,7 +3,7 @@
  *
  * Sections and keys (SI units; defaults in config_defaults):
  *   [model]   d r l Kv Kt R M J Bv Bvn Bw Cv Cvn Cw   (all 14 required if the section is present)
- *   [loop]    rate_hz sched_fifo priority mlockall
+ *   [loop]    rate_hz sched_fifo priority mlockall cpu_dma_latency_us
  *   [control] kp ki feedforward feedback cmd_timeout_ms stop_ramp_s
  *   [limits]  supply_v supply_min_v vel_lin_max vel_rot_max acc_lin_max acc_rot_max current_max_a
  *             current_sensor_max_a
@@ -33,6 +33,7 @@ struct omni4_config {
 		bool sched_fifo;
 		int priority;
 		bool mlockall;
+		int cpu_dma_latency_us; /* -1 = leave the CPU idle states alone; 0 = no deep C-state */
 	} loop;
 	struct {
 		double kp;          /* PI on wheel linear speed [V/(m/s)] */

@@ -38,6 +38,10 @@ int64_t rtloop_clock_us(void);
 /* Lock memory if asked (before threads start). Returns 0 or -errno. */
 int rtloop_lock_memory(void);
 
+/* Ask the kernel (PM QoS, /dev/cpu_dma_latency) to keep CPU wake-up latency at or below us
+ * for as long as the returned descriptor stays open (as cyclictest does). fd >= 0 or -errno. */
+int rtloop_cpu_dma_latency(int us);
+
 /* Start the loop thread. priority > 0 asks for SCHED_FIFO at that priority (on failure the
  * loop runs at normal priority and warning says why). */
 int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_ticks,
