@@ -25,8 +25,9 @@ void fw_outputs_off(struct fw *fw)
 {
 	static const float zero[4] = {0, 0, 0, 0};
 
-	hal_motor_write(&fw->motor, zero);
+	/* Disable first: the zero-voltage command that follows then also says "disabled". */
 	hal_motor_enable(&fw->motor, false);
+	hal_motor_write(&fw->motor, zero);
 	hal_line_set_enable(&fw->lines, false);
 	fw->hw_enabled = false;
 }
