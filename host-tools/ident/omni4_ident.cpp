@@ -9,6 +9,9 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <future>
+#include <thread>
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -32,14 +35,22 @@ using namespace omni4;
 }
 
 std::vector<LogData> load_logs(const std::vector<std::string> &paths) {
+  // Logs are independent: read them on all cores.
+  std::vector<std::future<LogData>> pending;
+  const size_t workers = std::max(1u, std::thread::hardware_concurrency());
   std::vector<LogData> logs;
   logs.reserve(paths.size());
-  for (const std::string &p : paths) {
+  size_t next = 0;
+  auto launch = [&] { pending.push_back(std::async(std::launch::async, read_log, paths[next++])); };
+  while (next < paths.size() && pending.size() < workers) launch();
+  for (size_t i = 0; i < paths.size(); ++i) {
     try {
-      logs.push_back(read_log(p));
+      logs.push_back(pending[i].get());
     } catch (const std::exception &e) {
       die(e.what());
     }
+    if (next < paths.size()) launch();
+    const std::string &p = paths[i];
     const LogData &d = logs.back();
     std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", p.c_str(),
                 (unsigned long long)d.events, d.motors.size(), d.pose.size(), d.marks.size());
