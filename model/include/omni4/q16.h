@@ -3,8 +3,8 @@
  *
  * q16_t is Q16.16 in an int32_t: 16 integer bits (sign included), 16 fraction bits.
  * Range [-32768, 32767.99998], resolution 2^-16 = 1.53e-5. Products and sums are formed in
- * int64_t and saturated to the int32_t range: results never wrap. Rounding is to nearest
- * (ties away from zero on the magnitude).
+ * int64_t and saturated to the int32_t range: results never wrap. Products round to nearest,
+ * ties upwards (add half an LSB, then an arithmetic shift: branch-free).
  *
  * The helpers are static inline, integer-only: the fixed-point path needs no libc and no
  * floating-point support routine. Conversions to/from double are for set-up and tests only.
@@ -52,11 +52,11 @@ static inline q16_t q16_neg(q16_t a)
  */
 static inline q16_t q16_mul(q16_t a, q16_t b)
 {
-	int64_t p = (int64_t)a * b;
-	int64_t half = (int64_t)1 << (Q16_FRAC_BITS - 1);
+	/* Right shift of a negative int64_t is arithmetic on every compiler omni4 targets (gcc,
+	 * clang: documented implementation-defined behaviour). */
+	const int64_t p = (int64_t)a * b + ((int64_t)1 << (Q16_FRAC_BITS - 1));
 
-	p = p >= 0 ? (p + half) >> Q16_FRAC_BITS : -((-p + half) >> Q16_FRAC_BITS);
-	return q16_sat(p);
+	return q16_sat(p >> Q16_FRAC_BITS);
 }
 
 /* Multiply by a plain integer; saturating. */
