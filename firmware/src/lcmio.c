@@ -1,6 +1,8 @@
 /* lcmio.c - LCM command receive, log encoding and publishing threads. */
 #include "omni4/lcmio.h"
 
+#include "omni4/rtloop.h"
+
 #include <errno.h>
 #include <string.h>
 #include <time.h>
@@ -127,10 +129,17 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
 	io->sub = lcm_subscribe(lcm, LCMIO_CHANNEL_CMD, on_command, io);
 	if (!io->sub)
 		return -EIO;
-	rc = pthread_create(&io->rx_thread, NULL, rx_main, io);
-	if (rc)
+	pthread_attr_t attr;
+
+	pthread_attr_init(&attr);
+	pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);
+	rc = pthread_create(&io->rx_thread, &attr, rx_main, io);
+	if (rc) {
+		pthread_attr_destroy(&attr);
 		goto err_unsub;
-	rc = pthread_create(&io->log_thread, NULL, log_main, io);
+	}
+	rc = pthread_create(&io->log_thread, &attr, log_main, io);
+	pthread_attr_destroy(&attr);
 	if (rc)
 		goto err_rx;
 	io->started = 1;

@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <lcm/lcm.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -211,6 +212,15 @@ int main(int argc, char **argv)
 	if (!strcmp(cfg.hal.motor, "sim"))
 		sim_motor_set_pose_cb(&app->sim, on_pose, &app->fw,
 				      rtloop_clock_us() - app->sim.period_us);
+
+	/* Threads that libraries start (LCM, glib) get a small stack too: with mlockall every
+	 * page of a stack is resident. */
+	pthread_attr_t small_stack;
+
+	pthread_attr_init(&small_stack);
+	pthread_attr_setstacksize(&small_stack, 2 * RTLOOP_STACK_BYTES);
+	pthread_setattr_default_np(&small_stack);
+	pthread_attr_destroy(&small_stack);
 
 	lcm_t *lcm = lcm_create(cfg.lcm.url);
 

@@ -118,6 +118,8 @@ int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_tic
 	rtloop_clock_us(); /* fix the epoch offset outside the loop */
 
 	pthread_attr_init(&attr);
+	/* A small stack: with mlockall(MCL_FUTURE) every byte of it is resident. */
+	pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);
 	if (priority > 0) {
 		struct sched_param sp = {.sched_priority = priority};
 
@@ -132,6 +134,7 @@ int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_tic
 			 priority);
 		pthread_attr_destroy(&attr);
 		pthread_attr_init(&attr);
+		pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);
 		rc = pthread_create(&l->thread, &attr, loop_main, l);
 	}
 	pthread_attr_destroy(&attr);

@@ -12,7 +12,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#define RTLOOP_HIST_US 10000 /* latency histogram: 1 us bins up to 10 ms, then one overflow bin */
+#define RTLOOP_HIST_US 10000
+#define RTLOOP_STACK_BYTES (256 * 1024) /* loop and LCM threads; locked in RAM by mlockall */ /* latency histogram: 1 us bins up to 10 ms, then one overflow bin */
 
 typedef void (*rtloop_tick_fn)(void *ctx, int64_t now_us);
 
