@@ -1,0 +1,122 @@
+/*
+ * cmd_latency: OMNI4_CMD publish -> HAL write of the new voltage, through the real stack of
+ * omni4-fw (LCM receive thread, command mailbox, fixed-rate loop at 1 kHz) on the sim backend.
+ * A second LCM instance publishes VOLTAGE steps with distinct values at random moments; a thin
+ * HAL in front of the sim backend stamps the first write of each value.
+ * usage: cmd_latency URL N   -> prints "p50 P p99 Q max M us over N commands"
+ */
+#include <lcm/lcm.h>
+#include <math.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "omni4/fw.h"
+#include "omni4/lcmio.h"
+#include "omni4/rtloop.h"
+#include "omni4/sim_motor.h"
+#include "omni4_command_t.h"
+
+static struct sim_motor sim;
+static _Atomic int64_t seen_ns;  /* when the awaited value was first written */
+static _Atomic float awaited;
+
+static int64_t now_ns(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+static int stamp_write(void *ctx, const float volts[4])
+{
+	if (volts[0] == atomic_load(&awaited) && atomic_load(&seen_ns) == 0)
+		atomic_store(&seen_ns, now_ns());
+	return sim_motor_ops.write(ctx, volts);
+}
+
+static int cmp(const void *a, const void *b)
+{
+	const double x = *(const double *)a, y = *(const double *)b;
+
+	return x < y ? -1 : x > y;
+}
+
+static void tick(void *ctx, int64_t now_us)
+{
+	fw_tick(ctx, now_us);
+}
+
+int main(int argc, char **argv)
+{
+	static struct fw fw;
+	struct motor_hal_ops ops = sim_motor_ops;
+	struct omni4_config cfg;
+	const int n = argc > 2 ? atoi(argv[2]) : 200;
+
+	if (argc < 2 || n <= 0 || n > 100000) {
+		fprintf(stderr, "usage: cmd_latency URL N\n");
+		return 2;
+	}
+	config_defaults(&cfg);
+	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
+					    .camera_rate_hz = 25};
+
+	ops.write = stamp_write;
+	if (sim_motor_init(&sim, &sc) ||
+	    fw_init(&fw, &cfg, (struct motor_hal){.ops = &ops, .ctx = &sim},
+		    (struct line_hal){.ops = &line_none_ops}))
+		return 1;
+	lcm_t *rx = lcm_create(argv[1]), *tx = lcm_create(argv[1]);
+
+	if (!rx || !tx) {
+		fprintf(stderr, "cmd_latency: cannot open LCM at %s\n", argv[1]);
+		return 1;
+	}
+	struct lcmio io;
+	struct rtloop loop;
+
+	if (lcmio_start(&io, rx, &fw) || rtloop_start(&loop, 1000.0, 80, 0, tick, &fw))
+		return 1;
+	double *lat = calloc((size_t)n, sizeof(double));
+	int got = 0;
+
+	srand(7);
+	for (int k = 0; k < n; k++) {
+		const float v = 0.5f + 0.01f * (float)(k % 500);
+		const struct timespec wait = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
+		omni4_command_t c = {.seq = k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+				     .voltage = {v, v, v, v}, .ramp_s = 0};
+
+		nanosleep(&wait, NULL); /* a random phase against the loop */
+		atomic_store(&seen_ns, 0);
+		atomic_store(&awaited, v);
+		const int64_t t0 = now_ns();
+
+		omni4_command_t_publish(tx, "OMNI4_CMD", &c);
+		while (!atomic_load(&seen_ns) && now_ns() - t0 < 50000000) {
+			const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000};
+
+			nanosleep(&nap, NULL);
+		}
+		if (atomic_load(&seen_ns))
+			lat[got++] = (double)(atomic_load(&seen_ns) - t0) / 1000.0;
+	}
+	rtloop_request_stop(&loop);
+	rtloop_join(&loop);
+	lcmio_stop(&io);
+	qsort(lat, (size_t)got, sizeof(double), cmp);
+	if (!got) {
+		printf("no command reached the HAL\n");
+		return 1;
+	}
+	printf("p50 %.0f p99 %.0f max %.0f us over %d of %d commands\n", lat[got / 2],
+	       lat[(int)(0.99 * (got - 1))], lat[got - 1], got, n);
+	lcm_destroy(tx);
+	lcm_destroy(rx);
+	free(lat);
+	return got == n ? 0 : 1;
+}
