@@ -46,19 +46,23 @@ void settle(std::vector<Phase> &seq, double settle_s) {
   seq.push_back(p);
 }
 
+// One marked run: a voltage step with an initial ramp along dir, held, then coasting to rest.
+void ramped_run(std::vector<Phase> &seq, const SequenceOptions &opt, const char *kind,
+                const char *dir, double level) {
+  Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level), opt.ramp_s);
+  p.mark_kind = kind;
+  p.mark_direction = dir;
+  p.mark_level = level;
+  seq.push_back(p);
+  settle(seq, opt.settle_s);
+}
+
 }  // namespace
 
 std::vector<Phase> paper_sequence(const SequenceOptions &opt) {
   std::vector<Phase> seq;
   // Experiment 1: steady rotation at several voltages (ramped to avoid wheel slip).
-  for (double level : opt.rotation_levels) {
-    Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled("w", level), opt.ramp_s);
-    p.mark_kind = "steady_rotation";
-    p.mark_direction = "w";
-    p.mark_level = level;
-    seq.push_back(p);
-    settle(seq, opt.settle_s);
-  }
+  for (double level : opt.rotation_levels) ramped_run(seq, opt, "steady_rotation", "w", level);
   // Experiment 2: push off with the motors, then null traction (H-bridges off) and coast.
   for (const char *dir : {"v", "vn", "w"}) {
     for (double level : opt.coast_levels) {
@@ -72,27 +76,11 @@ std::vector<Phase> paper_sequence(const SequenceOptions &opt) {
     }
   }
   // Motor test (eqs 21-22): constant voltage, different load per direction.
-  for (const char *dir : {"v", "vn", "w"}) {
-    for (double level : opt.motor_levels) {
-      Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level), opt.ramp_s);
-      p.mark_kind = "motor";
-      p.mark_direction = dir;
-      p.mark_level = level;
-      seq.push_back(p);
-      settle(seq, opt.settle_s);
-    }
-  }
+  for (const char *dir : {"v", "vn", "w"})
+    for (double level : opt.motor_levels) ramped_run(seq, opt, "motor", dir, level);
   // Experiment 3: step voltage with an initial acceleration ramp along v, vn, w.
-  for (const char *dir : {"v", "vn", "w"}) {
-    for (double level : opt.step_levels) {
-      Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level), opt.ramp_s);
-      p.mark_kind = "step";
-      p.mark_direction = dir;
-      p.mark_level = level;
-      seq.push_back(p);
-      settle(seq, opt.settle_s);
-    }
-  }
+  for (const char *dir : {"v", "vn", "w"})
+    for (double level : opt.step_levels) ramped_run(seq, opt, "step", dir, level);
   Phase idle;
   idle.duration_s = 0.1;
   idle.mode = command_t::MODE_IDLE;
