@@ -213,14 +213,16 @@ int main(int argc, char **argv)
 		sim_motor_set_pose_cb(&app->sim, on_pose, &app->fw,
 				      rtloop_clock_us() - app->sim.period_us);
 
-	/* Threads that libraries start (LCM, glib) get a small stack too: with mlockall every
-	 * page of a stack is resident. */
-	pthread_attr_t small_stack;
+	/* With mlockall every page of every thread stack is resident: threads that libraries
+	 * start (LCM, glib) get a small stack too. (Only then: sanitizer runtimes need more.) */
+	if (cfg.loop.mlockall) {
+		pthread_attr_t small_stack;
 
-	pthread_attr_init(&small_stack);
-	pthread_attr_setstacksize(&small_stack, 2 * RTLOOP_STACK_BYTES);
-	pthread_setattr_default_np(&small_stack);
-	pthread_attr_destroy(&small_stack);
+		pthread_attr_init(&small_stack);
+		pthread_attr_setstacksize(&small_stack, 2 * RTLOOP_STACK_BYTES);
+		pthread_setattr_default_np(&small_stack);
+		pthread_attr_destroy(&small_stack);
+	}
 
 	lcm_t *lcm = lcm_create(cfg.lcm.url);
 

@@ -30,6 +30,17 @@ constexpr uint32_t kSync = 0xEDA1DA01u;
 constexpr size_t kHeader = 28;
 constexpr int32_t kMaxChannel = 256;  // LCM channel names are at most 63 characters
 
+// lcm-gen's C++ decoders throw (std::length_error) on a string length <= 0 instead of
+// returning an error: any exception is an undecodable message here.
+template <typename T>
+bool decode(T &msg, const uint8_t *data, int32_t len) {
+  try {
+    return msg.decode(data, 0, len) == len;
+  } catch (const std::exception &) {
+    return false;
+  }
+}
+
 uint32_t be32(const uint8_t *p) {
   return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | p[3];
 }
@@ -93,7 +104,7 @@ LogData read_log(const std::string &path) {
     ++d.events;
     if (ch == "OMNI4_MOTORS") {
       motors_t m{};
-      if (m.decode(data, 0, dlen) != dlen) {
+      if (!decode(m, data, dlen)) {
         ++d.undecodable;
         continue;
       }
@@ -112,14 +123,14 @@ LogData read_log(const std::string &path) {
       d.motors.push_back(s);
     } else if (ch == "OMNI4_POSE") {
       pose_t q{};
-      if (q.decode(data, 0, dlen) != dlen) {
+      if (!decode(q, data, dlen)) {
         ++d.undecodable;
         continue;
       }
       d.pose.push_back({q.utime, q.x, q.y, q.theta});
     } else if (ch == "OMNI4_EXPERIMENT") {
       experiment_t e{};
-      if (e.decode(data, 0, dlen) != dlen) {
+      if (!decode(e, data, dlen)) {
         ++d.undecodable;
         continue;
       }
