@@ -136,7 +136,6 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	}
 	}
 	c->last_cmd_us = now_us;
-	c->have_cmd = true;
 	c->warnings &= ~(OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT | OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
 	c->n.cmd_accepted++;
 	return 0;

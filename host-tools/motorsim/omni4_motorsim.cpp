@@ -5,7 +5,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cerrno>
 #include <csignal>
 #include <cmath>
@@ -148,17 +147,17 @@ int main(int argc, char **argv) {
       if (sc_os_send(fd, &f)) ++st.tx_dropped;
       else ++st.tx;
       if (tick % 10 == n) {
-        const can_health h{drv_faults, static_cast<float>(cfg.limits.supply_v), 30,
-                           static_cast<uint8_t>(drv_faults ? CAN_STATE_FAULT
-                                                : driven   ? CAN_STATE_ENABLED
-                                                           : CAN_STATE_DISABLED)};
-        // The command timeout is the board protecting itself, not a hardware fault: report
-        // it, but keep the state "disabled" so that the controller's own timeout logic rules.
-        can_health hh = h;
-        if (drv_faults == CAN_DRV_CMD_TIMEOUT) {
-          hh.faults = 0;
-          hh.state = CAN_STATE_DISABLED;
-        }
+        // The command timeout is the board protecting itself, not a hardware fault: it keeps
+        // the state "disabled" so that the controller's own timeout logic rules.
+        const bool self_off = drv_faults == CAN_DRV_CMD_TIMEOUT;
+        can_health hh{};
+        hh.faults = self_off ? 0 : drv_faults;
+        hh.supply_v = static_cast<float>(cfg.limits.supply_v);
+        hh.temp_c = 30;
+        hh.state = static_cast<uint8_t>(self_off     ? CAN_STATE_DISABLED
+                                        : drv_faults ? CAN_STATE_FAULT
+                                        : driven     ? CAN_STATE_ENABLED
+                                                     : CAN_STATE_DISABLED);
         can_encode_health(n, &hh, health_counter[n]++ & 0xF, &f);
         if (sc_os_send(fd, &f)) ++st.tx_dropped;
         else ++st.tx;

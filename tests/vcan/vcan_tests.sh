@@ -6,8 +6,8 @@ fail=0
 check() { if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); fi; }
 
 echo "VCAN: kernel $(uname -r), $(ip link show vcan0 | head -1)"
-# capture 40 frames while the robot moves
-(sleep 2; candump -L -n 40 vcan0 > /tmp/candump.log) &
+# capture 400 frames while the robot moves (at least a few CMD_VOLTAGE even when the VM is starved)
+(sleep 2; candump -L -n 400 vcan0 > /tmp/candump.log) &
 omni4-motorsim --iface vcan0 --replay-at 1.5 --corrupt-at 2.0 > /tmp/motorsim.log 2>&1 &
 MS=$!
 omni4-fw --config /omni4/vcan.ini > /tmp/fw.log 2>&1 &

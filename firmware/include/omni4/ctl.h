@@ -62,7 +62,6 @@ struct ctl {
 	int32_t present;        /* fault conditions seen in the last tick */
 	int32_t warnings;       /* non-latching bits */
 	int64_t last_cmd_us;    /* controller time of the last valid motion command */
-	bool have_cmd;
 	/* VELOCITY */
 	double vel_target[3];
 	double vel_ref[3];      /* shaped reference [m/s, m/s, rad/s] */
