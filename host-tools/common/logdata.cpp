@@ -45,6 +45,22 @@ uint32_t be32(const uint8_t *p) {
   return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | p[3];
 }
 
+// experiment_t carries two strings; lcm-gen's decoder computes `length - 1` on the raw
+// int32 (signed overflow for INT32_MIN) and throws for lengths <= 0. Check both length fields
+// first: fingerprint (8) and utime (8), then per string an int32 length (with the NUL) and
+// the bytes.
+bool experiment_strings_ok(const uint8_t *data, int32_t len) {
+  int64_t pos = 16;
+  for (int k = 0; k < 2; ++k) {
+    if (pos + 4 > len) return false;
+    const int32_t slen = static_cast<int32_t>(be32(data + pos));
+    pos += 4;
+    if (slen < 1 || slen > len - pos) return false;
+    pos += slen;
+  }
+  return true;
+}
+
 struct Mapping {
   const uint8_t *data = nullptr;
   size_t size = 0;
@@ -130,7 +146,7 @@ LogData read_log(const std::string &path) {
       d.pose.push_back({q.utime, q.x, q.y, q.theta});
     } else if (ch == "OMNI4_EXPERIMENT") {
       experiment_t e{};
-      if (!decode(e, data, dlen)) {
+      if (!experiment_strings_ok(data, dlen) || !decode(e, data, dlen)) {
         ++d.undecodable;
         continue;
       }
