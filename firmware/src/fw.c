@@ -6,6 +6,22 @@
 
 #include "omni4_motors_t.h"
 
+struct sim_motor_config fw_sim_motor_config(const struct omni4_config *cfg,
+					    const struct model_params *plant, bool noise)
+{
+	return (struct sim_motor_config){
+		.params = *plant,
+		.period_s = 1.0 / cfg->loop.rate_hz,
+		.supply_v = cfg->limits.supply_v,
+		.current_noise_a = noise ? cfg->sim.current_noise_a : 0.0,
+		.encoder_cpr = noise ? cfg->sim.encoder_cpr : 0,
+		.camera_rate_hz = cfg->sim.camera_rate_hz,
+		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
+		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
+		.seed = (uint64_t)cfg->sim.seed,
+	};
+}
+
 int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
 	    struct line_hal lines)
 {

@@ -148,17 +148,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	if (!strcmp(cfg.hal.motor, "sim")) {
-		const struct sim_motor_config sc = {
-			.params = cfg.model,
-			.period_s = 1.0 / cfg.loop.rate_hz,
-			.supply_v = cfg.limits.supply_v,
-			.current_noise_a = cfg.sim.current_noise_a,
-			.encoder_cpr = cfg.sim.encoder_cpr,
-			.camera_rate_hz = cfg.sim.camera_rate_hz,
-			.camera_pos_noise_m = cfg.sim.camera_pos_noise_m,
-			.camera_theta_noise_rad = cfg.sim.camera_theta_noise_rad,
-			.seed = (uint64_t)cfg.sim.seed,
-		};
+		const struct sim_motor_config sc = fw_sim_motor_config(&cfg, &cfg.model, true);
 
 		if (sim_motor_init(&app->sim, &sc)) {
 			fprintf(stderr, "omni4-fw: %s: invalid [sim] settings\n", config_path);

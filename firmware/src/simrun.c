@@ -70,17 +70,7 @@ struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_
 		snprintf(err, errlen, "out of memory");
 		return NULL;
 	}
-	const struct sim_motor_config sc = {
-		.params = *plant_params,
-		.period_s = 1.0 / cfg->loop.rate_hz,
-		.supply_v = cfg->limits.supply_v,
-		.current_noise_a = noise ? cfg->sim.current_noise_a : 0.0,
-		.encoder_cpr = noise ? cfg->sim.encoder_cpr : 0,
-		.camera_rate_hz = cfg->sim.camera_rate_hz,
-		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
-		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
-		.seed = (uint64_t)cfg->sim.seed,
-	};
+	const struct sim_motor_config sc = fw_sim_motor_config(cfg, plant_params, noise);
 
 	if (sim_motor_init(&sr->sim, &sc)) {
 		snprintf(err, errlen, "invalid simulated robot (parameters or [sim] settings)");

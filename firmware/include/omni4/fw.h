@@ -14,6 +14,7 @@
 #include "omni4/ctl.h"
 #include "omni4/hal.h"
 #include "omni4/ring.h"
+#include "omni4/sim_motor.h"
 
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz */
 #define FW_CMD_RING_SLOTS 64
@@ -56,6 +57,11 @@ struct fw {
 	struct ctl_command cmd_buf[FW_CMD_RING_SLOTS];
 	struct log_entry log_buf[FW_LOG_RING_SLOTS];
 };
+
+/* Start-up. Settings of the sim backend from the INI: the plant of `plant`, the [sim] sensor
+ * noise (or exact sensors when noise is false), the loop period and supply. */
+struct sim_motor_config fw_sim_motor_config(const struct omni4_config *cfg,
+					    const struct model_params *plant, bool noise);
 
 /* Start-up. Outputs are switched off. -EINVAL for a bad configuration. */
 int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
