@@ -64,11 +64,11 @@ int main(void)
 	else
 		fail++;
 	printf("cortex-m4: IK -> FK round trip %s\n", ok ? "ok" : "FAILED");
-	/* Cost of one tick's IK + feedforward: SysTick across 1000 calls. Under qemu -icount
-	 * virtual time advances per instruction, so SysTick counts instructions; the scale is
-	 * calibrated on a loop of 100 NOPs (an emulator count, not silicon cycles). */
+	/* Cost of one tick's IK + feedforward, fixed point and its double twin (soft double on this
+	 * core): SysTick across 1000 calls. Under qemu -icount virtual time advances per
+	 * instruction, so SysTick counts instructions; the scale is calibrated on a loop of 100
+	 * NOPs (an emulator count, not silicon cycles). */
 	volatile uint32_t *const syst = (volatile uint32_t *)0xE000E010;
-	q16_t u[4];
 
 	syst[1] = 0xFFFFFF; /* RVR */
 	syst[2] = 0;        /* CVR */
@@ -78,18 +78,29 @@ int main(void)
 	for (int n = 0; n < 1000; n++)
 		__asm volatile(".rept 100\n nop\n .endr");
 	const uint32_t cal = (c0 - syst[2]) & 0xFFFFFF; /* ticks for ~101000 instructions */
-	const uint32_t t0 = syst[2];
+	q16_t u[4];
+	uint32_t t0 = syst[2];
 
 	for (int n = 0; n < 1000; n++) {
 		ik_wheel_speeds_q16(ff.d, x, v);
 		ff_voltages_q16(&ff, x, x, u);
 	}
-	const uint32_t t1 = syst[2];
-	const uint32_t ticks = (t0 - t1) & 0xFFFFFF;
+	const uint32_t fixed_ticks = (t0 - syst[2]) & 0xFFFFFF;
+	const double xd[3] = {1.0, -0.5, 2.0};
+	double vd[4], ud[4];
 
-	printf("cortex-m4: IK + feedforward (Q16.16) per tick: %lu instructions (qemu -icount, "
-	       "calibrated on NOPs, incl. call and loop overhead)\n",
-	       (unsigned long)((uint64_t)ticks * 101000 / cal / 1000));
+	t0 = syst[2];
+	for (int n = 0; n < 100; n++) { /* 100 calls: keeps SysTick inside its 24 bits */
+		ik_wheel_speeds(model_params_table3.d, xd, vd);
+		ff_voltages(&model_params_table3, xd, xd, 12.0, ud);
+		__asm volatile("" ::"r"(vd), "r"(ud) : "memory");
+	}
+	const uint32_t double_ticks = (t0 - syst[2]) & 0xFFFFFF;
+
+	printf("cortex-m4: IK + feedforward per tick: Q16.16 %lu instructions, double twin %lu "
+	       "(qemu -icount, calibrated on NOPs, incl. call and loop overhead)\n",
+	       (unsigned long)((uint64_t)fixed_ticks * 101000 / cal / 1000),
+	       (unsigned long)((uint64_t)double_ticks * 101000 / cal / 100));
 	printf("%d passed, %d failed\n", pass, fail);
 	return fail ? 1 : 0;
 }

@@ -40,18 +40,19 @@ int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max)
 	const double kf = p->R * p->r / (p->l * p->Kt); /* [V/N] */
 	const double k4d = kf / (4.0 * p->d);
 	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
-	const double visc[3] = {kf * p->Bv / 2.0, kf * p->Bvn / 2.0, k4d * p->Bw};
+	const double kemf = p->Kv * p->l / p->r; /* [V/(m/s)] at the wheel rim */
+	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
+			       k4d * p->Bw + kemf * p->d};
 	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
 	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
 
 	ff->d = q16_from_double(p->d);
 	for (int k = 0; k < 3; k++) {
 		ff->k_acc[k] = q16_from_double(acc[k]);
-		ff->k_visc[k] = q16_from_double(visc[k]);
+		ff->k_vel[k] = q16_from_double(vel[k]);
 		ff->k_coul[k] = q16_from_double(coul[k]);
 		ff->sgn_gain[k] = (int32_t)lround(1.0 / band[k]);
 	}
-	ff->k_emf = q16_from_double(p->Kv * p->l / p->r);
 	ff->u_max = q16_from_double(u_max);
 	return 0;
 }

@@ -1,34 +1,37 @@
 /* feedforward_q16.c - the feedforward in Q16.16 (integer only: the fixed-point path). */
 #include "omni4/feedforward.h"
 
-#include "omni4/kinematics.h"
-
-/* Dead-banded sign in Q16.16: clamp(x * gain, -1, 1). */
-static q16_t sgn_q16(q16_t x, int32_t gain)
+/*
+ * Per axis k, in volts (Q16.16 held in int64_t, never saturated on the way):
+ *   h_k = k_acc[k] a_k + k_vel[k] v_k + k_coul[k] sgn(v_k)
+ * and per wheel (eq 2 with the w column folded into the gains):
+ *   u = [h1 + h2, h2 - h0, h2 - h1, h0 + h2], clamped to +-u_max.
+ * Bounds: every coefficient and input is an int32_t, so each rounded product is below 2^46 in
+ * magnitude (the sign term below 2^31), h_k below 2^48 and u_j below 2^49: int64_t cannot
+ * overflow for any input, and the one clamp at the end is the only saturation.
+ */
+static int64_t axis_volts(const struct ff_q16 *ff, int k, q16_t v, q16_t a)
 {
-	return q16_clamp(q16_mul_int(x, gain), -Q16_ONE, Q16_ONE);
+	int64_t sgn = (int64_t)v * ff->sgn_gain[k]; /* dead-banded sign, Q16.16 in [-1, 1] */
+
+	sgn = sgn > Q16_ONE ? Q16_ONE : (sgn < -Q16_ONE ? -Q16_ONE : sgn);
+	return q16_mul_wide(ff->k_acc[k], a) + q16_mul_wide(ff->k_vel[k], v) +
+	       q16_mul_wide(ff->k_coul[k], (q16_t)sgn);
+}
+
+static q16_t clamp_volts(int64_t u, q16_t u_max)
+{
+	return (q16_t)(u > u_max ? u_max : (u < -(int64_t)u_max ? -u_max : u));
 }
 
 void ff_voltages_q16(const struct ff_q16 *ff, const q16_t vel[3], const q16_t acc[3], q16_t u[4])
 {
-	q16_t g[3]; /* per-axis drive share, already in volts */
-	q16_t vw[4], uf[4];
+	const int64_t h0 = axis_volts(ff, 0, vel[0], acc[0]);
+	const int64_t h1 = axis_volts(ff, 1, vel[1], acc[1]);
+	const int64_t h2 = axis_volts(ff, 2, vel[2], acc[2]);
 
-	for (int k = 0; k < 3; k++) {
-		q16_t s = q16_mul(ff->k_acc[k], acc[k]);
-
-		s = q16_add(s, q16_mul(ff->k_visc[k], vel[k]));
-		s = q16_add(s, q16_mul(ff->k_coul[k], sgn_q16(vel[k], ff->sgn_gain[k])));
-		g[k] = s;
-	}
-	/* f_j = IK(d)[Fv/2, Fvn/2, T/(4d^2)] with d * T/(4d^2) = T/(4d): the w column is 1 here. */
-	uf[0] = q16_add(g[1], g[2]);
-	uf[1] = q16_sub(g[2], g[0]);
-	uf[2] = q16_sub(g[2], g[1]);
-	uf[3] = q16_add(g[0], g[2]);
-
-	ik_wheel_speeds_q16(ff->d, vel, vw);
-	for (int j = 0; j < 4; j++)
-		u[j] = q16_clamp(q16_add(uf[j], q16_mul(ff->k_emf, vw[j])), q16_neg(ff->u_max),
-				 ff->u_max);
+	u[0] = clamp_volts(h1 + h2, ff->u_max);
+	u[1] = clamp_volts(h2 - h0, ff->u_max);
+	u[2] = clamp_volts(h2 - h1, ff->u_max);
+	u[3] = clamp_volts(h0 + h2, ff->u_max);
 }

@@ -3,12 +3,15 @@
 
 void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4])
 {
-	const q16_t dw = q16_mul(d, x[2]);
+	/* d*w stays in int64_t (|.| <= 2^46): each wheel saturates once, and x is read once
+	 * (v_wheel may alias x). */
+	const int64_t dw = q16_mul_wide(d, x[2]);
+	const int64_t v = x[0], vn = x[1];
 
-	v_wheel[0] = q16_add(x[1], dw);
-	v_wheel[1] = q16_sub(dw, x[0]);
-	v_wheel[2] = q16_sub(dw, x[1]);
-	v_wheel[3] = q16_add(x[0], dw);
+	v_wheel[0] = q16_sat(vn + dw);
+	v_wheel[1] = q16_sat(dw - v);
+	v_wheel[2] = q16_sat(dw - vn);
+	v_wheel[3] = q16_sat(v + dw);
 }
 
 /* Halve a 64-bit Q16.16 value, rounding to nearest, and saturate. */

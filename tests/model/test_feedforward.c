@@ -71,6 +71,65 @@ static void test_ff_q16_within_bound_of_double_over_envelope(void **state)
 	assert_true(worst <= FF_Q16_BOUND_V);
 }
 
+/* The same sum in double from the Q16.16 gains: what the integer code must equal within its
+ * rounding (3 products per axis, 2 axes per wheel: 3 LSB), clamped once to +-u_max. */
+static double ff_q16_reference(const struct ff_q16 *ff, const q16_t vq[3], const q16_t aq[3],
+			       int j)
+{
+	double h[3];
+
+	for (int k = 0; k < 3; k++) {
+		double sgn = (double)vq[k] * ff->sgn_gain[k] / Q16_ONE;
+
+		sgn = sgn > 1 ? 1 : (sgn < -1 ? -1 : sgn);
+		h[k] = (q16_to_double(ff->k_acc[k]) * q16_to_double(aq[k]) +
+			q16_to_double(ff->k_vel[k]) * q16_to_double(vq[k]) +
+			q16_to_double(ff->k_coul[k]) * sgn);
+	}
+	const double u[4] = {h[1] + h[2], h[2] - h[0], h[2] - h[1], h[0] + h[2]};
+	const double um = q16_to_double(ff->u_max);
+
+	return u[j] > um ? um : (u[j] < -um ? -um : u[j]);
+}
+
+/* Any int32 input, up to the format's ends: no intermediate wraps (the sums are int64; UBSan
+ * in the asan preset would flag an overflow), and the result is the exact sum clamped once. */
+static void test_ff_q16_full_input_range_never_wraps(void **state)
+{
+	(void)state;
+	struct ff_q16 ff;
+	struct rng g;
+	const q16_t ends[5] = {Q16_MIN, -Q16_ONE, 0, Q16_ONE, Q16_MAX};
+	const int p5[6] = {1, 5, 25, 125, 625, 3125}; /* n < 5^6: every corner of the 6-D box */
+	double worst = 0;
+
+	assert_int_equal(ff_q16_init(&ff, P, 1000.0), 0); /* wide rail: the clamp rarely hides */
+	rng_seed(&g, 5);
+	for (int n = 0; n < 200000; n++) {
+		q16_t vq[3], aq[3], uq[4];
+
+		for (int k = 0; k < 3; k++) {
+			vq[k] = n < 15625 ? ends[(n / p5[k]) % 5]
+					  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
+			aq[k] = n < 15625 ? ends[(n / p5[k + 3]) % 5]
+					  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
+			if (n >= 15625 && (n & 1)) { /* half of them near the velocity envelope */
+				vq[k] >>= 12;
+				aq[k] >>= 12;
+			}
+		}
+		ff_voltages_q16(&ff, vq, aq, uq);
+		for (int j = 0; j < 4; j++) {
+			const double e = fabs(q16_to_double(uq[j]) - ff_q16_reference(&ff, vq, aq, j));
+
+			worst = e > worst ? e : worst;
+		}
+	}
+	print_message("feedforward q16 over the whole int32 input range: max |du| vs exact = %.3g "
+		      "LSB\n", worst * Q16_ONE);
+	assert_true(worst * Q16_ONE <= 3.0);
+}
+
 static void test_ff_clamps_to_supply(void **state)
 {
 	(void)state;
@@ -166,6 +225,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_ff_q16_within_bound_of_double_over_envelope),
+		cmocka_unit_test(test_ff_q16_full_input_range_never_wraps),
 		cmocka_unit_test(test_ff_clamps_to_supply),
 		cmocka_unit_test(test_ff_steady_velocity_is_an_equilibrium_of_eq23),
 		cmocka_unit_test(test_ff_alone_makes_the_plant_follow_a_profile),

@@ -158,11 +158,19 @@ static void test_q16_saturates_instead_of_wrapping(void **state)
 	const q16_t x[3] = {Q16_MAX, Q16_MIN, Q16_MAX};
 	q16_t v[4];
 
+	/* Each wheel is the exact sum, saturated once: d*w = 2^30 m/s dominates every row. */
 	ik_wheel_speeds_q16(Q16_MAX, x, v);
-	assert_int_equal(v[0], -1); /* MIN + sat(MAX * MAX) = MIN + MAX */
-	assert_int_equal(v[1], 0);
-	assert_int_equal(v[2], Q16_MAX);
-	assert_int_equal(v[3], Q16_MAX);
+	for (int j = 0; j < 4; j++)
+		assert_int_equal(v[j], Q16_MAX);
+	ik_wheel_speeds_q16(Q16_MAX, (q16_t[3]){Q16_MAX, Q16_MIN, Q16_MIN}, v);
+	for (int j = 0; j < 4; j++)
+		assert_int_equal(v[j], Q16_MIN);
+	/* d*w small: the rows saturate only where the exact value is out of range. */
+	ik_wheel_speeds_q16(Q16_ONE / 4, (q16_t[3]){Q16_MAX, Q16_MIN, 4 * Q16_ONE}, v);
+	assert_int_equal(v[0], Q16_MIN + Q16_ONE); /* -32768 + 1 */
+	assert_int_equal(v[1], Q16_ONE - Q16_MAX);  /* 1 - 32767.99998 */
+	assert_int_equal(v[2], Q16_MAX);           /* 1 + 32768 */
+	assert_int_equal(v[3], Q16_MAX);           /* 32767.99998 + 1 */
 }
 
 int main(void)

@@ -32,9 +32,9 @@ void ff_voltages(const struct model_params *p, const double vel[3], const double
 struct ff_q16 {
 	q16_t d;          /* [m] */
 	q16_t k_acc[3];   /* R r/(l Kt) * [M/2, M/2, J/(4d)]   [V/(m/s^2)], [V/(rad/s^2)] */
-	q16_t k_visc[3];  /* R r/(l Kt) * [Bv/2, Bvn/2, Bw/(4d)] */
+	q16_t k_vel[3];   /* R r/(l Kt) * [Bv/2, Bvn/2, Bw/(4d)] + Kv l/r * [1, 1, d]: viscous
+			   * friction and back-EMF, both linear in the velocity, in one gain */
 	q16_t k_coul[3];  /* R r/(l Kt) * [Cv/2, Cvn/2, Cw/(4d)] [V] */
-	q16_t k_emf;      /* Kv l / r [V/(m/s)] */
 	int32_t sgn_gain[3]; /* 1/band per axis (integer) */
 	q16_t u_max;      /* [V] */
 };
@@ -45,8 +45,8 @@ int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max);
 /*
  * ff_voltages_q16 - the feedforward in Q16.16 (integer only; runs in the fast loop).
  * Scaling and overflow: vel, acc in Q16.16 (|v| <= 32767 m/s by format); each term is one
- * q16_mul (Q32.32 accumulator, rounded); sums saturate; the result is clamped to +-u_max.
- * Over the envelope |v|,|vn| <= 3 m/s, |w| <= 20 rad/s, |a| <= 10 no intermediate saturates.
+ * q16_mul_wide (Q32.32 product rounded to Q16.16, kept in int64_t); the sums cannot overflow
+ * int64_t for any input, and the one saturation is the final clamp to +-u_max.
  */
 void ff_voltages_q16(const struct ff_q16 *ff, const q16_t vel[3], const q16_t acc[3], q16_t u[4]);
 

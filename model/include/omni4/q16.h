@@ -47,16 +47,24 @@ static inline q16_t q16_neg(q16_t a)
 }
 
 /*
+ * Q16.16 x Q16.16, rounded to nearest (ties upwards) but not saturated: the Q16.16 result
+ * stays in int64_t with |result| <= 2^46, so a handful of them can be summed without overflow
+ * and saturated once at the end.
+ */
+static inline int64_t q16_mul_wide(q16_t a, q16_t b)
+{
+	/* Right shift of a negative int64_t is arithmetic on every compiler omni4 targets (gcc,
+	 * clang: documented implementation-defined behaviour). */
+	return ((int64_t)a * b + ((int64_t)1 << (Q16_FRAC_BITS - 1))) >> Q16_FRAC_BITS;
+}
+
+/*
  * Scaling and overflow: Q16.16 x Q16.16 -> Q32.32 in int64_t (exact, |a*b| < 2^62), rounded
  * back to Q16.16 and saturated.
  */
 static inline q16_t q16_mul(q16_t a, q16_t b)
 {
-	/* Right shift of a negative int64_t is arithmetic on every compiler omni4 targets (gcc,
-	 * clang: documented implementation-defined behaviour). */
-	const int64_t p = (int64_t)a * b + ((int64_t)1 << (Q16_FRAC_BITS - 1));
-
-	return q16_sat(p >> Q16_FRAC_BITS);
+	return q16_sat(q16_mul_wide(a, b));
 }
 
 /* Multiply by a plain integer; saturating. */
