@@ -1,5 +1,6 @@
-/* log_check LOG: counts OMNI4_MOTORS in an LCM event log and checks seq continuity.
- * Prints "motors N, first seq A, last seq B, gaps G, duplicates D"; exit 0 if G = D = 0. */
+/* log_check LOG [--gaps]: counts OMNI4_MOTORS in an LCM event log and checks seq continuity.
+ * Prints "motors N, first seq A, last seq B, gaps G, duplicates D"; exit 0 if G = D = 0.
+ * --gaps also prints one line per gap: where it is (seq, log time) and how many are missing. */
 #include <lcm/eventlog.h>
 #include <stdio.h>
 #include <string.h>
@@ -8,8 +9,10 @@
 
 int main(int argc, char **argv)
 {
-	if (argc != 2) {
-		fprintf(stderr, "usage: log_check LOG\n");
+	const int show_gaps = argc == 3 && !strcmp(argv[2], "--gaps");
+
+	if (argc != 2 && !show_gaps) {
+		fprintf(stderr, "usage: log_check LOG [--gaps]\n");
 		return 2;
 	}
 	lcm_eventlog_t *log = lcm_eventlog_create(argv[1], "r");
@@ -18,7 +21,7 @@ int main(int argc, char **argv)
 		fprintf(stderr, "log_check: %s: cannot open\n", argv[1]);
 		return 2;
 	}
-	long long n = 0, gaps = 0, dups = 0, first = -1, last = -1;
+	long long n = 0, gaps = 0, dups = 0, first = -1, last = -1, t0 = -1;
 	lcm_eventlog_event_t *ev;
 
 	while ((ev = lcm_eventlog_read_next_event(log))) {
@@ -26,10 +29,17 @@ int main(int argc, char **argv)
 
 		if (!strcmp(ev->channel, "OMNI4_MOTORS") &&
 		    omni4_motors_t_decode(ev->data, 0, ev->datalen, &m) == ev->datalen) {
-			if (first < 0)
+			if (t0 < 0)
+				t0 = ev->timestamp;
+			if (first < 0) {
 				first = m.seq;
-			else if (m.seq > last + 1)
+			} else if (m.seq > last + 1) {
 				gaps += m.seq - last - 1;
+				if (show_gaps)
+					printf("gap: %lld missing after seq %lld (t = %.3f s)\n",
+					       (long long)m.seq - last - 1, last,
+					       (ev->timestamp - t0) * 1e-6);
+			}
 			else if (m.seq <= last)
 				dups++;
 			last = m.seq;
