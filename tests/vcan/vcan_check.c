@@ -9,16 +9,27 @@
  *   vcan_check fault S PID  keep commanding, SIGKILL the motor simulator PID after 0.5 s,
  *                        wait up to S seconds for FAULT with DRIVER_TIMEOUT; print the
  *                        detection time and check the outputs are off
+ *   vcan_check latency N IFACE  N VOLTAGE commands with distinct values at random phases:
+ *                        OMNI4_CMD publish -> the first CMD_VOLTAGE frame on IFACE carrying the
+ *                        new value (read on a raw CAN socket of our own); prints p50/p99/max
+ *                        (a figure, not asserted); fails only if a command never shows
  * Prints one "ok:" or "FAIL:" line with the figures; exit status 0 on success.
  */
 #include <lcm/lcm.h>
+#include <linux/can.h>
+#include <linux/can/raw.h>
 #include <math.h>
+#include <net/if.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include "omni4/can_proto.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 
@@ -71,20 +82,110 @@ static void on_motors(const lcm_recv_buf_t *rb, const char *ch, const omni4_moto
 	}
 }
 
+static int cmp_double(const void *a, const void *b)
+{
+	const double x = *(const double *)a, y = *(const double *)b;
+
+	return x < y ? -1 : x > y;
+}
+
+/* OMNI4_CMD -> CMD_VOLTAGE on the bus, through omni4-fw's real SocketCAN backend. */
+static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
+{
+	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
+	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	const struct can_filter flt = {.can_id = CAN_ID_CMD_VOLTAGE, .can_mask = CAN_SFF_MASK};
+	double *lat = calloc((size_t)n, sizeof(double));
+	int got = 0;
+
+	if (fd < 0 || !addr.can_ifindex || !lat ||
+	    setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, &flt, sizeof(flt)) ||
+	    bind(fd, (struct sockaddr *)&addr, sizeof(addr))) {
+		printf("FAIL: latency: cannot open a raw CAN socket on %s\n", iface);
+		free(lat);
+		return 1;
+	}
+	srand(7);
+	for (int k = 0; k < n; k++) {
+		const float v = 0.5f + 0.01f * (float)(k % 500);
+		const struct timespec phase = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
+		omni4_command_t c = {.seq = 1000000 + k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+				     .voltage = {v, v, v, v}};
+		struct can_frame cf;
+
+		nanosleep(&phase, NULL);
+		/* Drop the frames of earlier ticks: only a frame sent after the publish counts. */
+		for (struct pollfd p = {.fd = fd, .events = POLLIN}; poll(&p, 1, 0) > 0;)
+			if (read(fd, &cf, sizeof(cf)) <= 0)
+				break;
+		const double t0 = now_s();
+
+		omni4_command_t_publish(lcm, "OMNI4_CMD", &c);
+		while (now_s() - t0 < 0.2) {
+			struct pollfd p = {.fd = fd, .events = POLLIN};
+			struct omni4_can_frame f = {0};
+			float volts[4];
+			bool en;
+			uint8_t ctr;
+
+			if (poll(&p, 1, 50) <= 0 || read(fd, &cf, sizeof(cf)) != (ssize_t)sizeof(cf))
+				continue;
+			f.id = cf.can_id & CAN_SFF_MASK;
+			f.dlc = cf.can_dlc;
+			memcpy(f.data, cf.data, sizeof(f.data));
+			if (can_decode_cmd_voltage(&f, volts, &en, &ctr) == 0 &&
+			    fabsf(volts[0] - v) < 0.004f) {
+				lat[got++] = (now_s() - t0) * 1e6;
+				break;
+			}
+		}
+	}
+	close(fd);
+	qsort(lat, (size_t)got, sizeof(double), cmp_double);
+	if (got)
+		printf("%s: OMNI4_CMD -> CMD_VOLTAGE on %s: p50 %.0f p99 %.0f max %.0f us over %d of "
+		       "%d commands\n", got == n ? "ok" : "FAIL", iface, lat[got / 2],
+		       lat[(int)(0.99 * (got - 1))], lat[got - 1], got, n);
+	else
+		printf("FAIL: no command reached %s\n", iface);
+	free(lat);
+	return got == n ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
 	if (argc < 2) {
-		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID\n");
+		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
+				"latency N IFACE\n");
 		return 2;
 	}
 	const int track = !strcmp(argv[1], "track"), rate = !strcmp(argv[1], "rate");
 	const int clear = !strcmp(argv[1], "clear"), fault = !strcmp(argv[1], "fault");
+
+	if (!strcmp(argv[1], "latency")) {
+		const int n = argc > 3 ? atoi(argv[2]) : 0;
+		lcm_t *l = n > 0 ? lcm_create(NULL) : NULL;
+		int rc;
+
+		if (n <= 0 || n > 100000) {
+			fprintf(stderr, "usage: vcan_check latency N IFACE\n");
+			return 2;
+		}
+		if (!l) {
+			printf("FAIL: no LCM\n");
+			return 1;
+		}
+		rc = cmd_to_can_latency(l, n, argv[3]);
+		lcm_destroy(l);
+		return rc;
+	}
 	const double dur = clear ? 1.0 : (argc > 2 ? atof(argv[2]) : 0);
 	const int victim = fault && argc > 3 ? atoi(argv[3]) : 0;
 	const double min_hz = (track || rate) && argc > 3 ? atof(argv[3]) : 800.0;
 
 	if (!(track || rate || clear || fault) || !(dur > 0) || (fault && victim <= 0)) {
-		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID\n");
+		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
+				"latency N IFACE\n");
 		return 2;
 	}
 	lcm_t *lcm = lcm_create(NULL);
