@@ -1,4 +1,5 @@
-/* log_check LOG [--gaps]: counts OMNI4_MOTORS in an LCM event log and checks seq continuity.
+/* log_check [--gaps] LOG...: counts OMNI4_MOTORS in LCM event logs (several files are one
+ * stream, in the order given: the parts of a split log) and checks seq continuity.
  * Prints "motors N, first seq A, last seq B, gaps G, duplicates D"; exit 0 if G = D = 0.
  * --gaps also prints one line per gap: where it is (seq, log time) and how many are missing. */
 #include <lcm/eventlog.h>
@@ -9,45 +10,55 @@
 
 int main(int argc, char **argv)
 {
-	const int show_gaps = argc == 3 && !strcmp(argv[2], "--gaps");
+	int show_gaps = 0, nfiles = 0;
 
-	if (argc != 2 && !show_gaps) {
-		fprintf(stderr, "usage: log_check LOG [--gaps]\n");
-		return 2;
+	for (int i = 1; i < argc; i++) {
+		if (!strcmp(argv[i], "--gaps"))
+			show_gaps = 1;
+		else
+			nfiles++;
 	}
-	lcm_eventlog_t *log = lcm_eventlog_create(argv[1], "r");
-
-	if (!log) {
-		fprintf(stderr, "log_check: %s: cannot open\n", argv[1]);
+	if (!nfiles) {
+		fprintf(stderr, "usage: log_check [--gaps] LOG...\n");
 		return 2;
 	}
 	long long n = 0, gaps = 0, dups = 0, first = -1, last = -1, t0 = -1;
-	lcm_eventlog_event_t *ev;
 
-	while ((ev = lcm_eventlog_read_next_event(log))) {
-		omni4_motors_t m;
+	for (int i = 1; i < argc; i++) {
+		if (!strcmp(argv[i], "--gaps"))
+			continue;
+		lcm_eventlog_t *log = lcm_eventlog_create(argv[i], "r");
+		lcm_eventlog_event_t *ev;
 
-		if (!strcmp(ev->channel, "OMNI4_MOTORS") &&
-		    omni4_motors_t_decode(ev->data, 0, ev->datalen, &m) == ev->datalen) {
-			if (t0 < 0)
-				t0 = ev->timestamp;
-			if (first < 0) {
-				first = m.seq;
-			} else if (m.seq > last + 1) {
-				gaps += m.seq - last - 1;
-				if (show_gaps)
-					printf("gap: %lld missing after seq %lld (t = %.3f s)\n",
-					       (long long)m.seq - last - 1, last,
-					       (ev->timestamp - t0) * 1e-6);
-			}
-			else if (m.seq <= last)
-				dups++;
-			last = m.seq;
-			n++;
+		if (!log) {
+			fprintf(stderr, "log_check: %s: cannot open\n", argv[i]);
+			return 2;
 		}
-		lcm_eventlog_free_event(ev);
+		while ((ev = lcm_eventlog_read_next_event(log))) {
+			omni4_motors_t m;
+
+			if (!strcmp(ev->channel, "OMNI4_MOTORS") &&
+			    omni4_motors_t_decode(ev->data, 0, ev->datalen, &m) == ev->datalen) {
+				if (t0 < 0)
+					t0 = ev->timestamp;
+				if (first < 0) {
+					first = m.seq;
+				} else if (m.seq > last + 1) {
+					gaps += m.seq - last - 1;
+					if (show_gaps)
+						printf("gap: %lld missing after seq %lld (t = %.3f s)\n",
+						       (long long)m.seq - last - 1, last,
+						       (ev->timestamp - t0) * 1e-6);
+				} else if (m.seq <= last) {
+					dups++;
+				}
+				last = m.seq;
+				n++;
+			}
+			lcm_eventlog_free_event(ev);
+		}
+		lcm_eventlog_destroy(log);
 	}
-	lcm_eventlog_destroy(log);
 	printf("motors %lld, first seq %lld, last seq %lld, gaps %lld, duplicates %lld\n", n, first,
 	       last, gaps, dups);
 	return n > 0 && gaps == 0 && dups == 0 ? 0 : 1;

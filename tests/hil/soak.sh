@@ -1,17 +1,20 @@
 #!/usr/bin/env bash
 # Soak: omni4-fw (sim backend) at 1 kHz for OMNI4_SOAK_S seconds (default 30; 600 for the full
-# soak) through real LCM (udpm, ttl=0) into lcm-logger, with a command stream. Checks: every
-# sample logged (no seq gap), none dropped, RSS flat (no leak); prints the overruns.
+# soak) through real LCM (udpm, ttl=0) into lcm-logger and omni4-record (split into 1 MB parts)
+# side by side, with a command stream. Checks: every sample in both logs (no seq gap, across
+# the parts), none dropped, RSS flat (no leak); prints the overruns.
 set -u
 BIN=$1
 D=${OMNI4_SOAK_S:-30}
 T=$(mktemp -d)
 PORT=$((7900 + RANDOM % 200))
 URL="udpm://239.255.76.67:$PORT?ttl=0"
-trap 'kill $FW $LG $DR 2>/dev/null; rm -rf "$T"' EXIT
+trap 'kill $FW $LG $RC $DR 2>/dev/null; rm -rf "$T"' EXIT
 printf '[lcm]\nurl = %s\n' "$URL" > "$T/fw.ini"
 lcm-logger --lcm-url="$URL" -c OMNI4_MOTORS -f "$T/soak.lcmlog" >/dev/null 2>&1 &
 LG=$!
+"$BIN/omni4-record" --lcm "$URL" --channel OMNI4_MOTORS --split-mb 1 --out "$T/rec.lcmlog" -q &
+RC=$!
 sleep 0.5
 "$BIN/omni4-fw" --config "$T/fw.ini" --duration "$D" > "$T/fw.log" 2>&1 &
 FW=$!
@@ -26,11 +29,16 @@ rss1=$(rss)
 wait $FW
 kill -INT $DR 2>/dev/null; wait $DR 2>/dev/null
 sleep 0.5
-kill -INT $LG; wait $LG 2>/dev/null
+kill -INT $LG $RC; wait $LG 2>/dev/null; wait $RC; rrc=$?
 cat "$T/fw.log"
 check=$("$BIN/log_check" "$T/soak.lcmlog")
 crc=$?
-echo "log: $check"
+echo "lcm-logger log: $check"
+parts=$(ls "$T"/rec.lcmlog.* | wc -l)
+rcheck=$("$BIN/log_check" "$T"/rec.lcmlog.*)
+rcrc=$?
+echo "omni4-record log ($parts parts of ~1 MB): $rcheck"
+rmotors=$(sed -n 's/motors \([0-9]*\),.*/\1/p' <<<"$rcheck")
 ticks=$(sed -n 's/.*omni4-fw: \([0-9]*\) ticks.*/\1/p' "$T/fw.log")
 dropped=$(sed -n 's/.*log dropped \([0-9]*\).*/\1/p' "$T/fw.log")
 motors=$(sed -n 's/motors \([0-9]*\),.*/\1/p' <<<"$check")
@@ -40,6 +48,8 @@ fail=0
 [ "$crc" -eq 0 ] || { echo "FAIL: gaps or duplicates in the log"; fail=1; }
 [ "${dropped:-1}" -eq 0 ] || { echo "FAIL: samples dropped in the controller"; fail=1; }
 [ "${motors:-0}" -ge $(( ${ticks:-1} - 5 )) ] || { echo "FAIL: the logger missed samples"; fail=1; }
+[ "$rcrc" -eq 0 ] && [ "$rrc" -eq 0 ] && [ "${rmotors:-0}" -ge $(( ${ticks:-1} - 5 )) ] && [ "$parts" -ge 2 ] ||
+  { echo "FAIL: omni4-record: status $rrc, log check $rcrc, $rmotors of $ticks, $parts parts"; fail=1; }
 [ "$growth" -lt 512 ] || { echo "FAIL: RSS grew by $growth kB"; fail=1; }
 [ $fail -eq 0 ] && echo "1 passed, 0 failed" || echo "0 passed, 1 failed"
 exit $fail

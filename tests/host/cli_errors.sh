@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CLI contract of omni4-sim / omni4-ident on bad input: a clear one-line error, a non-zero
+# CLI contract of omni4-sim / omni4-ident / omni4-fw / omni4-record on bad input: a clear one-line error, a non-zero
 # status, and no half-written output file.
 set -u
 BIN=$1
@@ -55,6 +55,17 @@ printf '[lcm]\nurl = udpm://300.1.1.1:7667?ttl=0\n' > "$T/badlcm.ini"
 expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-fw" --config "$T/badlcm.ini" --duration 1
 # The packaged default config parses; it then asks for the robot's CAN interface.
 expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
+# omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
+expect 0 "usage" -- "$BIN/omni4-record" --help
+expect 2 "usage" -- "$BIN/omni4-record"
+expect 2 "duration: 'soon' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --duration soon
+expect 2 "split-mb: '0' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --split-mb 0
+echo keep > "$T/old.lcmlog"
+expect 1 "old.lcmlog exists; not overwriting it" -- "$BIN/omni4-record" --out "$T/old.lcmlog" --duration 1
+grep -qx keep "$T/old.lcmlog" || { echo "FAIL: old.lcmlog was touched"; fail=$((fail + 1)); }
+expect 1 "nodir/r.lcmlog: No such file or directory" -- "$BIN/omni4-record" --out "$T/nodir/r.lcmlog" --duration 1
+expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-record" --lcm "udpm://300.1.1.1:7667?ttl=0" --out "$T/r2.lcmlog" --duration 1
+[ -e "$T/r.lcmlog" ] || [ -e "$T/r2.lcmlog" ] && { echo "FAIL: omni4-record wrote a log despite the error"; fail=$((fail + 1)); }
 
 for f in p1 p2 p3 p4; do
   if ls "$T/$f.ini"* >/dev/null 2>&1; then

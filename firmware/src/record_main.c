@@ -1,0 +1,252 @@
+/*
+ * omni4-record - records LCM channels into an event log, on the robot or on a host.
+ *
+ * Like lcm-logger, with one difference that matters at loop rate: LCM keeps at most 30
+ * received-but-undelivered messages per subscription by default, so lcm-logger loses samples
+ * whenever its thread waits for the CPU longer than 30 messages last (1.5 ms at 20 kHz). Here
+ * the queue holds 100000 messages (5 s at 20 kHz, ~13 MB of OMNI4_MOTORS): a stall costs
+ * memory, not samples. The log is flushed once a second, so a power cut loses at most that.
+ * With --split-mb the log is a series FILE.00, FILE.01, ..., each closed once it holds the size
+ * given.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <lcm/eventlog.h>
+#include <lcm/lcm.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#define RECORD_QUEUE_MESSAGES 100000
+#define EVENT_HEADER_BYTES 28 /* sync word, event number, time, two lengths */
+
+static volatile sig_atomic_t g_stop;
+
+struct recorder {
+	lcm_eventlog_t *log; /* NULL once the next part of a series could not be opened */
+	char base[4000];     /* --out after strftime */
+	char path[4096];     /* the file being written */
+	int part;            /* -1: one file; else the NN of FILE.NN */
+	uint64_t split_bytes, bytes;
+	uint64_t written, errors;
+	int first_errno;
+};
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	g_stop = 1;
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+		"usage: omni4-record --out FILE [--lcm URL] [--channel REGEX] [--duration S]\n"
+		"                    [--split-mb MB] [-q]\n"
+		"Records LCM messages into an LCM event log (lcm-logplayer, omni4-ident read it),\n"
+		"with a 100000-message receive queue: a recorder that waits for the CPU or the disk\n"
+		"for a moment loses nothing.\n"
+		"  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are expanded;\n"
+		"                       an existing file is never overwritten\n"
+		"  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
+		"  -c, --channel REGEX  channels to record (default: OMNI4_.*)\n"
+		"  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
+		"  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
+		"                       holds MB megabytes\n"
+		"  -q, --quiet          no progress line\n"
+		"  -h, --help           this text\n"
+		"example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
+}
+
+/* Opens the one file, or the next one of the series; never over an existing file. */
+static int open_next(struct recorder *r)
+{
+	struct stat st;
+
+	if (r->part < 0)
+		snprintf(r->path, sizeof(r->path), "%s", r->base);
+	else
+		snprintf(r->path, sizeof(r->path), "%s.%02d", r->base, r->part);
+	if (stat(r->path, &st) == 0) {
+		fprintf(stderr, "omni4-record: %s exists; not overwriting it\n", r->path);
+		return -EEXIST;
+	}
+	r->log = lcm_eventlog_create(r->path, "w");
+	if (!r->log) {
+		const int e = errno;
+
+		fprintf(stderr, "omni4-record: %s: %s\n", r->path, strerror(e));
+		return -e;
+	}
+	r->bytes = 0;
+	return 0;
+}
+
+static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct recorder *r = user;
+	lcm_eventlog_event_t ev = {
+		.timestamp = rbuf->recv_utime,
+		.channellen = (int32_t)strlen(channel),
+		.datalen = (int32_t)rbuf->data_size,
+		.channel = (char *)channel,
+		.data = rbuf->data,
+	};
+
+	if (!r->log)
+		return;
+	if (lcm_eventlog_write_event(r->log, &ev) != 0) {
+		if (!r->errors)
+			r->first_errno = errno;
+		r->errors++;
+		return;
+	}
+	r->written++;
+	r->bytes += EVENT_HEADER_BYTES + (uint64_t)ev.channellen + (uint64_t)ev.datalen;
+	if (r->part >= 0 && r->bytes >= r->split_bytes) {
+		lcm_eventlog_destroy(r->log);
+		r->part++;
+		if (open_next(r)) {
+			r->log = NULL;
+			r->first_errno = r->errors ? r->first_errno : EIO;
+			r->errors++;
+			g_stop = 1;
+		}
+	}
+}
+
+static double mono_s(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+}
+
+/* Parses a positive number within [lo, hi]; false (and a one-line error) otherwise. */
+static bool parse_number(const char *opt, const char *arg, double lo, double hi, double *out)
+{
+	char *end;
+	const double v = strtod(arg, &end);
+
+	if (end == arg || *end || !(v >= lo && v <= hi)) {
+		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg, lo,
+			hi);
+		return false;
+	}
+	*out = v;
+	return true;
+}
+
+int main(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{"out", required_argument, NULL, 'o'},      {"lcm", required_argument, NULL, 'l'},
+		{"channel", required_argument, NULL, 'c'},  {"duration", required_argument, NULL, 'd'},
+		{"split-mb", required_argument, NULL, 's'}, {"quiet", no_argument, NULL, 'q'},
+		{"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0}};
+	static struct recorder r;
+	const char *out = NULL, *url = NULL, *channel = "OMNI4_.*";
+	double duration = 0, split_mb = 0;
+	bool quiet = false;
+	int c;
+
+	while ((c = getopt_long(argc, argv, "o:l:c:d:s:qh", opts, NULL)) != -1) {
+		switch (c) {
+		case 'o': out = optarg; break;
+		case 'l': url = optarg; break;
+		case 'c': channel = optarg; break;
+		case 'd':
+			if (!parse_number("duration", optarg, 1e-3, 1e9, &duration))
+				return 2;
+			break;
+		case 's':
+			if (!parse_number("split-mb", optarg, 0.01, 1e6, &split_mb))
+				return 2;
+			break;
+		case 'q': quiet = true; break;
+		case 'h': usage(stdout); return 0;
+		default: usage(stderr); return 2;
+		}
+	}
+	if (!out || optind != argc) {
+		usage(stderr);
+		return 2;
+	}
+	const time_t now = time(NULL);
+	struct tm tm;
+
+	r.part = split_mb > 0 ? 0 : -1;
+	r.split_bytes = (uint64_t)(split_mb * 1e6);
+	if (!localtime_r(&now, &tm) || !strftime(r.base, sizeof(r.base), out, &tm)) {
+		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n", out);
+		return 2;
+	}
+	lcm_t *lcm = lcm_create(url);
+
+	if (!lcm) {
+		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n", url ? url : "(default)");
+		return 1;
+	}
+	if (open_next(&r)) {
+		lcm_destroy(lcm);
+		return 1;
+	}
+	lcm_subscription_t *sub = lcm_subscribe(lcm, channel, record, &r);
+
+	if (!sub) {
+		fprintf(stderr, "omni4-record: cannot subscribe to '%s'\n", channel);
+		lcm_eventlog_destroy(r.log);
+		lcm_destroy(lcm);
+		return 1;
+	}
+	lcm_subscription_set_queue_capacity(sub, RECORD_QUEUE_MESSAGES);
+
+	struct sigaction sa = {.sa_handler = on_signal};
+
+	sigemptyset(&sa.sa_mask);
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	const bool tty = isatty(STDERR_FILENO);
+	const double t0 = mono_s();
+	double next_report = t0 + 1.0;
+	uint64_t last = 0;
+
+	if (!quiet)
+		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r.path, channel,
+			url ? url : "LCM's default URL");
+	while (!g_stop && !(duration > 0 && mono_s() - t0 >= duration)) {
+		lcm_handle_timeout(lcm, 50);
+		if (mono_s() < next_report)
+			continue;
+		if (r.log)
+			fflush(r.log->f);
+		if (!quiet)
+			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
+				tty ? "\r" : "", next_report - t0, (unsigned long long)r.written,
+				(unsigned long long)(r.written - last), tty ? "" : "\n");
+		last = r.written;
+		next_report += 1.0;
+	}
+	/* What LCM already holds is written before the log is closed. */
+	while (r.log && lcm_handle_timeout(lcm, 0) > 0)
+		;
+	lcm_unsubscribe(lcm, sub);
+	lcm_destroy(lcm);
+	if (r.log)
+		lcm_eventlog_destroy(r.log);
+	if (r.errors)
+		fprintf(stderr, "%somni4-record: %s: %llu messages written, %llu failed (%s)\n",
+			tty && !quiet ? "\n" : "", r.path, (unsigned long long)r.written,
+			(unsigned long long)r.errors, strerror(r.first_errno));
+	else if (!quiet)
+		fprintf(stderr, "%somni4-record: %s%s: %llu messages\n", tty ? "\n" : "", r.base,
+			r.part >= 0 ? ".NN" : "", (unsigned long long)r.written);
+	return r.errors ? 1 : 0;
+}
