@@ -222,7 +222,12 @@ int main(int argc, char **argv)
 		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r.path, channel,
 			url ? url : "LCM's default URL");
 	while (!g_stop && !(duration > 0 && mono_s() - t0 >= duration)) {
-		lcm_handle_timeout(lcm, 50);
+		if (lcm_handle_timeout(lcm, 50) < 0) {
+			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
+			r.first_errno = r.errors ? r.first_errno : EIO;
+			r.errors++;
+			break;
+		}
 		if (mono_s() < next_report)
 			continue;
 		if (r.log)
