@@ -222,7 +222,8 @@ int main(int argc, char **argv)
 		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r.path, channel,
 			url ? url : "LCM's default URL");
 	while (!g_stop && !(duration > 0 && mono_s() - t0 >= duration)) {
-		if (lcm_handle_timeout(lcm, 50) < 0) {
+		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to stop */
+		if (lcm_handle_timeout(lcm, 50) < 0 && !g_stop && errno != EINTR) {
 			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
 			r.first_errno = r.errors ? r.first_errno : EIO;
 			r.errors++;
