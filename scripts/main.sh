@@ -28,7 +28,7 @@ echo "== 1. simulated robot runs the paper's experiments =="
 echo
 echo "== 2. identification (true values: Table III) =="
 "$BIN/omni4-ident" identify --robot "$OUT/base.ini" --out "$OUT/params.ini" \
-  --truth "$OUT/table3.ini" --csv "$OUT/csv" "$OUT/sim.lcmlog"
+  --truth "$OUT/table3.ini" --bootstrap 200 --csv "$OUT/csv" "$OUT/sim.lcmlog"
 echo
 echo "== 3. validation: identified vs Table III parameters, beside the paper's Table IV =="
 "$BIN/omni4-ident" validate --params "$OUT/params.ini" --params "$OUT/table3.ini" \

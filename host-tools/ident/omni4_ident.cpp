@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bootstrap.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "runner.hpp"
@@ -196,8 +197,40 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
   (void)r.final;
 }
 
+void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs) {
+  std::printf("\nbootstrap: %d replicates of the %zu runs, resampled within each experiment kind "
+              "and direction (%d could not be identified and were skipped)\n",
+              b.replicates, runs, b.failed);
+  std::printf("%-5s %12s %12s %12s %25s\n", "param", "final", "SE analytic", "SE bootstrap",
+              "95 % interval (bootstrap)");
+  for (const char *p : kIdentParams) {
+    const auto it = b.final.find(p);
+    const Estimate &e = r.table.at("final").at(p);
+    if (it == b.final.end()) {
+      std::printf("%-5s %12.5g %12.2g %12s\n", p, e.value, e.se, "-");
+      continue;
+    }
+    std::printf("%-5s %12.5g %12.2g %12.2g   [%10.5g, %10.5g]\n", p, e.value, e.se, it->second.se,
+                it->second.lo95, it->second.hi95);
+  }
+}
+
+void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const BootstrapResult &b) {
+  ensure_dir(dir);
+  auto f = open_csv(dir, "bootstrap.csv");
+  f << "param,final,se_analytic,se_bootstrap,lo95,hi95\n";
+  for (const auto &[p, s] : b.final) {
+    const Estimate &e = r.table.at("final").at(p);
+    f << p << ',' << e.value << ',' << e.se << ',' << s.se << ',' << s.lo95 << ',' << s.hi95 << '\n';
+  }
+  auto g = open_csv(dir, "bootstrap_samples.csv");
+  g << "param,value\n";
+  for (const auto &[p, xs] : b.samples)
+    for (double x : xs) g << p << ',' << x << '\n';
+}
+
 int cmd_identify(const std::string &robot, const std::string &out, const std::string &truth_path,
-                 const std::string &csv, const std::string &source,
+                 const std::string &csv, const std::string &source, int boot_n,
                  const std::vector<std::string> &paths) {
   const model_params base = load_params(robot, true);
   model_params truth{};
@@ -217,8 +250,19 @@ int cmd_identify(const std::string &robot, const std::string &out, const std::st
   for (const auto &[k, n] : r.segments_used) std::printf(" %s %zu", k.c_str(), n);
   std::printf("; robot velocities from the %s\n", source.c_str());
   print_table(r, truth_path.empty() ? nullptr : &truth);
+  BootstrapResult boot;
+  if (boot_n > 0) {
+    const bool tty = isatty(STDERR_FILENO);
+    boot = bootstrap_runs(segs, base, opt, boot_n, 1, [&](int done, int total) {
+      if (tty || done == total)
+        std::fprintf(stderr, "%somni4-ident: bootstrap %d/%d%s", tty ? "\r" : "", done, total,
+                     done == total ? "\n" : "");
+    });
+    print_bootstrap(r, boot, segs.size());
+  }
   write_params(out, r.final, "omni4-ident identify from " + std::to_string(paths.size()) + " log(s)");
   if (!csv.empty()) export_ident_csv(csv, r, truth_path.empty() ? nullptr : &truth);
+  if (!csv.empty() && boot_n > 0) export_bootstrap_csv(csv, r, boot);
   std::printf("wrote %s\n", out.c_str());
   return 0;
 }
@@ -305,6 +349,10 @@ int main(int argc, char **argv) {
   id->add_option("--truth", truth, "known parameters (simulation): print the error of each");
   id->add_option("--csv", csv, "export every segment and fit as CSV into this folder");
   id->add_option("--velocity", source, "robot velocity source: encoder (default) or camera");
+  int boot_n = 0;
+  id->add_option("--bootstrap", boot_n, "also estimate the uncertainty by resampling whole runs, "
+                                        "N replicates (0: off)")
+      ->check(CLI::Range(0, 100000))->capture_default_str();
   id->add_option("logs", logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
 
   auto *va = app.add_subcommand("validate", "simulate the model on the logged inputs (Table IV)");
@@ -329,7 +377,7 @@ int main(int argc, char **argv) {
       ->check(CLI::Range(0.2, 60.0))->capture_default_str();
 
   OMNI4_CLI_PARSE(app, argc, argv);
-  if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, logs);
+  if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, boot_n, logs);
   if (va->parsed()) return cmd_validate(params, json, vcsv, vlogs);
   if (ru->parsed()) return run_experiments(ropt);
   return 2;

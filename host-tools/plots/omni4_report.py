@@ -5,7 +5,8 @@ usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json]
 
 CSV_DIR holds what `omni4-ident identify --csv DIR` and `omni4-ident validate --csv DIR` wrote.
 Figures follow the paper: T vs w (exp 1, fig 4a), coast-down with its fit (exp 2, fig 4b),
-u/i vs w_m/i per motor (motor test, fig 5), measured vs simulated v, vn, w (figs 6-7).
+u/i vs w_m/i per motor (motor test, fig 5), measured vs simulated v, vn, w (figs 6-7), and,
+when `identify --bootstrap N` ran, the bootstrap distribution of every final parameter.
 """
 import argparse
 import csv
@@ -111,6 +112,41 @@ def fig_motor(rows, params, out):
     return name
 
 
+PARAMS = ["Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"]
+
+
+def fig_bootstrap(samples, summary, out):
+    """Histogram of the bootstrap replicates per parameter, final value and 95 % interval."""
+    if not samples:
+        return None
+    by_param = defaultdict(list)
+    for r in samples:
+        by_param[r["param"]].append(float(r["value"]))
+    info = {r["param"]: r for r in summary}
+    fig, axes = plt.subplots(3, 3, figsize=(9, 7))
+    for ax, p in zip(axes.flat, PARAMS):
+        x = by_param.get(p)
+        if not x:
+            ax.set_axis_off()
+            continue
+        ax.hist(x, bins=20, color="0.7")
+        if p in info:
+            ax.axvline(float(info[p]["final"]), color="C3", label="final")
+            for edge in ("lo95", "hi95"):
+                ax.axvline(float(info[p][edge]), color="C0", ls="--", lw=1)
+        ax.set_title(p, fontsize=9)
+        ax.tick_params(labelsize=7)
+        ax.locator_params(axis="x", nbins=4)
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
+    fig.suptitle("Bootstrap over runs: replicates, final value (red), 95 % interval (dashed)",
+                 fontsize=10)
+    fig.tight_layout()
+    name = "bootstrap.png"
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
 def fig_validation(rows, out):
     names = []
     by_dir = defaultdict(lambda: defaultdict(list))
@@ -160,6 +196,9 @@ def main():
                              a.out_dir))
     figs += fig_coast(read_csv(os.path.join(a.csv_dir, "coast_curves.csv")), a.out_dir)
     figs += fig_validation(read_csv(os.path.join(a.csv_dir, "validation.csv")), a.out_dir)
+    boot = read_csv(os.path.join(a.csv_dir, "bootstrap.csv"))
+    figs.append(fig_bootstrap(read_csv(os.path.join(a.csv_dir, "bootstrap_samples.csv")), boot,
+                              a.out_dir))
     figs = [f for f in figs if f]
 
     lines = ["# omni4 identification report", ""]
@@ -168,12 +207,23 @@ def main():
         present = [m for m in methods if any(m in params[p] for p in params)]
         lines.append("| param | " + " | ".join(present) + " |")
         lines.append("|---" * (len(present) + 1) + "|")
-        for p in ["Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"]:
+        for p in PARAMS:
             cells = []
             for m in present:
                 v = params.get(p, {}).get(m)
                 cells.append("" if v is None else f"{v[0]:.4g}")
             lines.append(f"| {p} | " + " | ".join(cells) + " |")
+        lines.append("")
+    if boot:
+        lines += ["## Uncertainty of the final values", "",
+                  "Analytic: from the regression residuals. Bootstrap: whole runs resampled "
+                  "within each experiment kind and direction.", "",
+                  "| param | final | SE analytic | SE bootstrap | 95 % interval (bootstrap) |",
+                  "|---|---|---|---|---|"]
+        for r in boot:
+            lines.append(f"| {r['param']} | {float(r['final']):.5g} | "
+                         f"{float(r['se_analytic']):.2g} | {float(r['se_bootstrap']):.2g} | "
+                         f"[{float(r['lo95']):.5g}, {float(r['hi95']):.5g}] |")
         lines.append("")
     if a.json and os.path.exists(a.json):
         with open(a.json) as f:

@@ -44,6 +44,7 @@ expect 1 "no experiment segments" -- "$BIN/omni4-ident" identify --robot "$T/bas
 expect 1 "no 'motor' segments" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p2.ini" "$T/short.lcmlog"
 expect 2 "must give the measured 'r'" -- "$BIN/omni4-ident" identify --robot "$T/nomass.ini" --out "$T/p3.ini" "$T/full.lcmlog"
 expect 1 "No such file" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" "$T/missing.lcmlog"
+expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" --bootstrap -3 "$T/full.lcmlog"
 expect 2 "invalid value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"

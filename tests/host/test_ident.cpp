@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <random>
 #include <string>
 
+#include "bootstrap.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "regression.hpp"
@@ -152,6 +154,77 @@ TEST(Identification, PerturbedRobotsWithinFivePercent) {
                 "Cvn %.3f Cw %.4f\n",
                 k, p.R, p.Kv, p.J, p.Bv, p.Bvn, p.Bw, p.Cv, p.Cvn, p.Cw);
     identify_robot(p, 100 + k, 0.05);
+  }
+}
+
+LogData simulated_log(unsigned seed) {
+  omni4_config cfg;
+  config_defaults(&cfg);
+  cfg.sim.seed = static_cast<int>(seed);
+  const std::string log = temp_path(".lcmlog");
+  run_simulation(cfg, cfg.model, true, log, true, 0, 0);
+  LogData d = read_log(log);
+  std::remove(log.c_str());
+  return d;
+}
+
+TEST(Bootstrap, SameSeedSameResultAndUnidentifiableReplicatesAreCounted) {
+  const LogData d = simulated_log(1);
+  const auto segs = split_segments(d);
+  const model_params base = base_of(model_params_table3);
+  const BootstrapResult a = bootstrap_runs(segs, base, {}, 24, 7);
+  const BootstrapResult b = bootstrap_runs(segs, base, {}, 24, 7);
+  const BootstrapResult c = bootstrap_runs(segs, base, {}, 24, 8);
+  ASSERT_EQ(a.final.size(), 9u);
+  EXPECT_EQ(a.failed, 0);
+  int differs = 0;
+  for (const char *p : kIdentParams) {
+    EXPECT_EQ(a.final.at(p).se, b.final.at(p).se) << p;  // independent of thread timing
+    EXPECT_EQ(a.samples.at(p), b.samples.at(p)) << p;
+    EXPECT_LE(a.final.at(p).lo95, a.final.at(p).hi95) << p;
+    differs += a.final.at(p).se != c.final.at(p).se;
+  }
+  EXPECT_GT(differs, 0);  // the seed is used
+  // Without coast-downs nothing can be identified: every replicate is skipped and counted.
+  std::vector<Segment> no_coast;
+  for (const Segment &s : segs)
+    if (s.kind != "coast") no_coast.push_back(s);
+  const BootstrapResult e = bootstrap_runs(no_coast, base, {}, 6, 7);
+  EXPECT_EQ(e.failed, 6);
+  EXPECT_TRUE(e.final.empty());
+}
+
+// Kv and R (motor runs, noisy currents) and Bw, Cw (steady rotation, torque from the noisy
+// currents) vary with the simulation's sensor noise: for them the bootstrap over the runs of
+// one log must match the spread over independent logs (other noise seeds) within a factor of
+// 3. The others come from encoder speeds and commanded voltages, which the noise does not
+// touch (quantisation is deterministic): their spread over seeds is ~0, and their bootstrap SE
+// shows how much the runs of one log disagree instead. They are printed, not asserted.
+TEST(Bootstrap, RunResamplingMatchesTheSpreadOverIndependentLogs) {
+  const model_params base = base_of(model_params_table3);
+  const LogData d = simulated_log(1);
+  const IdentResult r = identify(split_segments(d), base);
+  const BootstrapResult boot = bootstrap_runs(split_segments(d), base, {}, 100, 3);
+  std::map<std::string, std::vector<double>> over_seeds;
+  for (unsigned seed = 11; seed < 19; ++seed) {
+    const LogData di = simulated_log(seed);
+    const IdentResult ri = identify(split_segments(di), base);
+    for (const char *p : kIdentParams) over_seeds[p].push_back(ri.table.at("final").at(p).value);
+  }
+  for (const char *p : kIdentParams) {
+    const auto &x = over_seeds[p];
+    double mean = 0, ss = 0;
+    for (double v : x) mean += v / static_cast<double>(x.size());
+    for (double v : x) ss += (v - mean) * (v - mean);
+    const double sd = std::sqrt(ss / static_cast<double>(x.size() - 1));
+    const double se = boot.final.at(p).se;
+    std::printf("  %-4s SE analytic %.2g, bootstrap %.2g; sd over 8 independent logs %.2g\n", p,
+                r.table.at("final").at(p).se, se, sd);
+    const std::string name = p;
+    if (name == "Kv" || name == "R" || name == "Bw" || name == "Cw") {
+      EXPECT_GT(se, sd / 3) << p;
+      EXPECT_LT(se, sd * 3) << p;
+    }
   }
 }
 
