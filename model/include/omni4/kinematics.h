@@ -21,8 +21,8 @@ void frame_robot_to_world(double theta, const double x_robot[3], double x_world[
 
 /*
  * ik_wheel_speeds_q16 - eq 2 in Q16.16.
- * Scaling and overflow: x and d in Q16.16; d*w formed in int64 and rounded (q16_mul); each sum
- * saturates at +-32768 m/s (far outside any wheel speed).
+ * Scaling and overflow: x and d in Q16.16; d*w formed in int64 and rounded (q16_mul_wide);
+ * each wheel's exact sum saturates once at +-32768 m/s (far outside any wheel speed).
  */
 void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4]);
 
