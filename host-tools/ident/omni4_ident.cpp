@@ -219,8 +219,11 @@ void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const Bo
   ensure_dir(dir);
   auto f = open_csv(dir, "bootstrap.csv");
   f << "param,final,se_analytic,se_bootstrap,lo95,hi95\n";
-  for (const auto &[p, s] : b.final) {
+  for (const char *p : kIdentParams) {  // the table's order
+    const auto it = b.final.find(p);
+    if (it == b.final.end()) continue;
     const Estimate &e = r.table.at("final").at(p);
+    const BootstrapStats &s = it->second;
     f << p << ',' << e.value << ',' << e.se << ',' << s.se << ',' << s.lo95 << ',' << s.hi95 << '\n';
   }
   auto g = open_csv(dir, "bootstrap_samples.csv");
