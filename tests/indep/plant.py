@@ -1,0 +1,258 @@
+"""Independent plant of the four-wheeled omni-directional robot (Oliveira et al.).
+
+Written from the paper's equations only (no code shared with the project's model):
+
+* kinematics (eq 2): wheel linear speeds v_j = IK x, x = [v, vn, w] in the robot frame;
+* DC motors (eq 21, inductance neglected): i_j = (u_j - Kv l v_j / r) / R while the bridges are
+  driven (modes VOLTAGE, VELOCITY); i_j = 0 with the bridges disabled (IDLE, COAST, FAULT, ESTOP);
+* wheel forces f_j = l Kt i_j / r (eqs 12-13), robot forces Fv = f3 - f1, Fvn = f0 - f2,
+  T = d (f0 + f1 + f2 + f3) (eqs 9-11);
+* dynamics (eqs 6-8) with viscous (B) and Coulomb (C) friction and stiction, plus an external
+  force / torque (a hand push).
+
+Integration: within one loop tick the voltage is held (zero-order hold, as the controller applies
+it) and the external force is taken at the tick's midpoint, so every axis obeys the linear ODE
+m dx/dt = F - Beff x - C s with constant coefficients and the sign s of the motion. That ODE is
+solved exactly (exponential); a zero crossing inside a tick is located exactly, and from rest the
+axis breaks away only if the applied force exceeds C. Arrays carry a leading robot axis, so any
+number of robots advance in one pass.
+
+Units: SI throughout (m, s, rad, V, A, N, N m, kg, kg m^2); utime in microseconds.
+"""
+import numpy as np
+
+MODE_IDLE, MODE_VELOCITY, MODE_VOLTAGE, MODE_COAST = 0, 1, 2, 3
+DRIVEN_MODES = (MODE_VELOCITY, MODE_VOLTAGE)
+AXES = ("v", "vn", "w")
+SUPPLY_V = 12.0
+
+#: The paper's Table III robot.
+TABLE_III = {
+    "d": 0.089, "r": 0.0325, "l": 5.0, "Kv": 0.0259, "Kt": 0.0259, "R": 4.3111,
+    "M": 2.34, "J": 0.0228, "Bv": 0.4978, "Bvn": 0.6763, "Bw": 0.0141,
+    "Cv": 1.8738, "Cvn": 2.2198, "Cw": 0.1385,
+}
+#: Parameters drawn per robot as Table III times an independent U(0.7, 1.3) factor (Kt = Kv).
+SCALED = ("J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw", "R", "Kv", "M")
+MODEL_KEYS = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
+
+#: Voltage per volt of drive along each axis (motor order 0..3).
+PATTERNS = {"v": (0.0, -1.0, 0.0, 1.0), "vn": (1.0, 0.0, -1.0, 0.0), "w": (1.0, 1.0, 1.0, 1.0)}
+
+CURRENT_NOISE_A = 0.02
+CAMERA_XY_NOISE_M = 0.01
+CAMERA_THETA_NOISE_RAD = 0.052
+CAMERA_RATE_HZ = 25.0
+
+
+def robot_params(seed, k):
+    """Parameters of robot k for a seed: dict of floats (SI units), deterministic per (seed, k)."""
+    rng = np.random.default_rng([int(seed), int(k), 7001])
+    factors = rng.uniform(0.7, 1.3, size=len(SCALED))
+    p = dict(TABLE_III)
+    for name, f in zip(SCALED, factors):
+        p[name] = TABLE_III[name] * float(f)
+    p["Kt"] = p["Kv"]
+    return p
+
+
+def stack_params(plist):
+    """List of parameter dicts -> dict of arrays with a leading robot axis."""
+    return {key: np.array([p[key] for p in plist], dtype=float) for key in MODEL_KEYS}
+
+
+def ik_matrix(d):
+    """Inverse kinematics (eq 2): 4x3 matrix, wheel linear speeds [m/s] = IK @ [v, vn, w]."""
+    return np.array([[0.0, 1.0, d], [-1.0, 0.0, d], [0.0, -1.0, d], [1.0, 0.0, d]])
+
+
+def force_matrix(d):
+    """Eqs 9-11: 3x4 matrix, [Fv, Fvn, T] = FM @ wheel forces [N]."""
+    return np.array([[0.0, -1.0, 0.0, 1.0], [1.0, 0.0, -1.0, 0.0], [d, d, d, d]])
+
+
+def axis_model(p):
+    """Per-axis coefficients of the robot-frame dynamics, arrays with a leading robot axis.
+
+    Returns dict: m (n,3) mass / inertia [kg, kg, kg m^2]; B (n,3) viscous friction; C (n,3)
+    Coulomb friction [N, N, N m]; K (n,3) back-EMF damping added while driven (same units as B);
+    G (n,3,4) drive gain [N/V, N/V, N m/V]. Driven: F = G u - K x; the motor and wheel
+    equations give these once IK and FM are combined; the check below confirms that the three
+    axes decouple (FM IK is diagonal), which is what lets each axis be solved on its own.
+    """
+    n = len(p["d"])
+    m = np.stack([p["M"], p["M"], p["J"]], axis=1)
+    B = np.stack([p["Bv"], p["Bvn"], p["Bw"]], axis=1)
+    C = np.stack([p["Cv"], p["Cvn"], p["Cw"]], axis=1)
+    K = np.empty((n, 3))
+    G = np.empty((n, 3, 4))
+    for i in range(n):
+        d, r, l = p["d"][i], p["r"][i], p["l"][i]
+        FM, IK = force_matrix(d), ik_matrix(d)
+        gain = l * p["Kt"][i] / (r * p["R"][i])          # wheel force per volt [N/V]
+        emf = gain * p["Kv"][i] * l / r                   # wheel force per wheel speed [N s/m]
+        D = FM @ IK * emf
+        if np.max(np.abs(D - np.diag(np.diag(D)))) > 1e-12 * np.max(np.abs(D)):
+            raise ValueError("robot-frame dynamics do not decouple")
+        K[i] = np.diag(D)
+        G[i] = FM * gain
+    return {"m": m, "B": B, "C": C, "K": K, "G": G}
+
+
+# ---- closed forms (planning the experiments and the self-test) ------------------------------
+
+def steady_state(model, i, u):
+    """Steady robot velocity [v, vn, w] of robot i under constant voltages u (4,) [V]."""
+    F = model["G"][i] @ np.asarray(u, float)
+    C, Beff = model["C"][i], model["B"][i] + model["K"][i]
+    return np.where(np.abs(F) > C, (F - C * np.sign(F)) / Beff, 0.0)
+
+
+def time_constant(model, i, driven):
+    """Time constants per axis (3,) [s] of robot i, driven (back-EMF damping) or coasting."""
+    return model["m"][i] / (model["B"][i] + (model["K"][i] if driven else 0.0))
+
+
+def stop_time(model, i, x0):
+    """Coast-down time [s] per axis from speeds x0 (3,) with the bridges off: (m/B) ln(1+B|x0|/C)."""
+    m, B, C = model["m"][i], model["B"][i], model["C"][i]
+    return (m / B) * np.log1p(B * np.abs(np.asarray(x0, float)) / C)
+
+
+# ---- integration ------------------------------------------------------------------------------
+
+def _cross_tick(x, F, C, m, Beff, dt):
+    """One axis, one tick, motion that reaches zero inside the tick: exact, scalar.
+
+    Returns (velocity at the tick's end, its integral over the tick). After the stop the axis
+    stays at rest unless |F| > C, in which case it restarts in the direction of F.
+    """
+    a = Beff / m
+    s = np.sign(x)
+    xss = (F - C * s) / Beff
+    tstar = -np.log(xss / (xss - x)) / a
+    tstar = min(max(tstar, 0.0), dt)
+    integ = xss * tstar + (x - xss) * (1.0 - np.exp(-a * tstar)) / a
+    rem = dt - tstar
+    if abs(F) > C and rem > 0.0:
+        xss2 = (F - C * np.sign(F)) / Beff
+        e = np.exp(-a * rem)
+        return xss2 * (1.0 - e), integ + xss2 * rem - xss2 * (1.0 - e) / a
+    return 0.0, integ
+
+
+def integrate(model, u, driven, fext, dt, x0=None):
+    """Advance n robots through T ticks of length dt [s].
+
+    u (T,n,4) [V] applied during each tick (already clamped); driven (T,n) bool bridges on;
+    fext (T,n,3) external [N, N, N m] at each tick's midpoint; x0 (n,3) initial velocity.
+    Returns x (T+1,n,3) velocity at the tick boundaries and X (T,n,3) its integral over each tick
+    (displacement [m, m, rad] in the robot frame).
+    """
+    T, n = driven.shape
+    m, B, C, K = model["m"], model["B"], model["C"], model["K"]
+    F = np.einsum("nak,tnk->tna", model["G"], u.astype(float))
+    F = np.where(driven[:, :, None], F, 0.0) + fext
+    Beff = B[None] + driven[:, :, None] * K[None]
+    a = Beff / m[None]
+    E = np.exp(-a * dt)
+    Q = (1.0 - E) / a
+    x_all = np.empty((T + 1, n, 3))
+    X_all = np.empty((T, n, 3))
+    x = np.zeros((n, 3)) if x0 is None else np.array(x0, float)
+    x_all[0] = x
+    for k in range(T):
+        Fk, Bk = F[k], Beff[k]
+        s = np.sign(x)
+        s_eff = np.where(s == 0.0, np.where(np.abs(Fk) > C, np.sign(Fk), 0.0), s)
+        xss = (Fk - C * s_eff) / Bk
+        dx = x - xss
+        xn = xss + dx * E[k]
+        Xk = xss * dt + dx * Q[k]
+        still = s_eff == 0.0
+        if still.any():
+            xn[still] = 0.0
+            Xk[still] = 0.0
+        cross = xn * s < 0.0
+        if cross.any():
+            for i, ax in zip(*np.nonzero(cross)):
+                xn[i, ax], Xk[i, ax] = _cross_tick(x[i, ax], Fk[i, ax], C[i, ax], m[i, ax],
+                                                   Bk[i, ax], dt)
+        x = xn
+        x_all[k + 1] = x
+        X_all[k] = Xk
+    return x_all, X_all
+
+
+# ---- sensors ----------------------------------------------------------------------------------
+
+def motor_currents(p, u, driven, x, rng):
+    """Measured currents (T,n,4) [A]: eq 21 while driven, 0 otherwise, + N(0, 0.02 A) noise.
+
+    u (T,n,4) [V], driven (T,n), x (T,n,3) robot velocity at the tick start (when sampled).
+    """
+    T, n = driven.shape
+    i_true = np.empty((T, n, 4))
+    for i in range(n):
+        d, r, l = p["d"][i], p["r"][i], p["l"][i]
+        wm = l * (x[:, i, :] @ ik_matrix(d).T) / r            # motor speed [rad/s]
+        i_true[:, i, :] = (u[:, i, :] - p["Kv"][i] * wm) / p["R"][i]
+    i_true *= driven[:, :, None]
+    return i_true + rng.normal(0.0, CURRENT_NOISE_A, size=i_true.shape)
+
+
+def wheel_angles(p, X):
+    """Wheel angles (T+1,n,4) [rad] at the tick boundaries from robot displacements X (T,n,3)."""
+    T, n, _ = X.shape
+    ang = np.zeros((T + 1, n, 4))
+    for i in range(n):
+        dang = X[:, i, :] @ ik_matrix(p["d"][i]).T / p["r"][i]
+        ang[1:, i, :] = np.cumsum(dang, axis=0)
+    return ang
+
+
+def encoder_speeds(angles, cpr, dt, angle0=None):
+    """Quantised encoder wheel speeds (T,n,4) [rad/s] reported at the start of each tick.
+
+    angles (T+1,n,4) [rad]; counts = floor((angle0 + angle) cpr / 2pi); the speed of tick k is
+    (counts_k - counts_{k-1}) 2pi/cpr/dt (0 for the first tick). angle0 (n,4): the angle at
+    which each wheel starts [rad] (a random phase against the encoder's count edges).
+    """
+    a = angles if angle0 is None else angles + angle0[None]
+    counts = np.floor(a * (cpr / (2.0 * np.pi))).astype(np.int64)
+    speed = np.zeros(angles[:-1].shape)
+    speed[1:] = np.diff(counts[:-1], axis=0) * (2.0 * np.pi / cpr / dt)
+    return speed
+
+
+def world_poses(X, pose0):
+    """World poses (T+1,n,3) [m, m, rad] from robot-frame displacements X (T,n,3) (eq 1).
+
+    Each tick's displacement is rotated by the heading at the tick's midpoint; theta unwrapped.
+    """
+    T, n, _ = X.shape
+    pose = np.empty((T + 1, n, 3))
+    pose[0] = pose0
+    theta = pose0[:, 2][None] + np.concatenate([np.zeros((1, n)), np.cumsum(X[:, :, 2], axis=0)])
+    mid = 0.5 * (theta[:-1] + theta[1:])
+    c, s = np.cos(mid), np.sin(mid)
+    dxw = c * X[:, :, 0] - s * X[:, :, 1]
+    dyw = s * X[:, :, 0] + c * X[:, :, 1]
+    pose[1:, :, 0] = pose0[:, 0][None] + np.cumsum(dxw, axis=0)
+    pose[1:, :, 1] = pose0[:, 1][None] + np.cumsum(dyw, axis=0)
+    pose[:, :, 2] = theta
+    return pose
+
+
+def wrap_angle(a):
+    """Wrap angles [rad] to (-pi, pi]."""
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
+
+
+def camera_measure(pose, rng):
+    """Camera poses [m, m, rad] from true poses (...,3): 1 cm and 3 deg Gaussian noise, wrapped."""
+    noisy = pose + rng.normal(0.0, 1.0, size=pose.shape) * np.array(
+        [CAMERA_XY_NOISE_M, CAMERA_XY_NOISE_M, CAMERA_THETA_NOISE_RAD])
+    noisy[..., 2] = wrap_angle(noisy[..., 2])
+    return noisy

@@ -1,0 +1,330 @@
+#!/usr/bin/env python3
+"""Write LCM event logs of simulated robots running the paper's experiments in foreign layouts.
+
+For every robot K and layout L: OUT/robotK_L.lcmlog (channels OMNI4_MOTORS, OMNI4_POSE,
+OMNI4_EXPERIMENT), OUT/robotK_base.ini ([model] d r l M: what is measured) and
+OUT/robotK_truth.ini (the full [model] the robot was simulated with). Robots are deterministic per
+(seed, K): robot 3 is the same robot whatever --robots says.
+
+Needs the PyPI `lcm` package (lcm.EventLog) and the lcm-gen Python types of lcmtypes/ (package
+omni4, generated at build time into build/lcmtypes/gen/python).
+"""
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import layouts  # noqa: E402
+import plant    # noqa: E402
+
+DEFAULT_LCM_PYTHON = os.path.join(HERE, "..", "..", "build", "lcmtypes", "gen", "python")
+CH_MOTORS, CH_POSE, CH_EXP = "OMNI4_MOTORS", "OMNI4_POSE", "OMNI4_EXPERIMENT"
+RECEIVE_DELAY_US = 300
+
+
+class LogError(RuntimeError):
+    """A log could not be generated (bad option, unphysical timeline)."""
+
+
+def import_types(pythonpath=None):
+    """Import lcm and the generated omni4 types; returns (lcm module, omni4 module)."""
+    path = os.path.abspath(pythonpath or DEFAULT_LCM_PYTHON)
+    if path not in sys.path:
+        sys.path.insert(0, path)
+    try:
+        import lcm
+    except ImportError:
+        raise LogError("python module 'lcm' missing: run scripts/setup.sh (pip install lcm "
+                       "into .venv) and use .venv/bin/python") from None
+    try:
+        import omni4
+        from omni4 import experiment_t, motors_t, pose_t  # noqa: F401
+    except ImportError:
+        raise LogError(f"lcm-gen types 'omni4' not found under {path} (build the project "
+                       "or give --lcm-python)") from None
+    return lcm, omni4
+
+
+# ---- encoding (vectorised; the self-test compares it with the generated types) ----------------
+
+def motors_dtype():
+    """Packed big-endian layout of an encoded omni4.motors_t (fingerprint first), 77 bytes."""
+    return np.dtype([("fp", "S8"), ("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"),
+                     ("faults", ">i4"), ("voltage", ">f4", (4,)), ("current", ">f4", (4,)),
+                     ("wheel_speed", ">f4", (4,))])
+
+
+def pose_dtype():
+    """Packed big-endian layout of an encoded omni4.pose_t (fingerprint first), 40 bytes."""
+    return np.dtype([("fp", "S8"), ("utime", ">i8"), ("x", ">f8"), ("y", ">f8"),
+                     ("theta", ">f8")])
+
+
+def encode_motors(omni4, utime, seq, mode, voltage, current, wheel_speed):
+    """List of encoded motors_t messages (bytes) from per-message arrays."""
+    a = np.zeros(len(utime), motors_dtype())
+    a["fp"] = omni4.motors_t._get_packed_fingerprint()
+    a["utime"], a["seq"], a["mode"] = utime, seq, mode
+    a["voltage"], a["current"], a["wheel_speed"] = voltage, current, wheel_speed
+    buf, w = a.tobytes(), a.dtype.itemsize
+    return [buf[j * w:(j + 1) * w] for j in range(len(a))]
+
+
+def encode_poses(omni4, utime, pose):
+    """List of encoded pose_t messages (bytes); pose (n,3) [m, m, rad]."""
+    a = np.zeros(len(utime), pose_dtype())
+    a["fp"] = omni4.pose_t._get_packed_fingerprint()
+    a["utime"], a["x"], a["y"], a["theta"] = utime, pose[:, 0], pose[:, 1], pose[:, 2]
+    buf, w = a.tobytes(), a.dtype.itemsize
+    return [buf[j * w:(j + 1) * w] for j in range(len(a))]
+
+
+def encode_mark(omni4, utime, kind, direction, level):
+    """Encoded experiment_t (bytes)."""
+    e = omni4.experiment_t()
+    e.utime, e.kind, e.direction, e.level = int(utime), kind, direction, float(level)
+    return e.encode()
+
+
+# ---- files ----------------------------------------------------------------------------------
+
+def write_ini(path, params, keys):
+    """Write a [model] INI with `key = value` lines (atomically: temp file + rename)."""
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w") as f:
+        f.write("[model]\n")
+        for k in keys:
+            f.write(f"{k} = {params[k]!r}\n")
+    os.replace(tmp, path)
+
+
+def read_ini(path, section="model"):
+    """Read `key = value` lines of one INI section into a dict of floats (';'/'#' comments)."""
+    out, cur = {}, None
+    with open(path) as f:
+        for line in f:
+            line = line.split(";")[0].split("#")[0].strip()
+            if not line:
+                continue
+            if line.startswith("["):
+                cur = line.strip("[]").strip()
+            elif cur == section and "=" in line:
+                k, v = line.split("=", 1)
+                out[k.strip()] = float(v)
+    return out
+
+
+# ---- one layout, many robots ------------------------------------------------------------------
+
+def _losses(rng, n_ticks, n_cam, layout):
+    """Kept-sample masks: motors (n_ticks,) and camera frames (n_cam,) for the layout."""
+    keep_m = np.ones(n_ticks, bool)
+    keep_c = np.ones(n_cam, bool)
+    if layout == "jitter":
+        keep_m &= rng.uniform(size=n_ticks) >= 0.005
+        for _ in range(int(rng.integers(3, 6))):
+            start = int(rng.integers(1, n_ticks - 30))
+            keep_m[start:start + int(rng.integers(5, 21))] = False
+        keep_c &= rng.uniform(size=n_cam) >= 0.10
+    keep_m[0] = keep_m[-1] = True
+    return keep_m, keep_c
+
+
+def simulate_layout(layout, seed, robots, omit=(), motor_subset=None):
+    """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
+
+    Returns dict: params (list of dicts), dt [s], cpr, timelines, lengths (ticks per robot),
+    u (T,n,4) [V], mode (T,n), x (T+1,n,3) velocity [m/s, m/s, rad/s], X (T,n,3) displacement.
+    Raises LogError if a layout's "robot at rest here" check fails.
+    """
+    plist = [plant.robot_params(seed, k) for k in robots]
+    p = plant.stack_params(plist)
+    model = plant.axis_model(p)
+    tls, dt, cpr = [], None, None
+    for i, k in enumerate(robots):
+        tl, dt, cpr = layouts.build(layout, model, i, seed, k, omit, motor_subset)
+        tls.append(tl)
+    arrs = [tl.arrays() for tl in tls]
+    lengths = [len(a[1]) for a in arrs]
+    T, n = max(lengths), len(robots)
+    u = np.zeros((T, n, 4), np.float32)
+    mode = np.full((T, n), plant.MODE_IDLE, np.int8)
+    fext = np.zeros((T, n, 3))
+    for i, (ui, mi, fi) in enumerate(arrs):
+        u[:len(mi), i], mode[:len(mi), i], fext[:len(mi), i] = ui, mi, fi
+    driven = np.isin(mode, plant.DRIVEN_MODES)
+    u = np.where(driven[:, :, None], u, np.float32(0.0))
+    x, X = plant.integrate(model, u, driven, fext, dt)
+    for i, tl in enumerate(tls):
+        for tick in tl.rest_checks:
+            if np.any(x[tick, i] != 0.0):
+                raise LogError(f"layout {layout}, robot {robots[i]}: not at rest at "
+                               f"t={tick * dt:.3f} s (x={x[tick, i]}); timeline too short")
+    return {"params": plist, "p": p, "dt": dt, "cpr": cpr, "timelines": tls,
+            "lengths": lengths, "u": u, "mode": mode, "driven": driven, "x": x, "X": X}
+
+
+def sensor_data(sim, i, robot, seed, layout):
+    """Sensor readings and losses of robot i (index) / number `robot` of a simulated layout.
+
+    Returns dict of per-message arrays: motors (utime, seq, mode, voltage, current,
+    wheel_speed), poses (utime, pose), marks [(utime, kind, direction, level)], t0 [us].
+    """
+    lay = layouts.LAYOUTS.index(layout)
+    rng = np.random.default_rng([int(seed), int(robot), lay, 22])
+    n_t, dt, cpr = sim["lengths"][i], sim["dt"], sim["cpr"]
+    p = {k: v[i:i + 1] for k, v in sim["p"].items()}
+    x = sim["x"][:n_t + 1, i:i + 1]
+    X = sim["X"][:n_t, i:i + 1]
+    u = sim["u"][:n_t, i:i + 1].astype(float)
+    driven = sim["driven"][:n_t, i:i + 1]
+    current = plant.motor_currents(p, u, driven, x[:-1], rng)[:, 0]
+    ang = plant.wheel_angles(p, X)
+    speed = plant.encoder_speeds(ang, cpr, dt, rng.uniform(0, 2 * np.pi, (1, 4)))[:, 0]
+    pose0 = np.array([[rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-np.pi, np.pi)]])
+    pose = plant.world_poses(X, pose0)[:, 0]
+    period = int(round(1.0 / (plant.CAMERA_RATE_HZ * dt)))
+    cam_ticks = np.arange(int(rng.integers(0, period)), n_t, period)
+    cam = plant.camera_measure(pose[cam_ticks], rng)
+    keep_m, keep_c = _losses(rng, n_t, len(cam_ticks), layout)
+    dt_us = int(round(dt * 1e6))
+    t0 = int(rng.integers(10**9, 10**11))
+    seq0 = int(rng.integers(0, 10**6))
+    ticks = np.nonzero(keep_m)[0]
+    marks = sorted((t0 + int(round(t * 1e6)), kind, d, lv)
+                   for t, kind, d, lv in sim["timelines"][i].marks)
+    return {"t0": t0, "dt_us": dt_us, "ticks": ticks,
+            "motors": {"utime": t0 + ticks * dt_us, "seq": seq0 + ticks,
+                       "mode": sim["mode"][ticks, i], "voltage": sim["u"][ticks, i],
+                       "current": current[ticks], "wheel_speed": speed[ticks]},
+            "poses": {"utime": t0 + cam_ticks[keep_c] * dt_us, "pose": cam[keep_c]},
+            "marks": marks, "rng": rng}
+
+
+def write_log(lcm, omni4, path, data):
+    """Write one robot's messages, ordered by receive time (utime + 0-300 us), to `path`."""
+    rng = data["rng"]
+    m, ps = data["motors"], data["poses"]
+    msgs = [encode_motors(omni4, m["utime"], m["seq"], m["mode"], m["voltage"], m["current"],
+                          m["wheel_speed"]),
+            encode_poses(omni4, ps["utime"], ps["pose"]),
+            [encode_mark(omni4, *mk) for mk in data["marks"]]]
+    utimes = [m["utime"], ps["utime"], np.array([mk[0] for mk in data["marks"]], np.int64)]
+    chans = (CH_MOTORS, CH_POSE, CH_EXP)
+    recv = np.concatenate([ut + rng.integers(0, RECEIVE_DELAY_US + 1, len(ut)) for ut in utimes])
+    src = np.concatenate([np.full(len(ut), c) for c, ut in enumerate(utimes)])
+    idx = np.concatenate([np.arange(len(ut)) for ut in utimes])
+    order = np.argsort(recv, kind="stable")
+    recv = np.maximum.accumulate(recv[order])
+    if os.path.exists(path):
+        os.remove(path)
+    log = lcm.EventLog(path, "w")
+    try:
+        for ts, c, j in zip(recv.tolist(), src[order].tolist(), idx[order].tolist()):
+            log.write_event(ts, chans[c], msgs[c][j])
+    finally:
+        log.close()
+    return {"motors": len(msgs[0]), "poses": len(msgs[1]), "marks": len(msgs[2])}
+
+
+def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
+             progress=print):
+    """Simulate `robots` in `layout` and write their logs and INI files into out_dir.
+
+    Returns a list of dicts (robot, log, base, truth, seconds, counts) in robot order.
+    """
+    lcm, omni4 = import_types(lcm_python)
+    os.makedirs(out_dir, exist_ok=True)
+    t_start = time.time()
+    sim = simulate_layout(layout, seed, robots, omit, motor_subset)
+    t_sim = time.time() - t_start
+    out = []
+    for i, k in enumerate(robots):
+        data = sensor_data(sim, i, k, seed, layout)
+        log = os.path.join(out_dir, f"robot{k}_{layout}.lcmlog")
+        counts = write_log(lcm, omni4, log, data)
+        base = os.path.join(out_dir, f"robot{k}_base.ini")
+        truth = os.path.join(out_dir, f"robot{k}_truth.ini")
+        write_ini(base, sim["params"][i], ("d", "r", "l", "M"))
+        write_ini(truth, sim["params"][i], plant.MODEL_KEYS)
+        out.append({"robot": k, "log": log, "base": base, "truth": truth,
+                    "seconds": sim["lengths"][i] * sim["dt"], "counts": counts})
+    if progress:
+        secs = [o["seconds"] for o in out]
+        progress(f"write_logs: {layout}: {len(robots)} robots, {min(secs):.0f}-{max(secs):.0f} s "
+                 f"of robot time at {1 / sim['dt']:.0f} Hz, cpr {sim['cpr']}; simulated in "
+                 f"{t_sim:.1f} s, written in {time.time() - t_start - t_sim:.1f} s")
+    return out
+
+
+def parse_subset(text):
+    """'0,2' -> (0, 2); raises ValueError on anything but distinct motor numbers 0..3."""
+    try:
+        s = tuple(sorted({int(v) for v in text.split(",") if v.strip()}))
+    except ValueError:
+        raise ValueError(f"--motor-subset {text!r}: expected motor numbers like 0,2") from None
+    if not s or any(j < 0 or j > 3 for j in s):
+        raise ValueError(f"--motor-subset {text!r}: motors are numbered 0..3")
+    return s
+
+
+def parse_layouts(values):
+    """['rest', 'hand,jitter', 'all'] -> list of layout names; raises ValueError."""
+    names = []
+    for v in values or ["all"]:
+        for name in v.split(","):
+            name = name.strip()
+            if name == "all":
+                names += [n for n in layouts.LAYOUTS if n not in names]
+            elif name not in layouts.LAYOUTS:
+                raise ValueError(f"unknown layout {name!r} (one of {', '.join(layouts.LAYOUTS)}"
+                                 ", all)")
+            elif name not in names:
+                names.append(name)
+    return names
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example:\n  .venv/bin/python tests/indep/write_logs.py --robots 3 --seed 1 "
+               "--layout rest,hand --omit coast:w --out /tmp/logs\n"
+               f"layouts: {', '.join(layouts.LAYOUTS)} (or all)")
+    ap.add_argument("--robots", type=int, default=1, help="number of robots (0..N-1), default 1")
+    ap.add_argument("--seed", type=int, default=1, help="seed of robots and noise, default 1")
+    ap.add_argument("--layout", action="append", metavar="NAME[,NAME]",
+                    help="layout(s), repeatable or comma-separated; default all")
+    ap.add_argument("--omit", action="append", default=[], metavar="KIND[:DIR]",
+                    help="leave out runs: steady_rotation|coast|motor|step, optionally :v|vn|w")
+    ap.add_argument("--motor-subset", metavar="J,K", help="motor test drives only these motors")
+    ap.add_argument("--out", required=True, help="output folder")
+    ap.add_argument("--lcm-python", help="folder holding the generated package omni4 "
+                    "(default: build/lcmtypes/gen/python)")
+    ap.add_argument("--quiet", action="store_true", help="no progress lines")
+    a = ap.parse_args(argv)
+    try:
+        names = parse_layouts(a.layout)
+        omit = layouts.parse_omit(a.omit)
+        subset = parse_subset(a.motor_subset) if a.motor_subset else None
+        if a.robots < 1:
+            raise ValueError("--robots must be at least 1")
+        for name in names:
+            res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
+                           a.lcm_python, None if a.quiet else print)
+            if not a.quiet:
+                for r in res:
+                    c = r["counts"]
+                    print(f"  {r['log']}: {r['seconds']:.1f} s, {c['motors']} motors, "
+                          f"{c['poses']} poses, {c['marks']} marks")
+    except (ValueError, LogError) as e:
+        print(f"write_logs: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
