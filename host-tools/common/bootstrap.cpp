@@ -21,23 +21,29 @@ std::vector<std::vector<size_t>> strata(const std::vector<Segment> &segments) {
   return out;
 }
 
-// One replicate: its final values in kIdentParams order, or empty if identification failed.
-std::vector<double> replicate(const std::vector<Segment> &segments,
-                              const std::vector<std::vector<size_t>> &groups,
-                              const model_params &base, const IdentOptions &opt, uint64_t seed) {
+// One replicate: its final values in kIdentParams order (NaN where the full data identify
+// nothing either), or empty if it could not identify what the full data do.
+std::vector<double> replicate(const Prepared &prep, const std::vector<std::vector<size_t>> &groups,
+                              const std::map<std::string, bool> &wanted, uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::vector<Segment> drawn;
-  drawn.reserve(segments.size());
+  std::vector<size_t> drawn;
+  drawn.reserve(prep.segments.size());
   for (const auto &g : groups) {
     std::uniform_int_distribution<size_t> pick(0, g.size() - 1);
-    for (size_t k = 0; k < g.size(); ++k) drawn.push_back(segments[g[pick(rng)]]);
+    for (size_t k = 0; k < g.size(); ++k) drawn.push_back(g[pick(rng)]);
   }
   try {
-    const IdentResult r = identify(drawn, base, opt);
+    const IdentResult r = identify(prep, &drawn);
     std::vector<double> v;
-    for (const char *p : kIdentParams) v.push_back(r.table.at("final").at(p).value);
-    for (double x : v)
-      if (!std::isfinite(x)) return {};
+    for (const char *p : kIdentParams) {
+      if (!wanted.at(p)) {
+        v.push_back(NAN);
+        continue;
+      }
+      const auto it = r.table.at("final").find(p);
+      if (it == r.table.at("final").end() || !std::isfinite(it->second.value)) return {};
+      v.push_back(it->second.value);
+    }
     return v;
   } catch (const IdentError &) {
     return {};
@@ -60,14 +66,21 @@ BootstrapResult bootstrap_runs(const std::vector<Segment> &segments, const model
   BootstrapResult res;
   res.replicates = replicates;
   const auto groups = strata(segments);
+  const Prepared prep = prepare(segments, base, opt);
+  std::map<std::string, bool> wanted;
+  for (const char *p : kIdentParams) wanted[p] = false;
+  try {
+    wanted = identify(prep).identified;
+  } catch (const IdentError &) {
+  }
   const int workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<std::vector<double>> values(static_cast<size_t>(std::max(replicates, 0)));
   int done = 0;
   for (int first = 0; first < replicates; first += workers) {
     std::vector<std::future<std::vector<double>>> batch;
     for (int k = first; k < std::min(replicates, first + workers); ++k)
-      batch.push_back(std::async(std::launch::async, replicate, std::cref(segments),
-                                 std::cref(groups), std::cref(base), std::cref(opt),
+      batch.push_back(std::async(std::launch::async, replicate, std::cref(prep),
+                                 std::cref(groups), std::cref(wanted),
                                  seed + static_cast<uint64_t>(k)));
     for (size_t b = 0; b < batch.size(); ++b) {
       values[static_cast<size_t>(first) + b] = batch[b].get();
@@ -77,7 +90,7 @@ BootstrapResult bootstrap_runs(const std::vector<Segment> &segments, const model
   for (size_t p = 0; p < 9; ++p) {
     std::vector<double> x;
     for (const auto &v : values)
-      if (!v.empty()) x.push_back(v[p]);
+      if (!v.empty() && std::isfinite(v[p])) x.push_back(v[p]);
     if (x.size() < 2) continue;
     double mean = 0;
     for (double xi : x) mean += xi;

@@ -1,61 +1,168 @@
-// identify.cpp - motor test, experiments 1-3 and their combination.
+// identify.cpp - motor test, experiments 1-3 on the windows found in the data, and their
+// combination.
 #include "identify.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
-#include "signals.hpp"
-
 namespace omni4 {
 
 const char *const kIdentParams[9] = {"Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"};
 const char *const kIdentMethods[6] = {"motor", "exp1", "exp2", "exp3_ls", "exp3_iv", "final"};
 
-namespace {
+bool IdentResult::complete() const {
+  for (const char *p : kIdentParams) {
+    const auto it = identified.find(p);
+    if (it == identified.end() || !it->second) return false;
+  }
+  return true;
+}
 
-constexpr int kEncHalf = 20;  // encoder SG half window (41 samples at 1 kHz)
-constexpr int kMotorsModeVoltage = 2;
+double chi2_sf(double x, int dof) {
+  if (dof <= 0) return 1.0;
+  if (!(x > 0)) return 1.0;
+  // Closed forms of the regularised upper incomplete gamma Q(dof/2, x/2) for integer dof.
+  const double h = 0.5 * x;
+  if (dof % 2 == 0) {
+    double term = 1, sum = 1;
+    for (int j = 1; j < dof / 2; ++j) sum += (term *= h / j);
+    return std::exp(-h) * sum;
+  }
+  double term = std::sqrt(2 * x / M_PI) * std::exp(-h);
+  double sum = 0;
+  for (int j = 1; j <= (dof - 1) / 2; ++j) {
+    sum += term;
+    term *= x / (2 * j + 1);
+  }
+  return std::erfc(std::sqrt(h)) + sum;
+}
 
-std::vector<const Segment *> of_kind(const std::vector<Segment> &all, const std::string &kind) {
-  std::vector<const Segment *> out;
-  for (const Segment &s : all)
-    if (s.kind == kind) out.push_back(&s);
+Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
+                         Agreement *agreement) {
+  Agreement ag;
+  std::vector<Estimate> ok;
+  for (const Estimate &e : estimates)
+    if (e.ok()) ok.push_back(e);
+  ag.methods = static_cast<int>(ok.size());
+  Estimate out;
+  if (ok.empty()) {
+    ag.rule = "no method";
+  } else if (ok.size() == 1) {
+    out = ok[0];
+    ag.rule = "one method";
+  } else {
+    double wsum = 0, vsum = 0;
+    std::vector<double> se(ok.size());
+    for (size_t k = 0; k < ok.size(); ++k) {
+      const double s = std::isfinite(ok[k].se) ? ok[k].se : 0.0;
+      se[k] = std::max(std::hypot(s, opt.method_floor * std::abs(ok[k].value)), 1e-300);
+      wsum += 1 / (se[k] * se[k]);
+      vsum += ok[k].value / (se[k] * se[k]);
+    }
+    const double mean = vsum / wsum;
+    for (size_t k = 0; k < ok.size(); ++k) ag.chi2 += std::pow((ok[k].value - mean) / se[k], 2);
+    ag.dof = static_cast<int>(ok.size()) - 1;
+    ag.p = chi2_sf(ag.chi2, ag.dof);
+    ag.agree = ag.p >= opt.agree_p;
+    if (ag.agree) {
+      out = {mean, std::sqrt(1 / wsum)};
+      ag.rule = "weighted mean";
+    } else {
+      double m = 0, ss = 0;
+      for (const Estimate &e : ok) m += e.value / static_cast<double>(ok.size());
+      for (const Estimate &e : ok) ss += (e.value - m) * (e.value - m);
+      out = {m, std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()))};
+      ag.rule = "methods disagree: plain mean";
+    }
+  }
+  if (agreement) *agreement = ag;
   return out;
 }
 
-// Index range of the steady part of a constant-voltage segment (driven samples only).
-std::pair<size_t, size_t> steady_window(const Segment &s, double fraction) {
-  size_t last = s.m1;
-  while (last > s.m0 && s.log->motors[last - 1].mode != kMotorsModeVoltage) --last;
-  const size_t n = last - s.m0;
-  const size_t first = last - static_cast<size_t>(fraction * n);
-  return {first, last};
+namespace {
+
+constexpr const char *kDirs[3] = {"v", "vn", "w"};
+
+double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+
+// A window together with its segment.
+struct SegWindow {
+  size_t seg;
+  const Segment *s;
+  Window w;
+};
+
+struct Context {
+  const Prepared &P;
+  const std::vector<size_t> &use;
+  IdentResult &res;
+
+  std::vector<SegWindow> windows(const char *kind, const char *dir,
+                                 std::vector<Window> SegmentWindows::*which) const {
+    std::vector<SegWindow> out;
+    for (size_t i : use) {
+      const Segment &s = P.segments[i];
+      if (s.kind != kind || (dir && s.direction != dir)) continue;
+      for (const Window &w : P.windows[i].*which) out.push_back({i, &s, w});
+    }
+    return out;
+  }
+  size_t segments_of(const char *kind, const char *dir) const {
+    size_t n = 0;
+    for (size_t i : use)
+      n += P.segments[i].kind == kind && (!dir || P.segments[i].direction == dir);
+    return n;
+  }
+  void reject(const SegWindow &w, const std::string &what, const std::string &reason) {
+    res.windows.push_back({w.seg, w.s->kind, w.s->direction, what, seg_time(*w.s, w.w.m0),
+                           seg_time(*w.s, w.w.m1 - 1), false, reason});
+  }
+  void missing(const std::string &line) { res.missing.push_back(line); }
+};
+
+std::string record_hint(const char *kind) {
+  const std::string k = kind;
+  if (k == "coast")
+    return "record them with 'omni4-ident run --only coast' (motor push) or 'omni4-ident run "
+           "--hand' (push by hand, bridges off)";
+  return "record them with 'omni4-ident run --only " + k + "'";
+}
+
+// Mean of motors samples [a, b) of log m.
+template <typename F>
+double mean_over(const std::vector<MotorsSample> &m, size_t a, size_t b, F f) {
+  double s = 0;
+  for (size_t k = a; k < b; ++k) s += f(m[k]);
+  return s / static_cast<double>(b - a);
 }
 
 // ---- motor test (eq 22) ----------------------------------------------------------------
 
-void motor_test(const std::vector<const Segment *> &segs, const model_params &base,
-                const IdentOptions &opt, IdentResult &res) {
-  if (segs.empty())
-    throw IdentError("no 'motor' segments: the motor test (eq 22) is needed for Kv and R");
-  for (const Segment *s : segs) {
-    const auto [a, b] = steady_window(*s, opt.steady_fraction);
-    if (b - a < 50) continue;
+void motor_test(Context &c) {
+  IdentResult &res = c.res;
+  const double l = c.P.base.l;
+  if (c.segments_of("motor", nullptr) == 0) {
+    c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " + record_hint("motor"));
+    return;
+  }
+  const auto wins = c.windows("motor", nullptr, &SegmentWindows::steady);
+  for (const SegWindow &w : wins) {
+    const auto &m = w.s->log->motors;
     for (int j = 0; j < 4; ++j) {
-      double u = 0, i = 0, w = 0;
-      for (size_t k = a; k < b; ++k) {
-        const MotorsSample &m = s->log->motors[k];
-        u += m.u[j];
-        i += m.i[j];
-        w += m.w[j] * base.l;  // motor speed before the gearbox
+      const double u = mean_over(m, w.w.m0, w.w.m1, [&](const MotorsSample &s) { return s.u[j]; });
+      const double i = mean_over(m, w.w.m0, w.w.m1, [&](const MotorsSample &s) { return s.i[j]; });
+      const double wm =
+          l * mean_over(m, w.w.m0, w.w.m1, [&](const MotorsSample &s) { return s.w[j]; });
+      if (std::abs(u) < 0.5) continue;  // this motor is not driven in this run
+      if (std::abs(i) < 0.05) {
+        c.reject(w, "motor " + std::to_string(j) + " point",
+                 "current " + std::to_string(i) + " A too small for u/i");
+        continue;
       }
-      const double n = static_cast<double>(b - a);
-      if (std::abs(u / n) > 1.0 && std::abs(i / n) > 0.05)
-        res.motor_points.push_back({j, u / n, i / n, w / n});
+      res.motor_points.push_back({j, u, i, wm});
     }
   }
-  // eq 22: u/i = Kv (w_m / i) + R, per motor and pooled.
   auto fit = [&](int motor) {
     std::vector<const MotorPoint *> pts;
     for (const MotorPoint &p : res.motor_points)
@@ -72,17 +179,37 @@ void motor_test(const std::vector<const Segment *> &segs, const model_params &ba
     return least_squares(X, y, 1.0, what);
   };
   double rsum = 0, rvar = 0;
+  int nR = 0;
   for (int j = 0; j < 4; ++j) {
-    const Fit f = fit(j);
-    res.Kv_motor[j] = {f.theta[0], std::sqrt(f.cov(0, 0))};
-    res.R_motor[j] = {f.theta[1], std::sqrt(f.cov(1, 1))};
-    rsum += f.theta[1];
-    rvar += f.cov(1, 1);
+    const size_t n = std::count_if(res.motor_points.begin(), res.motor_points.end(),
+                                   [&](const MotorPoint &p) { return p.motor == j; });
+    if (n < 3) {
+      c.missing("R" + std::to_string(j) + ", Kv" + std::to_string(j) + " (motor " +
+                std::to_string(j) + "): " + std::to_string(n) +
+                " steady points with the motor driven, need 3 at different loads; the "
+                "pooled Kv and R come from the other motors");
+      continue;
+    }
+    try {
+      const Fit f = fit(j);
+      res.Kv_motor[j] = {f.theta[0], std::sqrt(f.cov(0, 0))};
+      res.R_motor[j] = {f.theta[1], std::sqrt(f.cov(1, 1))};
+      rsum += f.theta[1];
+      rvar += f.cov(1, 1);
+      ++nR;
+    } catch (const IdentError &e) {
+      c.missing(std::string(e.what()) + " (the runs give one operating point: vary the load)");
+    }
   }
-  const Fit all = fit(-1);
-  res.table["motor"]["Kv"] = {all.theta[0], std::sqrt(all.cov(0, 0))};
-  // The paper averages R over the four motors.
-  res.table["motor"]["R"] = {rsum / 4, std::sqrt(rvar) / 4};
+  try {
+    const Fit all = fit(-1);
+    res.table["motor"]["Kv"] = {all.theta[0], std::sqrt(all.cov(0, 0))};
+  } catch (const IdentError &e) {
+    c.missing(std::string("Kv: ") + e.what());
+  }
+  // The paper averages R over the motors (here: over those with a fit).
+  if (nR > 0) res.table["motor"]["R"] = {rsum / nR, std::sqrt(rvar) / nR};
+  else c.missing("R (motor test): no motor has enough steady points");
 }
 
 // ---- experiment 1 (eq 16) ----------------------------------------------------------------
@@ -99,35 +226,58 @@ double slope(const std::vector<double> &t, const std::vector<double> &y) {
   return den > 0 ? num / den : NAN;
 }
 
-void experiment1(const std::vector<const Segment *> &segs, const model_params &base, double Kt,
-                 const IdentOptions &opt, IdentResult &res) {
-  if (segs.size() < 3)
-    throw IdentError("experiment 1 needs at least 3 'steady_rotation' segments, found " +
-                     std::to_string(segs.size()));
-  for (const Segment *s : segs) {
-    const auto [a, b] = steady_window(*s, opt.steady_fraction);
-    if (b - a < 50) continue;
-    const auto &m = s->log->motors;
+void experiment1(Context &c) {
+  IdentResult &res = c.res;
+  const model_params &base = c.P.base;
+  if (c.segments_of("steady_rotation", nullptr) == 0) {
+    c.missing("Bw, Cw (experiment 1, eq 16): no 'steady_rotation' segments; " +
+              record_hint("steady_rotation"));
+    return;
+  }
+  const auto kv = res.table["motor"].find("Kv");
+  if (kv == res.table["motor"].end() || !kv->second.ok()) {
+    c.missing("Bw, Cw (experiment 1): the torque needs Kt = Kv from the motor test");
+    return;
+  }
+  const double Kt = kv->second.value;
+  const bool cam = c.P.opt.source == VelocitySource::Camera;
+  for (const SegWindow &w : c.windows("steady_rotation", nullptr, &SegmentWindows::steady)) {
+    const auto &m = w.s->log->motors;
+    const auto &enc = c.P.enc.at(w.s->log);
     double isum = 0, wenc = 0;
-    for (size_t k = a; k < b; ++k) {
+    for (size_t k = w.w.m0; k < w.w.m1; ++k) {
       isum += m[k].i[0] + m[k].i[1] + m[k].i[2] + m[k].i[3];
-      wenc += (m[k].w[0] + m[k].w[1] + m[k].w[2] + m[k].w[3]) * base.r / (4 * base.d);
+      wenc += enc.raw[k][2];
     }
-    const double n = static_cast<double>(b - a);
+    const double n = static_cast<double>(w.w.m1 - w.w.m0);
+    wenc /= n;
+    if (std::abs(wenc) < kStopSpeed[2]) {
+      c.reject(w, "steady window", "the robot did not turn (stiction): w " + std::to_string(wenc));
+      continue;
+    }
     const double torque = base.d * base.l * Kt / base.r * isum / n;  // eqs 11-13
     // Camera: slope of the unwrapped heading over the same window.
+    const CameraTrack &ct = c.P.cam.at(w.s->log);
+    const double ta = m[w.w.m0].utime * 1e-6, tb = m[w.w.m1 - 1].utime * 1e-6;
     std::vector<double> t, th;
-    for (size_t k = s->p0; k < s->p1; ++k) {
-      const PoseSample &p = s->log->pose[k];
-      if (p.utime < m[a].utime || p.utime > m[b - 1].utime) continue;
-      t.push_back(p.utime * 1e-6);
-      th.push_back(p.theta);
+    for (size_t k = std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin();
+         k < ct.t.size() && ct.t[k] <= tb; ++k) {
+      t.push_back(ct.t[k]);
+      th.push_back(ct.theta[k]);
     }
-    unwrap(th);
     const double wcam = t.size() >= 5 ? slope(t, th) : NAN;
-    res.rotation_points.push_back({s->level, wcam, wenc / n, torque});
+    if (cam && !std::isfinite(wcam)) {
+      c.reject(w, "steady window", "fewer than 5 camera frames in the window");
+      continue;
+    }
+    res.rotation_points.push_back({w.s->level, wcam, wenc, torque});
   }
-  const bool cam = opt.source == VelocitySource::Camera;
+  if (res.rotation_points.size() < 3) {
+    c.missing("Bw, Cw (experiment 1): " + std::to_string(res.rotation_points.size()) +
+              " usable steady rotation windows, need 3 at different speeds; " +
+              record_hint("steady_rotation"));
+    return;
+  }
   Eigen::MatrixXd X(res.rotation_points.size(), 2);
   Eigen::VectorXd y(res.rotation_points.size());
   for (size_t k = 0; k < res.rotation_points.size(); ++k) {
@@ -136,100 +286,204 @@ void experiment1(const std::vector<const Segment *> &segs, const model_params &b
     X(k, 1) = 1.0;
     y[k] = p.torque;
   }
-  if (!X.allFinite()) throw IdentError("experiment 1: no camera poses in the steady windows");
-  const Fit f = least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
-  res.table["exp1"]["Bw"] = {f.theta[0], std::sqrt(f.cov(0, 0))};
-  res.table["exp1"]["Cw"] = {f.theta[1], std::sqrt(f.cov(1, 1))};
+  try {
+    const Fit f = least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
+    res.table["exp1"]["Bw"] = {f.theta[0], std::sqrt(f.cov(0, 0))};
+    res.table["exp1"]["Cw"] = {f.theta[1], std::sqrt(f.cov(1, 1))};
+  } catch (const IdentError &e) {
+    c.missing(std::string("Bw, Cw: ") + e.what());
+  }
 }
 
 // ---- experiment 2 (eqs 17-20) ----------------------------------------------------------
 
-VelocitySeries velocity(const Segment &s, const model_params &base, const IdentOptions &opt) {
-  return opt.source == VelocitySource::Camera ? camera_velocity(s)
-                                              : encoder_velocity(s, base.d, base.r, kEncHalf);
-}
+// x' = -b x - c along the axis while coasting (sign removed). Returns theta = [per window...,
+// b, c] and fills the coast curves.
+struct CoastFit {
+  Fit f;
+  bool ok = false;
+};
 
-// Integral form of x' = -b x - c (x > 0): x(t) = x0_s - b int x dt - c (t - t0), one x0 per
-// segment. No numerical differentiation. Returns theta = [x0..., b, c].
-Fit coast_fit(const std::vector<const Segment *> &segs, int axis, const model_params &base,
-              const IdentOptions &opt, const std::string &dir, IdentResult &res) {
-  const double stop = axis == 2 ? 0.5 : 0.05;  // below this the robot is about to stick
-  struct Row { size_t seg; double t, x, integral; };
+// Encoder velocities, integral form: x(t) = x0_w - b int x dt - c (t - t0_w). No numerical
+// differentiation.
+CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int axis,
+                           const std::string &dir) {
+  struct Row { size_t win; double t, x, integral; };
   std::vector<Row> rows;
-  std::vector<VelocitySeries> series;
-  for (size_t si = 0; si < segs.size(); ++si) {
-    VelocitySeries vs = velocity(*segs[si], base, opt);
-    if (vs.t.size() < 5) continue;
-    const double sign = vs.x.front()[axis] >= 0 ? 1.0 : -1.0;
+  int half = 20;
+  for (size_t wi = 0; wi < wins.size(); ++wi) {
+    const SegWindow &w = wins[wi];
+    const auto &enc = c.P.enc.at(w.s->log);
+    const auto &m = w.s->log->motors;
+    half = enc.half;
+    const size_t first = rows.size();
     double integral = 0;
-    size_t first = rows.size();
-    for (size_t k = 0; k < vs.t.size(); ++k) {
-      const double x = sign * vs.x[k][axis];
-      if (vs.t[k] < 0.05) continue;  // skip the switch-off instant
-      if (x < stop) break;
-      if (rows.size() > first)
-        integral += 0.5 * (x + rows.back().x) * (vs.t[k] - rows.back().t);
-      rows.push_back({si, vs.t[k], x, integral});
+    for (size_t k = w.w.m0; k < w.w.m1; ++k) {
+      if (!enc.ok[k]) continue;
+      const double t = seg_time(*w.s, k), x = w.w.sign * enc.x[k][axis];
+      (void)m;
+      if (rows.size() > first) integral += 0.5 * (x + rows.back().x) * (t - rows.back().t);
+      rows.push_back({wi, t, x, integral});
     }
   }
-  const size_t nseg = segs.size();
-  if (rows.size() < 10)
-    throw IdentError("experiment 2: the '" + dir + "' coast-downs hold too few moving samples");
-  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(rows.size(), nseg + 2);
+  CoastFit out;
+  if (rows.size() < 10) return out;
+  const size_t nw = wins.size();
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(rows.size(), nw + 2);
   Eigen::VectorXd y(rows.size());
-  std::vector<double> t0(nseg, NAN);
+  std::vector<double> t0(nw, NAN);
   for (const Row &r : rows)
-    if (std::isnan(t0[r.seg])) t0[r.seg] = r.t;
+    if (std::isnan(t0[r.win])) t0[r.win] = r.t;
   for (size_t k = 0; k < rows.size(); ++k) {
-    X(k, rows[k].seg) = 1.0;
-    X(k, nseg) = -rows[k].integral;
-    X(k, nseg + 1) = -(rows[k].t - t0[rows[k].seg]);
+    X(k, rows[k].win) = 1.0;
+    X(k, nw) = -rows[k].integral;
+    X(k, nw + 1) = -(rows[k].t - t0[rows[k].win]);
     y[k] = rows[k].x;
   }
-  // Segments without samples leave an all-zero column: drop them.
+  // Windows without samples leave an all-zero column: drop them.
   std::vector<Eigen::Index> keep;
-  for (size_t c = 0; c < nseg + 2; ++c)
-    if (X.col(c).cwiseAbs().sum() > 0) keep.push_back(c);
+  for (size_t col = 0; col < nw + 2; ++col)
+    if (X.col(col).cwiseAbs().sum() > 0) keep.push_back(col);
   Eigen::MatrixXd Xk(X.rows(), keep.size());
-  for (size_t c = 0; c < keep.size(); ++c) Xk.col(c) = X.col(keep[c]);
-  const double corr = opt.source == VelocitySource::Camera ? 9 : 2 * kEncHalf + 1;
-  Fit f = least_squares(Xk, y, corr, "experiment 2 (coast-down along " + dir + ")");
-  const Eigen::VectorXd fitted = Xk * f.theta;
+  for (size_t col = 0; col < keep.size(); ++col) Xk.col(col) = X.col(keep[col]);
+  out.f = least_squares(Xk, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
+  out.ok = true;
+  const Eigen::VectorXd fitted = Xk * out.f.theta;
   for (size_t k = 0; k < rows.size(); ++k)
-    res.coast_curves[dir].push_back({rows[k].seg, rows[k].t, rows[k].x, fitted[k]});
-  return f;
+    c.res.coast_curves[dir].push_back({wins[rows[k].win].seg, rows[k].t - t0[rows[k].win],
+                                       rows[k].x, fitted[k]});
+  return out;
 }
 
-void experiment2(const std::vector<const Segment *> &segs, const model_params &base,
-                 const IdentOptions &opt, IdentResult &res) {
-  const Estimate Bw = res.table["exp1"]["Bw"], Cw = res.table["exp1"]["Cw"];
-  for (const char *dir : {"v", "vn", "w"}) {
-    std::vector<const Segment *> mine;
-    for (const Segment *s : segs)
-      if (s->direction == dir) mine.push_back(s);
-    if (mine.empty())
-      throw IdentError(std::string("experiment 2 needs 'coast' segments along ") + dir);
-    const int axis = axis_index(dir);
-    const Fit f = coast_fit(mine, axis, base, opt, dir, res);
+// Camera poses, in the position domain (no differentiation of 25 Hz poses): with p the
+// displacement along the axis (robot frame) and tau the time since the window start,
+// p = p0 + (x0 + b p0) tau - b int p dtau - c tau^2 / 2. One p0 and one slope per window.
+CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int axis,
+                          const std::string &dir) {
+  struct Row { size_t win; double tau, p, integral, measured; };
+  std::vector<Row> rows;
+  for (size_t wi = 0; wi < wins.size(); ++wi) {
+    const SegWindow &w = wins[wi];
+    const CameraTrack &ct = c.P.cam.at(w.s->log);
+    const auto &pose = w.s->log->pose;
+    const auto &m = w.s->log->motors;
+    const double ta = m[w.w.m0].utime * 1e-6, tb = m[w.w.m1 - 1].utime * 1e-6;
+    size_t k = std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin();
+    const size_t first = rows.size();
+    double p = 0, integral = 0;
+    for (size_t prev = k; k < ct.t.size() && ct.t[k] <= tb; prev = k++) {
+      if (k != prev) {
+        if (axis == 2) {
+          p += ct.theta[k] - ct.theta[prev];
+        } else {
+          const double h = std::isfinite(ct.heading[k]) && std::isfinite(ct.heading[prev])
+                               ? 0.5 * (ct.heading[k] + ct.heading[prev])
+                               : 0.5 * (ct.theta[k] + ct.theta[prev]);
+          const double dx = pose[k].x - pose[prev].x, dy = pose[k].y - pose[prev].y;
+          p += axis == 0 ? std::cos(h) * dx + std::sin(h) * dy : -std::sin(h) * dx + std::cos(h) * dy;
+        }
+      }
+      const double ps = w.w.sign * p;
+      const double tau = ct.t[k] - ct.t[std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin()];
+      if (rows.size() > first) integral += 0.5 * (ps + rows.back().p) * (tau - rows.back().tau);
+      rows.push_back({wi, tau, ps, integral, ct.ok[k] ? w.w.sign * ct.x[k][axis] : NAN});
+    }
+    if (rows.size() - first < 6) {
+      c.reject(w, "coast-down", "fewer than 6 camera frames in the window");
+      rows.resize(first);
+    }
+  }
+  CoastFit out;
+  if (rows.size() < 12) return out;
+  const size_t nw = wins.size();
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(rows.size(), 2 * nw + 2);
+  Eigen::VectorXd y(rows.size());
+  for (size_t k = 0; k < rows.size(); ++k) {
+    X(k, rows[k].win) = 1.0;
+    X(k, nw + rows[k].win) = rows[k].tau;
+    X(k, 2 * nw) = -rows[k].integral;
+    X(k, 2 * nw + 1) = -0.5 * rows[k].tau * rows[k].tau;
+    y[k] = rows[k].p;
+  }
+  std::vector<Eigen::Index> keep;
+  for (size_t col = 0; col < 2 * nw + 2; ++col)
+    if (X.col(col).cwiseAbs().sum() > 0) keep.push_back(col);
+  Eigen::MatrixXd Xk(X.rows(), keep.size());
+  for (size_t col = 0; col < keep.size(); ++col) Xk.col(col) = X.col(keep[col]);
+  out.f = least_squares(Xk, y, 1.0, "experiment 2 (coast-down along " + dir + ", camera)");
+  out.ok = true;
+  // Fitted velocity x(tau) = x0 - b (p - p0) - c tau with x0 = slope - b p0.
+  const Eigen::Index nk = static_cast<Eigen::Index>(keep.size());
+  const double b = out.f.theta[nk - 2], cc = out.f.theta[nk - 1];
+  std::vector<double> p0(nw, 0), s0(nw, 0);
+  for (Eigen::Index col = 0; col < nk - 2; ++col) {
+    const size_t orig = static_cast<size_t>(keep[static_cast<size_t>(col)]);
+    if (orig < nw) p0[orig] = out.f.theta[col];
+    else s0[orig - nw] = out.f.theta[col];
+  }
+  for (const Row &r : rows) {
+    const double x0 = s0[r.win] - b * p0[r.win];
+    c.res.coast_curves[dir].push_back(
+        {wins[r.win].seg, r.tau, r.measured, x0 - b * (r.p - p0[r.win]) - cc * r.tau});
+  }
+  return out;
+}
+
+void experiment2(Context &c) {
+  IdentResult &res = c.res;
+  const model_params &base = c.P.base;
+  for (int axis = 0; axis < 3; ++axis) {
+    const char *dir = kDirs[axis];
+    const std::string names = axis == 0 ? "Bv, Cv" : axis == 1 ? "Bvn, Cvn" : "J";
+    const auto wins = c.windows("coast", dir, &SegmentWindows::coast);
+    if (wins.empty()) {
+      const size_t nseg = c.segments_of("coast", dir);
+      c.missing(names + " (experiment 2 along " + dir + "): " +
+                (nseg ? std::to_string(nseg) + " coast segments but no usable coast-down (see "
+                                                "the rejected windows)"
+                      : std::string("no coast segments")) +
+                "; " + record_hint("coast"));
+      continue;
+    }
+    CoastFit cf;
+    try {
+      cf = c.P.opt.source == VelocitySource::Camera ? coast_fit_camera(c, wins, axis, dir)
+                                                    : coast_fit_encoder(c, wins, axis, dir);
+    } catch (const IdentError &e) {
+      c.missing(names + ": " + e.what());
+      continue;
+    }
+    if (!cf.ok) {
+      c.missing(names + " (experiment 2 along " + dir + "): the coast-downs hold too few samples");
+      continue;
+    }
+    const Fit &f = cf.f;
     const Eigen::Index nb = f.theta.size() - 2, nc = f.theta.size() - 1;
     const Estimate b{f.theta[nb], std::sqrt(f.cov(nb, nb))};
-    const Estimate c{f.theta[nc], std::sqrt(f.cov(nc, nc))};
+    const Estimate cst{f.theta[nc], std::sqrt(f.cov(nc, nc))};
     if (axis < 2) {
       const std::string B = axis == 0 ? "Bv" : "Bvn", C = axis == 0 ? "Cv" : "Cvn";
       res.table["exp2"][B] = {base.M * b.value, base.M * b.se};  // eqs 17-18
-      res.table["exp2"][C] = {base.M * c.value, base.M * c.se};
+      res.table["exp2"][C] = {base.M * cst.value, base.M * cst.se};
       continue;
     }
+    const auto &e1 = res.table["exp1"];
+    const auto bw = e1.find("Bw"), cw = e1.find("Cw");
+    if (bw == e1.end() || cw == e1.end()) {
+      c.missing("J (experiment 2, eq 20): needs Bw and Cw of experiment 1");
+      continue;
+    }
+    const Estimate Bw = bw->second, Cw = cw->second;
     // eq 20 over the coast-down: J (b w + c) = Bw w + Cw in the least-squares sense.
     double num = 0, den = 0;
     for (const CurvePoint &p : res.coast_curves["w"]) {
-      const double a = b.value * p.measured + c.value;
-      num += a * (Bw.value * p.measured + Cw.value);
+      const double a = b.value * p.fitted + cst.value;
+      num += a * (Bw.value * p.fitted + Cw.value);
       den += a * a;
     }
     const double J = num / den;
     // Relative errors of b, c and of Bw, Cw add (first order).
-    const double rel = std::hypot(std::hypot(b.se / b.value, c.se / c.value),
+    const double rel = std::hypot(std::hypot(b.se / b.value, cst.se / cst.value),
                                   std::hypot(Bw.se / Bw.value, Cw.se / Cw.value));
     res.table["exp2"]["J"] = {J, J * rel};
   }
@@ -245,95 +499,126 @@ double input_of(const MotorsSample &m, int axis) {
   }
 }
 
-double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
-
 struct AxisData {
-  Eigen::MatrixXd X;  // [x, input, sign(x)]
-  Eigen::VectorXd y;  // dx/dt
+  Eigen::MatrixXd X;          // [x, input, sign(x)]
+  Eigen::VectorXd y;          // dx/dt
+  std::vector<double> t;      // [s] of each row
   std::vector<size_t> start;  // first row of each run
-  std::vector<double> dt;     // sample period of each run
+  int half = 20;
 };
 
-AxisData axis_data(const std::vector<const Segment *> &segs, int axis, const model_params &base) {
-  const double thr = axis == 2 ? 0.5 : 0.05;
+// Rows of the driven step windows along `axis`: valid encoder samples moving faster than the
+// stop speed. The filters of a row must not reach into a stretch where the robot stuck or
+// stopped (there x' = theta1 x + theta2 u + theta3 sign(x) does not hold: stiction), so the
+// first and last half-window of every moving stretch are dropped. A run of rows ends where
+// the speed falls below the threshold or data are missing.
+AxisData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis) {
+  const double thr = kStopSpeed[axis];
   std::vector<std::array<double, 4>> rows;  // x, input, sign, y
   AxisData d;
-  const SgFilter f = savitzky_golay(kEncHalf, 2);
-  for (const Segment *s : segs) {
-    const VelocitySeries vs = encoder_velocity(*s, base.d, base.r, kEncHalf);
-    const auto &m = s->log->motors;
-    bool started = false;
-    double dt = 1e-3;
-    if (vs.t.size() > 1) dt = (vs.t.back() - vs.t.front()) / (vs.t.size() - 1);
-    for (size_t k = 0; k < vs.t.size(); ++k) {
-      const size_t mi = vs.motors_index[k];
-      if (m[mi].mode != kMotorsModeVoltage) break;  // the run ends where the drive stops
-      const double x = vs.x[k][axis];
-      if (std::abs(x) < thr) {
-        if (started) break;
+  for (const SegWindow &w : wins) {
+    const auto &enc = c.P.enc.at(w.s->log);
+    const auto &m = w.s->log->motors;
+    const int h = enc.half;
+    d.half = h;
+    const SgFilter f = savitzky_golay(h, 2);
+    // Moving stretches [a, b) of valid samples whose input window is contiguous too (the
+    // voltage logged at tick k-1 acts until tick k: the input window is shifted by one).
+    auto usable = [&](size_t k) {
+      return k > static_cast<size_t>(h) && enc.ok[k] && enc.joined[k - h] &&
+             std::abs(enc.x[k][axis]) >= thr;
+    };
+    size_t k = w.w.m0;
+    while (k < w.w.m1) {
+      if (!usable(k)) {
+        ++k;
         continue;
       }
-      // Input filtered like the output; the voltage logged at tick k-1 acts until tick k.
-      double in = 0;
-      for (int q = -kEncHalf; q <= kEncHalf; ++q) {
-        const long idx = std::clamp<long>(static_cast<long>(mi) + q - 1, 0,
-                                          static_cast<long>(m.size()) - 1);
-        in += f.smooth[q + kEncHalf] * input_of(m[idx], axis);
+      size_t b = k;
+      while (b < w.w.m1 && usable(b)) ++b;
+      const size_t a0 = k + h, b0 = b > static_cast<size_t>(h) ? b - h : 0;
+      k = b;
+      if (b0 <= a0 + 2) continue;
+      d.start.push_back(rows.size());
+      for (size_t q = a0; q < b0; ++q) {
+        double in = 0;
+        for (int j = -h; j <= h; ++j) in += f.smooth[j + h] * input_of(m[q + j - 1], axis);
+        const double x = enc.x[q][axis];
+        rows.push_back({x, in, sgn(x), enc.dx[q][axis]});
+        d.t.push_back(m[q].utime * 1e-6);
       }
-      if (!started) {
-        d.start.push_back(rows.size());
-        d.dt.push_back(dt);
-        started = true;
-      }
-      rows.push_back({x, in, sgn(x), vs.dx[k][axis]});
     }
   }
   d.X.resize(rows.size(), 3);
   d.y.resize(rows.size());
-  for (size_t k = 0; k < rows.size(); ++k) {
-    d.X.row(k) << rows[k][0], rows[k][1], rows[k][2];
-    d.y[k] = rows[k][3];
+  for (size_t r = 0; r < rows.size(); ++r) {
+    d.X.row(r) << rows[r][0], rows[r][1], rows[r][2];
+    d.y[r] = rows[r][3];
   }
   return d;
 }
 
-// Instruments: the noise-free response of the current model to the logged input (Euler at the
-// sample period, from the first measured value of each run).
+// Instruments: the noise-free response of the current model to the logged input (Euler over
+// the row times, from the first measured value of each run).
 Eigen::MatrixXd instruments(const AxisData &d, const Eigen::VectorXd &theta) {
   Eigen::MatrixXd Z = d.X;
   for (size_t r = 0; r < d.start.size(); ++r) {
-    const size_t a = d.start[r], b = r + 1 < d.start.size() ? d.start[r + 1] : d.X.rows();
+    const size_t a = d.start[r];
+    const size_t b = r + 1 < d.start.size() ? d.start[r + 1] : static_cast<size_t>(d.X.rows());
     double xb = d.X(a, 0);
     for (size_t k = a; k < b; ++k) {
       Z(k, 0) = xb;
       Z(k, 2) = sgn(xb);
-      xb += d.dt[r] * (theta[0] * xb + theta[1] * d.X(k, 1) + theta[2] * sgn(xb));
+      if (k + 1 < b)
+        xb += (d.t[k + 1] - d.t[k]) * (theta[0] * xb + theta[1] * d.X(k, 1) + theta[2] * sgn(xb));
     }
   }
   return Z;
 }
 
-void experiment3(const std::vector<const Segment *> &segs, const model_params &base,
-                 IdentResult &res) {
-  const double Kv = res.table["motor"]["Kv"].value, Kt = Kv;
+void experiment3(Context &c) {
+  IdentResult &res = c.res;
+  const model_params &base = c.P.base;
+  const auto kv = res.table["motor"].find("Kv");
+  if (c.segments_of("step", nullptr) == 0) {
+    c.missing("R, Bv, Bvn, Cv, Cvn, J, Bw, Cw (experiment 3): no 'step' segments; " +
+              record_hint("step"));
+    return;
+  }
+  if (kv == res.table["motor"].end() || !kv->second.ok()) {
+    c.missing("experiment 3: the state-space parameters need Kv from the motor test");
+    return;
+  }
+  const double Kv = kv->second.value, Kt = Kv;
   const double l = base.l, r = base.r, d = base.d, M = base.M;
   const double emf = Kt * Kv * l * l / (r * r);  // x 1/R
   std::array<Fit, 3> ls, iv;
+  std::array<bool, 3> have{};
   for (int axis = 0; axis < 3; ++axis) {
-    static const char *const dirs[3] = {"v", "vn", "w"};
-    std::vector<const Segment *> mine;
-    for (const Segment *s : segs)
-      if (s->direction == dirs[axis]) mine.push_back(s);
-    if (mine.empty())
-      throw IdentError(std::string("experiment 3 needs 'step' segments along ") + dirs[axis]);
-    const AxisData data = axis_data(mine, axis, base);
-    const std::string what = std::string("experiment 3 along ") + dirs[axis];
-    ls[axis] = least_squares(data.X, data.y, 2 * kEncHalf + 1, what + " (LS)");
-    Eigen::VectorXd theta = ls[axis].theta;
-    for (int it = 0; it < 3; ++it) {
-      iv[axis] = instrumental_variables(instruments(data, theta), data.X, data.y,
-                                        2 * kEncHalf + 1, what + " (IV)");
-      theta = iv[axis].theta;
+    const char *dir = kDirs[axis];
+    const auto wins = c.windows("step", dir, &SegmentWindows::step);
+    const std::string names = axis == 0 ? "Bv, Cv" : axis == 1 ? "Bvn, Cvn" : "J, Bw, Cw";
+    if (wins.empty()) {
+      const size_t nseg = c.segments_of("step", dir);
+      c.missing(names + " (experiment 3 along " + dir + "): " +
+                (nseg ? std::to_string(nseg) + " step segments but no usable drive"
+                      : std::string("no step segments")) +
+                "; " + record_hint("step"));
+      continue;
+    }
+    const AxisData data = axis_data(c, wins, axis);
+    const std::string what = std::string("experiment 3 along ") + dir;
+    try {
+      ls[axis] = least_squares(data.X, data.y, 2 * data.half + 1, what + " (LS)");
+      Eigen::VectorXd theta = ls[axis].theta;
+      for (int it = 0; it < 3; ++it) {
+        iv[axis] = instrumental_variables(instruments(data, theta), data.X, data.y,
+                                          2 * data.half + 1, what + " (IV)");
+        theta = iv[axis].theta;
+      }
+      have[axis] = true;
+    } catch (const IdentError &e) {
+      c.missing(names + ": " + e.what());
     }
   }
   for (const auto &[name, fits] : {std::pair<std::string, std::array<Fit, 3> *>{"exp3_ls", &ls},
@@ -341,66 +626,135 @@ void experiment3(const std::vector<const Segment *> &segs, const model_params &b
     auto &t = res.table[name];
     const Fit &fv = (*fits)[0], &fn = (*fits)[1], &fw = (*fits)[2];
     // theta_2 = l Kt / (r R M) along v and vn (eq 26): R from each, combined.
-    const Estimate Rv = propagate([&](const Eigen::VectorXd &q) { return l * Kt / (r * M * q[1]); },
-                                  fv.theta, fv.cov);
-    const Estimate Rn = propagate([&](const Eigen::VectorXd &q) { return l * Kt / (r * M * q[1]); },
-                                  fn.theta, fn.cov);
-    const Estimate R = combine({Rv, Rn});
-    t["R"] = R;
+    auto R_of = [&](const Fit &f) {
+      return propagate([&](const Eigen::VectorXd &q) { return l * Kt / (r * M * q[1]); }, f.theta,
+                       f.cov);
+    };
+    std::vector<Estimate> Rs;
+    if (have[0]) Rs.push_back(R_of(fv));
+    if (have[1]) Rs.push_back(R_of(fn));
+    Estimate R;
+    if (!Rs.empty()) {
+      R = combine_methods(Rs, c.P.opt);
+      t["R"] = R;
+    } else {
+      const auto rm = res.table["motor"].find("R");  // along w alone: R of the motor test
+      if (rm != res.table["motor"].end()) R = rm->second;
+    }
     // A11 = -(2 emf / (R M) + Bv / M), K11 = -Cv / M.
-    t["Bv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
-                        fv.theta, fv.cov);
-    t["Bvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
-                         fn.theta, fn.cov);
-    t["Cv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fv.theta, fv.cov);
-    t["Cvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fn.theta, fn.cov);
+    if (have[0]) {
+      t["Bv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
+                          fv.theta, fv.cov);
+      t["Cv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fv.theta, fv.cov);
+    }
+    if (have[1]) {
+      t["Bvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
+                           fn.theta, fn.cov);
+      t["Cvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fn.theta, fn.cov);
+    }
     // Along w: theta_2 = l Kt d / (r R J), A33 = -(4 d^2 emf / (R J) + Bw / J), K33 = -Cw / J.
-    auto J_of = [&](const Eigen::VectorXd &q) { return l * Kt * d / (r * R.value * q[1]); };
-    t["J"] = propagate(J_of, fw.theta, fw.cov);
-    t["Bw"] = propagate(
-        [&](const Eigen::VectorXd &q) { return -J_of(q) * q[0] - 4 * d * d * emf / R.value; },
-        fw.theta, fw.cov);
-    t["Cw"] = propagate([&](const Eigen::VectorXd &q) { return -J_of(q) * q[2]; }, fw.theta,
-                        fw.cov);
+    if (have[2] && R.ok()) {
+      auto J_of = [&](const Eigen::VectorXd &q) { return l * Kt * d / (r * R.value * q[1]); };
+      t["J"] = propagate(J_of, fw.theta, fw.cov);
+      t["Bw"] = propagate(
+          [&](const Eigen::VectorXd &q) { return -J_of(q) * q[0] - 4 * d * d * emf / R.value; },
+          fw.theta, fw.cov);
+      t["Cw"] = propagate([&](const Eigen::VectorXd &q) { return -J_of(q) * q[2]; }, fw.theta,
+                          fw.cov);
+    }
   }
+}
+
+Estimate lookup(const IdentResult &r, const char *method, const char *param) {
+  const auto m = r.table.find(method);
+  if (m == r.table.end()) return {};
+  const auto p = m->second.find(param);
+  return p == m->second.end() ? Estimate{} : p->second;
 }
 
 }  // namespace
 
-IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
-                     const IdentOptions &opt) {
+Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
+                 const IdentOptions &opt) {
+  Prepared P;
+  P.base = base;
+  P.opt = opt;
+  P.segments = segments;
+  for (const Segment &s : segments) {
+    if (!P.enc.count(s.log)) P.enc.emplace(s.log, encoder_track(*s.log, base.d, base.r));
+    if (!P.cam.count(s.log)) P.cam.emplace(s.log, camera_track(*s.log));
+  }
+  for (const Segment &s : segments) P.windows.push_back(find_windows(s, P.enc.at(s.log), opt.windows));
+  return P;
+}
+
+IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in) {
+  std::vector<size_t> all(P.segments.size());
+  std::iota(all.begin(), all.end(), 0);
+  const std::vector<size_t> &use = use_in ? *use_in : all;
   IdentResult res;
-  for (const Segment &s : segments) ++res.segments_used[s.kind];
-  motor_test(of_kind(segments, "motor"), base, opt, res);
-  const double Kt = res.table["motor"]["Kv"].value;  // Kt = Kv (SI units)
-  experiment1(of_kind(segments, "steady_rotation"), base, Kt, opt, res);
-  experiment2(of_kind(segments, "coast"), base, opt, res);
-  experiment3(of_kind(segments, "step"), base, res);
+  for (size_t i : use) ++res.segments_used[P.segments[i].kind];
+  if (!use_in) {  // the report: every window found and every rejection
+    for (size_t i = 0; i < P.segments.size(); ++i) {
+      const Segment &s = P.segments[i];
+      const SegmentWindows &w = P.windows[i];
+      auto used = [&](const std::vector<Window> &ws, const char *what) {
+        for (const Window &x : ws)
+          res.windows.push_back({i, s.kind, s.direction, what, seg_time(s, x.m0),
+                                 seg_time(s, x.m1 - 1), true, ""});
+      };
+      used(w.steady, "steady window");
+      used(w.coast, "coast-down");
+      used(w.step, "step");
+      for (const Rejection &r : w.rejected)
+        res.windows.push_back({i, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
+    }
+  }
+  Context c{P, use, res};
+  motor_test(c);
+  experiment1(c);
+  experiment2(c);
+  experiment3(c);
 
   auto &fin = res.table["final"];
-  auto &t = res.table;
-  fin["Kv"] = t["motor"]["Kv"];
-  fin["R"] = combine({t["motor"]["R"], t["exp3_iv"]["R"]});
-  for (const char *p : {"Bv", "Bvn", "Cv", "Cvn", "J"})
-    fin[p] = combine({t["exp2"][p], t["exp3_iv"][p]});
-  for (const char *p : {"Bw", "Cw"}) fin[p] = combine({t["exp1"][p], t["exp3_iv"][p]});
-
-  res.final = base;
-  res.final.Kv = res.final.Kt = fin["Kv"].value;
-  res.final.R = fin["R"].value;
-  res.final.J = fin["J"].value;
-  res.final.Bv = fin["Bv"].value;
-  res.final.Bvn = fin["Bvn"].value;
-  res.final.Bw = fin["Bw"].value;
-  res.final.Cv = fin["Cv"].value;
-  res.final.Cvn = fin["Cvn"].value;
-  res.final.Cw = fin["Cw"].value;
-  int bad = -1;
-  if (model_params_check(&res.final, &bad))
-    throw IdentError(std::string("identified parameters are not physical: ") +
-                     model_params_names[bad] + " = " +
-                     std::to_string(model_params_get(&res.final, bad)));
+  static const std::map<std::string, std::vector<const char *>> sources = {
+      {"Kv", {"motor"}},          {"R", {"motor", "exp3_iv"}},  {"J", {"exp2", "exp3_iv"}},
+      {"Bv", {"exp2", "exp3_iv"}}, {"Bvn", {"exp2", "exp3_iv"}}, {"Bw", {"exp1", "exp3_iv"}},
+      {"Cv", {"exp2", "exp3_iv"}}, {"Cvn", {"exp2", "exp3_iv"}}, {"Cw", {"exp1", "exp3_iv"}}};
+  res.final = P.base;
+  size_t found = 0;
+  for (const char *p : kIdentParams) {
+    std::vector<Estimate> est;
+    for (const char *m : sources.at(p)) est.push_back(lookup(res, m, p));
+    Agreement ag;
+    const Estimate e = combine_methods(est, P.opt, &ag);
+    res.agreement[p] = ag;
+    res.identified[p] = e.ok();
+    if (!e.ok()) continue;
+    fin[p] = e;
+    ++found;
+    for (int i = 0; i < MODEL_PARAMS_COUNT; ++i)
+      if (std::string(p) == model_params_names[i]) *model_params_field(&res.final, i) = e.value;
+  }
+  if (res.identified["Kv"]) res.final.Kt = res.final.Kv;
+  if (found == 0) {
+    std::string why = "nothing can be identified from these logs:";
+    for (const std::string &m : res.missing) why += "\n  " + m;
+    throw IdentError(why);
+  }
+  if (res.complete()) {
+    int bad = -1;
+    if (model_params_check(&res.final, &bad))
+      throw IdentError(std::string("identified parameters are not physical: ") +
+                       model_params_names[bad] + " = " +
+                       std::to_string(model_params_get(&res.final, bad)));
+  }
   return res;
+}
+
+IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
+                     const IdentOptions &opt) {
+  return identify(prepare(segments, base, opt));
 }
 
 }  // namespace omni4

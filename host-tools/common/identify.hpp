@@ -3,8 +3,8 @@
 //   experiment 1 (eq 16): Bw, Cw from steady rotation
 //   experiment 2 (eqs 17-20): Bv, Cv, Bvn, Cvn from null-traction coast-downs; J from eq 20
 //   experiment 3 (eqs 31-35): LS and IV on the ramped steps for the state-space model
-// Final values: inverse-variance weighted mean of motor test / experiments 1-2 and experiment 3
-// (IV); least squares is reported beside IV but not used in the final values.
+// Every method works on windows found in the data (windows.hpp), not on positions inside a
+// segment. Missing data drops only what needs it. Final values: see combine_methods().
 #pragma once
 
 #include <array>
@@ -14,6 +14,8 @@
 
 #include "logdata.hpp"
 #include "regression.hpp"
+#include "signals.hpp"
+#include "windows.hpp"
 
 extern "C" {
 #include "omni4/params.h"
@@ -25,7 +27,13 @@ enum class VelocitySource { Encoder, Camera };
 
 struct IdentOptions {
   VelocitySource source = VelocitySource::Encoder;
-  double steady_fraction = 0.4;  // last part of a constant-voltage segment taken as steady
+  WindowOptions windows;
+  // Methods agree on a parameter when the chi-square of their estimates about the weighted
+  // mean has a p-value of at least agree_p.
+  double agree_p = 0.01;
+  // Relative standard-error floor of every method (model error: the residual SE of a long,
+  // clean window can be far smaller than what the method's assumptions support).
+  double method_floor = 0.005;
 };
 
 // Points kept for plots and CSV export.
@@ -33,23 +41,73 @@ struct MotorPoint { int motor; double u, i, wm; };               // [V, A, rad/s
 struct RotationPoint { double level, omega_cam, omega_enc, torque; };
 struct CurvePoint { size_t segment; double t, measured, fitted; };
 
+// A window used or rejected, for the report.
+struct WindowRecord {
+  size_t segment = 0;
+  std::string kind, direction;  // of the segment
+  std::string what;             // "steady window", "coast-down", "step", "segment", ...
+  double t0_s = 0, t1_s = 0;    // from the segment's mark
+  bool used = false;
+  std::string reason;           // why it was rejected
+};
+
+struct Agreement {
+  int methods = 0;  // estimates available
+  double chi2 = 0;
+  int dof = 0;
+  double p = 1;
+  bool agree = true;
+  std::string rule;  // how the final value was formed
+};
+
 struct IdentResult {
   // Per method: parameter name -> estimate. Method names: "motor", "exp1", "exp2",
   // "exp3_ls", "exp3_iv", "final".
   std::map<std::string, std::map<std::string, Estimate>> table;
-  std::array<Estimate, 4> R_motor{}, Kv_motor{};
-  model_params final{};
+  std::array<Estimate, 4> R_motor{}, Kv_motor{};  // not ok() for a motor without data
+  model_params final{};           // base with the identified values (see identified)
+  std::map<std::string, bool> identified;  // by kIdentParams name
+  bool complete() const;
+  std::map<std::string, Agreement> agreement;  // by parameter
   std::vector<MotorPoint> motor_points;
   std::vector<RotationPoint> rotation_points;
   std::map<std::string, std::vector<CurvePoint>> coast_curves;  // by direction
   std::map<std::string, size_t> segments_used;                  // by kind
-  std::vector<std::string> notes;
+  std::vector<WindowRecord> windows;                            // used and rejected
+  std::vector<std::string> missing;  // one line per thing that could not be identified
 };
 
-// base: the measured d, r, l, M (other fields ignored). Throws IdentError naming what is
-// missing (an experiment kind, too few segments, a singular regression).
+// Encoder and camera tracks and windows of every segment, computed once (identify and the
+// bootstrap replicates share them).
+struct Prepared {
+  model_params base{};
+  IdentOptions opt;
+  std::vector<Segment> segments;
+  std::vector<SegmentWindows> windows;  // per segment
+  std::map<const LogData *, EncoderTrack> enc;
+  std::map<const LogData *, CameraTrack> cam;
+};
+
+// base: the measured d, r, l, M (other fields ignored).
+Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
+                 const IdentOptions &opt = {});
+
+// Identifies what the segments (all, or the indices in `use`, repeats allowed) support.
+// Throws IdentError only when no parameter at all can be identified (the message lists why).
+IdentResult identify(const Prepared &prep, const std::vector<size_t> *use = nullptr);
 IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
                      const IdentOptions &opt = {});
+
+// Final value of one parameter from the methods' estimates. Each SE is first raised to the
+// floor (opt.method_floor * |value|). If the estimates agree (chi-square p >= opt.agree_p):
+// inverse-variance weighted mean. If they do not: the plain mean of the methods (the paper's
+// own rule, "averaged with results from all 3 experimental methods"), so that no method with a
+// small but biased residual SE overrides the others; the disagreement is reported.
+Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
+                         Agreement *agreement = nullptr);
+
+// Upper tail of the chi-square distribution with dof degrees of freedom.
+double chi2_sf(double x, int dof);
 
 extern const char *const kIdentParams[9];   // Kv R J Bv Bvn Bw Cv Cvn Cw
 extern const char *const kIdentMethods[6];  // motor exp1 exp2 exp3_ls exp3_iv final

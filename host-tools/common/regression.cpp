@@ -3,7 +3,6 @@
 
 #include <cmath>
 #include <limits>
-#include <vector>
 
 namespace omni4 {
 
@@ -56,33 +55,6 @@ Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
   }
   e.se = std::sqrt(std::max(0.0, g.dot(cov * g)));
   return e;
-}
-
-Estimate combine(std::initializer_list<Estimate> list) {
-  double wsum = 0, vsum = 0;
-  size_t weighted = 0;
-  std::vector<double> plain;
-  for (const Estimate &e : list) {
-    if (!e.ok()) continue;
-    plain.push_back(e.value);
-    if (std::isfinite(e.se)) {
-      const double se = std::max(e.se, 1e-9 * std::abs(e.value) + 1e-300);
-      wsum += 1 / (se * se);
-      vsum += e.value / (se * se);
-      ++weighted;
-    }
-  }
-  Estimate out;
-  if (plain.empty()) return out;
-  if (weighted == plain.size()) {
-    out.value = vsum / wsum;
-    out.se = std::sqrt(1 / wsum);
-  } else {
-    double s = 0;
-    for (double v : plain) s += v;
-    out.value = s / plain.size();
-  }
-  return out;
 }
 
 }  // namespace omni4

@@ -42,7 +42,4 @@ struct Estimate {
 Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
                    const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov);
 
-// Inverse-variance weighted mean of the valid estimates (plain mean where a SE is missing).
-Estimate combine(std::initializer_list<Estimate> list);
-
 }  // namespace omni4

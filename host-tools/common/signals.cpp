@@ -2,6 +2,7 @@
 #include "signals.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -30,16 +31,6 @@ SgFilter savitzky_golay(int half, int order) {
   return f;
 }
 
-namespace {
-
-double apply(const std::vector<double> &c, const std::vector<double> &y, size_t centre, int half) {
-  double s = 0;
-  for (int k = -half; k <= half; ++k) s += c[k + half] * y[centre + k];
-  return s;
-}
-
-}  // namespace
-
 void unwrap(std::vector<double> &a) {
   double offset = 0;
   for (size_t k = 1; k < a.size(); ++k) {
@@ -58,60 +49,93 @@ int axis_index(const std::string &direction) {
   throw std::invalid_argument("unknown direction '" + direction + "'");
 }
 
-VelocitySeries encoder_velocity(const Segment &s, double d, double r, int half) {
-  VelocitySeries out;
-  const auto &m = s.log->motors;
-  const size_t n = s.m1 - s.m0;
-  if (n < static_cast<size_t>(2 * half + 3)) return out;
-  const double dt = (m[s.m1 - 1].utime - m[s.m0].utime) * 1e-6 / (n - 1);
-  std::array<std::vector<double>, 3> raw;
-  for (auto &v : raw) v.resize(n);
+EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s) {
+  EncoderTrack out;
+  const auto &m = log.motors;
+  const size_t n = m.size();
+  out.raw.resize(n);
+  out.x.assign(n, {NAN, NAN, NAN});
+  out.dx.assign(n, {NAN, NAN, NAN});
+  out.ok.assign(n, 0);
+  out.joined.assign(n, 0);
+  if (n < 3) return out;
+  std::vector<int64_t> steps(n - 1);
+  for (size_t k = 1; k < n; ++k) steps[k - 1] = m[k].utime - m[k - 1].utime;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const int64_t step_us = std::max<int64_t>(1, steps[steps.size() / 2]);
+  out.dt = step_us * 1e-6;
+  out.half = std::max(2, static_cast<int>(std::lround(half_s / out.dt)));
   for (size_t k = 0; k < n; ++k) {
     double vw[4], x[3];
-    for (int j = 0; j < 4; ++j) vw[j] = m[s.m0 + k].w[j] * r;
+    for (int j = 0; j < 4; ++j) vw[j] = m[k].w[j] * r;
     fk_robot_velocity(d, vw, x);
-    for (int a = 0; a < 3; ++a) raw[a][k] = x[a];
-  }
-  const SgFilter f = savitzky_golay(half, 2);
-  for (size_t k = half; k + half < n; ++k) {
-    std::array<double, 3> x{}, dx{};
-    for (int a = 0; a < 3; ++a) {
-      x[a] = apply(f.smooth, raw[a], k, half);
-      dx[a] = apply(f.deriv, raw[a], k, half) / dt;
+    out.raw[k] = {x[0], x[1], x[2]};
+    if (k > 0) {
+      const int64_t gap = m[k].utime - m[k - 1].utime;
+      out.joined[k] = m[k].seq == m[k - 1].seq + 1 && 2 * gap > step_us && 2 * gap < 3 * step_us;
     }
-    out.t.push_back((m[s.m0 + k].utime - s.t0) * 1e-6);
-    out.x.push_back(x);
-    out.dx.push_back(dx);
-    out.motors_index.push_back(s.m0 + k);
+  }
+  const int h = out.half;
+  const SgFilter f = savitzky_golay(h, 2);
+  // Contiguous blocks [a, b): the filter runs inside each, never across a gap.
+  size_t a = 0;
+  for (size_t b = 1; b <= n; ++b) {
+    if (b < n && out.joined[b]) continue;
+    for (size_t k = a + h; k + h < b; ++k) {
+      for (int ax = 0; ax < 3; ++ax) {
+        double s = 0, ds = 0;
+        for (int q = -h; q <= h; ++q) {
+          const double y = out.raw[k + q][ax];
+          s += f.smooth[q + h] * y;
+          ds += f.deriv[q + h] * y;
+        }
+        out.x[k][ax] = s;
+        out.dx[k][ax] = ds / out.dt;
+      }
+      out.ok[k] = 1;
+    }
+    a = b;
   }
   return out;
 }
 
-VelocitySeries camera_velocity(const Segment &s, int half) {
-  VelocitySeries out;
-  const auto &p = s.log->pose;
-  const size_t n = s.p1 - s.p0;
-  if (n < static_cast<size_t>(2 * half + 3)) return out;
-  const double dt = (p[s.p1 - 1].utime - p[s.p0].utime) * 1e-6 / (n - 1);
-  std::vector<double> xs(n), ys(n), th(n);
+CameraTrack camera_track(const LogData &log, double half_s) {
+  CameraTrack out;
+  const auto &p = log.pose;
+  const size_t n = p.size();
+  out.t.resize(n);
+  out.theta.resize(n);
   for (size_t k = 0; k < n; ++k) {
-    xs[k] = p[s.p0 + k].x;
-    ys[k] = p[s.p0 + k].y;
-    th[k] = p[s.p0 + k].theta;
+    out.t[k] = p[k].utime * 1e-6;
+    out.theta[k] = p[k].theta;
   }
-  unwrap(th);
-  const SgFilter f = savitzky_golay(half, 2);
-  for (size_t k = half; k + half < n; ++k) {
-    const double vx = apply(f.deriv, xs, k, half) / dt;
-    const double vy = apply(f.deriv, ys, k, half) / dt;
-    const double w = apply(f.deriv, th, k, half) / dt;
-    const double theta = apply(f.smooth, th, k, half);
-    const double xw[3] = {vx, vy, w};
+  unwrap(out.theta);
+  out.heading.assign(n, NAN);
+  out.x.assign(n, {NAN, NAN, NAN});
+  out.ok.assign(n, 0);
+  size_t lo = 0, hi = 0;
+  for (size_t k = 0; k < n; ++k) {
+    while (out.t[lo] < out.t[k] - half_s) ++lo;
+    while (hi < n && out.t[hi] <= out.t[k] + half_s) ++hi;
+    // A local quadratic needs frames on both sides: at least 2 before and 2 after.
+    if (k < lo + 2 || hi < k + 3 || hi - lo < 5) continue;
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Matrix<double, 3, 3> B = Eigen::Matrix<double, 3, 3>::Zero();  // rhs: x, y, theta
+    for (size_t j = lo; j < hi; ++j) {
+      const double tau = out.t[j] - out.t[k];
+      const Eigen::Vector3d phi(1, tau, tau * tau);
+      A += phi * phi.transpose();
+      B.col(0) += phi * p[j].x;
+      B.col(1) += phi * p[j].y;
+      B.col(2) += phi * out.theta[j];
+    }
+    const Eigen::Matrix3d c = A.ldlt().solve(B);  // rows: value, slope, curvature
+    out.heading[k] = c(0, 2);
+    const double xw[3] = {c(1, 0), c(1, 1), c(1, 2)};
     double xr[3];
-    frame_world_to_robot(theta, xw, xr);
-    out.t.push_back((p[s.p0 + k].utime - s.t0) * 1e-6);
-    out.x.push_back({xr[0], xr[1], xr[2]});
-    out.dx.push_back({NAN, NAN, NAN});  // a second derivative of 25 Hz poses is not used
+    frame_world_to_robot(out.heading[k], xw, xr);
+    out.x[k] = {xr[0], xr[1], xr[2]};
+    out.ok[k] = std::isfinite(xr[0]) && std::isfinite(xr[1]) && std::isfinite(xr[2]);
   }
   return out;
 }

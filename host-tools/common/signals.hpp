@@ -1,15 +1,20 @@
-// signals.hpp - robot velocities from the logged sensors.
+// signals.hpp - robot velocities from the logged sensors, once per log.
 //
-// Differentiator / filter: Savitzky-Golay (least-squares polynomial of order `order` over a
-// centred window of 2*half+1 samples, evaluated at the centre). The value filter smooths
-// noise; the derivative filter differentiates without the noise gain of a raw difference. The
-// first and last `half` samples of a series are dropped (no edge extrapolation).
-//   encoders (1 kHz): wheel speeds -> eqs 3-5 -> x = [v, vn, w]; SG order 2, half 20 (41 ms)
-//   camera (25 Hz): x, y, unwrapped theta; SG order 2, half 4 (9 frames = 0.36 s) derivative,
-//                   world velocity rotated into the robot frame with eq 1.
+// Differentiator / filter: Savitzky-Golay (least-squares polynomial of order 2 over a centred
+// window, evaluated at the centre). The value filter smooths noise; the derivative filter
+// differentiates without the noise gain of a raw difference.
+//   encoders: wheel speeds -> eqs 3-5 -> x = [v, vn, w] per motors_t sample; SG over +-20 ms
+//             (41 samples at 1 kHz, 21 at 500 Hz, 81 at 2 kHz) of CONTIGUOUS samples only: a
+//             seq gap or a jump in utime ends a block, and no value is computed where the
+//             window would cross a block edge (no extrapolation, no filtering across lost data).
+//   camera:   x, y, unwrapped theta fitted by a local quadratic in time over +-0.18 s (9 frames
+//             at 25 Hz) using the real frame times, so missing frames only thin the fit; the
+//             world velocity is rotated into the robot frame with eq 1.
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 #include "logdata.hpp"
@@ -24,17 +29,29 @@ struct SgFilter {
 
 SgFilter savitzky_golay(int half, int order);
 
-struct VelocitySeries {
-  std::vector<double> t;                  // [s] from the segment start
-  std::vector<std::array<double, 3>> x;   // smoothed [v, vn, w]
-  std::vector<std::array<double, 3>> dx;  // derivative [m/s^2, m/s^2, rad/s^2]
-  std::vector<size_t> motors_index;       // encoder series: index into log.motors
+// Robot velocity from the wheel encoders of a whole log (index = index into log.motors).
+struct EncoderTrack {
+  double dt = 0;  // nominal sample period [s] (median spacing)
+  int half = 0;   // SG half window [samples]
+  std::vector<std::array<double, 3>> raw;  // eqs 3-5 per sample [m/s, m/s, rad/s]
+  std::vector<std::array<double, 3>> x;    // SG-smoothed (valid where ok)
+  std::vector<std::array<double, 3>> dx;   // SG derivative [m/s^2, m/s^2, rad/s^2]
+  std::vector<uint8_t> ok;                 // a full contiguous window lies around the sample
+  std::vector<uint8_t> joined;             // sample k follows k-1 with no lost sample
 };
 
-// From the wheel encoders of motors [m0, m1) of the segment's log; d, r from the robot.
-VelocitySeries encoder_velocity(const Segment &s, double d, double r, int half = 20);
-// From the camera poses [p0, p1).
-VelocitySeries camera_velocity(const Segment &s, int half = 4);
+EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s = 0.020);
+
+// Robot velocity from the camera poses of a whole log (index = index into log.pose).
+struct CameraTrack {
+  std::vector<double> t;        // [s] (utime)
+  std::vector<double> theta;    // unwrapped heading [rad]
+  std::vector<double> heading;  // smoothed heading [rad] (valid where ok)
+  std::vector<std::array<double, 3>> x;  // robot-frame velocity (valid where ok)
+  std::vector<uint8_t> ok;
+};
+
+CameraTrack camera_track(const LogData &log, double half_s = 0.18);
 
 // Unwrap an angle sequence in place (removes 2 pi jumps).
 void unwrap(std::vector<double> &a);

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "identify.hpp"
 #include "logdata.hpp"
 
 extern "C" {
@@ -23,19 +24,22 @@ struct AxisErrors {
 struct ValidationPoint {
   size_t segment;
   std::string direction;
-  double level, t;
+  double level, t;  // t: from the segment's mark [s]
   std::array<double, 3> measured, simulated;
 };
 
 struct Validation {
   std::array<AxisErrors, 3> axis{};  // v, vn, w: from the step runs along that axis
   std::vector<ValidationPoint> points;
+  std::vector<WindowRecord> rejected;  // step segments or drives not used, with the reason
   size_t runs = 0;
 };
 
-// Every 'step' segment: the plant of `p` driven by the logged voltages (and H-bridge state),
-// started from the measured velocity, against the encoder velocity (eqs 3-5, SG-smoothed).
-// Throws IdentError if no step segment exists.
-Validation validate(const std::vector<Segment> &segments, const model_params &p);
+// Every step window (a driven run inside a 'step' segment, see windows.hpp): the plant of `p`
+// driven by the logged voltages (and H-bridge state), started from the encoder velocity at the
+// start of the drive, against the measured velocity: the wheel encoders (eqs 3-5,
+// SG-smoothed) or the camera (opt.source). Throws IdentError if no step window exists.
+Validation validate(const std::vector<Segment> &segments, const model_params &p,
+                    const IdentOptions &opt = {});
 
 }  // namespace omni4

@@ -77,7 +77,7 @@ std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
   return all;
 }
 
-model_params load_params(const std::string &path, bool partial) {
+model_params load_params(const std::string &path, bool partial, uint32_t *seen_out = nullptr) {
   omni4_config cfg;
   config_error err;
   config_defaults(&cfg);
@@ -92,15 +92,37 @@ model_params load_params(const std::string &path, bool partial) {
                 "' in [model]",
             2);
   }
+  if (seen_out) *seen_out = partial ? seen : ~0u;
   return cfg.model;
 }
 
-// Write next to the target, then rename: never a half-written PARAMS file.
-void write_params(const std::string &path, const model_params &p, const std::string &comment) {
+// Write next to the target, then rename: never a half-written PARAMS file. A parameter that was
+// not identified is taken from BASE.ini if it gives one (said in a comment), else left out, so
+// that the firmware refuses the file ("missing key") instead of running on a guess.
+void write_params(const std::string &path, const IdentResult &r, const model_params &base,
+                  uint32_t base_seen, const std::string &comment) {
   const std::string tmp = path + ".tmp" + std::to_string(getpid());
   FILE *f = std::fopen(tmp.c_str(), "w");
   if (!f) die(tmp + ": " + std::strerror(errno));
-  bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0 && config_write_model(f, &p) == 0;
+  bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0;
+  if (r.complete()) {
+    ok = ok && config_write_model(f, &r.final) == 0;
+  } else {
+    ok = ok && std::fprintf(f, "; partial identification: see the missing list of omni4-ident\n"
+                               "[model]\n") > 0;
+    for (int i = 0; i < MODEL_PARAMS_COUNT; ++i) {
+      const std::string name = model_params_names[i];
+      const auto id = r.identified.find(name == "Kt" ? "Kv" : name);
+      const bool measured = name == "d" || name == "r" || name == "l" || name == "M";
+      if (measured || (id != r.identified.end() && id->second))
+        ok = ok && std::fprintf(f, "%s = %.17g\n", name.c_str(), model_params_get(&r.final, i)) > 0;
+      else if (base_seen & (1u << i))
+        ok = ok && std::fprintf(f, "%s = %.17g ; not identified: from the robot file\n",
+                                name.c_str(), model_params_get(&base, i)) > 0;
+      else
+        ok = ok && std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
+    }
+  }
   ok = (std::fclose(f) == 0) && ok;
   if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());
@@ -124,37 +146,80 @@ double field(const model_params &p, const std::string &name) {
   return NAN;
 }
 
+Estimate find_estimate(const IdentResult &r, const char *method, const char *param) {
+  const auto mit = r.table.find(method);
+  if (mit == r.table.end()) return {};
+  const auto pit = mit->second.find(param);
+  return pit == mit->second.end() ? Estimate{} : pit->second;
+}
+
 void print_table(const IdentResult &r, const model_params *truth) {
   static const char *const headers[6] = {"motor test", "exp 1", "exp 2", "exp 3 LS",
                                          "exp 3 IV", "final"};
   std::printf("\n%-5s", "param");
   for (const char *h : headers) std::printf(" %19s", h);
+  std::printf(" %-12s", "methods");
   if (truth) std::printf(" %10s %8s", "true", "error");
   std::printf("\n");
   for (const char *p : kIdentParams) {
     std::printf("%-5s", p);
-    for (const char *m : kIdentMethods) {
-      const auto mit = r.table.find(m);
-      Estimate e;
-      if (mit != r.table.end()) {
-        const auto pit = mit->second.find(p);
-        if (pit != mit->second.end()) e = pit->second;
-      }
-      std::printf(" %19s", fmt(e).c_str());
-    }
-    if (truth) {
-      const double t = field(*truth, p), v = r.table.at("final").at(p).value;
-      std::printf(" %10.4g %+7.2f%%", t, 100 * (v - t) / t);
+    for (const char *m : kIdentMethods) std::printf(" %19s", fmt(find_estimate(r, m, p)).c_str());
+    const Agreement &ag = r.agreement.at(p);
+    char agree[32] = "";
+    if (ag.methods >= 2)
+      std::snprintf(agree, sizeof(agree), "%s p=%.2g", ag.agree ? "agree" : "DISAGREE", ag.p);
+    std::printf(" %-12s", agree);
+    const Estimate fin = find_estimate(r, "final", p);
+    if (truth && fin.ok()) {
+      const double t = field(*truth, p);
+      std::printf(" %10.4g %+7.2f%%", t, 100 * (fin.value - t) / t);
     }
     std::printf("\n");
   }
-  std::printf("(± standard error; final = inverse-variance weighted mean of motor test / exp 1 / "
-              "exp 2 and exp 3 IV; Kt = Kv)\n");
+  std::printf("(± standard error. final: the methods' estimates, each SE raised to at least "
+              "0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
+              "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
   std::printf("R per motor (eq 22):");
-  for (int j = 0; j < 4; ++j) std::printf("  R%d %.4f", j, r.R_motor[j].value);
+  for (int j = 0; j < 4; ++j)
+    if (r.R_motor[j].ok()) std::printf("  R%d %.4f", j, r.R_motor[j].value);
+    else std::printf("  R%d -", j);
   std::printf("\nKv per motor:       ");
-  for (int j = 0; j < 4; ++j) std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
+  for (int j = 0; j < 4; ++j)
+    if (r.Kv_motor[j].ok()) std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
+    else std::printf("  K%d -", j);
   std::printf("\n");
+  for (const char *p : kIdentParams) {
+    const Agreement &ag = r.agreement.at(p);
+    if (ag.methods >= 2 && !ag.agree)
+      std::printf("warning: the methods disagree on %s (chi-square %.1f, p = %.2g); final = "
+                  "their plain mean. Look at the rejected windows and the plots.\n",
+                  p, ag.chi2, ag.p);
+  }
+}
+
+// Windows: used per kind, rejected per reason (every one with --verbose).
+void print_windows(const IdentResult &r, const std::vector<Segment> &segs, bool verbose) {
+  std::map<std::string, size_t> used, rejected;
+  for (const WindowRecord &w : r.windows) {
+    if (w.used) ++used[w.what + " (" + w.kind + ")"];
+    else ++rejected[w.what + " (" + w.kind + "): " + w.reason.substr(0, w.reason.find(':'))];
+  }
+  std::printf("windows found in the data:");
+  for (const auto &[k, n] : used) std::printf(" %zu %s;", n, k.c_str());
+  size_t nrej = 0;
+  for (const auto &[k, n] : rejected) nrej += n;
+  std::printf(" %zu rejected%s\n", nrej, nrej && !verbose ? " (--verbose lists them):" : "");
+  if (!verbose) {
+    for (const auto &[k, n] : rejected) std::printf("  %4zu x %s\n", n, k.c_str());
+    return;
+  }
+  for (const WindowRecord &w : r.windows) {
+    if (w.used) continue;
+    const Segment &s = segs[w.segment];
+    std::printf("  rejected: %s, segment %zu (%s %s %.3g V at %.3f s in %s), %.2f-%.2f s: %s\n",
+                w.what.c_str(), w.segment, s.kind.c_str(), s.direction.c_str(), s.level,
+                s.t0 * 1e-6, s.log->path.c_str(), w.t0_s, w.t1_s, w.reason.c_str());
+  }
 }
 
 void ensure_dir(const std::string &dir) {
@@ -188,13 +253,24 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
   for (const auto &[dir_name, pts] : r.coast_curves)
     for (const auto &p : pts)
       h << dir_name << ',' << p.segment << ',' << p.t << ',' << p.measured << ',' << p.fitted << '\n';
+  auto w = open_csv(dir, "windows.csv");
+  w << "segment,kind,direction,what,t0_s,t1_s,used,reason\n";
+  for (const auto &x : r.windows)
+    w << x.segment << ',' << x.kind << ',' << x.direction << ',' << x.what << ',' << x.t0_s << ','
+      << x.t1_s << ',' << (x.used ? 1 : 0) << ",\"" << x.reason << "\"\n";
+  auto a = open_csv(dir, "agreement.csv");
+  a << "param,methods,chi2,dof,p,agree,rule\n";
+  for (const char *p : kIdentParams) {
+    const Agreement &ag = r.agreement.at(p);
+    a << p << ',' << ag.methods << ',' << ag.chi2 << ',' << ag.dof << ',' << ag.p << ','
+      << (ag.agree ? 1 : 0) << ',' << ag.rule << '\n';
+  }
   auto t = open_csv(dir, "params.csv");
   t << "param,method,value,se\n";
   for (const auto &[m, row] : r.table)
     for (const auto &[p, e] : row) t << p << ',' << m << ',' << e.value << ',' << e.se << '\n';
   if (truth)
     for (const char *p : kIdentParams) t << p << ",true," << field(*truth, p) << ",\n";
-  (void)r.final;
 }
 
 void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs) {
@@ -205,7 +281,8 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
               "95 % interval (bootstrap)");
   for (const char *p : kIdentParams) {
     const auto it = b.final.find(p);
-    const Estimate &e = r.table.at("final").at(p);
+    const Estimate e = find_estimate(r, "final", p);
+    if (!e.ok()) continue;
     if (it == b.final.end()) {
       std::printf("%-5s %12.5g %12.2g %12s\n", p, e.value, e.se, "-");
       continue;
@@ -222,7 +299,7 @@ void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const Bo
   for (const char *p : kIdentParams) {  // the table's order
     const auto it = b.final.find(p);
     if (it == b.final.end()) continue;
-    const Estimate &e = r.table.at("final").at(p);
+    const Estimate e = find_estimate(r, "final", p);
     const BootstrapStats &s = it->second;
     f << p << ',' << e.value << ',' << e.se << ',' << s.se << ',' << s.lo95 << ',' << s.hi95 << '\n';
   }
@@ -232,17 +309,30 @@ void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const Bo
     for (double x : xs) g << p << ',' << x << '\n';
 }
 
-int cmd_identify(const std::string &robot, const std::string &out, const std::string &truth_path,
-                 const std::string &csv, const std::string &source, int boot_n,
-                 const std::vector<std::string> &paths) {
-  const model_params base = load_params(robot, true);
-  model_params truth{};
-  if (!truth_path.empty()) truth = load_params(truth_path, false);
-  const auto logs = load_logs(paths);
-  const auto segs = segments_of(logs);
+struct IdentifyArgs {
+  std::string robot, out, truth, csv, source = "encoder";
+  int boot_n = 0;
+  bool verbose = false;
+  double steady_tol_pct = 0.3;
+  std::vector<std::string> logs;
+};
+
+IdentOptions ident_options(const std::string &source, double steady_tol_pct) {
   IdentOptions opt;
   if (source == "camera") opt.source = VelocitySource::Camera;
   else if (source != "encoder") die("--velocity must be 'encoder' or 'camera'", 2);
+  opt.windows.steady_tol = steady_tol_pct / 100;
+  return opt;
+}
+
+int cmd_identify(const IdentifyArgs &a) {
+  uint32_t base_seen = 0;
+  const model_params base = load_params(a.robot, true, &base_seen);
+  model_params truth{};
+  if (!a.truth.empty()) truth = load_params(a.truth, false);
+  const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
+  const auto logs = load_logs(a.logs);
+  const auto segs = segments_of(logs);
   IdentResult r;
   try {
     r = identify(segs, base, opt);
@@ -251,22 +341,36 @@ int cmd_identify(const std::string &robot, const std::string &out, const std::st
   }
   std::printf("segments:");
   for (const auto &[k, n] : r.segments_used) std::printf(" %s %zu", k.c_str(), n);
-  std::printf("; robot velocities from the %s\n", source.c_str());
-  print_table(r, truth_path.empty() ? nullptr : &truth);
+  std::printf("; robot velocities from the %s\n", a.source.c_str());
+  print_windows(r, segs, a.verbose);
+  print_table(r, a.truth.empty() ? nullptr : &truth);
   BootstrapResult boot;
-  if (boot_n > 0) {
+  if (a.boot_n > 0) {
     const bool tty = isatty(STDERR_FILENO);
-    boot = bootstrap_runs(segs, base, opt, boot_n, 1, [&](int done, int total) {
+    boot = bootstrap_runs(segs, base, opt, a.boot_n, 1, [&](int done, int total) {
       if (tty || done == total)
         std::fprintf(stderr, "%somni4-ident: bootstrap %d/%d%s", tty ? "\r" : "", done, total,
                      done == total ? "\n" : "");
     });
     print_bootstrap(r, boot, segs.size());
   }
-  write_params(out, r.final, "omni4-ident identify from " + std::to_string(paths.size()) + " log(s)");
-  if (!csv.empty()) export_ident_csv(csv, r, truth_path.empty() ? nullptr : &truth);
-  if (!csv.empty() && boot_n > 0) export_bootstrap_csv(csv, r, boot);
-  std::printf("wrote %s\n", out.c_str());
+  write_params(a.out, r, base, base_seen,
+               "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)");
+  if (!a.csv.empty()) export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
+  if (!a.csv.empty() && a.boot_n > 0) export_bootstrap_csv(a.csv, r, boot);
+  if (!r.complete()) {
+    std::string which;
+    for (const char *p : kIdentParams)
+      if (!r.identified.at(p)) which += std::string(which.empty() ? "" : ", ") + p;
+    std::printf("\npartial identification: not identified: %s\n", which.c_str());
+    for (const std::string &m : r.missing) std::printf("  missing: %s\n", m.c_str());
+    std::printf("wrote %s with the identified parameters only (values the robot file gives are "
+                "kept, marked; the firmware refuses a [model] with missing keys)\n",
+                a.out.c_str());
+    return 0;
+  }
+  for (const std::string &m : r.missing) std::printf("note: %s\n", m.c_str());
+  std::printf("wrote %s\n", a.out.c_str());
   return 0;
 }
 
@@ -290,7 +394,9 @@ void write_json(const std::string &path, const Validation &v) {
 }
 
 int cmd_validate(const std::vector<std::string> &params, const std::string &json,
-                 const std::string &csv, const std::vector<std::string> &paths) {
+                 const std::string &csv, const std::string &source,
+                 const std::vector<std::string> &paths) {
+  const IdentOptions opt = ident_options(source, 0.3);
   if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
   std::vector<model_params> sets;
   for (const auto &p : params) sets.push_back(load_params(p, false));
@@ -298,13 +404,20 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
   const auto segs = segments_of(logs);
   std::vector<Validation> vals;
   try {
-    for (const auto &p : sets) vals.push_back(validate(segs, p));
+    for (const auto &p : sets) vals.push_back(validate(segs, p, opt));
   } catch (const IdentError &e) {
     die(e.what());
   }
   // Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
-  std::printf("\nvalidation on %zu step runs (measured = wheel encoders, eqs 3-5; simulated = "
-              "model driven by the logged voltages)\n%-5s", vals[0].runs, "vel");
+  for (const WindowRecord &w : vals[0].rejected)
+    std::printf("not validated: %s, segment %zu (%s %s), %.2f-%.2f s: %s\n", w.what.c_str(),
+                w.segment, w.kind.c_str(), w.direction.c_str(), w.t0_s, w.t1_s, w.reason.c_str());
+  std::printf("\nvalidation on %zu step runs (measured = %s; simulated = model driven by the "
+              "logged voltages from the encoder velocity at the start of each drive)\n%-5s",
+              vals[0].runs,
+              opt.source == VelocitySource::Camera ? "camera poses, local quadratic over 0.36 s"
+                                                   : "wheel encoders, eqs 3-5",
+              "vel");
   for (const auto &p : params) std::printf(" | %-32.32s", p.c_str());
   std::printf("\n%-5s", "");
   for (size_t k = 0; k < params.size(); ++k) std::printf(" | %10s %10s %10s", "e_max", "mean", "sigma");
@@ -345,27 +458,30 @@ int main(int argc, char **argv) {
   app.require_subcommand(1);
 
   auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
-  std::string robot, out, truth, csv, source = "encoder";
-  std::vector<std::string> logs;
-  id->add_option("--robot", robot, "BASE.ini with the measured d, r, l, M in [model]")->required();
-  id->add_option("--out", out, "PARAMS.ini to write (firmware-loadable [model] section)")->required();
-  id->add_option("--truth", truth, "known parameters (simulation): print the error of each");
-  id->add_option("--csv", csv, "export every segment and fit as CSV into this folder");
-  id->add_option("--velocity", source, "robot velocity source: encoder (default) or camera");
-  int boot_n = 0;
-  id->add_option("--bootstrap", boot_n, "also estimate the uncertainty by resampling whole runs, "
-                                        "N replicates (0: off)")
+  IdentifyArgs ia;
+  id->add_option("--robot", ia.robot, "BASE.ini with the measured d, r, l, M in [model]")->required();
+  id->add_option("--out", ia.out, "PARAMS.ini to write (firmware-loadable [model] section)")->required();
+  id->add_option("--truth", ia.truth, "known parameters (simulation): print the error of each");
+  id->add_option("--csv", ia.csv, "export every segment, window and fit as CSV into this folder");
+  id->add_option("--velocity", ia.source, "robot velocity source: encoder (default) or camera");
+  id->add_option("--bootstrap", ia.boot_n, "also estimate the uncertainty by resampling whole runs, "
+                                           "N replicates (0: off)")
       ->check(CLI::Range(0, 100000))->capture_default_str();
-  id->add_option("logs", logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
+  id->add_option("--steady-tol", ia.steady_tol_pct,
+                 "steady window: speed within this % of its final value (plus 2 mm/s, 0.01 rad/s)")
+      ->check(CLI::Range(0.01, 20.0))->capture_default_str();
+  id->add_flag("--verbose,-v", ia.verbose, "list every rejected window with its reason");
+  id->add_option("logs", ia.logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
 
   auto *va = app.add_subcommand("validate", "simulate the model on the logged inputs (Table IV)");
   std::vector<std::string> params;
-  std::string json, vcsv;
+  std::string json, vcsv, vsource = "encoder";
   std::vector<std::string> vlogs;
   va->add_option("--params", params, "PARAMS.ini (give twice to compare two sets)")->required();
   va->add_option("--json", json, "write e_max, e_mean, sigma per velocity (first --params)")
       ->required();
   va->add_option("--csv", vcsv, "export measured and simulated velocities as CSV");
+  va->add_option("--velocity", vsource, "measured velocity: encoder (default) or camera");
   va->add_option("logs", vlogs, "LCM event logs")->required();
 
   auto *ru = app.add_subcommand("run", "drive a robot (or omni4-fw on the sim backend) through "
@@ -380,8 +496,8 @@ int main(int argc, char **argv) {
       ->check(CLI::Range(0.2, 60.0))->capture_default_str();
 
   OMNI4_CLI_PARSE(app, argc, argv);
-  if (id->parsed()) return cmd_identify(robot, out, truth, csv, source, boot_n, logs);
-  if (va->parsed()) return cmd_validate(params, json, vcsv, vlogs);
+  if (id->parsed()) return cmd_identify(ia);
+  if (va->parsed()) return cmd_validate(params, json, vcsv, vsource, vlogs);
   if (ru->parsed()) return run_experiments(ropt);
   return 2;
 }
