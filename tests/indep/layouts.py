@@ -307,6 +307,7 @@ def render_rest(tl, run, rng):
     tl.idle(float(rng.uniform(0.5, 1.2)))
     tl.check_rest()
     tl.mark("end")
+    tl.idle(float(rng.uniform(0.1, 0.3)))
 
 
 def render_rampdown(tl, run, rng):

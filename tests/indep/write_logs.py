@@ -195,8 +195,8 @@ def sensor_data(sim, i, robot, seed, layout):
     t0 = int(rng.integers(10**9, 10**11))
     seq0 = int(rng.integers(0, 10**6))
     ticks = np.nonzero(keep_m)[0]
-    marks = sorted((t0 + int(round(t * 1e6)), kind, d, lv)
-                   for t, kind, d, lv in sim["timelines"][i].marks)
+    marks = sorted(((t0 + int(round(t * 1e6)), kind, d, lv)
+                    for t, kind, d, lv in sim["timelines"][i].marks), key=lambda mk: mk[0])
     return {"t0": t0, "dt_us": dt_us, "ticks": ticks,
             "motors": {"utime": t0 + ticks * dt_us, "seq": seq0 + ticks,
                        "mode": sim["mode"][ticks, i], "voltage": sim["u"][ticks, i],
