@@ -99,16 +99,13 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
   return out;
 }
 
-CameraTrack camera_track(const LogData &log, double half_s) {
+CameraTrack pose_velocity(const std::vector<double> &t, const std::vector<double> &px,
+                          const std::vector<double> &py, const std::vector<double> &theta,
+                          double half_s) {
   CameraTrack out;
-  const auto &p = log.pose;
-  const size_t n = p.size();
-  out.t.resize(n);
-  out.theta.resize(n);
-  for (size_t k = 0; k < n; ++k) {
-    out.t[k] = p[k].utime * 1e-6;
-    out.theta[k] = p[k].theta;
-  }
+  const size_t n = t.size();
+  out.t = t;
+  out.theta = theta;
   unwrap(out.theta);
   out.heading.assign(n, NAN);
   out.x.assign(n, {NAN, NAN, NAN});
@@ -125,8 +122,8 @@ CameraTrack camera_track(const LogData &log, double half_s) {
       const double tau = out.t[j] - out.t[k];
       const Eigen::Vector3d phi(1, tau, tau * tau);
       A += phi * phi.transpose();
-      B.col(0) += phi * p[j].x;
-      B.col(1) += phi * p[j].y;
+      B.col(0) += phi * px[j];
+      B.col(1) += phi * py[j];
       B.col(2) += phi * out.theta[j];
     }
     const Eigen::Matrix3d c = A.ldlt().solve(B);  // rows: value, slope, curvature
@@ -138,6 +135,18 @@ CameraTrack camera_track(const LogData &log, double half_s) {
     out.ok[k] = std::isfinite(xr[0]) && std::isfinite(xr[1]) && std::isfinite(xr[2]);
   }
   return out;
+}
+
+CameraTrack camera_track(const LogData &log, double half_s) {
+  const auto &p = log.pose;
+  std::vector<double> t(p.size()), x(p.size()), y(p.size()), th(p.size());
+  for (size_t k = 0; k < p.size(); ++k) {
+    t[k] = p[k].utime * 1e-6;
+    x[k] = p[k].x;
+    y[k] = p[k].y;
+    th[k] = p[k].theta;
+  }
+  return pose_velocity(t, x, y, th, half_s);
 }
 
 }  // namespace omni4

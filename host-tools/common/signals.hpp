@@ -52,6 +52,10 @@ struct CameraTrack {
 };
 
 CameraTrack camera_track(const LogData &log, double half_s = 0.18);
+// The same estimator on any pose series (times [s], world x, y [m], heading [rad]).
+CameraTrack pose_velocity(const std::vector<double> &t, const std::vector<double> &px,
+                          const std::vector<double> &py, const std::vector<double> &theta,
+                          double half_s);
 
 // Unwrap an angle sequence in place (removes 2 pi jumps).
 void unwrap(std::vector<double> &a);

@@ -14,23 +14,45 @@ extern "C" {
 
 namespace omni4 {
 
+namespace {
+
+// Advance the plant tick by tick while the next tick is not after t [s]; the voltage logged at
+// tick i acts until tick i + 1 (held across lost samples). i: the tick the plant state is at.
+void advance(plant &pl, const std::vector<MotorsSample> &m, size_t &i, size_t end, double t) {
+  while (i + 1 < end && m[i + 1].utime * 1e-6 <= t + 1e-9) {
+    const MotorsSample &ms = m[i];
+    const double u[4] = {ms.u[0], ms.u[1], ms.u[2], ms.u[3]};
+    plant_step(&pl, u, driven_mode(ms.mode), (m[i + 1].utime - ms.utime) * 1e-6);
+    ++i;
+  }
+}
+
+}  // namespace
+
 Validation validate(const std::vector<Segment> &segments, const model_params &p,
                     const IdentOptions &opt) {
   Validation v;
   std::array<double, 3> sum{}, sum2{};
   std::map<const LogData *, EncoderTrack> encs;
-  std::map<const LogData *, CameraTrack> cams;
   const bool cam = opt.source == VelocitySource::Camera;
   for (size_t si = 0; si < segments.size(); ++si) {
     const Segment &s = segments[si];
     if (s.kind != "step") continue;
     if (!encs.count(s.log)) encs.emplace(s.log, encoder_track(*s.log, p.d, p.r));
-    if (cam && !cams.count(s.log)) cams.emplace(s.log, camera_track(*s.log));
     const EncoderTrack &enc = encs.at(s.log);
     const SegmentWindows wins = find_windows(s, enc, opt.windows);
     for (const Rejection &r : wins.rejected)
       v.rejected.push_back({si, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
     const int axis = axis_index(s.direction);
+    auto add = [&](const ValidationPoint &pt) {
+      const double e = pt.measured[axis] - pt.simulated[axis];
+      AxisErrors &ax = v.axis[axis];
+      ax.e_max = std::max(ax.e_max, std::abs(e));
+      sum[axis] += e;
+      sum2[axis] += e * e;
+      ++ax.n;
+      v.points.push_back(pt);
+    };
     const auto &m = s.log->motors;
     for (const Window &w : wins.step) {
       // Start at the first sample with a valid encoder velocity.
@@ -45,36 +67,45 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
       plant pl;
       if (plant_init(&pl, &p)) throw IdentError("validate: parameters are not physical");
       for (int a = 0; a < 3; ++a) pl.x[a] = enc.x[k0][a];
-      // Measured samples: encoder samples of the window, or camera frames inside it.
-      std::vector<std::pair<double, std::array<double, 3>>> meas;  // utime [s], velocity
       if (cam) {
-        const CameraTrack &ct = cams.at(s.log);
+        // Camera: the model's pose is sampled at the frame times and both pose series go
+        // through the same local-quadratic velocity estimator (+-0.4 s), so its smoothing acts
+        // on both alike and e is model error plus camera noise.
+        const auto &pose = s.log->pose;
         const double ta = m[k0].utime * 1e-6, tb = m[w.m1 - 1].utime * 1e-6;
-        for (size_t q = 0; q < ct.t.size(); ++q)
-          if (ct.ok[q] && ct.t[q] >= ta && ct.t[q] <= tb) meas.push_back({ct.t[q], ct.x[q]});
-      } else {
-        for (size_t k = k0; k < w.m1; ++k)
-          if (enc.ok[k]) meas.push_back({m[k].utime * 1e-6, enc.x[k]});
-      }
-      size_t i = k0;  // the plant state is at m[i].utime
-      for (const auto &[t, x] : meas) {
-        // Advance the plant tick by tick up to the measurement; the voltage logged at tick i
-        // acts until tick i + 1 (held across lost samples).
-        while (i + 1 < w.m1 && m[i + 1].utime * 1e-6 <= t + 1e-9) {
-          const MotorsSample &ms = m[i];
-          const double u[4] = {ms.u[0], ms.u[1], ms.u[2], ms.u[3]};
-          plant_step(&pl, u, driven_mode(ms.mode), (m[i + 1].utime - ms.utime) * 1e-6);
-          ++i;
+        std::vector<double> t, mx, my, mth, sx, sy, sth;
+        size_t i = k0;
+        for (const PoseSample &q : pose) {
+          const double tq = q.utime * 1e-6;
+          if (tq < ta || tq > tb) continue;
+          if (t.empty()) {  // the simulated pose starts at the first frame
+            pl.pose[0] = q.x;
+            pl.pose[1] = q.y;
+            pl.pose[2] = q.theta;
+          }
+          advance(pl, m, i, w.m1, tq);
+          t.push_back(tq);
+          mx.push_back(q.x);
+          my.push_back(q.y);
+          mth.push_back(q.theta);
+          sx.push_back(pl.pose[0]);
+          sy.push_back(pl.pose[1]);
+          sth.push_back(pl.pose[2]);
         }
-        ValidationPoint pt{si, s.direction, s.level, t - s.t0 * 1e-6, x,
-                           {pl.x[0], pl.x[1], pl.x[2]}};
-        const double e = pt.measured[axis] - pt.simulated[axis];
-        AxisErrors &ax = v.axis[axis];
-        ax.e_max = std::max(ax.e_max, std::abs(e));
-        sum[axis] += e;
-        sum2[axis] += e * e;
-        ++ax.n;
-        v.points.push_back(pt);
+        const double half = 0.4;
+        const CameraTrack meas = pose_velocity(t, mx, my, mth, half);
+        const CameraTrack sim = pose_velocity(t, sx, sy, sth, half);
+        for (size_t q = 0; q < t.size(); ++q)  // full windows only: no one-sided fits
+          if (meas.ok[q] && sim.ok[q] && t[q] - half >= t.front() && t[q] + half <= t.back())
+            add({si, s.direction, s.level, t[q] - s.t0 * 1e-6, meas.x[q], sim.x[q]});
+      } else {
+        size_t i = k0;
+        for (size_t k = k0; k < w.m1; ++k) {
+          if (!enc.ok[k]) continue;
+          advance(pl, m, i, w.m1, m[k].utime * 1e-6);
+          add({si, s.direction, s.level, (m[k].utime - s.t0) * 1e-6, enc.x[k],
+               {pl.x[0], pl.x[1], pl.x[2]}});
+        }
       }
     }
   }
