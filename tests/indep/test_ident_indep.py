@@ -1,0 +1,259 @@
+#!/usr/bin/env python3
+"""Identify robots of the independent plant from foreign-layout logs and check against the truth.
+
+For every layout and robot: write the log (write_logs.py), run
+  BIN_DIR/omni4-ident identify --robot base.ini --out params.ini LOG   [--velocity camera]
+  BIN_DIR/omni4-ident validate --params params.ini --json v.json LOG   [--velocity camera]
+once with the encoder velocities (default) and once with --velocity camera. Bounds (never
+loosened): Kv R J Bv Bvn Bw Cv Cvn Cw each within 2 % of the truth; per axis e_max and sigma of the
+validation within the paper's Table IV (final). A log that omni4-ident refuses, or an option it
+rejects, is a failure with its message. Prints the worst error per parameter and layout, the worst
+validation figures beside Table IV, the failures, and 'ident_indep: N passed, M failed'
+(one case = robot x layout x velocity source). Exit status 1 if any bound is missed.
+"""
+import argparse
+import collections
+import concurrent.futures as cf
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import layouts      # noqa: E402
+import write_logs   # noqa: E402
+
+PARAMS = ("Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
+PARAM_TOL_PCT = 2.0
+#: the paper's Table IV (final model): per axis (e_max, sigma) [m/s, m/s, rad/s]
+TABLE_IV = {"v": (0.061, 0.024), "vn": (0.068, 0.026), "w": (2.504, 0.732)}
+SOURCES = ("encoder", "camera")
+#: relative cost of a layout's generation (ticks), to start the slow ones first
+COST = {"rate2k": 2.0, "rate500": 0.5}
+TOOL_TIMEOUT_S = 300
+
+
+def gen_task(layout, seed, robots, out_dir, lcm_python):
+    """Worker: write the logs of one layout; returns (layout, list of log dicts, seconds)."""
+    t = time.time()
+    res = write_logs.generate(layout, seed, robots, os.path.join(out_dir, layout),
+                              lcm_python=lcm_python, progress=None)
+    return layout, res, time.time() - t
+
+
+def _tool(cmd):
+    """Run omni4-ident; returns (ok, one-line message)."""
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return False, f"timed out after {TOOL_TIMEOUT_S} s"
+    except OSError as e:
+        return False, f"cannot run {cmd[0]}: {e}"
+    if r.returncode != 0:
+        lines = [ln for ln in (r.stderr + r.stdout).splitlines() if ln.strip()]
+        msg = next((ln for ln in lines if "omni4-ident" in ln or "rror" in ln or "not expected"
+                    in ln), lines[0] if lines else "")
+        return False, f"exit {r.returncode}: {msg.strip()}"
+    return True, ""
+
+
+def ident_task(bin_dir, layout, entry, source):
+    """Worker: identify + validate one log with one velocity source; returns a result dict."""
+    tool = os.path.join(bin_dir, "omni4-ident")
+    stem = os.path.splitext(entry["log"])[0] + f"_{source}"
+    params, vjson = stem + "_params.ini", stem + "_validate.json"
+    vel = ["--velocity", "camera"] if source == "camera" else []
+    out = {"layout": layout, "robot": entry["robot"], "source": source, "log": entry["log"],
+           "errors": {}, "validation": None, "fail": []}
+    ok, msg = _tool([tool, "identify", "--robot", entry["base"], "--out", params, entry["log"]]
+                    + vel)
+    if not ok or not os.path.exists(params):
+        out["fail"].append(f"identify refused the log: {msg or 'no params file'}")
+        return out
+    est, truth = write_logs.read_ini(params), write_logs.read_ini(entry["truth"])
+    for k in PARAMS:
+        if k not in est:
+            out["fail"].append(f"params.ini lacks {k}")
+            continue
+        e = 100.0 * (est[k] - truth[k]) / truth[k]
+        out["errors"][k] = e
+        if not abs(e) <= PARAM_TOL_PCT:
+            out["fail"].append(f"{k} off by {e:+.2f} %")
+    ok, msg = _tool([tool, "validate", "--params", params, "--json", vjson, entry["log"]] + vel)
+    if not ok:
+        out["fail"].append(f"validate refused: {msg}")
+        return out
+    try:
+        with open(vjson) as f:
+            val = json.load(f)
+        out["validation"] = {ax: (float(val[ax]["e_max"]), float(val[ax]["sigma"]))
+                             for ax in TABLE_IV}
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        out["fail"].append(f"validation JSON unreadable: {e}")
+        return out
+    for ax, (emax, sig) in out["validation"].items():
+        bmax, bsig = TABLE_IV[ax]
+        if not emax <= bmax:
+            out["fail"].append(f"validate {ax}: e_max {emax:.4g} > {bmax}")
+        if not sig <= bsig:
+            out["fail"].append(f"validate {ax}: sigma {sig:.4g} > {bsig}")
+    return out
+
+
+def run_all(a, work):
+    """Generate all layouts and identify every log, `a.jobs` processes; returns results."""
+    results, say = [], (lambda s: None) if a.quiet else (lambda s: print(s, flush=True))
+    pending, per_log = collections.Counter(), collections.Counter()
+    order = sorted(a.layouts, key=lambda n: -COST.get(n, 1.0))
+    robots = list(range(a.robots))
+    with cf.ProcessPoolExecutor(max_workers=a.jobs) as pool:
+        futs = {pool.submit(gen_task, n, a.seed, robots, work, a.pythonpath): "gen"
+                for n in order}
+        while futs:
+            done, _ = cf.wait(futs, return_when=cf.FIRST_COMPLETED)
+            for fut in done:
+                what = futs.pop(fut)
+                if what == "gen":
+                    try:
+                        layout, entries, secs = fut.result()
+                    except write_logs.LogError as e:
+                        print(f"ident_indep: cannot write logs: {e}", file=sys.stderr)
+                        raise SystemExit(2)
+                    say(f"ident_indep: {layout}: {len(entries)} logs written in {secs:.1f} s")
+                    for entry in entries:
+                        for src in SOURCES:
+                            pending[layout] += 1
+                            per_log[entry["log"]] += 1
+                            futs[pool.submit(ident_task, a.bin_dir, layout, entry, src)] = entry
+                else:
+                    r = fut.result()
+                    results.append(r)
+                    pending[r["layout"]] -= 1
+                    if pending[r["layout"]] == 0:
+                        bad = sum(1 for x in results if x["layout"] == r["layout"] and x["fail"])
+                        n = sum(1 for x in results if x["layout"] == r["layout"])
+                        say(f"ident_indep: {r['layout']}: identified, {bad} of {n} cases failed")
+                    per_log[r["log"]] -= 1
+                    if per_log[r["log"]] == 0 and not a.keep:
+                        os.remove(r["log"])           # saves disk: a layout's logs are ~2 GB
+    return results
+
+
+def fmt(v, bound=None, width=7, prec=2):
+    """Table cell: value, '*' if above bound, '-' if missing."""
+    if v is None:
+        return "-".rjust(width)
+    mark = "*" if bound is not None and not v <= bound else " "
+    return f"{v:{width - 1}.{prec}f}{mark}"
+
+
+def print_tables(results, names):
+    """Worst |error| % per parameter / layout / source; worst validation beside Table IV."""
+    by = collections.defaultdict(list)
+    for r in results:
+        by[(r["source"], r["layout"])].append(r)
+    print(f"\nworst |error| % of the identified parameters (bound {PARAM_TOL_PCT:.0f} %, "
+          "* = over; refused = identify refused the log)")
+    head = f"{'velocity':8} {'layout':11}" + "".join(f"{k:>8}" for k in PARAMS) + "  refused"
+    for src in SOURCES:
+        print(head)
+        for n in names:
+            rs = by[(src, n)]
+            cells = []
+            for k in PARAMS:
+                vals = [abs(r["errors"][k]) for r in rs if k in r["errors"]]
+                cells.append(fmt(max(vals) if vals else None, PARAM_TOL_PCT, 8))
+            refused = sum(1 for r in rs if any("identify refused" in f for f in r["fail"]))
+            print(f"{src:8} {n:11}" + "".join(cells) + f"  {refused}/{len(rs)}")
+    print("\nworst validation e_max / sigma per axis (paper's Table IV final in the header; "
+          "* = over; no-val = validation not available: identify or validate refused)")
+    head = f"{'velocity':8} {'layout':11}" + "".join(
+        f"  {ax + ' e_max':>9} {'sigma':>7}" for ax in TABLE_IV) + "  no-val"
+    iv = f"{'Table IV':20}" + "".join(f"  {TABLE_IV[ax][0]:9.3f} {TABLE_IV[ax][1]:7.3f}"
+                                       for ax in TABLE_IV)
+    for src in SOURCES:
+        print(head)
+        print(iv)
+        for n in names:
+            rs = by[(src, n)]
+            vals = [r["validation"] for r in rs if r["validation"]]
+            cells = ""
+            for ax in TABLE_IV:
+                emax = max((v[ax][0] for v in vals), default=None)
+                sig = max((v[ax][1] for v in vals), default=None)
+                cells += "  " + fmt(emax, TABLE_IV[ax][0], 9, 4) + " " + fmt(sig, TABLE_IV[ax][1],
+                                                                          7, 4)
+            print(f"{src:8} {n:11}{cells}  {len(rs) - len(vals)}/{len(rs)}")
+
+
+def print_failures(results, quiet):
+    """Failure reasons grouped by message, with the layouts and sources they occurred in."""
+    groups = collections.defaultdict(list)
+    for r in results:
+        for f in r["fail"]:
+            key = f if ("refused" in f or "lacks" in f or "unreadable" in f) else f.split(" off")[0] \
+                .split(":")[0] + (" (parameter)" if " off " in f else " (validation bound)")
+            groups[key].append(r)
+    if not groups:
+        return
+    print("\nfailures (grouped; count = cases):")
+    for key, rs in sorted(groups.items(), key=lambda kv: -len(kv[1])):
+        where = collections.Counter(f"{r['layout']}/{r['source']}" for r in rs)
+        print(f"  {len(rs):4}  {key}")
+        print("        in " + ", ".join(f"{w} {c}" for w, c in sorted(where.items())))
+    if not quiet:
+        print("\nfirst failing case per layout and source:")
+        seen = set()
+        for r in sorted(results, key=lambda r: (r["layout"], r["source"], r["robot"])):
+            if r["fail"] and (r["layout"], r["source"]) not in seen:
+                seen.add((r["layout"], r["source"]))
+                print(f"  robot{r['robot']} {r['layout']} {r['source']}: " + "; ".join(r["fail"]))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="example:\n  .venv/bin/python tests/indep/test_ident_indep.py build/bin "
+               "build/lcmtypes/gen/python --robots 4 --layouts runner,hand --keep /tmp/indep\n"
+               f"layouts: {', '.join(layouts.LAYOUTS)}")
+    ap.add_argument("bin_dir", help="folder with omni4-ident")
+    ap.add_argument("pythonpath", help="folder with the lcm-gen Python package omni4")
+    ap.add_argument("--robots", type=int, default=20, help="robots per layout (default 20)")
+    ap.add_argument("--layouts", default="all", help="comma-separated layouts (default all)")
+    ap.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
+    ap.add_argument("--seed", type=int, default=1, help="seed of robots and noise (default 1)")
+    ap.add_argument("--keep", metavar="DIR", help="write logs, params and JSON here and keep them")
+    ap.add_argument("--quiet", action="store_true", help="no progress lines, no per-case detail")
+    a = ap.parse_args(argv)
+    try:
+        a.layouts = write_logs.parse_layouts(a.layouts.split(","))
+        if a.robots < 1 or a.jobs < 1:
+            raise ValueError("--robots and --jobs must be at least 1")
+        tool = os.path.join(a.bin_dir, "omni4-ident")
+        if not os.access(tool, os.X_OK):
+            raise ValueError(f"{tool} not found or not executable")
+        write_logs.import_types(a.pythonpath)
+    except (ValueError, write_logs.LogError) as e:
+        print(f"ident_indep: {e}", file=sys.stderr)
+        return 2
+    t0 = time.time()
+    if a.keep:
+        os.makedirs(a.keep, exist_ok=True)
+        results = run_all(a, os.path.abspath(a.keep))
+    else:
+        with tempfile.TemporaryDirectory(prefix="ident_indep_") as work:
+            results = run_all(a, work)
+    print_tables(results, a.layouts)
+    print_failures(results, a.quiet)
+    failed = sum(1 for r in results if r["fail"])
+    print(f"\n{len(a.layouts)} layouts x {a.robots} robots x {len(SOURCES)} velocity sources in "
+          f"{time.time() - t0:.0f} s")
+    print(f"ident_indep: {len(results) - failed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
