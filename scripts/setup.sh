@@ -40,3 +40,7 @@ if ! .venv/bin/python -c "import cantools" 2>/dev/null; then
   echo "setup: pip install cantools (into .venv)"
   .venv/bin/pip install --quiet cantools
 fi
+if ! .venv/bin/python -c "import lcm" 2>/dev/null; then
+  echo "setup: pip install lcm (into .venv)"
+  .venv/bin/pip install --quiet lcm
+fi

@@ -123,8 +123,9 @@ void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const Wi
   for (const auto &[a, b] : mode_runs(s, false)) {
     size_t k = a;
     while (k < b) {
-      // Motion: the first valid sample above the stop threshold.
-      while (k < b && !(enc.ok[k] && std::abs(enc.x[k][axis]) > stop)) ++k;
+      // Motion: the first valid sample above twice the stop threshold (a robot that has just
+      // stopped may hover at the threshold: that is not a new motion).
+      while (k < b && !(enc.ok[k] && std::abs(enc.x[k][axis]) > 2 * stop)) ++k;
       if (k >= b) break;
       moved = true;
       const double sign = enc.x[k][axis] > 0 ? 1.0 : -1.0;
