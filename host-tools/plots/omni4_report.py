@@ -147,6 +147,33 @@ def fig_bootstrap(samples, summary, out):
     return name
 
 
+def fig_windows(rows, out):
+    """One line per segment: the windows used (green) and rejected (red), from the mark."""
+    if not rows:
+        return None
+    segs = sorted({int(r["segment"]) for r in rows})
+    fig, ax = plt.subplots(figsize=(7, max(2.5, 0.18 * len(segs) + 1)))
+    labels = {}
+    for r in rows:
+        y = segs.index(int(r["segment"]))
+        labels[y] = f"{r['segment']} {r['kind']} {r['direction']}"
+        t0, t1 = float(r["t0_s"]), float(r["t1_s"])
+        used = r["used"] == "1"
+        ax.plot([t0, max(t1, t0 + 0.02)], [y, y], "-", lw=5 if used else 3,
+                color="C2" if used else "C3", solid_capstyle="butt")
+    ax.set_yticks(list(labels))
+    ax.set_yticklabels([labels[k] for k in labels], fontsize=6)
+    ax.invert_yaxis()
+    ax.set_xlabel("t since the segment's mark [s]")
+    ax.set_title("Windows found in the data: used (green), rejected (red)")
+    ax.grid(True, axis="x")
+    name = "windows.png"
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
 def fig_validation(rows, out):
     names = []
     by_dir = defaultdict(lambda: defaultdict(list))
@@ -199,21 +226,49 @@ def main():
     boot = read_csv(os.path.join(a.csv_dir, "bootstrap.csv"))
     figs.append(fig_bootstrap(read_csv(os.path.join(a.csv_dir, "bootstrap_samples.csv")), boot,
                               a.out_dir))
+    windows = read_csv(os.path.join(a.csv_dir, "windows.csv"))
+    figs.append(fig_windows(windows, a.out_dir))
     figs = [f for f in figs if f]
+    agreement = {r["param"]: r for r in read_csv(os.path.join(a.csv_dir, "agreement.csv"))}
 
     lines = ["# omni4 identification report", ""]
     if params:
         methods = ["motor", "exp1", "exp2", "exp3_ls", "exp3_iv", "final", "true"]
         present = [m for m in methods if any(m in params[p] for p in params)]
-        lines.append("| param | " + " | ".join(present) + " |")
-        lines.append("|---" * (len(present) + 1) + "|")
+        lines.append("| param | " + " | ".join(present) + " | methods |")
+        lines.append("|---" * (len(present) + 2) + "|")
         for p in PARAMS:
             cells = []
             for m in present:
                 v = params.get(p, {}).get(m)
                 cells.append("" if v is None else f"{v[0]:.4g}")
-            lines.append(f"| {p} | " + " | ".join(cells) + " |")
-        lines.append("")
+            ag = agreement.get(p)
+            note = ""
+            if ag and int(ag["methods"]) >= 2:
+                note = ("agree" if ag["agree"] == "1" else "**DISAGREE**") + \
+                    f" (p = {float(ag['p']):.2g})"
+            lines.append(f"| {p} | " + " | ".join(cells) + f" | {note} |")
+        lines += ["", "Final: each method's SE raised to at least 0.5 % of its value; if the "
+                  "methods agree (chi-square p >= 0.01) their inverse-variance weighted mean, "
+                  "otherwise their plain mean.", ""]
+    if windows:
+        used = defaultdict(int)
+        rejected = []
+        for r in windows:
+            if r["used"] == "1":
+                used[f"{r['what']} ({r['kind']})"] += 1
+            else:
+                rejected.append(r)
+        lines += ["## Windows found in the data", "",
+                  ", ".join(f"{n} {k}" for k, n in sorted(used.items())) +
+                  f"; {len(rejected)} rejected.", ""]
+        if rejected:
+            lines += ["| segment | kind | dir | what | from [s] | to [s] | reason |",
+                      "|---|---|---|---|---|---|---|"]
+            for r in rejected:
+                lines.append(f"| {r['segment']} | {r['kind']} | {r['direction']} | {r['what']} | "
+                             f"{float(r['t0_s']):.2f} | {float(r['t1_s']):.2f} | {r['reason']} |")
+            lines.append("")
     if boot:
         lines += ["## Uncertainty of the final values", "",
                   "Analytic: from the regression residuals. Bootstrap: whole runs resampled "
