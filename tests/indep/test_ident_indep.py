@@ -45,19 +45,20 @@ def gen_task(layout, seed, robots, out_dir, lcm_python):
 
 
 def _tool(cmd):
-    """Run omni4-ident; returns (ok, one-line message)."""
+    """Run omni4-ident; returns (status, one-line message): status 'ok', 'refused' (non-zero
+    exit or time-out) or 'not started' (the binary could not be executed)."""
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S)
     except subprocess.TimeoutExpired:
-        return False, f"timed out after {TOOL_TIMEOUT_S} s"
+        return "refused", f"timed out after {TOOL_TIMEOUT_S} s"
     except OSError as e:
-        return False, f"cannot run {cmd[0]}: {e}"
+        return "not started", f"omni4-ident could not be started: {e}"
     if r.returncode != 0:
         lines = [ln for ln in (r.stderr + r.stdout).splitlines() if ln.strip()]
         msg = next((ln for ln in lines if "omni4-ident" in ln or "rror" in ln or "not expected"
                     in ln), lines[0] if lines else "")
-        return False, f"exit {r.returncode}: {msg.strip()}"
-    return True, ""
+        return "refused", f"exit {r.returncode}: {msg.strip()}"
+    return "ok", ""
 
 
 def ident_task(bin_dir, layout, entry, source):
@@ -68,9 +69,12 @@ def ident_task(bin_dir, layout, entry, source):
     vel = ["--velocity", "camera"] if source == "camera" else []
     out = {"layout": layout, "robot": entry["robot"], "source": source, "log": entry["log"],
            "errors": {}, "validation": None, "fail": []}
-    ok, msg = _tool([tool, "identify", "--robot", entry["base"], "--out", params, entry["log"]]
-                    + vel)
-    if not ok or not os.path.exists(params):
+    status, msg = _tool([tool, "identify", "--robot", entry["base"], "--out", params,
+                         entry["log"]] + vel)
+    if status == "not started":
+        out["fail"].append(msg)
+        return out
+    if status != "ok" or not os.path.exists(params):
         out["fail"].append(f"identify refused the log: {msg or 'no params file'}")
         return out
     est, truth = write_logs.read_ini(params), write_logs.read_ini(entry["truth"])
@@ -82,9 +86,10 @@ def ident_task(bin_dir, layout, entry, source):
         out["errors"][k] = e
         if not abs(e) <= PARAM_TOL_PCT:
             out["fail"].append(f"{k} off by {e:+.2f} %")
-    ok, msg = _tool([tool, "validate", "--params", params, "--json", vjson, entry["log"]] + vel)
-    if not ok:
-        out["fail"].append(f"validate refused: {msg}")
+    status, msg = _tool([tool, "validate", "--params", params, "--json", vjson, entry["log"]]
+                        + vel)
+    if status != "ok":
+        out["fail"].append(msg if status == "not started" else f"validate refused: {msg}")
         return out
     try:
         with open(vjson) as f:
@@ -194,8 +199,12 @@ def print_failures(results, quiet):
     groups = collections.defaultdict(list)
     for r in results:
         for f in r["fail"]:
-            key = f if ("refused" in f or "lacks" in f or "unreadable" in f) else f.split(" off")[0] \
-                .split(":")[0] + (" (parameter)" if " off " in f else " (validation bound)")
+            if " off by " in f:
+                key = f.split(" off by ")[0] + f" more than {PARAM_TOL_PCT:.0f} % off"
+            elif f.startswith("validate ") and (" e_max " in f or " sigma " in f):
+                key = f.split(":")[0] + f":{f.split(':')[1].split()[0]} over Table IV"
+            else:
+                key = f
             groups[key].append(r)
     if not groups:
         return
