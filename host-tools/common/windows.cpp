@@ -93,13 +93,24 @@ void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptio
   size_t holds = 0;
   double longest = 0;
   for (const auto &[a, b] : mode_runs(s, true)) {
-    // Split the driven run into pieces of constant applied voltage.
+    // Split the driven run into pieces of constant applied voltage: every channel stays in a
+    // band no wider than the tolerance (a ramp of any slope leaves it).
     size_t p = a;
+    std::array<double, 4> lo = m[a].u, hi = m[a].u;
     for (size_t k = a + 1; k <= b; ++k) {
       bool same = k < b;
-      for (int j = 0; same && j < 4; ++j)
-        same = std::abs(m[k].u[j] - m[p].u[j]) <= opt.volt_tol_v + opt.volt_tol_rel * std::abs(m[p].u[j]);
-      if (same) continue;
+      for (int j = 0; same && j < 4; ++j) {
+        const double l = std::min(lo[j], m[k].u[j]), h = std::max(hi[j], m[k].u[j]);
+        same = h - l <= opt.volt_tol_v + opt.volt_tol_rel * std::max(std::abs(l), std::abs(h));
+      }
+      if (same) {
+        for (int j = 0; j < 4; ++j) {
+          lo[j] = std::min(lo[j], m[k].u[j]);
+          hi[j] = std::max(hi[j], m[k].u[j]);
+        }
+        continue;
+      }
+      if (k < b) lo = hi = m[k].u;
       const double dur = span_s(m, p, k);
       longest = std::max(longest, dur);
       if (dur + enc.dt >= opt.steady_min_s) {

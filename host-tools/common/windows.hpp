@@ -2,8 +2,8 @@
 // data (docs/log-contract.md): nothing is assumed about where inside a segment the drive starts,
 // holds, ramps or stops.
 //
-//   steady  driven (motors_t mode VOLTAGE or VELOCITY), every applied voltage constant within
-//           volt_tol_v + volt_tol_rel * |u|, and the robot velocity settled: the 50 ms block
+//   steady  driven (motors_t mode VOLTAGE or VELOCITY), every applied voltage inside a band no
+//           wider than volt_tol_v + volt_tol_rel * |u|, and the robot velocity settled: the 50 ms block
 //           means of every axis stay within steady_tol * |x| + a floor of the final value for at
 //           least steady_min_s. A ramp, a transient or a ramp-down is never inside one.
 //   coast   bridges off (IDLE, COAST, FAULT, ESTOP: null traction) and decelerating freely along
@@ -25,7 +25,7 @@
 namespace omni4 {
 
 struct WindowOptions {
-  double volt_tol_v = 0.02;     // constant voltage: |u - u_ref| <= this + volt_tol_rel |u_ref|
+  double volt_tol_v = 0.02;     // constant voltage: max - min of u <= this + volt_tol_rel |u|
   double volt_tol_rel = 0.005;
   double steady_tol = 0.003;    // settled: block means within this fraction of the final speed
   double steady_floor_v = 0.002;   // ... plus this [m/s] on v and vn

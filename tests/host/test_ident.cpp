@@ -169,10 +169,10 @@ void identify_robot(const model_params &p, unsigned seed, double bound) {
 
 TEST(Identification, Table3RobotWithinOnePercent) {
   std::printf("Table III robot:\n");
-  identify_robot(model_params_table3, 1, 0.01);
+  identify_robot(model_params_table3, 1, 0.01);  // measured worst 0.29 %
 }
 
-TEST(Identification, PerturbedRobotsWithinFivePercent) {
+TEST(Identification, PerturbedRobotsWithinOnePercent) {
   std::mt19937 g(2024);
   std::uniform_real_distribution<double> s(0.7, 1.3);
   for (int k = 0; k < 4; ++k) {
@@ -183,7 +183,7 @@ TEST(Identification, PerturbedRobotsWithinFivePercent) {
     std::printf("perturbed robot %d: R %.3f Kv %.4f J %.4f Bv %.3f Bvn %.3f Bw %.4f Cv %.3f "
                 "Cvn %.3f Cw %.4f\n",
                 k, p.R, p.Kv, p.J, p.Bv, p.Bvn, p.Bw, p.Cv, p.Cvn, p.Cw);
-    identify_robot(p, 100 + k, 0.05);
+    identify_robot(p, 100 + k, 0.01);  // measured worst 0.29 %
   }
 }
 
@@ -314,4 +314,123 @@ TEST(BadInput, NotAnEventLogIsAClearError) {
   EXPECT_THROW(read_log(path), std::runtime_error);
   EXPECT_THROW(read_log("/nonexistent/omni4.lcmlog"), std::runtime_error);
   std::remove(path.c_str());
+}
+
+// ---- windows found in the data -------------------------------------------------------------
+// Synthetic segments built from closed forms (not from the window finder's code): 1 kHz samples
+// of a robot moving along v only, wheel speeds from eq 2 (v_1 = -v, v_3 = v, wheel = v / r).
+
+namespace {
+
+constexpr double kR = 0.0325, kD = 0.089;
+
+MotorsSample sample_at(int64_t k, int8_t mode, double u_v, double v) {
+  MotorsSample s;
+  s.utime = 1000000 + k * 1000;
+  s.seq = k;
+  s.mode = mode;
+  s.u = {0, -u_v, 0, u_v};
+  s.w = {0, -v / kR, 0, v / kR};
+  return s;
+}
+
+Segment whole(const LogData &log) {
+  Segment s;
+  s.kind = "step";
+  s.direction = "v";
+  s.log = &log;
+  s.m0 = 0;
+  s.m1 = log.motors.size();
+  s.t0 = log.motors.front().utime;
+  s.t1 = log.motors.back().utime + 1;
+  return s;
+}
+
+}  // namespace
+
+TEST(Windows, SteadyWindowHoldsNeitherRampNorTransientNorRampDown) {
+  // Rest in IDLE 1 s, ramp 0 -> 6 V in 0.5 s, hold 3 s, ramp down in 0.3 s, rest 1 s. Along the
+  // hold the speed approaches x_ss = 1 m/s with tau = 0.3 s from 0.2 m/s.
+  const double tau = 0.3, xss = 1.0, x0 = 0.2;
+  LogData log;
+  int64_t k = 0;
+  for (; k < 1000; ++k) log.motors.push_back(sample_at(k, 0, 0, 0));
+  for (int q = 0; q < 500; ++q, ++k) log.motors.push_back(sample_at(k, 2, 6.0 * q / 500, x0 * q / 500));
+  for (int q = 0; q < 3000; ++q, ++k)
+    log.motors.push_back(sample_at(k, 2, 6.0, xss - (xss - x0) * std::exp(-q * 1e-3 / tau)));
+  for (int q = 0; q < 300; ++q, ++k) log.motors.push_back(sample_at(k, 2, 6.0 * (1 - q / 300.0), xss * (1 - q / 300.0)));
+  for (int q = 0; q < 1000; ++q, ++k) log.motors.push_back(sample_at(k, 0, 0, 0));
+  Segment s = whole(log);
+  s.kind = "motor";
+  const WindowOptions opt;
+  const SegmentWindows w = find_windows(s, encoder_track(log, kD, kR), opt);
+  ASSERT_EQ(w.steady.size(), 1u);
+  // Settled when |x - xss| <= 0.3 % xss + 2 mm/s: (xss - x0) e^(-t/tau) = 0.005.
+  const double t_settle = 1.5 + tau * std::log((xss - x0) / 0.005);
+  const double t_start = seg_time(s, w.steady[0].m0), t_end = seg_time(s, w.steady[0].m1 - 1);
+  std::printf("steady window %.3f-%.3f s (settled at %.3f s, hold ends at 4.499 s)\n", t_start,
+              t_end, t_settle);
+  EXPECT_GE(t_start, t_settle - 0.05);  // one 50 ms block of resolution
+  EXPECT_LE(t_start, t_settle + 0.05);
+  // The ramp-down starts at 4.5 s, 20 V/s: its samples within the 0.05 V band (0.02 V + 0.5 %
+  // of 6 V) of the hold may stay in, no later one.
+  EXPECT_GE(t_end, 4.499 - 1e-9);
+  EXPECT_LE(t_end, 4.5 + 0.05 / 20 + 1e-9);
+  // A hold too short to settle is rejected with its reason.
+  LogData shortlog;
+  for (int q = 0; q < 600; ++q) shortlog.motors.push_back(sample_at(q, 2, 6.0, xss - (xss - x0) * std::exp(-q * 1e-3 / tau)));
+  Segment s2 = whole(shortlog);
+  s2.kind = "motor";
+  const SegmentWindows w2 = find_windows(s2, encoder_track(shortlog, kD, kR), opt);
+  EXPECT_TRUE(w2.steady.empty());
+  ASSERT_EQ(w2.rejected.size(), 1u);
+  EXPECT_NE(w2.rejected[0].reason.find("not settled"), std::string::npos) << w2.rejected[0].reason;
+}
+
+TEST(Windows, HandPushCoastDownStartsAfterThePeakAndEndsAtTheStop) {
+  // Bridges off throughout: rest 1 s, a push raises v linearly to 1 m/s in 0.3 s, then free
+  // deceleration v(t) = (v0 + C/B) e^(-B t / M) - C/B (eq 17), then rest.
+  const double M = 2.34, B = 0.5, C = 1.87, v0 = 1.0;
+  const double t_stop = M / B * std::log(1 + B * v0 / C);
+  LogData log;
+  int64_t k = 0;
+  for (; k < 1000; ++k) log.motors.push_back(sample_at(k, 3, 0, 0));
+  for (int q = 0; q < 300; ++q, ++k) log.motors.push_back(sample_at(k, 3, 0, v0 * q / 300.0));
+  for (int q = 0; q * 1e-3 < t_stop; ++q, ++k) {
+    const double t = q * 1e-3;
+    log.motors.push_back(sample_at(k, 3, 0, (v0 + C / B) * std::exp(-B * t / M) - C / B));
+  }
+  for (int q = 0; q < 1000; ++q, ++k) log.motors.push_back(sample_at(k, 3, 0, 0));
+  Segment s = whole(log);
+  s.kind = "coast";
+  const SegmentWindows w = find_windows(s, encoder_track(log, kD, kR), WindowOptions{});
+  ASSERT_EQ(w.coast.size(), 1u);
+  EXPECT_TRUE(w.rejected.empty());
+  const double t_start = seg_time(s, w.coast[0].m0), t_end = seg_time(s, w.coast[0].m1 - 1);
+  // Starts 50 ms after the peak (1.3 s) at the earliest, once 3 % below it: v(t) = 0.97 v0.
+  const double t97 = 1.3 + M / B * std::log((v0 + C / B) / (0.97 * v0 + C / B));
+  // Ends at the stop speed 0.05 m/s.
+  const double t05 = 1.3 + M / B * std::log((v0 + C / B) / (0.05 + C / B));
+  std::printf("coast-down window %.3f-%.3f s (expected %.3f-%.3f s)\n", t_start, t_end,
+              std::max(t97, 1.35), t05);
+  EXPECT_NEAR(t_start, std::max(t97, 1.35), 0.01);  // measured 5 ms: the SG filter rounds the peak
+  EXPECT_NEAR(t_end, t05, 0.005);
+  EXPECT_GT(w.coast[0].sign, 0);
+}
+
+TEST(Windows, LostSamplesEndAFilterBlockAndNothingIsFilteredAcrossThem) {
+  LogData log;
+  for (int64_t k = 0; k < 2000; ++k) {
+    if (k >= 1000 && k < 1005) continue;  // 5 lost samples
+    log.motors.push_back(sample_at(k, 2, 6, 0.5));
+  }
+  const EncoderTrack t = encoder_track(log, kD, kR);
+  EXPECT_NEAR(t.dt, 1e-3, 1e-12);
+  EXPECT_EQ(t.half, 20);  // +-20 ms at 1 kHz
+  // Index 1000 holds seq 1005: the 20 samples on each side of the gap have no full window.
+  for (size_t i = 980; i < 1020; ++i) EXPECT_FALSE(t.ok[i]) << i;
+  EXPECT_TRUE(t.ok[979]);
+  EXPECT_TRUE(t.ok[1020]);
+  EXPECT_FALSE(t.joined[1000]);
+  EXPECT_NEAR(t.x[979][0], 0.5, 1e-12);
 }
