@@ -114,7 +114,7 @@ def time_constant(model, i, driven):
 
 
 def stop_time(model, i, x0):
-    """Coast-down time [s] per axis from speeds x0 (3,) with the bridges off: (m/B) ln(1+B|x0|/C)."""
+    """Coast-down time [s] per axis from speeds x0 (3,), bridges off: (m/B) ln(1 + B|x0|/C)."""
     m, B, C = model["m"][i], model["B"][i], model["C"][i]
     return (m / B) * np.log1p(B * np.abs(np.asarray(x0, float)) / C)
 

@@ -13,7 +13,6 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-import layouts      # noqa: E402
 import plant        # noqa: E402
 import write_logs   # noqa: E402
 
@@ -325,7 +324,8 @@ def main(argv=None):
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="example:\n  .venv/bin/python tests/indep/test_plant.py build/lcmtypes/gen/python")
     ap.add_argument("lcm_python", nargs="?", default=None,
-                    help="folder with the generated package omni4 (default build/lcmtypes/gen/python)")
+                    help="folder with the generated package omni4 "
+                    "(default build/lcmtypes/gen/python)")
     a = ap.parse_args(argv)
     for test in (test_kinematics, test_steady, test_coast, test_stiction, test_rk4, test_encoder,
                  test_noise, test_pose):
