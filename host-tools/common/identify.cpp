@@ -41,16 +41,22 @@ double chi2_sf(double x, int dof) {
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
                          Agreement *agreement) {
   Agreement ag;
-  std::vector<Estimate> ok;
-  for (const Estimate &e : estimates)
-    if (e.ok()) ok.push_back(e);
+  std::vector<Estimate> ok, weak;
+  for (const Estimate &e : estimates) {
+    if (!e.ok()) continue;
+    // An estimate whose SE exceeds max_rel_se of its value neither informs nor checks the
+    // others: it is reported, not combined (unless it is the only one).
+    (std::abs(e.se) > opt.max_rel_se * std::abs(e.value) ? weak : ok).push_back(e);
+  }
   ag.methods = static_cast<int>(ok.size());
+  ag.too_uncertain = static_cast<int>(weak.size());
+  if (ok.empty() && !weak.empty()) ok.push_back(weak[0]);
   Estimate out;
   if (ok.empty()) {
     ag.rule = "no method";
   } else if (ok.size() == 1) {
     out = ok[0];
-    ag.rule = "one method";
+    ag.rule = weak.empty() ? "one method" : "one method (the other too uncertain)";
   } else {
     double wsum = 0, vsum = 0;
     std::vector<double> se(ok.size());

@@ -34,6 +34,8 @@ struct IdentOptions {
   // Relative standard-error floor of every method (model error: the residual SE of a long,
   // clean window can be far smaller than what the method's assumptions support).
   double method_floor = 0.005;
+  // A method whose SE exceeds this fraction of its value is shown but not combined.
+  double max_rel_se = 0.1;
 };
 
 // Points kept for plots and CSV export.
@@ -52,7 +54,8 @@ struct WindowRecord {
 };
 
 struct Agreement {
-  int methods = 0;  // estimates available
+  int methods = 0;  // estimates combined
+  int too_uncertain = 0;  // estimates left out: SE above max_rel_se of the value
   double chi2 = 0;
   int dof = 0;
   double p = 1;
@@ -98,7 +101,8 @@ IdentResult identify(const Prepared &prep, const std::vector<size_t> *use = null
 IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
                      const IdentOptions &opt = {});
 
-// Final value of one parameter from the methods' estimates. Each SE is first raised to the
+// Final value of one parameter from the methods' estimates. An estimate with an SE above
+// opt.max_rel_se of its value is left out (shown in the table only). Each SE is first raised to the
 // floor (opt.method_floor * |value|). If the estimates agree (chi-square p >= opt.agree_p):
 // inverse-variance weighted mean. If they do not: the plain mean of the methods (the paper's
 // own rule, "averaged with results from all 3 experimental methods"), so that no method with a
