@@ -1,5 +1,6 @@
 // runner.hpp - drive a live robot (or omni4-fw on the sim backend) through the experiment
-// sequence over LCM while recording every message on the bus into an event log.
+// sequence over LCM while recording every message on the bus into an event log; or record the
+// paper's experiment 2 by hand (run_hand: bridges disabled throughout, the operator pushes).
 #pragma once
 
 #include <string>
@@ -18,5 +19,17 @@ struct RunOptions {
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close
 // the open segment, flush the log, exit 130.
 int run_experiments(const RunOptions &opt);
+
+struct HandRunOptions {
+  int pushes = 3;                                   // counted runs per direction
+  std::vector<std::string> directions{"v", "vn", "w"};
+  double push_timeout_s = 30;                       // wait for each push (and its stop) [s]
+  double d_m = 0.089, r_m = 0.0325;                 // eqs 3-5 (BASE.ini; Table III otherwise)
+};
+
+// Experiment 2 by hand: only MODE_COAST keep-alives (never VOLTAGE or VELOCITY), a "coast" mark
+// before each push, "end" once the robot has stopped; MODE_IDLE at the end. Uses opt.url and
+// opt.out. Returns the exit status (1: no OMNI4_MOTORS on the bus; 130: interrupted).
+int run_hand(const RunOptions &opt, const HandRunOptions &hand);
 
 }  // namespace omni4

@@ -447,6 +447,13 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
   return 0;
 }
 
+int cmd_run_hand(const RunOptions &ropt, HandRunOptions hopt, const std::string &robot) {
+  const model_params base = robot.empty() ? model_params_table3 : load_params(robot, true);
+  hopt.d_m = base.d;
+  hopt.r_m = base.r;
+  return run_hand(ropt, hopt);
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -454,7 +461,8 @@ int main(int argc, char **argv) {
                "Examples:\n"
                "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
                "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
-               "  omni4-ident run --out robot.lcmlog"};
+               "  omni4-ident run --out robot.lcmlog\n"
+               "  omni4-ident run --hand --robot base.ini --out hand.lcmlog"};
   app.require_subcommand(1);
 
   auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
@@ -489,15 +497,31 @@ int main(int argc, char **argv) {
   RunOptions ropt;
   ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
   ru->add_option("--out", ropt.out, "event log to record")->required();
-  ru->add_option("--only", ropt.only, "run only these kinds (steady_rotation coast motor step)");
-  ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
+  auto *only = ru->add_option("--only", ropt.only,
+                              "run only these kinds (steady_rotation coast motor step)");
+  auto *hold = ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
       ->check(CLI::Range(0.2, 60.0))->capture_default_str();
-  ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
+  auto *settle = ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
       ->check(CLI::Range(0.2, 60.0))->capture_default_str();
+  HandRunOptions hopt;
+  std::string hand_robot;
+  auto *hand = ru->add_flag("--hand", "experiment 2 by hand: the bridges stay disabled, you push "
+                                      "the robot along each direction and let it coast to rest "
+                                      "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
+      ->excludes(only, hold, settle);
+  ru->add_option("--robot", hand_robot, "BASE.ini: d and r for the robot velocity (eqs 3-5); "
+                                        "Table III otherwise")->needs(hand);
+  ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
+      ->check(CLI::Range(1, 100))->capture_default_str()->needs(hand);
+  ru->add_option("--directions", hopt.directions, "directions to push along, comma separated")
+      ->delimiter(',')->check(CLI::IsMember({"v", "vn", "w"}))->capture_default_str()->needs(hand);
+  ru->add_option("--push-timeout", hopt.push_timeout_s, "wait for each push and its stop [s]")
+      ->check(CLI::Range(1.0, 3600.0))->capture_default_str()->needs(hand);
 
   OMNI4_CLI_PARSE(app, argc, argv);
   if (id->parsed()) return cmd_identify(ia);
   if (va->parsed()) return cmd_validate(params, json, vcsv, vsource, vlogs);
+  if (ru->parsed() && *hand) return cmd_run_hand(ropt, hopt, hand_robot);
   if (ru->parsed()) return run_experiments(ropt);
   return 2;
 }
