@@ -50,7 +50,10 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
   }
   ag.methods = static_cast<int>(ok.size());
   ag.too_uncertain = static_cast<int>(weak.size());
-  if (ok.empty() && !weak.empty()) ok.push_back(weak[0]);
+  if (ok.empty() && !weak.empty())  // all weak: the least uncertain one
+    ok.push_back(*std::min_element(weak.begin(), weak.end(), [](const Estimate &a, const Estimate &b) {
+      return std::abs(a.se / a.value) < std::abs(b.se / b.value);
+    }));
   Estimate out;
   if (ok.empty()) {
     ag.rule = "no method";

@@ -61,8 +61,11 @@ def _tool(cmd):
     return "ok", ""
 
 
-def ident_task(bin_dir, layout, entry, source):
-    """Worker: identify + validate one log with one velocity source; returns a result dict."""
+def ident_task(bin_dir, layout, entry, source, assert_params=True):
+    """Worker: identify + validate one log with one velocity source; returns a result dict.
+
+    assert_params False: the parameter errors are reported in the table, not counted as
+    failures (validation bounds and refusals still are)."""
     tool = os.path.join(bin_dir, "omni4-ident")
     stem = os.path.splitext(entry["log"])[0] + f"_{source}"
     params, vjson = stem + "_params.ini", stem + "_validate.json"
@@ -84,7 +87,7 @@ def ident_task(bin_dir, layout, entry, source):
             continue
         e = 100.0 * (est[k] - truth[k]) / truth[k]
         out["errors"][k] = e
-        if not abs(e) <= PARAM_TOL_PCT:
+        if assert_params and not abs(e) <= PARAM_TOL_PCT:
             out["fail"].append(f"{k} off by {e:+.2f} %")
     status, msg = _tool([tool, "validate", "--params", params, "--json", vjson, entry["log"]]
                         + vel)
@@ -132,7 +135,8 @@ def run_all(a, work):
                         for src in SOURCES:
                             pending[layout] += 1
                             per_log[entry["log"]] += 1
-                            futs[pool.submit(ident_task, a.bin_dir, layout, entry, src)] = entry
+                            futs[pool.submit(ident_task, a.bin_dir, layout, entry, src,
+                                        src != "camera" or a.camera_params == "assert")] = entry
                 else:
                     r = fut.result()
                     results.append(r)
@@ -236,6 +240,9 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1, help="seed of robots and noise (default 1)")
     ap.add_argument("--keep", metavar="DIR", help="write logs, params and JSON here and keep them")
     ap.add_argument("--quiet", action="store_true", help="no progress lines, no per-case detail")
+    ap.add_argument("--camera-params", choices=("assert", "report"), default="assert",
+                    help="with --velocity camera, assert the 2 %% parameter bound (default) or "
+                         "only report the errors (validation is asserted either way)")
     a = ap.parse_args(argv)
     try:
         a.layouts = write_logs.parse_layouts(a.layouts.split(","))
