@@ -91,6 +91,7 @@ TEST(Regression, InstrumentalVariablesRemoveErrorsInVariablesBias) {
 TEST(Regression, AgreeingMethodsAreWeightedByInverseVariance) {
   IdentOptions opt;
   opt.method_floor = 0;
+  opt.max_rel_se = 1;  // keep both (the 20 % one is "too uncertain" by default)
   Agreement ag;
   const Estimate e = combine_methods({{1.0, 0.1}, {1.2, 0.2}, {}}, opt, &ag);
   EXPECT_NEAR(e.value, (1.0 / 0.01 + 1.2 / 0.04) / (1 / 0.01 + 1 / 0.04), 1e-12);
@@ -112,6 +113,18 @@ TEST(Regression, DisagreeingMethodsFallBackToThePlainMean) {
   EXPECT_LT(ag.p, 1e-6);
   EXPECT_NEAR(e.value, 0.5 * (0.005 + 0.0141), 1e-15);
   EXPECT_NEAR(e.se, 0.5 * (0.0141 - 0.005), 1e-15);
+}
+
+TEST(Regression, AnEstimateWithASeAboveTenPercentIsShownButNotCombined) {
+  // A camera coast-down's Bv of 1.18 +- 0.21 (18 %) beside experiment 3's 0.506 +- 0.015.
+  Agreement ag;
+  const Estimate e = combine_methods({{1.184, 0.21}, {0.506, 0.015}}, IdentOptions{}, &ag);
+  EXPECT_EQ(e.value, 0.506);
+  EXPECT_EQ(ag.methods, 1);
+  EXPECT_EQ(ag.too_uncertain, 1);
+  // All too uncertain: the least uncertain one.
+  const Estimate f = combine_methods({{1.0, 0.5}, {2.0, 0.4}}, IdentOptions{}, &ag);
+  EXPECT_EQ(f.value, 2.0);
 }
 
 TEST(Regression, ChiSquareTailMatchesTables) {
