@@ -300,8 +300,14 @@ class HandRun {
   void show_status();
   void open_segment(int axis);
   void close_segment();
-  // One push slot along axis: returns false when the run must stop (Ctrl-C, motors lost).
+  // One push slot along axis: rest, mark and push, coast-down and stop. Returns false when the
+  // run must stop (Ctrl-C, motors lost).
+  enum class Step { Next, Again, Missed, Quit };
   bool one_push(int axis, int k);
+  Step rest_step(int axis, int k);
+  Step push_step(int axis, int k);
+  Step stop_step(int axis, int k);
+  void say(int axis, int k, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
   bool stopped_by(const Waited &w);
   void report(bool ok);
 
@@ -411,57 +417,70 @@ bool HandRun::stopped_by(const Waited &w) {
   return w.why == Why::Interrupted || w.why == Why::MotorsLost;
 }
 
-bool HandRun::one_push(int axis, int k) {
-  const char *name = hand_axis_name(axis);
-  const double timeout = hand_.push_timeout_s;
-  for (;;) {  // until a counted run, a miss, or the end
-    Waited w{Why::Got, Event::AtRest};
-    if (det_.state() != HandDetector::State::AtRest) w = wait_for({Event::AtRest}, timeout);
-    if (stopped_by(w)) return false;
-    if (w.why == Why::Timeout) {
-      progress_.line("omni4-ident run: %s %d/%d: the robot did not come to rest within %g s "
-                     "(|v|, |vn| < 0.05 m/s, |w| < 0.5 rad/s for 0.5 s); skipped",
-                     name, k + 1, hand_.pushes, timeout);
-      ++missed_;
-      return true;
-    }
-    open_segment(axis);
-    progress_.line("omni4-ident run: %s %d/%d: %s", name, k + 1, hand_.pushes, instruction(axis));
-    det_.expect_push(axis, timeout);
-    w = wait_for({Event::PushStarted, Event::WrongAxis, Event::NoPush}, timeout + kMotorsWaitS);
-    if (stopped_by(w)) return false;
-    if (w.why == Why::Timeout || w.ev == Event::NoPush) {
-      close_segment();
-      progress_.line("omni4-ident run: %s %d/%d: no push within %g s: run closed, moving on",
-                     name, k + 1, hand_.pushes, timeout);
-      ++missed_;
-      return true;
-    }
-    if (w.ev == Event::WrongAxis) {
-      close_segment();
-      const auto &p = det_.push();
-      progress_.line("omni4-ident run: warning: that push went mostly along %s (%+.3f %s), not "
-                     "%s: run closed, not counted; once the robot rests, again:",
-                     hand_axis_name(p.moved_axis), p.moved_speed, unit(p.moved_axis), name);
-      ++wrong_;
-      continue;
-    }
-    w = wait_for({Event::Stopped, Event::NotStopped}, timeout + kMotorsWaitS);
-    if (stopped_by(w)) return false;
-    close_segment();
-    if (w.why == Why::Timeout || w.ev == Event::NotStopped) {
-      progress_.line("omni4-ident run: %s %d/%d: still moving %g s after the push: run closed, "
-                     "not counted",
-                     name, k + 1, hand_.pushes, timeout);
-      ++missed_;
-      return true;
-    }
+void HandRun::say(int axis, int k, const char *fmt, ...) {
+  char buf[400];
+  va_list ap;
+  va_start(ap, fmt);
+  std::vsnprintf(buf, sizeof(buf), fmt, ap);
+  va_end(ap);
+  progress_.line("omni4-ident run: %s %d/%d: %s", hand_axis_name(axis), k + 1, hand_.pushes, buf);
+}
+
+HandRun::Step HandRun::rest_step(int axis, int k) {
+  if (det_.state() == HandDetector::State::AtRest) return Step::Next;
+  const Waited w = wait_for({Event::AtRest}, hand_.push_timeout_s);
+  if (stopped_by(w)) return Step::Quit;
+  if (w.why == Why::Got) return Step::Next;
+  say(axis, k, "the robot did not come to rest within %g s (|v|, |vn| < 0.05 m/s, |w| < 0.5 "
+      "rad/s for 0.5 s); skipped", hand_.push_timeout_s);
+  return Step::Missed;
+}
+
+HandRun::Step HandRun::push_step(int axis, int k) {
+  open_segment(axis);
+  say(axis, k, "%s", instruction(axis));
+  det_.expect_push(axis, hand_.push_timeout_s);
+  const Waited w = wait_for({Event::PushStarted, Event::WrongAxis, Event::NoPush},
+                            hand_.push_timeout_s + kMotorsWaitS);
+  if (stopped_by(w)) return Step::Quit;
+  if (w.why == Why::Got && w.ev == Event::PushStarted) return Step::Next;
+  close_segment();
+  if (w.ev == Event::WrongAxis) {
     const auto &p = det_.push();
-    progress_.line("omni4-ident run: %s %d/%d: peak %+.3f %s, coast-down %.2f s (push seen "
-                   "%.2f s before the peak)",
-                   name, k + 1, hand_.pushes, p.peak, unit(axis), p.coast_s(), p.push_s());
-    ++counted_[axis];
-    return true;
+    progress_.line("omni4-ident run: warning: that push went mostly along %s (%+.3f %s), not "
+                   "%s: run closed, not counted; once the robot rests, again:",
+                   hand_axis_name(p.moved_axis), p.moved_speed, unit(p.moved_axis),
+                   hand_axis_name(axis));
+    ++wrong_;
+    return Step::Again;
+  }
+  say(axis, k, "no push within %g s: run closed, moving on", hand_.push_timeout_s);
+  return Step::Missed;
+}
+
+HandRun::Step HandRun::stop_step(int axis, int k) {
+  const Waited w = wait_for({Event::Stopped, Event::NotStopped}, hand_.push_timeout_s + kMotorsWaitS);
+  if (stopped_by(w)) return Step::Quit;
+  close_segment();
+  if (w.why != Why::Got || w.ev != Event::Stopped) {
+    say(axis, k, "still moving %g s after the push: run closed, not counted", hand_.push_timeout_s);
+    return Step::Missed;
+  }
+  const auto &p = det_.push();
+  say(axis, k, "peak %+.3f %s, coast-down %.2f s (push seen %.2f s before the peak)", p.peak,
+      unit(axis), p.coast_s(), p.push_s());
+  ++counted_[axis];
+  return Step::Next;
+}
+
+bool HandRun::one_push(int axis, int k) {
+  for (;;) {  // until a counted run, a miss, or the end
+    Step step = rest_step(axis, k);
+    if (step == Step::Next) step = push_step(axis, k);
+    if (step == Step::Next) step = stop_step(axis, k);
+    if (step == Step::Again) continue;
+    if (step == Step::Missed) ++missed_;
+    return step != Step::Quit;
   }
 }
 
@@ -474,8 +493,9 @@ void HandRun::report(bool ok) {
               std::to_string(counted_[a]) + "/" + std::to_string(wanted_[a]);
   std::fprintf(stderr, "omni4-ident run: %s %s: %llu messages logged; runs %s (%d along the "
                "wrong axis, %d missed)%s\n",
-               g_interrupted ? "interrupted, robot stopped;" : "done;", opt_.out.c_str(),
-               static_cast<unsigned long long>(rec_.written()), runs.c_str(), wrong_, missed_,
+               g_interrupted ? "interrupted, robot stopped;" : motors_lost_ ? "aborted;" : "done;",
+               opt_.out.c_str(), static_cast<unsigned long long>(rec_.written()), runs.c_str(),
+               wrong_, missed_,
                ok ? "" : " (write errors!)");
 }
 
