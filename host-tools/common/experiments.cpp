@@ -106,8 +106,10 @@ std::vector<uint8_t> encode(const T &msg) {
   return buf;
 }
 
-std::vector<uint8_t> mark(int64_t utime, const std::string &kind, const std::string &dir,
-                          double level) {
+}  // namespace
+
+std::vector<uint8_t> encode_mark(int64_t utime, const std::string &kind, const std::string &dir,
+                                 double level) {
   experiment_t m;
   m.utime = utime;
   m.kind = kind;
@@ -116,14 +118,16 @@ std::vector<uint8_t> mark(int64_t utime, const std::string &kind, const std::str
   return encode(m);
 }
 
-}  // namespace
-
-std::vector<uint8_t> SequencePlayer::stop_command(int64_t utime, int64_t seq) {
+std::vector<uint8_t> encode_command(int64_t utime, int64_t seq, int8_t mode) {
   command_t c{};
   c.utime = utime;
   c.seq = seq;
-  c.mode = command_t::MODE_IDLE;
+  c.mode = mode;
   return encode(c);
+}
+
+std::vector<uint8_t> SequencePlayer::stop_command(int64_t utime, int64_t seq) {
+  return encode_command(utime, seq, command_t::MODE_IDLE);
 }
 
 SequencePlayer::Output SequencePlayer::due(double t_s, int64_t utime) {
@@ -142,9 +146,9 @@ SequencePlayer::Output SequencePlayer::due(double t_s, int64_t utime) {
   if (index_ >= phases_.size()) return out;
   const Phase &p = phases_[index_];
   if (entered) {
-    if (p.end_mark) out.marks.push_back(mark(utime, "end", "", 0));
+    if (p.end_mark) out.marks.push_back(encode_mark(utime, "end"));
     if (!p.mark_kind.empty())
-      out.marks.push_back(mark(utime, p.mark_kind, p.mark_direction, p.mark_level));
+      out.marks.push_back(encode_mark(utime, p.mark_kind, p.mark_direction, p.mark_level));
   }
   if (entered || t_s - last_sent_s_ >= keepalive_s_) {
     command_t c{};

@@ -21,6 +21,11 @@ struct Phase {
   bool end_mark = false;                // OMNI4_EXPERIMENT "end" at the phase start
 };
 
+// Encoded OMNI4_EXPERIMENT mark and a bare OMNI4_CMD of one mode (no velocity, no voltage).
+std::vector<uint8_t> encode_mark(int64_t utime, const std::string &kind,
+                                 const std::string &direction = "", double level = 0);
+std::vector<uint8_t> encode_command(int64_t utime, int64_t seq, int8_t mode);
+
 // Channel voltage pattern per volt of drive along "v", "vn" or "w" (columns of eq 26).
 std::array<double, 4> drive_pattern(const std::string &direction);
 

@@ -48,31 +48,6 @@ double steady_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-template <typename T>
-std::vector<uint8_t> encode(const T &msg) {
-  std::vector<uint8_t> buf(msg.getEncodedSize());
-  msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  return buf;
-}
-
-std::vector<uint8_t> mark_msg(int64_t utime, const std::string &kind, const std::string &dir = "",
-                              double level = 0) {
-  experiment_t m;
-  m.utime = utime;
-  m.kind = kind;
-  m.direction = dir;
-  m.level = level;
-  return encode(m);
-}
-
-std::vector<uint8_t> command_msg(int64_t utime, int64_t seq, int8_t mode) {
-  command_t c{};
-  c.utime = utime;
-  c.seq = seq;
-  c.mode = mode;
-  return encode(c);
-}
-
 // A live LCM session: every message on the bus goes to the event log, stamped with its receive
 // time; an optional tap sees each one as well.
 class Recording {
@@ -242,7 +217,7 @@ int run_experiments(const RunOptions &opt) {
     }
   }
   // Safe stop: IDLE (outputs off), close any open segment, collect the last messages.
-  const auto end = mark_msg(wall_us(), "end");
+  const auto end = encode_mark(wall_us(), "end");
   const bool ok = rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
   std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
                g_interrupted ? "interrupted, robot stopped;" : "done;", opt.out.c_str(),
@@ -352,7 +327,7 @@ int64_t HandRun::controller_us() const { return wall_us() + clock_offset_us_; }
 void HandRun::keepalive() {
   const double now = steady_s();
   if (now - last_cmd_s_ < kKeepaliveS) return;
-  rec_.publish("OMNI4_CMD", command_msg(wall_us(), seq_++, command_t::MODE_COAST));
+  rec_.publish("OMNI4_CMD", encode_command(wall_us(), seq_++, command_t::MODE_COAST));
   last_cmd_s_ = now;
 }
 
@@ -403,12 +378,12 @@ bool HandRun::wait_first_motors() {
 }
 
 void HandRun::open_segment(int axis) {
-  rec_.publish("OMNI4_EXPERIMENT", mark_msg(controller_us(), "coast", hand_axis_name(axis), 0));
+  rec_.publish("OMNI4_EXPERIMENT", encode_mark(controller_us(), "coast", hand_axis_name(axis), 0));
   segment_open_ = true;
 }
 
 void HandRun::close_segment() {
-  rec_.publish("OMNI4_EXPERIMENT", mark_msg(controller_us(), "end"));
+  rec_.publish("OMNI4_EXPERIMENT", encode_mark(controller_us(), "end"));
   segment_open_ = false;
 }
 
@@ -510,7 +485,7 @@ int HandRun::run() {
   if (!rec_.open(opt_, [this](const char *ch, const lcm_recv_buf_t *rb) { on_message(ch, rb); }))
     return 1;
   if (!wait_first_motors() && !g_interrupted) {
-    rec_.finish(command_msg(wall_us(), seq_++, command_t::MODE_IDLE), nullptr);
+    rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE), nullptr);
     std::remove(opt_.out.c_str());
     std::fprintf(stderr, "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
                  "running?\n", opt_.url.c_str(), kMotorsWaitS);
@@ -524,8 +499,8 @@ int HandRun::run() {
     for (cur_k_ = 0; going && cur_k_ < hand_.pushes; ++cur_k_, ++slots_done_)
       going = one_push(cur_axis_, cur_k_);
   }
-  const auto end = mark_msg(controller_us(), "end");
-  const bool ok = rec_.finish(command_msg(wall_us(), seq_++, command_t::MODE_IDLE),
+  const auto end = encode_mark(controller_us(), "end");
+  const bool ok = rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE),
                               segment_open_ ? &end : nullptr);
   report(ok);
   if (motors_lost_) {
