@@ -323,14 +323,12 @@ CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int a
   for (size_t wi = 0; wi < wins.size(); ++wi) {
     const SegWindow &w = wins[wi];
     const auto &enc = c.P.enc.at(w.s->log);
-    const auto &m = w.s->log->motors;
     half = enc.half;
     const size_t first = rows.size();
     double integral = 0;
     for (size_t k = w.w.m0; k < w.w.m1; ++k) {
       if (!enc.ok[k]) continue;
       const double t = seg_time(*w.s, k), x = w.w.sign * enc.x[k][axis];
-      (void)m;
       if (rows.size() > first) integral += 0.5 * (x + rows.back().x) * (t - rows.back().t);
       rows.push_back({wi, t, x, integral});
     }
@@ -378,6 +376,7 @@ CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int ax
     const auto &m = w.s->log->motors;
     const double ta = m[w.w.m0].utime * 1e-6, tb = m[w.w.m1 - 1].utime * 1e-6;
     size_t k = std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin();
+    const double t_first = k < ct.t.size() ? ct.t[k] : ta;  // tau = 0 at the first frame
     const size_t first = rows.size();
     double p = 0, integral = 0;
     for (size_t prev = k; k < ct.t.size() && ct.t[k] <= tb; prev = k++) {
@@ -393,7 +392,7 @@ CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int ax
         }
       }
       const double ps = w.w.sign * p;
-      const double tau = ct.t[k] - ct.t[std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin()];
+      const double tau = ct.t[k] - t_first;
       if (rows.size() > first) integral += 0.5 * (ps + rows.back().p) * (tau - rows.back().tau);
       rows.push_back({wi, tau, ps, integral, ct.ok[k] ? w.w.sign * ct.x[k][axis] : NAN});
     }
