@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -58,6 +59,18 @@ bool experiment_strings_ok(const uint8_t *data, int32_t len) {
     if (slen < 1 || slen > len - pos) return false;
     pos += slen;
   }
+  return true;
+}
+
+// Times and sequence numbers beyond 2^53 (285 years in microseconds; exact in a double) or
+// below zero come from no clock or counter a log is written with. Dropping them keeps every
+// difference of two times or counts far from int64 overflow.
+constexpr int64_t kMaxCount = int64_t{1} << 53;
+bool plausible_count(int64_t v) { return v >= 0 && v <= kMaxCount; }
+template <size_t N>
+bool finite(const float (&a)[N]) {
+  for (float x : a)
+    if (!std::isfinite(x)) return false;
   return true;
 }
 
@@ -124,6 +137,11 @@ LogData read_log(const std::string &path) {
         ++d.undecodable;
         continue;
       }
+      if (!plausible_count(m.utime) || !plausible_count(m.seq) || !finite(m.voltage) ||
+          !finite(m.current) || !finite(m.wheel_speed)) {
+        ++d.implausible;
+        continue;
+      }
       MotorsSample s;
       s.utime = m.utime;
       s.seq = m.seq;
@@ -143,11 +161,20 @@ LogData read_log(const std::string &path) {
         ++d.undecodable;
         continue;
       }
+      if (!plausible_count(q.utime) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+          !std::isfinite(q.theta)) {
+        ++d.implausible;
+        continue;
+      }
       d.pose.push_back({q.utime, q.x, q.y, q.theta});
     } else if (ch == "OMNI4_EXPERIMENT") {
       experiment_t e{};
       if (!experiment_strings_ok(data, dlen) || !decode(e, data, dlen)) {
         ++d.undecodable;
+        continue;
+      }
+      if (!plausible_count(e.utime) || !std::isfinite(e.level)) {
+        ++d.implausible;
         continue;
       }
       d.marks.push_back({e.utime, e.kind, e.direction, e.level});

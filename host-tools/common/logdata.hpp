@@ -36,6 +36,7 @@ struct LogData {
   std::vector<Mark> marks;
   uint64_t events = 0;         // events read
   uint64_t undecodable = 0;    // events on our channels that failed to decode
+  uint64_t implausible = 0;    // decoded, but a time, sequence number or value no log can hold
   uint64_t other_channels = 0;
   uint64_t bytes_total = 0;    // file size
   uint64_t bytes_skipped = 0;  // file bytes after the last intact event (truncation/corruption)

@@ -55,11 +55,13 @@ std::vector<LogData> load_logs(const std::vector<std::string> &paths) {
     const LogData &d = logs.back();
     std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", p.c_str(),
                 (unsigned long long)d.events, d.motors.size(), d.pose.size(), d.marks.size());
-    if (d.bytes_skipped || d.undecodable || d.seq_gaps)
+    if (d.bytes_skipped || d.undecodable || d.implausible || d.seq_gaps)
       std::printf("; skipped %llu of %llu bytes (truncated or corrupt), %llu undecodable "
-                  "events, %llu lost samples",
+                  "events, %llu implausible (time, count or value out of range), %llu lost "
+                  "samples",
                   (unsigned long long)d.bytes_skipped, (unsigned long long)d.bytes_total,
-                  (unsigned long long)d.undecodable, (unsigned long long)d.seq_gaps);
+                  (unsigned long long)d.undecodable, (unsigned long long)d.implausible,
+                  (unsigned long long)d.seq_gaps);
     std::printf("\n");
   }
   return logs;

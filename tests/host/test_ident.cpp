@@ -1,17 +1,24 @@
 // Tests for host-tools: filters, regressions, and identification accuracy on simulated robots.
 #include <gtest/gtest.h>
+#include <lcm/eventlog.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "bootstrap.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
+#include "omni4/experiment_t.hpp"
+#include "omni4/motors_t.hpp"
+#include "omni4/pose_t.hpp"
 #include "regression.hpp"
 #include "signals.hpp"
 #include "simexp.hpp"
@@ -319,6 +326,76 @@ TEST(BadInput, CorruptBytesInTheMiddleAreSkippedAndTheRestIsRead) {
   EXPECT_EQ(part.seq_gaps, full.motors.size() - part.motors.size());
   EXPECT_GT(part.bytes_skipped, 0u);
   std::remove(log.c_str());
+}
+
+TEST(BadInput, ImpossibleTimesCountsAndValuesAreDroppedAndCounted) {
+  // A log whose messages decode but hold what no clock, counter or sensor gives: utime and seq
+  // at the int64 limits, NaN and infinite floats. Differences of such times overflow int64.
+  const std::string path = temp_path(".lcmlog");
+  lcm_eventlog_t *log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  int64_t event = 0;
+  auto put = [&](const char *channel, auto &msg) {
+    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
+    ASSERT_EQ(msg.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+    lcm_eventlog_event_t ev{};
+    ev.eventnum = event++;
+    ev.timestamp = 1000 * event;
+    ev.channellen = static_cast<int32_t>(std::strlen(channel));
+    ev.channel = const_cast<char *>(channel);
+    ev.datalen = static_cast<int32_t>(buf.size());
+    ev.data = buf.data();
+    ASSERT_EQ(lcm_eventlog_write_event(log, &ev), 0);
+  };
+  omni4::experiment_t mark{};
+  mark.utime = 1000000;
+  mark.kind = "step";
+  mark.direction = "v";
+  mark.level = 6;
+  put("OMNI4_EXPERIMENT", mark);
+  int good = 0;
+  for (int64_t k = 0; k < 300; ++k) {
+    omni4::motors_t m{};
+    m.utime = 1000000 + 1000 * k;
+    m.seq = k;
+    m.mode = 2;
+    for (int j = 0; j < 4; ++j) m.voltage[j] = 6.0f;
+    if (k == 10) m.utime = INT64_MAX;
+    if (k == 11) m.utime = INT64_MIN;
+    if (k == 12) m.seq = INT64_MAX;
+    if (k == 13) m.seq = -5;
+    if (k == 14) m.voltage[2] = NAN;
+    if (k == 15) m.current[1] = INFINITY;
+    if (k == 16) m.wheel_speed[0] = -INFINITY;
+    good += k < 10 || k > 16;
+    put("OMNI4_MOTORS", m);
+  }
+  omni4::pose_t q{};
+  q.utime = INT64_MIN;
+  put("OMNI4_POSE", q);
+  q.utime = 1100000;
+  q.theta = NAN;
+  put("OMNI4_POSE", q);
+  mark.utime = INT64_MAX;
+  mark.kind = "end";
+  put("OMNI4_EXPERIMENT", mark);
+  mark.utime = 1200000;
+  mark.level = INFINITY;
+  put("OMNI4_EXPERIMENT", mark);
+  lcm_eventlog_destroy(log);
+
+  const LogData d = read_log(path);
+  EXPECT_EQ(d.implausible, 11u);
+  EXPECT_EQ(d.undecodable, 0u);
+  EXPECT_EQ(d.motors.size(), static_cast<size_t>(good));
+  EXPECT_EQ(d.seq_gaps, 7u);
+  EXPECT_TRUE(d.pose.empty());
+  ASSERT_EQ(d.marks.size(), 1u);
+  // What is left identifies nothing (one short step) and says so; nothing overflows (the
+  // sanitizer builds run this test with -fno-sanitize-recover).
+  const auto segs = split_segments(d);
+  EXPECT_THROW(identify(segs, model_params_table3), IdentError);
+  std::remove(path.c_str());
 }
 
 TEST(BadInput, NotAnEventLogIsAClearError) {
