@@ -15,6 +15,24 @@ bash scripts/setup.sh || exit 1
 total_pass=0
 total_fail=0
 failed_presets=()
+recap=$(mktemp)
+trap 'rm -f "$recap"' EXIT
+# The last lines of each failed test's output, kept for the end of the run: whoever reads only
+# the tail of a long run still sees why a test failed.
+recap_failures() {
+  local preset=$1 log=$2 dir=build
+  [ "$preset" = default ] || dir=build-$preset
+  local name
+  for name in $(sed -n '/The following tests FAILED:/,$p' "$log" |
+                sed -n 's/^[[:space:]]*[0-9]* - \([^ ]*\) .*/\1/p'); do
+    {
+      echo "---- $preset: $name (last 25 lines of its output) ----"
+      awk -v n="$name" '$0 ~ ("^[0-9]+/[0-9]+ Testing: " n "$") {on = 1; next}
+                        on && index($0, "\"" n "\" end time") == 1 {exit}
+                        on {print}' "$dir/Testing/Temporary/LastTest.log" 2>/dev/null | tail -25
+    } >>"$recap"
+  done
+}
 run_preset() {
   local preset=$1
   shift
@@ -32,15 +50,19 @@ run_preset() {
   line=$(grep -E "tests passed, [0-9]+ tests? failed out of [0-9]+" "$log" | tail -1)
   fail=$(sed -n 's/.*, \([0-9]*\) tests\{0,1\} failed out of.*/\1/p' <<<"$line")
   pass=$(sed -n 's/.* failed out of \([0-9]*\).*/\1/p' <<<"$line")
-  rm -f "$log"
   if [ -z "$line" ]; then
+    rm -f "$log"
     total_fail=$((total_fail + 1))
     failed_presets+=("$preset(no tests)")
     return
   fi
   total_pass=$((total_pass + pass - fail))
   total_fail=$((total_fail + fail))
-  [ "$fail" -eq 0 ] || failed_presets+=("$preset")
+  if [ "$fail" -ne 0 ]; then
+    failed_presets+=("$preset")
+    recap_failures "$preset" "$log"
+  fi
+  rm -f "$log"
 }
 
 run_preset default "$@"
@@ -58,6 +80,7 @@ run_preset tsan "$@"
 run_preset fuzz "$@"
 
 echo
+[ -s "$recap" ] && cat "$recap"
 [ ${#failed_presets[@]} -eq 0 ] || echo "failing: ${failed_presets[*]}"
 echo "omni4: $total_pass passed, $total_fail failed"
 [ "$total_fail" -eq 0 ]
