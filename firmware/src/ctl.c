@@ -154,12 +154,17 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	double vw[4];
 	bool speeds_ok = true;
 
+	/* Limits compared at the samples' precision (float): a reading of 10.2 A is the float
+	 * nearest 10.2, which is below the double 10.2. */
+	const float sensor_max = (float)c->cfg.limits.current_sensor_max_a;
+	const float current_max = (float)c->cfg.limits.current_max_a;
+
 	for (int j = 0; j < 4; j++) {
 		const float i = s->current_a[j], w = s->wheel_rad_s[j];
 
-		if (!isfinite(i) || fabsf(i) >= c->cfg.limits.current_sensor_max_a)
+		if (!isfinite(i) || fabsf(i) >= sensor_max)
 			f |= OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
-		if (isfinite(i) && fabsf(i) > c->cfg.limits.current_max_a)
+		if (isfinite(i) && fabsf(i) > current_max)
 			f |= OMNI4_MOTORS_T_FAULT_OVERCURRENT;
 		if (!isfinite(w)) {
 			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
@@ -173,7 +178,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	for (int j = 0; j < 4 && speeds_ok; j++)
 		c->last_wheel[j] = s->wheel_rad_s[j];
 	c->have_wheel = speeds_ok;
-	if (isfinite(s->supply_v) && s->supply_v < c->cfg.limits.supply_min_v)
+	if (isfinite(s->supply_v) && s->supply_v < (float)c->cfg.limits.supply_min_v)
 		f |= OMNI4_MOTORS_T_FAULT_SUPPLY;
 	if (!speeds_ok)
 		return f;

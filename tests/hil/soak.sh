@@ -3,15 +3,22 @@
 # soak) through real LCM (udpm, ttl=0) into lcm-logger and omni4-record (split into 1 MB parts)
 # side by side, with a command stream. Checks: every sample in both logs (no seq gap, across
 # the parts), none dropped, RSS flat (no leak); prints the overruns.
+# lcm-logger is Debian's C binary (liblcm-bin), called by path: the PyPI lcm package's
+# lcm-logger (in .venv/bin, first on the PATH when the venv is active) is a Python wrapper
+# that, started in the background of a script, ignores SIGINT and never passes it on, so
+# the real logger under it never stopped. Every wait below is bounded.
 set -u
 BIN=$1
+. "$(dirname "$0")/bounded_wait.sh"
+LCM_LOGGER=${OMNI4_LCM_LOGGER:-/usr/bin/lcm-logger}
+[ -x "$LCM_LOGGER" ] || { echo "FAIL: $LCM_LOGGER missing (apt-get install liblcm-bin)"; echo "0 passed, 1 failed"; exit 1; }
 D=${OMNI4_SOAK_S:-30}
 T=$(mktemp -d)
 PORT=$((7900 + RANDOM % 200))
 URL="udpm://239.255.76.67:$PORT?ttl=0"
-trap 'kill $FW $LG $RC $DR 2>/dev/null; rm -rf "$T"' EXIT
+trap 'kill ${FW:-} ${LG:-} ${RC:-} ${DR:-} 2>/dev/null; rm -rf "$T"' EXIT
 printf '[lcm]\nurl = %s\n' "$URL" > "$T/fw.ini"
-lcm-logger --lcm-url="$URL" -c OMNI4_MOTORS -f "$T/soak.lcmlog" >/dev/null 2>&1 &
+"$LCM_LOGGER" --lcm-url="$URL" -c OMNI4_MOTORS -f "$T/soak.lcmlog" >/dev/null 2>&1 &
 LG=$!
 "$BIN/omni4-record" --lcm "$URL" --channel OMNI4_MOTORS --split-mb 1 --out "$T/rec.lcmlog" -q &
 RC=$!
@@ -26,10 +33,15 @@ sleep 5
 rss0=$(rss)
 sleep $((D > 10 ? D - 7 : 3))
 rss1=$(rss)
-wait $FW
-kill -INT $DR 2>/dev/null; wait $DR 2>/dev/null
+hung=0
+bounded_wait $FW 30 "omni4-fw --duration $D did not end on its own" || [ $? -ne 124 ] || hung=1
+kill -INT $DR 2>/dev/null
+bounded_wait $DR 10 "omni4-ident run after SIGINT" || [ $? -ne 124 ] || hung=1
 sleep 0.5
-kill -INT $LG $RC; wait $LG 2>/dev/null; wait $RC; rrc=$?
+kill -INT $LG $RC
+bounded_wait $LG 10 "$LCM_LOGGER after SIGINT" || [ $? -ne 124 ] || hung=1
+bounded_wait $RC 10 "omni4-record after SIGINT"; rrc=$?
+[ $rrc -ne 124 ] || hung=1
 cat "$T/fw.log"
 check=$("$BIN/log_check" "$T/soak.lcmlog")
 crc=$?
@@ -44,7 +56,7 @@ dropped=$(sed -n 's/.*log dropped \([0-9]*\).*/\1/p' "$T/fw.log")
 motors=$(sed -n 's/motors \([0-9]*\),.*/\1/p' <<<"$check")
 growth=$(( ${rss1:-0} - ${rss0:-0} ))
 echo "soak ${D} s: ticks $ticks, logged $motors, dropped $dropped, RSS ${rss0} kB at 5 s -> ${rss1} kB near the end (growth ${growth} kB)"
-fail=0
+fail=$hung
 [ "$crc" -eq 0 ] || { echo "FAIL: gaps or duplicates in the log"; fail=1; }
 [ "${dropped:-1}" -eq 0 ] || { echo "FAIL: samples dropped in the controller"; fail=1; }
 [ "${motors:-0}" -ge $(( ${ticks:-1} - 5 )) ] || { echo "FAIL: the logger missed samples"; fail=1; }

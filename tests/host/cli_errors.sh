@@ -3,6 +3,7 @@
 # status, and no half-written output file.
 set -u
 BIN=$1
+. "$(dirname "$0")/../hil/bounded_wait.sh"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fail=0
@@ -13,7 +14,7 @@ expect() {
   local want=$1 pattern=$2
   shift 3
   local out rc
-  out=$("$@" 2>&1)
+  out=$(bounded_run 60 "$*" -- "$@" 2>&1)
   rc=$?
   if [ "$rc" -ne "$want" ] || ! grep -q -- "$pattern" <<<"$out"; then
     echo "FAIL: $* -> status $rc (want $want), output: $out"
@@ -30,8 +31,10 @@ printf '[model]\nd = 0.089\nr = 0.0325\nl = 5\nKv = 0.0259\nKt = 0.0259\nR = -4.
 printf '[model]\nR = 4.3\nbogus = 1\n' > "$T/bogus.ini"
 printf '; Table III\n' > "$T/t3.ini"
 
-"$BIN/omni4-sim" --duration 2 --out "$T/nomarks.lcmlog" -q >/dev/null
-"$BIN/omni4-sim" --experiments --out "$T/full.lcmlog" -q >/dev/null
+bounded_run 60 "omni4-sim --duration 2" -- "$BIN/omni4-sim" --duration 2 --out "$T/nomarks.lcmlog" -q >/dev/null ||
+  { echo "FAIL: omni4-sim --duration 2"; fail=$((fail + 1)); }
+bounded_run 120 "omni4-sim --experiments" -- "$BIN/omni4-sim" --experiments --out "$T/full.lcmlog" -q >/dev/null ||
+  { echo "FAIL: omni4-sim --experiments"; fail=$((fail + 1)); }
 head -c 100000 "$T/full.lcmlog" > "$T/short.lcmlog"
 
 expect 2 "out is required" -- "$BIN/omni4-sim" --experiments
