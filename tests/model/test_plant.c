@@ -163,6 +163,54 @@ static void test_stiction_holds_below_coulomb_and_breaks_away_above(void **state
 	assert_near(pl.x[0], 0, 0);
 }
 
+/* Per axis and direction: the drive force (torque) from the voltages alone, at rest, is
+ * 2 b U along v (f3 - f1), 2 b U along vn (f0 - f2) and 4 d b U about w, with b = l Kt/(r R)
+ * (eqs 9-13, 21 at zero speed). Held at 0.99 of the Coulomb force, breaks away at 1.01 in
+ * the direction of the drive, for both signs. */
+static void test_stiction_breaks_away_in_both_directions_on_every_axis(void **state)
+{
+	(void)state;
+	const double b = P->l * P->Kt / (P->r * P->R);
+	/* unit voltage patterns and their force (torque) per volt */
+	const double pattern[3][4] = {{0, -1, 0, 1}, {1, 0, -1, 0}, {1, 1, 1, 1}};
+	const double per_volt[3] = {2 * b, 2 * b, 4 * P->d * b};
+	const double coulomb[3] = {P->Cv, P->Cvn, P->Cw};
+	const double inertia[3] = {P->M, P->M, P->J};
+	const double a_vn = -(2 * emf() + P->Bvn) / P->M;
+	const double A[3] = {a_v(), a_vn, a_w()};
+	struct plant pl;
+
+	assert_int_equal(plant_init(&pl, P), 0);
+	for (int k = 0; k < 3; k++) {
+		const double U_break = coulomb[k] / per_volt[k];
+
+		for (int sign = -1; sign <= 1; sign += 2) {
+			double u[4];
+
+			plant_reset(&pl);
+			for (int j = 0; j < 4; j++)
+				u[j] = sign * 0.99 * U_break * pattern[k][j];
+			run(&pl, u, true, 1.0, 1e-3);
+			for (int a = 0; a < 3; a++)
+				assert_near(pl.x[a], 0, 0);
+			for (int j = 0; j < 4; j++)
+				u[j] = sign * 1.01 * U_break * pattern[k][j];
+			run(&pl, u, true, 0.05, 1e-3);
+			print_message("axis %d, drive %+d: breakaway at %.4f V, speed after 50 ms at "
+				      "1.01x: %+.6e\n", k, sign, U_break, pl.x[k]);
+			/* closed form: x' = A x + f, f = 0.01 C / inertia, from rest for 50 ms */
+			const double f = sign * 0.01 * coulomb[k] / inertia[k];
+			const double want = -f / A[k] * (1 - exp(A[k] * 0.05));
+
+			assert_true(sign * pl.x[k] > 0);
+			assert_near(pl.x[k], want, 1e-9 * fabs(want));
+			for (int a = 0; a < 3; a++)
+				if (a != k)
+					assert_near(pl.x[a], 0, 1e-12);
+		}
+	}
+}
+
 static void test_pose_integrates_rotation_and_translation(void **state)
 {
 	(void)state;
@@ -199,6 +247,7 @@ int main(void)
 		cmocka_unit_test(test_time_constants_are_minus_one_over_A_ii),
 		cmocka_unit_test(test_coast_down_stops_at_closed_form_time_and_stays),
 		cmocka_unit_test(test_stiction_holds_below_coulomb_and_breaks_away_above),
+		cmocka_unit_test(test_stiction_breaks_away_in_both_directions_on_every_axis),
 		cmocka_unit_test(test_pose_integrates_rotation_and_translation),
 		cmocka_unit_test(test_init_rejects_bad_params),
 	};
