@@ -60,11 +60,19 @@ void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b,
                             fmt("hold of %.2f s too short to test", hold)});
     return;
   }
-  // Final value: the last two blocks.
+  // Final value: the last two blocks. The tolerance grows by 3 standard deviations of a block
+  // mean's measurement noise, estimated from the hold itself: the lower quartile of the
+  // differences of neighbouring blocks (|N(0, s)| has its quartile at 0.3186 s) is blind to a
+  // transient over up to 3/4 of the hold; a difference of two block means has s = sqrt(2) sigma.
   std::array<double, 3> ref{}, tol{};
+  std::vector<double> diff(blocks.size() - 1);
   for (int ax = 0; ax < 3; ++ax) {
     ref[ax] = 0.5 * (blocks[0].x[ax] + blocks[1].x[ax]);
-    tol[ax] = opt.steady_tol * std::abs(ref[ax]) + (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v);
+    for (size_t q = 0; q + 1 < blocks.size(); ++q) diff[q] = std::abs(blocks[q].x[ax] - blocks[q + 1].x[ax]);
+    std::nth_element(diff.begin(), diff.begin() + diff.size() / 4, diff.end());
+    const double noise = diff[diff.size() / 4] / 0.3186 / std::sqrt(2.0);
+    tol[ax] = opt.steady_tol * std::abs(ref[ax]) +
+              (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v) + 3 * noise;
   }
   size_t keep = 0;
   for (const Block &bl : blocks) {

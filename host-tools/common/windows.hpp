@@ -4,8 +4,9 @@
 //
 //   steady  driven (motors_t mode VOLTAGE or VELOCITY), every applied voltage inside a band no
 //           wider than volt_tol_v + volt_tol_rel * |u|, and the robot velocity settled: the 50 ms block
-//           means of every axis stay within steady_tol * |x| + a floor of the final value for at
-//           least steady_min_s. A ramp, a transient or a ramp-down is never inside one.
+//           means of every axis stay within steady_tol * |x| + a floor + 3 standard deviations
+//           of a block mean's noise (estimated from the hold) of the final value for at least
+//           steady_min_s. A ramp, a transient or a ramp-down is never inside one.
 //   coast   bridges off (IDLE, COAST, FAULT, ESTOP: null traction) and decelerating freely along
 //           the segment's axis: from just after the speed peak that follows the last drive or
 //           push (once the speed has fallen 3 % below the peak and 50 ms have passed) down to

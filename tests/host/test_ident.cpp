@@ -3,6 +3,7 @@
 #include <lcm/eventlog.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -475,6 +476,44 @@ TEST(Windows, SteadyWindowHoldsNeitherRampNorTransientNorRampDown) {
   EXPECT_TRUE(w2.steady.empty());
   ASSERT_EQ(w2.rejected.size(), 1u);
   EXPECT_NE(w2.rejected[0].reason.find("not settled"), std::string::npos) << w2.rejected[0].reason;
+}
+
+TEST(Windows, NoisySpeedsStillGiveASteadyWindowThatHoldsNoTransient) {
+  // The hold of the test above with correlated speed noise on every wheel (AR(1), 0.3 rad/s,
+  // 20 ms: about 1 % of the wheel speed, the level of a coarse encoder's speed estimate). The
+  // fixed 0.3 % + 2 mm/s band alone is narrower than the noise of a 50 ms block mean.
+  const double tau = 0.3, xss = 1.0, x0 = 0.2, sigma = 0.3, corr = 0.02;
+  std::mt19937 gen(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double a = std::exp(-1e-3 / corr), b = sigma * std::sqrt(1 - a * a);
+  std::array<double, 4> n{};
+  LogData log;
+  for (int q = 0; q < 3000; ++q) {
+    MotorsSample s = sample_at(q, 2, 6.0, xss - (xss - x0) * std::exp(-q * 1e-3 / tau));
+    for (int j = 0; j < 4; ++j) {
+      n[j] = a * n[j] + b * normal(gen);
+      s.w[j] += n[j];
+    }
+    log.motors.push_back(s);
+  }
+  Segment s = whole(log);
+  s.kind = "motor";
+  const SegmentWindows w = find_windows(s, encoder_track(log, kD, kR), WindowOptions{});
+  ASSERT_EQ(w.steady.size(), 1u) << (w.rejected.empty() ? "" : w.rejected[0].reason);
+  const double t_start = seg_time(s, w.steady[0].m0);
+  // The band grows by 3 standard deviations of a block mean's noise: along v that is 0.3 rad/s
+  // x r / sqrt(2) = 6.9 mm/s per sample, ~6.2 mm/s per 50 ms block (tau_n = 20 ms), so a
+  // transient up to 0.3 % + 2 + 3 x 6.2 = 24 mm/s may be left at the start...
+  const double t_band = tau * std::log((xss - x0) / 0.025);
+  // ... and the true mean speed over the window stays within 0.5 % of the final value.
+  const double t_end = seg_time(s, w.steady[0].m1 - 1);
+  const double mean = xss - (xss - x0) * tau * (std::exp(-t_start / tau) - std::exp(-t_end / tau)) /
+                                (t_end - t_start);
+  std::printf("noisy hold: steady window %.3f-%.3f s (transient < 25 mm/s after %.3f s), true "
+              "mean %.4f of the final speed\n", t_start, t_end, t_band, mean / xss);
+  EXPECT_GE(t_start, t_band);
+  EXPECT_GT(mean / xss, 0.994);  // measured 0.9968
+  EXPECT_LE(t_start, 3.0 - 0.4);
 }
 
 TEST(Windows, HandPushCoastDownStartsAfterThePeakAndEndsAtTheStop) {
