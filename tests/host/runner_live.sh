@@ -23,10 +23,26 @@ fwrc=$?
 out=$(bounded_run 60 "omni4-ident validate" -- "$BIN/omni4-ident" validate --params /dev/null --json "$T/v.json" "$T/live.lcmlog" 2>&1)
 # /dev/null is an empty INI: Table III, the simulated robot itself.
 echo "$out"
-if grep -q "validation on 9 step runs" <<<"$out" && grep -q '"v": {"e_max"' "$T/v.json"; then
-  echo "1 passed, 0 failed"
-else
-  echo "FAIL: the recorded log does not hold the 9 step runs"
-  echo "0 passed, 1 failed"
-  exit 1
-fi
+grep -q "validation on 9 step runs" <<<"$out" ||
+  { echo "FAIL: the recorded log does not hold the 9 step runs"; echo "0 passed, 1 failed"; exit 1; }
+# The figures, against the paper's Table IV (final parameters: e_max v 0.061 m/s, vn 0.068 m/s,
+# w 2.504 rad/s; sigma 0.024, 0.026, 0.732; mean 0.008, -0.009, -0.452) and tighter, at ~2.5x
+# the worst of this test's runs on the simulated robot, some on a loaded machine (e_max 0.0281,
+# 0.0149, 0.255; sigma 0.0054, 0.0033, 0.0434; |mean| 0.0040, 0.0023, 0.0152): live LCM
+# timing makes them vary.
+/usr/bin/python3 - "$T/v.json" <<'PY' || { echo "0 passed, 1 failed"; exit 1; }
+import json, sys
+v = json.load(open(sys.argv[1]))
+# axis: (e_max, |mean|, sigma) bounds = min(Table IV, 2.5 x worst measured)
+bounds = {"v": (0.061, 0.008, 0.0135), "vn": (0.037, 0.006, 0.0085), "w": (0.64, 0.038, 0.11)}
+fail = 0
+for axis, (emax, mean, sigma) in bounds.items():
+    got = v[axis]
+    for key, lim, val in (("e_max", emax, got["e_max"]), ("|mean|", mean, abs(got["e_mean"])),
+                          ("sigma", sigma, got["sigma"])):
+        ok = val == val and val <= lim
+        print(f"{'ok' if ok else 'FAIL'}: {axis} {key} {val:.4f} (bound {lim})")
+        fail += not ok
+sys.exit(1 if fail else 0)
+PY
+echo "1 passed, 0 failed"
