@@ -72,6 +72,54 @@ static void test_defaults_are_table3_and_safe(void **state)
 	assert_near(cfg.model.M, 2.34, 0);
 }
 
+/* The documented defaults: docs/faults.md (fault limits) and docs/design.md (Table III,
+ * supply 12 V, 1 kHz loop), written out here, not read from config.c. */
+static void test_defaults_are_the_documented_figures(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	const double table3[] = {0.089, 0.0325, 5, 0.0259, 0.0259, 4.3111, 2.34, 0.0228,
+				 0.4978, 0.6763, 0.0141, 1.8738, 2.2198, 0.1385};
+
+	config_defaults(&cfg);
+	const struct model_params *m = &cfg.model;
+	const double got[] = {m->d, m->r, m->l, m->Kv, m->Kt, m->R, m->M, m->J,
+			      m->Bv, m->Bvn, m->Bw, m->Cv, m->Cvn, m->Cw};
+
+	for (size_t i = 0; i < sizeof(table3) / sizeof(table3[0]); i++)
+		assert_near(got[i], table3[i], 0);
+	assert_int_equal(cfg.control.cmd_timeout_ms, 200);
+	assert_near(cfg.control.stop_ramp_s, 0.2, 0);
+	assert_near(cfg.limits.current_max_a, 5.0, 0);
+	assert_near(cfg.limits.current_sensor_max_a, 10.2, 0);
+	assert_near(cfg.limits.supply_min_v, 9.0, 0);
+	assert_near(cfg.limits.supply_v, 12.0, 0);
+	assert_near(cfg.loop.rate_hz, 1000.0, 0);
+}
+
+/* R must be > 0: 0 is refused, the smallest positive value in the file is taken. */
+static void test_resistance_boundary_zero_refused_positive_taken(void **state)
+{
+	(void)state;
+	char text[1024];
+	struct omni4_config cfg;
+	struct config_error err;
+
+	snprintf(text, sizeof(text), "%s", good);
+	char *p = strstr(text, "R = 3.5");
+
+	memcpy(p, "R = 0  ", 7);
+	expect_error(text, -EINVAL, 0, "invalid value for 'R' in [model]: must be > 0");
+	char small[1100];
+	const char *rest = strstr(good, "R = 3.5") + strlen("R = 3.5");
+
+	snprintf(small, sizeof(small), "%.*sR = 1e-9%s", (int)(strstr(good, "R = 3.5") - good), good,
+		 rest);
+	config_defaults(&cfg);
+	assert_int_equal(config_load_string(small, "robot.ini", &cfg, &err), 0);
+	assert_near(cfg.model.R, 1e-9, 0);
+}
+
 static void test_unknown_key_is_reported_with_its_line(void **state)
 {
 	(void)state;
@@ -162,6 +210,8 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_good_file_overrides_defaults),
 		cmocka_unit_test(test_defaults_are_table3_and_safe),
+		cmocka_unit_test(test_defaults_are_the_documented_figures),
+		cmocka_unit_test(test_resistance_boundary_zero_refused_positive_taken),
 		cmocka_unit_test(test_unknown_key_is_reported_with_its_line),
 		cmocka_unit_test(test_bad_number_is_reported_with_its_line),
 		cmocka_unit_test(test_out_of_range_value_is_rejected),

@@ -2,6 +2,8 @@
  * LCM receive thread and the logger thread, as in omni4-fw, on the sim backend. */
 #include "omni4_test.h"
 
+#include <stdlib.h>
+
 #include <lcm/lcm.h>
 #include <time.h>
 
@@ -114,6 +116,17 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 		      loop.latency_max_ns / 1e3, (long long)rx.count, (long long)rx.gaps,
 		      (long long)rx.pose);
 	assert_int_equal(loop.ticks, N);
+	/* Not real-time here (no SCHED_FIFO, a shared 2-core machine). Measured: p50 62 us,
+	 * p99 454 us, 9 overruns in 3000 ticks (0.3 %) on a quiet machine; p50 64 us, p99
+	 * 3972 us, 62 overruns (2 %) beside a parallel compile. Bounds: the median at ~3x (200 us),
+	 * the tail at what a starved loop would pass (p99 5 periods, overruns 5 %); times
+	 * OMNI4_TEST_TIME_SCALE (> 1 in the sanitizer builds). */
+	const char *scale_env = getenv("OMNI4_TEST_TIME_SCALE");
+	const double scale = scale_env && atof(scale_env) >= 1 ? atof(scale_env) : 1.0;
+
+	assert_true(rtloop_latency_percentile_us(&loop, 50) <= 200 * scale);
+	assert_true(rtloop_latency_percentile_us(&loop, 99) <= 5000 * scale);
+	assert_true((double)loop.overruns <= 0.05 * scale * N);
 	assert_int_equal(fw.n.log_dropped, 0);
 	assert_int_equal(rx.count, N);
 	assert_int_equal(rx.gaps, 0);
