@@ -217,8 +217,9 @@ static void test_ff_alone_makes_the_plant_follow_a_profile(void **state)
 	print_message("feedforward only, open loop, %.0f s: RMS error v %.4f m/s, vn %.4f m/s, "
 		      "w %.4f rad/s; max %.4f, %.4f, %.4f\n", T, sqrt(sq[0] / n), sqrt(sq[1] / n),
 		      sqrt(sq[2] / n), worst[0], worst[1], worst[2]);
-	assert_true(sqrt(sq[0] / n) < 0.01 && sqrt(sq[1] / n) < 0.01 && sqrt(sq[2] / n) < 0.1);
-	assert_true(worst[0] < 0.05 && worst[1] < 0.05 && worst[2] < 0.5);
+	/* 2.5x the measured RMS 0.0005, 0.0014, 0.0056 and max 0.0025, 0.0049, 0.0257 */
+	assert_true(sqrt(sq[0] / n) < 0.0013 && sqrt(sq[1] / n) < 0.0035 && sqrt(sq[2] / n) < 0.014);
+	assert_true(worst[0] < 0.0065 && worst[1] < 0.0125 && worst[2] < 0.065);
 }
 
 int main(void)
