@@ -3,7 +3,9 @@
 
 #include <errno.h>
 #include <math.h>
+#include <poll.h>
 #include <string.h>
+#include <time.h>
 
 #include "omni4_motors_t.h"
 #include "omni4/sc_os.h"
@@ -22,10 +24,68 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 	if (rc)
 		return rc;
 	m->timeout_us = (int64_t)status_timeout_ms * 1000;
+	m->lim = sc_limits_default();
+	atomic_init(&m->halted, false);
+	atomic_init(&m->in_flight, 0);
 	for (int n = 0; n < CAN_NODES; n++)
 		m->node[n].status_candidate = m->node[n].health_candidate = -1;
 	m->opened_us = sc_os_now_us();
 	return 0;
+}
+
+struct sc_limits sc_limits_from_model(double supply_v, double R, double Kt, double l, double r,
+				      double M, double J, double d, double dt, double noise_a,
+				      double current_limit_a)
+{
+	const double i_step = 2.0 * supply_v / R;
+	const double f_max = l * Kt * i_step / r;
+	const double a_max = f_max * (2.0 / M + 4.0 * d * d / J);
+
+	return (struct sc_limits){
+		.current_step_a = (float)(i_step + 10.0 * noise_a + CAN_CURR_LSB),
+		.speed_step_rad_s = (float)(a_max * dt / r + 2.0 * CAN_SPEED_LSB),
+		.current_limit_a = (float)current_limit_a,
+		.confirm_frames = 3,
+	};
+}
+
+struct sc_limits sc_limits_default(void)
+{
+	return sc_limits_from_model(12.0, 4.3111, 0.0259, 5.0, 0.0325, 2.34, 0.0228, 0.089, 1e-3,
+				    0.02, 5.0);
+}
+
+int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits *lim)
+{
+	if (!(lim->current_step_a > 0.0f) || !(lim->speed_step_rad_s > 0.0f) ||
+	    !(lim->current_limit_a > 0.0f) || lim->confirm_frames < 1 || lim->confirm_frames > 8)
+		return -EINVAL;
+	m->lim = *lim;
+	return 0;
+}
+
+/* The write gate. Every send of the loop (or any thread) happens between gate_enter() and
+ * gate_leave(); socketcan_motor_halt() sets halted and then waits for in_flight to be 0. Both
+ * sides use sequentially consistent atomics (store, then load the other's flag), so either the
+ * writer sees halted and sends nothing, or the halt sees the writer and waits until its frame
+ * is out: the halt's frames are always the last ones. */
+static _Thread_local bool tl_in_gate; /* this thread is inside the gate (crash inside a write) */
+
+static bool gate_enter(struct socketcan_motor *m)
+{
+	atomic_fetch_add(&m->in_flight, 1);
+	if (atomic_load(&m->halted)) {
+		atomic_fetch_sub(&m->in_flight, 1);
+		return false;
+	}
+	tl_in_gate = true;
+	return true;
+}
+
+static void gate_leave(struct socketcan_motor *m)
+{
+	tl_in_gate = false;
+	atomic_fetch_sub(&m->in_flight, 1);
 }
 
 static int send_control(struct socketcan_motor *m, enum can_control cmd)
@@ -46,13 +106,17 @@ static int sc_enable(void *ctx, bool on)
 {
 	struct socketcan_motor *m = ctx;
 
+	if (!gate_enter(m))
+		return 0; /* halted: the crash handler sent the last frames */
 	m->enabled = on;
-	return send_control(m, on ? CAN_CTL_ENABLE : CAN_CTL_DISABLE);
+	const int rc = send_control(m, on ? CAN_CTL_ENABLE : CAN_CTL_DISABLE);
+
+	gate_leave(m);
+	return rc;
 }
 
-static int sc_write(void *ctx, const float volts[4])
+static int write_voltage(struct socketcan_motor *m, const float volts[4])
 {
-	struct socketcan_motor *m = ctx;
 	struct omni4_can_frame f;
 	float v[4];
 
@@ -72,6 +136,73 @@ static int sc_write(void *ctx, const float volts[4])
 	return 0;
 }
 
+static int sc_write(void *ctx, const float volts[4])
+{
+	struct socketcan_motor *m = ctx;
+
+	if (!gate_enter(m))
+		return 0;
+	const int rc = write_voltage(m, volts);
+
+	gate_leave(m);
+	return rc;
+}
+
+static int64_t mono_us(void)
+{
+	struct timespec t;
+
+	clock_gettime(CLOCK_MONOTONIC, &t); /* async-signal-safe */
+	return (int64_t)t.tv_sec * 1000000 + t.tv_nsec / 1000;
+}
+
+/* One frame from the crash path: a full TX queue is retried until deadline_us. */
+static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f,
+		      int64_t deadline_us)
+{
+	for (;;) {
+		const int rc = sc_os_send(m->fd, f);
+
+		if (rc == 0)
+			return true;
+		if (rc != -EAGAIN || mono_us() >= deadline_us)
+			return false;
+		struct pollfd p = {.fd = m->fd, .events = POLLOUT};
+
+		poll(&p, 1, 1);
+	}
+}
+
+int socketcan_motor_halt(struct socketcan_motor *m)
+{
+	static const float zero[4] = {0, 0, 0, 0};
+	struct omni4_can_frame f;
+	int sent = 0;
+
+	if (m->fd < 0 || atomic_exchange(&m->halted, true))
+		return 0;
+	/* A write of another thread inside the gate finishes first (it does not block: the
+	 * socket is non-blocking). If this thread itself was inside (crashed in a write), it
+	 * never resumes, so there is nothing to wait for. */
+	const int own = tl_in_gate ? 1 : 0;
+	const int64_t t0 = mono_us();
+
+	while (atomic_load(&m->in_flight) > own && mono_us() - t0 < 20000) {
+	}
+	const int64_t deadline = mono_us() + 20000;
+
+	m->enabled = false;
+	can_encode_control(CAN_CTL_DISABLE, m->ctl_counter++, &f);
+	sent += halt_send(m, &f, deadline);
+	for (int k = 0; k < 2; k++) {
+		can_encode_cmd_voltage(zero, false, m->cmd_counter, &f);
+		m->cmd_counter = (m->cmd_counter + 1) & 0xF;
+		sent += halt_send(m, &f, deadline);
+	}
+	return sent;
+}
+
+/* Up to 2 frames lost: the counter window CAN_COUNTER_WINDOW = 3 of can_proto.h. */
 #define SC_MAX_LOST 2
 
 /* Accept a frame's counter (see the policy in the header); losses and rejections counted. */
@@ -99,6 +230,100 @@ static bool counter_ok(struct socketcan_motor *m, bool have, uint8_t *last, int 
 	return true;
 }
 
+/* Within k frame periods of b (k capped at 2: a larger change always needs confirmation, so
+ * no single frame moves a wheel speed by more than 2 steps, below the controller's
+ * encoder-jump threshold). */
+static bool status_near(const struct sc_limits *lim, const struct can_status *a,
+			const struct can_status *b, int k)
+{
+	const float f = (float)(k < 1 ? 1 : k > 2 ? 2 : k);
+
+	for (int c = 0; c < 2; c++)
+		if (!(fabsf(a->current_a[c] - b->current_a[c]) <= f * lim->current_step_a) ||
+		    !(fabsf(a->speed_rad_s[c] - b->speed_rad_s[c]) <= f * lim->speed_step_rad_s))
+			return false;
+	return true;
+}
+
+static bool status_over_limit(const struct sc_limits *lim, const struct can_status *s)
+{
+	return !(fabsf(s->current_a[0]) <= lim->current_limit_a) ||
+	       !(fabsf(s->current_a[1]) <= lim->current_limit_a);
+}
+
+/* Counter step from a held frame to this one, if it is within the window (else 0). */
+static int run_step(uint8_t from, uint8_t to)
+{
+	const int d = (to - from) & 0xF;
+
+	return d >= 1 && d <= CAN_COUNTER_WINDOW ? d : 0;
+}
+
+/* Plausibility of a STATUS frame that passed CRC and counter (see the header). periods =
+ * frame periods since the last accepted STATUS of the node (by counter). */
+static bool status_plausible(struct socketcan_motor *m, struct sc_node *n,
+			     const struct can_status *s, uint8_t counter, int periods)
+{
+	struct sc_status_run *run = &n->status_run;
+	const bool suspect = status_over_limit(&m->lim, s) ||
+			     (n->have_status && !status_near(&m->lim, s, &n->status, periods));
+
+	if (!suspect) {
+		run->len = 0;
+		return true;
+	}
+	const int d = run->len > 0 ? run_step(run->counter, counter) : 0;
+
+	if (d && status_near(&m->lim, s, &run->last, d))
+		run->len++;
+	else
+		run->len = 1;
+	run->last = *s;
+	run->counter = counter;
+	if (run->len >= m->lim.confirm_frames) {
+		run->len = 0;
+		m->n.confirmed++;
+		return true;
+	}
+	m->n.implausible++;
+	return false;
+}
+
+static bool health_same(const struct can_health *a, const struct can_health *b)
+{
+	return a->faults == b->faults && a->state == b->state &&
+	       fabsf(a->supply_v - b->supply_v) <= 0.5f;
+}
+
+static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
+			     const struct can_health *h, uint8_t counter)
+{
+	const bool alarming = h->faults || h->state == CAN_STATE_FAULT;
+	const bool suspect = n->have_health ? !health_same(h, &n->health) &&
+						      (alarming || fabsf(h->supply_v -
+									 n->health.supply_v) > 0.5f)
+					    : alarming;
+
+	if (!suspect) {
+		n->health_run = 0;
+		return true;
+	}
+	if (n->health_run > 0 && run_step(n->health_held_counter, counter) &&
+	    health_same(h, &n->health_held))
+		n->health_run++;
+	else
+		n->health_run = 1;
+	n->health_held = *h;
+	n->health_held_counter = counter;
+	if (n->health_run >= m->lim.confirm_frames) {
+		n->health_run = 0;
+		m->n.confirmed++;
+		return true;
+	}
+	m->n.implausible++;
+	return false;
+}
+
 static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, int64_t now)
 {
 	struct can_status s;
@@ -114,8 +339,14 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
 		}
 		struct sc_node *n = &m->node[node];
 
+		const int step = n->have_status ? run_step(n->status_counter, c) : 1;
+
 		if (!counter_ok(m, n->have_status, &n->status_counter, &n->status_candidate, c))
 			return;
+		n->status_periods += step ? step : 1; /* resync: unknown, count one */
+		if (!status_plausible(m, n, &s, c, n->status_periods))
+			return;
+		n->status_periods = 0;
 		n->status = s;
 		n->last_status_us = now;
 		n->have_status = true;
@@ -128,6 +359,8 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
 		struct sc_node *n = &m->node[node];
 
 		if (!counter_ok(m, n->have_health, &n->health_counter, &n->health_candidate, c))
+			return;
+		if (!health_plausible(m, n, &h, c))
 			return;
 		n->health = h;
 		n->last_health_us = now;
@@ -205,7 +438,12 @@ static int sc_clear_faults(void *ctx)
 	struct socketcan_motor *m = ctx;
 
 	m->bus_off = false;
-	return send_control(m, CAN_CTL_CLEAR_FAULTS);
+	if (!gate_enter(m))
+		return 0;
+	const int rc = send_control(m, CAN_CTL_CLEAR_FAULTS);
+
+	gate_leave(m);
+	return rc;
 }
 
 static void sc_close(void *ctx)
@@ -215,9 +453,12 @@ static void sc_close(void *ctx)
 
 	if (m->fd < 0)
 		return;
-	m->enabled = false;
-	sc_write(m, zero);
-	send_control(m, CAN_CTL_DISABLE);
+	if (gate_enter(m)) {
+		m->enabled = false;
+		write_voltage(m, zero);
+		send_control(m, CAN_CTL_DISABLE);
+		gate_leave(m);
+	}
 	sc_os_close(m->fd);
 	m->fd = -1;
 }

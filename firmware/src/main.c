@@ -55,11 +55,19 @@ static void usage(FILE *f)
 }
 
 /* SIGSEGV/SIGABRT/...: switch the outputs off (the HAL writes are plain syscalls), then let
- * the signal kill the process as it would have (SA_RESETHAND restored the default action). */
+ * the signal kill the process as it would have (SA_RESETHAND restored the default action).
+ * The loop thread keeps running while this handler runs on whichever thread crashed: with the
+ * CAN backend, socketcan_motor_halt() first closes the driver's write gate and waits for a
+ * CMD_VOLTAGE the loop may be sending at this instant, so that the handler's DISABLE + 0 V
+ * frames are the last ones on the bus (fw_emergency_off alone raced with a tick that had read
+ * the old state and sent its non-zero frame after them). */
 static void on_crash(int sig)
 {
-	if (g_app)
+	if (g_app) {
+		if (g_app->fw.motor.ops == &socketcan_motor_ops)
+			socketcan_motor_halt(&g_app->can);
 		fw_emergency_off(&g_app->fw);
+	}
 	raise(sig);
 }
 

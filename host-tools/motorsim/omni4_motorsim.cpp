@@ -37,6 +37,34 @@ float clip(double x, float lim) {
   return static_cast<float>(std::fmax(-lim, std::fmin(lim, x)));
 }
 
+// The receiver's counter policy of the protocol (as the controller's, socketcan_motor.h): a
+// frame is taken if its counter is 1..CAN_COUNTER_WINDOW ahead of the last taken one; any
+// other value is rejected unless the next frame continues from it (resynchronisation).
+struct CounterWindow {
+  bool have = false;
+  uint8_t last = 0;
+  int candidate = -1;
+  bool accept(uint8_t now) {
+    if (have) {
+      const int gap = can_counter_gap(last, now);
+      if (gap == -EALREADY || gap > CAN_COUNTER_WINDOW - 1) {
+        if (gap != -EALREADY && candidate >= 0 &&
+            can_counter_gap(static_cast<uint8_t>(candidate), now) == 0) {
+          candidate = -1;
+          last = now;
+          return true;
+        }
+        candidate = gap == -EALREADY ? -1 : now;
+        return false;
+      }
+    }
+    have = true;
+    candidate = -1;
+    last = now;
+    return true;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -81,8 +109,11 @@ int main(int argc, char **argv) {
   rng_seed(&g, 7);
   Stats st;
   double u[4] = {0, 0, 0, 0};
-  bool cmd_enable = false, ctl_enable = true, have_cmd_counter = false;
-  uint8_t cmd_counter = 0, status_counter[2] = {0, 0}, health_counter[2] = {0, 0};
+  bool cmd_enable = false, ctl_enable = true;
+  CounterWindow cmd_window;
+  bool have_ctl_counter = false;
+  uint8_t ctl_counter = 0;
+  uint8_t status_counter[2] = {0, 0}, health_counter[2] = {0, 0};
   uint8_t drv_faults = 0;
   int64_t last_cmd = 0;
   omni4_can_frame last_status0{};
@@ -108,17 +139,24 @@ int main(int argc, char **argv) {
           ++st.crc_errors;
           continue;
         }
-        if (have_cmd_counter && can_counter_gap(cmd_counter, c) == -EALREADY) {
+        if (!cmd_window.accept(c)) {
           ++st.replayed;
           continue;
         }
-        have_cmd_counter = true;
-        cmd_counter = c;
         for (int j = 0; j < 4; ++j) u[j] = v[j];
         cmd_enable = en;
         last_cmd = now;
         drv_faults &= static_cast<uint8_t>(~CAN_DRV_CMD_TIMEOUT);
       } else if (can_decode_control(&f, &cmd, &c) == 0) {
+        // Control frames are sparse events (a restarted controller's first ENABLE must not wait
+        // for a second frame): only the same counter again is refused; 36 reserved bits keep
+        // a random frame's acceptance far below the protocol's bound.
+        if (have_ctl_counter && can_counter_gap(ctl_counter, c) == -EALREADY) {
+          ++st.replayed;
+          continue;
+        }
+        have_ctl_counter = true;
+        ctl_counter = c;
         if (cmd == CAN_CTL_ENABLE) ctl_enable = true;
         if (cmd == CAN_CTL_DISABLE) ctl_enable = false;
         if (cmd == CAN_CTL_CLEAR_FAULTS) drv_faults = 0;

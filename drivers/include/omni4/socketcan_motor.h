@@ -8,10 +8,22 @@
  * one (up to 2 frames lost); the same counter again or one further off is a stale or replayed
  * frame and is rejected, unless the next frame continues from it (resynchronisation after an
  * outage).
+ * Plausibility (struct sc_limits, derivation in docs/faults.md): a STATUS frame whose current
+ * or wheel speed moved further since the last accepted one than the motor physics allows in
+ * the frame periods between them (counted by the counter, at most 2), or that reports a
+ * current above the limit, is held, not acted on; it is only taken when it is the
+ * confirm_frames-th of consecutive received frames (counter steps within the window) that each
+ * agree with their predecessor. A HEALTH frame that raises a fault bit or the FAULT state, or
+ * moves the supply by more than 0.5 V, is confirmed the same way. So no single frame can latch
+ * a fault in the controller.
+ * Crash safety: socketcan_motor_halt() (async-signal-safe) closes a gate that every write
+ * passes through, waits for a write in flight on another thread to leave it, then sends the
+ * final DISABLE + 0 V frames; after it no thread sends anything.
  */
 #ifndef OMNI4_SOCKETCAN_MOTOR_H
 #define OMNI4_SOCKETCAN_MOTOR_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -27,6 +39,33 @@ struct sc_counters {
 	uint64_t lost;         /* counter jumps */
 	uint64_t error_frames, bus_off;
 	uint64_t flood_cut;    /* reads that stopped at SC_MAX_FRAMES_PER_READ */
+	uint64_t implausible;  /* frames held by the plausibility check (not acted on) */
+	uint64_t confirmed;    /* held values taken after confirm_frames consecutive frames */
+};
+
+/* Plausibility limits of STATUS frames (per frame period, i.e. per counter step). */
+struct sc_limits {
+	float current_step_a;   /* largest |current change| between two frames [A] */
+	float speed_step_rad_s; /* largest |wheel speed change| between two frames [rad/s] */
+	float current_limit_a;  /* a |current| above it needs confirmation [A] */
+	int confirm_frames;     /* N: consecutive agreeing frames that confirm a held value */
+};
+
+/* The limits of a robot (SI units; dt = STATUS period [s], noise = current noise sigma [A]):
+ * current_step = 2 supply / R + 10 noise + 1 LSB (L neglected: a full-scale voltage reversal
+ * moves the current by 2 supply / R at once); speed_step = a_max dt / r + 2 LSB with
+ * a_max = f_max (2/M + 4 d^2/J), f_max = l Kt (2 supply / R) / r (all four wheels at the
+ * largest force, worst-case signs: the largest linear acceleration of one wheel's rim). */
+struct sc_limits sc_limits_from_model(double supply_v, double R, double Kt, double l, double r,
+				      double M, double J, double d, double dt, double noise_a,
+				      double current_limit_a);
+/* Table III robot, 12 V supply, 1 kHz STATUS, 0.02 A noise, 5 A limit, N = 3. */
+struct sc_limits sc_limits_default(void);
+
+struct sc_status_run {
+	struct can_status last; /* the latest held frame */
+	uint8_t counter;
+	int len; /* consecutive agreeing held frames, 0 = none */
 };
 
 struct sc_node {
@@ -36,6 +75,11 @@ struct sc_node {
 	uint8_t status_counter, health_counter;
 	int status_candidate, health_candidate; /* counter of a rejected frame, -1 = none */
 	bool have_status, have_health;
+	struct sc_status_run status_run;
+	int status_periods; /* frame periods (by counter) since the last accepted STATUS */
+	struct can_health health_held;
+	uint8_t health_held_counter;
+	int health_run;
 };
 
 struct socketcan_motor {
@@ -47,12 +91,24 @@ struct socketcan_motor {
 	uint8_t cmd_counter, ctl_counter;
 	struct sc_node node[CAN_NODES];
 	struct sc_counters n;
+	struct sc_limits lim;
+	atomic_bool halted;   /* socketcan_motor_halt() ran: nothing more is sent */
+	atomic_int in_flight; /* writes inside the gate */
 };
 
 extern const struct motor_hal_ops socketcan_motor_ops;
 
 /* Start-up. -ENODEV etc. from the socket layer; the message helper is strerror(-rc). */
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms);
+
+/* Replace the plausibility limits (after open; the default is sc_limits_default()). -EINVAL
+ * for non-positive steps or confirm_frames outside 1..8. */
+int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits *lim);
+
+/* Crash path, async-signal-safe: close the write gate, wait (at most 20 ms) for a write of
+ * another thread to leave it, send CMD_CONTROL DISABLE and twice CMD_VOLTAGE 0 V disabled
+ * (retrying a full TX queue for at most 20 ms). Returns the number of frames sent. */
+int socketcan_motor_halt(struct socketcan_motor *m);
 
 static inline struct motor_hal socketcan_motor_hal(struct socketcan_motor *m)
 {
