@@ -507,23 +507,15 @@ double input_of(const MotorsSample &m, int axis) {
   }
 }
 
-struct AxisData {
-  Eigen::MatrixXd X;          // [x, input, sign(x)]
-  Eigen::VectorXd y;          // dx/dt
-  std::vector<double> t;      // [s] of each row
-  std::vector<size_t> start;  // first row of each run
-  int half = 20;
-};
-
 // Rows of the driven step windows along `axis`: valid encoder samples moving faster than the
 // stop speed. The filters of a row must not reach into a stretch where the robot stuck or
 // stopped (there x' = theta1 x + theta2 u + theta3 sign(x) does not hold: stiction), so the
 // first and last half-window of every moving stretch are dropped. A run of rows ends where
 // the speed falls below the threshold or data are missing.
-AxisData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis) {
+StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis) {
   const double thr = kStopSpeed[axis];
   std::vector<std::array<double, 4>> rows;  // x, input, sign, y
-  AxisData d;
+  StateSpaceData d;
   for (const SegWindow &w : wins) {
     const auto &enc = c.P.enc.at(w.s->log);
     const auto &m = w.s->log->motors;
@@ -566,24 +558,6 @@ AxisData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axi
   return d;
 }
 
-// Instruments: the noise-free response of the current model to the logged input (Euler over
-// the row times, from the first measured value of each run).
-Eigen::MatrixXd instruments(const AxisData &d, const Eigen::VectorXd &theta) {
-  Eigen::MatrixXd Z = d.X;
-  for (size_t r = 0; r < d.start.size(); ++r) {
-    const size_t a = d.start[r];
-    const size_t b = r + 1 < d.start.size() ? d.start[r + 1] : static_cast<size_t>(d.X.rows());
-    double xb = d.X(a, 0);
-    for (size_t k = a; k < b; ++k) {
-      Z(k, 0) = xb;
-      Z(k, 2) = sgn(xb);
-      if (k + 1 < b)
-        xb += (d.t[k + 1] - d.t[k]) * (theta[0] * xb + theta[1] * d.X(k, 1) + theta[2] * sgn(xb));
-    }
-  }
-  return Z;
-}
-
 void experiment3(Context &c) {
   IdentResult &res = c.res;
   const model_params &base = c.P.base;
@@ -614,16 +588,11 @@ void experiment3(Context &c) {
                 "; " + record_hint("step"));
       continue;
     }
-    const AxisData data = axis_data(c, wins, axis);
-    const std::string what = std::string("experiment 3 along ") + dir;
+    const StateSpaceData data = axis_data(c, wins, axis);
     try {
-      ls[axis] = least_squares(data.X, data.y, 2 * data.half + 1, what + " (LS)");
-      Eigen::VectorXd theta = ls[axis].theta;
-      for (int it = 0; it < 3; ++it) {
-        iv[axis] = instrumental_variables(instruments(data, theta), data.X, data.y,
-                                          2 * data.half + 1, what + " (IV)");
-        theta = iv[axis].theta;
-      }
+      const StateSpaceFits f = fit_state_space(data, std::string("experiment 3 along ") + dir);
+      ls[axis] = f.ls;
+      iv[axis] = f.iv;
       have[axis] = true;
     } catch (const IdentError &e) {
       c.missing(names + ": " + e.what());
@@ -680,7 +649,36 @@ Estimate lookup(const IdentResult &r, const char *method, const char *param) {
   return p == m->second.end() ? Estimate{} : p->second;
 }
 
+// Instruments: the noise-free response of the current model to the logged input (Euler over
+// the row times, from the first measured value of each run).
+Eigen::MatrixXd instruments(const StateSpaceData &d, const Eigen::VectorXd &theta) {
+  Eigen::MatrixXd Z = d.X;
+  for (size_t r = 0; r < d.start.size(); ++r) {
+    const size_t a = d.start[r];
+    const size_t b = r + 1 < d.start.size() ? d.start[r + 1] : static_cast<size_t>(d.X.rows());
+    double xb = d.X(a, 0);
+    for (size_t k = a; k < b; ++k) {
+      Z(k, 0) = xb;
+      Z(k, 2) = sgn(xb);
+      if (k + 1 < b)
+        xb += (d.t[k + 1] - d.t[k]) * (theta[0] * xb + theta[1] * d.X(k, 1) + theta[2] * sgn(xb));
+    }
+  }
+  return Z;
+}
+
 }  // namespace
+
+StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what) {
+  StateSpaceFits f;
+  f.ls = least_squares(d.X, d.y, 2 * d.half + 1, what + " (LS)");
+  Eigen::VectorXd theta = f.ls.theta;
+  for (int it = 0; it < 3; ++it) {
+    f.iv = instrumental_variables(instruments(d, theta), d.X, d.y, 2 * d.half + 1, what + " (IV)");
+    theta = f.iv.theta;
+  }
+  return f;
+}
 
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
                  const IdentOptions &opt) {

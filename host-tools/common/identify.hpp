@@ -110,6 +110,24 @@ IdentResult identify(const std::vector<Segment> &segments, const model_params &b
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
                          Agreement *agreement = nullptr);
 
+// Experiment 3 along one axis (eqs 31-35): rows of dx/dt = theta1 x + theta2 u + theta3 sign(x),
+// filtered velocity x, filtered input u and the filtered derivative y, per run of contiguous
+// rows. LS regresses y on [x, u, sign(x)]; IV uses as instruments the noise-free response of
+// the current estimate to the logged input (from each run's first measured x), three times.
+// Measurement noise in x biases LS towards zero (errors in variables), not IV.
+struct StateSpaceData {
+  Eigen::MatrixXd X;          // [x, input, sign(x)]
+  Eigen::VectorXd y;          // dx/dt
+  std::vector<double> t;      // [s] of each row
+  std::vector<size_t> start;  // first row of each run
+  int half = 20;              // filter half-window [samples]: rows within 2 half + 1 correlate
+};
+struct StateSpaceFits {
+  Fit ls, iv;
+};
+// Throws IdentError("what (LS|IV): ...") when the rows cannot give the three parameters.
+StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what);
+
 // Upper tail of the chi-square distribution with dof degrees of freedom.
 double chi2_sf(double x, int dof);
 
