@@ -6,6 +6,9 @@
  *                        800), no fault
  *   vcan_check rate S [HZ]   command for S seconds; check only the rate and seq continuity
  *   vcan_check clear     send MODE_CLEAR_FAULT; check the controller leaves FAULT
+ *   vcan_check calm S PID...  command until every PID has exited (at most S seconds): check
+ *                        that no sample shows a latching fault or FAULT mode, seq continuity,
+ *                        and that the PIDs (the flood generators) finished in time
  *   vcan_check fault S PID  keep commanding, SIGKILL the motor simulator PID after 0.5 s,
  *                        wait up to S seconds for FAULT with DRIVER_TIMEOUT; print the
  *                        detection time and check the outputs are off
@@ -45,7 +48,35 @@ struct state {
 	int32_t faults;
 	float volt_abs_max_after_fault;
 	int fault_seen;
+	long latched;      /* samples with a latching fault bit or mode FAULT */
+	int32_t latched_bits;
 };
+
+#define LATCHING (OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |     \
+		  OMNI4_MOTORS_T_FAULT_DRIVER | OMNI4_MOTORS_T_FAULT_BUS |                       \
+		  OMNI4_MOTORS_T_FAULT_ENCODER | OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR |            \
+		  OMNI4_MOTORS_T_FAULT_SUPPLY)
+
+/* A process that exists and is not a zombie (its parent may not have reaped it yet). */
+static int running(int pid)
+{
+	char path[64], buf[256];
+	FILE *f;
+
+	if (kill(pid, 0) != 0)
+		return 0;
+	snprintf(path, sizeof(path), "/proc/%d/stat", pid);
+	f = fopen(path, "r");
+	if (!f)
+		return 0;
+	const size_t n = fread(buf, 1, sizeof(buf) - 1, f);
+
+	fclose(f);
+	buf[n] = 0;
+	const char *p = strrchr(buf, ')');
+
+	return !(p && p[1] == ' ' && p[2] == 'Z');
+}
 
 static double now_s(void)
 {
@@ -67,6 +98,10 @@ static void on_motors(const lcm_recv_buf_t *rb, const char *ch, const omni4_moto
 	s->n++;
 	s->mode = m->mode;
 	s->faults = m->faults;
+	if ((m->faults & LATCHING) || m->mode == OMNI4_MOTORS_T_MODE_FAULT) {
+		s->latched++;
+		s->latched_bits |= m->faults;
+	}
 	if (s->fault_seen)
 		for (int j = 0; j < 4; j++)
 			if (fabsf(m->voltage[j]) > s->volt_abs_max_after_fault)
@@ -107,7 +142,8 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 	}
 	srand(7);
 	for (int k = 0; k < n; k++) {
-		const float v = 0.5f + 0.01f * (float)(k % 500);
+		/* distinct values on the 40 mV grid of CMD_VOLTAGE */
+		const float v = 0.52f + 0.04f * (float)(k % 250);
 		const struct timespec phase = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
 		omni4_command_t c = {.seq = 1000000 + k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
 				     .voltage = {v, v, v, v}};
@@ -134,7 +170,7 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 			f.dlc = cf.can_dlc;
 			memcpy(f.data, cf.data, sizeof(f.data));
 			if (can_decode_cmd_voltage(&f, volts, &en, &ctr) == 0 &&
-			    fabsf(volts[0] - v) < 0.004f) {
+			    fabsf(volts[0] - v) < 0.015f) {
 				lat[got++] = (now_s() - t0) * 1e6;
 				break;
 			}
@@ -161,6 +197,7 @@ int main(int argc, char **argv)
 	}
 	const int track = !strcmp(argv[1], "track"), rate = !strcmp(argv[1], "rate");
 	const int clear = !strcmp(argv[1], "clear"), fault = !strcmp(argv[1], "fault");
+	const int calm = !strcmp(argv[1], "calm");
 
 	if (!strcmp(argv[1], "latency")) {
 		const int n = argc > 3 ? atoi(argv[2]) : 0;
@@ -182,10 +219,15 @@ int main(int argc, char **argv)
 	const double dur = clear ? 1.0 : (argc > 2 ? atof(argv[2]) : 0);
 	const int victim = fault && argc > 3 ? atoi(argv[3]) : 0;
 	const double min_hz = (track || rate) && argc > 3 ? atof(argv[3]) : 800.0;
+	int waited[8];
+	const int n_waited = calm ? (argc - 3 > 8 ? 8 : argc - 3) : 0;
 
-	if (!(track || rate || clear || fault) || !(dur > 0) || (fault && victim <= 0)) {
+	for (int k = 0; k < n_waited; k++)
+		waited[k] = atoi(argv[3 + k]);
+	if (!(track || rate || clear || fault || calm) || !(dur > 0) || (fault && victim <= 0) ||
+	    (calm && n_waited < 1)) {
 		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
-				"latency N IFACE\n");
+				"calm SECONDS PID... | latency N IFACE\n");
 		return 2;
 	}
 	lcm_t *lcm = lcm_create(NULL);
@@ -223,11 +265,29 @@ int main(int argc, char **argv)
 			t_fault = now_s() - t0;
 		if (fault && t_fault >= 0 && t - t_fault > 0.3)
 			break;
+		if (calm) {
+			int alive = 0;
+
+			for (int k = 0; k < n_waited; k++)
+				alive += running(waited[k]);
+			if (!alive)
+				break;
+		}
 	}
 	const double elapsed = now_s() - t0;
 	int ok;
 
-	if (clear) {
+	if (calm) {
+		int alive = 0;
+
+		for (int k = 0; k < n_waited; k++)
+			alive += running(waited[k]);
+		ok = !alive && s.latched == 0 && s.gaps == 0 && s.n > 0;
+		printf("%s: flood over %.1f s%s: %ld samples (%.0f Hz), %ld with a latching fault "
+		       "(bits 0x%x), %ld seq gaps, mode %d\n", ok ? "ok" : "FAIL", elapsed,
+		       alive ? " (generators still running at the time limit)" : "", s.n,
+		       s.n / elapsed, s.latched, s.latched_bits, s.gaps, s.mode);
+	} else if (clear) {
 		ok = s.mode != OMNI4_MOTORS_T_MODE_FAULT && s.n > 0;
 		printf("%s: clear fault: mode %d, faults 0x%x\n", ok ? "ok" : "FAIL", s.mode, s.faults);
 	} else if (rate) {
