@@ -7,8 +7,8 @@
 set(OMNI4_TEST_TIME_SCALE 1 CACHE STRING "multiplier of test TIMEOUTs and timing bounds")
 
 # omni4_test_timeout(NAME SECONDS): TIMEOUT = SECONDS x OMNI4_TEST_TIME_SCALE (x 5 under
-# qemu-user), and OMNI4_TEST_TIME_SCALE in the test's environment. SECONDS is ~2x the test's
-# time on an unloaded 2-core machine, at least 5 s (process start-up on a loaded machine).
+# qemu-user), and OMNI4_TEST_TIME_SCALE in the test's environment. SECONDS is ~2-2.5x the
+# test's time on a 2-core machine, at least 10 s (a sub-second test on a loaded machine).
 function(omni4_test_timeout name seconds)
   math(EXPR t "${seconds} * ${OMNI4_TEST_TIME_SCALE}")
   if(CMAKE_CROSSCOMPILING)
