@@ -543,7 +543,9 @@ static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
 
 		nanosleep(&us50, NULL);
 	}
+	pthread_mutex_lock(&sent_lock);
 	eagain_left = 2; /* and the TX queue is full for a moment */
+	pthread_mutex_unlock(&sent_lock);
 	assert_int_equal(socketcan_motor_halt(&m), 3);
 	const int after_halt = sent_n;
 	const struct timespec ms3 = {0, 3000000};
