@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Soak: omni4-fw (sim backend) at 1 kHz for OMNI4_SOAK_S seconds (default 30; 600 for the full
 # soak) through real LCM (udpm, ttl=0) into lcm-logger and omni4-record (split into 1 MB parts)
-# side by side, with a command stream. Checks: every sample in both logs (no seq gap, across
-# the parts), none dropped, RSS flat (no leak); prints the overruns.
+# side by side, with a command stream. Checks: every sample in the omni4-record log (no seq gap, across
+# the parts), the lcm-logger log well formed (its misses reported), none dropped in the
+# controller, RSS flat (no leak), the loop's latency and overruns.
 # lcm-logger is Debian's C binary (liblcm-bin), called by path: the PyPI lcm package's
 # lcm-logger (in .venv/bin, first on the PATH when the venv is active) is a Python wrapper
 # that, started in the background of a script, ignores SIGINT and never passes it on, so
