@@ -14,8 +14,9 @@
  * (CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, no reflection, xor-out 0) over data bytes 0-5
  * followed by the frame's 16-bit data ID (low byte, high byte; not transmitted, 0x4F00 | CAN ID):
  * drops, replays, corruption and a frame of one ID taken for another all show.
- * Acceptance of a random 8-byte frame on a STATUS ID: 2^-16 (CRC) x 3/16 (counter window of
- * socketcan_motor.h) x 2^-2 (reserved bits) = 7.2e-7; derivation in docs/faults.md.
+ * Acceptance of a random 8-byte frame on a STATUS ID: 2^-16 (CRC) x 2^-2 (reserved bits) x
+ * 4/16 (counter window of socketcan_motor.h, 3 values, + 1 for a pending resync) = 2^-20 =
+ * 9.5e-7 per frame (7.2e-7 without a pending resync); derivation in docs/faults.md.
  *
  * Bus load at 1 kHz (worst-case bit stuffing, 8 data bytes: 135 bits with intermission):
  * per tick CMD_VOLTAGE + 2 STATUS = 405 bits, plus 2 HEALTH at 100 Hz = 27 bit/ms:
