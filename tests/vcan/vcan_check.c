@@ -6,6 +6,12 @@
  *                        800), no fault
  *   vcan_check rate S [HZ]   command for S seconds; check only the rate and seq continuity
  *   vcan_check clear     send MODE_CLEAR_FAULT; check the controller leaves FAULT
+ *   vcan_check flood N S IFACE  command v = 0.5 m/s and send N random 8-byte frames on the
+ *                        STATUS IDs (0x020, 0x021 alternately) on IFACE, paced at 40 per
+ *                        OMNI4_MOTORS sample seen (the controller reads 64 frames per tick and
+ *                        gets 2 STATUS per ms: the junk never overflows its socket queue, it
+ *                        examines every frame); at most S seconds. Checks: all N sent, no
+ *                        sample with a latching fault or FAULT mode, no seq gaps
  *   vcan_check calm S PID...  command until every PID has exited (at most S seconds): check
  *                        that no sample shows a latching fault or FAULT mode, seq continuity,
  *                        and that the PIDs (the flood generators) finished in time
@@ -50,6 +56,7 @@ struct state {
 	int fault_seen;
 	long latched;      /* samples with a latching fault bit or mode FAULT */
 	int32_t latched_bits;
+	double first_latched_s; /* when the first one arrived (monotonic) */
 };
 
 #define LATCHING (OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |     \
@@ -99,7 +106,8 @@ static void on_motors(const lcm_recv_buf_t *rb, const char *ch, const omni4_moto
 	s->mode = m->mode;
 	s->faults = m->faults;
 	if ((m->faults & LATCHING) || m->mode == OMNI4_MOTORS_T_MODE_FAULT) {
-		s->latched++;
+		if (!s->latched++)
+			s->first_latched_s = now_s();
 		s->latched_bits |= m->faults;
 	}
 	if (s->fault_seen)
@@ -143,7 +151,7 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 	srand(7);
 	for (int k = 0; k < n; k++) {
 		/* distinct values on the 40 mV grid of CMD_VOLTAGE */
-		const float v = 0.52f + 0.04f * (float)(k % 250);
+		const float v = 0.52f + 0.04f * (float)(k % 50); /* 0.52 .. 2.48 V, as before */
 		const struct timespec phase = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
 		omni4_command_t c = {.seq = 1000000 + k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
 				     .voltage = {v, v, v, v}};
@@ -188,6 +196,80 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 	return got == n ? 0 : 1;
 }
 
+
+/* The flood: N random frames on the STATUS IDs, paced by the controller's own tick count. */
+static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface)
+{
+	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
+	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	struct state s = {0};
+	omni4_command_t cmd = {.mode = OMNI4_COMMAND_T_MODE_VELOCITY, .velocity = {0.5, 0, 0}};
+	uint64_t x = 0x2545F4914F6CDD1Dull;
+	long sent = 0, busy = 0;
+
+	if (fd < 0 || !addr.can_ifindex || bind(fd, (struct sockaddr *)&addr, sizeof(addr))) {
+		printf("FAIL: flood: cannot open a raw CAN socket on %s\n", iface);
+		return 1;
+	}
+	const int zero = 0;
+
+	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0); /* we receive nothing */
+	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &zero, sizeof(zero));
+	omni4_motors_t_subscription_t *sub =
+		omni4_motors_t_subscribe(lcm, "OMNI4_MOTORS", on_motors, &s);
+
+	omni4_motors_t_subscription_set_queue_capacity(sub, 100000);
+	const double t0 = now_s();
+	double last_cmd = -1;
+	long base = -1;
+
+	while (sent < n && now_s() - t0 < max_s) {
+		const double t = now_s() - t0;
+
+		if (t - last_cmd >= 0.05) {
+			cmd.seq++;
+			omni4_command_t_publish(lcm, "OMNI4_CMD", &cmd);
+			last_cmd = t;
+		}
+		lcm_handle_timeout(lcm, 1);
+		if (base < 0 && s.n > 0)
+			base = s.n; /* count from the first sample seen */
+		if (base < 0)
+			continue;
+		long allowed = 40 * (s.n - base) - sent;
+
+		if (allowed > 48)
+			allowed = 48; /* no burst beyond what one tick reads */
+		for (long k = 0; k < allowed && sent < n; k++) {
+			struct can_frame cf = {.can_id = CAN_ID_STATUS(sent & 1), .can_dlc = 8};
+
+			x ^= x << 13;
+			x ^= x >> 7;
+			x ^= x << 17;
+			memcpy(cf.data, &x, 8);
+			if (write(fd, &cf, sizeof(cf)) != (ssize_t)sizeof(cf)) {
+				busy++;
+				break;
+			}
+			sent++;
+		}
+	}
+	/* a last look at the controller after the flood */
+	for (const double t1 = now_s(); now_s() - t1 < 0.3;)
+		lcm_handle_timeout(lcm, 10);
+	const double elapsed = now_s() - t0;
+	const int ok = sent == n && s.latched == 0 && s.gaps == 0 && s.n > 0;
+
+	printf("%s: flood: %ld of %ld junk STATUS frames in %.1f s (%.0f frames/s), %ld samples "
+	       "(%.0f Hz), %ld with a latching fault (bits 0x%x, first at %.2f s), %ld seq gaps, "
+	       "mode %d, %ld full-queue waits\n", ok ? "ok" : "FAIL", sent, n, elapsed,
+	       sent / elapsed, s.n, s.n / elapsed, s.latched, s.latched_bits,
+	       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode, busy);
+	omni4_motors_t_unsubscribe(lcm, sub);
+	close(fd);
+	return ok ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
 	if (argc < 2) {
@@ -199,6 +281,24 @@ int main(int argc, char **argv)
 	const int clear = !strcmp(argv[1], "clear"), fault = !strcmp(argv[1], "fault");
 	const int calm = !strcmp(argv[1], "calm");
 
+	if (!strcmp(argv[1], "flood")) {
+		const long n = argc > 4 ? atol(argv[2]) : 0;
+		const double max_s = argc > 4 ? atof(argv[3]) : 0;
+		lcm_t *l = n > 0 && max_s > 0 ? lcm_create(NULL) : NULL;
+		int rc;
+
+		if (n <= 0 || !(max_s > 0)) {
+			fprintf(stderr, "usage: vcan_check flood N SECONDS IFACE\n");
+			return 2;
+		}
+		if (!l) {
+			printf("FAIL: no LCM\n");
+			return 1;
+		}
+		rc = junk_flood(l, n, max_s, argv[4]);
+		lcm_destroy(l);
+		return rc;
+	}
 	if (!strcmp(argv[1], "latency")) {
 		const int n = argc > 3 ? atoi(argv[2]) : 0;
 		lcm_t *l = n > 0 ? lcm_create(NULL) : NULL;
@@ -284,9 +384,10 @@ int main(int argc, char **argv)
 			alive += running(waited[k]);
 		ok = !alive && s.latched == 0 && s.gaps == 0 && s.n > 0;
 		printf("%s: flood over %.1f s%s: %ld samples (%.0f Hz), %ld with a latching fault "
-		       "(bits 0x%x), %ld seq gaps, mode %d\n", ok ? "ok" : "FAIL", elapsed,
-		       alive ? " (generators still running at the time limit)" : "", s.n,
-		       s.n / elapsed, s.latched, s.latched_bits, s.gaps, s.mode);
+		       "(bits 0x%x, first at %.2f s), %ld seq gaps, mode %d\n", ok ? "ok" : "FAIL",
+		       elapsed, alive ? " (generators still running at the time limit)" : "", s.n,
+		       s.n / elapsed, s.latched, s.latched_bits,
+		       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode);
 	} else if (clear) {
 		ok = s.mode != OMNI4_MOTORS_T_MODE_FAULT && s.n > 0;
 		printf("%s: clear fault: mode %d, faults 0x%x\n", ok ? "ok" : "FAIL", s.mode, s.faults);

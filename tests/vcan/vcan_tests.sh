@@ -43,20 +43,16 @@ CG=$!
 check vcan_check track 3 $min
 kill $CG 2>/dev/null; wait $CG 2>/dev/null
 
-# 4. 10^6 junk frames on the STATUS IDs themselves (500000 on each, random bytes): CRC-16 with
-# the data ID, counter window, reserved bits and the plausibility hold must keep every one of
-# them from latching a fault (a random frame is accepted with p <= 9.5e-7, docs/faults.md).
-# The generators send as fast as the VM lets them; the controller reads at most 64 frames per
-# tick and the kernel drops what its socket queue cannot hold, so the controller's crc_errors
-# (printed below) says how many it examined. The check waits for the generators at most 120 s.
-t0=$(date +%s)
-cangen vcan0 -I 020 -L 8 -D r -g 0 -p 100 -n 500000 &
-CG1=$!
-cangen vcan0 -I 021 -L 8 -D r -g 0 -p 100 -n 500000 &
-CG2=$!
-check vcan_check calm 120 $CG1 $CG2
-kill $CG1 $CG2 2>/dev/null; wait $CG1 2>/dev/null; wait $CG2 2>/dev/null
-echo "flood: 10^6 junk STATUS frames sent in $(( $(date +%s) - t0 )) s"
+# 4. 10^6 junk frames on the STATUS IDs themselves (random bytes, 0x020 and 0x021 alternately):
+# CRC-16 with the data ID, counter window, reserved bits and the plausibility hold must keep
+# every one of them from latching a fault (a random frame is accepted with p <= 9.5e-7,
+# docs/faults.md). vcan_check paces them at 40 per controller tick it sees, so the junk never
+# overflows the controller's socket queue (64 frames read per tick): it examines all of them
+# (crc_errors below). An unpaced flood starves the emulated CPUs and crowds the real STATUS
+# frames out of the queue; DRIVER_TIMEOUT is then the right answer, not a spurious fault.
+# Starts from a cleared state; at most 200 s.
+vcan_check clear > /dev/null
+check vcan_check flood 1000000 200 vcan0
 check vcan_check clear
 
 # 5. motor-driver silent: FAULT within the status timeout, outputs off
