@@ -168,7 +168,18 @@ def simulate_layout(layout, seed, robots, omit=(), motor_subset=None):
             "lengths": lengths, "u": u, "mode": mode, "driven": driven, "x": x, "X": X}
 
 
-def sensor_data(sim, i, robot, seed, layout):
+def colored_noise(rng, shape, sigma, tau, dt):
+    """AR(1) noise of standard deviation sigma and correlation time tau [s], along axis 0."""
+    a = np.exp(-dt / tau)
+    e = rng.normal(0.0, sigma * np.sqrt(1.0 - a * a), shape)
+    out = np.empty(shape)
+    out[0] = rng.normal(0.0, sigma, shape[1:])
+    for k in range(1, shape[0]):
+        out[k] = a * out[k - 1] + e[k]
+    return out
+
+
+def sensor_data(sim, i, robot, seed, layout, speed_noise=None):
     """Sensor readings and losses of robot i (index) / number `robot` of a simulated layout.
 
     Returns dict of per-message arrays: motors (utime, seq, mode, voltage, current,
@@ -185,6 +196,9 @@ def sensor_data(sim, i, robot, seed, layout):
     current = plant.motor_currents(p, u, driven, x[:-1], rng)[:, 0]
     ang = plant.wheel_angles(p, X)
     speed = plant.encoder_speeds(ang, cpr, dt, rng.uniform(0, 2 * np.pi, (1, 4)))[:, 0]
+    if speed_noise:  # an effect the model lacks: correlated wheel-speed measurement noise
+        speed = speed + colored_noise(np.random.default_rng([int(seed), int(robot), 33]),
+                                      speed.shape, speed_noise[0], speed_noise[1], dt)
     pose0 = np.array([[rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-np.pi, np.pi)]])
     pose = plant.world_poses(X, pose0)[:, 0]
     period = int(round(1.0 / (plant.CAMERA_RATE_HZ * dt)))
@@ -232,7 +246,7 @@ def write_log(lcm, omni4, path, data):
 
 
 def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print):
+             progress=print, speed_noise=None):
     """Simulate `robots` in `layout` and write their logs and INI files into out_dir.
 
     Returns a list of dicts (robot, log, base, truth, seconds, counts) in robot order.
@@ -244,7 +258,7 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
     t_sim = time.time() - t_start
     out = []
     for i, k in enumerate(robots):
-        data = sensor_data(sim, i, k, seed, layout)
+        data = sensor_data(sim, i, k, seed, layout, speed_noise)
         log = os.path.join(out_dir, f"robot{k}_{layout}.lcmlog")
         counts = write_log(lcm, omni4, log, data)
         base = os.path.join(out_dir, f"robot{k}_base.ini")
@@ -305,6 +319,9 @@ def main(argv=None):
     ap.add_argument("--lcm-python", help="folder holding the generated package omni4 "
                     "(default: build/lcmtypes/gen/python)")
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
+    ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
+                    help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
+                         "correlation time TAU [s], e.g. 0.3,0.02")
     a = ap.parse_args(argv)
     try:
         names = parse_layouts(a.layout)
@@ -312,9 +329,18 @@ def main(argv=None):
         subset = parse_subset(a.motor_subset) if a.motor_subset else None
         if a.robots < 1:
             raise ValueError("--robots must be at least 1")
+        noise = None
+        if a.speed_noise:
+            try:
+                noise = tuple(float(v) for v in a.speed_noise.split(","))
+            except ValueError:
+                noise = ()
+            if len(noise) != 2 or not noise[0] >= 0 or not noise[1] > 0:
+                raise ValueError(f"--speed-noise {a.speed_noise!r}: expected SIGMA,TAU with "
+                                 "SIGMA >= 0 [rad/s] and TAU > 0 [s]")
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
-                           a.lcm_python, None if a.quiet else print)
+                           a.lcm_python, None if a.quiet else print, noise)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
