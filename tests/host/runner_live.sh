@@ -29,19 +29,24 @@ grep -q "validation on 9 step runs" <<<"$out" ||
 # w 2.504 rad/s; sigma 0.024, 0.026, 0.732) and tighter where this test's runs on the simulated
 # robot allow. Live LCM timing and loop overruns on a busy machine move them: worst measured
 # (quiet machine, then beside two sanitizer builds) e_max 0.0281, 0.0361, 0.258; sigma 0.0054,
-# 0.0082, 0.061; |mean| 0.0040, 0.0105, 0.050. Bounds ~2.5-3x those, never above Table IV.
-/usr/bin/python3 - "$T/v.json" <<'PY' || { echo "0 passed, 1 failed"; exit 1; }
+# 0.0082, 0.061; |mean| 0.0040, 0.0105, 0.050. Bounds ~2.5-3x those, never above Table IV,
+# times OMNI4_TEST_TIME_SCALE: in the sanitizer builds the loop overruns, the simulated plant
+# then advances one period per executed tick while the log's clock runs on, and the model
+# driven by the logged times drifts from it (v e_max 0.066 under ASan).
+/usr/bin/python3 - "$T/v.json" "${OMNI4_TEST_TIME_SCALE:-1}" <<'PY' || { echo "0 passed, 1 failed"; exit 1; }
 import json, sys
 v = json.load(open(sys.argv[1]))
+scale = max(1.0, float(sys.argv[2]))
 # axis: (e_max, |mean|, sigma) bounds = min(Table IV, 2.5 x worst measured)
 bounds = {"v": (0.061, 0.012, 0.0135), "vn": (0.068, 0.03, 0.024), "w": (0.75, 0.15, 0.18)}
 fail = 0
 for axis, (emax, mean, sigma) in bounds.items():
     got = v[axis]
-    for key, lim, val in (("e_max", emax, got["e_max"]), ("|mean|", mean, abs(got["e_mean"])),
-                          ("sigma", sigma, got["sigma"])):
+    for key, lim, val in (("e_max", emax * scale, got["e_max"]),
+                          ("|mean|", mean * scale, abs(got["e_mean"])),
+                          ("sigma", sigma * scale, got["sigma"])):
         ok = val == val and val <= lim
-        print(f"{'ok' if ok else 'FAIL'}: {axis} {key} {val:.4f} (bound {lim})")
+        print(f"{'ok' if ok else 'FAIL'}: {axis} {key} {val:.4f} (bound {lim:.4g})")
         fail += not ok
 sys.exit(1 if fail else 0)
 PY
