@@ -171,6 +171,17 @@ int main(int argc, char **argv)
 			rc = 1;
 			goto out_free;
 		}
+		/* Plausibility limits of this robot (STATUS every tick), not Table III's. */
+		const struct sc_limits lim = sc_limits_from_model(
+			cfg.limits.supply_v, cfg.model.R, cfg.model.Kt, cfg.model.l, cfg.model.r,
+			cfg.model.M, cfg.model.J, cfg.model.d, 1.0 / cfg.loop.rate_hz,
+			cfg.sim.current_noise_a, cfg.limits.current_max_a);
+		if (socketcan_motor_set_limits(&app->can, &lim)) {
+			fprintf(stderr, "omni4-fw: %s: the [model] and [limits] give no valid CAN "
+				"plausibility limits\n", config_path);
+			rc = 1;
+			goto out_free;
+		}
 		motor = socketcan_motor_hal(&app->can);
 	} else {
 		fprintf(stderr, "omni4-fw: %s: [hal] motor = %s is not available in this build\n",
@@ -299,12 +310,14 @@ out_io:
 
 		fprintf(stderr,
 			"omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-			"lost %llu error_frames %llu bus_off %llu flood_cut %llu\n",
+			"lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
+			"confirmed %llu\n",
 			(unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
 			(unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
 			(unsigned long long)n->replayed, (unsigned long long)n->lost,
 			(unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
-			(unsigned long long)n->flood_cut);
+			(unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
+			(unsigned long long)n->confirmed);
 	}
 out_lcm:
 	lcm_destroy(lcm);
