@@ -5,6 +5,8 @@
 #include "omni4_test.h"
 
 #include <errno.h>
+#include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "hil_util.h"
@@ -363,6 +365,37 @@ static void test_overcurrent_through_the_sim_hal_without_noise(void **state)
 	}
 }
 
+/* ---- PI anti-windup -------------------------------------------------------------------- */
+
+/* A robot held against a wall: VELOCITY 0.3 m/s along v, the wheels stay at 0. The error on
+ * wheels 1 and 3 is 0.3 m/s, kp e = 6 V, so feed-forward + kp e + integral reaches the 12 V
+ * supply once the integral is below 6 V; from then on the integrator must stop (it would only
+ * push further into saturation), not wind up to the supply (measured 3.75 V). */
+static void test_pi_integrator_stops_while_the_output_saturates(void **state)
+{
+	(void)state;
+	const double vel[3] = {0.3, 0.0, 0.0};
+	struct ctl_output o;
+	struct motor_sample s = healthy();
+	int64_t t = 0;
+
+	setup_ctl();
+	for (int k = 0; k < 1000; k++, t += TICK_US) {
+		if (k % 100 == 0)
+			assert_int_equal(command(OMNI4_MOTORS_T_MODE_VELOCITY, vel, NULL, t), 0);
+		o = step(t, &s);
+	}
+	assert_true(o.enable);
+	assert_true(fabs(o.volts[3]) >= SPEC_SUPPLY_V - 1e-6); /* saturated against the wall */
+	double worst = 0.0;
+
+	for (int j = 0; j < 4; j++)
+		worst = fmax(worst, fabs(c.integ[j]));
+	printf("stalled 1 s at 0.3 m/s: output %.2f V, largest integral %.3f V\n", o.volts[3],
+	       worst);
+	assert_true(worst < 6.0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -377,6 +410,7 @@ int main(void)
 		cmocka_unit_test(test_estop_disables_outputs_in_the_same_tick),
 		cmocka_unit_test(test_voltage_command_at_and_beyond_the_supply),
 		cmocka_unit_test(test_overcurrent_through_the_sim_hal_without_noise),
+		cmocka_unit_test(test_pi_integrator_stops_while_the_output_saturates),
 	};
 
 	return cmocka_run_group_tests_name("ctl_boundaries", tests, NULL, NULL);
