@@ -212,6 +212,31 @@ static void test_stiction_breaks_away_in_both_directions_on_every_axis(void **st
 	}
 }
 
+/* A reversal inside one integration step: moving at +0.05 m/s along v with the drive reversed
+ * to 3x the Coulomb force. Closed form per phase of x' = A x + f: first f1 = (-3 Cv - Cv) / M
+ * until the speed reaches 0 at t0, then from rest f2 = (-3 Cv + Cv) / M (friction now opposes
+ * the negative motion) for the rest of the step. */
+static void test_reversal_through_zero_inside_one_step(void **state)
+{
+	(void)state;
+	const double b = P->l * P->Kt / (P->r * P->R);
+	const double U = 3 * P->Cv / (2 * b);
+	const double u[4] = {0, U, 0, -U}; /* f3 - f1 = -2 b U = -3 Cv */
+	const double A = a_v(), x0 = 0.05, dt = 0.05;
+	const double f1 = -4 * P->Cv / P->M, f2 = -2 * P->Cv / P->M;
+	const double t0 = log((f1 / A) / (x0 + f1 / A)) / A;
+	const double want = -f2 / A * (1 - exp(A * (dt - t0)));
+	struct plant pl;
+
+	assert_int_equal(plant_init(&pl, P), 0);
+	pl.x[0] = x0;
+	plant_step(&pl, u, true, dt);
+	print_message("reversal: stops at %.4f s, speed after the %.2f s step %+.6f m/s (closed "
+		      "form %+.6f)\n", t0, dt, pl.x[0], want);
+	assert_true(t0 > 0 && t0 < dt);
+	assert_near(pl.x[0], want, 1e-9 * fabs(want));
+}
+
 static void test_pose_integrates_rotation_and_translation(void **state)
 {
 	(void)state;
@@ -249,6 +274,7 @@ int main(void)
 		cmocka_unit_test(test_coast_down_stops_at_closed_form_time_and_stays),
 		cmocka_unit_test(test_stiction_holds_below_coulomb_and_breaks_away_above),
 		cmocka_unit_test(test_stiction_breaks_away_in_both_directions_on_every_axis),
+		cmocka_unit_test(test_reversal_through_zero_inside_one_step),
 		cmocka_unit_test(test_pose_integrates_rotation_and_translation),
 		cmocka_unit_test(test_init_rejects_bad_params),
 	};
