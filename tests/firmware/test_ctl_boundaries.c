@@ -276,16 +276,22 @@ static void test_encoder_residual_over_0_5_m_s_for_50_ms(void **state)
 	assert_int_equal(neg, SPEC_RESIDUAL_MS);
 }
 
-static void test_driver_silent_faults_in_the_same_tick(void **state)
+/* A fresh controller driving 3 V on every channel at t = 0, with a healthy reading. */
+static struct ctl_output driving_3_v(void)
 {
-	(void)state;
 	const double u[4] = {3, 3, 3, 3};
 	const struct motor_sample ok = healthy();
-	struct ctl_output o;
 
 	setup_ctl();
 	assert_int_equal(command(CTL_VOLTAGE, NULL, u, 0), 0);
-	o = step(0, &ok);
+	return step(0, &ok);
+}
+
+static void test_driver_silent_faults_in_the_same_tick(void **state)
+{
+	(void)state;
+	struct ctl_output o = driving_3_v();
+
 	ctl_step(&c, TICK_US, NULL, -EAGAIN, false, &o); /* no new reading: not a fault */
 	assert_int_equal(o.mode, CTL_VOLTAGE);
 	ctl_step(&c, 2 * TICK_US, NULL, -ETIMEDOUT, false, &o);
@@ -297,13 +303,9 @@ static void test_driver_silent_faults_in_the_same_tick(void **state)
 static void test_estop_disables_outputs_in_the_same_tick(void **state)
 {
 	(void)state;
-	const double u[4] = {3, 3, 3, 3};
 	const struct motor_sample ok = healthy();
-	struct ctl_output o;
+	struct ctl_output o = driving_3_v();
 
-	setup_ctl();
-	assert_int_equal(command(CTL_VOLTAGE, NULL, u, 0), 0);
-	o = step(0, &ok);
 	assert_true(o.enable);
 	ctl_step(&c, TICK_US, &ok, 0, true, &o);
 	assert_int_equal(o.mode, CTL_ESTOP);
