@@ -42,12 +42,13 @@ void unwrap(std::vector<double> &a) {
   }
 }
 
-int axis_index(const std::string &direction) {
+int find_axis(const std::string &direction) {
   if (direction == "v") return 0;
   if (direction == "vn") return 1;
   if (direction == "w") return 2;
-  throw std::invalid_argument("unknown direction '" + direction + "'");
+  return -1;
 }
+
 
 EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s) {
   EncoderTrack out;

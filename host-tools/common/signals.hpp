@@ -60,6 +60,7 @@ CameraTrack pose_velocity(const std::vector<double> &t, const std::vector<double
 // Unwrap an angle sequence in place (removes 2 pi jumps).
 void unwrap(std::vector<double> &a);
 
-int axis_index(const std::string &direction);  // "v" 0, "vn" 1, "w" 2; throws otherwise
+// 0, 1, 2 for "v", "vn", "w"; -1 for anything else.
+int find_axis(const std::string &direction);
 
 }  // namespace omni4

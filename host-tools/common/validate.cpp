@@ -43,7 +43,8 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
     const SegmentWindows wins = find_windows(s, enc, opt.windows);
     for (const Rejection &r : wins.rejected)
       v.rejected.push_back({si, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
-    const int axis = axis_index(s.direction);
+    const int axis = find_axis(s.direction);
+    if (axis < 0) continue;  // find_windows rejected the segment, with the reason
     auto add = [&](const ValidationPoint &pt) {
       const double e = pt.measured[axis] - pt.simulated[axis];
       AxisErrors &ax = v.axis[axis];

@@ -230,10 +230,8 @@ SegmentWindows find_windows(const Segment &s, const EncoderTrack &enc, const Win
     steady_windows(s, enc, opt, out);
     return out;
   }
-  int axis = -1;
-  try {
-    axis = axis_index(s.direction);
-  } catch (const std::exception &) {
+  const int axis = find_axis(s.direction);
+  if (axis < 0) {
     out.rejected.push_back({"segment", 0, seg_time(s, s.m1 - 1),
                             "unknown direction '" + s.direction + "' (v, vn or w)"});
     return out;

@@ -677,6 +677,20 @@ TEST(Windows, HandPushCoastDownStartsAfterThePeakAndEndsAtTheStop) {
   EXPECT_GT(w.coast[0].sign, 0);
 }
 
+TEST(Windows, AStepSegmentAlongAnUnknownDirectionIsRejectedWithItsReason) {
+  LogData log;
+  for (int64_t k = 0; k < 2000; ++k) log.motors.push_back(sample_at(k, 2, 6, 0.5));
+  Segment s = whole(log);
+  s.direction = "x";
+  const SegmentWindows w = find_windows(s, encoder_track(log, kD, kR), WindowOptions{});
+  EXPECT_TRUE(w.step.empty());
+  ASSERT_EQ(w.rejected.size(), 1u);
+  EXPECT_NE(w.rejected[0].reason.find("unknown direction 'x'"), std::string::npos);
+  // Validation and identification say what is missing; nothing else escapes.
+  EXPECT_THROW(validate({s}, model_params_table3), IdentError);
+  EXPECT_THROW(identify({s}, model_params_table3), IdentError);
+}
+
 TEST(Windows, LostSamplesEndAFilterBlockAndNothingIsFilteredAcrossThem) {
   LogData log;
   for (int64_t k = 0; k < 2000; ++k) {
