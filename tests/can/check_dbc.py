@@ -34,7 +34,8 @@ def reserved_bits_clear(msg, payload):
 
 def main():
     db = cantools.database.load_file(sys.argv[1])
-    lines = subprocess.run([sys.argv[2]], check=True, capture_output=True, text=True).stdout
+    lines = subprocess.run([sys.argv[2]], check=True, capture_output=True, text=True,
+                           timeout=60).stdout  # a hang fails, naming the command
     assert crc16_ccitt_false(b"123456789") == 0x29B1  # the catalogue check value
     tol = {"voltage": 0.02, "current": 0.01, "speed": 0.0625, "supply": 0.005}
     passed = failed = 0

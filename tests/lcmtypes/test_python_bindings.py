@@ -47,7 +47,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         log = os.path.join(tmp, "sim.lcmlog")
         subprocess.run([os.path.join(bin_dir, "omni4-sim"), "--experiments",
-                        "--out", log, "-q"], check=True, stdout=subprocess.DEVNULL)
+                        "--out", log, "-q"], check=True, stdout=subprocess.DEVNULL,
+                       timeout=120)  # ~1.5 s; a hang fails, naming the command
         counts, mismatched, seqs = {}, 0, []
         sums = [0.0, 0.0, 0.0]
         finite = True
@@ -63,7 +64,7 @@ def main():
                     sums[k] += sum(field)
                     finite &= all(math.isfinite(x) for x in field)
         c_side = subprocess.run([os.path.join(bin_dir, "log_check"), "--sums", log],
-                                capture_output=True, text=True).stdout
+                                capture_output=True, text=True, timeout=60).stdout
     check(all(counts.get(c, 0) > 0 for c in TYPES),
           f"every type present in the log: {counts}")
     check(mismatched == 0, f"decode -> encode gives the logged bytes back ({mismatched} differ)")
