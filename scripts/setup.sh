@@ -44,3 +44,10 @@ if ! .venv/bin/python -c "import lcm" 2>/dev/null; then
   echo "setup: pip install lcm (into .venv)"
   .venv/bin/pip install --quiet lcm
 fi
+if ! .venv/bin/python -c "import pytest" 2>/dev/null; then
+  echo "setup: pip install pytest (into .venv)"
+  .venv/bin/pip install --quiet "pytest==9.*"
+fi
+# The project's own Python package (python/: LCM types generated from lcmtypes/, log reader,
+# client), reinstalled every time so it follows the .lcm files (about 2 s).
+.venv/bin/pip install --quiet --no-build-isolation --no-deps ./python

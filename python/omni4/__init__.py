@@ -1,0 +1,30 @@
+"""omni4: LCM message types and channel names of the four-wheeled omni-directional robot.
+
+The message classes are generated from the repository's lcmtypes/*.lcm by lcm-gen when the
+package is built; see docs/design.md for what each field means and its unit."""
+from .command_t import command_t
+from .experiment_t import experiment_t
+from .motors_t import motors_t
+from .pose_t import pose_t
+
+__version__ = "0.1.0"
+
+# Channel names (docs/design.md).
+CHANNEL_MOTORS = "OMNI4_MOTORS"          # motors_t, one per loop tick
+CHANNEL_CMD = "OMNI4_CMD"                # command_t, operator / runner -> controller
+CHANNEL_POSE = "OMNI4_POSE"              # pose_t, camera / tracker
+CHANNEL_EXPERIMENT = "OMNI4_EXPERIMENT"  # experiment_t, segment marks
+
+# Message class per channel, for decoding logs.
+TYPES = {
+    CHANNEL_MOTORS: motors_t,
+    CHANNEL_CMD: command_t,
+    CHANNEL_POSE: pose_t,
+    CHANNEL_EXPERIMENT: experiment_t,
+}
+
+# Default LCM URL of the robot (stays on the host: ttl=0).
+DEFAULT_LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
+
+__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "TYPES", "DEFAULT_LCM_URL",
+           "CHANNEL_MOTORS", "CHANNEL_CMD", "CHANNEL_POSE", "CHANNEL_EXPERIMENT"]

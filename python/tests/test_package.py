@@ -1,0 +1,37 @@
+"""The installed package: generated types round-trip, and agree with the .lcm sources."""
+import os
+import re
+
+import omni4
+
+LCM_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "lcmtypes")
+
+
+def test_every_lcm_struct_is_a_package_type():
+    names = set()
+    for f in os.listdir(LCM_DIR):
+        if f.endswith(".lcm"):
+            with open(os.path.join(LCM_DIR, f)) as fh:
+                names.update(re.findall(r"^struct\s+(\w+)", fh.read(), re.M))
+    assert names == {"command_t", "experiment_t", "motors_t", "pose_t"}
+    for n in names:
+        assert hasattr(omni4, n), n
+
+
+def test_motors_round_trip():
+    m = omni4.motors_t()
+    m.utime, m.seq, m.mode, m.faults = 123456, 7, omni4.motors_t.MODE_VELOCITY, 0x0200
+    m.voltage = [1.5, -2.25, 0.0, 11.75]
+    m.current = [0.5, -0.25, 0.125, 4.0]
+    m.wheel_speed = [10.0, -20.0, 0.0, 3.5]
+    d = omni4.motors_t.decode(m.encode())
+    assert (d.utime, d.seq, d.mode, d.faults) == (123456, 7, 1, 0x0200)
+    assert list(d.voltage) == m.voltage and list(d.current) == m.current
+    assert list(d.wheel_speed) == m.wheel_speed
+
+
+def test_channels_map_to_types():
+    assert omni4.TYPES[omni4.CHANNEL_MOTORS] is omni4.motors_t
+    assert omni4.TYPES[omni4.CHANNEL_CMD] is omni4.command_t
+    assert omni4.TYPES[omni4.CHANNEL_POSE] is omni4.pose_t
+    assert omni4.TYPES[omni4.CHANNEL_EXPERIMENT] is omni4.experiment_t
