@@ -19,7 +19,8 @@
 #define ENCODER_RESIDUAL_MAX_M_S 0.5
 #define ENCODER_BAD_TIME_S 0.05
 /* No wheel can change speed faster than this (about 10x what the motors can do): a larger
- * step between two readings is an encoder jump. */
+ * step between two readings, over the time between them (at least one period: a late tick
+ * after a stall of the loop or the bus sees a larger, real change), is an encoder jump. */
 #define ENCODER_MAX_ACCEL_RAD_S2 5000.0
 
 int ctl_init(struct ctl *c, const struct omni4_config *cfg)
@@ -141,7 +142,8 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	return 0;
 }
 
-static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int read_rc)
+static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int read_rc,
+			    int64_t now_us)
 {
 	int32_t f = 0;
 
@@ -158,6 +160,8 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	 * nearest 10.2, which is below the double 10.2. */
 	const float sensor_max = (float)c->cfg.limits.current_sensor_max_a;
 	const float current_max = (float)c->cfg.limits.current_max_a;
+	const double since_s = fmax(c->dt, (double)(now_us - c->last_wheel_us) * 1e-6);
+	const double max_step = ENCODER_MAX_ACCEL_RAD_S2 * since_s;
 
 	for (int j = 0; j < 4; j++) {
 		const float i = s->current_a[j], w = s->wheel_rad_s[j];
@@ -169,14 +173,15 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 		if (!isfinite(w)) {
 			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
 			speeds_ok = false;
-		} else if (c->have_wheel && fabs((double)w - c->last_wheel[j]) >
-						    ENCODER_MAX_ACCEL_RAD_S2 * c->dt) {
+		} else if (c->have_wheel && fabs((double)w - c->last_wheel[j]) > max_step) {
 			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
 		}
 		vw[j] = (double)w * c->cfg.model.r;
 	}
 	for (int j = 0; j < 4 && speeds_ok; j++)
 		c->last_wheel[j] = s->wheel_rad_s[j];
+	if (speeds_ok)
+		c->last_wheel_us = now_us;
 	c->have_wheel = speeds_ok;
 	if (isfinite(s->supply_v) && s->supply_v < (float)c->cfg.limits.supply_min_v)
 		f |= OMNI4_MOTORS_T_FAULT_SUPPLY;
@@ -276,7 +281,7 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
 	      bool estop, struct ctl_output *out)
 {
-	const int32_t now_faults = check_sample(c, sample, read_rc);
+	const int32_t now_faults = check_sample(c, sample, read_rc, now_us);
 	const struct motor_sample *s = read_rc == 0 ? sample : NULL;
 
 	c->present = now_faults;

@@ -20,7 +20,7 @@
 #define SPEC_CURRENT_MAX_A 5.0      /* over-current: > current_max_a, 5 A */
 #define SPEC_SENSOR_MAX_A 10.2      /* current sensor saturated: reading >= 10.2 A */
 #define SPEC_SUPPLY_MIN_V 9.0       /* supply sag: < supply_min_v, 9 V */
-#define SPEC_JUMP_RAD_S2 5000.0     /* encoder jump: wheel speed step > 5000 rad/s^2 x dt */
+#define SPEC_JUMP_RAD_S2 5000.0     /* encoder jump: step > 5000 rad/s^2 x time since the last reading */
 #define SPEC_RESIDUAL_M_S 0.5       /* encoder stuck: v0 - v1 + v2 - v3 > 0.5 m/s ... */
 #define SPEC_RESIDUAL_MS 50         /* ... for 50 ms */
 /* docs/design.md: supply 12 V; loop 1 kHz */
@@ -243,6 +243,46 @@ static void test_encoder_jump_just_below_and_just_above_5000_rad_s2(void **state
 	}
 }
 
+/* The bound is over the time since the previous reading: after a stall of 20 ms (the loop
+ * or the bus late, or 19 ticks without a reading) a wheel may really have changed by up to
+ * 5000 rad/s^2 x 20 ms = 100 rad/s. Just below passes, just above trips, both ways of the gap. */
+static int jump_after_gap(double step_rad_s, bool missing_readings)
+{
+	const double u[4] = {3, 3, 3, 3};
+	const struct motor_sample ok = healthy();
+	struct motor_sample s = healthy();
+	struct ctl_output o;
+
+	setup_ctl();
+	assert_int_equal(command(CTL_VOLTAGE, NULL, u, 0), 0);
+	o = step(0, &ok);
+	assert_int_equal(o.faults, 0);
+	if (missing_readings)
+		for (int t = 1; t < 20; t++)
+			ctl_step(&c, (int64_t)t * TICK_US, NULL, -EAGAIN, false, &o);
+	for (int j = 0; j < 4; j++)
+		s.wheel_rad_s[j] = (float)step_rad_s;
+	o = step(20 * TICK_US, &s);
+	return (o.faults & OMNI4_MOTORS_T_FAULT_ENCODER) != 0;
+}
+
+static void test_encoder_jump_bound_grows_with_the_time_since_the_last_reading(void **state)
+{
+	(void)state;
+	const double max_step = SPEC_JUMP_RAD_S2 * 20 * SPEC_DT_S; /* 100 rad/s in 20 ms */
+
+	for (int missing = 0; missing <= 1; missing++) {
+		for (int sign = -1; sign <= 1; sign += 2) {
+			if (jump_after_gap(sign * (max_step - 0.05), missing))
+				fail_msg("step %.2f rad/s after 20 ms (%s) tripped ENCODER",
+					 sign * (max_step - 0.05), missing ? "no readings" : "late tick");
+			if (!jump_after_gap(sign * (max_step + 0.05), missing))
+				fail_msg("step %.2f rad/s after 20 ms (%s) did not trip ENCODER",
+					 sign * (max_step + 0.05), missing ? "no readings" : "late tick");
+		}
+	}
+}
+
 /* Residual from wheel 0 alone (r from the default robot, Table III: 0.0325 m), constant
  * from the first sample (no jump). Returns the tick of the first ENCODER fault, -1 if none
  * within 1 s. */
@@ -407,6 +447,7 @@ int main(void)
 		cmocka_unit_test(test_current_sensor_rail_at_10_2_A),
 		cmocka_unit_test(test_supply_sag_below_9_V),
 		cmocka_unit_test(test_encoder_jump_just_below_and_just_above_5000_rad_s2),
+		cmocka_unit_test(test_encoder_jump_bound_grows_with_the_time_since_the_last_reading),
 		cmocka_unit_test(test_encoder_residual_over_0_5_m_s_for_50_ms),
 		cmocka_unit_test(test_driver_silent_faults_in_the_same_tick),
 		cmocka_unit_test(test_estop_disables_outputs_in_the_same_tick),

@@ -76,6 +76,7 @@ struct ctl {
 	double x_est[3];        /* robot velocity from the wheel speeds (eqs 3-5) */
 	int encoder_bad_ticks;
 	double last_wheel[4];   /* last wheel speeds [rad/s], for the jump check */
+	int64_t last_wheel_us;  /* controller time of that reading [us] */
 	bool have_wheel;
 	struct ctl_counters n;
 };
