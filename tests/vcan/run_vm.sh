@@ -52,7 +52,7 @@ for b in omni4-fw omni4-motorsim vcan_check; do copy_with_libs "$BIN/$b" "$R/omn
 for b in candump cansend cangen; do copy_with_libs "$(command -v $b)" "$R/bin/"; done
 copy_with_libs "$(command -v ip)" "$R/sbin/"
 cp "$SRC/tests/vcan/vm_init.sh" "$R/init"
-cp "$SRC/tests/vcan/vcan_tests.sh" "$SRC/tests/vcan/vcan.ini" "$R/omni4/"
+cp "$SRC/tests/vcan/vcan_tests.sh" "$SRC/tests/vcan/vcan.ini" "$SRC/tests/hil/bounded_wait.sh" "$R/omni4/"
 chmod +x "$R/init"
 (cd "$R" && find . | cpio -o -H newc --quiet | gzip -1 > "$WORK/initrd.gz")
 

@@ -1,6 +1,8 @@
 #!/bin/sh
 # The CAN test tier, run inside the VM: real kernel SocketCAN on vcan0.
 cd /tmp
+# Every wait is bounded: a hang prints "FAIL: hung: WHERE" instead of eating the VM's timeout.
+. /omni4/bounded_wait.sh
 pass=0
 fail=0
 check() { if "$@"; then pass=$((pass + 1)); else fail=$((fail + 1)); fi; }
@@ -41,7 +43,7 @@ fi
 cangen vcan0 -I r -L 8 -D r -g 0.05 -n 20000 &
 CG=$!
 check vcan_check track 3 $min
-kill $CG 2>/dev/null; wait $CG 2>/dev/null
+kill $CG 2>/dev/null; bounded_wait $CG 10 "cangen after the junk phase"
 
 # 4. 10^6 junk frames on the STATUS IDs themselves (random bytes, 0x020 and 0x021 alternately):
 # CRC-16 with the data ID, counter window, reserved bits and the plausibility hold must keep
@@ -59,7 +61,7 @@ check vcan_check clear
 check vcan_check fault 3 $MS
 
 kill -INT $FW
-wait $FW
+bounded_wait $FW 10 "omni4-fw after SIGINT"
 cat /tmp/fw.log
 # 6. corrupted and replayed frames were rejected and counted
 crc=$(sed -n 's/.*crc_errors \([0-9]*\).*/\1/p' /tmp/fw.log)
@@ -87,10 +89,10 @@ for at in 1.2003 1.3127 1.4251 1.5379 1.6502 1.7631 1.8753 1.9877; do
   n=0
   while kill -0 $FW 2>/dev/null && [ $n -lt 100 ]; do sleep 0.1; n=$((n + 1)); done
   kill -9 $FW 2>/dev/null
-  wait $FW
+  bounded_wait $FW 10 "omni4-fw crashing at $at s"
   st=$?
   sleep 0.2
-  kill $CD 2>/dev/null; wait $CD 2>/dev/null
+  kill $CD 2>/dev/null; bounded_wait $CD 10 "candump of the crash at $at s"
   # CMD_VOLTAGE data: voltages in bits 0-39 (hex digits 1-10), enable = bit 40 (digit 12)
   last=$(grep " 010#" /tmp/crash.log | tail -1 | cut -d# -f2)
   drove=$(grep " 010#" /tmp/crash.log | cut -d# -f2 | cut -c1-10 | grep -vc "^0000000000$")
@@ -102,7 +104,7 @@ for at in 1.2003 1.3127 1.4251 1.5379 1.6502 1.7631 1.8753 1.9877; do
     echo "FAIL: crash at $at s: status $st, frames with voltage $drove, last CMD_VOLTAGE $last"
   fi
 done
-kill $MS 2>/dev/null; wait $MS 2>/dev/null
+kill $MS 2>/dev/null; bounded_wait $MS 10 "omni4-motorsim at the end"
 if [ $crash_ok -eq 8 ]; then
   pass=$((pass + 1)); echo "ok: 8 crashes (SIGSEGV, status 139) after driving: each time the last CMD_VOLTAGE is 0 V, bridges disabled ($last)"
 else
