@@ -6,11 +6,29 @@
 # qemu-user multiply by 5 on top.
 set(OMNI4_TEST_TIME_SCALE 1 CACHE STRING "multiplier of test TIMEOUTs and timing bounds")
 
-# omni4_test_timeout(NAME SECONDS): TIMEOUT = SECONDS x OMNI4_TEST_TIME_SCALE (x 5 under
-# qemu-user), and OMNI4_TEST_TIME_SCALE in the test's environment. SECONDS is ~2-2.5x the
-# test's time on a 2-core machine, at least 10 s (a sub-second test on a loaded machine).
+# OMNI4_SANITIZER: "address" or "thread" in the sanitizer presets (CMakePresets.json), else "".
+set(OMNI4_SANITIZER "" CACHE STRING "sanitizer of this build: address, thread or empty")
+
+# omni4_test_timeout(NAME SECONDS [ASAN S] [TSAN S] [UNSCALED]): the test's TIMEOUT, and
+# OMNI4_TEST_TIME_SCALE in its environment. SECONDS is ~2-2.5x the test's time on a 2-core
+# machine, at least 10 s (a sub-second test on a loaded machine). Under a sanitizer:
+#   ASAN / TSAN S   ~2-2.5x the time measured under that sanitizer;
+#   UNSCALED        the test's time does not grow there (paced by the clock, or Python-bound):
+#                   SECONDS as it is;
+#   otherwise       10 s for a test at the 10 s floor (all of these take < 1.5 s under ASan and
+#                   TSan), SECONDS x OMNI4_TEST_TIME_SCALE for anything else.
+# Cross builds run under qemu-user: x 5 on top.
 function(omni4_test_timeout name seconds)
-  math(EXPR t "${seconds} * ${OMNI4_TEST_TIME_SCALE}")
+  cmake_parse_arguments(T "UNSCALED" "ASAN;TSAN" "" ${ARGN})
+  if(OMNI4_SANITIZER STREQUAL "address" AND T_ASAN)
+    set(t ${T_ASAN})
+  elseif(OMNI4_SANITIZER STREQUAL "thread" AND T_TSAN)
+    set(t ${T_TSAN})
+  elseif(T_UNSCALED OR (OMNI4_SANITIZER AND seconds LESS_EQUAL 10))
+    set(t ${seconds})
+  else()
+    math(EXPR t "${seconds} * ${OMNI4_TEST_TIME_SCALE}")
+  endif()
   if(CMAKE_CROSSCOMPILING)
     math(EXPR t "${t} * 5")
   endif()
