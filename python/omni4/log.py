@@ -1,0 +1,420 @@
+"""Reads omni4 LCM event logs into numpy arrays, one array per message field.
+
+    log = omni4.read_log("sim.lcmlog")            # or ["rec.lcmlog.00", "rec.lcmlog.01"]
+    log.motors.wheel_speed                        # (N, 4) float32 [rad/s]
+    log.motors.utime                              # (N,) int64, controller clock [us]
+    log.experiment.kind                           # (K,) str: "step", "coast", ...
+    print(log.summary())                          # what was read, skipped and why
+
+The log format is LCM's (lcm/eventlog.h): per event a 28-byte big-endian header (sync word
+0xEDA1DA01, event number int64, log time int64 [us], channel length int32, data length int32),
+the channel name, the payload. The reader loads each file once, finds every sync word with
+numpy, walks the header chain the way host-tools/common/logdata.cpp does (an invalid header
+or a truncated event: skip to the next sync word, count the bytes), and decodes the
+fixed-size types (motors_t, pose_t, command_t) with one structured big-endian view over the
+gathered payloads: no Python loop per message. Variable-size types (experiment_t) and any
+other type in omni4.TYPES go through the lcm-gen decoder, message by message.
+
+Nothing is dropped silently: a payload of the wrong size, with another type's fingerprint or
+that the decoder refuses is counted per channel (`Channel.skipped`), bytes between intact
+events and a truncated tail are counted per file (`Log.files`), and channels without an omni4
+type are kept as raw payloads (`Log.unknown`) or only counted (`keep_unknown=False`).
+Values are not filtered: a NaN current in the log is a NaN here. Messages stay in log order.
+"""
+import io
+import os
+import re
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from . import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, TYPES, command_t,
+               motors_t, pose_t)
+
+SYNC = 0xEDA1DA01
+HEADER_BYTES = 28       # sync (4), event number (8), log time (8), channel length (4), data length (4)
+MAX_CHANNEL_BYTES = 256  # a longer channel length is a corrupt header (as logdata.cpp)
+FINGERPRINT_BYTES = 8
+
+_HEADER = np.dtype([("sync", ">u4"), ("eventnum", ">i8"), ("utime", ">i8"),
+                    ("clen", ">i4"), ("dlen", ">i4")])
+assert _HEADER.itemsize == HEADER_BYTES
+
+# Payload layouts of the fixed-size types, after the 8-byte fingerprint, in .lcm field order
+# (lcmtypes/*.lcm; LCM encodes big-endian and packed). Checked against the generated encoder
+# at import (_check_layout): a type whose layout no longer matches is decoded message by
+# message instead, never misread.
+_LAYOUTS = {
+    motors_t: [("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"), ("faults", ">i4"),
+               ("voltage", ">f4", (4,)), ("current", ">f4", (4,)), ("wheel_speed", ">f4", (4,))],
+    pose_t: [("utime", ">i8"), ("x", ">f8"), ("y", ">f8"), ("theta", ">f8")],
+    command_t: [("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"), ("velocity", ">f8", (3,)),
+                ("voltage", ">f8", (4,)), ("ramp_s", ">f8")],
+}
+
+
+class LogError(ValueError):
+    """A log that holds no intact LCM event (not an event log, empty, or all corrupt)."""
+
+
+def _fingerprint(cls):
+    return int.from_bytes(cls._get_packed_fingerprint(), "big")
+
+
+def _check_layout(cls, fields):
+    """The structured dtype for cls's payload (fingerprint first), or None if the layout does
+    not reproduce what the generated encoder writes for a probe message."""
+    dt = np.dtype([("fingerprint", ">u8")] + fields)
+    if [f[0] for f in fields] != list(cls.__slots__):
+        return None
+    probe = cls()
+    for k, f in enumerate(fields):
+        shape = f[2] if len(f) > 2 else ()
+        kind = np.dtype(f[1]).kind
+        vals = [(k + 1) * 3 + i if kind == "i" else (k + 1) * 0.5 + i * 0.25
+                for i in range(int(np.prod(shape)) if shape else 1)]
+        setattr(probe, f[0], vals if shape else vals[0])
+    data = probe.encode()
+    if len(data) != dt.itemsize:
+        return None
+    row = np.frombuffer(data, dtype=dt)[0]
+    if int(row["fingerprint"]) != _fingerprint(cls):
+        return None
+    for f in fields:
+        got, want = np.ravel(row[f[0]]).tolist(), np.ravel(getattr(probe, f[0])).tolist()
+        if got != want:
+            return None
+    return dt
+
+
+_FAST = {cls: dt for cls, dt in ((c, _check_layout(c, f)) for c, f in _LAYOUTS.items())
+         if dt is not None}
+
+
+class Channel:
+    """The messages of one channel: one numpy array per field of the LCM type, first axis the
+    message (log order), plus `event_utime` (int64 [us], the logger's receive time of each
+    event). Fixed-size arrays are 2-D: motors.voltage is (N, 4). Integers keep their LCM width
+    (int64 utime/seq, int8 mode, int32 faults); float fields their precision (float32 in
+    motors_t, float64 elsewhere); strings are numpy str arrays.
+
+    `skipped` counts the channel's events that were not decoded, by reason: `wrong_size` (the
+    payload is not the type's fixed size), `wrong_fingerprint` (another type or a changed
+    .lcm), `undecodable` (the generated decoder refused it or left bytes over)."""
+
+    def __init__(self, name, lcm_type, fields, event_utime, skipped=None):
+        self.name = name
+        self.type = lcm_type
+        self.fields = tuple(fields)
+        self.event_utime = event_utime
+        self.skipped = dict(skipped or {})
+        for k, v in fields.items():
+            setattr(self, k, v)
+
+    def __len__(self):
+        return len(self.event_utime)
+
+    def __repr__(self):
+        t = self.type.__name__ if self.type else "?"
+        bad = sum(self.skipped.values())
+        return f"<Channel {self.name} ({t}): {len(self)} messages, {bad} skipped>"
+
+
+class FileStats:
+    """What one file of the stream held: size [bytes], intact events, bytes outside intact
+    events (corruption and a truncated tail), of which after the last intact event."""
+
+    def __init__(self, path, size, events, bytes_skipped, tail_bytes):
+        self.path, self.size, self.events = path, size, events
+        self.bytes_skipped, self.tail_bytes = bytes_skipped, tail_bytes
+
+    def __repr__(self):
+        return (f"<FileStats {self.path}: {self.size} bytes, {self.events} events, "
+                f"{self.bytes_skipped} bytes skipped ({self.tail_bytes} at the end)>")
+
+
+class Log:
+    """An event log (or the parts of a split log, one stream) read into numpy arrays.
+
+    Attributes: `motors`, `pose`, `cmd`, `experiment` (Channel; empty if the log has none),
+    `channels` (every decoded channel by name), `unknown` (channel -> list of (event_utime,
+    payload bytes) for channels without an omni4 type; empty lists with keep_unknown=False),
+    `unknown_counts` (channel -> events), `files` (FileStats per file), `events` (intact events),
+    `bytes_total`, `bytes_skipped`, `seq_gaps` / `seq_duplicates` (motors_t samples missing /
+    repeated or out of order, counted in log order as tests/hil/log_check.c does)."""
+
+    def __init__(self, files, channels, unknown, unknown_counts):
+        self.files = files
+        self.paths = [f.path for f in files]
+        self.channels = channels
+        self.unknown = unknown
+        self.unknown_counts = unknown_counts
+        self.events = sum(f.events for f in files)
+        self.bytes_total = sum(f.size for f in files)
+        self.bytes_skipped = sum(f.bytes_skipped for f in files)
+        self.motors = channels[CHANNEL_MOTORS]
+        self.pose = channels[CHANNEL_POSE]
+        self.cmd = channels[CHANNEL_CMD]
+        self.experiment = channels[CHANNEL_EXPERIMENT]
+        seq = self.motors.seq if hasattr(self.motors, "seq") else np.zeros(0, np.int64)
+        d = np.diff(seq)
+        self.seq_gaps = int((d[d > 1] - 1).sum())
+        self.seq_duplicates = int((d <= 0).sum())
+
+    @property
+    def skipped(self):
+        """Events on omni4 channels that were not decoded, by reason (all channels)."""
+        out = {}
+        for ch in self.channels.values():
+            for k, v in ch.skipped.items():
+                out[k] = out.get(k, 0) + v
+        return out
+
+    def summary(self):
+        """A few lines: what was read, and everything skipped with its reason."""
+        lines = [f"{len(self.files)} file(s), {self.bytes_total} bytes, {self.events} events"]
+        for name, ch in self.channels.items():
+            if len(ch) or any(ch.skipped.values()):
+                bad = ", ".join(f"{v} {k}" for k, v in sorted(ch.skipped.items()) if v)
+                lines.append(f"  {name}: {len(ch)}" + (f" (skipped: {bad})" if bad else ""))
+        for name, n in sorted(self.unknown_counts.items()):
+            lines.append(f"  {name}: {n} (no omni4 type)")
+        if len(self.motors):
+            lines.append(f"  motors_t seq gaps {self.seq_gaps}, duplicates {self.seq_duplicates}")
+        for f in self.files:
+            if f.bytes_skipped:
+                lines.append(f"  {f.path}: {f.bytes_skipped} bytes skipped "
+                             f"({f.tail_bytes} in a truncated tail)")
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return f"<Log {self.paths}: {self.events} events, motors {len(self.motors)}>"
+
+
+def split_parts(path):
+    """The parts of a split log FILE.00, FILE.01, ... (what `omni4-record --split-mb` writes),
+    in order, stopping at the first missing number; [] if FILE.00 does not exist."""
+    parts = []
+    while os.path.exists(f"{path}.{len(parts):02d}"):
+        parts.append(f"{path}.{len(parts):02d}")
+    return parts
+
+
+def _resolve(path_or_paths):
+    if isinstance(path_or_paths, (str, os.PathLike)):
+        p = os.fspath(path_or_paths)
+        if not os.path.exists(p) and split_parts(p):
+            return split_parts(p)
+        return [p]
+    paths = [os.fspath(p) for p in path_or_paths]
+    if not paths:
+        raise LogError("read_log: no log given")
+    return paths
+
+
+def _load(paths):
+    """All files into one uint8 buffer; returns it and each file's [start, end) in it."""
+    sizes = []
+    for p in paths:
+        if os.path.isdir(p):
+            raise IsADirectoryError(f"{p}: is a directory, not an event log")
+        sizes.append(os.path.getsize(p))  # FileNotFoundError names the path
+    buf = np.empty(sum(sizes), np.uint8)
+    spans, at = [], 0
+    for p, size in zip(paths, sizes):
+        with open(p, "rb") as f:
+            got = f.readinto(memoryview(buf)[at:at + size]) or 0
+        spans.append((at, at + got))  # a file that shrank while read: what was there
+        at += size
+    return buf, spans
+
+
+def _sync_positions(buf, lo, hi):
+    """Offsets (relative to lo) of every 4-byte big-endian sync word in buf[lo:hi]."""
+    n = hi - lo
+    found = []
+    want = np.array([SYNC], ">u4").view("<u4")[0] if np.little_endian else SYNC
+    for a in range(4):
+        count = (n - a) // 4
+        if count <= 0:
+            continue
+        words = np.frombuffer(buf, np.uint32, count=count, offset=lo + a)
+        found.append(np.flatnonzero(words == want) * 4 + a)
+    if not found:
+        return np.zeros(0, np.int64)
+    return np.sort(np.concatenate(found)).astype(np.int64)
+
+
+def _walk(buf, lo, hi):
+    """The intact events of one file buf[lo:hi], as logdata.cpp finds them: from the start,
+    an event whose header is valid (sync, 0 < channel length <= 256, data length >= 0, the
+    whole event inside the file) is taken and the walk continues after it; otherwise the walk
+    moves to the next sync word. Returns absolute offsets, channel and data lengths, log times
+    (all int64) and the bytes not inside a taken event (total, after the last one)."""
+    n = hi - lo
+    cand = _sync_positions(buf, lo, hi)
+    cand = cand[cand + HEADER_BYTES <= n]
+    empty = np.zeros(0, np.int64)
+    if len(cand) == 0:
+        return empty, empty, empty, empty, n, n
+    hdr = sliding_window_view(buf[lo:hi], HEADER_BYTES)[cand].view(_HEADER).ravel()
+    clen = hdr["clen"].astype(np.int64)
+    dlen = hdr["dlen"].astype(np.int64)
+    end = cand + HEADER_BYTES + clen + dlen
+    valid = (clen > 0) & (clen <= MAX_CHANNEL_BYTES) & (dlen >= 0) & (end <= n)
+    k = len(cand)
+    idx = np.arange(k)
+    # Next candidate the walk reaches from each one: after a valid event, the first sync word
+    # at or after its end; after an invalid header, the next sync word.
+    nxt = np.where(valid, np.searchsorted(cand, end, "left"), idx + 1)
+    # Runs where nxt[i] == i + 1 are walked in one step; only breaks (a sync word inside a
+    # payload, corrupt bytes) cost a Python iteration.
+    breaks = np.flatnonzero(nxt != idx + 1)
+    visited = np.zeros(k, bool)
+    i = 0
+    while i < k:
+        j = np.searchsorted(breaks, i, "left")
+        if j == len(breaks):
+            visited[i:] = True
+            break
+        b = breaks[j]
+        visited[i:b + 1] = True
+        i = nxt[b]
+    take = visited & valid
+    off = cand[take]
+    clen, dlen, end = clen[take], dlen[take], end[take]
+    used = int((end - off).sum())
+    tail = n - int(end[-1]) if len(end) else n
+    return off + lo, clen, dlen, hdr["utime"][take].astype(np.int64), n - used, tail
+
+
+def _channel_ids(buf, off, clen, names):
+    """Channel index of every event (into `names`, which grows with the unknown channels)."""
+    ids = np.full(len(off), -1, np.int64)
+    index = {nm: i for i, nm in enumerate(names)}
+    for L in np.unique(clen):
+        sel = np.flatnonzero(clen == L)
+        raw = np.ascontiguousarray(sliding_window_view(buf, int(L))[off[sel] + HEADER_BYTES])
+        rest = np.ones(len(sel), bool)
+        for nm, i in index.items():
+            b = nm.encode()
+            if len(b) == L:
+                hit = (raw == np.frombuffer(b, np.uint8)).all(axis=1)
+                ids[sel[hit]] = i
+                rest &= ~hit
+        if rest.any():
+            uniq, inv = np.unique(raw[rest].view(f"V{L}").ravel(), return_inverse=True)
+            for u, raw_name in enumerate(uniq):
+                nm = raw_name.tobytes().decode("utf-8", "replace")
+                if nm not in index:
+                    index[nm] = len(names)
+                    names.append(nm)
+                ids[sel[rest][inv.ravel() == u]] = index[nm]
+    return ids
+
+
+def _empty_fields(cls):
+    if cls in _FAST:
+        dt = _FAST[cls]
+        return {n: np.zeros((0,) + dt[n].shape, dt[n].base.newbyteorder("=")) for n in dt.names
+                if n != "fingerprint"}
+    out = {}
+    for name in cls.__slots__:
+        v = getattr(cls(), name)
+        if isinstance(v, str):
+            out[name] = np.zeros(0, str)
+        elif isinstance(v, (list, tuple)):
+            out[name] = np.zeros((0, len(v)), type(v[0]) if v else float)
+        else:
+            out[name] = np.zeros(0, type(v))
+    return out
+
+
+def _decode_fast(buf, cls, doff, dlen):
+    """Fixed-size type: one gather of the payloads and a big-endian structured view."""
+    dt = _FAST[cls]
+    size_ok = dlen == dt.itemsize
+    if not size_ok.any():  # also keeps a log shorter than one payload out of the window view
+        return _empty_fields(cls), np.zeros(0, np.int64), {"wrong_size": len(dlen)}
+    rows = np.ascontiguousarray(sliding_window_view(buf, dt.itemsize)[doff[size_ok]])
+    rec = rows.view(dt).ravel()
+    fp_ok = rec["fingerprint"] == _fingerprint(cls)
+    rec = rec[fp_ok]
+    fields = {n: rec[n].astype(dt[n].base.newbyteorder("="))
+              for n in dt.names if n != "fingerprint"}
+    keep = np.flatnonzero(size_ok)[fp_ok]
+    skipped = {"wrong_size": int((~size_ok).sum()), "wrong_fingerprint": int((~fp_ok).sum())}
+    return fields, keep, skipped
+
+
+def _decode_each(buf, cls, doff, dlen):
+    """Any type: the lcm-gen decoder per message; the whole payload must be consumed."""
+    fp = cls._get_packed_fingerprint()
+    msgs, keep = [], []
+    skipped = {"wrong_fingerprint": 0, "undecodable": 0}
+    for k, (a, n) in enumerate(zip(doff.tolist(), dlen.tolist())):
+        data = buf[a:a + n].tobytes()
+        if data[:FINGERPRINT_BYTES] != fp:
+            skipped["wrong_fingerprint"] += 1
+            continue
+        bio = io.BytesIO(data)
+        bio.seek(FINGERPRINT_BYTES)
+        try:
+            m = cls._decode_one(bio)
+        except Exception:  # lcm-gen decoders raise struct.error, ValueError, ...
+            m = None
+        if m is None or bio.tell() != n:
+            skipped["undecodable"] += 1
+            continue
+        msgs.append(m)
+        keep.append(k)
+    fields = _empty_fields(cls)
+    if msgs:
+        for name in cls.__slots__:
+            vals = [getattr(m, name) for m in msgs]
+            kind = fields[name].dtype
+            fields[name] = np.asarray(vals, dtype=str if kind.kind == "U" else kind)
+    return fields, np.asarray(keep, np.int64), skipped
+
+
+def read_log(path_or_paths, keep_unknown=True):
+    """Reads an LCM event log into numpy arrays (see the module docstring).
+
+    path_or_paths: one log, a list of files read as one stream in the order given (the parts
+    of a split log), or FILE when only FILE.00, FILE.01, ... exist. keep_unknown: keep the
+    raw payloads of channels without an omni4 type (else only count them).
+
+    Raises OSError (missing or unreadable file, with its path) and LogError when the files
+    hold no intact event at all (empty, not an event log, or corrupt throughout)."""
+    paths = _resolve(path_or_paths)
+    buf, spans = _load(paths)
+    parts, files = [], []
+    for p, (lo, hi) in zip(paths, spans):
+        off, clen, dlen, utime, skipped, tail = _walk(buf, lo, hi)
+        files.append(FileStats(p, hi - lo, len(off), skipped, tail))
+        parts.append((off, clen, dlen, utime))
+    if not any(f.events for f in files):
+        what = "empty" if not sum(f.size for f in files) else "no LCM sync word 0xEDA1DA01 " \
+            "starts a valid event"
+        raise LogError(f"{', '.join(paths)}: no intact LCM event ({what})")
+    off, clen, dlen, utime = (np.concatenate(x) for x in zip(*parts))
+    names = list(TYPES)
+    ids = _channel_ids(buf, off, clen, names)
+    doff = off + HEADER_BYTES + clen
+    channels, unknown, unknown_counts = {}, {}, {}
+    for i, name in enumerate(names):
+        sel = np.flatnonzero(ids == i)
+        cls = TYPES.get(name)
+        if cls is None:
+            unknown_counts[name] = len(sel)
+            unknown[name] = ([(int(t), buf[a:a + n].tobytes()) for t, a, n in
+                              zip(utime[sel], doff[sel], dlen[sel])] if keep_unknown else [])
+            continue
+        decode = _decode_fast if cls in _FAST else _decode_each
+        fields, keep, skipped = decode(buf, cls, doff[sel], dlen[sel])
+        channels[name] = Channel(name, cls, fields, utime[sel][keep], skipped)
+    return Log(files, channels, unknown, unknown_counts)
+
+
+__all__ = ["read_log", "split_parts", "Log", "Channel", "FileStats", "LogError", "SYNC",
+           "HEADER_BYTES"]
