@@ -7,11 +7,12 @@ import shutil
 import subprocess
 import tempfile
 
-from setuptools import setup
+from setuptools import Extension, setup
 from setuptools.command.build_py import build_py
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LCM_DIR = os.path.join(HERE, "..", "lcmtypes")
+MODEL_DIR = os.path.join(HERE, "..", "model")
 
 
 class BuildWithLcmTypes(build_py):
@@ -32,4 +33,17 @@ class BuildWithLcmTypes(build_py):
                 shutil.copy(src, out)
 
 
-setup(cmdclass={"build_py": BuildWithLcmTypes})
+# The robot model (model/src/*.c, C11, no Python API) and the prediction shim of omni4.foxglove
+# as one plain shared library that omni4.foxglove.model loads with ctypes: the bridge and the
+# MCAP export run the project's own model, not a re-derivation in Python. (setuptools wants
+# source paths relative to this directory.)
+MODEL_LIB = Extension(
+    "omni4.foxglove._omni4model",
+    sources=[os.path.relpath(f, HERE) for f in sorted(glob.glob(os.path.join(MODEL_DIR, "src", "*.c")))]
+    + ["omni4/foxglove/_predict.c"],
+    include_dirs=[os.path.relpath(os.path.join(MODEL_DIR, "include"), HERE)],
+    extra_compile_args=["-std=c11", "-O2"],
+    libraries=["m"],
+)
+
+setup(cmdclass={"build_py": BuildWithLcmTypes}, ext_modules=[MODEL_LIB])

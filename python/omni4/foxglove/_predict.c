@@ -1,0 +1,108 @@
+/*
+ * _predict.c - the model's prediction beside the encoders, for omni4-bridge and omni4-mcap.
+ *
+ * Built by python/setup.py together with model/src/*.c into one shared library that Python
+ * loads with ctypes (no Python API here). Everything physical is model/'s: eqs 3-5 are
+ * fk_robot_velocity, the prediction is plant_step (eq 23 with Coulomb friction and stiction,
+ * bridges off = null traction). This file only decides when the prediction starts, as
+ * omni4-ident validate does: the voltage logged at tick k acts until tick k + 1, and the
+ * model restarts from the encoder velocity
+ *   - at the first sample,
+ *   - after lost samples (a seq gap) or a jump in time (utime not increasing, or a step
+ *     longer than OMNI4_PRED_MAX_GAP_US),
+ *   - when the bridges switch on or off (a mode change between driven = VOLTAGE/VELOCITY and
+ *     not driven = IDLE/COAST/FAULT/ESTOP): each drive and each coast-down is predicted from
+ *     its start, so the difference shows the model's error over that run, not an old one.
+ */
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "omni4/kinematics.h"
+#include "omni4/params.h"
+#include "omni4/plant.h"
+
+#define OMNI4_PRED_MAX_GAP_US 50000 /* a step longer than 50 ms is a jump in time */
+
+struct omni4_predictor {
+	struct plant pl;
+	int have;          /* a previous sample exists */
+	int64_t utime;     /* previous sample [us] */
+	int64_t seq;       /* previous sample's seq */
+	int driven;        /* previous sample's bridges on */
+	double u[4];       /* previous sample's voltages [V] */
+};
+
+size_t omni4_predictor_size(void)
+{
+	return sizeof(struct omni4_predictor);
+}
+
+static int mode_driven(int mode)
+{
+	return mode == 1 || mode == 2; /* MODE_VELOCITY, MODE_VOLTAGE */
+}
+
+/* params: the 14 [model] values in model_params_names order. 0, or -EINVAL (not physical). */
+int omni4_predictor_init(struct omni4_predictor *p, const double params[MODEL_PARAMS_COUNT])
+{
+	struct model_params mp;
+
+	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
+		*model_params_field(&mp, i) = params[i];
+	p->have = 0;
+	return plant_init(&p->pl, &mp);
+}
+
+const char *omni4_predictor_param_name(int i)
+{
+	return (i >= 0 && i < MODEL_PARAMS_COUNT) ? model_params_names[i] : NULL;
+}
+
+/*
+ * One motors_t sample: measured[3] gets the encoder velocity (eqs 3-5, wheel speeds [rad/s]
+ * times r), predicted[3] the model's velocity at this sample's time. Returns 1 if the model
+ * restarted from the encoders at this sample, 0 otherwise.
+ */
+int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, int mode,
+			 const float voltage[4], const float wheel_speed[4], double measured[3],
+			 double predicted[3])
+{
+	double vw[4];
+	const int driven = mode_driven(mode);
+	int restart;
+
+	for (int j = 0; j < 4; j++)
+		vw[j] = (double)wheel_speed[j] * p->pl.p.r;
+	fk_robot_velocity(p->pl.p.d, vw, measured);
+
+	restart = !p->have || seq != p->seq + 1 || utime <= p->utime ||
+		  utime - p->utime > OMNI4_PRED_MAX_GAP_US || driven != p->driven;
+	if (restart) {
+		for (int k = 0; k < 3; k++)
+			p->pl.x[k] = measured[k];
+	} else {
+		plant_step(&p->pl, p->u, p->driven, (double)(utime - p->utime) * 1e-6);
+	}
+	for (int k = 0; k < 3; k++)
+		predicted[k] = p->pl.x[k];
+	p->have = 1;
+	p->utime = utime;
+	p->seq = seq;
+	p->driven = driven;
+	for (int j = 0; j < 4; j++)
+		p->u[j] = voltage[j];
+	return restart;
+}
+
+/* n samples at once (arrays of n, n*4, n*3): omni4_predictor_step on each, in order. */
+void omni4_predictor_run(struct omni4_predictor *p, size_t n, const int64_t *utime,
+			 const int64_t *seq, const int8_t *mode, const float *voltage,
+			 const float *wheel_speed, double *measured, double *predicted,
+			 int8_t *restarted)
+{
+	for (size_t k = 0; k < n; k++)
+		restarted[k] = (int8_t)omni4_predictor_step(p, utime[k], seq[k], mode[k],
+							     voltage + 4 * k, wheel_speed + 4 * k,
+							     measured + 3 * k, predicted + 3 * k);
+}

@@ -1,0 +1,211 @@
+"""omni4-bridge: the robot live in Foxglove. Listens to the OMNI4_* channels on an LCM URL (it
+never publishes on LCM, so it cannot slow or steer the robot) and serves them on a Foxglove
+WebSocket server (foxglove-sdk) with JSON schemas, plus the encoder velocity, the model's
+prediction from the logged voltages and their difference (/omni4/velocity), health
+(/omni4/health), the camera pose as a transform and pose (/tf, /omni4/pose) and the robot's
+body and wheels (/omni4/scene). Topics: omni4/foxglove/topics.py, docs/design.md.
+
+Every motors sample goes through the model (the prediction integrates tick by tick); what is
+sent to Foxglove for OMNI4_MOTORS and /omni4/velocity is every N-th sample (--decimate N,
+default 10: 100 Hz of a 1 kHz loop). Commands, pose and experiment marks are never decimated.
+Exit status: 0 after SIGINT/SIGTERM or --duration; 1 run-time error (the WebSocket port is
+taken, LCM fails); 2 usage or configuration error (bad arguments, broken INI, bad LCM URL)."""
+import argparse
+import os
+import resource
+import signal
+import sys
+import time
+
+import lcm
+
+import omni4
+
+from . import ini, topics
+from .model import Predictor
+
+PROG = "omni4-bridge"
+
+
+def parse_args(argv):
+    ap = argparse.ArgumentParser(
+        prog=PROG, description="Serve the robot's LCM channels on a Foxglove WebSocket, with "
+        "the model's prediction beside the encoders' velocity. Open Foxglove on "
+        "ws://HOST:PORT.")
+    ap.add_argument("--lcm", default=omni4.DEFAULT_LCM_URL, metavar="URL",
+                    help=f"LCM URL to listen on (default {omni4.DEFAULT_LCM_URL})")
+    ap.add_argument("--host", default="127.0.0.1", help="address the WebSocket server binds "
+                    "to (default 127.0.0.1, this machine only; 0.0.0.0 for the network)")
+    ap.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765; 0 = "
+                    "any free port, printed at start)")
+    ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
+                    "prediction runs (default: the paper's Table III)")
+    ap.add_argument("--decimate", type=int, default=10, metavar="N",
+                    help="send every N-th motors sample and velocity to Foxglove (default 10; "
+                    "1 = all). The model still runs on every sample.")
+    ap.add_argument("--health-period", type=float, default=1.0, metavar="S",
+                    help="health window [s] (default 1)")
+    ap.add_argument("--duration", type=float, default=0.0, metavar="S",
+                    help="stop after S seconds (default 0: until SIGINT/SIGTERM)")
+    ap.add_argument("-q", "--quiet", action="store_true", help="no start and exit lines")
+    a = ap.parse_args(argv)
+    if a.decimate < 1:
+        ap.error("--decimate must be >= 1")
+    if not 0 <= a.port <= 65535:
+        ap.error("--port must be 0..65535")
+    if not a.health_period > 0 or a.duration < 0:
+        ap.error("--health-period must be positive and --duration not negative")
+    return a
+
+
+class Bridge:
+    def __init__(self, params, decimate, health_period_s, server_ctx):
+        import foxglove
+        self._fg = foxglove
+        self.ctx = server_ctx
+        self.params = params
+        self.decimate = decimate
+        self.health_period_s = health_period_s
+        self.pred = Predictor(params)
+        self.health = topics.Health()
+        self.channels = {}
+        self.received = {}
+        self.published = {}
+        self.n_motors = 0
+        self.classes = topics.lcm_classes()
+        for chname, schema in topics.CHANNEL_SCHEMA.items():
+            self.channel(chname, schema)
+        for topic, schema in topics.DERIVED.items():
+            self.channel(topic, schema)
+
+    def channel(self, topic, schema_name):
+        ch = self.channels.get(topic)
+        if ch is None:
+            schema = self._fg.Schema(name=schema_name, encoding="jsonschema",
+                                     data=topics.schema_bytes(schema_name))
+            ch = self._fg.Channel(topic, schema=schema, message_encoding="json",
+                                  context=self.ctx).base
+            self.channels[topic] = ch
+            self.published[topic] = 0
+        return ch
+
+    def _pub(self, topic, data, t_ns):
+        self.channels[topic].log(data, t_ns)
+        self.published[topic] += 1
+
+    def on_lcm(self, chname, data):
+        t_ns = time.time_ns()
+        self.received[chname] = self.received.get(chname, 0) + 1
+        try:
+            if chname == omni4.CHANNEL_MOTORS:
+                m = omni4.motors_t.decode(data)
+                self.on_motors(m, t_ns)
+                return
+            cls = omni4.TYPES.get(chname) or self.classes.get(data[:8])
+            msg = cls.decode(data) if cls else None
+        except (ValueError, IndexError, KeyError):  # not the channel's type, or corrupt
+            msg = None
+        if isinstance(msg, omni4.pose_t) and chname == omni4.CHANNEL_POSE:
+            self._pub(chname, topics.pose_json(msg), t_ns)
+            tf, pose = topics.pose_topics(t_ns, msg.x, msg.y, msg.theta)
+            self._pub(topics.TOPIC_TF, tf, t_ns)
+            self._pub(topics.TOPIC_POSE, pose, t_ns)
+        elif isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
+            self._pub(chname, topics.command_json(msg), t_ns)
+        elif isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
+            self._pub(chname, topics.experiment_json(msg), t_ns)
+        elif msg is not None:
+            self.channel(chname, "omni4.lcm_fields")
+            self._pub(chname, topics.fields_json(msg), t_ns)
+        else:
+            self.channel(chname, "omni4.lcm_raw")
+            self._pub(chname, topics.raw_json(data), t_ns)
+
+    def on_motors(self, m, t_ns):
+        meas, pred, restarted = self.pred.step(m.utime, m.seq, m.mode, m.voltage, m.wheel_speed)
+        self.health.add(m.utime, m.seq, m.mode, m.faults)
+        if self.n_motors % self.decimate == 0:
+            self._pub(omni4.CHANNEL_MOTORS,
+                      topics.motors_json(m.utime, m.seq, m.mode, m.faults, list(m.voltage),
+                                         list(m.current), list(m.wheel_speed)), t_ns)
+            self._pub(topics.TOPIC_VELOCITY,
+                      topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
+        self.n_motors += 1
+
+    def tick(self, t_ns, health_due, scene_due):
+        if health_due and self.health.n:
+            self._pub(topics.TOPIC_HEALTH, self.health.report(self.health_period_s), t_ns)
+        if scene_due:
+            self._pub(topics.TOPIC_SCENE,
+                      topics.scene_json(t_ns, self.params["d"], self.params["r"]), t_ns)
+
+
+def main(argv=None):
+    a = parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        params = ini.read_model(a.params) if a.params else ini.table3()
+    except ini.ConfigError as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return 2
+    try:
+        lc = lcm.LCM(a.lcm)
+    except Exception as e:  # lcm raises RuntimeError on a URL it cannot use
+        print(f"{PROG}: --lcm {a.lcm}: {e}", file=sys.stderr)
+        return 2
+    import foxglove
+    ctx = foxglove.Context()
+    try:
+        server = foxglove.start_server(name="omni4", host=a.host, port=a.port, context=ctx)
+    except Exception as e:
+        print(f"{PROG}: cannot serve on {a.host}:{a.port}: {e}", file=sys.stderr)
+        return 1
+    bridge = Bridge(params, a.decimate, a.health_period, ctx)
+    sub = lc.subscribe("OMNI4_.*", bridge.on_lcm)
+    sub.set_queue_capacity(100000)  # LCM's default 30 would drop samples on a busy CPU
+    stop = []
+    signal.signal(signal.SIGINT, lambda *_: stop.append(1))
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
+    if not a.quiet:
+        print(f"{PROG}: serving ws://{a.host}:{server.port()} (Foxglove) from {a.lcm}; "
+              f"motors sent 1 in {a.decimate}", file=sys.stderr, flush=True)
+    t_start = time.monotonic()
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
+    next_health = t_start + a.health_period
+    next_scene = t_start
+    rc = 0
+    try:
+        while not stop:
+            now = time.monotonic()
+            if a.duration and now - t_start >= a.duration:
+                break
+            lc.handle_timeout(50)  # [ms]: bounded, so signals and timers are served
+            now = time.monotonic()
+            h, s = now >= next_health, now >= next_scene
+            if h or s:
+                bridge.tick(time.time_ns(), h, s)
+                if h:
+                    next_health += a.health_period * max(1, int((now - next_health) //
+                                                                a.health_period) + 1)
+                if s:
+                    next_scene = now + 1.0
+    except Exception as e:
+        print(f"{PROG}: {type(e).__name__}: {e}", file=sys.stderr)
+        rc = 1
+    finally:
+        lc.unsubscribe(sub)
+        server.stop()
+    wall = time.monotonic() - t_start
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+    if not a.quiet:
+        rx = bridge.received.get(omni4.CHANNEL_MOTORS, 0)
+        print(f"{PROG}: {wall:.1f} s: received {rx} motors samples ({rx / wall:.0f} Hz), "
+              f"{sum(bridge.received.values())} LCM messages; sent "
+              f"{bridge.published[omni4.CHANNEL_MOTORS]} motors, "
+              f"{bridge.published[topics.TOPIC_VELOCITY]} velocity; "
+              f"CPU {100 * cpu / wall:.1f} %", file=sys.stderr)
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,260 @@
+"""omni4-mcap: LCM event logs -> one MCAP file for Foxglove (and any MCAP reader).
+
+Every LCM event becomes one MCAP message with the event's log time, on a channel named as the
+LCM channel (JSON, schema "omni4.<type>"), plus the derived topics of the bridge
+(/omni4/velocity: encoders, model prediction, difference; /omni4/health; /tf, /omni4/pose,
+/omni4/scene with Foxglove's schemas). Chunked and compressed (zstd by default, or lz4) by the
+foxglove-sdk MCAP writer. Exit status: 0 done; 1 run-time error (unreadable or non-LCM log, or
+data lost in a truncated/corrupt log: the complete events are still converted, see
+--partial-ok); 2 usage or configuration error (bad arguments, broken INI)."""
+import argparse
+import os
+import sys
+import time
+
+import numpy as np
+
+import omni4
+
+from . import ini, lcmlog, topics
+from .model import Predictor
+
+PROG = "omni4-mcap"
+
+# motors_t on the wire (lcm-gen encoding, big-endian): fingerprint, then the fields in order.
+# Used only when every payload has motors_t's fingerprint and size; checked against the
+# generated decoder by the tests.
+MOTORS_WIRE = np.dtype([("fp", ">u8"), ("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"),
+                        ("faults", ">i4"), ("voltage", ">f4", 4), ("current", ">f4", 4),
+                        ("wheel_speed", ">f4", 4)])
+
+
+class Usage(Exception):
+    pass
+
+
+def decode_motors(payloads):
+    """List of motors_t payloads -> dict of numpy arrays (utime, seq, mode, faults: (n,);
+    voltage, current, wheel_speed: (n, 4) float32)."""
+    fp = omni4.motors_t._get_packed_fingerprint()
+    n = len(payloads)
+    if n and all(len(p) == MOTORS_WIRE.itemsize for p in payloads):
+        a = np.frombuffer(b"".join(payloads), dtype=MOTORS_WIRE)
+        if (a["fp"] == int.from_bytes(fp, "big")).all():
+            return {k: a[k].astype(a[k].dtype.newbyteorder("=")) for k in MOTORS_WIRE.names
+                    if k != "fp"}
+    # anything else: the generated decoder, message by message (raises on a bad payload)
+    ms = [omni4.motors_t.decode(p) for p in payloads]
+    return {"utime": np.array([m.utime for m in ms], dtype=np.int64),
+            "seq": np.array([m.seq for m in ms], dtype=np.int64),
+            "mode": np.array([m.mode for m in ms], dtype=np.int8),
+            "faults": np.array([m.faults for m in ms], dtype=np.int32),
+            "voltage": np.array([m.voltage for m in ms], dtype=np.float32).reshape(n, 4),
+            "current": np.array([m.current for m in ms], dtype=np.float32).reshape(n, 4),
+            "wheel_speed": np.array([m.wheel_speed for m in ms],
+                                    dtype=np.float32).reshape(n, 4)}
+
+
+def parse_args(argv):
+    ap = argparse.ArgumentParser(
+        prog=PROG, description="Convert omni4 LCM event logs to one MCAP file for Foxglove: "
+        "every event with its log time, one channel per LCM channel, plus the encoder "
+        "velocity, the model's prediction, their difference, health, pose and the robot's "
+        "3D scene.")
+    ap.add_argument("logs", nargs="+", metavar="LOG", help="LCM event log(s), in time order "
+                    "(the parts of a split recording)")
+    ap.add_argument("--out", required=True, metavar="OUT.mcap", help="MCAP file to write "
+                    "(replaced; written to a temporary first)")
+    ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
+                    "prediction runs (default: the paper's Table III)")
+    ap.add_argument("--compression", choices=("zstd", "lz4"), default="zstd",
+                    help="chunk compression (default zstd)")
+    ap.add_argument("--chunk-kib", type=int, default=1024, metavar="KiB",
+                    help="uncompressed chunk size [KiB] (default 1024)")
+    ap.add_argument("--health-period", type=float, default=1.0, metavar="S",
+                    help="health window [s of log time] (default 1)")
+    ap.add_argument("--partial-ok", action="store_true", help="exit 0 when a truncated or "
+                    "corrupt log lost data (the loss is still reported)")
+    ap.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    a = ap.parse_args(argv)
+    if a.chunk_kib <= 0 or not a.health_period > 0:
+        ap.error("--chunk-kib and --health-period must be positive")
+    return a
+
+
+class Writer:
+    """Channels of one MCAP file, created as topics appear."""
+
+    def __init__(self, path, compression, chunk_bytes):
+        import foxglove
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+        self._fg = foxglove
+        self.ctx = foxglove.Context()
+        comp = MCAPCompression.Zstd if compression == "zstd" else MCAPCompression.Lz4
+        self.mcap = foxglove.open_mcap(path, allow_overwrite=True, context=self.ctx,
+                                       writer_options=MCAPWriteOptions(
+                                           compression=comp, chunk_size=chunk_bytes,
+                                           profile=""))
+        self.channels = {}
+        self.counts = {}
+
+    def channel(self, topic, schema_name):
+        ch = self.channels.get(topic)
+        if ch is None:
+            schema = self._fg.Schema(name=schema_name, encoding="jsonschema",
+                                     data=topics.schema_bytes(schema_name))
+            ch = self._fg.Channel(topic, schema=schema, message_encoding="json",
+                                  context=self.ctx).base
+            self.channels[topic] = ch
+            self.counts[topic] = 0
+        return ch
+
+    def close(self):
+        self.mcap.close()
+
+
+def convert(events, params, w, health_period_s):
+    """Write all events (log order) and the derived topics into the Writer w."""
+    classes = topics.lcm_classes()
+    mot_idx = [i for i, (_, ch, _) in enumerate(events) if ch == omni4.CHANNEL_MOTORS]
+    mot = decode_motors([events[i][2] for i in mot_idx])
+    pred = Predictor(params)
+    meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
+                                          mot["voltage"], mot["wheel_speed"])
+    # Python lists once (fast) rather than numpy scalars per message
+    L = {k: v.tolist() for k, v in mot.items()}
+    for k in ("voltage", "current", "wheel_speed"):
+        L[k] = mot[k].astype(np.float64).tolist()
+    meas_l, pred_l, rst_l = meas.tolist(), predicted.tolist(), restarted.tolist()
+
+    ch_mot = w.channel(omni4.CHANNEL_MOTORS, topics.CHANNEL_SCHEMA[omni4.CHANNEL_MOTORS]) \
+        if mot_idx else None
+    ch_vel = w.channel(topics.TOPIC_VELOCITY, topics.DERIVED[topics.TOPIC_VELOCITY]) \
+        if mot_idx else None
+    ch_health = w.channel(topics.TOPIC_HEALTH, topics.DERIVED[topics.TOPIC_HEALTH]) \
+        if mot_idx else None
+    ch_scene = w.channel(topics.TOPIC_SCENE, topics.DERIVED[topics.TOPIC_SCENE])
+    health = topics.Health()
+    period_us = int(health_period_s * 1e6)
+    next_health = events[0][0] + period_us
+    next_scene = events[0][0]
+    mj = topics.motors_json
+    vj = topics.velocity_json
+    k = 0
+    n_vel = n_health = n_scene = n_pose = 0
+    for t_us, chname, data in events:
+        t_ns = t_us * 1000
+        if t_us >= next_scene:  # the robot's body, once a second of log time
+            ch_scene.log(topics.scene_json(t_ns, params["d"], params["r"]), t_ns)
+            n_scene += 1
+            next_scene = t_us + 1_000_000
+        if chname == omni4.CHANNEL_MOTORS:
+            ut, sq, md, fl = L["utime"][k], L["seq"][k], L["mode"][k], L["faults"][k]
+            ch_mot.log(mj(ut, sq, md, fl, L["voltage"][k], L["current"][k],
+                          L["wheel_speed"][k]), t_ns)
+            ch_vel.log(vj(ut, sq, md, meas_l[k], pred_l[k], rst_l[k]), t_ns)
+            n_vel += 1
+            health.add(ut, sq, md, fl)
+            if t_us >= next_health:
+                ch_health.log(health.report(health_period_s), t_ns)
+                n_health += 1
+                next_health += period_us * max(1, (t_us - next_health) // period_us + 1)
+            k += 1
+            continue
+        cls = omni4.TYPES.get(chname)
+        msg = None
+        if cls is not None:
+            try:
+                msg = cls.decode(data)
+            except Exception:
+                cls = None  # not this channel's type: fall through to the generic paths
+        if msg is None:
+            cls = classes.get(data[:8])
+            if cls is not None:
+                try:
+                    msg = cls.decode(data)
+                except Exception:
+                    cls = None
+        if isinstance(msg, omni4.pose_t) and chname == omni4.CHANNEL_POSE:
+            w.channel(chname, "omni4.pose_t").log(topics.pose_json(msg), t_ns)
+            tf, pose = topics.pose_topics(t_ns, msg.x, msg.y, msg.theta)
+            w.channel(topics.TOPIC_TF, "foxglove.FrameTransform").log(tf, t_ns)
+            w.channel(topics.TOPIC_POSE, "foxglove.PoseInFrame").log(pose, t_ns)
+            n_pose += 1
+        elif isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
+            w.channel(chname, "omni4.command_t").log(topics.command_json(msg), t_ns)
+        elif isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
+            w.channel(chname, "omni4.experiment_t").log(topics.experiment_json(msg), t_ns)
+        elif msg is not None:
+            w.channel(chname, "omni4.lcm_fields").log(topics.fields_json(msg), t_ns)
+        else:
+            w.channel(chname, "omni4.lcm_raw").log(topics.raw_json(data), t_ns)
+        w.counts[chname] += 1
+    if mot_idx:
+        w.counts[omni4.CHANNEL_MOTORS] = len(mot_idx)
+        if health.n:  # the last, partial window
+            ch_health.log(health.report(health_period_s), events[-1][0] * 1000)
+            n_health += 1
+        w.counts[topics.TOPIC_VELOCITY] = n_vel
+        w.counts[topics.TOPIC_HEALTH] = n_health
+    w.counts[topics.TOPIC_SCENE] = n_scene
+    if n_pose:
+        w.counts[topics.TOPIC_TF] = w.counts[topics.TOPIC_POSE] = n_pose
+    return health
+
+
+def main(argv=None):
+    a = parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        params = ini.read_model(a.params) if a.params else ini.table3()
+    except ini.ConfigError as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return 2
+    t0 = time.perf_counter()
+    events, lost = [], []
+    try:
+        for path in a.logs:
+            if not a.quiet:
+                print(f"{PROG}: reading {path} ({lcmlog.file_size_mb(path):.1f} MB)",
+                      file=sys.stderr)
+            ev, st = lcmlog.read_events(path)
+            events.extend(ev)
+            if st.lost():
+                lost.append(f"{path}: {st.lost()}")
+    except lcmlog.LogError as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return 1
+    out_dir = os.path.dirname(os.path.abspath(a.out))
+    if not os.path.isdir(out_dir):
+        print(f"{PROG}: {a.out}: directory {out_dir} does not exist", file=sys.stderr)
+        return 2
+    tmp = f"{a.out}.tmp{os.getpid()}"
+    try:
+        w = Writer(tmp, a.compression, a.chunk_kib * 1024)
+        try:
+            convert(events, params, w, a.health_period)
+        finally:
+            w.close()
+        os.replace(tmp, a.out)
+    except Exception as e:  # a decoder or the writer refused: one line, no partial OUT
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        print(f"{PROG}: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    dt = time.perf_counter() - t0
+    n_lcm = len(events)
+    if not a.quiet:
+        per = ", ".join(f"{t} {n}" for t, n in sorted(w.counts.items()))
+        span = (events[-1][0] - events[0][0]) * 1e-6
+        print(f"{PROG}: {n_lcm} LCM events ({span:.1f} s of log) -> {a.out} "
+              f"({os.path.getsize(a.out) / 1e6:.1f} MB, {a.compression}) in {dt:.2f} s: {per}",
+              file=sys.stderr)
+    for line in lost:
+        print(f"{PROG}: {line}; the {n_lcm} complete events were converted", file=sys.stderr)
+    if lost and not a.partial_ok:
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,87 @@
+"""The project's model (model/src/*.c) through ctypes: encoder velocity (eqs 3-5) and the model's
+prediction from the logged voltages (plant_step, eq 23), sample by sample or for a whole log.
+
+The shared library is built by python/setup.py from model/src/*.c and _predict.c (see there for
+when the prediction restarts from the encoders)."""
+import ctypes
+import glob
+import os
+
+import numpy as np
+
+_LIB = None
+PARAM_NAMES = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
+
+
+def lib():
+    """The loaded model library (built with the package)."""
+    global _LIB
+    if _LIB is None:
+        here = os.path.dirname(os.path.abspath(__file__))
+        found = sorted(glob.glob(os.path.join(here, "_omni4model*.so")))
+        if not found:
+            raise RuntimeError(f"omni4: the model library _omni4model*.so is missing in {here} "
+                               "(reinstall the package: pip install ./python)")
+        L = ctypes.CDLL(found[0])
+        L.omni4_predictor_size.restype = ctypes.c_size_t
+        L.omni4_predictor_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)]
+        L.omni4_predictor_init.restype = ctypes.c_int
+        L.omni4_predictor_param_name.argtypes = [ctypes.c_int]
+        L.omni4_predictor_param_name.restype = ctypes.c_char_p
+        f32p = ctypes.POINTER(ctypes.c_float)
+        f64p = ctypes.POINTER(ctypes.c_double)
+        L.omni4_predictor_step.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64,
+                                           ctypes.c_int, f32p, f32p, f64p, f64p]
+        L.omni4_predictor_step.restype = ctypes.c_int
+        L.omni4_predictor_run.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p,
+                                          ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+                                          ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+                                          ctypes.c_void_p]
+        L.omni4_predictor_run.restype = None
+        names = tuple(L.omni4_predictor_param_name(i).decode() for i in range(len(PARAM_NAMES)))
+        if names != PARAM_NAMES:  # the C struct's order is the one that counts
+            raise RuntimeError(f"omni4: model parameter order {names} != {PARAM_NAMES}")
+        _LIB = L
+    return _LIB
+
+
+class Predictor:
+    """Encoder velocity and model prediction for a stream of motors_t samples.
+
+    params: dict with the 14 [model] keys (SI units)."""
+
+    def __init__(self, params):
+        L = lib()
+        self._buf = ctypes.create_string_buffer(L.omni4_predictor_size())
+        vals = (ctypes.c_double * len(PARAM_NAMES))(*[float(params[k]) for k in PARAM_NAMES])
+        if L.omni4_predictor_init(self._buf, vals) != 0:
+            raise ValueError("model parameters are not physical (model_params_check)")
+        self._u = (ctypes.c_float * 4)()
+        self._w = (ctypes.c_float * 4)()
+        self._meas = (ctypes.c_double * 3)()
+        self._pred = (ctypes.c_double * 3)()
+
+    def step(self, utime, seq, mode, voltage, wheel_speed):
+        """One sample -> (measured [v, vn, w], predicted [v, vn, w], restarted)."""
+        self._u[:] = voltage
+        self._w[:] = wheel_speed
+        r = lib().omni4_predictor_step(self._buf, utime, seq, mode, self._u, self._w,
+                                       self._meas, self._pred)
+        return list(self._meas), list(self._pred), bool(r)
+
+    def run(self, utime, seq, mode, voltage, wheel_speed):
+        """Arrays of n samples (voltage, wheel_speed: n x 4) -> (measured n x 3,
+        predicted n x 3, restarted n), continuing from the previous call's state."""
+        n = len(utime)
+        ut = np.ascontiguousarray(utime, dtype=np.int64)
+        sq = np.ascontiguousarray(seq, dtype=np.int64)
+        md = np.ascontiguousarray(mode, dtype=np.int8)
+        u = np.ascontiguousarray(voltage, dtype=np.float32).reshape(n, 4)
+        w = np.ascontiguousarray(wheel_speed, dtype=np.float32).reshape(n, 4)
+        meas = np.empty((n, 3))
+        pred = np.empty((n, 3))
+        rst = np.empty(n, dtype=np.int8)
+        lib().omni4_predictor_run(self._buf, n, ut.ctypes.data, sq.ctypes.data, md.ctypes.data,
+                                  u.ctypes.data, w.ctypes.data, meas.ctypes.data,
+                                  pred.ctypes.data, rst.ctypes.data)
+        return meas, pred, rst.astype(bool)

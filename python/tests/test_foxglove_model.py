@@ -1,0 +1,422 @@
+"""omni4.foxglove without other programs: the prediction against a closed form, the encoder
+velocity against eqs 3-5, restarts, the INI [model] reader, the LCM log reader on truncated and
+corrupt logs, the motors_t fast decoder against lcm-gen's, health counts, and omni4-mcap's
+output read back by the Python mcap library (CRCs validated) on a synthetic log."""
+import json
+import math
+import os
+import random
+import struct
+import subprocess
+import sys
+
+import lcm
+import numpy as np
+import pytest
+
+import omni4
+from omni4.foxglove import export, ini, lcmlog, topics
+from omni4.foxglove.model import Predictor
+
+# The paper's Table III (docs/design.md), typed here independently of model/.
+T3 = dict(d=0.089, r=0.0325, l=5.0, Kv=0.0259, Kt=0.0259, R=4.3111, M=2.34, J=0.0228,
+          Bv=0.4978, Bvn=0.6763, Bw=0.0141, Cv=1.8738, Cvn=2.2198, Cw=0.1385)
+
+
+def closed_form_axis(p, u, axis):
+    """a, b, c of x' = a x + b - c sgn(x) for the axis, from the formulas of docs/design.md:
+    f_j = l Kt i_j / r, i_j = (u_j - Kv l v_j / r) / R; Fv = f3 - f1, Fvn = f0 - f2,
+    T = d (f0 + f1 + f2 + f3)."""
+    g = p["l"] * p["Kt"] / (p["r"] * p["R"])       # force per volt [N/V]
+    emf = g * p["Kv"] * p["l"] / p["r"]           # force per wheel speed [N/(m/s)]
+    if axis == 0:
+        return (-(2 * emf + p["Bv"]) / p["M"], g * (u[3] - u[1]) / p["M"], p["Cv"] / p["M"])
+    if axis == 1:
+        return (-(2 * emf + p["Bvn"]) / p["M"], g * (u[0] - u[2]) / p["M"], p["Cvn"] / p["M"])
+    d = p["d"]
+    return (-(4 * d * d * emf + p["Bw"]) / p["J"], d * g * sum(u) / p["J"], p["Cw"] / p["J"])
+
+
+@pytest.mark.parametrize("axis,u", [(0, [0.0, -6.0, 0.0, 6.0]), (1, [6.0, 0.0, -6.0, 0.0]),
+                                    (2, [3.0, 3.0, 3.0, 3.0])])
+def test_prediction_is_the_closed_form_of_a_voltage_step(axis, u):
+    pr = Predictor(T3)
+    a, b, c = closed_form_axis(T3, u, axis)
+    xss = -(b - c) / a
+    worst = 0.0
+    for k in range(3001):  # 3 s at 1 kHz from rest, bridges driven from the first sample
+        meas, pred, restarted = pr.step(k * 1000, k, 2, u, [0.0] * 4)
+        assert restarted == (k == 0)
+        t = k * 1e-3
+        want = xss * (1 - math.exp(a * t))
+        worst = max(worst, abs(pred[axis] - want))
+        for other in range(3):
+            if other != axis:
+                assert pred[other] == 0.0
+    assert worst < 1e-9 * abs(xss)
+    assert pred[axis] == pytest.approx(xss, rel=1e-3)  # 3 s = 10 time constants
+    # README's figures: steady speed at 6 V
+    if axis == 0:
+        assert xss == pytest.approx(1.1722, abs=1e-4)
+    if axis == 1:
+        assert xss == pytest.approx(1.1031, abs=1e-4)
+
+
+def test_coast_down_uses_null_traction():
+    """Bridges off (COAST): no drive and no back-EMF: x' = -B/M x - C/M, stop time
+    M/B ln(1 + B v0 / C) (README: 1.3008 s from 1.2 m/s)."""
+    pr = Predictor(T3)
+    v0 = 1.2
+    wheel = [0.0, -v0 / T3["r"], 0.0, v0 / T3["r"]]   # eq 2 for x = [v0, 0, 0]
+    meas, pred, restarted = pr.step(0, 0, 3, [0.0] * 4, wheel)
+    assert restarted and pred[0] == pytest.approx(v0) and meas[0] == pytest.approx(v0)
+    t_stop = T3["M"] / T3["Bv"] * math.log(1 + T3["Bv"] * v0 / T3["Cv"])
+    assert t_stop == pytest.approx(1.3008, abs=1e-4)
+    k = 1
+    while True:
+        _, pred, _ = pr.step(k * 1000, k, 3, [9.0] * 4, wheel)  # voltages ignored: bridges off
+        if pred[0] == 0.0:
+            break
+        k += 1
+        assert k < 5000
+    assert abs(k * 1e-3 - t_stop) <= 1e-3
+
+
+def test_encoder_velocity_is_eqs_3_to_5():
+    pr = Predictor(T3)
+    rng = random.Random(1)
+    for k in range(50):
+        w = np.float32([rng.uniform(-40, 40) for _ in range(4)]).tolist()  # motors_t: float
+        meas, _, _ = pr.step(k * 1000, k, 0, [0.0] * 4, w)
+        vw = [x * T3["r"] for x in w]
+        assert meas[0] == pytest.approx((vw[3] - vw[1]) / 2, abs=1e-12)
+        assert meas[1] == pytest.approx((vw[0] - vw[2]) / 2, abs=1e-12)
+        assert meas[2] == pytest.approx(sum(vw) / (4 * T3["d"]), abs=1e-12)
+
+
+def test_prediction_restarts_on_gaps_and_bridge_changes():
+    pr = Predictor(T3)
+    w = [0.0, -10.0, 0.0, 10.0]
+    seen = []
+    plan = [(0, 0, 2), (1000, 1, 2), (2000, 2, 1), (3000, 4, 1), (4000, 5, 1), (4000, 6, 1),
+            (104000, 7, 1), (105000, 8, 3), (106000, 9, 0), (107000, 10, 2)]
+    for ut, sq, md in plan:
+        meas, pred, r = pr.step(ut, sq, md, [1.0, 1.0, 1.0, 1.0], w)
+        seen.append(r)
+        if r:
+            assert pred == meas
+    # first; VOLTAGE->VELOCITY both driven: no; seq gap; no; utime not increasing; 100 ms jump;
+    # driven -> COAST; COAST -> IDLE both off: no; IDLE -> VOLTAGE
+    assert seen == [True, False, False, True, False, True, True, True, False, True]
+
+
+def test_batch_run_equals_step_by_step():
+    rng = np.random.default_rng(3)
+    n = 2000
+    ut = np.arange(n, dtype=np.int64) * 1000
+    sq = np.arange(n, dtype=np.int64)
+    sq[700:] += 3  # a gap
+    md = np.where((np.arange(n) // 300) % 2 == 0, 2, 3).astype(np.int8)
+    u = rng.uniform(-8, 8, (n, 4)).astype(np.float32)
+    w = rng.uniform(-30, 30, (n, 4)).astype(np.float32)
+    meas, pred, rst = Predictor(T3).run(ut, sq, md, u, w)
+    one = Predictor(T3)
+    for k in range(n):
+        m, p, r = one.step(int(ut[k]), int(sq[k]), int(md[k]), u[k].tolist(), w[k].tolist())
+        assert list(meas[k]) == m and list(pred[k]) == p and rst[k] == r
+
+
+# ---- INI ------------------------------------------------------------------------------------
+
+def write(tmp_path, name, text):
+    p = tmp_path / name
+    p.write_text(text)
+    return str(p)
+
+
+def test_ini_model_section(tmp_path):
+    assert ini.table3() == pytest.approx(T3)
+    # no [model]: Table III, as the firmware
+    p = write(tmp_path, "robot.ini", "[hal]\nmotor = sim\n[loop]\nrate_hz = 1000\n")
+    assert ini.read_model(p) == pytest.approx(T3)
+    body = "".join(f"{k} = {v * 1.1} ; comment\n" for k, v in T3.items())
+    p = write(tmp_path, "p.ini", "; identified\n[hal]\nmotor = sim\n[model]\n" + body)
+    got = ini.read_model(p)
+    assert got == pytest.approx({k: v * 1.1 for k, v in T3.items()})
+
+
+@pytest.mark.parametrize("text,msg", [
+    ("[model]\nd = 0.089\n", ":2: [model] lacks r l Kv"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()).replace("R = 4.3111", "R = x"),
+     ":7: [model] R = 'x' is not a number"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "Q = 1\n",
+     ":16: unknown key 'Q'"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "d = 1\n",
+     ":16: duplicate key 'd'"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()).replace("M = 2.34", "M = -2"),
+     "not physical"),
+    ("[model\nd = 1\n", ":1: malformed section header"),
+    ("[model]\nd = nan\n", "is not finite"),
+])
+def test_ini_errors_name_file_and_line(tmp_path, text, msg):
+    p = write(tmp_path, "bad.ini", text)
+    with pytest.raises(ini.ConfigError) as e:
+        ini.read_model(p)
+    assert str(e.value).startswith(p + ":") and msg in str(e.value), str(e.value)
+
+
+def test_ini_missing_file(tmp_path):
+    with pytest.raises(ini.ConfigError, match="cannot read"):
+        ini.read_model(str(tmp_path / "none.ini"))
+
+
+# ---- logs -----------------------------------------------------------------------------------
+
+T0_US = 1_700_000_000_000_000
+
+
+def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=()):
+    """A log of n motors samples at 1 kHz, a pose every 40, marks and commands, and one
+    channel no omni4 type decodes. Returns {channel: [(log_time_us, payload)]}."""
+    out = {}
+    log = lcm.EventLog(path, "w", overwrite=True)
+    rng = random.Random(7)
+
+    def put(t, ch, data):
+        log.write_event(t, ch, data)
+        out.setdefault(ch, []).append((t, data))
+
+    seq = 0
+    for k in range(n):
+        if gap_at is not None and k == gap_at:
+            seq += 5
+        m = omni4.motors_t()
+        m.utime, m.seq, m.mode = k * 1000, seq, 2 if (k // 700) % 2 == 0 else 3
+        m.faults = (topics.FAULT_OVERRUN if k in overruns else 0) | \
+            (topics.FAULT_CMD_REJECTED if k in rejected else 0)
+        m.voltage = [rng.uniform(-12, 12) for _ in range(4)]
+        m.current = [rng.uniform(-3, 3) for _ in range(4)]
+        m.wheel_speed = [rng.uniform(-40, 40) for _ in range(4)]
+        put(T0_US + k * 1000, omni4.CHANNEL_MOTORS, m.encode())
+        seq += 1
+        if k % 40 == 0:
+            p = omni4.pose_t()
+            p.utime, p.x, p.y, p.theta = k * 1000, rng.uniform(-2, 2), rng.uniform(-2, 2), \
+                rng.uniform(-3, 3)
+            put(T0_US + k * 1000 + 1, omni4.CHANNEL_POSE, p.encode())
+        if k % 700 == 0:
+            e = omni4.experiment_t()
+            e.utime, e.kind, e.direction, e.level = k * 1000, "step", "vn", 6.0
+            put(T0_US + k * 1000 + 2, omni4.CHANNEL_EXPERIMENT, e.encode())
+            c = omni4.command_t()
+            c.utime, c.seq, c.mode, c.ramp_s = k * 1000, k, 1, 0.1
+            c.velocity, c.voltage = [0.5, -0.25, 1.0], [0.0] * 4
+            put(T0_US + k * 1000 + 3, omni4.CHANNEL_CMD, c.encode())
+    put(T0_US + n * 1000, "OMNI4_SOMETHING_ELSE", b"\x00\x01not an omni4 type")
+    log.close()
+    return out
+
+
+def test_log_reader_truncated_and_corrupt(tmp_path):
+    path = str(tmp_path / "a.lcmlog")
+    synth_log(path, n=200)
+    events, st = lcmlog.read_events(path)
+    full = len(events)
+    assert st.lost() == "" and full == 200 + 5 + 2 + 1
+    data = open(path, "rb").read()
+    # cut inside the last event
+    cut = str(tmp_path / "cut.lcmlog")
+    open(cut, "wb").write(data[:-7])
+    ev, st = lcmlog.read_events(cut)
+    assert len(ev) == full - 1 and st.truncated_bytes > 0 and "truncated" in st.lost()
+    # 13 bytes of junk after the first event's header position
+    first_len = 28 + len(events[0][1]) + len(events[0][2])
+    bad = str(tmp_path / "bad.lcmlog")
+    open(bad, "wb").write(data[:first_len] + b"\x55" * 13 + data[first_len:])
+    ev, st = lcmlog.read_events(bad)
+    assert len(ev) == full and st.skipped_bytes == 13 and st.resyncs == 1
+    # not a log
+    junk = str(tmp_path / "junk.bin")
+    open(junk, "wb").write(os.urandom(4000).replace(lcmlog.SYNC_BYTES, b"xxxx"))
+    with pytest.raises(lcmlog.LogError, match="no intact LCM event"):
+        lcmlog.read_events(junk)
+    with pytest.raises(lcmlog.LogError, match="No such file"):
+        lcmlog.read_events(str(tmp_path / "none.lcmlog"))
+
+
+def test_fast_motors_decoder_equals_lcm_gen(tmp_path):
+    path = str(tmp_path / "a.lcmlog")
+    payloads = [d for _, d in synth_log(path, n=500)[omni4.CHANNEL_MOTORS]]
+    fast = export.decode_motors(payloads)
+    for k, p in enumerate(payloads):
+        m = omni4.motors_t.decode(p)
+        assert (fast["utime"][k], fast["seq"][k], fast["mode"][k], fast["faults"][k]) == \
+            (m.utime, m.seq, m.mode, m.faults)
+        for f in ("voltage", "current", "wheel_speed"):
+            assert fast[f][k].tolist() == list(getattr(m, f))
+
+
+def test_health_counts():
+    h = topics.Health()
+    seq = 0
+    for k in range(1000):
+        if k == 100:
+            seq += 4   # 4 samples lost
+        ut = k * 1000 + (3000 if k >= 500 else 0)  # one late tick at k = 500
+        faults = (topics.FAULT_OVERRUN if k in (10, 11, 800) else 0) | \
+            (topics.FAULT_CMD_REJECTED if 200 <= k < 210 or 300 <= k < 305 else 0)
+        h.add(ut, seq, 1, faults)
+        seq += 1
+    r = json.loads(h.report(1.0))
+    assert (r["dropped"], r["overruns"], r["rejected_commands"], r["late_ticks"]) == (4, 3, 2, 1)
+    assert r["samples"] == 1000 and r["loop_rate_hz"] == pytest.approx(999 / 1.002)
+    assert r["mode_name"] == "VELOCITY" and r["faults"] == []
+    assert topics.fault_names(0x1400 | 0x8000) == ["CMD_REJECTED", "OVERRUN", "UNKNOWN_0x8000"]
+
+
+# ---- omni4-mcap -----------------------------------------------------------------------------
+
+def read_mcap_python(path):
+    """The mcap library's reader, CRCs validated: {topic: [(log_time_ns, schema, json)]}."""
+    from mcap.reader import make_reader
+    out = {}
+    with open(path, "rb") as fh:
+        r = make_reader(fh, validate_crcs=True)
+        summary = r.get_summary()
+        for schema, channel, message in r.iter_messages(log_time_order=False):
+            assert channel.message_encoding == "json" and schema.encoding == "jsonschema"
+            json.loads(schema.data)
+            out.setdefault(channel.topic, []).append(
+                (message.log_time, schema.name, json.loads(message.data)))
+        compressions = {c.compression for c in summary.chunk_indexes}
+    # and once more from the first byte to the footer, streamed (data section CRC)
+    from mcap.stream_reader import StreamReader
+    with open(path, "rb") as fh:
+        assert sum(1 for _ in StreamReader(fh, validate_crcs=True).records) > 0
+    return out, summary, compressions
+
+
+def check_mcap_against_log(got, logged, params):
+    """Counts per channel and values of the omni4 channels equal the LCM log's."""
+    for ch, evs in logged.items():
+        assert len(got[ch]) == len(evs), ch
+        assert [t for t, _, _ in got[ch]] == [t * 1000 for t, _ in evs], ch
+    mot = got[omni4.CHANNEL_MOTORS]
+    for (t, schema, j), (_, data) in zip(mot, logged[omni4.CHANNEL_MOTORS]):
+        m = omni4.motors_t.decode(data)
+        assert schema == "omni4.motors_t"
+        assert (j["utime"], j["seq"], j["mode"], j["faults"]) == (m.utime, m.seq, m.mode,
+                                                                  m.faults)
+        assert j["mode_name"] == topics.MODE_NAMES[m.mode]
+        for f in ("voltage", "current", "wheel_speed"):
+            assert np.float32(j[f]).tolist() == list(getattr(m, f)), f
+    for (t, schema, j), (_, data) in zip(got[omni4.CHANNEL_POSE], logged[omni4.CHANNEL_POSE]):
+        m = omni4.pose_t.decode(data)
+        assert (j["utime"], j["x"], j["y"], j["theta"]) == (m.utime, m.x, m.y, m.theta)
+    for (_, _, j), (_, data) in zip(got[omni4.CHANNEL_CMD], logged[omni4.CHANNEL_CMD]):
+        m = omni4.command_t.decode(data)
+        assert j["velocity"] == list(m.velocity) and j["mode_name"] == "VELOCITY"
+    for (_, _, j), (_, data) in zip(got[omni4.CHANNEL_EXPERIMENT],
+                                    logged[omni4.CHANNEL_EXPERIMENT]):
+        m = omni4.experiment_t.decode(data)
+        assert (j["kind"], j["direction"], j["level"]) == (m.kind, m.direction, m.level)
+    # derived: one velocity per motors sample, the prediction of a fresh Predictor
+    vel = got[topics.TOPIC_VELOCITY]
+    assert len(vel) == len(mot)
+    assert [t for t, _, _ in vel] == [t for t, _, _ in mot]
+    assert [j["seq"] for _, _, j in vel] == [j["seq"] for _, _, j in mot]
+    assert {s for _, s, _ in vel} == {"omni4.velocity"}
+    ms = [j for _, _, j in mot]
+    meas, pred, rst = Predictor(params).run([j["utime"] for j in ms], [j["seq"] for j in ms],
+                                            [j["mode"] for j in ms],
+                                            [j["voltage"] for j in ms],
+                                            [j["wheel_speed"] for j in ms])
+    axes = ("v", "vn", "w")
+    enc = np.array([[j["encoder"][a] for a in axes] for _, _, j in vel])
+    prd = np.array([[j["predicted"][a] for a in axes] for _, _, j in vel])
+    dif = np.array([[j["difference"][a] for a in axes] for _, _, j in vel])
+    np.testing.assert_allclose(enc, meas, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(prd, pred, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(dif, enc - prd, rtol=0, atol=1e-12)
+    assert [j["restarted"] for _, _, j in vel] == rst.tolist()
+    # pose as Foxglove's transform and pose
+    tf, pose = got[topics.TOPIC_TF], got[topics.TOPIC_POSE]
+    assert len(tf) == len(pose) == len(logged[omni4.CHANNEL_POSE])
+    for (t, schema, j), (_, data) in zip(tf, logged[omni4.CHANNEL_POSE]):
+        m = omni4.pose_t.decode(data)
+        assert schema == "foxglove.FrameTransform"
+        assert (j["translation"]["x"], j["translation"]["y"]) == (m.x, m.y)
+        q = j["rotation"]
+        assert 2 * math.atan2(q["z"], q["w"]) == pytest.approx(
+            math.atan2(math.sin(m.theta), math.cos(m.theta)), abs=1e-12)
+        assert j["timestamp"]["sec"] * 10**9 + j["timestamp"]["nsec"] == t
+    assert got[topics.TOPIC_SCENE][0][1] == "foxglove.SceneUpdate"
+    assert len(got[topics.TOPIC_SCENE][0][2]["entities"][0]["cylinders"]) == 4
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4"])
+def test_mcap_of_a_synthetic_log(tmp_path, compression, capsys):
+    log = str(tmp_path / "s.lcmlog")
+    out = str(tmp_path / "s.mcap")
+    logged = synth_log(log, n=3000, gap_at=1500, overruns=(10, 2500), rejected=(40, 41, 900))
+    assert export.main([log, "--out", out, "--compression", compression]) == 0
+    err = capsys.readouterr().err
+    got, summary, comps = read_mcap_python(out)
+    assert comps == {compression} and len(summary.chunk_indexes) >= 1
+    check_mcap_against_log(got, logged, T3)
+    raw = got["OMNI4_SOMETHING_ELSE"][0]
+    assert raw[1] == "omni4.lcm_raw"
+    assert raw[2]["data_base64"] and "OMNI4_SOMETHING_ELSE 1" in err
+    health = [j for _, _, j in got[topics.TOPIC_HEALTH]]
+    assert len(health) == 3  # 3 s of log, 1 s windows (the last one partial)
+    assert sum(h["samples"] for h in health) == 3000
+    assert health[-1]["dropped_total"] == 5 and health[-1]["overruns_total"] == 2
+    assert health[-1]["rejected_commands_total"] == 2
+    assert health[0]["loop_rate_hz"] == pytest.approx(1000, rel=1e-3)
+    assert not os.path.exists(out + f".tmp{os.getpid()}")
+
+
+def test_mcap_errors(tmp_path, capsys):
+    log = str(tmp_path / "s.lcmlog")
+    synth_log(log, n=300)
+    out = str(tmp_path / "o.mcap")
+    n_events = len(lcmlog.read_events(log)[0])
+
+    def run(*args):
+        capsys.readouterr()
+        try:
+            rc = export.main(list(args))
+        except SystemExit as e:  # argparse
+            rc = e.code
+        return rc, capsys.readouterr().err.strip().splitlines()
+
+    rc, err = run(str(tmp_path / "none.lcmlog"), "--out", out, "-q")
+    assert rc == 1 and err == [f"omni4-mcap: {tmp_path}/none.lcmlog: No such file or directory"]
+    junk = tmp_path / "junk.bin"
+    junk.write_bytes(b"\x00" * 1000)
+    rc, err = run(str(junk), "--out", out, "-q")
+    assert rc == 1 and len(err) == 1 and "no intact LCM event" in err[0]
+    bad = write(tmp_path, "bad.ini", "[model]\nd = 1\n")
+    rc, err = run(log, "--out", out, "--params", bad, "-q")
+    assert rc == 2 and len(err) == 1 and err[0].startswith(f"omni4-mcap: {bad}:2:")
+    rc, err = run(log, "-q")  # no --out
+    assert rc == 2
+    assert not os.path.exists(out)
+    # truncated: the complete events are converted, the loss is named, status 1 (0 if allowed)
+    cut = tmp_path / "cut.lcmlog"
+    cut.write_bytes(open(log, "rb").read()[:-20])
+    rc, err = run(str(cut), "--out", out, "-q")
+    assert rc == 1 and len(err) == 1 and "truncated: the last" in err[0]
+    assert f"the {n_events - 1} complete events were converted" in err[0]
+    got, _, _ = read_mcap_python(out)
+    assert sum(len(got[c]) for c in got if not c.startswith("/")) == n_events - 1
+    rc, err = run(str(cut), "--out", out, "-q", "--partial-ok")
+    assert rc == 0 and "truncated" in err[0]
+
+
+def test_console_scripts_have_help():
+    bindir = os.path.dirname(sys.executable)
+    for tool in ("omni4-mcap", "omni4-bridge"):
+        r = subprocess.run([os.path.join(bindir, tool), "--help"], capture_output=True,
+                           text=True, timeout=60)
+        assert r.returncode == 0 and "usage: " + tool in r.stdout
