@@ -48,6 +48,31 @@ if ! .venv/bin/python -c "import pytest" 2>/dev/null; then
   echo "setup: pip install pytest (into .venv)"
   .venv/bin/pip install --quiet "pytest==9.*"
 fi
+# omni4-bridge and omni4-mcap (python/omni4/foxglove): the Foxglove SDK (WebSocket server,
+# MCAP writer) and a fast JSON encoder; for their tests the mcap reader (+ zstandard), and a
+# WebSocket client. Pinned; reinstalled only when a version differs.
+FOX_PIP=("foxglove-sdk==0.30.3" "orjson==3.13.0" "mcap==1.6.0" "zstandard==0.25.0" "websockets==17.4")
+if ! .venv/bin/python - "${FOX_PIP[@]}" 2>/dev/null <<'PY'
+import sys
+from importlib.metadata import version
+sys.exit(any(version(n) != v for n, v in (p.split("==") for p in sys.argv[1:])))
+PY
+then
+  echo "setup: pip install ${FOX_PIP[*]} (into .venv)"
+  .venv/bin/pip install --quiet "${FOX_PIP[@]}"
+fi
+# The TypeScript MCAP reader (@mcap/core) the tests check omni4-mcap's files with:
+# tests/foxglove/package.json + package-lock.json pin it; npm ci installs exactly those.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  echo "setup: installing nodejs npm"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+fi
+if ! cmp -s tests/foxglove/package-lock.json tests/foxglove/node_modules/.omni4-installed-lock; then
+  echo "setup: npm ci (tests/foxglove: @mcap/core)"
+  (cd tests/foxglove && npm ci --no-audit --no-fund --loglevel=error >/dev/null \
+    && cp package-lock.json node_modules/.omni4-installed-lock)
+fi
 # The project's own Python package (python/: LCM types generated from lcmtypes/, log reader,
 # client), reinstalled every time so it follows the .lcm files (about 2 s).
 .venv/bin/pip install --quiet --no-build-isolation --no-deps ./python
