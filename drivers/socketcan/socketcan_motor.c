@@ -29,7 +29,7 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 	atomic_init(&m->in_flight, 0);
 	for (int n = 0; n < CAN_NODES; n++)
 		m->node[n].status_candidate = m->node[n].health_candidate = -1;
-	m->opened_us = sc_os_now_us();
+	m->opened_us = m->last_read_us = sc_os_now_us();
 	return 0;
 }
 
@@ -375,8 +375,13 @@ static int sc_read(void *ctx, struct motor_sample *out)
 	struct omni4_can_frame f;
 	uint32_t err;
 	int k, rc = 0;
+	const int64_t since_ms = (now - m->last_read_us) / 1000;
+	const int budget = SC_MAX_FRAMES_PER_READ *
+			   (int)(since_ms < 1 ? 1 : since_ms > SC_MAX_READ_CATCHUP ? SC_MAX_READ_CATCHUP
+										   : since_ms);
 
-	for (k = 0; k < SC_MAX_FRAMES_PER_READ; k++) {
+	m->last_read_us = now;
+	for (k = 0; k < budget; k++) {
 		rc = sc_os_recv(m->fd, &f, &err);
 		if (rc < 0)
 			break;
@@ -391,7 +396,7 @@ static int sc_read(void *ctx, struct motor_sample *out)
 		m->n.rx_frames++;
 		handle(m, &f, now);
 	}
-	if (k == SC_MAX_FRAMES_PER_READ)
+	if (k == budget)
 		m->n.flood_cut++;
 	else if (rc != -EAGAIN && rc < 0)
 		return rc;

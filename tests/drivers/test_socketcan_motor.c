@@ -264,6 +264,58 @@ static struct gap_result counter_step(int step)
 	return r;
 }
 
+/* Frames that arrive while the loop is stalled queue up: a read 10 ms late takes up to 10 x 64
+ * frames, so both nodes' STATUS behind 100 junk frames are seen (no DRIVER_TIMEOUT with a 5 ms
+ * status timeout), while a read on time still stops at 64. */
+static void push_junk_status(int n)
+{
+	for (int k = 0; k < n; k++) {
+		struct omni4_can_frame *f = &rxq[rx_tail];
+
+		memset(f, 0, sizeof(*f));
+		f->id = CAN_ID_STATUS(0);
+		f->dlc = 8;
+		for (int b = 0; b < 8; b++)
+			f->data[b] = (uint8_t)(0xA5 ^ (k * 7 + b * 13));
+		rxerr[rx_tail++] = 0;
+	}
+}
+
+static void test_a_late_read_catches_up_with_the_queue(void **state)
+{
+	(void)state;
+	struct socketcan_motor m;
+	struct motor_sample s;
+
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	struct motor_hal h = socketcan_motor_hal(&m);
+
+	push_both(0.5f, 5.0f, 0);
+	clock_us += 1000;
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	clock_us += 10000; /* the loop was stalled for 10 ms */
+	push_junk_status(100);
+	push_both(0.5f, 5.0f, 1);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	assert_int_equal(m.n.rx_frames, 104);
+	assert_int_equal(m.n.flood_cut, 0);
+	assert_int_equal(m.n.crc_errors, 100);
+
+	clock_us += 1000; /* on time again: the 64-frame bound */
+	push_junk_status(20);
+	push_both(0.5f, 5.0f, 2);
+	hal_motor_read(&h, &s);
+	assert_int_equal(m.n.rx_frames, 104 + 22);
+	rx_head = rx_tail = 0;
+	push_junk_status(70);
+	clock_us += 1000;
+	hal_motor_read(&h, &s);
+	assert_int_equal(m.n.rx_frames, 104 + 22 + 64);
+	assert_int_equal(m.n.flood_cut, 1);
+	hal_motor_close(&h);
+}
+
 static void test_counter_gap_boundaries_from_the_specification(void **state)
 {
 	(void)state;
@@ -591,6 +643,7 @@ int main(void)
 		cmocka_unit_test_setup(test_replayed_and_corrupt_frames_are_rejected_and_counted, reset),
 		cmocka_unit_test_setup(test_silent_node_times_out_and_bus_off_faults, reset),
 		cmocka_unit_test_setup(test_a_flood_is_cut_at_the_per_tick_bound, reset),
+		cmocka_unit_test_setup(test_a_late_read_catches_up_with_the_queue, reset),
 		cmocka_unit_test_setup(test_counter_gap_boundaries_from_the_specification, reset),
 		cmocka_unit_test_setup(test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame,
 				       reset),
