@@ -1,0 +1,141 @@
+"""omni4.Robot without a controller, on real LCM (udpm, ttl=0, a random port): the command
+stream it sends (seq, utime, keep-alive period, IDLE on stop and close), argument checks, and
+the bounded waits."""
+import importlib
+import math
+import random
+import threading
+import time
+
+import lcm
+import pytest
+
+import omni4
+
+KEEPALIVE_S = 0.05
+
+
+def random_url():
+    return f"udpm://239.255.76.67:{random.randint(7900, 8400)}?ttl=0"
+
+
+class Listener:
+    """Collects (monotonic receive time [s], command_t) from OMNI4_CMD on its own LCM."""
+
+    def __init__(self, url):
+        self.lc = lcm.LCM(url)
+        self.cmds = []
+        self.lc.subscribe(omni4.CHANNEL_CMD, self._on)
+        self.done = threading.Event()
+        self.t = threading.Thread(target=self._loop, daemon=True)
+        self.t.start()
+
+    def _on(self, _ch, data):
+        self.cmds.append((time.monotonic(), omni4.command_t.decode(data)))
+
+    def _loop(self):
+        while not self.done.is_set():
+            self.lc.handle_timeout(20)
+
+    def close(self):
+        self.done.set()
+        self.t.join(2)
+        assert not self.t.is_alive(), "listener thread did not end within 2 s"
+
+
+@pytest.fixture
+def bus():
+    url = random_url()
+    listener = Listener(url)
+    yield url, listener
+    listener.close()
+
+
+def test_keepalive_resends_the_last_command_with_increasing_seq(bus):
+    url, listener = bus
+    with omni4.Robot(url, keepalive_s=KEEPALIVE_S) as robot:
+        t0 = time.monotonic()
+        robot.velocity(0.25, -0.1, 1.5)
+        time.sleep(1.0)
+        robot.stop()
+        t_stop = time.monotonic()
+        time.sleep(0.3)
+    cmds = [(t, c) for t, c in listener.cmds if t >= t0]
+    vel = [(t, c) for t, c in cmds if c.mode == omni4.command_t.MODE_VELOCITY]
+    # 1 s at 50 ms: 20 messages (measured 20-21); at least 16 on a loaded machine.
+    assert len(vel) >= 16, f"{len(vel)} VELOCITY messages in 1 s"
+    assert all(list(c.velocity) == [0.25, -0.1, 1.5] for _, c in vel)
+    gaps = [b[0] - a[0] for a, b in zip(vel, vel[1:])]
+    # The watchdog (200 ms) must never see a gap near it: measured max ~55 ms.
+    assert max(gaps) < 0.12, f"largest gap between keep-alives {max(gaps) * 1e3:.0f} ms"
+    seqs = [c.seq for _, c in cmds]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "seq must increase by one"
+    now_us = time.time() * 1e6
+    assert all(abs(c.utime - now_us) < 5e6 for _, c in cmds), "utime: the host clock [us]"
+    # After stop(): one IDLE, then nothing moving.
+    after = [c for t, c in cmds if t > t_stop]
+    assert all(c.mode == omni4.command_t.MODE_IDLE for c in after)
+    assert any(c.mode == omni4.command_t.MODE_IDLE for _, c in cmds)
+
+
+def test_voltage_and_coast_are_kept_alive_and_close_sends_idle(bus):
+    url, listener = bus
+    robot = omni4.Robot(url, keepalive_s=KEEPALIVE_S)
+    robot.voltage([1.0, -2.0, 3.0, -4.0], ramp_s=0.5)
+    time.sleep(0.3)
+    robot.coast()
+    time.sleep(0.3)
+    robot.close()
+    time.sleep(0.2)
+    modes = [c.mode for _, c in listener.cmds]
+    volt = [c for _, c in listener.cmds if c.mode == omni4.command_t.MODE_VOLTAGE]
+    assert len(volt) >= 4 and all(list(c.voltage) == [1, -2, 3, -4] and c.ramp_s == 0.5
+                                  for c in volt)
+    assert modes.count(omni4.command_t.MODE_COAST) >= 4
+    assert modes[-1] == omni4.command_t.MODE_IDLE
+    assert not robot._ka.is_alive() and not robot._rx.is_alive()
+    with pytest.raises(RuntimeError, match="closed"):
+        robot.velocity(0, 0, 0)
+    robot.close()  # idempotent
+
+
+def test_motors_iterator_times_out_without_a_controller():
+    with omni4.Robot(random_url()) as robot:
+        t = time.monotonic()
+        with pytest.raises(TimeoutError, match="no OMNI4_MOTORS for 0.3 s"):
+            for _ in robot.motors(timeout_s=0.3):
+                pass
+        took = time.monotonic() - t
+        assert 0.29 <= took < 1.0, f"timeout of 0.3 s took {took:.3f} s"
+        t = time.monotonic()
+        assert list(robot.motors(timeout_s=5, duration_s=0.2)) == []
+        assert time.monotonic() - t < 1.0
+        with pytest.raises(TimeoutError, match="a sample out of FAULT"):
+            robot.clear_fault(timeout_s=0.2)
+        assert robot.latest is None and math.isinf(robot.latest_age_s)
+
+
+def test_bad_arguments_are_refused_before_sending(bus):
+    url, listener = bus
+    with omni4.Robot(url) as robot:
+        with pytest.raises(ValueError, match="finite"):
+            robot.velocity(float("nan"), 0, 0)
+        with pytest.raises(ValueError, match="4 values"):
+            robot.voltage([1, 2, 3])
+        with pytest.raises(ValueError, match="keepalive_s"):
+            omni4.Robot(url, keepalive_s=0)
+        time.sleep(0.1)
+        assert robot.sent == 0
+    with pytest.raises(RuntimeError, match="cannot open LCM URL"):
+        omni4.Robot("nonsense://")
+
+
+def test_params_is_the_param_client_or_a_clear_attribute_error():
+    with omni4.Robot(random_url()) as robot:
+        try:
+            importlib.import_module("omni4.params")
+        except ImportError:
+            with pytest.raises(AttributeError, match="needs omni4.params.ParamClient"):
+                robot.params
+        else:
+            assert type(robot.params).__name__ == "ParamClient"
