@@ -2,6 +2,11 @@
 #include "omni4/config.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
 #include <ini.h>
 #include <math.h>
 #include <stddef.h>
@@ -9,75 +14,99 @@
 #include <string.h>
 #include <strings.h>
 
-enum key_type { KEY_DOUBLE, KEY_INT, KEY_BOOL, KEY_STRING };
-
-struct key_desc {
-	const char *section;
-	const char *name;
-	enum key_type type;
-	size_t offset;
-	double min, max; /* inclusive range for numbers */
-	const char *choices; /* for strings: "a|b|c", NULL = any */
-};
-
 #define OFF(field) offsetof(struct omni4_config, field)
-#define DBL(sec, key, field, lo, hi) {sec, key, KEY_DOUBLE, OFF(field), lo, hi, NULL}
-#define INT(sec, key, field, lo, hi) {sec, key, KEY_INT, OFF(field), lo, hi, NULL}
-#define BOOL(sec, key, field) {sec, key, KEY_BOOL, OFF(field), 0, 1, NULL}
-#define STR(sec, key, field, ch) {sec, key, KEY_STRING, OFF(field), 0, 0, ch}
+#define KEY(sec, key, t, field, lo, hi, ch, unit, chg, doc) \
+	{sec, key, t, OFF(field), lo, hi, ch, unit, chg, doc}
+#define DBL(sec, key, field, lo, hi, unit, chg, doc) \
+	KEY(sec, key, CONFIG_DOUBLE, field, lo, hi, NULL, unit, chg, doc)
+#define INT(sec, key, field, lo, hi, unit, chg, doc) \
+	KEY(sec, key, CONFIG_INT, field, lo, hi, NULL, unit, chg, doc)
+#define BOOL(sec, key, field, chg, doc) KEY(sec, key, CONFIG_BOOL, field, 0, 1, NULL, "", chg, doc)
+#define STR(sec, key, field, ch, chg, doc) \
+	KEY(sec, key, CONFIG_STRING, field, 0, 0, ch, "", chg, doc)
+#define INF INFINITY
+#define LIVE CONFIG_LIVE
+#define IDLE CONFIG_IDLE
+#define RESTART CONFIG_RESTART
 
-/* [model] keys come first, in model_params_names order (checked at start-up of the table). */
-static const struct key_desc keys[] = {
-	DBL("model", "d", model.d, -INFINITY, INFINITY),
-	DBL("model", "r", model.r, -INFINITY, INFINITY),
-	DBL("model", "l", model.l, -INFINITY, INFINITY),
-	DBL("model", "Kv", model.Kv, -INFINITY, INFINITY),
-	DBL("model", "Kt", model.Kt, -INFINITY, INFINITY),
-	DBL("model", "R", model.R, -INFINITY, INFINITY),
-	DBL("model", "M", model.M, -INFINITY, INFINITY),
-	DBL("model", "J", model.J, -INFINITY, INFINITY),
-	DBL("model", "Bv", model.Bv, -INFINITY, INFINITY),
-	DBL("model", "Bvn", model.Bvn, -INFINITY, INFINITY),
-	DBL("model", "Bw", model.Bw, -INFINITY, INFINITY),
-	DBL("model", "Cv", model.Cv, -INFINITY, INFINITY),
-	DBL("model", "Cvn", model.Cvn, -INFINITY, INFINITY),
-	DBL("model", "Cw", model.Cw, -INFINITY, INFINITY),
-	DBL("loop", "rate_hz", loop.rate_hz, 1.0, 20000.0),
-	BOOL("loop", "sched_fifo", loop.sched_fifo),
-	INT("loop", "priority", loop.priority, 1, 99),
-	BOOL("loop", "mlockall", loop.mlockall),
-	INT("loop", "cpu_dma_latency_us", loop.cpu_dma_latency_us, -1, 100000),
-	DBL("control", "kp", control.kp, 0.0, 1e4),
-	DBL("control", "ki", control.ki, 0.0, 1e6),
-	BOOL("control", "feedforward", control.feedforward),
-	BOOL("control", "feedback", control.feedback),
-	INT("control", "cmd_timeout_ms", control.cmd_timeout_ms, 1, 600000),
-	DBL("control", "stop_ramp_s", control.stop_ramp_s, 0.0, 60.0),
-	DBL("limits", "supply_v", limits.supply_v, 0.1, 1000.0),
-	DBL("limits", "supply_min_v", limits.supply_min_v, 0.0, 1000.0),
-	DBL("limits", "vel_lin_max", limits.vel_lin_max, 0.0, 100.0),
-	DBL("limits", "vel_rot_max", limits.vel_rot_max, 0.0, 1000.0),
-	DBL("limits", "acc_lin_max", limits.acc_lin_max, 1e-3, 1000.0),
-	DBL("limits", "acc_rot_max", limits.acc_rot_max, 1e-3, 10000.0),
-	DBL("limits", "current_max_a", limits.current_max_a, 0.0, 1000.0),
-	DBL("limits", "current_sensor_max_a", limits.current_sensor_max_a, 0.0, 1000.0),
-	STR("lcm", "url", lcm.url, NULL),
-	STR("hal", "motor", hal.motor, "sim|socketcan"),
-	STR("hal", "lines", hal.lines, "none|sim|gpiod"),
-	DBL("sim", "current_noise_a", sim.current_noise_a, 0.0, 100.0),
-	INT("sim", "encoder_cpr", sim.encoder_cpr, 0, 1 << 24),
-	DBL("sim", "camera_rate_hz", sim.camera_rate_hz, 0.1, 10000.0),
-	DBL("sim", "camera_pos_noise_m", sim.camera_pos_noise_m, 0.0, 10.0),
-	DBL("sim", "camera_theta_noise_rad", sim.camera_theta_noise_rad, 0.0, 10.0),
-	INT("sim", "seed", sim.seed, 0, 2147483647),
-	STR("can", "iface", can.iface, NULL),
-	INT("can", "bitrate", can.bitrate, 10000, 8000000),
-	INT("can", "status_timeout_ms", can.status_timeout_ms, 1, 10000),
-	STR("gpio", "chip", gpio.chip, NULL),
-	INT("gpio", "estop_line", gpio.estop_line, -1, 4095),
-	BOOL("gpio", "estop_active_low", gpio.estop_active_low),
-	INT("gpio", "enable_line", gpio.enable_line, -1, 4095),
-	INT("gpio", "led_line", gpio.led_line, -1, 4095),
+/*
+ * The one table of keys: the INI parser, the writer and the parameter service (over LCM) all
+ * use it. [model] keys come first, in model_params_names order (test_config checks it); their
+ * real check is model_params_check on the whole model (> 0, or >= 0 for friction), after all
+ * keys are in. When a key may change over the bus (docs/design.md): LIVE in any mode, IDLE
+ * only while the bridges are not driven, RESTART only in the INI.
+ */
+static const struct config_key keys[] = {
+	DBL("model", "d", model.d, -INF, INF, "m", IDLE, "wheel distance from the centre, > 0"),
+	DBL("model", "r", model.r, -INF, INF, "m", IDLE, "wheel radius, > 0"),
+	DBL("model", "l", model.l, -INF, INF, "", IDLE, "gearbox reduction, > 0"),
+	DBL("model", "Kv", model.Kv, -INF, INF, "V/(rad/s)", LIVE, "back-EMF constant, > 0"),
+	DBL("model", "Kt", model.Kt, -INF, INF, "N m/A", LIVE, "torque constant, > 0"),
+	DBL("model", "R", model.R, -INF, INF, "ohm", LIVE, "motor + bridge resistance, > 0"),
+	DBL("model", "M", model.M, -INF, INF, "kg", LIVE, "mass, > 0"),
+	DBL("model", "J", model.J, -INF, INF, "kg m^2", LIVE, "moment of inertia, > 0"),
+	DBL("model", "Bv", model.Bv, -INF, INF, "N/(m/s)", LIVE, "viscous friction along v, >= 0"),
+	DBL("model", "Bvn", model.Bvn, -INF, INF, "N/(m/s)", LIVE, "viscous friction along vn, >= 0"),
+	DBL("model", "Bw", model.Bw, -INF, INF, "N m/(rad/s)", LIVE, "viscous friction about w, >= 0"),
+	DBL("model", "Cv", model.Cv, -INF, INF, "N", LIVE, "Coulomb friction along v, >= 0"),
+	DBL("model", "Cvn", model.Cvn, -INF, INF, "N", LIVE, "Coulomb friction along vn, >= 0"),
+	DBL("model", "Cw", model.Cw, -INF, INF, "N m", LIVE, "Coulomb friction about w, >= 0"),
+	DBL("loop", "rate_hz", loop.rate_hz, 1.0, 20000.0, "Hz", RESTART, "loop rate"),
+	BOOL("loop", "sched_fifo", loop.sched_fifo, RESTART, "run the loop SCHED_FIFO"),
+	INT("loop", "priority", loop.priority, 1, 99, "", RESTART, "SCHED_FIFO priority"),
+	BOOL("loop", "mlockall", loop.mlockall, RESTART, "lock all memory at start"),
+	INT("loop", "cpu_dma_latency_us", loop.cpu_dma_latency_us, -1, 100000, "us", RESTART,
+	    "PM QoS wake-up latency, -1 = leave alone"),
+	DBL("control", "kp", control.kp, 0.0, 1e4, "V/(m/s)", LIVE, "PI proportional gain"),
+	DBL("control", "ki", control.ki, 0.0, 1e6, "V/m", LIVE, "PI integral gain"),
+	BOOL("control", "feedforward", control.feedforward, LIVE, "model-based feedforward on"),
+	BOOL("control", "feedback", control.feedback, LIVE, "PI on wheel speed on"),
+	INT("control", "cmd_timeout_ms", control.cmd_timeout_ms, 1, 600000, "ms", LIVE,
+	    "watchdog: no command for this long stops the robot"),
+	DBL("control", "stop_ramp_s", control.stop_ramp_s, 0.0, 60.0, "s", LIVE,
+	    "ramp length of the watchdog stop"),
+	DBL("limits", "supply_v", limits.supply_v, 0.1, 1000.0, "V", IDLE,
+	    "bridge supply; outputs clamped to +-supply_v; > supply_min_v"),
+	DBL("limits", "supply_min_v", limits.supply_min_v, 0.0, 1000.0, "V", IDLE,
+	    "below it: FAULT_SUPPLY; < supply_v"),
+	DBL("limits", "vel_lin_max", limits.vel_lin_max, 0.0, 100.0, "m/s", LIVE,
+	    "largest commanded v, vn"),
+	DBL("limits", "vel_rot_max", limits.vel_rot_max, 0.0, 1000.0, "rad/s", LIVE,
+	    "largest commanded w"),
+	DBL("limits", "acc_lin_max", limits.acc_lin_max, 1e-3, 1000.0, "m/s^2", LIVE,
+	    "reference shaping along v, vn"),
+	DBL("limits", "acc_rot_max", limits.acc_rot_max, 1e-3, 10000.0, "rad/s^2", LIVE,
+	    "reference shaping about w"),
+	DBL("limits", "current_max_a", limits.current_max_a, 0.0, 1000.0, "A", IDLE,
+	    "over-current fault level"),
+	DBL("limits", "current_sensor_max_a", limits.current_sensor_max_a, 0.0, 1000.0, "A", IDLE,
+	    "a reading at or beyond it is a saturated sensor"),
+	STR("lcm", "url", lcm.url, NULL, RESTART, "LCM URL of the robot"),
+	STR("hal", "motor", hal.motor, "sim|socketcan", RESTART, "motor backend"),
+	STR("hal", "lines", hal.lines, "none|sim|gpiod", RESTART, "e-stop / enable / LED backend"),
+	DBL("sim", "current_noise_a", sim.current_noise_a, 0.0, 100.0, "A", RESTART,
+	    "sim: current noise std dev"),
+	INT("sim", "encoder_cpr", sim.encoder_cpr, 0, 1 << 24, "", RESTART,
+	    "sim: counts per wheel revolution, 0 = ideal"),
+	DBL("sim", "camera_rate_hz", sim.camera_rate_hz, 0.1, 10000.0, "Hz", RESTART,
+	    "sim: camera rate"),
+	DBL("sim", "camera_pos_noise_m", sim.camera_pos_noise_m, 0.0, 10.0, "m", RESTART,
+	    "sim: camera position noise std dev"),
+	DBL("sim", "camera_theta_noise_rad", sim.camera_theta_noise_rad, 0.0, 10.0, "rad",
+	    RESTART, "sim: camera heading noise std dev"),
+	INT("sim", "seed", sim.seed, 0, 2147483647, "", RESTART, "sim: noise seed"),
+	STR("can", "iface", can.iface, NULL, RESTART, "CAN interface"),
+	INT("can", "bitrate", can.bitrate, 10000, 8000000, "bit/s", RESTART, "CAN bit rate"),
+	INT("can", "status_timeout_ms", can.status_timeout_ms, 1, 10000, "ms", RESTART,
+	    "a driver board silent this long: FAULT_DRIVER_TIMEOUT"),
+	STR("gpio", "chip", gpio.chip, NULL, RESTART, "GPIO chip"),
+	INT("gpio", "estop_line", gpio.estop_line, -1, 4095, "", RESTART, "e-stop input, -1 = none"),
+	BOOL("gpio", "estop_active_low", gpio.estop_active_low, RESTART, "e-stop pressed = low"),
+	INT("gpio", "enable_line", gpio.enable_line, -1, 4095, "", RESTART,
+	    "enable output, -1 = none"),
+	INT("gpio", "led_line", gpio.led_line, -1, 4095, "", RESTART, "status LED, -1 = none"),
+	STR("params", "secret", params.secret, NULL, RESTART,
+	    "token a parameter change over the bus must carry; \"\" = none"),
 };
 
 #define N_KEYS (sizeof(keys) / sizeof(keys[0]))
@@ -89,6 +118,9 @@ struct parse_state {
 	bool seen[N_KEYS];
 	bool failed;
 	bool partial_model; /* [model] may be incomplete; not checked */
+	/* config_parse_pairs: each known key's value goes here instead of into cfg */
+	int (*pairs)(void *ctx, int key, const char *value);
+	void *pairs_ctx;
 	int line; /* current line, counted by the handler from inih's reports */
 };
 
@@ -183,62 +215,90 @@ static bool in_choices(const char *v, const char *choices)
 	return false;
 }
 
-static int set_value(struct parse_state *st, const struct key_desc *k, const char *value, int line)
+/*
+ * Parse value into key k of cfg, range-checked. 0, or -EINVAL with what ("bad value",
+ * "out of range value", "too long value") and detail ("" or why) filled in.
+ */
+static int key_parse(const struct config_key *k, const char *value, struct omni4_config *cfg,
+		     const char **what, char *detail, size_t n)
 {
-	char *base = (char *)st->cfg + k->offset;
-	char detail[128];
+	char *base = (char *)cfg + k->offset;
 	char *end;
 
+	detail[0] = '\0';
 	switch (k->type) {
-	case KEY_DOUBLE: {
+	case CONFIG_DOUBLE: {
 		errno = 0;
 		const double v = strtod(value, &end);
 
 		if (end == value || *end || errno == ERANGE || !isfinite(v)) {
-			snprintf(detail, sizeof(detail), "'%.60s' is not a finite number", value);
-			return fail(st, line, "bad value for", k->section, k->name, detail);
+			snprintf(detail, n, "'%.60s' is not a finite number", value);
+			*what = "bad value";
+			return -EINVAL;
 		}
 		if (v < k->min || v > k->max) {
-			snprintf(detail, sizeof(detail), "%g outside [%g, %g]", v, k->min, k->max);
-			return fail(st, line, "out of range value for", k->section, k->name, detail);
+			snprintf(detail, n, "%g outside [%g, %g]", v, k->min, k->max);
+			*what = "out of range value";
+			return -EINVAL;
 		}
 		memcpy(base, &v, sizeof(v)); /* base: a double field of the struct */
-		return 1;
+		return 0;
 	}
-	case KEY_INT: {
+	case CONFIG_INT: {
 		errno = 0;
 		const long v = strtol(value, &end, 10);
 
 		if (end == value || *end || errno == ERANGE) {
-			snprintf(detail, sizeof(detail), "'%.60s' is not an integer", value);
-			return fail(st, line, "bad value for", k->section, k->name, detail);
+			snprintf(detail, n, "'%.60s' is not an integer", value);
+			*what = "bad value";
+			return -EINVAL;
 		}
 		if (v < k->min || v > k->max) {
-			snprintf(detail, sizeof(detail), "%ld outside [%g, %g]", v, k->min, k->max);
-			return fail(st, line, "out of range value for", k->section, k->name, detail);
+			snprintf(detail, n, "%ld outside [%g, %g]", v, k->min, k->max);
+			*what = "out of range value";
+			return -EINVAL;
 		}
 		const int iv = (int)v;
 
 		memcpy(base, &iv, sizeof(iv));
-		return 1;
+		return 0;
 	}
-	case KEY_BOOL:
+	case CONFIG_BOOL:
 		if (!parse_bool(value, (bool *)base)) {
-			snprintf(detail, sizeof(detail), "'%.60s' is not true/false", value);
-			return fail(st, line, "bad value for", k->section, k->name, detail);
+			snprintf(detail, n, "'%.60s' is not true/false", value);
+			*what = "bad value";
+			return -EINVAL;
 		}
-		return 1;
-	case KEY_STRING:
-		if (strlen(value) >= CONFIG_STR_MAX)
-			return fail(st, line, "too long value for", k->section, k->name, NULL);
+		return 0;
+	case CONFIG_STRING:
+		if (strlen(value) >= CONFIG_STR_MAX) {
+			*what = "too long value";
+			return -EINVAL;
+		}
 		if (k->choices && !in_choices(value, k->choices)) {
-			snprintf(detail, sizeof(detail), "'%.60s' is not one of %s", value, k->choices);
-			return fail(st, line, "bad value for", k->section, k->name, detail);
+			snprintf(detail, n, "'%.60s' is not one of %s", value, k->choices);
+			*what = "bad value";
+			return -EINVAL;
 		}
 		snprintf(base, CONFIG_STR_MAX, "%s", value);
-		return 1;
+		return 0;
 	}
-	return 0;
+	*what = "bad value";
+	return -EINVAL;
+}
+
+static int set_value(struct parse_state *st, const struct config_key *k, const char *value, int line)
+{
+	char detail[128];
+	const char *what = NULL;
+
+	if (key_parse(k, value, st->cfg, &what, detail, sizeof(detail))) {
+		char what_for[64];
+
+		snprintf(what_for, sizeof(what_for), "%s for", what);
+		return fail(st, line, what_for, k->section, k->name, detail[0] ? detail : NULL);
+	}
+	return 1;
 }
 
 static int on_line(void *user, int line, const char *section, const char *name, const char *value)
@@ -251,9 +311,32 @@ static int on_line(void *user, int line, const char *section, const char *name, 
 		if (st->seen[i])
 			return fail(st, line, "duplicate key", section, name, NULL);
 		st->seen[i] = true;
+		if (st->pairs) {
+			if (st->pairs(st->pairs_ctx, (int)i, value))
+				return fail(st, line, "cannot take", section, name, "too many keys");
+			return 1;
+		}
 		return set_value(st, &keys[i], value, line);
 	}
 	return fail(st, line, "unknown key", section, name, NULL);
+}
+
+/* Checks across keys; index of the offending key in *bad_key, its reason in why. */
+static int check_whole(const struct omni4_config *cfg, int *bad_key, const char **why)
+{
+	int bad = 0;
+
+	if (model_params_check(&cfg->model, &bad)) {
+		*bad_key = bad; /* [model] keys are the first MODEL_PARAMS_COUNT of the table */
+		*why = bad < 8 ? "must be > 0" : "must be >= 0";
+		return -EINVAL;
+	}
+	if (cfg->limits.supply_min_v >= cfg->limits.supply_v) {
+		*bad_key = config_key_find("limits.supply_min_v");
+		*why = "must be below supply_v";
+		return -EINVAL;
+	}
+	return 0;
 }
 
 static int after_parse(struct parse_state *st, int rc)
@@ -275,6 +358,8 @@ static int after_parse(struct parse_state *st, int rc)
 	}
 	if (st->failed)
 		return -EINVAL;
+	if (st->pairs)
+		return 0; /* key = value pairs handed out, nothing checked across keys */
 
 	/* [model]: all or nothing, and physically meaningful. */
 	bool any = false;
@@ -289,14 +374,10 @@ static int after_parse(struct parse_state *st, int rc)
 			return -EINVAL;
 		}
 	int bad = 0;
+	const char *why = NULL;
 
-	if (model_params_check(&st->cfg->model, &bad)) {
-		fail(st, 0, "invalid value for", "model", model_params_names[bad],
-		     bad < 8 ? "must be > 0" : "must be >= 0");
-		return -EINVAL;
-	}
-	if (st->cfg->limits.supply_min_v >= st->cfg->limits.supply_v) {
-		fail(st, 0, "invalid value for", "limits", "supply_min_v", "must be below supply_v");
+	if (check_whole(st->cfg, &bad, &why)) {
+		fail(st, 0, "invalid value for", keys[bad].section, keys[bad].name, why);
 		return -EINVAL;
 	}
 	return 0;
@@ -353,11 +434,13 @@ static int handler(void *user, const char *section, const char *name, const char
 	return on_line(h->st, h->reader->line, section, name, value);
 }
 
-static int parse(struct line_reader *reader, const char *name, struct omni4_config *cfg,
-		 struct config_error *err, uint32_t *model_seen)
+static int parse_ex(struct line_reader *reader, const char *name, struct omni4_config *cfg,
+		    struct config_error *err, uint32_t *model_seen,
+		    int (*pairs)(void *ctx, int key, const char *value), void *pairs_ctx)
 {
 	struct parse_state st = {.cfg = cfg, .err = err, .name = name,
-				 .partial_model = model_seen != NULL};
+				 .partial_model = model_seen != NULL, .pairs = pairs,
+				 .pairs_ctx = pairs_ctx};
 	struct handler_ctx h = {.st = &st, .reader = reader};
 	int rc;
 
@@ -370,6 +453,12 @@ static int parse(struct line_reader *reader, const char *name, struct omni4_conf
 			*model_seen |= st.seen[i] ? 1u << i : 0u;
 	}
 	return rc;
+}
+
+static int parse(struct line_reader *reader, const char *name, struct omni4_config *cfg,
+		 struct config_error *err, uint32_t *model_seen)
+{
+	return parse_ex(reader, name, cfg, err, model_seen, NULL, NULL);
 }
 
 static int load_file(const char *path, struct omni4_config *cfg, struct config_error *err,
@@ -414,5 +503,291 @@ int config_write_model(FILE *f, const struct model_params *p)
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
 		if (fprintf(f, "%s = %.17g\n", model_params_names[i], model_params_get(p, i)) < 0)
 			return -EIO;
+	return 0;
+}
+
+int config_parse_pairs(const char *text, const char *name,
+		       int (*pair)(void *ctx, int key, const char *value), void *ctx,
+		       struct config_error *err)
+{
+	struct line_reader r = {.text = text};
+	struct omni4_config scratch; /* untouched: every value goes to pair */
+
+	config_defaults(&scratch);
+	return parse_ex(&r, name, &scratch, err, NULL, pair, ctx);
+}
+
+int config_key_count(void)
+{
+	return (int)N_KEYS;
+}
+
+const struct config_key *config_key_at(int i)
+{
+	return i >= 0 && i < (int)N_KEYS ? &keys[i] : NULL;
+}
+
+int config_key_find(const char *dotted)
+{
+	const char *dot = dotted ? strchr(dotted, '.') : NULL;
+
+	if (!dot)
+		return -1;
+	const size_t slen = (size_t)(dot - dotted);
+
+	for (size_t i = 0; i < N_KEYS; i++)
+		if (strlen(keys[i].section) == slen && !strncmp(keys[i].section, dotted, slen) &&
+		    !strcmp(keys[i].name, dot + 1))
+			return (int)i;
+	return -1;
+}
+
+/* A string that inih reads back unchanged: no comment or line characters, no outer blanks. */
+static bool string_writable(const char *v)
+{
+	const size_t n = strlen(v);
+
+	if (strpbrk(v, ";#\r\n"))
+		return false;
+	return n == 0 || (v[0] != ' ' && v[0] != '\t' && v[n - 1] != ' ' && v[n - 1] != '\t');
+}
+
+int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n)
+{
+	const struct config_key *k = config_key_at(i);
+
+	if (!k || n == 0)
+		return -EINVAL;
+	const char *base = (const char *)cfg + k->offset;
+	int len = -1;
+
+	switch (k->type) {
+	case CONFIG_DOUBLE: {
+		double v;
+
+		memcpy(&v, base, sizeof(v));
+		/* The shortest of %.15g .. %.17g that reads back to the same double. */
+		for (int digits = 15; digits <= 17; digits++) {
+			len = snprintf(buf, n, "%.*g", digits, v);
+			if (len < 0 || (size_t)len >= n || strtod(buf, NULL) == v)
+				break;
+		}
+		break;
+	}
+	case CONFIG_INT: {
+		int v;
+
+		memcpy(&v, base, sizeof(v));
+		len = snprintf(buf, n, "%d", v);
+		break;
+	}
+	case CONFIG_BOOL:
+		len = snprintf(buf, n, "%s", *(const bool *)base ? "true" : "false");
+		break;
+	case CONFIG_STRING:
+		if (!string_writable(base))
+			return -EINVAL;
+		len = snprintf(buf, n, "%s", base);
+		break;
+	}
+	return len >= 0 && (size_t)len < n ? 0 : -ENOSPC;
+}
+
+int config_key_set(struct omni4_config *cfg, int i, const char *value, char *why, size_t n)
+{
+	const struct config_key *k = config_key_at(i);
+	const char *what = NULL;
+	char detail[128];
+
+	if (!k) {
+		snprintf(why, n, "no such key");
+		return -EINVAL;
+	}
+	if (key_parse(k, value, cfg, &what, detail, sizeof(detail))) {
+		snprintf(why, n, "%s.%s: %s%s%s", k->section, k->name, what,
+			 detail[0] ? ": " : "", detail);
+		return -EINVAL;
+	}
+	return 0;
+}
+
+int config_check(const struct omni4_config *cfg, char *why, size_t n)
+{
+	int bad = 0;
+	const char *reason = NULL;
+
+	if (check_whole(cfg, &bad, &reason)) {
+		snprintf(why, n, "%s.%s: invalid value: %s", keys[bad].section, keys[bad].name,
+			 reason);
+		return -EINVAL;
+	}
+	return 0;
+}
+
+int config_write(FILE *f, const struct omni4_config *cfg, const char *header)
+{
+	const char *section = "";
+	char value[CONFIG_STR_MAX + 32];
+
+	if (header && fprintf(f, "; %s\n", header) < 0)
+		return -EIO;
+	for (size_t i = 0; i < N_KEYS; i++) {
+		const struct config_key *k = &keys[i];
+
+		if (config_key_format(cfg, (int)i, value, sizeof(value)))
+			return -EINVAL;
+		if (strcmp(section, k->section)) {
+			section = k->section;
+			if (fprintf(f, "%s[%s]\n", i ? "\n" : "", section) < 0)
+				return -EIO;
+		}
+		if (fprintf(f, "; %s%s%s%s\n%s = %s\n", k->doc, k->unit[0] ? " [" : "", k->unit,
+			    k->unit[0] ? "]" : "", k->name, value) < 0)
+			return -EIO;
+	}
+	return fflush(f) ? -EIO : 0;
+}
+
+/* Test hook: OMNI4_TEST_SAVE_PAUSE_MS=N sleeps N ms between the written, synced temporary and
+ * the rename, so a test can kill the process right there. */
+static void save_pause(void)
+{
+	const char *s = getenv("OMNI4_TEST_SAVE_PAUSE_MS");
+	const long ms = s ? strtol(s, NULL, 10) : 0;
+
+	if (ms > 0 && ms <= 60000) {
+		const struct timespec t = {.tv_sec = ms / 1000, .tv_nsec = (ms % 1000) * 1000000L};
+
+		nanosleep(&t, NULL);
+	}
+}
+
+static int sync_dir_of(const char *path)
+{
+	char dir[PATH_MAX];
+	const char *slash = strrchr(path, '/');
+
+	if (!slash)
+		snprintf(dir, sizeof(dir), ".");
+	else if (slash == path)
+		snprintf(dir, sizeof(dir), "/");
+	else
+		snprintf(dir, sizeof(dir), "%.*s", (int)(slash - path), path);
+	const int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+
+	if (fd < 0)
+		return -errno;
+	const int rc = fsync(fd) ? -errno : 0;
+
+	close(fd);
+	return rc;
+}
+
+/* Copy src to dst through dst.tmp (fsync, rename): for file systems without hard links. */
+static int copy_file(const char *src, const char *dst)
+{
+	char tmp[PATH_MAX + 8];
+	char buf[4096];
+	int rc = 0;
+
+	snprintf(tmp, sizeof(tmp), "%s.tmp", dst);
+	FILE *in = fopen(src, "rb");
+
+	if (!in)
+		return -errno;
+	FILE *out = fopen(tmp, "wb");
+
+	if (!out) {
+		rc = -errno;
+		fclose(in);
+		return rc;
+	}
+	for (size_t got; (got = fread(buf, 1, sizeof(buf), in)) > 0;)
+		if (fwrite(buf, 1, got, out) != got) {
+			rc = -EIO;
+			break;
+		}
+	if (!rc && (ferror(in) || fflush(out) || fsync(fileno(out))))
+		rc = -EIO;
+	fclose(in);
+	if (fclose(out) && !rc)
+		rc = -EIO;
+	if (!rc && rename(tmp, dst))
+		rc = -errno;
+	if (rc)
+		unlink(tmp);
+	return rc;
+}
+
+int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
+		size_t n)
+{
+	char tmp[PATH_MAX], bak[PATH_MAX];
+	struct stat st;
+	mode_t mode = 0644;
+	int rc;
+
+	if (snprintf(tmp, sizeof(tmp), "%s.tmp", path) >= (int)sizeof(tmp) ||
+	    snprintf(bak, sizeof(bak), "%s.bak", path) >= (int)sizeof(bak)) {
+		snprintf(why, n, "%s: path too long", path);
+		return -ENAMETOOLONG;
+	}
+	if (stat(path, &st) == 0)
+		mode = st.st_mode & 07777; /* keep the file's permissions (it may hold the secret) */
+	const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+
+	if (fd < 0) {
+		rc = -errno;
+		snprintf(why, n, "%s: cannot create: %s", tmp, strerror(-rc));
+		return rc;
+	}
+	FILE *f = fdopen(fd, "w");
+
+	if (!f) {
+		rc = -errno;
+		close(fd);
+		unlink(tmp);
+		snprintf(why, n, "%s: %s", tmp, strerror(-rc));
+		return rc;
+	}
+	rc = config_write(f, cfg, header);
+	if (rc == -EINVAL) {
+		snprintf(why, n, "a string value cannot be written to an INI file unchanged");
+	} else if (rc || fchmod(fd, mode) || fsync(fd)) {
+		rc = rc ? rc : -errno;
+		snprintf(why, n, "%s: write failed: %s", tmp, strerror(-rc));
+	}
+	if (fclose(f) && !rc) {
+		rc = -EIO;
+		snprintf(why, n, "%s: close failed", tmp);
+	}
+	if (rc) {
+		unlink(tmp);
+		return rc;
+	}
+	save_pause();
+	/* The previous file becomes .bak (a hard link: the file itself never goes away). */
+	if (unlink(bak) && errno != ENOENT) {
+		rc = -errno;
+		snprintf(why, n, "%s: cannot replace: %s", bak, strerror(-rc));
+		unlink(tmp);
+		return rc;
+	}
+	if (link(path, bak) && errno != ENOENT && (rc = copy_file(path, bak))) {
+		snprintf(why, n, "%s: cannot keep the previous file: %s", bak, strerror(-rc));
+		unlink(tmp);
+		return rc;
+	}
+	if (rename(tmp, path)) {
+		rc = -errno;
+		snprintf(why, n, "%s: rename failed: %s", path, strerror(-rc));
+		unlink(tmp);
+		return rc;
+	}
+	rc = sync_dir_of(path);
+	if (rc) {
+		snprintf(why, n, "%s: directory sync failed: %s", path, strerror(-rc));
+		return rc;
+	}
 	return 0;
 }

@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <string.h>
+#include <time.h>
 
 #include "omni4_motors_t.h"
 
@@ -33,8 +34,92 @@ int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal moto
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
 	atomic_init(&fw->halted, false);
+	atomic_init(&fw->param_pending, NULL);
+	atomic_init(&fw->param_done_gen, 0);
 	fw_outputs_off(fw);
 	return 0;
+}
+
+void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks)
+{
+	fw->param_hooks = *hooks;
+}
+
+int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_only,
+		     struct fw_param_update *u, char *why, size_t n)
+{
+	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
+
+	if (ctl_init(&scratch, cfg) || scratch.dt != fw->ctl.dt) {
+		snprintf(why, n, "the controller refuses these values");
+		return -EINVAL;
+	}
+	if (fw->param_hooks.check && fw->param_hooks.check(fw->param_hooks.ctx, cfg, why, n))
+		return -EINVAL;
+	u->cfg = *cfg;
+	u->ff = scratch.ff;
+	u->inv_4d = scratch.inv_4d;
+	u->idle_only = idle_only;
+	return 0;
+}
+
+struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
+				      int64_t timeout_us)
+{
+	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 100000};
+	struct fw_param_result r = {.rc = -ETIMEDOUT, .seq = -1};
+	struct timespec t0, t;
+
+	u->gen = ++fw->param_gen;
+	atomic_store_explicit(&fw->param_pending, u, memory_order_release);
+	clock_gettime(CLOCK_MONOTONIC, &t0);
+	for (;;) {
+		if (atomic_load_explicit(&fw->param_done_gen, memory_order_acquire) == u->gen) {
+			r.rc = atomic_load_explicit(&fw->param_done_rc, memory_order_relaxed);
+			r.mode = atomic_load_explicit(&fw->param_done_mode, memory_order_relaxed);
+			r.seq = atomic_load_explicit(&fw->param_done_seq, memory_order_relaxed);
+			r.utime = atomic_load_explicit(&fw->param_done_utime, memory_order_relaxed);
+			return r;
+		}
+		clock_gettime(CLOCK_MONOTONIC, &t);
+		if ((t.tv_sec - t0.tv_sec) * 1000000LL + (t.tv_nsec - t0.tv_nsec) / 1000 >
+		    timeout_us) {
+			struct fw_param_update *expect = u;
+
+			/* Withdraw it; if the loop took it meanwhile, wait for its answer. */
+			if (atomic_compare_exchange_strong(&fw->param_pending, &expect, NULL))
+				return r;
+			timeout_us = INT64_MAX;
+		}
+		nanosleep(&nap, NULL);
+	}
+}
+
+/* Loop thread, before a tick: take a pending parameter update whole, or refuse it whole. */
+static void take_params(struct fw *fw, int64_t now_us)
+{
+	struct fw_param_update *u =
+		atomic_exchange_explicit(&fw->param_pending, NULL, memory_order_acq_rel);
+
+	if (!u)
+		return;
+	const bool driving = fw->ctl.mode == CTL_VELOCITY || fw->ctl.mode == CTL_VOLTAGE;
+	int rc = 0;
+
+	if (u->idle_only && driving) {
+		rc = -EBUSY;
+	} else {
+		fw->ctl.cfg = u->cfg;
+		fw->ctl.ff = u->ff;
+		fw->ctl.inv_4d = u->inv_4d;
+		if (fw->param_hooks.apply)
+			fw->param_hooks.apply(fw->param_hooks.ctx, &u->cfg);
+	}
+	atomic_store_explicit(&fw->param_done_rc, rc, memory_order_relaxed);
+	atomic_store_explicit(&fw->param_done_mode, (int)fw->ctl.mode, memory_order_relaxed);
+	atomic_store_explicit(&fw->param_done_seq, fw->seq, memory_order_relaxed);
+	atomic_store_explicit(&fw->param_done_utime, now_us, memory_order_relaxed);
+	atomic_store_explicit(&fw->param_done_gen, u->gen, memory_order_release);
 }
 
 void fw_outputs_off(struct fw *fw)
@@ -90,6 +175,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	struct ctl_output out;
 	bool estop = false;
 
+	take_params(fw, now_us); /* between ticks: the whole tick below runs on one set */
 	while (spsc_pop(&fw->cmd_ring, &cmd)) {
 		const bool was_fault = fw->ctl.mode == CTL_FAULT || fw->ctl.mode == CTL_ESTOP;
 

@@ -16,6 +16,7 @@
 #include "omni4/fw.h"
 #include "omni4/gpiod_lines.h"
 #include "omni4/lcmio.h"
+#include "omni4/param_service.h"
 #include "omni4/rtloop.h"
 #include "omni4/sim_motor.h"
 #include "omni4/socketcan_motor.h"
@@ -28,6 +29,7 @@ struct app {
 	struct sim_lines sim_lines;
 	struct socketcan_motor can;
 	struct gpiod_lines gpio;
+	struct param_service params;
 };
 
 static struct app *g_app; /* for the crash handler only */
@@ -44,7 +46,9 @@ static void usage(FILE *f)
 		"usage: omni4-fw --config ROBOT.ini [--duration S] [--quiet]\n"
 		"Runs the omni4 controller: the fixed-rate loop on the HAL backends of ROBOT.ini\n"
 		"([hal] motor = sim|socketcan, lines = none|sim|gpiod), commands from OMNI4_CMD,\n"
-		"one OMNI4_MOTORS message per tick on the [lcm] url.\n"
+		"one OMNI4_MOTORS message per tick on the [lcm] url. Parameters can be read and\n"
+		"changed while it runs (omni4-param, channel OMNI4_PARAM_REQ); 'save' rewrites\n"
+		"ROBOT.ini atomically (the previous file is kept as ROBOT.ini.bak).\n"
 		"  -c, --config FILE   robot INI file (required)\n"
 		"  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
 		"  -q, --quiet         no status line\n"
@@ -79,6 +83,36 @@ static void install_crash_handler(void)
 	sigemptyset(&sa.sa_mask);
 	for (unsigned i = 0; i < sizeof(sigs) / sizeof(sigs[0]); i++)
 		sigaction(sigs[i], &sa, NULL);
+}
+
+/* Parameter changes with the CAN backend: its plausibility limits follow [model] and [limits]
+ * (checked on the parameter thread, set by the loop between two ticks). */
+static struct sc_limits can_limits(const struct omni4_config *cfg)
+{
+	return sc_limits_from_model(cfg->limits.supply_v, cfg->model.R, cfg->model.Kt,
+				    cfg->model.l, cfg->model.r, cfg->model.M, cfg->model.J,
+				    cfg->model.d, 1.0 / cfg->loop.rate_hz, cfg->sim.current_noise_a,
+				    cfg->limits.current_max_a);
+}
+
+static int can_limits_check(void *ctx, const struct omni4_config *cfg, char *why, size_t n)
+{
+	struct socketcan_motor probe; /* set_limits only validates and copies the limits */
+	const struct sc_limits lim = can_limits(cfg);
+
+	(void)ctx;
+	if (socketcan_motor_set_limits(&probe, &lim)) {
+		snprintf(why, n, "the [model] and [limits] give no valid CAN plausibility limits");
+		return -EINVAL;
+	}
+	return 0;
+}
+
+static void can_limits_apply(void *ctx, const struct omni4_config *cfg)
+{
+	const struct sc_limits lim = can_limits(cfg);
+
+	socketcan_motor_set_limits(ctx, &lim); /* checked by can_limits_check */
 }
 
 static void tick(void *ctx, int64_t now_us)
@@ -172,10 +206,8 @@ int main(int argc, char **argv)
 			goto out_free;
 		}
 		/* Plausibility limits of this robot (STATUS every tick), not Table III's. */
-		const struct sc_limits lim = sc_limits_from_model(
-			cfg.limits.supply_v, cfg.model.R, cfg.model.Kt, cfg.model.l, cfg.model.r,
-			cfg.model.M, cfg.model.J, cfg.model.d, 1.0 / cfg.loop.rate_hz,
-			cfg.sim.current_noise_a, cfg.limits.current_max_a);
+		const struct sc_limits lim = can_limits(&cfg);
+
 		if (socketcan_motor_set_limits(&app->can, &lim)) {
 			fprintf(stderr, "omni4-fw: %s: the [model] and [limits] give no valid CAN "
 				"plausibility limits\n", config_path);
@@ -214,6 +246,17 @@ int main(int argc, char **argv)
 	}
 	if (fw_init(&app->fw, &cfg, motor, lines)) {
 		fprintf(stderr, "omni4-fw: %s: invalid controller settings\n", config_path);
+		goto out_close_lines;
+	}
+	if (!strcmp(cfg.hal.motor, "socketcan")) {
+		const struct fw_param_hooks hooks = {.check = can_limits_check,
+						     .apply = can_limits_apply, .ctx = &app->can};
+
+		fw_set_param_hooks(&app->fw, &hooks);
+	}
+	if (param_service_init(&app->params, &app->fw, &cfg, config_path,
+			       (struct param_out){0})) {
+		fprintf(stderr, "omni4-fw: %s: path too long\n", config_path);
 		goto out_close_lines;
 	}
 	g_app = app;
@@ -260,9 +303,18 @@ int main(int argc, char **argv)
 	struct lcmio io;
 	struct rtloop loop;
 
+	/* Subscribed before the receive thread starts; handled on its own thread. */
+	rc = param_service_start(&app->params, lcm);
+	if (rc) {
+		fprintf(stderr, "omni4-fw: cannot start the parameter service: %s\n",
+			strerror(-rc));
+		rc = 1;
+		goto out_lcm;
+	}
 	rc = lcmio_start(&io, lcm, &app->fw);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
+		param_service_stop(&app->params);
 		rc = 1;
 		goto out_lcm;
 	}
@@ -294,6 +346,7 @@ int main(int argc, char **argv)
 out_io:
 	fw_outputs_off(&app->fw);
 	lcmio_stop(&io);
+	param_service_stop(&app->params);
 	if (!quiet || rc)
 		fprintf(stderr,
 			"omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
@@ -305,6 +358,17 @@ out_io:
 			(unsigned long long)app->fw.n.log_dropped,
 			(unsigned long long)app->fw.ctl.n.cmd_rejected,
 			(unsigned long long)atomic_load(&io.rx_bad));
+	if (!quiet || rc)
+		fprintf(stderr,
+			"omni4-fw: params: requests %llu, applied %llu, refused %llu, denied %llu, "
+			"bad %llu, busy %llu, saved %llu\n",
+			(unsigned long long)atomic_load(&app->params.n.requests),
+			(unsigned long long)atomic_load(&app->params.n.applied),
+			(unsigned long long)atomic_load(&app->params.n.refused),
+			(unsigned long long)atomic_load(&app->params.n.denied),
+			(unsigned long long)atomic_load(&app->params.n.bad),
+			(unsigned long long)atomic_load(&app->params.n.busy),
+			(unsigned long long)atomic_load(&app->params.n.saved));
 	if (!strcmp(cfg.hal.motor, "socketcan")) {
 		const struct sc_counters *n = &app->can.n;
 

@@ -13,7 +13,10 @@
  *             camera_theta_noise_rad seed
  *   [can]     iface bitrate status_timeout_ms
  *   [gpio]    chip estop_line estop_active_low enable_line led_line
+ *   [params]  secret (token a parameter change over LCM must carry; "" = none)
  * Unknown sections or keys, duplicate keys, malformed or out-of-range values are errors.
+ * One table (config.c) holds every key with its type, range, unit and when it may change over
+ * the bus; the parser, the writer and the parameter service read it through config_key_*.
  */
 #ifndef OMNI4_CONFIG_H
 #define OMNI4_CONFIG_H
@@ -80,6 +83,9 @@ struct omni4_config {
 		int enable_line;
 		int led_line;
 	} gpio;
+	struct {
+		char secret[CONFIG_STR_MAX]; /* "" = parameter changes over LCM need no token */
+	} params;
 };
 
 struct config_error {
@@ -108,5 +114,63 @@ int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *mo
 
 /* Write a [model] section that config_load reads back exactly (%.17g). Returns 0 or -EIO. */
 int config_write_model(FILE *f, const struct model_params *p);
+
+/* ---- the key table ------------------------------------------------------------------------ */
+
+enum config_key_type { CONFIG_DOUBLE, CONFIG_INT, CONFIG_BOOL, CONFIG_STRING };
+
+/* When a key may change while omni4-fw runs (param_value_t CHANGE_* has the same numbers). */
+enum config_change {
+	CONFIG_LIVE = 0,    /* in any mode, between two ticks */
+	CONFIG_IDLE = 1,    /* only while the bridges are not driven (not VELOCITY / VOLTAGE) */
+	CONFIG_RESTART = 2, /* only in the INI, read at start-up */
+};
+
+struct config_key {
+	const char *section;
+	const char *name;
+	enum config_key_type type;
+	size_t offset;       /* in struct omni4_config */
+	double min, max;     /* inclusive range for numbers */
+	const char *choices; /* for strings: "a|b|c", NULL = any */
+	const char *unit;    /* SI unit, "" for none */
+	enum config_change change;
+	const char *doc;     /* one line; names any check beyond the range */
+};
+
+int config_key_count(void);
+/* Key i (0 .. config_key_count()-1), NULL outside. [model] keys are 0..13 in
+ * model_params_names order. */
+const struct config_key *config_key_at(int i);
+/* Index of "section.key", or -1. */
+int config_key_find(const char *dotted);
+/* Key i of cfg as the INI holds it (doubles %.17g, bools true/false): 0, -EINVAL for a string
+ * that an INI file cannot hold unchanged, -ENOSPC if buf is too small. */
+int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n);
+/* Parse and range-check value into key i of cfg, exactly as the INI parser does. 0, or -EINVAL
+ * with why = "section.key: what: detail" (cfg untouched). */
+int config_key_set(struct omni4_config *cfg, int i, const char *value, char *why, size_t n);
+/* The checks across keys that config_load makes after reading a file ([model] physically
+ * meaningful, supply_min_v < supply_v). 0, or -EINVAL with why. */
+int config_check(const struct omni4_config *cfg, char *why, size_t n);
+/* Read INI text and hand every key = value to pair(ctx, key index, value) (values are not
+ * parsed; unknown and duplicate keys and syntax errors are errors as in config_load). pair
+ * returns non-zero to stop ("too many keys"). 0 or -EINVAL with err. */
+int config_parse_pairs(const char *text, const char *name,
+		       int (*pair)(void *ctx, int key, const char *value), void *ctx,
+		       struct config_error *err);
+
+/* Write every key of cfg, all sections, so that config_load reads back the same values; a
+ * comment line with each key's doc and unit; header (may be NULL) as the first comment.
+ * 0, -EINVAL (a string that cannot be written), -EIO. */
+int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
+/*
+ * Replace the INI file at path by cfg so that a crash or power cut at any instant leaves either
+ * the old or the new complete file: write path.tmp in the same directory, fsync it, keep the
+ * previous file as path.bak (hard link, or a synced copy), rename path.tmp over path, fsync the
+ * directory. The file keeps its permissions. 0 or a negative errno with why.
+ */
+int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
+		size_t n);
 
 #endif /* OMNI4_CONFIG_H */

@@ -42,6 +42,29 @@ struct fw_counters {
 	uint64_t write_errors;
 };
 
+/*
+ * A parameter change, prepared off the loop (fw_param_prepare: validated, feedforward gains
+ * recomputed) and taken whole by the loop between two ticks: the loop never runs on a mix of
+ * old and new values.
+ */
+struct fw_param_update {
+	struct omni4_config cfg;
+	struct ff_q16 ff;
+	q16_t inv_4d;
+	bool idle_only; /* the loop refuses it (-EBUSY) if the bridges are driven at that tick */
+	uint64_t gen;   /* set by fw_param_apply */
+};
+
+/* What the HAL needs when parameters change (e.g. the CAN plausibility limits, which follow
+ * the model and the limits). Both may be NULL. */
+struct fw_param_hooks {
+	/* Parameter thread: 0 if the HAL accepts cfg, else -EINVAL and why. */
+	int (*check)(void *ctx, const struct omni4_config *cfg, char *why, size_t n);
+	/* Loop thread, between two ticks, right after the controller took cfg. No allocation. */
+	void (*apply)(void *ctx, const struct omni4_config *cfg);
+	void *ctx;
+};
+
 struct fw {
 	struct ctl ctl;
 	struct motor_hal motor;
@@ -54,6 +77,15 @@ struct fw {
 	struct ctl_output last_out;
 	struct motor_sample last_sample;
 	struct fw_counters n;
+	/* Parameter change hand-over (parameter thread -> loop). */
+	_Atomic(struct fw_param_update *) param_pending;
+	_Atomic uint64_t param_done_gen; /* gen of the last update the loop took or refused */
+	_Atomic int param_done_rc;       /* 0 applied, -EBUSY refused: driving */
+	_Atomic int param_done_mode;     /* controller mode at that tick */
+	_Atomic int64_t param_done_seq;  /* first tick (seq) that ran with it */
+	_Atomic int64_t param_done_utime;
+	uint64_t param_gen;              /* parameter thread only */
+	struct fw_param_hooks param_hooks;
 	struct ctl_command cmd_buf[FW_CMD_RING_SLOTS];
 	struct log_entry log_buf[FW_LOG_RING_SLOTS];
 };
@@ -78,6 +110,27 @@ void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);
+
+/* Start-up, before the loop runs. */
+void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks);
+
+/* Parameter thread. Validate cfg as start-up does (controller and HAL) and precompute what the
+ * loop needs into u. 0, or -EINVAL and why. */
+int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_only,
+		     struct fw_param_update *u, char *why, size_t n);
+
+struct fw_param_result {
+	int rc;        /* 0 applied; -EBUSY refused by the loop (driving, idle_only); -ETIMEDOUT
+			* the loop did not take it within timeout_us (withdrawn: nothing changed) */
+	int mode;      /* controller mode when the loop took it */
+	int64_t seq;   /* first tick that ran with it */
+	int64_t utime; /* controller time of that tick [us] */
+};
+
+/* Parameter thread (one at a time). Offer u to the loop and wait (bounded, polling) until it is
+ * taken between two ticks; u must stay valid until this returns. */
+struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
+				      int64_t timeout_us);
 
 /* Shutdown / any exit path: outputs off (voltages 0, bridges and enable line off). */
 void fw_outputs_off(struct fw *fw);

@@ -1,0 +1,559 @@
+/* param_service.c - robot parameters over LCM (see param_service.h). */
+#include "omni4/param_service.h"
+
+#include "omni4/rtloop.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "omni4_param_changed_t.h"
+#include "omni4_param_reply_t.h"
+#include "omni4_param_request_t.h"
+
+#define VALUE_MAX (CONFIG_STR_MAX + 32)
+#define WHY_MAX 320
+
+/* Scratch of one request (service thread only): the key names, values and reply entries. */
+struct scratch {
+	int n;
+	int key[PARAM_MAX_KEYS];
+	char value[PARAM_MAX_KEYS][VALUE_MAX];
+	char dotted[PARAM_MAX_KEYS][64];
+	char old_value[PARAM_MAX_KEYS][VALUE_MAX];
+	char new_value[PARAM_MAX_KEYS][VALUE_MAX];
+	omni4_param_value_t entries[PARAM_MAX_KEYS];
+	char *keys_p[PARAM_MAX_KEYS], *old_p[PARAM_MAX_KEYS], *new_p[PARAM_MAX_KEYS];
+	bool too_many;
+	bool duplicate;
+};
+
+static struct scratch g_scratch; /* one service per process */
+
+static const char *mode_name(int mode)
+{
+	static const char *const names[] = {"IDLE", "VELOCITY", "VOLTAGE", "COAST", "CLEAR",
+					    "FAULT", "ESTOP"};
+
+	return mode >= 0 && mode <= 6 ? names[mode] : "?";
+}
+
+int param_service_init(struct param_service *ps, struct fw *fw, const struct omni4_config *cfg,
+		       const char *path, struct param_out out)
+{
+	memset(ps, 0, sizeof(*ps));
+	if (!path || strlen(path) >= sizeof(ps->path))
+		return -EINVAL;
+	ps->fw = fw;
+	ps->running = *cfg;
+	snprintf(ps->path, sizeof(ps->path), "%s", path);
+	ps->out = out;
+	ps->apply_timeout_us = PARAM_APPLY_TIMEOUT_US + (int64_t)(3e6 / cfg->loop.rate_hz);
+	pthread_mutex_init(&ps->mu, NULL);
+	pthread_cond_init(&ps->cv, NULL);
+	return 0;
+}
+
+static void dotted_name(int key, char *buf, size_t n)
+{
+	const struct config_key *k = config_key_at(key);
+
+	snprintf(buf, n, "%s.%s", k->section, k->name);
+}
+
+/* One param_value_t of the running configuration. Strings point into the scratch slot i. */
+static void fill_entry(struct param_service *ps, struct scratch *s, int i, int key)
+{
+	const struct config_key *k = config_key_at(key);
+	omni4_param_value_t *e = &s->entries[i];
+
+	dotted_name(key, s->dotted[i], sizeof(s->dotted[i]));
+	if (!strcmp(k->section, "params") && !strcmp(k->name, "secret"))
+		snprintf(s->new_value[i], VALUE_MAX, "%s", ps->running.params.secret[0] ? "(set)" : "");
+	else if (config_key_format(&ps->running, key, s->new_value[i], VALUE_MAX))
+		snprintf(s->new_value[i], VALUE_MAX, "(unprintable)");
+	*e = (omni4_param_value_t){
+		.key = s->dotted[i],
+		.value = s->new_value[i],
+		.unit = (char *)k->unit,
+		.type = (int8_t)k->type,
+		.min = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->min : 0.0,
+		.max = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->max : 0.0,
+		.choices = (char *)(k->choices ? k->choices : ""),
+		.change = (int8_t)k->change,
+		.doc = (char *)k->doc,
+	};
+}
+
+static void emit(struct param_service *ps, const char *channel, const void *data, size_t len)
+{
+	if (ps->out.emit)
+		ps->out.emit(ps->out.ctx, channel, data, len);
+}
+
+static void cache_put(struct param_service *ps, int64_t id, void *data, size_t len)
+{
+	const int i = ps->cache_next;
+
+	free(ps->cache[i].data);
+	ps->cache[i].id = id;
+	ps->cache[i].data = data;
+	ps->cache[i].len = len;
+	ps->cache_next = (i + 1) % PARAM_CACHE;
+}
+
+static bool cache_replay(struct param_service *ps, int64_t id)
+{
+	for (int i = 0; id && i < PARAM_CACHE; i++)
+		if (ps->cache[i].data && ps->cache[i].id == id) {
+			emit(ps, PARAM_CHANNEL_REPLY, ps->cache[i].data, ps->cache[i].len);
+			return true;
+		}
+	return false;
+}
+
+/* Encode and emit a reply; keep it for a repeated id if cache. */
+static void reply(struct param_service *ps, omni4_param_reply_t *r, bool cache)
+{
+	r->utime = rtloop_clock_us();
+	if (!r->message)
+		r->message = "";
+	if (!r->path)
+		r->path = "";
+	const int size = omni4_param_reply_t_encoded_size(r);
+	void *buf = size > 0 ? malloc((size_t)size) : NULL;
+
+	if (!buf)
+		return;
+	if (omni4_param_reply_t_encode(buf, 0, size, r) != size) {
+		free(buf);
+		return;
+	}
+	emit(ps, PARAM_CHANNEL_REPLY, buf, (size_t)size);
+	if (cache && r->request_id)
+		cache_put(ps, r->request_id, buf, (size_t)size);
+	else
+		free(buf);
+}
+
+static void simple_reply(struct param_service *ps, int64_t id, int8_t op, int8_t result,
+			 const char *message, bool cache)
+{
+	omni4_param_reply_t r = {.request_id = id, .op = op, .result = result,
+				 .message = (char *)message, .seq = -1};
+
+	reply(ps, &r, cache);
+}
+
+static void notice(struct param_service *ps, struct scratch *s, int64_t id, const char *source,
+		   const char *path, int64_t seq, int64_t utime)
+{
+	omni4_param_changed_t m = {.utime = utime, .seq = seq, .request_id = id,
+				   .source = (char *)source, .path = (char *)path, .n = s->n,
+				   .keys = s->keys_p, .old_values = s->old_p, .values = s->new_p};
+	const int size = omni4_param_changed_t_encoded_size(&m);
+	void *buf = size > 0 ? malloc((size_t)size) : NULL;
+
+	if (buf && omni4_param_changed_t_encode(buf, 0, size, &m) == size)
+		emit(ps, PARAM_CHANNEL_CHANGED, buf, (size_t)size);
+	free(buf);
+}
+
+static void do_list(struct param_service *ps, const omni4_param_request_t *q)
+{
+	struct scratch *s = &g_scratch;
+	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
+				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .seq = -1};
+	char why[WHY_MAX];
+	int n = 0;
+
+	if (q->op == OMNI4_PARAM_REQUEST_T_OP_GET && q->n > 0) {
+		if (q->n > PARAM_MAX_KEYS) {
+			snprintf(why, sizeof(why), "%d keys in one request: at most %d", q->n,
+				 PARAM_MAX_KEYS);
+			simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST,
+				     why, false);
+			return;
+		}
+		for (int i = 0; i < q->n; i++) {
+			const int key = config_key_find(q->keys[i]);
+
+			if (key < 0) {
+				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
+					 q->keys[i]);
+				simple_reply(ps, q->request_id, q->op,
+					     OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+				return;
+			}
+			fill_entry(ps, s, n++, key);
+		}
+	} else {
+		for (int key = 0; key < config_key_count() && n < PARAM_MAX_KEYS; key++)
+			fill_entry(ps, s, n++, key);
+	}
+	r.n = n;
+	r.params = s->entries;
+	reply(ps, &r, false);
+}
+
+/* SET / LOAD: collect key indices and values into the scratch. */
+static int add_pair(void *ctx, int key, const char *value)
+{
+	struct scratch *s = ctx;
+
+	if (s->n >= PARAM_MAX_KEYS) {
+		s->too_many = true;
+		return -1;
+	}
+	for (int i = 0; i < s->n; i++)
+		if (s->key[i] == key)
+			s->duplicate = true;
+	s->key[s->n] = key;
+	snprintf(s->value[s->n], VALUE_MAX, "%s", value);
+	s->n++;
+	return 0;
+}
+
+/* Validate s's pairs against the running configuration, have the loop take them, reply. */
+static void apply_pairs(struct param_service *ps, struct scratch *s,
+			const omni4_param_request_t *q, const char *source)
+{
+	static struct omni4_config next; /* service thread only */
+	char why[WHY_MAX], old_v[VALUE_MAX], new_v[VALUE_MAX];
+	const int8_t REFUSED = OMNI4_PARAM_REPLY_T_RESULT_REFUSED;
+	bool idle_only = false;
+	int first_idle = -1, changed = 0;
+
+	next = ps->running;
+	for (int i = 0; i < s->n; i++)
+		if (config_key_set(&next, s->key[i], s->value[i], why, sizeof(why))) {
+			atomic_fetch_add(&ps->n.refused, 1);
+			simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
+			return;
+		}
+	/* What changed (by its INI text), and may it change now? */
+	for (int key = 0; key < config_key_count(); key++) {
+		const struct config_key *k = config_key_at(key);
+
+		if (config_key_format(&ps->running, key, old_v, sizeof(old_v)) ||
+		    config_key_format(&next, key, new_v, sizeof(new_v)) || !strcmp(old_v, new_v))
+			continue;
+		if (k->change == CONFIG_RESTART) {
+			snprintf(why, sizeof(why),
+				 "%s.%s: restart only (change it in the INI and restart omni4-fw)",
+				 k->section, k->name);
+			atomic_fetch_add(&ps->n.refused, 1);
+			simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
+			return;
+		}
+		if (k->change == CONFIG_IDLE && !idle_only) {
+			idle_only = true;
+			first_idle = key;
+		}
+		if (changed < PARAM_MAX_KEYS) {
+			dotted_name(key, s->dotted[changed], sizeof(s->dotted[changed]));
+			memcpy(s->old_value[changed], old_v, VALUE_MAX);
+			memcpy(s->new_value[changed], new_v, VALUE_MAX);
+			s->keys_p[changed] = s->dotted[changed];
+			s->old_p[changed] = s->old_value[changed];
+			s->new_p[changed] = s->new_value[changed];
+			changed++;
+		}
+	}
+	if (config_check(&next, why, sizeof(why)) ||
+	    fw_param_prepare(ps->fw, &next, idle_only, &ps->update, why, sizeof(why))) {
+		atomic_fetch_add(&ps->n.refused, 1);
+		simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
+		return;
+	}
+	if (changed == 0) {
+		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_OK,
+			     "no change: the values are already in force", true);
+		return;
+	}
+	const struct fw_param_result res = fw_param_apply(ps->fw, &ps->update, ps->apply_timeout_us);
+
+	if (res.rc == -EBUSY) {
+		const struct config_key *k = config_key_at(first_idle);
+
+		snprintf(why, sizeof(why),
+			 "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
+			 "the robot is in %s: nothing changed",
+			 k->section, k->name, mode_name(res.mode));
+		atomic_fetch_add(&ps->n.refused, 1);
+		simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
+		return;
+	}
+	if (res.rc) {
+		snprintf(why, sizeof(why),
+			 "the loop did not take the change within %lld ms (is it running?): nothing "
+			 "changed",
+			 (long long)(ps->apply_timeout_us / 1000));
+		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
+			     false);
+		return;
+	}
+	ps->running = next;
+	atomic_fetch_add(&ps->n.applied, 1);
+
+	/* Reply: the changed keys with their new values, and the tick from which they hold. */
+	struct scratch *e = s;
+	char dotted[PARAM_MAX_KEYS][64];
+
+	memcpy(dotted, s->dotted, sizeof(dotted));
+	s->n = changed;
+	notice(ps, s, q->request_id, source, q->name ? q->name : "", res.seq, res.utime);
+	for (int i = 0; i < changed; i++) {
+		fill_entry(ps, e, i, config_key_find(dotted[i]));
+	}
+	snprintf(why, sizeof(why), "%d key%s changed, in force from tick %lld", changed,
+		 changed == 1 ? "" : "s", (long long)res.seq);
+	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
+				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = why,
+				 .seq = res.seq, .n = changed, .params = e->entries};
+
+	reply(ps, &r, true);
+}
+
+static void do_save(struct param_service *ps, const omni4_param_request_t *q)
+{
+	struct scratch *s = &g_scratch;
+	char why[WHY_MAX], header[160];
+	const time_t now = time(NULL);
+	struct tm tm;
+
+	gmtime_r(&now, &tm);
+	strftime(header, sizeof(header),
+		 "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ; the previous file is "
+		 "kept as .bak",
+		 &tm);
+	if (config_save(ps->path, &ps->running, header, why, sizeof(why))) {
+		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, true);
+		return;
+	}
+	atomic_fetch_add(&ps->n.saved, 1);
+	s->n = 0;
+	notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
+	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
+				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = "saved",
+				 .seq = -1, .path = ps->path};
+
+	reply(ps, &r, true);
+}
+
+void param_service_handle(struct param_service *ps, const void *data, size_t len)
+{
+	omni4_param_request_t q;
+	struct scratch *s = &g_scratch;
+	char why[WHY_MAX];
+
+	atomic_fetch_add(&ps->n.requests, 1);
+	if (len > INT32_MAX || omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
+		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)", len);
+		atomic_fetch_add(&ps->n.bad, 1);
+		simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+		return;
+	}
+	if (cache_replay(ps, q.request_id))
+		goto out;
+	const bool writes = q.op == OMNI4_PARAM_REQUEST_T_OP_SET ||
+			    q.op == OMNI4_PARAM_REQUEST_T_OP_LOAD ||
+			    q.op == OMNI4_PARAM_REQUEST_T_OP_SAVE;
+
+	if (writes && ps->running.params.secret[0] && strcmp(q.secret, ps->running.params.secret)) {
+		atomic_fetch_add(&ps->n.denied, 1);
+		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_DENIED,
+			     "wrong or missing secret (the robot's INI sets [params] secret)", false);
+		goto out;
+	}
+	memset(s->key, 0, sizeof(s->key));
+	s->n = 0;
+	s->too_many = s->duplicate = false;
+	switch (q.op) {
+	case OMNI4_PARAM_REQUEST_T_OP_LIST:
+	case OMNI4_PARAM_REQUEST_T_OP_GET:
+		do_list(ps, &q);
+		break;
+	case OMNI4_PARAM_REQUEST_T_OP_SET:
+		if (q.n < 1 || q.n > PARAM_MAX_KEYS) {
+			snprintf(why, sizeof(why), "SET with %d keys: 1 to %d", q.n, PARAM_MAX_KEYS);
+			goto bad;
+		}
+		for (int i = 0; i < q.n; i++) {
+			const int key = config_key_find(q.keys[i]);
+
+			if (key < 0) {
+				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
+					 q.keys[i]);
+				goto bad;
+			}
+			add_pair(s, key, q.values[i]);
+		}
+		if (s->duplicate) {
+			snprintf(why, sizeof(why), "a key appears twice in one SET");
+			goto bad;
+		}
+		apply_pairs(ps, s, &q, "set");
+		break;
+	case OMNI4_PARAM_REQUEST_T_OP_LOAD: {
+		struct config_error err;
+
+		if (strlen(q.text) > PARAM_MAX_TEXT) {
+			snprintf(why, sizeof(why), "LOAD text of %zu bytes: at most %d",
+				 strlen(q.text), PARAM_MAX_TEXT);
+			goto bad;
+		}
+		if (config_parse_pairs(q.text, q.name[0] ? q.name : "(load)", add_pair, s, &err)) {
+			snprintf(why, sizeof(why), "%s", err.msg);
+			goto bad;
+		}
+		if (s->n == 0) {
+			snprintf(why, sizeof(why), "%s: no keys", q.name[0] ? q.name : "(load)");
+			goto bad;
+		}
+		apply_pairs(ps, s, &q, "load");
+		break;
+	}
+	case OMNI4_PARAM_REQUEST_T_OP_SAVE:
+		do_save(ps, &q);
+		break;
+	default:
+		snprintf(why, sizeof(why), "unknown op %d", q.op);
+		goto bad;
+	}
+	goto out;
+bad:
+	atomic_fetch_add(&ps->n.bad, 1);
+	simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+out:
+	omni4_param_request_t_decode_cleanup(&q);
+}
+
+/* ---- threads ------------------------------------------------------------------------------ */
+
+static int lcm_emit(void *ctx, const char *channel, const void *data, size_t len)
+{
+	return lcm_publish(ctx, channel, data, (unsigned int)len);
+}
+
+/* Receive thread (LCM handler): queue a copy; a full queue is answered BUSY right here. */
+static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct param_service *ps = user;
+	void *copy = malloc(rbuf->data_size ? rbuf->data_size : 1);
+
+	(void)channel;
+	pthread_mutex_lock(&ps->mu);
+	if (copy && ps->q_len < PARAM_QUEUE) {
+		const int i = (ps->q_head + ps->q_len) % PARAM_QUEUE;
+
+		memcpy(copy, rbuf->data, rbuf->data_size);
+		ps->queue[i].data = copy;
+		ps->queue[i].len = rbuf->data_size;
+		ps->q_len++;
+		pthread_cond_signal(&ps->cv);
+		pthread_mutex_unlock(&ps->mu);
+		return;
+	}
+	pthread_mutex_unlock(&ps->mu);
+	free(copy);
+	atomic_fetch_add(&ps->n.busy, 1);
+
+	omni4_param_request_t q;
+
+	if (rbuf->data_size <= INT32_MAX &&
+	    omni4_param_request_t_decode(rbuf->data, 0, (int)rbuf->data_size, &q) ==
+		    (int)rbuf->data_size) {
+		omni4_param_reply_t r = {.utime = rtloop_clock_us(), .request_id = q.request_id,
+					 .op = q.op, .result = OMNI4_PARAM_REPLY_T_RESULT_BUSY,
+					 .message = "busy: too many requests queued, try again",
+					 .seq = -1, .path = ""};
+		unsigned char buf[256];
+		const int n = omni4_param_reply_t_encode(buf, 0, sizeof(buf), &r);
+
+		if (n > 0)
+			emit(ps, PARAM_CHANNEL_REPLY, buf, (size_t)n);
+		omni4_param_request_t_decode_cleanup(&q);
+	}
+}
+
+static void *service_main(void *arg)
+{
+	struct param_service *ps = arg;
+
+	pthread_mutex_lock(&ps->mu);
+	while (!ps->stop) {
+		if (ps->q_len == 0) {
+			struct timespec until;
+
+			clock_gettime(CLOCK_REALTIME, &until);
+			until.tv_nsec += 100000000; /* wake up to look at stop */
+			if (until.tv_nsec >= 1000000000) {
+				until.tv_sec++;
+				until.tv_nsec -= 1000000000;
+			}
+			pthread_cond_timedwait(&ps->cv, &ps->mu, &until);
+			continue;
+		}
+		void *data = ps->queue[ps->q_head].data;
+		const size_t len = ps->queue[ps->q_head].len;
+
+		ps->q_head = (ps->q_head + 1) % PARAM_QUEUE;
+		ps->q_len--;
+		pthread_mutex_unlock(&ps->mu);
+		param_service_handle(ps, data, len);
+		free(data);
+		pthread_mutex_lock(&ps->mu);
+	}
+	pthread_mutex_unlock(&ps->mu);
+	return NULL;
+}
+
+int param_service_start(struct param_service *ps, lcm_t *lcm)
+{
+	ps->lcm = lcm;
+	if (!ps->out.emit)
+		ps->out = (struct param_out){.emit = lcm_emit, .ctx = lcm};
+	ps->sub = lcm_subscribe(lcm, PARAM_CHANNEL_REQ, on_request, ps);
+	if (!ps->sub)
+		return -EIO;
+	pthread_attr_t attr;
+
+	pthread_attr_init(&attr);
+	pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);
+	const int rc = pthread_create(&ps->thread, &attr, service_main, ps);
+
+	pthread_attr_destroy(&attr);
+	if (rc) {
+		lcm_unsubscribe(lcm, ps->sub);
+		ps->sub = NULL;
+		return -rc;
+	}
+	ps->started = true;
+	return 0;
+}
+
+void param_service_stop(struct param_service *ps)
+{
+	if (ps->started) {
+		pthread_mutex_lock(&ps->mu);
+		ps->stop = true;
+		pthread_cond_signal(&ps->cv);
+		pthread_mutex_unlock(&ps->mu);
+		pthread_join(ps->thread, NULL);
+		ps->started = false;
+	}
+	if (ps->sub) {
+		lcm_unsubscribe(ps->lcm, ps->sub);
+		ps->sub = NULL;
+	}
+	for (int i = 0; i < ps->q_len; i++)
+		free(ps->queue[(ps->q_head + i) % PARAM_QUEUE].data);
+	ps->q_len = 0;
+	for (int i = 0; i < PARAM_CACHE; i++) {
+		free(ps->cache[i].data);
+		ps->cache[i].data = NULL;
+	}
+}
