@@ -35,5 +35,7 @@ echo "== 3. validation: identified vs Table III parameters, beside the paper's T
   --json "$OUT/validation.json" --csv "$OUT/csv" "$OUT/sim.lcmlog"
 echo
 echo "== 4. plots and report =="
-/usr/bin/python3 host-tools/plots/omni4_report.py "$OUT/csv" "$OUT/report" --json "$OUT/validation.json"
+# The project's venv: it has the omni4 package (omni4.read_log draws the log's raw series).
+.venv/bin/python host-tools/plots/omni4_report.py "$OUT/csv" "$OUT/report" --json "$OUT/validation.json" \
+  --log "$OUT/sim.lcmlog"
 echo "report: $OUT/report/report.md"

@@ -1,12 +1,17 @@
 #!/usr/bin/env python3
 """Plots and a one-page Markdown report from the CSV exports of omni4-ident.
 
-usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json]
+usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json] [--log LOG...]
 
 CSV_DIR holds what `omni4-ident identify --csv DIR` and `omni4-ident validate --csv DIR` wrote.
 Figures follow the paper: T vs w (exp 1, fig 4a), coast-down with its fit (exp 2, fig 4b),
 u/i vs w_m/i per motor (motor test, fig 5), measured vs simulated v, vn, w (figs 6-7), and,
 when `identify --bootstrap N` ran, the bootstrap distribution of every final parameter.
+
+--log LOG...: the raw time series of each event log (wheel speeds, currents, voltages, the
+experiment segments shaded) and what was read from it, through the omni4 Python package
+(omni4.read_log; `pip install ./python`, or the project's .venv/bin/python). A split log is
+given as its parts or as FILE when only FILE.00, FILE.01, ... exist.
 """
 import argparse
 import csv
@@ -19,6 +24,9 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+LOG_PLOT_POINTS = 4000  # min/max pairs per line in a log figure: extremes kept, size bounded
+SEGMENT_COLORS = {"steady_rotation": "C0", "coast": "C1", "motor": "C2", "step": "C3"}
 
 
 def read_csv(path):
@@ -206,12 +214,83 @@ def fig_validation(rows, out):
     return names
 
 
+def envelope(t, y, bins=LOG_PLOT_POINTS):
+    """Per bin of samples the min and max of each column of y, in time order: a line through
+    them shows every extreme of a long series with 2 x bins points."""
+    import numpy as np
+    n = len(t)
+    if n <= 2 * bins:
+        return t, y
+    edges = np.linspace(0, n, bins + 1).astype(int)
+    lo = np.minimum.reduceat(y, edges[:-1], axis=0)
+    hi = np.maximum.reduceat(y, edges[:-1], axis=0)
+    tt = np.repeat(t[edges[:-1]], 2)
+    yy = np.empty((2 * bins,) + y.shape[1:], y.dtype)
+    yy[0::2], yy[1::2] = lo, hi
+    return tt, yy
+
+
+def fig_log(path, index, out):
+    """The raw series of one event log; returns (figure name, summary lines)."""
+    try:
+        import omni4
+    except ImportError as e:
+        sys.exit(f"omni4_report: --log needs the omni4 Python package ({e}); "
+                 "pip install ./python, or run with the project's .venv/bin/python")
+    try:
+        log = omni4.read_log(path)
+    except (OSError, omni4.LogError) as e:
+        sys.exit(f"omni4_report: {e}")
+    m = log.motors
+    if not len(m):
+        return None, [f"{path}: no OMNI4_MOTORS samples", ""] + log.summary().splitlines()
+    t0 = m.utime[0]
+    t = (m.utime - t0) * 1e-6
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    series = [(m.wheel_speed, "wheel speed [rad/s]"), (m.current, "current [A]"),
+              (m.voltage, "applied voltage [V]")]
+    for ax, (y, label) in zip(axes, series):
+        tt, yy = envelope(t, y)
+        for j in range(4):
+            ax.plot(tt, yy[:, j], "-", lw=0.6, label=f"wheel {j}")
+        ax.set_ylabel(label)
+        ax.grid(True, lw=0.3)
+    # Experiment segments: from a mark to the next mark (or the end of the log).
+    e = log.experiment
+    ends = list((e.utime[1:] - t0) * 1e-6) + [t[-1]]
+    seen = set()
+    for kind, direction, a, b in zip(e.kind, e.direction, (e.utime - t0) * 1e-6, ends):
+        if kind == "end":
+            continue
+        color = SEGMENT_COLORS.get(kind, "0.6")
+        for ax in axes:
+            ax.axvspan(a, b, color=color, alpha=0.12, lw=0,
+                       label=kind if ax is axes[0] and kind not in seen else None)
+        seen.add(kind)
+        axes[0].text(a, 1.0, direction, transform=axes[0].get_xaxis_transform(), fontsize=6,
+                     va="bottom")
+    axes[-1].set_xlabel(f"t since the first OMNI4_MOTORS sample [s] ({len(m)} samples)")
+    axes[0].set_title(f"Log {os.path.basename(path)}: raw series, experiment segments shaded",
+                      pad=14)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, ncol=len(labels), loc="lower center")
+    name = f"log_{index}_{os.path.basename(path).replace('.', '_')}.png"
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    lines = [f"`{path}`: {t[-1]:.1f} s of OMNI4_MOTORS, {len(e)} experiment marks, "
+             f"{len(log.pose)} poses, {len(log.cmd)} commands.", "", "```"]
+    return name, lines + log.summary().splitlines() + ["```", ""]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("csv_dir")
     ap.add_argument("out_dir")
     ap.add_argument("--json", help="validation JSON of omni4-ident validate")
+    ap.add_argument("--log", nargs="+", default=[], metavar="LOG",
+                    help="event logs whose raw series to draw (needs the omni4 package)")
     a = ap.parse_args()
     if not os.path.isdir(a.csv_dir):
         sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
@@ -228,6 +307,11 @@ def main():
                               a.out_dir))
     windows = read_csv(os.path.join(a.csv_dir, "windows.csv"))
     figs.append(fig_windows(windows, a.out_dir))
+    log_lines = []
+    for k, path in enumerate(a.log):
+        name, lines = fig_log(path, k, a.out_dir)
+        figs.append(name)
+        log_lines += lines
     figs = [f for f in figs if f]
     agreement = {r["param"]: r for r in read_csv(os.path.join(a.csv_dir, "agreement.csv"))}
 
@@ -294,6 +378,8 @@ def main():
             lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
                          f"{p[0]} | {p[1]} | {p[2]} |")
         lines.append("")
+    if log_lines:
+        lines += ["## Logs", ""] + log_lines
     lines += ["## Figures", ""]
     for f in figs:
         lines += [f"![{f}]({f})", ""]
