@@ -1,0 +1,444 @@
+"""omni4.params: the robot's parameters over LCM, and the ``omni4-param`` command.
+
+omni4-fw answers param_request_t on OMNI4_PARAM_REQ with one param_reply_t on OMNI4_PARAM_REPLY
+(docs/design.md, "Parameters over LCM"). Keys are the INI's ``section.key`` names; values travel
+as the text the INI holds. A set of several keys (or a load) is applied by the loop between two
+ticks, whole or not at all; the robot's reason comes back in the exception.
+
+    from omni4.params import ParamClient
+    p = ParamClient("udpm://239.255.76.67:7667?ttl=0")
+    p.get("control.kp").value          # 20.0
+    p.set("control.kp", 30)            # Applied(seq=..., ...)
+    p.set({"model.R": 4.5, "model.Kv": 0.026})   # one atomic change
+    p.load("PARAMS.ini")               # the [model] of omni4-ident identify, merged
+    p.save()                           # the robot's INI, atomically; in force after a restart
+
+Every wait is bounded: a request is sent, and sent again with the same request id if no reply
+came within ``timeout_s`` (the robot answers a repeated id from its cache, so a change is never
+applied twice), ``retries`` times; then ParamTimeout.
+"""
+import argparse
+import dataclasses
+import os
+import random
+import sys
+import threading
+import time
+
+import lcm
+
+from .param_reply_t import param_reply_t
+from .param_request_t import param_request_t
+from .param_value_t import param_value_t
+
+CHANNEL_PARAM_REQ = "OMNI4_PARAM_REQ"          # param_request_t, client -> controller
+CHANNEL_PARAM_REPLY = "OMNI4_PARAM_REPLY"      # param_reply_t, controller -> client
+CHANNEL_PARAM_CHANGED = "OMNI4_PARAM_CHANGED"  # param_changed_t, every change and save
+
+RESULT_NAMES = {
+    param_reply_t.RESULT_OK: "ok",
+    param_reply_t.RESULT_REFUSED: "refused",
+    param_reply_t.RESULT_BAD_REQUEST: "bad request",
+    param_reply_t.RESULT_DENIED: "denied",
+    param_reply_t.RESULT_BUSY: "busy",
+    param_reply_t.RESULT_FAILED: "failed",
+}
+CHANGE_NAMES = {
+    param_value_t.CHANGE_LIVE: "live",
+    param_value_t.CHANGE_IDLE: "idle",
+    param_value_t.CHANGE_RESTART: "restart",
+}
+OP_NAMES = {
+    param_request_t.OP_LIST: "list", param_request_t.OP_GET: "get", param_request_t.OP_SET: "set",
+    param_request_t.OP_SAVE: "save", param_request_t.OP_LOAD: "load",
+}
+
+
+class ParamError(Exception):
+    """A parameter request that did not succeed. ``result`` is the robot's RESULT_* code (None
+    when there was no answer); str(e) is one line with the robot's reason."""
+
+    def __init__(self, message, result=None, op=None):
+        super().__init__(message)
+        self.result = result
+        self.op = op
+
+
+class ParamRefused(ParamError):
+    """The robot answered and did not do it (out of range, invalid model, not while driving,
+    restart only, wrong secret, malformed request, save failed). Nothing changed."""
+
+
+class ParamTimeout(ParamError):
+    """No answer within the bounded wait (omni4-fw not running, another LCM URL, lost packets)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One parameter as the robot holds it."""
+    key: str        # "section.key"
+    text: str       # the value as the INI holds it
+    unit: str       # SI unit, "" for none
+    type: int       # param_value_t.TYPE_*
+    min: float      # inclusive range of numbers
+    max: float
+    choices: str    # "a|b|c" for strings with a fixed set, else ""
+    change: str     # "live" | "idle" | "restart"
+    doc: str
+
+    @property
+    def section(self):
+        return self.key.split(".", 1)[0]
+
+    @property
+    def name(self):
+        return self.key.split(".", 1)[1]
+
+    @property
+    def value(self):
+        """The value as a Python float / int / bool / str."""
+        if self.type == param_value_t.TYPE_DOUBLE:
+            return float(self.text)
+        if self.type == param_value_t.TYPE_INT:
+            return int(self.text)
+        if self.type == param_value_t.TYPE_BOOL:
+            return self.text == "true"
+        return self.text
+
+    @classmethod
+    def _from_msg(cls, m):
+        return cls(m.key, m.value, m.unit, m.type, m.min, m.max, m.choices,
+                   CHANGE_NAMES.get(m.change, str(m.change)), m.doc)
+
+
+@dataclasses.dataclass(frozen=True)
+class Applied:
+    """The answer to a set or load: the keys that changed (with their new values) and the loop
+    tick (motors_t.seq) from which they are in force (-1: nothing changed)."""
+    seq: int
+    params: tuple
+    message: str
+    request_id: int
+
+
+def format_value(value):
+    """A Python value as the INI text the robot parses (floats round-trip exactly)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+class ParamClient:
+    """Client of omni4-fw's parameter service.
+
+    lcm_url_or_lcm_instance: an LCM URL (the robot's [lcm] url) or an lcm.LCM; None = the
+    default URL. secret: the robot's [params] secret, needed by set / load / save when the robot
+    has one. timeout_s: wait for one reply [s]; retries: resends with the same request id.
+    pump: handle the LCM instance while waiting (True); pass False when another thread already
+    runs lc.handle() on an instance you pass in (replies then arrive through that thread).
+    """
+
+    def __init__(self, lcm_url_or_lcm_instance=None, secret=None, timeout_s=1.0, retries=2,
+                 pump=True):
+        if not (timeout_s > 0):
+            raise ValueError("timeout_s must be > 0")
+        if isinstance(lcm_url_or_lcm_instance, lcm.LCM):
+            self._lc, self._own = lcm_url_or_lcm_instance, False
+        else:
+            from . import DEFAULT_LCM_URL
+            url = lcm_url_or_lcm_instance or DEFAULT_LCM_URL
+            try:
+                self._lc = lcm.LCM(url)
+            except Exception as e:  # lcm raises a bare RuntimeError
+                raise ParamError(f"cannot open LCM at '{url}': {e}") from None
+            self._own = True
+        self.secret = secret or ""
+        self.timeout_s = float(timeout_s)
+        self.retries = int(retries)
+        self.pump = pump
+        self._replies = {}
+        self._cond = threading.Condition()
+        self._lock = threading.Lock()
+        self._sub = self._lc.subscribe(CHANNEL_PARAM_REPLY, self._on_reply)
+
+    def close(self):
+        if self._sub is not None:
+            self._lc.unsubscribe(self._sub)
+            self._sub = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ---- requests ----------------------------------------------------------------------------
+
+    def _on_reply(self, channel, data):
+        try:
+            r = param_reply_t.decode(data)
+        except ValueError:
+            return
+        with self._cond:
+            if r.request_id in self._replies:
+                self._replies[r.request_id] = r
+                self._cond.notify_all()
+
+    def _wait(self, request_id, deadline):
+        while True:
+            with self._cond:
+                r = self._replies.get(request_id)
+                if r is not None:
+                    return r
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return None
+                if not self.pump:
+                    self._cond.wait(min(left, 0.05))
+                    continue
+            self._lc.handle_timeout(max(1, min(50, int(left * 1000))))
+
+    def _request(self, op, keys=(), values=None, name="", text=""):
+        q = param_request_t()
+        q.request_id = random.getrandbits(62) + 1
+        q.op = op
+        q.secret = self.secret
+        q.keys = [str(k) for k in keys]
+        q.values = [str(v) for v in values] if values is not None else [""] * len(q.keys)
+        q.n = len(q.keys)
+        q.name = name
+        q.text = text
+        with self._lock:
+            with self._cond:
+                self._replies[q.request_id] = None
+            try:
+                for attempt in range(self.retries + 1):
+                    q.utime = int(time.time() * 1e6)
+                    self._lc.publish(CHANNEL_PARAM_REQ, q.encode())
+                    r = self._wait(q.request_id, time.monotonic() + self.timeout_s)
+                    if r is not None and r.result == param_reply_t.RESULT_BUSY:
+                        with self._cond:
+                            self._replies[q.request_id] = None
+                        time.sleep(0.05 * (attempt + 1))
+                        continue
+                    if r is not None:
+                        break
+            finally:
+                with self._cond:
+                    self._replies.pop(q.request_id, None)
+        opname = OP_NAMES.get(op, str(op))
+        if r is None or r.result == param_reply_t.RESULT_BUSY:
+            tries = self.retries + 1
+            raise ParamTimeout(f"{opname}: no answer from omni4-fw in {tries} x {self.timeout_s:g} s"
+                               f" (is it running on this LCM URL?)", None, op)
+        if r.result != param_reply_t.RESULT_OK:
+            what = RESULT_NAMES.get(r.result, str(r.result))
+            raise ParamRefused(f"{opname} {what}: {r.message}", r.result, op)
+        return r
+
+    # ---- the operations ------------------------------------------------------------------------
+
+    def list(self):
+        """Every parameter, in the INI's order: a list of Param."""
+        r = self._request(param_request_t.OP_LIST)
+        return [Param._from_msg(m) for m in r.params]
+
+    def get(self, key):
+        """One parameter (Param; .value is typed). Unknown key: ParamRefused."""
+        return self.get_many([key])[0]
+
+    def get_many(self, keys):
+        r = self._request(param_request_t.OP_GET, list(keys))
+        return [Param._from_msg(m) for m in r.params]
+
+    def set(self, key_or_mapping, value=None):
+        """set("control.kp", 30) or set({"model.R": 4.5, "model.Kv": 0.026}): applied together
+        between two ticks, or refused whole (ParamRefused with the robot's reason)."""
+        if isinstance(key_or_mapping, dict):
+            if value is not None:
+                raise TypeError("set(mapping) takes no value")
+            items = list(key_or_mapping.items())
+        else:
+            if value is None:
+                raise TypeError("set(key, value): value missing")
+            items = [(key_or_mapping, value)]
+        if not items:
+            raise ValueError("set: no keys")
+        r = self._request(param_request_t.OP_SET, [k for k, _ in items],
+                          [format_value(v) for _, v in items])
+        return Applied(r.seq, tuple(Param._from_msg(m) for m in r.params), r.message,
+                       r.request_id)
+
+    def load(self, path):
+        """Apply the keys of an INI file (e.g. the PARAMS.ini of omni4-ident identify: a partial
+        [model] is merged with the running one, then the whole model is checked). Not saved:
+        call save() to keep it over a restart."""
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        r = self._request(param_request_t.OP_LOAD, name=os.path.basename(path), text=text)
+        return Applied(r.seq, tuple(Param._from_msg(m) for m in r.params), r.message,
+                       r.request_id)
+
+    def save(self):
+        """Write the values in force to the robot's INI (atomically; the previous file is kept
+        as .bak). Returns the path written (on the robot)."""
+        return self._request(param_request_t.OP_SAVE).path
+
+    def dump(self):
+        """The values in force as INI text that omni4-fw loads (params.secret left out)."""
+        return format_ini(self.list())
+
+
+def format_ini(params, header=None):
+    """INI text of a list of Param, in the robot's sections."""
+    out = []
+    if header:
+        out.append(f"; {header}")
+    section = None
+    for p in params:
+        if p.section != section:
+            if section is not None:
+                out.append("")
+            section = p.section
+            out.append(f"[{section}]")
+        unit = f" [{p.unit}]" if p.unit else ""
+        out.append(f"; {p.doc}{unit} ({p.change})")
+        if p.key == "params.secret":
+            out.append(f"; secret = ({'set' if p.text else 'none'}: not shown)")
+        else:
+            out.append(f"{p.name} = {p.text}")
+    return "\n".join(out) + "\n"
+
+
+# ---- omni4-param ---------------------------------------------------------------------------------
+
+USAGE_EPILOG = """\
+commands:
+  list                          every parameter: value, unit, when it may change, range
+  get KEY [KEY ...]             print KEY = VALUE
+  set KEY VALUE [KEY VALUE ...] change them together between two loop ticks (or none)
+  save                          write the values in force to the robot's INI (atomically)
+  load PARAMS.ini               apply the keys of an INI file (e.g. omni4-ident identify --out)
+  dump                          the values in force as INI text (> robot.ini)
+
+Keys are the INI's section.key (control.kp, model.R, ...). Rules: live = in any mode, idle =
+only while the bridges are not driven, restart = only in the INI. Exit status: 0 done, 1 refused
+by the robot or no answer, 2 usage or configuration error. The secret can also come from
+$OMNI4_PARAM_SECRET (so it does not show in the process list).
+example: omni4-param set control.kp 30 && omni4-param save"""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        self.exit(2, f"omni4-param: {message} (try --help)\n")
+
+
+def _build_parser():
+    from . import DEFAULT_LCM_URL
+    p = _Parser(prog="omni4-param", description="Read and change the parameters of a running "
+                "omni4-fw over LCM.", epilog=USAGE_EPILOG,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
+                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p.add_argument("--secret", default=None, help="the robot's [params] secret")
+    p.add_argument("--timeout", type=float, default=1.0, metavar="S",
+                   help="wait for one answer [s] (default 1; 3 tries)")
+    p.add_argument("command", choices=["list", "get", "set", "save", "load", "dump"],
+                   metavar="COMMAND")
+    p.add_argument("args", nargs="*", metavar="ARG")
+    return p
+
+
+def _print_params(params, out):
+    for p in params:
+        rng = ""
+        if p.type in (param_value_t.TYPE_DOUBLE, param_value_t.TYPE_INT) and \
+                (p.min > -float("inf") or p.max < float("inf")):
+            rng = f" in [{p.min:g}, {p.max:g}]"
+        elif p.choices:
+            rng = f" one of {p.choices}"
+        unit = f" {p.unit}" if p.unit else ""
+        out.write(f"{p.key} = {p.text}{unit}  ({p.change}{rng}; {p.doc})\n")
+
+
+def main(argv=None):
+    args = _build_parser().parse_args(argv)
+    n = len(args.args)
+    if args.command in ("list", "save", "dump") and n:
+        return _usage(f"{args.command} takes no arguments")
+    if args.command == "get" and n < 1:
+        return _usage("get needs KEY")
+    if args.command == "set" and (n < 2 or n % 2):
+        return _usage("set needs KEY VALUE [KEY VALUE ...]")
+    if args.command == "load" and n != 1:
+        return _usage("load needs one PARAMS.ini")
+    if not (args.timeout > 0):
+        return _usage("--timeout must be > 0")
+    keys = args.args[0::2] if args.command == "set" else args.args
+    for k in keys if args.command in ("get", "set") else ():
+        if "." not in k:
+            return _usage(f"'{k}' is not a section.key name (e.g. control.kp)")
+    secret = args.secret if args.secret is not None else os.environ.get("OMNI4_PARAM_SECRET")
+    text = None
+    if args.command == "load":
+        try:
+            with open(args.args[0], encoding="utf-8") as f:
+                text = f.read()
+        except (OSError, UnicodeDecodeError) as e:
+            return _usage(f"{args.args[0]}: cannot read: {getattr(e, 'strerror', None) or e}")
+    try:
+        client = ParamClient(args.lcm, secret=secret, timeout_s=args.timeout)
+    except ParamError as e:
+        return _usage(str(e))
+    out = sys.stdout
+    try:
+        if args.command == "list":
+            _print_params(client.list(), out)
+        elif args.command == "get":
+            for p in client.get_many(args.args):
+                out.write(f"{p.key} = {p.text}\n")
+        elif args.command == "set":
+            a = client.set(dict(zip(args.args[0::2], args.args[1::2])))
+            _print_applied(a, out)
+        elif args.command == "load":
+            r = client._request(param_request_t.OP_LOAD, name=os.path.basename(args.args[0]),
+                                text=text)
+            _print_applied(Applied(r.seq, tuple(Param._from_msg(m) for m in r.params), r.message,
+                                   r.request_id), out)
+        elif args.command == "save":
+            t0 = time.monotonic()
+            path = client.save()
+            out.write(f"saved {path} (previous kept as {path}.bak) in "
+                      f"{(time.monotonic() - t0) * 1e3:.0f} ms\n")
+        elif args.command == "dump":
+            out.write(format_ini(client.list(), header=f"omni4 parameters in force, read from "
+                                 f"{args.lcm} at {time.strftime('%Y-%m-%dT%H:%M:%S')}"))
+    except ParamRefused as e:
+        sys.stderr.write(f"omni4-param: {e}\n")
+        return 2 if e.result == param_reply_t.RESULT_BAD_REQUEST else 1
+    except ParamError as e:
+        sys.stderr.write(f"omni4-param: {e}\n")
+        return 1
+    finally:
+        client.close()
+    return 0
+
+
+def _print_applied(a, out):
+    if a.seq < 0:
+        out.write(f"{a.message}\n")
+        return
+    for p in a.params:
+        out.write(f"{p.key} = {p.text}\n")
+    out.write(f"in force from tick {a.seq}\n")
+
+
+def _usage(message):
+    sys.stderr.write(f"omni4-param: {message} (try --help)\n")
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
