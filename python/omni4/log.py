@@ -231,18 +231,13 @@ def _load(paths):
 
 def _sync_positions(buf, lo, hi):
     """Offsets (relative to lo) of every 4-byte big-endian sync word in buf[lo:hi]."""
-    n = hi - lo
-    found = []
-    want = np.array([SYNC], ">u4").view("<u4")[0] if np.little_endian else SYNC
-    for a in range(4):
-        count = (n - a) // 4
-        if count <= 0:
-            continue
-        words = np.frombuffer(buf, np.uint32, count=count, offset=lo + a)
-        found.append(np.flatnonzero(words == want) * 4 + a)
-    if not found:
+    seg = buf[lo:hi]
+    if len(seg) < 4:
         return np.zeros(0, np.int64)
-    return np.sort(np.concatenate(found)).astype(np.int64)
+    first = np.flatnonzero(seg[:-3] == (SYNC >> 24))
+    sync = SYNC.to_bytes(4, "big")
+    hit = (seg[first + 1] == sync[1]) & (seg[first + 2] == sync[2]) & (seg[first + 3] == sync[3])
+    return first[hit].astype(np.int64)
 
 
 def _walk(buf, lo, hi):
@@ -292,14 +287,15 @@ def _channel_ids(buf, off, clen, names):
     """Channel index of every event (into `names`, which grows with the unknown channels)."""
     ids = np.full(len(off), -1, np.int64)
     index = {nm: i for i, nm in enumerate(names)}
-    for L in np.unique(clen):
+    for L in np.flatnonzero(np.bincount(clen)):
         sel = np.flatnonzero(clen == L)
         raw = np.ascontiguousarray(sliding_window_view(buf, int(L))[off[sel] + HEADER_BYTES])
+        as_bytes = raw.view(f"S{L}").ravel()  # (a name ending in NUL bytes compares short)
         rest = np.ones(len(sel), bool)
         for nm, i in index.items():
             b = nm.encode()
-            if len(b) == L:
-                hit = (raw == np.frombuffer(b, np.uint8)).all(axis=1)
+            if len(b) == L and not b.endswith(b"\0"):
+                hit = as_bytes == b
                 ids[sel[hit]] = i
                 rest &= ~hit
         if rest.any():
