@@ -246,16 +246,16 @@ class Robot:
     # ---- parameters ----------------------------------------------------------------------
     @property
     def params(self):
-        """The controller's parameter client (omni4.params.ParamClient on this URL, created on
-        first use with its own LCM instance, so its waits do not race this client's receive
-        thread)."""
+        """The controller's parameter client (omni4.params.ParamClient), created on first use
+        on this client's LCM instance: its replies arrive through this client's receive thread
+        (pump=False), so nothing else calls lc.handle() on it."""
         if self._params is None:
             try:
                 from .params import ParamClient
             except ImportError as e:
                 raise AttributeError(f"Robot.params needs omni4.params.ParamClient, which this "
                                      f"installation lacks ({e})") from None
-            self._params = ParamClient(self.url, secret=self._secret)
+            self._params = ParamClient(self._lc, secret=self._secret, pump=False)
         return self._params
 
     # ---- life cycle ----------------------------------------------------------------------

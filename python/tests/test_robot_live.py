@@ -181,6 +181,14 @@ def test_clear_fault_returns_a_sample_out_of_fault(fw):
         assert m.mode == omni4.motors_t.MODE_IDLE and not m.faults & omni4.robot.LATCHING_FAULTS
 
 
+def test_params_reads_the_controller_settings_through_the_client(fw):
+    """Robot.params: omni4.params.ParamClient on the client's own LCM instance, its replies
+    delivered by the client's receive thread."""
+    with omni4.Robot(fw.url) as robot:
+        assert robot.params.get("control.cmd_timeout_ms").value == CMD_TIMEOUT_MS
+        assert robot.params.get("hal.motor").value == "sim"
+
+
 def test_motors_iterator_delivers_every_tick_then_times_out(tmp_path):
     """Its own controller for 2 s: samples at 1 kHz without gaps, then TimeoutError once the
     controller has exited."""
