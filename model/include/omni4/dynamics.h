@@ -1,7 +1,7 @@
 /*
  * dynamics.h - forces, motor equation and the state-space model (eqs 6-15, 21, 23-27).
  *
- * Sign convention (see DESIGN.md): the paper's printed A (eq 25) has the back-EMF term with a
+ * Sign convention (docs/design.md, "Model conventions"): the paper's printed A (eq 25) has the back-EMF term with a
  * plus sign; derived from eqs 9-15 and 21 it decelerates the robot, so here
  *   A11 = -(2 Kt Kv l^2 / (r^2 R M) + Bv / M), A22 likewise with Bvn,
  *   A33 = -(4 d^2 Kt Kv l^2 / (r^2 R J) + Bw / J).

@@ -1,6 +1,6 @@
 /*
  * feedforward.h - model-based feedforward: desired velocity and acceleration -> four channel
- * voltages (DESIGN.md):
+ * voltages (docs/design.md):
  *   Fv = M a_v + Bv v + Cv sgn(v), Fvn = M a_vn + Bvn vn + Cvn sgn(vn), T = J a_w + Bw w + Cw sgn(w)
  *   f  = IK(d) [Fv/2, Fvn/2, T/(4 d^2)]
  *   u_j = (R r / (l Kt)) f_j + (Kv l / r) v_j, clamped to +-u_max.
