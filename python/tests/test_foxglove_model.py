@@ -315,7 +315,9 @@ def check_mcap_against_log(got, logged, params):
         assert (j["utime"], j["x"], j["y"], j["theta"]) == (m.utime, m.x, m.y, m.theta)
     for (_, _, j), (_, data) in zip(got[omni4.CHANNEL_CMD], logged[omni4.CHANNEL_CMD]):
         m = omni4.command_t.decode(data)
-        assert j["velocity"] == list(m.velocity) and j["mode_name"] == "VELOCITY"
+        assert (j["velocity"], j["voltage"], j["ramp_s"], j["seq"]) == \
+            (list(m.velocity), list(m.voltage), m.ramp_s, m.seq)
+        assert j["mode_name"] == topics.MODE_NAMES[m.mode]
     for (_, _, j), (_, data) in zip(got[omni4.CHANNEL_EXPERIMENT],
                                     logged[omni4.CHANNEL_EXPERIMENT]):
         m = omni4.experiment_t.decode(data)
@@ -347,8 +349,8 @@ def check_mcap_against_log(got, logged, params):
         assert schema == "foxglove.FrameTransform"
         assert (j["translation"]["x"], j["translation"]["y"]) == (m.x, m.y)
         q = j["rotation"]
-        assert 2 * math.atan2(q["z"], q["w"]) == pytest.approx(
-            math.atan2(math.sin(m.theta), math.cos(m.theta)), abs=1e-12)
+        dth = 2 * math.atan2(q["z"], q["w"]) - m.theta
+        assert abs(math.atan2(math.sin(dth), math.cos(dth))) < 1e-12
         assert j["timestamp"]["sec"] * 10**9 + j["timestamp"]["nsec"] == t
     assert got[topics.TOPIC_SCENE][0][1] == "foxglove.SceneUpdate"
     assert len(got[topics.TOPIC_SCENE][0][2]["entities"][0]["cylinders"]) == 4
@@ -420,3 +422,28 @@ def test_console_scripts_have_help():
         r = subprocess.run([os.path.join(bindir, tool), "--help"], capture_output=True,
                            text=True, timeout=60)
         assert r.returncode == 0 and "usage: " + tool in r.stdout
+
+
+def test_block_json_equals_the_bridges_json(tmp_path):
+    """omni4-mcap builds its per-sample JSON block-wise; the bridge per message: same content."""
+    path = str(tmp_path / "a.lcmlog")
+    payloads = [d for _, d in synth_log(path, n=9000, rejected=(5, 6))[omni4.CHANNEL_MOTORS]]
+    mot = export.decode_motors(payloads)
+    mot["current"][17, 2] = np.nan  # NaN -> null in both
+    meas, pred, rst = Predictor(T3).run(mot["utime"], mot["seq"], mot["mode"], mot["voltage"],
+                                        mot["wheel_speed"])
+    blocks_m = list(topics.motors_json_blocks(mot))
+    blocks_v = list(topics.velocity_json_blocks(mot, meas, pred, rst))
+    assert len(blocks_m) == len(blocks_v) == 9000
+    for k in range(0, 9000, 7):
+        one = topics.motors_json(*(mot[f][k].item() for f in ("utime", "seq", "mode", "faults")),
+                                 *(mot[f][k].astype(np.float64).tolist()
+                                   for f in ("voltage", "current", "wheel_speed")))
+        a, b = json.loads(blocks_m[k]), json.loads(one)
+        for f in ("voltage", "current", "wheel_speed"):  # float32-exact, shorter text
+            a[f] = [None if x is None else float(np.float32(x)) for x in a[f]]
+        assert a == b
+        one = topics.velocity_json(int(mot["utime"][k]), int(mot["seq"][k]), int(mot["mode"][k]),
+                                   meas[k].tolist(), pred[k].tolist(), bool(rst[k]))
+        assert json.loads(blocks_v[k]) == json.loads(one)
+    assert json.loads(blocks_m[17])["current"][2] is None

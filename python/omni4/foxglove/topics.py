@@ -16,6 +16,7 @@ schema encoding "jsonschema"). Topic list and fields: docs/design.md, "Foxglove 
 import base64
 import math
 
+import numpy as np
 import orjson
 
 import omni4
@@ -167,8 +168,12 @@ def _stamp(ns):
 # ---- LCM messages -> JSON ------------------------------------------------------------------
 
 def motors_json(utime, seq, mode, faults, voltage, current, wheel_speed):
-    return orjson.dumps({"utime": utime, "seq": seq, "mode": mode, "mode_name": mode_name(mode),
-                         "faults": faults, "fault_names": fault_names(faults),
+    # (called once per loop tick: the name lookups are inlined)
+    fn = _fault_cache.get(faults)
+    return orjson.dumps({"utime": utime, "seq": seq, "mode": mode,
+                         "mode_name": MODE_NAMES.get(mode) or mode_name(mode),
+                         "faults": faults,
+                         "fault_names": fault_names(faults) if fn is None else fn,
                          "voltage": voltage, "current": current, "wheel_speed": wheel_speed})
 
 
@@ -221,7 +226,8 @@ def lcm_classes():
 
 def velocity_json(utime, seq, mode, meas, pred, restarted):
     return orjson.dumps({
-        "utime": utime, "seq": seq, "mode_name": mode_name(mode), "restarted": restarted,
+        "utime": utime, "seq": seq, "mode_name": MODE_NAMES.get(mode) or mode_name(mode),
+        "restarted": restarted,
         "encoder": {"v": meas[0], "vn": meas[1], "w": meas[2]},
         "predicted": {"v": pred[0], "vn": pred[1], "w": pred[2]},
         "difference": {"v": meas[0] - pred[0], "vn": meas[1] - pred[1],
@@ -326,3 +332,63 @@ class Health:
         msg["mode_name"] = mode_name(self.mode)
         self._new_window()
         return orjson.dumps(msg)
+
+
+# ---- whole logs: the same JSON, built block-wise (omni4-mcap, ~1 us per message) -----------
+
+_MOTORS_FMT = (b'{"utime":%d,"seq":%d,"mode":%d,"mode_name":"%s","faults":%d,"fault_names":%s,'
+               b'"voltage":[%s,%s,%s,%s],"current":[%s,%s,%s,%s],"wheel_speed":[%s,%s,%s,%s]}')
+_VELOCITY_FMT = (b'{"utime":%d,"seq":%d,"mode_name":"%s","restarted":%s,'
+                 b'"encoder":{"v":%s,"vn":%s,"w":%s},"predicted":{"v":%s,"vn":%s,"w":%s},'
+                 b'"difference":{"v":%s,"vn":%s,"w":%s}}')
+BLOCK = 8192
+
+
+def _tokens(a):
+    """Numbers of an array as JSON tokens (orjson's shortest round-trip text; float32 stays
+    float32-exact; NaN becomes null as in every other message)."""
+    return orjson.dumps(np.ascontiguousarray(a).ravel(),
+                        option=orjson.OPT_SERIALIZE_NUMPY)[1:-1].split(b",")
+
+
+def motors_json_blocks(mot):
+    """motors_json for every sample of the arrays of export.decode_motors, in order."""
+    modes = {}
+    faults = {}
+    n = len(mot["utime"])
+    for b0 in range(0, n, BLOCK):
+        b1 = min(n, b0 + BLOCK)
+        ut, sq = mot["utime"][b0:b1].tolist(), mot["seq"][b0:b1].tolist()
+        md, fl = mot["mode"][b0:b1].tolist(), mot["faults"][b0:b1].tolist()
+        u, i, w = (_tokens(mot[f][b0:b1]) for f in ("voltage", "current", "wheel_speed"))
+        for k in range(b1 - b0):
+            m, f = md[k], fl[k]
+            mn = modes.get(m)
+            if mn is None:
+                mn = modes[m] = mode_name(m).encode()
+            fn = faults.get(f)
+            if fn is None:
+                fn = faults[f] = orjson.dumps(fault_names(f))
+            j = 4 * k
+            yield _MOTORS_FMT % (ut[k], sq[k], m, mn, f, fn, *u[j:j + 4], *i[j:j + 4],
+                                 *w[j:j + 4])
+
+
+def velocity_json_blocks(mot, meas, pred, restarted):
+    """velocity_json for every sample (meas, pred: n x 3 from Predictor.run)."""
+    modes = {}
+    n = len(mot["utime"])
+    for b0 in range(0, n, BLOCK):
+        b1 = min(n, b0 + BLOCK)
+        ut, sq = mot["utime"][b0:b1].tolist(), mot["seq"][b0:b1].tolist()
+        md, rs = mot["mode"][b0:b1].tolist(), restarted[b0:b1].tolist()
+        e, p = _tokens(meas[b0:b1]), _tokens(pred[b0:b1])
+        d = _tokens(meas[b0:b1] - pred[b0:b1])
+        for k in range(b1 - b0):
+            m = md[k]
+            mn = modes.get(m)
+            if mn is None:
+                mn = modes[m] = mode_name(m).encode()
+            j = 3 * k
+            yield _VELOCITY_FMT % (ut[k], sq[k], mn, b"true" if rs[k] else b"false",
+                                   *e[j:j + 3], *p[j:j + 3], *d[j:j + 3])
