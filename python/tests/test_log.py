@@ -1,7 +1,6 @@
 """omni4.read_log against an independent reader (lcm.EventLog + the lcm-gen decoders) on logs
 written by omni4-sim, and on broken logs: truncated, garbage, empty, split, unknown channels,
 wrong fingerprints, corrupt headers, sync words inside payloads."""
-import os
 import struct
 import subprocess
 import time
@@ -17,15 +16,6 @@ from omni4 import LogError, read_log
 
 SIM_TIMEOUT_S = 60   # omni4-sim --experiments takes ~0.5 s
 PREFIX_BYTES = 2_000_000  # ~16 s of the experiments (~17000 events): voltage and coast runs
-
-
-def omni4_bin(name):
-    d = os.environ.get("OMNI4_BIN")
-    if not d:
-        pytest.skip("OMNI4_BIN (the build's bin folder) is not set")
-    path = os.path.join(d, name)
-    assert os.access(path, os.X_OK), f"{path}: not built"
-    return path
 
 
 def event_bounds(data):
@@ -44,7 +34,7 @@ def event_bounds(data):
 
 
 @pytest.fixture(scope="module")
-def logs(tmp_path_factory):
+def logs(tmp_path_factory, omni4_bin):
     """A clean log (the first ~2 MB of omni4-sim --experiments, cut at an event boundary) and
     the same bytes cut inside an event."""
     d = tmp_path_factory.mktemp("logs")

@@ -11,21 +11,12 @@ REPORT = os.path.join(os.path.dirname(__file__), "..", "..", "host-tools", "plot
 RUN_TIMEOUT_S = 120  # the report on a 2 MB log takes ~3 s (matplotlib start-up)
 
 
-def omni4_bin(name):
-    d = os.environ.get("OMNI4_BIN")
-    if not d:
-        pytest.skip("OMNI4_BIN (the build's bin folder) is not set")
-    path = os.path.join(d, name)
-    assert os.access(path, os.X_OK), f"{path}: not built"
-    return path
-
-
 def report(*args):
     return subprocess.run([sys.executable, REPORT, *map(str, args)], capture_output=True,
                           text=True, timeout=RUN_TIMEOUT_S)
 
 
-def test_log_figure_and_summary(tmp_path):
+def test_log_figure_and_summary(tmp_path, omni4_bin):
     full = tmp_path / "full.lcmlog"
     r = subprocess.run([omni4_bin("omni4-sim"), "--experiments", "--speed", "max", "-q",
                         "--out", str(full)], capture_output=True, text=True, timeout=60)

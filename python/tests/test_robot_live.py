@@ -27,24 +27,15 @@ EXIT_TIMEOUT_S = 10           # omni4-fw's exit after SIGINT
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 
 
-def omni4_bin(name):
-    d = os.environ.get("OMNI4_BIN")
-    if not d:
-        pytest.skip("OMNI4_BIN (the build's bin folder) is not set")
-    path = os.path.join(d, name)
-    assert os.access(path, os.X_OK), f"{path}: not built"
-    return path
-
-
 class Firmware:
     """omni4-fw with `[hal] motor = sim` on its own udpm port."""
 
-    def __init__(self, tmp_path, duration_s):
+    def __init__(self, fw_path, tmp_path, duration_s):
         self.url = f"udpm://239.255.76.67:{random.randint(8400, 8900)}?ttl=0"
         ini = tmp_path / f"fw{random.randint(0, 1 << 30)}.ini"
         ini.write_text(f"[lcm]\nurl = {self.url}\n[hal]\nmotor = sim\n"
                        f"[control]\ncmd_timeout_ms = {CMD_TIMEOUT_MS}\n")
-        self.proc = subprocess.Popen([omni4_bin("omni4-fw"), "--config", str(ini), "--duration",
+        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration",
                                       str(duration_s), "-q"], stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True)
 
@@ -61,8 +52,8 @@ class Firmware:
 
 
 @pytest.fixture(scope="module")
-def fw(tmp_path_factory):
-    f = Firmware(tmp_path_factory.mktemp("fw"), duration_s=120)
+def fw(tmp_path_factory, omni4_bin):
+    f = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("fw"), duration_s=120)
     with omni4.Robot(f.url) as probe:
         try:
             next(probe.motors(timeout_s=START_TIMEOUT_S))
@@ -189,10 +180,10 @@ def test_params_reads_the_controller_settings_through_the_client(fw):
         assert robot.params.get("hal.motor").value == "sim"
 
 
-def test_motors_iterator_delivers_every_tick_then_times_out(tmp_path):
+def test_motors_iterator_delivers_every_tick_then_times_out(tmp_path, omni4_bin):
     """Its own controller for 2 s: samples at 1 kHz without gaps, then TimeoutError once the
     controller has exited."""
-    f = Firmware(tmp_path, duration_s=2)
+    f = Firmware(omni4_bin("omni4-fw"), tmp_path, duration_s=2)
     try:
         with omni4.Robot(f.url) as robot:
             first = next(robot.motors(timeout_s=START_TIMEOUT_S))
