@@ -1,0 +1,117 @@
+"""omni4.params without a controller: bounded waits, resends with the same request id (against a
+stand-in robot on real LCM), the robot's reason in the exception, and omni4-param's exit codes."""
+import random
+import threading
+import time
+
+import lcm
+import pytest
+
+import omni4
+from omni4 import params
+from omni4.params import ParamClient, ParamRefused, ParamTimeout
+
+
+def url():
+    return f"udpm://239.255.76.67:{random.randint(9801, 9999)}?ttl=0"
+
+
+class FakeRobot:
+    """Answers OMNI4_PARAM_REQ; drops the first `drop` requests it sees."""
+
+    def __init__(self, u, drop=0, result=0, message=""):
+        self.lc = lcm.LCM(u)
+        self.seen = []
+        self.drop, self.result, self.message = drop, result, message
+        self.lc.subscribe(omni4.CHANNEL_PARAM_REQ, self._on)
+        self.stop = threading.Event()
+        self.t = threading.Thread(target=self._run, daemon=True)
+        self.t.start()
+
+    def _on(self, channel, data):
+        q = omni4.param_request_t.decode(data)
+        self.seen.append(q)
+        if len(self.seen) <= self.drop:
+            return
+        r = omni4.param_reply_t()
+        r.request_id, r.op, r.result, r.message, r.seq, r.path = \
+            q.request_id, q.op, self.result, self.message, 7, "/etc/omni4/robot.ini"
+        v = omni4.param_value_t()
+        v.key, v.value, v.unit, v.type, v.min, v.max = "control.kp", "30", "V/(m/s)", 0, 0, 1e4
+        v.choices, v.change, v.doc = "", 0, "PI proportional gain"
+        r.params, r.n = [v], 1
+        self.lc.publish(omni4.CHANNEL_PARAM_REPLY, r.encode())
+
+    def _run(self):
+        while not self.stop.is_set():
+            self.lc.handle_timeout(20)
+
+    def close(self):
+        self.stop.set()
+        self.t.join(timeout=5)
+
+
+def test_no_robot_is_a_bounded_timeout():
+    with ParamClient(url(), timeout_s=0.1, retries=1) as p:
+        t0 = time.monotonic()
+        with pytest.raises(ParamTimeout, match="no answer from omni4-fw in 2 x 0.1 s"):
+            p.get("control.kp")
+        assert time.monotonic() - t0 < 1.0
+
+
+def test_resend_keeps_the_request_id():
+    u = url()
+    robot = FakeRobot(u, drop=1)
+    try:
+        with ParamClient(u, timeout_s=0.2, retries=2) as p:
+            a = p.set("control.kp", 30.0)
+        assert a.seq == 7 and a.params[0].value == 30.0
+        assert len(robot.seen) == 2
+        assert robot.seen[0].request_id == robot.seen[1].request_id
+        assert robot.seen[0].keys == ["control.kp"] and robot.seen[0].values == ["30.0"]
+    finally:
+        robot.close()
+
+
+def test_refusal_carries_the_reason():
+    u = url()
+    robot = FakeRobot(u, result=omni4.param_reply_t.RESULT_REFUSED,
+                      message="control.kp: out of range value: 1e+09 outside [0, 10000]")
+    try:
+        with ParamClient(u, timeout_s=0.5) as p:
+            with pytest.raises(ParamRefused, match="set refused: control.kp: out of range") as e:
+                p.set("control.kp", 1e9)
+        assert e.value.result == omni4.param_reply_t.RESULT_REFUSED
+        assert len(robot.seen) == 1  # an answer is final: no resend
+    finally:
+        robot.close()
+
+
+def test_values_and_ini_text():
+    assert params.format_value(0.1) == "0.1" and params.format_value(True) == "true"
+    assert params.format_value(1 / 3) == repr(1 / 3) and params.format_value(7) == "7"
+    p = params.Param("control.kp", "30", "V/(m/s)", 0, 0.0, 1e4, "", "live", "gain")
+    s = params.Param("params.secret", "(set)", "", 3, 0.0, 0.0, "", "restart", "token")
+    text = params.format_ini([p, s])
+    assert "[control]\n; gain [V/(m/s)] (live)\nkp = 30\n" in text
+    assert "(set)" not in text.split("secret =")[0] and "\nsecret" not in text
+
+
+def test_cli_usage_errors_exit_2(capsys, tmp_path):
+    assert params.main(["set", "control.kp"]) == 2
+    assert params.main(["get", "kp"]) == 2
+    assert params.main(["load", str(tmp_path / "missing.ini")]) == 2
+    assert params.main(["list", "extra"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 4 and all(line.startswith("omni4-param: ") for line in err)
+    with pytest.raises(SystemExit) as e:
+        params.main(["frobnicate"])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit) as e:
+        params.main(["--help"])
+    assert e.value.code == 0
+
+
+def test_cli_no_robot_exits_1(capsys):
+    assert params.main(["--lcm", url(), "--timeout", "0.05", "get", "control.kp"]) == 1
+    assert "no answer" in capsys.readouterr().err
