@@ -85,6 +85,7 @@ static pthread_t g_loop;
 static atomic_bool g_loop_stop;
 static _Atomic int64_t g_now_us;
 static _Atomic uint64_t g_inconsistent, g_model_changes, g_ticks;
+static _Atomic int g_mode; /* the controller's mode after the last tick (loop thread writes) */
 
 /* Loop thread: a tick every 200 us; after each tick the controller's precomputed gains must be
  * those of its own configuration (a half-applied model fails this). */
@@ -109,6 +110,7 @@ static void *loop_main(void *arg)
 			atomic_fetch_add(&g_model_changes, 1);
 			last_R = g_fw.ctl.cfg.model.R;
 		}
+		atomic_store(&g_mode, g_fw.last_out.mode);
 		atomic_fetch_add(&g_ticks, 1);
 		nanosleep(&nap, NULL);
 	}
@@ -524,7 +526,7 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	char msg[320];
 
 	setup_fw(NULL, NULL, true);
-	const double kp = g_fw.ctl.cfg.control.kp;
+	const double kp = g_ps.running.control.kp;
 
 	assert_int_equal(set1("control.kp", "1e9", msg, sizeof(msg)),
 			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
@@ -570,11 +572,13 @@ static void test_idle_only_keys_wait_for_idle(void **state)
 				       .velocity = {0.2, 0, 0}};
 
 	setup_fw(NULL, NULL, true);
-	g_fw.ctl.cfg.control.cmd_timeout_ms = 600000; /* set before any tick took a command */
-	g_ps.running.control.cmd_timeout_ms = 600000;
+	/* no keep-alive here: a watchdog longer than the test */
+	assert_int_equal(set1("control.cmd_timeout_ms", "600000", msg, sizeof(msg)),
+			 OMNI4_PARAM_REPLY_T_RESULT_OK);
 	fw_post_command(&g_fw, &go);
-	for (int i = 0; i < 200 && g_fw.last_out.mode != CTL_VELOCITY; i++)
+	for (int i = 0; i < 2000 && atomic_load(&g_mode) != CTL_VELOCITY; i++)
 		usleep(1000);
+	assert_int_equal(atomic_load(&g_mode), CTL_VELOCITY);
 	assert_int_equal(set1("model.d", "0.1", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	if (!strstr(msg, "model.d: only while the bridges are not driven") ||
 	    !strstr(msg, "VELOCITY"))
@@ -586,8 +590,9 @@ static void test_idle_only_keys_wait_for_idle(void **state)
 	const struct ctl_command stop = {.utime = 2, .seq = 2, .mode = CTL_IDLE};
 
 	fw_post_command(&g_fw, &stop);
-	for (int i = 0; i < 200 && g_fw.last_out.mode != CTL_IDLE; i++)
+	for (int i = 0; i < 2000 && atomic_load(&g_mode) != CTL_IDLE; i++)
 		usleep(1000);
+	assert_int_equal(atomic_load(&g_mode), CTL_IDLE);
 	assert_int_equal(set1("model.d", "0.1", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_OK);
 	teardown_fw(true);
 	assert_near(g_fw.ctl.cfg.model.d, 0.1, 0);
