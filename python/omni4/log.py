@@ -335,7 +335,8 @@ def _decode_fast(buf, cls, doff, dlen):
     rows = np.ascontiguousarray(sliding_window_view(buf, dt.itemsize)[doff[size_ok]])
     rec = rows.view(dt).ravel()
     fp_ok = rec["fingerprint"] == _fingerprint(cls)
-    rec = rec[fp_ok]
+    if not fp_ok.all():  # (a boolean index copies every record: only when needed)
+        rec = rec[fp_ok]
     fields = {n: rec[n].astype(dt[n].base.newbyteorder("="))
               for n in dt.names if n != "fingerprint"}
     keep = np.flatnonzero(size_ok)[fp_ok]
