@@ -6,6 +6,10 @@
 #include <cmath>
 #include <numeric>
 
+extern "C" {
+#include "omni4/dynamics.h"
+}
+
 namespace omni4 {
 
 const char *const kIdentParams[9] = {"Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"};
@@ -87,6 +91,31 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
   }
   if (agreement) *agreement = ag;
   return out;
+}
+
+double axis_input(const double u_v[4], int axis) {
+  switch (axis) {
+    case 0: return u_v[3] - u_v[1];
+    case 1: return u_v[0] - u_v[2];
+    default: return u_v[0] + u_v[1] + u_v[2] + u_v[3];
+  }
+}
+
+// Inverting dyn_state_space: with b = l Kt / (r R) (eq 26) and emf = Kt Kv l^2 / (r^2 R),
+//   along v, vn: theta2 = b / M,     theta1 = -(2 emf + B) / M,       theta3 = -C / M;
+//   along w:     theta2 = b d / J,   theta1 = -(4 d^2 emf + Bw) / J,  theta3 = -Cw / J.
+double R_from_theta2(const model_params &p, int /*axis*/, double theta2) {
+  return p.l * p.Kt / (p.r * p.M * theta2);
+}
+double J_from_theta2(const model_params &p, double theta2) {
+  return p.l * p.Kt * p.d / (p.r * p.R * theta2);
+}
+double B_from_theta1(const model_params &p, int axis, double theta1) {
+  const double emf = p.Kt * p.Kv * p.l * p.l / (p.r * p.r * p.R);
+  return axis < 2 ? -p.M * theta1 - 2 * emf : -p.J * theta1 - 4 * p.d * p.d * emf;
+}
+double C_from_theta3(const model_params &p, int axis, double theta3) {
+  return -(axis < 2 ? p.M : p.J) * theta3;
 }
 
 namespace {
@@ -248,23 +277,29 @@ void experiment1(Context &c) {
     c.missing("Bw, Cw (experiment 1): the torque needs Kt = Kv from the motor test");
     return;
   }
-  const double Kt = kv->second.value;
+  model_params p = base;  // geometry; Kt = Kv of the motor test
+  p.Kv = p.Kt = kv->second.value;
   const bool cam = c.P.opt.source == VelocitySource::Camera;
   for (const SegWindow &w : c.windows("steady_rotation", nullptr, &SegmentWindows::steady)) {
     const auto &m = w.s->log->motors;
     const auto &enc = c.P.enc.at(w.s->log);
-    double isum = 0, wenc = 0;
+    double imean[4] = {0, 0, 0, 0}, wenc = 0;
     for (size_t k = w.w.m0; k < w.w.m1; ++k) {
-      isum += m[k].i[0] + m[k].i[1] + m[k].i[2] + m[k].i[3];
+      for (int j = 0; j < 4; ++j) imean[j] += m[k].i[j];
       wenc += enc.raw[k][2];
     }
     const double n = static_cast<double>(w.w.m1 - w.w.m0);
+    for (double &i : imean) i /= n;
     wenc /= n;
     if (std::abs(wenc) < kStopSpeed[2]) {
       c.reject(w, "steady window", "the robot did not turn (stiction): w " + std::to_string(wenc));
       continue;
     }
-    const double torque = base.d * base.l * Kt / base.r * isum / n;  // eqs 11-13
+    // The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
+    double f[4], robot_f[3];
+    dyn_wheel_forces(&p, imean, f);
+    dyn_robot_forces(p.d, f, robot_f);
+    const double torque = robot_f[2];
     // Camera: slope of the unwrapped heading over the same window.
     const CameraTrack &ct = c.P.cam.at(w.s->log);
     const double ta = m[w.w.m0].utime * 1e-6, tb = m[w.w.m1 - 1].utime * 1e-6;
@@ -290,10 +325,10 @@ void experiment1(Context &c) {
   Eigen::MatrixXd X(res.rotation_points.size(), 2);
   Eigen::VectorXd y(res.rotation_points.size());
   for (size_t k = 0; k < res.rotation_points.size(); ++k) {
-    const RotationPoint &p = res.rotation_points[k];
-    X(k, 0) = cam ? p.omega_cam : p.omega_enc;
+    const RotationPoint &pt = res.rotation_points[k];
+    X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
     X(k, 1) = 1.0;
-    y[k] = p.torque;
+    y[k] = pt.torque;
   }
   try {
     const Fit f = least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
@@ -500,11 +535,8 @@ void experiment2(Context &c) {
 // ---- experiment 3 (eqs 31-35) ----------------------------------------------------------
 
 double input_of(const MotorsSample &m, int axis) {
-  switch (axis) {
-    case 0: return m.u[3] - m.u[1];
-    case 1: return m.u[0] - m.u[2];
-    default: return m.u[0] + m.u[1] + m.u[2] + m.u[3];
-  }
+  const double u[4] = {m.u[0], m.u[1], m.u[2], m.u[3]};
+  return axis_input(u, axis);
 }
 
 // Rows of the driven step windows along `axis`: valid encoder samples moving faster than the
@@ -571,9 +603,8 @@ void experiment3(Context &c) {
     c.missing("experiment 3: the state-space parameters need Kv from the motor test");
     return;
   }
-  const double Kv = kv->second.value, Kt = Kv;
-  const double l = base.l, r = base.r, d = base.d, M = base.M;
-  const double emf = Kt * Kv * l * l / (r * r);  // x 1/R
+  model_params p = base;  // geometry and M; Kt = Kv of the motor test; R and J as found
+  p.Kv = p.Kt = kv->second.value;
   std::array<Fit, 3> ls, iv;
   std::array<bool, 3> have{};
   for (int axis = 0; axis < 3; ++axis) {
@@ -602,14 +633,14 @@ void experiment3(Context &c) {
                                    {"exp3_iv", &iv}}) {
     auto &t = res.table[name];
     const Fit &fv = (*fits)[0], &fn = (*fits)[1], &fw = (*fits)[2];
-    // theta_2 = l Kt / (r R M) along v and vn (eq 26): R from each, combined.
-    auto R_of = [&](const Fit &f) {
-      return propagate([&](const Eigen::VectorXd &q) { return l * Kt / (r * M * q[1]); }, f.theta,
-                       f.cov);
+    // theta2 along v and vn gives R (eq 26): from each, combined.
+    auto R_of = [&](const Fit &f, int axis) {
+      return propagate([&](const Eigen::VectorXd &q) { return R_from_theta2(p, axis, q[1]); },
+                       f.theta, f.cov);
     };
     std::vector<Estimate> Rs;
-    if (have[0]) Rs.push_back(R_of(fv));
-    if (have[1]) Rs.push_back(R_of(fn));
+    if (have[0]) Rs.push_back(R_of(fv, 0));
+    if (have[1]) Rs.push_back(R_of(fn, 1));
     Estimate R;
     if (!Rs.empty()) {
       R = combine_methods(Rs, c.P.opt);
@@ -618,26 +649,30 @@ void experiment3(Context &c) {
       const auto rm = res.table["motor"].find("R");  // along w alone: R of the motor test
       if (rm != res.table["motor"].end()) R = rm->second;
     }
-    // A11 = -(2 emf / (R M) + Bv / M), K11 = -Cv / M.
-    if (have[0]) {
-      t["Bv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
-                          fv.theta, fv.cov);
-      t["Cv"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fv.theta, fv.cov);
+    p.R = R.value;
+    for (int axis = 0; axis < 2; ++axis) {
+      if (!have[axis]) continue;
+      const Fit &f = axis == 0 ? fv : fn;
+      t[axis == 0 ? "Bv" : "Bvn"] = propagate(
+          [&](const Eigen::VectorXd &q) { return B_from_theta1(p, axis, q[0]); }, f.theta, f.cov);
+      t[axis == 0 ? "Cv" : "Cvn"] = propagate(
+          [&](const Eigen::VectorXd &q) { return C_from_theta3(p, axis, q[2]); }, f.theta, f.cov);
     }
-    if (have[1]) {
-      t["Bvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[0] - 2 * emf / R.value; },
-                           fn.theta, fn.cov);
-      t["Cvn"] = propagate([&](const Eigen::VectorXd &q) { return -M * q[2]; }, fn.theta, fn.cov);
-    }
-    // Along w: theta_2 = l Kt d / (r R J), A33 = -(4 d^2 emf / (R J) + Bw / J), K33 = -Cw / J.
+    // Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
     if (have[2] && R.ok()) {
-      auto J_of = [&](const Eigen::VectorXd &q) { return l * Kt * d / (r * R.value * q[1]); };
-      t["J"] = propagate(J_of, fw.theta, fw.cov);
+      auto with_J = [&](const Eigen::VectorXd &q) {
+        model_params pj = p;
+        pj.J = J_from_theta2(p, q[1]);
+        return pj;
+      };
+      t["J"] = propagate([&](const Eigen::VectorXd &q) { return J_from_theta2(p, q[1]); },
+                         fw.theta, fw.cov);
       t["Bw"] = propagate(
-          [&](const Eigen::VectorXd &q) { return -J_of(q) * q[0] - 4 * d * d * emf / R.value; },
-          fw.theta, fw.cov);
-      t["Cw"] = propagate([&](const Eigen::VectorXd &q) { return -J_of(q) * q[2]; }, fw.theta,
-                          fw.cov);
+          [&](const Eigen::VectorXd &q) { return B_from_theta1(with_J(q), 2, q[0]); }, fw.theta,
+          fw.cov);
+      t["Cw"] = propagate(
+          [&](const Eigen::VectorXd &q) { return C_from_theta3(with_J(q), 2, q[2]); }, fw.theta,
+          fw.cov);
     }
   }
 }

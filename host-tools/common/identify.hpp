@@ -128,6 +128,18 @@ struct StateSpaceFits {
 // Throws IdentError("what (LS|IV): ...") when the rows cannot give the three parameters.
 StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what);
 
+// Experiment 3's axis model x' = theta1 x + theta2 u_axis + theta3 sign(x) is model/'s state
+// space (dyn_state_space, eqs 23-27) along one axis: theta1 = A[axis], theta3 = K[axis], and
+// theta2 the B coefficient of the axis input u_axis = axis_input(u, axis) (u3 - u1 along v,
+// u0 - u2 along vn, the sum along w), so that sum_j B[axis][j] u_j = theta2 u_axis.
+double axis_input(const double u_v[4], int axis);
+// The inverses, given p's geometry (d, r, l), M, Kt and Kv; J_from_theta2 and B_from_theta1
+// also need p.R, and along w B_from_theta1 and C_from_theta3 need p.J.
+double R_from_theta2(const model_params &p, int axis, double theta2);  // axis 0 or 1 [ohm]
+double J_from_theta2(const model_params &p, double theta2);            // [kg m^2]
+double B_from_theta1(const model_params &p, int axis, double theta1);  // Bv, Bvn, Bw
+double C_from_theta3(const model_params &p, int axis, double theta3);  // Cv, Cvn, Cw
+
 // Upper tail of the chi-square distribution with dof degrees of freedom.
 double chi2_sf(double x, int dof);
 

@@ -26,6 +26,10 @@
 #include "simexp.hpp"
 #include "validate.hpp"
 
+extern "C" {
+#include "omni4/dynamics.h"
+}
+
 using namespace omni4;
 
 namespace {
@@ -49,6 +53,47 @@ model_params base_of(const model_params &p) {
 double rel(double got, double want) { return (got - want) / want; }
 
 }  // namespace
+
+// Experiment 3's inversions against model/'s forward state space (dyn_state_space, a separate
+// derivation): on random robots, A, B, K -> theta -> the parameters again, to rounding.
+TEST(StateSpace, InversionsUndoTheModelsStateSpace) {
+  std::mt19937 gen(7);
+  std::uniform_real_distribution<double> scale(0.5, 2.0), volt(-12.0, 12.0);
+  const char *dirs[3] = {"v", "vn", "w"};
+  for (int n = 0; n < 200; ++n) {
+    model_params p = model_params_table3;
+    for (double *q : {&p.d, &p.r, &p.l, &p.Kv, &p.R, &p.M, &p.J, &p.Bv, &p.Bvn, &p.Bw, &p.Cv,
+                      &p.Cvn, &p.Cw})
+      *q *= scale(gen);
+    p.Kt = p.Kv;
+    model_ss ss;
+    dyn_state_space(&p, &ss);
+    const double u[4] = {volt(gen), volt(gen), volt(gen), volt(gen)};
+    double theta2[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      // The column of B that multiplies the axis input: the whole row, applied to any u.
+      double bu = 0;
+      for (int j = 0; j < 4; ++j) bu += ss.B[axis][j] * u[j];
+      const int j_nz = axis == 0 ? 3 : 0;
+      theta2[axis] = ss.B[axis][j_nz];
+      EXPECT_NEAR(bu, theta2[axis] * axis_input(u, axis), 1e-12 * (1 + std::abs(bu)))
+          << dirs[axis];
+    }
+    model_params q = p;  // what experiment 3 is given: geometry, M, Kt = Kv
+    q.R = q.J = q.Bv = q.Bvn = q.Bw = q.Cv = q.Cvn = q.Cw = NAN;
+    EXPECT_NEAR(rel(R_from_theta2(q, 0, theta2[0]), p.R), 0, 1e-12);
+    EXPECT_NEAR(rel(R_from_theta2(q, 1, theta2[1]), p.R), 0, 1e-12);
+    q.R = p.R;
+    EXPECT_NEAR(rel(B_from_theta1(q, 0, ss.A[0]), p.Bv), 0, 1e-9);
+    EXPECT_NEAR(rel(B_from_theta1(q, 1, ss.A[1]), p.Bvn), 0, 1e-9);
+    EXPECT_NEAR(rel(C_from_theta3(q, 0, ss.K[0]), p.Cv), 0, 1e-12);
+    EXPECT_NEAR(rel(C_from_theta3(q, 1, ss.K[1]), p.Cvn), 0, 1e-12);
+    EXPECT_NEAR(rel(J_from_theta2(q, theta2[2]), p.J), 0, 1e-12);
+    q.J = p.J;
+    EXPECT_NEAR(rel(B_from_theta1(q, 2, ss.A[2]), p.Bw), 0, 1e-9);
+    EXPECT_NEAR(rel(C_from_theta3(q, 2, ss.K[2]), p.Cw), 0, 1e-12);
+  }
+}
 
 TEST(SavitzkyGolay, ExactOnQuadratics) {
   const SgFilter f = savitzky_golay(6, 2);
