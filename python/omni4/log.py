@@ -317,12 +317,30 @@ def _empty_fields(cls):
     out = {}
     for name in cls.__slots__:
         v = getattr(cls(), name)
-        if isinstance(v, str):
+        if isinstance(v, (list, tuple)) and v and isinstance(v[0], (bool, int, float)):
+            out[name] = np.zeros((0, len(v)), type(v[0]))  # fixed-size array of numbers
+        elif isinstance(v, str):
             out[name] = np.zeros(0, str)
-        elif isinstance(v, (list, tuple)):
-            out[name] = np.zeros((0, len(v)), type(v[0]) if v else float)
-        else:
+        elif isinstance(v, (bool, int, float)):
             out[name] = np.zeros(0, type(v))
+        else:  # variable-length array, nested type, array of strings or of types
+            out[name] = np.zeros(0, object)
+    return out
+
+
+def _column(vals, like):
+    """vals as an array of `like`'s dtype and rank, or a 1-D object array when they do not fit
+    one (ragged variable-length arrays, nested types)."""
+    if like.dtype != object:
+        try:
+            arr = np.asarray(vals, dtype=str if like.dtype.kind == "U" else like.dtype)
+            if arr.ndim == like.ndim:
+                return arr
+        except (TypeError, ValueError):
+            pass
+    out = np.empty(len(vals), object)
+    for k, v in enumerate(vals):
+        out[k] = v
     return out
 
 
@@ -368,9 +386,7 @@ def _decode_each(buf, cls, doff, dlen):
     fields = _empty_fields(cls)
     if msgs:
         for name in cls.__slots__:
-            vals = [getattr(m, name) for m in msgs]
-            kind = fields[name].dtype
-            fields[name] = np.asarray(vals, dtype=str if kind.kind == "U" else kind)
+            fields[name] = _column([getattr(m, name) for m in msgs], fields[name])
     return fields, np.asarray(keep, np.int64), skipped
 
 

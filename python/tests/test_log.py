@@ -303,3 +303,27 @@ def test_faster_than_eventlog_decode(logs):
           f"({peer / ours:.0f}x) on {len(logs['bytes'])} bytes, {log.events} events")
     assert n == len(log.motors)
     assert peer / ours >= 3, f"read_log {ours:.3f} s is not 3x faster than {peer:.3f} s"
+
+
+def test_a_variable_length_type_in_types_is_decoded_into_object_columns(tmp_path, monkeypatch):
+    """A type with variable-length arrays and nested types (param_reply_t), were it put in
+    omni4.TYPES: numbers and strings as typed arrays, the ragged field as objects."""
+    monkeypatch.setitem(omni4.TYPES, "TEST_REPLY", omni4.param_reply_t)
+    events = []
+    for k in range(3):
+        r = omni4.param_reply_t()
+        r.utime, r.request_id, r.message = 1000 + k, 7 + k, f"reply {k}"
+        r.params = []
+        for j in range(k):
+            v = omni4.param_value_t()
+            v.key = f"control.k{j}"
+            r.params.append(v)
+        r.n = len(r.params)
+        events.append((1000 + k, "TEST_REPLY", r.encode()))
+    p = tmp_path / "reply.lcmlog"
+    write_log(p, events)
+    ch = read_log(p).channels["TEST_REPLY"]
+    assert len(ch) == 3 and ch.utime.tolist() == [1000, 1001, 1002]
+    assert ch.message.tolist() == ["reply 0", "reply 1", "reply 2"]
+    assert ch.params.dtype == object and [len(x) for x in ch.params] == [0, 1, 2]
+    assert ch.params[2][1].key == "control.k1"
