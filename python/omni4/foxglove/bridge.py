@@ -11,7 +11,6 @@ default 10: 100 Hz of a 1 kHz loop). Commands, pose and experiment marks are nev
 Exit status: 0 after SIGINT/SIGTERM or --duration; 1 run-time error (the WebSocket port is
 taken, LCM fails); 2 usage or configuration error (bad arguments, broken INI, bad LCM URL)."""
 import argparse
-import os
 import resource
 import signal
 import sys
@@ -166,19 +165,29 @@ def main(argv=None):
     signal.signal(signal.SIGINT, lambda *_: stop.append(1))
     signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
     if not a.quiet:
-        print(f"{PROG}: serving ws://{a.host}:{server.port()} (Foxglove) from {a.lcm}; "
+        print(f"{PROG}: serving ws://{a.host}:{server.port} (Foxglove) from {a.lcm}; "
               f"motors sent 1 in {a.decimate}", file=sys.stderr, flush=True)
     t_start = time.monotonic()
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     next_health = t_start + a.health_period
     next_scene = t_start
     rc = 0
+    interrupted = 0
     try:
         while not stop:
             now = time.monotonic()
             if a.duration and now - t_start >= a.duration:
                 break
-            lc.handle_timeout(50)  # [ms]: bounded, so signals and timers are served
+            try:
+                lc.handle_timeout(50)  # [ms]: bounded, so signals and timers are served
+                interrupted = 0
+            except OSError:
+                # select() inside was interrupted by a signal (SIGINT/SIGTERM: its handler runs
+                # right after this, and the loop ends); an error that repeats is real.
+                interrupted += 1
+                if interrupted > 3:
+                    raise
+                continue
             now = time.monotonic()
             h, s = now >= next_health, now >= next_scene
             if h or s:
