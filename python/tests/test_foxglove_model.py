@@ -447,3 +447,43 @@ def test_block_json_equals_the_bridges_json(tmp_path):
                                    meas[k].tolist(), pred[k].tolist(), bool(rst[k]))
         assert json.loads(blocks_v[k]) == json.loads(one)
     assert json.loads(blocks_m[17])["current"][2] is None
+
+
+def test_layout_file_is_the_generators_and_plots_existing_fields(tmp_path):
+    import re
+    from omni4.foxglove import layout
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "foxglove-layout.json")
+    with open(path) as fh:
+        text = fh.read()
+    assert text == layout.layout_json(), \
+        "docs/foxglove-layout.json is stale: python -m omni4.foxglove.layout > it"
+    doc = json.loads(text)
+    refs = []
+
+    def walk(x):
+        if isinstance(x, dict):
+            for k, v in x.items():
+                if k in ("value", "topicPath") and isinstance(v, str):
+                    refs.append(v)
+                elif k == "topics" and isinstance(v, dict):
+                    refs.extend(v)
+                walk(v)
+        elif isinstance(x, list):
+            for v in x:
+                walk(v)
+    walk(doc)
+    assert len(refs) >= 20
+    log = str(tmp_path / "s.lcmlog")
+    out = str(tmp_path / "s.mcap")
+    synth_log(log, n=1500)
+    assert export.main([log, "--out", out, "-q"]) == 0
+    got, _, _ = read_mcap_python(out)
+    for ref in refs:
+        topic = ref if ref in got else next((t for t in got if ref.startswith(t + ".")
+                                             or ref.startswith(t + "{")), None)
+        assert topic, f"layout plots {ref}: no such topic"
+        rest = re.sub(r"\{[^}]*\}", "", ref[len(topic):])
+        msg = got[topic][0][2]
+        for name, idx in re.findall(r"\.(\w+)(?:\[(\d+)\])?", rest):
+            assert name in msg, f"layout plots {ref}: no field {name}"
+            msg = msg[name] if idx == "" else msg[name][int(idx)]
