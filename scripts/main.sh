@@ -39,3 +39,7 @@ echo "== 4. plots and report =="
 .venv/bin/python host-tools/plots/omni4_report.py "$OUT/csv" "$OUT/report" --json "$OUT/validation.json" \
   --log "$OUT/sim.lcmlog"
 echo "report: $OUT/report/report.md"
+echo
+echo "== 5. the log for Foxglove (MCAP, with the identified model's prediction beside the encoders) =="
+.venv/bin/omni4-mcap "$OUT/sim.lcmlog" --params "$OUT/params.ini" --out "$OUT/sim.mcap"
+echo "Foxglove: open $OUT/sim.mcap, then import the layout docs/foxglove-layout.json"
