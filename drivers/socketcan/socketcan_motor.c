@@ -173,10 +173,36 @@ static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f
 	}
 }
 
-int socketcan_motor_halt(struct socketcan_motor *m)
+/* Waits until no other thread is inside the gate (own = 1 if this thread is), at most
+ * limit_us; sleeps 1 ms per check (poll is async-signal-safe) so a preempted writer can run. */
+static void wait_gate_empty(struct socketcan_motor *m, int own, int64_t limit_us)
+{
+	const int64_t t0 = mono_us();
+
+	while (atomic_load(&m->in_flight) > own && mono_us() - t0 < limit_us)
+		poll(NULL, 0, 1);
+}
+
+/* DISABLE, then 0 V with the bridges disabled twice; returns the frames sent. */
+static int send_halt_frames(struct socketcan_motor *m)
 {
 	static const float zero[4] = {0, 0, 0, 0};
+	const int64_t deadline = mono_us() + 20000;
 	struct omni4_can_frame f;
+	int sent = 0;
+
+	can_encode_control(CAN_CTL_DISABLE, m->ctl_counter++, &f);
+	sent += halt_send(m, &f, deadline);
+	for (int k = 0; k < 2; k++) {
+		can_encode_cmd_voltage(zero, false, m->cmd_counter, &f);
+		m->cmd_counter = (m->cmd_counter + 1) & 0xF;
+		sent += halt_send(m, &f, deadline);
+	}
+	return sent;
+}
+
+int socketcan_motor_halt(struct socketcan_motor *m)
+{
 	int sent = 0;
 
 	if (m->fd < 0 || atomic_exchange(&m->halted, true))
@@ -185,19 +211,16 @@ int socketcan_motor_halt(struct socketcan_motor *m)
 	 * socket is non-blocking). If this thread itself was inside (crashed in a write), it
 	 * never resumes, so there is nothing to wait for. */
 	const int own = tl_in_gate ? 1 : 0;
-	const int64_t t0 = mono_us();
-
-	while (atomic_load(&m->in_flight) > own && mono_us() - t0 < 20000) {
-	}
-	const int64_t deadline = mono_us() + 20000;
 
 	m->enabled = false;
-	can_encode_control(CAN_CTL_DISABLE, m->ctl_counter++, &f);
-	sent += halt_send(m, &f, deadline);
-	for (int k = 0; k < 2; k++) {
-		can_encode_cmd_voltage(zero, false, m->cmd_counter, &f);
-		m->cmd_counter = (m->cmd_counter + 1) & 0xF;
-		sent += halt_send(m, &f, deadline);
+	wait_gate_empty(m, own, 20000);
+	sent += send_halt_frames(m);
+	/* A writer preempted inside the gate for longer than that (a starved machine) may still
+	 * put its frame on the bus after ours: wait for it (at most 1 s more) and send ours again,
+	 * so the last frame on the bus is always 0 V, disabled. */
+	if (atomic_load(&m->in_flight) > own) {
+		wait_gate_empty(m, own, 1000000);
+		sent += send_halt_frames(m);
 	}
 	return sent;
 }

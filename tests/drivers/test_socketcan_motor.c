@@ -35,6 +35,7 @@ static int eagain_left; /* the next sends that find the TX queue full */
 /* Crash-race test: the send of this thread stalls (preempted between encoding and sending). */
 static pthread_t stall_thread; /* set by the race test's loop thread */
 static atomic_int stall_armed, stalled;
+static long stall_ns = 5000000; /* how long that send is preempted [ns] */
 
 int __wrap_sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
 {
@@ -54,11 +55,11 @@ int __wrap_sc_os_send(int fd, const struct omni4_can_frame *f)
 {
 	(void)fd;
 	if (atomic_load(&stall_armed) && pthread_equal(pthread_self(), stall_thread)) {
-		const struct timespec ms5 = {0, 5000000};
+		const struct timespec stall = {0, stall_ns};
 
 		atomic_store(&stall_armed, 0);
 		atomic_store(&stalled, 1);
-		nanosleep(&ms5, NULL); /* the crash handler runs meanwhile on another thread */
+		nanosleep(&stall, NULL); /* the crash handler runs meanwhile on another thread */
 	}
 	pthread_mutex_lock(&sent_lock);
 	if (eagain_left > 0 && !pthread_equal(pthread_self(), stall_thread)) {
@@ -581,9 +582,11 @@ static void *loop_thread(void *arg)
 	return NULL;
 }
 
-static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
+/* The crash handler runs while the loop thread is preempted inside a send for stall_ms: the
+ * halt frames must be the last on the bus, whatever the stall (5 ms: inside the handler's
+ * 20 ms wait; 60 ms: beyond it, so the handler sends them again once the write is out). */
+static void crash_race(long stall_ms, int want_sent)
 {
-	(void)state;
 	struct socketcan_motor m;
 	struct race r = {.m = &m};
 	pthread_t t;
@@ -598,7 +601,7 @@ static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
 	pthread_mutex_lock(&sent_lock);
 	eagain_left = 2; /* and the TX queue is full for a moment */
 	pthread_mutex_unlock(&sent_lock);
-	assert_int_equal(socketcan_motor_halt(&m), 3);
+	assert_int_equal(socketcan_motor_halt(&m), want_sent);
 	const int after_halt = sent_n;
 	const struct timespec ms3 = {0, 3000000};
 
@@ -617,11 +620,31 @@ static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
 
 	assert_int_equal(can_decode_control(&sent_log[sent_n - 3], &cmd, &c), 0);
 	assert_int_equal(cmd, CAN_CTL_DISABLE);
+	/* After a long preemption the loop's write lands between the two halt sequences: enabled,
+	 * non-zero, and with a counter from before the first one, so the driver's counter window
+	 * rejects it as stale (CAN_COUNTER_WINDOW: 1..3 steps ahead) even before the second. */
+	const int late = want_sent == 6 ? sent_n - 4 : -1;
+	int c_late = -1; /* its counter: the slot it took before the first halt sequence */
+
+	if (late >= 0) {
+		uint8_t c_halt;
+
+		assert_int_equal(sent_log[late].id, CAN_ID_CMD_VOLTAGE);
+		assert_int_equal(can_decode_cmd_voltage(&sent_log[late], v, &en, &c), 0);
+		assert_true(en && v[0] != 0.0f);
+		assert_int_equal(can_decode_cmd_voltage(&sent_log[late - 1], v, &en, &c_halt), 0);
+		const int gap = can_counter_gap(c_halt, c);
+
+		assert_true(gap == -EALREADY || gap > CAN_COUNTER_WINDOW - 1);
+		c_late = c;
+	}
 	for (int k = 0; k < sent_n; k++) {
-		if (sent_log[k].id != CAN_ID_CMD_VOLTAGE)
+		if (sent_log[k].id != CAN_ID_CMD_VOLTAGE || k == late)
 			continue;
 		assert_int_equal(can_decode_cmd_voltage(&sent_log[k], v, &en, &c), 0);
-		if (n_volt++)
+		if (n_volt++ && c_late == ((c_prev + 1) & 15))
+			c_prev = (uint8_t)c_late; /* the late frame's slot */
+		if (n_volt > 1)
 			assert_int_equal(c, (c_prev + 1) & 15); /* one sender at a time */
 		c_prev = c;
 	}
@@ -631,9 +654,24 @@ static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
 		for (int j = 0; j < 4; j++)
 			assert_true(v[j] == 0.0f);
 	}
-	print_message("crash race: %d loop writes, halt frames last (%d frames on the bus)\n",
-		      r.writes, sent_n);
+	print_message("crash race, send preempted %ld ms: %d loop writes, halt frames last (%d "
+		      "frames on the bus)\n", stall_ms, r.writes, sent_n);
 	hal_motor_close(&(struct motor_hal){.ops = &socketcan_motor_ops, .ctx = &m});
+}
+
+static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
+{
+	(void)state;
+	stall_ns = 5000000;
+	crash_race(5, 3);
+}
+
+static void test_crash_halt_frames_are_last_after_a_long_preemption(void **state)
+{
+	(void)state;
+	stall_ns = 60000000;
+	crash_race(60, 6);
+	stall_ns = 5000000;
 }
 
 int main(void)
@@ -653,6 +691,7 @@ int main(void)
 		cmocka_unit_test_setup(test_a_fault_report_in_health_needs_three_consecutive_frames, reset),
 		cmocka_unit_test_setup(test_a_million_junk_status_frames_latch_nothing, reset),
 		cmocka_unit_test_setup(test_crash_halt_frames_are_the_last_on_the_bus, reset),
+		cmocka_unit_test_setup(test_crash_halt_frames_are_last_after_a_long_preemption, reset),
 	};
 
 	return cmocka_run_group_tests_name("socketcan_motor", tests, NULL, NULL);

@@ -114,7 +114,9 @@ int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits
 
 /* Crash path, async-signal-safe: close the write gate, wait (at most 20 ms) for a write of
  * another thread to leave it, send CMD_CONTROL DISABLE and twice CMD_VOLTAGE 0 V disabled
- * (retrying a full TX queue for at most 20 ms). Returns the number of frames sent. */
+ * (retrying a full TX queue for at most 20 ms). If that write is still inside then (its thread
+ * preempted), wait for it at most 1 s more and send the three frames again, so they are the
+ * last on the bus. Returns the number of frames sent (3, or 6). */
 int socketcan_motor_halt(struct socketcan_motor *m);
 
 static inline struct motor_hal socketcan_motor_hal(struct socketcan_motor *m)
