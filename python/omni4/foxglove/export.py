@@ -38,7 +38,7 @@ def decode_motors(payloads):
     voltage, current, wheel_speed: (n, 4) float32)."""
     fp = omni4.motors_t._get_packed_fingerprint()
     n = len(payloads)
-    if n and all(len(p) == MOTORS_WIRE.itemsize for p in payloads):
+    if n and set(map(len, payloads)) == {MOTORS_WIRE.itemsize}:
         a = np.frombuffer(b"".join(payloads), dtype=MOTORS_WIRE)
         if (a["fp"] == int.from_bytes(fp, "big")).all():
             return {k: a[k].astype(a[k].dtype.newbyteorder("=")) for k in MOTORS_WIRE.names
@@ -124,8 +124,8 @@ def convert(events, params, w, health_period_s):
     pred = Predictor(params)
     meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
                                           mot["voltage"], mot["wheel_speed"])
-    mot_json = topics.motors_json_blocks(mot)
-    vel_json = topics.velocity_json_blocks(mot, meas, predicted, restarted)
+    pairs = zip(topics.motors_json_blocks(mot),
+                topics.velocity_json_blocks(mot, meas, predicted, restarted))
     L = {k: mot[k].tolist() for k in ("utime", "seq", "mode", "faults")}  # for health
     ch_mot = w.channel(omni4.CHANNEL_MOTORS, topics.CHANNEL_SCHEMA[omni4.CHANNEL_MOTORS]) \
         if mot_idx else None
@@ -140,23 +140,41 @@ def convert(events, params, w, health_period_s):
     next_scene = events[0][0]
     k = 0
     n_vel = n_health = n_scene = n_pose = 0
-    for t_us, chname, data in events:
-        t_ns = t_us * 1000
+    n = len(events)
+    i = 0
+    log_m = ch_mot.log if ch_mot else None
+    log_v = ch_vel.log if ch_vel else None
+    add = health.add
+    ut_l, sq_l, md_l, fl_l = L["utime"], L["seq"], L["mode"], L["faults"]
+    while i < n:
+        t_us, chname, data = events[i]
         if t_us >= next_scene:  # the robot's body, once a second of log time
-            ch_scene.log(topics.scene_json(t_ns, params["d"], params["r"]), t_ns)
+            ch_scene.log(topics.scene_json(t_us * 1000, params["d"], params["r"]), t_us * 1000)
             n_scene += 1
             next_scene = t_us + 1_000_000
         if chname == omni4.CHANNEL_MOTORS:
-            ch_mot.log(next(mot_json), t_ns)
-            ch_vel.log(next(vel_json), t_ns)
-            n_vel += 1
-            health.add(L["utime"][k], L["seq"][k], L["mode"][k], L["faults"][k])
-            if t_us >= next_health:
-                ch_health.log(health.report(health_period_s), t_ns)
-                n_health += 1
-                next_health += period_us * max(1, (t_us - next_health) // period_us + 1)
-            k += 1
+            # a run of motors events (~40 between two camera frames): a tight loop
+            while True:
+                t_ns = t_us * 1000
+                mj, vj = next(pairs)
+                log_m(mj, t_ns)
+                log_v(vj, t_ns)
+                add(ut_l[k], sq_l[k], md_l[k], fl_l[k])
+                if t_us >= next_health:
+                    ch_health.log(health.report(health_period_s), t_ns)
+                    n_health += 1
+                    next_health += period_us * max(1, (t_us - next_health) // period_us + 1)
+                k += 1
+                i += 1
+                if i == n:
+                    break
+                t_us, chname, data = events[i]
+                if chname != omni4.CHANNEL_MOTORS or t_us >= next_scene:
+                    break
+            n_vel = k
             continue
+        i += 1
+        t_ns = t_us * 1000
         cls = omni4.TYPES.get(chname)
         msg = None
         if cls is not None:
