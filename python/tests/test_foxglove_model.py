@@ -487,3 +487,28 @@ def test_layout_file_is_the_generators_and_plots_existing_fields(tmp_path):
         for name, idx in re.findall(r"\.(\w+)(?:\[(\d+)\])?", rest):
             assert name in msg, f"layout plots {ref}: no field {name}"
             msg = msg[name] if idx == "" else msg[name][int(idx)]
+
+
+def test_the_voltage_of_tick_k_acts_until_tick_k_plus_1():
+    """Voltages changing every tick (4..8 V along v, the robot moving forward throughout): each
+    step is the exact solution of x' = a x + b_k - c with the voltage logged at the step's
+    start, integrated here independently."""
+    rng = random.Random(5)
+    pr = Predictor(T3)
+    x = 0.6  # [m/s] start, from the encoders
+    w0 = [0.0, -x / T3["r"], 0.0, x / T3["r"]]
+    us = [np.float32([0.0, -u, 0.0, u]).tolist()  # motors_t voltages are float
+          for u in (rng.uniform(4, 8) for _ in range(400))]
+    _, pred, _ = pr.step(0, 0, 2, us[0], w0)
+    assert pred[0] == pytest.approx(x)
+    x = pred[0]  # the encoders' value of the float wheel speeds
+    t = 0
+    for k in range(1, 400):
+        dt_us = rng.choice((900, 1000, 1100))
+        t += dt_us
+        _, pred, r = pr.step(t, k, 2, us[k], w0)
+        assert not r
+        a, b, c = closed_form_axis(T3, us[k - 1], 0)
+        xss = -(b - c) / a
+        x = xss + (x - xss) * math.exp(a * dt_us * 1e-6)
+        assert pred[0] == pytest.approx(x, abs=1e-12)
