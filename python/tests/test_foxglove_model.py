@@ -175,7 +175,7 @@ def test_ini_missing_file(tmp_path):
 T0_US = 1_700_000_000_000_000
 
 
-def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=()):
+def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=(), bad_motors=False):
     """A log of n motors samples at 1 kHz, a pose every 40, marks and commands, and one
     channel no omni4 type decodes. Returns {channel: [(log_time_us, payload)]}."""
     out = {}
@@ -213,6 +213,12 @@ def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=()):
             c.velocity, c.voltage = [0.5, -0.25, 1.0], [0.0] * 4
             put(T0_US + k * 1000 + 3, omni4.CHANNEL_CMD, c.encode())
     put(T0_US + n * 1000, "OMNI4_SOMETHING_ELSE", b"\x00\x01not an omni4 type")
+    if bad_motors:
+        short = omni4.motors_t().encode()[:40]          # motors_t's fingerprint, cut short
+        log.write_event(T0_US + n * 1000 + 1, omni4.CHANNEL_MOTORS, short)
+        e = omni4.experiment_t()
+        e.kind, e.direction = "end", ""
+        log.write_event(T0_US + n * 1000 + 2, omni4.CHANNEL_MOTORS, e.encode())
     log.close()
     return out
 
@@ -360,12 +366,18 @@ def check_mcap_against_log(got, logged, params):
 def test_mcap_of_a_synthetic_log(tmp_path, compression, capsys):
     log = str(tmp_path / "s.lcmlog")
     out = str(tmp_path / "s.mcap")
-    logged = synth_log(log, n=3000, gap_at=1500, overruns=(10, 2500), rejected=(40, 41, 900))
+    logged = synth_log(log, n=3000, gap_at=1500, overruns=(10, 2500), rejected=(40, 41, 900),
+                       bad_motors=True)
     assert export.main([log, "--out", out, "--compression", compression]) == 0
     err = capsys.readouterr().err
     got, summary, comps = read_mcap_python(out)
     assert comps == {compression} and len(summary.chunk_indexes) >= 1
     check_mcap_against_log(got, logged, T3)
+    # payloads on OMNI4_MOTORS that are not motors_t: kept beside it, never as motors
+    bad = got["OMNI4_MOTORS/undecodable"]
+    assert len(bad) == 1 and bad[0][1] == "omni4.lcm_raw"
+    other = got["OMNI4_MOTORS/experiment_t"]  # on the wrong channel, decoded by fingerprint
+    assert len(other) == 1 and other[0][1] == "omni4.lcm_fields" and other[0][2]["kind"] == "end"
     raw = got["OMNI4_SOMETHING_ELSE"][0]
     assert raw[1] == "omni4.lcm_raw"
     assert raw[2]["data_base64"] and "OMNI4_SOMETHING_ELSE 1" in err

@@ -59,84 +59,50 @@ def parse_args(argv):
 
 class Bridge:
     def __init__(self, params, decimate, health_period_s, server_ctx):
-        import foxglove
-        self._fg = foxglove
-        self.ctx = server_ctx
         self.params = params
         self.decimate = decimate
         self.health_period_s = health_period_s
         self.pred = Predictor(params)
         self.health = topics.Health()
-        self.channels = {}
+        self.ch = topics.Channels(server_ctx)
         self.received = {}
-        self.published = {}
         self.n_motors = 0
         self.classes = topics.lcm_classes()
-        for chname, schema in topics.CHANNEL_SCHEMA.items():
-            self.channel(chname, schema)
-        for topic, schema in topics.DERIVED.items():
-            self.channel(topic, schema)
-
-    def channel(self, topic, schema_name):
-        ch = self.channels.get(topic)
-        if ch is None:
-            schema = self._fg.Schema(name=schema_name, encoding="jsonschema",
-                                     data=topics.schema_bytes(schema_name))
-            ch = self._fg.Channel(topic, schema=schema, message_encoding="json",
-                                  context=self.ctx).base
-            self.channels[topic] = ch
-            self.published[topic] = 0
-        return ch
-
-    def _pub(self, topic, data, t_ns):
-        self.channels[topic].log(data, t_ns)
-        self.published[topic] += 1
+        # advertised from the start, so a client sees them before the first message
+        for topic, schema in (*topics.CHANNEL_SCHEMA.items(), *topics.DERIVED.items()):
+            self.ch.get(topic, schema)
 
     def on_lcm(self, chname, data):
         t_ns = time.time_ns()
         self.received[chname] = self.received.get(chname, 0) + 1
-        try:
-            if chname == omni4.CHANNEL_MOTORS:
-                m = omni4.motors_t.decode(data)
-                self.on_motors(m, t_ns)
+        if chname == omni4.CHANNEL_MOTORS:
+            try:
+                self.on_motors(omni4.motors_t.decode(data), t_ns)
                 return
-            cls = omni4.TYPES.get(chname) or self.classes.get(data[:8])
-            msg = cls.decode(data) if cls else None
-        except (ValueError, IndexError, KeyError):  # not the channel's type, or corrupt
-            msg = None
-        if isinstance(msg, omni4.pose_t) and chname == omni4.CHANNEL_POSE:
-            self._pub(chname, topics.pose_json(msg), t_ns)
-            tf, pose = topics.pose_topics(t_ns, msg.x, msg.y, msg.theta)
-            self._pub(topics.TOPIC_TF, tf, t_ns)
-            self._pub(topics.TOPIC_POSE, pose, t_ns)
-        elif isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
-            self._pub(chname, topics.command_json(msg), t_ns)
-        elif isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
-            self._pub(chname, topics.experiment_json(msg), t_ns)
-        elif msg is not None:
-            self.channel(chname, "omni4.lcm_fields")
-            self._pub(chname, topics.fields_json(msg), t_ns)
-        else:
-            self.channel(chname, "omni4.lcm_raw")
-            self._pub(chname, topics.raw_json(data), t_ns)
+            except Exception:  # not a motors_t (lcm-gen raises ValueError, struct.error):
+                # OMNI4_MOTORS/undecodable, below
+                pass
+        for topic, schema, msg in topics.event_messages(chname, data, t_ns, self.classes):
+            self.ch.log(topic, schema, msg, t_ns)
 
     def on_motors(self, m, t_ns):
         meas, pred, restarted = self.pred.step(m.utime, m.seq, m.mode, m.voltage, m.wheel_speed)
         self.health.add(m.utime, m.seq, m.mode, m.faults)
         if self.n_motors % self.decimate == 0:
-            self._pub(omni4.CHANNEL_MOTORS,
-                      topics.motors_json(m.utime, m.seq, m.mode, m.faults, list(m.voltage),
-                                         list(m.current), list(m.wheel_speed)), t_ns)
-            self._pub(topics.TOPIC_VELOCITY,
-                      topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
+            self.ch.log(omni4.CHANNEL_MOTORS, "omni4.motors_t",
+                        topics.motors_json(m.utime, m.seq, m.mode, m.faults, list(m.voltage),
+                                           list(m.current), list(m.wheel_speed)), t_ns)
+            self.ch.log(topics.TOPIC_VELOCITY, "omni4.velocity",
+                        topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
         self.n_motors += 1
 
     def tick(self, t_ns, health_due, scene_due):
         if health_due and self.health.n:
-            self._pub(topics.TOPIC_HEALTH, self.health.report(self.health_period_s), t_ns)
+            self.ch.log(topics.TOPIC_HEALTH, "omni4.health",
+                        self.health.report(self.health_period_s), t_ns)
         if scene_due:
-            self._pub(topics.TOPIC_SCENE,
-                      topics.scene_json(t_ns, self.params["d"], self.params["r"]), t_ns)
+            self.ch.log(topics.TOPIC_SCENE, "foxglove.SceneUpdate",
+                        topics.scene_json(t_ns, self.params["d"], self.params["r"]), t_ns)
 
 
 def main(argv=None):
@@ -210,8 +176,8 @@ def main(argv=None):
         rx = bridge.received.get(omni4.CHANNEL_MOTORS, 0)
         print(f"{PROG}: {wall:.1f} s: received {rx} motors samples ({rx / wall:.0f} Hz), "
               f"{sum(bridge.received.values())} LCM messages; sent "
-              f"{bridge.published[omni4.CHANNEL_MOTORS]} motors, "
-              f"{bridge.published[topics.TOPIC_VELOCITY]} velocity; "
+              f"{bridge.ch.counts[omni4.CHANNEL_MOTORS]} motors, "
+              f"{bridge.ch.counts[topics.TOPIC_VELOCITY]} velocity; "
               f"CPU {100 * cpu / wall:.1f} %", file=sys.stderr)
     return rc
 

@@ -82,14 +82,13 @@ def parse_args(argv):
     return a
 
 
-class Writer:
-    """Channels of one MCAP file, created as topics appear."""
+class Writer(topics.Channels):
+    """The channels of one MCAP file (foxglove-sdk's writer), made as topics appear."""
 
     def __init__(self, path, compression, chunk_bytes):
         import foxglove
         from foxglove.mcap import MCAPCompression, MCAPWriteOptions
-        self._fg = foxglove
-        self.ctx = foxglove.Context()
+        super().__init__(foxglove.Context())
         comp = MCAPCompression.Zstd if compression == "zstd" else MCAPCompression.Lz4
         # Compression in this thread at zstd level 1: the SDK's default (level 3 on a thread
         # pool) took 2x the CPU, and 20x the wall time on a busy 2-core machine.
@@ -98,19 +97,6 @@ class Writer:
                                            compression=comp, chunk_size=chunk_bytes,
                                            compression_level=1, compression_threads=0,
                                            profile=""))
-        self.channels = {}
-        self.counts = {}
-
-    def channel(self, topic, schema_name):
-        ch = self.channels.get(topic)
-        if ch is None:
-            schema = self._fg.Schema(name=schema_name, encoding="jsonschema",
-                                     data=topics.schema_bytes(schema_name))
-            ch = self._fg.Channel(topic, schema=schema, message_encoding="json",
-                                  context=self.ctx).base
-            self.channels[topic] = ch
-            self.counts[topic] = 0
-        return ch
 
     def close(self):
         self.mcap.close()
@@ -119,7 +105,12 @@ class Writer:
 def convert(events, params, w, health_period_s):
     """Write all events (log order) and the derived topics into the Writer w."""
     classes = topics.lcm_classes()
-    mot_idx = [i for i, (_, ch, _) in enumerate(events) if ch == omni4.CHANNEL_MOTORS]
+    # motors_t is fixed-size: a payload of another size or fingerprint is not one (it goes
+    # through event_messages, to OMNI4_MOTORS/undecodable)
+    fp, size = omni4.motors_t._get_packed_fingerprint(), MOTORS_WIRE.itemsize
+    is_mot = [ch == omni4.CHANNEL_MOTORS and len(d) == size and d[:8] == fp
+              for _, ch, d in events]
+    mot_idx = [i for i, m in enumerate(is_mot) if m]
     mot = decode_motors([events[i][2] for i in mot_idx])
     pred = Predictor(params)
     meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
@@ -127,19 +118,13 @@ def convert(events, params, w, health_period_s):
     pairs = zip(topics.motors_json_blocks(mot),
                 topics.velocity_json_blocks(mot, meas, predicted, restarted))
     L = {k: mot[k].tolist() for k in ("utime", "seq", "mode", "faults")}  # for health
-    ch_mot = w.channel(omni4.CHANNEL_MOTORS, topics.CHANNEL_SCHEMA[omni4.CHANNEL_MOTORS]) \
-        if mot_idx else None
-    ch_vel = w.channel(topics.TOPIC_VELOCITY, topics.DERIVED[topics.TOPIC_VELOCITY]) \
-        if mot_idx else None
-    ch_health = w.channel(topics.TOPIC_HEALTH, topics.DERIVED[topics.TOPIC_HEALTH]) \
-        if mot_idx else None
-    ch_scene = w.channel(topics.TOPIC_SCENE, topics.DERIVED[topics.TOPIC_SCENE])
+    ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if mot_idx else None
+    ch_vel = w.get(topics.TOPIC_VELOCITY, "omni4.velocity") if mot_idx else None
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
     next_scene = events[0][0]
     k = 0
-    n_vel = n_health = n_scene = n_pose = 0
     n = len(events)
     i = 0
     log_m = ch_mot.log if ch_mot else None
@@ -149,10 +134,10 @@ def convert(events, params, w, health_period_s):
     while i < n:
         t_us, chname, data = events[i]
         if t_us >= next_scene:  # the robot's body, once a second of log time
-            ch_scene.log(topics.scene_json(t_us * 1000, params["d"], params["r"]), t_us * 1000)
-            n_scene += 1
+            w.log(topics.TOPIC_SCENE, "foxglove.SceneUpdate",
+                  topics.scene_json(t_us * 1000, params["d"], params["r"]), t_us * 1000)
             next_scene = t_us + 1_000_000
-        if chname == omni4.CHANNEL_MOTORS:
+        if is_mot[i]:
             # a run of motors events (~40 between two camera frames): a tight loop
             while True:
                 t_ns = t_us * 1000
@@ -161,59 +146,25 @@ def convert(events, params, w, health_period_s):
                 log_v(vj, t_ns)
                 add(ut_l[k], sq_l[k], md_l[k], fl_l[k])
                 if t_us >= next_health:
-                    ch_health.log(health.report(health_period_s), t_ns)
-                    n_health += 1
+                    w.log(topics.TOPIC_HEALTH, "omni4.health", health.report(health_period_s),
+                          t_ns)
                     next_health += period_us * max(1, (t_us - next_health) // period_us + 1)
                 k += 1
                 i += 1
                 if i == n:
                     break
-                t_us, chname, data = events[i]
-                if chname != omni4.CHANNEL_MOTORS or t_us >= next_scene:
+                t_us = events[i][0]
+                if not is_mot[i] or t_us >= next_scene:
                     break
-            n_vel = k
             continue
         i += 1
-        t_ns = t_us * 1000
-        cls = omni4.TYPES.get(chname)
-        msg = None
-        if cls is not None:
-            try:
-                msg = cls.decode(data)
-            except Exception:
-                cls = None  # not this channel's type: fall through to the generic paths
-        if msg is None:
-            cls = classes.get(data[:8])
-            if cls is not None:
-                try:
-                    msg = cls.decode(data)
-                except Exception:
-                    cls = None
-        if isinstance(msg, omni4.pose_t) and chname == omni4.CHANNEL_POSE:
-            w.channel(chname, "omni4.pose_t").log(topics.pose_json(msg), t_ns)
-            tf, pose = topics.pose_topics(t_ns, msg.x, msg.y, msg.theta)
-            w.channel(topics.TOPIC_TF, "foxglove.FrameTransform").log(tf, t_ns)
-            w.channel(topics.TOPIC_POSE, "foxglove.PoseInFrame").log(pose, t_ns)
-            n_pose += 1
-        elif isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
-            w.channel(chname, "omni4.command_t").log(topics.command_json(msg), t_ns)
-        elif isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
-            w.channel(chname, "omni4.experiment_t").log(topics.experiment_json(msg), t_ns)
-        elif msg is not None:
-            w.channel(chname, "omni4.lcm_fields").log(topics.fields_json(msg), t_ns)
-        else:
-            w.channel(chname, "omni4.lcm_raw").log(topics.raw_json(data), t_ns)
-        w.counts[chname] += 1
+        for topic, schema, msg in topics.event_messages(chname, data, t_us * 1000, classes):
+            w.log(topic, schema, msg, t_us * 1000)
     if mot_idx:
-        w.counts[omni4.CHANNEL_MOTORS] = len(mot_idx)
+        w.counts[omni4.CHANNEL_MOTORS] = w.counts[topics.TOPIC_VELOCITY] = k
         if health.n:  # the last, partial window
-            ch_health.log(health.report(health_period_s), events[-1][0] * 1000)
-            n_health += 1
-        w.counts[topics.TOPIC_VELOCITY] = n_vel
-        w.counts[topics.TOPIC_HEALTH] = n_health
-    w.counts[topics.TOPIC_SCENE] = n_scene
-    if n_pose:
-        w.counts[topics.TOPIC_TF] = w.counts[topics.TOPIC_POSE] = n_pose
+            w.log(topics.TOPIC_HEALTH, "omni4.health", health.report(health_period_s),
+                  events[-1][0] * 1000)
     return health
 
 

@@ -223,6 +223,64 @@ def lcm_classes():
 
 
 # ---- derived topics ------------------------------------------------------------------------
+def event_messages(chname, data, t_ns, classes):
+    """The Foxglove messages of one LCM event that is not OMNI4_MOTORS (the bridge and the
+    exporter treat motors apart, for speed): a list of (topic, schema name, JSON bytes).
+    classes: lcm_classes(). The channel's own type first, then any omni4 type whose
+    fingerprint matches, else the raw payload; a payload that is not its channel's own type
+    goes to the topic CHANNEL/<its type> or, if no omni4 type decodes it, CHANNEL/undecodable."""
+    msg = None
+    own = omni4.TYPES.get(chname)
+    for cls in (own, classes.get(data[:8])):
+        if cls is not None:
+            try:
+                msg = cls.decode(data)
+                break
+            except Exception:  # lcm-gen decoders raise ValueError, struct.error, ...
+                msg = None
+    if own is not None and not isinstance(msg, own):
+        # not the channel's own type: kept beside the channel, never under its schema
+        chname += "/undecodable" if msg is None else "/" + type(msg).__name__
+    if isinstance(msg, omni4.pose_t) and chname == omni4.CHANNEL_POSE:
+        tf, pose = pose_topics(t_ns, msg.x, msg.y, msg.theta)
+        return [(chname, "omni4.pose_t", pose_json(msg)), (TOPIC_TF, DERIVED[TOPIC_TF], tf),
+                (TOPIC_POSE, DERIVED[TOPIC_POSE], pose)]
+    if isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
+        return [(chname, "omni4.command_t", command_json(msg))]
+    if isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
+        return [(chname, "omni4.experiment_t", experiment_json(msg))]
+    if msg is not None:
+        return [(chname, "omni4.lcm_fields", fields_json(msg))]
+    return [(chname, "omni4.lcm_raw", raw_json(data))]
+
+
+class Channels:
+    """The Foxglove channels of one context (a WebSocket server's or an MCAP writer's), made
+    as topics appear (JSON, the schema of SCHEMAS), and the messages logged per topic."""
+
+    def __init__(self, ctx):
+        import foxglove
+        self._fg = foxglove
+        self.ctx = ctx
+        self.channels = {}
+        self.counts = {}
+
+    def get(self, topic, schema_name):
+        ch = self.channels.get(topic)
+        if ch is None:
+            schema = self._fg.Schema(name=schema_name, encoding="jsonschema",
+                                     data=schema_bytes(schema_name))
+            ch = self._fg.Channel(topic, schema=schema, message_encoding="json",
+                                  context=self.ctx).base
+            self.channels[topic] = ch
+            self.counts[topic] = 0
+        return ch
+
+    def log(self, topic, schema_name, data, t_ns):
+        self.get(topic, schema_name).log(data, t_ns)
+        self.counts[topic] += 1
+
+
 
 def velocity_json(utime, seq, mode, meas, pred, restarted):
     return orjson.dumps({
