@@ -6,6 +6,7 @@ import json
 import math
 import os
 import random
+import socket
 import struct
 import subprocess
 import sys
@@ -524,3 +525,29 @@ def test_the_voltage_of_tick_k_acts_until_tick_k_plus_1():
         xss = -(b - c) / a
         x = xss + (x - xss) * math.exp(a * dt_us * 1e-6)
         assert pred[0] == pytest.approx(x, abs=1e-12)
+
+
+def test_bridge_cli_errors(tmp_path, capsys):
+    from omni4.foxglove import bridge
+
+    def run(*args):
+        capsys.readouterr()
+        try:
+            rc = bridge.main(list(args))
+        except SystemExit as e:
+            rc = e.code
+        return rc, capsys.readouterr().err.strip().splitlines()
+
+    bad = write(tmp_path, "bad.ini", "[model]\nd = x\n")
+    rc, err = run("--params", bad, "-q")
+    assert rc == 2 and err == [f"omni4-bridge: {bad}:2: [model] d = 'x' is not a number"]
+    rc, err = run("--lcm", "nonsense://x", "-q", "--duration", "0.1")
+    assert rc == 2 and len(err) == 1 and err[0].startswith("omni4-bridge: --lcm nonsense://x")
+    assert run("--decimate", "0")[0] == 2
+    with socket.socket() as s:  # a port already taken
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        rc, err = run("--lcm", "memq://", "--port", str(s.getsockname()[1]), "-q")
+    assert rc == 1 and len(err) == 1 and "cannot serve on 127.0.0.1:" in err[0]
+    rc, err = run("--lcm", "memq://", "--port", "0", "--duration", "0.2")
+    assert rc == 0 and "serving ws://127.0.0.1:" in err[0] and "received 0 motors" in err[1]

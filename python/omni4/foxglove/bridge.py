@@ -107,11 +107,7 @@ class Bridge:
 
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    try:
-        params = ini.read_model(a.params) if a.params else ini.table3()
-    except ini.ConfigError as e:
-        print(f"{PROG}: {e}", file=sys.stderr)
-        return 2
+    params = ini.params_or_exit(PROG, a.params)
     try:
         lc = lcm.LCM(a.lcm)
     except Exception as e:  # lcm raises RuntimeError on a URL it cannot use

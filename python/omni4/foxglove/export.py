@@ -170,11 +170,7 @@ def convert(events, params, w, health_period_s):
 
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    try:
-        params = ini.read_model(a.params) if a.params else ini.table3()
-    except ini.ConfigError as e:
-        print(f"{PROG}: {e}", file=sys.stderr)
-        return 2
+    params = ini.params_or_exit(PROG, a.params)
     t0 = time.perf_counter()
     events, lost = [], []
     try:

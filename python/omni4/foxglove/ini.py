@@ -2,6 +2,7 @@
 SI units, all or none; none = the paper's Table III, as in the firmware). Other sections are the
 firmware's and are skipped. Errors are ConfigError("FILE:LINE: ...")."""
 import ctypes
+import sys
 import math
 
 from . import model
@@ -72,3 +73,13 @@ def read_model(path):
         raise ConfigError(f"{path}:{first_line}: [model] parameters are not physical "
                           "(a non-positive d r l Kv Kt R M J or a negative friction)") from None
     return found
+
+
+def params_or_exit(prog, path):
+    """--params of a command-line tool: the [model] of path (Table III if None); on a broken
+    INI one line on stderr and exit status 2 (a configuration error)."""
+    try:
+        return read_model(path) if path else table3()
+    except ConfigError as e:
+        print(f"{prog}: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
