@@ -1,6 +1,6 @@
 """Foxglove figures for bench/run, each beside a peer measured in the same run.
 
-bridge BIN SECONDS: omni4-fw (sim backend, 1 kHz, udpm) for SECONDS; omni4-bridge (--decimate 10)
+bridge BIN SECONDS [DECIMATE]: omni4-fw (sim backend, 1 kHz, udpm) for SECONDS; omni4-bridge (--decimate 10)
   with a Foxglove WebSocket client subscribed to every topic, and beside it a bare LCM subscriber
   (Python, motors_t.decode of every OMNI4_MOTORS message, nothing else). Prints the CPU % of
   each (user + sys from /proc over the same window) and the rates delivered.
@@ -39,7 +39,7 @@ print(n[0], flush=True)
 '''
 
 
-def bridge(bindir, seconds):
+def bridge(bindir, seconds, decimate=10):
     from websockets.sync.client import connect
     url = f"udpm://239.255.76.67:{random.randint(7900, 8400)}?ttl=0"
     venv = os.path.dirname(sys.executable)
@@ -51,7 +51,7 @@ def bridge(bindir, seconds):
                                str(seconds + 6), "-q"], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
         br = subprocess.Popen([os.path.join(venv, "omni4-bridge"), "--lcm", url, "--port", "0",
-                               "--decimate", "10"], stderr=subprocess.PIPE, text=True)
+                               "--decimate", str(decimate)], stderr=subprocess.PIPE, text=True)
         peer = subprocess.Popen([sys.executable, "-c", PEER, url, str(seconds + 2)],
                                 stdout=subprocess.PIPE, text=True)
         line = br.stderr.readline()
@@ -101,7 +101,7 @@ def bridge(bindir, seconds):
     rx_hz = int(re.search(r"\((\d+) Hz\)", err).group(1))
     mot = (c1.get("OMNI4_MOTORS", 0) - c0.get("OMNI4_MOTORS", 0)) / wall
     vel = (c1.get("/omni4/velocity", 0) - c0.get("/omni4/velocity", 0)) / wall
-    print(f"bridge cpu {100 * (b1 - b0) / wall:.1f} % received {rx_hz} Hz sent motors "
+    print(f"bridge (decimate {decimate}) cpu {100 * (b1 - b0) / wall:.1f} % received {rx_hz} Hz sent motors "
           f"{mot:.0f} Hz velocity {vel:.0f} Hz; peer cpu {100 * (p1 - p0) / wall:.1f} % "
           f"received {n_peer / (seconds + 2):.0f} Hz")
 
@@ -157,6 +157,6 @@ def mcap(log, reps):
 
 if __name__ == "__main__":
     if sys.argv[1] == "bridge":
-        bridge(sys.argv[2], float(sys.argv[3]))
+        bridge(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]) if len(sys.argv) > 4 else 10)
     else:
         mcap(sys.argv[2], int(sys.argv[3]))
