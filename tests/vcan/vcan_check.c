@@ -6,12 +6,14 @@
  *                        800), no fault
  *   vcan_check rate S [HZ]   command for S seconds; check only the rate and seq continuity
  *   vcan_check clear     send MODE_CLEAR_FAULT; check the controller leaves FAULT
- *   vcan_check flood N S IFACE  command v = 0.5 m/s and send N random 8-byte frames on the
+ *   vcan_check flood N S IFACE TIMEOUT_MS  command v = 0.5 m/s and send N random 8-byte frames on the
  *                        STATUS IDs (0x020, 0x021 alternately) on IFACE, paced at 40 per
  *                        OMNI4_MOTORS sample seen (the controller reads 64 frames per tick and
  *                        gets 2 STATUS per ms: the junk never overflows its socket queue, it
  *                        examines every frame); at most S seconds. Checks: all N sent, no
- *                        sample with a latching fault or FAULT mode, no seq gaps
+ *                        sample with a latching fault or FAULT mode, no seq gaps; except
+ *                        DRIVER_TIMEOUT (and seq gaps) when a board's real STATUS frames
+ *                        really stopped for TIMEOUT_MS ([can] status_timeout_ms) or longer
  *   vcan_check calm S PID...  command until every PID has exited (at most S seconds): check
  *                        that no sample shows a latching fault or FAULT mode, seq continuity,
  *                        and that the PIDs (the flood generators) finished in time
@@ -22,8 +24,12 @@
  *                        OMNI4_CMD publish -> the first CMD_VOLTAGE frame on IFACE carrying the
  *                        new value (read on a raw CAN socket of our own); prints p50/p99/max
  *                        (a figure, not asserted); fails only if a command never shows
+ *   vcan_check capture IFACE S  read the controller's frames until the marker frame 0x7FF
+ *                        (at most S seconds); print their count, how many carry a non-zero
+ *                        voltage and the data of the last CMD_VOLTAGE
  * Prints one "ok:" or "FAIL:" line with the figures; exit status 0 on success.
  */
+#define _DEFAULT_SOURCE /* SCM_TIMESTAMP, struct timeval */
 #include <lcm/lcm.h>
 #include <linux/can.h>
 #include <linux/can/raw.h>
@@ -31,6 +37,7 @@
 #include <net/if.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 #include <signal.h>
 #include <stdio.h>
@@ -197,9 +204,73 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 }
 
 
-/* The flood: N random frames on the STATUS IDs, paced by the controller's own tick count. */
-static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface)
+/* The driver boards' real STATUS frames, told from the junk by their CRC, with the kernel's
+ * receive time (SO_TIMESTAMP: when the frame went on the bus, however late we read it): the
+ * longest silence of either board. A DRIVER_TIMEOUT during the flood is the right answer when
+ * a board really was silent that long (the emulated VM starved: omni4-motorsim did not run),
+ * and a false fault when it was not. */
+struct status_watch {
+	int fd;
+	double last[CAN_NODES]; /* receive time of the last valid STATUS per board [s] */
+	double max_gap_s;
+	long valid, junk;
+};
+
+static int watch_open(struct status_watch *w, const char *iface)
 {
+	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	const struct can_filter flt[2] = {{CAN_ID_STATUS(0), CAN_SFF_MASK},
+					  {CAN_ID_STATUS(1), CAN_SFF_MASK}};
+	const int one = 1;
+
+	memset(w, 0, sizeof(*w));
+	w->fd = socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK, CAN_RAW);
+	if (w->fd < 0 || !addr.can_ifindex ||
+	    setsockopt(w->fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt, sizeof(flt)) ||
+	    setsockopt(w->fd, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof(one)) ||
+	    bind(w->fd, (struct sockaddr *)&addr, sizeof(addr)))
+		return -1;
+	return 0;
+}
+
+static void watch_drain(struct status_watch *w)
+{
+	for (;;) {
+		struct can_frame cf;
+		char ctl[CMSG_SPACE(sizeof(struct timeval))];
+		struct iovec iov = {.iov_base = &cf, .iov_len = sizeof(cf)};
+		struct msghdr msg = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = ctl,
+				     .msg_controllen = sizeof(ctl)};
+
+		if (recvmsg(w->fd, &msg, 0) != (ssize_t)sizeof(cf))
+			return;
+		struct cmsghdr *c = CMSG_FIRSTHDR(&msg);
+		struct timeval tv = {0, 0};
+
+		if (c && c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP)
+			memcpy(&tv, CMSG_DATA(c), sizeof(tv));
+		const double t = tv.tv_sec + tv.tv_usec * 1e-6;
+		struct omni4_can_frame f = {.id = cf.can_id & CAN_SFF_MASK, .dlc = cf.can_dlc};
+		struct can_status st;
+		int node;
+
+		memcpy(f.data, cf.data, 8);
+		if (can_decode_status(&f, &node, &st, NULL) || node < 0 || node >= CAN_NODES) {
+			w->junk++;
+			continue;
+		}
+		w->valid++;
+		if (w->last[node] > 0 && t - w->last[node] > w->max_gap_s)
+			w->max_gap_s = t - w->last[node];
+		w->last[node] = t;
+	}
+}
+
+/* The flood: N random frames on the STATUS IDs, paced by the controller's own tick count. */
+static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface, double timeout_s)
+{
+	struct status_watch w;
+
 	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
 	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
 	struct state s = {0};
@@ -213,6 +284,11 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface)
 	}
 	const int zero = 0;
 
+	if (watch_open(&w, iface)) {
+		printf("FAIL: flood: cannot open the STATUS watch socket on %s\n", iface);
+		close(fd);
+		return 1;
+	}
 	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0); /* we receive nothing */
 	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &zero, sizeof(zero));
 	omni4_motors_t_subscription_t *sub =
@@ -232,6 +308,7 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface)
 			last_cmd = t;
 		}
 		lcm_handle_timeout(lcm, 1);
+		watch_drain(&w);
 		if (base < 0 && s.n > 0)
 			base = s.n; /* count from the first sample seen */
 		if (base < 0)
@@ -255,19 +332,91 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface)
 		}
 	}
 	/* a last look at the controller after the flood */
-	for (const double t1 = now_s(); now_s() - t1 < 0.3;)
+	for (const double t1 = now_s(); now_s() - t1 < 0.3;) {
 		lcm_handle_timeout(lcm, 10);
+		watch_drain(&w);
+	}
 	const double elapsed = now_s() - t0;
-	const int ok = sent == n && s.latched == 0 && s.gaps == 0 && s.n > 0;
+	/* Only DRIVER_TIMEOUT (and the rejections of commands in FAULT that follow it) may be
+	 * latched, and only if a board really was silent for the status timeout. */
+	const int32_t explained = OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |
+				  OMNI4_MOTORS_T_FAULT_CMD_REJECTED;
+	const int silent = w.max_gap_s >= timeout_s;
+	const int faults_ok =
+		s.latched == 0 || (silent && !(s.latched_bits & ~explained));
+	const int ok = sent == n && faults_ok && s.n > 0 && w.valid > 0 &&
+		       (s.gaps == 0 || silent);
 
 	printf("%s: flood: %ld of %ld junk STATUS frames in %.1f s (%.0f frames/s), %ld samples "
 	       "(%.0f Hz), %ld with a latching fault (bits 0x%x, first at %.2f s), %ld seq gaps, "
-	       "mode %d, %ld full-queue waits\n", ok ? "ok" : "FAIL", sent, n, elapsed,
+	       "mode %d, %ld full-queue waits; the boards' STATUS: %ld valid, longest silence "
+	       "%.0f ms (status timeout %.0f ms)%s\n", ok ? "ok" : "FAIL", sent, n, elapsed,
 	       sent / elapsed, s.n, s.n / elapsed, s.latched, s.latched_bits,
-	       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode, busy);
+	       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode, busy, w.valid,
+	       w.max_gap_s * 1e3, timeout_s * 1e3,
+	       s.latched && ok ? ": the boards were silent (VM starved), DRIVER_TIMEOUT is right"
+			       : "");
 	omni4_motors_t_unsubscribe(lcm, sub);
+	close(w.fd);
 	close(fd);
 	return ok ? 0 : 1;
+}
+
+/* The controller's frames (CMD_VOLTAGE, CMD_CONTROL) until the marker frame 0x7FF that the
+ * test sends once the controller is dead: the socket queue is FIFO, so every frame the
+ * controller sent before is read, however starved this process was. Prints "capture: N frames,
+ * V with a non-zero voltage, last CMD_VOLTAGE HEX" (HEX: the 8 data bytes). */
+#define CAPTURE_MARKER_ID 0x7FF
+static int capture(const char *iface, double max_s)
+{
+	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	const struct can_filter flt[3] = {{CAN_ID_CMD_VOLTAGE, CAN_SFF_MASK},
+					  {CAN_ID_CMD_CONTROL, CAN_SFF_MASK},
+					  {CAPTURE_MARKER_ID, CAN_SFF_MASK}};
+	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
+	const int rcvbuf = 1 << 22;
+	long n = 0, driven = 0;
+	char last[17] = "none";
+
+	if (fd < 0 || !addr.can_ifindex ||
+	    setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, flt, sizeof(flt)) ||
+	    bind(fd, (struct sockaddr *)&addr, sizeof(addr))) {
+		printf("FAIL: capture: cannot open a raw CAN socket on %s\n", iface);
+		return 1;
+	}
+	setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof(rcvbuf));
+	printf("capture: listening\n");
+	fflush(stdout);
+	const double t0 = now_s();
+
+	while (now_s() - t0 < max_s) {
+		struct pollfd pf = {.fd = fd, .events = POLLIN};
+		struct can_frame cf;
+
+		if (poll(&pf, 1, 100) <= 0)
+			continue;
+		if (read(fd, &cf, sizeof(cf)) != (ssize_t)sizeof(cf))
+			continue;
+		const uint32_t id = cf.can_id & CAN_SFF_MASK;
+
+		if (id == CAPTURE_MARKER_ID) {
+			printf("capture: %ld frames, %ld with a non-zero voltage, last CMD_VOLTAGE %s\n",
+			       n, driven, last);
+			close(fd);
+			return 0;
+		}
+		n++;
+		if (id != CAN_ID_CMD_VOLTAGE)
+			continue;
+		for (int b = 0; b < 8; b++)
+			snprintf(last + 2 * b, 3, "%02X", cf.data[b]);
+		/* voltages in bits 0-39 (little-endian signal layout, docs in drivers/can) */
+		if (cf.data[0] | cf.data[1] | cf.data[2] | cf.data[3] | cf.data[4])
+			driven++;
+	}
+	printf("FAIL: capture: no marker frame within %.0f s (%ld frames read)\n", max_s, n);
+	close(fd);
+	return 1;
 }
 
 int main(int argc, char **argv)
@@ -282,22 +431,32 @@ int main(int argc, char **argv)
 	const int calm = !strcmp(argv[1], "calm");
 
 	if (!strcmp(argv[1], "flood")) {
-		const long n = argc > 4 ? atol(argv[2]) : 0;
-		const double max_s = argc > 4 ? atof(argv[3]) : 0;
-		lcm_t *l = n > 0 && max_s > 0 ? lcm_create(NULL) : NULL;
+		const long n = argc > 5 ? atol(argv[2]) : 0;
+		const double max_s = argc > 5 ? atof(argv[3]) : 0;
+		const double timeout_ms = argc > 5 ? atof(argv[5]) : 0;
+		lcm_t *l = n > 0 && max_s > 0 && timeout_ms > 0 ? lcm_create(NULL) : NULL;
 		int rc;
 
-		if (n <= 0 || !(max_s > 0)) {
-			fprintf(stderr, "usage: vcan_check flood N SECONDS IFACE\n");
+		if (n <= 0 || !(max_s > 0) || !(timeout_ms > 0)) {
+			fprintf(stderr, "usage: vcan_check flood N SECONDS IFACE STATUS_TIMEOUT_MS\n");
 			return 2;
 		}
 		if (!l) {
 			printf("FAIL: no LCM\n");
 			return 1;
 		}
-		rc = junk_flood(l, n, max_s, argv[4]);
+		rc = junk_flood(l, n, max_s, argv[4], timeout_ms * 1e-3);
 		lcm_destroy(l);
 		return rc;
+	}
+	if (!strcmp(argv[1], "capture")) {
+		const double max_s = argc > 3 ? atof(argv[3]) : 0;
+
+		if (!(max_s > 0)) {
+			fprintf(stderr, "usage: vcan_check capture IFACE SECONDS\n");
+			return 2;
+		}
+		return capture(argv[2], max_s);
 	}
 	if (!strcmp(argv[1], "latency")) {
 		const int n = argc > 3 ? atoi(argv[2]) : 0;
