@@ -7,7 +7,6 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4_motors_t.h"
 #include "omni4/sc_os.h"
 
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms)
@@ -424,7 +423,7 @@ static int sc_read(void *ctx, struct motor_sample *out)
 	else if (rc != -EAGAIN && rc < 0)
 		return rc;
 
-	uint32_t faults = m->bus_off ? OMNI4_MOTORS_T_FAULT_BUS : 0;
+	uint32_t faults = m->bus_off ? HAL_FAULT_BUS : 0;
 	float supply = NAN;
 	bool all = true;
 
@@ -433,11 +432,11 @@ static int sc_read(void *ctx, struct motor_sample *out)
 		const int64_t since = nd->have_status ? nd->last_status_us : m->opened_us;
 
 		if (now - since > m->timeout_us)
-			faults |= OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT;
+			faults |= HAL_FAULT_DRIVER_TIMEOUT;
 		all &= nd->have_status;
 		if (nd->have_health) {
 			if (nd->health.faults || nd->health.state == CAN_STATE_FAULT)
-				faults |= OMNI4_MOTORS_T_FAULT_DRIVER;
+				faults |= HAL_FAULT_DRIVER;
 			supply = isnan(supply) ? nd->health.supply_v : fminf(supply, nd->health.supply_v);
 		}
 		for (int c = 0; c < 2; c++) {
@@ -447,7 +446,7 @@ static int sc_read(void *ctx, struct motor_sample *out)
 	}
 	out->supply_v = supply;
 	out->faults = faults;
-	if (!all && !(faults & OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT))
+	if (!all && !(faults & HAL_FAULT_DRIVER_TIMEOUT))
 		return -EAGAIN; /* still waiting for the first reports */
 	if (!all) {
 		/* Timed out before any report: a full sample of zeros with the fault set. */

@@ -7,13 +7,12 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4_motors_t.h"
 
 /* Bits that force MODE_FAULT and stay until a successful clear. */
 #define LATCHING_FAULTS                                                                    \
-	(OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |           \
-	 OMNI4_MOTORS_T_FAULT_DRIVER | OMNI4_MOTORS_T_FAULT_BUS | OMNI4_MOTORS_T_FAULT_ENCODER | \
-	 OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR | OMNI4_MOTORS_T_FAULT_SUPPLY)
+	(CTL_FAULT_OVERCURRENT | CTL_FAULT_DRIVER_TIMEOUT |           \
+	 CTL_FAULT_DRIVER | CTL_FAULT_BUS | CTL_FAULT_ENCODER | \
+	 CTL_FAULT_CURRENT_SENSOR | CTL_FAULT_SUPPLY)
 
 /* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
 #define ENCODER_RESIDUAL_MAX_M_S 0.5
@@ -22,6 +21,14 @@
  * step between two readings, over the time between them (at least one period: a late tick
  * after a stall of the loop or the bus sees a larger, real change), is an encoder jump. */
 #define ENCODER_MAX_ACCEL_RAD_S2 5000.0
+
+/* The HAL's driver-side fault bits in the controller's vocabulary. */
+static int32_t from_hal_faults(uint32_t hal)
+{
+	return ((hal & HAL_FAULT_DRIVER_TIMEOUT) ? CTL_FAULT_DRIVER_TIMEOUT : 0) |
+	       ((hal & HAL_FAULT_DRIVER) ? CTL_FAULT_DRIVER : 0) |
+	       ((hal & HAL_FAULT_BUS) ? CTL_FAULT_BUS : 0);
+}
 
 int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 {
@@ -53,7 +60,7 @@ static bool all_finite(const double *v, int n)
 static int reject(struct ctl *c, int rc)
 {
 	c->n.cmd_rejected++;
-	c->warnings |= OMNI4_MOTORS_T_FAULT_CMD_REJECTED;
+	c->warnings |= CTL_FAULT_CMD_REJECTED;
 	return rc;
 }
 
@@ -93,7 +100,7 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	if (cmd->mode == CTL_CLEAR_FAULT) {
 		if (c->mode == CTL_FAULT || c->mode == CTL_ESTOP) {
 			/* ctl_step re-latches anything still present; clear only a gone cause. */
-			if (c->warnings & OMNI4_MOTORS_T_FAULT_ESTOP || c->present)
+			if (c->warnings & CTL_FAULT_ESTOP || c->present)
 				return reject(c, -EBUSY);
 			c->mode = CTL_IDLE;
 		}
@@ -137,7 +144,7 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	}
 	}
 	c->last_cmd_us = now_us;
-	c->warnings &= ~(OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT | OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
+	c->warnings &= ~(CTL_FAULT_CMD_TIMEOUT | CTL_FAULT_CMD_REJECTED);
 	c->n.cmd_accepted++;
 	return 0;
 }
@@ -150,8 +157,8 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	if (read_rc == -EAGAIN)
 		return 0; /* no new reading this tick: keep the last estimate */
 	if (read_rc < 0 || !s)
-		return OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT;
-	f |= (int32_t)s->faults & LATCHING_FAULTS;
+		return CTL_FAULT_DRIVER_TIMEOUT;
+	f |= from_hal_faults(s->faults);
 
 	double vw[4];
 	bool speeds_ok = true;
@@ -167,14 +174,14 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 		const float i = s->current_a[j], w = s->wheel_rad_s[j];
 
 		if (!isfinite(i) || fabsf(i) >= sensor_max)
-			f |= OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
+			f |= CTL_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
 		if (isfinite(i) && fabsf(i) > current_max)
-			f |= OMNI4_MOTORS_T_FAULT_OVERCURRENT;
+			f |= CTL_FAULT_OVERCURRENT;
 		if (!isfinite(w)) {
-			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
+			f |= CTL_FAULT_ENCODER;
 			speeds_ok = false;
 		} else if (c->have_wheel && fabs((double)w - c->last_wheel[j]) > max_step) {
-			f |= OMNI4_MOTORS_T_FAULT_ENCODER;
+			f |= CTL_FAULT_ENCODER;
 		}
 		vw[j] = (double)w * c->cfg.model.r;
 	}
@@ -184,7 +191,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 		c->last_wheel_us = now_us;
 	c->have_wheel = speeds_ok;
 	if (isfinite(s->supply_v) && s->supply_v < (float)c->cfg.limits.supply_min_v)
-		f |= OMNI4_MOTORS_T_FAULT_SUPPLY;
+		f |= CTL_FAULT_SUPPLY;
 	if (!speeds_ok)
 		return f;
 
@@ -194,7 +201,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	else
 		c->encoder_bad_ticks = 0;
 	if (c->encoder_bad_ticks * c->dt >= ENCODER_BAD_TIME_S)
-		f |= OMNI4_MOTORS_T_FAULT_ENCODER;
+		f |= CTL_FAULT_ENCODER;
 	return f;
 }
 
@@ -205,7 +212,7 @@ static void watchdog(struct ctl *c, int64_t now_us)
 
 	if (!moving || now_us - c->last_cmd_us <= (int64_t)c->cfg.control.cmd_timeout_ms * 1000)
 		return;
-	c->warnings |= OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT;
+	c->warnings |= CTL_FAULT_CMD_TIMEOUT;
 	c->n.watchdog_trips++;
 	if (c->mode == CTL_COAST) {
 		c->mode = CTL_IDLE;
@@ -289,10 +296,10 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 		c->n.faults_latched++;
 	c->latched |= now_faults;
 	if (estop) {
-		c->warnings |= OMNI4_MOTORS_T_FAULT_ESTOP;
+		c->warnings |= CTL_FAULT_ESTOP;
 		c->mode = CTL_ESTOP;
 	} else {
-		c->warnings &= ~OMNI4_MOTORS_T_FAULT_ESTOP;
+		c->warnings &= ~CTL_FAULT_ESTOP;
 		if (c->latched && c->mode != CTL_ESTOP)
 			c->mode = CTL_FAULT;
 	}

@@ -2,10 +2,10 @@
 #include "omni4/fw.h"
 
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 #include <time.h>
 
-#include "omni4_motors_t.h"
 
 struct sim_motor_config fw_sim_motor_config(const struct omni4_config *cfg,
 					    const struct model_params *plant, bool noise)
@@ -31,6 +31,7 @@ int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal moto
 		return -EINVAL;
 	fw->motor = motor;
 	fw->lines = lines;
+	fw->late_us = llround(2e6 / cfg->loop.rate_hz); /* [loop] rate_hz: restart only */
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
 	atomic_init(&fw->halted, false);
@@ -151,7 +152,7 @@ static void log_push(struct fw *fw, const struct log_entry *e)
 {
 	if (!spsc_push(&fw->log_ring, e)) {
 		fw->n.log_dropped++;
-		ctl_flag(&fw->ctl, OMNI4_MOTORS_T_FAULT_LOG_OVERFLOW);
+		ctl_flag(&fw->ctl, CTL_FAULT_LOG_OVERFLOW);
 	}
 }
 
@@ -210,6 +211,14 @@ void fw_tick(struct fw *fw, int64_t now_us)
 
 	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
 			      .mode = out.mode, .faults = out.faults};
+
+	/* A tick that starts a whole period or more late (the loop was starved; it re-aligns):
+	 * flagged in this tick's sample only, so a log shows which samples were late. */
+	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
+		e.faults |= CTL_FAULT_OVERRUN;
+		fw->n.overruns++;
+	}
+	fw->last_tick_us = now_us;
 
 	memcpy(e.voltage, out.volts, sizeof(e.voltage));
 	memcpy(e.current, fw->last_sample.current_a, sizeof(e.current));

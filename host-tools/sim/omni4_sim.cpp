@@ -10,17 +10,21 @@
 #include <string>
 #include <thread>
 
+#include "omni4/motors_t.hpp"
 #include "simexp.hpp"
 
 
 namespace {
 
 std::string fault_names(int32_t f) {
+  using m = omni4::motors_t;  // the bits of lcmtypes/motors_t.lcm
   static const std::pair<int32_t, const char *> names[] = {
-      {0x0001, "OVERCURRENT"}, {0x0002, "DRIVER_TIMEOUT"}, {0x0004, "DRIVER"},
-      {0x0008, "BUS"},         {0x0010, "ENCODER"},        {0x0020, "CURRENT_SENSOR"},
-      {0x0040, "SUPPLY"},      {0x0100, "ESTOP"},          {0x0200, "CMD_TIMEOUT"},
-      {0x0400, "CMD_REJECTED"}, {0x0800, "LOG_OVERFLOW"},  {0x1000, "OVERRUN"}};
+      {m::FAULT_OVERCURRENT, "OVERCURRENT"},   {m::FAULT_DRIVER_TIMEOUT, "DRIVER_TIMEOUT"},
+      {m::FAULT_DRIVER, "DRIVER"},             {m::FAULT_BUS, "BUS"},
+      {m::FAULT_ENCODER, "ENCODER"},           {m::FAULT_CURRENT_SENSOR, "CURRENT_SENSOR"},
+      {m::FAULT_SUPPLY, "SUPPLY"},             {m::FAULT_ESTOP, "ESTOP"},
+      {m::FAULT_CMD_TIMEOUT, "CMD_TIMEOUT"},   {m::FAULT_CMD_REJECTED, "CMD_REJECTED"},
+      {m::FAULT_LOG_OVERFLOW, "LOG_OVERFLOW"}, {m::FAULT_OVERRUN, "OVERRUN"}};
   std::string s;
   for (const auto &[bit, name] : names)
     if (f & bit) s += (s.empty() ? "" : "|") + std::string(name);

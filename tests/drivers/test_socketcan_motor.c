@@ -12,7 +12,6 @@
 
 #include "omni4/sc_os.h"
 #include "omni4/socketcan_motor.h"
-#include "omni4_motors_t.h"
 
 int __wrap_sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd);
 void __wrap_sc_os_close(int fd);
@@ -207,11 +206,11 @@ static void test_silent_node_times_out_and_bus_off_faults(void **state)
 	clock_us += 2000; /* 6 ms since node 1's last status */
 	push_status(0, 0.5f, 5.0f, 2);
 	hal_motor_read(&h, &s);
-	assert_int_equal(s.faults, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER_TIMEOUT);
 
 	rxerr[rx_tail++] = SC_ERR_BUSOFF;
 	hal_motor_read(&h, &s);
-	assert_true(s.faults & OMNI4_MOTORS_T_FAULT_BUS);
+	assert_true(s.faults & HAL_FAULT_BUS);
 	assert_int_equal(m.n.bus_off, 1);
 	assert_int_equal(hal_motor_clear_faults(&h), 0);
 	hal_motor_close(&h);
@@ -483,7 +482,7 @@ static void test_a_fault_report_in_health_needs_three_consecutive_frames(void **
 		push_both(1.0f, 10.0f, (uint8_t)k);
 		can_encode_health(0, &bad, (uint8_t)k, &rxq[rx_tail++]);
 		hal_motor_read(&h, &s);
-		assert_int_equal(s.faults, k < 3 ? 0 : OMNI4_MOTORS_T_FAULT_DRIVER);
+		assert_int_equal(s.faults, k < 3 ? 0 : HAL_FAULT_DRIVER);
 	}
 	hal_motor_close(&h);
 }

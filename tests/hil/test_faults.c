@@ -232,11 +232,49 @@ static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **s
 	row("logger stalled (ring full)", "loop keeps ticking; drops counted, LOG_OVERFLOW", -1);
 }
 
+/* docs/faults.md: a tick that starts a whole period (1 ms) or more late carries FAULT_OVERRUN
+ * in its own sample, and only there. Tick starts (ms): 0 1 2 3.999 (1.999 after the last: not
+ * late) 5.999 (2 after: late) 6.999 (not) 9.5 (2.501: late). */
+static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	static struct sim_motor sim;
+	struct omni4_config cfg;
+	const int64_t start_us[] = {0, 1000, 2000, 3999, 5999, 6999, 9500};
+	const bool late[] = {false, false, false, false, true, false, true};
+
+	config_defaults(&cfg);
+	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
+					    .camera_rate_hz = 25};
+
+	assert_int_equal(sim_motor_init(&sim, &sc), 0);
+	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
+				 (struct line_hal){.ops = &line_none_ops}), 0);
+	for (size_t k = 0; k < sizeof(start_us) / sizeof(start_us[0]); k++)
+		fw_tick(&fw, start_us[k]);
+	struct log_entry e;
+	size_t k = 0;
+
+	while (fw_pop_log(&fw, &e)) {
+		if (e.kind != LOG_MOTORS)
+			continue;
+		if (!!(e.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
+			fail_msg("tick %zu at %lld us: OVERRUN %s", k, (long long)start_us[k],
+				 late[k] ? "missing" : "set on a tick on time");
+		k++;
+	}
+	assert_int_equal(k, 7);
+	assert_int_equal(fw.n.overruns, 2);
+	row("loop tick a whole period late", "OVERRUN in that tick's sample only", -1);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_fault_matrix),
 		cmocka_unit_test(test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss),
+		cmocka_unit_test(test_a_late_tick_carries_overrun_in_its_own_sample),
 	};
 
 	return cmocka_run_group_tests_name("faults", tests, NULL, NULL);

@@ -11,12 +11,18 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+/* Driver-side faults of a motor backend (motor_sample.faults). The HAL's own vocabulary: the
+ * controller maps them onto its fault bits (ctl.h). */
+#define HAL_FAULT_DRIVER_TIMEOUT (1u << 0) /* a motor driver stopped reporting */
+#define HAL_FAULT_DRIVER (1u << 1)         /* a motor driver reported a fault of its own */
+#define HAL_FAULT_BUS (1u << 2)            /* the bus to the drivers is down (CAN bus-off) */
+
 /* One reading of the four motor channels. */
 struct motor_sample {
 	float current_a[4];    /* measured motor current [A]; NaN if unknown */
 	float wheel_rad_s[4];  /* wheel angular speed after the gearbox [rad/s]; NaN if unknown */
 	float supply_v;        /* H-bridge supply [V]; NaN if not measured */
-	uint32_t faults;       /* driver-side fault bits (OMNI4_MOTORS_T_FAULT_*), 0 if healthy */
+	uint32_t faults;       /* driver-side fault bits (HAL_FAULT_*), 0 if healthy */
 };
 
 struct motor_hal_ops {

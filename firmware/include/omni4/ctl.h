@@ -28,6 +28,23 @@ enum ctl_mode {
 	CTL_ESTOP = 6,
 };
 
+/* The controller's fault and state bits (ctl_output.faults). Latching faults force CTL_FAULT
+ * and stay until a successful CTL_CLEAR_FAULT; the others are reported, not latching. The
+ * numbering is the one of motors_t (the LCM adapter checks it bit by bit at compile time). */
+#define CTL_FAULT_OVERCURRENT 0x0001     /* |current| above limits.current_max_a */
+#define CTL_FAULT_DRIVER_TIMEOUT 0x0002  /* no reading from the motor drivers */
+#define CTL_FAULT_DRIVER 0x0004          /* a motor driver reported a fault */
+#define CTL_FAULT_BUS 0x0008             /* the bus to the drivers is down */
+#define CTL_FAULT_ENCODER 0x0010         /* wheel speed not finite, jumped, or stuck */
+#define CTL_FAULT_CURRENT_SENSOR 0x0020  /* current reading not finite or at the rail */
+#define CTL_FAULT_SUPPLY 0x0040          /* supply below limits.supply_min_v */
+#define CTL_FAULT_ESTOP 0x0100           /* e-stop active (mode CTL_ESTOP) */
+#define CTL_FAULT_CMD_TIMEOUT 0x0200     /* watchdog fired */
+#define CTL_FAULT_CMD_REJECTED 0x0400    /* the last command was rejected */
+#define CTL_FAULT_LOG_OVERFLOW 0x0800    /* flagged by the loop: log samples were dropped */
+#define CTL_FAULT_OVERRUN 0x1000         /* set by the loop (fw.c) in the sample of a tick that
+                                          * started a whole period or more late */
+
 /* A command as received (command_t fields). */
 struct ctl_command {
 	int64_t utime;
@@ -42,7 +59,7 @@ struct ctl_output {
 	float volts[4];  /* [V], within +-supply_v; 0 whenever !enable */
 	bool enable;     /* H-bridges on */
 	int8_t mode;
-	int32_t faults;  /* OMNI4_MOTORS_T_FAULT_* */
+	int32_t faults;  /* CTL_FAULT_* */
 };
 
 struct ctl_counters {

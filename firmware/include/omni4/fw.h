@@ -40,6 +40,7 @@ struct fw_counters {
 	_Atomic uint64_t cmd_dropped; /* command mailbox full */
 	uint64_t read_errors;
 	uint64_t write_errors;
+	uint64_t overruns;      /* ticks that started a whole period or more late (FAULT_OVERRUN) */
 };
 
 /*
@@ -76,6 +77,8 @@ struct fw {
 	atomic_bool halted; /* fw_emergency_off was called: the loop writes nothing but 0 V */
 	struct ctl_output last_out;
 	struct motor_sample last_sample;
+	int64_t last_tick_us;   /* start of the previous tick (overrun check) */
+	int64_t late_us;        /* two loop periods [us]: a tick this far after the last is late */
 	struct fw_counters n;
 	/* Parameter change hand-over (parameter thread -> loop). */
 	_Atomic(struct fw_param_update *) param_pending;
