@@ -264,8 +264,8 @@ static struct gap_result counter_step(int step)
 	return r;
 }
 
-/* Frames that arrive while the loop is stalled queue up: a read 10 ms late takes up to 10 x 64
- * frames, so both nodes' STATUS behind 100 junk frames are seen (no DRIVER_TIMEOUT with a 5 ms
+/* Frames that arrive while the loop is stalled queue up: a read 10 ms late takes up to 4 x 64
+ * frames (the cap: 4 ms' worth), so both nodes' STATUS behind 100 junk frames are seen (no DRIVER_TIMEOUT with a 5 ms
  * status timeout), while a read on time still stops at 64. */
 static void push_junk_status(int n)
 {

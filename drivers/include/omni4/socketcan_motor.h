@@ -31,12 +31,12 @@
 #include "omni4/hal.h"
 
 /* Frames drained per read: 64 per millisecond since the previous read (a real 1 Mbit/s bus
- * carries at most 7.4 frames per ms), at most 16 ms' worth. The loop's time under a flood stays
- * bounded, and a read after a stall of the loop still reaches the STATUS frames queued behind
- * the frames that arrived meanwhile (a node is not declared silent while its reports wait in
- * the queue). */
+ * carries at most 7.4 frames per ms), at most 4 ms' worth (256 frames, a real bus's backlog of
+ * 34 ms). The loop's time under a flood stays bounded, and a read after a stall of the loop
+ * still reaches the STATUS frames queued behind the frames that arrived meanwhile (a node is
+ * not declared silent while its reports wait in the queue). */
 #define SC_MAX_FRAMES_PER_READ 64
-#define SC_MAX_READ_CATCHUP 16
+#define SC_MAX_READ_CATCHUP 4
 
 struct sc_counters {
 	uint64_t rx_frames, tx_frames, tx_dropped;
