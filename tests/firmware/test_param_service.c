@@ -245,11 +245,14 @@ static void test_set_validates_like_the_ini_parser(void **state)
 			const char *v = j < nv ? values[j] : extra[j - nv];
 			struct omni4_config a, b;
 			struct config_error err;
-			char text[256], why[320];
+			char text[1024], why[320];
 
 			config_defaults(&a);
 			config_defaults(&b);
-			snprintf(text, sizeof(text), "[%s]\n%s = %s\n", k->section, k->name, v);
+			const int len = snprintf(text, sizeof(text), "[%s]\n%s = %s\n", k->section,
+						 k->name, v);
+
+			assert_true(len > 0 && (size_t)len < sizeof(text));
 			const int ini = config_load_string(text, "t.ini", &a, &err);
 			/* the INI also checks across keys: do the same after the set */
 			int bus = config_key_set(&b, i, v, why, sizeof(why));
