@@ -343,6 +343,45 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	reply(ps, &r, true);
 }
 
+/* The wire layout of param_request_t (lcm-gen's encoding, big-endian): fingerprint, utime,
+ * request_id, op, secret, n, keys[n], values[n], name, text; a string is an int32 length that
+ * counts its terminating NUL, then the bytes and the NUL. Walked before decoding, because
+ * lcm-gen's decoder allocates keys and values from n as sent (a negative or huge n) and leaks
+ * what it allocated when it stops half way. True if the message is complete, exact and
+ * n is within 0..max_n (more than PARAM_MAX_KEYS is refused later with its own reason). */
+static bool take_string(const unsigned char *b, size_t len, size_t *pos)
+{
+	if (len - *pos < 4)
+		return false;
+	const uint32_t n = (uint32_t)b[*pos] << 24 | (uint32_t)b[*pos + 1] << 16 |
+			   (uint32_t)b[*pos + 2] << 8 | b[*pos + 3];
+
+	*pos += 4;
+	if (n < 1 || n > len - *pos || b[*pos + n - 1] != 0)
+		return false;
+	*pos += n;
+	return true;
+}
+
+static bool request_wire_ok(const void *data, size_t len, int max_n)
+{
+	const unsigned char *b = data;
+	size_t pos = 8 + 8 + 8 + 1; /* fingerprint, utime, request_id, op */
+
+	if (len < pos || !take_string(b, len, &pos) || len - pos < 4)
+		return false;
+	const int32_t n = (int32_t)((uint32_t)b[pos] << 24 | (uint32_t)b[pos + 1] << 16 |
+				    (uint32_t)b[pos + 2] << 8 | b[pos + 3]);
+
+	pos += 4;
+	if (n < 0 || n > max_n)
+		return false;
+	for (int k = 0; k < 2 * n + 2; k++) /* keys, values, name, text */
+		if (!take_string(b, len, &pos))
+			return false;
+	return pos == len;
+}
+
 void param_service_handle(struct param_service *ps, const void *data, size_t len)
 {
 	omni4_param_request_t q;
@@ -350,7 +389,8 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	char why[WHY_MAX];
 
 	atomic_fetch_add(&ps->n.requests, 1);
-	if (len > INT32_MAX || omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
+	if (len > INT32_MAX || !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS) ||
+	    omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
 		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)", len);
 		atomic_fetch_add(&ps->n.bad, 1);
 		simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);

@@ -667,6 +667,35 @@ static void test_broken_requests(void **state)
 		omni4_param_reply_t_decode_cleanup(&r);
 		clear_out();
 	}
+	/* n as sent decides what lcm-gen's decoder allocates: a negative or huge n, or strings
+	 * whose lengths run past the end, are refused before any decoding */
+	{
+		unsigned char bad[512];
+		/* offset of n: fingerprint 8, utime 8, request_id 8, op 1, secret (4 + 1) */
+		const size_t at_n = 8 + 8 + 8 + 1 + 4 + 1;
+		const uint32_t ns[] = {0xFFFFFFFFu, 0x7FFFFFFFu, 0x80000000u, 2};
+
+		for (size_t j = 0; j < sizeof(ns) / sizeof(ns[0]); j++) {
+			memcpy(bad, buf, (size_t)len);
+			bad[at_n] = (unsigned char)(ns[j] >> 24);
+			bad[at_n + 1] = (unsigned char)(ns[j] >> 16);
+			bad[at_n + 2] = (unsigned char)(ns[j] >> 8);
+			bad[at_n + 3] = (unsigned char)ns[j];
+			param_service_handle(&g_ps, bad, (size_t)len);
+			last_reply(&r);
+			assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
+			omni4_param_reply_t_decode_cleanup(&r);
+			clear_out();
+		}
+		/* a string length that runs past the end */
+		memcpy(bad, buf, (size_t)len);
+		bad[at_n + 4] = 0x7F;
+		param_service_handle(&g_ps, bad, (size_t)len);
+		last_reply(&r);
+		assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
+		omni4_param_reply_t_decode_cleanup(&r);
+		clear_out();
+	}
 	unsigned char longer[520];
 
 	memcpy(longer, buf, (size_t)len);
@@ -683,7 +712,7 @@ static void test_broken_requests(void **state)
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	omni4_param_reply_t_decode_cleanup(&r);
 	assert_near(g_ps.running.control.kp, 20.0, 0);
-	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2);
+	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 5); /* + the 5 bad n and lengths */
 	/* decodable but wrong: unknown op, unknown key, a key twice, too many keys */
 	static const char *const two[] = {"control.kp", "control.kp"};
 	static const char *const unknown[] = {"control.kq"};
