@@ -29,8 +29,9 @@ TOPIC_SCENE = "/omni4/scene"
 WORLD_FRAME = "world"
 ROBOT_FRAME = "robot"
 
-MODE_NAMES = {0: "IDLE", 1: "VELOCITY", 2: "VOLTAGE", 3: "COAST", 4: "CLEAR_FAULT", 5: "FAULT",
-              6: "ESTOP"}
+# Mode names: the MODE_* constants of motors_t and command_t (lcmtypes/), by value.
+MODE_NAMES = {getattr(t, n): n[len("MODE_"):] for t in (omni4.command_t, omni4.motors_t)
+              for n in dir(t) if n.startswith("MODE_")}
 # Fault bits: the FAULT_* constants of motors_t (lcmtypes/motors_t.lcm), by value.
 FAULT_BITS = sorted((getattr(omni4.motors_t, n), n[len("FAULT_"):])
                     for n in dir(omni4.motors_t) if n.startswith("FAULT_"))
