@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "omni4/fw.h"
+#include "omni4/channels.h"
 #include "omni4/lcmio.h"
 #include "omni4/rtloop.h"
 #include "omni4/sim_motor.h"
@@ -96,7 +97,7 @@ int main(int argc, char **argv)
 		atomic_store(&awaited, v);
 		const int64_t t0 = now_ns();
 
-		omni4_command_t_publish(tx, "OMNI4_CMD", &c);
+		omni4_command_t_publish(tx, OMNI4_CHANNEL_CMD, &c);
 		while (!atomic_load(&seen_ns) && now_ns() - t0 < 50000000) {
 			const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000};
 

@@ -63,7 +63,7 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 		const omni4_pose_t p = {.utime = e->utime, .x = e->pose[0], .y = e->pose[1],
 					.theta = e->pose[2]};
 
-		*channel = LCMIO_CHANNEL_POSE;
+		*channel = OMNI4_CHANNEL_POSE;
 		n = omni4_pose_t_encode(buf, 0, (int)cap, &p);
 	} else {
 		omni4_motors_t m = {.utime = e->utime, .seq = e->seq, .mode = e->mode,
@@ -72,7 +72,7 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 		memcpy(m.voltage, e->voltage, sizeof(m.voltage));
 		memcpy(m.current, e->current, sizeof(m.current));
 		memcpy(m.wheel_speed, e->wheel_speed, sizeof(m.wheel_speed));
-		*channel = LCMIO_CHANNEL_MOTORS;
+		*channel = OMNI4_CHANNEL_MOTORS;
 		n = omni4_motors_t_encode(buf, 0, (int)cap, &m);
 	}
 	return n > 0 ? n : -ENOSPC;
@@ -154,7 +154,7 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
 	io->lcm = lcm;
 	io->fw = fw;
 	atomic_init(&io->stop, false);
-	io->sub = lcm_subscribe(lcm, LCMIO_CHANNEL_CMD, on_command, io);
+	io->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_CMD, on_command, io);
 	if (!io->sub)
 		return -EIO;
 	pthread_attr_t attr;

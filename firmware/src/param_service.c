@@ -108,7 +108,7 @@ static bool cache_replay(struct param_service *ps, int64_t id)
 {
 	for (int i = 0; id && i < PARAM_CACHE; i++)
 		if (ps->cache[i].data && ps->cache[i].id == id) {
-			emit(ps, PARAM_CHANNEL_REPLY, ps->cache[i].data, ps->cache[i].len);
+			emit(ps, OMNI4_CHANNEL_PARAM_REPLY, ps->cache[i].data, ps->cache[i].len);
 			return true;
 		}
 	return false;
@@ -131,7 +131,7 @@ static void reply(struct param_service *ps, omni4_param_reply_t *r, bool cache)
 		free(buf);
 		return;
 	}
-	emit(ps, PARAM_CHANNEL_REPLY, buf, (size_t)size);
+	emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)size);
 	if (cache && r->request_id)
 		cache_put(ps, r->request_id, buf, (size_t)size);
 	else
@@ -157,7 +157,7 @@ static void notice(struct param_service *ps, struct scratch *s, int64_t id, cons
 	void *buf = size > 0 ? malloc((size_t)size) : NULL;
 
 	if (buf && omni4_param_changed_t_encode(buf, 0, size, &m) == size)
-		emit(ps, PARAM_CHANNEL_CHANGED, buf, (size_t)size);
+		emit(ps, OMNI4_CHANNEL_PARAM_CHANGED, buf, (size_t)size);
 	free(buf);
 }
 
@@ -514,7 +514,7 @@ static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		const int n = omni4_param_reply_t_encode(buf, 0, sizeof(buf), &r);
 
 		if (n > 0)
-			emit(ps, PARAM_CHANNEL_REPLY, buf, (size_t)n);
+			emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)n);
 		omni4_param_request_t_decode_cleanup(&q);
 	}
 }
@@ -556,7 +556,7 @@ int param_service_start(struct param_service *ps, lcm_t *lcm)
 	ps->lcm = lcm;
 	if (!ps->out.emit)
 		ps->out = (struct param_out){.emit = lcm_emit, .ctx = lcm};
-	ps->sub = lcm_subscribe(lcm, PARAM_CHANNEL_REQ, on_request, ps);
+	ps->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_PARAM_REQ, on_request, ps);
 	if (!ps->sub)
 		return -EIO;
 	pthread_attr_t attr;

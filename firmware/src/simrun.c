@@ -47,7 +47,7 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 
 	if (rc == 0) {
 		sr->st.messages++;
-		if (!strcmp(channel, LCMIO_CHANNEL_MOTORS))
+		if (!strcmp(channel, OMNI4_CHANNEL_MOTORS))
 			sr->st.motors++;
 		else
 			sr->st.pose++;
@@ -124,7 +124,7 @@ int simrun_command(struct simrun *sr, const void *data, size_t len)
 	struct ctl_command cmd;
 	const int rc = lcmio_decode_command(data, len, &cmd);
 
-	if (write_event(sr, LCMIO_CHANNEL_CMD, simrun_now_us(sr), data, len) == 0) {
+	if (write_event(sr, OMNI4_CHANNEL_CMD, simrun_now_us(sr), data, len) == 0) {
 		sr->st.messages++;
 		sr->st.cmd++;
 	} else {

@@ -1,5 +1,6 @@
 // logdata.cpp - event log reading (LCM C API) and segmentation.
 #include "logdata.hpp"
+#include "omni4/channels.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -131,7 +132,7 @@ LogData read_log(const std::string &path) {
     const std::string_view ch(channel, static_cast<size_t>(clen));
     pos += kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen);
     ++d.events;
-    if (ch == "OMNI4_MOTORS") {
+    if (ch == OMNI4_CHANNEL_MOTORS) {
       motors_t m{};
       if (!decode(m, data, dlen)) {
         ++d.undecodable;
@@ -155,7 +156,7 @@ LogData read_log(const std::string &path) {
       if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
       last_seq = s.seq;
       d.motors.push_back(s);
-    } else if (ch == "OMNI4_POSE") {
+    } else if (ch == OMNI4_CHANNEL_POSE) {
       pose_t q{};
       if (!decode(q, data, dlen)) {
         ++d.undecodable;
@@ -167,7 +168,7 @@ LogData read_log(const std::string &path) {
         continue;
       }
       d.pose.push_back({q.utime, q.x, q.y, q.theta});
-    } else if (ch == "OMNI4_EXPERIMENT") {
+    } else if (ch == OMNI4_CHANNEL_EXPERIMENT) {
       experiment_t e{};
       if (!experiment_strings_ok(data, dlen) || !decode(e, data, dlen)) {
         ++d.undecodable;

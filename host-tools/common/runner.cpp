@@ -1,5 +1,6 @@
 // runner.cpp - experiment runner over LCM: the paper's sequence, or experiment 2 by hand.
 #include "runner.hpp"
+#include "omni4/channels.h"
 
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
@@ -86,8 +87,8 @@ class Recording {
   // Safe stop: the IDLE command (outputs off), the "end" of an open segment (if given), the last
   // messages collected for 300 ms, the log closed. Returns false on log write errors.
   bool finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark) {
-    publish("OMNI4_CMD", idle);
-    if (end_mark) publish("OMNI4_EXPERIMENT", *end_mark);
+    publish(OMNI4_CHANNEL_CMD, idle);
+    if (end_mark) publish(OMNI4_CHANNEL_EXPERIMENT, *end_mark);
     const double until = steady_s() + 0.3;
     while (steady_s() < until) handle(20);
     close();
@@ -204,8 +205,8 @@ int run_experiments(const RunOptions &opt) {
   while (!player.done() && !g_interrupted) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto out = player.due(t, wall_us());
-    for (const auto &m : out.marks) rec.publish("OMNI4_EXPERIMENT", m);
-    if (out.has_command) rec.publish("OMNI4_CMD", out.command);
+    for (const auto &m : out.marks) rec.publish(OMNI4_CHANNEL_EXPERIMENT, m);
+    if (out.has_command) rec.publish(OMNI4_CHANNEL_CMD, out.command);
     rec.handle(5);
     const int pct = static_cast<int>(100 * t / total);
     if (pct != last_pct && (tty || pct % 10 == 0)) {
@@ -302,7 +303,7 @@ class HandRun {
 };
 
 void HandRun::on_message(const char *channel, const lcm_recv_buf_t *rbuf) {
-  if (std::strcmp(channel, "OMNI4_MOTORS") != 0) return;
+  if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) != 0) return;
   motors_t m;
   if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
   ++motors_;
@@ -327,7 +328,7 @@ int64_t HandRun::controller_us() const { return wall_us() + clock_offset_us_; }
 void HandRun::keepalive() {
   const double now = steady_s();
   if (now - last_cmd_s_ < kKeepaliveS) return;
-  rec_.publish("OMNI4_CMD", encode_command(wall_us(), seq_++, command_t::MODE_COAST));
+  rec_.publish(OMNI4_CHANNEL_CMD, encode_command(wall_us(), seq_++, command_t::MODE_COAST));
   last_cmd_s_ = now;
 }
 
@@ -378,12 +379,12 @@ bool HandRun::wait_first_motors() {
 }
 
 void HandRun::open_segment(int axis) {
-  rec_.publish("OMNI4_EXPERIMENT", encode_mark(controller_us(), "coast", hand_axis_name(axis), 0));
+  rec_.publish(OMNI4_CHANNEL_EXPERIMENT, encode_mark(controller_us(), "coast", hand_axis_name(axis), 0));
   segment_open_ = true;
 }
 
 void HandRun::close_segment() {
-  rec_.publish("OMNI4_EXPERIMENT", encode_mark(controller_us(), "end"));
+  rec_.publish(OMNI4_CHANNEL_EXPERIMENT, encode_mark(controller_us(), "end"));
   segment_open_ = false;
 }
 

@@ -1,5 +1,6 @@
 // simexp.cpp - lockstep simulation driven by the experiment sequence (see simexp.hpp).
 #include "simexp.hpp"
+#include "omni4/channels.h"
 
 #include <chrono>
 #include <cmath>
@@ -35,7 +36,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
     if (experiments) {
       const auto out = player.due(k * dt, simrun_now_us(sr.get()));
       for (const auto &m : out.marks)
-        simrun_publish(sr.get(), "OMNI4_EXPERIMENT", m.data(), m.size());
+        simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, m.data(), m.size());
       if (out.has_command) simrun_command(sr.get(), out.command.data(), out.command.size());
     }
     simrun_tick(sr.get());
@@ -52,7 +53,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
     end.kind = "end";
     std::vector<uint8_t> buf(end.getEncodedSize());
     end.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    simrun_publish(sr.get(), "OMNI4_EXPERIMENT", buf.data(), buf.size());
+    simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, buf.data(), buf.size());
   }
   if (progress) progress(1.0, phases.size(), phases.size());
   SimRunResult r;

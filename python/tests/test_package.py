@@ -36,3 +36,13 @@ def test_channels_map_to_types():
     assert omni4.TYPES[omni4.CHANNEL_CMD] is omni4.command_t
     assert omni4.TYPES[omni4.CHANNEL_POSE] is omni4.pose_t
     assert omni4.TYPES[omni4.CHANNEL_EXPERIMENT] is omni4.experiment_t
+
+
+def test_channel_names_match_the_c_header():
+    """omni4.CHANNEL_* are the names of lcmtypes/include/omni4/channels.h, one for one."""
+    header = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
+    with open(header) as fh:
+        c_names = dict(re.findall(r'#define OMNI4_(CHANNEL_\w+) "(\w+)"', fh.read()))
+    py_names = {n: getattr(omni4, n) for n in dir(omni4) if n.startswith("CHANNEL_")}
+    assert len(c_names) >= 7
+    assert py_names == c_names

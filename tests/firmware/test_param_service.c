@@ -58,7 +58,7 @@ static void clear_out(void)
 static void last_reply(omni4_param_reply_t *r)
 {
 	for (int i = g_n_out - 1; i >= 0; i--)
-		if (!strcmp(g_out[i].channel, PARAM_CHANNEL_REPLY)) {
+		if (!strcmp(g_out[i].channel, OMNI4_CHANNEL_PARAM_REPLY)) {
 			assert_int_equal(omni4_param_reply_t_decode(g_out[i].data, 0, (int)g_out[i].len, r),
 					 (int)g_out[i].len);
 			return;
@@ -435,9 +435,9 @@ static void test_set_applies_between_ticks(void **state)
 	omni4_param_reply_t_decode_cleanup(&r);
 	assert_near(g_ps.running.control.kp, 40.0, 0);
 	/* one change notice with old and new values and the tick */
-	assert_int_equal(count_channel(PARAM_CHANNEL_CHANGED), 1);
+	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 1);
 	for (int i = 0; i < g_n_out; i++)
-		if (!strcmp(g_out[i].channel, PARAM_CHANNEL_CHANGED)) {
+		if (!strcmp(g_out[i].channel, OMNI4_CHANNEL_PARAM_CHANGED)) {
 			omni4_param_changed_t m;
 
 			assert_true(omni4_param_changed_t_decode(g_out[i].data, 0, (int)g_out[i].len,
@@ -561,7 +561,7 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(r.message, "control.ki"));
 	omni4_param_reply_t_decode_cleanup(&r);
-	assert_int_equal(count_channel(PARAM_CHANNEL_CHANGED), 0);
+	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 0);
 	teardown_fw(true);
 	assert_near(g_fw.ctl.cfg.control.kp, kp, 0);
 	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);
@@ -792,8 +792,8 @@ static void test_secret_and_repeated_ids(void **state)
 	clear_out();
 	param_service_handle(&g_ps, buf, (size_t)len);
 	param_service_handle(&g_ps, buf, (size_t)len);
-	assert_int_equal(count_channel(PARAM_CHANNEL_REPLY), 2);
-	assert_int_equal(count_channel(PARAM_CHANNEL_CHANGED), 1);
+	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_REPLY), 2);
+	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 1);
 	assert_int_equal(g_out[g_n_out - 1].len, g_out[g_n_out - 2].len);
 	assert_memory_equal(g_out[g_n_out - 1].data, g_out[g_n_out - 2].data,
 			    g_out[g_n_out - 1].len);

@@ -84,8 +84,8 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 	lcm_t *lcm = lcm_create("memq://");
 
 	assert_non_null(lcm);
-	lcm_subscription_t *s1 = lcm_subscribe(lcm, LCMIO_CHANNEL_MOTORS, on_motors, &rx);
-	lcm_subscription_t *s2 = lcm_subscribe(lcm, LCMIO_CHANNEL_POSE, on_pose, &rx);
+	lcm_subscription_t *s1 = lcm_subscribe(lcm, OMNI4_CHANNEL_MOTORS, on_motors, &rx);
+	lcm_subscription_t *s2 = lcm_subscribe(lcm, OMNI4_CHANNEL_POSE, on_pose, &rx);
 
 	lcm_subscription_set_queue_capacity(s1, 1 << 20);
 	lcm_subscription_set_queue_capacity(s2, 1 << 20);
@@ -100,7 +100,7 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 	sleep_ms(500);
 	omni4_command_t c = {.mode = OMNI4_COMMAND_T_MODE_VOLTAGE, .voltage = {2, 2, 2, 2}};
 
-	assert_int_equal(omni4_command_t_publish(lcm, LCMIO_CHANNEL_CMD, &c), 0);
+	assert_int_equal(omni4_command_t_publish(lcm, OMNI4_CHANNEL_CMD, &c), 0);
 	rtloop_join(&loop);
 	for (int i = 0; i < 200 && spsc_count(&fw.log_ring); i++)
 		sleep_ms(5);

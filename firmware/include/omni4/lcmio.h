@@ -12,13 +12,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "omni4/channels.h"
 #include "omni4/ctl.h"
 #include "omni4/fw.h"
 
-#define LCMIO_CHANNEL_CMD "OMNI4_CMD"
-#define LCMIO_CHANNEL_MOTORS "OMNI4_MOTORS"
-#define LCMIO_CHANNEL_POSE "OMNI4_POSE"
-#define LCMIO_CHANNEL_EXPERIMENT "OMNI4_EXPERIMENT"
 #define LCMIO_MAX_MSG 256
 
 /* Decode a command_t; -EINVAL if the bytes are not a complete command_t. */

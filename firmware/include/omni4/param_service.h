@@ -23,12 +23,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "omni4/channels.h"
 #include "omni4/config.h"
 #include "omni4/fw.h"
 
-#define PARAM_CHANNEL_REQ "OMNI4_PARAM_REQ"
-#define PARAM_CHANNEL_REPLY "OMNI4_PARAM_REPLY"
-#define PARAM_CHANNEL_CHANGED "OMNI4_PARAM_CHANGED"
 #define PARAM_MAX_KEYS 64        /* keys in one request (the table has fewer) */
 #define PARAM_MAX_TEXT 65536     /* bytes of INI text in one LOAD */
 #define PARAM_QUEUE 8            /* requests waiting for the service thread */

@@ -1,0 +1,16 @@
+/*
+ * channels.h - the LCM channel names of omni4 (docs/design.md), for C and C++. The Python
+ * package's omni4.CHANNEL_* are checked against this file by its tests.
+ */
+#ifndef OMNI4_CHANNELS_H
+#define OMNI4_CHANNELS_H
+
+#define OMNI4_CHANNEL_CMD "OMNI4_CMD"                   /* command_t: operator / runner -> controller */
+#define OMNI4_CHANNEL_MOTORS "OMNI4_MOTORS"             /* motors_t: one per loop tick */
+#define OMNI4_CHANNEL_POSE "OMNI4_POSE"                 /* pose_t: camera / tracker */
+#define OMNI4_CHANNEL_EXPERIMENT "OMNI4_EXPERIMENT"     /* experiment_t: segment marks */
+#define OMNI4_CHANNEL_PARAM_REQ "OMNI4_PARAM_REQ"       /* param_request_t: client -> robot */
+#define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"   /* param_reply_t: robot -> client */
+#define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
+
+#endif /* OMNI4_CHANNELS_H */
