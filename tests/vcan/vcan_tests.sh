@@ -45,19 +45,21 @@ CG=$!
 check vcan_check track 3 $min
 kill $CG 2>/dev/null; bounded_wait $CG 10 "cangen after the junk phase"
 
-# 4. 10^6 junk frames on the STATUS IDs themselves (random bytes, 0x020 and 0x021 alternately):
+# 4. 5 x 10^5 junk frames on the STATUS IDs themselves (random bytes, 0x020 and 0x021 alternately):
 # CRC-16 with the data ID, counter window, reserved bits and the plausibility hold must keep
 # every one of them from latching a fault (a random frame is accepted with p <= 9.5e-7,
 # docs/faults.md). vcan_check paces them at 40 per controller tick it sees, so the junk never
 # overflows the controller's socket queue (64 frames read per tick): it examines all of them
 # (crc_errors below). An unpaced flood starves the emulated CPUs and crowds the real STATUS
 # frames out of the queue; DRIVER_TIMEOUT is then the right answer, not a spurious fault.
-# Starts from a cleared state; at most 150 s (about 30 s on an idle host).
+# Starts from a cleared state; at most 150 s. The pacing ties the time to the emulated loop's
+# rate, which varies 2-3x with the host (177-990 Hz seen): 5 x 10^5 frames take 13 s to 75 s
+# (10^6 random frames go through the decoder in-process in test_socketcan_motor).
 vcan_check clear > /dev/null
 # A board that really goes silent for the status timeout (the emulated VM starved) must give
 # DRIVER_TIMEOUT: vcan_check watches the boards' real STATUS frames and accepts that fault then.
 status_timeout_ms=$(sed -n 's/^status_timeout_ms *= *//p' /omni4/vcan.ini)
-check vcan_check flood 1000000 150 vcan0 "${status_timeout_ms:-200}"
+check vcan_check flood 500000 150 vcan0 "${status_timeout_ms:-200}"
 check vcan_check clear
 
 # 5. motor-driver silent: FAULT within the status timeout, outputs off
@@ -69,7 +71,7 @@ cat /tmp/fw.log
 # 6. corrupted and replayed frames were rejected and counted
 crc=$(sed -n 's/.*crc_errors \([0-9]*\).*/\1/p' /tmp/fw.log)
 rep=$(sed -n 's/.*replayed \([0-9]*\).*/\1/p' /tmp/fw.log)
-echo "flood: the controller examined and rejected ${crc:-?} frames by CRC/reserved bits (10^6 junk STATUS frames + 1 corrupted were sent), ${rep:-?} by counter"
+echo "flood: the controller examined and rejected ${crc:-?} frames by CRC/reserved bits (5 x 10^5 junk STATUS frames + 1 corrupted were sent), ${rep:-?} by counter"
 if [ "${crc:-0}" -gt 0 ] && [ "${rep:-0}" -gt 0 ]; then
   pass=$((pass + 1)); echo "ok: rejected and counted: crc_errors $crc, replayed/stale $rep"
 else
