@@ -230,10 +230,9 @@ static void test_latching_faults_on_their_first_tick(void **state)
 	}
 }
 
-static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **state)
+/* The firmware loop on the default configuration with the sim plant, driven tick by tick. */
+static void fw_on_sim_plant(struct fw *fw)
 {
-	(void)state;
-	static struct fw fw;
 	static struct sim_motor sim;
 	struct omni4_config cfg;
 
@@ -242,8 +241,16 @@ static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **s
 					    .camera_rate_hz = 25};
 
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
+	assert_int_equal(fw_init(fw, &cfg, sim_motor_hal(&sim),
 				 (struct line_hal){.ops = &line_none_ops}), 0);
+}
+
+static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **state)
+{
+	(void)state;
+	static struct fw fw;
+
+	fw_on_sim_plant(&fw);
 	/* Nobody drains the ring for 20 s of ticks. */
 	for (int k = 0; k < 20000; k++)
 		fw_tick(&fw, (int64_t)k * 1000);
@@ -273,18 +280,10 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 {
 	(void)state;
 	static struct fw fw;
-	static struct sim_motor sim;
-	struct omni4_config cfg;
 	const int64_t start_us[] = {0, 1000, 2000, 3999, 5999, 6999, 9500};
 	const bool late[] = {false, false, false, false, true, false, true};
 
-	config_defaults(&cfg);
-	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
-					    .camera_rate_hz = 25};
-
-	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	fw_on_sim_plant(&fw);
 	for (size_t k = 0; k < sizeof(start_us) / sizeof(start_us[0]); k++)
 		fw_tick(&fw, start_us[k]);
 	struct log_entry e;
