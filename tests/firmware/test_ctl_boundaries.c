@@ -210,6 +210,34 @@ static void test_current_sensor_rail_at_10_2_A(void **state)
 	expect_fault(&s, CS, "no current reading (NaN)");
 }
 
+/* Each driver-side fault the HAL reports (hal.h) latches its own controller fault (motors_t
+ * numbering, docs/faults.md), in the same tick, and nothing else. */
+static void test_hal_driver_faults_latch_their_own_fault(void **state)
+{
+	(void)state;
+	const struct {
+		uint32_t hal;
+		int32_t want;
+		const char *what;
+	} map[] = {
+		{HAL_FAULT_DRIVER_TIMEOUT, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, "driver timeout"},
+		{HAL_FAULT_DRIVER, OMNI4_MOTORS_T_FAULT_DRIVER, "driver fault"},
+		{HAL_FAULT_BUS, OMNI4_MOTORS_T_FAULT_BUS, "bus off"},
+	};
+
+	for (size_t k = 0; k < sizeof(map) / sizeof(map[0]); k++) {
+		struct motor_sample s = healthy();
+
+		s.faults = map[k].hal;
+		const struct ctl_output o = one_sample(&s);
+
+		if (o.mode != CTL_FAULT || o.faults != map[k].want)
+			fail_msg("%s: want FAULT with 0x%x only, got mode %d faults 0x%x", map[k].what,
+				 (unsigned)map[k].want, o.mode, (unsigned)o.faults);
+		assert_off(&o);
+	}
+}
+
 static void test_supply_sag_below_9_V(void **state)
 {
 	(void)state;
@@ -445,6 +473,7 @@ int main(void)
 		cmocka_unit_test(test_watchdog_commands_exactly_cmd_timeout_apart_never_trip),
 		cmocka_unit_test(test_overcurrent_just_below_and_just_above_the_limit),
 		cmocka_unit_test(test_current_sensor_rail_at_10_2_A),
+		cmocka_unit_test(test_hal_driver_faults_latch_their_own_fault),
 		cmocka_unit_test(test_supply_sag_below_9_V),
 		cmocka_unit_test(test_encoder_jump_just_below_and_just_above_5000_rad_s2),
 		cmocka_unit_test(test_encoder_jump_bound_grows_with_the_time_since_the_last_reading),
