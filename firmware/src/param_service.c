@@ -363,23 +363,34 @@ static bool take_string(const unsigned char *b, size_t len, size_t *pos)
 	return true;
 }
 
-static bool request_wire_ok(const void *data, size_t len, int max_n)
+static bool request_wire_ok(const void *data, size_t len, int max_n, char *why, size_t n_why)
 {
 	const unsigned char *b = data;
 	size_t pos = 8 + 8 + 8 + 1; /* fingerprint, utime, request_id, op */
 
-	if (len < pos || !take_string(b, len, &pos) || len - pos < 4)
+	if (len < pos || !take_string(b, len, &pos) || len - pos < 4) {
+		snprintf(why, n_why, "incomplete before n");
 		return false;
+	}
 	const int32_t n = (int32_t)((uint32_t)b[pos] << 24 | (uint32_t)b[pos + 1] << 16 |
 				    (uint32_t)b[pos + 2] << 8 | b[pos + 3]);
 
 	pos += 4;
-	if (n < 0 || n > max_n)
+	if (n < 0 || n > max_n) {
+		snprintf(why, n_why, "n = %d outside 0..%d", (int)n, max_n);
 		return false;
-	for (int k = 0; k < 2 * n + 2; k++) /* keys, values, name, text */
-		if (!take_string(b, len, &pos))
+	}
+	for (int k = 0; k < 2 * n + 2; k++) { /* keys, values, name, text */
+		if (!take_string(b, len, &pos)) {
+			snprintf(why, n_why, "string %d of %d incomplete", k + 1, 2 * n + 2);
 			return false;
-	return pos == len;
+		}
+	}
+	if (pos != len) {
+		snprintf(why, n_why, "%zu bytes after the message", len - pos);
+		return false;
+	}
+	return true;
 }
 
 void param_service_handle(struct param_service *ps, const void *data, size_t len)
@@ -389,9 +400,12 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	char why[WHY_MAX];
 
 	atomic_fetch_add(&ps->n.requests, 1);
-	if (len > INT32_MAX || !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS) ||
+	char wire[96] = "";
+
+	if (len > INT32_MAX || !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) ||
 	    omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
-		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)", len);
+		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)%s%s", len,
+			 wire[0] ? ": " : "", wire);
 		atomic_fetch_add(&ps->n.bad, 1);
 		simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 		return;

@@ -687,6 +687,17 @@ static void test_broken_requests(void **state)
 			omni4_param_reply_t_decode_cleanup(&r);
 			clear_out();
 		}
+		/* n = -1 and nothing after it: only the n check refuses it (the strings that
+		 * follow are 2 n + 2 = 0), before lcm-gen's decoder allocates -1 pointers */
+		memcpy(bad, buf, at_n);
+		memset(bad + at_n, 0xFF, 4);
+		param_service_handle(&g_ps, bad, at_n + 4);
+		last_reply(&r);
+		assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
+		if (!strstr(r.message, "n = -1 outside"))
+			fail_msg("n = -1: refused as '%s', not for n", r.message);
+		omni4_param_reply_t_decode_cleanup(&r);
+		clear_out();
 		/* a string length that runs past the end */
 		memcpy(bad, buf, (size_t)len);
 		bad[at_n + 4] = 0x7F;
@@ -712,7 +723,7 @@ static void test_broken_requests(void **state)
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	omni4_param_reply_t_decode_cleanup(&r);
 	assert_near(g_ps.running.control.kp, 20.0, 0);
-	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 5); /* + the 5 bad n and lengths */
+	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 6); /* + the 6 bad n and lengths */
 	/* decodable but wrong: unknown op, unknown key, a key twice, too many keys */
 	static const char *const two[] = {"control.kp", "control.kp"};
 	static const char *const unknown[] = {"control.kq"};
