@@ -191,6 +191,16 @@ static int8_t set1(const char *key, const char *value, char *message, size_t n)
 
 /* ---- the key table and validation -------------------------------------------------------------- */
 
+/* The last reply has this result code (and is released). */
+static void expect_result(int8_t result)
+{
+	omni4_param_reply_t r;
+
+	last_reply(&r);
+	assert_int_equal(r.result, result);
+	omni4_param_reply_t_decode_cleanup(&r);
+}
+
 static void test_table_model_keys_in_order(void **state)
 {
 	(void)state;
@@ -637,9 +647,7 @@ static void test_load_merges_a_partial_model(void **state)
 	assert_non_null(strstr(r.message, "unknown key 'Bq'"));
 	omni4_param_reply_t_decode_cleanup(&r);
 	request(OMNI4_PARAM_REQUEST_T_OP_LOAD, 0, NULL, NULL, NULL, "; nothing\n");
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	teardown_fw(true);
 }
 
@@ -682,9 +690,7 @@ static void test_broken_requests(void **state)
 			bad[at_n + 2] = (unsigned char)(ns[j] >> 8);
 			bad[at_n + 3] = (unsigned char)ns[j];
 			param_service_handle(&g_ps, bad, (size_t)len);
-			last_reply(&r);
-			assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-			omni4_param_reply_t_decode_cleanup(&r);
+			expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 			clear_out();
 		}
 		/* n = -1 and nothing after it: only the n check refuses it (the strings that
@@ -702,9 +708,7 @@ static void test_broken_requests(void **state)
 		memcpy(bad, buf, (size_t)len);
 		bad[at_n + 4] = 0x7F;
 		param_service_handle(&g_ps, bad, (size_t)len);
-		last_reply(&r);
-		assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-		omni4_param_reply_t_decode_cleanup(&r);
+		expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 		clear_out();
 	}
 	unsigned char longer[520];
@@ -712,16 +716,12 @@ static void test_broken_requests(void **state)
 	memcpy(longer, buf, (size_t)len);
 	longer[len] = 0;
 	param_service_handle(&g_ps, longer, (size_t)len + 1);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	/* a wrong fingerprint (another type on the channel) */
 	memcpy(longer, buf, (size_t)len);
 	longer[0] ^= 0x40;
 	param_service_handle(&g_ps, longer, (size_t)len);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	assert_near(g_ps.running.control.kp, 20.0, 0);
 	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 6); /* + the 6 bad n and lengths */
 	/* decodable but wrong: unknown op, unknown key, a key twice, too many keys */
@@ -741,21 +741,15 @@ static void test_broken_requests(void **state)
 	static const char *const two_vals[] = {"30", "31"};
 
 	request(OMNI4_PARAM_REQUEST_T_OP_SET, 2, two, two_vals, NULL, NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	request(OMNI4_PARAM_REQUEST_T_OP_SET, 0, NULL, NULL, NULL, NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	const char *many[PARAM_MAX_KEYS + 1];
 
 	for (int i = 0; i <= PARAM_MAX_KEYS; i++)
 		many[i] = "control.kp";
 	request(OMNI4_PARAM_REQUEST_T_OP_GET, PARAM_MAX_KEYS + 1, many, NULL, NULL, NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	teardown_fw(true);
 	assert_near(g_fw.ctl.cfg.control.kp, 20.0, 0);
 }
@@ -769,17 +763,11 @@ static void test_secret_and_repeated_ids(void **state)
 
 	setup_fw(NULL, "tok3n", true);
 	request(OMNI4_PARAM_REQUEST_T_OP_SET, 1, key, val, NULL, NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_DENIED);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_DENIED);
 	request(OMNI4_PARAM_REQUEST_T_OP_SET, 1, key, val, "tok3", NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_DENIED);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_DENIED);
 	request(OMNI4_PARAM_REQUEST_T_OP_SAVE, 0, NULL, NULL, NULL, NULL);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_DENIED);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_DENIED);
 	assert_near(g_ps.running.control.kp, 20.0, 0);
 	/* reads need no secret, and never show it */
 	request(OMNI4_PARAM_REQUEST_T_OP_LIST, 0, NULL, NULL, NULL, NULL);
@@ -808,9 +796,7 @@ static void test_secret_and_repeated_ids(void **state)
 	assert_int_equal(g_out[g_n_out - 1].len, g_out[g_n_out - 2].len);
 	assert_memory_equal(g_out[g_n_out - 1].data, g_out[g_n_out - 2].data,
 			    g_out[g_n_out - 1].len);
-	last_reply(&r);
-	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_OK);
-	omni4_param_reply_t_decode_cleanup(&r);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_true(atomic_load(&g_ps.n.applied) == 1);
 	assert_near(g_ps.running.control.kp, 31.0, 0);
 	teardown_fw(true);
