@@ -121,8 +121,7 @@ class Monitor:
         self.drive = None  # velocity [v, vn, w] or None
         self.cmd_seq = 0
         self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on_motors)
-        self.lc.subscribe(omni4.CHANNEL_PARAM_CHANGED,
-                          lambda c, d: self.changed.append(omni4.param_changed_t.decode(d)))
+        self.lc.subscribe(omni4.CHANNEL_PARAM_CHANGED, self._on_changed)
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
 
@@ -132,6 +131,11 @@ class Monitor:
             self.volts[m.seq] = list(m.voltage)
             self.mode[m.seq] = m.mode
             self.last_seq = max(self.last_seq, m.seq)
+
+    def _on_changed(self, channel, data):
+        m = omni4.param_changed_t.decode(data)
+        with self.lock:
+            self.changed.append(m)
 
     def _run(self):
         next_cmd = 0.0
@@ -158,6 +162,21 @@ class Monitor:
                     return
             time.sleep(0.005)
         pytest.fail(f"no OMNI4_MOTORS with seq >= {seq} within {2 * SCALE:g} s ({what})")
+
+    def wait_for_changed(self, match, what):
+        """The first OMNI4_PARAM_CHANGED that `match`es, once it has arrived. The firmware sends the
+        notice before its reply, but this subscriber has a socket and a thread of its own, so
+        the reply can reach the client first."""
+        deadline = time.monotonic() + 2 * SCALE
+        while time.monotonic() < deadline:
+            with self.lock:
+                for c in self.changed:
+                    if match(c):
+                        return c
+            time.sleep(0.005)
+        with self.lock:
+            seen = [(c.source, c.keys) for c in self.changed]
+        pytest.fail(f"no such OMNI4_PARAM_CHANGED within {2 * SCALE:g} s ({what}); seen: {seen}")
 
     def close(self):
         self.stop_flag.set()
@@ -245,9 +264,9 @@ def test_set_save_restart(robot, tmp_path):
         assert abs(du[1] + want) < 0.03 * want and abs(du[3] - want) < 0.03 * want, du
         assert abs(du[0]) < 0.02 and abs(du[2]) < 0.02, du
         assert 0 <= ticks_model <= MAX_TICKS_TO_EFFECT, ticks_model
-        assert [c.source for c in mon.changed][-1] == "set"
-        assert mon.changed[-1].keys == ["model.R"] and mon.changed[-1].seq == a.seq
-        assert mon.changed[-1].old_values == ["4.3111"]
+        c = mon.wait_for_changed(lambda c: c.keys == ["model.R"], "after the model change")
+        assert c.source == "set" and c.seq == a.seq
+        assert c.old_values == ["4.3111"]
 
         # Refused, with the reason, and nothing changed.
         with pytest.raises(ParamRefused, match=r"control.kp: out of range value: 1e\+09 outside "
@@ -281,7 +300,8 @@ def test_set_save_restart(robot, tmp_path):
         print(f"save: {save_ms:.1f} ms round trip (write, fsync, link .bak, rename, fsync dir)")
         assert path == str(ini)
         assert (tmp_path / "robot.ini.bak").read_text() == original
-        assert mon.changed[-1].source == "save" and mon.changed[-1].path == str(ini)
+        c = mon.wait_for_changed(lambda c: c.source == "save", "after the save")
+        assert c.path == str(ini)
 
         # A load that is not saved: in force now, gone after the restart.
         params = tmp_path / "PARAMS.ini"
