@@ -7,6 +7,22 @@
 
 #define TWO_PI 6.283185307179586477
 
+struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
+					      const struct model_params *plant, bool noise)
+{
+	return (struct sim_motor_config){
+		.params = *plant,
+		.period_s = 1.0 / cfg->loop.rate_hz,
+		.supply_v = cfg->limits.supply_v,
+		.current_noise_a = noise ? cfg->sim.current_noise_a : 0.0,
+		.encoder_cpr = noise ? cfg->sim.encoder_cpr : 0,
+		.camera_rate_hz = cfg->sim.camera_rate_hz,
+		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
+		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
+		.seed = (uint64_t)cfg->sim.seed,
+	};
+}
+
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 {
 	if (!(cfg->period_s > 0.0) || !(cfg->supply_v > 0.0) || cfg->encoder_cpr < 0 ||

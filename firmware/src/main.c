@@ -190,7 +190,7 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	if (!strcmp(cfg.hal.motor, "sim")) {
-		const struct sim_motor_config sc = fw_sim_motor_config(&cfg, &cfg.model, true);
+		const struct sim_motor_config sc = sim_motor_config_from(&cfg, &cfg.model, true);
 
 		if (sim_motor_init(&app->sim, &sc)) {
 			fprintf(stderr, "omni4-fw: %s: invalid [sim] settings\n", config_path);

@@ -1,6 +1,7 @@
 /* param_service.c - robot parameters over LCM (see param_service.h). */
 #include "omni4/param_service.h"
 
+#include "omni4/fw_param.h"
 #include "omni4/rtloop.h"
 
 #include <errno.h>

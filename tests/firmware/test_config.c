@@ -1,4 +1,4 @@
-/* Tests for firmware/src/config.c: the INI file of a robot. */
+/* Tests for config/src/config.c: the INI file of a robot. */
 #include "omni4_test.h"
 
 #include <errno.h>

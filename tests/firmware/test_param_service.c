@@ -123,7 +123,7 @@ static void setup_fw(const char *path, const char *secret, bool loop)
 
 	config_defaults(&g_cfg);
 	snprintf(g_cfg.params.secret, sizeof(g_cfg.params.secret), "%s", secret ? secret : "");
-	const struct sim_motor_config sc = fw_sim_motor_config(&g_cfg, &g_cfg.model, false);
+	const struct sim_motor_config sc = sim_motor_config_from(&g_cfg, &g_cfg.model, false);
 
 	assert_int_equal(sim_motor_init(&g_sim, &sc), 0);
 	assert_int_equal(fw_init(&g_fw, &g_cfg, sim_motor_hal(&g_sim), lines), 0);
@@ -491,8 +491,7 @@ static void test_nothing_changes_without_a_tick(void **state)
 	next.model.R = 8.6222;
 	next.model.M = 3.0;
 	assert_int_equal(fw_param_prepare(&g_fw, &next, false, &u, why, sizeof(why)), 0);
-	u.gen = ++g_fw.param_gen;
-	atomic_store(&g_fw.param_pending, &u);
+	fw_param_offer(&g_fw, &u);
 	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);
 	assert_memory_equal(&ff0, &g_fw.ctl.ff, sizeof(ff0));
 	const int64_t seq = g_fw.seq;
@@ -501,8 +500,11 @@ static void test_nothing_changes_without_a_tick(void **state)
 	assert_near(g_fw.ctl.cfg.model.R, 8.6222, 0);
 	assert_near(g_fw.ctl.cfg.model.M, 3.0, 0);
 	assert_memory_equal(&u.ff, &g_fw.ctl.ff, sizeof(u.ff));
-	assert_true(atomic_load(&g_fw.param_done_gen) == u.gen);
-	assert_true(atomic_load(&g_fw.param_done_seq) == seq);
+	struct fw_param_result r;
+
+	assert_true(fw_param_done(&g_fw, &u, &r));
+	assert_int_equal(r.rc, 0);
+	assert_true(r.seq == seq);
 	teardown_fw(false);
 }
 

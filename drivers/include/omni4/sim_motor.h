@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "omni4/config_types.h"
 #include "omni4/hal.h"
 #include "omni4/params.h"
 #include "omni4/plant.h"
@@ -62,6 +63,11 @@ struct sim_motor {
 
 extern const struct motor_hal_ops sim_motor_ops;
 extern const struct line_hal_ops sim_line_ops;
+
+/* The settings of a robot's INI ([sim] sensor noise, or exact sensors when noise is false; the
+ * loop period and supply) with `plant` as the simulated robot. */
+struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
+					      const struct model_params *plant, bool noise);
 
 /* -EINVAL for invalid parameters or settings. */
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg);

@@ -13,7 +13,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/config.h"
+#include "omni4/config_types.h"
 #include "omni4/feedforward.h"
 #include "omni4/hal.h"
 #include "omni4/q16.h"

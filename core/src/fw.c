@@ -4,24 +4,7 @@
 #include <errno.h>
 #include <math.h>
 #include <string.h>
-#include <time.h>
 
-
-struct sim_motor_config fw_sim_motor_config(const struct omni4_config *cfg,
-					    const struct model_params *plant, bool noise)
-{
-	return (struct sim_motor_config){
-		.params = *plant,
-		.period_s = 1.0 / cfg->loop.rate_hz,
-		.supply_v = cfg->limits.supply_v,
-		.current_noise_a = noise ? cfg->sim.current_noise_a : 0.0,
-		.encoder_cpr = noise ? cfg->sim.encoder_cpr : 0,
-		.camera_rate_hz = cfg->sim.camera_rate_hz,
-		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
-		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
-		.seed = (uint64_t)cfg->sim.seed,
-	};
-}
 
 int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
 	    struct line_hal lines)
@@ -52,7 +35,14 @@ int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_on
 	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
 
 	if (ctl_init(&scratch, cfg) || scratch.dt != fw->ctl.dt) {
-		snprintf(why, n, "the controller refuses these values");
+		static const char msg[] = "the controller refuses these values";
+
+		if (n) {
+			const size_t k = n < sizeof(msg) ? n - 1 : sizeof(msg) - 1;
+
+			memcpy(why, msg, k);
+			why[k] = '\0';
+		}
 		return -EINVAL;
 	}
 	if (fw->param_hooks.check && fw->param_hooks.check(fw->param_hooks.ctx, cfg, why, n))
@@ -64,36 +54,25 @@ int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_on
 	return 0;
 }
 
-struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
-				      int64_t timeout_us)
+void fw_param_offer(struct fw *fw, struct fw_param_update *u)
 {
-	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 100000};
-	struct fw_param_result r = {.rc = -ETIMEDOUT, .seq = -1};
-	struct timespec t0, t;
-
 	u->gen = ++fw->param_gen;
 	atomic_store_explicit(&fw->param_pending, u, memory_order_release);
-	clock_gettime(CLOCK_MONOTONIC, &t0);
-	for (;;) {
-		if (atomic_load_explicit(&fw->param_done_gen, memory_order_acquire) == u->gen) {
-			r.rc = atomic_load_explicit(&fw->param_done_rc, memory_order_relaxed);
-			r.mode = atomic_load_explicit(&fw->param_done_mode, memory_order_relaxed);
-			r.seq = atomic_load_explicit(&fw->param_done_seq, memory_order_relaxed);
-			r.utime = atomic_load_explicit(&fw->param_done_utime, memory_order_relaxed);
-			return r;
-		}
-		clock_gettime(CLOCK_MONOTONIC, &t);
-		if ((t.tv_sec - t0.tv_sec) * 1000000LL + (t.tv_nsec - t0.tv_nsec) / 1000 >
-		    timeout_us) {
-			struct fw_param_update *expect = u;
+}
 
-			/* Withdraw it; if the loop took it meanwhile, wait for its answer. */
-			if (atomic_compare_exchange_strong(&fw->param_pending, &expect, NULL))
-				return r;
-			timeout_us = INT64_MAX;
-		}
-		nanosleep(&nap, NULL);
-	}
+bool fw_param_done(struct fw *fw, const struct fw_param_update *u, struct fw_param_result *r)
+{
+	if (atomic_load_explicit(&fw->param_done_gen, memory_order_acquire) != u->gen)
+		return false;
+	*r = fw->param_done;
+	return true;
+}
+
+bool fw_param_withdraw(struct fw *fw, struct fw_param_update *u)
+{
+	struct fw_param_update *expect = u;
+
+	return atomic_compare_exchange_strong(&fw->param_pending, &expect, NULL);
 }
 
 /* Loop thread, before a tick: take a pending parameter update whole, or refuse it whole. */
@@ -116,10 +95,8 @@ static void take_params(struct fw *fw, int64_t now_us)
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->cfg);
 	}
-	atomic_store_explicit(&fw->param_done_rc, rc, memory_order_relaxed);
-	atomic_store_explicit(&fw->param_done_mode, (int)fw->ctl.mode, memory_order_relaxed);
-	atomic_store_explicit(&fw->param_done_seq, fw->seq, memory_order_relaxed);
-	atomic_store_explicit(&fw->param_done_utime, now_us, memory_order_relaxed);
+	fw->param_done = (struct fw_param_result){
+		.rc = rc, .mode = (int)fw->ctl.mode, .seq = fw->seq, .utime = now_us};
 	atomic_store_explicit(&fw->param_done_gen, u->gen, memory_order_release);
 }
 

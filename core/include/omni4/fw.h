@@ -1,7 +1,10 @@
 /*
  * fw.h - one controller instance: the controller (ctl), its HAL devices, the command mailbox
- * (LCM receive thread -> loop) and the log ring (loop -> logger thread). fw_tick is the body
- * of the fixed-rate loop; the same function runs in the robot binary and in the simulator.
+ * (receive side -> loop) and the log ring (loop -> logger). fw_tick is the body of the
+ * fixed-rate loop; the same function runs in the robot binary, in the lockstep simulator and
+ * on the microcontroller. Portable C11: no OS, no allocation, no I/O, no 64-bit atomics (a
+ * Cortex-M4 has none); the other side of each mailbox (a thread, an interrupt) is the
+ * adapter's.
  */
 #ifndef OMNI4_FW_H
 #define OMNI4_FW_H
@@ -10,11 +13,10 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/config.h"
+#include "omni4/config_types.h"
 #include "omni4/ctl.h"
 #include "omni4/hal.h"
 #include "omni4/ring.h"
-#include "omni4/sim_motor.h"
 
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz */
 #define FW_CMD_RING_SLOTS 64
@@ -37,7 +39,7 @@ struct log_entry {
 struct fw_counters {
 	uint64_t ticks;
 	uint64_t log_dropped;   /* ring full: samples lost (never blocks the loop) */
-	_Atomic uint64_t cmd_dropped; /* command mailbox full */
+	_Atomic uint32_t cmd_dropped; /* command mailbox full (wraps after 2^32) */
 	uint64_t read_errors;
 	uint64_t write_errors;
 	uint64_t overruns;      /* ticks that started a whole period or more late (FAULT_OVERRUN) */
@@ -53,7 +55,7 @@ struct fw_param_update {
 	struct ff_q16 ff;
 	q16_t inv_4d;
 	bool idle_only; /* the loop refuses it (-EBUSY) if the bridges are driven at that tick */
-	uint64_t gen;   /* set by fw_param_apply */
+	uint32_t gen;   /* set by fw_param_offer */
 };
 
 /* What the HAL needs when parameters change (e.g. the CAN plausibility limits, which follow
@@ -64,6 +66,14 @@ struct fw_param_hooks {
 	/* Loop thread, between two ticks, right after the controller took cfg. No allocation. */
 	void (*apply)(void *ctx, const struct omni4_config *cfg);
 	void *ctx;
+};
+
+struct fw_param_result {
+	int rc;        /* 0 applied; -EBUSY refused by the loop (driving, idle_only); -ETIMEDOUT
+			* the loop did not take it within timeout_us (withdrawn: nothing changed) */
+	int mode;      /* controller mode when the loop took it */
+	int64_t seq;   /* first tick that ran with it */
+	int64_t utime; /* controller time of that tick [us] */
 };
 
 struct fw {
@@ -82,21 +92,14 @@ struct fw {
 	struct fw_counters n;
 	/* Parameter change hand-over (parameter thread -> loop). */
 	_Atomic(struct fw_param_update *) param_pending;
-	_Atomic uint64_t param_done_gen; /* gen of the last update the loop took or refused */
-	_Atomic int param_done_rc;       /* 0 applied, -EBUSY refused: driving */
-	_Atomic int param_done_mode;     /* controller mode at that tick */
-	_Atomic int64_t param_done_seq;  /* first tick (seq) that ran with it */
-	_Atomic int64_t param_done_utime;
-	uint64_t param_gen;              /* parameter thread only */
+	_Atomic uint32_t param_done_gen; /* gen of the last update the loop took or refused; the
+					  * loop writes param_done below, then this (release) */
+	struct fw_param_result param_done;
+	uint32_t param_gen;              /* parameter side only */
 	struct fw_param_hooks param_hooks;
 	struct ctl_command cmd_buf[FW_CMD_RING_SLOTS];
 	struct log_entry log_buf[FW_LOG_RING_SLOTS];
 };
-
-/* Start-up. Settings of the sim backend from the INI: the plant of `plant`, the [sim] sensor
- * noise (or exact sensors when noise is false), the loop period and supply. */
-struct sim_motor_config fw_sim_motor_config(const struct omni4_config *cfg,
-					    const struct model_params *plant, bool noise);
 
 /* Start-up. Outputs are switched off. -EINVAL for a bad configuration. */
 int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
@@ -117,23 +120,20 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e);
 /* Start-up, before the loop runs. */
 void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks);
 
-/* Parameter thread. Validate cfg as start-up does (controller and HAL) and precompute what the
+/* Parameter side. Validate cfg as start-up does (controller and HAL) and precompute what the
  * loop needs into u. 0, or -EINVAL and why. */
 int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_only,
 		     struct fw_param_update *u, char *why, size_t n);
 
-struct fw_param_result {
-	int rc;        /* 0 applied; -EBUSY refused by the loop (driving, idle_only); -ETIMEDOUT
-			* the loop did not take it within timeout_us (withdrawn: nothing changed) */
-	int mode;      /* controller mode when the loop took it */
-	int64_t seq;   /* first tick that ran with it */
-	int64_t utime; /* controller time of that tick [us] */
-};
-
-/* Parameter thread (one at a time). Offer u to the loop and wait (bounded, polling) until it is
- * taken between two ticks; u must stay valid until this returns. */
-struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
-				      int64_t timeout_us);
+/* Parameter side (one update at a time; the adapter waits between these calls: a thread polls,
+ * an MCU's main loop checks once per pass). Offer u to the loop, which takes it whole between
+ * two ticks; u must stay valid until fw_param_done returns true or fw_param_withdraw
+ * succeeds. The Linux adapter's bounded wait: fw_param.h. */
+void fw_param_offer(struct fw *fw, struct fw_param_update *u);
+/* true once the loop took or refused u; *r then holds its answer. */
+bool fw_param_done(struct fw *fw, const struct fw_param_update *u, struct fw_param_result *r);
+/* Take u back if the loop has not taken it yet (true: nothing changed). */
+bool fw_param_withdraw(struct fw *fw, struct fw_param_update *u);
 
 /* Shutdown / any exit path: outputs off (voltages 0, bridges and enable line off). */
 void fw_outputs_off(struct fw *fw);

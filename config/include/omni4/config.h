@@ -25,75 +25,14 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "omni4/config_types.h"
 #include "omni4/params.h"
-
-#define CONFIG_STR_MAX 128
-
-struct omni4_config {
-	struct model_params model;
-	struct {
-		double rate_hz;
-		bool sched_fifo;
-		int priority;
-		bool mlockall;
-		int cpu_dma_latency_us; /* -1 = leave the CPU idle states alone; 0 = no deep C-state */
-	} loop;
-	struct {
-		double kp;          /* PI on wheel linear speed [V/(m/s)] */
-		double ki;          /* [V/m] */
-		bool feedforward;
-		bool feedback;
-		int cmd_timeout_ms; /* watchdog: no valid command for this long -> ramp to 0 -> IDLE */
-		double stop_ramp_s; /* ramp length of that stop [s] */
-	} control;
-	struct {
-		double supply_v;      /* H-bridge supply; voltages are clamped to +-supply_v [V] */
-		double supply_min_v;  /* below this: FAULT_SUPPLY [V] */
-		double vel_lin_max;   /* [m/s] */
-		double vel_rot_max;   /* [rad/s] */
-		double acc_lin_max;   /* reference shaping [m/s^2] */
-		double acc_rot_max;   /* [rad/s^2] */
-		double current_max_a; /* over-current fault level [A] */
-		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor [A] */
-	} limits;
-	struct {
-		char url[CONFIG_STR_MAX];
-	} lcm;
-	struct {
-		char motor[CONFIG_STR_MAX]; /* "sim" | "socketcan" */
-		char lines[CONFIG_STR_MAX]; /* "none" | "sim" | "gpiod" */
-	} hal;
-	struct {
-		double current_noise_a;        /* std dev [A] */
-		int encoder_cpr;               /* counts per wheel revolution; 0 = ideal */
-		double camera_rate_hz;
-		double camera_pos_noise_m;     /* std dev [m] */
-		double camera_theta_noise_rad; /* std dev [rad] */
-		int seed;
-	} sim;
-	struct {
-		char iface[CONFIG_STR_MAX];
-		int bitrate;
-		int status_timeout_ms;
-	} can;
-	struct {
-		char chip[CONFIG_STR_MAX];
-		int estop_line; /* -1 = not wired */
-		bool estop_active_low;
-		int enable_line;
-		int led_line;
-	} gpio;
-	struct {
-		char secret[CONFIG_STR_MAX]; /* "" = parameter changes over LCM need no token */
-	} params;
-};
 
 struct config_error {
 	int line;      /* 0 when the error is not tied to a line */
 	char msg[256]; /* "PATH:LINE: what is wrong" */
 };
 
-void config_defaults(struct omni4_config *cfg);
 
 /*
  * Load PATH over the defaults. 0 on success; -ENOENT if the file cannot be opened; -EINVAL on

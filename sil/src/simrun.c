@@ -70,7 +70,7 @@ struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_
 		snprintf(err, errlen, "out of memory");
 		return NULL;
 	}
-	const struct sim_motor_config sc = fw_sim_motor_config(cfg, plant_params, noise);
+	const struct sim_motor_config sc = sim_motor_config_from(cfg, plant_params, noise);
 
 	if (sim_motor_init(&sr->sim, &sc)) {
 		snprintf(err, errlen, "invalid simulated robot (parameters or [sim] settings)");
