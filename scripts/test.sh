@@ -3,7 +3,8 @@
 #   default   host build: unit, hil, vcan (CAN in a qemu VM) tiers
 #   aarch64   firmware + C tests cross-built, run under qemu-aarch64 (label qemu)
 #   armhf     the same for 32-bit ARM under qemu-arm
-#   cortex-m4 model/ bare metal: freestanding check, size, tests under qemu-system-arm
+#   cortex-m4 model + controller core bare metal: freestanding checks, sizes, the model test and
+#             the core's HIL scenarios under qemu-system-arm (compared with the host's)
 #   asan      unit + hil tiers under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan      unit + hil tiers under ThreadSanitizer (loop, rings, LCM threads)
 #   fuzz      libFuzzer on the CAN decoder, INI parser, command handler, log reader (45 s each)

@@ -18,7 +18,9 @@
 #include "omni4/hal.h"
 #include "omni4/ring.h"
 
-#define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz */
+#ifndef FW_LOG_RING_SLOTS
+#define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
+#endif
 #define FW_CMD_RING_SLOTS 64
 
 enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2 };

@@ -1,4 +1,4 @@
-/* startup.c - minimal Cortex-M4F start-up for the model test image: vector table, .data/.bss
+/* startup.c - minimal Cortex-M4F start-up for the bare-metal images: vector table, .data/.bss
  * set-up, FPU on, semihosting handles, main, exit code to the debugger (qemu -semihosting). */
 #include <stdint.h>
 #include <stdlib.h>
@@ -10,6 +10,8 @@ extern void initialise_monitor_handles(void);
 extern void __libc_init_array(void);
 void reset_handler(void);
 void default_handler(void);
+/* An image that runs a timer defines its own; otherwise an interrupt ends the run (exit 3). */
+void systick_handler(void) __attribute__((weak, alias("default_handler")));
 
 void default_handler(void)
 {
@@ -19,7 +21,7 @@ void default_handler(void)
 __attribute__((section(".vectors"), used)) static void (*const vectors[16])(void) = {
 	(void (*)(void))(&__stack_top), reset_handler, default_handler, default_handler,
 	default_handler, default_handler, default_handler, 0, 0, 0, 0, default_handler,
-	default_handler, 0, default_handler, default_handler,
+	default_handler, 0, default_handler, systick_handler,
 };
 
 void reset_handler(void)
