@@ -65,50 +65,43 @@ struct CounterWindow {
   }
 };
 
-}  // namespace
-
-int main(int argc, char **argv) {
-  CLI::App app{"Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
-               "Example: omni4-motorsim --iface vcan0 --params robot.ini"};
+struct Options {
   std::string iface = "vcan0", params_path;
   double duration_s = 0, replay_at = -1, corrupt_at = -1;
   bool no_noise = false, quiet = false;
-  app.add_option("--iface", iface, "CAN interface")->capture_default_str();
-  app.add_option("--params", params_path, "robot INI ([model]; default Table III)");
-  app.add_option("--duration", duration_s, "stop after S seconds (default: until SIGINT)");
-  app.add_flag("--no-noise", no_noise, "exact current readings");
-  app.add_option("--replay-at", replay_at, "test: at S seconds, send the last STATUS_0 again");
-  app.add_option("--corrupt-at", corrupt_at, "test: at S seconds, send a STATUS_0 with a bad CRC");
-  app.add_flag("-q,--quiet", quiet, "no summary");
-  OMNI4_CLI_PARSE(app, argc, argv);
+};
 
-  omni4_config cfg;
-  config_defaults(&cfg);
+void add_options(CLI::App &app, Options &o) {
+  app.add_option("--iface", o.iface, "CAN interface")->capture_default_str();
+  app.add_option("--params", o.params_path, "robot INI ([model]; default Table III)");
+  app.add_option("--duration", o.duration_s, "stop after S seconds (default: until SIGINT)");
+  app.add_flag("--no-noise", o.no_noise, "exact current readings");
+  app.add_option("--replay-at", o.replay_at, "test: at S seconds, send the last STATUS_0 again");
+  app.add_option("--corrupt-at", o.corrupt_at, "test: at S seconds, send a STATUS_0 with a bad CRC");
+  app.add_flag("-q,--quiet", o.quiet, "no summary");
+}
+
+// The robot INI (Table III without one) and the plant it describes. Returns 0 or the exit
+// status after a one-line error.
+int load_robot(const std::string &params_path, omni4_config *cfg, plant *pl) {
+  config_defaults(cfg);
   if (!params_path.empty()) {
     config_error err;
-    if (config_load(params_path.c_str(), &cfg, &err)) {
+    if (config_load(params_path.c_str(), cfg, &err)) {
       std::fprintf(stderr, "omni4-motorsim: %s\n", err.msg);
       return 2;
     }
   }
-  plant pl;
-  if (plant_init(&pl, &cfg.model)) {
+  if (plant_init(pl, &cfg->model)) {
     std::fprintf(stderr, "omni4-motorsim: invalid model parameters\n");
     return 2;
   }
-  const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
-  int fd = -1;
-  if (int rc = sc_os_open(iface.c_str(), ids, 2, &fd)) {
-    std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", iface.c_str(),
-                 std::strerror(-rc));
-    return 1;
-  }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  rng g;
-  rng_seed(&g, 7);
-  Stats st;
-  double u[4] = {0, 0, 0, 0};
+  return 0;
+}
+
+// What the two boards remember between ticks.
+struct Boards {
+  double u[4] = {0, 0, 0, 0};  // commanded voltages [V]
   bool cmd_enable = false, ctl_enable = true;
   CounterWindow cmd_window;
   bool have_ctl_counter = false;
@@ -117,114 +110,195 @@ int main(int argc, char **argv) {
   uint8_t drv_faults = 0;
   int64_t last_cmd = 0;
   omni4_can_frame last_status0{};
+
+  bool driven() const { return cmd_enable && ctl_enable && !(drv_faults & CAN_DRV_CMD_TIMEOUT); }
+};
+
+void take_cmd_voltage(const omni4_can_frame &f, int64_t now, Boards &b, Stats &st) {
+  float v[4];
+  bool en;
+  uint8_t c;
+  if (can_decode_cmd_voltage(&f, v, &en, &c)) {
+    ++st.crc_errors;
+    return;
+  }
+  if (!b.cmd_window.accept(c)) {
+    ++st.replayed;
+    return;
+  }
+  for (int j = 0; j < 4; ++j) b.u[j] = v[j];
+  b.cmd_enable = en;
+  b.last_cmd = now;
+  b.drv_faults &= static_cast<uint8_t>(~CAN_DRV_CMD_TIMEOUT);
+}
+
+void take_control(const omni4_can_frame &f, Boards &b, Stats &st) {
+  enum can_control cmd;
+  uint8_t c;
+  if (can_decode_control(&f, &cmd, &c) != 0) {
+    ++st.crc_errors;
+    return;
+  }
+  // Control frames are sparse events (a restarted controller's first ENABLE must not wait
+  // for a second frame): only the same counter again is refused; 36 reserved bits keep
+  // a random frame's acceptance far below the protocol's bound.
+  if (b.have_ctl_counter && can_counter_gap(b.ctl_counter, c) == -EALREADY) {
+    ++st.replayed;
+    return;
+  }
+  b.have_ctl_counter = true;
+  b.ctl_counter = c;
+  if (cmd == CAN_CTL_ENABLE) b.ctl_enable = true;
+  if (cmd == CAN_CTL_DISABLE) b.ctl_enable = false;
+  if (cmd == CAN_CTL_CLEAR_FAULTS) b.drv_faults = 0;
+}
+
+// Everything the controller sent since the last tick.
+void receive_commands(int fd, int64_t now, Boards &b, Stats &st) {
+  omni4_can_frame f;
+  uint32_t err;
+  int rc;
+  while ((rc = sc_os_recv(fd, &f, &err)) > 0) {
+    if (rc != 1) continue;
+    ++st.rx;
+    if (f.id == CAN_ID_CMD_VOLTAGE) take_cmd_voltage(f, now, b, st);
+    else take_control(f, b, st);
+  }
+}
+
+void check_cmd_timeout(int64_t now, Boards &b, Stats &st) {
+  if (b.last_cmd && now - b.last_cmd > kCmdTimeoutUs && !(b.drv_faults & CAN_DRV_CMD_TIMEOUT)) {
+    b.drv_faults |= CAN_DRV_CMD_TIMEOUT;
+    ++st.cmd_timeouts;
+  }
+}
+
+void send_counted(int fd, const omni4_can_frame &f, Stats &st) {
+  if (sc_os_send(fd, &f)) ++st.tx_dropped;
+  else ++st.tx;
+}
+
+// The simulator: the CAN socket, the robot and its plant, the boards' state, the counts.
+struct Sim {
+  int fd = -1;
+  omni4_config cfg;
+  plant pl;
+  rng g;
+  Boards b;
+  Stats st;
+};
+
+void send_status(Sim &sim, int n, const double w[4], bool noisy) {
+  can_status s;
+  for (int k = 0; k < 2; ++k) {
+    const int j = 2 * n + k;
+    const double noise = noisy ? rng_normal(&sim.g, sim.cfg.sim.current_noise_a) : 0.0;
+    s.current_a[k] = clip(sim.pl.current_a[j] + noise, CAN_CURR_MAX);
+    s.speed_rad_s[k] = clip(w[j], CAN_SPEED_MAX);
+  }
+  omni4_can_frame f;
+  can_encode_status(n, &s, sim.b.status_counter[n]++ & 0xF, &f);
+  if (n == 0) sim.b.last_status0 = f;
+  send_counted(sim.fd, f, sim.st);
+}
+
+void send_health(Sim &sim, int n, bool driven) {
+  Boards &b = sim.b;
+  // The command timeout is the board protecting itself, not a hardware fault: it keeps
+  // the state "disabled" so that the controller's own timeout logic rules.
+  const bool self_off = b.drv_faults == CAN_DRV_CMD_TIMEOUT;
+  can_health hh{};
+  hh.faults = self_off ? 0 : b.drv_faults;
+  hh.supply_v = static_cast<float>(sim.cfg.limits.supply_v);
+  hh.temp_c = 30;
+  hh.state = static_cast<uint8_t>(self_off       ? CAN_STATE_DISABLED
+                                  : b.drv_faults ? CAN_STATE_FAULT
+                                  : driven       ? CAN_STATE_ENABLED
+                                                 : CAN_STATE_DISABLED);
+  omni4_can_frame f;
+  can_encode_health(n, &hh, b.health_counter[n]++ & 0xF, &f);
+  send_counted(sim.fd, f, sim.st);
+}
+
+// One board period: commands in, the plant stepped 1 ms, STATUS of both nodes out (HEALTH
+// of node n at ticks n, n + 10, ...).
+void simulate_tick(Sim &sim, long tick, int64_t now, bool no_noise) {
+  receive_commands(sim.fd, now, sim.b, sim.st);
+  check_cmd_timeout(now, sim.b, sim.st);
+  const bool driven = sim.b.driven();
+  plant_step(&sim.pl, sim.b.u, driven, 1e-3);
+  double w[4];
+  plant_wheel_speeds(&sim.pl, w);
+  for (int n = 0; n < CAN_NODES; ++n) {
+    send_status(sim, n, w, !no_noise && driven);
+    if (tick % 10 == n) send_health(sim, n, driven);
+  }
+}
+
+// The test options: the last STATUS_0 again (same counter), or with a flipped bit, once each.
+void inject_test_frames(int fd, double t, Options &o, const Boards &b) {
+  if (o.replay_at >= 0 && t >= o.replay_at) {
+    sc_os_send(fd, &b.last_status0);  // same counter again
+    o.replay_at = -1;
+  }
+  if (o.corrupt_at >= 0 && t >= o.corrupt_at) {
+    omni4_can_frame bad = b.last_status0;
+    bad.data[2] ^= 0x10;
+    sc_os_send(fd, &bad);
+    o.corrupt_at = -1;
+  }
+}
+
+void sleep_one_ms(timespec &next) {
+  next.tv_nsec += 1000000;
+  if (next.tv_nsec >= 1000000000) {
+    next.tv_nsec -= 1000000000;
+    ++next.tv_sec;
+  }
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !g_stop) {
+  }
+}
+
+void print_summary(const Stats &st, const plant &pl) {
+  std::fprintf(stderr,
+               "omni4-motorsim: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
+               "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f\n",
+               st.rx, st.tx, st.tx_dropped, st.crc_errors, st.replayed, st.cmd_timeouts,
+               pl.x[0], pl.x[1], pl.x[2]);
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  CLI::App app{"Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
+               "Example: omni4-motorsim --iface vcan0 --params robot.ini"};
+  Options o;
+  add_options(app, o);
+  OMNI4_CLI_PARSE(app, argc, argv);
+
+  Sim sim;
+  if (int status = load_robot(o.params_path, &sim.cfg, &sim.pl)) return status;
+  const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
+  if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
+    std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
+                 std::strerror(-rc));
+    return 1;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  rng_seed(&sim.g, 7);
   timespec next;
   clock_gettime(CLOCK_MONOTONIC, &next);
   const int64_t t0 = sc_os_now_us();
   for (long tick = 0; !g_stop; ++tick) {
     const int64_t now = sc_os_now_us();
     const double t = (now - t0) * 1e-6;
-    if (duration_s > 0 && t >= duration_s) break;
-    omni4_can_frame f;
-    uint32_t err;
-    int rc;
-    while ((rc = sc_os_recv(fd, &f, &err)) > 0) {
-      if (rc != 1) continue;
-      ++st.rx;
-      float v[4];
-      bool en;
-      uint8_t c;
-      enum can_control cmd;
-      if (f.id == CAN_ID_CMD_VOLTAGE) {
-        if (can_decode_cmd_voltage(&f, v, &en, &c)) {
-          ++st.crc_errors;
-          continue;
-        }
-        if (!cmd_window.accept(c)) {
-          ++st.replayed;
-          continue;
-        }
-        for (int j = 0; j < 4; ++j) u[j] = v[j];
-        cmd_enable = en;
-        last_cmd = now;
-        drv_faults &= static_cast<uint8_t>(~CAN_DRV_CMD_TIMEOUT);
-      } else if (can_decode_control(&f, &cmd, &c) == 0) {
-        // Control frames are sparse events (a restarted controller's first ENABLE must not wait
-        // for a second frame): only the same counter again is refused; 36 reserved bits keep
-        // a random frame's acceptance far below the protocol's bound.
-        if (have_ctl_counter && can_counter_gap(ctl_counter, c) == -EALREADY) {
-          ++st.replayed;
-          continue;
-        }
-        have_ctl_counter = true;
-        ctl_counter = c;
-        if (cmd == CAN_CTL_ENABLE) ctl_enable = true;
-        if (cmd == CAN_CTL_DISABLE) ctl_enable = false;
-        if (cmd == CAN_CTL_CLEAR_FAULTS) drv_faults = 0;
-      } else {
-        ++st.crc_errors;
-      }
-    }
-    if (last_cmd && now - last_cmd > kCmdTimeoutUs && !(drv_faults & CAN_DRV_CMD_TIMEOUT)) {
-      drv_faults |= CAN_DRV_CMD_TIMEOUT;
-      ++st.cmd_timeouts;
-    }
-    const bool driven = cmd_enable && ctl_enable && !(drv_faults & CAN_DRV_CMD_TIMEOUT);
-    plant_step(&pl, u, driven, 1e-3);
-    double w[4];
-    plant_wheel_speeds(&pl, w);
-    for (int n = 0; n < CAN_NODES; ++n) {
-      can_status s;
-      for (int k = 0; k < 2; ++k) {
-        const int j = 2 * n + k;
-        const double noise = (no_noise || !driven) ? 0.0 : rng_normal(&g, cfg.sim.current_noise_a);
-        s.current_a[k] = clip(pl.current_a[j] + noise, CAN_CURR_MAX);
-        s.speed_rad_s[k] = clip(w[j], CAN_SPEED_MAX);
-      }
-      can_encode_status(n, &s, status_counter[n]++ & 0xF, &f);
-      if (n == 0) last_status0 = f;
-      if (sc_os_send(fd, &f)) ++st.tx_dropped;
-      else ++st.tx;
-      if (tick % 10 == n) {
-        // The command timeout is the board protecting itself, not a hardware fault: it keeps
-        // the state "disabled" so that the controller's own timeout logic rules.
-        const bool self_off = drv_faults == CAN_DRV_CMD_TIMEOUT;
-        can_health hh{};
-        hh.faults = self_off ? 0 : drv_faults;
-        hh.supply_v = static_cast<float>(cfg.limits.supply_v);
-        hh.temp_c = 30;
-        hh.state = static_cast<uint8_t>(self_off     ? CAN_STATE_DISABLED
-                                        : drv_faults ? CAN_STATE_FAULT
-                                        : driven     ? CAN_STATE_ENABLED
-                                                     : CAN_STATE_DISABLED);
-        can_encode_health(n, &hh, health_counter[n]++ & 0xF, &f);
-        if (sc_os_send(fd, &f)) ++st.tx_dropped;
-        else ++st.tx;
-      }
-    }
-    if (replay_at >= 0 && t >= replay_at) {
-      sc_os_send(fd, &last_status0);  // same counter again
-      replay_at = -1;
-    }
-    if (corrupt_at >= 0 && t >= corrupt_at) {
-      omni4_can_frame bad = last_status0;
-      bad.data[2] ^= 0x10;
-      sc_os_send(fd, &bad);
-      corrupt_at = -1;
-    }
-    next.tv_nsec += 1000000;
-    if (next.tv_nsec >= 1000000000) {
-      next.tv_nsec -= 1000000000;
-      ++next.tv_sec;
-    }
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !g_stop) {
-    }
+    if (o.duration_s > 0 && t >= o.duration_s) break;
+    simulate_tick(sim, tick, now, o.no_noise);
+    inject_test_frames(sim.fd, t, o, sim.b);
+    sleep_one_ms(next);
   }
-  sc_os_close(fd);
-  if (!quiet)
-    std::fprintf(stderr,
-                 "omni4-motorsim: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-                 "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f\n",
-                 st.rx, st.tx, st.tx_dropped, st.crc_errors, st.replayed, st.cmd_timeouts,
-                 pl.x[0], pl.x[1], pl.x[2]);
+  sc_os_close(sim.fd);
+  if (!o.quiet) print_summary(sim.st, sim.pl);
   return 0;
 }
