@@ -75,117 +75,125 @@ bool finite(const float (&a)[N]) {
   return true;
 }
 
+// The file mapped read-only for the life of the object; throws std::runtime_error("PATH: ...").
 struct Mapping {
   const uint8_t *data = nullptr;
   size_t size = 0;
+
+  explicit Mapping(const std::string &path) {
+    const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw std::runtime_error(path + ": " + std::strerror(errno));
+    struct stat st {};
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+      const int e = errno;
+      close(fd);
+      throw std::runtime_error(path + ": " + (e ? std::strerror(e) : "not a regular file"));
+    }
+    size = static_cast<size_t>(st.st_size);
+    if (size) {
+      void *m = mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+      if (m == MAP_FAILED) {
+        const int e = errno;
+        close(fd);
+        throw std::runtime_error(path + ": " + std::strerror(e));
+      }
+      data = static_cast<const uint8_t *>(m);
+      madvise(m, size, MADV_SEQUENTIAL);
+    }
+    close(fd);
+  }
+  Mapping(const Mapping &) = delete;
+  Mapping &operator=(const Mapping &) = delete;
   ~Mapping() {
     if (data) munmap(const_cast<uint8_t *>(data), size);
   }
 };
 
-}  // namespace
+struct Event {
+  std::string_view channel;
+  const uint8_t *data = nullptr;
+  int32_t len = 0;
+};
 
-LogData read_log(const std::string &path) {
-  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw std::runtime_error(path + ": " + std::strerror(errno));
-  struct stat st {};
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    const int e = errno;
-    close(fd);
-    throw std::runtime_error(path + ": " + (e ? std::strerror(e) : "not a regular file"));
-  }
-  Mapping map;
-  map.size = static_cast<size_t>(st.st_size);
-  if (map.size) {
-    void *m = mmap(nullptr, map.size, PROT_READ, MAP_PRIVATE, fd, 0);
-    if (m == MAP_FAILED) {
-      const int e = errno;
-      close(fd);
-      throw std::runtime_error(path + ": " + std::strerror(e));
-    }
-    map.data = static_cast<const uint8_t *>(m);
-    madvise(m, map.size, MADV_SEQUENTIAL);
-  }
-  close(fd);
+// The intact event at pos of the n bytes at p: its size in the file, or 0 if there is none
+// (a corrupt or truncated header or body).
+size_t event_at(const uint8_t *p, size_t n, size_t pos, Event &ev) {
+  const int32_t clen = static_cast<int32_t>(be32(p + pos + 20));
+  const int32_t dlen = static_cast<int32_t>(be32(p + pos + 24));
+  const bool ok = be32(p + pos) == kSync && clen > 0 && clen <= kMaxChannel && dlen >= 0 &&
+                  pos + kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen) <= n;
+  if (!ok) return 0;
+  ev.channel = std::string_view(reinterpret_cast<const char *>(p + pos + kHeader),
+                                static_cast<size_t>(clen));
+  ev.data = p + pos + kHeader + clen;
+  ev.len = dlen;
+  return kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen);
+}
 
-  LogData d;
-  d.path = path;
-  d.bytes_total = map.size;
-  // An OMNI4_MOTORS event takes ~110 bytes: reserve once instead of growing.
-  d.motors.reserve(d.bytes_total / 100 + 16);
-  int64_t last_seq = -1;
-  const uint8_t *p = map.data;
-  const size_t n = map.size;
-  size_t pos = 0;
-  while (pos + kHeader <= n) {
-    const int32_t clen = static_cast<int32_t>(be32(p + pos + 20));
-    const int32_t dlen = static_cast<int32_t>(be32(p + pos + 24));
-    const bool ok = be32(p + pos) == kSync && clen > 0 && clen <= kMaxChannel && dlen >= 0 &&
-                    pos + kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen) <= n;
-    if (!ok) {  // corrupt or truncated: skip a byte at a time to the next sync word
-      ++d.bytes_skipped;
-      ++pos;
-      continue;
-    }
-    const char *channel = reinterpret_cast<const char *>(p + pos + kHeader);
-    const uint8_t *data = p + pos + kHeader + clen;
-    const std::string_view ch(channel, static_cast<size_t>(clen));
-    pos += kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen);
-    ++d.events;
-    if (ch == OMNI4_CHANNEL_MOTORS) {
-      motors_t m{};
-      if (!decode(m, data, dlen)) {
-        ++d.undecodable;
-        continue;
-      }
-      if (!plausible_count(m.utime) || !plausible_count(m.seq) || !finite(m.voltage) ||
-          !finite(m.current) || !finite(m.wheel_speed)) {
-        ++d.implausible;
-        continue;
-      }
-      MotorsSample s;
-      s.utime = m.utime;
-      s.seq = m.seq;
-      s.mode = m.mode;
-      s.faults = m.faults;
-      for (int j = 0; j < 4; ++j) {
-        s.u[j] = m.voltage[j];
-        s.i[j] = m.current[j];
-        s.w[j] = m.wheel_speed[j];
-      }
-      if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
-      last_seq = s.seq;
-      d.motors.push_back(s);
-    } else if (ch == OMNI4_CHANNEL_POSE) {
-      pose_t q{};
-      if (!decode(q, data, dlen)) {
-        ++d.undecodable;
-        continue;
-      }
-      if (!plausible_count(q.utime) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
-          !std::isfinite(q.theta)) {
-        ++d.implausible;
-        continue;
-      }
-      d.pose.push_back({q.utime, q.x, q.y, q.theta});
-    } else if (ch == OMNI4_CHANNEL_EXPERIMENT) {
-      experiment_t e{};
-      if (!experiment_strings_ok(data, dlen) || !decode(e, data, dlen)) {
-        ++d.undecodable;
-        continue;
-      }
-      if (!plausible_count(e.utime) || !std::isfinite(e.level)) {
-        ++d.implausible;
-        continue;
-      }
-      d.marks.push_back({e.utime, e.kind, e.direction, e.level});
-    } else {
-      ++d.other_channels;
-    }
+void take_motors(const Event &ev, LogData &d) {
+  motors_t m{};
+  if (!decode(m, ev.data, ev.len)) {
+    ++d.undecodable;
+    return;
   }
-  d.bytes_skipped += n - pos;  // a truncated last header
-  if (d.events == 0) throw std::runtime_error(path + ": no intact LCM event in the file");
-  // Logs are written in time order; sort only what is not (e.g. merged recordings).
+  if (!plausible_count(m.utime) || !plausible_count(m.seq) || !finite(m.voltage) ||
+      !finite(m.current) || !finite(m.wheel_speed)) {
+    ++d.implausible;
+    return;
+  }
+  MotorsSample s;
+  s.utime = m.utime;
+  s.seq = m.seq;
+  s.mode = m.mode;
+  s.faults = m.faults;
+  for (int j = 0; j < 4; ++j) {
+    s.u[j] = m.voltage[j];
+    s.i[j] = m.current[j];
+    s.w[j] = m.wheel_speed[j];
+  }
+  // Samples are appended in file order: the previous one is the last in the vector.
+  const int64_t last_seq = d.motors.empty() ? -1 : d.motors.back().seq;
+  if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
+  d.motors.push_back(s);
+}
+
+void take_pose(const Event &ev, LogData &d) {
+  pose_t q{};
+  if (!decode(q, ev.data, ev.len)) {
+    ++d.undecodable;
+    return;
+  }
+  if (!plausible_count(q.utime) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+      !std::isfinite(q.theta)) {
+    ++d.implausible;
+    return;
+  }
+  d.pose.push_back({q.utime, q.x, q.y, q.theta});
+}
+
+void take_mark(const Event &ev, LogData &d) {
+  experiment_t e{};
+  if (!experiment_strings_ok(ev.data, ev.len) || !decode(e, ev.data, ev.len)) {
+    ++d.undecodable;
+    return;
+  }
+  if (!plausible_count(e.utime) || !std::isfinite(e.level)) {
+    ++d.implausible;
+    return;
+  }
+  d.marks.push_back({e.utime, e.kind, e.direction, e.level});
+}
+
+void take_event(const Event &ev, LogData &d) {
+  ++d.events;
+  if (ev.channel == OMNI4_CHANNEL_MOTORS) take_motors(ev, d);
+  else if (ev.channel == OMNI4_CHANNEL_POSE) take_pose(ev, d);
+  else if (ev.channel == OMNI4_CHANNEL_EXPERIMENT) take_mark(ev, d);
+  else ++d.other_channels;
+}
+
+// Logs are written in time order; sort only what is not (e.g. merged recordings).
+void sort_by_time(LogData &d) {
   auto by_time = [](const auto &a, const auto &b) { return a.utime < b.utime; };
   auto sort = [&](auto &v) {
     if (!std::is_sorted(v.begin(), v.end(), by_time)) std::stable_sort(v.begin(), v.end(), by_time);
@@ -193,6 +201,32 @@ LogData read_log(const std::string &path) {
   sort(d.motors);
   sort(d.pose);
   sort(d.marks);
+}
+
+}  // namespace
+
+LogData read_log(const std::string &path) {
+  const Mapping map(path);
+  LogData d;
+  d.path = path;
+  d.bytes_total = map.size;
+  // An OMNI4_MOTORS event takes ~110 bytes: reserve once instead of growing.
+  d.motors.reserve(d.bytes_total / 100 + 16);
+  size_t pos = 0;
+  while (pos + kHeader <= map.size) {
+    Event ev;
+    const size_t len = event_at(map.data, map.size, pos, ev);
+    if (len == 0) {  // corrupt or truncated: skip a byte at a time to the next sync word
+      ++d.bytes_skipped;
+      ++pos;
+      continue;
+    }
+    pos += len;
+    take_event(ev, d);
+  }
+  d.bytes_skipped += map.size - pos;  // a truncated last header
+  if (d.events == 0) throw std::runtime_error(path + ": no intact LCM event in the file");
+  sort_by_time(d);
   return d;
 }
 
