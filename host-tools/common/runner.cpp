@@ -185,41 +185,70 @@ class Progress {
   size_t shown_ = 0;
 };
 
-}  // namespace
-
-int run_experiments(const RunOptions &opt) {
-  std::vector<Phase> phases;
+// The phases of opt.only (all without it); false after a one-line error (unknown kind).
+bool phases_to_run(const RunOptions &opt, std::vector<Phase> &phases) {
   try {
     phases = filtered(opt);
   } catch (const std::exception &e) {
     std::fprintf(stderr, "omni4-ident run: %s\n", e.what());
-    return 2;
+    return false;
   }
+  return true;
+}
+
+// Publishes what the sequence has due at t seconds after the start.
+void play_due(SequencePlayer &player, Recording &rec, double t) {
+  const auto out = player.due(t, wall_us());
+  for (const auto &m : out.marks) rec.publish(OMNI4_CHANNEL_EXPERIMENT, m);
+  if (out.has_command) rec.publish(OMNI4_CHANNEL_CMD, out.command);
+}
+
+// The sequence's progress on stderr: on a terminal one line rewritten at every percent, else a
+// line every 10 %.
+class PercentLine {
+ public:
+  explicit PercentLine(double total_s) : total_s_(total_s), tty_(isatty(STDERR_FILENO)) {}
+
+  void update(double t, const SequencePlayer &player, uint64_t logged) {
+    const int pct = static_cast<int>(100 * t / total_s_);
+    if (pct == last_pct_ || !(tty_ || pct % 10 == 0)) return;
+    std::fprintf(stderr, "%somni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu%s",
+                 tty_ ? "\r" : "", pct, t, total_s_,
+                 std::min(player.phase_index() + 1, player.phase_count()), player.phase_count(),
+                 static_cast<unsigned long long>(logged), tty_ ? "" : "\n");
+    last_pct_ = pct;
+  }
+
+ private:
+  double total_s_;
+  bool tty_;
+  int last_pct_ = -1;
+};
+
+// Safe stop: IDLE (outputs off), close any open segment, collect the last messages. Returns
+// false on log write errors.
+bool stop_run(Recording &rec) {
+  const auto end = encode_mark(wall_us(), "end");
+  return rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
+}
+
+}  // namespace
+
+int run_experiments(const RunOptions &opt) {
+  std::vector<Phase> phases;
+  if (!phases_to_run(opt, phases)) return 2;
   Recording rec;
   if (!rec.open(opt)) return 1;
   SequencePlayer player(phases);
-  const double total = total_duration_s(phases);
+  PercentLine progress(total_duration_s(phases));
   const auto t0 = std::chrono::steady_clock::now();
-  int last_pct = -1;
-  const bool tty = isatty(STDERR_FILENO);
   while (!player.done() && !g_interrupted) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const auto out = player.due(t, wall_us());
-    for (const auto &m : out.marks) rec.publish(OMNI4_CHANNEL_EXPERIMENT, m);
-    if (out.has_command) rec.publish(OMNI4_CHANNEL_CMD, out.command);
+    play_due(player, rec, t);
     rec.handle(5);
-    const int pct = static_cast<int>(100 * t / total);
-    if (pct != last_pct && (tty || pct % 10 == 0)) {
-      std::fprintf(stderr, "%somni4-ident run: %3d%%  %6.1f / %.1f s  phase %zu/%zu  logged %llu%s",
-                   tty ? "\r" : "", pct, t, total, std::min(player.phase_index() + 1, player.phase_count()),
-                   player.phase_count(), static_cast<unsigned long long>(rec.written()),
-                   tty ? "" : "\n");
-      last_pct = pct;
-    }
+    progress.update(t, player, rec.written());
   }
-  // Safe stop: IDLE (outputs off), close any open segment, collect the last messages.
-  const auto end = encode_mark(wall_us(), "end");
-  const bool ok = rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
+  const bool ok = stop_run(rec);
   std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
                g_interrupted ? "interrupted, robot stopped;" : "done;", opt.out.c_str(),
                static_cast<unsigned long long>(rec.written()), ok ? "" : " (write errors!)");
