@@ -1,4 +1,5 @@
-/* ctl.c - modes, watchdog, faults, reference shaping, IK + feedforward (Q16.16) and PI. */
+/* ctl.c - modes, watchdog, faults, reference shaping, IK + feedforward (Q16.16) and PI; the
+ * tick in single precision and Q16.16 (ctl.h). */
 #include "omni4/ctl.h"
 
 #include "omni4/kinematics.h"
@@ -15,12 +16,12 @@
 	 CTL_FAULT_CURRENT_SENSOR | CTL_FAULT_SUPPLY)
 
 /* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
-#define ENCODER_RESIDUAL_MAX_M_S 0.5
+#define ENCODER_RESIDUAL_MAX_M_S 0.5f
 #define ENCODER_BAD_TIME_S 0.05
 /* No wheel can change speed faster than this (about 10x what the motors can do): a larger
  * step between two readings, over the time between them (at least one period: a late tick
  * after a stall of the loop or the bus sees a larger, real change), is an encoder jump. */
-#define ENCODER_MAX_ACCEL_RAD_S2 5000.0
+#define ENCODER_MAX_ACCEL_RAD_S2 5000.0f
 
 /* The HAL's driver-side fault bits in the controller's vocabulary. */
 static int32_t from_hal_faults(uint32_t hal)
@@ -28,6 +29,35 @@ static int32_t from_hal_faults(uint32_t hal)
 	return ((hal & HAL_FAULT_DRIVER_TIMEOUT) ? CTL_FAULT_DRIVER_TIMEOUT : 0) |
 	       ((hal & HAL_FAULT_DRIVER) ? CTL_FAULT_DRIVER : 0) |
 	       ((hal & HAL_FAULT_BUS) ? CTL_FAULT_BUS : 0);
+}
+
+static void tune(struct ctl *c)
+{
+	const struct omni4_config *cfg = &c->cfg;
+	const double dt = 1.0 / cfg->loop.rate_hz;
+	const float acc_max[3] = {(float)cfg->limits.acc_lin_max, (float)cfg->limits.acc_lin_max,
+				  (float)cfg->limits.acc_rot_max};
+
+	c->t = (struct ctl_tuning){
+		.dt = (float)dt,
+		.r = (float)cfg->model.r,
+		.u_max = (float)cfg->limits.supply_v,
+		/* Limits compared at the samples' precision (float): a reading of 10.2 A is the
+		 * float nearest 10.2, which is below the double 10.2. */
+		.current_max = (float)cfg->limits.current_max_a,
+		.sensor_max = (float)cfg->limits.current_sensor_max_a,
+		.supply_min = (float)cfg->limits.supply_min_v,
+		.cmd_timeout_us = (int64_t)cfg->control.cmd_timeout_ms * 1000,
+		.encoder_bad_ticks_max = (int)ceil(ENCODER_BAD_TIME_S / dt - 1e-9),
+	};
+	for (int j = 0; j < 4; j++)
+		ctl_pi_set_gains(&c->pi[j], (float)cfg->control.kp, (float)cfg->control.ki,
+				 c->t.dt, c->t.u_max);
+	const struct ctl_shaper keep = c->shaper;
+
+	ctl_shaper_init(&c->shaper, acc_max, c->t.dt);
+	memcpy(c->shaper.ref, keep.ref, sizeof(keep.ref));
+	memcpy(c->shaper.acc, keep.acc, sizeof(keep.acc));
 }
 
 int ctl_init(struct ctl *c, const struct omni4_config *cfg)
@@ -38,10 +68,20 @@ int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 	if (ff_q16_init(&c->ff, &cfg->model, cfg->limits.supply_v))
 		return -EINVAL;
 	c->cfg = *cfg;
-	c->dt = 1.0 / cfg->loop.rate_hz;
+	c->period_us = llround(1e6 / cfg->loop.rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
+	tune(c);
 	c->mode = CTL_IDLE;
 	return 0;
+}
+
+void ctl_retune(struct ctl *c, const struct omni4_config *cfg, const struct ff_q16 *ff,
+		q16_t inv_4d)
+{
+	c->cfg = *cfg;
+	c->ff = *ff;
+	c->inv_4d = inv_4d;
+	tune(c);
 }
 
 void ctl_flag(struct ctl *c, int32_t bits)
@@ -82,15 +122,6 @@ static bool command_in_range(const struct ctl *c, const struct ctl_command *cmd)
 	return true;
 }
 
-static void start_ramp(struct ctl *c, const double to[4], double len_s, int64_t now_us)
-{
-	for (int j = 0; j < 4; j++) {
-		c->ramp_from[j] = c->out[j];
-		c->ramp_to[j] = to[j];
-	}
-	c->ramp_t0_us = now_us;
-	c->ramp_len_us = (int64_t)llround(len_s * 1e6);
-}
 
 int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 {
@@ -124,20 +155,24 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	case CTL_VELOCITY:
 		if (c->mode != CTL_VELOCITY) {
 			/* Bumpless start: the reference begins at the measured velocity. */
-			memcpy(c->vel_ref, c->x_est, sizeof(c->vel_ref));
-			memset(c->integ, 0, sizeof(c->integ));
+			ctl_shaper_reset(&c->shaper, c->x_est);
+			for (int j = 0; j < 4; j++)
+				ctl_pi_reset(&c->pi[j]);
 		}
-		memcpy(c->vel_target, cmd->velocity, sizeof(c->vel_target));
+		for (int k = 0; k < 3; k++)
+			c->vel_target[k] = (float)cmd->velocity[k];
 		c->mode = CTL_VELOCITY;
 		c->stopping = false;
 		break;
 	case CTL_VOLTAGE: {
+		const float to[4] = {(float)cmd->voltage[0], (float)cmd->voltage[1],
+				     (float)cmd->voltage[2], (float)cmd->voltage[3]};
 		/* A repeated command (keep-alive) must not restart a ramp in progress. */
 		const bool same = c->mode == CTL_VOLTAGE && !c->stopping &&
-				  !memcmp(c->ramp_to, cmd->voltage, sizeof(c->ramp_to));
+				  !memcmp(c->ramp.to, to, sizeof(to));
 
 		if (!same)
-			start_ramp(c, cmd->voltage, cmd->ramp_s, now_us);
+			ctl_ramp_start(&c->ramp, c->out, to, (float)cmd->ramp_s, now_us);
 		c->mode = CTL_VOLTAGE;
 		c->stopping = false;
 		break;
@@ -160,47 +195,49 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 		return CTL_FAULT_DRIVER_TIMEOUT;
 	f |= from_hal_faults(s->faults);
 
-	double vw[4];
+	float vw[4];
 	bool speeds_ok = true;
-
-	/* Limits compared at the samples' precision (float): a reading of 10.2 A is the float
-	 * nearest 10.2, which is below the double 10.2. */
-	const float sensor_max = (float)c->cfg.limits.current_sensor_max_a;
-	const float current_max = (float)c->cfg.limits.current_max_a;
-	const double since_s = fmax(c->dt, (double)(now_us - c->last_wheel_us) * 1e-6);
-	const double max_step = ENCODER_MAX_ACCEL_RAD_S2 * since_s;
+	const float since_s = fmaxf(c->t.dt, (float)(now_us - c->last_wheel_us) * 1e-6f);
+	const float max_step = ENCODER_MAX_ACCEL_RAD_S2 * since_s;
 
 	for (int j = 0; j < 4; j++) {
 		const float i = s->current_a[j], w = s->wheel_rad_s[j];
 
-		if (!isfinite(i) || fabsf(i) >= sensor_max)
+		if (!isfinite(i) || fabsf(i) >= c->t.sensor_max)
 			f |= CTL_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
-		if (isfinite(i) && fabsf(i) > current_max)
+		if (isfinite(i) && fabsf(i) > c->t.current_max)
 			f |= CTL_FAULT_OVERCURRENT;
 		if (!isfinite(w)) {
 			f |= CTL_FAULT_ENCODER;
 			speeds_ok = false;
-		} else if (c->have_wheel && fabs((double)w - c->last_wheel[j]) > max_step) {
+		} else if (c->have_wheel && fabsf(w - c->last_wheel[j]) > max_step) {
 			f |= CTL_FAULT_ENCODER;
 		}
-		vw[j] = (double)w * c->cfg.model.r;
+		vw[j] = w * c->t.r;
 	}
 	for (int j = 0; j < 4 && speeds_ok; j++)
 		c->last_wheel[j] = s->wheel_rad_s[j];
 	if (speeds_ok)
 		c->last_wheel_us = now_us;
 	c->have_wheel = speeds_ok;
-	if (isfinite(s->supply_v) && s->supply_v < (float)c->cfg.limits.supply_min_v)
+	if (isfinite(s->supply_v) && s->supply_v < c->t.supply_min)
 		f |= CTL_FAULT_SUPPLY;
 	if (!speeds_ok)
 		return f;
 
-	fk_robot_velocity(c->cfg.model.d, vw, c->x_est);
-	if (fabs(vw[0] - vw[1] + vw[2] - vw[3]) > ENCODER_RESIDUAL_MAX_M_S)
+	/* Robot velocity (eqs 3-5) in Q16.16, as the model's fixed-point path computes it. */
+	q16_t vq[4], xq[3];
+
+	for (int j = 0; j < 4; j++)
+		vq[j] = q16_from_float(vw[j]);
+	fk_robot_velocity_q16(c->inv_4d, vq, xq);
+	for (int k = 0; k < 3; k++)
+		c->x_est[k] = q16_to_float(xq[k]);
+	if (fabsf(vw[0] - vw[1] + vw[2] - vw[3]) > ENCODER_RESIDUAL_MAX_M_S)
 		c->encoder_bad_ticks++;
 	else
 		c->encoder_bad_ticks = 0;
-	if (c->encoder_bad_ticks * c->dt >= ENCODER_BAD_TIME_S)
+	if (c->encoder_bad_ticks >= c->t.encoder_bad_ticks_max)
 		f |= CTL_FAULT_ENCODER;
 	return f;
 }
@@ -210,7 +247,7 @@ static void watchdog(struct ctl *c, int64_t now_us)
 	const bool moving = c->mode == CTL_VELOCITY || c->mode == CTL_COAST ||
 			    (c->mode == CTL_VOLTAGE && !c->stopping);
 
-	if (!moving || now_us - c->last_cmd_us <= (int64_t)c->cfg.control.cmd_timeout_ms * 1000)
+	if (!moving || now_us - c->last_cmd_us <= c->t.cmd_timeout_us)
 		return;
 	c->warnings |= CTL_FAULT_CMD_TIMEOUT;
 	c->n.watchdog_trips++;
@@ -218,27 +255,18 @@ static void watchdog(struct ctl *c, int64_t now_us)
 		c->mode = CTL_IDLE;
 		return;
 	}
-	static const double zero[4] = {0, 0, 0, 0};
+	static const float zero[4] = {0, 0, 0, 0};
 
-	start_ramp(c, zero, c->cfg.control.stop_ramp_s, now_us);
+	ctl_ramp_start(&c->ramp, c->out, zero, (float)c->cfg.control.stop_ramp_s, now_us);
 	c->mode = CTL_VOLTAGE;
 	c->stopping = true;
 }
 
-static double clampd(double x, double lim)
-{
-	return x > lim ? lim : (x < -lim ? -lim : x);
-}
-
 static void voltage_mode(struct ctl *c, int64_t now_us)
 {
-	const double frac = c->ramp_len_us > 0
-				    ? fmin(1.0, (double)(now_us - c->ramp_t0_us) / (double)c->ramp_len_us)
-				    : 1.0;
+	const bool done = ctl_ramp_step(&c->ramp, now_us, c->out);
 
-	for (int j = 0; j < 4; j++)
-		c->out[j] = c->ramp_from[j] + (c->ramp_to[j] - c->ramp_from[j]) * frac;
-	if (c->stopping && frac >= 1.0) {
+	if (c->stopping && done) {
 		c->mode = CTL_IDLE;
 		c->stopping = false;
 	}
@@ -246,19 +274,12 @@ static void voltage_mode(struct ctl *c, int64_t now_us)
 
 static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 {
-	const double acc_max[3] = {c->cfg.limits.acc_lin_max, c->cfg.limits.acc_lin_max,
-				   c->cfg.limits.acc_rot_max};
-	const double u_max = c->cfg.limits.supply_v;
 	q16_t ref_q[3], acc_q[3], ff_q[4], wheel_ref_q[4];
 
-	/* Reference shaping: rate-limit the target to the acceleration limits. */
+	ctl_shaper_step(&c->shaper, c->vel_target);
 	for (int k = 0; k < 3; k++) {
-		const double step = clampd(c->vel_target[k] - c->vel_ref[k], acc_max[k] * c->dt);
-
-		c->vel_ref[k] += step;
-		c->acc_ref[k] = step / c->dt;
-		ref_q[k] = q16_from_double(c->vel_ref[k]);
-		acc_q[k] = q16_from_double(c->acc_ref[k]);
+		ref_q[k] = q16_from_float(c->shaper.ref[k]);
+		acc_q[k] = q16_from_float(c->shaper.acc[k]);
 	}
 	ik_wheel_speeds_q16(c->ff.d, ref_q, wheel_ref_q);
 	if (c->cfg.control.feedforward)
@@ -267,21 +288,16 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 		memset(ff_q, 0, sizeof(ff_q));
 
 	for (int j = 0; j < 4; j++) {
-		const double ff = q16_to_double(ff_q[j]);
-		double u = ff;
+		const float ff = q16_to_float(ff_q[j]);
 
 		if (c->cfg.control.feedback && s) {
-			const double e = q16_to_double(wheel_ref_q[j]) -
-					 (double)s->wheel_rad_s[j] * c->cfg.model.r;
-			const double p = c->cfg.control.kp * e;
-			const double unsat = ff + p + c->integ[j];
+			const float e = q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r;
 
-			/* Anti-windup: integrate unless it would push further into saturation. */
-			if (!(fabs(unsat) >= u_max && e * unsat > 0))
-				c->integ[j] = clampd(c->integ[j] + c->cfg.control.ki * e * c->dt, u_max);
-			u = ff + p + c->integ[j];
+			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
+		} else {
+			c->out[j] = ff > c->t.u_max ? c->t.u_max
+						    : (ff < -c->t.u_max ? -c->t.u_max : ff);
 		}
-		c->out[j] = clampd(u, u_max);
 	}
 }
 
@@ -314,10 +330,10 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 
 	if (!on) {
 		memset(c->out, 0, sizeof(c->out));
-		memset(c->integ, 0, sizeof(c->integ));
+		for (int j = 0; j < 4; j++)
+			ctl_pi_reset(&c->pi[j]);
 	}
-	for (int j = 0; j < 4; j++)
-		out->volts[j] = (float)c->out[j];
+	memcpy(out->volts, c->out, sizeof(out->volts));
 	out->enable = on;
 	out->mode = (int8_t)c->mode;
 	out->faults = c->latched | c->warnings;

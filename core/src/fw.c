@@ -34,7 +34,7 @@ int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_on
 {
 	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
 
-	if (ctl_init(&scratch, cfg) || scratch.dt != fw->ctl.dt) {
+	if (ctl_init(&scratch, cfg) || scratch.period_us != fw->ctl.period_us) {
 		static const char msg[] = "the controller refuses these values";
 
 		if (n) {
@@ -89,9 +89,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 	if (u->idle_only && driving) {
 		rc = -EBUSY;
 	} else {
-		fw->ctl.cfg = u->cfg;
-		fw->ctl.ff = u->ff;
-		fw->ctl.inv_4d = u->inv_4d;
+		ctl_retune(&fw->ctl, &u->cfg, &u->ff, u->inv_4d);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->cfg);
 	}

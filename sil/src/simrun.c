@@ -185,7 +185,8 @@ struct sim_motor_faults *simrun_faults(struct simrun *sr)
 
 void simrun_reference(const struct simrun *sr, double ref[3])
 {
-	memcpy(ref, sr->fw.ctl.vel_ref, 3 * sizeof(double));
+	for (int k = 0; k < 3; k++)
+		ref[k] = sr->fw.ctl.shaper.ref[k];
 }
 
 uint64_t simrun_watchdog_trips(const struct simrun *sr)

@@ -460,7 +460,7 @@ static void test_pi_integrator_stops_while_the_output_saturates(void **state)
 	double worst = 0.0;
 
 	for (int j = 0; j < 4; j++)
-		worst = fmax(worst, fabs(c.integ[j]));
+		worst = fmax(worst, fabs(c.pi[j].integ));
 	printf("stalled 1 s at 0.3 m/s: output %.2f V, largest integral %.3f V\n", o.volts[3],
 	       worst);
 	assert_true(worst < 6.0);

@@ -1,7 +1,8 @@
 /*
  * ctl.h - the controller of one robot: mode state machine, command validation, watchdog,
  * fault latching, reference shaping, fixed-point IK + feedforward, PI on wheel speed.
- * Pure logic: no time source, no I/O, no allocation. ctl_step runs once per loop tick.
+ * Pure logic: no time source, no I/O, no allocation. ctl_step runs once per loop tick, in
+ * single precision and Q16.16 (a command is checked in double once, on arrival).
  *
  * Modes (motors_t numbering): IDLE 0 (outputs off), VELOCITY 1 (feedforward + PI),
  * VOLTAGE 2 (per-channel voltage reached through a ramp), COAST 3 (H-bridges off),
@@ -14,6 +15,7 @@
 #include <stdint.h>
 
 #include "omni4/config_types.h"
+#include "omni4/ctl_blocks.h"
 #include "omni4/feedforward.h"
 #include "omni4/hal.h"
 #include "omni4/q16.h"
@@ -69,30 +71,42 @@ struct ctl_counters {
 	uint64_t faults_latched;
 };
 
+/* The settings the tick uses, at its precision (single, the Cortex-M4F's FPU): taken from the
+ * configuration at init and at every parameter change, never per tick. */
+struct ctl_tuning {
+	float dt;             /* loop period [s] */
+	float r;              /* wheel radius [m] */
+	float u_max;          /* supply: output bound [V] */
+	float current_max;    /* over-current level [A] */
+	float sensor_max;     /* a current reading at or beyond this is a saturated sensor [A] */
+	float supply_min;     /* [V] */
+	int64_t cmd_timeout_us;
+	int encoder_bad_ticks_max; /* ticks the rigid-body residual may stay too large */
+};
+
 struct ctl {
 	struct omni4_config cfg;
 	struct ff_q16 ff;
 	q16_t inv_4d;
-	double dt;              /* loop period [s] */
+	int64_t period_us;      /* loop period [us] */
+	struct ctl_tuning t;
 	enum ctl_mode mode;
 	int32_t latched;        /* latching fault bits */
 	int32_t present;        /* fault conditions seen in the last tick */
 	int32_t warnings;       /* non-latching bits */
 	int64_t last_cmd_us;    /* controller time of the last valid motion command */
 	/* VELOCITY */
-	double vel_target[3];
-	double vel_ref[3];      /* shaped reference [m/s, m/s, rad/s] */
-	double acc_ref[3];
-	double integ[4];        /* PI integrators [V] */
+	float vel_target[3];
+	struct ctl_shaper shaper; /* shaped reference [m/s, m/s, rad/s] and its derivative */
+	struct ctl_pi pi[4];    /* PI on each wheel's linear speed */
 	/* VOLTAGE ramp */
-	double ramp_from[4], ramp_to[4];
-	int64_t ramp_t0_us, ramp_len_us;
+	struct ctl_ramp ramp;
 	bool stopping;          /* watchdog stop ramp in progress */
 	/* Last output and plausibility state */
-	double out[4];
-	double x_est[3];        /* robot velocity from the wheel speeds (eqs 3-5) */
+	float out[4];
+	float x_est[3];         /* robot velocity from the wheel speeds (eqs 3-5) */
 	int encoder_bad_ticks;
-	double last_wheel[4];   /* last wheel speeds [rad/s], for the jump check */
+	float last_wheel[4];    /* last wheel speeds [rad/s], for the jump check */
 	int64_t last_wheel_us;  /* controller time of that reading [us] */
 	bool have_wheel;
 	struct ctl_counters n;
@@ -114,6 +128,11 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us);
  */
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
 	      bool estop, struct ctl_output *out);
+
+/* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
+ * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
+void ctl_retune(struct ctl *c, const struct omni4_config *cfg, const struct ff_q16 *ff,
+		q16_t inv_4d);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
 void ctl_flag(struct ctl *c, int32_t bits);

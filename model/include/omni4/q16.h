@@ -98,4 +98,24 @@ static inline double q16_to_double(q16_t x)
 	return (double)x / (double)Q16_ONE;
 }
 
+/* Per-tick conversions at the controller's precision (single precision: the Cortex-M4F's FPU
+ * does these in hardware). Rounded to nearest, saturated, NaN -> 0. */
+static inline q16_t q16_from_float(float x)
+{
+	const float s = x * (float)Q16_ONE;
+
+	if (!(s == s))
+		return 0;
+	if (s >= 2147483520.0f) /* the largest float below 2^31 */
+		return Q16_MAX;
+	if (s <= (float)Q16_MIN)
+		return Q16_MIN;
+	return (q16_t)(s >= 0 ? s + 0.5f : s - 0.5f);
+}
+
+static inline float q16_to_float(q16_t x)
+{
+	return (float)x * (1.0f / (float)Q16_ONE);
+}
+
 #endif /* OMNI4_Q16_H */
