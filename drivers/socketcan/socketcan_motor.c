@@ -390,29 +390,44 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
 	}
 }
 
-static int sc_read(void *ctx, struct motor_sample *out)
+/* Frames this read may take: SC_MAX_FRAMES_PER_READ per millisecond since the previous read
+ * (at least 1 ms' worth, at most SC_MAX_READ_CATCHUP ms'). */
+static int read_budget(struct socketcan_motor *m, int64_t now)
 {
-	struct socketcan_motor *m = ctx;
-	const int64_t now = sc_os_now_us();
+	int64_t since_ms = (now - m->last_read_us) / 1000;
+
+	m->last_read_us = now;
+	if (since_ms < 1)
+		since_ms = 1;
+	if (since_ms > SC_MAX_READ_CATCHUP)
+		since_ms = SC_MAX_READ_CATCHUP;
+	return SC_MAX_FRAMES_PER_READ * (int)since_ms;
+}
+
+static void count_error_frame(struct socketcan_motor *m, uint32_t err)
+{
+	m->n.error_frames++;
+	if (err & SC_ERR_BUSOFF) {
+		m->n.bus_off++;
+		m->bus_off = true;
+	}
+}
+
+/* Takes what the kernel has queued, up to the read's frame budget. 0, or a receive error
+ * other than -EAGAIN (an empty queue). */
+static int drain_frames(struct socketcan_motor *m, int64_t now)
+{
+	const int budget = read_budget(m, now);
 	struct omni4_can_frame f;
 	uint32_t err;
 	int k, rc = 0;
-	const int64_t since_ms = (now - m->last_read_us) / 1000;
-	const int budget = SC_MAX_FRAMES_PER_READ *
-			   (int)(since_ms < 1 ? 1 : since_ms > SC_MAX_READ_CATCHUP ? SC_MAX_READ_CATCHUP
-										   : since_ms);
 
-	m->last_read_us = now;
 	for (k = 0; k < budget; k++) {
 		rc = sc_os_recv(m->fd, &f, &err);
 		if (rc < 0)
 			break;
 		if (rc == 2) {
-			m->n.error_frames++;
-			if (err & SC_ERR_BUSOFF) {
-				m->n.bus_off++;
-				m->bus_off = true;
-			}
+			count_error_frame(m, err);
 			continue;
 		}
 		m->n.rx_frames++;
@@ -422,23 +437,39 @@ static int sc_read(void *ctx, struct motor_sample *out)
 		m->n.flood_cut++;
 	else if (rc != -EAGAIN && rc < 0)
 		return rc;
+	return 0;
+}
 
+/* The HAL fault bits of one node: silent for longer than the status timeout (since open if it
+ * never reported), or a fault in its last accepted HEALTH. */
+static uint32_t node_faults(const struct socketcan_motor *m, const struct sc_node *nd,
+			    int64_t now)
+{
+	const int64_t since = nd->have_status ? nd->last_status_us : m->opened_us;
+	uint32_t faults = 0;
+
+	if (now - since > m->timeout_us)
+		faults |= HAL_FAULT_DRIVER_TIMEOUT;
+	if (nd->have_health && (nd->health.faults || nd->health.state == CAN_STATE_FAULT))
+		faults |= HAL_FAULT_DRIVER;
+	return faults;
+}
+
+/* The sample from the nodes' last accepted frames: NaN for a node without a STATUS yet, the
+ * lowest reported supply (NaN without HEALTH). Returns true if every node has reported. */
+static bool fill_sample(const struct socketcan_motor *m, struct motor_sample *out, int64_t now)
+{
 	uint32_t faults = m->bus_off ? HAL_FAULT_BUS : 0;
 	float supply = NAN;
 	bool all = true;
 
 	for (int n = 0; n < CAN_NODES; n++) {
 		const struct sc_node *nd = &m->node[n];
-		const int64_t since = nd->have_status ? nd->last_status_us : m->opened_us;
 
-		if (now - since > m->timeout_us)
-			faults |= HAL_FAULT_DRIVER_TIMEOUT;
+		faults |= node_faults(m, nd, now);
 		all &= nd->have_status;
-		if (nd->have_health) {
-			if (nd->health.faults || nd->health.state == CAN_STATE_FAULT)
-				faults |= HAL_FAULT_DRIVER;
+		if (nd->have_health)
 			supply = isnan(supply) ? nd->health.supply_v : fminf(supply, nd->health.supply_v);
-		}
 		for (int c = 0; c < 2; c++) {
 			out->current_a[2 * n + c] = nd->have_status ? nd->status.current_a[c] : NAN;
 			out->wheel_rad_s[2 * n + c] = nd->have_status ? nd->status.speed_rad_s[c] : NAN;
@@ -446,17 +477,34 @@ static int sc_read(void *ctx, struct motor_sample *out)
 	}
 	out->supply_v = supply;
 	out->faults = faults;
-	if (!all && !(faults & HAL_FAULT_DRIVER_TIMEOUT))
-		return -EAGAIN; /* still waiting for the first reports */
-	if (!all) {
-		/* Timed out before any report: a full sample of zeros with the fault set. */
-		for (int j = 0; j < 4; j++) {
-			if (isnan(out->current_a[j]))
-				out->current_a[j] = 0.0f;
-			if (isnan(out->wheel_rad_s[j]))
-				out->wheel_rad_s[j] = 0.0f;
-		}
+	return all;
+}
+
+/* Timed out before any report: a full sample of zeros with the fault set. */
+static void zero_unreported(struct motor_sample *out)
+{
+	for (int j = 0; j < 4; j++) {
+		if (isnan(out->current_a[j]))
+			out->current_a[j] = 0.0f;
+		if (isnan(out->wheel_rad_s[j]))
+			out->wheel_rad_s[j] = 0.0f;
 	}
+}
+
+static int sc_read(void *ctx, struct motor_sample *out)
+{
+	struct socketcan_motor *m = ctx;
+	const int64_t now = sc_os_now_us();
+	const int rc = drain_frames(m, now);
+
+	if (rc)
+		return rc;
+	const bool all = fill_sample(m, out, now);
+
+	if (!all && !(out->faults & HAL_FAULT_DRIVER_TIMEOUT))
+		return -EAGAIN; /* still waiting for the first reports */
+	if (!all)
+		zero_unreported(out);
 	return 0;
 }
 
