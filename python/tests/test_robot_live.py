@@ -187,9 +187,16 @@ def test_motors_iterator_delivers_every_tick_then_times_out(tmp_path, omni4_bin)
     try:
         with omni4.Robot(f.url) as robot:
             first = next(robot.motors(timeout_s=START_TIMEOUT_S))
-            seqs = [m.seq for m in robot.motors(timeout_s=1.0, duration_s=0.5)]
-            assert 350 < len(seqs) < 650, f"{len(seqs)} samples in 0.5 s at 1 kHz"
+            got = list(robot.motors(timeout_s=1.0, duration_s=0.5))
+            seqs = [m.seq for m in got]
+            # Every tick, in order: the count in 0.5 s of wall time depends on how fast this
+            # process is scheduled (343 on a loaded 2-core machine), so it is bounded loosely
+            # (at most 650: no duplicates); the rate is the controller's own, from its stamps.
+            assert 100 < len(seqs) < 650, f"{len(seqs)} samples in 0.5 s at 1 kHz"
             assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "gaps in seq"
+            period_us = (got[-1].utime - got[0].utime) / (seqs[-1] - seqs[0])
+            # (a tick late by a whole period re-aligns the loop: a few such stalls raise the mean)
+            assert 950 < period_us < 1150, f"{period_us:.1f} us between samples, want 1000"
             assert seqs[0] > first.seq
             t_last = time.monotonic()
             with pytest.raises(TimeoutError, match="no OMNI4_MOTORS for 0.5 s"):
