@@ -1,8 +1,11 @@
-# cmake -DCC=cc -DNM=nm -DOUT=dir -DOBJECTS="a.o;b.o" -DALLOWED="regex" -P check_undefined_allowed.cmake
+# cmake -DCC=cc -DNM=nm -DOUT=dir -DNAME=what -DOBJECTS="a.o;b.o" [-DALLOWED="regex"]
+#       -P check_undefined_allowed.cmake
 # Links the objects into one relocatable object and fails if it references an external symbol
 # that does not match ALLOWED (anchored): e.g. the controller core with the model may need
-# memset and libm, never an OS call, LCM, malloc or stdio.
-set(combined ${OUT}/allowed_combined.o)
+# memset and libm, never an OS call, LCM, malloc or stdio. Without ALLOWED no external symbol
+# at all may appear (the model's fixed-point path: no libc, no libgcc float helper).
+string(MAKE_C_IDENTIFIER "${NAME}" id)
+set(combined ${OUT}/${id}_combined.o)
 execute_process(COMMAND ${CC} -nostdlib -r -o ${combined} ${OBJECTS} RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "partial link of ${OBJECTS} failed")
@@ -20,12 +23,16 @@ foreach(line IN LISTS lines)
     continue()
   endif()
   list(APPEND seen ${sym})
-  if(NOT sym MATCHES "^(${ALLOWED})$")
+  if(NOT ALLOWED OR NOT sym MATCHES "^(${ALLOWED})$")
     list(APPEND bad ${sym})
   endif()
 endforeach()
 if(bad)
-  message(FATAL_ERROR "external symbols outside the allowed set (${ALLOWED}):\n  ${bad}")
+  message(FATAL_ERROR "${NAME}: external symbols outside the allowed set (${ALLOWED}):\n  ${bad}")
 endif()
 list(JOIN seen " " seen)
-message(STATUS "${NAME}: external symbols, all allowed: ${seen}")
+if(seen)
+  message(STATUS "${NAME}: external symbols, all allowed: ${seen}")
+else()
+  message(STATUS "${NAME}: no external symbols")
+endif()
