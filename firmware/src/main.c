@@ -198,6 +198,19 @@ int main(int argc, char **argv)
 		}
 		motor = sim_motor_hal(&app->sim);
 	} else if (!strcmp(cfg.hal.motor, "socketcan")) {
+		/* [can] bitrate: the protocol's worst-case share of the bus (both boards' STATUS
+		 * and CMD_VOLTAGE every tick, HEALTH at 100 Hz, worst-case bit stuffing) at this
+		 * loop rate must stay at or below half of it. */
+		const double load = can_bus_load_1khz(cfg.can.bitrate) * cfg.loop.rate_hz / 1000.0;
+
+		if (load > 0.5) {
+			fprintf(stderr, "omni4-fw: %s: [can] bitrate %d bit/s is too slow for [loop] "
+				"rate_hz %g: the motor-driver protocol would take %.0f %% of the bus "
+				"(at most 50 %%)\n", config_path, cfg.can.bitrate, cfg.loop.rate_hz,
+				100.0 * load);
+			rc = 1;
+			goto out_free;
+		}
 		rc = socketcan_motor_open(&app->can, cfg.can.iface, cfg.can.status_timeout_ms);
 		if (rc) {
 			fprintf(stderr, "omni4-fw: CAN interface '%s': %s\n", cfg.can.iface,

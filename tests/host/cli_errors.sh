@@ -57,6 +57,10 @@ expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"
 # LCM unavailable at start: a clear error, nothing runs.
 printf '[lcm]\nurl = udpm://300.1.1.1:7667?ttl=0\n' > "$T/badlcm.ini"
 expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-fw" --config "$T/badlcm.ini" --duration 1
+# [can] bitrate: the protocol at 1 kHz needs 43.2 % of 1 Mbit/s (worst-case stuffing); the bus
+# may be at most half used, so 800 kbit/s (54 %) is refused before any interface is opened.
+printf '[hal]\nmotor = socketcan\nlines = none\n[can]\nbitrate = 800000\n' > "$T/slowcan.ini"
+expect 1 "\[can\] bitrate 800000 bit/s is too slow for \[loop\] rate_hz 1000: the motor-driver protocol would take 54 % of the bus" -- "$BIN/omni4-fw" --config "$T/slowcan.ini" --duration 1
 # The packaged default config parses; it then asks for the robot's CAN interface.
 expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
 # omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
