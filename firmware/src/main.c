@@ -125,7 +125,15 @@ static void on_pose(void *user, int64_t utime, const double pose[3])
 	fw_push_pose(user, utime, pose);
 }
 
-int main(int argc, char **argv)
+struct options {
+	const char *config_path;
+	double duration_s;    /* 0: until SIGINT / SIGTERM */
+	double crash_after_s; /* test hook: raise SIGSEGV after this long */
+	int quiet;
+};
+
+/* -1 to go on, else the exit status (0 for --help, 2 for a usage error). */
+static int parse_options(int argc, char **argv, struct options *o)
 {
 	static const struct option opts[] = {
 		{"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
@@ -133,30 +141,29 @@ int main(int argc, char **argv)
 		{"crash-after", required_argument, NULL, 'X'},
 		{NULL, 0, NULL, 0},
 	};
-	const char *config_path = NULL;
-	double duration_s = 0.0, crash_after_s = 0.0;
-	int quiet = 0, c;
+	int c;
 
+	*o = (struct options){0};
 	while ((c = getopt_long(argc, argv, "c:d:qh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'c':
-			config_path = optarg;
+			o->config_path = optarg;
 			break;
 		case 'd': {
 			char *end;
 
-			duration_s = strtod(optarg, &end);
-			if (end == optarg || *end || !(duration_s > 0.0)) {
+			o->duration_s = strtod(optarg, &end);
+			if (end == optarg || *end || !(o->duration_s > 0.0)) {
 				fprintf(stderr, "omni4-fw: --duration must be a positive number\n");
 				return 2;
 			}
 			break;
 		}
 		case 'q':
-			quiet = 1;
+			o->quiet = 1;
 			break;
 		case 'X':
-			crash_after_s = strtod(optarg, NULL);
+			o->crash_after_s = strtod(optarg, NULL);
 			break;
 		case 'h':
 			usage(stdout);
@@ -166,121 +173,137 @@ int main(int argc, char **argv)
 			return 2;
 		}
 	}
-	if (!config_path) {
+	if (!o->config_path) {
 		fprintf(stderr, "omni4-fw: --config is required (try --help)\n");
 		return 2;
 	}
+	return -1;
+}
 
-	struct omni4_config cfg;
-	struct config_error err;
+/* The SocketCAN backend: the bus must carry the protocol, the interface must open, the
+ * plausibility limits must follow from the model. 0 or -1 (said on stderr). */
+static int open_socketcan(struct app *app, const struct omni4_config *cfg, const char *path)
+{
+	/* [can] bitrate: the protocol's worst-case share of the bus (both boards' STATUS and
+	 * CMD_VOLTAGE every tick, HEALTH at 100 Hz, worst-case bit stuffing) at this loop rate
+	 * must stay at or below half of it. */
+	const double load = can_bus_load_1khz(cfg->can.bitrate) * cfg->loop.rate_hz / 1000.0;
 
-	config_defaults(&cfg);
-	if (config_load(config_path, &cfg, &err)) {
-		fprintf(stderr, "omni4-fw: %s\n", err.msg);
-		return 2;
+	if (load > 0.5) {
+		fprintf(stderr, "omni4-fw: %s: [can] bitrate %d bit/s is too slow for [loop] "
+			"rate_hz %g: the motor-driver protocol would take %.0f %% of the bus "
+			"(at most 50 %%)\n", path, cfg->can.bitrate, cfg->loop.rate_hz, 100.0 * load);
+		return -1;
 	}
+	const int rc = socketcan_motor_open(&app->can, cfg->can.iface, cfg->can.status_timeout_ms);
 
-	struct app *app = calloc(1, sizeof(*app)); /* start-up only */
-	struct motor_hal motor;
-	struct line_hal lines = {.ops = &line_none_ops, .ctx = NULL};
-	int rc = 1;
-
-	if (!app) {
-		fprintf(stderr, "omni4-fw: out of memory\n");
-		return 1;
+	if (rc) {
+		fprintf(stderr, "omni4-fw: CAN interface '%s': %s\n", cfg->can.iface,
+			strerror(-rc));
+		return -1;
 	}
-	if (!strcmp(cfg.hal.motor, "sim")) {
-		const struct sim_motor_config sc = sim_motor_config_from(&cfg, &cfg.model, true);
+	/* Plausibility limits of this robot (STATUS every tick), not Table III's. */
+	const struct sc_limits lim = can_limits(cfg);
+
+	if (socketcan_motor_set_limits(&app->can, &lim)) {
+		fprintf(stderr, "omni4-fw: %s: the [model] and [limits] give no valid CAN "
+			"plausibility limits\n", path);
+		hal_motor_close(&(struct motor_hal){.ops = &socketcan_motor_ops, .ctx = &app->can});
+		return -1;
+	}
+	return 0;
+}
+
+/* [hal] motor. 0 or -1 (said on stderr). */
+static int open_motor(struct app *app, const struct omni4_config *cfg, const char *path,
+		      struct motor_hal *motor)
+{
+	if (!strcmp(cfg->hal.motor, "sim")) {
+		const struct sim_motor_config sc = sim_motor_config_from(cfg, &cfg->model, true);
 
 		if (sim_motor_init(&app->sim, &sc)) {
-			fprintf(stderr, "omni4-fw: %s: invalid [sim] settings\n", config_path);
-			goto out_free;
+			fprintf(stderr, "omni4-fw: %s: invalid [sim] settings\n", path);
+			return -1;
 		}
-		motor = sim_motor_hal(&app->sim);
-	} else if (!strcmp(cfg.hal.motor, "socketcan")) {
-		/* [can] bitrate: the protocol's worst-case share of the bus (both boards' STATUS
-		 * and CMD_VOLTAGE every tick, HEALTH at 100 Hz, worst-case bit stuffing) at this
-		 * loop rate must stay at or below half of it. */
-		const double load = can_bus_load_1khz(cfg.can.bitrate) * cfg.loop.rate_hz / 1000.0;
-
-		if (load > 0.5) {
-			fprintf(stderr, "omni4-fw: %s: [can] bitrate %d bit/s is too slow for [loop] "
-				"rate_hz %g: the motor-driver protocol would take %.0f %% of the bus "
-				"(at most 50 %%)\n", config_path, cfg.can.bitrate, cfg.loop.rate_hz,
-				100.0 * load);
-			rc = 1;
-			goto out_free;
-		}
-		rc = socketcan_motor_open(&app->can, cfg.can.iface, cfg.can.status_timeout_ms);
-		if (rc) {
-			fprintf(stderr, "omni4-fw: CAN interface '%s': %s\n", cfg.can.iface,
-				strerror(-rc));
-			rc = 1;
-			goto out_free;
-		}
-		/* Plausibility limits of this robot (STATUS every tick), not Table III's. */
-		const struct sc_limits lim = can_limits(&cfg);
-
-		if (socketcan_motor_set_limits(&app->can, &lim)) {
-			fprintf(stderr, "omni4-fw: %s: the [model] and [limits] give no valid CAN "
-				"plausibility limits\n", config_path);
-			rc = 1;
-			goto out_free;
-		}
-		motor = socketcan_motor_hal(&app->can);
-	} else {
-		fprintf(stderr, "omni4-fw: %s: [hal] motor = %s is not available in this build\n",
-			config_path, cfg.hal.motor);
-		goto out_free;
+		*motor = sim_motor_hal(&app->sim);
+		return 0;
 	}
-	if (!strcmp(cfg.hal.lines, "sim")) {
-		lines = sim_line_hal(&app->sim_lines);
-	} else if (!strcmp(cfg.hal.lines, "gpiod")) {
+	if (!strcmp(cfg->hal.motor, "socketcan")) {
+		if (open_socketcan(app, cfg, path))
+			return -1;
+		*motor = socketcan_motor_hal(&app->can);
+		return 0;
+	}
+	fprintf(stderr, "omni4-fw: %s: [hal] motor = %s is not available in this build\n", path,
+		cfg->hal.motor);
+	return -1;
+}
+
+/* [hal] lines. 0 or -1 (said on stderr). */
+static int open_lines(struct app *app, const struct omni4_config *cfg, const char *path,
+		      struct line_hal *lines)
+{
+	*lines = (struct line_hal){.ops = &line_none_ops, .ctx = NULL};
+	if (!strcmp(cfg->hal.lines, "sim")) {
+		*lines = sim_line_hal(&app->sim_lines);
+	} else if (!strcmp(cfg->hal.lines, "gpiod")) {
 		const struct gpiod_lines_config gc = {
-			.chip = cfg.gpio.chip,
-			.estop_line = cfg.gpio.estop_line,
-			.estop_active_low = cfg.gpio.estop_active_low,
-			.enable_line = cfg.gpio.enable_line,
-			.led_line = cfg.gpio.led_line,
+			.chip = cfg->gpio.chip,
+			.estop_line = cfg->gpio.estop_line,
+			.estop_active_low = cfg->gpio.estop_active_low,
+			.enable_line = cfg->gpio.enable_line,
+			.led_line = cfg->gpio.led_line,
 		};
+		const int rc = gpiod_lines_open(&app->gpio, &gc);
 
-		rc = gpiod_lines_open(&app->gpio, &gc);
 		if (rc) {
-			fprintf(stderr, "omni4-fw: GPIO chip '%s': %s\n", cfg.gpio.chip,
+			fprintf(stderr, "omni4-fw: GPIO chip '%s': %s\n", cfg->gpio.chip,
 				strerror(-rc));
-			rc = 1;
-			goto out_close_motor;
+			return -1;
 		}
-		lines = gpiod_lines_hal(&app->gpio);
-	} else if (strcmp(cfg.hal.lines, "none")) {
+		*lines = gpiod_lines_hal(&app->gpio);
+	} else if (strcmp(cfg->hal.lines, "none")) {
 		fprintf(stderr, "omni4-fw: %s: [hal] lines = %s is not available in this build\n",
-			config_path, cfg.hal.lines);
-		goto out_close_motor;
+			path, cfg->hal.lines);
+		return -1;
 	}
-	if (fw_init(&app->fw, &cfg, motor, lines)) {
-		fprintf(stderr, "omni4-fw: %s: invalid controller settings\n", config_path);
-		goto out_close_lines;
+	return 0;
+}
+
+/* The controller on its HALs, the CAN limits' hooks, the parameter service, the crash
+ * handler, the simulated camera. 0 or -1 (said on stderr). */
+static int set_up_controller(struct app *app, const struct omni4_config *cfg, const char *path,
+			     struct motor_hal motor, struct line_hal lines)
+{
+	if (fw_init(&app->fw, cfg, motor, lines)) {
+		fprintf(stderr, "omni4-fw: %s: invalid controller settings\n", path);
+		return -1;
 	}
-	if (!strcmp(cfg.hal.motor, "socketcan")) {
+	if (!strcmp(cfg->hal.motor, "socketcan")) {
 		const struct fw_param_hooks hooks = {.check = can_limits_check,
 						     .apply = can_limits_apply, .ctx = &app->can};
 
 		fw_set_param_hooks(&app->fw, &hooks);
 	}
-	if (param_service_init(&app->params, &app->fw, &cfg, config_path,
-			       (struct param_out){0})) {
-		fprintf(stderr, "omni4-fw: %s: path too long\n", config_path);
-		goto out_close_lines;
+	if (param_service_init(&app->params, &app->fw, cfg, path, (struct param_out){0})) {
+		fprintf(stderr, "omni4-fw: %s: path too long\n", path);
+		return -1;
 	}
 	g_app = app;
 	install_crash_handler();
-	if (!strcmp(cfg.hal.motor, "sim"))
+	if (!strcmp(cfg->hal.motor, "sim"))
 		sim_motor_set_pose_cb(&app->sim, on_pose, &app->fw,
 				      rtloop_clock_us() - app->sim.period_us);
+	return 0;
+}
 
+/* The process before the threads start: small default stacks under mlockall, locked memory,
+ * the CPU idle-state limit, SIGINT / SIGTERM. Failures here are warnings. */
+static void prepare_process(const struct omni4_config *cfg)
+{
 	/* With mlockall every page of every thread stack is resident: threads that libraries
 	 * start (LCM, glib) get a small stack too. (Only then: sanitizer runtimes need more.) */
-	if (cfg.loop.mlockall) {
+	if (cfg->loop.mlockall) {
 		pthread_attr_t small_stack;
 
 		pthread_attr_init(&small_stack);
@@ -288,117 +311,166 @@ int main(int argc, char **argv)
 		pthread_setattr_default_np(&small_stack);
 		pthread_attr_destroy(&small_stack);
 	}
+	int rc;
 
-	lcm_t *lcm = lcm_create(cfg.lcm.url);
-
-	if (!lcm) {
-		fprintf(stderr, "omni4-fw: cannot open LCM at '%s'\n", cfg.lcm.url);
-		goto out_close_lines;
-	}
-	if (cfg.loop.mlockall && (rc = rtloop_lock_memory()))
+	if (cfg->loop.mlockall && (rc = rtloop_lock_memory()))
 		fprintf(stderr, "omni4-fw: warning: mlockall: %s\n", strerror(-rc));
-	int dma_fd = -1; /* held open while the loop runs; closed at exit by the kernel */
+	/* The fd is held open while the loop runs and closed at exit by the kernel. */
+	if (cfg->loop.cpu_dma_latency_us >= 0) {
+		const int dma_fd = rtloop_cpu_dma_latency(cfg->loop.cpu_dma_latency_us);
 
-	if (cfg.loop.cpu_dma_latency_us >= 0) {
-		dma_fd = rtloop_cpu_dma_latency(cfg.loop.cpu_dma_latency_us);
 		if (dma_fd < 0)
 			fprintf(stderr, "omni4-fw: warning: /dev/cpu_dma_latency: %s\n",
 				strerror(-dma_fd));
 	}
-	(void)dma_fd;
-
 	struct sigaction sa = {.sa_handler = on_signal};
 
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+}
 
+/* Until SIGINT / SIGTERM or --duration (and the --crash-after test hook). */
+static void wait_for_stop(const struct options *o)
+{
+	const int64_t t0 = rtloop_clock_us();
+
+	while (!g_stop &&
+	       !(o->duration_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= o->duration_s)) {
+		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000000};
+
+		nanosleep(&nap, NULL);
+		if (o->crash_after_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= o->crash_after_s)
+			raise(SIGSEGV);
+	}
+}
+
+static void print_summary(const struct app *app, const struct omni4_config *cfg,
+			  struct lcmio *io, const struct rtloop *loop)
+{
+	fprintf(stderr,
+		"omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
+		"max %.0f us; published %llu, log dropped %llu, commands rejected %llu, "
+		"undecodable %llu\n",
+		(unsigned long long)loop->ticks, (unsigned long long)loop->overruns,
+		rtloop_latency_percentile_us(loop, 50), rtloop_latency_percentile_us(loop, 99),
+		loop->latency_max_ns / 1e3, (unsigned long long)atomic_load(&io->published),
+		(unsigned long long)app->fw.n.log_dropped,
+		(unsigned long long)app->fw.ctl.n.cmd_rejected,
+		(unsigned long long)atomic_load(&io->rx_bad));
+	const struct param_counters *p = &app->params.n;
+
+	fprintf(stderr,
+		"omni4-fw: params: requests %llu, applied %llu, refused %llu, denied %llu, "
+		"bad %llu, busy %llu, saved %llu\n",
+		(unsigned long long)atomic_load(&p->requests),
+		(unsigned long long)atomic_load(&p->applied),
+		(unsigned long long)atomic_load(&p->refused),
+		(unsigned long long)atomic_load(&p->denied),
+		(unsigned long long)atomic_load(&p->bad), (unsigned long long)atomic_load(&p->busy),
+		(unsigned long long)atomic_load(&p->saved));
+	if (strcmp(cfg->hal.motor, "socketcan"))
+		return;
+	const struct sc_counters *n = &app->can.n;
+
+	fprintf(stderr,
+		"omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
+		"lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
+		"confirmed %llu\n",
+		(unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
+		(unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
+		(unsigned long long)n->replayed, (unsigned long long)n->lost,
+		(unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
+		(unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
+		(unsigned long long)n->confirmed);
+}
+
+/* LCM, the parameter service, the LCM threads and the loop; runs until stopped, then stops
+ * them in reverse order with the outputs off. The exit status. */
+static int run(struct app *app, const struct omni4_config *cfg, const struct options *o)
+{
 	struct lcmio io;
 	struct rtloop loop;
+	int rc;
 
+	prepare_process(cfg); /* first: LCM may start threads of its own */
+	lcm_t *lcm = lcm_create(cfg->lcm.url);
+
+	if (!lcm) {
+		fprintf(stderr, "omni4-fw: cannot open LCM at '%s'\n", cfg->lcm.url);
+		return 1;
+	}
 	/* Subscribed before the receive thread starts; handled on its own thread. */
 	rc = param_service_start(&app->params, lcm);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start the parameter service: %s\n",
 			strerror(-rc));
-		rc = 1;
-		goto out_lcm;
+		lcm_destroy(lcm);
+		return 1;
 	}
 	rc = lcmio_start(&io, lcm, &app->fw);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
 		param_service_stop(&app->params);
-		rc = 1;
-		goto out_lcm;
+		lcm_destroy(lcm);
+		return 1;
 	}
-	rc = rtloop_start(&loop, cfg.loop.rate_hz, cfg.loop.sched_fifo ? cfg.loop.priority : 0,
+	rc = rtloop_start(&loop, cfg->loop.rate_hz, cfg->loop.sched_fifo ? cfg->loop.priority : 0,
 			  0, tick, &app->fw);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start the loop: %s\n", strerror(-rc));
 		rc = 1;
-		goto out_io;
+	} else {
+		if (loop.warning[0])
+			fprintf(stderr, "omni4-fw: warning: %s\n", loop.warning);
+		if (!o->quiet)
+			fprintf(stderr, "omni4-fw: running at %.0f Hz, motor=%s lines=%s lcm=%s\n",
+				cfg->loop.rate_hz, cfg->hal.motor, cfg->hal.lines, cfg->lcm.url);
+		wait_for_stop(o);
+		rtloop_request_stop(&loop);
+		rtloop_join(&loop);
 	}
-	if (loop.warning[0])
-		fprintf(stderr, "omni4-fw: warning: %s\n", loop.warning);
-	if (!quiet)
-		fprintf(stderr, "omni4-fw: running at %.0f Hz, motor=%s lines=%s lcm=%s\n",
-			cfg.loop.rate_hz, cfg.hal.motor, cfg.hal.lines, cfg.lcm.url);
-
-	const int64_t t0 = rtloop_clock_us();
-
-	while (!g_stop && !(duration_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= duration_s)) {
-		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000000};
-
-		nanosleep(&nap, NULL);
-		if (crash_after_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= crash_after_s)
-			raise(SIGSEGV);
-	}
-	rtloop_request_stop(&loop);
-	rtloop_join(&loop);
-	rc = 0;
-out_io:
 	fw_outputs_off(&app->fw);
 	lcmio_stop(&io);
 	param_service_stop(&app->params);
-	if (!quiet || rc)
-		fprintf(stderr,
-			"omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
-			"max %.0f us; published %llu, log dropped %llu, commands rejected %llu, "
-			"undecodable %llu\n",
-			(unsigned long long)loop.ticks, (unsigned long long)loop.overruns,
-			rtloop_latency_percentile_us(&loop, 50), rtloop_latency_percentile_us(&loop, 99),
-			loop.latency_max_ns / 1e3, (unsigned long long)atomic_load(&io.published),
-			(unsigned long long)app->fw.n.log_dropped,
-			(unsigned long long)app->fw.ctl.n.cmd_rejected,
-			(unsigned long long)atomic_load(&io.rx_bad));
-	if (!quiet || rc)
-		fprintf(stderr,
-			"omni4-fw: params: requests %llu, applied %llu, refused %llu, denied %llu, "
-			"bad %llu, busy %llu, saved %llu\n",
-			(unsigned long long)atomic_load(&app->params.n.requests),
-			(unsigned long long)atomic_load(&app->params.n.applied),
-			(unsigned long long)atomic_load(&app->params.n.refused),
-			(unsigned long long)atomic_load(&app->params.n.denied),
-			(unsigned long long)atomic_load(&app->params.n.bad),
-			(unsigned long long)atomic_load(&app->params.n.busy),
-			(unsigned long long)atomic_load(&app->params.n.saved));
-	if (!strcmp(cfg.hal.motor, "socketcan")) {
-		const struct sc_counters *n = &app->can.n;
-
-		fprintf(stderr,
-			"omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-			"lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
-			"confirmed %llu\n",
-			(unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
-			(unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
-			(unsigned long long)n->replayed, (unsigned long long)n->lost,
-			(unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
-			(unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
-			(unsigned long long)n->confirmed);
-	}
-out_lcm:
+	if (!o->quiet || rc)
+		print_summary(app, cfg, &io, &loop);
 	lcm_destroy(lcm);
-out_close_lines:
+	return rc;
+}
+
+int main(int argc, char **argv)
+{
+	struct options o;
+	int rc = parse_options(argc, argv, &o);
+
+	if (rc >= 0)
+		return rc;
+
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	if (config_load(o.config_path, &cfg, &err)) {
+		fprintf(stderr, "omni4-fw: %s\n", err.msg);
+		return 2;
+	}
+
+	struct app *app = calloc(1, sizeof(*app)); /* start-up only */
+	struct motor_hal motor;
+	struct line_hal lines;
+
+	if (!app) {
+		fprintf(stderr, "omni4-fw: out of memory\n");
+		return 1;
+	}
+	rc = 1;
+	if (open_motor(app, &cfg, o.config_path, &motor))
+		goto out_free;
+	if (open_lines(app, &cfg, o.config_path, &lines))
+		goto out_close_motor;
+	if (set_up_controller(app, &cfg, o.config_path, motor, lines) == 0)
+		rc = run(app, &cfg, &o);
 	if (app->fw.motor.ops)
 		fw_outputs_off(&app->fw);
 	hal_line_close(&lines);
