@@ -64,67 +64,62 @@ static void row(const char *scenario, const char *outcome, int ms)
 		print_message("| %-38s | %-48s | %7s |\n", scenario, outcome, "-");
 }
 
-static void test_fault_matrix(void **state)
+/* The fault matrix of docs/faults.md, one row each: a robot driving at 1 m/s (driving()), the
+ * scenario applied by `run`, which checks the safe outcome and returns the detection time
+ * [ms] (-1: nothing to detect). */
+static int command_stream_stops(struct simrun *sr)
 {
-	(void)state;
-	struct simrun *sr;
-	int t;
-
-	print_message("| scenario | safe outcome | detection |\n|---|---|---|\n");
-
-	sr = driving(); /* command stream stops (the last command was 50 ms ago) */
 	/* docs/faults.md: cmd_timeout_ms 200, then a 200 ms ramp to 0 V. The last command went
 	 * in with the first of the 50 ticks already run: the trip is 201 ticks after that tick,
 	 * i.e. on the 202nd tick counting the command's own (the figure the table shows). */
-	t = ticks_until(sr, VOLTAGE, OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT, false, 1000) + 50;
+	const int t = ticks_until(sr, VOLTAGE, OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT, false, 1000) + 50;
+
 	assert_int_equal(t, 200 + 2);
-	const int t_idle = ticks_until(sr, IDLE, 0, false, 1000);
+	assert_int_equal(ticks_until(sr, IDLE, 0, false, 1000), 200);
+	return t;
+}
 
-	assert_int_equal(t_idle, 200);
-	row("command stream stops (timeout 200 ms)", "ramp to 0 V in 200 ms, then IDLE", t);
-	simrun_destroy(sr);
+static int command_flood(struct simrun *sr)
+{
+	const double v[3] = {0.8, 0, 0};
+	const uint64_t before = stats(sr).ticks;
 
-	sr = driving(); /* command flood: 10 commands per tick for 1 s */
-	{
-		const double v[3] = {0.8, 0, 0};
-		const uint64_t before = stats(sr).ticks;
-
-		for (int k = 0; k < 1000; k++) {
-			for (int c = 0; c < 10; c++)
-				hil_send(sr, VELOCITY, v, NULL, 0);
-			simrun_tick(sr);
-		}
-		const struct simrun_stats st = stats(sr);
-
-		assert_int_equal(st.ticks - before, 1000);
-		assert_int_equal(st.cmd_rejected, 0);
-		assert_int_equal(st.mode, VELOCITY);
-		row("command flood, 10 per tick (10 kHz)", "all applied in order, loop rate unchanged", -1);
-	}
-	simrun_destroy(sr);
-
-	sr = driving(); /* NaN / inf / huge / unknown mode */
-	{
-		const double nan_v[3] = {NAN, 0, 0}, huge[3] = {0, 1e9, 0};
-		const double inf_u[4] = {INFINITY, 0, 0, 0};
-
-		hil_send(sr, VELOCITY, nan_v, NULL, 0);
-		hil_send(sr, VELOCITY, huge, NULL, 0);
-		hil_send(sr, VOLTAGE, NULL, inf_u, 0);
-		hil_send(sr, 9, NULL, NULL, 0);
+	for (int k = 0; k < 1000; k++) { /* 10 commands per tick for 1 s */
+		for (int c = 0; c < 10; c++)
+			hil_send(sr, VELOCITY, v, NULL, 0);
 		simrun_tick(sr);
-		const struct simrun_stats st = stats(sr);
-
-		assert_int_equal(st.cmd_rejected, 4);
-		assert_int_equal(st.mode, VELOCITY);
-		assert_true(st.faults & OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
-		row("NaN / inf / huge / unknown-mode command", "rejected, counted, last valid one kept", 0);
 	}
-	simrun_destroy(sr);
+	const struct simrun_stats st = stats(sr);
 
-	sr = driving(); /* e-stop pressed and released */
+	assert_int_equal(st.ticks - before, 1000);
+	assert_int_equal(st.cmd_rejected, 0);
+	assert_int_equal(st.mode, VELOCITY);
+	return -1;
+}
+
+static int bad_commands(struct simrun *sr)
+{
+	const double nan_v[3] = {NAN, 0, 0}, huge[3] = {0, 1e9, 0};
+	const double inf_u[4] = {INFINITY, 0, 0, 0};
+
+	hil_send(sr, VELOCITY, nan_v, NULL, 0);
+	hil_send(sr, VELOCITY, huge, NULL, 0);
+	hil_send(sr, VOLTAGE, NULL, inf_u, 0);
+	hil_send(sr, 9, NULL, NULL, 0);
+	simrun_tick(sr);
+	const struct simrun_stats st = stats(sr);
+
+	assert_int_equal(st.cmd_rejected, 4);
+	assert_int_equal(st.mode, VELOCITY);
+	assert_true(st.faults & OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
+	return 0;
+}
+
+static int estop_pressed_then_released(struct simrun *sr)
+{
 	simrun_set_estop(sr, true);
-	t = ticks_until(sr, ESTOP, OMNI4_MOTORS_T_FAULT_ESTOP, true, 100);
+	const int t = ticks_until(sr, ESTOP, OMNI4_MOTORS_T_FAULT_ESTOP, true, 100);
+
 	assert_int_equal(t, 1);
 	simrun_set_estop(sr, false);
 	hil_run(sr, 0.1);
@@ -132,30 +127,55 @@ static void test_fault_matrix(void **state)
 	hil_send(sr, CLEAR, NULL, NULL, 0);
 	simrun_tick(sr);
 	assert_int_equal(stats(sr).mode, IDLE);
-	row("e-stop pressed mid-run, then released", "outputs off; ESTOP until CLEAR after release", t);
-	simrun_destroy(sr);
+	return t;
+}
 
-	sr = driving(); /* encoder stuck while the robot keeps moving: slows to a stop */
+static int encoder_stuck(struct simrun *sr)
+{
+	const double stop[3] = {0, 0, 0};
+	int t = 0;
+
+	/* The robot is told to stop while wheel 1's reading stays frozen at speed. */
 	simrun_faults(sr)->encoder_stuck[1] = true;
-	{
-		const double stop[3] = {0, 0, 0};
-
-		hil_send(sr, VELOCITY, stop, NULL, 0);
-		t = 0;
-		while (stats(sr).mode != FAULT && t < 2000) {
-			if (++t % 50 == 0)
-				hil_send(sr, VELOCITY, stop, NULL, 0);
-			simrun_tick(sr);
-		}
+	hil_send(sr, VELOCITY, stop, NULL, 0);
+	while (stats(sr).mode != FAULT && t < 2000) {
+		if (++t % 50 == 0)
+			hil_send(sr, VELOCITY, stop, NULL, 0);
+		simrun_tick(sr);
 	}
 	assert_true(stats(sr).faults & OMNI4_MOTORS_T_FAULT_ENCODER);
 	/* Residual 1 - v passes 0.5 m/s after 0.5 / 3 m/s^2 = 167 ms of braking, + 50 ms
 	 * confirmation = 217 ms at most (the PI chasing the frozen wheel only hastens it);
 	 * never before the 50 ms confirmation. Measured 158 ms. */
 	assert_in_range(t, 50, 217 + 10);
-	row("encoder stuck (frozen reading)", "FAULT ENCODER (rigid-body residual)", t);
-	simrun_destroy(sr);
+	return t;
+}
 
+static const struct matrix_case {
+	const char *scenario, *outcome;
+	int (*run)(struct simrun *sr);
+} matrix_cases[] = {
+	{"command stream stops (timeout 200 ms)", "ramp to 0 V in 200 ms, then IDLE",
+	 command_stream_stops},
+	{"command flood, 10 per tick (10 kHz)", "all applied in order, loop rate unchanged",
+	 command_flood},
+	{"NaN / inf / huge / unknown-mode command", "rejected, counted, last valid one kept",
+	 bad_commands},
+	{"e-stop pressed mid-run, then released", "outputs off; ESTOP until CLEAR after release",
+	 estop_pressed_then_released},
+	{"encoder stuck (frozen reading)", "FAULT ENCODER (rigid-body residual)", encoder_stuck},
+};
+
+static void test_fault_matrix(void **state)
+{
+	(void)state;
+	print_message("| scenario | safe outcome | detection |\n|---|---|---|\n");
+	for (size_t k = 0; k < sizeof(matrix_cases) / sizeof(matrix_cases[0]); k++) {
+		struct simrun *sr = driving();
+
+		row(matrix_cases[k].scenario, matrix_cases[k].outcome, matrix_cases[k].run(sr));
+		simrun_destroy(sr);
+	}
 }
 
 /* The faults that latch on the first tick their cause is present, one row each: injected into
