@@ -1,6 +1,7 @@
 // runner.cpp - experiment runner over LCM: the paper's sequence, or experiment 2 by hand.
 #include "runner.hpp"
 #include "omni4/channels.h"
+#include "omni4/eventlog.h"
 
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
@@ -100,13 +101,9 @@ class Recording {
  private:
   static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user) {
     auto *self = static_cast<Recording *>(user);
-    lcm_eventlog_event_t ev{};
-    ev.timestamp = rbuf->recv_utime;
-    ev.channellen = static_cast<int32_t>(std::strlen(channel));
-    ev.datalen = static_cast<int32_t>(rbuf->data_size);
-    ev.channel = const_cast<char *>(channel);
-    ev.data = rbuf->data;
-    if (lcm_eventlog_write_event(self->log_, &ev) == 0) ++self->written_;
+    if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
+                             rbuf->data_size) == 0)
+      ++self->written_;
     else ++self->errors_;
     if (self->tap_) self->tap_(channel, rbuf);
   }

@@ -23,8 +23,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/eventlog.h"
+
 #define RECORD_QUEUE_MESSAGES 100000
-#define EVENT_HEADER_BYTES 28 /* sync word, event number, time, two lengths */
 
 static volatile sig_atomic_t g_stop;
 
@@ -91,24 +92,19 @@ static int open_next(struct recorder *r)
 static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	struct recorder *r = user;
-	lcm_eventlog_event_t ev = {
-		.timestamp = rbuf->recv_utime,
-		.channellen = (int32_t)strlen(channel),
-		.datalen = (int32_t)rbuf->data_size,
-		.channel = (char *)channel,
-		.data = rbuf->data,
-	};
-
 	if (!r->log)
 		return;
-	if (lcm_eventlog_write_event(r->log, &ev) != 0) {
+	const int rc = omni4_eventlog_write(r->log, channel, rbuf->recv_utime, rbuf->data,
+					    (size_t)rbuf->data_size);
+
+	if (rc) {
 		if (!r->errors)
-			r->first_errno = errno;
+			r->first_errno = -rc;
 		r->errors++;
 		return;
 	}
 	r->written++;
-	r->bytes += EVENT_HEADER_BYTES + (uint64_t)ev.channellen + (uint64_t)ev.datalen;
+	r->bytes += OMNI4_EVENT_HEADER_BYTES + strlen(channel) + (uint64_t)rbuf->data_size;
 	if (r->part >= 0 && r->bytes >= r->split_bytes) {
 		lcm_eventlog_destroy(r->log);
 		r->part++;

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "omni4/eventlog.h"
 #include "omni4/fw.h"
 #include "omni4/lcmio.h"
 #include "omni4/sim_motor.h"
@@ -27,17 +28,7 @@ struct simrun {
 static int write_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
 		       size_t len)
 {
-	if (!sr->log)
-		return 0;
-	lcm_eventlog_event_t ev = {
-		.timestamp = utime,
-		.channellen = (int32_t)strlen(channel),
-		.datalen = (int32_t)len,
-		.channel = (char *)channel,
-		.data = (void *)data,
-	};
-
-	return lcm_eventlog_write_event(sr->log, &ev) ? -EIO : 0;
+	return sr->log ? omni4_eventlog_write(sr->log, channel, utime, data, len) : 0;
 }
 
 static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
