@@ -1,5 +1,6 @@
 // experiments.cpp - the paper's experiment sequence (see experiments.hpp).
 #include "experiments.hpp"
+#include "omni4/channels.h"
 
 #include <stdexcept>
 
@@ -146,7 +147,7 @@ SequencePlayer::Output SequencePlayer::due(double t_s, int64_t utime) {
   if (index_ >= phases_.size()) return out;
   const Phase &p = phases_[index_];
   if (entered) {
-    if (p.end_mark) out.marks.push_back(encode_mark(utime, "end"));
+    if (p.end_mark) out.marks.push_back(encode_mark(utime, OMNI4_MARK_END));
     if (!p.mark_kind.empty())
       out.marks.push_back(encode_mark(utime, p.mark_kind, p.mark_direction, p.mark_level));
   }

@@ -247,7 +247,7 @@ std::vector<Segment> split_segments(const LogData &log) {
   const int64_t t_end = log.motors.empty() ? 0 : log.motors.back().utime + 1;
   for (size_t k = 0; k < log.marks.size(); ++k) {
     const Mark &m = log.marks[k];
-    if (m.kind == "end") continue;
+    if (m.kind == OMNI4_MARK_END) continue;
     Segment s;
     s.kind = m.kind;
     s.direction = m.direction;

@@ -225,7 +225,7 @@ class PercentLine {
 // Safe stop: IDLE (outputs off), close any open segment, collect the last messages. Returns
 // false on log write errors.
 bool stop_run(Recording &rec) {
-  const auto end = encode_mark(wall_us(), "end");
+  const auto end = encode_mark(wall_us(), OMNI4_MARK_END);
   return rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
 }
 
@@ -410,7 +410,7 @@ void HandRun::open_segment(int axis) {
 }
 
 void HandRun::close_segment() {
-  rec_.publish(OMNI4_CHANNEL_EXPERIMENT, encode_mark(controller_us(), "end"));
+  rec_.publish(OMNI4_CHANNEL_EXPERIMENT, encode_mark(controller_us(), OMNI4_MARK_END));
   segment_open_ = false;
 }
 
@@ -526,7 +526,7 @@ int HandRun::run() {
     for (cur_k_ = 0; going && cur_k_ < hand_.pushes; ++cur_k_, ++slots_done_)
       going = one_push(cur_axis_, cur_k_);
   }
-  const auto end = encode_mark(controller_us(), "end");
+  const auto end = encode_mark(controller_us(), OMNI4_MARK_END);
   const bool ok = rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE),
                               segment_open_ ? &end : nullptr);
   report(ok);

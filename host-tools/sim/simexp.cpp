@@ -50,7 +50,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
   if (experiments) {  // close the last segment
     experiment_t end{};
     end.utime = simrun_now_us(sr.get());
-    end.kind = "end";
+    end.kind = OMNI4_MARK_END;
     std::vector<uint8_t> buf(end.getEncodedSize());
     end.encode(buf.data(), 0, static_cast<int>(buf.size()));
     simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, buf.data(), buf.size());

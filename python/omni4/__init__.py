@@ -21,6 +21,7 @@ CHANNEL_EXPERIMENT = "OMNI4_EXPERIMENT"  # experiment_t, segment marks
 CHANNEL_PARAM_REQ = "OMNI4_PARAM_REQ"          # param_request_t, omni4-param -> controller
 CHANNEL_PARAM_REPLY = "OMNI4_PARAM_REPLY"      # param_reply_t, controller -> omni4-param
 CHANNEL_PARAM_CHANGED = "OMNI4_PARAM_CHANGED"  # param_changed_t, every parameter change / save
+MARK_END = "end"  # experiment_t.kind of the mark that closes a segment
 
 # Message class per channel, for decoding logs.
 TYPES = {

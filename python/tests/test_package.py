@@ -39,10 +39,10 @@ def test_channels_map_to_types():
 
 
 def test_channel_names_match_the_c_header():
-    """omni4.CHANNEL_* are the names of lcmtypes/include/omni4/channels.h, one for one."""
+    """omni4.CHANNEL_* and MARK_* are the names of lcmtypes/include/omni4/channels.h, one for one."""
     header = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
     with open(header) as fh:
-        c_names = dict(re.findall(r'#define OMNI4_(CHANNEL_\w+) "(\w+)"', fh.read()))
-    py_names = {n: getattr(omni4, n) for n in dir(omni4) if n.startswith("CHANNEL_")}
-    assert len(c_names) >= 7
+        c_names = dict(re.findall(r'#define OMNI4_((?:CHANNEL|MARK)_\w+) "(\w+)"', fh.read()))
+    py_names = {n: getattr(omni4, n) for n in dir(omni4) if n.startswith(("CHANNEL_", "MARK_"))}
+    assert len(c_names) >= 8 and "MARK_END" in c_names
     assert py_names == c_names

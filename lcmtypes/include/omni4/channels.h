@@ -13,4 +13,7 @@
 #define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"   /* param_reply_t: robot -> client */
 #define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
 
+/* experiment_t.kind of the mark that closes a segment (docs/log-contract.md). */
+#define OMNI4_MARK_END "end"
+
 #endif /* OMNI4_CHANNELS_H */
