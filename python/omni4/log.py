@@ -429,5 +429,44 @@ def read_log(path_or_paths, keep_unknown=True):
     return Log(files, channels, unknown, unknown_counts)
 
 
-__all__ = ["read_log", "split_parts", "Log", "Channel", "FileStats", "LogError", "SYNC",
+class RawEvents:
+    """The events of one event log in file order, as read_events gives them."""
+
+    def __init__(self, path, size, events, offsets, skipped, tail, tail_is_event):
+        self.path = path
+        self.size = size                    # [bytes]
+        self.events = events                # [(log time [us], channel str, payload bytes)]
+        self.offsets = offsets              # file offset of each event's header
+        self.skipped = skipped              # bytes outside every intact event
+        self.tail = tail                    # of which after the last one
+        self.tail_is_event = tail_is_event  # the tail starts a header (an event cut short)
+
+
+def read_events(path):
+    """Every intact event of one LCM event log, in file order, with the payloads as bytes (the
+    same walk as read_log: corrupt bytes are skipped to the next sync word and counted; a
+    channel name that is not UTF-8 makes its event corrupt). Raises OSError for a missing or
+    unreadable file."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        raise IsADirectoryError(f"{p}: is a directory, not an event log")
+    buf, [(lo, hi)] = _load([p])
+    off, clen, dlen, utime, skipped, tail = _walk(buf, lo, hi)
+    events, offsets = [], []
+    for a, c, d, t in zip(off.tolist(), clen.tolist(), dlen.tolist(), utime.tolist()):
+        try:
+            ch = buf[a + HEADER_BYTES:a + HEADER_BYTES + c].tobytes().decode("utf-8")
+        except UnicodeDecodeError:
+            skipped += HEADER_BYTES + c + d
+            continue
+        start = a + HEADER_BYTES + c
+        events.append((t, ch, buf[start:start + d].tobytes()))
+        offsets.append(a - lo)
+    sync = SYNC.to_bytes(4, "big")
+    head = buf[hi - tail:min(hi, hi - tail + 4)].tobytes() if tail else b""
+    return RawEvents(p, hi - lo, events, offsets, skipped, tail,
+                     bool(tail) and sync.startswith(head))
+
+
+__all__ = ["read_log", "read_events", "RawEvents", "split_parts", "Log", "Channel", "FileStats", "LogError", "SYNC",
            "HEADER_BYTES"]

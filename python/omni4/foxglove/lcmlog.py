@@ -1,17 +1,14 @@
-"""LCM event logs (lcm/eventlog.h), event by event in file order, for omni4-mcap.
+"""LCM event logs (lcm/eventlog.h), event by event in file order, for omni4-mcap: omni4.log's
+event walk, with what was lost said in one line.
 
-Per event a 28-byte big-endian header (sync word 0xEDA1DA01, event number int64, log time
-int64 [us], channel length int32, data length int32), the channel name, the payload. An invalid
-header skips to the next sync word (the bytes are counted); an event cut by the end of the file
-is not returned and its bytes are counted as truncated. Nothing is dropped silently."""
+An invalid header skips to the next sync word (the bytes are counted); an event cut by the end
+of the file is not returned and its bytes are counted as truncated. Nothing is dropped
+silently."""
 import os
-import struct
 
-SYNC = 0xEDA1DA01
-SYNC_BYTES = struct.pack(">I", SYNC)
-HEADER = struct.Struct(">Iqqii")
-MAX_CHANNEL = 256  # LCM's limit on a channel name
-MAX_DATA = 1 << 30
+from ..log import HEADER_BYTES, SYNC, read_events as _read_raw
+
+SYNC_BYTES = SYNC.to_bytes(4, "big")
 
 
 class LogError(Exception):
@@ -40,52 +37,29 @@ class LogStats:
 
 
 def read_events(path):
-    """(events, stats): events is a list of (log_time_us, channel str, payload bytes)."""
+    """(events, stats): events is a list of (log_time_us, channel str, payload bytes), read by
+    omni4.log's event walk (the one read_log uses)."""
     try:
-        with open(path, "rb") as fh:
-            buf = fh.read()
+        raw = _read_raw(path)
     except IsADirectoryError:
         raise LogError(f"{path}: is a directory") from None
     except OSError as e:
         raise LogError(f"{path}: {e.strerror or e}") from None
-    n = len(buf)
-    st = LogStats(path, n)
-    events = []
-    pos = 0
-    unpack = HEADER.unpack_from
-    hsize = HEADER.size
-    while pos < n:
-        ok = False
-        if pos + hsize <= n:
-            sync, _num, t, clen, dlen = unpack(buf, pos)
-            ok = sync == SYNC and 0 < clen <= MAX_CHANNEL and 0 <= dlen <= MAX_DATA
-        elif buf[pos:pos + 4] == SYNC_BYTES[:min(4, n - pos)]:
-            st.truncated_bytes += n - pos  # a header cut short by the end of the file
-            break
-        if ok:
-            end = pos + hsize + clen + dlen
-            if end > n:
-                st.truncated_bytes += n - pos
-                break
-            try:
-                ch = buf[pos + hsize:pos + hsize + clen].decode("utf-8")
-            except UnicodeDecodeError:
-                ok = False
-            else:
-                events.append((t, ch, buf[pos + hsize + clen:end]))
-                pos = end
-                continue
-        nxt = buf.find(SYNC_BYTES, pos + 1)
-        if nxt < 0:
-            nxt = n
-        st.skipped_bytes += nxt - pos
-        st.resyncs += 1
-        pos = nxt
-    st.events = len(events)
-    if not events:
-        what = "empty file" if n == 0 else "no intact LCM event in the file"
+    st = LogStats(path, raw.size)
+    st.truncated_bytes = raw.tail if raw.tail_is_event else 0
+    st.skipped_bytes = raw.skipped - st.truncated_bytes
+    # One resync per stretch of corrupt bytes: before an event that does not start where the
+    # previous one ended, and a corrupt tail.
+    at = 0
+    for off, (_t, ch, data) in zip(raw.offsets, raw.events):
+        st.resyncs += off > at
+        at = off + HEADER_BYTES + len(ch.encode("utf-8")) + len(data)
+    st.resyncs += bool(raw.tail) and not raw.tail_is_event
+    st.events = len(raw.events)
+    if not raw.events:
+        what = "empty file" if raw.size == 0 else "no intact LCM event in the file"
         raise LogError(f"{path}: {what} (not an LCM event log?)")
-    return events, st
+    return raw.events, st
 
 
 def file_size_mb(path):
