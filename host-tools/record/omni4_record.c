@@ -7,7 +7,8 @@
  * the queue holds 100000 messages (5 s at 20 kHz, ~13 MB of OMNI4_MOTORS): a stall costs
  * memory, not samples. The log is flushed once a second, so a power cut loses at most that.
  * With --split-mb the log is a series FILE.00, FILE.01, ..., each closed once it holds the size
- * given.
+ * given. Parameter requests (OMNI4_PARAM_REQ) are never written: they may carry the robot's
+ * [params] secret in plain text; what they changed is on OMNI4_PARAM_CHANGED, which is.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -23,6 +24,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/channels.h"
 #include "omni4/eventlog.h"
 
 #define RECORD_QUEUE_MESSAGES 100000
@@ -36,6 +38,7 @@ struct recorder {
 	int part;            /* -1: one file; else the NN of FILE.NN */
 	uint64_t split_bytes, bytes;
 	uint64_t written, errors;
+	uint64_t requests_skipped; /* OMNI4_PARAM_REQ messages left out */
 	int first_errno;
 };
 
@@ -56,7 +59,9 @@ static void usage(FILE *f)
 		"  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are expanded;\n"
 		"                       an existing file is never overwritten\n"
 		"  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
-		"  -c, --channel REGEX  channels to record (default: OMNI4_.*)\n"
+		"  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
+		"                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
+		"                       never recorded\n"
 		"  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
 		"  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
 		"                       holds MB megabytes\n"
@@ -94,6 +99,10 @@ static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 	struct recorder *r = user;
 	if (!r->log)
 		return;
+	if (!strcmp(channel, OMNI4_CHANNEL_PARAM_REQ)) { /* may carry the secret */
+		r->requests_skipped++;
+		return;
+	}
 	const int rc = omni4_eventlog_write(r->log, channel, rbuf->recv_utime, rbuf->data,
 					    (size_t)rbuf->data_size);
 
@@ -248,7 +257,8 @@ int main(int argc, char **argv)
 			tty && !quiet ? "\n" : "", r.path, (unsigned long long)r.written,
 			(unsigned long long)r.errors, strerror(r.first_errno));
 	else if (!quiet)
-		fprintf(stderr, "%somni4-record: %s%s: %llu messages\n", tty ? "\n" : "", r.base,
-			r.part >= 0 ? ".NN" : "", (unsigned long long)r.written);
+		fprintf(stderr, "%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
+			tty ? "\n" : "", r.base, r.part >= 0 ? ".NN" : "", (unsigned long long)r.written,
+			(unsigned long long)r.requests_skipped);
 	return r.errors ? 1 : 0;
 }

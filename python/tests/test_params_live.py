@@ -7,6 +7,7 @@ the synced temporary and the rename, and at random instants) leaves a file that 
 import configparser
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -206,11 +207,26 @@ def robot(tmp_path):
     return ini, url
 
 
+def recorded_channels(path):
+    """Event count per channel of an LCM event log, and the OMNI4_PARAM_CHANGED messages."""
+    counts, changed = {}, []
+    for e in lcm.EventLog(str(path), "r"):
+        counts[e.channel] = counts.get(e.channel, 0) + 1
+        if e.channel == omni4.CHANNEL_PARAM_CHANGED:
+            changed.append(omni4.param_changed_t.decode(e.data))
+    return counts, changed
+
+
 def test_set_save_restart(robot, tmp_path):
     ini, url = robot
     original = ini.read_text()
     fw = Firmware(ini, url)
     fw.wait_running()
+    # The robot's recorder, as omni4-logger.service runs it: the changes must be in its log,
+    # the requests (which may carry the secret) must not.
+    rec_log = tmp_path / "rec.lcmlog"
+    rec = subprocess.Popen([omni4_bin("omni4-record"), "--lcm", url, "--out", str(rec_log)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     mon = Monitor(url)
     p = ParamClient(url, timeout_s=1.0 * SCALE)
     try:
@@ -313,6 +329,20 @@ def test_set_save_restart(robot, tmp_path):
         p.close()
         mon.close()
         fw.stop()
+        rec.send_signal(signal.SIGTERM)
+        _, rec_err = rec.communicate(timeout=EXIT_TIMEOUT_S)
+
+    assert rec.returncode == 0, rec_err
+    counts, logged = recorded_channels(rec_log)
+    with mon.lock:
+        seen = [(c.source, c.keys, c.seq) for c in mon.changed]
+    print(f"omni4-record: {counts}; {rec_err.strip().splitlines()[-1]}")
+    assert omni4.CHANNEL_PARAM_REQ not in counts, counts
+    assert counts.get(omni4.CHANNEL_PARAM_REPLY, 0) >= 1, counts
+    assert [(c.source, c.keys, c.seq) for c in logged] == seen
+    assert [c.source for c in logged] == ["set", "set", "set", "save", "load"], seen
+    left_out = re.search(r"\((\d+) parameter requests left out\)", rec_err)
+    assert left_out and int(left_out.group(1)) >= 8, rec_err  # list, get x4, set x6, save, load
 
     cp = read_ini(ini)
     assert cp["control"]["kp"] == "50" and cp["model"]["R"] == "8.6222"
