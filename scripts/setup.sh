@@ -75,4 +75,6 @@ if ! cmp -s tests/foxglove/package-lock.json tests/foxglove/node_modules/.omni4-
 fi
 # The project's own Python package (python/: LCM types generated from lcmtypes/, log reader,
 # client), reinstalled every time so it follows the .lcm files (about 2 s).
-.venv/bin/pip install --quiet --no-build-isolation --no-deps ./python
+# A plain install, as a user runs it (isolated build, dependencies checked): a fresh machine
+# proves `pip install ./python` every time.
+.venv/bin/pip install --quiet './python[foxglove]'

@@ -260,7 +260,7 @@ def fig_log(path, index, out):
     ends = list((e.utime[1:] - t0) * 1e-6) + [t[-1]]
     seen = set()
     for kind, direction, a, b in zip(e.kind, e.direction, (e.utime - t0) * 1e-6, ends):
-        if kind == "end":
+        if kind == omni4.MARK_END:
             continue
         color = SEGMENT_COLORS.get(kind, "0.6")
         for ax in axes:

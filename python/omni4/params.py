@@ -27,13 +27,11 @@ import time
 
 import lcm
 
+from . import CHANNEL_PARAM_REPLY, CHANNEL_PARAM_REQ  # defined before this module is imported
 from .param_reply_t import param_reply_t
 from .param_request_t import param_request_t
 from .param_value_t import param_value_t
 
-CHANNEL_PARAM_REQ = "OMNI4_PARAM_REQ"          # param_request_t, client -> controller
-CHANNEL_PARAM_REPLY = "OMNI4_PARAM_REPLY"      # param_reply_t, controller -> client
-CHANNEL_PARAM_CHANGED = "OMNI4_PARAM_CHANGED"  # param_changed_t, every change and save
 
 RESULT_NAMES = {
     param_reply_t.RESULT_OK: "ok",

@@ -1,6 +1,7 @@
 """The installed package: generated types round-trip, and agree with the .lcm sources."""
 import os
 import re
+import sys
 
 import omni4
 
@@ -46,3 +47,17 @@ def test_channel_names_match_the_c_header():
     py_names = {n: getattr(omni4, n) for n in dir(omni4) if n.startswith(("CHANNEL_", "MARK_"))}
     assert len(c_names) >= 8 and "MARK_END" in c_names
     assert py_names == c_names
+
+
+def test_foxglove_tools_without_their_extra_say_so_in_one_line(monkeypatch, capsys):
+    """omni4-bridge and omni4-mcap installed without the 'foxglove' extra: status 2 and one line
+    naming the missing package, not a traceback."""
+    import omni4.foxglove as fg
+    for missing in ("foxglove", "orjson"):
+        monkeypatch.setitem(sys.modules, missing, None)  # import raises ImportError
+        for entry, prog in ((fg.bridge_main, "omni4-bridge"), (fg.export_main, "omni4-mcap")):
+            assert entry() == 2
+            err = capsys.readouterr().err
+            assert err == (f"{prog}: needs the Python package '{missing}' "
+                           "(pip install './python[foxglove]')\n"), err
+        monkeypatch.delitem(sys.modules, missing)
