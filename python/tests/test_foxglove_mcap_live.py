@@ -109,6 +109,36 @@ def test_both_readers_accept_the_mcap_of_a_simulated_log(sim_log):
     check_mcap_against_log(ts, logged, T3)
 
 
+def test_both_readers_accept_the_mcap_of_the_main_jobs_log(sim_log, tmp_path):
+    """The whole experiments log, as scripts/main.sh makes it (omni4-sim, Table III, the same
+    command): both readers take its MCAP with every CRC checked, and count as many messages
+    per LCM channel as the log holds events (values: the 20 s test above)."""
+    _, _, ini, d = sim_log
+    full = str(d / "full.lcmlog")
+    out = str(tmp_path / "main.mcap")
+    convert(full, out, "--params", ini, "-q")
+    logged = {}
+    for e in lcm.EventLog(full, "r"):
+        logged[e.channel] = logged.get(e.channel, 0) + 1
+    from mcap.reader import make_reader
+    py_counts = {}
+    with open(out, "rb") as fh:
+        for _, channel, _ in make_reader(fh, validate_crcs=True).iter_messages(
+                log_time_order=False):
+            py_counts[channel.topic] = py_counts.get(channel.topic, 0) + 1
+    r = run(["node", os.path.join(NODE_DIR, "read_mcap.mjs"), "--summary", out], 60,
+            cwd=NODE_DIR)
+    assert r.returncode == 0, r.stderr
+    summ = json.loads(r.stdout.splitlines()[-1])["summary"]
+    print(f"main job's log: {sum(logged.values())} LCM events {logged}; MCAP "
+          f"{sum(py_counts.values())} messages on {len(py_counts)} topics")
+    assert summ["indexed"] == summ["streamed"] == py_counts
+    assert logged[omni4.CHANNEL_MOTORS] > 150_000  # 193 s at 1 kHz
+    for ch, n in logged.items():
+        assert py_counts[ch] == n, (ch, py_counts.get(ch), n)
+    assert py_counts[topics.TOPIC_VELOCITY] == logged[omni4.CHANNEL_MOTORS]
+
+
 def driven_rms(got):
     """RMS of encoder - predicted over the driven samples at least 0.2 s into their run."""
     e = []

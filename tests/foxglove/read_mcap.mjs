@@ -4,12 +4,16 @@
 // JSON line {"topic", "schema", "encoding", "log_time", "msg"} followed by one summary line
 // {"summary": {"indexed": {topic: count}, "streamed": {topic: count}, "statistics": {...}}}.
 // Usage: node read_mcap.mjs FILE.mcap > OUT.jsonl   (exit 1 with one line on any error)
+//        node read_mcap.mjs --summary FILE.mcap       (the same reads and checks, only the summary)
 import { McapIndexedReader, McapStreamReader } from "@mcap/core";
 import { FileHandleReadable } from "@mcap/nodejs";
 import { loadDecompressHandlers } from "@mcap/support";
 import { open, readFile } from "fs/promises";
 
-async function main(path) {
+async function main(args) {
+  const summaryOnly = args[0] === "--summary";
+  const path = summaryOnly ? args[1] : args[0];
+  if (!path) throw new Error("usage: node read_mcap.mjs [--summary] FILE.mcap");
   const decompressHandlers = await loadDecompressHandlers();
   const fh = await open(path, "r");
   const reader = await McapIndexedReader.Initialize({
@@ -23,9 +27,11 @@ async function main(path) {
     const ch = reader.channelsById.get(m.channelId);
     const schema = reader.schemasById.get(ch.schemaId);
     indexed[ch.topic] = (indexed[ch.topic] ?? 0) + 1;
+    const msg = JSON.parse(dec.decode(m.data)); // every payload is JSON, summary or not
+    if (summaryOnly) continue;
     out.push(JSON.stringify({
       topic: ch.topic, schema: schema?.name ?? "", encoding: ch.messageEncoding,
-      log_time: m.logTime.toString(), msg: JSON.parse(dec.decode(m.data)),
+      log_time: m.logTime.toString(), msg,
     }));
     if (out.length >= 10000) { process.stdout.write(out.join("\n") + "\n"); out.length = 0; }
   }
@@ -54,7 +60,7 @@ async function main(path) {
   process.stdout.write(JSON.stringify({ summary: { indexed, streamed, statistics, compression } }) + "\n");
 }
 
-main(process.argv[2]).catch((e) => {
+main(process.argv.slice(2)).catch((e) => {
   console.error(`read_mcap.mjs: ${e.message ?? e}`);
   process.exit(1);
 });
