@@ -1,4 +1,5 @@
-# Bare-metal Cortex-M4F (motor MCU): builds model/ only (OMNI4_MODEL_ONLY).
+# Bare-metal Cortex-M4F (the cortex-m4 preset, OMNI4_MCU): model/, core/ and the sim backend
+# into the image in mcu/.
 set(CMAKE_SYSTEM_NAME Generic)
 set(CMAKE_SYSTEM_PROCESSOR arm)
 set(CMAKE_C_COMPILER arm-none-eabi-gcc)

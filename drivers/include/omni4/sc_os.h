@@ -1,6 +1,8 @@
 /*
- * sc_os.h - the one place that talks to the Linux CAN stack (raw CAN sockets). Every function
- * returns 0 (or a count) or a negative errno; none blocks.
+ * sc_os.h - the one place that talks to the Linux CAN stack (raw CAN sockets): the library
+ * can_socket, used by both ends of the motor-driver bus, the socketcan backend of the motor HAL
+ * and the simulated driver boards (omni4-motorsim). Every function returns 0 (or a count) or a
+ * negative errno; none blocks.
  */
 #ifndef OMNI4_SC_OS_H
 #define OMNI4_SC_OS_H
