@@ -12,10 +12,12 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "bootstrap.hpp"
+#include "experiments.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "omni4/experiment_t.hpp"
@@ -93,6 +95,30 @@ TEST(StateSpace, InversionsUndoTheModelsStateSpace) {
     EXPECT_NEAR(rel(B_from_theta1(q, 2, ss.A[2]), p.Bw), 0, 1e-9);
     EXPECT_NEAR(rel(C_from_theta3(q, 2, ss.K[2]), p.Cw), 0, 1e-12);
   }
+}
+
+// The runner's drive patterns (experiments.cpp, one sign per wheel) against model/'s B (eq 26):
+// each accelerates its own axis forward and no other, on any robot.
+TEST(StateSpace, DrivePatternsAccelerateOnlyTheirOwnAxis) {
+  const char *dirs[3] = {"v", "vn", "w"};
+  model_params p = model_params_table3;
+  p.d *= 1.7;  // nothing in the check depends on Table III's numbers
+  p.M *= 0.6;
+  model_ss ss;
+  dyn_state_space(&p, &ss);
+  for (int axis = 0; axis < 3; ++axis) {
+    const std::array<double, 4> u = drive_pattern(dirs[axis]);
+    for (int k = 0; k < 3; ++k) {
+      double bu = 0;
+      for (int j = 0; j < 4; ++j) bu += ss.B[k][j] * u[j];
+      if (k == axis)
+        EXPECT_GT(bu, 0) << dirs[axis];
+      else
+        EXPECT_EQ(bu, 0) << dirs[axis] << " moves axis " << dirs[k];
+      EXPECT_EQ(axis_input(u.data(), k) != 0, k == axis) << dirs[axis] << " on " << dirs[k];
+    }
+  }
+  EXPECT_THROW(drive_pattern("x"), std::invalid_argument);
 }
 
 TEST(SavitzkyGolay, ExactOnQuadratics) {
