@@ -71,6 +71,7 @@ int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 	c->period_us = llround(1e6 / cfg->loop.rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
 	tune(c);
+	ctl_ramp_reset(&c->ramp, c->out); /* outputs at 0 V, no ramp in progress */
 	c->mode = CTL_IDLE;
 	return 0;
 }

@@ -47,6 +47,11 @@ void ctl_ramp_start(struct ctl_ramp *r, const float from[4], const float to[4], 
 	r->len_us = (int64_t)lroundf(len_s * 1e6f);
 }
 
+void ctl_ramp_reset(struct ctl_ramp *r, const float hold[4])
+{
+	ctl_ramp_start(r, hold, hold, 0.0f, 0);
+}
+
 bool ctl_ramp_step(const struct ctl_ramp *r, int64_t now_us, float out[4])
 {
 	const int64_t el = now_us - r->t0_us;

@@ -83,6 +83,13 @@ static void test_ramp_is_linear_and_ends_on_time(void **state)
 	ctl_ramp_start(&r, from, to, 0.0f, 5);          /* zero length: there at once */
 	assert_true(ctl_ramp_step(&r, 5, out));
 	assert_true(out[0] == 6.0f);
+	ctl_ramp_start(&r, from, to, 0.2f, 1000000);    /* reset in the middle of a ramp */
+	ctl_ramp_reset(&r, from);
+	for (int64_t t = 0; t <= 2000000; t += 1000000) {
+		assert_true(ctl_ramp_step(&r, t, out));  /* done at any time, holding `from` */
+		for (int j = 0; j < 4; j++)
+			assert_true(out[j] == from[j]);
+	}
 }
 
 /* A step of the target is followed at acc_max: |delta| / (acc_max dt) steps, the last one

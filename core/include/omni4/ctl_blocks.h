@@ -33,8 +33,11 @@ struct ctl_ramp {
 	int64_t t0_us, len_us;
 };
 
+/* The ramp's init: from `from` to `to` over len_s (0: at `to` at once) from now_us on. */
 void ctl_ramp_start(struct ctl_ramp *r, const float from[4], const float to[4], float len_s,
 		    int64_t now_us);
+/* No ramp in progress: the outputs stay at `hold` (done at once). */
+void ctl_ramp_reset(struct ctl_ramp *r, const float hold[4]);
 /* The outputs at now_us; true once the ramp has reached `to`. */
 bool ctl_ramp_step(const struct ctl_ramp *r, int64_t now_us, float out[4]);
 
