@@ -61,3 +61,18 @@ function(omni4_add_test name)
     ENVIRONMENT "OMNI4_SOURCE_DIR=${PROJECT_SOURCE_DIR};OMNI4_BINARY_DIR=${PROJECT_BINARY_DIR}")
   omni4_test_timeout(${name} ${T_TIMEOUT})
 endfunction()
+
+# omni4_add_undefined_check(NAME WHAT OBJECTS objs... [ALLOWED regex]): a test that links the
+# objects into one relocatable object and fails on any external symbol not matching ALLOWED
+# (anchored; none at all without it): cmake/check_undefined_allowed.cmake.
+function(omni4_add_undefined_check name what)
+  cmake_parse_arguments(T "" "ALLOWED" "OBJECTS" ${ARGN})
+  set(allowed "")
+  if(T_ALLOWED)
+    set(allowed "-DALLOWED=${T_ALLOWED}")
+  endif()
+  add_test(NAME ${name}
+    COMMAND ${CMAKE_COMMAND} -DCC=${CMAKE_C_COMPILER} -DNM=${CMAKE_NM}
+            -DOUT=${CMAKE_CURRENT_BINARY_DIR} -DNAME=${what} "-DOBJECTS=${T_OBJECTS}" ${allowed}
+            -P ${PROJECT_SOURCE_DIR}/cmake/check_undefined_allowed.cmake)
+endfunction()
