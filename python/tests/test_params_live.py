@@ -325,6 +325,9 @@ def test_set_save_restart(robot, tmp_path):
         a = p.load(str(params))
         assert sorted(q.key for q in a.params) == ["model.Bv", "model.Cv"] and a.seq > 0
         assert p.get("model.Bv").value == 0.55 and p.get("model.R").value == 2 * R_OHM
+        # The notice of the load, before the monitor stops: its own subscriber can receive it
+        # after the client has the reply (the recorder's log is compared with what it saw).
+        mon.wait_for_changed(lambda c: c.source == "load", "after the load")
     finally:
         p.close()
         mon.close()
