@@ -62,6 +62,12 @@ function(omni4_add_test name)
   omni4_test_timeout(${name} ${T_TIMEOUT})
 endfunction()
 
+# What the controller core with the model may take from outside on any target: mem*, libm and
+# the ARM EABI helpers (soft double, division). Never an OS call, LCM, malloc, stdio or
+# libatomic. The Linux targets add their own (tests/CMakeLists.txt).
+set(OMNI4_CORE_ALLOWED_SYMBOLS
+  "mem(set|cpy|cmp|move)|((ll|l)?round|sqrt|exp|log|sin|cos|atan2|fmod|floor|ceil|fmax|fmin)f?|__aeabi_[a-z0-9]+")
+
 # omni4_add_undefined_check(NAME WHAT OBJECTS objs... [ALLOWED regex]): a test that links the
 # objects into one relocatable object and fails on any external symbol not matching ALLOWED
 # (anchored; none at all without it): cmake/check_undefined_allowed.cmake.
