@@ -391,6 +391,44 @@ def test_mcap_of_a_synthetic_log(tmp_path, compression, capsys):
     assert not os.path.exists(out + f".tmp{os.getpid()}")
 
 
+def split_log(path, events, keep):
+    """Write the events (log time, channel, payload) for which keep(i, channel) holds."""
+    w = lcm.EventLog(str(path), "w", overwrite=True)
+    for i, (t, ch, data) in enumerate(events):
+        if keep(i, ch):
+            w.write_event(t, ch, data)
+    w.close()
+    return str(path)
+
+
+def test_mcap_of_logs_out_of_order_or_from_two_machines(tmp_path, capsys):
+    """Several LOGs make one time-ordered MCAP whatever order they are named in: the halves of
+    a split recording named last-first, and the same run recorded on two machines (the robot's
+    motors on one, the camera and the commands on the other)."""
+    log = str(tmp_path / "s.lcmlog")
+    logged = synth_log(log, n=3000, gap_at=1500)
+    events = sorted(((t, ch, d) for ch, evs in logged.items() for t, d in evs),
+                    key=lambda e: e[0])
+    half = len(events) // 2
+    first = split_log(tmp_path / "a.lcmlog", events, lambda i, ch: i < half)
+    second = split_log(tmp_path / "b.lcmlog", events, lambda i, ch: i >= half)
+    robot = split_log(tmp_path / "robot.lcmlog", events,
+                      lambda i, ch: ch == omni4.CHANNEL_MOTORS)
+    camera = split_log(tmp_path / "camera.lcmlog", events,
+                       lambda i, ch: ch != omni4.CHANNEL_MOTORS)
+    out = str(tmp_path / "o.mcap")
+    for names, merged in (([first, second], False), ([second, first], True),
+                          ([camera, robot], True)):
+        capsys.readouterr()
+        assert export.main([*names, "--out", out]) == 0, names
+        err = capsys.readouterr().err
+        assert ("merged by log time" in err) == merged, err
+        got, _, _ = read_mcap_python(out)
+        check_mcap_against_log(got, logged, T3)  # per channel: every event, in log order
+        health = [j for _, _, j in got[topics.TOPIC_HEALTH]]
+        assert sum(h["samples"] for h in health) == 3000 and health[-1]["dropped_total"] == 5
+
+
 def test_mcap_errors(tmp_path, capsys):
     log = str(tmp_path / "s.lcmlog")
     synth_log(log, n=300)

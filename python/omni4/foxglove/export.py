@@ -8,6 +8,7 @@ foxglove-sdk MCAP writer. Exit status: 0 done; 1 run-time error (unreadable or n
 data lost in a truncated/corrupt log: the complete events are still converted, see
 --partial-ok); 2 usage or configuration error (bad arguments, broken INI)."""
 import argparse
+import heapq
 import os
 import sys
 import time
@@ -61,8 +62,9 @@ def parse_args(argv):
         "every event with its log time, one channel per LCM channel, plus the encoder "
         "velocity, the model's prediction, their difference, health, pose and the robot's "
         "3D scene.")
-    ap.add_argument("logs", nargs="+", metavar="LOG", help="LCM event log(s), in time order "
-                    "(the parts of a split recording)")
+    ap.add_argument("logs", nargs="+", metavar="LOG", help="LCM event log(s): the parts of a "
+                    "split recording, or recordings of the same run from several machines "
+                    "(merged by log time when out of order or overlapping)")
     ap.add_argument("--out", required=True, metavar="OUT.mcap", help="MCAP file to write "
                     "(replaced; written to a temporary first)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
@@ -168,23 +170,36 @@ def convert(events, params, w, health_period_s):
     return health
 
 
+def merge_parts(parts, quiet):
+    """The events of several logs in one time order. Parts given in order and not overlapping
+    are joined as they are; otherwise they are merged by log time (a stable merge: each file's
+    own order is kept, a tie goes to the file named first)."""
+    if all(a[-1][0] <= b[0][0] for a, b in zip(parts, parts[1:])):
+        return [e for p in parts for e in p]
+    if not quiet:
+        print(f"{PROG}: the logs are out of order or overlap in time: merged by log time",
+              file=sys.stderr)
+    return list(heapq.merge(*parts, key=lambda e: e[0]))
+
+
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
     params = ini.params_or_exit(PROG, a.params)
     t0 = time.perf_counter()
-    events, lost = [], []
+    parts, lost = [], []
     try:
         for path in a.logs:
             if not a.quiet:
                 print(f"{PROG}: reading {path} ({lcmlog.file_size_mb(path):.1f} MB)",
                       file=sys.stderr)
             ev, st = lcmlog.read_events(path)
-            events.extend(ev)
+            parts.append(ev)
             if st.lost():
                 lost.append(f"{path}: {st.lost()}")
     except lcmlog.LogError as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 1
+    events = merge_parts(parts, a.quiet)
     out_dir = os.path.dirname(os.path.abspath(a.out))
     if not os.path.isdir(out_dir):
         print(f"{PROG}: {a.out}: directory {out_dir} does not exist", file=sys.stderr)
