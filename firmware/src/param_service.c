@@ -162,6 +162,22 @@ static void notice(struct param_service *ps, struct scratch *s, int64_t id, cons
 	free(buf);
 }
 
+void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime)
+{
+	struct scratch *s = &g_scratch;
+	int n = 0;
+
+	for (int key = 0; key < config_key_count() && n < PARAM_MAX_KEYS; key++, n++) {
+		fill_entry(ps, s, n, key); /* the INI text; the secret only as "(set)" */
+		s->old_value[n][0] = '\0';
+		s->keys_p[n] = s->dotted[n];
+		s->old_p[n] = s->old_value[n];
+		s->new_p[n] = s->new_value[n];
+	}
+	s->n = n;
+	notice(ps, s, 0, "start", ps->path, seq, utime);
+}
+
 static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 {
 	struct scratch *s = &g_scratch;
@@ -574,6 +590,8 @@ int param_service_start(struct param_service *ps, lcm_t *lcm)
 	ps->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_PARAM_REQ, on_request, ps);
 	if (!ps->sub)
 		return -EIO;
+	/* Before the service thread exists and before the loop's first tick (fw->seq). */
+	param_service_announce(ps, ps->fw->seq, rtloop_clock_us());
 	pthread_attr_t attr;
 
 	pthread_attr_init(&attr);

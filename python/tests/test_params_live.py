@@ -8,6 +8,7 @@ import configparser
 import os
 import random
 import re
+import select
 import signal
 import subprocess
 import sys
@@ -217,19 +218,48 @@ def recorded_channels(path):
     return counts, changed
 
 
+def first_stderr_line(proc, timeout_s):
+    """The first line proc writes on its stderr (a pipe), waited for at most timeout_s."""
+    ready, _, _ = select.select([proc.stderr], [], [], timeout_s)
+    assert ready, f"nothing on stderr within {timeout_s:g} s"
+    return proc.stderr.readline()
+
+
+def check_start_notice(c, ini, p, explicit):
+    """The notice omni4-fw sends at start: every key as `list` gives it, old values empty,
+    and the values the INI set."""
+    assert (c.source, c.request_id, c.path, c.seq) == ("start", 0, str(ini), 0)
+    listed = p.list()
+    assert c.keys == [q.key for q in listed] and len(c.keys) == c.n
+    assert c.old_values == [""] * c.n
+    got = dict(zip(c.keys, c.values))
+    assert got == {q.key: q.text for q in listed}
+    for key, text in explicit.items():
+        assert got[key] == text, (key, got[key])
+
+
 def test_set_save_restart(robot, tmp_path):
     ini, url = robot
     original = ini.read_text()
-    fw = Firmware(ini, url)
-    fw.wait_running()
-    # The robot's recorder, as omni4-logger.service runs it: the changes must be in its log,
-    # the requests (which may carry the secret) must not.
+    # The robot's recorder, as omni4-logger.service runs it, started before the controller:
+    # its log must open with every parameter in force and hold every change; the requests
+    # (which may carry the secret) must not be in it.
     rec_log = tmp_path / "rec.lcmlog"
     rec = subprocess.Popen([omni4_bin("omni4-record"), "--lcm", url, "--out", str(rec_log)],
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    assert " <- " in first_stderr_line(rec, 5 * SCALE)  # subscribed
     mon = Monitor(url)
+    fw = Firmware(ini, url)
     p = ParamClient(url, timeout_s=1.0 * SCALE)
     try:
+        fw.wait_running()
+        start = mon.wait_for_changed(lambda c: c.source == "start", "at start")
+        check_start_notice(start, ini, p, {"control.kp": "25", "control.ki": "0",
+                                           "control.feedforward": "false", "lcm.url": url,
+                                           "model.R": "4.3111", "hal.motor": "sim",
+                                           "params.secret": ""})
+        with mon.lock:
+            assert min(mon.volts) == start.seq, "the monitor missed the first tick"
         keys = [q.key for q in p.list()]
         assert "control.kp" in keys and "model.R" in keys and "params.secret" in keys
         assert p.get("control.kp").value == 25.0
@@ -343,15 +373,21 @@ def test_set_save_restart(robot, tmp_path):
     assert omni4.CHANNEL_PARAM_REQ not in counts, counts
     assert counts.get(omni4.CHANNEL_PARAM_REPLY, 0) >= 1, counts
     assert [(c.source, c.keys, c.seq) for c in logged] == seen
-    assert [c.source for c in logged] == ["set", "set", "set", "save", "load"], seen
+    assert [c.source for c in logged] == ["start", "set", "set", "set", "save", "load"], seen
     left_out = re.search(r"\((\d+) parameter requests left out\)", rec_err)
     assert left_out and int(left_out.group(1)) >= 8, rec_err  # list, get x4, set x6, save, load
 
     cp = read_ini(ini)
     assert cp["control"]["kp"] == "50" and cp["model"]["R"] == "8.6222"
+    mon = Monitor(url)
     fw = Firmware(ini, url)
-    fw.wait_running()
     try:
+        fw.wait_running()
+        # restarted on the saved file: the start notice says so
+        with ParamClient(url, timeout_s=SCALE) as p:
+            check_start_notice(mon.wait_for_changed(lambda c: c.source == "start", "restart"),
+                               ini, p, {"control.kp": "50", "model.R": "8.6222",
+                                        "control.feedforward": "true", "model.Bv": "0.4978"})
         with ParamClient(url, timeout_s=SCALE) as p:
             got = {q.key: q.value for q in p.get_many(["control.kp", "model.R",
                                                        "control.feedforward", "model.Bv",
@@ -359,6 +395,7 @@ def test_set_save_restart(robot, tmp_path):
         assert got == {"control.kp": 50.0, "model.R": 2 * R_OHM, "control.feedforward": True,
                        "model.Bv": BV, "control.ki": 0.0}, got
     finally:
+        mon.close()
         fw.stop()
 
 

@@ -463,6 +463,59 @@ static void test_set_applies_between_ticks(void **state)
 	assert_near(g_fw.ctl.cfg.control.kp, 40.0, 0);
 }
 
+/* At start every value in force goes out once (source "start"), so a log that begins with the
+ * controller says what it ran on from its first tick. Read back through the INI parser: the
+ * values are the configuration, and the secret is never in them. */
+static void test_start_announces_every_value(void **state)
+{
+	(void)state;
+	struct omni4_config want, back;
+	struct config_error err;
+	omni4_param_changed_t m;
+	char *text = NULL;
+	size_t len = 0;
+
+	setup_fw("/etc/omni4/robot.ini", NULL, false);
+	distinctive(&want);
+	g_ps.running = want;
+	param_service_announce(&g_ps, 17, 123456789);
+	assert_int_equal(g_n_out, 1);
+	assert_string_equal(g_out[0].channel, OMNI4_CHANNEL_PARAM_CHANGED);
+	for (size_t i = 0; i + 12 <= g_out[0].len; i++) /* the secret is nowhere in the bytes */
+		assert_memory_not_equal(g_out[0].data + i, "s3cret-token", 12);
+	assert_int_equal(omni4_param_changed_t_decode(g_out[0].data, 0, (int)g_out[0].len, &m),
+			 (int)g_out[0].len);
+	assert_string_equal(m.source, "start");
+	assert_string_equal(m.path, "/etc/omni4/robot.ini");
+	assert_int_equal(m.seq, 17);
+	assert_int_equal(m.utime, 123456789);
+	assert_int_equal(m.request_id, 0);
+	assert_int_equal(m.n, config_key_count());
+	FILE *f = open_memstream(&text, &len);
+
+	for (int i = 0; i < m.n; i++) {
+		const char *dot = strchr(m.keys[i], '.');
+
+		assert_non_null(dot);
+		assert_string_equal(m.old_values[i], "");
+		if (!strcmp(m.keys[i], "params.secret")) {
+			assert_string_equal(m.values[i], "(set)");
+			continue;
+		}
+		fprintf(f, "[%.*s]\n%s = %s\n", (int)(dot - m.keys[i]), m.keys[i], dot + 1,
+			m.values[i]);
+	}
+	fclose(f);
+	config_defaults(&back);
+	snprintf(back.params.secret, sizeof(back.params.secret), "%s", want.params.secret);
+	if (config_load_string(text, "start.ini", &back, &err))
+		fail_msg("%s", err.msg);
+	assert_same_config(&want, &back);
+	free(text);
+	omni4_param_changed_t_decode_cleanup(&m);
+	teardown_fw(false);
+}
+
 /* The loop must not see a change before a tick boundary, and then all of it. */
 static void test_nothing_changes_without_a_tick(void **state)
 {
@@ -841,6 +894,7 @@ int main(void)
 		cmocka_unit_test(test_set_validates_like_the_ini_parser),
 		cmocka_unit_test(test_writer_round_trip),
 		cmocka_unit_test(test_save_replaces_atomically_and_keeps_bak),
+		cmocka_unit_test(test_start_announces_every_value),
 		cmocka_unit_test(test_set_applies_between_ticks),
 		cmocka_unit_test(test_nothing_changes_without_a_tick),
 		cmocka_unit_test(test_model_swap_is_atomic_under_load),

@@ -1,7 +1,7 @@
 /*
  * param_service.h - robot parameters over LCM: list / get / set / load / save requests on
  * OMNI4_PARAM_REQ (param_request_t), one param_reply_t each on OMNI4_PARAM_REPLY, and a
- * param_changed_t on OMNI4_PARAM_CHANGED for every change and save.
+ * param_changed_t on OMNI4_PARAM_CHANGED at start (every value) and for every change and save.
  *
  * A request is handled on the service's own thread, never in the loop: values are parsed and
  * range-checked by the INI parser's table (config_key_set), the whole configuration is checked
@@ -84,8 +84,13 @@ int param_service_init(struct param_service *ps, struct fw *fw, const struct omn
 /* Handle one encoded param_request_t now, on the calling thread (the service thread; tests):
  * emits its reply and, for a change or a save, a param_changed_t. */
 void param_service_handle(struct param_service *ps, const void *data, size_t len);
+/* Publish every parameter in force as one param_changed_t with source "start" (request_id 0,
+ * old values empty, path = the robot's INI, the secret only as "(set)"): seq is the first tick
+ * that runs on them. Not while requests are being handled (it shares their scratch). */
+void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime);
 /* Subscribe to OMNI4_PARAM_REQ on lcm (handled by whoever runs lcm_handle, e.g. lcmio's
- * receive thread) and start the service thread; out.emit NULL = lcm_publish on lcm.
+ * receive thread), announce the parameters (param_service_announce; the loop must not have
+ * started) and start the service thread; out.emit NULL = lcm_publish on lcm.
  * 0 or a negative errno. */
 int param_service_start(struct param_service *ps, lcm_t *lcm);
 /* Stop the thread, unsubscribe, free queued requests and cached replies. */
