@@ -607,18 +607,10 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header)
 	return fflush(f) ? -EIO : 0;
 }
 
-/* Test hook: OMNI4_TEST_SAVE_PAUSE_MS=N sleeps N ms between the written, synced temporary and
- * the rename, so a test can kill the process right there. */
-static void save_pause(void)
+__attribute__((weak)) void config_save_before_replace(const char *tmp, const char *path)
 {
-	const char *s = getenv("OMNI4_TEST_SAVE_PAUSE_MS");
-	const long ms = s ? strtol(s, NULL, 10) : 0;
-
-	if (ms > 0 && ms <= 60000) {
-		const struct timespec t = {.tv_sec = ms / 1000, .tv_nsec = (ms % 1000) * 1000000L};
-
-		nanosleep(&t, NULL);
-	}
+	(void)tmp;
+	(void)path;
 }
 
 static int sync_dir_of(const char *path)
@@ -724,7 +716,7 @@ int config_save(const char *path, const struct omni4_config *cfg, const char *he
 		unlink(tmp);
 		return rc;
 	}
-	save_pause();
+	config_save_before_replace(tmp, path);
 	/* The previous file becomes .bak (a hard link: the file itself never goes away). */
 	if (unlink(bak) && errno != ENOENT) {
 		rc = -errno;

@@ -69,10 +69,10 @@ cmd_timeout_ms = 1000
 class Firmware:
     """omni4-fw with the sim backend and exact sensors, on its own udpm port."""
 
-    def __init__(self, ini, url, env=None):
+    def __init__(self, ini, url, env=None, exe="omni4-fw"):
         self.ini, self.url = ini, url
         self.log = open(str(ini) + ".stderr", "w")
-        self.proc = subprocess.Popen([omni4_bin("omni4-fw"), "--config", str(ini), "-q"],
+        self.proc = subprocess.Popen([omni4_bin(exe), "--config", str(ini), "-q"],
                                      stdout=self.log, stderr=subprocess.STDOUT,
                                      env=dict(os.environ, **(env or {})))
 
@@ -258,6 +258,7 @@ def test_set_save_restart(robot, tmp_path):
                                            "control.feedforward": "false", "lcm.url": url,
                                            "model.R": "4.3111", "hal.motor": "sim",
                                            "params.secret": ""})
+        mon.wait_for_seq(start.seq, "the first tick")
         with mon.lock:
             assert min(mon.volts) == start.seq, "the monitor missed the first tick"
         keys = [q.key for q in p.list()]
@@ -412,7 +413,9 @@ def test_kill9_during_save_leaves_a_config_that_loads(robot, tmp_path):
     ini, url = robot
     original = ini.read_text()
     # Paused between the synced temporary and the rename: killed there, the old file stays.
-    fw = Firmware(ini, url, env={"OMNI4_TEST_SAVE_PAUSE_MS": "5000"})
+    # (omni4-fw-save-pause: omni4-fw with that pause linked in, a test build)
+    fw = Firmware(ini, url, env={"OMNI4_TEST_SAVE_PAUSE_MS": "5000"},
+                  exe="omni4-fw-save-pause")
     fw.wait_running()
     try:
         with ParamClient(url, timeout_s=SCALE) as p:

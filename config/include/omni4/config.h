@@ -111,5 +111,9 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
  */
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
 		size_t n);
+/* Called by config_save between the synced path.tmp and the replacement of path. Does nothing
+ * here (a weak definition); a test build links a definition of its own that pauses, so a test
+ * can kill the process right there (tests/hil/save_pause.c, omni4-fw-save-pause). */
+void config_save_before_replace(const char *tmp, const char *path);
 
 #endif /* OMNI4_CONFIG_H */
