@@ -165,10 +165,10 @@ static void notice(struct param_service *ps, struct scratch *s, int64_t id, cons
 void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime)
 {
 	struct scratch *s = &g_scratch;
-	int n = 0;
+	int n;
 
-	for (int key = 0; key < config_key_count() && n < PARAM_MAX_KEYS; key++, n++) {
-		fill_entry(ps, s, n, key); /* the INI text; the secret only as "(set)" */
+	for (n = 0; n < config_key_count() && n < PARAM_MAX_KEYS; n++) {
+		fill_entry(ps, s, n, n); /* key n: the INI text; the secret only as "(set)" */
 		s->old_value[n][0] = '\0';
 		s->keys_p[n] = s->dotted[n];
 		s->old_p[n] = s->old_value[n];
