@@ -79,13 +79,22 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
     ag.p = chi2_sf(ag.chi2, ag.dof);
     ag.agree = ag.p >= opt.agree_p;
     if (ag.agree) {
-      out = {mean, std::sqrt(1 / wsum)};
+      // The borrowed variance of a weighted mean, with the weights taken as fixed.
+      double vb = 0;
+      for (size_t k = 0; k < ok.size(); ++k)
+        vb += std::pow(ok[k].se_borrowed / (se[k] * se[k] * wsum), 2);
+      out = {mean, std::sqrt(1 / wsum), std::sqrt(vb)};
       ag.rule = "weighted mean";
     } else {
       double m = 0, ss = 0;
       for (const Estimate &e : ok) m += e.value / static_cast<double>(ok.size());
-      for (const Estimate &e : ok) ss += (e.value - m) * (e.value - m);
-      out = {m, std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()))};
+      double vb = 0;
+      for (const Estimate &e : ok) {
+        ss += (e.value - m) * (e.value - m);
+        vb += std::pow(e.se_borrowed / static_cast<double>(ok.size()), 2);
+      }
+      const double se_m = std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()));
+      out = {m, se_m, std::min(se_m, std::sqrt(vb))};
       ag.rule = "methods disagree: plain mean";
     }
   }
@@ -157,7 +166,31 @@ struct Context {
                            seg_time(*w.s, w.w.m1 - 1), false, reason});
   }
   void missing(const std::string &line) { res.missing.push_back(line); }
+
+  // Index into P.offset_epochs of the offsets in force at sample k of log (-1: none).
+  int epoch_of(const LogData *log, size_t k) const {
+    for (size_t e = 0; e < P.offset_epochs.size(); ++e) {
+      const auto &[l, i] = P.offset_epochs[e];
+      if (l == log && k >= l->current_offsets[i].m0 && k < l->current_offsets[i].m1)
+        return static_cast<int>(e);
+    }
+    return -1;
+  }
+  // Standard errors of the offsets, 4 per epoch (the inputs of propagate_independent).
+  Eigen::VectorXd offset_se() const {
+    Eigen::VectorXd se(4 * static_cast<Eigen::Index>(P.offset_epochs.size()));
+    for (size_t e = 0; e < P.offset_epochs.size(); ++e)
+      for (int j = 0; j < 4; ++j)
+        se[static_cast<Eigen::Index>(4 * e + j)] =
+            P.offset_epochs[e].first->current_offsets[P.offset_epochs[e].second].se_a[j];
+    return se;
+  }
 };
+
+// value with its own SE and the borrowed part added in quadrature.
+Estimate with_borrowed(double value, double se_own, double se_borrowed) {
+  return {value, std::hypot(se_own, se_borrowed), se_borrowed};
+}
 
 std::string record_hint(const char *kind) {
   const std::string k = kind;
@@ -198,25 +231,35 @@ void motor_test(Context &c) {
                  "current " + std::to_string(i) + " A too small for u/i");
         continue;
       }
-      res.motor_points.push_back({j, u, i, wm});
+      res.motor_points.push_back({j, u, i, wm, c.epoch_of(w.s->log, w.w.m0)});
     }
   }
-  auto fit = [&](int motor) {
+  // Fit of one motor (or all: -1) with the offset of every epoch moved by delta (4 per epoch):
+  // the residual offsets' uncertainty is borrowed through it.
+  auto fit_with = [&](int motor, const Eigen::VectorXd *delta) {
     std::vector<const MotorPoint *> pts;
     for (const MotorPoint &p : res.motor_points)
       if (motor < 0 || p.motor == motor) pts.push_back(&p);
     Eigen::MatrixXd X(pts.size(), 2);
     Eigen::VectorXd y(pts.size());
     for (size_t k = 0; k < pts.size(); ++k) {
-      X(k, 0) = pts[k]->wm / pts[k]->i;
+      double i = pts[k]->i;
+      if (delta && pts[k]->epoch >= 0) i -= (*delta)[4 * pts[k]->epoch + pts[k]->motor];
+      X(k, 0) = pts[k]->wm / i;
       X(k, 1) = 1.0;
-      y[k] = pts[k]->u / pts[k]->i;
+      y[k] = pts[k]->u / i;
     }
     const std::string what = motor < 0 ? "motor test (all motors)"
                                        : "motor test (motor " + std::to_string(motor) + ")";
     return least_squares(X, y, 1.0, what);
   };
-  double rsum = 0, rvar = 0;
+  const Eigen::VectorXd off_se = c.offset_se();
+  auto borrowed = [&](int motor) {
+    return propagate_independent(
+        [&](const Eigen::VectorXd &d) -> Eigen::VectorXd { return fit_with(motor, &d).theta; },
+        Eigen::VectorXd::Zero(off_se.size()), off_se);
+  };
+  double rsum = 0, rvar = 0, rvar_b = 0;
   int nR = 0;
   for (int j = 0; j < 4; ++j) {
     const size_t n = std::count_if(res.motor_points.begin(), res.motor_points.end(),
@@ -229,24 +272,28 @@ void motor_test(Context &c) {
       continue;
     }
     try {
-      const Fit f = fit(j);
-      res.Kv_motor[j] = {f.theta[0], std::sqrt(f.cov(0, 0))};
-      res.R_motor[j] = {f.theta[1], std::sqrt(f.cov(1, 1))};
+      const Fit f = fit_with(j, nullptr);
+      const Eigen::VectorXd b = borrowed(j);
+      res.Kv_motor[j] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);
+      res.R_motor[j] = with_borrowed(f.theta[1], std::sqrt(f.cov(1, 1)), b[1]);
       rsum += f.theta[1];
       rvar += f.cov(1, 1);
+      rvar_b += b[1] * b[1];
       ++nR;
     } catch (const IdentError &e) {
       c.missing(std::string(e.what()) + " (the runs give one operating point: vary the load)");
     }
   }
   try {
-    const Fit all = fit(-1);
-    res.table["motor"]["Kv"] = {all.theta[0], std::sqrt(all.cov(0, 0))};
+    const Fit all = fit_with(-1, nullptr);
+    res.table["motor"]["Kv"] = with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)), borrowed(-1)[0]);
   } catch (const IdentError &e) {
     c.missing(std::string("Kv: ") + e.what());
   }
-  // The paper averages R over the motors (here: over those with a fit).
-  if (nR > 0) res.table["motor"]["R"] = {rsum / nR, std::sqrt(rvar) / nR};
+  // The paper averages R over the motors (here: over those with a fit). The motors' borrowed
+  // parts are taken as independent (each motor has its own channel's offset).
+  if (nR > 0)
+    res.table["motor"]["R"] = with_borrowed(rsum / nR, std::sqrt(rvar) / nR, std::sqrt(rvar_b) / nR);
   else c.missing("R (motor test): no motor has enough steady points");
 }
 
@@ -314,7 +361,10 @@ void experiment1(Context &c) {
       c.reject(w, "steady window", "fewer than 5 camera frames in the window");
       continue;
     }
-    res.rotation_points.push_back({w.s->level, wcam, wenc, torque});
+    RotationPoint pt{w.s->level, wcam, wenc, torque};
+    for (int j = 0; j < 4; ++j) pt.imean[j] = imean[j];
+    pt.epoch = c.epoch_of(w.s->log, w.w.m0);
+    res.rotation_points.push_back(pt);
   }
   if (res.rotation_points.size() < 3) {
     c.missing("Bw, Cw (experiment 1): " + std::to_string(res.rotation_points.size()) +
@@ -322,18 +372,37 @@ void experiment1(Context &c) {
               record_hint("steady_rotation"));
     return;
   }
-  Eigen::MatrixXd X(res.rotation_points.size(), 2);
-  Eigen::VectorXd y(res.rotation_points.size());
-  for (size_t k = 0; k < res.rotation_points.size(); ++k) {
-    const RotationPoint &pt = res.rotation_points[k];
-    X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
-    X(k, 1) = 1.0;
-    y[k] = pt.torque;
-  }
+  // T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
+  // x = [Kt, delta (4 per offset epoch)]: what experiment 1 borrows.
+  auto fit_with = [&](const Eigen::VectorXd *x) {
+    model_params q = p;
+    if (x) q.Kt = (*x)[0];
+    Eigen::MatrixXd X(res.rotation_points.size(), 2);
+    Eigen::VectorXd y(res.rotation_points.size());
+    for (size_t k = 0; k < res.rotation_points.size(); ++k) {
+      const RotationPoint &pt = res.rotation_points[k];
+      double i[4], f[4], robot_f[3];
+      for (int j = 0; j < 4; ++j)
+        i[j] = pt.imean[j] - (x && pt.epoch >= 0 ? (*x)[1 + 4 * pt.epoch + j] : 0.0);
+      dyn_wheel_forces(&q, i, f);
+      dyn_robot_forces(q.d, f, robot_f);
+      X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
+      X(k, 1) = 1.0;
+      y[k] = robot_f[2];
+    }
+    return least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
+  };
   try {
-    const Fit f = least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
-    res.table["exp1"]["Bw"] = {f.theta[0], std::sqrt(f.cov(0, 0))};
-    res.table["exp1"]["Cw"] = {f.theta[1], std::sqrt(f.cov(1, 1))};
+    const Fit f = fit_with(nullptr);
+    const Eigen::VectorXd off_se = c.offset_se();
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()), se(1 + off_se.size());
+    x0[0] = p.Kt;
+    se[0] = kv->second.se;
+    se.tail(off_se.size()) = off_se;
+    const Eigen::VectorXd b = propagate_independent(
+        [&](const Eigen::VectorXd &x) -> Eigen::VectorXd { return fit_with(&x).theta; }, x0, se);
+    res.table["exp1"]["Bw"] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);
+    res.table["exp1"]["Cw"] = with_borrowed(f.theta[1], std::sqrt(f.cov(1, 1)), b[1]);
   } catch (const IdentError &e) {
     c.missing(std::string("Bw, Cw: ") + e.what());
   }
@@ -525,11 +594,18 @@ void experiment2(Context &c) {
       den += a * a;
     }
     const double J = num / den;
-    // Relative errors of b, c and of Bw, Cw add (first order).
-    const double rel = std::hypot(std::hypot(b.se / b.value, cst.se / cst.value),
-                                  std::hypot(Bw.se / Bw.value, Cw.se / Cw.value));
-    res.table["exp2"]["J"] = {J, J * rel};
+    // Relative errors of b, c (own) and of Bw, Cw (borrowed) add (first order).
+    const double rel_own = std::hypot(b.se / b.value, cst.se / cst.value);
+    const double rel_b = std::hypot(Bw.se / Bw.value, Cw.se / Cw.value);
+    res.table["exp2"]["J"] = with_borrowed(J, std::abs(J) * rel_own, std::abs(J) * rel_b);
   }
+}
+
+Estimate lookup(const IdentResult &r, const char *method, const char *param) {
+  const auto m = r.table.find(method);
+  if (m == r.table.end()) return {};
+  const auto p = m->second.find(param);
+  return p == m->second.end() ? Estimate{} : p->second;
 }
 
 // ---- experiment 3 (eqs 31-35) ----------------------------------------------------------
@@ -629,60 +705,101 @@ void experiment3(Context &c) {
       c.missing(names + ": " + e.what());
     }
   }
+  // The derived parameters as functions of x = [theta_v, theta_vn, theta_w (3 each), Kv, R of
+  // the motor test]: the axis's own theta is the method's data; Kv (eq 26's b and the back-EMF
+  // term), R (through the other axes' theta2, or the motor test's R along w alone) are
+  // borrowed, each with its own standard error (block-diagonal covariance: the motor test's
+  // segments are not the steps'). Bv = -M theta1 - 2 emf(Kv, R) is a small difference of two
+  // large numbers, so a 1 % error of Kv or R can move it by 10 %: the SE says so.
+  const Estimate Rm = lookup(res, "motor", "R");
+  const Estimate &Kv = kv->second;
   for (const auto &[name, fits] : {std::pair<std::string, std::array<Fit, 3> *>{"exp3_ls", &ls},
                                    {"exp3_iv", &iv}}) {
     auto &t = res.table[name];
-    const Fit &fv = (*fits)[0], &fn = (*fits)[1], &fw = (*fits)[2];
-    // theta2 along v and vn gives R (eq 26): from each, combined.
-    auto R_of = [&](const Fit &f, int axis) {
-      return propagate([&](const Eigen::VectorXd &q) { return R_from_theta2(p, axis, q[1]); },
-                       f.theta, f.cov);
-    };
-    std::vector<Estimate> Rs;
-    if (have[0]) Rs.push_back(R_of(fv, 0));
-    if (have[1]) Rs.push_back(R_of(fn, 1));
-    Estimate R;
-    if (!Rs.empty()) {
-      R = combine_methods(Rs, c.P.opt);
-      t["R"] = R;
-    } else {
-      const auto rm = res.table["motor"].find("R");  // along w alone: R of the motor test
-      if (rm != res.table["motor"].end()) R = rm->second;
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(11);
+    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(11, 11);
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!have[axis]) continue;
+      x0.segment<3>(3 * axis) = (*fits)[axis].theta;
+      C.block<3, 3>(3 * axis, 3 * axis) = (*fits)[axis].cov;
     }
-    p.R = R.value;
+    x0[9] = Kv.value;
+    C(9, 9) = std::isfinite(Kv.se) ? Kv.se * Kv.se : 0.0;
+    x0[10] = Rm.ok() ? Rm.value : NAN;
+    C(10, 10) = Rm.ok() && std::isfinite(Rm.se) ? Rm.se * Rm.se : 0.0;
+    auto with_kv = [&](const Eigen::VectorXd &x) {
+      model_params q = p;
+      q.Kv = q.Kt = x[9];
+      return q;
+    };
+    // theta2 along v and vn gives R (eq 26): from each, combined. The axes are compared and
+    // weighted on their own data only (Kv is common to both and cancels in the comparison).
+    std::vector<int> r_axes;
+    std::vector<Estimate> Rs;
     for (int axis = 0; axis < 2; ++axis) {
       if (!have[axis]) continue;
-      const Fit &f = axis == 0 ? fv : fn;
+      r_axes.push_back(axis);
+      Rs.push_back(propagate([&](const Eigen::VectorXd &x) { return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1]); },
+                             x0, C, {3 * axis, 3 * axis + 1, 3 * axis + 2}));
+    }
+    std::vector<double> rw;  // weights of the R combination
+    Agreement rag;
+    if (!Rs.empty()) {
+      combine_methods(Rs, c.P.opt, &rag);
+      double wsum = 0;
+      for (const Estimate &e : Rs) {
+        const double se = std::max(std::hypot(e.se, c.P.opt.method_floor * e.value), 1e-300);
+        rw.push_back(rag.agree ? 1 / (se * se) : 1.0);
+        wsum += rw.back();
+      }
+      for (double &w : rw) w /= wsum;
+    } else if (!Rm.ok()) {
+      continue;  // along w alone without a motor test R: nothing to derive
+    }
+    auto R_of = [&](const Eigen::VectorXd &x) {
+      if (r_axes.empty()) return x[10];
+      double R = 0;
+      for (size_t k = 0; k < r_axes.size(); ++k)
+        R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1]);
+      return R;
+    };
+    auto params_of = [&](const Eigen::VectorXd &x) {
+      model_params q = with_kv(x);
+      q.R = R_of(x);
+      return q;
+    };
+    std::vector<Eigen::Index> own_r;
+    for (int axis : r_axes)
+      for (int k = 0; k < 3; ++k) own_r.push_back(3 * axis + k);
+    if (!r_axes.empty()) t["R"] = propagate(R_of, x0, C, own_r);
+    p.R = R_of(x0);
+    for (int axis = 0; axis < 2; ++axis) {
+      if (!have[axis]) continue;
+      const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
       t[axis == 0 ? "Bv" : "Bvn"] = propagate(
-          [&](const Eigen::VectorXd &q) { return B_from_theta1(p, axis, q[0]); }, f.theta, f.cov);
+          [&](const Eigen::VectorXd &x) { return B_from_theta1(params_of(x), axis, x[3 * axis]); },
+          x0, C, own);
       t[axis == 0 ? "Cv" : "Cvn"] = propagate(
-          [&](const Eigen::VectorXd &q) { return C_from_theta3(p, axis, q[2]); }, f.theta, f.cov);
+          [&](const Eigen::VectorXd &x) { return C_from_theta3(params_of(x), axis, x[3 * axis + 2]); },
+          x0, C, own);
     }
     // Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
-    if (have[2] && R.ok()) {
-      auto with_J = [&](const Eigen::VectorXd &q) {
-        model_params pj = p;
-        pj.J = J_from_theta2(p, q[1]);
-        return pj;
+    if (have[2]) {
+      auto with_J = [&](const Eigen::VectorXd &x) {
+        model_params q = params_of(x);
+        q.J = J_from_theta2(q, x[7]);
+        return q;
       };
-      t["J"] = propagate([&](const Eigen::VectorXd &q) { return J_from_theta2(p, q[1]); },
-                         fw.theta, fw.cov);
-      t["Bw"] = propagate(
-          [&](const Eigen::VectorXd &q) { return B_from_theta1(with_J(q), 2, q[0]); }, fw.theta,
-          fw.cov);
-      t["Cw"] = propagate(
-          [&](const Eigen::VectorXd &q) { return C_from_theta3(with_J(q), 2, q[2]); }, fw.theta,
-          fw.cov);
+      const std::vector<Eigen::Index> own = {6, 7, 8};
+      t["J"] = propagate([&](const Eigen::VectorXd &x) { return with_J(x).J; }, x0, C, own);
+      t["Bw"] = propagate([&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6]); },
+                          x0, C, own);
+      t["Cw"] = propagate([&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); },
+                          x0, C, own);
     }
   }
 }
 
-Estimate lookup(const IdentResult &r, const char *method, const char *param) {
-  const auto m = r.table.find(method);
-  if (m == r.table.end()) return {};
-  const auto p = m->second.find(param);
-  return p == m->second.end() ? Estimate{} : p->second;
-}
 
 // Instruments: the noise-free response of the current model to the logged input (Euler over
 // the row times, from the first measured value of each run).
@@ -722,8 +839,13 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
   P.opt = opt;
   P.segments = segments;
   for (const Segment &s : segments) {
-    if (!P.enc.count(s.log)) P.enc.emplace(s.log, encoder_track(*s.log, base.d, base.r));
-    if (!P.cam.count(s.log)) P.cam.emplace(s.log, camera_track(*s.log));
+    if (P.enc.count(s.log)) continue;
+    P.enc.emplace(s.log, encoder_track(*s.log, base.d, base.r));
+    P.cam.emplace(s.log, camera_track(*s.log));
+    for (size_t e = 0; e < s.log->current_offsets.size(); ++e) {
+      const OffsetEpoch &ep = s.log->current_offsets[e];
+      if (ep.subtracted && std::isfinite(ep.se_a[0])) P.offset_epochs.emplace_back(s.log, e);
+    }
   }
   for (const Segment &s : segments) P.windows.push_back(find_windows(s, P.enc.at(s.log), opt.windows));
   return P;

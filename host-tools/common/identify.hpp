@@ -39,8 +39,13 @@ struct IdentOptions {
 };
 
 // Points kept for plots and CSV export.
-struct MotorPoint { int motor; double u, i, wm; };               // [V, A, rad/s]
-struct RotationPoint { double level, omega_cam, omega_enc, torque; };
+// epoch: index into Prepared::offset_epochs of the current offsets in force (-1: none known).
+struct MotorPoint { int motor; double u, i, wm; int epoch = -1; };  // [V, A, rad/s]
+struct RotationPoint {
+  double level, omega_cam, omega_enc, torque;  // [V, rad/s, rad/s, N m]
+  std::array<double, 4> imean{};               // mean currents of the window [A]
+  int epoch = -1;
+};
 struct CurvePoint { size_t segment; double t, measured, fitted; };
 
 // A window used or rejected, for the report.
@@ -89,6 +94,10 @@ struct Prepared {
   std::vector<SegmentWindows> windows;  // per segment
   std::map<const LogData *, EncoderTrack> enc;
   std::map<const LogData *, CameraTrack> cam;
+  // The current-offset epochs of the logs (LogData::current_offsets, filled by
+  // calibrate_currents) whose offsets were estimated: their standard errors are borrowed by the
+  // motor test and experiment 1.
+  std::vector<std::pair<const LogData *, size_t>> offset_epochs;
 };
 
 // base: the measured d, r, l, M (other fields ignored).

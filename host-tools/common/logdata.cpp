@@ -11,12 +11,14 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <cstdlib>
 #include <memory>
 #include <stdexcept>
 #include <string_view>
 
 #include "omni4/experiment_t.hpp"
 #include "omni4/motors_t.hpp"
+#include "omni4/param_changed_t.hpp"
 #include "omni4/pose_t.hpp"
 
 namespace omni4 {
@@ -61,6 +63,28 @@ bool experiment_strings_ok(const uint8_t *data, int32_t len) {
     pos += slen;
   }
   return true;
+}
+
+// param_changed_t: fingerprint, utime, seq, request_id (8 bytes each), two strings (source,
+// path), int32 n, then 3 n strings. Walked before lcm-gen's decoder sees it, for the same
+// reason as experiment_t (and so that a huge n is never allocated).
+bool param_changed_ok(const uint8_t *data, int32_t len) {
+  int64_t pos = 32;
+  auto string_ok = [&] {
+    if (pos + 4 > len) return false;
+    const int32_t slen = static_cast<int32_t>(be32(data + pos));
+    pos += 4;
+    if (slen < 1 || slen > len - pos) return false;
+    pos += slen;
+    return true;
+  };
+  if (!string_ok() || !string_ok() || pos + 4 > len) return false;
+  const int32_t n = static_cast<int32_t>(be32(data + pos));
+  pos += 4;
+  if (n < 0 || n > (len - pos) / 15) return false;  // 3 strings of at least 5 bytes each
+  for (int64_t k = 0; k < 3 * int64_t{n}; ++k)
+    if (!string_ok()) return false;
+  return pos == len;
 }
 
 // Times and sequence numbers beyond 2^53 (285 years in microseconds; exact in a double) or
@@ -184,11 +208,54 @@ void take_mark(const Event &ev, LogData &d) {
   d.marks.push_back({e.utime, e.kind, e.direction, e.level});
 }
 
+// Only the controller's calibration notices matter here; other parameter notices are counted
+// with the other channels.
+void take_param_changed(const Event &ev, LogData &d) {
+  if (!param_changed_ok(ev.data, ev.len)) {
+    ++d.undecodable;
+    return;
+  }
+  param_changed_t p{};
+  if (!decode(p, ev.data, ev.len)) {
+    ++d.undecodable;
+    return;
+  }
+  if (p.source != "calibration") {
+    ++d.other_channels;
+    return;
+  }
+  if (!plausible_count(p.utime) || !plausible_count(p.seq)) {
+    ++d.implausible;
+    return;
+  }
+  CalibrationNotice c;
+  c.utime = p.utime;
+  c.seq = p.seq;
+  c.offset_a.fill(NAN);
+  static const std::string kOffset = "calibration.current_offset_a";
+  for (int32_t k = 0; k < p.n; ++k) {
+    const std::string &key = p.keys[k];
+    char *end = nullptr;
+    const double v = std::strtod(p.values[k].c_str(), &end);
+    const bool number = end != p.values[k].c_str() && *end == '\0' && std::isfinite(v);
+    if (key.size() == kOffset.size() + 1 && key.compare(0, kOffset.size(), kOffset) == 0 &&
+        key.back() >= '0' && key.back() <= '3') {
+      if (number && std::abs(v) < 1e3) c.offset_a[key.back() - '0'] = v;
+    } else if (key == "calibration.samples") {
+      if (number && v >= 0 && v < 1e9) c.samples = static_cast<int>(v);
+    } else if (key == "calibration.fault_channels") {
+      c.fault_channels = p.values[k];
+    }
+  }
+  d.calibrations.push_back(c);
+}
+
 void take_event(const Event &ev, LogData &d) {
   ++d.events;
   if (ev.channel == OMNI4_CHANNEL_MOTORS) take_motors(ev, d);
   else if (ev.channel == OMNI4_CHANNEL_POSE) take_pose(ev, d);
   else if (ev.channel == OMNI4_CHANNEL_EXPERIMENT) take_mark(ev, d);
+  else if (ev.channel == OMNI4_CHANNEL_PARAM_CHANGED) take_param_changed(ev, d);
   else ++d.other_channels;
 }
 
@@ -201,6 +268,10 @@ void sort_by_time(LogData &d) {
   sort(d.motors);
   sort(d.pose);
   sort(d.marks);
+  if (!std::is_sorted(d.calibrations.begin(), d.calibrations.end(),
+                      [](const auto &a, const auto &b) { return a.seq < b.seq; }))
+    std::stable_sort(d.calibrations.begin(), d.calibrations.end(),
+                     [](const auto &a, const auto &b) { return a.seq < b.seq; });
 }
 
 }  // namespace

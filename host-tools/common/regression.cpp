@@ -1,6 +1,7 @@
 // regression.cpp - LS / IV solvers on Eigen.
 #include "regression.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -42,7 +43,8 @@ Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
 }
 
 Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
-                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov) {
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
+                   const std::vector<Eigen::Index> &own) {
   Estimate e;
   e.value = f(theta);
   Eigen::VectorXd g(theta.size());
@@ -53,8 +55,31 @@ Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
     b[k] -= h;
     g[k] = (f(a) - f(b)) / (2 * h);
   }
-  e.se = std::sqrt(std::max(0.0, g.dot(cov * g)));
+  const double total = std::max(0.0, g.dot(cov * g));
+  e.se = std::sqrt(total);
+  if (!own.empty()) {
+    Eigen::VectorXd go = Eigen::VectorXd::Zero(g.size());
+    for (Eigen::Index k : own) go[k] = g[k];
+    e.se_borrowed = std::sqrt(std::max(0.0, total - go.dot(cov * go)));
+  }
   return e;
+}
+
+Eigen::VectorXd propagate_independent(
+    const std::function<Eigen::VectorXd(const Eigen::VectorXd &)> &f, const Eigen::VectorXd &x0,
+    const Eigen::VectorXd &se) {
+  Eigen::VectorXd var;
+  for (Eigen::Index k = 0; k < x0.size(); ++k) {
+    if (!(se[k] > 0) || !std::isfinite(se[k])) continue;
+    Eigen::VectorXd a = x0, b = x0;
+    a[k] += se[k];
+    b[k] -= se[k];
+    const Eigen::VectorXd g = 0.5 * (f(a) - f(b));
+    if (var.size() == 0) var = Eigen::VectorXd::Zero(g.size());
+    var += g.cwiseProduct(g);
+  }
+  if (var.size() == 0) return Eigen::VectorXd::Zero(f(x0).size());
+  return var.cwiseSqrt();
 }
 
 }  // namespace omni4

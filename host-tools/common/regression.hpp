@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace omni4 {
 
@@ -34,12 +35,25 @@ Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
 
 struct Estimate {
   double value = std::numeric_limits<double>::quiet_NaN();
-  double se = std::numeric_limits<double>::quiet_NaN();  // standard error
+  double se = std::numeric_limits<double>::quiet_NaN();  // standard error, all sources
+  // The part of se that comes from other parameters the method borrows (Kv, R, Bw, Cw, the
+  // current offsets): se^2 = own^2 + se_borrowed^2 (independent sources).
+  double se_borrowed = 0;
   bool ok() const { return std::isfinite(value); }
 };
 
 // f(theta) with its standard error by first-order propagation (central differences).
+// own: the indices of theta that are the method's own data; the variance from the others is
+// reported as se_borrowed (own and borrowed entries must be uncorrelated in cov). Empty: all own.
 Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
-                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov);
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
+                   const std::vector<Eigen::Index> &own = {});
+
+// Standard deviations of the outputs of f caused by independent inputs x0 with standard errors
+// se (first order, central differences with a step of one SE; an input with a zero or
+// non-finite SE contributes nothing).
+Eigen::VectorXd propagate_independent(
+    const std::function<Eigen::VectorXd(const Eigen::VectorXd &)> &f, const Eigen::VectorXd &x0,
+    const Eigen::VectorXd &se);
 
 }  // namespace omni4

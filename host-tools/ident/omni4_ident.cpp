@@ -19,6 +19,7 @@
 #include "bootstrap.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
+#include "offsets.hpp"
 #include "runner.hpp"
 #include "validate.hpp"
 
@@ -65,6 +66,43 @@ std::vector<LogData> load_logs(const std::vector<std::string> &paths) {
     std::printf("\n");
   }
   return logs;
+}
+
+// Current-sense offsets of every log from its bridge-off samples, subtracted before the motor
+// test and experiment 1; printed beside what the controller said it applied.
+void calibrate_and_print(std::vector<LogData> &logs) {
+  std::vector<std::string> warnings;
+  for (LogData &d : logs) {
+    auto w = calibrate_currents(d);
+    warnings.insert(warnings.end(), w.begin(), w.end());
+  }
+  std::printf("current-sense offsets left in the logged currents, from the bridge-off samples "
+              "(subtracted before the motor test and experiment 1) [A]:\n");
+  for (const LogData &d : logs) {
+    for (const OffsetEpoch &e : d.current_offsets) {
+      std::string from = e.notice >= 0
+                             ? " from seq " + std::to_string(d.calibrations[e.notice].seq)
+                             : std::string();
+      if (!e.subtracted) {
+        std::printf("  %s%s: not estimated\n", d.path.c_str(), from.c_str());
+        continue;
+      }
+      std::printf("  %s%s: %zu samples%s\n   ", d.path.c_str(), from.c_str(), e.samples,
+                  e.pooled ? " (too few: the log's pooled estimate)" : "");
+      for (int j = 0; j < 4; ++j) std::printf("  m%d %+.4f ±%.4f", j, e.offset_a[j], e.se_a[j]);
+      std::printf("\n");
+      if (e.notice >= 0) {
+        const CalibrationNotice &n = d.calibrations[e.notice];
+        std::printf("    the controller subtracted (its calibration over %d samples):", n.samples);
+        for (int j = 0; j < 4; ++j) std::printf("  m%d %+.4f", j, n.offset_a[j]);
+        std::printf("\n");
+      }
+    }
+    if (d.calibrations.empty())
+      std::printf("    (the log holds no calibration notice: the controller subtracted nothing "
+                  "that it announced)\n");
+  }
+  for (const std::string &w : warnings) std::printf("warning: %s\n", w.c_str());
 }
 
 std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
@@ -135,7 +173,10 @@ void write_params(const std::string &path, const IdentResult &r, const model_par
 std::string fmt(const Estimate &e) {
   if (!e.ok()) return "";
   char buf[64];
-  if (std::isfinite(e.se))
+  if (std::isfinite(e.se) && e.se_borrowed > 0.05 * e.se)
+    std::snprintf(buf, sizeof(buf), "%.4g ±%.2g b%.0f", e.value, e.se,
+                  100 * e.se_borrowed * e.se_borrowed / (e.se * e.se));
+  else if (std::isfinite(e.se))
     std::snprintf(buf, sizeof(buf), "%.4g ±%.2g", e.value, e.se);
   else
     std::snprintf(buf, sizeof(buf), "%.4g", e.value);
@@ -159,13 +200,13 @@ void print_table(const IdentResult &r, const model_params *truth) {
   static const char *const headers[6] = {"motor test", "exp 1", "exp 2", "exp 3 LS",
                                          "exp 3 IV", "final"};
   std::printf("\n%-5s", "param");
-  for (const char *h : headers) std::printf(" %19s", h);
+  for (const char *h : headers) std::printf(" %22s", h);
   std::printf(" %-12s", "methods");
   if (truth) std::printf(" %10s %8s", "true", "error");
   std::printf("\n");
   for (const char *p : kIdentParams) {
     std::printf("%-5s", p);
-    for (const char *m : kIdentMethods) std::printf(" %19s", fmt(find_estimate(r, m, p)).c_str());
+    for (const char *m : kIdentMethods) std::printf(" %22s", fmt(find_estimate(r, m, p)).c_str());
     const Agreement &ag = r.agreement.at(p);
     char agree[32] = "";
     if (ag.methods >= 2)
@@ -178,8 +219,9 @@ void print_table(const IdentResult &r, const model_params *truth) {
     }
     std::printf("\n");
   }
-  std::printf("(± standard error. final: the methods' estimates, each SE raised to at least "
-              "0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
+  std::printf("(± standard error, with what the method borrows (Kv, R, Bw, Cw, current "
+              "offsets) included; bNN: NN %% of its variance is borrowed. final: the methods' "
+              "estimates, each SE raised to at least 0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
               "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
   std::printf("R per motor (eq 22):");
   for (int j = 0; j < 4; ++j)
@@ -268,11 +310,12 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
       << (ag.agree ? 1 : 0) << ',' << ag.rule << '\n';
   }
   auto t = open_csv(dir, "params.csv");
-  t << "param,method,value,se\n";
+  t << "param,method,value,se,se_borrowed\n";
   for (const auto &[m, row] : r.table)
-    for (const auto &[p, e] : row) t << p << ',' << m << ',' << e.value << ',' << e.se << '\n';
+    for (const auto &[p, e] : row)
+      t << p << ',' << m << ',' << e.value << ',' << e.se << ',' << e.se_borrowed << '\n';
   if (truth)
-    for (const char *p : kIdentParams) t << p << ",true," << field(*truth, p) << ",\n";
+    for (const char *p : kIdentParams) t << p << ",true," << field(*truth, p) << ",,\n";
 }
 
 void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs) {
@@ -292,6 +335,23 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
     std::printf("%-5s %12.5g %12.2g %12.2g   [%10.5g, %10.5g]\n", p, e.value, e.se, it->second.se,
                 it->second.lo95, it->second.hi95);
   }
+}
+
+void export_offsets_csv(const std::string &dir, const std::vector<LogData> &logs) {
+  auto f = open_csv(dir, "current_offsets.csv");
+  f << "log,motor,offset_a,se_a,epoch,from_seq,samples,pooled,controller_offset_a\n";
+  for (const LogData &d : logs)
+    for (size_t e = 0; e < d.current_offsets.size(); ++e) {
+      const OffsetEpoch &ep = d.current_offsets[e];
+      if (!ep.subtracted) continue;
+      for (int j = 0; j < 4; ++j) {
+        f << d.path << ',' << j << ',' << ep.offset_a[j] << ',' << ep.se_a[j] << ',' << e << ','
+          << (ep.notice >= 0 ? d.calibrations[ep.notice].seq : -1) << ',' << ep.samples << ','
+          << ep.pooled << ',';
+        if (ep.notice >= 0) f << d.calibrations[ep.notice].offset_a[j];
+        f << '\n';
+      }
+    }
 }
 
 void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const BootstrapResult &b) {
@@ -333,7 +393,8 @@ int cmd_identify(const IdentifyArgs &a) {
   model_params truth{};
   if (!a.truth.empty()) truth = load_params(a.truth, false);
   const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
-  const auto logs = load_logs(a.logs);
+  auto logs = load_logs(a.logs);
+  calibrate_and_print(logs);
   const auto segs = segments_of(logs);
   IdentResult r;
   try {
@@ -358,7 +419,10 @@ int cmd_identify(const IdentifyArgs &a) {
   }
   write_params(a.out, r, base, base_seen,
                "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)");
-  if (!a.csv.empty()) export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
+  if (!a.csv.empty()) {
+    export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
+    export_offsets_csv(a.csv, logs);
+  }
   if (!a.csv.empty() && a.boot_n > 0) export_bootstrap_csv(a.csv, r, boot);
   if (!r.complete()) {
     std::string which;
