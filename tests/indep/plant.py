@@ -17,6 +17,11 @@ solved exactly (exponential); a zero crossing inside a tick is located exactly, 
 axis breaks away only if the applied force exceeds C. Arrays carry a leading robot axis, so any
 number of robots advance in one pass.
 
+Real sensors (drawn per robot by sensor_params, each switched on by the caller): a constant
+current-sense offset per motor channel, an eccentric encoder disc on each motor shaft, loop ticks
+that wake late (the plant integrates over the true intervals), camera frames that reach the log
+20-60 ms after capture, and lost messages.
+
 Units: SI throughout (m, s, rad, V, A, N, N m, kg, kg m^2); utime in microseconds.
 """
 import numpy as np
@@ -142,10 +147,12 @@ def _cross_tick(x, F, C, m, Beff, dt):
 
 
 def integrate(model, u, driven, fext, dt, x0=None):
-    """Advance n robots through T ticks of length dt [s].
+    """Advance n robots through T ticks; dt [s] is the length of every tick (a float) or of
+    each tick of each robot ((T,n) array: the true, jittered intervals between loop ticks).
 
-    u (T,n,4) [V] applied during each tick (already clamped); driven (T,n) bool bridges on;
-    fext (T,n,3) external [N, N, N m] at each tick's midpoint; x0 (n,3) initial velocity.
+    u (T,n,4) [V] applied during each tick (held from one tick to the next, already clamped);
+    driven (T,n) bool bridges on; fext (T,n,3) external [N, N, N m] at each tick's midpoint;
+    x0 (n,3) initial velocity.
     Returns x (T+1,n,3) velocity at the tick boundaries and X (T,n,3) its integral over each tick
     (displacement [m, m, rad] in the robot frame).
     """
@@ -155,7 +162,15 @@ def integrate(model, u, driven, fext, dt, x0=None):
     F = np.where(driven[:, :, None], F, 0.0) + fext
     Beff = B[None] + driven[:, :, None] * K[None]
     a = Beff / m[None]
-    E = np.exp(-a * dt)
+    per_tick = np.ndim(dt) > 0
+    if per_tick:
+        dt = np.asarray(dt, float)
+        if dt.shape != (T, n) or not np.all(dt > 0.0):
+            raise ValueError(f"tick lengths: expected positive (T,n) = {(T, n)}, got {dt.shape}")
+        dt3 = dt[:, :, None]
+    else:
+        dt3 = dt
+    E = np.exp(-a * dt3)
     Q = (1.0 - E) / a
     x_all = np.empty((T + 1, n, 3))
     X_all = np.empty((T, n, 3))
@@ -167,8 +182,9 @@ def integrate(model, u, driven, fext, dt, x0=None):
         s_eff = np.where(s == 0.0, np.where(np.abs(Fk) > C, np.sign(Fk), 0.0), s)
         xss = (Fk - C * s_eff) / Bk
         dx = x - xss
+        dtk = dt3[k] if per_tick else dt
         xn = xss + dx * E[k]
-        Xk = xss * dt + dx * Q[k]
+        Xk = xss * dtk + dx * Q[k]
         still = s_eff == 0.0
         if still.any():
             xn[still] = 0.0
@@ -177,7 +193,7 @@ def integrate(model, u, driven, fext, dt, x0=None):
         if cross.any():
             for i, ax in zip(*np.nonzero(cross)):
                 xn[i, ax], Xk[i, ax] = _cross_tick(x[i, ax], Fk[i, ax], C[i, ax], m[i, ax],
-                                                   Bk[i, ax], dt)
+                                                   Bk[i, ax], dt[k, i] if per_tick else dt)
         x = xn
         x_all[k + 1] = x
         X_all[k] = Xk
@@ -186,10 +202,12 @@ def integrate(model, u, driven, fext, dt, x0=None):
 
 # ---- sensors ----------------------------------------------------------------------------------
 
-def motor_currents(p, u, driven, x, rng):
+def motor_currents(p, u, driven, x, rng, offset_a=None):
     """Measured currents (T,n,4) [A]: eq 21 while driven, 0 otherwise, + N(0, 0.02 A) noise.
 
     u (T,n,4) [V], driven (T,n), x (T,n,3) robot velocity at the tick start (when sampled).
+    offset_a (n,4) [A]: the current sense's constant offset per motor channel, added to every
+    reading, with the bridges off too (there the reading is offset + noise).
     """
     T, n = driven.shape
     i_true = np.empty((T, n, 4))
@@ -198,7 +216,10 @@ def motor_currents(p, u, driven, x, rng):
         wm = l * (x[:, i, :] @ ik_matrix(d).T) / r            # motor speed [rad/s]
         i_true[:, i, :] = (u[:, i, :] - p["Kv"][i] * wm) / p["R"][i]
     i_true *= driven[:, :, None]
-    return i_true + rng.normal(0.0, CURRENT_NOISE_A, size=i_true.shape)
+    reading = i_true + rng.normal(0.0, CURRENT_NOISE_A, size=i_true.shape)
+    if offset_a is not None:
+        reading += np.asarray(offset_a, float)[None]
+    return reading
 
 
 def wheel_angles(p, X):
@@ -211,14 +232,27 @@ def wheel_angles(p, X):
     return ang
 
 
-def encoder_speeds(angles, cpr, dt, angle0=None):
+def encoder_speeds(angles, cpr, dt, angle0=None, gear=None, eccentricity=None, phase=None):
     """Quantised encoder wheel speeds (T,n,4) [rad/s] reported at the start of each tick.
 
-    angles (T+1,n,4) [rad]; counts = floor((angle0 + angle) cpr / 2pi); the speed of tick k is
-    (counts_k - counts_{k-1}) 2pi/cpr/dt (0 for the first tick). angle0 (n,4): the angle at
+    angles (T+1,n,4) [rad] wheel angles at the ticks (read when the tick runs); counts =
+    floor((angle0 + angle) cpr / 2pi), cpr counts per WHEEL revolution; the speed of tick k is
+    (counts_k - counts_{k-1}) 2pi/cpr/dt (0 for the first tick), dt [s] the loop's nominal
+    period (the firmware does not know that a tick woke late). angle0 (n,4): the angle at
     which each wheel starts [rad] (a random phase against the encoder's count edges).
+
+    Eccentric disc (eccentricity (n,4) given): the encoder sits on the motor shaft, motor angle
+    th_m = gear (n,) x wheel angle, and reads th_m + eps sin(th_m - phase) (eps = eccentricity,
+    phase (n,4) [rad]); that reading, as a wheel angle (/ gear), is quantised as above (cpr/gear
+    counts per motor revolution). The speed then ripples by eps once per motor revolution.
     """
     a = angles if angle0 is None else angles + angle0[None]
+    if eccentricity is not None:
+        g = np.asarray(gear, float)[None, :, None]
+        motor = g * a                                             # motor shaft angle [rad]
+        read = motor + np.asarray(eccentricity, float)[None] * np.sin(
+            motor - np.asarray(phase, float)[None])
+        a = read / g
     counts = np.floor(a * (cpr / (2.0 * np.pi))).astype(np.int64)
     speed = np.zeros(angles[:-1].shape)
     speed[1:] = np.diff(counts[:-1], axis=0) * (2.0 * np.pi / cpr / dt)
@@ -256,3 +290,67 @@ def camera_measure(pose, rng):
         [CAMERA_XY_NOISE_M, CAMERA_XY_NOISE_M, CAMERA_THETA_NOISE_RAD])
     noisy[..., 2] = wrap_angle(noisy[..., 2])
     return noisy
+
+
+# ---- real sensors: offsets, eccentric encoders, loop-tick jitter, camera latency, losses -----
+
+#: The real-sensor effects, each switched on separately (write_logs.py --sensors).
+SENSOR_EFFECTS = ("offsets", "eccentricity", "jitter", "latency", "losses")
+CURRENT_OFFSET_MAX_A = 0.060            # offset per motor channel ~ U(-60, +60) mA
+ECCENTRICITY_RANGE = (0.005, 0.015)     # relative once-per-motor-revolution speed ripple
+JITTER_MEAN_US_RANGE = (20.0, 40.0)     # mean late wake-up of a loop tick [us] (exponential)
+JITTER_SPIKE_PROB_RANGE = (0.002, 0.01)  # fraction of ticks that wake a further 100-200 us late
+JITTER_SPIKE_US = (100.0, 200.0)
+JITTER_CAP_FRACTION = 0.45              # no tick wakes later than 0.45 periods: ticks keep order
+CAMERA_LATENCY_S_RANGE = (0.020, 0.055)  # capture-to-log latency per robot [s]
+CAMERA_LATENCY_SPREAD_S_RANGE = (0.001, 0.005)  # + U(0, spread) per frame: 20-60 ms in all
+MOTORS_LOSS = 0.001                     # fraction of motors_t samples lost
+CAMERA_LOSS = 0.05                      # fraction of camera frames lost
+
+
+def sensor_params(seed, k):
+    """Real-sensor values of robot k for a seed, deterministic per (seed, k) (as robot_params).
+
+    Returns dict: current_offset_a (4,) [A]; eccentricity (4,) and eccentricity_phase_rad (4,) of
+    each motor's encoder disc; jitter_mean_us, jitter_spike_prob; camera_latency_s,
+    camera_latency_spread_s [s]; motors_loss, camera_loss (fractions). All are drawn whatever
+    effects a log switches on, so switching one effect does not change another's values.
+    """
+    rng = np.random.default_rng([int(seed), int(k), 7002])
+    return {
+        "current_offset_a": rng.uniform(-CURRENT_OFFSET_MAX_A, CURRENT_OFFSET_MAX_A, 4),
+        "eccentricity": rng.uniform(*ECCENTRICITY_RANGE, 4),
+        "eccentricity_phase_rad": rng.uniform(0.0, 2.0 * np.pi, 4),
+        "jitter_mean_us": float(rng.uniform(*JITTER_MEAN_US_RANGE)),
+        "jitter_spike_prob": float(rng.uniform(*JITTER_SPIKE_PROB_RANGE)),
+        "camera_latency_s": float(rng.uniform(*CAMERA_LATENCY_S_RANGE)),
+        "camera_latency_spread_s": float(rng.uniform(*CAMERA_LATENCY_SPREAD_S_RANGE)),
+        "motors_loss": MOTORS_LOSS,
+        "camera_loss": CAMERA_LOSS,
+    }
+
+
+def tick_times_us(rng, n_ticks, period_us, mean_us, spike_prob):
+    """True start times [us] of ticks 0..n_ticks (n_ticks + 1 values) from the loop's start.
+
+    Tick k is due at k period_us and wakes late by delta_k = Exp(mean_us), plus U(100, 200) us on
+    a fraction spike_prob of the ticks, rounded to whole us and capped at 0.45 periods (absolute
+    deadlines: the lateness does not accumulate). The voltage a tick sets is held until the next
+    tick really runs, so tick k lasts t_{k+1} - t_k.
+    """
+    n = int(n_ticks) + 1
+    late = rng.exponential(mean_us, n)
+    late += np.where(rng.uniform(size=n) < spike_prob, rng.uniform(*JITTER_SPIKE_US, n), 0.0)
+    cap = np.floor(JITTER_CAP_FRACTION * period_us)
+    return np.arange(n, dtype=np.int64) * int(period_us) + np.minimum(np.round(late),
+                                                                    cap).astype(np.int64)
+
+
+def camera_latency_us(rng, n_frames, latency_s, spread_s):
+    """Capture-to-arrival latency [us] of n_frames frames: latency_s + U(0, spread_s), whole us."""
+    return np.round(1e6 * (latency_s + rng.uniform(0.0, spread_s, int(n_frames)))).astype(np.int64)
+
+
+def kept(rng, n, loss):
+    """Mask (n,) of the messages that arrive: each is lost with probability `loss`."""
+    return rng.uniform(size=int(n)) >= loss
