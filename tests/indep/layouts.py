@@ -18,14 +18,33 @@ import numpy as np
 import plant
 
 LAYOUTS = ("runner", "rest", "rampdown", "hand", "multilevel", "subset", "jitter",
-           "rate500", "rate2k")
+           "rate500", "rate2k", "sensors")
+#: The layouts with ideal sensors: what `all` means (`sensors` is asked for by name).
+IDEAL_LAYOUTS = LAYOUTS[:-1]
 KINDS = ("steady_rotation", "coast", "motor", "step")
+#: The `sensors` layout renders robot k as SENSORS_BASES[k % 9] (same timeline and noise as
+#: robot k of that layout) and switches every real-sensor effect on (write_logs.py).
+SENSORS_BASES = ("runner", "rest", "rampdown", "hand", "multilevel", "jitter", "subset",
+                 "rate500", "rate2k")
 
 #: loop rate [Hz] and encoder counts per wheel revolution of each layout.
 LAYOUT_RATE_HZ = {"rate500": 500.0, "rate2k": 2000.0}
 LAYOUT_CPR = {"runner": 10240, "rest": 8192, "rampdown": 16384, "hand": 4096,
               "multilevel": 12000, "subset": 10240, "jitter": 5000, "rate500": 16384,
               "rate2k": 8192}
+
+
+def base_layout(layout, robot):
+    """The layout whose timeline robot number `robot` runs in `layout` (itself, except in
+    `sensors`, which cycles through SENSORS_BASES)."""
+    if layout == "sensors":
+        return SENSORS_BASES[int(robot) % len(SENSORS_BASES)]
+    return layout
+
+
+def loop_rate_hz(layout, robot=0):
+    """Nominal loop rate [Hz] of robot number `robot` in `layout`."""
+    return LAYOUT_RATE_HZ.get(base_layout(layout, robot), 1000.0)
 
 
 class Run:
@@ -381,12 +400,14 @@ def render(layout, tl, runs, rng):
 def build(layout, model, i, seed, robot, omit=(), motor_subset=None):
     """Timeline of robot i (index into model) / robot number `robot` in `layout`.
 
-    Returns (Timeline, dt [s], cpr). Deterministic per (seed, robot, layout).
+    Returns (Timeline, dt [s], cpr). Deterministic per (seed, robot, base layout): in `sensors`
+    the timeline is the one robot `robot` runs in its base layout.
     """
     if layout not in LAYOUTS:
         raise ValueError(f"unknown layout {layout!r} (one of {', '.join(LAYOUTS)})")
+    layout = base_layout(layout, robot)
     rng = np.random.default_rng([int(seed), int(robot), LAYOUTS.index(layout), 11])
-    dt = 1.0 / LAYOUT_RATE_HZ.get(layout, 1000.0)
+    dt = 1.0 / loop_rate_hz(layout)
     runs = experiment_set(rng, multilevel=layout == "multilevel",
                           subset_layout=layout == "subset", motor_subset=motor_subset)
     runs = [r for r in runs if not omitted(r, omit)]

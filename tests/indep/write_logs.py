@@ -2,14 +2,21 @@
 """Write LCM event logs of simulated robots running the paper's experiments in foreign layouts.
 
 For every robot K and layout L: OUT/robotK_L.lcmlog (channels OMNI4_MOTORS, OMNI4_POSE,
-OMNI4_EXPERIMENT), OUT/robotK_base.ini ([model] d r l M: what is measured) and
-OUT/robotK_truth.ini (the full [model] the robot was simulated with). Robots are deterministic per
-(seed, K): robot 3 is the same robot whatever --robots says.
+OMNI4_EXPERIMENT), OUT/robotK_base.ini ([model] d r l M: what is measured),
+OUT/robotK_truth.ini (the full [model] the robot was simulated with) and OUT/robotK_L.sensors.json
+(the real-sensor effects of that log and their true values: current offsets, encoder
+eccentricities, tick jitter, camera latency, losses; the offsets are not in the truth INI,
+identification has to find them). Robots are deterministic per (seed, K): robot 3 is the same
+robot whatever --robots says.
+
+Real sensors (--sensors): offsets, eccentricity, jitter, latency, losses, all or none. Default:
+all for the `sensors` layout, none for the others.
 
 Needs the PyPI `lcm` package (lcm.EventLog) and the lcm-gen Python types of lcmtypes/ (package
 omni4, generated at build time into build/lcmtypes/gen/python).
 """
 import argparse
+import json
 import os
 import sys
 import time
@@ -121,7 +128,8 @@ def read_ini(path, section="model"):
 # ---- one layout, many robots ------------------------------------------------------------------
 
 def _losses(rng, n_ticks, n_cam, layout):
-    """Kept-sample masks: motors (n_ticks,) and camera frames (n_cam,) for the layout."""
+    """Kept-sample masks: motors (n_ticks,) and camera frames (n_cam,) for the layout (the
+    `jitter` layout's own losses; the real-sensor losses come on top, in sensor_data)."""
     keep_m = np.ones(n_ticks, bool)
     keep_c = np.ones(n_cam, bool)
     if layout == "jitter":
@@ -134,23 +142,53 @@ def _losses(rng, n_ticks, n_cam, layout):
     return keep_m, keep_c
 
 
-def simulate_layout(layout, seed, robots, omit=(), motor_subset=None):
-    """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
+def parse_sensors(text):
+    """'offsets,latency' | 'all' | 'none' -> tuple of effects in plant.SENSOR_EFFECTS order."""
+    names = set()
+    for name in str(text).split(","):
+        name = name.strip()
+        if name == "all":
+            names.update(plant.SENSOR_EFFECTS)
+        elif name in plant.SENSOR_EFFECTS:
+            names.add(name)
+        elif name not in ("none", ""):
+            raise ValueError(f"--sensors {text!r}: unknown effect {name!r} (one of "
+                             f"{', '.join(plant.SENSOR_EFFECTS)}, all, none)")
+    return tuple(e for e in plant.SENSOR_EFFECTS if e in names)
 
-    Returns dict: params (list of dicts), dt [s], cpr, timelines, lengths (ticks per robot),
-    u (T,n,4) [V], mode (T,n), x (T+1,n,3) velocity [m/s, m/s, rad/s], X (T,n,3) displacement.
-    Raises LogError if a layout's "robot at rest here" check fails.
+
+def effects_for(layout, sensors=None):
+    """Real-sensor effects of a layout's logs: `sensors` (a tuple from parse_sensors) if given,
+    else all of them for the `sensors` layout and none for the others."""
+    if sensors is not None:
+        return tuple(sensors)
+    return plant.SENSOR_EFFECTS if layout == "sensors" else ()
+
+
+def _stream(seed, robot, layout, purpose):
+    """Random stream of one robot's log in (base) layout for one purpose (an int tag)."""
+    return np.random.default_rng([int(seed), int(robot), layouts.LAYOUTS.index(layout), purpose])
+
+
+#: tags of the random streams: timeline (layouts.py) 11, sensor noise 22, speed noise 33, tick
+#: jitter 44, camera latency 45, real-sensor losses 46
+JITTER_STREAM, LATENCY_STREAM, LOSS_STREAM = 44, 45, 46
+
+
+def simulate_timelines(tls, plist, dt, jitter=None):
+    """Simulate robots (parameter dicts plist) through their timelines in one vectorised pass.
+
+    dt [s] nominal loop period shared by all; jitter: None, or per robot None or (rng, mean_us,
+    spike_prob) for late-waking ticks (plant.tick_times_us), integrated over the true intervals.
+    Returns dict: params, p, model, dt, timelines, lengths (ticks per robot), u (T,n,4) [V],
+    mode (T,n), driven (T,n), x (T+1,n,3) velocity [m/s, m/s, rad/s] at the ticks, X (T,n,3)
+    displacement, tick_us (T+1,n) true start time of each tick from the first due time [us].
     """
-    plist = [plant.robot_params(seed, k) for k in robots]
     p = plant.stack_params(plist)
     model = plant.axis_model(p)
-    tls, dt, cpr = [], None, None
-    for i, k in enumerate(robots):
-        tl, dt, cpr = layouts.build(layout, model, i, seed, k, omit, motor_subset)
-        tls.append(tl)
     arrs = [tl.arrays() for tl in tls]
     lengths = [len(a[1]) for a in arrs]
-    T, n = max(lengths), len(robots)
+    T, n = max(lengths), len(tls)
     u = np.zeros((T, n, 4), np.float32)
     mode = np.full((T, n), plant.MODE_IDLE, np.int8)
     fext = np.zeros((T, n, 3))
@@ -158,14 +196,58 @@ def simulate_layout(layout, seed, robots, omit=(), motor_subset=None):
         u[:len(mi), i], mode[:len(mi), i], fext[:len(mi), i] = ui, mi, fi
     driven = np.isin(mode, plant.DRIVEN_MODES)
     u = np.where(driven[:, :, None], u, np.float32(0.0))
-    x, X = plant.integrate(model, u, driven, fext, dt)
+    dt_us = int(round(dt * 1e6))
+    tick_us = np.repeat(np.arange(T + 1, dtype=np.int64)[:, None] * dt_us, n, axis=1)
+    jitter = jitter or [None] * n
+    for i, jit in enumerate(jitter):
+        if jit is not None:
+            rng, mean_us, spike_prob = jit
+            tick_us[:, i] = plant.tick_times_us(rng, T, dt_us, mean_us, spike_prob)
+    if any(j is not None for j in jitter):
+        x, X = plant.integrate(model, u, driven, fext, np.diff(tick_us, axis=0) * 1e-6)
+    else:
+        x, X = plant.integrate(model, u, driven, fext, dt)
+    return {"params": plist, "p": p, "model": model, "dt": dt, "timelines": tls,
+            "lengths": lengths, "u": u, "mode": mode, "driven": driven, "x": x, "X": X,
+            "tick_us": tick_us}
+
+
+def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=()):
+    """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
+
+    The robots must share one loop rate (generate() groups the `sensors` layout's robots by
+    rate). Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
+    and cpr (encoder counts per wheel revolution per robot).
+    Raises LogError if a layout's "robot at rest here" check fails.
+    """
+    plist = [plant.robot_params(seed, k) for k in robots]
+    model = plant.axis_model(plant.stack_params(plist))
+    tls, dts, cprs, bases = [], set(), [], []
+    for i, k in enumerate(robots):
+        tl, dt, cpr = layouts.build(layout, model, i, seed, k, omit, motor_subset)
+        tls.append(tl)
+        dts.add(dt)
+        cprs.append(cpr)
+        bases.append(layouts.base_layout(layout, k))
+    if len(dts) != 1:
+        raise LogError(f"layout {layout}: robots {list(robots)} do not share one loop rate")
+    dt = dts.pop()
+    jitter = None
+    if "jitter" in effects:
+        jitter = []
+        for k, base in zip(robots, bases):
+            sp = plant.sensor_params(seed, k)
+            jitter.append((_stream(seed, k, base, JITTER_STREAM), sp["jitter_mean_us"],
+                           sp["jitter_spike_prob"]))
+    sim = simulate_timelines(tls, plist, dt, jitter)
+    x = sim["x"]
     for i, tl in enumerate(tls):
         for tick in tl.rest_checks:
             if np.any(x[tick, i] != 0.0):
                 raise LogError(f"layout {layout}, robot {robots[i]}: not at rest at "
                                f"t={tick * dt:.3f} s (x={x[tick, i]}); timeline too short")
-    return {"params": plist, "p": p, "dt": dt, "cpr": cpr, "timelines": tls,
-            "lengths": lengths, "u": u, "mode": mode, "driven": driven, "x": x, "X": X}
+    sim.update({"layout": layout, "robots": list(robots), "bases": bases, "cpr": cprs})
+    return sim
 
 
 def colored_noise(rng, shape, sigma, tau, dt):
@@ -179,23 +261,35 @@ def colored_noise(rng, shape, sigma, tau, dt):
     return out
 
 
-def sensor_data(sim, i, robot, seed, layout, speed_noise=None):
+def sensor_data(sim, i, robot, seed, layout, speed_noise=None, effects=()):
     """Sensor readings and losses of robot i (index) / number `robot` of a simulated layout.
 
+    effects: the real-sensor effects to switch on (plant.SENSOR_EFFECTS). Each has its own
+    random stream, so the readings that an effect does not touch are the same with it or
+    without it (and robot k of `sensors` reads as robot k of its base layout).
     Returns dict of per-message arrays: motors (utime, seq, mode, voltage, current,
-    wheel_speed), poses (utime, pose), marks [(utime, kind, direction, level)], t0 [us].
+    wheel_speed), poses (utime, pose, recv_us: log time of each pose event, None = utime +
+    0-300 us), marks [(utime, kind, direction, level)], t0 [us], sensors (the sidecar's dict).
     """
-    lay = layouts.LAYOUTS.index(layout)
-    rng = np.random.default_rng([int(seed), int(robot), lay, 22])
-    n_t, dt, cpr = sim["lengths"][i], sim["dt"], sim["cpr"]
+    base = layouts.base_layout(layout, robot)
+    rng = np.random.default_rng([int(seed), int(robot), layouts.LAYOUTS.index(base), 22])
+    sp = plant.sensor_params(seed, robot)
+    n_t, dt, cpr = sim["lengths"][i], sim["dt"], sim["cpr"][i]
     p = {k: v[i:i + 1] for k, v in sim["p"].items()}
     x = sim["x"][:n_t + 1, i:i + 1]
     X = sim["X"][:n_t, i:i + 1]
     u = sim["u"][:n_t, i:i + 1].astype(float)
     driven = sim["driven"][:n_t, i:i + 1]
-    current = plant.motor_currents(p, u, driven, x[:-1], rng)[:, 0]
+    offset = sp["current_offset_a"] if "offsets" in effects else None
+    current = plant.motor_currents(p, u, driven, x[:-1], rng,
+                                   None if offset is None else offset[None])[:, 0]
     ang = plant.wheel_angles(p, X)
-    speed = plant.encoder_speeds(ang, cpr, dt, rng.uniform(0, 2 * np.pi, (1, 4)))[:, 0]
+    angle0 = rng.uniform(0, 2 * np.pi, (1, 4))
+    if "eccentricity" in effects:
+        speed = plant.encoder_speeds(ang, cpr, dt, angle0, p["l"], sp["eccentricity"][None],
+                                     sp["eccentricity_phase_rad"][None])[:, 0]
+    else:
+        speed = plant.encoder_speeds(ang, cpr, dt, angle0)[:, 0]
     if speed_noise:  # an effect the model lacks: correlated wheel-speed measurement noise
         speed = speed + colored_noise(np.random.default_rng([int(seed), int(robot), 33]),
                                       speed.shape, speed_noise[0], speed_noise[1], dt)
@@ -204,23 +298,61 @@ def sensor_data(sim, i, robot, seed, layout, speed_noise=None):
     period = int(round(1.0 / (plant.CAMERA_RATE_HZ * dt)))
     cam_ticks = np.arange(int(rng.integers(0, period)), n_t, period)
     cam = plant.camera_measure(pose[cam_ticks], rng)
-    keep_m, keep_c = _losses(rng, n_t, len(cam_ticks), layout)
+    keep_m, keep_c = _losses(rng, n_t, len(cam_ticks), base)
+    if "losses" in effects:
+        lrng = _stream(seed, robot, base, LOSS_STREAM)
+        keep_m &= plant.kept(lrng, n_t, sp["motors_loss"])
+        keep_m[0] = keep_m[-1] = True
+        keep_c &= plant.kept(lrng, len(cam_ticks), sp["camera_loss"])
     dt_us = int(round(dt * 1e6))
     t0 = int(rng.integers(10**9, 10**11))
     seq0 = int(rng.integers(0, 10**6))
     ticks = np.nonzero(keep_m)[0]
+    tick_us = sim["tick_us"][:, i]
+    cam_utime = t0 + tick_us[cam_ticks]
+    recv_us = None
+    if "latency" in effects:
+        lat = plant.camera_latency_us(_stream(seed, robot, base, LATENCY_STREAM), len(cam_ticks),
+                                      sp["camera_latency_s"], sp["camera_latency_spread_s"])
+        recv_us = (cam_utime + lat)[keep_c]
     marks = sorted(((t0 + int(round(t * 1e6)), kind, d, lv)
                     for t, kind, d, lv in sim["timelines"][i].marks), key=lambda mk: mk[0])
+    late = tick_us[:n_t] - np.arange(n_t) * dt_us
+    on = set(effects)
+    sensors = {
+        "robot": int(robot), "layout": layout, "base_layout": base, "seed": int(seed),
+        "effects": list(effects),
+        "loop_rate_hz": 1.0 / dt, "encoder_cpr_per_wheel_rev": int(cpr), "gear": float(p["l"][0]),
+        # what the log holds (zero / empty where the effect is off)
+        "current_offset_a": [float(v) if "offsets" in on else 0.0
+                             for v in sp["current_offset_a"]],
+        "encoder_eccentricity": [float(v) if "eccentricity" in on else 0.0
+                                 for v in sp["eccentricity"]],
+        "encoder_eccentricity_phase_rad": [float(v) for v in sp["eccentricity_phase_rad"]],
+        "tick_late_us": {"mean": float(late.mean()), "max": int(late.max()),
+                         "drawn_mean": sp["jitter_mean_us"] if "jitter" in on else 0.0,
+                         "drawn_spike_prob": sp["jitter_spike_prob"] if "jitter" in on else 0.0},
+        "camera_latency_s": {"min": sp["camera_latency_s"] if "latency" in on else 0.0,
+                             "max": (sp["camera_latency_s"] + sp["camera_latency_spread_s"])
+                             if "latency" in on else 0.0},
+        "losses": {"motors_loss": sp["motors_loss"] if "losses" in on else 0.0,
+                   "camera_loss": sp["camera_loss"] if "losses" in on else 0.0,
+                   "motors_ticks": int(n_t), "motors_kept": int(keep_m.sum()),
+                   "camera_frames": int(len(cam_ticks)), "camera_kept": int(keep_c.sum())},
+        # every value drawn for this robot, whether the log uses it or not
+        "drawn": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in sp.items()},
+    }
     return {"t0": t0, "dt_us": dt_us, "ticks": ticks,
-            "motors": {"utime": t0 + ticks * dt_us, "seq": seq0 + ticks,
+            "motors": {"utime": t0 + tick_us[ticks], "seq": seq0 + ticks,
                        "mode": sim["mode"][ticks, i], "voltage": sim["u"][ticks, i],
                        "current": current[ticks], "wheel_speed": speed[ticks]},
-            "poses": {"utime": t0 + cam_ticks[keep_c] * dt_us, "pose": cam[keep_c]},
-            "marks": marks, "rng": rng}
+            "poses": {"utime": cam_utime[keep_c], "pose": cam[keep_c], "recv_us": recv_us},
+            "marks": marks, "rng": rng, "sensors": sensors}
 
 
 def write_log(lcm, omni4, path, data):
-    """Write one robot's messages, ordered by receive time (utime + 0-300 us), to `path`."""
+    """Write one robot's messages, ordered by receive time (utime + 0-300 us; a pose with camera
+    latency: its arrival time) to `path`; the receive time is the event's timestamp."""
     rng = data["rng"]
     m, ps = data["motors"], data["poses"]
     msgs = [encode_motors(omni4, m["utime"], m["seq"], m["mode"], m["voltage"], m["current"],
@@ -229,7 +361,10 @@ def write_log(lcm, omni4, path, data):
             [encode_mark(omni4, *mk) for mk in data["marks"]]]
     utimes = [m["utime"], ps["utime"], np.array([mk[0] for mk in data["marks"]], np.int64)]
     chans = (CH_MOTORS, CH_POSE, CH_EXP)
-    recv = np.concatenate([ut + rng.integers(0, RECEIVE_DELAY_US + 1, len(ut)) for ut in utimes])
+    recvs = [ut + rng.integers(0, RECEIVE_DELAY_US + 1, len(ut)) for ut in utimes]
+    if ps.get("recv_us") is not None:
+        recvs[1] = np.asarray(ps["recv_us"], np.int64)
+    recv = np.concatenate(recvs)
     src = np.concatenate([np.full(len(ut), c) for c, ut in enumerate(utimes)])
     idx = np.concatenate([np.arange(len(ut)) for ut in utimes])
     order = np.argsort(recv, kind="stable")
@@ -245,33 +380,65 @@ def write_log(lcm, omni4, path, data):
     return {"motors": len(msgs[0]), "poses": len(msgs[1]), "marks": len(msgs[2])}
 
 
-def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print, speed_noise=None):
-    """Simulate `robots` in `layout` and write their logs and INI files into out_dir.
+def write_sidecar(path, sensors):
+    """Write the real-sensor truth of one log as JSON (atomically: temp file + rename)."""
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "w") as f:
+        json.dump(sensors, f, indent=1)
+        f.write("\n")
+    os.replace(tmp, path)
 
-    Returns a list of dicts (robot, log, base, truth, seconds, counts) in robot order.
+
+def rate_groups(layout, robots):
+    """Robots of a layout grouped by loop rate (one simulation pass each): list of lists."""
+    groups = {}
+    for k in robots:
+        groups.setdefault(layouts.loop_rate_hz(layout, k), []).append(k)
+    return list(groups.values())
+
+
+def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
+             progress=print, speed_noise=None, sensors=None):
+    """Simulate `robots` in `layout` and write their logs, INI files and sensor sidecars.
+
+    sensors: tuple of real-sensor effects (parse_sensors), None = the layout's default.
+    Returns a list of dicts (robot, log, base, truth, sensors (sidecar path), effects,
+    base_layout, seconds, counts) in robot order.
     """
     lcm, omni4 = import_types(lcm_python)
     os.makedirs(out_dir, exist_ok=True)
+    effects = effects_for(layout, sensors)
     t_start = time.time()
-    sim = simulate_layout(layout, seed, robots, omit, motor_subset)
-    t_sim = time.time() - t_start
-    out = []
-    for i, k in enumerate(robots):
-        data = sensor_data(sim, i, k, seed, layout, speed_noise)
-        log = os.path.join(out_dir, f"robot{k}_{layout}.lcmlog")
-        counts = write_log(lcm, omni4, log, data)
-        base = os.path.join(out_dir, f"robot{k}_base.ini")
-        truth = os.path.join(out_dir, f"robot{k}_truth.ini")
-        write_ini(base, sim["params"][i], ("d", "r", "l", "M"))
-        write_ini(truth, sim["params"][i], plant.MODEL_KEYS)
-        out.append({"robot": k, "log": log, "base": base, "truth": truth,
-                    "seconds": sim["lengths"][i] * sim["dt"], "counts": counts})
+    t_sim, out, rates, cprs = 0.0, [], set(), set()
+    for group in rate_groups(layout, robots):
+        t = time.time()
+        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects)
+        t_sim += time.time() - t
+        rates.add(1.0 / sim["dt"])
+        cprs.update(sim["cpr"])
+        for i, k in enumerate(group):
+            data = sensor_data(sim, i, k, seed, layout, speed_noise, effects)
+            log = os.path.join(out_dir, f"robot{k}_{layout}.lcmlog")
+            counts = write_log(lcm, omni4, log, data)
+            base = os.path.join(out_dir, f"robot{k}_base.ini")
+            truth = os.path.join(out_dir, f"robot{k}_truth.ini")
+            side = os.path.join(out_dir, f"robot{k}_{layout}.sensors.json")
+            write_ini(base, sim["params"][i], ("d", "r", "l", "M"))
+            write_ini(truth, sim["params"][i], plant.MODEL_KEYS)
+            write_sidecar(side, data["sensors"])
+            out.append({"robot": k, "log": log, "base": base, "truth": truth, "sensors": side,
+                        "effects": effects, "base_layout": sim["bases"][i],
+                        "seconds": sim["lengths"][i] * sim["dt"], "counts": counts})
+        del sim
+    out.sort(key=lambda o: o["robot"])
     if progress:
         secs = [o["seconds"] for o in out]
+        rate = "-".join(f"{r:.0f}" for r in sorted(rates))
+        cpr = "-".join(str(c) for c in sorted(cprs))
         progress(f"write_logs: {layout}: {len(robots)} robots, {min(secs):.0f}-{max(secs):.0f} s "
-                 f"of robot time at {1 / sim['dt']:.0f} Hz, cpr {sim['cpr']}; simulated in "
-                 f"{t_sim:.1f} s, written in {time.time() - t_start - t_sim:.1f} s")
+                 f"of robot time at {rate} Hz, cpr {cpr}, sensors "
+                 f"{','.join(effects) or 'ideal'}; simulated in {t_sim:.1f} s, written in "
+                 f"{time.time() - t_start - t_sim:.1f} s")
     return out
 
 
@@ -287,16 +454,17 @@ def parse_subset(text):
 
 
 def parse_layouts(values):
-    """['rest', 'hand,jitter', 'all'] -> list of layout names; raises ValueError."""
+    """['rest', 'hand,jitter', 'all'] -> list of layout names; raises ValueError. 'all' is
+    every layout with ideal sensors (all but `sensors`)."""
     names = []
     for v in values or ["all"]:
         for name in v.split(","):
             name = name.strip()
             if name == "all":
-                names += [n for n in layouts.LAYOUTS if n not in names]
+                names += [n for n in layouts.IDEAL_LAYOUTS if n not in names]
             elif name not in layouts.LAYOUTS:
                 raise ValueError(f"unknown layout {name!r} (one of {', '.join(layouts.LAYOUTS)}"
-                                 ", all)")
+                                 ", all = all but sensors)")
             elif name not in names:
                 names.append(name)
     return names
@@ -307,7 +475,7 @@ def main(argv=None):
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="example:\n  .venv/bin/python tests/indep/write_logs.py --robots 3 --seed 1 "
                "--layout rest,hand --omit coast:w --out /tmp/logs\n"
-               f"layouts: {', '.join(layouts.LAYOUTS)} (or all)")
+               f"layouts: {', '.join(layouts.LAYOUTS)} (or all: all but sensors)")
     ap.add_argument("--robots", type=int, default=1, help="number of robots (0..N-1), default 1")
     ap.add_argument("--seed", type=int, default=1, help="seed of robots and noise, default 1")
     ap.add_argument("--layout", action="append", metavar="NAME[,NAME]",
@@ -319,6 +487,9 @@ def main(argv=None):
     ap.add_argument("--lcm-python", help="folder holding the generated package omni4 "
                     "(default: build/lcmtypes/gen/python)")
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
+    ap.add_argument("--sensors", metavar="EFFECT[,EFFECT]",
+                    help="real-sensor effects for every layout: " + ", ".join(plant.SENSOR_EFFECTS)
+                    + ", all or none (default: all for the sensors layout, none otherwise)")
     ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
                     help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
                          "correlation time TAU [s], e.g. 0.3,0.02")
@@ -329,6 +500,7 @@ def main(argv=None):
         subset = parse_subset(a.motor_subset) if a.motor_subset else None
         if a.robots < 1:
             raise ValueError("--robots must be at least 1")
+        sensors = None if a.sensors is None else parse_sensors(a.sensors)
         noise = None
         if a.speed_noise:
             try:
@@ -340,7 +512,7 @@ def main(argv=None):
                                  "SIGMA >= 0 [rad/s] and TAU > 0 [s]")
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
-                           a.lcm_python, None if a.quiet else print, noise)
+                           a.lcm_python, None if a.quiet else print, noise, sensors)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
