@@ -10,10 +10,18 @@ validation within the paper's Table IV (final). A log that omni4-ident refuses, 
 rejects, is a failure with its message. Prints the worst error per parameter and layout, the worst
 validation figures beside Table IV, the failures, and 'ident_indep: N passed, M failed'
 (one case = robot x layout x velocity source). Exit status 1 if any bound is missed.
+
+Real sensors (layout `sensors`, or --sensors for any layout): the same bounds. The table gets a
+row per base layout of the `sensors` layout. Where the logs carry current offsets, identify also
+writes --csv DIR; if DIR/current_offsets.csv (columns log, motor, offset_a, se_a) exists, every
+motor's estimate must be within 3 SE + 1 mA of the offset in the log's sidecar
+(robotK_LAYOUT.sensors.json); if omni4-ident does not write that file, the comparison is skipped
+and the summary says so.
 """
 import argparse
 import collections
 import concurrent.futures as cf
+import csv
 import json
 import os
 import subprocess
@@ -34,14 +42,69 @@ SOURCES = ("encoder", "camera")
 #: relative cost of a layout's generation (ticks), to start the slow ones first
 COST = {"rate2k": 2.0, "rate500": 0.5}
 TOOL_TIMEOUT_S = 300
+#: current offset estimates must be within this many SE plus OFFSET_TOL_A of the truth
+OFFSET_TOL_SE, OFFSET_TOL_A = 3.0, 0.001
+OFFSETS_CSV = "current_offsets.csv"
 
 
-def gen_task(layout, seed, robots, out_dir, lcm_python):
-    """Worker: write the logs of one layout; returns (layout, list of log dicts, seconds)."""
+def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None):
+    """Worker: write the logs of some robots of one layout; returns (layout, list of log
+    dicts, seconds)."""
     t = time.time()
     res = write_logs.generate(layout, seed, robots, os.path.join(out_dir, layout),
-                              lcm_python=lcm_python, progress=None)
+                              lcm_python=lcm_python, progress=None, sensors=sensors)
     return layout, res, time.time() - t
+
+
+def gen_chunks(names, robots, jobs):
+    """(layout, robots) generation tasks: one per layout and loop rate (the `sensors` layout
+    mixes rates), the largest split in halves while there are fewer tasks than workers."""
+    chunks = [(n, g) for n in names for g in write_logs.rate_groups(n, robots)]
+    while len(chunks) < jobs:
+        big = max(range(len(chunks)), key=lambda j: len(chunks[j][1]))
+        name, group = chunks[big]
+        if len(group) < 2:
+            break
+        half = len(group) // 2
+        chunks[big:big + 1] = [(name, group[:half]), (name, group[half:])]
+    return chunks
+
+
+def check_offsets(csv_dir, entry):
+    """Compare identify's current offset estimates (csv_dir/current_offsets.csv) with the log's
+    sidecar. Returns dict: status 'skipped' (no such file) or 'checked', worst (largest
+    |est - true| / (3 SE + 1 mA)), worst_ma, fail (list of messages)."""
+    path = os.path.join(csv_dir, OFFSETS_CSV)
+    out = {"status": "skipped", "worst": None, "worst_ma": None, "fail": []}
+    if not os.path.exists(path):
+        return out
+    out["status"] = "checked"
+    with open(entry["sensors"]) as f:
+        truth = json.load(f)["current_offset_a"]
+    name = os.path.basename(entry["log"])
+    est = {}
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+        for row in rows:
+            if os.path.basename(row["log"].strip()) == name:
+                est[int(row["motor"])] = (float(row["offset_a"]), float(row["se_a"]))
+    except (OSError, KeyError, ValueError, TypeError, AttributeError) as e:
+        out["fail"].append(f"{OFFSETS_CSV} unreadable (columns log,motor,offset_a,se_a): {e}")
+        return out
+    for j, true_a in enumerate(truth):
+        if j not in est:
+            out["fail"].append(f"{OFFSETS_CSV} has no offset of motor {j} for {name}")
+            continue
+        val, se = est[j]
+        bound = OFFSET_TOL_SE * se + OFFSET_TOL_A
+        ratio = abs(val - true_a) / bound if bound > 0 else float("inf")
+        if out["worst"] is None or not ratio <= out["worst"]:
+            out["worst"], out["worst_ma"] = ratio, 1e3 * abs(val - true_a)
+        if not ratio <= 1.0:
+            out["fail"].append(f"current offset motor {j}: {1e3 * val:+.2f} +- {1e3 * se:.2f} mA,"
+                               f" true {1e3 * true_a:+.2f} mA (over 3 SE + 1 mA)")
+    return out
 
 
 def _tool(cmd):
@@ -71,15 +134,20 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True):
     params, vjson = stem + "_params.ini", stem + "_validate.json"
     vel = ["--velocity", "camera"] if source == "camera" else []
     out = {"layout": layout, "robot": entry["robot"], "source": source, "log": entry["log"],
-           "errors": {}, "validation": None, "fail": []}
+           "base_layout": entry["base_layout"], "errors": {}, "validation": None,
+           "offsets": None, "fail": []}
+    csv_dir = stem + "_csv" if "offsets" in entry["effects"] else None
     status, msg = _tool([tool, "identify", "--robot", entry["base"], "--out", params,
-                         entry["log"]] + vel)
+                         entry["log"]] + vel + (["--csv", csv_dir] if csv_dir else []))
     if status == "not started":
         out["fail"].append(msg)
         return out
     if status != "ok" or not os.path.exists(params):
         out["fail"].append(f"identify refused the log: {msg or 'no params file'}")
         return out
+    if csv_dir:
+        out["offsets"] = check_offsets(csv_dir, entry)
+        out["fail"] += out["offsets"]["fail"]
     est, truth = write_logs.read_ini(params), write_logs.read_ini(entry["truth"])
     for k in PARAMS:
         if k not in est:
@@ -114,12 +182,14 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True):
 def run_all(a, work):
     """Generate all layouts and identify every log, `a.jobs` processes; returns results."""
     results, say = [], (lambda s: None) if a.quiet else (lambda s: print(s, flush=True))
-    pending, per_log = collections.Counter(), collections.Counter()
+    pending, per_log, gen_left = collections.Counter(), collections.Counter(), collections.Counter()
     order = sorted(a.layouts, key=lambda n: -COST.get(n, 1.0))
     robots = list(range(a.robots))
     with cf.ProcessPoolExecutor(max_workers=a.jobs) as pool:
-        futs = {pool.submit(gen_task, n, a.seed, robots, work, a.pythonpath): "gen"
-                for n in order}
+        futs = {}
+        for n, group in gen_chunks(order, robots, a.jobs):
+            gen_left[n] += 1
+            futs[pool.submit(gen_task, n, a.seed, group, work, a.pythonpath, a.sensors)] = "gen"
         while futs:
             done, _ = cf.wait(futs, return_when=cf.FIRST_COMPLETED)
             for fut in done:
@@ -130,6 +200,7 @@ def run_all(a, work):
                     except write_logs.LogError as e:
                         print(f"ident_indep: cannot write logs: {e}", file=sys.stderr)
                         raise SystemExit(2)
+                    gen_left[layout] -= 1
                     say(f"ident_indep: {layout}: {len(entries)} logs written in {secs:.1f} s")
                     for entry in entries:
                         for src in SOURCES:
@@ -141,7 +212,7 @@ def run_all(a, work):
                     r = fut.result()
                     results.append(r)
                     pending[r["layout"]] -= 1
-                    if pending[r["layout"]] == 0:
+                    if pending[r["layout"]] == 0 and gen_left[r["layout"]] == 0:
                         bad = sum(1 for x in results if x["layout"] == r["layout"] and x["fail"])
                         n = sum(1 for x in results if x["layout"] == r["layout"])
                         say(f"ident_indep: {r['layout']}: identified, {bad} of {n} cases failed")
@@ -159,35 +230,47 @@ def fmt(v, bound=None, width=7, prec=2):
     return f"{v:{width - 1}.{prec}f}{mark}"
 
 
+def table_rows(results, names):
+    """(label, results) rows: one per layout, and below a layout that mixes base layouts (the
+    `sensors` layout) one per base layout, labelled ' :BASE'."""
+    rows = []
+    for n in names:
+        rs = [r for r in results if r["layout"] == n]
+        rows.append((n, rs))
+        bases = sorted({r["base_layout"] for r in rs} - {n}, key=layouts.LAYOUTS.index)
+        if bases:
+            rows += [(f" :{b}", [r for r in rs if r["base_layout"] == b]) for b in bases]
+    return rows
+
+
 def print_tables(results, names):
     """Worst |error| % per parameter / layout / source; worst validation beside Table IV."""
-    by = collections.defaultdict(list)
-    for r in results:
-        by[(r["source"], r["layout"])].append(r)
+    rows = table_rows(results, names)
+    w = max([11] + [len(label) for label, _ in rows])
     print(f"\nworst |error| % of the identified parameters (bound {PARAM_TOL_PCT:.0f} %, "
           "* = over; refused = identify refused the log)")
-    head = f"{'velocity':8} {'layout':11}" + "".join(f"{k:>8}" for k in PARAMS) + "  refused"
+    head = f"{'velocity':8} {'layout':{w}}" + "".join(f"{k:>8}" for k in PARAMS) + "  refused"
     for src in SOURCES:
         print(head)
-        for n in names:
-            rs = by[(src, n)]
+        for label, lrs in rows:
+            rs = [r for r in lrs if r["source"] == src]
             cells = []
             for k in PARAMS:
                 vals = [abs(r["errors"][k]) for r in rs if k in r["errors"]]
                 cells.append(fmt(max(vals) if vals else None, PARAM_TOL_PCT, 8))
             refused = sum(1 for r in rs if any("identify refused" in f for f in r["fail"]))
-            print(f"{src:8} {n:11}" + "".join(cells) + f"  {refused}/{len(rs)}")
+            print(f"{src:8} {label:{w}}" + "".join(cells) + f"  {refused}/{len(rs)}")
     print("\nworst validation e_max / sigma per axis (paper's Table IV final in the header; "
           "* = over; no-val = validation not available: identify or validate refused)")
-    head = f"{'velocity':8} {'layout':11}" + "".join(
+    head = f"{'velocity':8} {'layout':{w}}" + "".join(
         f"  {ax + ' e_max':>9} {'sigma':>7}" for ax in TABLE_IV) + "  no-val"
-    iv = f"{'Table IV':20}" + "".join(f"  {TABLE_IV[ax][0]:9.3f} {TABLE_IV[ax][1]:7.3f}"
-                                       for ax in TABLE_IV)
+    iv = f"{'Table IV':{w + 9}}" + "".join(f"  {TABLE_IV[ax][0]:9.3f} {TABLE_IV[ax][1]:7.3f}"
+                                          for ax in TABLE_IV)
     for src in SOURCES:
         print(head)
         print(iv)
-        for n in names:
-            rs = by[(src, n)]
+        for label, lrs in rows:
+            rs = [r for r in lrs if r["source"] == src]
             vals = [r["validation"] for r in rs if r["validation"]]
             cells = ""
             for ax in TABLE_IV:
@@ -195,7 +278,28 @@ def print_tables(results, names):
                 sig = max((v[ax][1] for v in vals), default=None)
                 cells += "  " + fmt(emax, TABLE_IV[ax][0], 9, 4) + " " + fmt(sig, TABLE_IV[ax][1],
                                                                           7, 4)
-            print(f"{src:8} {n:11}{cells}  {len(rs) - len(vals)}/{len(rs)}")
+            print(f"{src:8} {label:{w}}{cells}  {len(rs) - len(vals)}/{len(rs)}")
+
+
+def print_offsets(results):
+    """One paragraph on the current offset estimates of the logs that carry offsets."""
+    rs = [r for r in results if r["offsets"] is not None]
+    if not rs:
+        return
+    checked = [r for r in rs if r["offsets"]["status"] == "checked"]
+    skipped = len(rs) - len(checked)
+    print(f"\ncurrent offsets (logs with offsets: {len(rs)} cases):")
+    if checked:
+        worst = max(checked, key=lambda r: r["offsets"]["worst"] or 0.0)
+        bad = sum(1 for r in checked if r["offsets"]["fail"])
+        o = worst["offsets"]
+        print(f"  compared with the sidecar in {len(checked)} cases, {bad} failed; worst "
+              f"|est - true| {o['worst_ma']:.2f} mA = {o['worst']:.2f} x (3 SE + 1 mA) "
+              f"(robot{worst['robot']} {worst['layout']} {worst['source']})"
+              if o["worst"] is not None else
+              f"  compared in {len(checked)} cases, {bad} failed (no estimates)")
+    if skipped:
+        print(f"  skipped in {skipped} cases: omni4-ident identify --csv wrote no {OFFSETS_CSV}")
 
 
 def print_failures(results, quiet):
@@ -207,6 +311,8 @@ def print_failures(results, quiet):
                 key = f.split(" off by ")[0] + f" more than {PARAM_TOL_PCT:.0f} % off"
             elif f.startswith("validate ") and (" e_max " in f or " sigma " in f):
                 key = f.split(":")[0] + f":{f.split(':')[1].split()[0]} over Table IV"
+            elif f.startswith("current offset motor "):
+                key = "current offset estimate over 3 SE + 1 mA from the truth"
             else:
                 key = f
             groups[key].append(r)
@@ -231,7 +337,7 @@ def main(argv=None):
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="example:\n  .venv/bin/python tests/indep/test_ident_indep.py build/bin "
                "build/lcmtypes/gen/python --robots 4 --layouts runner,hand --keep /tmp/indep\n"
-               f"layouts: {', '.join(layouts.LAYOUTS)}")
+               f"layouts: {', '.join(layouts.LAYOUTS)} (all: all but sensors)")
     ap.add_argument("bin_dir", help="folder with omni4-ident")
     ap.add_argument("pythonpath", help="folder with the lcm-gen Python package omni4")
     ap.add_argument("--robots", type=int, default=20, help="robots per layout (default 20)")
@@ -240,12 +346,17 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1, help="seed of robots and noise (default 1)")
     ap.add_argument("--keep", metavar="DIR", help="write logs, params and JSON here and keep them")
     ap.add_argument("--quiet", action="store_true", help="no progress lines, no per-case detail")
+    ap.add_argument("--sensors", metavar="EFFECT[,EFFECT]",
+                    help="real-sensor effects for every layout: offsets, eccentricity, jitter, "
+                         "latency, losses, all or none (default: all for the sensors layout, "
+                         "none otherwise)")
     ap.add_argument("--camera-params", choices=("assert", "report"), default="assert",
                     help="with --velocity camera, assert the 2 %% parameter bound (default) or "
                          "only report the errors (validation is asserted either way)")
     a = ap.parse_args(argv)
     try:
         a.layouts = write_logs.parse_layouts(a.layouts.split(","))
+        a.sensors = None if a.sensors is None else write_logs.parse_sensors(a.sensors)
         if a.robots < 1 or a.jobs < 1:
             raise ValueError("--robots and --jobs must be at least 1")
         tool = os.path.join(a.bin_dir, "omni4-ident")
@@ -262,7 +373,10 @@ def main(argv=None):
     else:
         with tempfile.TemporaryDirectory(prefix="ident_indep_") as work:
             results = run_all(a, work)
+    print("\nsensors: " + "; ".join(
+        f"{n} {','.join(write_logs.effects_for(n, a.sensors)) or 'ideal'}" for n in a.layouts))
     print_tables(results, a.layouts)
+    print_offsets(results)
     print_failures(results, a.quiet)
     failed = sum(1 for r in results if r["fail"])
     print(f"\n{len(a.layouts)} layouts x {a.robots} robots x {len(SOURCES)} velocity sources in "
