@@ -13,9 +13,9 @@ struct MotorsSample {
   int64_t seq = 0;
   int8_t mode = 0;
   int32_t faults = 0;
-  std::array<double, 4> u{};  // applied voltage [V]
-  std::array<double, 4> i{};  // current [A]
-  std::array<double, 4> w{};  // wheel speed after the gearbox [rad/s]
+  std::array<float, 4> u{};  // applied voltage [V] (motors_t carries floats)
+  std::array<float, 4> i{};  // current [A]
+  std::array<float, 4> w{};  // wheel speed after the gearbox [rad/s]
 };
 
 struct PoseSample {

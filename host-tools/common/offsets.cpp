@@ -22,7 +22,7 @@ struct Accumulator {
   std::array<double, 4> bsum{};
   size_t bn = 0;
 
-  void add(const std::array<double, 4> &i, size_t batch) {
+  void add(const std::array<float, 4> &i, size_t batch) {
     ++n;
     for (int j = 0; j < 4; ++j) {
       sum[j] += i[j];
@@ -157,7 +157,8 @@ std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &o
                        fmt_offsets(pm) + " A)");
     }
     for (size_t q = ep[e].m0; q < ep[e].m1; ++q)
-      for (int j = 0; j < 4; ++j) m[q].i[j] -= ep[e].offset_a[j];
+      for (int j = 0; j < 4; ++j)
+        m[q].i[j] = static_cast<float>(m[q].i[j] - ep[e].offset_a[j]);
     ep[e].subtracted = true;
   }
   log.current_offsets = ep;

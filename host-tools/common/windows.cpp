@@ -104,7 +104,7 @@ void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptio
     // Split the driven run into pieces of constant applied voltage: every channel stays in a
     // band no wider than the tolerance (a ramp of any slope leaves it).
     size_t p = a;
-    std::array<double, 4> lo = m[a].u, hi = m[a].u;
+    std::array<float, 4> lo = m[a].u, hi = m[a].u;
     for (size_t k = a + 1; k <= b; ++k) {
       bool same = k < b;
       for (int j = 0; same && j < 4; ++j) {

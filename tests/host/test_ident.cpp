@@ -512,8 +512,17 @@ TEST(BadInput, CorruptBytesInTheMiddleAreSkippedAndTheRestIsRead) {
   run_simulation(cfg, cfg.model, false, log, false, 5.0, 0);
   const LogData full = read_log(log);
   {
+    // The junk starts on the first event header after the middle of the file, so that it
+    // always hits a header (junk inside an event's data would decode as garbage values).
     std::fstream f(log, std::ios::in | std::ios::out | std::ios::binary);
-    f.seekp(static_cast<std::streamoff>(full.bytes_total / 2));
+    std::vector<char> bytes(full.bytes_total);
+    f.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    const char sync[4] = {'\xED', '\xA1', '\xDA', '\x01'};
+    const auto at = std::search(bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() / 2),
+                                bytes.end(), sync, sync + 4);
+    ASSERT_NE(at, bytes.end());
+    f.clear();
+    f.seekp(at - bytes.begin());
     const char junk[64] = {0x55};
     f.write(junk, sizeof(junk));
   }
@@ -621,8 +630,9 @@ MotorsSample sample_at(int64_t k, int8_t mode, double u_v, double v) {
   s.utime = 1000000 + k * 1000;
   s.seq = k;
   s.mode = mode;
-  s.u = {0, -u_v, 0, u_v};
-  s.w = {0, -v / kR, 0, v / kR};
+  const float u = static_cast<float>(u_v), w = static_cast<float>(v / kR);
+  s.u = {0, -u, 0, u};  // motors_t carries floats
+  s.w = {0, -w, 0, w};
   return s;
 }
 
@@ -776,5 +786,5 @@ TEST(Windows, LostSamplesEndAFilterBlockAndNothingIsFilteredAcrossThem) {
   EXPECT_TRUE(t.ok[979]);
   EXPECT_TRUE(t.ok[1020]);
   EXPECT_FALSE(t.joined[1000]);
-  EXPECT_NEAR(t.x[979][0], 0.5, 1e-12);
+  EXPECT_NEAR(t.x[979][0], 0.5, 4e-8);  // 0.5 / r rounded to motors_t's float: 1.4e-8 off
 }

@@ -53,8 +53,8 @@ LogData synthetic(const std::array<double, 4> &offset, unsigned seed, int blocks
       if (driven) last_drive = t;
       const double tail = last_drive >= 0 ? 0.5 * std::exp(-(t - last_drive) * 1e-6 / 0.003) : 0;
       for (int j = 0; j < 4; ++j) {
-        s.u[j] = driven ? 6 : 0;
-        s.i[j] = offset[j] + n(g) + (driven ? 0.8 : tail);
+        s.u[j] = driven ? 6.0f : 0.0f;
+        s.i[j] = static_cast<float>(offset[j] + n(g) + (driven ? 0.8 : tail));
       }
       d.motors.push_back(s);
     }
@@ -94,7 +94,7 @@ TEST(Offsets, SubtractedFromEveryReadingDrivenOrNot) {
   const auto &e = d.current_offsets.at(0);
   for (size_t k = 0; k < d.motors.size(); k += 97)
     for (int j = 0; j < 4; ++j)
-      EXPECT_DOUBLE_EQ(d.motors[k].i[j], raw.motors[k].i[j] - e.offset_a[j]);
+      EXPECT_EQ(d.motors[k].i[j], static_cast<float>(raw.motors[k].i[j] - e.offset_a[j]));
 }
 
 TEST(Offsets, TheGuardAfterADriveKeepsTheWindingCurrentOut) {
@@ -127,7 +127,8 @@ TEST(Offsets, EachCalibrationNoticeOpensAnEpochOfItsOwn) {
   LogData d = synthetic({0.04, -0.03, 0.02, 0.01}, 9);
   for (MotorsSample &s : d.motors)
     if (s.seq >= 5000)
-      for (int j = 0; j < 4; ++j) s.i[j] -= std::array<double, 4>{0.039, -0.031, 0.02, 0.0}[j];
+      for (int j = 0; j < 4; ++j)
+        s.i[j] = static_cast<float>(s.i[j] - std::array<double, 4>{0.039, -0.031, 0.02, 0.0}[j]);
   CalibrationNotice n;
   n.seq = 5000;
   n.offset_a = {0.039, -0.031, 0.02, 0.0};
@@ -258,7 +259,8 @@ LogData sim_log(unsigned seed, const std::array<double, 4> &offset) {
   std::mt19937 g(seed);
   std::normal_distribution<double> n(0, kNoiseA);
   for (MotorsSample &s : d.motors)
-    for (int j = 0; j < 4; ++j) s.i[j] += offset[j] + (s.mode == 1 || s.mode == 2 ? 0 : n(g));
+    for (int j = 0; j < 4; ++j)
+      s.i[j] = static_cast<float>(s.i[j] + offset[j] + (s.mode == 1 || s.mode == 2 ? 0 : n(g)));
   return d;
 }
 
