@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <numeric>
+#include <thread>
 
 extern "C" {
 #include "omni4/dynamics.h"
@@ -838,16 +840,38 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
   P.base = base;
   P.opt = opt;
   P.segments = segments;
-  for (const Segment &s : segments) {
-    if (P.enc.count(s.log)) continue;
-    P.enc.emplace(s.log, encoder_track(*s.log, base.d, base.r));
-    P.cam.emplace(s.log, camera_track(*s.log));
-    for (size_t e = 0; e < s.log->current_offsets.size(); ++e) {
-      const OffsetEpoch &ep = s.log->current_offsets[e];
-      if (ep.subtracted && std::isfinite(ep.se_a[0])) P.offset_epochs.emplace_back(s.log, e);
+  // The logs' tracks and the segments' windows are independent: on all cores, one log (with
+  // its segments) per task.
+  std::vector<const LogData *> logs;
+  for (const Segment &s : segments)
+    if (std::find(logs.begin(), logs.end(), s.log) == logs.end()) logs.push_back(s.log);
+  struct Tracks {
+    EncoderTrack enc;
+    CameraTrack cam;
+    std::vector<std::pair<size_t, SegmentWindows>> windows;  // by segment index
+  };
+  auto work = [&](const LogData *log) {
+    Tracks t{encoder_track(*log, base.d, base.r), camera_track(*log), {}};
+    for (size_t i = 0; i < segments.size(); ++i)
+      if (segments[i].log == log) t.windows.emplace_back(i, find_windows(segments[i], t.enc, opt.windows));
+    return t;
+  };
+  const size_t workers = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::future<Tracks>> pending;
+  P.windows.resize(segments.size());
+  size_t next = 0;
+  for (size_t k = 0; k < logs.size(); ++k) {
+    while (next < logs.size() && pending.size() < k + workers)
+      pending.push_back(std::async(std::launch::async, work, logs[next++]));
+    Tracks t = pending[k].get();
+    for (auto &[i, w] : t.windows) P.windows[i] = std::move(w);
+    P.enc.emplace(logs[k], std::move(t.enc));
+    P.cam.emplace(logs[k], std::move(t.cam));
+    for (size_t e = 0; e < logs[k]->current_offsets.size(); ++e) {
+      const OffsetEpoch &ep = logs[k]->current_offsets[e];
+      if (ep.subtracted && std::isfinite(ep.se_a[0])) P.offset_epochs.emplace_back(logs[k], e);
     }
   }
-  for (const Segment &s : segments) P.windows.push_back(find_windows(s, P.enc.at(s.log), opt.windows));
   return P;
 }
 

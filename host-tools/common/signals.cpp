@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <stdexcept>
 
 extern "C" {
@@ -78,22 +79,35 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
   }
   const int h = out.half;
   const SgFilter f = savitzky_golay(h, 2);
-  // Contiguous blocks [a, b): the filter runs inside each, never across a gap.
+  // Contiguous blocks [a, b): the filter runs inside each, never across a gap. Per axis, the
+  // raw series is copied into a contiguous array and each filter tap is one pass over the
+  // block (a loop over k with unit stride: the compiler vectorises it).
+  std::vector<double> y(n), xs(n), ds(n);
   size_t a = 0;
   for (size_t b = 1; b <= n; ++b) {
     if (b < n && out.joined[b]) continue;
-    for (size_t k = a + h; k + h < b; ++k) {
+    if (b >= a + 2 * h + 1) {
+      const size_t k0 = a + h, k1 = b - h;  // centres [k0, k1)
       for (int ax = 0; ax < 3; ++ax) {
-        double s = 0, ds = 0;
+        for (size_t k = a; k < b; ++k) y[k] = out.raw[k][ax];
+        std::fill(xs.begin() + k0, xs.begin() + k1, 0.0);
+        std::fill(ds.begin() + k0, ds.begin() + k1, 0.0);
         for (int q = -h; q <= h; ++q) {
-          const double y = out.raw[k + q][ax];
-          s += f.smooth[q + h] * y;
-          ds += f.deriv[q + h] * y;
+          const double cs = f.smooth[q + h], cd = f.deriv[q + h];
+          const double *src = y.data() + (static_cast<std::ptrdiff_t>(k0) + q);
+          double *__restrict xo = xs.data() + k0;
+          double *__restrict dout = ds.data() + k0;
+          for (size_t i = 0; i < k1 - k0; ++i) {
+            xo[i] += cs * src[i];
+            dout[i] += cd * src[i];
+          }
         }
-        out.x[k][ax] = s;
-        out.dx[k][ax] = ds / out.dt;
+        for (size_t k = k0; k < k1; ++k) {
+          out.x[k][ax] = xs[k];
+          out.dx[k][ax] = ds[k] / out.dt;
+        }
       }
-      out.ok[k] = 1;
+      for (size_t k = k0; k < k1; ++k) out.ok[k] = 1;
     }
     a = b;
   }
