@@ -73,6 +73,16 @@ int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 	tune(c);
 	ctl_ramp_reset(&c->ramp, c->out); /* outputs at 0 V, no ramp in progress */
 	c->mode = CTL_IDLE;
+	static const struct ctl_cal_cfg cal = {
+		.samples = CTL_CAL_SAMPLES,
+		.settle_us = CTL_CAL_SETTLE_US,
+		.limit_a = CTL_CAL_LIMIT_A,
+		.change_min_a = CTL_CAL_CHANGE_MIN_A,
+		.change_sigmas = CTL_CAL_CHANGE_SIGMAS,
+	};
+
+	ctl_cal_init(&c->cal, &cal);
+	c->enabled_prev = false; /* the adapter starts with the outputs off */
 	return 0;
 }
 
@@ -185,8 +195,9 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 	return 0;
 }
 
-static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int read_rc,
-			    int64_t now_us)
+/* s: the raw reading; cur: its currents minus the offsets in force. */
+static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const float cur[4],
+			    int read_rc, int64_t now_us)
 {
 	int32_t f = 0;
 
@@ -202,10 +213,10 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, int rea
 	const float max_step = ENCODER_MAX_ACCEL_RAD_S2 * since_s;
 
 	for (int j = 0; j < 4; j++) {
-		const float i = s->current_a[j], w = s->wheel_rad_s[j];
+		const float raw = s->current_a[j], i = cur[j], w = s->wheel_rad_s[j];
 
-		if (!isfinite(i) || fabsf(i) >= c->t.sensor_max)
-			f |= CTL_FAULT_CURRENT_SENSOR; /* no reading, or at the rail */
+		if (!isfinite(raw) || fabsf(raw) >= c->t.sensor_max)
+			f |= CTL_FAULT_CURRENT_SENSOR; /* no reading, or the sensor at its rail */
 		if (isfinite(i) && fabsf(i) > c->t.current_max)
 			f |= CTL_FAULT_OVERCURRENT;
 		if (!isfinite(w)) {
@@ -302,10 +313,45 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 	}
 }
 
+/* A reading the offset calibration may take: complete, finite, off the rail, no driver-side
+ * fault. */
+static bool cal_reading_ok(const struct ctl *c, const struct motor_sample *s)
+{
+	if (s->faults)
+		return false;
+	for (int j = 0; j < 4; j++)
+		if (!isfinite(s->current_a[j]) || fabsf(s->current_a[j]) >= c->t.sensor_max)
+			return false;
+	return true;
+}
+
+/* The offset calibration's step on this tick's reading, then the reading's currents minus the
+ * offsets in force (NaN without a reading). */
+static void calibrate(struct ctl *c, int64_t now_us, const struct motor_sample *sample,
+		      int read_rc, float cur[4])
+{
+	const bool off = !c->enabled_prev;
+
+	if (read_rc == 0 && sample && cal_reading_ok(c, sample)) {
+		ctl_cal_step(&c->cal, now_us, off, sample->current_a);
+	} else {
+		ctl_cal_step(&c->cal, now_us, off, NULL);
+		if (read_rc != -EAGAIN)
+			ctl_cal_restart(&c->cal); /* a lost or untrustworthy reading */
+	}
+	for (int j = 0; j < 4; j++)
+		cur[j] = sample ? sample->current_a[j] - c->cal.offset[j] : NAN;
+}
+
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
 	      bool estop, struct ctl_output *out)
 {
-	const int32_t now_faults = check_sample(c, sample, read_rc, now_us);
+	float cur[4];
+
+	calibrate(c, now_us, sample, read_rc, cur);
+
+	const int32_t now_faults = check_sample(c, sample, cur, read_rc, now_us) |
+				   (c->cal.fault_mask ? CTL_FAULT_CURRENT_SENSOR : 0);
 	const struct motor_sample *s = read_rc == 0 ? sample : NULL;
 
 	c->present = now_faults;
@@ -335,7 +381,9 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 			ctl_pi_reset(&c->pi[j]);
 	}
 	memcpy(out->volts, c->out, sizeof(out->volts));
+	memcpy(out->current, cur, sizeof(out->current));
 	out->enable = on;
 	out->mode = (int8_t)c->mode;
 	out->faults = c->latched | c->warnings;
+	c->enabled_prev = on;
 }

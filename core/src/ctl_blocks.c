@@ -1,4 +1,4 @@
-/* ctl_blocks.c - PI, ramp and reference shaper (see ctl_blocks.h). */
+/* ctl_blocks.c - PI, ramp, reference shaper and offset calibration (see ctl_blocks.h). */
 #include "omni4/ctl_blocks.h"
 
 #include <math.h>
@@ -86,4 +86,79 @@ void ctl_shaper_step(struct ctl_shaper *s, const float target[3])
 		s->ref[k] += step;
 		s->acc[k] = step * s->inv_dt;
 	}
+}
+
+void ctl_cal_init(struct ctl_cal *c, const struct ctl_cal_cfg *cfg)
+{
+	memset(c, 0, sizeof(*c));
+	c->cfg = *cfg;
+}
+
+void ctl_cal_restart(struct ctl_cal *c)
+{
+	c->n = 0;
+}
+
+/* The measurement of c->n readings is complete: its means and variances; true if they come
+ * into force. */
+static bool cal_finish(struct ctl_cal *c)
+{
+	const float n = (float)c->n;
+	float mean[4], var[4];
+	bool take = c->gen == 0;
+
+	for (int j = 0; j < 4; j++) {
+		mean[j] = c->ref[j] + c->sum[j] / n;
+		var[j] = fmaxf(0.0f, (c->sum2[j] - c->sum[j] * c->sum[j] / n) / (n - 1.0f));
+		const float d = mean[j] - c->offset[j];
+		const float k = c->cfg.change_sigmas;
+		const float min2 = c->cfg.change_min_a * c->cfg.change_min_a;
+		const float thr2 = fmaxf(min2, k * k * (var[j] + c->var[j]) / n);
+
+		if (d * d > thr2)
+			take = true;
+	}
+	c->n = 0;
+	if (!take)
+		return false;
+	memcpy(c->prev, c->offset, sizeof(c->prev));
+	c->prev_fault_mask = c->fault_mask;
+	c->fault_mask = 0;
+	for (int j = 0; j < 4; j++) {
+		c->offset[j] = mean[j];
+		c->var[j] = var[j];
+		if (fabsf(mean[j]) > c->cfg.limit_a)
+			c->fault_mask |= 1u << j;
+	}
+	c->gen++;
+	return true;
+}
+
+bool ctl_cal_step(struct ctl_cal *c, int64_t now_us, bool bridges_off, const float *current)
+{
+	if (!bridges_off) {
+		c->off = false;
+		c->n = 0;
+		return false;
+	}
+	if (!c->off) {
+		c->off = true;
+		c->off_since_us = now_us;
+	}
+	if (!current || now_us - c->off_since_us < c->cfg.settle_us)
+		return false;
+	if (c->n == 0) {
+		memcpy(c->ref, current, sizeof(c->ref));
+		memset(c->sum, 0, sizeof(c->sum));
+		memset(c->sum2, 0, sizeof(c->sum2));
+	}
+	for (int j = 0; j < 4; j++) {
+		const float x = current[j] - c->ref[j];
+
+		c->sum[j] += x;
+		c->sum2[j] += x * x;
+	}
+	if (++c->n < c->cfg.samples)
+		return false;
+	return cal_finish(c);
 }

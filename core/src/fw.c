@@ -144,6 +144,22 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e)
 	return spsc_pop(&fw->log_ring, e);
 }
 
+/* The set of current-sense offsets that came into force in this tick (ctl.h), announced
+ * ahead of the tick's sample. */
+static void push_calibration(struct fw *fw, int64_t now_us)
+{
+	const struct ctl_cal *cal = &fw->ctl.cal;
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_CALIBRATION,
+			      .mode = cal->gen == 1 ? -1 : (int8_t)cal->prev_fault_mask,
+			      .cal_samples = (uint16_t)cal->cfg.samples,
+			      .faults = (int32_t)cal->fault_mask};
+
+	memcpy(e.current, cal->offset, sizeof(e.current));
+	memcpy(e.voltage, cal->prev, sizeof(e.voltage));
+	fw->cal_gen = cal->gen;
+	log_push(fw, &e);
+}
+
 void fw_tick(struct fw *fw, int64_t now_us)
 {
 	struct ctl_command cmd;
@@ -183,6 +199,8 @@ void fw_tick(struct fw *fw, int64_t now_us)
 		fw->n.write_errors++;
 	hal_line_set_led(&fw->lines, out.mode == CTL_FAULT || out.mode == CTL_ESTOP);
 	fw->last_out = out;
+	if (fw->ctl.cal.gen != fw->cal_gen) /* new offsets, subtracted from this tick on */
+		push_calibration(fw, now_us);
 
 	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
 			      .mode = out.mode, .faults = out.faults};
@@ -196,7 +214,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	fw->last_tick_us = now_us;
 
 	memcpy(e.voltage, out.volts, sizeof(e.voltage));
-	memcpy(e.current, fw->last_sample.current_a, sizeof(e.current));
+	memcpy(e.current, out.current, sizeof(e.current));
 	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
 	log_push(fw, &e);
 	fw->seq++;

@@ -4,11 +4,13 @@
 #include "omni4/rtloop.h"
 
 #include <errno.h>
+#include <stdio.h>
 #include <string.h>
 #include <time.h>
 
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
+#include "omni4_param_changed_t.h"
 #include "omni4_pose_t.h"
 
 /* The controller's modes and fault bits go out unchanged as motors_t's (lcmtypes/), and
@@ -55,11 +57,68 @@ int lcmio_decode_command(const void *data, size_t len, struct ctl_command *out)
 	return 0;
 }
 
+void lcmio_fault_channels(uint32_t mask, char out[8])
+{
+	char *p = out;
+
+	for (int j = 0; j < 4; j++)
+		if (mask & (1u << j)) {
+			if (p != out)
+				*p++ = ',';
+			*p++ = (char)('0' + j);
+		}
+	*p = '\0';
+}
+
+/* LOG_CALIBRATION -> param_changed_t (lcmio.h). */
+static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
+{
+	enum { KEYS = 6, VAL = 32 };
+	static const char *const names[KEYS] = {
+		"calibration.current_offset_a0", "calibration.current_offset_a1",
+		"calibration.current_offset_a2", "calibration.current_offset_a3",
+		"calibration.samples",           "calibration.fault_channels",
+	};
+	char now[KEYS][VAL], before[KEYS][VAL];
+	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
+	const bool first = e->mode < 0;
+	const uint32_t prev_faults = first ? 0 : (uint32_t)e->mode;
+	int n = 5;
+
+	for (int j = 0; j < 4; j++) {
+		snprintf(now[j], VAL, "%.6f", (double)e->current[j]);
+		snprintf(before[j], VAL, "%.6f", (double)e->voltage[j]);
+	}
+	snprintf(now[4], VAL, "%u", (unsigned)e->cal_samples);
+	/* Before the first set nothing was measured; every set has the same count. */
+	snprintf(before[4], VAL, "%u", first ? 0u : (unsigned)e->cal_samples);
+	if (e->faults) {
+		lcmio_fault_channels((uint32_t)e->faults, now[5]);
+		lcmio_fault_channels(prev_faults, before[5]);
+		n = 6;
+	}
+	for (int k = 0; k < n; k++) {
+		keys[k] = (char *)names[k];
+		values[k] = now[k];
+		old_values[k] = before[k];
+	}
+	const omni4_param_changed_t m = {.utime = e->utime, .seq = e->seq, .request_id = 0,
+					 .source = (char *)"calibration", .path = (char *)"", .n = n,
+					 .keys = keys, .old_values = old_values, .values = values};
+
+	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
+		return -ENOSPC;
+	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
+}
+
 int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const char **channel)
 {
 	int n;
 
-	if (e->kind == LOG_POSE) {
+	if (e->kind == LOG_CALIBRATION) {
+		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
+		n = encode_calibration(e, buf, cap);
+	} else if (e->kind == LOG_POSE) {
 		const omni4_pose_t p = {.utime = e->utime, .x = e->pose[0], .y = e->pose[1],
 					.theta = e->pose[2]};
 
@@ -87,6 +146,9 @@ size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_
 
 	while (fw_pop_log(fw, &e)) {
 		const int len = lcmio_encode_log(&e, buf, sizeof(buf), &channel);
+
+		if (e.kind == LOG_CALIBRATION && sink->note)
+			sink->note(sink->note_ctx, &e);
 
 		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, buf, (size_t)len) < 0)
 			(*sink_errors)++;
@@ -128,7 +190,8 @@ static int publish(void *ctx, const char *channel, int64_t utime, const void *da
 static void *log_main(void *arg)
 {
 	struct lcmio *io = arg;
-	const struct lcmio_sink sink = {.emit = publish, .ctx = io};
+	const struct lcmio_sink sink = {.emit = publish, .ctx = io, .note = io->note,
+					.note_ctx = io->note_ctx};
 	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 500000};
 
 	for (;;) {
@@ -148,11 +211,19 @@ static void *log_main(void *arg)
 
 int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
 {
+	return lcmio_start_noting(io, lcm, fw, NULL, NULL);
+}
+
+int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
+		       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx)
+{
 	int rc;
 
 	memset(io, 0, sizeof(*io));
 	io->lcm = lcm;
 	io->fw = fw;
+	io->note = note;
+	io->note_ctx = note_ctx;
 	atomic_init(&io->stop, false);
 	io->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_CMD, on_command, io);
 	if (!io->sub)

@@ -115,6 +115,38 @@ static void can_limits_apply(void *ctx, const struct omni4_config *cfg)
 	socketcan_motor_set_limits(ctx, &lim); /* checked by can_limits_check */
 }
 
+/* Logger thread: a new set of current-sense offsets (it also goes out on
+ * OMNI4_PARAM_CHANGED); a channel beyond the limit is always said, the rest unless --quiet. */
+static void on_calibration(void *ctx, const struct log_entry *e)
+{
+	const bool quiet = *(const int *)ctx;
+	const float *a = e->current;
+
+	if (e->faults) {
+		char ch[8];
+
+		lcmio_fault_channels((uint32_t)e->faults, ch);
+		for (int j = 0; j < 4; j++)
+			if (e->faults & (1 << j))
+				fprintf(stderr,
+					"omni4-fw: FAULT_CURRENT_SENSOR: channel %d: current offset "
+					"%.6f A beyond the %.2f A limit (bridges off, mean of %u "
+					"readings, tick %lld)\n",
+					j, (double)a[j], (double)CTL_CAL_LIMIT_A,
+					(unsigned)e->cal_samples, (long long)e->seq);
+		fprintf(stderr, "omni4-fw: current sensor fault on channel%s %s: the controller stays "
+			"in FAULT until a calibration within the limit and MODE_CLEAR_FAULT\n",
+			strchr(ch, ',') ? "s" : "", ch);
+		return;
+	}
+	if (!quiet)
+		fprintf(stderr,
+			"omni4-fw: current offsets %.6f %.6f %.6f %.6f A subtracted from tick %lld "
+			"on (bridges off, mean of %u readings)\n",
+			(double)a[0], (double)a[1], (double)a[2], (double)a[3], (long long)e->seq,
+			(unsigned)e->cal_samples);
+}
+
 static void tick(void *ctx, int64_t now_us)
 {
 	fw_tick(ctx, now_us);
@@ -408,7 +440,7 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 		lcm_destroy(lcm);
 		return 1;
 	}
-	rc = lcmio_start(&io, lcm, &app->fw);
+	rc = lcmio_start_noting(&io, lcm, &app->fw, on_calibration, (void *)&o->quiet);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
 		param_service_stop(&app->params);

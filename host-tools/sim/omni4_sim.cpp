@@ -104,10 +104,10 @@ int main(int argc, char **argv) {
   if (!quiet && tty) std::fprintf(stderr, "\n");
   const simrun_stats &st = r.stats;
   std::printf("omni4-sim: wrote %s: %llu messages (OMNI4_MOTORS %llu, OMNI4_POSE %llu, "
-              "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu)\n",
+              "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu, OMNI4_PARAM_CHANGED %llu)\n",
               out_path.c_str(), (unsigned long long)st.messages, (unsigned long long)st.motors,
               (unsigned long long)st.pose, (unsigned long long)st.cmd,
-              (unsigned long long)st.other);
+              (unsigned long long)st.other, (unsigned long long)st.calibrations);
   std::printf("omni4-sim: %.1f s simulated in %.2f s wall (real-time factor %.0fx), %llu ticks; "
               "faults seen: %s; commands rejected: %llu\n",
               r.simulated_s, r.wall_s, r.simulated_s / r.wall_s, (unsigned long long)st.ticks,

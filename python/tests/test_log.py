@@ -104,10 +104,19 @@ def write_log(path, events):
 def test_every_field_equals_eventlog_decode(logs):
     log = read_log(logs["clean"])
     ref, unknown, bad = eventlog_read(logs["clean"])
-    assert not unknown and not bad
+    # Besides the four typed channels, omni4-sim logs the controller's current-offset
+    # calibrations (param_changed_t, source "calibration"), which read_log counts.
+    assert set(unknown) == {omni4.CHANNEL_PARAM_CHANGED} and not bad
+    assert log.unknown_counts == {k: len(v) for k, v in unknown.items()}
+    for _, data in unknown[omni4.CHANNEL_PARAM_CHANGED]:
+        m = omni4.param_changed_t.decode(data)
+        assert (m.source, m.request_id, m.path) == ("calibration", 0, "")
+        assert m.keys[:5] == [f"calibration.current_offset_a{j}" for j in range(4)] + \
+            ["calibration.samples"]
     for name in omni4.TYPES:
         assert_channel_equal(log.channels[name], ref[name])
-    assert log.events == len(logs["bounds"]) == sum(len(v) for v in ref.values())
+    assert log.events == len(logs["bounds"]) == sum(len(v) for v in ref.values()) + \
+        sum(len(v) for v in unknown.values())
     assert log.bytes_skipped == 0 and log.files[0].tail_bytes == 0
     assert log.seq_gaps == 0 and log.seq_duplicates == 0
     # The prefix holds what the comparison needs to mean something.
@@ -129,9 +138,10 @@ def test_truncated_event_reads_what_is_complete(logs, tmp_path):
         p = tmp_path / f"cut{cut}.lcmlog"
         p.write_bytes(data[:cut])
         log = read_log(p)
-        ref, _, _ = eventlog_read(p)
+        ref, unknown, _ = eventlog_read(p)
         complete = [b for b in logs["bounds"] if b[1] <= cut]
-        assert log.events == len(complete) == sum(len(v) for v in ref.values()), cut
+        assert log.events == len(complete) == sum(len(v) for v in ref.values()) + \
+            sum(len(v) for v in unknown.values()), cut
         assert log.files[0].tail_bytes == log.bytes_skipped == cut - complete[-1][1]
         assert_channel_equal(log.motors, ref[omni4.CHANNEL_MOTORS])
         assert f"{cut - complete[-1][1]} in a truncated tail" in log.summary()
@@ -193,12 +203,13 @@ def test_unknown_channel_is_kept_raw_or_counted(logs, tmp_path):
     write_log(p, mixed)
     log = read_log(p)
     _, unknown, _ = eventlog_read(p)
-    assert log.unknown_counts == {"OTHER_SENSOR": len(extra)}
+    base = read_log(logs["clean"]).unknown_counts  # the calibration notices
+    assert log.unknown_counts == {"OTHER_SENSOR": len(extra), **base}
     assert log.unknown["OTHER_SENSOR"] == unknown["OTHER_SENSOR"]
     assert_same_log(log, read_log(logs["clean"]))
     counted = read_log(p, keep_unknown=False)
-    assert counted.unknown == {"OTHER_SENSOR": []}
-    assert counted.unknown_counts == {"OTHER_SENSOR": len(extra)}
+    assert counted.unknown == {"OTHER_SENSOR": [], **{k: [] for k in base}}
+    assert counted.unknown_counts == {"OTHER_SENSOR": len(extra), **base}
     assert "OTHER_SENSOR: 100 (no omni4 type)" in log.summary()
 
 
@@ -255,7 +266,8 @@ def test_garbage_before_a_log_and_sync_words_inside_payloads(logs, tmp_path):
     junk = bytes(range(7, 250))
     p.write_bytes(junk + p.read_bytes())
     log = read_log(p)
-    assert log.unknown_counts == {"BLOB": 5} and "FAKE" not in log.unknown_counts
+    base = read_log(logs["clean"]).unknown_counts  # the calibration notices
+    assert log.unknown_counts == {"BLOB": 5, **base} and "FAKE" not in log.unknown_counts
     assert log.bytes_skipped == len(junk) and log.files[0].tail_bytes == 0
     assert_same_log(log, read_log(logs["clean"]))
 

@@ -368,8 +368,11 @@ def test_set_save_restart(robot, tmp_path):
 
     assert rec.returncode == 0, rec_err
     counts, logged = recorded_channels(rec_log)
+    # The controller's current-offset calibrations (source "calibration") come whenever the
+    # bridges have been off long enough, also after the monitor stopped: not compared here.
+    logged = [c for c in logged if c.source != "calibration"]
     with mon.lock:
-        seen = [(c.source, c.keys, c.seq) for c in mon.changed]
+        seen = [(c.source, c.keys, c.seq) for c in mon.changed if c.source != "calibration"]
     print(f"omni4-record: {counts}; {rec_err.strip().splitlines()[-1]}")
     assert omni4.CHANNEL_PARAM_REQ not in counts, counts
     assert counts.get(omni4.CHANNEL_PARAM_REPLY, 0) >= 1, counts

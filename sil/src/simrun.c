@@ -40,8 +40,10 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 		sr->st.messages++;
 		if (!strcmp(channel, OMNI4_CHANNEL_MOTORS))
 			sr->st.motors++;
-		else
+		else if (!strcmp(channel, OMNI4_CHANNEL_POSE))
 			sr->st.pose++;
+		else
+			sr->st.calibrations++; /* OMNI4_PARAM_CHANGED, source "calibration" */
 	}
 	return rc;
 }

@@ -38,7 +38,8 @@ enum ctl_mode {
 #define CTL_FAULT_DRIVER 0x0004          /* a motor driver reported a fault */
 #define CTL_FAULT_BUS 0x0008             /* the bus to the drivers is down */
 #define CTL_FAULT_ENCODER 0x0010         /* wheel speed not finite, jumped, or stuck */
-#define CTL_FAULT_CURRENT_SENSOR 0x0020  /* current reading not finite or at the rail */
+#define CTL_FAULT_CURRENT_SENSOR 0x0020  /* current reading not finite or at the rail, or a
+                                          * calibrated offset beyond CTL_CAL_LIMIT_A */
 #define CTL_FAULT_SUPPLY 0x0040          /* supply below limits.supply_min_v */
 #define CTL_FAULT_ESTOP 0x0100           /* e-stop active (mode CTL_ESTOP) */
 #define CTL_FAULT_CMD_TIMEOUT 0x0200     /* watchdog fired */
@@ -46,6 +47,22 @@ enum ctl_mode {
 #define CTL_FAULT_LOG_OVERFLOW 0x0800    /* flagged by the loop: log samples were dropped */
 #define CTL_FAULT_OVERRUN 0x1000         /* set by the loop (fw.c) in the sample of a tick that
                                           * started a whole period or more late */
+
+/*
+ * Current-sense offsets (docs/faults.md): measured with the bridges off (true current 0) once
+ * they have been off for CTL_CAL_SETTLE_US, as the mean of CTL_CAL_SAMPLES readings per
+ * channel, again and again while they stay off; a new set comes into force only if a channel
+ * moved by more than CTL_CAL_CHANGE_MIN_A and CTL_CAL_CHANGE_SIGMAS standard errors (the first
+ * always). The set in force is subtracted from every reading the controller uses and reports
+ * (over-current check, ctl_output.current); the sensor-rail check looks at the raw reading.
+ * Until the first set, the offsets are 0 and commands are taken as always. An offset beyond
+ * CTL_CAL_LIMIT_A latches FAULT_CURRENT_SENSOR, present until a set within it comes into force.
+ */
+#define CTL_CAL_SAMPLES 400
+#define CTL_CAL_SETTLE_US 50000
+#define CTL_CAL_LIMIT_A 0.25f
+#define CTL_CAL_CHANGE_MIN_A 0.005f
+#define CTL_CAL_CHANGE_SIGMAS 5.0f
 
 /* A command as received (command_t fields). */
 struct ctl_command {
@@ -62,6 +79,7 @@ struct ctl_output {
 	bool enable;     /* H-bridges on */
 	int8_t mode;
 	int32_t faults;  /* CTL_FAULT_* */
+	float current[4]; /* the sample's currents minus the offsets in force [A]; NaN: none */
 };
 
 struct ctl_counters {
@@ -109,6 +127,10 @@ struct ctl {
 	float last_wheel[4];    /* last wheel speeds [rad/s], for the jump check */
 	int64_t last_wheel_us;  /* controller time of that reading [us] */
 	bool have_wheel;
+	/* Current-sense offsets */
+	struct ctl_cal cal;
+	bool enabled_prev;      /* bridges on after the last tick (while this tick's reading was
+				 * taken) */
 	struct ctl_counters n;
 };
 
@@ -124,7 +146,9 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us);
 
 /*
  * Fast loop. One tick at now_us: sample (NULL or read_rc < 0 = no reading this tick),
- * estop = e-stop line state. Fills out.
+ * estop = e-stop line state. Fills out. The sample's currents are raw readings: the offsets
+ * in force are subtracted here (c->cal; c->cal.gen counts the sets that came into force, the
+ * first tick of a new set being the one whose step changed it).
  */
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
 	      bool estop, struct ctl_output *out);

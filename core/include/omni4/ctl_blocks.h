@@ -1,7 +1,7 @@
 /*
  * ctl_blocks.h - the controller's small signal blocks, each an instance struct with
  * init / reset / step in the CMSIS-DSP manner: a PI with anti-windup, a voltage ramp, a
- * reference shaper (rate limiter). Single precision (the Cortex-M4F's FPU); no state outside
+ * reference shaper (rate limiter), the current-sense offset calibration. Single precision (the Cortex-M4F's FPU); no state outside
  * the instance, no allocation.
  */
 #ifndef OMNI4_CTL_BLOCKS_H
@@ -54,5 +54,54 @@ void ctl_shaper_init(struct ctl_shaper *s, const float acc_max[3], float dt);
 /* The reference starts at ref (bumpless), with zero acceleration. */
 void ctl_shaper_reset(struct ctl_shaper *s, const float ref[3]);
 void ctl_shaper_step(struct ctl_shaper *s, const float target[3]);
+
+/*
+ * Current-sense offset calibration of four channels. With the H-bridges off no current flows,
+ * so a reading is the channel's offset plus noise: once the bridges have been off for
+ * settle_us, the block averages `samples` readings per channel (one measurement), and then
+ * the next, for as long as they stay off. A reading taken with the bridges on drops the
+ * measurement in progress (and the settle time starts again when they are off again). A
+ * completed measurement comes into force (the set the caller subtracts from every reading) if
+ * it is the first, or if some channel moved from the set in force by more than
+ * max(change_min_a, change_sigmas x the standard error of that difference, sqrt((s_new^2 +
+ * s_old^2) / samples) from the readings' own spread); otherwise it is dropped, so repeated
+ * measurements do not make the offsets jump by noise. A channel whose offset in force is
+ * beyond +-limit_a is flagged (fault_mask). Fixed size, no allocation; single precision.
+ */
+struct ctl_cal_cfg {
+	int samples;         /* readings per channel in one measurement, >= 2 */
+	int64_t settle_us;   /* bridges off this long before the first reading counts [us] */
+	float limit_a;       /* |offset| beyond this: the channel's sensor is faulty [A] */
+	float change_min_a;  /* a new set needs a channel that moved by more than this [A] */
+	float change_sigmas; /* ... and by more than this many standard errors */
+};
+
+struct ctl_cal {
+	struct ctl_cal_cfg cfg;
+	/* The set in force (all 0 until the first measurement completes). */
+	float offset[4];      /* [A], subtracted from every reading */
+	float var[4];         /* variance of the readings it came from [A^2] */
+	uint32_t fault_mask;  /* bit j: |offset[j]| > limit_a */
+	uint32_t gen;         /* sets that came into force; 0 = not calibrated yet */
+	/* The set before it (0 before the first), for the announcement. */
+	float prev[4];
+	uint32_t prev_fault_mask;
+	/* The measurement in progress. */
+	bool off;             /* the bridges were off at the last step */
+	int64_t off_since_us; /* first step that saw them off */
+	int n;                /* readings taken */
+	float ref[4];         /* the first reading: sums are of (reading - ref) */
+	float sum[4], sum2[4];
+};
+
+/* Offsets 0, not calibrated, nothing measured; the bridges are taken as on until a step says
+ * otherwise. */
+void ctl_cal_init(struct ctl_cal *c, const struct ctl_cal_cfg *cfg);
+/* One tick at now_us: bridges_off = the bridges were off while the reading was taken; current
+ * NULL = no new reading this tick. True if a new set came into force with this reading. */
+bool ctl_cal_step(struct ctl_cal *c, int64_t now_us, bool bridges_off, const float *current);
+/* Drop the readings of the measurement in progress (a reading that cannot be trusted); the
+ * settle time already passed still counts. */
+void ctl_cal_restart(struct ctl_cal *c);
 
 #endif /* OMNI4_CTL_BLOCKS_H */

@@ -23,14 +23,23 @@
 #endif
 #define FW_CMD_RING_SLOTS 64
 
-enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2 };
+enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3 };
 
-/* One log ring entry: a motors_t or a pose_t sample, not yet encoded. */
+/*
+ * One log ring entry, not yet encoded: a motors_t sample (currents with the offsets in force
+ * subtracted), a pose_t sample, or a new set of current-sense offsets (announced as a
+ * param_changed_t with source "calibration"): then seq is the first tick whose currents have
+ * them subtracted (pushed before that tick's sample), current[] the new offsets [A], voltage[]
+ * the previous ones [A], faults the channels beyond the limit (bit j = channel j), mode the
+ * previous set's such bits (-1: this is the first set), and cal_samples the readings per
+ * channel the new ones are the mean of.
+ */
 struct log_entry {
 	int64_t utime;
 	int64_t seq;
 	uint8_t kind;
 	int8_t mode;
+	uint16_t cal_samples;
 	int32_t faults;
 	float voltage[4];
 	float current[4];
@@ -89,6 +98,7 @@ struct fw {
 	atomic_bool halted; /* fw_emergency_off was called: the loop writes nothing but 0 V */
 	struct ctl_output last_out;
 	struct motor_sample last_sample;
+	uint32_t cal_gen;       /* the controller's offset sets announced in the log ring */
 	int64_t last_tick_us;   /* start of the previous tick (overrun check) */
 	int64_t late_us;        /* two loop periods [us]: a tick this far after the last is late */
 	struct fw_counters n;
