@@ -44,6 +44,8 @@ void config_defaults(struct omni4_config *cfg)
 	cfg->sim.camera_pos_noise_m = 0.01;
 	cfg->sim.camera_theta_noise_rad = 3.0 * 3.14159265358979323846 / 180.0;
 	cfg->sim.seed = 1;
+	/* sim.current_offset_a[0..3]: 0 A (the memset above): no sensor offsets */
+	cfg->sim.encoder_eccentricity = 0.0;
 	copy(cfg->can.iface, "can0");
 	cfg->can.bitrate = 1000000;
 	cfg->can.status_timeout_ms = 5;

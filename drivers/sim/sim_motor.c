@@ -20,15 +20,39 @@ struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
 		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
 		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
 		.seed = (uint64_t)cfg->sim.seed,
+		.current_offset_a = {noise ? cfg->sim.current_offset_a[0] : 0.0,
+				     noise ? cfg->sim.current_offset_a[1] : 0.0,
+				     noise ? cfg->sim.current_offset_a[2] : 0.0,
+				     noise ? cfg->sim.current_offset_a[3] : 0.0},
+		.encoder_eccentricity = noise ? cfg->sim.encoder_eccentricity : 0.0,
 	};
+}
+
+/* What an eccentric motor-shaft encoder reads, as a wheel angle: the motor turns l times the
+ * wheel, and its encoder reads theta + e sin(theta - phi). */
+static double eccentric_reading(const struct sim_motor *s, int j, double wheel_angle)
+{
+	const double l = s->cfg.params.l, theta = l * wheel_angle;
+
+	return (theta + s->cfg.encoder_eccentricity * sin(theta - s->ecc_phase[j])) / l;
+}
+
+/* Encoder counts of a wheel angle (encoder_cpr counts per wheel revolution). */
+static int64_t encoder_counts(const struct sim_motor *s, double angle)
+{
+	return (int64_t)floor(angle * s->cfg.encoder_cpr / TWO_PI);
 }
 
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 {
 	if (!(cfg->period_s > 0.0) || !(cfg->supply_v > 0.0) || cfg->encoder_cpr < 0 ||
 	    !(cfg->camera_rate_hz > 0.0) || !(cfg->current_noise_a >= 0.0) ||
-	    !(cfg->camera_pos_noise_m >= 0.0) || !(cfg->camera_theta_noise_rad >= 0.0))
+	    !(cfg->camera_pos_noise_m >= 0.0) || !(cfg->camera_theta_noise_rad >= 0.0) ||
+	    !(cfg->encoder_eccentricity >= 0.0 && cfg->encoder_eccentricity <= 0.1))
 		return -EINVAL;
+	for (int j = 0; j < 4; j++)
+		if (!isfinite(cfg->current_offset_a[j]))
+			return -EINVAL;
 	memset(s, 0, sizeof(*s));
 	if (plant_init(&s->plant, &cfg->params))
 		return -EINVAL;
@@ -37,6 +61,18 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	s->period_us = (int64_t)llround(cfg->period_s * 1e6);
 	s->cam_period_s = 1.0 / cfg->camera_rate_hz;
 	s->next_cam_s = 0.0;
+	/* The encoders' phases from a generator of their own (seeded from the seed), so that the
+	 * noise stream is the same with and without eccentricity. */
+	struct rng phases;
+
+	rng_seed(&phases, cfg->seed ^ 0x9e3779b97f4a7c15ull);
+	for (int j = 0; j < 4; j++) {
+		s->ecc_phase[j] = rng_uniform(&phases, 0.0, TWO_PI);
+		if (cfg->encoder_eccentricity > 0.0) { /* the reading at rest is where counting starts */
+			s->ecc_read[j] = eccentric_reading(s, j, 0.0);
+			s->counts[j] = encoder_counts(s, s->ecc_read[j]);
+		}
+	}
 	return 0;
 }
 
@@ -107,8 +143,21 @@ static int sim_read(void *ctx, struct motor_sample *out)
 		s->wheel_angle[j] += 0.5 * dt * (w_before[j] + w_after[j]) + s->inject.encoder_jump_rad;
 		double speed = w_after[j];
 
-		if (cpr > 0) {
-			const int64_t c = (int64_t)floor(s->wheel_angle[j] * cpr / TWO_PI);
+		if (s->cfg.encoder_eccentricity > 0.0) {
+			/* The motor-shaft encoder's reading, quantised (or exact with cpr 0). */
+			const double read = eccentric_reading(s, j, s->wheel_angle[j]);
+
+			if (cpr > 0) {
+				const int64_t c = encoder_counts(s, read);
+
+				speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
+				s->counts[j] = c;
+			} else {
+				speed = (read - s->ecc_read[j]) / dt;
+			}
+			s->ecc_read[j] = read;
+		} else if (cpr > 0) {
+			const int64_t c = encoder_counts(s, s->wheel_angle[j]);
 
 			speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
 			s->counts[j] = c;
@@ -116,7 +165,8 @@ static int sim_read(void *ctx, struct motor_sample *out)
 		out->wheel_rad_s[j] = s->inject.encoder_stuck[j] ? s->last_speed[j] : (float)speed;
 		s->last_speed[j] = out->wheel_rad_s[j];
 
-		double i = s->plant.current_a[j] + s->inject.current_offset_a;
+		double i = s->plant.current_a[j] + s->cfg.current_offset_a[j] +
+			   s->inject.current_offset_a;
 
 		if (s->enabled)
 			i += rng_normal(&s->rng, s->cfg.current_noise_a);

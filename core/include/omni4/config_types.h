@@ -56,6 +56,9 @@ struct omni4_config {
 		double camera_pos_noise_m;     /* std dev [m] */
 		double camera_theta_noise_rad; /* std dev [rad] */
 		int seed;
+		/* Sensor faults (0: none) */
+		double current_offset_a[4];    /* added to each channel's current readings [A] */
+		double encoder_eccentricity;   /* motor-shaft encoder reads theta + e sin(theta - phi) */
 	} sim;
 	struct {
 		char iface[CONFIG_STR_MAX];

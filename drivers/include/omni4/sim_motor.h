@@ -3,6 +3,10 @@
  * with the sensors of the paper's set-up (noisy currents, quantised encoders, a 25 Hz camera
  * with 1 cm / 3 deg noise). Each read() advances the plant by one loop period with the
  * voltages last written, so the loop and the plant run in lockstep whatever the wall clock.
+ * Sensor faults a robot's INI may ask for ([sim], off by default): a constant offset per
+ * current channel (also with the bridges off) and an eccentric encoder on each motor shaft
+ * (motor angle = l x wheel angle, read as theta + e sin(theta - phi_j), phases from the seed:
+ * a once-per-motor-turn speed ripple of relative amplitude e).
  */
 #ifndef OMNI4_SIM_MOTOR_H
 #define OMNI4_SIM_MOTOR_H
@@ -27,6 +31,8 @@ struct sim_motor_config {
 	double camera_pos_noise_m;     /* std dev [m] */
 	double camera_theta_noise_rad; /* std dev [rad] */
 	uint64_t seed;
+	double current_offset_a[4];    /* added to each channel's current readings [A] */
+	double encoder_eccentricity;   /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
 };
 
 /* Faults a test can inject (all off after init). */
@@ -51,6 +57,8 @@ struct sim_motor {
 	bool enabled;
 	double wheel_angle[4];  /* true wheel angle [rad] */
 	int64_t counts[4];      /* encoder counts at the last read */
+	double ecc_phase[4];    /* phi_j of the eccentric encoders [rad] */
+	double ecc_read[4];     /* their last reading as a wheel angle [rad] (encoder_cpr 0) */
 	float last_speed[4];    /* last reported wheel speeds [rad/s] */
 	int64_t t_us;           /* simulated time since start [us] */
 	int64_t period_us;
@@ -64,8 +72,8 @@ struct sim_motor {
 extern const struct motor_hal_ops sim_motor_ops;
 extern const struct line_hal_ops sim_line_ops;
 
-/* The settings of a robot's INI ([sim] sensor noise, or exact sensors when noise is false; the
- * loop period and supply) with `plant` as the simulated robot. */
+/* The settings of a robot's INI ([sim] sensor noise and faults, or exact sensors when noise
+ * is false; the loop period and supply) with `plant` as the simulated robot. */
 struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
 					      const struct model_params *plant, bool noise);
 
