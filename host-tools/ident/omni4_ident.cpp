@@ -19,6 +19,7 @@
 #include "bootstrap.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
+#include "encoders.hpp"
 #include "offsets.hpp"
 #include "runner.hpp"
 #include "validate.hpp"
@@ -103,6 +104,42 @@ void calibrate_and_print(std::vector<LogData> &logs) {
                   "that it announced)\n");
   }
   for (const std::string &w : warnings) std::printf("warning: %s\n", w.c_str());
+}
+
+// Once-per-revolution encoder ripple (eccentric discs) of every log, divided out of the wheel
+// speeds before anything uses them; one line per log with the largest ripple found.
+void remove_ripple_and_print(std::vector<LogData> &logs, double gear) {
+  for (LogData &d : logs) {
+    const TickRescale t = rescale_to_tick_intervals(d);
+    if (t.applied)
+      std::printf("%s: loop ticks jitter by %.0f us RMS and the wheel speeds carry it (counts "
+                  "over the nominal %.3g ms): rescaled to the true intervals (second "
+                  "differences %.0f %% smaller)\n",
+                  d.path.c_str(), t.jitter_s * 1e6, t.period_s * 1e3,
+                  100 * (1 - t.roughness_rescaled / t.roughness_logged));
+    const auto fits = remove_encoder_ripple(d, gear);
+    double worst = 0, worst_se = 0;
+    const char *where = "";
+    int wheel = -1, removed = 0;
+    for (const RippleFit &f : fits)
+      for (int j = 0; j < 4; ++j) {
+        removed += f.motor_removed[j] + f.wheel_removed[j];
+        if (f.motor_eps[j] > worst) {
+          worst = f.motor_eps[j], worst_se = f.motor_se[j], where = "motor", wheel = j;
+        }
+        if (f.wheel_eps[j] > worst) {
+          worst = f.wheel_eps[j], worst_se = f.wheel_se[j], where = "wheel", wheel = j;
+        }
+      }
+    if (removed)
+      std::printf("%s: encoder ripple removed in %d of %zu wheel-stretches (largest: wheel %d, "
+                  "once per %s revolution, %.2f %% ±%.2f)\n",
+                  d.path.c_str(), removed, 8 * fits.size(), wheel, where, 100 * worst,
+                  100 * worst_se);
+    else
+      std::printf("%s: no encoder ripple over 4 SE (largest %.2f %% ±%.2f)\n", d.path.c_str(),
+                  100 * worst, 100 * worst_se);
+  }
 }
 
 std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
@@ -394,6 +431,7 @@ int cmd_identify(const IdentifyArgs &a) {
   if (!a.truth.empty()) truth = load_params(a.truth, false);
   const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
   auto logs = load_logs(a.logs);
+  remove_ripple_and_print(logs, base.l);
   calibrate_and_print(logs);
   const auto segs = segments_of(logs);
   IdentResult r;
@@ -466,7 +504,8 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
   if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
   std::vector<model_params> sets;
   for (const auto &p : params) sets.push_back(load_params(p, false));
-  const auto logs = load_logs(paths);
+  auto logs = load_logs(paths);
+  remove_ripple_and_print(logs, sets[0].l);
   const auto segs = segments_of(logs);
   std::vector<Validation> vals;
   try {

@@ -1,0 +1,182 @@
+// encoders.cpp - tick intervals and once-per-revolution ripple of wheel speeds (encoders.hpp).
+#include "encoders.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+namespace omni4 {
+
+namespace {
+
+// Centred moving average of y over [k - h, k + h] for the k of [a + h, b - h), by prefix sums
+// (per block, so the sums stay small); other entries of out untouched.
+void box(const std::vector<double> &y, size_t a, size_t b, int h, std::vector<double> &prefix,
+         std::vector<double> &out) {
+  const size_t n = b - a, w = 2 * static_cast<size_t>(h) + 1;
+  if (n < w) return;
+  prefix.resize(n + 1);
+  prefix[0] = 0;
+  for (size_t i = 0; i < n; ++i) prefix[i + 1] = prefix[i] + y[a + i];
+  for (size_t i = static_cast<size_t>(h); i + h < n; ++i)
+    out[a + i] = (prefix[i + h + 1] - prefix[i - h]) / static_cast<double>(w);
+}
+
+double median_period_s(const std::vector<MotorsSample> &m) {
+  std::vector<int64_t> steps;
+  steps.reserve(m.size());
+  for (size_t k = 1; k < m.size(); ++k)
+    if (m[k].seq == m[k - 1].seq + 1) steps.push_back(m[k].utime - m[k - 1].utime);
+  if (steps.empty()) return 0;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  return std::max<int64_t>(1, steps[steps.size() / 2]) * 1e-6;
+}
+
+}  // namespace
+
+TickRescale rescale_to_tick_intervals(LogData &log) {
+  TickRescale r;
+  auto &m = log.motors;
+  const size_t n = m.size();
+  r.period_s = median_period_s(m);
+  if (n < 16 || !(r.period_s > 0)) return r;
+  std::vector<double> f(n, 1.0);
+  double jit2 = 0;
+  size_t nj = 0;
+  for (size_t k = 1; k < n; ++k) {
+    if (m[k].seq != m[k - 1].seq + 1) continue;
+    const double dt = (m[k].utime - m[k - 1].utime) * 1e-6;
+    if (!(dt > 0.25 * r.period_s)) continue;  // a clock step: leave it
+    f[k] = r.period_s / dt;
+    jit2 += (dt - r.period_s) * (dt - r.period_s);
+    ++nj;
+  }
+  r.jitter_s = nj ? std::sqrt(jit2 / static_cast<double>(nj)) : 0;
+  double s0 = 0, s1 = 0;
+  size_t ns = 0;
+  for (size_t k = 1; k + 1 < n; ++k) {
+    if (m[k].seq != m[k - 1].seq + 1 || m[k + 1].seq != m[k].seq + 1) continue;
+    for (int j = 0; j < 4; ++j) {
+      const double a = m[k - 1].w[j], b = m[k].w[j], c = m[k + 1].w[j];
+      s0 += (c - 2 * b + a) * (c - 2 * b + a);
+      const double d2 = c * f[k + 1] - 2 * b * f[k] + a * f[k - 1];
+      s1 += d2 * d2;
+    }
+    ++ns;
+  }
+  if (ns == 0) return r;
+  r.roughness_logged = s0 / static_cast<double>(4 * ns);
+  r.roughness_rescaled = s1 / static_cast<double>(4 * ns);
+  if (!(r.roughness_rescaled < 0.95 * r.roughness_logged)) return r;
+  for (size_t k = 0; k < n; ++k)
+    for (int j = 0; j < 4; ++j) m[k].w[j] = static_cast<float>(m[k].w[j] * f[k]);
+  r.applied = true;
+  return r;
+}
+
+std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
+                                             const EccentricityOptions &opt) {
+  auto &m = log.motors;
+  const size_t n = m.size();
+  std::vector<RippleFit> fits;
+  if (n < 16 || !(gear > 0)) return fits;
+  const double dt = median_period_s(m);
+  if (!(dt > 0)) return fits;
+  const int h = std::max(2, static_cast<int>(std::lround(0.5 * opt.box_s / dt)));
+
+  // Contiguous blocks (consecutive seq).
+  std::vector<std::pair<size_t, size_t>> blocks;
+  for (size_t a = 0, k = 1; k <= n; ++k)
+    if (k == n || m[k].seq != m[k - 1].seq + 1) {
+      blocks.emplace_back(a, k);
+      a = k;
+    }
+  // Stretches of chunk_s.
+  const int64_t t0 = m.front().utime;
+  auto chunk_of = [&](size_t k) {
+    return static_cast<size_t>((m[k].utime - t0) * 1e-6 / opt.chunk_s);
+  };
+  const size_t nchunks = chunk_of(n - 1) + 1;
+  fits.resize(nchunks);
+  for (size_t c = 0, k = 0; c < nchunks; ++c) {
+    fits[c].m0 = k;
+    while (k < n && chunk_of(k) == c) ++k;
+    fits[c].m1 = k;
+  }
+
+  std::vector<double> y(n), ws(n, NAN), th(n), prefix;
+  std::array<std::vector<double>, 4> g, gb;
+  for (auto &v : g) v.assign(n, 0);
+  for (auto &v : gb) v.assign(n, NAN);
+  for (int j = 0; j < 4; ++j) {
+    // Wheel angle: the logged speed over the nominal period; across lost ticks, the mean of
+    // the speeds on either side.
+    th[0] = 0;
+    for (size_t k = 0; k < n; ++k) {
+      y[k] = m[k].w[j];
+      if (k == 0) continue;
+      const int64_t gap = m[k].seq - m[k - 1].seq;
+      const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
+      th[k] = th[k - 1] + dt * (y[k] + missed * 0.5 * (y[k] + y[k - 1]));
+    }
+    for (const auto &[a, b] : blocks) box(y, a, b, h, prefix, ws);  // the slow speed
+    for (size_t k = 0; k < n; ++k) {
+      const double s = std::isfinite(ws[k]) ? ws[k] : 0.0;
+      g[0][k] = s * std::cos(gear * th[k]);
+      g[1][k] = s * std::sin(gear * th[k]);
+      g[2][k] = s * std::cos(th[k]);
+      g[3][k] = s * std::sin(th[k]);
+    }
+    for (const auto &[a, b] : blocks)
+      for (int q = 0; q < 4; ++q) box(g[q], a, b, h, prefix, gb[q]);
+    // Normal equations per stretch, on centres whose whole double window lies in one block.
+    for (RippleFit &f : fits) {
+      Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
+      Eigen::Vector4d r = Eigen::Vector4d::Zero();
+      double yy = 0;
+      size_t used = 0;
+      for (const auto &[a, b] : blocks) {
+        const size_t h2 = 2 * static_cast<size_t>(h);
+        const size_t lo = std::max(a + h2, f.m0), hi = std::min(b >= h2 ? b - h2 : 0, f.m1);
+        for (size_t k = lo; k < hi; ++k) {
+          if (!(std::abs(ws[k]) >= opt.min_speed)) continue;
+          Eigen::Vector4d x;
+          for (int q = 0; q < 4; ++q) x[q] = g[q][k] - gb[q][k];
+          const double e = y[k] - ws[k];
+          A += x * x.transpose();
+          r += x * e;
+          yy += e * e;
+          ++used;
+        }
+      }
+      if (j == 0) f.samples = used;
+      if (used < 200) continue;
+      Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
+      if (ldlt.info() != Eigen::Success) continue;
+      const Eigen::Vector4d coef = ldlt.solve(r);
+      const double rss = std::max(0.0, yy - coef.dot(r));
+      // The residual is mostly the encoder's quantisation noise, a difference of counts:
+      // neighbours correlate negatively, so the white-noise variance does not understate it.
+      const double sigma2 = rss / static_cast<double>(used - 4);
+      const Eigen::Matrix4d cov = sigma2 * ldlt.solve(Eigen::Matrix4d::Identity());
+      if (!cov.allFinite()) continue;
+      f.motor_eps[j] = std::hypot(coef[0], coef[1]);
+      f.motor_se[j] = std::sqrt(0.5 * (cov(0, 0) + cov(1, 1)));
+      f.wheel_eps[j] = std::hypot(coef[2], coef[3]);
+      f.wheel_se[j] = std::sqrt(0.5 * (cov(2, 2) + cov(3, 3)));
+      f.motor_removed[j] = f.motor_eps[j] > opt.significance * f.motor_se[j];
+      f.wheel_removed[j] = f.wheel_eps[j] > opt.significance * f.wheel_se[j];
+      const double c0 = f.motor_removed[j] ? coef[0] : 0, c1 = f.motor_removed[j] ? coef[1] : 0;
+      const double c2 = f.wheel_removed[j] ? coef[2] : 0, c3 = f.wheel_removed[j] ? coef[3] : 0;
+      if (c0 == 0 && c1 == 0 && c2 == 0 && c3 == 0) continue;
+      for (size_t k = f.m0; k < f.m1; ++k) {
+        const double ripple = c0 * std::cos(gear * th[k]) + c1 * std::sin(gear * th[k]) +
+                              c2 * std::cos(th[k]) + c3 * std::sin(th[k]);
+        m[k].w[j] = static_cast<float>(m[k].w[j] / (1 + ripple));
+      }
+    }
+  }
+  return fits;
+}
+
+}  // namespace omni4
