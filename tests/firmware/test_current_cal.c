@@ -284,6 +284,40 @@ static void test_commands_before_calibration_and_drive_aborts_it(void **state)
 	assert_true(o.current[0] == 0.0f);
 }
 
+/* A reading that cannot be trusted (lost: read error; NaN; a driver-side fault) drops the
+ * measurement in progress: 200 readings of 0.2 A, the bad one, then 0.05 A: the set is
+ * exactly 0.05 A, from the 400th reading after the bad one (the settle time is not repeated:
+ * the bridges stayed off). */
+static void test_bad_reading_restarts_the_measurement(void **state)
+{
+	(void)state;
+	static const double a[4] = {0.2, 0.2, 0.2, 0.2}, b[4] = {0.05, 0.05, 0.05, 0.05};
+
+	for (int kind = 0; kind < 3; kind++) {
+		struct motor_sample bad = reading(b);
+		struct ctl_output o;
+		int k = 0;
+
+		setup_ctl();
+		for (; k < SPEC_SETTLE_MS + 200; k++)
+			step_at((int64_t)k * TICK_US, a);
+		if (kind == 1)
+			bad.current_a[1] = NAN;
+		if (kind == 2)
+			bad.faults = HAL_FAULT_DRIVER;
+		ctl_step(&c, (int64_t)k * TICK_US, &bad, kind == 0 ? -EIO : 0, false, &o);
+		const int bad_at = k++;
+
+		for (; c.cal.gen == 0; k++) {
+			step_at((int64_t)k * TICK_US, b);
+			assert_true(k <= bad_at + SPEC_SAMPLES);
+		}
+		assert_int_equal(k - 1, bad_at + SPEC_SAMPLES);
+		for (int j = 0; j < 4; j++)
+			assert_true(c.cal.offset[j] == 0.05f);
+	}
+}
+
 /* The limit, on every channel and both signs: limit - 1 mA is a set without fault, limit +
  * 1 mA latches FAULT CURRENT_SENSOR with that channel flagged. */
 static void test_offset_limit_just_inside_and_just_outside(void **state)
@@ -613,6 +647,7 @@ int main(void)
 		cmocka_unit_test(test_start_up_set_after_settle_time_and_n_readings),
 		cmocka_unit_test(test_start_up_set_counts_readings),
 		cmocka_unit_test(test_commands_before_calibration_and_drive_aborts_it),
+		cmocka_unit_test(test_bad_reading_restarts_the_measurement),
 		cmocka_unit_test(test_offset_limit_just_inside_and_just_outside),
 		cmocka_unit_test(test_overcurrent_check_sees_the_offset_subtracted),
 		cmocka_unit_test(test_recalibration_only_past_5_mA),
