@@ -219,7 +219,11 @@ void motor_test(Context &c) {
     c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " + record_hint("motor"));
     return;
   }
-  const auto wins = c.windows("motor", nullptr, &SegmentWindows::steady);
+  // Eq 22 holds in every steady state with the bridges driven: the steady rotation windows of
+  // experiment 1 add their four motors' points to the motor test's.
+  auto wins = c.windows("motor", nullptr, &SegmentWindows::steady);
+  const auto rot = c.windows("steady_rotation", nullptr, &SegmentWindows::steady);
+  wins.insert(wins.end(), rot.begin(), rot.end());
   for (const SegWindow &w : wins) {
     const auto &m = w.s->log->motors;
     for (int j = 0; j < 4; ++j) {
@@ -242,18 +246,30 @@ void motor_test(Context &c) {
     std::vector<const MotorPoint *> pts;
     for (const MotorPoint &p : res.motor_points)
       if (motor < 0 || p.motor == motor) pts.push_back(&p);
+    // Eq 22 as i = u / R - (Kv / R) w: the noise is in the measured current (the voltage is
+    // what was applied and the window's mean speed is far more precise), so the current is
+    // the regressand; Kv = -c_w / c_u and R = 1 / c_u, their covariance by propagation.
     Eigen::MatrixXd X(pts.size(), 2);
     Eigen::VectorXd y(pts.size());
     for (size_t k = 0; k < pts.size(); ++k) {
       double i = pts[k]->i;
       if (delta && pts[k]->epoch >= 0) i -= (*delta)[4 * pts[k]->epoch + pts[k]->motor];
-      X(k, 0) = pts[k]->wm / i;
-      X(k, 1) = 1.0;
-      y[k] = pts[k]->u / i;
+      X(k, 0) = pts[k]->u;
+      X(k, 1) = pts[k]->wm;
+      y[k] = i;
     }
     const std::string what = motor < 0 ? "motor test (all motors)"
                                        : "motor test (motor " + std::to_string(motor) + ")";
-    return least_squares(X, y, 1.0, what);
+    const Fit g = least_squares(X, y, 1.0, what);
+    if (!(g.theta[0] > 0)) throw IdentError(what + ": the current does not grow with the voltage");
+    Fit f = g;
+    f.theta[0] = -g.theta[1] / g.theta[0];  // Kv
+    f.theta[1] = 1 / g.theta[0];            // R
+    Eigen::Matrix2d J;                      // d(Kv, R) / d(c_u, c_w)
+    J << g.theta[1] / (g.theta[0] * g.theta[0]), -1 / g.theta[0],
+        -1 / (g.theta[0] * g.theta[0]), 0;
+    f.cov = J * g.cov * J.transpose();
+    return f;
   };
   const Eigen::VectorXd off_se = c.offset_se();
   auto borrowed = [&](int motor) {
@@ -778,8 +794,16 @@ void experiment3(Context &c) {
     for (int axis = 0; axis < 2; ++axis) {
       if (!have[axis]) continue;
       const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
+      // B with the R of this axis's own theta2: theta1 and theta2 come from one fit and their
+      // errors are correlated, so B = -M (theta1 + 2 Kv l theta2 / r) is far more precise than
+      // with an R that mixes in the other axis's noise.
+      auto own_R = [&](const Eigen::VectorXd &x) {
+        model_params q = with_kv(x);
+        q.R = R_from_theta2(q, axis, x[3 * axis + 1]);
+        return q;
+      };
       t[axis == 0 ? "Bv" : "Bvn"] = propagate(
-          [&](const Eigen::VectorXd &x) { return B_from_theta1(params_of(x), axis, x[3 * axis]); },
+          [&](const Eigen::VectorXd &x) { return B_from_theta1(own_R(x), axis, x[3 * axis]); },
           x0, C, own);
       t[axis == 0 ? "Cv" : "Cvn"] = propagate(
           [&](const Eigen::VectorXd &x) { return C_from_theta3(params_of(x), axis, x[3 * axis + 2]); },
