@@ -105,7 +105,7 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
   }
 
   std::vector<double> y(n), ws(n, NAN), th(n), prefix;
-  std::array<std::vector<double>, 4> g, gb;
+  std::array<std::vector<double>, 2> g, gb;
   for (auto &v : g) v.assign(n, 0);
   for (auto &v : gb) v.assign(n, NAN);
   for (int j = 0; j < 4; ++j) {
@@ -124,15 +124,13 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
       const double s = std::isfinite(ws[k]) ? ws[k] : 0.0;
       g[0][k] = s * std::cos(gear * th[k]);
       g[1][k] = s * std::sin(gear * th[k]);
-      g[2][k] = s * std::cos(th[k]);
-      g[3][k] = s * std::sin(th[k]);
     }
     for (const auto &[a, b] : blocks)
-      for (int q = 0; q < 4; ++q) box(g[q], a, b, h, prefix, gb[q]);
+      for (int q = 0; q < 2; ++q) box(g[q], a, b, h, prefix, gb[q]);
     // Normal equations per stretch, on centres whose whole double window lies in one block.
     for (RippleFit &f : fits) {
-      Eigen::Matrix4d A = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d r = Eigen::Vector4d::Zero();
+      Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d r = Eigen::Vector2d::Zero();
       double yy = 0;
       size_t used = 0;
       for (const auto &[a, b] : blocks) {
@@ -140,8 +138,8 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
         const size_t lo = std::max(a + h2, f.m0), hi = std::min(b >= h2 ? b - h2 : 0, f.m1);
         for (size_t k = lo; k < hi; ++k) {
           if (!(std::abs(ws[k]) >= opt.min_speed)) continue;
-          Eigen::Vector4d x;
-          for (int q = 0; q < 4; ++q) x[q] = g[q][k] - gb[q][k];
+          Eigen::Vector2d x;
+          for (int q = 0; q < 2; ++q) x[q] = g[q][k] - gb[q][k];
           const double e = y[k] - ws[k];
           A += x * x.transpose();
           r += x * e;
@@ -151,27 +149,21 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
       }
       if (j == 0) f.samples = used;
       if (used < 200) continue;
-      Eigen::LDLT<Eigen::Matrix4d> ldlt(A);
+      Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
       if (ldlt.info() != Eigen::Success) continue;
-      const Eigen::Vector4d coef = ldlt.solve(r);
+      const Eigen::Vector2d coef = ldlt.solve(r);
       const double rss = std::max(0.0, yy - coef.dot(r));
       // The residual is mostly the encoder's quantisation noise, a difference of counts:
       // neighbours correlate negatively, so the white-noise variance does not understate it.
-      const double sigma2 = rss / static_cast<double>(used - 4);
-      const Eigen::Matrix4d cov = sigma2 * ldlt.solve(Eigen::Matrix4d::Identity());
+      const double sigma2 = rss / static_cast<double>(used - 2);
+      const Eigen::Matrix2d cov = sigma2 * ldlt.solve(Eigen::Matrix2d::Identity());
       if (!cov.allFinite()) continue;
       f.motor_eps[j] = std::hypot(coef[0], coef[1]);
       f.motor_se[j] = std::sqrt(0.5 * (cov(0, 0) + cov(1, 1)));
-      f.wheel_eps[j] = std::hypot(coef[2], coef[3]);
-      f.wheel_se[j] = std::sqrt(0.5 * (cov(2, 2) + cov(3, 3)));
       f.motor_removed[j] = f.motor_eps[j] > opt.significance * f.motor_se[j];
-      f.wheel_removed[j] = f.wheel_eps[j] > opt.significance * f.wheel_se[j];
-      const double c0 = f.motor_removed[j] ? coef[0] : 0, c1 = f.motor_removed[j] ? coef[1] : 0;
-      const double c2 = f.wheel_removed[j] ? coef[2] : 0, c3 = f.wheel_removed[j] ? coef[3] : 0;
-      if (c0 == 0 && c1 == 0 && c2 == 0 && c3 == 0) continue;
+      if (!f.motor_removed[j]) continue;
       for (size_t k = f.m0; k < f.m1; ++k) {
-        const double ripple = c0 * std::cos(gear * th[k]) + c1 * std::sin(gear * th[k]) +
-                              c2 * std::cos(th[k]) + c3 * std::sin(th[k]);
+        const double ripple = coef[0] * std::cos(gear * th[k]) + coef[1] * std::sin(gear * th[k]);
         m[k].w[j] = static_cast<float>(m[k].w[j] / (1 + ripple));
       }
     }

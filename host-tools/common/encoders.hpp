@@ -14,13 +14,15 @@
 //
 // Per wheel j, with th_w the wheel angle (the logged wheel speed integrated over the nominal
 // loop period: a logged speed is a count difference over that period) and w the wheel speed:
-//   w_logged = w (1 + a cos(l th_w) + b sin(l th_w) + c cos(th_w) + d sin(th_w))
-// (once per motor revolution, l the gear ratio, and once per wheel revolution, for an encoder
-// on either shaft). The slowly varying w is removed by a centred moving average (box of 0.1 s)
-// applied to the data and to the regressors alike, so (a, b, c, d) come from a linear least-
-// squares fit that no drive profile biases. A harmonic is removed only where its amplitude is
-// over 4 standard errors; the stretch is re-fitted every `chunk_s` so that a phase that drifts
-// (lost samples, a late log start) is followed.
+//   w_logged = w (1 + a cos(l th_w) + b sin(l th_w))
+// (once per motor revolution, l the gear ratio: the encoder on the motor shaft). The slowly
+// varying w is removed by a centred moving average (box of 0.1 s) applied to the data and to
+// the regressors alike, so (a, b) come from a linear least-squares fit that a drive profile
+// does not bias. The ripple is removed only where its amplitude is over 4 standard errors; the
+// log is fitted in stretches of `chunk_s` so that a phase that drifts (lost samples) is
+// followed. An encoder on the wheel shaft ripples once per wheel turn, as slowly as the
+// robot's own speed changes (a spin's turn takes about as long as its ramp): that ripple
+// cannot be told from the speed and is left alone.
 #pragma once
 
 #include <array>
@@ -52,10 +54,10 @@ struct EccentricityOptions {
 
 struct RippleFit {
   size_t m0 = 0, m1 = 0;  // motors index range of the stretch
-  // Per wheel: relative amplitude of the once-per-motor-revolution and once-per-wheel-
-  // revolution ripple, their standard errors, and whether each was removed.
-  std::array<double, 4> motor_eps{}, motor_se{}, wheel_eps{}, wheel_se{};
-  std::array<bool, 4> motor_removed{}, wheel_removed{};
+  // Per wheel: relative amplitude of the once-per-motor-revolution ripple, its standard
+  // error, and whether it was removed.
+  std::array<double, 4> motor_eps{}, motor_se{};
+  std::array<bool, 4> motor_removed{};
   size_t samples = 0;  // samples used (wheel turning, filter window complete)
 };
 

@@ -119,23 +119,16 @@ void remove_ripple_and_print(std::vector<LogData> &logs, double gear) {
                   100 * (1 - t.roughness_rescaled / t.roughness_logged));
     const auto fits = remove_encoder_ripple(d, gear);
     double worst = 0, worst_se = 0;
-    const char *where = "";
     int wheel = -1, removed = 0;
     for (const RippleFit &f : fits)
       for (int j = 0; j < 4; ++j) {
-        removed += f.motor_removed[j] + f.wheel_removed[j];
-        if (f.motor_eps[j] > worst) {
-          worst = f.motor_eps[j], worst_se = f.motor_se[j], where = "motor", wheel = j;
-        }
-        if (f.wheel_eps[j] > worst) {
-          worst = f.wheel_eps[j], worst_se = f.wheel_se[j], where = "wheel", wheel = j;
-        }
+        removed += f.motor_removed[j];
+        if (f.motor_eps[j] > worst) worst = f.motor_eps[j], worst_se = f.motor_se[j], wheel = j;
       }
     if (removed)
-      std::printf("%s: encoder ripple removed in %d of %zu wheel-stretches (largest: wheel %d, "
-                  "once per %s revolution, %.2f %% ±%.2f)\n",
-                  d.path.c_str(), removed, 8 * fits.size(), wheel, where, 100 * worst,
-                  100 * worst_se);
+      std::printf("%s: encoder ripple once per motor revolution removed in %d of %zu "
+                  "wheel-stretches (largest: wheel %d, %.2f %% ±%.2f)\n",
+                  d.path.c_str(), removed, 4 * fits.size(), wheel, 100 * worst, 100 * worst_se);
     else
       std::printf("%s: no encoder ripple over 4 SE (largest %.2f %% ±%.2f)\n", d.path.c_str(),
                   100 * worst, 100 * worst_se);
