@@ -457,30 +457,61 @@ CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int a
   }
   CoastFit out;
   if (rows.size() < 10) return out;
+  // One x0 per window and shared b, c: the window intercepts are taken out by subtracting each
+  // window's means (Frisch-Waugh-Lovell: the same b, c and covariance as the regression with a
+  // column per window, without a QR of a matrix as wide as the windows are many).
   const size_t nw = wins.size();
-  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(rows.size(), nw + 2);
-  Eigen::VectorXd y(rows.size());
-  std::vector<double> t0(nw, NAN);
+  std::vector<double> t0(nw, NAN), n_w(nw, 0), my(nw, 0), mi(nw, 0), mt(nw, 0);
   for (const Row &r : rows)
     if (std::isnan(t0[r.win])) t0[r.win] = r.t;
-  for (size_t k = 0; k < rows.size(); ++k) {
-    X(k, rows[k].win) = 1.0;
-    X(k, nw) = -rows[k].integral;
-    X(k, nw + 1) = -(rows[k].t - t0[rows[k].win]);
-    y[k] = rows[k].x;
+  for (const Row &r : rows) {
+    n_w[r.win] += 1;
+    my[r.win] += r.x;
+    mi[r.win] += r.integral;
+    mt[r.win] += r.t - t0[r.win];
   }
-  // Windows without samples leave an all-zero column: drop them.
-  std::vector<Eigen::Index> keep;
-  for (size_t col = 0; col < nw + 2; ++col)
-    if (X.col(col).cwiseAbs().sum() > 0) keep.push_back(col);
-  Eigen::MatrixXd Xk(X.rows(), keep.size());
-  for (size_t col = 0; col < keep.size(); ++col) Xk.col(col) = X.col(keep[col]);
-  out.f = least_squares(Xk, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
+  size_t used_windows = 0;
+  for (size_t w = 0; w < nw; ++w) {
+    if (n_w[w] == 0) continue;
+    ++used_windows;
+    my[w] /= n_w[w];
+    mi[w] /= n_w[w];
+    mt[w] /= n_w[w];
+  }
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
+  if (n <= static_cast<Eigen::Index>(used_windows + 2))
+    throw IdentError("experiment 2 (coast-down along " + dir + "): too few samples");
+  Eigen::MatrixXd X(n, 2);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Row &r = rows[static_cast<size_t>(k)];
+    X(k, 0) = -(r.integral - mi[r.win]);
+    X(k, 1) = -((r.t - t0[r.win]) - mt[r.win]);
+    y[k] = r.x - my[r.win];
+  }
+  const Fit bc = least_squares(X, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
+  // Residual variance with the intercepts' degrees of freedom counted.
+  const double dof_fix = static_cast<double>(n - 2) / static_cast<double>(n - 2 - static_cast<Eigen::Index>(used_windows));
+  out.f.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(used_windows) + 2);
+  out.f.cov = Eigen::MatrixXd::Zero(out.f.theta.size(), out.f.theta.size());
+  const Eigen::Index nb = out.f.theta.size() - 2;
+  const double b = bc.theta[0], cc = bc.theta[1];
+  std::vector<double> x0(nw, NAN);
+  Eigen::Index col = 0;
+  for (size_t w = 0; w < nw; ++w) {
+    if (n_w[w] == 0) continue;
+    x0[w] = my[w] + b * mi[w] + cc * mt[w];
+    out.f.theta[col++] = x0[w];  // intercepts: values only (their covariance is not used)
+  }
+  out.f.theta[nb] = b;
+  out.f.theta[nb + 1] = cc;
+  out.f.cov.bottomRightCorner(2, 2) = bc.cov * dof_fix;
+  out.f.sigma2 = bc.sigma2 * dof_fix;
+  out.f.n = bc.n;
   out.ok = true;
-  const Eigen::VectorXd fitted = Xk * out.f.theta;
-  for (size_t k = 0; k < rows.size(); ++k)
-    c.res.coast_curves[dir].push_back({wins[rows[k].win].seg, rows[k].t - t0[rows[k].win],
-                                       rows[k].x, fitted[k]});
+  for (const Row &r : rows)
+    c.res.coast_curves[dir].push_back({wins[r.win].seg, r.t - t0[r.win], r.x,
+                                       x0[r.win] - b * r.integral - cc * (r.t - t0[r.win])});
   return out;
 }
 
@@ -701,11 +732,30 @@ void experiment3(Context &c) {
   p.Kv = p.Kt = kv->second.value;
   std::array<Fit, 3> ls, iv;
   std::array<bool, 3> have{};
+  // The three axes' regressions are independent: one task each (the messages stay in order).
+  struct AxisFit {
+    StateSpaceFits f;
+    std::string error;  // empty: f holds the fits
+  };
+  std::array<std::future<AxisFit>, 3> pending;
   for (int axis = 0; axis < 3; ++axis) {
     const char *dir = kDirs[axis];
-    const auto wins = c.windows("step", dir, &SegmentWindows::step);
+    auto wins = c.windows("step", dir, &SegmentWindows::step);
+    if (wins.empty()) continue;
+    pending[axis] = std::async(std::launch::async, [&c, axis, dir, w = std::move(wins)] {
+      AxisFit a;
+      try {
+        a.f = fit_state_space(axis_data(c, w, axis), std::string("experiment 3 along ") + dir);
+      } catch (const IdentError &e) {
+        a.error = e.what();
+      }
+      return a;
+    });
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    const char *dir = kDirs[axis];
     const std::string names = axis == 0 ? "Bv, Cv" : axis == 1 ? "Bvn, Cvn" : "J, Bw, Cw";
-    if (wins.empty()) {
+    if (!pending[axis].valid()) {
       const size_t nseg = c.segments_of("step", dir);
       c.missing(names + " (experiment 3 along " + dir + "): " +
                 (nseg ? std::to_string(nseg) + " step segments but no usable drive"
@@ -713,15 +763,14 @@ void experiment3(Context &c) {
                 "; " + record_hint("step"));
       continue;
     }
-    const StateSpaceData data = axis_data(c, wins, axis);
-    try {
-      const StateSpaceFits f = fit_state_space(data, std::string("experiment 3 along ") + dir);
-      ls[axis] = f.ls;
-      iv[axis] = f.iv;
-      have[axis] = true;
-    } catch (const IdentError &e) {
-      c.missing(names + ": " + e.what());
+    AxisFit a = pending[axis].get();
+    if (!a.error.empty()) {
+      c.missing(names + ": " + a.error);
+      continue;
     }
+    ls[axis] = a.f.ls;
+    iv[axis] = a.f.iv;
+    have[axis] = true;
   }
   // The derived parameters as functions of x = [theta_v, theta_vn, theta_w (3 each), Kv, R of
   // the motor test]: the axis's own theta is the method's data; Kv (eq 26's b and the back-EMF
