@@ -49,41 +49,35 @@ uint32_t be32(const uint8_t *p) {
   return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | p[3];
 }
 
-// experiment_t carries two strings; lcm-gen's decoder computes `length - 1` on the raw
-// int32 (signed overflow for INT32_MIN) and throws for lengths <= 0. Check both length fields
-// first: fingerprint (8) and utime (8), then per string an int32 length (with the NUL) and
-// the bytes.
-bool experiment_strings_ok(const uint8_t *data, int32_t len) {
-  int64_t pos = 16;
-  for (int k = 0; k < 2; ++k) {
-    if (pos + 4 > len) return false;
-    const int32_t slen = static_cast<int32_t>(be32(data + pos));
-    pos += 4;
-    if (slen < 1 || slen > len - pos) return false;
-    pos += slen;
-  }
+// lcm-gen's decoders compute `length - 1` on a string's raw int32 length (signed overflow for
+// INT32_MIN) and throw for lengths <= 0; an array count is allocated before it is checked. So
+// messages with strings are walked first. Skips the LCM string at pos (an int32 length with
+// the NUL, then the bytes); false if it does not fit in len.
+bool skip_string(const uint8_t *data, int32_t len, int64_t &pos) {
+  if (pos + 4 > len) return false;
+  const int32_t slen = static_cast<int32_t>(be32(data + pos));
+  pos += 4;
+  if (slen < 1 || slen > len - pos) return false;
+  pos += slen;
   return true;
 }
 
+// experiment_t: fingerprint (8) and utime (8), then two strings.
+bool experiment_strings_ok(const uint8_t *data, int32_t len) {
+  int64_t pos = 16;
+  return skip_string(data, len, pos) && skip_string(data, len, pos);
+}
+
 // param_changed_t: fingerprint, utime, seq, request_id (8 bytes each), two strings (source,
-// path), int32 n, then 3 n strings. Walked before lcm-gen's decoder sees it, for the same
-// reason as experiment_t (and so that a huge n is never allocated).
+// path), int32 n, then 3 n strings.
 bool param_changed_ok(const uint8_t *data, int32_t len) {
   int64_t pos = 32;
-  auto string_ok = [&] {
-    if (pos + 4 > len) return false;
-    const int32_t slen = static_cast<int32_t>(be32(data + pos));
-    pos += 4;
-    if (slen < 1 || slen > len - pos) return false;
-    pos += slen;
-    return true;
-  };
-  if (!string_ok() || !string_ok() || pos + 4 > len) return false;
+  if (!skip_string(data, len, pos) || !skip_string(data, len, pos) || pos + 4 > len) return false;
   const int32_t n = static_cast<int32_t>(be32(data + pos));
   pos += 4;
   if (n < 0 || n > (len - pos) / 15) return false;  // 3 strings of at least 5 bytes each
   for (int64_t k = 0; k < 3 * int64_t{n}; ++k)
-    if (!string_ok()) return false;
+    if (!skip_string(data, len, pos)) return false;
   return pos == len;
 }
 

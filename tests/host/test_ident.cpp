@@ -1,6 +1,5 @@
 // Tests for host-tools: filters, regressions, and identification accuracy on simulated robots.
 #include <gtest/gtest.h>
-#include <lcm/eventlog.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,6 +25,7 @@
 #include "regression.hpp"
 #include "signals.hpp"
 #include "simexp.hpp"
+#include "testlog.hpp"
 #include "validate.hpp"
 
 extern "C" {
@@ -36,12 +36,7 @@ using namespace omni4;
 
 namespace {
 
-std::string temp_path(const char *tag) {
-  char buf[] = "/tmp/omni4_test_XXXXXX";
-  const int fd = mkstemp(buf);
-  close(fd);
-  return std::string(buf) + tag;
-}
+using omni4_test::temp_path;
 
 model_params base_of(const model_params &p) {
   model_params b = model_params_table3;
@@ -543,21 +538,9 @@ TEST(BadInput, ImpossibleTimesCountsAndValuesAreDroppedAndCounted) {
   // A log whose messages decode but hold what no clock, counter or sensor gives: utime and seq
   // at the int64 limits, NaN and infinite floats. Differences of such times overflow int64.
   const std::string path = temp_path(".lcmlog");
-  lcm_eventlog_t *log = lcm_eventlog_create(path.c_str(), "w");
-  ASSERT_NE(log, nullptr);
-  int64_t event = 0;
-  auto put = [&](const char *channel, auto &msg) {
-    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-    ASSERT_EQ(msg.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-    lcm_eventlog_event_t ev{};
-    ev.eventnum = event++;
-    ev.timestamp = 1000 * event;
-    ev.channellen = static_cast<int32_t>(std::strlen(channel));
-    ev.channel = const_cast<char *>(channel);
-    ev.datalen = static_cast<int32_t>(buf.size());
-    ev.data = buf.data();
-    ASSERT_EQ(lcm_eventlog_write_event(log, &ev), 0);
-  };
+  omni4_test::EventLogWriter log(path);
+  ASSERT_TRUE(log.ok());
+  auto put = [&](const char *channel, const auto &msg) { ASSERT_TRUE(log.put(channel, msg)); };
   omni4::experiment_t mark{};
   mark.utime = 1000000;
   mark.kind = "step";
@@ -593,7 +576,7 @@ TEST(BadInput, ImpossibleTimesCountsAndValuesAreDroppedAndCounted) {
   mark.utime = 1200000;
   mark.level = INFINITY;
   put("OMNI4_EXPERIMENT", mark);
-  lcm_eventlog_destroy(log);
+  log.close();
 
   const LogData d = read_log(path);
   EXPECT_EQ(d.implausible, 11u);

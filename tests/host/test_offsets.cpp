@@ -1,7 +1,6 @@
 // Tests for the current-sense offsets of identification (offsets.hpp), the calibration notices
 // in the log reader, and the standard errors that carry what a method borrows.
 #include <gtest/gtest.h>
-#include <lcm/eventlog.h>
 #include <unistd.h>
 
 #include <array>
@@ -19,18 +18,13 @@
 #include "omni4/param_changed_t.hpp"
 #include "regression.hpp"
 #include "simexp.hpp"
+#include "testlog.hpp"
 
 using namespace omni4;
 
 namespace {
 
-std::string temp_path(const char *tag) {
-  char buf[] = "/tmp/omni4_test_XXXXXX";
-  const int fd = mkstemp(buf);
-  close(fd);
-  std::remove(buf);
-  return std::string(buf) + tag;
-}
+using omni4_test::temp_path;
 
 constexpr double kNoiseA = 0.02;  // the paper's current noise [A]
 
@@ -162,24 +156,12 @@ TEST(Offsets, ALogWithoutBridgeOffSamplesIsUsedAsLoggedWithAWarning) {
 // an impossible count of keys is undecodable, not a crash or a huge allocation.
 TEST(Offsets, CalibrationNoticesAreReadFromTheLog) {
   const std::string path = temp_path(".lcmlog");
-  lcm_eventlog_t *log = lcm_eventlog_create(path.c_str(), "w");
-  ASSERT_NE(log, nullptr);
-  int64_t event = 0;
-  auto put = [&](const char *channel, std::vector<uint8_t> buf) {
-    lcm_eventlog_event_t ev{};
-    ev.eventnum = event++;
-    ev.timestamp = 1000 * event;
-    ev.channellen = static_cast<int32_t>(std::strlen(channel));
-    ev.channel = const_cast<char *>(channel);
-    ev.datalen = static_cast<int32_t>(buf.size());
-    ev.data = buf.data();
-    ASSERT_EQ(lcm_eventlog_write_event(log, &ev), 0);
+  omni4_test::EventLogWriter log(path);
+  ASSERT_TRUE(log.ok());
+  auto put = [&](const char *channel, const std::vector<uint8_t> &buf) {
+    ASSERT_TRUE(log.put_bytes(channel, buf));
   };
-  auto encode = [](auto &msg) {
-    std::vector<uint8_t> buf(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    return buf;
-  };
+  auto encode = [](const auto &msg) { return omni4_test::EventLogWriter::encode(msg); };
   for (int k = 0; k < 10; ++k) {
     omni4::motors_t m{};
     m.utime = 1000000 + 1000 * k;
@@ -206,7 +188,7 @@ TEST(Offsets, CalibrationNoticesAreReadFromTheLog) {
   const size_t npos = 8 + 24 + 16 + 5;
   bad[npos] = 0x7f;
   put("OMNI4_PARAM_CHANGED", bad);
-  lcm_eventlog_destroy(log);
+  log.close();
 
   const LogData d = read_log(path);
   std::remove(path.c_str());
