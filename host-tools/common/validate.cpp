@@ -100,10 +100,16 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
           if (meas.ok[q] && sim.ok[q] && t[q] - half >= t.front() && t[q] + half <= t.back())
             add({si, s.direction, s.level, t[q] - s.t0 * 1e-6, meas.x[q], sim.x[q]});
       } else {
+        // Compared only where the measured velocity's filter window lies inside the drive:
+        // one that reaches the samples after it (bridges off, the robot decelerating) or before
+        // it (at rest) mixes in what the model is not driven through here, and its last
+        // samples would set e_max.
+        const size_t h = static_cast<size_t>(enc.half);
         size_t i = k0;
         for (size_t k = k0; k < w.m1; ++k) {
           if (!enc.ok[k]) continue;
           advance(pl, m, i, w.m1, m[k].utime * 1e-6);
+          if (k < w.m0 + h || k + h >= w.m1) continue;
           add({si, s.direction, s.level, (m[k].utime - s.t0) * 1e-6, enc.x[k],
                {pl.x[0], pl.x[1], pl.x[2]}});
         }

@@ -37,46 +37,41 @@ using namespace omni4;
   std::exit(code);
 }
 
-std::vector<LogData> load_logs(const std::vector<std::string> &paths) {
-  // Logs are independent: read them on all cores.
-  std::vector<std::future<LogData>> pending;
-  const size_t workers = std::max(1u, std::thread::hardware_concurrency());
-  std::vector<LogData> logs;
-  logs.reserve(paths.size());
-  size_t next = 0;
-  auto launch = [&] { pending.push_back(std::async(std::launch::async, read_log, paths[next++])); };
-  while (next < paths.size() && pending.size() < workers) launch();
-  for (size_t i = 0; i < paths.size(); ++i) {
-    try {
-      logs.push_back(pending[i].get());
-    } catch (const std::exception &e) {
-      die(e.what());
+// What was corrected in a log's sensors before use (encoders.hpp, offsets.hpp).
+struct SensorFix {
+  TickRescale tick;
+  std::vector<RippleFit> ripple;
+  std::vector<std::string> offset_warnings;
+};
+
+void print_encoder_fixes(const LogData &d, const SensorFix &fix) {
+  const TickRescale &t = fix.tick;
+  if (t.applied)
+    std::printf("%s: loop ticks jitter by %.0f us RMS and the wheel speeds carry it (counts "
+                "over the nominal %.3g ms): rescaled to the true intervals (second "
+                "differences %.0f %% smaller)\n",
+                d.path.c_str(), t.jitter_s * 1e6, t.period_s * 1e3,
+                100 * (1 - t.roughness_rescaled / t.roughness_logged));
+  double worst = 0, worst_se = 0;
+  int wheel = -1, removed = 0;
+  for (const RippleFit &f : fix.ripple)
+    for (int j = 0; j < 4; ++j) {
+      removed += f.motor_removed[j];
+      if (f.motor_eps[j] > worst) worst = f.motor_eps[j], worst_se = f.motor_se[j], wheel = j;
     }
-    if (next < paths.size()) launch();
-    const std::string &p = paths[i];
-    const LogData &d = logs.back();
-    std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", p.c_str(),
-                (unsigned long long)d.events, d.motors.size(), d.pose.size(), d.marks.size());
-    if (d.bytes_skipped || d.undecodable || d.implausible || d.seq_gaps)
-      std::printf("; skipped %llu of %llu bytes (truncated or corrupt), %llu undecodable "
-                  "events, %llu implausible (time, count or value out of range), %llu lost "
-                  "samples",
-                  (unsigned long long)d.bytes_skipped, (unsigned long long)d.bytes_total,
-                  (unsigned long long)d.undecodable, (unsigned long long)d.implausible,
-                  (unsigned long long)d.seq_gaps);
-    std::printf("\n");
-  }
-  return logs;
+  if (removed)
+    std::printf("%s: encoder ripple once per motor revolution removed in %d of %zu "
+                "wheel-stretches (largest: wheel %d, %.2f %% ±%.2f)\n",
+                d.path.c_str(), removed, 4 * fix.ripple.size(), wheel, 100 * worst,
+                100 * worst_se);
+  else
+    std::printf("%s: no encoder ripple over 4 SE (largest %.2f %% ±%.2f)\n", d.path.c_str(),
+                100 * worst, 100 * worst_se);
 }
 
-// Current-sense offsets of every log from its bridge-off samples, subtracted before the motor
-// test and experiment 1; printed beside what the controller said it applied.
-void calibrate_and_print(std::vector<LogData> &logs) {
-  std::vector<std::string> warnings;
-  for (LogData &d : logs) {
-    auto w = calibrate_currents(d);
-    warnings.insert(warnings.end(), w.begin(), w.end());
-  }
+// Current-sense offsets of every log (estimated from its bridge-off samples and subtracted
+// before the motor test and experiment 1), printed beside what the controller said it applied.
+void print_offsets(const std::vector<LogData> &logs, const std::vector<std::string> &warnings) {
   std::printf("current-sense offsets left in the logged currents, from the bridge-off samples "
               "(subtracted before the motor test and experiment 1) [A]:\n");
   for (const LogData &d : logs) {
@@ -106,33 +101,54 @@ void calibrate_and_print(std::vector<LogData> &logs) {
   for (const std::string &w : warnings) std::printf("warning: %s\n", w.c_str());
 }
 
-// Once-per-revolution encoder ripple (eccentric discs) of every log, divided out of the wheel
-// speeds before anything uses them; one line per log with the largest ripple found.
-void remove_ripple_and_print(std::vector<LogData> &logs, double gear) {
-  for (LogData &d : logs) {
-    const TickRescale t = rescale_to_tick_intervals(d);
-    if (t.applied)
-      std::printf("%s: loop ticks jitter by %.0f us RMS and the wheel speeds carry it (counts "
-                  "over the nominal %.3g ms): rescaled to the true intervals (second "
-                  "differences %.0f %% smaller)\n",
-                  d.path.c_str(), t.jitter_s * 1e6, t.period_s * 1e3,
-                  100 * (1 - t.roughness_rescaled / t.roughness_logged));
-    const auto fits = remove_encoder_ripple(d, gear);
-    double worst = 0, worst_se = 0;
-    int wheel = -1, removed = 0;
-    for (const RippleFit &f : fits)
-      for (int j = 0; j < 4; ++j) {
-        removed += f.motor_removed[j];
-        if (f.motor_eps[j] > worst) worst = f.motor_eps[j], worst_se = f.motor_se[j], wheel = j;
-      }
-    if (removed)
-      std::printf("%s: encoder ripple once per motor revolution removed in %d of %zu "
-                  "wheel-stretches (largest: wheel %d, %.2f %% ±%.2f)\n",
-                  d.path.c_str(), removed, 4 * fits.size(), wheel, 100 * worst, 100 * worst_se);
-    else
-      std::printf("%s: no encoder ripple over 4 SE (largest %.2f %% ±%.2f)\n", d.path.c_str(),
-                  100 * worst, 100 * worst_se);
+// Reads the logs on all cores and, in the same tasks, corrects their sensors: wheel speeds that
+// carry the loop's jitter, once-per-motor-revolution encoder ripple (gear: l), and with
+// `offsets` the current-sense offsets. Prints what each log held and what was corrected.
+std::vector<LogData> load_logs(const std::vector<std::string> &paths, double gear, bool offsets) {
+  struct Loaded {
+    LogData d;
+    SensorFix fix;
+  };
+  auto load = [gear, offsets](const std::string &path) {
+    Loaded l{read_log(path), {}};
+    l.fix.tick = rescale_to_tick_intervals(l.d);
+    l.fix.ripple = remove_encoder_ripple(l.d, gear);
+    if (offsets) l.fix.offset_warnings = calibrate_currents(l.d);
+    return l;
+  };
+  std::vector<std::future<Loaded>> pending;
+  const size_t workers = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<LogData> logs;
+  std::vector<std::string> warnings;
+  logs.reserve(paths.size());
+  size_t next = 0;
+  auto launch = [&] { pending.push_back(std::async(std::launch::async, load, paths[next++])); };
+  while (next < paths.size() && pending.size() < workers) launch();
+  for (size_t i = 0; i < paths.size(); ++i) {
+    Loaded l;
+    try {
+      l = pending[i].get();
+    } catch (const std::exception &e) {
+      die(e.what());
+    }
+    if (next < paths.size()) launch();
+    const LogData &d = l.d;
+    std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", paths[i].c_str(),
+                (unsigned long long)d.events, d.motors.size(), d.pose.size(), d.marks.size());
+    if (d.bytes_skipped || d.undecodable || d.implausible || d.seq_gaps)
+      std::printf("; skipped %llu of %llu bytes (truncated or corrupt), %llu undecodable "
+                  "events, %llu implausible (time, count or value out of range), %llu lost "
+                  "samples",
+                  (unsigned long long)d.bytes_skipped, (unsigned long long)d.bytes_total,
+                  (unsigned long long)d.undecodable, (unsigned long long)d.implausible,
+                  (unsigned long long)d.seq_gaps);
+    std::printf("\n");
+    print_encoder_fixes(d, l.fix);
+    warnings.insert(warnings.end(), l.fix.offset_warnings.begin(), l.fix.offset_warnings.end());
+    logs.push_back(std::move(l.d));
   }
+  if (offsets) print_offsets(logs, warnings);
+  return logs;
 }
 
 std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
@@ -141,9 +157,22 @@ std::vector<Segment> segments_of(const std::vector<LogData> &logs) {
     auto s = split_segments(d);
     all.insert(all.end(), s.begin(), s.end());
   }
-  if (all.empty())
-    die("no experiment segments: the logs carry no OMNI4_EXPERIMENT marks (record them with "
-        "'omni4-ident run' or 'omni4-sim --experiments')");
+  if (all.empty()) {
+    size_t marks = 0, motors = 0;
+    for (const LogData &d : logs) {
+      marks += d.marks.size();
+      motors += d.motors.size();
+    }
+    if (marks == 0)
+      die("no experiment segments: the logs carry no OMNI4_EXPERIMENT marks (record them with "
+          "'omni4-ident run' or 'omni4-sim --experiments')");
+    if (motors == 0)
+      die("no experiment segments: the logs carry " + std::to_string(marks) +
+          " OMNI4_EXPERIMENT marks but no OMNI4_MOTORS samples (no controller was publishing "
+          "on the bus the log was recorded from)");
+    die("no experiment segments: none of the " + std::to_string(marks) +
+        " OMNI4_EXPERIMENT marks has OMNI4_MOTORS samples after it");
+  }
   return all;
 }
 
@@ -423,9 +452,7 @@ int cmd_identify(const IdentifyArgs &a) {
   model_params truth{};
   if (!a.truth.empty()) truth = load_params(a.truth, false);
   const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
-  auto logs = load_logs(a.logs);
-  remove_ripple_and_print(logs, base.l);
-  calibrate_and_print(logs);
+  auto logs = load_logs(a.logs, base.l, true);
   const auto segs = segments_of(logs);
   IdentResult r;
   try {
@@ -478,10 +505,18 @@ void write_json(const std::string &path, const Validation &v) {
     if (!f) die(path + ": cannot write");
     static const char *const names[3] = {"v", "vn", "w"};
     f << "{";
+    // An axis without validation data is null, never a perfect 0.
     for (int a = 0; a < 3; ++a) {
-      char buf[160];
-      std::snprintf(buf, sizeof(buf), "%s\"%s\": {\"e_max\": %.6g, \"e_mean\": %.6g, \"sigma\": %.6g}",
-                    a ? ", " : "", names[a], v.axis[a].e_max, v.axis[a].e_mean, v.axis[a].sigma);
+      char buf[200];
+      const AxisErrors &ax = v.axis[a];
+      if (ax.n == 0)
+        std::snprintf(buf, sizeof(buf),
+                      "%s\"%s\": {\"e_max\": null, \"e_mean\": null, \"sigma\": null, \"n\": 0}",
+                      a ? ", " : "", names[a]);
+      else
+        std::snprintf(buf, sizeof(buf),
+                      "%s\"%s\": {\"e_max\": %.6g, \"e_mean\": %.6g, \"sigma\": %.6g, \"n\": %zu}",
+                      a ? ", " : "", names[a], ax.e_max, ax.e_mean, ax.sigma, ax.n);
       f << buf;
     }
     f << "}\n";
@@ -497,8 +532,7 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
   if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
   std::vector<model_params> sets;
   for (const auto &p : params) sets.push_back(load_params(p, false));
-  auto logs = load_logs(paths);
-  remove_ripple_and_print(logs, sets[0].l);
+  const auto logs = load_logs(paths, sets[0].l, false);
   const auto segs = segments_of(logs);
   std::vector<Validation> vals;
   try {
@@ -518,13 +552,18 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
               "vel");
   for (const auto &p : params) std::printf(" | %-32.32s", p.c_str());
   std::printf("\n%-5s", "");
-  for (size_t k = 0; k < params.size(); ++k) std::printf(" | %10s %10s %10s", "e_max", "mean", "sigma");
+  for (size_t k = 0; k < params.size(); ++k)
+    std::printf(" | %10s %10s %10s", "e_max", "mean", "sigma");
+  std::printf("   [m/s for v, vn; rad/s for w]");
   std::printf("\n");
   static const char *const names[3] = {"v", "vn", "w"};
   for (int a = 0; a < 3; ++a) {
     std::printf("%-5s", names[a]);
     for (const auto &v : vals)
-      std::printf(" | %10.4f %10.4f %10.4f", v.axis[a].e_max, v.axis[a].e_mean, v.axis[a].sigma);
+      if (v.axis[a].n == 0)
+        std::printf(" | %-32s", "no data (no step run along it)");
+      else
+        std::printf(" | %10.4f %10.4f %10.4f", v.axis[a].e_max, v.axis[a].e_mean, v.axis[a].sigma);
     std::printf("\n");
   }
   std::printf("paper Table IV (final): v 0.061 0.008 0.024 | vn 0.068 -0.009 0.026 | "

@@ -370,11 +370,15 @@ def main():
         paper = {"v": (0.061, 0.008, 0.024), "vn": (0.068, -0.009, 0.026),
                  "w": (2.504, -0.452, 0.732)}
         lines += ["## Validation (eqs 28-30) beside the paper's Table IV (final)", "",
-                  "| vel | e_max | mean | sigma | paper e_max | paper mean | paper sigma |",
+                  "| vel [m/s, m/s, rad/s] | e_max | mean | sigma | paper e_max | paper mean | "
+                  "paper sigma |",
                   "|---|---|---|---|---|---|---|"]
         for k in ["v", "vn", "w"]:
             e = val[k]
             p = paper[k]
+            if e.get("e_max") is None:  # no step run along this axis
+                lines.append(f"| {k} | no data | | | {p[0]} | {p[1]} | {p[2]} |")
+                continue
             lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
                          f"{p[0]} | {p[1]} | {p[2]} |")
         lines.append("")

@@ -51,6 +51,14 @@ expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --rob
 expect 2 "invalid value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
+# Marks but no motor samples (a run with no controller on the bus) is said as such.
+/usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/marksonly.lcmlog" --keep OMNI4_EXPERIMENT
+expect 1 "carry 61 OMNI4_EXPERIMENT marks but no OMNI4_MOTORS samples" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/marksonly.lcmlog"
+# An axis without step runs is "no data" in the table and null in the JSON, never a perfect 0.
+/usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/now.lcmlog" --drop-steps w
+expect 0 "w     | no data" -- "$BIN/omni4-ident" validate --params "$T/good.ini" --json "$T/now.json" "$T/now.lcmlog"
+expect 0 '"w": {"e_max": null, "e_mean": null, "sigma": null, "n": 0}' -- cat "$T/now.json"
+expect 0 '"v": {"e_max": 0.00' -- cat "$T/now.json"
 expect 0 "Usage\|usage" -- "$BIN/omni4-ident" --help
 expect 0 "usage" -- "$BIN/omni4-fw" --help
 expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"

@@ -771,3 +771,24 @@ TEST(Windows, LostSamplesEndAFilterBlockAndNothingIsFilteredAcrossThem) {
   EXPECT_FALSE(t.joined[1000]);
   EXPECT_NEAR(t.x[979][0], 0.5, 4e-8);  // 0.5 / r rounded to motors_t's float: 1.4e-8 off
 }
+
+// Validation with the true parameters on exact sensors: the measured and simulated velocities
+// differ only by the filter's own error where its window lies inside the drive. A window that
+// reaches past the drive's end (bridges off, decelerating) would add its lag to the last
+// samples of every run.
+TEST(Validation, RunsEndWhereTheFilterStillSeesOnlyTheDrive) {
+  omni4_config cfg;
+  config_defaults(&cfg);
+  const std::string log = temp_path(".lcmlog");
+  run_simulation(cfg, cfg.model, false, log, true, 0, 0);
+  const LogData d = read_log(log);
+  std::remove(log.c_str());
+  const Validation v = validate(split_segments(d), cfg.model);
+  std::printf("exact sensors, true parameters: e_max v %.2e vn %.2e w %.2e\n", v.axis[0].e_max,
+              v.axis[1].e_max, v.axis[2].e_max);
+  // Measured 5.8e-5, 5.8e-5 m/s, 1.1e-3 rad/s (with the runs' ends inside the filter window:
+  // 1.7e-3, 2.0e-3, 0.026).
+  EXPECT_LT(v.axis[0].e_max, 1.5e-4);
+  EXPECT_LT(v.axis[1].e_max, 1.5e-4);
+  EXPECT_LT(v.axis[2].e_max, 2.5e-3);
+}
