@@ -104,51 +104,78 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
     fits[c].m1 = k;
   }
 
-  std::vector<double> y(n), ws(n, NAN), th(n), prefix;
+  // The fit runs on means of q consecutive samples (at least 4 ms: the ripple, at most a few
+  // tens of Hz, loses under 1 % of its amplitude in such a mean), inside contiguous blocks; the
+  // correction is applied to every sample.
+  const size_t q = std::max<size_t>(1, static_cast<size_t>(0.004 / dt + 1e-9));
+  const int hd = std::max(2, static_cast<int>(std::lround(static_cast<double>(h) / q)));
+  std::vector<size_t> first;                     // first sample of each group
+  std::vector<std::pair<size_t, size_t>> dblocks;  // blocks of groups
+  for (const auto &[a, b] : blocks) {
+    const size_t d0 = first.size();
+    for (size_t k = a; k + q <= b; k += q) first.push_back(k);
+    if (first.size() > d0) dblocks.emplace_back(d0, first.size());
+  }
+  const size_t nd = first.size();
+  std::vector<double> th(n), y(nd), thd(nd), ws(nd, NAN), prefix;
   std::array<std::vector<double>, 2> g, gb;
-  for (auto &v : g) v.assign(n, 0);
-  for (auto &v : gb) v.assign(n, NAN);
+  for (auto &v : g) v.assign(nd, 0);
+  for (auto &v : gb) v.assign(nd, NAN);
   for (int j = 0; j < 4; ++j) {
     // Wheel angle: the logged speed over the nominal period; across lost ticks, the mean of
     // the speeds on either side.
     th[0] = 0;
-    for (size_t k = 0; k < n; ++k) {
-      y[k] = m[k].w[j];
-      if (k == 0) continue;
+    for (size_t k = 1; k < n; ++k) {
       const int64_t gap = m[k].seq - m[k - 1].seq;
       const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
-      th[k] = th[k - 1] + dt * (y[k] + missed * 0.5 * (y[k] + y[k - 1]));
+      th[k] = th[k - 1] + dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
     }
-    for (const auto &[a, b] : blocks) box(y, a, b, h, prefix, ws);  // the slow speed
-    for (size_t k = 0; k < n; ++k) {
-      const double s = std::isfinite(ws[k]) ? ws[k] : 0.0;
-      g[0][k] = s * std::cos(gear * th[k]);
-      g[1][k] = s * std::sin(gear * th[k]);
+    for (size_t i = 0; i < nd; ++i) {
+      double sy = 0, st = 0;
+      for (size_t k = first[i]; k < first[i] + q; ++k) {
+        sy += m[k].w[j];
+        st += th[k];
+      }
+      y[i] = sy / static_cast<double>(q);
+      thd[i] = st / static_cast<double>(q);
     }
-    for (const auto &[a, b] : blocks)
-      for (int q = 0; q < 2; ++q) box(g[q], a, b, h, prefix, gb[q]);
+    for (const auto &[a, b] : dblocks) box(y, a, b, hd, prefix, ws);  // the slow speed
+    for (size_t i = 0; i < nd; ++i) {
+      const double sp = std::isfinite(ws[i]) ? ws[i] : 0.0;
+      if (std::abs(sp) < 1e-3) {  // at rest: no ripple to carry
+        g[0][i] = g[1][i] = 0;
+        continue;
+      }
+      double sn, cs;
+      ::sincos(gear * thd[i], &sn, &cs);  // glibc: one call for both
+      g[0][i] = sp * cs;
+      g[1][i] = sp * sn;
+    }
+    for (const auto &[a, b] : dblocks)
+      for (int c = 0; c < 2; ++c) box(g[c], a, b, hd, prefix, gb[c]);
     // Normal equations per stretch, on centres whose whole double window lies in one block.
+    size_t i0 = 0;
     for (RippleFit &f : fits) {
       Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
       Eigen::Vector2d r = Eigen::Vector2d::Zero();
       double yy = 0;
       size_t used = 0;
-      for (const auto &[a, b] : blocks) {
-        const size_t h2 = 2 * static_cast<size_t>(h);
-        const size_t lo = std::max(a + h2, f.m0), hi = std::min(b >= h2 ? b - h2 : 0, f.m1);
-        for (size_t k = lo; k < hi; ++k) {
-          if (!(std::abs(ws[k]) >= opt.min_speed)) continue;
+      for (const auto &[a, b] : dblocks) {
+        const size_t h2 = 2 * static_cast<size_t>(hd);
+        for (size_t i = std::max(a + h2, i0); i + h2 < b && first[i] < f.m1; ++i) {
+          if (first[i] < f.m0 || !(std::abs(ws[i]) >= opt.min_speed)) continue;
           Eigen::Vector2d x;
-          for (int q = 0; q < 2; ++q) x[q] = g[q][k] - gb[q][k];
-          const double e = y[k] - ws[k];
+          for (int c = 0; c < 2; ++c) x[c] = g[c][i] - gb[c][i];
+          const double e = y[i] - ws[i];
           A += x * x.transpose();
           r += x * e;
           yy += e * e;
           ++used;
         }
       }
-      if (j == 0) f.samples = used;
-      if (used < 200) continue;
+      while (i0 < nd && first[i0] < f.m1) ++i0;
+      if (j == 0) f.samples = used * q;
+      if (used < 50) continue;
       Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
       if (ldlt.info() != Eigen::Success) continue;
       const Eigen::Vector2d coef = ldlt.solve(r);
@@ -163,8 +190,9 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
       f.motor_removed[j] = f.motor_eps[j] > opt.significance * f.motor_se[j];
       if (!f.motor_removed[j]) continue;
       for (size_t k = f.m0; k < f.m1; ++k) {
-        const double ripple = coef[0] * std::cos(gear * th[k]) + coef[1] * std::sin(gear * th[k]);
-        m[k].w[j] = static_cast<float>(m[k].w[j] / (1 + ripple));
+        double sn, cs;
+        ::sincos(gear * th[k], &sn, &cs);
+        m[k].w[j] = static_cast<float>(m[k].w[j] / (1 + coef[0] * cs + coef[1] * sn));
       }
     }
   }
