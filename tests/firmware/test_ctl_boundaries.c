@@ -466,8 +466,14 @@ static void test_pi_integrator_stops_while_the_output_saturates(void **state)
 	assert_true(fabs(o.volts[3]) >= SPEC_SUPPLY_V - 1e-6); /* saturated against the wall */
 	double worst = 0.0;
 
-	for (int j = 0; j < 4; j++)
-		worst = fmax(worst, fabs(c.pi[j].integ));
+	/* A plain comparison, not fmax: aarch64 GCC 12's vectoriser crashes (internal compiler
+	 * error in vect_transform_reduction) on that fmax reduction over struct ctl's floats. */
+	for (int j = 0; j < 4; j++) {
+		const double a = fabs(c.pi[j].integ);
+
+		if (a > worst)
+			worst = a;
+	}
 	printf("stalled 1 s at 0.3 m/s: output %.2f V, largest integral %.3f V\n", o.volts[3],
 	       worst);
 	assert_true(worst < 6.0);
