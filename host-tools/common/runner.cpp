@@ -222,6 +222,16 @@ class PercentLine {
   int last_pct_ = -1;
 };
 
+}  // namespace
+
+// A robot answers on the bus when its OMNI4_MOTORS arrive: none within kFirstMotorsS of the
+// start means no controller there (a slow start, e.g. under a sanitizer, is allowed for), none
+// for kMotorsWaitS during a run means it stopped [s].
+constexpr double kFirstMotorsS = 5.0;
+constexpr double kMotorsWaitS = 2.0;
+
+namespace {
+
 // Safe stop: IDLE (outputs off), close any open segment, collect the last messages. Returns
 // false on log write errors.
 bool stop_run(Recording &rec) {
@@ -235,20 +245,49 @@ int run_experiments(const RunOptions &opt) {
   std::vector<Phase> phases;
   if (!phases_to_run(opt, phases)) return 2;
   Recording rec;
-  if (!rec.open(opt)) return 1;
+  uint64_t motors = 0;
+  double last_motors_s = 0;
+  if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *) {
+        if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) == 0) ++motors, last_motors_s = steady_s();
+      }))
+    return 1;
+  // Nothing is driven before a controller answers: no robot, no run and no log.
+  const double deadline = steady_s() + kFirstMotorsS;
+  while (motors == 0 && !g_interrupted && steady_s() < deadline) rec.handle(20);
+  if (motors == 0) {
+    rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), nullptr);
+    std::remove(opt.out.c_str());
+    if (g_interrupted) return 130;
+    std::fprintf(stderr, "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
+                 "running on that URL?\n", opt.url.c_str(), kFirstMotorsS);
+    return 1;
+  }
   SequencePlayer player(phases);
   PercentLine progress(total_duration_s(phases));
   const auto t0 = std::chrono::steady_clock::now();
+  bool lost = false;
   while (!player.done() && !g_interrupted) {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     play_due(player, rec, t);
     rec.handle(5);
     progress.update(t, player, rec.written());
+    if (steady_s() - last_motors_s > kMotorsWaitS) {
+      lost = true;
+      break;
+    }
   }
   const bool ok = stop_run(rec);
   std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
-               g_interrupted ? "interrupted, robot stopped;" : "done;", opt.out.c_str(),
-               static_cast<unsigned long long>(rec.written()), ok ? "" : " (write errors!)");
+               g_interrupted ? "interrupted, robot stopped;"
+               : lost        ? "aborted, the robot stopped answering;"
+                             : "done;",
+               opt.out.c_str(), static_cast<unsigned long long>(rec.written()),
+               ok ? "" : " (write errors!)");
+  if (lost) {
+    std::fprintf(stderr, "omni4-ident run: no OMNI4_MOTORS for %g s on %s: did omni4-fw stop? "
+                 "(the log holds the run up to then)\n", kMotorsWaitS, opt.url.c_str());
+    return 1;
+  }
   return g_interrupted ? 130 : (ok ? 0 : 1);
 }
 
@@ -257,7 +296,6 @@ int run_experiments(const RunOptions &opt) {
 namespace {
 
 constexpr double kKeepaliveS = 0.05;    // COAST re-sent this often [s]
-constexpr double kMotorsWaitS = 2.0;    // OMNI4_MOTORS must arrive within [s]
 
 using Event = HandDetector::Event;
 
