@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -31,6 +32,11 @@ std::string fault_names(int32_t f) {
   return s.empty() ? "none" : s;
 }
 
+}  // namespace
+
+namespace {
+volatile sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -93,10 +99,14 @@ int main(int argc, char **argv) {
                  std::min(phase + 1, phases), phases, tty ? "" : "\n");
     last_decile = pct / 10;
   };
+  // Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log is
+  // written out whole (exit status 130).
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
   omni4::SimRunResult r;
   try {
     r = omni4::run_simulation(cfg, cfg.model, !no_noise, out_path, experiments, duration_s, rtf,
-                              progress);
+                              progress, [] { return g_stop != 0; });
   } catch (const std::exception &e) {
     std::fprintf(stderr, "omni4-sim: %s\n", e.what());
     return 1;
@@ -116,6 +126,11 @@ int main(int argc, char **argv) {
     std::fprintf(stderr, "omni4-sim: %llu log write errors, %llu samples dropped\n",
                  (unsigned long long)st.log_errors, (unsigned long long)st.log_dropped);
     return 1;
+  }
+  if (r.interrupted) {
+    std::fprintf(stderr, "omni4-sim: interrupted after %.1f s simulated; %s is complete up to "
+                 "there (the open segment closed)\n", r.simulated_s, out_path.c_str());
+    return 130;
   }
   return 0;
 }

@@ -16,7 +16,8 @@ namespace omni4 {
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
                             const std::string &log_path, bool experiments, double idle_s,
                             double rtf,
-                            const std::function<void(double, size_t, size_t)> &progress) {
+                            const std::function<void(double, size_t, size_t)> &progress,
+                            const std::function<bool()> &stop) {
   char err[256];
   std::unique_ptr<simrun, void (*)(simrun *)> sr(
       simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
@@ -32,7 +33,13 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
   const long ticks = std::lround(total_s / dt);
   const auto wall0 = std::chrono::steady_clock::now();
   long next_report = 0;
-  for (long k = 0; k < ticks; ++k) {
+  long k = 0;
+  bool interrupted = false;
+  for (; k < ticks; ++k) {
+    if (stop && stop()) {
+      interrupted = true;
+      break;
+    }
     if (experiments) {
       const auto out = player.due(k * dt, simrun_now_us(sr.get()));
       for (const auto &m : out.marks)
@@ -55,10 +62,11 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
     end.encode(buf.data(), 0, static_cast<int>(buf.size()));
     simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, buf.data(), buf.size());
   }
-  if (progress) progress(1.0, phases.size(), phases.size());
+  if (progress && !interrupted) progress(1.0, phases.size(), phases.size());
   SimRunResult r;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  r.simulated_s = ticks * dt;
+  r.simulated_s = static_cast<double>(k) * dt;
+  r.interrupted = interrupted;
   simrun_get_stats(sr.get(), &r.stats);
   return r;
 }

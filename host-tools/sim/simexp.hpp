@@ -15,14 +15,18 @@ struct SimRunResult {
   simrun_stats stats{};
   double simulated_s = 0;
   double wall_s = 0;
+  bool interrupted = false;  // stop() ended the run early
 };
 
 // cfg: firmware settings; plant: the simulated robot. rtf <= 0: as fast as possible, else a
 // real-time factor. progress(fraction, phase, phases) is called every 1 % (may be empty).
-// experiments = false: an idle run of idle_s. Throws std::runtime_error on set-up errors.
+// experiments = false: an idle run of idle_s. stop (may be empty) is asked every tick: true
+// ends the run early, with the open segment closed and the log complete (interrupted set).
+// Throws std::runtime_error on set-up errors.
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
                             const std::string &log_path, bool experiments, double idle_s,
                             double rtf,
-                            const std::function<void(double, size_t, size_t)> &progress = {});
+                            const std::function<void(double, size_t, size_t)> &progress = {},
+                            const std::function<bool()> &stop = {});
 
 }  // namespace omni4
