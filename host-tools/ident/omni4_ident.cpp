@@ -248,6 +248,10 @@ double field(const model_params &p, const std::string &name) {
   return NAN;
 }
 
+// A final estimate whose standard error exceeds 1 % of its value: the data do not pin it to
+// the 2 % that identification aims at (two standard errors).
+bool thin_estimate(const Estimate &e) { return std::isfinite(e.se) && e.se > 0.01 * std::abs(e.value); }
+
 Estimate find_estimate(const IdentResult &r, const char *method, const char *param) {
   const auto mit = r.table.find(method);
   if (mit == r.table.end()) return {};
@@ -270,6 +274,8 @@ void print_table(const IdentResult &r, const model_params *truth) {
     char agree[32] = "";
     if (ag.methods >= 2)
       std::snprintf(agree, sizeof(agree), "%s p=%.2g", ag.agree ? "agree" : "DISAGREE", ag.p);
+    if (thin_estimate(find_estimate(r, "final", p)))
+      std::strncat(agree, agree[0] ? " THIN" : "THIN", sizeof(agree) - std::strlen(agree) - 1);
     std::printf(" %-12s", agree);
     const Estimate fin = find_estimate(r, "final", p);
     if (truth && fin.ok()) {
@@ -298,6 +304,21 @@ void print_table(const IdentResult &r, const model_params *truth) {
                   "their plain mean. Look at the rejected windows and the plots.\n",
                   p, ag.chi2, ag.p);
   }
+  // Thin data: a final SE over 1 % of the value cannot support 2 % (two SE).
+  std::string thin;
+  for (const char *p : kIdentParams) {
+    const Estimate e = find_estimate(r, "final", p);
+    if (e.ok() && thin_estimate(e)) {
+      char buf[96];
+      std::snprintf(buf, sizeof(buf), "%s%s ±%.1f %%", thin.empty() ? "" : ", ", p,
+                    100 * e.se / std::abs(e.value));
+      thin += buf;
+    }
+  }
+  if (!thin.empty())
+    std::printf("warning: thin data: %s (standard error over 1 %%: not pinned to 2 %%; record "
+                "more runs of the experiments that give them, or longer ones)\n",
+                thin.c_str());
 }
 
 // Windows: used per kind, rejected per reason (every one with --verbose).
