@@ -51,6 +51,11 @@ expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --rob
 expect 2 "invalid value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
+# Thin data are said: with the camera, Bv and Bvn rest on experiment 3 through Kv (SE 1.2-1.5 %
+# on this log), flagged THIN and named in a warning; with the encoders nothing is thin.
+expect 0 "warning: thin data: Bv ±1.[0-9] %, Bvn ±1.[0-9] %" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/cam.ini" --velocity camera "$T/full.lcmlog"
+thin_enc=$("$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/enc.ini" "$T/full.lcmlog" 2>&1)
+grep -q "thin data" <<<"$thin_enc" && { echo "FAIL: thin data reported with the encoders: $(grep 'thin data' <<<"$thin_enc")"; fail=$((fail + 1)); }
 # Marks but no motor samples (a run with no controller on the bus) is said as such.
 /usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/marksonly.lcmlog" --keep OMNI4_EXPERIMENT
 expect 1 "carry 61 OMNI4_EXPERIMENT marks but no OMNI4_MOTORS samples" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/marksonly.lcmlog"
@@ -71,6 +76,27 @@ printf '[hal]\nmotor = socketcan\nlines = none\n[can]\nbitrate = 800000\n' > "$T
 expect 1 "\[can\] bitrate 800000 bit/s is too slow for \[loop\] rate_hz 1000: the motor-driver protocol would take 54 % of the bus" -- "$BIN/omni4-fw" --config "$T/slowcan.ini" --duration 1
 # The packaged default config parses; it then asks for the robot's CAN interface.
 expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
+# omni4-sim interrupted: status 130, one line, and a log whose every event is whole.
+"$BIN/omni4-sim" --experiments --speed 1 --out "$T/int.lcmlog" -q >"$T/int.out" 2>&1 &
+sim=$!
+sleep 1.5
+kill -INT "$sim"
+bounded_wait "$sim" 20 "omni4-sim after SIGINT"
+rc=$?
+if [ "$rc" -ne 130 ] || ! grep -q "omni4-sim: interrupted after" "$T/int.out"; then
+  echo "FAIL: omni4-sim after SIGINT -> status $rc, output: $(cat "$T/int.out")"; fail=$((fail + 1))
+else
+  echo "ok: omni4-sim after SIGINT -> 130: $(grep interrupted "$T/int.out")"; pass=$((pass + 1))
+fi
+int_read=$("$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/int.json" "$T/int.lcmlog" 2>&1)
+if grep -q "skipped" <<<"$int_read" || ! grep -q "int.lcmlog: [0-9]* events" <<<"$int_read"; then
+  echo "FAIL: the interrupted log is not whole: $int_read"; fail=$((fail + 1))
+else
+  echo "ok: the interrupted log reads whole: $(grep events <<<"$int_read")"; pass=$((pass + 1))
+fi
+# A run with no controller on its URL: one line naming the URL within 5 s, status 1, no log.
+expect 1 "no OMNI4_MOTORS on udpm://239.255.76.67:7793?ttl=0 within 5 s" -- "$BIN/omni4-ident" run --lcm "udpm://239.255.76.67:7793?ttl=0" --out "$T/norobot.lcmlog" --only coast
+[ -e "$T/norobot.lcmlog" ] && { echo "FAIL: omni4-ident run left a log without a robot"; fail=$((fail + 1)); }
 # omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
 expect 0 "usage" -- "$BIN/omni4-record" --help
 expect 2 "usage" -- "$BIN/omni4-record"
