@@ -467,7 +467,20 @@ IdentOptions ident_options(const std::string &source, double steady_tol_pct) {
   return opt;
 }
 
+// An output file's folder must exist and be writable before any work is done (the file is
+// written at the end, through a temporary next to it).
+void check_writable(const std::string &path) {
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  struct stat st {};
+  if (stat(dir.c_str(), &st) != 0) die(path + ": " + dir + ": " + std::strerror(errno));
+  if (!S_ISDIR(st.st_mode)) die(path + ": " + dir + " is not a folder");
+  if (access(dir.c_str(), W_OK) != 0) die(path + ": cannot write in " + dir + ": " + std::strerror(errno));
+}
+
 int cmd_identify(const IdentifyArgs &a) {
+  check_writable(a.out);
+  ensure_dir(a.csv);
   uint32_t base_seen = 0;
   const model_params base = load_params(a.robot, true, &base_seen);
   model_params truth{};
@@ -549,6 +562,8 @@ void write_json(const std::string &path, const Validation &v) {
 int cmd_validate(const std::vector<std::string> &params, const std::string &json,
                  const std::string &csv, const std::string &source,
                  const std::vector<std::string> &paths) {
+  check_writable(json);
+  ensure_dir(csv);
   const IdentOptions opt = ident_options(source, 0.3);
   if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
   std::vector<model_params> sets;
@@ -620,7 +635,9 @@ int main(int argc, char **argv) {
                "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
                "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
                "  omni4-ident run --out robot.lcmlog\n"
-               "  omni4-ident run --hand --robot base.ini --out hand.lcmlog"};
+               "  omni4-ident run --hand --robot base.ini --out hand.lcmlog",
+               "omni4-ident"};
+  omni4_cli_setup(app);
   app.require_subcommand(1);
 
   auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
@@ -676,6 +693,13 @@ int main(int argc, char **argv) {
   ru->add_option("--push-timeout", hopt.push_timeout_s, "wait for each push and its stop [s]")
       ->check(CLI::Range(1.0, 3600.0))->capture_default_str()->needs(hand);
 
+  // A mistyped command: say which ones there are (CLI11 would say only that one is required).
+  const auto named = app.get_subcommands([&](CLI::App *sc) { return argc > 1 && sc->get_name() == argv[1]; });
+  if (argc > 1 && argv[1][0] != '-' && named.empty()) {
+    std::fprintf(stderr, "omni4-ident: unknown command '%s' (identify, validate or run; see "
+                 "omni4-ident --help)\n", argv[1]);
+    return 2;
+  }
   OMNI4_CLI_PARSE(app, argc, argv);
   if (id->parsed()) return cmd_identify(ia);
   if (va->parsed()) return cmd_validate(params, json, vcsv, vsource, vlogs);

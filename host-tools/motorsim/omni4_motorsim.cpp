@@ -76,8 +76,11 @@ void add_options(CLI::App &app, Options &o) {
   app.add_option("--params", o.params_path, "robot INI ([model]; default Table III)");
   app.add_option("--duration", o.duration_s, "stop after S seconds (default: until SIGINT)");
   app.add_flag("--no-noise", o.no_noise, "exact current readings");
-  app.add_option("--replay-at", o.replay_at, "test: at S seconds, send the last STATUS_0 again");
-  app.add_option("--corrupt-at", o.corrupt_at, "test: at S seconds, send a STATUS_0 with a bad CRC");
+  // Test hooks: not in the user's help (group "").
+  app.add_option("--replay-at", o.replay_at, "test: at S seconds, send the last STATUS_0 again")
+      ->group("");
+  app.add_option("--corrupt-at", o.corrupt_at, "test: at S seconds, send a STATUS_0 with a bad CRC")
+      ->group("");
   app.add_flag("-q,--quiet", o.quiet, "no summary");
 }
 
@@ -271,7 +274,9 @@ void print_summary(const Stats &st, const plant &pl) {
 
 int main(int argc, char **argv) {
   CLI::App app{"Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
-               "Example: omni4-motorsim --iface vcan0 --params robot.ini"};
+               "Example: omni4-motorsim --iface vcan0 --params robot.ini",
+               "omni4-motorsim"};
+  omni4_cli_setup(app);
   Options o;
   add_options(app, o);
   OMNI4_CLI_PARSE(app, argc, argv);

@@ -43,7 +43,9 @@ int main(int argc, char **argv) {
   CLI::App app{
       "Simulated omni4 robot: the firmware loop and the model plant in lockstep, logging to an\n"
       "LCM event log.\n"
-      "Example: omni4-sim --params robot.ini --experiments --speed max --out sim.lcmlog"};
+      "Example: omni4-sim --params robot.ini --experiments --speed max --out sim.lcmlog",
+      "omni4-sim"};
+  omni4_cli_setup(app);
   std::string params_path, out_path, speed = "max";
   bool experiments = false, no_noise = false, quiet = false;
   int seed = -1;

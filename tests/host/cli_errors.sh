@@ -65,6 +65,21 @@ expect 0 "w     | no data" -- "$BIN/omni4-ident" validate --params "$T/good.ini"
 expect 0 '"w": {"e_max": null, "e_mean": null, "sigma": null, "n": 0}' -- cat "$T/now.json"
 expect 0 '"v": {"e_max": 0.00' -- cat "$T/now.json"
 expect 0 "Usage\|usage" -- "$BIN/omni4-ident" --help
+# One house style: one line naming the tool, --version on every tool, no test hooks in help.
+expect 2 "^omni4-ident: --robot is required (see omni4-ident --help)$" -- "$BIN/omni4-ident" identify --out "$T/p5.ini" "$T/full.lcmlog"
+expect 2 "^omni4-ident: unknown command 'idnetify' (identify, validate or run" -- "$BIN/omni4-ident" idnetify
+for tool in omni4-ident omni4-sim omni4-motorsim; do
+  expect 0 "^$tool [0-9]*\.[0-9]*\.[0-9]*" -- "$BIN/$tool" --version
+done
+motorsim_help=$("$BIN/omni4-motorsim" --help 2>&1)
+if grep -q -- "--replay-at\|--corrupt-at" <<<"$motorsim_help"; then
+  echo "FAIL: omni4-motorsim --help shows its test hooks"; fail=$((fail + 1))
+else
+  echo "ok: omni4-motorsim --help shows no test hooks"; pass=$((pass + 1))
+fi
+# An output that cannot be written is refused before any log is read.
+expect 1 "^omni4-ident: /nonexistent/x.ini: /nonexistent: No such file or directory$" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out /nonexistent/x.ini "$T/full.lcmlog"
+expect 1 "^omni4-ident: /nonexistent/v.json: /nonexistent: No such file or directory$" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json /nonexistent/v.json "$T/full.lcmlog"
 expect 0 "usage" -- "$BIN/omni4-fw" --help
 expect 2 "cannot open" -- "$BIN/omni4-fw" --config "$T/none.ini"
 # LCM unavailable at start: a clear error, nothing runs.
