@@ -179,12 +179,99 @@ static void *rx_main(void *arg)
 	return NULL;
 }
 
+/* One published sample as one word (0: empty slot). */
+static uint64_t own_key(int64_t seq, int64_t utime)
+{
+	const uint64_t k = ((uint64_t)utime * 0x9E3779B97F4A7C15ull) ^ (uint64_t)seq;
+
+	return k ? k : 1;
+}
+
+static int64_t be64(const unsigned char *p)
+{
+	uint64_t v = 0;
+
+	for (int i = 0; i < 8; i++)
+		v = v << 8 | p[i];
+	return (int64_t)v;
+}
+
 static int publish(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
 {
 	struct lcmio *io = ctx;
 
 	(void)utime;
+	/* motors_t on the wire: fingerprint, utime, seq (8 bytes each, big-endian). Kept before
+	 * it goes out, so the receive thread always finds it. */
+	if (io->motors_sub && len >= 24 &&
+	    !strcmp(channel, OMNI4_CHANNEL_MOTORS)) {
+		const int64_t t = be64((const unsigned char *)data + 8);
+		const int64_t seq = be64((const unsigned char *)data + 16);
+
+		atomic_store(&io->own[(uint64_t)seq % LCMIO_OWN_SLOTS], own_key(seq, t));
+	}
 	return lcm_publish(io->lcm, channel, data, (unsigned int)len);
+}
+
+static void on_motors(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct lcmio *io = user;
+	omni4_motors_t m;
+
+	(void)channel;
+	if (rbuf->data_size > INT32_MAX ||
+	    omni4_motors_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0)
+		return; /* not a motors_t: nobody's sample */
+	if (atomic_load(&io->own[(uint64_t)m.seq % LCMIO_OWN_SLOTS]) == own_key(m.seq, m.utime)) {
+		atomic_fetch_add(&io->own_heard, 1);
+	} else {
+		atomic_fetch_add(&io->foreign, 1);
+		if (io->foreign_cb)
+			io->foreign_cb(io->foreign_ctx, m.seq, m.utime);
+	}
+	omni4_motors_t_decode_cleanup(&m);
+}
+
+struct heard {
+	long n;
+	int64_t seq, utime;
+};
+
+static void on_heard(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct heard *h = user;
+	omni4_motors_t m;
+
+	(void)channel;
+	if (rbuf->data_size > INT32_MAX ||
+	    omni4_motors_t_decode(rbuf->data, 0, (int)rbuf->data_size, &m) < 0)
+		return;
+	if (h->n++ == 0) {
+		h->seq = m.seq;
+		h->utime = m.utime;
+	}
+	omni4_motors_t_decode_cleanup(&m);
+}
+
+long lcmio_listen_motors(lcm_t *lcm, int ms, int64_t *seq, int64_t *utime)
+{
+	struct heard h = {0};
+	lcm_subscription_t *sub = lcm_subscribe(lcm, OMNI4_CHANNEL_MOTORS, on_heard, &h);
+
+	if (!sub)
+		return -EIO;
+	const int64_t end = rtloop_clock_us() + (int64_t)ms * 1000;
+
+	for (int64_t now = rtloop_clock_us(); now < end && h.n == 0; now = rtloop_clock_us()) {
+		if (lcm_handle_timeout(lcm, (int)((end - now + 999) / 1000)) < 0) {
+			lcm_unsubscribe(lcm, sub);
+			return -EIO;
+		}
+	}
+	lcm_unsubscribe(lcm, sub);
+	*seq = h.seq;
+	*utime = h.utime;
+	return h.n;
 }
 
 static void *log_main(void *arg)
@@ -217,6 +304,13 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
 int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
 		       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx)
 {
+	return lcmio_start_watching(io, lcm, fw, note, note_ctx, NULL, NULL);
+}
+
+int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
+			 void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
+			 lcmio_foreign_fn foreign, void *foreign_ctx)
+{
 	int rc;
 
 	memset(io, 0, sizeof(*io));
@@ -224,10 +318,19 @@ int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
 	io->fw = fw;
 	io->note = note;
 	io->note_ctx = note_ctx;
+	io->foreign_cb = foreign;
+	io->foreign_ctx = foreign_ctx;
 	atomic_init(&io->stop, false);
 	io->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_CMD, on_command, io);
 	if (!io->sub)
 		return -EIO;
+	if (foreign) {
+		io->motors_sub = lcm_subscribe(lcm, OMNI4_CHANNEL_MOTORS, on_motors, io);
+		if (!io->motors_sub) {
+			lcm_unsubscribe(lcm, io->sub);
+			return -EIO;
+		}
+	}
 	pthread_attr_t attr;
 
 	pthread_attr_init(&attr);
@@ -248,6 +351,8 @@ err_rx:
 	atomic_store(&io->stop, true);
 	pthread_join(io->rx_thread, NULL);
 err_unsub:
+	if (io->motors_sub)
+		lcm_unsubscribe(lcm, io->motors_sub);
 	lcm_unsubscribe(lcm, io->sub);
 	return -rc;
 }
@@ -259,6 +364,8 @@ void lcmio_stop(struct lcmio *io)
 	atomic_store(&io->stop, true);
 	pthread_join(io->rx_thread, NULL);
 	pthread_join(io->log_thread, NULL);
+	if (io->motors_sub)
+		lcm_unsubscribe(io->lcm, io->motors_sub);
 	lcm_unsubscribe(io->lcm, io->sub);
 	io->started = 0;
 }

@@ -23,8 +23,20 @@
 
 static volatile sig_atomic_t g_stop;
 
+/* Before the loop starts, OMNI4_MOTORS is listened for this long: another controller on the
+ * URL publishes one per tick (1 ms at 1 kHz, 20 ms at 50 Hz), so 300 ms hears at least 15 of
+ * its samples even at 50 Hz and a lost datagram or a scheduling hiccup of 100 ms on either side
+ * cannot hide it, while adding little to start-up. */
+#define PEER_LISTEN_MS 300
+/* A foreign OMNI4_MOTORS sample keeps FAULT_BUS present this long: MODE_CLEAR_FAULT is
+ * refused until the other controller has been silent for 1 s. */
+#define PEER_HOLD_US 1000000
+
 struct app {
 	struct fw fw;
+	struct motor_hal motor;            /* the backend; fw.motor is it behind peer_guard */
+	const char *url;
+	_Atomic int64_t peer_last_us;      /* rtloop_clock_us() of the last foreign sample; 0 none */
 	struct sim_motor sim;
 	struct sim_lines sim_lines;
 	struct socketcan_motor can;
@@ -68,7 +80,7 @@ static void usage(FILE *f)
 static void on_crash(int sig)
 {
 	if (g_app) {
-		if (g_app->fw.motor.ops == &socketcan_motor_ops)
+		if (g_app->motor.ops == &socketcan_motor_ops)
 			socketcan_motor_halt(&g_app->can);
 		fw_emergency_off(&g_app->fw);
 	}
@@ -145,6 +157,55 @@ static void on_calibration(void *ctx, const struct log_entry *e)
 			"on (bridges off, mean of %u readings)\n",
 			(double)a[0], (double)a[1], (double)a[2], (double)a[3], (long long)e->seq,
 			(unsigned)e->cal_samples);
+}
+
+/* The backend as the controller sees it: while another controller's OMNI4_MOTORS samples are
+ * heard (the last less than PEER_HOLD_US ago) every reading carries HAL_FAULT_BUS, which the
+ * controller latches as FAULT_BUS (outputs off): two controllers on one bus. */
+static int guard_enable(void *ctx, bool on)
+{
+	return hal_motor_enable(&((struct app *)ctx)->motor, on);
+}
+
+static int guard_write(void *ctx, const float volts[4])
+{
+	return hal_motor_write(&((struct app *)ctx)->motor, volts);
+}
+
+static int guard_read(void *ctx, struct motor_sample *out)
+{
+	struct app *app = ctx;
+	const int rc = hal_motor_read(&app->motor, out);
+	const int64_t last = atomic_load_explicit(&app->peer_last_us, memory_order_relaxed);
+
+	if (rc == 0 && last && rtloop_clock_us() - last < PEER_HOLD_US)
+		out->faults |= HAL_FAULT_BUS;
+	return rc;
+}
+
+static int guard_clear_faults(void *ctx)
+{
+	return hal_motor_clear_faults(&((struct app *)ctx)->motor);
+}
+
+static const struct motor_hal_ops peer_guard_ops = {
+	.enable = guard_enable, .write = guard_write, .read = guard_read,
+	.clear_faults = guard_clear_faults, .close = NULL, /* main closes the backend */
+};
+
+/* Receive thread: an OMNI4_MOTORS sample this process did not publish. Said once per
+ * episode (after PEER_HOLD_US of silence), counted always. */
+static void on_foreign(void *ctx, int64_t seq, int64_t utime)
+{
+	struct app *app = ctx;
+	const int64_t now = rtloop_clock_us();
+	const int64_t prev = atomic_exchange(&app->peer_last_us, now);
+
+	if (!prev || now - prev >= PEER_HOLD_US)
+		fprintf(stderr, "omni4-fw: FAULT_BUS: another controller is publishing OMNI4_MOTORS "
+			"on %s (seq %lld utime %lld is not one of ours): outputs off; the "
+			"controller stays in FAULT until it has been silent for 1 s and "
+			"MODE_CLEAR_FAULT\n", app->url, (long long)seq, (long long)utime);
 }
 
 static void tick(void *ctx, int64_t now_us)
@@ -419,32 +480,25 @@ static void print_summary(const struct app *app, const struct omni4_config *cfg,
 
 /* LCM, the parameter service, the LCM threads and the loop; runs until stopped, then stops
  * them in reverse order with the outputs off. The exit status. */
-static int run(struct app *app, const struct omni4_config *cfg, const struct options *o)
+static int run(struct app *app, const struct omni4_config *cfg, const struct options *o,
+	       lcm_t *lcm)
 {
 	struct lcmio io;
 	struct rtloop loop;
 	int rc;
 
-	prepare_process(cfg); /* first: LCM may start threads of its own */
-	lcm_t *lcm = lcm_create(cfg->lcm.url);
-
-	if (!lcm) {
-		fprintf(stderr, "omni4-fw: cannot open LCM at '%s'\n", cfg->lcm.url);
-		return 1;
-	}
 	/* Subscribed before the receive thread starts; handled on its own thread. */
 	rc = param_service_start(&app->params, lcm);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start the parameter service: %s\n",
 			strerror(-rc));
-		lcm_destroy(lcm);
 		return 1;
 	}
-	rc = lcmio_start_noting(&io, lcm, &app->fw, on_calibration, (void *)&o->quiet);
+	rc = lcmio_start_watching(&io, lcm, &app->fw, on_calibration, (void *)&o->quiet,
+				  on_foreign, app);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
 		param_service_stop(&app->params);
-		lcm_destroy(lcm);
 		return 1;
 	}
 	rc = rtloop_start(&loop, cfg->loop.rate_hz, cfg->loop.sched_fifo ? cfg->loop.priority : 0,
@@ -467,8 +521,39 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 	param_service_stop(&app->params);
 	if (!o->quiet || rc)
 		print_summary(app, cfg, &io, &loop);
-	lcm_destroy(lcm);
+	if (atomic_load(&io.foreign)) {
+		fprintf(stderr, "omni4-fw: %llu OMNI4_MOTORS samples from another controller heard "
+			"on %s\n", (unsigned long long)atomic_load(&io.foreign), cfg->lcm.url);
+		rc = 1;
+	}
 	return rc;
+}
+
+/* LCM at the configured URL, then OMNI4_MOTORS listened for PEER_LISTEN_MS: another controller
+ * there means refusing to start (before any backend is opened: nothing is driven, no frame
+ * reaches the other controller's bus). The lcm_t, or NULL (said on stderr). */
+static lcm_t *open_lcm_alone(const struct omni4_config *cfg)
+{
+	lcm_t *lcm = lcm_create(cfg->lcm.url);
+	int64_t seq = 0, utime = 0;
+
+	if (!lcm) {
+		fprintf(stderr, "omni4-fw: cannot open LCM at '%s'\n", cfg->lcm.url);
+		return NULL;
+	}
+	const long heard = lcmio_listen_motors(lcm, PEER_LISTEN_MS, &seq, &utime);
+
+	if (heard < 0) {
+		fprintf(stderr, "omni4-fw: cannot receive on LCM at '%s'\n", cfg->lcm.url);
+	} else if (heard > 0) {
+		fprintf(stderr, "omni4-fw: another controller is publishing OMNI4_MOTORS on %s "
+			"(seq %lld utime %lld heard within %d ms): refusing to start\n",
+			cfg->lcm.url, (long long)seq, (long long)utime, PEER_LISTEN_MS);
+	} else {
+		return lcm;
+	}
+	lcm_destroy(lcm);
+	return NULL;
 }
 
 int main(int argc, char **argv)
@@ -488,21 +573,31 @@ int main(int argc, char **argv)
 		return 2;
 	}
 
+	prepare_process(&cfg); /* first: LCM may start threads of its own */
+	lcm_t *lcm = open_lcm_alone(&cfg);
+
+	if (!lcm)
+		return 1;
+
 	struct app *app = calloc(1, sizeof(*app)); /* start-up only */
 	struct motor_hal motor;
 	struct line_hal lines;
 
 	if (!app) {
 		fprintf(stderr, "omni4-fw: out of memory\n");
+		lcm_destroy(lcm);
 		return 1;
 	}
 	rc = 1;
+	app->url = cfg.lcm.url;
 	if (open_motor(app, &cfg, o.config_path, &motor))
 		goto out_free;
+	app->motor = motor;
 	if (open_lines(app, &cfg, o.config_path, &lines))
 		goto out_close_motor;
-	if (set_up_controller(app, &cfg, o.config_path, motor, lines) == 0)
-		rc = run(app, &cfg, &o);
+	if (set_up_controller(app, &cfg, o.config_path,
+			      (struct motor_hal){.ops = &peer_guard_ops, .ctx = app}, lines) == 0)
+		rc = run(app, &cfg, &o, lcm);
 	if (app->fw.motor.ops)
 		fw_outputs_off(&app->fw);
 	hal_line_close(&lines);
@@ -510,5 +605,6 @@ out_close_motor:
 	hal_motor_close(&motor);
 out_free:
 	free(app);
+	lcm_destroy(lcm);
 	return rc;
 }

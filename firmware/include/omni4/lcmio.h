@@ -48,6 +48,14 @@ struct lcmio_sink {
 /* Drain the ring into the sink; returns the number of entries written. */
 size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_errors);
 
+/* The samples this process published, by seq % LCMIO_OWN_SLOTS (4 s at 1 kHz): an
+ * OMNI4_MOTORS sample heard back whose (seq, utime) is not in its slot came from another
+ * controller on the same URL. */
+#define LCMIO_OWN_SLOTS 4096
+
+/* Another controller's OMNI4_MOTORS sample (receive thread). */
+typedef void (*lcmio_foreign_fn)(void *ctx, int64_t seq, int64_t utime);
+
 struct lcmio {
 	lcm_t *lcm;
 	struct fw *fw;
@@ -59,6 +67,13 @@ struct lcmio {
 	_Atomic uint64_t publish_errors;
 	void (*note)(void *note_ctx, const struct log_entry *e);
 	void *note_ctx;
+	/* OMNI4_MOTORS watch (lcmio_start_watching; NULL: not subscribed). */
+	lcm_subscription_t *motors_sub;
+	lcmio_foreign_fn foreign_cb;
+	void *foreign_ctx;
+	_Atomic uint64_t own_heard; /* our own samples heard back */
+	_Atomic uint64_t foreign;   /* samples from another controller */
+	_Atomic uint64_t own[LCMIO_OWN_SLOTS];
 	int started;
 };
 
@@ -68,6 +83,18 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw);
  * current-sense offsets (lcmio_sink.note). */
 int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
 		       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx);
+/* The same, also listening to OMNI4_MOTORS: the logger keeps the (seq, utime) of what it
+ * publishes, and every sample heard that is not one of them goes to foreign (receive thread;
+ * counted in io->foreign). */
+int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
+			 void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
+			 lcmio_foreign_fn foreign, void *foreign_ctx);
+
+/* Before a controller starts: listens on lcm for OMNI4_MOTORS for ms milliseconds. The number
+ * of samples heard (0: no other controller publishes there), the first one's seq and utime in
+ * *seq, *utime. -errno if LCM fails. */
+long lcmio_listen_motors(lcm_t *lcm, int ms, int64_t *seq, int64_t *utime);
+
 /* Stop both threads; the logger drains what is left in the ring first. */
 void lcmio_stop(struct lcmio *io);
 
