@@ -20,10 +20,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "omni4/version.h"
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/version.h"
 #include "omni4/channels.h"
 #include "omni4/eventlog.h"
 
@@ -149,20 +152,46 @@ static bool parse_number(const char *opt, const char *arg, double lo, double hi,
 	return true;
 }
 
+/* getopt_long takes any unambiguous prefix of a long option (--dur for --duration): a typo
+ * then does something unintended. True if the argument that gave option li (-1: a short
+ * option) names it whole: "--name" or "--name=value". */
+static bool long_option_exact(const char *arg, const struct option *opts, int li)
+{
+	if (li < 0 || !arg || strncmp(arg, "--", 2) != 0)
+		return true;
+	const size_t n = strlen(opts[li].name);
+	return strncmp(arg + 2, opts[li].name, n) == 0 && (arg[2 + n] == '\0' || arg[2 + n] == '=');
+}
+
 int main(int argc, char **argv)
 {
 	static const struct option opts[] = {
 		{"out", required_argument, NULL, 'o'},      {"lcm", required_argument, NULL, 'l'},
 		{"channel", required_argument, NULL, 'c'},  {"duration", required_argument, NULL, 'd'},
 		{"split-mb", required_argument, NULL, 's'}, {"quiet", no_argument, NULL, 'q'},
-		{"help", no_argument, NULL, 'h'},           {NULL, 0, NULL, 0}};
+		{"help", no_argument, NULL, 'h'},           {"version", no_argument, NULL, 'V'},
+		{NULL, 0, NULL, 0}};
 	static struct recorder r;
 	const char *out = NULL, *url = NULL, *channel = "OMNI4_.*";
 	double duration = 0, split_mb = 0;
 	bool quiet = false;
 	int c;
 
-	while ((c = getopt_long(argc, argv, "o:l:c:d:s:qh", opts, NULL)) != -1) {
+	int li = -1;
+
+	opterr = 0; /* one line of our own instead of getopt's */
+	while ((c = getopt_long(argc, argv, "o:l:c:d:s:qh", opts, &li)) != -1) {
+		/* The option as given: "--name=value" / "--name", or before its separate value. */
+		const char *given = optarg && optind >= 2 && optarg == argv[optind - 1] ?
+					    argv[optind - 2] :
+					    argv[optind - 1];
+
+		if (!long_option_exact(given, opts, li)) {
+			fprintf(stderr, "omni4-record: '%s': give the whole option name (see omni4-record "
+					"--help)\n", given);
+			return 2;
+		}
+		li = -1;
 		switch (c) {
 		case 'o': out = optarg; break;
 		case 'l': url = optarg; break;
@@ -177,11 +206,20 @@ int main(int argc, char **argv)
 			break;
 		case 'q': quiet = true; break;
 		case 'h': usage(stdout); return 0;
-		default: usage(stderr); return 2;
+		case 'V': printf("omni4-record %s\n", OMNI4_VERSION); return 0;
+		default:
+			fprintf(stderr, "omni4-record: '%s' is not an option or lacks its value (see "
+					"omni4-record --help)\n", argv[optind - 1]);
+			return 2;
 		}
 	}
-	if (!out || optind != argc) {
-		usage(stderr);
+	if (!out) {
+		fprintf(stderr, "omni4-record: --out FILE is required (see omni4-record --help)\n");
+		return 2;
+	}
+	if (optind != argc) {
+		fprintf(stderr, "omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
+			argv[optind]);
 		return 2;
 	}
 	const time_t now = time(NULL);

@@ -114,7 +114,10 @@ expect 1 "no OMNI4_MOTORS on udpm://239.255.76.67:7793?ttl=0 within 5 s" -- "$BI
 [ -e "$T/norobot.lcmlog" ] && { echo "FAIL: omni4-ident run left a log without a robot"; fail=$((fail + 1)); }
 # omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
 expect 0 "usage" -- "$BIN/omni4-record" --help
-expect 2 "usage" -- "$BIN/omni4-record"
+expect 2 "^omni4-record: --out FILE is required (see omni4-record --help)$" -- "$BIN/omni4-record"
+expect 2 "^omni4-record: '--bogus' is not an option or lacks its value" -- "$BIN/omni4-record" --bogus
+expect 2 "^omni4-record: '--dur': give the whole option name" -- "$BIN/omni4-record" --dur 5 --out "$T/r.lcmlog"
+expect 0 "^omni4-record [0-9]*\.[0-9]*\.[0-9]*" -- "$BIN/omni4-record" --version
 expect 2 "duration: 'soon' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --duration soon
 expect 2 "split-mb: '0' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --split-mb 0
 echo keep > "$T/old.lcmlog"
