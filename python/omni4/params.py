@@ -323,7 +323,8 @@ commands:
 
 Keys are the INI's section.key (control.kp, model.R, ...). Rules: live = in any mode, idle =
 only while the bridges are not driven, restart = only in the INI. Exit status: 0 done, 1 refused
-by the robot or no answer, 2 usage or configuration error. The secret can also come from
+by the robot or no answer, 2 usage or configuration error, 141 when stdout is closed early
+(omni4-param list | head: quiet, as a tool killed by SIGPIPE). The secret can also come from
 $OMNI4_PARAM_SECRET (so it does not show in the process list).
 example: omni4-param set control.kp 30 && omni4-param save"""
 
@@ -343,6 +344,7 @@ def _build_parser():
     p.add_argument("--secret", default=None, help="the robot's [params] secret")
     p.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="wait for one answer [s] (default 1; 3 tries)")
+    p.add_argument("--version", action="store_true", help="print the version and exit")
     p.add_argument("command", choices=["list", "get", "set", "save", "load", "dump"],
                    metavar="COMMAND")
     p.add_argument("args", nargs="*", metavar="ARG")
@@ -362,6 +364,13 @@ def _print_params(params, out):
 
 
 def main(argv=None):
+    """omni4-param's entry point: the status (0 done, 1 refused or no answer, 2 usage); --version;
+    a closed stdout (`omni4-param list | head`) ends it quietly with status 141."""
+    from ._cli import run
+    return run("omni4-param", _main, argv)
+
+
+def _main(argv=None):
     args = _build_parser().parse_args(argv)
     n = len(args.args)
     if args.command in ("list", "save", "dump") and n:

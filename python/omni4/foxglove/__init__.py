@@ -15,13 +15,18 @@ def _missing_extra():
 
 
 def _run(prog, module):
-    missing = _missing_extra()
-    if missing:
-        print(f"{prog}: needs the Python package '{missing}' (pip install './python[foxglove]')",
-              file=sys.stderr)
-        return 2
-    from importlib import import_module
-    return import_module(f"omni4.foxglove.{module}").main()
+    """--version (also without the extra) and a quiet status 141 on a closed stdout."""
+    from .._cli import run
+
+    def main(argv):
+        missing = _missing_extra()
+        if missing:
+            print(f"{prog}: needs the Python package '{missing}' (pip install "
+                  f"'./python[foxglove]')", file=sys.stderr)
+            return 2
+        from importlib import import_module
+        return import_module(f"omni4.foxglove.{module}").main(argv)
+    return run(prog, main)
 
 
 def bridge_main():
