@@ -39,13 +39,13 @@ DEFAULT_LCM_URL = "udpm://239.255.76.67:7667?ttl=0"
 # Log reader (numpy arrays per channel); needs the names above.
 from .log import Log, LogError, read_log  # noqa: E402
 # Client of a running controller (commands with keep-alive, live motors_t).
-from .robot import Robot  # noqa: E402
+from .robot import CommandRejected, Robot  # noqa: E402
 # The robot's parameters over LCM (omni4-param).
 from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa: E402
 
 __all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "TYPES", "DEFAULT_LCM_URL",
            "CHANNEL_MOTORS", "CHANNEL_CMD", "CHANNEL_POSE", "CHANNEL_EXPERIMENT",
-           "read_log", "Log", "LogError", "Robot",
+           "read_log", "Log", "LogError", "Robot", "CommandRejected",
            "param_request_t", "param_reply_t", "param_value_t", "param_changed_t",
            "CHANNEL_PARAM_REQ", "CHANNEL_PARAM_REPLY", "CHANNEL_PARAM_CHANGED",
            "ParamClient", "ParamError", "ParamRefused", "ParamTimeout"]

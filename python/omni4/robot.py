@@ -13,6 +13,25 @@ thread re-sends the last VELOCITY, VOLTAGE or COAST command every `keepalive_s` 
 a quarter of the default timeout). If this process dies, the keep-alive stops with it and the
 watchdog stops the robot. Every wait has a timeout and raises TimeoutError naming what it
 waited for.
+
+Refused commands. The controller refuses (and ignores: the previous command stays in force, the
+watchdog then stops the robot) a command out of its limits, not finite, or not allowed in its
+mode; it says so only by the FAULT_CMD_REJECTED bit (0x0400) in the samples that follow. This
+client makes a refusal an exception, CommandRejected (a ValueError):
+
+- before sending: velocity() and voltage() compare the command with the controller's
+  `[limits]` (vel_lin_max, vel_rot_max, supply_v, read with a GET on the first command and
+  followed on OMNI4_PARAM_CHANGED) and ramp_s with [0, 60] s, and raise naming the limit
+  ("v 100 m/s beyond [limits] vel_lin_max 3 m/s"); nothing is sent, the command kept alive
+  before stays so. If the controller does not answer the GET, the check is skipped (the GET
+  is tried again 5 s later).
+- after sending (what the client cannot predict, e.g. any command while the robot is in FAULT):
+  the receive thread reads the samples that follow each VELOCITY, VOLTAGE or COAST command. By
+  default the call returns at once (a 50 Hz stream never waits) and a refusal is raised by the
+  next command, motors() / wait_motors() or check(); velocity(..., wait=True) (or
+  Robot(wait=True)) instead waits for the verdict: the bit in a sample at least
+  max(10 ms, 10 loop periods) after the send, at most confirm_timeout_s. A refused command is
+  no longer kept alive. Another sender's refused command in the same window is indistinguishable.
 """
 import atexit
 import math
@@ -23,7 +42,8 @@ import weakref
 
 import lcm
 
-from . import CHANNEL_CMD, CHANNEL_MOTORS, DEFAULT_LCM_URL, command_t, motors_t
+from . import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, DEFAULT_LCM_URL, command_t,
+               motors_t, param_changed_t)
 
 DEFAULT_KEEPALIVE_S = 0.05   # re-send period [s]; the controller's default watchdog is 200 ms
 RX_POLL_MS = 50              # receive thread's wait per LCM handle call [ms]
@@ -33,6 +53,35 @@ LATCHING_FAULTS = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT |
                    motors_t.FAULT_DRIVER | motors_t.FAULT_BUS | motors_t.FAULT_ENCODER |
                    motors_t.FAULT_CURRENT_SENSOR | motors_t.FAULT_SUPPLY)
 _KEPT_ALIVE = (command_t.MODE_VELOCITY, command_t.MODE_VOLTAGE, command_t.MODE_COAST)
+RAMP_MAX_S = 60.0            # the controller refuses ramp_s outside [0, 60] s (core/src/ctl.c)
+LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max", "limits.supply_v")
+CONFIRM_MIN_S = 0.01         # a verdict comes from samples at least this long after the send
+CONFIRM_TICKS = 10           # ... and at least this many loop periods after it
+CONFIRM_TIMEOUT_S = 0.5      # wait=True: longest wait for the verdict [s]
+LIMITS_TIMEOUT_S = 0.25      # the GET of the limits: per try [s] (2 tries)
+LIMITS_RETRY_S = 5.0         # no answer: the check is skipped, and the GET tried again after
+_MODE_NAMES = {motors_t.MODE_FAULT: "FAULT", motors_t.MODE_ESTOP: "ESTOP"}
+
+
+class CommandRejected(ValueError):
+    """A command the controller refuses (or would refuse): str(e) is one line with the reason.
+    command: the command_t (None when refused before sending); reason: the text."""
+
+    def __init__(self, reason, command=None):
+        super().__init__(reason)
+        self.reason = reason
+        self.command = command
+
+
+def _describe(msg):
+    if msg.mode == command_t.MODE_VELOCITY:
+        return "velocity({:g}, {:g}, {:g})".format(*msg.velocity)
+    if msg.mode == command_t.MODE_VOLTAGE:
+        return "voltage([{}], ramp_s={:g})".format(", ".join(f"{u:g}" for u in msg.voltage),
+                                                   msg.ramp_s)
+    if msg.mode == command_t.MODE_COAST:
+        return "coast()"
+    return f"mode {msg.mode}"
 
 
 def _finite(name, values, n):
@@ -52,10 +101,15 @@ class Robot:
         controller's `[control] cmd_timeout_ms` (a quarter or less).
     queue_len: motors_t samples buffered per motors() iterator; a consumer slower than the
         loop rate loses the oldest (counted in `dropped`).
-    secret: passed to the parameter client (`params`)."""
+    secret: passed to the parameter client (`params`).
+    wait: default of velocity() / voltage() / coast() `wait`: False (return at once, a refusal
+        raises at the next call) or True (wait for the controller's verdict).
+    limits: None (read the controller's [limits] on the first command), a dict of LIMIT_KEYS
+        to values, or False (no check before sending; refusals still come back after).
+    confirm_timeout_s: longest wait for a verdict with wait=True [s]; TimeoutError after."""
 
     def __init__(self, url=DEFAULT_LCM_URL, keepalive_s=DEFAULT_KEEPALIVE_S, queue_len=10000,
-                 secret=None):
+                 secret=None, wait=False, limits=None, confirm_timeout_s=CONFIRM_TIMEOUT_S):
         if not 0 < keepalive_s <= 1.0:
             raise ValueError(f"keepalive_s {keepalive_s}: must be in (0, 1] s")
         self.url = url
@@ -79,7 +133,19 @@ class Robot:
         self.sent = 0                          # command_t messages sent
         self.dropped = 0                       # samples an iterator's full queue lost
         self._params = None
+        self.wait = bool(wait)
+        self.confirm_timeout_s = float(confirm_timeout_s)
+        self._limits = None if limits is None else (False if limits is False else dict(limits))
+        self._limits_client = None
+        self._limits_retry_s = 0.0             # monotonic [s]: next GET of the limits
+        self._limits_lock = threading.Lock()
+        self._pending = None                   # the command awaiting the controller's verdict
+        self._rejected = None                  # a CommandRejected not raised yet
+        self._verdict = threading.Condition(self._lock)
+        self._period_s = 0.001                 # loop period, from the samples' utime
+        self.rejected = 0                      # commands refused (before or after sending)
         self._sub = self._lc.subscribe(CHANNEL_MOTORS, self._on_motors)
+        self._sub_changed = self._lc.subscribe(CHANNEL_PARAM_CHANGED, self._on_param_changed)
         # LCM keeps 30 undelivered messages per subscription by default (30 ms at 1 kHz): a
         # receive thread that waits longer for the GIL would lose samples.
         self._sub.set_queue_capacity(RX_QUEUE_MESSAGES)
@@ -88,33 +154,118 @@ class Robot:
                                     daemon=True)
         self._rx.start()
         self._ka.start()
+        if self._limits is None:               # the first command need not wait a round trip
+            threading.Thread(target=self._known_limits, name="omni4-robot-limits",
+                             daemon=True).start()
         ref = weakref.ref(self)
         self._atexit = lambda: ref() is not None and ref().close()
         atexit.register(self._atexit)
 
     # ---- commands ------------------------------------------------------------------------
-    def velocity(self, v_m_s, vn_m_s, w_rad_s):
+    def velocity(self, v_m_s, vn_m_s, w_rad_s, wait=None):
         """VELOCITY mode: robot velocity v, vn [m/s] and w [rad/s] (robot frame, eq 2 signs,
-        docs/kinematics.md), kept alive until the next command or stop()."""
+        docs/kinematics.md), kept alive until the next command or stop(). Beyond [limits]
+        vel_lin_max / vel_rot_max: CommandRejected, nothing sent. wait: see the module doc
+        (None: the Robot's default)."""
+        self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VELOCITY
         msg.velocity = _finite("velocity", (v_m_s, vn_m_s, w_rad_s), 3)
-        self._command(msg, keep_alive=True)
+        lim = self._known_limits()
+        if lim:
+            for name, x, key, unit in (("v", msg.velocity[0], "vel_lin_max", "m/s"),
+                                       ("vn", msg.velocity[1], "vel_lin_max", "m/s"),
+                                       ("w", msg.velocity[2], "vel_rot_max", "rad/s")):
+                top = lim.get(f"limits.{key}")
+                if top is not None and abs(x) > top:
+                    self._refuse(f"{_describe(msg)}: {name} {x:g} {unit} beyond [limits] {key} "
+                                 f"{top:g} {unit}")
+        self._command(msg, keep_alive=True, wait=wait)
 
-    def voltage(self, volts, ramp_s=0.0):
+    def voltage(self, volts, ramp_s=0.0, wait=None):
         """VOLTAGE mode: 4 channel voltages [V] (index j = motor j), reached by a linear ramp
-        of ramp_s [s] from the present output (0 = step); kept alive."""
+        of ramp_s [s] from the present output (0 = step); kept alive. |voltage| beyond [limits]
+        supply_v or ramp_s outside [0, 60] s: CommandRejected, nothing sent."""
+        self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VOLTAGE
         msg.voltage = _finite("voltage", volts, 4)
         msg.ramp_s = _finite("ramp_s", (ramp_s,), 1)[0]
-        self._command(msg, keep_alive=True)
+        if not 0.0 <= msg.ramp_s <= RAMP_MAX_S:
+            self._refuse(f"{_describe(msg)}: ramp_s {msg.ramp_s:g} s outside [0, {RAMP_MAX_S:g}] s")
+        top = (self._known_limits() or {}).get("limits.supply_v")
+        if top is not None:
+            for j, u in enumerate(msg.voltage):
+                if abs(u) > top:
+                    self._refuse(f"{_describe(msg)}: voltage[{j}] {u:g} V beyond [limits] "
+                                 f"supply_v {top:g} V")
+        self._command(msg, keep_alive=True, wait=wait)
 
-    def coast(self):
+    def coast(self, wait=None):
         """COAST mode: H-bridges disabled (null traction); kept alive."""
+        self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_COAST
-        self._command(msg, keep_alive=True)
+        self._command(msg, keep_alive=True, wait=wait)
+
+    def check(self):
+        """Raises the CommandRejected of a command refused since the last call that raised
+        (once); returns None otherwise."""
+        self._raise_rejected()
+
+    @property
+    def limits(self):
+        """The controller's limits this client checks commands against ({key: value}; empty
+        when unknown or disabled)."""
+        return dict(self._known_limits() or {})
+
+    def _refuse(self, reason, msg=None):
+        with self._lock:
+            self.rejected += 1
+        raise CommandRejected(reason, msg)
+
+    def _raise_rejected(self):
+        with self._lock:
+            e, self._rejected = self._rejected, None
+        if e is not None:
+            raise e
+
+    def _known_limits(self):
+        """The [limits] in force, read once from the controller (None: unknown / disabled)."""
+        with self._limits_lock:              # one GET at a time; the others wait for it
+            return self._fetch_limits_locked()
+
+    def _fetch_limits_locked(self):
+        if self._limits is None and time.monotonic() >= self._limits_retry_s:
+            try:
+                from .params import ParamClient, ParamError
+                if self._limits_client is None:
+                    self._limits_client = ParamClient(self._lc, secret=self._secret,
+                                                      timeout_s=LIMITS_TIMEOUT_S, retries=1,
+                                                      pump=False)
+                got = {p.key: float(p.value) for p in self._limits_client.get_many(LIMIT_KEYS)}
+            except (ImportError, ParamError, ValueError):
+                self._limits_retry_s = time.monotonic() + LIMITS_RETRY_S
+                return None                 # no answer: the controller's own check remains
+            with self._lock:
+                if self._limits is None:
+                    self._limits = got
+        return self._limits or None
+
+    def _on_param_changed(self, _channel, data):
+        try:
+            m = param_changed_t.decode(data)
+        except Exception:  # another type on the channel
+            return
+        with self._lock:
+            if not isinstance(self._limits, dict):
+                return
+            for k, v in zip(m.keys, m.values):
+                if k in LIMIT_KEYS:
+                    try:
+                        self._limits[k] = float(v)
+                    except ValueError:
+                        pass
 
     def stop(self):
         """Sends IDLE (outputs off) and stops re-sending. The client stays usable."""
@@ -130,18 +281,69 @@ class Robot:
         msg = command_t()
         msg.mode = command_t.MODE_CLEAR_FAULT
         self._command(msg, keep_alive=False)
+        with self._lock:
+            self._rejected = None                # what was refused before the clear is moot
         return self.wait_motors(
             lambda m: m.mode not in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) and
             not m.faults & LATCHING_FAULTS, timeout_s, what="a sample out of FAULT after "
             "CLEAR_FAULT")
 
-    def _command(self, msg, keep_alive):
+    def _command(self, msg, keep_alive, wait=False):
         if self._closed.is_set():
             raise RuntimeError("omni4.Robot: closed")
+        track = msg.mode in _KEPT_ALIVE
         with self._lock:
             self._cmd = msg if keep_alive and msg.mode in _KEPT_ALIVE else None
             self._send_locked(msg)
+            last = self._latest
+            self._pending = None if not track else {
+                "msg": msg, "t": self._last_send_s, "seq": -1 if last is None else last.seq,
+                # a bit already set (or no sample yet) can only be read after the settle time
+                "prior": last is None or bool(last.faults & motors_t.FAULT_CMD_REJECTED)}
         self._wake.set()
+        if track and (self.wait if wait is None else wait):
+            self._await_verdict(msg)
+
+    def _await_verdict(self, msg):
+        deadline = time.monotonic() + self.confirm_timeout_s
+        with self._verdict:
+            while self._pending is not None and self._pending["msg"] is msg:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    self._pending = None
+                    raise TimeoutError(
+                        f"omni4.Robot: no verdict on {_describe(msg)} within "
+                        f"{self.confirm_timeout_s} s on {self.url} (no {CHANNEL_MOTORS}?)")
+                self._verdict.wait(left)
+        self._raise_rejected()
+
+    def _judge_locked(self, m, now):
+        """The pending command's verdict from sample m (arrived at now), under the lock."""
+        p = self._pending
+        if p is None:
+            return
+        since = now - p["t"]
+        settled = since >= max(CONFIRM_MIN_S, CONFIRM_TICKS * self._period_s) and \
+            m.seq >= p["seq"] + 2
+        if m.faults & motors_t.FAULT_CMD_REJECTED:
+            if not (settled or not p["prior"]):
+                return
+            msg = p["msg"]
+            mode = _MODE_NAMES.get(m.mode)
+            if mode:
+                why = (f"the robot is in {mode} (faults 0x{m.faults:04x}); clear_fault() first"
+                       if mode == "FAULT" else f"the robot is in {mode}")
+            else:
+                why = "out of the controller's limits, not finite, or not allowed now"
+            self._rejected = CommandRejected(
+                f"{_describe(msg)} refused by the controller on {self.url}: {why}", msg)
+            self.rejected += 1
+            if self._cmd is msg:
+                self._cmd = None                 # not re-sent: the watchdog stops the robot
+        elif not settled:
+            return
+        self._pending = None
+        self._verdict.notify_all()
 
     def _send_locked(self, msg):
         self._seq += 1
@@ -168,10 +370,15 @@ class Robot:
             m = motors_t.decode(data)
         except Exception:  # another type on the channel: not ours to deliver
             return
+        now = time.monotonic()
         with self._lock:
+            prev = self._latest
+            if prev is not None and m.seq > prev.seq and m.utime > prev.utime:
+                self._period_s = (m.utime - prev.utime) / (m.seq - prev.seq) * 1e-6
             self._latest = m
-            self._latest_s = time.monotonic()
+            self._latest_s = now
             self.received += 1
+            self._judge_locked(m, now)
             for q in self._queues:
                 while True:
                     try:
@@ -218,12 +425,14 @@ class Robot:
                         return
                     wait = min(wait, left)
                 try:
-                    yield q.get(timeout=wait)
+                    m = q.get(timeout=wait)
                 except queue.Empty:
                     if end is not None and time.monotonic() >= end:
                         return
                     raise TimeoutError(f"omni4.Robot: no {CHANNEL_MOTORS} for {timeout_s} s on "
                                        f"{self.url} (is omni4-fw running on this URL?)") from None
+                self._raise_rejected()
+                yield m
         finally:
             with self._lock:
                 self._queues.discard(q)
@@ -271,10 +480,13 @@ class Robot:
             for t in (self._ka, self._rx):
                 if t is not threading.current_thread():
                     t.join(JOIN_TIMEOUT_S)
-            try:
-                self._lc.unsubscribe(self._sub)
-            except Exception:  # already gone: nothing to release
-                pass
+            for sub in (self._sub, self._sub_changed):
+                try:
+                    self._lc.unsubscribe(sub)
+                except Exception:  # already gone: nothing to release
+                    pass
+            if self._limits_client is not None:
+                self._limits_client.close()
             if self._params is not None and hasattr(self._params, "close"):
                 self._params.close()
             atexit.unregister(self._atexit)
@@ -291,4 +503,4 @@ class Robot:
         return f"<omni4.Robot {self.url} {state}: sent {self.sent}, received {self.received}>"
 
 
-__all__ = ["Robot", "DEFAULT_KEEPALIVE_S", "LATCHING_FAULTS"]
+__all__ = ["Robot", "CommandRejected", "DEFAULT_KEEPALIVE_S", "LATCHING_FAULTS"]
