@@ -139,3 +139,32 @@ def test_params_is_the_param_client_or_a_clear_attribute_error():
                 robot.params
         else:
             assert type(robot.params).__name__ == "ParamClient"
+
+
+LIMITS = {"limits.vel_lin_max": 1.5, "limits.vel_rot_max": 20.0, "limits.supply_v": 12.0}
+
+
+def test_commands_beyond_the_limits_raise_naming_the_limit_and_send_nothing(bus):
+    url, listener = bus
+    with omni4.Robot(url, limits=LIMITS) as robot:
+        robot.velocity(0.5, 0, 0)                    # in range: sent, kept alive
+        with pytest.raises(omni4.CommandRejected,
+                           match=r"v 100 m/s beyond \[limits\] vel_lin_max 1.5 m/s"):
+            robot.velocity(100, 0, 0)
+        with pytest.raises(omni4.CommandRejected, match=r"vn -1.6 m/s beyond .*vel_lin_max"):
+            robot.velocity(0, -1.6, 0)
+        with pytest.raises(omni4.CommandRejected, match=r"w 21 rad/s beyond .*vel_rot_max 20"):
+            robot.velocity(0, 0, 21)
+        with pytest.raises(omni4.CommandRejected, match=r"voltage\[0\] 50 V beyond \[limits\] "
+                                                        r"supply_v 12 V"):
+            robot.voltage([50] * 4)
+        with pytest.raises(ValueError, match=r"ramp_s -1 s outside \[0, 60\] s"):
+            robot.voltage([1] * 4, ramp_s=-1)
+        robot.velocity(1.5, -1.5, 20)                # the limits themselves are allowed
+        robot.stop()
+        assert robot.rejected == 5
+    time.sleep(0.1)
+    sent = [c for _, c in listener.cmds]
+    assert {tuple(c.velocity) for c in sent if c.mode == omni4.command_t.MODE_VELOCITY} == \
+        {(0.5, 0.0, 0.0), (1.5, -1.5, 20.0)}
+    assert not any(c.mode == omni4.command_t.MODE_VOLTAGE for c in sent)
