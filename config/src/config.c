@@ -466,13 +466,30 @@ int config_load_string(const char *text, const char *name, struct omni4_config *
 	return parse(&r, name, cfg, err, NULL);
 }
 
+int config_format_double(char *buf, size_t n, double v)
+{
+	int len = -1;
+
+	/* The shortest of %.15g .. %.17g that reads back to the same double. */
+	for (int digits = 15; digits <= 17; digits++) {
+		len = snprintf(buf, n, "%.*g", digits, v);
+		if (len < 0 || (size_t)len >= n || strtod(buf, NULL) == v)
+			break;
+	}
+	return len;
+}
+
 int config_write_model(FILE *f, const struct model_params *p)
 {
 	if (fprintf(f, "[model]\n") < 0)
 		return -EIO;
-	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
-		if (fprintf(f, "%s = %.17g\n", model_params_names[i], model_params_get(p, i)) < 0)
+	for (int i = 0; i < MODEL_PARAMS_COUNT; i++) {
+		char v[40];
+
+		if (config_format_double(v, sizeof(v), model_params_get(p, i)) < 0 ||
+		    fprintf(f, "%s = %s\n", model_params_names[i], v) < 0)
 			return -EIO;
+	}
 	return 0;
 }
 
@@ -536,12 +553,7 @@ int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n
 		double v;
 
 		memcpy(&v, base, sizeof(v));
-		/* The shortest of %.15g .. %.17g that reads back to the same double. */
-		for (int digits = 15; digits <= 17; digits++) {
-			len = snprintf(buf, n, "%.*g", digits, v);
-			if (len < 0 || (size_t)len >= n || strtod(buf, NULL) == v)
-				break;
-		}
+		len = config_format_double(buf, n, v);
 		break;
 	}
 	case CONFIG_INT: {

@@ -213,11 +213,13 @@ void write_params(const std::string &path, const IdentResult &r, const model_par
       const std::string name = model_params_names[i];
       const auto id = r.identified.find(name == "Kt" ? "Kv" : name);
       const bool measured = name == "d" || name == "r" || name == "l" || name == "M";
+      char v[40];
       if (measured || (id != r.identified.end() && id->second))
-        ok = ok && std::fprintf(f, "%s = %.17g\n", name.c_str(), model_params_get(&r.final, i)) > 0;
+        ok = ok && config_format_double(v, sizeof(v), model_params_get(&r.final, i)) > 0 &&
+             std::fprintf(f, "%s = %s\n", name.c_str(), v) > 0;
       else if (base_seen & (1u << i))
-        ok = ok && std::fprintf(f, "%s = %.17g ; not identified: from the robot file\n",
-                                name.c_str(), model_params_get(&base, i)) > 0;
+        ok = ok && config_format_double(v, sizeof(v), model_params_get(&base, i)) > 0 &&
+             std::fprintf(f, "%s = %s ; not identified: from the robot file\n", name.c_str(), v) > 0;
       else
         ok = ok && std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
     }
@@ -288,6 +290,8 @@ void print_table(const IdentResult &r, const model_params *truth) {
               "offsets) included; bNN: NN %% of its variance is borrowed. final: the methods' "
               "estimates, each SE raised to at least 0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
               "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
+  std::printf("units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
+              "N, Cw N m\n");
   std::printf("R per motor (eq 22):");
   for (int j = 0; j < 4; ++j)
     if (r.R_motor[j].ok()) std::printf("  R%d %.4f", j, r.R_motor[j].value);

@@ -200,6 +200,18 @@ static void test_written_model_section_reads_back_exactly(void **state)
 	fclose(f);
 	config_defaults(&cfg);
 	assert_int_equal(config_load(path, &cfg, &err), 0);
+	/* Table III's figures as written in the paper, not as %.17g prints them
+	 * (0.088999999999999996). */
+	char text[1024] = "";
+	FILE *g = fopen(path, "r");
+
+	assert_non_null(g);
+	const size_t got = fread(text, 1, sizeof(text) - 1, g);
+
+	fclose(g);
+	text[got] = '\0';
+	assert_non_null(strstr(text, "\nd = 0.089\n"));
+	assert_non_null(strstr(text, "\nR = 4.3111\n"));
 	unlink(path);
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
 		assert_near(model_params_get(&cfg.model, i), model_params_get(&p, i), 0);

@@ -51,8 +51,12 @@ int config_load_string(const char *text, const char *name, struct omni4_config *
 int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *model_seen,
 			struct config_error *err);
 
-/* Write a [model] section that config_load reads back exactly (%.17g). Returns 0 or -EIO. */
+/* Write a [model] section that config_load reads back exactly (config_format_double). Returns 0
+ * or -EIO. */
 int config_write_model(FILE *f, const struct model_params *p);
+/* v as the shortest of %.15g .. %.17g that reads back to the same double (0.089, not
+ * 0.088999999999999996); snprintf's return value. */
+int config_format_double(char *buf, size_t n, double v);
 
 /* ---- the key table ------------------------------------------------------------------------ */
 
