@@ -1,0 +1,235 @@
+"""omni4-status: a one-shot status of the robot on an LCM URL.
+
+Listens to OMNI4_MOTORS for a bounded time (--listen, default 1 s), then prints the controller's
+mode, its latching faults and warnings by name, the measured loop rate and overruns, lost
+samples (gaps in seq), the last currents, voltages and wheel speeds, and the [model] in force
+(a LIST request to the controller's parameter service; "parameters: no answer" if it does not
+answer in time). --watch repeats every second until Ctrl-C.
+
+Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 usage error,
+141 when stdout is closed early (omni4-status | head -1: quiet).
+"""
+import argparse
+import os
+import sys
+import time
+
+import lcm
+
+from . import CHANNEL_MOTORS, DEFAULT_LCM_URL, __version__, motors_t
+
+PROG = "omni4-status"
+EXIT_BROKEN_PIPE = 141          # 128 + SIGPIPE, as a C tool killed by it
+RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
+MODEL_KEYS = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
+MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
+FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t)
+                    if n.startswith("FAULT_"))
+LATCHING = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT | motors_t.FAULT_DRIVER |
+            motors_t.FAULT_BUS | motors_t.FAULT_ENCODER | motors_t.FAULT_CURRENT_SENSOR |
+            motors_t.FAULT_SUPPLY)
+
+
+def fault_names(bits):
+    """The FAULT_* names (without the prefix) of the set bits; unknown bits as 0x...."""
+    names = [name for bit, name in FAULT_BITS if bits & bit]
+    rest = bits & ~sum(bit for bit, _ in FAULT_BITS)
+    if rest:
+        names.append(f"0x{rest:x}")
+    return names
+
+
+class Window:
+    """What one listening window saw on OMNI4_MOTORS."""
+
+    def __init__(self, samples, seconds):
+        self.samples = samples
+        self.seconds = seconds
+        self.n = len(samples)
+        self.last = samples[-1] if samples else None
+
+    @property
+    def rate_hz(self):
+        """Loop rate from the controller's own clock: ticks per second of utime."""
+        a, b = self.samples[0], self.samples[-1]
+        if self.n < 2 or b.utime <= a.utime or b.seq <= a.seq:
+            return float("nan")
+        return (b.seq - a.seq) / ((b.utime - a.utime) * 1e-6)
+
+    @property
+    def lost(self):
+        """Samples missing between the first and the last seen (seq gaps)."""
+        if self.n < 2:
+            return 0
+        return sum(max(0, b.seq - a.seq - 1) for a, b in zip(self.samples, self.samples[1:]))
+
+    @property
+    def overruns(self):
+        return sum(1 for m in self.samples if m.faults & motors_t.FAULT_OVERRUN)
+
+    @property
+    def seen_bits(self):
+        bits = 0
+        for m in self.samples:
+            bits |= m.faults
+        return bits
+
+
+def listen(lc, seconds):
+    """The motors_t samples that arrive within `seconds` [s] on lc."""
+    got = []
+
+    def on_motors(_channel, data):
+        try:
+            got.append(motors_t.decode(data))
+        except ValueError:          # another type on the channel
+            pass
+
+    sub = lc.subscribe(CHANNEL_MOTORS, on_motors)
+    sub.set_queue_capacity(RX_QUEUE_MESSAGES)
+    try:
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                break
+            lc.handle_timeout(max(1, int(left * 1000)))
+    finally:
+        lc.unsubscribe(sub)
+    return Window(got, seconds)
+
+
+def read_model(url, timeout_s):
+    """The [model] in force as [(key, text, unit)], or None when the controller did not answer."""
+    from .params import ParamClient, ParamError
+    try:
+        client = ParamClient(url, timeout_s=timeout_s, retries=1)
+    except ParamError:
+        return None
+    try:
+        params = client.get_many([f"model.{k}" for k in MODEL_KEYS])
+    except ParamError:
+        return None
+    finally:
+        client.close()
+    return [(p.name, p.text, p.unit) for p in params]
+
+
+def _vec(values, fmt="{:+.3f}"):
+    return " ".join(fmt.format(x) for x in values)
+
+
+def report(url, w, model):
+    """The status as text (lines)."""
+    m = w.last
+    latched = m.faults & LATCHING
+    warnings = w.seen_bits & ~LATCHING & ~motors_t.FAULT_OVERRUN
+    lines = [
+        f"robot on {url} ({w.n} samples in {w.seconds:g} s)",
+        f"mode: {MODE_NAMES.get(m.mode, f'UNKNOWN({m.mode})')}",
+        "faults: " + (" ".join(fault_names(latched)) or "none"),
+        "warnings: " + (" ".join(fault_names(warnings)) or "none") + " (seen in the window)",
+        f"loop: {w.rate_hz:.1f} Hz, overruns {w.overruns}, lost samples {w.lost}",
+        f"current [A]: {_vec(m.current)}",
+        f"voltage [V]: {_vec(m.voltage)}",
+        f"wheel speed [rad/s]: {_vec(m.wheel_speed)}",
+    ]
+    if model is None:
+        lines.append("parameters: no answer")
+    else:
+        lines.append("model: " + " ".join(
+            f"{k}={t}" + (f" {u}" if u else "") + ("," if i + 1 < len(model) else "")
+            for i, (k, t, u) in enumerate(model)))
+    return lines
+
+
+EPILOG = """\
+Prints: mode; latching faults and (in the window) warnings by name; loop rate [Hz] from the
+controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
+currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
+(asked from the controller; "parameters: no answer" if it does not answer).
+Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw running?),
+2 usage error, 141 when stdout is closed early (omni4-status | head -1).
+example: omni4-status --lcm udpm://239.255.76.67:7667?ttl=0 --listen 2"""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        self.exit(2, f"{PROG}: {message} (try --help)\n")
+
+
+def build_parser():
+    p = _Parser(prog=PROG, description="One-shot status of the omni4 robot on an LCM URL.",
+                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
+                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p.add_argument("--listen", type=float, default=1.0, metavar="S",
+                   help="listen to OMNI4_MOTORS for S seconds (default 1)")
+    p.add_argument("--timeout", type=float, default=0.5, metavar="S",
+                   help="wait for the parameter answer [s] per try, 2 tries (default 0.5)")
+    p.add_argument("--watch", action="store_true",
+                   help="repeat every second until Ctrl-C")
+    p.add_argument("--version", action="store_true", help="print the version and exit")
+    return p
+
+
+def _main(argv):
+    args = build_parser().parse_args(argv)
+    if args.version:
+        sys.stdout.write(f"{PROG} {__version__}\n")
+        return 0
+    if not (0 < args.listen <= 3600):
+        return _usage("--listen must be in (0, 3600] s")
+    if not (0 < args.timeout <= 60):
+        return _usage("--timeout must be in (0, 60] s")
+    try:
+        lc = lcm.LCM(args.lcm)
+    except Exception as e:  # lcm raises a bare RuntimeError
+        return _usage(f"cannot open LCM URL {args.lcm}: {e}")
+    first = True
+    while True:
+        t0 = time.monotonic()
+        w = listen(lc, args.listen)
+        if w.last is None:
+            sys.stderr.write(f"{PROG}: no {CHANNEL_MOTORS} on {args.lcm} within "
+                             f"{args.listen:g} s: is omni4-fw running?\n")
+            if not args.watch:
+                return 1
+        else:
+            model = read_model(args.lcm, args.timeout)
+            if not first:
+                sys.stdout.write("\n")
+            sys.stdout.write(time.strftime("%H:%M:%S ") + "\n".join(report(args.lcm, w, model))
+                             + "\n")
+            sys.stdout.flush()
+            first = False
+        if not args.watch:
+            return 0
+        time.sleep(max(0.0, 1.0 - (time.monotonic() - t0)))
+
+
+def _usage(message):
+    sys.stderr.write(f"{PROG}: {message} (try --help)\n")
+    return 2
+
+
+def main(argv=None):
+    """The console script: status 0 / 1 / 2; Ctrl-C ends --watch with 0 (130 for a one-shot
+    run); a closed stdout ends it quietly with 141."""
+    try:
+        status = _main(sys.argv[1:] if argv is None else list(argv))
+        sys.stdout.flush()
+        return status
+    except KeyboardInterrupt:
+        watching = "--watch" in (sys.argv[1:] if argv is None else list(argv))
+        return 0 if watching else 130
+    except BrokenPipeError:
+        try:   # Python would flush stdout again at exit and complain: point it at /dev/null
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return EXIT_BROKEN_PIPE
+
+
+if __name__ == "__main__":
+    sys.exit(main())
