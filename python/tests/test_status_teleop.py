@@ -1,0 +1,274 @@
+"""omni4-status and omni4-teleop. Live (against omni4-fw on the sim backend over udpm, ttl=0,
+ports 7821-7823): the status of a controller at rest (IDLE, the loop rate of its [loop] rate_hz,
+no faults, the model's R of its INI), the one-line error with no controller; teleop driven
+through a pseudo-terminal (w, space, x: VELOCITY with v > 0, then ~0, exit 0, the terminal's
+settings restored) and by a recorded joystick event stream. Not live: the key and js_event
+mapping, the fault names."""
+import os
+import pty
+import re
+import select
+import signal
+import struct
+import subprocess
+import sys
+import termios
+import threading
+import time
+
+import lcm
+import pytest
+
+import omni4
+from omni4 import status, teleop
+
+SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
+START_TIMEOUT_S = 10 * SCALE
+EXIT_TIMEOUT_S = 10 * SCALE
+MOVE_TIMEOUT_S = 3 * SCALE
+URL_STATUS = "udpm://239.255.76.67:7821?ttl=0"
+URL_NOBODY = "udpm://239.255.76.67:7822?ttl=0"
+URL_TELEOP = "udpm://239.255.76.67:7823?ttl=0"
+RATE_HZ = 500                  # not the default 1000: the status must measure it
+R_M = 0.0325                   # wheel radius [m], Table III
+MODEL = dict(d=0.089, r=R_M, l=5, Kv=0.0259, Kt=0.0259, R=4.7, M=2.34, J=0.0228, Bv=0.4978,
+             Bvn=0.6763, Bw=0.0141, Cv=1.8738, Cvn=2.2198, Cw=0.1385)   # Table III, R 4.7
+
+
+def tool(name):
+    exe = os.path.join(os.path.dirname(sys.executable), name)
+    module = {"omni4-status": "omni4.status", "omni4-teleop": "omni4.teleop"}[name]
+    return [exe] if os.access(exe, os.X_OK) else [sys.executable, "-m", module]
+
+
+class Firmware:
+    def __init__(self, fw_path, tmp_path, url, extra=""):
+        self.url = url
+        ini = tmp_path / "robot.ini"
+        ini.write_text(f"[lcm]\nurl = {url}\n[hal]\nmotor = sim\n{extra}")
+        self.log = open(tmp_path / "fw.stderr", "w+")
+        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "120", "-q"],
+                                     stdout=self.log, stderr=subprocess.STDOUT)
+        self.bus = Bus(url)
+        if self.bus.wait(lambda m: True, START_TIMEOUT_S) is None:
+            self.stop()
+            pytest.fail(f"omni4-fw sent no OMNI4_MOTORS within {START_TIMEOUT_S} s")
+
+    def stop(self):
+        self.bus.close()
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+        try:
+            self.proc.wait(timeout=EXIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(timeout=EXIT_TIMEOUT_S)
+
+
+class Bus:
+    """The last motors_t on a URL (a small subscriber in a thread)."""
+
+    def __init__(self, url):
+        self.lc = lcm.LCM(url)
+        self.last = None
+        self.cond = threading.Condition()
+        self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on)
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _on(self, _channel, data):
+        with self.cond:
+            self.last = omni4.motors_t.decode(data)
+            self.cond.notify_all()
+
+    def _run(self):
+        while not self.done.is_set():
+            self.lc.handle_timeout(50)
+
+    def wait(self, predicate, timeout_s):
+        """The first sample from now on with predicate(m) true, or None after timeout_s."""
+        end = time.monotonic() + timeout_s
+        with self.cond:
+            while True:
+                m = self.last
+                if m is not None and predicate(m):
+                    return m
+                left = end - time.monotonic()
+                if left <= 0:
+                    return None
+                self.cond.wait(left)
+
+    def close(self):
+        self.done.set()
+        self.thread.join(timeout=2)
+
+
+def v_of(m):
+    """v [m/s] from the wheel speeds (docs/kinematics.md eq 3: wheels 1 and 3 carry v)."""
+    return R_M * (m.wheel_speed[3] - m.wheel_speed[1]) / 2
+
+
+# ---- not live ----------------------------------------------------------------------------------
+
+def test_keys_and_joystick_events_set_the_command():
+    t = teleop.Teleop(3.0, 20.0, 0.1, 0.5, 0.5, 2.0, [1, 0, 3])
+    assert t.key("w") and t.v == [0.1, 0.0, 0.0]
+    assert t.key("a") and t.key("q") and t.v == [0.1, 0.1, 0.5]
+    assert t.key(" ") and t.v == [0.0, 0.0, 0.0]
+    t.key("+")
+    assert t.key("s") and t.v == [-0.2, 0.0, 0.0]
+    assert t.js_event((0, -32767, teleop.JS_AXIS, 1)) and t.v[0] == pytest.approx(0.5)
+    assert t.js_event((0, 32767, teleop.JS_AXIS | teleop.JS_INIT, 3)) and t.v[2] == -2.0
+    assert not t.js_event((0, 1000, teleop.JS_AXIS, 0))           # inside the dead zone
+    assert t.js_event((0, 1, teleop.JS_BUTTON, 0)) and t.v == [0.0, 0.0, 0.0]
+    assert not t.quit and (t.key("x") or True) and t.quit
+    for _ in range(100):
+        t.key("e")
+    assert t.v[2] == -20.0                                          # clamped to the limit
+
+
+def test_fault_names():
+    bits = omni4.motors_t.FAULT_OVERCURRENT | omni4.motors_t.FAULT_CMD_TIMEOUT | 0x10000
+    assert status.fault_names(bits) == ["OVERCURRENT", "CMD_TIMEOUT", "0x10000"]
+
+
+# ---- live ----------------------------------------------------------------------------------------
+
+@pytest.mark.live
+def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
+    model = "[model]\n" + "".join(f"{k} = {v}\n" for k, v in MODEL.items())
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path, URL_STATUS,
+                  f"[loop]\nrate_hz = {RATE_HZ}\n{model}")
+    try:
+        r = subprocess.run(tool("omni4-status") + ["--lcm", URL_STATUS, "--listen", "1"],
+                           capture_output=True, text=True, timeout=EXIT_TIMEOUT_S)
+        print(r.stdout, r.stderr)
+        assert r.returncode == 0, r.stderr
+        assert re.search(r"^mode: IDLE$", r.stdout, re.M)
+        assert re.search(r"^faults: none$", r.stdout, re.M)
+        rate = float(re.search(r"^loop: ([0-9.]+) Hz", r.stdout, re.M).group(1))
+        assert abs(rate - RATE_HZ) <= 0.1 * RATE_HZ, rate
+        got_r = float(re.search(r"\bR=([0-9.eE+-]+) ohm", r.stdout).group(1))
+        assert got_r == MODEL["R"]
+        for what in ("current [A]:", "voltage [V]:", "wheel speed [rad/s]:", "lost samples"):
+            assert what in r.stdout
+        # a closed pipe: quiet, status 141
+        p = subprocess.Popen(tool("omni4-status") + ["--lcm", URL_STATUS, "--listen", "0.2",
+                                                     "--watch"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        p.stdout.readline()
+        p.stdout.close()
+        err = p.stderr.read()
+        assert p.wait(timeout=EXIT_TIMEOUT_S) == 141 and err == b"", err
+    finally:
+        fw.stop()
+
+
+@pytest.mark.live
+def test_status_without_a_controller():
+    r = subprocess.run(tool("omni4-status") + ["--lcm", URL_NOBODY, "--listen", "0.5"],
+                       capture_output=True, text=True, timeout=EXIT_TIMEOUT_S)
+    assert r.returncode == 1
+    assert r.stdout == ""
+    assert r.stderr == (f"omni4-status: no OMNI4_MOTORS on {URL_NOBODY} within 0.5 s: "
+                        f"is omni4-fw running?\n")
+
+
+class Pty:
+    """omni4-teleop on a pseudo-terminal."""
+
+    def __init__(self, args):
+        self.master, self.slave = pty.openpty()
+        self.before = termios.tcgetattr(self.slave)
+        self.proc = subprocess.Popen(tool("omni4-teleop") + args, stdin=self.slave,
+                                     stdout=self.slave, stderr=self.slave, close_fds=True,
+                                     start_new_session=True)
+        self.out = b""
+
+    def read_until(self, pattern, timeout_s):
+        end = time.monotonic() + timeout_s
+        while not re.search(pattern, self.out):
+            left = end - time.monotonic()
+            if left <= 0:
+                raise AssertionError(f"no {pattern!r} in {timeout_s} s: {self.out!r}")
+            if select.select([self.master], [], [], left)[0]:
+                try:
+                    self.out += os.read(self.master, 4096)
+                except OSError:
+                    pass
+
+    def send(self, keys):
+        os.write(self.master, keys)
+
+    def finish(self):
+        try:
+            status = self.proc.wait(timeout=EXIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            raise
+        after = termios.tcgetattr(self.slave)
+        os.close(self.master)
+        os.close(self.slave)
+        return status, after
+
+
+@pytest.fixture(scope="module")
+def fw_teleop(omni4_bin, tmp_path_factory):
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("teleop"), URL_TELEOP)
+    yield fw
+    fw.stop()
+
+
+def driving(m):
+    return m.mode == omni4.motors_t.MODE_VELOCITY
+
+
+@pytest.mark.live
+def test_teleop_keys_drive_and_stop(fw_teleop):
+    bus = fw_teleop.bus
+    t = Pty(["--lcm", URL_TELEOP, "--no-joystick"])
+    try:
+        t.read_until(rb"limits \|v\|, \|vn\| <= 3 m/s, \|w\| <= 20 rad/s \(controller", 10 * SCALE)
+        t.send(b"w")
+        m = bus.wait(lambda m: driving(m) and v_of(m) > 0.08, MOVE_TIMEOUT_S)
+        assert m is not None, f"no VELOCITY with v > 0.08 m/s after w (last {bus.last})"
+        print(f"after w: v {v_of(m):.4f} m/s")
+        t.send(b" ")
+        m = bus.wait(lambda m: driving(m) and abs(v_of(m)) < 0.005, MOVE_TIMEOUT_S)
+        assert m is not None, f"v not ~0 after space (last {bus.last})"
+        print(f"after space: v {v_of(m):.4f} m/s")
+        t.send(b"x")
+        status, after = t.finish()
+        assert status == 0, t.out
+        assert after == t.before
+        assert bus.wait(lambda m: m.mode == omni4.motors_t.MODE_IDLE, MOVE_TIMEOUT_S)
+    finally:
+        if t.proc.poll() is None:
+            t.proc.kill()
+
+
+@pytest.mark.live
+def test_teleop_recorded_joystick_drives_and_stops(fw_teleop, tmp_path):
+    bus = fw_teleop.bus
+    js = tmp_path / "js.events"
+    ev = struct.Struct("<IhBB")
+    js.write_bytes(ev.pack(1000, 0, 0x82, 1) + ev.pack(1000, 0, 0x81, 0) +   # init events
+                   ev.pack(1500, -32767, 2, 1) +                           # stick up: +v
+                   ev.pack(3000, 0, 2, 1))                                 # released
+    t = Pty(["--lcm", URL_TELEOP, "--joystick", str(js)])
+    try:
+        t.read_until(rb"joystick", 10 * SCALE)
+        m = bus.wait(lambda m: driving(m) and v_of(m) > 0.3, MOVE_TIMEOUT_S)
+        assert m is not None, f"no VELOCITY with v > 0.3 m/s from the stick (last {bus.last})"
+        print(f"stick up: v {v_of(m):.4f} m/s")
+        m = bus.wait(lambda m: driving(m) and abs(v_of(m)) < 0.005, MOVE_TIMEOUT_S)
+        assert m is not None, f"v not ~0 after the stick was released (last {bus.last})"
+        print(f"released: v {v_of(m):.4f} m/s")
+        t.send(b"\x03")                                                    # Ctrl-C
+        status, after = t.finish()
+        assert status == 0, t.out
+        assert after == t.before
+    finally:
+        if t.proc.poll() is None:
+            t.proc.kill()
