@@ -172,6 +172,8 @@ void take_motors(const Event &ev, LogData &d) {
   // Samples are appended in file order: the previous one is the last in the vector.
   const int64_t last_seq = d.motors.empty() ? -1 : d.motors.back().seq;
   if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
+  if (last_seq >= 0 && (s.seq < last_seq || (s.seq == last_seq && s.utime != d.motors.back().utime)))
+    ++d.seq_backwards;
   d.motors.push_back(s);
 }
 
@@ -291,6 +293,10 @@ LogData read_log(const std::string &path) {
   }
   d.bytes_skipped += map.size - pos;  // a truncated last header
   if (d.events == 0) throw std::runtime_error(path + ": no intact LCM event in the file");
+  if (d.seq_backwards > kInterleavedBackwardsMax)
+    throw std::runtime_error(path + ": OMNI4_MOTORS from two controllers interleaved (" +
+                             std::to_string(d.seq_backwards) +
+                             " samples whose seq goes backwards): record one controller per bus");
   sort_by_time(d);
   return d;
 }

@@ -66,10 +66,17 @@ struct LogData {
   uint64_t bytes_total = 0;    // file size
   uint64_t bytes_skipped = 0;  // file bytes after the last intact event (truncation/corruption)
   uint64_t seq_gaps = 0;       // missing motors_t samples (seq jumps)
+  uint64_t seq_backwards = 0;  // motors_t samples whose seq is at or below the previous one's
+                               // in file order (an exact repeat, same seq and utime, is not)
 };
 
+// More motors_t samples than this going backwards in one log: two controllers' streams
+// interleaved (docs/log-contract.md); read_log refuses the log.
+constexpr uint64_t kInterleavedBackwardsMax = 50;
+
 // Reads a log; throws std::runtime_error("PATH: ...") if it cannot be opened or holds nothing.
-// A truncated or corrupt tail is skipped and counted, never fatal.
+// A truncated or corrupt tail is skipped and counted, never fatal. Throws "PATH: OMNI4_MOTORS
+// from two controllers interleaved ..." if more than kInterleavedBackwardsMax samples go back.
 LogData read_log(const std::string &path);
 
 struct Segment {

@@ -160,6 +160,8 @@ class Log:
         d = np.diff(seq)
         self.seq_gaps = int((d[d > 1] - 1).sum())
         self.seq_duplicates = int((d <= 0).sum())
+        ut = self.motors.utime if hasattr(self.motors, "utime") else np.zeros(0, np.int64)
+        self.seq_backwards = seq_backwards(seq, ut)
 
     @property
     def skipped(self):
@@ -189,6 +191,28 @@ class Log:
 
     def __repr__(self):
         return f"<Log {self.paths}: {self.events} events, motors {len(self.motors)}>"
+
+
+# More motors_t samples than this going backwards in one log: two controllers' streams
+# interleaved (docs/log-contract.md); read_log refuses the log, as omni4-ident does.
+INTERLEAVED_BACKWARDS_MAX = 50
+
+
+def seq_backwards(seq, utime):
+    """motors_t samples (in log order) whose seq is at or below the previous one's; an exact
+    repeat (same seq and utime: a duplicated datagram) is not counted."""
+    seq = np.asarray(seq, np.int64)
+    utime = np.asarray(utime, np.int64)
+    ds, dt = np.diff(seq), np.diff(utime)
+    return int(((ds < 0) | ((ds == 0) & (dt != 0))).sum())
+
+
+def interleaved_error(where, n):
+    """The one-line refusal of a log with n backward steps, or None below the threshold."""
+    if n <= INTERLEAVED_BACKWARDS_MAX:
+        return None
+    return (f"{where}: OMNI4_MOTORS from two controllers interleaved ({n} samples whose seq goes "
+            "backwards): record one controller per bus")
 
 
 def split_parts(path):
@@ -398,7 +422,9 @@ def read_log(path_or_paths, keep_unknown=True):
     raw payloads of channels without an omni4 type (else only count them).
 
     Raises OSError (missing or unreadable file, with its path) and LogError when the files
-    hold no intact event at all (empty, not an event log, or corrupt throughout)."""
+    hold no intact event at all (empty, not an event log, or corrupt throughout), or two
+    controllers' OMNI4_MOTORS interleaved (more than INTERLEAVED_BACKWARDS_MAX samples whose
+    seq goes backwards)."""
     paths = _resolve(path_or_paths)
     buf, spans = _load(paths)
     parts, files = [], []
@@ -426,7 +452,11 @@ def read_log(path_or_paths, keep_unknown=True):
         decode = _decode_fast if cls in _FAST else _decode_each
         fields, keep, skipped = decode(buf, cls, doff[sel], dlen[sel])
         channels[name] = Channel(name, cls, fields, utime[sel][keep], skipped)
-    return Log(files, channels, unknown, unknown_counts)
+    log = Log(files, channels, unknown, unknown_counts)
+    err = interleaved_error(", ".join(paths), log.seq_backwards)
+    if err:
+        raise LogError(err)
+    return log
 
 
 class RawEvents:
