@@ -347,9 +347,10 @@ def _main(argv):
 
 
 def main(argv=None):
-    """The console script: 0 quit, 1 run-time error, 2 usage."""
+    """The console script: 0 quit, 1 run-time error, 2 usage; 141 quietly on a closed stdout."""
+    from ._cli import run
     try:
-        return _main(sys.argv[1:] if argv is None else list(argv))
+        return run(PROG, _main, argv)
     except KeyboardInterrupt:
         return 0
 

@@ -1,4 +1,4 @@
-"""The package's commands (omni4-param, omni4-bridge, omni4-mcap) as a shell runs them:
+"""The package's commands (every console script of python/pyproject.toml) as a shell runs them:
 --version, a closed stdout (quiet, status 141), one-line errors without tracebacks."""
 import os
 import subprocess
@@ -10,7 +10,8 @@ import omni4
 from omni4 import _cli
 
 BIN = os.path.dirname(sys.executable)     # the console scripts beside the venv's python
-TOOLS = ("omni4-param", "omni4-bridge", "omni4-mcap")
+PYPROJECT = os.path.join(os.path.dirname(__file__), "..", "pyproject.toml")
+TOOLS = ("omni4-param", "omni4-bridge", "omni4-mcap", "omni4-status", "omni4-teleop")
 
 
 def tool(name):
@@ -18,6 +19,13 @@ def tool(name):
     if not os.access(p, os.X_OK):
         pytest.skip(f"{p}: not installed (pip install './python[foxglove]')")
     return p
+
+
+def test_every_console_script_is_checked_here():
+    with open(PYPROJECT, encoding="utf-8") as f:
+        text = f.read().split("[project.scripts]", 1)[1].split("\n[", 1)[0]
+    scripts = {ln.split("=")[0].strip() for ln in text.splitlines() if "=" in ln}
+    assert scripts == set(TOOLS)
 
 
 @pytest.mark.parametrize("name", TOOLS)
