@@ -1,5 +1,5 @@
 """Refused commands and the package's commands against omni4-fw (sim backend) over udpm on
-port 7811 (no other test uses it): a command beyond the controller's [limits] raises
+port 7611 (in 7600-7699, which no test draws a random port from): a command beyond the controller's [limits] raises
 CommandRejected naming the limit (checked before sending, the limits read from the controller
 and followed when they change); a refusal the client cannot predict comes back from the samples
 (wait=True at once, else at the next call) and the refused command is not kept alive; a normal
@@ -17,7 +17,7 @@ from omni4.params import ParamClient
 
 pytestmark = pytest.mark.live
 
-URL = "udpm://239.255.76.67:7811?ttl=0"
+URL = "udpm://239.255.76.67:7611?ttl=0"
 START_TIMEOUT_S = 10
 EXIT_TIMEOUT_S = 10
 REJECTED = omni4.motors_t.FAULT_CMD_REJECTED

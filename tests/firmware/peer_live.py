@@ -98,7 +98,7 @@ class Bus(threading.Thread):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("bin")
-    ap.add_argument("--port", type=int, default=7805)
+    ap.add_argument("--port", type=int, default=7605)
     a = ap.parse_args()
     url = f"udpm://239.255.76.67:{a.port}?ttl=0"
     fw = os.path.join(a.bin, "omni4-fw")

@@ -110,7 +110,7 @@ else
   echo "ok: the interrupted log reads whole: $(grep events <<<"$int_read")"; pass=$((pass + 1))
 fi
 # A run with no controller on its URL: one line naming the URL within 5 s, status 1, no log.
-expect 1 "no OMNI4_MOTORS on udpm://239.255.76.67:7793?ttl=0 within 5 s" -- "$BIN/omni4-ident" run --lcm "udpm://239.255.76.67:7793?ttl=0" --out "$T/norobot.lcmlog" --only coast
+expect 1 "no OMNI4_MOTORS on udpm://239.255.76.67:7601?ttl=0 within 5 s" -- "$BIN/omni4-ident" run --lcm "udpm://239.255.76.67:7601?ttl=0" --out "$T/norobot.lcmlog" --only coast
 [ -e "$T/norobot.lcmlog" ] && { echo "FAIL: omni4-ident run left a log without a robot"; fail=$((fail + 1)); }
 # omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
 expect 0 "usage" -- "$BIN/omni4-record" --help
