@@ -161,6 +161,16 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
         p.stdout.close()
         err = p.stderr.read()
         assert p.wait(timeout=EXIT_TIMEOUT_S) == 141 and err == b"", err
+        # --watch until Ctrl-C: a clean exit, no traceback
+        p = subprocess.Popen(tool("omni4-status") + ["--lcm", URL_STATUS, "--listen", "0.3",
+                                                     "--watch"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert f"robot on {URL_STATUS}" in p.stdout.readline()
+        time.sleep(1.0)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=EXIT_TIMEOUT_S)
+        assert p.returncode == 0 and err == "", err
+        assert out.count("mode: IDLE") >= 1, out
     finally:
         fw.stop()
 
@@ -246,6 +256,29 @@ def test_teleop_keys_drive_and_stop(fw_teleop):
     finally:
         if t.proc.poll() is None:
             t.proc.kill()
+
+
+@pytest.mark.live
+def test_teleop_stops_when_stdin_closes(fw_teleop):
+    bus = fw_teleop.bus
+    p = subprocess.Popen(tool("omni4-teleop") + ["--lcm", URL_TELEOP, "--no-joystick"],
+                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        p.stdin.write(b"ww")
+        p.stdin.flush()
+        m = bus.wait(lambda m: driving(m) and v_of(m) > 0.15, MOVE_TIMEOUT_S)
+        assert m is not None, f"no VELOCITY with v > 0.15 m/s after ww (last {bus.last})"
+        p.stdin.close()
+        try:
+            status = p.wait(timeout=EXIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"omni4-teleop still running {EXIT_TIMEOUT_S} s after stdin closed")
+        out = p.stdout.read()
+        assert status == 0, out
+        assert bus.wait(lambda m: m.mode == omni4.motors_t.MODE_IDLE, MOVE_TIMEOUT_S), out
+    finally:
+        if p.poll() is None:
+            p.kill()
 
 
 @pytest.mark.live
