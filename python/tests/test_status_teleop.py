@@ -1,9 +1,10 @@
 """omni4-status and omni4-teleop. Live (against omni4-fw on the sim backend over udpm, ttl=0,
-ports 7821-7823): the status of a controller at rest (IDLE, the loop rate of its [loop] rate_hz,
-no faults, the model's R of its INI), the one-line error with no controller; teleop driven
-through a pseudo-terminal (w, space, x: VELOCITY with v > 0, then ~0, exit 0, the terminal's
-settings restored) and by a recorded joystick event stream. Not live: the key and js_event
-mapping, the fault names."""
+fixed ports 7621-7623 of the range 7600-7699 that no test draws a random port from): the status
+of a controller at rest (IDLE, the loop rate of its [loop] rate_hz, no faults, the model's R of
+its INI), the one-line error with no controller; teleop driven through a pseudo-terminal (w,
+space, x: VELOCITY with v > 0, then ~0, exit 0, the terminal's settings restored), by a closing
+stdin, and by a recorded joystick event stream. Not live: the key and js_event mapping, the
+fault names."""
 import os
 import pty
 import re
@@ -26,9 +27,9 @@ SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 START_TIMEOUT_S = 10 * SCALE
 EXIT_TIMEOUT_S = 10 * SCALE
 MOVE_TIMEOUT_S = 3 * SCALE
-URL_STATUS = "udpm://239.255.76.67:7821?ttl=0"
-URL_NOBODY = "udpm://239.255.76.67:7822?ttl=0"
-URL_TELEOP = "udpm://239.255.76.67:7823?ttl=0"
+URL_STATUS = "udpm://239.255.76.67:7621?ttl=0"
+URL_NOBODY = "udpm://239.255.76.67:7622?ttl=0"
+URL_TELEOP = "udpm://239.255.76.67:7623?ttl=0"
 RATE_HZ = 500                  # not the default 1000: the status must measure it
 R_M = 0.0325                   # wheel radius [m], Table III
 MODEL = dict(d=0.089, r=R_M, l=5, Kv=0.0259, Kt=0.0259, R=4.7, M=2.34, J=0.0228, Bv=0.4978,
