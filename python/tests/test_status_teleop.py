@@ -166,12 +166,18 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
         p = subprocess.Popen(tool("omni4-status") + ["--lcm", URL_STATUS, "--listen", "0.3",
                                                      "--watch"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        assert f"robot on {URL_STATUS}" in p.stdout.readline()
-        time.sleep(1.0)
+        first = p.stdout.readline()
+        assert f"robot on {URL_STATUS}" in first
+        time.sleep(2.5)                          # a report a second: two or three more
         p.send_signal(signal.SIGINT)
-        out, err = p.communicate(timeout=EXIT_TIMEOUT_S)
-        assert p.returncode == 0 and err == "", err
-        assert out.count("mode: IDLE") >= 1, out
+        try:
+            status = p.wait(timeout=EXIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            pytest.fail(f"omni4-status --watch still running {EXIT_TIMEOUT_S} s after SIGINT")
+        out, err = first + p.stdout.read(), p.stderr.read()
+        assert status == 0 and err == "", err
+        assert out.count("mode: IDLE") >= 2, out
     finally:
         fw.stop()
 
