@@ -10,7 +10,6 @@ Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 u
 141 when stdout is closed early (omni4-status | head -1: quiet).
 """
 import argparse
-import os
 import sys
 import time
 
@@ -19,7 +18,6 @@ import lcm
 from . import CHANNEL_MOTORS, DEFAULT_LCM_URL, __version__, motors_t
 
 PROG = "omni4-status"
-EXIT_BROKEN_PIPE = 141          # 128 + SIGPIPE, as a C tool killed by it
 RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
 MODEL_KEYS = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
 MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
@@ -215,20 +213,14 @@ def _usage(message):
 
 def main(argv=None):
     """The console script: status 0 / 1 / 2; Ctrl-C ends --watch with 0 (130 for a one-shot
-    run); a closed stdout ends it quietly with 141."""
+    run); --version with the git description (omni4._cli); a closed stdout ends it quietly with
+    141."""
+    from ._cli import run
+    args = sys.argv[1:] if argv is None else list(argv)
     try:
-        status = _main(sys.argv[1:] if argv is None else list(argv))
-        sys.stdout.flush()
-        return status
+        return run(PROG, _main, args)
     except KeyboardInterrupt:
-        watching = "--watch" in (sys.argv[1:] if argv is None else list(argv))
-        return 0 if watching else 130
-    except BrokenPipeError:
-        try:   # Python would flush stdout again at exit and complain: point it at /dev/null
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        except (OSError, ValueError):
-            pass
-        return EXIT_BROKEN_PIPE
+        return 0 if "--watch" in args else 130
 
 
 if __name__ == "__main__":
