@@ -30,13 +30,15 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 
 import lcm
 import numpy as np
 
 import omni4
+
+import livebus
+from livebus import check
 
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 START_TIMEOUT_S = 10 * SCALE
@@ -64,25 +66,13 @@ current_offset_a2 = {a[2]}
 current_offset_a3 = {a[3]}
 """
 
-results = []
-
-
-def check(ok, what):
-    results.append((bool(ok), what))
-    print(("ok    " if ok else "FAIL  ") + what, flush=True)
-    return ok
-
-
-class Bus(threading.Thread):
+class Bus(livebus.Bus):
     """OMNI4_MOTORS by seq and OMNI4_PARAM_CHANGED, on a thread of its own."""
 
     def __init__(self, url):
-        super().__init__(daemon=True)
-        self.lc = lcm.LCM(url)
-        self.lock = threading.Lock()
+        super().__init__(url)
         self.motors = {}
         self.notices = []
-        self.stop_flag = threading.Event()
         self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on_motors)
         self.lc.subscribe(omni4.CHANNEL_PARAM_CHANGED, self._on_changed)
         self.start()
@@ -96,30 +86,6 @@ class Bus(threading.Thread):
         m = omni4.param_changed_t.decode(data)
         with self.lock:
             self.notices.append(m)
-
-    def run(self):
-        while not self.stop_flag.is_set():
-            self.lc.handle_timeout(20)
-
-    def close(self):
-        self.stop_flag.set()
-        self.join(timeout=2)
-
-    def send(self, mode, volts=(0.0, 0.0, 0.0, 0.0), seq=0):
-        c = omni4.command_t()
-        c.utime, c.seq, c.mode = int(time.time() * 1e6), seq, mode
-        c.velocity, c.voltage, c.ramp_s = [0.0] * 3, list(volts), 0.0
-        self.lc.publish(omni4.CHANNEL_CMD, c.encode())
-
-    def wait(self, pred, timeout_s, what):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            with self.lock:
-                r = pred(self)
-            if r:
-                return r
-            time.sleep(0.01)
-        raise TimeoutError(f"waited {timeout_s:g} s for {what}")
 
     def calibration(self, k=0):
         c = [n for n in self.notices if n.source == "calibration"]
@@ -323,8 +289,8 @@ def main():
     with tempfile.TemporaryDirectory(prefix="calibration_live.") as tmp:
         scenario_a(a.bin_dir, tmp, url)
         scenario_b(a.bin_dir, tmp, url)
-    failed = sum(1 for ok, _ in results if not ok)
-    print(f"calibration_live: {len(results) - failed} passed, {failed} failed")
+    failed = livebus.failed()
+    print(f"calibration_live: {len(livebus.results) - failed} passed, {failed} failed")
     return 1 if failed else 0
 
 

@@ -20,37 +20,25 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 
-import lcm
-
 import omni4
+
+import livebus
+from livebus import check
 
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 WAIT_S = 5 * SCALE
 FAULT_BUS = 0x0008
 MODE_IDLE, MODE_VOLTAGE, MODE_CLEAR_FAULT, MODE_FAULT = 0, 2, 4, 5
 
-results = []
-
-
-def check(ok, what):
-    results.append((bool(ok), what))
-    print(("ok    " if ok else "FAIL  ") + what, flush=True)
-    return ok
-
-
-class Bus(threading.Thread):
+class Bus(livebus.Bus):
     """The controller's OMNI4_MOTORS (ours excluded: this test's foreign seqs are >= 10^9)."""
 
     def __init__(self, url):
-        super().__init__(daemon=True)
-        self.lc = lcm.LCM(url)
-        self.lock = threading.Lock()
+        super().__init__(url)
         self.last = None  # (seq, mode, faults, voltage)
         self.count = 0
-        self.stop_flag = threading.Event()
         self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on_motors)
         self.start()
 
@@ -62,37 +50,11 @@ class Bus(threading.Thread):
             self.last = (m.seq, m.mode, m.faults, tuple(m.voltage))
             self.count += 1
 
-    def run(self):
-        while not self.stop_flag.is_set():
-            self.lc.handle_timeout(20)
-
-    def close(self):
-        self.stop_flag.set()
-        self.join(timeout=2)
-
-    def send(self, mode, volts=(0.0, 0.0, 0.0, 0.0)):
-        c = omni4.command_t()
-        c.utime, c.seq, c.mode = int(time.time() * 1e6), 0, mode
-        c.velocity, c.voltage, c.ramp_s = [0.0] * 3, list(volts), 0.0
-        self.lc.publish(omni4.CHANNEL_CMD, c.encode())
-
     def foreign(self, seq):
         m = omni4.motors_t()
         m.utime, m.seq, m.mode, m.faults = int(time.time() * 1e6), seq, MODE_VOLTAGE, 0
         m.voltage, m.current, m.wheel_speed = [1.0] * 4, [0.0] * 4, [0.0] * 4
         self.lc.publish(omni4.CHANNEL_MOTORS, m.encode())
-
-    def wait(self, pred, timeout_s, what, each=None):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if each:
-                each()
-            with self.lock:
-                r = pred(self)
-            if r:
-                return r
-            time.sleep(0.01)
-        raise TimeoutError(f"waited {timeout_s:g} s for {what}")
 
 
 def main():
@@ -187,8 +149,8 @@ def main():
     check(len(said) == 1, f"B: stderr names the problem once ({len(said)} lines)")
     check(rc == 1 and "OMNI4_MOTORS samples from another controller heard" in text,
           f"B: exit status 1 after SIGINT with the count of foreign samples (status {rc})")
-    failed = sum(not ok for ok, _ in results)
-    print(f"{len(results) - failed} passed, {failed} failed")
+    failed = livebus.failed()
+    print(f"{len(livebus.results) - failed} passed, {failed} failed")
     return 1 if failed else 0
 
 
