@@ -56,7 +56,7 @@ def test_prediction_is_the_closed_form_of_a_voltage_step(axis, u):
                 assert pred[other] == 0.0
     assert worst < 1e-9 * abs(xss)
     assert pred[axis] == pytest.approx(xss, rel=1e-3)  # 3 s = 10 time constants
-    # README's figures: steady speed at 6 V
+    # docs/figures.md: steady speed at 6 V
     if axis == 0:
         assert xss == pytest.approx(1.1722, abs=1e-4)
     if axis == 1:
@@ -65,7 +65,7 @@ def test_prediction_is_the_closed_form_of_a_voltage_step(axis, u):
 
 def test_coast_down_uses_null_traction():
     """Bridges off (COAST): no drive and no back-EMF: x' = -B/M x - C/M, stop time
-    M/B ln(1 + B v0 / C) (README: 1.3008 s from 1.2 m/s)."""
+    M/B ln(1 + B v0 / C) (docs/figures.md: 1.3008 s from 1.2 m/s)."""
     pr = Predictor(T3)
     v0 = 1.2
     wheel = [0.0, -v0 / T3["r"], 0.0, v0 / T3["r"]]   # eq 2 for x = [v0, 0, 0]

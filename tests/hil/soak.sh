@@ -58,7 +58,7 @@ motors=$(sed -n 's/motors \([0-9]*\),.*/\1/p' <<<"$check")
 growth=$(( ${rss1:-0} - ${rss0:-0} ))
 echo "soak ${D} s: ticks $ticks, logged $motors, dropped $dropped, RSS ${rss0} kB at 5 s -> ${rss1} kB near the end (growth ${growth} kB)"
 fail=$hung
-# lcm-logger keeps LCM's default 30-message queue (README, "Why not lcm-logger"): on a busy
+# lcm-logger keeps LCM's default 30-message queue (docs/deployment.md, "Why not lcm-logger"): on a busy
 # machine it misses samples, which is why omni4-record exists. Its log must be well formed (no
 # duplicates, readable); the misses are reported. omni4-record must miss none.
 ldups=$(sed -n 's/.*duplicates \([0-9]*\).*/\1/p' <<<"$check")
