@@ -14,12 +14,14 @@
 
 #include "omni4/config.h"
 #include "omni4/fw.h"
+#include "omni4/getopt_exact.h"
 #include "omni4/gpiod_lines.h"
 #include "omni4/lcmio.h"
 #include "omni4/param_service.h"
 #include "omni4/rtloop.h"
 #include "omni4/sim_motor.h"
 #include "omni4/socketcan_motor.h"
+#include "omni4/version.h"
 
 static volatile sig_atomic_t g_stop;
 
@@ -64,9 +66,8 @@ static void usage(FILE *f)
 		"  -c, --config FILE   robot INI file (required)\n"
 		"  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
 		"  -q, --quiet         no status line\n"
-		"      --crash-after S test only: crash (SIGSEGV) after S seconds, to check that the\n"
-		"                      crash handler switches the outputs off\n"
 		"  -h, --help          this text\n"
+		"      --version       the version and the git description it was built from\n"
 		"example: omni4-fw --config /etc/omni4/robot.ini\n");
 }
 
@@ -231,13 +232,25 @@ static int parse_options(int argc, char **argv, struct options *o)
 	static const struct option opts[] = {
 		{"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
 		{"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
+		{"version", no_argument, NULL, 'V'},
+		/* Test hook (not in the help): crash with SIGSEGV after S seconds, to check that the
+		 * crash handler switches the outputs off. */
 		{"crash-after", required_argument, NULL, 'X'},
 		{NULL, 0, NULL, 0},
 	};
-	int c;
+	int c, li = -1;
 
 	*o = (struct options){0};
-	while ((c = getopt_long(argc, argv, "c:d:qh", opts, NULL)) != -1) {
+	opterr = 0; /* one line of our own instead of getopt's */
+	while ((c = getopt_long(argc, argv, "c:d:qh", opts, &li)) != -1) {
+		const char *given = omni4_getopt_given(argv, optind, optarg);
+
+		if (!omni4_getopt_exact(given, opts, li)) {
+			fprintf(stderr, "omni4-fw: '%s': give the whole option name (see omni4-fw "
+					"--help)\n", given);
+			return 2;
+		}
+		li = -1;
 		switch (c) {
 		case 'c':
 			o->config_path = optarg;
@@ -261,13 +274,17 @@ static int parse_options(int argc, char **argv, struct options *o)
 		case 'h':
 			usage(stdout);
 			return 0;
+		case 'V':
+			printf("omni4-fw %s\n", OMNI4_VERSION);
+			return 0;
 		default:
-			usage(stderr);
+			fprintf(stderr, "omni4-fw: '%s' is not an option or lacks its value (see "
+					"omni4-fw --help)\n", argv[optind - 1]);
 			return 2;
 		}
 	}
 	if (!o->config_path) {
-		fprintf(stderr, "omni4-fw: --config is required (try --help)\n");
+		fprintf(stderr, "omni4-fw: --config is required (see omni4-fw --help)\n");
 		return 2;
 	}
 	return -1;

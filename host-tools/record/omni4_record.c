@@ -21,11 +21,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "omni4/getopt_exact.h"
 #include "omni4/version.h"
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/getopt_exact.h"
 #include "omni4/version.h"
 #include "omni4/channels.h"
 #include "omni4/eventlog.h"
@@ -152,17 +154,6 @@ static bool parse_number(const char *opt, const char *arg, double lo, double hi,
 	return true;
 }
 
-/* getopt_long takes any unambiguous prefix of a long option (--dur for --duration): a typo
- * then does something unintended. True if the argument that gave option li (-1: a short
- * option) names it whole: "--name" or "--name=value". */
-static bool long_option_exact(const char *arg, const struct option *opts, int li)
-{
-	if (li < 0 || !arg || strncmp(arg, "--", 2) != 0)
-		return true;
-	const size_t n = strlen(opts[li].name);
-	return strncmp(arg + 2, opts[li].name, n) == 0 && (arg[2 + n] == '\0' || arg[2 + n] == '=');
-}
-
 int main(int argc, char **argv)
 {
 	static const struct option opts[] = {
@@ -181,12 +172,9 @@ int main(int argc, char **argv)
 
 	opterr = 0; /* one line of our own instead of getopt's */
 	while ((c = getopt_long(argc, argv, "o:l:c:d:s:qh", opts, &li)) != -1) {
-		/* The option as given: "--name=value" / "--name", or before its separate value. */
-		const char *given = optarg && optind >= 2 && optarg == argv[optind - 1] ?
-					    argv[optind - 2] :
-					    argv[optind - 1];
+		const char *given = omni4_getopt_given(argv, optind, optarg);
 
-		if (!long_option_exact(given, opts, li)) {
+		if (!omni4_getopt_exact(given, opts, li)) {
 			fprintf(stderr, "omni4-record: '%s': give the whole option name (see omni4-record "
 					"--help)\n", given);
 			return 2;
