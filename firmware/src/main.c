@@ -407,13 +407,25 @@ static int set_up_controller(struct app *app, const struct omni4_config *cfg, co
 	return 0;
 }
 
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define OMNI4_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define OMNI4_SANITIZED 1
+#endif
+#endif
+#ifndef OMNI4_SANITIZED
+#define OMNI4_SANITIZED 0
+#endif
+
 /* The process before the threads start: small default stacks under mlockall, locked memory,
  * the CPU idle-state limit, SIGINT / SIGTERM. Failures here are warnings. */
 static void prepare_process(const struct omni4_config *cfg)
 {
 	/* With mlockall every page of every thread stack is resident: threads that libraries
-	 * start (LCM, glib) get a small stack too. (Only then: sanitizer runtimes need more.) */
-	if (cfg->loop.mlockall) {
+	 * start (LCM, glib) get a small stack too. (Only then, and not in a sanitizer build: the
+	 * sanitizer runtimes need more, and ThreadSanitizer refuses such a thread outright.) */
+	if (cfg->loop.mlockall && !OMNI4_SANITIZED) {
 		pthread_attr_t small_stack;
 
 		pthread_attr_init(&small_stack);
