@@ -171,7 +171,6 @@ void take_motors(const Event &ev, LogData &d) {
   }
   // Samples are appended in file order: the previous one is the last in the vector.
   const int64_t last_seq = d.motors.empty() ? -1 : d.motors.back().seq;
-  if (last_seq >= 0 && s.seq > last_seq + 1) d.seq_gaps += s.seq - last_seq - 1;
   if (last_seq >= 0 && (s.seq < last_seq || (s.seq == last_seq && s.utime != d.motors.back().utime)))
     ++d.seq_backwards;
   d.motors.push_back(s);
@@ -298,6 +297,12 @@ LogData read_log(const std::string &path) {
                              std::to_string(d.seq_backwards) +
                              " samples whose seq goes backwards): record one controller per bus");
   sort_by_time(d);
+  // Lost samples: the seq numbers missing between neighbours in time order (a pair that
+  // arrived swapped is not a loss; a controller restart, seq back to 0, is none either).
+  for (size_t k = 1; k < d.motors.size(); ++k) {
+    const int64_t step = d.motors[k].seq - d.motors[k - 1].seq;
+    if (step > 1) d.seq_gaps += static_cast<uint64_t>(step - 1);
+  }
   return d;
 }
 

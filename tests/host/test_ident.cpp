@@ -792,3 +792,26 @@ TEST(Validation, RunsEndWhereTheFilterStillSeesOnlyTheDrive) {
   EXPECT_LT(v.axis[1].e_max, 1.5e-4);
   EXPECT_LT(v.axis[2].e_max, 2.5e-3);
 }
+
+// Lost samples are the seq numbers missing in time order: a pair that reached the log swapped
+// is no loss, a seq that never came is one.
+TEST(BadInput, ASwappedPairIsNotALostSample) {
+  const std::string path = temp_path(".lcmlog");
+  {
+    omni4_test::EventLogWriter log(path);
+    ASSERT_TRUE(log.ok());
+    for (int64_t k = 0; k < 100; ++k) {
+      if (k == 50) continue;  // lost
+      const int64_t seq = k == 10 ? 11 : k == 11 ? 10 : k;  // 10 and 11 swapped in the file
+      omni4::motors_t m{};
+      m.utime = 1000000 + 1000 * seq;
+      m.seq = seq;
+      ASSERT_TRUE(log.put("OMNI4_MOTORS", m));
+    }
+  }
+  const LogData d = read_log(path);
+  std::remove(path.c_str());
+  EXPECT_EQ(d.motors.size(), 99u);
+  EXPECT_EQ(d.seq_gaps, 1u);
+  EXPECT_EQ(d.motors[10].seq, 10);  // back in time order
+}
