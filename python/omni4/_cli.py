@@ -1,9 +1,11 @@
-"""What every command of the package shares: --version, and a quiet end on a closed pipe.
+"""What every command of the package shares: --version, usage errors as one line, and a quiet
+end on a closed pipe.
 
 `omni4-param list | head -1`: when the reader goes away, the next write raises BrokenPipeError.
 The command then ends as a C tool killed by SIGPIPE looks to the shell: no message, status 141
 (128 + SIGPIPE), so `set -o pipefail` scripts see the output was cut, as with `yes | head`.
 """
+import argparse
 import os
 import subprocess
 import sys
@@ -11,6 +13,13 @@ import sys
 from . import __version__
 
 EXIT_BROKEN_PIPE = 141   # 128 + SIGPIPE: what the shell reports for a tool killed by it
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """A usage error is one line, `prog: message (try --help)`, and status 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: {message} (try --help)\n")
 
 
 def version():

@@ -329,14 +329,11 @@ $OMNI4_PARAM_SECRET (so it does not show in the process list).
 example: omni4-param set control.kp 30 && omni4-param save"""
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        self.exit(2, f"omni4-param: {message} (try --help)\n")
-
-
 def _build_parser():
+    from ._cli import ArgumentParser
+
     from . import DEFAULT_LCM_URL
-    p = _Parser(prog="omni4-param", description="Read and change the parameters of a running "
+    p = ArgumentParser(prog="omni4-param", description="Read and change the parameters of a running "
                 "omni4-fw over LCM.", epilog=USAGE_EPILOG,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",

@@ -151,13 +151,10 @@ Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw ru
 example: omni4-status --lcm udpm://239.255.76.67:7667?ttl=0 --listen 2"""
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        self.exit(2, f"{PROG}: {message} (try --help)\n")
-
-
 def build_parser():
-    p = _Parser(prog=PROG, description="One-shot status of the omni4 robot on an LCM URL.",
+    from ._cli import ArgumentParser
+
+    p = ArgumentParser(prog=PROG, description="One-shot status of the omni4 robot on an LCM URL.",
                 epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
                    help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")

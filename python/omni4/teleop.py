@@ -191,13 +191,10 @@ js_event records, replayed at their times); --axes V,VN,W axis numbers; button 0
 Exit status: 0 quit, 1 run-time error (e.g. the robot refused a command), 2 usage error."""
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        self.exit(2, f"{PROG}: {message} (try --help)\n")
-
-
 def build_parser():
-    p = _Parser(prog=PROG, description="Drive the omni4 robot by hand: keys or a gamepad.",
+    from ._cli import ArgumentParser
+
+    p = ArgumentParser(prog=PROG, description="Drive the omni4 robot by hand: keys or a gamepad.",
                 epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
                    help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
