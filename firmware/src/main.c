@@ -238,19 +238,10 @@ static int parse_options(int argc, char **argv, struct options *o)
 		{"crash-after", required_argument, NULL, 'X'},
 		{NULL, 0, NULL, 0},
 	};
-	int c, li = -1;
+	int c;
 
 	*o = (struct options){0};
-	opterr = 0; /* one line of our own instead of getopt's */
-	while ((c = getopt_long(argc, argv, "c:d:qh", opts, &li)) != -1) {
-		const char *given = omni4_getopt_given(argv, optind, optarg);
-
-		if (!omni4_getopt_exact(given, opts, li)) {
-			fprintf(stderr, "omni4-fw: '%s': give the whole option name (see omni4-fw "
-					"--help)\n", given);
-			return 2;
-		}
-		li = -1;
+	while ((c = omni4_getopt_long("omni4-fw", argc, argv, "c:d:qh", opts)) != -1) {
 		switch (c) {
 		case 'c':
 			o->config_path = optarg;
@@ -277,9 +268,7 @@ static int parse_options(int argc, char **argv, struct options *o)
 		case 'V':
 			printf("omni4-fw %s\n", OMNI4_VERSION);
 			return 0;
-		default:
-			fprintf(stderr, "omni4-fw: '%s' is not an option or lacks its value (see "
-					"omni4-fw --help)\n", argv[optind - 1]);
+		default: /* '?': omni4_getopt_long said what */
 			return 2;
 		}
 	}

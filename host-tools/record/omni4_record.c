@@ -168,18 +168,7 @@ int main(int argc, char **argv)
 	bool quiet = false;
 	int c;
 
-	int li = -1;
-
-	opterr = 0; /* one line of our own instead of getopt's */
-	while ((c = getopt_long(argc, argv, "o:l:c:d:s:qh", opts, &li)) != -1) {
-		const char *given = omni4_getopt_given(argv, optind, optarg);
-
-		if (!omni4_getopt_exact(given, opts, li)) {
-			fprintf(stderr, "omni4-record: '%s': give the whole option name (see omni4-record "
-					"--help)\n", given);
-			return 2;
-		}
-		li = -1;
+	while ((c = omni4_getopt_long("omni4-record", argc, argv, "o:l:c:d:s:qh", opts)) != -1) {
 		switch (c) {
 		case 'o': out = optarg; break;
 		case 'l': url = optarg; break;
@@ -195,9 +184,7 @@ int main(int argc, char **argv)
 		case 'q': quiet = true; break;
 		case 'h': usage(stdout); return 0;
 		case 'V': printf("omni4-record %s\n", OMNI4_VERSION); return 0;
-		default:
-			fprintf(stderr, "omni4-record: '%s' is not an option or lacks its value (see "
-					"omni4-record --help)\n", argv[optind - 1]);
+		default: /* '?': omni4_getopt_long said what */
 			return 2;
 		}
 	}
