@@ -29,14 +29,15 @@ struct Accumulator {
       sum2[j] += i[j] * i[j];
       bsum[j] += i[j];
     }
-    if (++bn == batch) close_batch(batch);
+    if (++bn < batch) return;
+    std::array<double, 4> m{};
+    for (int j = 0; j < 4; ++j) m[j] = bsum[j] / static_cast<double>(bn);
+    batches.push_back(m);
+    drop_partial_batch();
   }
-  void close_batch(size_t batch) {
-    if (bn == batch) {
-      std::array<double, 4> m{};
-      for (int j = 0; j < 4; ++j) m[j] = bsum[j] / static_cast<double>(batch);
-      batches.push_back(m);
-    }
+  // The batch in progress is given up (a drive or lost samples interrupt it): a batch is made
+  // of consecutive usable samples only.
+  void drop_partial_batch() {
     bsum.fill(0);
     bn = 0;
   }
@@ -109,17 +110,17 @@ std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &o
     for (size_t q = ep[e].m0; q < ep[e].m1; ++q) {
       const MotorsSample &s = m[q];
       const bool joined = q > 0 && s.seq == m[q - 1].seq + 1;
-      if (!joined) acc[e].close_batch(0);  // a batch never spans lost samples
+      if (!joined) acc[e].drop_partial_batch();  // a batch never spans lost samples
       if (driven_mode(s.mode)) {
         last_driven = s.utime;
-        acc[e].close_batch(0);
+        acc[e].drop_partial_batch();
         continue;
       }
       if (s.faults & kReadingFaults) continue;
       if (last_driven != INT64_MIN && (s.utime - last_driven) * 1e-6 < opt.guard_s) continue;
       acc[e].add(s.i, opt.batch);
     }
-    acc[e].close_batch(0);
+    acc[e].drop_partial_batch();
     all.merge(acc[e]);
   }
   if (all.n < opt.min_samples) {

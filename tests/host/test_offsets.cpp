@@ -80,6 +80,25 @@ TEST(Offsets, BridgeOffMeanIsTheOffsetWithinThreeStandardErrors) {
   EXPECT_LE(outside, 1);  // 80 estimates, P(|z| > 3) = 0.27 %
 }
 
+// Noise correlated over 16 samples (one draw held for 16 readings): the mean's SE is 4 times
+// the white-noise figure, and the batch means (32 samples) must see it.
+TEST(Offsets, CorrelatedNoiseWidensTheStandardErrorThroughTheBatchMeans) {
+  LogData d = synthetic({0, 0, 0, 0}, 13);
+  std::mt19937 g(13);
+  std::normal_distribution<double> n(0, kNoiseA);
+  std::array<double, 4> held{};
+  for (MotorsSample &s : d.motors) {
+    if (s.seq % 16 == 0)
+      for (double &h : held) h = n(g);
+    if (s.mode == 0)
+      for (int j = 0; j < 4; ++j) s.i[j] = static_cast<float>(held[j]);
+  }
+  calibrate_currents(d);
+  const OffsetEpoch &e = d.current_offsets.at(0);
+  const double se_white = kNoiseA / std::sqrt(static_cast<double>(e.samples));
+  for (int j = 0; j < 4; ++j) EXPECT_NEAR(e.se_a[j], 4 * se_white, 0.3 * 4 * se_white) << j;
+}
+
 TEST(Offsets, SubtractedFromEveryReadingDrivenOrNot) {
   const std::array<double, 4> off = {0.050, -0.050, 0.030, -0.020};
   LogData raw = synthetic(off, 3);
