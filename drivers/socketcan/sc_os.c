@@ -1,6 +1,8 @@
 /* sc_os.c - raw SocketCAN calls (the OS boundary of the socketcan backend). */
 #include "omni4/sc_os.h"
 
+#include "omni4/clock.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <linux/can.h>
@@ -99,8 +101,5 @@ int sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
 
 int64_t sc_os_now_us(void)
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000 + t.tv_nsec / 1000;
+	return omni4_monotonic_us();
 }

@@ -7,6 +7,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "omni4/clock.h"
 #include "omni4/sc_os.h"
 
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms)
@@ -147,14 +148,6 @@ static int sc_write(void *ctx, const float volts[4])
 	return rc;
 }
 
-static int64_t mono_us(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t); /* async-signal-safe */
-	return (int64_t)t.tv_sec * 1000000 + t.tv_nsec / 1000;
-}
-
 /* One frame from the crash path: a full TX queue is retried until deadline_us. */
 static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f,
 		      int64_t deadline_us)
@@ -164,7 +157,7 @@ static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f
 
 		if (rc == 0)
 			return true;
-		if (rc != -EAGAIN || mono_us() >= deadline_us)
+		if (rc != -EAGAIN || omni4_monotonic_us() >= deadline_us)
 			return false;
 		struct pollfd p = {.fd = m->fd, .events = POLLOUT};
 
@@ -176,9 +169,9 @@ static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f
  * limit_us; sleeps 1 ms per check (poll is async-signal-safe) so a preempted writer can run. */
 static void wait_gate_empty(struct socketcan_motor *m, int own, int64_t limit_us)
 {
-	const int64_t t0 = mono_us();
+	const int64_t t0 = omni4_monotonic_us();
 
-	while (atomic_load(&m->in_flight) > own && mono_us() - t0 < limit_us)
+	while (atomic_load(&m->in_flight) > own && omni4_monotonic_us() - t0 < limit_us)
 		poll(NULL, 0, 1);
 }
 
@@ -186,7 +179,7 @@ static void wait_gate_empty(struct socketcan_motor *m, int own, int64_t limit_us
 static int send_halt_frames(struct socketcan_motor *m)
 {
 	static const float zero[4] = {0, 0, 0, 0};
-	const int64_t deadline = mono_us() + 20000;
+	const int64_t deadline = omni4_monotonic_us() + 20000;
 	struct omni4_can_frame f;
 	int sent = 0;
 

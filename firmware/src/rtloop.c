@@ -10,6 +10,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/clock.h"
+
 static int64_t ts_ns(const struct timespec *t)
 {
 	return (int64_t)t->tv_sec * 1000000000LL + t->tv_nsec;
@@ -18,14 +20,6 @@ static int64_t ts_ns(const struct timespec *t)
 static struct timespec ns_ts(int64_t ns)
 {
 	return (struct timespec){.tv_sec = ns / 1000000000LL, .tv_nsec = ns % 1000000000LL};
-}
-
-static int64_t mono_ns(void)
-{
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return ts_ns(&t);
 }
 
 int64_t rtloop_clock_us(void)
@@ -37,13 +31,13 @@ int64_t rtloop_clock_us(void)
 		struct timespec r;
 
 		clock_gettime(CLOCK_REALTIME, &r);
-		off = ts_ns(&r) - mono_ns();
+		off = ts_ns(&r) - omni4_monotonic_ns();
 		int64_t expected = 0;
 
 		if (!atomic_compare_exchange_strong(&offset_ns, &expected, off))
 			off = expected;
 	}
-	return (mono_ns() + off) / 1000;
+	return (omni4_monotonic_ns() + off) / 1000;
 }
 
 int rtloop_lock_memory(void)
@@ -70,14 +64,14 @@ int rtloop_cpu_dma_latency(int us)
 static void *loop_main(void *arg)
 {
 	struct rtloop *l = arg;
-	int64_t next = mono_ns() + l->period_ns;
+	int64_t next = omni4_monotonic_ns() + l->period_ns;
 
 	while (!atomic_load_explicit(&l->stop, memory_order_relaxed)) {
 		const struct timespec wake = ns_ts(next);
 
 		while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, NULL) == EINTR)
 			;
-		const int64_t now = mono_ns();
+		const int64_t now = omni4_monotonic_ns();
 		const int64_t late = now - next;
 
 		if (late > l->latency_max_ns)
@@ -90,7 +84,7 @@ static void *loop_main(void *arg)
 		if (l->max_ticks && (int64_t)l->ticks >= l->max_ticks)
 			break;
 		next += l->period_ns;
-		const int64_t after = mono_ns();
+		const int64_t after = omni4_monotonic_ns();
 
 		if (after >= next + l->period_ns) {
 			/* Missed at least one whole period: count it and re-align. */
