@@ -13,23 +13,19 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/fw.h"
 #include "omni4/channels.h"
+#include "omni4/clock.h"
 #include "omni4/lcmio.h"
+#include "omni4/robot.h"
 #include "omni4/rtloop.h"
-#include "omni4/sim_motor.h"
 #include "omni4_command_t.h"
 
-static struct sim_motor sim;
 static _Atomic int64_t seen_ns;  /* when the awaited value was first written */
 static _Atomic float awaited;
 
 static int64_t now_ns(void)
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+	return omni4_monotonic_ns();
 }
 
 static int stamp_write(void *ctx, const float volts[4])
@@ -37,6 +33,17 @@ static int stamp_write(void *ctx, const float volts[4])
 	if (volts[0] == atomic_load(&awaited) && atomic_load(&seen_ns) == 0)
 		atomic_store(&seen_ns, now_ns());
 	return sim_motor_ops.write(ctx, volts);
+}
+
+/* The sim backend with writes stamped (robot_spec.wrap). */
+static struct motor_hal stamped(void *ctx, struct motor_hal backend)
+{
+	static struct motor_hal_ops ops;
+
+	(void)ctx;
+	ops = *backend.ops;
+	ops.write = stamp_write;
+	return (struct motor_hal){.ops = &ops, .ctx = backend.ctx};
 }
 
 static int cmp(const void *a, const void *b)
@@ -53,24 +60,27 @@ static void tick(void *ctx, int64_t now_us)
 
 int main(int argc, char **argv)
 {
-	static struct fw fw;
-	struct motor_hal_ops ops = sim_motor_ops;
-	struct omni4_config cfg;
+	static struct robot robot;
+	struct ctl_settings ctl;
+	struct sim_settings sim;
+	char why[256];
 	const int n = argc > 2 ? atoi(argv[2]) : 200;
 
 	if (argc < 2 || n <= 0 || n > 100000) {
 		fprintf(stderr, "usage: cmd_latency URL N\n");
 		return 2;
 	}
-	config_defaults(&cfg);
-	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
-					    .camera_rate_hz = 25};
+	ctl_settings_defaults(&ctl);
+	sim_settings_defaults(&sim);
+	const struct robot_spec spec = {.ctl = &ctl, .motor = OMNI4_MOTOR_SIM,
+					.lines = OMNI4_LINES_NONE, .sim = &sim, .sim_exact = true,
+					.utime0 = rtloop_clock_us(), .wrap = stamped};
+	struct fw *fw = &robot.fw;
 
-	ops.write = stamp_write;
-	if (sim_motor_init(&sim, &sc) ||
-	    fw_init(&fw, &cfg, (struct motor_hal){.ops = &ops, .ctx = &sim},
-		    (struct line_hal){.ops = &line_none_ops}))
+	if (robot_open(&robot, &spec, why, sizeof(why))) {
+		fprintf(stderr, "cmd_latency: %s\n", why);
 		return 1;
+	}
 	lcm_t *rx = lcm_create(argv[1]), *tx = lcm_create(argv[1]);
 
 	if (!rx || !tx) {
@@ -80,7 +90,7 @@ int main(int argc, char **argv)
 	struct lcmio io;
 	struct rtloop loop;
 
-	if (lcmio_start(&io, rx, &fw) || rtloop_start(&loop, 1000.0, 80, 0, tick, &fw))
+	if (lcmio_start(&io, rx, fw) || rtloop_start(&loop, 1000.0, 80, 0, tick, fw))
 		return 1;
 	double *lat = calloc((size_t)n, sizeof(double));
 	int got = 0;
@@ -109,6 +119,7 @@ int main(int argc, char **argv)
 	rtloop_request_stop(&loop);
 	rtloop_join(&loop);
 	lcmio_stop(&io);
+	robot_close(&robot);
 	qsort(lat, (size_t)got, sizeof(double), cmp);
 	if (!got) {
 		printf("no command reached the HAL\n");

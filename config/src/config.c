@@ -1,6 +1,8 @@
 /* config.c - INI parsing (inih) into struct omni4_config, table driven, line-numbered errors. */
 #include "omni4/config.h"
 
+#include "omni4/channels.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -14,112 +16,69 @@
 #include <string.h>
 #include <strings.h>
 
-#define OFF(field) offsetof(struct omni4_config, field)
-#define KEY(sec, key, t, field, lo, hi, ch, unit, chg, doc) \
-	{sec, key, t, OFF(field), lo, hi, ch, unit, chg, doc}
-#define DBL(sec, key, field, lo, hi, unit, chg, doc) \
-	KEY(sec, key, CONFIG_DOUBLE, field, lo, hi, NULL, unit, chg, doc)
-#define INT(sec, key, field, lo, hi, unit, chg, doc) \
-	KEY(sec, key, CONFIG_INT, field, lo, hi, NULL, unit, chg, doc)
-#define BOOL(sec, key, field, chg, doc) KEY(sec, key, CONFIG_BOOL, field, 0, 1, NULL, "", chg, doc)
-#define STR(sec, key, field, ch, chg, doc) \
-	KEY(sec, key, CONFIG_STRING, field, 0, 0, ch, "", chg, doc)
 #define INF INFINITY
 #define LIVE CONFIG_LIVE
 #define IDLE CONFIG_IDLE
 #define RESTART CONFIG_RESTART
+#define CONFIG_DBL CONFIG_DOUBLE
+#define CONFIG_STR CONFIG_STRING
+
+/* A row of a layer's key list (ctl_keys.def and the others) as a row of the table, its field
+ * located in struct omni4_config under member `part`. */
+#define ROW(part, kind, section, key, field, def, lo, hi, choices, unit, change, doc)          \
+	{section, key, CONFIG_##kind, offsetof(struct omni4_config, part.field),                \
+	 sizeof(((struct omni4_config *)0)->part.field), lo, hi, choices, unit, change, doc},
 
 /*
  * The one table of keys: the INI parser, the writer and the parameter service (over LCM) all
- * use it. [model] keys come first, in model_params_names order (test_config checks it); their
- * real check is model_params_check on the whole model (> 0, or >= 0 for friction), after all
- * keys are in. When a key may change over the bus (docs/design.md): LIVE in any mode, IDLE
- * only while the bridges are not driven, RESTART only in the INI.
+ * use it, and docs/ini-keys.md is generated from it. [model] keys come first, in
+ * model_params_names order (test_config checks it); their real check is on the whole model
+ * (ctl_settings_check), after all keys are in.
  */
 static const struct config_key keys[] = {
-	DBL("model", "d", model.d, -INF, INF, "m", IDLE, "wheel distance from the centre, > 0"),
-	DBL("model", "r", model.r, -INF, INF, "m", IDLE, "wheel radius, > 0"),
-	DBL("model", "l", model.l, -INF, INF, "", IDLE, "gearbox reduction, > 0"),
-	DBL("model", "Kv", model.Kv, -INF, INF, "V/(rad/s)", LIVE, "back-EMF constant, > 0"),
-	DBL("model", "Kt", model.Kt, -INF, INF, "N m/A", LIVE, "torque constant, > 0"),
-	DBL("model", "R", model.R, -INF, INF, "ohm", LIVE, "motor + bridge resistance, > 0"),
-	DBL("model", "M", model.M, -INF, INF, "kg", LIVE, "mass, > 0"),
-	DBL("model", "J", model.J, -INF, INF, "kg m^2", LIVE, "moment of inertia, > 0"),
-	DBL("model", "Bv", model.Bv, -INF, INF, "N/(m/s)", LIVE, "viscous friction along v, >= 0"),
-	DBL("model", "Bvn", model.Bvn, -INF, INF, "N/(m/s)", LIVE, "viscous friction along vn, >= 0"),
-	DBL("model", "Bw", model.Bw, -INF, INF, "N m/(rad/s)", LIVE, "viscous friction about w, >= 0"),
-	DBL("model", "Cv", model.Cv, -INF, INF, "N", LIVE, "Coulomb friction along v, >= 0"),
-	DBL("model", "Cvn", model.Cvn, -INF, INF, "N", LIVE, "Coulomb friction along vn, >= 0"),
-	DBL("model", "Cw", model.Cw, -INF, INF, "N m", LIVE, "Coulomb friction about w, >= 0"),
-	DBL("loop", "rate_hz", loop.rate_hz, 1.0, 20000.0, "Hz", RESTART, "loop rate"),
-	BOOL("loop", "sched_fifo", loop.sched_fifo, RESTART, "run the loop SCHED_FIFO"),
-	INT("loop", "priority", loop.priority, 1, 99, "", RESTART, "SCHED_FIFO priority"),
-	BOOL("loop", "mlockall", loop.mlockall, RESTART, "lock all memory at start"),
-	INT("loop", "cpu_dma_latency_us", loop.cpu_dma_latency_us, -1, 100000, "us", RESTART,
-	    "PM QoS wake-up latency, -1 = leave alone"),
-	DBL("control", "kp", control.kp, 0.0, 1e4, "V/(m/s)", LIVE, "PI proportional gain"),
-	DBL("control", "ki", control.ki, 0.0, 1e6, "V/m", LIVE, "PI integral gain"),
-	BOOL("control", "feedforward", control.feedforward, LIVE, "model-based feedforward on"),
-	BOOL("control", "feedback", control.feedback, LIVE, "PI on wheel speed on"),
-	INT("control", "cmd_timeout_ms", control.cmd_timeout_ms, 1, 600000, "ms", LIVE,
-	    "watchdog: no command for this long stops the robot"),
-	DBL("control", "stop_ramp_s", control.stop_ramp_s, 0.0, 60.0, "s", LIVE,
-	    "ramp length of the watchdog stop"),
-	DBL("limits", "supply_v", limits.supply_v, 0.1, 1000.0, "V", IDLE,
-	    "bridge supply; outputs clamped to +-supply_v; > supply_min_v"),
-	DBL("limits", "supply_min_v", limits.supply_min_v, 0.0, 1000.0, "V", IDLE,
-	    "below it: FAULT_SUPPLY; < supply_v"),
-	DBL("limits", "vel_lin_max", limits.vel_lin_max, 0.0, 100.0, "m/s", LIVE,
-	    "largest commanded v, vn"),
-	DBL("limits", "vel_rot_max", limits.vel_rot_max, 0.0, 1000.0, "rad/s", LIVE,
-	    "largest commanded w"),
-	DBL("limits", "acc_lin_max", limits.acc_lin_max, 1e-3, 1000.0, "m/s^2", LIVE,
-	    "reference shaping along v, vn"),
-	DBL("limits", "acc_rot_max", limits.acc_rot_max, 1e-3, 10000.0, "rad/s^2", LIVE,
-	    "reference shaping about w"),
-	DBL("limits", "current_max_a", limits.current_max_a, 0.0, 1000.0, "A", IDLE,
-	    "over-current fault level"),
-	DBL("limits", "current_sensor_max_a", limits.current_sensor_max_a, 0.0, 1000.0, "A", IDLE,
-	    "a reading at or beyond it is a saturated sensor"),
-	STR("lcm", "url", lcm.url, NULL, RESTART, "LCM URL of the robot"),
-	STR("hal", "motor", hal.motor, "sim|socketcan", RESTART, "motor backend"),
-	STR("hal", "lines", hal.lines, "none|sim|gpiod", RESTART, "e-stop / enable / LED backend"),
-	DBL("sim", "current_noise_a", sim.current_noise_a, 0.0, 100.0, "A", RESTART,
-	    "sim: current noise std dev"),
-	INT("sim", "encoder_cpr", sim.encoder_cpr, 0, 1 << 24, "", RESTART,
-	    "sim: counts per wheel revolution, 0 = ideal"),
-	DBL("sim", "camera_rate_hz", sim.camera_rate_hz, 0.1, 10000.0, "Hz", RESTART,
-	    "sim: camera rate"),
-	DBL("sim", "camera_pos_noise_m", sim.camera_pos_noise_m, 0.0, 10.0, "m", RESTART,
-	    "sim: camera position noise std dev"),
-	DBL("sim", "camera_theta_noise_rad", sim.camera_theta_noise_rad, 0.0, 10.0, "rad",
-	    RESTART, "sim: camera heading noise std dev"),
-	INT("sim", "seed", sim.seed, 0, 2147483647, "", RESTART, "sim: noise seed"),
-	DBL("sim", "current_offset_a0", sim.current_offset_a[0], -1.0, 1.0, "A", RESTART,
-	    "sim: offset added to channel 0's current readings, bridges on or off"),
-	DBL("sim", "current_offset_a1", sim.current_offset_a[1], -1.0, 1.0, "A", RESTART,
-	    "sim: offset added to channel 1's current readings, bridges on or off"),
-	DBL("sim", "current_offset_a2", sim.current_offset_a[2], -1.0, 1.0, "A", RESTART,
-	    "sim: offset added to channel 2's current readings, bridges on or off"),
-	DBL("sim", "current_offset_a3", sim.current_offset_a[3], -1.0, 1.0, "A", RESTART,
-	    "sim: offset added to channel 3's current readings, bridges on or off"),
-	DBL("sim", "encoder_eccentricity", sim.encoder_eccentricity, 0.0, 0.1, "", RESTART,
-	    "sim: motor-shaft encoder eccentricity, a once-per-motor-turn speed ripple of this "
-	    "relative amplitude"),
-	STR("can", "iface", can.iface, NULL, RESTART, "CAN interface"),
-	INT("can", "bitrate", can.bitrate, 10000, 8000000, "bit/s", RESTART,
-	    "CAN bit rate of the interface (set with ip link); the protocol must fit in half of it"),
-	INT("can", "status_timeout_ms", can.status_timeout_ms, 1, 10000, "ms", RESTART,
-	    "a driver board silent this long: FAULT_DRIVER_TIMEOUT"),
-	STR("gpio", "chip", gpio.chip, NULL, RESTART, "GPIO chip"),
-	INT("gpio", "estop_line", gpio.estop_line, -1, 4095, "", RESTART, "e-stop input, -1 = none"),
-	BOOL("gpio", "estop_active_low", gpio.estop_active_low, RESTART, "e-stop pressed = low"),
-	INT("gpio", "enable_line", gpio.enable_line, -1, 4095, "", RESTART,
-	    "enable output, -1 = none"),
-	INT("gpio", "led_line", gpio.led_line, -1, 4095, "", RESTART, "status LED, -1 = none"),
-	STR("params", "secret", params.secret, NULL, RESTART,
-	    "token a parameter change over the bus must carry; \"\" = none"),
+#define OMNI4_KEY(...) ROW(ctl, __VA_ARGS__)
+#include "omni4/ctl_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(...) ROW(fw, __VA_ARGS__)
+#include "omni4/fw_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(...) ROW(sim, __VA_ARGS__)
+#include "omni4/sim_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(...) ROW(can, __VA_ARGS__)
+#include "omni4/socketcan_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(...) ROW(gpio, __VA_ARGS__)
+#include "omni4/gpiod_keys.def"
+#undef OMNI4_KEY
 };
+
+/* A default as the field takes it: strings copied (they fit: a static check), the rest set. */
+#define DEFAULT_DBL(dst, def) (dst) = (def)
+#define DEFAULT_INT(dst, def) (dst) = (def)
+#define DEFAULT_BOOL(dst, def) (dst) = (def)
+#define DEFAULT_ENUM(dst, def) (dst) = (def)
+#define DEFAULT_STR(dst, def)                                                                   \
+	do {                                                                                    \
+		_Static_assert(sizeof(def) <= sizeof(dst), "default too long");                \
+		memcpy((dst), (def), sizeof(def));                                              \
+	} while (0)
+
+void config_defaults(struct omni4_config *cfg)
+{
+	memset(cfg, 0, sizeof(*cfg));
+	ctl_settings_defaults(&cfg->ctl);
+	sim_settings_defaults(&cfg->sim);
+#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->fw.field, def);
+#include "omni4/fw_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->can.field, def);
+#include "omni4/socketcan_keys.def"
+#undef OMNI4_KEY
+#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->gpio.field, def);
+#include "omni4/gpiod_keys.def"
+#undef OMNI4_KEY
+}
 
 #define N_KEYS (sizeof(keys) / sizeof(keys[0]))
 
@@ -170,19 +129,37 @@ static bool parse_bool(const char *v, bool *out)
 	return false;
 }
 
-static bool in_choices(const char *v, const char *choices)
+/* Index of v in "a|b|c", or -1. */
+static int choice_index(const char *v, const char *choices)
 {
 	const size_t n = strlen(v);
+	int i = 0;
 
-	for (const char *c = choices; c && *c;) {
+	for (const char *c = choices; c && *c; i++) {
 		const char *bar = strchr(c, '|');
 		const size_t len = bar ? (size_t)(bar - c) : strlen(c);
 
 		if (len == n && !strncmp(c, v, n))
-			return true;
+			return i;
 		c = bar ? bar + 1 : NULL;
 	}
-	return false;
+	return -1;
+}
+
+/* Choice i of "a|b|c" into buf; snprintf's return, -1 if there is none. */
+static int choice_name(const char *choices, int i, char *buf, size_t n)
+{
+	const char *c = choices;
+
+	for (; c && i > 0; i--) {
+		c = strchr(c, '|');
+		c = c ? c + 1 : NULL;
+	}
+	if (!c || i < 0)
+		return -1;
+	const char *bar = strchr(c, '|');
+
+	return snprintf(buf, n, "%.*s", (int)(bar ? bar - c : (long)strlen(c)), c);
 }
 
 /*
@@ -241,17 +218,24 @@ static int key_parse(const struct config_key *k, const char *value, struct omni4
 		}
 		return 0;
 	case CONFIG_STRING:
-		if (strlen(value) >= CONFIG_STR_MAX) {
+		if (strlen(value) >= k->size) {
+			snprintf(detail, n, "at most %zu characters", k->size - 1);
 			*what = "too long value";
 			return -EINVAL;
 		}
-		if (k->choices && !in_choices(value, k->choices)) {
+		snprintf(base, k->size, "%s", value);
+		return 0;
+	case CONFIG_ENUM: {
+		const int iv = choice_index(value, k->choices);
+
+		if (iv < 0) {
 			snprintf(detail, n, "'%.60s' is not one of %s", value, k->choices);
 			*what = "bad value";
 			return -EINVAL;
 		}
-		snprintf(base, CONFIG_STR_MAX, "%s", value);
+		memcpy(base, &iv, sizeof(iv));
 		return 0;
+	}
 	}
 	*what = "bad value";
 	return -EINVAL;
@@ -294,19 +278,15 @@ static int on_line(void *user, int line, const char *section, const char *name, 
 /* Checks across keys; index of the offending key in *bad_key, its reason in why. */
 static int check_whole(const struct omni4_config *cfg, int *bad_key, const char **why)
 {
-	int bad = 0;
-
-	if (model_params_check(&cfg->model, &bad)) {
-		*bad_key = bad; /* [model] keys are the first MODEL_PARAMS_COUNT of the table */
-		*why = bad < 8 ? "must be > 0" : "must be >= 0";
-		return -EINVAL;
-	}
-	if (cfg->limits.supply_min_v >= cfg->limits.supply_v) {
+	if (!ctl_settings_check(&cfg->ctl, bad_key, why))
+		return 0;
+	/* [model] keys are the first MODEL_PARAMS_COUNT of the table; the other rule is on
+	 * supply_min_v (rate_hz is range-checked as a key). */
+	if (*bad_key < 0) {
 		*bad_key = config_key_find("limits.supply_min_v");
 		*why = "must be below supply_v";
-		return -EINVAL;
 	}
-	return 0;
+	return -EINVAL;
 }
 
 static int after_parse(struct parse_state *st, int rc)
@@ -571,6 +551,13 @@ int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n
 			return -EINVAL;
 		len = snprintf(buf, n, "%s", base);
 		break;
+	case CONFIG_ENUM: {
+		int v;
+
+		memcpy(&v, base, sizeof(v));
+		len = choice_name(k->choices, v, buf, n);
+		break;
+	}
 	}
 	return len >= 0 && (size_t)len < n ? 0 : -ENOSPC;
 }
@@ -606,34 +593,47 @@ int config_check(const struct omni4_config *cfg, char *why, size_t n)
 	return 0;
 }
 
-int config_write(FILE *f, const struct omni4_config *cfg, const char *header)
+/* true if a key before i has k's section: the section was written with that key's. */
+static bool section_written(size_t i)
 {
-	const char *section = "";
-	char value[CONFIG_STR_MAX + 32];
+	for (size_t j = 0; j < i; j++)
+		if (!strcmp(keys[j].section, keys[i].section))
+			return true;
+	return false;
+}
 
-	if (header && fprintf(f, "; %s\n", header) < 0)
+/* Every key of section i's, in table order, under one [section] line. */
+static int write_section(FILE *f, const struct omni4_config *cfg, size_t i)
+{
+	char value[256];
+
+	if (fprintf(f, "%s[%s]\n", i ? "\n" : "", keys[i].section) < 0)
 		return -EIO;
-	for (size_t i = 0; i < N_KEYS; i++) {
-		const struct config_key *k = &keys[i];
+	for (size_t j = i; j < N_KEYS; j++) {
+		const struct config_key *k = &keys[j];
 
-		if (config_key_format(cfg, (int)i, value, sizeof(value)))
+		if (strcmp(k->section, keys[i].section))
+			continue;
+		if (config_key_format(cfg, (int)j, value, sizeof(value)))
 			return -EINVAL;
-		if (strcmp(section, k->section)) {
-			section = k->section;
-			if (fprintf(f, "%s[%s]\n", i ? "\n" : "", section) < 0)
-				return -EIO;
-		}
 		if (fprintf(f, "; %s%s%s%s\n%s = %s\n", k->doc, k->unit[0] ? " [" : "", k->unit,
 			    k->unit[0] ? "]" : "", k->name, value) < 0)
 			return -EIO;
 	}
-	return fflush(f) ? -EIO : 0;
+	return 0;
 }
 
-__attribute__((weak)) void config_save_before_replace(const char *tmp, const char *path)
+int config_write(FILE *f, const struct omni4_config *cfg, const char *header)
 {
-	(void)tmp;
-	(void)path;
+	if (header && fprintf(f, "; %s\n", header) < 0)
+		return -EIO;
+	for (size_t i = 0; i < N_KEYS; i++) {
+		const int rc = section_written(i) ? 0 : write_section(f, cfg, i);
+
+		if (rc)
+			return rc;
+	}
+	return fflush(f) ? -EIO : 0;
 }
 
 static int sync_dir_of(const char *path)
@@ -739,7 +739,6 @@ int config_save(const char *path, const struct omni4_config *cfg, const char *he
 		unlink(tmp);
 		return rc;
 	}
-	config_save_before_replace(tmp, path);
 	/* The previous file becomes .bak (a hard link: the file itself never goes away). */
 	if (unlink(bak) && errno != ENOENT) {
 		rc = -errno;

@@ -9,12 +9,6 @@
 #include <string.h>
 
 
-/* Bits that force MODE_FAULT and stay until a successful clear. */
-#define LATCHING_FAULTS                                                                    \
-	(CTL_FAULT_OVERCURRENT | CTL_FAULT_DRIVER_TIMEOUT |           \
-	 CTL_FAULT_DRIVER | CTL_FAULT_BUS | CTL_FAULT_ENCODER | \
-	 CTL_FAULT_CURRENT_SENSOR | CTL_FAULT_SUPPLY)
-
 /* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
 #define ENCODER_RESIDUAL_MAX_M_S 0.5f
 #define ENCODER_BAD_TIME_S 0.05
@@ -33,8 +27,8 @@ static int32_t from_hal_faults(uint32_t hal)
 
 static void tune(struct ctl *c)
 {
-	const struct omni4_config *cfg = &c->cfg;
-	const double dt = 1.0 / cfg->loop.rate_hz;
+	const struct ctl_settings *cfg = &c->set;
+	const double dt = 1.0 / cfg->rate_hz;
 	const float acc_max[3] = {(float)cfg->limits.acc_lin_max, (float)cfg->limits.acc_lin_max,
 				  (float)cfg->limits.acc_rot_max};
 
@@ -48,6 +42,12 @@ static void tune(struct ctl *c)
 		.sensor_max = (float)cfg->limits.current_sensor_max_a,
 		.supply_min = (float)cfg->limits.supply_min_v,
 		.cmd_timeout_us = (int64_t)cfg->control.cmd_timeout_ms * 1000,
+		.stop_ramp_s = (float)cfg->control.stop_ramp_s,
+		.feedforward = cfg->control.feedforward,
+		.feedback = cfg->control.feedback,
+		.vel_lin_max = cfg->limits.vel_lin_max,
+		.vel_rot_max = cfg->limits.vel_rot_max,
+		.supply_v = cfg->limits.supply_v,
 		.encoder_bad_ticks_max = (int)ceil(ENCODER_BAD_TIME_S / dt - 1e-9),
 	};
 	for (int j = 0; j < 4; j++)
@@ -60,15 +60,18 @@ static void tune(struct ctl *c)
 	memcpy(c->shaper.acc, keep.acc, sizeof(keep.acc));
 }
 
-int ctl_init(struct ctl *c, const struct omni4_config *cfg)
+int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 {
+	int bad;
+	const char *why;
+
 	memset(c, 0, sizeof(*c));
-	if (!(cfg->loop.rate_hz > 0.0))
+	if (ctl_settings_check(cfg, &bad, &why))
 		return -EINVAL;
 	if (ff_q16_init(&c->ff, &cfg->model, cfg->limits.supply_v))
 		return -EINVAL;
-	c->cfg = *cfg;
-	c->period_us = llround(1e6 / cfg->loop.rate_hz);
+	c->set = *cfg;
+	c->period_us = llround(1e6 / cfg->rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
 	tune(c);
 	ctl_ramp_reset(&c->ramp, c->out); /* outputs at 0 V, no ramp in progress */
@@ -86,10 +89,10 @@ int ctl_init(struct ctl *c, const struct omni4_config *cfg)
 	return 0;
 }
 
-void ctl_retune(struct ctl *c, const struct omni4_config *cfg, const struct ff_q16 *ff,
+void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
 		q16_t inv_4d)
 {
-	c->cfg = *cfg;
+	c->set = *cfg;
 	c->ff = *ff;
 	c->inv_4d = inv_4d;
 	tune(c);
@@ -117,8 +120,8 @@ static int reject(struct ctl *c, int rc)
 
 static bool command_in_range(const struct ctl *c, const struct ctl_command *cmd)
 {
-	const double lin = c->cfg.limits.vel_lin_max, rot = c->cfg.limits.vel_rot_max;
-	const double u = c->cfg.limits.supply_v;
+	const double lin = c->t.vel_lin_max, rot = c->t.vel_rot_max;
+	const double u = c->t.supply_v;
 
 	if (!all_finite(cmd->velocity, 3) || !all_finite(cmd->voltage, 4) || !isfinite(cmd->ramp_s))
 		return false;
@@ -269,7 +272,7 @@ static void watchdog(struct ctl *c, int64_t now_us)
 	}
 	static const float zero[4] = {0, 0, 0, 0};
 
-	ctl_ramp_start(&c->ramp, c->out, zero, (float)c->cfg.control.stop_ramp_s, now_us);
+	ctl_ramp_start(&c->ramp, c->out, zero, c->t.stop_ramp_s, now_us);
 	c->mode = CTL_VOLTAGE;
 	c->stopping = true;
 }
@@ -294,7 +297,7 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
 	}
 	ik_wheel_speeds_q16(c->ff.d, ref_q, wheel_ref_q);
-	if (c->cfg.control.feedforward)
+	if (c->t.feedforward)
 		ff_voltages_q16(&c->ff, ref_q, acc_q, ff_q);
 	else
 		memset(ff_q, 0, sizeof(ff_q));
@@ -302,7 +305,7 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
 
-		if (c->cfg.control.feedback && s) {
+		if (c->t.feedback && s) {
 			const float e = q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r;
 
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);

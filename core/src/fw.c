@@ -6,7 +6,7 @@
 #include <string.h>
 
 
-int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
+int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal motor,
 	    struct line_hal lines)
 {
 	memset(fw, 0, sizeof(*fw));
@@ -14,7 +14,7 @@ int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal moto
 		return -EINVAL;
 	fw->motor = motor;
 	fw->lines = lines;
-	fw->late_us = llround(2e6 / cfg->loop.rate_hz); /* [loop] rate_hz: restart only */
+	fw->late_us = llround(2e6 / cfg->rate_hz); /* [loop] rate_hz: restart only */
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
 	atomic_init(&fw->halted, false);
@@ -29,7 +29,7 @@ void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks)
 	fw->param_hooks = *hooks;
 }
 
-int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_only,
+int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
 		     struct fw_param_update *u, char *why, size_t n)
 {
 	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
@@ -47,7 +47,7 @@ int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_on
 	}
 	if (fw->param_hooks.check && fw->param_hooks.check(fw->param_hooks.ctx, cfg, why, n))
 		return -EINVAL;
-	u->cfg = *cfg;
+	u->set = *cfg;
 	u->ff = scratch.ff;
 	u->inv_4d = scratch.inv_4d;
 	u->idle_only = idle_only;
@@ -89,9 +89,9 @@ static void take_params(struct fw *fw, int64_t now_us)
 	if (u->idle_only && driving) {
 		rc = -EBUSY;
 	} else {
-		ctl_retune(&fw->ctl, &u->cfg, &u->ff, u->inv_4d);
+		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
 		if (fw->param_hooks.apply)
-			fw->param_hooks.apply(fw->param_hooks.ctx, &u->cfg);
+			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
 	fw->param_done = (struct fw_param_result){
 		.rc = rc, .mode = (int)fw->ctl.mode, .seq = fw->seq, .utime = now_us};
@@ -112,6 +112,7 @@ void fw_outputs_off(struct fw *fw)
 void fw_emergency_off(struct fw *fw)
 {
 	atomic_store(&fw->halted, true);
+	hal_motor_halt(&fw->motor); /* a backend that has one: its off command is the last */
 	fw_outputs_off(fw);
 }
 

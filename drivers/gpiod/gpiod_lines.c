@@ -42,7 +42,7 @@ static int request(struct gpiod_lines *g, int offset, bool output, int flags,
 	return 0;
 }
 
-int gpiod_lines_open(struct gpiod_lines *g, const struct gpiod_lines_config *cfg)
+int gpiod_lines_open(struct gpiod_lines *g, const struct gpiod_settings *cfg)
 {
 	int rc;
 

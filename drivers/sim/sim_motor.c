@@ -7,24 +7,33 @@
 
 #define TWO_PI 6.283185307179586477
 
-struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
-					      const struct model_params *plant, bool noise)
+void sim_settings_defaults(struct sim_settings *s)
+{
+	*s = (struct sim_settings){0};
+#define OMNI4_KEY(kind, section, key, field, def, ...) s->field = (def);
+#include "omni4/sim_keys.def"
+#undef OMNI4_KEY
+}
+
+struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bool noise,
+					      const struct model_params *plant, double period_s,
+					      double supply_v)
 {
 	return (struct sim_motor_config){
 		.params = *plant,
-		.period_s = 1.0 / cfg->loop.rate_hz,
-		.supply_v = cfg->limits.supply_v,
-		.current_noise_a = noise ? cfg->sim.current_noise_a : 0.0,
-		.encoder_cpr = noise ? cfg->sim.encoder_cpr : 0,
-		.camera_rate_hz = cfg->sim.camera_rate_hz,
-		.camera_pos_noise_m = noise ? cfg->sim.camera_pos_noise_m : 0.0,
-		.camera_theta_noise_rad = noise ? cfg->sim.camera_theta_noise_rad : 0.0,
-		.seed = (uint64_t)cfg->sim.seed,
-		.current_offset_a = {noise ? cfg->sim.current_offset_a[0] : 0.0,
-				     noise ? cfg->sim.current_offset_a[1] : 0.0,
-				     noise ? cfg->sim.current_offset_a[2] : 0.0,
-				     noise ? cfg->sim.current_offset_a[3] : 0.0},
-		.encoder_eccentricity = noise ? cfg->sim.encoder_eccentricity : 0.0,
+		.period_s = period_s,
+		.supply_v = supply_v,
+		.current_noise_a = noise ? sim->current_noise_a : 0.0,
+		.encoder_cpr = noise ? sim->encoder_cpr : 0,
+		.camera_rate_hz = sim->camera_rate_hz,
+		.camera_pos_noise_m = noise ? sim->camera_pos_noise_m : 0.0,
+		.camera_theta_noise_rad = noise ? sim->camera_theta_noise_rad : 0.0,
+		.seed = (uint64_t)sim->seed,
+		.current_offset_a = {noise ? sim->current_offset_a[0] : 0.0,
+				     noise ? sim->current_offset_a[1] : 0.0,
+				     noise ? sim->current_offset_a[2] : 0.0,
+				     noise ? sim->current_offset_a[3] : 0.0},
+		.encoder_eccentricity = noise ? sim->encoder_eccentricity : 0.0,
 	};
 }
 

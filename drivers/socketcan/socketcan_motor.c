@@ -33,26 +33,27 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 	return 0;
 }
 
-struct sc_limits sc_limits_from_model(double supply_v, double R, double Kt, double l, double r,
-				      double M, double J, double d, double dt, double noise_a,
-				      double current_limit_a)
+struct sc_limits sc_limits_for(const struct ctl_settings *s)
 {
-	const double i_step = 2.0 * supply_v / R;
-	const double f_max = l * Kt * i_step / r;
-	const double a_max = f_max * (2.0 / M + 4.0 * d * d / J);
+	const struct model_params *p = &s->model;
+	const double i_step = 2.0 * s->limits.supply_v / p->R;
+	const double f_max = p->l * p->Kt * i_step / p->r;
+	const double a_max = f_max * (2.0 / p->M + 4.0 * p->d * p->d / p->J);
 
 	return (struct sc_limits){
-		.current_step_a = (float)(i_step + 10.0 * noise_a + CAN_CURR_LSB),
-		.speed_step_rad_s = (float)(a_max * dt / r + 2.0 * CAN_SPEED_LSB),
-		.current_limit_a = (float)current_limit_a,
+		.current_step_a = (float)(i_step + SC_CURRENT_NOISE_MARGIN_A + CAN_CURR_LSB),
+		.speed_step_rad_s = (float)(a_max / s->rate_hz / p->r + 2.0 * CAN_SPEED_LSB),
+		.current_limit_a = (float)s->limits.current_max_a,
 		.confirm_frames = 3,
 	};
 }
 
 struct sc_limits sc_limits_default(void)
 {
-	return sc_limits_from_model(12.0, 4.3111, 0.0259, 5.0, 0.0325, 2.34, 0.0228, 0.089, 1e-3,
-				    0.02, 5.0);
+	struct ctl_settings s;
+
+	ctl_settings_defaults(&s);
+	return sc_limits_for(&s);
 }
 
 int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits *lim)
@@ -531,10 +532,16 @@ static void sc_close(void *ctx)
 	m->fd = -1;
 }
 
+static void sc_halt(void *ctx)
+{
+	socketcan_motor_halt(ctx);
+}
+
 const struct motor_hal_ops socketcan_motor_ops = {
 	.enable = sc_enable,
 	.write = sc_write,
 	.read = sc_read,
 	.clear_faults = sc_clear_faults,
+	.halt = sc_halt,
 	.close = sc_close,
 };

@@ -14,7 +14,7 @@
 #include "omni4_param_reply_t.h"
 #include "omni4_param_request_t.h"
 
-#define VALUE_MAX (CONFIG_STR_MAX + 32)
+#define VALUE_MAX CONFIG_VALUE_MAX
 #define WHY_MAX 320
 
 /* Scratch of one request (service thread only): the key names, values and reply entries. */
@@ -51,7 +51,7 @@ int param_service_init(struct param_service *ps, struct fw *fw, const struct omn
 	ps->running = *cfg;
 	snprintf(ps->path, sizeof(ps->path), "%s", path);
 	ps->out = out;
-	ps->apply_timeout_us = PARAM_APPLY_TIMEOUT_US + (int64_t)(3e6 / cfg->loop.rate_hz);
+	ps->apply_timeout_us = PARAM_APPLY_TIMEOUT_US + (int64_t)(3e6 / cfg->ctl.rate_hz);
 	pthread_mutex_init(&ps->mu, NULL);
 	pthread_cond_init(&ps->cv, NULL);
 	return 0;
@@ -72,7 +72,7 @@ static void fill_entry(struct param_service *ps, struct scratch *s, int i, int k
 
 	dotted_name(key, s->dotted[i], sizeof(s->dotted[i]));
 	if (!strcmp(k->section, "params") && !strcmp(k->name, "secret"))
-		snprintf(s->new_value[i], VALUE_MAX, "%s", ps->running.params.secret[0] ? "(set)" : "");
+		snprintf(s->new_value[i], VALUE_MAX, "%s", ps->running.fw.secret[0] ? "(set)" : "");
 	else if (config_key_format(&ps->running, key, s->new_value[i], VALUE_MAX))
 		snprintf(s->new_value[i], VALUE_MAX, "(unprintable)");
 	*e = (omni4_param_value_t){
@@ -233,42 +233,36 @@ static int add_pair(void *ctx, int key, const char *value)
 	return 0;
 }
 
-/* Validate s's pairs against the running configuration, have the loop take them, reply. */
-static void apply_pairs(struct param_service *ps, struct scratch *s,
-			const omni4_param_request_t *q, const char *source)
+static void refuse(struct param_service *ps, const omni4_param_request_t *q, const char *why)
 {
-	static struct omni4_config next; /* service thread only */
-	char why[WHY_MAX], old_v[VALUE_MAX], new_v[VALUE_MAX];
-	const int8_t REFUSED = OMNI4_PARAM_REPLY_T_RESULT_REFUSED;
-	bool idle_only = false;
-	int first_idle = -1, changed = 0;
+	atomic_fetch_add(&ps->n.refused, 1);
+	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_REFUSED, why, true);
+}
 
-	next = ps->running;
-	for (int i = 0; i < s->n; i++)
-		if (config_key_set(&next, s->key[i], s->value[i], why, sizeof(why))) {
-			atomic_fetch_add(&ps->n.refused, 1);
-			simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
-			return;
-		}
-	/* What changed (by its INI text), and may it change now? */
+/* The keys that differ (by their INI text) between the running configuration and ps->next,
+ * into s's change list; *first_idle = the first that may change only while the bridges are not
+ * driven (-1: none). Their count, or -1 with why when one may change only at a restart. */
+static int collect_changes(struct param_service *ps, struct scratch *s, int *first_idle,
+			   char *why, size_t n_why)
+{
+	char old_v[VALUE_MAX], new_v[VALUE_MAX];
+	int changed = 0;
+
+	*first_idle = -1;
 	for (int key = 0; key < config_key_count(); key++) {
 		const struct config_key *k = config_key_at(key);
 
 		if (config_key_format(&ps->running, key, old_v, sizeof(old_v)) ||
-		    config_key_format(&next, key, new_v, sizeof(new_v)) || !strcmp(old_v, new_v))
+		    config_key_format(&ps->next, key, new_v, sizeof(new_v)) || !strcmp(old_v, new_v))
 			continue;
 		if (k->change == CONFIG_RESTART) {
-			snprintf(why, sizeof(why),
+			snprintf(why, n_why,
 				 "%s.%s: restart only (change it in the INI and restart omni4-fw)",
 				 k->section, k->name);
-			atomic_fetch_add(&ps->n.refused, 1);
-			simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
-			return;
+			return -1;
 		}
-		if (k->change == CONFIG_IDLE && !idle_only) {
-			idle_only = true;
-			first_idle = key;
-		}
+		if (k->change == CONFIG_IDLE && *first_idle < 0)
+			*first_idle = key;
 		if (changed < PARAM_MAX_KEYS) {
 			dotted_name(key, s->dotted[changed], sizeof(s->dotted[changed]));
 			memcpy(s->old_value[changed], old_v, VALUE_MAX);
@@ -279,10 +273,73 @@ static void apply_pairs(struct param_service *ps, struct scratch *s,
 			changed++;
 		}
 	}
-	if (config_check(&next, why, sizeof(why)) ||
-	    fw_param_prepare(ps->fw, &next, idle_only, &ps->update, why, sizeof(why))) {
-		atomic_fetch_add(&ps->n.refused, 1);
-		simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
+	return changed;
+}
+
+/* The loop did not take the change (res.rc != 0): say why. */
+static void reply_not_taken(struct param_service *ps, const omni4_param_request_t *q,
+			    const struct fw_param_result *res, int first_idle)
+{
+	char why[WHY_MAX];
+
+	if (res->rc == -EBUSY) {
+		const struct config_key *k = config_key_at(first_idle);
+
+		snprintf(why, sizeof(why),
+			 "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
+			 "the robot is in %s: nothing changed",
+			 k->section, k->name, mode_name(res->mode));
+		refuse(ps, q, why);
+		return;
+	}
+	snprintf(why, sizeof(why),
+		 "the loop did not take the change within %lld ms (is it running?): nothing changed",
+		 (long long)(ps->apply_timeout_us / 1000));
+	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, false);
+}
+
+/* The change is in force from tick res.seq: the notice, then the reply with the changed keys'
+ * new values. */
+static void reply_changed(struct param_service *ps, struct scratch *s,
+			  const omni4_param_request_t *q, const char *source, int changed,
+			  const struct fw_param_result *res)
+{
+	char dotted[PARAM_MAX_KEYS][64];
+	char why[WHY_MAX];
+
+	memcpy(dotted, s->dotted, sizeof(dotted));
+	s->n = changed;
+	notice(ps, s, q->request_id, source, q->name ? q->name : "", res->seq, res->utime);
+	for (int i = 0; i < changed; i++)
+		fill_entry(ps, s, i, config_key_find(dotted[i]));
+	snprintf(why, sizeof(why), "%d key%s changed, in force from tick %lld", changed,
+		 changed == 1 ? "" : "s", (long long)res->seq);
+	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
+				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = why,
+				 .seq = res->seq, .n = changed, .params = s->entries};
+
+	reply(ps, &r, true);
+}
+
+/* Validate s's pairs against the running configuration, have the loop take them, reply. */
+static void apply_pairs(struct param_service *ps, struct scratch *s,
+			const omni4_param_request_t *q, const char *source)
+{
+	char why[WHY_MAX];
+	int first_idle;
+
+	ps->next = ps->running;
+	for (int i = 0; i < s->n; i++)
+		if (config_key_set(&ps->next, s->key[i], s->value[i], why, sizeof(why))) {
+			refuse(ps, q, why);
+			return;
+		}
+	const int changed = collect_changes(ps, s, &first_idle, why, sizeof(why));
+
+	if (changed < 0 || config_check(&ps->next, why, sizeof(why)) ||
+	    fw_param_prepare(ps->fw, &ps->next.ctl, first_idle >= 0, &ps->update, why,
+			     sizeof(why))) {
+		refuse(ps, q, why);
 		return;
 	}
 	if (changed == 0) {
@@ -292,46 +349,13 @@ static void apply_pairs(struct param_service *ps, struct scratch *s,
 	}
 	const struct fw_param_result res = fw_param_apply(ps->fw, &ps->update, ps->apply_timeout_us);
 
-	if (res.rc == -EBUSY) {
-		const struct config_key *k = config_key_at(first_idle);
-
-		snprintf(why, sizeof(why),
-			 "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
-			 "the robot is in %s: nothing changed",
-			 k->section, k->name, mode_name(res.mode));
-		atomic_fetch_add(&ps->n.refused, 1);
-		simple_reply(ps, q->request_id, q->op, REFUSED, why, true);
-		return;
-	}
 	if (res.rc) {
-		snprintf(why, sizeof(why),
-			 "the loop did not take the change within %lld ms (is it running?): nothing "
-			 "changed",
-			 (long long)(ps->apply_timeout_us / 1000));
-		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
-			     false);
+		reply_not_taken(ps, q, &res, first_idle);
 		return;
 	}
-	ps->running = next;
+	ps->running = ps->next;
 	atomic_fetch_add(&ps->n.applied, 1);
-
-	/* Reply: the changed keys with their new values, and the tick from which they hold. */
-	struct scratch *e = s;
-	char dotted[PARAM_MAX_KEYS][64];
-
-	memcpy(dotted, s->dotted, sizeof(dotted));
-	s->n = changed;
-	notice(ps, s, q->request_id, source, q->name ? q->name : "", res.seq, res.utime);
-	for (int i = 0; i < changed; i++) {
-		fill_entry(ps, e, i, config_key_find(dotted[i]));
-	}
-	snprintf(why, sizeof(why), "%d key%s changed, in force from tick %lld", changed,
-		 changed == 1 ? "" : "s", (long long)res.seq);
-	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
-				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = why,
-				 .seq = res.seq, .n = changed, .params = e->entries};
-
-	reply(ps, &r, true);
+	reply_changed(ps, s, q, source, changed, &res);
 }
 
 static void do_save(struct param_service *ps, const omni4_param_request_t *q)
@@ -410,6 +434,77 @@ static bool request_wire_ok(const void *data, size_t len, int max_n, char *why, 
 	return true;
 }
 
+/* SET: the keys by name into s, then applied. 0, or -1 with why (a bad request). */
+static int do_set(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
+		  char *why, size_t n_why)
+{
+	if (q->n < 1 || q->n > PARAM_MAX_KEYS) {
+		snprintf(why, n_why, "SET with %d keys: 1 to %d", q->n, PARAM_MAX_KEYS);
+		return -1;
+	}
+	for (int i = 0; i < q->n; i++) {
+		const int key = config_key_find(q->keys[i]);
+
+		if (key < 0) {
+			snprintf(why, n_why, "unknown key '%.80s' (want section.key)", q->keys[i]);
+			return -1;
+		}
+		add_pair(s, key, q->values[i]);
+	}
+	if (s->duplicate) {
+		snprintf(why, n_why, "a key appears twice in one SET");
+		return -1;
+	}
+	apply_pairs(ps, s, q, "set");
+	return 0;
+}
+
+/* LOAD: the INI text's keys into s, then applied. 0, or -1 with why (a bad request). */
+static int do_load(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
+		   char *why, size_t n_why)
+{
+	const char *name = q->name[0] ? q->name : "(load)";
+	struct config_error err;
+
+	if (strlen(q->text) > PARAM_MAX_TEXT) {
+		snprintf(why, n_why, "LOAD text of %zu bytes: at most %d", strlen(q->text),
+			 PARAM_MAX_TEXT);
+		return -1;
+	}
+	if (config_parse_pairs(q->text, name, add_pair, s, &err)) {
+		snprintf(why, n_why, "%s", err.msg);
+		return -1;
+	}
+	if (s->n == 0) {
+		snprintf(why, n_why, "%s: no keys", name);
+		return -1;
+	}
+	apply_pairs(ps, s, q, "load");
+	return 0;
+}
+
+/* One decoded request, its secret checked. 0, or -1 with why (a bad request). */
+static int dispatch(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
+		    char *why, size_t n_why)
+{
+	switch (q->op) {
+	case OMNI4_PARAM_REQUEST_T_OP_LIST:
+	case OMNI4_PARAM_REQUEST_T_OP_GET:
+		do_list(ps, q);
+		return 0;
+	case OMNI4_PARAM_REQUEST_T_OP_SET:
+		return do_set(ps, s, q, why, n_why);
+	case OMNI4_PARAM_REQUEST_T_OP_LOAD:
+		return do_load(ps, s, q, why, n_why);
+	case OMNI4_PARAM_REQUEST_T_OP_SAVE:
+		do_save(ps, q);
+		return 0;
+	default:
+		snprintf(why, n_why, "unknown op %d", q->op);
+		return -1;
+	}
+}
+
 void param_service_handle(struct param_service *ps, const void *data, size_t len)
 {
 	omni4_param_request_t q;
@@ -433,7 +528,7 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 			    q.op == OMNI4_PARAM_REQUEST_T_OP_LOAD ||
 			    q.op == OMNI4_PARAM_REQUEST_T_OP_SAVE;
 
-	if (writes && ps->running.params.secret[0] && strcmp(q.secret, ps->running.params.secret)) {
+	if (writes && ps->running.fw.secret[0] && strcmp(q.secret, ps->running.fw.secret)) {
 		atomic_fetch_add(&ps->n.denied, 1);
 		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_DENIED,
 			     "wrong or missing secret (the robot's INI sets [params] secret)", false);
@@ -442,62 +537,11 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	memset(s->key, 0, sizeof(s->key));
 	s->n = 0;
 	s->too_many = s->duplicate = false;
-	switch (q.op) {
-	case OMNI4_PARAM_REQUEST_T_OP_LIST:
-	case OMNI4_PARAM_REQUEST_T_OP_GET:
-		do_list(ps, &q);
-		break;
-	case OMNI4_PARAM_REQUEST_T_OP_SET:
-		if (q.n < 1 || q.n > PARAM_MAX_KEYS) {
-			snprintf(why, sizeof(why), "SET with %d keys: 1 to %d", q.n, PARAM_MAX_KEYS);
-			goto bad;
-		}
-		for (int i = 0; i < q.n; i++) {
-			const int key = config_key_find(q.keys[i]);
-
-			if (key < 0) {
-				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
-					 q.keys[i]);
-				goto bad;
-			}
-			add_pair(s, key, q.values[i]);
-		}
-		if (s->duplicate) {
-			snprintf(why, sizeof(why), "a key appears twice in one SET");
-			goto bad;
-		}
-		apply_pairs(ps, s, &q, "set");
-		break;
-	case OMNI4_PARAM_REQUEST_T_OP_LOAD: {
-		struct config_error err;
-
-		if (strlen(q.text) > PARAM_MAX_TEXT) {
-			snprintf(why, sizeof(why), "LOAD text of %zu bytes: at most %d",
-				 strlen(q.text), PARAM_MAX_TEXT);
-			goto bad;
-		}
-		if (config_parse_pairs(q.text, q.name[0] ? q.name : "(load)", add_pair, s, &err)) {
-			snprintf(why, sizeof(why), "%s", err.msg);
-			goto bad;
-		}
-		if (s->n == 0) {
-			snprintf(why, sizeof(why), "%s: no keys", q.name[0] ? q.name : "(load)");
-			goto bad;
-		}
-		apply_pairs(ps, s, &q, "load");
-		break;
+	if (dispatch(ps, s, &q, why, sizeof(why))) {
+		atomic_fetch_add(&ps->n.bad, 1);
+		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why,
+			     false);
 	}
-	case OMNI4_PARAM_REQUEST_T_OP_SAVE:
-		do_save(ps, &q);
-		break;
-	default:
-		snprintf(why, sizeof(why), "unknown op %d", q.op);
-		goto bad;
-	}
-	goto out;
-bad:
-	atomic_fetch_add(&ps->n.bad, 1);
-	simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 out:
 	omni4_param_request_t_decode_cleanup(&q);
 }

@@ -192,7 +192,7 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
             2);
   }
   if (seen_out) *seen_out = partial ? seen : ~0u;
-  return cfg.model;
+  return cfg.ctl.model;
 }
 
 // Write next to the target, then rename: never a half-written PARAMS file. A parameter that was

@@ -95,7 +95,7 @@ int load_robot(const std::string &params_path, omni4_config *cfg, plant *pl) {
       return 2;
     }
   }
-  if (plant_init(pl, &cfg->model)) {
+  if (plant_init(pl, &cfg->ctl.model)) {
     std::fprintf(stderr, "omni4-motorsim: invalid model parameters\n");
     return 2;
   }
@@ -212,7 +212,7 @@ void send_health(Sim &sim, int n, bool driven) {
   const bool self_off = b.drv_faults == CAN_DRV_CMD_TIMEOUT;
   can_health hh{};
   hh.faults = self_off ? 0 : b.drv_faults;
-  hh.supply_v = static_cast<float>(sim.cfg.limits.supply_v);
+  hh.supply_v = static_cast<float>(sim.cfg.ctl.limits.supply_v);
   hh.temp_c = 30;
   hh.state = static_cast<uint8_t>(self_off       ? CAN_STATE_DISABLED
                                   : b.drv_faults ? CAN_STATE_FAULT

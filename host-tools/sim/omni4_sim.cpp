@@ -107,7 +107,7 @@ int main(int argc, char **argv) {
   std::signal(SIGTERM, on_signal);
   omni4::SimRunResult r;
   try {
-    r = omni4::run_simulation(cfg, cfg.model, !no_noise, out_path, experiments, duration_s, rtf,
+    r = omni4::run_simulation(cfg, cfg.ctl.model, !no_noise, out_path, experiments, duration_s, rtf,
                               progress, [] { return g_stop != 0; });
   } catch (const std::exception &e) {
     std::fprintf(stderr, "omni4-sim: %s\n", e.what());

@@ -16,7 +16,6 @@ const char *const model_params_names[MODEL_PARAMS_COUNT] = {
 };
 
 /* The first 8 fields (d .. J) must be strictly positive; frictions may be zero. */
-#define MODEL_PARAMS_POSITIVE 8
 
 double *model_params_field(struct model_params *p, int i)
 {

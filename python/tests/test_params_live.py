@@ -416,9 +416,9 @@ def test_kill9_during_save_leaves_a_config_that_loads(robot, tmp_path):
     ini, url = robot
     original = ini.read_text()
     # Paused between the synced temporary and the rename: killed there, the old file stays.
-    # (omni4-fw-save-pause: omni4-fw with that pause linked in, a test build)
+    # (omni4-fw-test-hooks: omni4-fw with that pause linked in, a test build)
     fw = Firmware(ini, url, env={"OMNI4_TEST_SAVE_PAUSE_MS": "5000"},
-                  exe="omni4-fw-save-pause")
+                  exe="omni4-fw-test-hooks")
     fw.wait_running()
     try:
         with ParamClient(url, timeout_s=SCALE) as p:

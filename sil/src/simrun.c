@@ -10,15 +10,12 @@
 #include <time.h>
 
 #include "omni4/eventlog.h"
-#include "omni4/fw.h"
 #include "omni4/lcmio.h"
-#include "omni4/sim_motor.h"
+#include "omni4/robot.h"
 #include "omni4_motors_t.h"
 
 struct simrun {
-	struct fw fw; /* large: holds the rings */
-	struct sim_motor sim;
-	struct sim_lines lines;
+	struct robot robot; /* large: the controller's rings */
 	lcm_eventlog_t *log;
 	int64_t utime0;
 	int64_t period_us;
@@ -48,11 +45,6 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 	return rc;
 }
 
-static void on_pose(void *user, int64_t utime, const double pose[3])
-{
-	fw_push_pose(user, utime, pose);
-}
-
 struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_params *plant_params,
 			     bool noise, const char *log_path, char *err, size_t errlen)
 {
@@ -63,21 +55,22 @@ struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_
 		snprintf(err, errlen, "out of memory");
 		return NULL;
 	}
-	const struct sim_motor_config sc = sim_motor_config_from(cfg, plant_params, noise);
-
-	if (sim_motor_init(&sr->sim, &sc)) {
-		snprintf(err, errlen, "invalid simulated robot (parameters or [sim] settings)");
-		goto err_free;
-	}
-	if (fw_init(&sr->fw, cfg, sim_motor_hal(&sr->sim), sim_line_hal(&sr->lines))) {
-		snprintf(err, errlen, "invalid firmware configuration");
-		goto err_free;
-	}
 	clock_gettime(CLOCK_REALTIME, &now);
 	sr->utime0 = (int64_t)now.tv_sec * 1000000 + now.tv_nsec / 1000;
-	sr->period_us = sr->sim.period_us;
 	/* The plant state after the step in tick k is the one sampled at tick k's time. */
-	sim_motor_set_pose_cb(&sr->sim, on_pose, &sr->fw, sr->utime0 - sr->period_us);
+	const struct robot_spec spec = {
+		.ctl = &cfg->ctl,
+		.motor = OMNI4_MOTOR_SIM,
+		.lines = OMNI4_LINES_SIM,
+		.sim = &cfg->sim,
+		.sim_exact = !noise,
+		.plant = plant_params,
+		.utime0 = sr->utime0,
+	};
+
+	if (robot_open(&sr->robot, &spec, err, errlen))
+		goto err_free;
+	sr->period_us = sr->robot.sim.period_us;
 	if (log_path) {
 		sr->log = lcm_eventlog_create(log_path, "w");
 		if (!sr->log) {
@@ -96,7 +89,7 @@ void simrun_destroy(struct simrun *sr)
 {
 	if (!sr)
 		return;
-	fw_outputs_off(&sr->fw);
+	robot_close(&sr->robot);
 	if (sr->log)
 		lcm_eventlog_destroy(sr->log);
 	free(sr);
@@ -125,7 +118,7 @@ int simrun_command(struct simrun *sr, const void *data, size_t len)
 	}
 	if (rc)
 		return rc;
-	fw_post_command(&sr->fw, &cmd);
+	fw_post_command(&sr->robot.fw, &cmd);
 	return 0;
 }
 
@@ -146,43 +139,43 @@ void simrun_tick(struct simrun *sr)
 {
 	const struct lcmio_sink sink = {.emit = sink_emit, .ctx = sr};
 
-	fw_tick(&sr->fw, simrun_now_us(sr));
-	sr->st.faults |= sr->fw.last_out.faults;
-	lcmio_drain(&sr->fw, &sink, &sr->st.log_errors);
+	fw_tick(&sr->robot.fw, simrun_now_us(sr));
+	sr->st.faults |= sr->robot.fw.last_out.faults;
+	lcmio_drain(&sr->robot.fw, &sink, &sr->st.log_errors);
 	sr->st.ticks++;
 }
 
 void simrun_get_stats(const struct simrun *sr, struct simrun_stats *out)
 {
 	*out = sr->st;
-	out->log_dropped = sr->fw.n.log_dropped;
-	out->cmd_rejected = sr->fw.ctl.n.cmd_rejected;
-	out->mode = sr->fw.last_out.mode;
+	out->log_dropped = sr->robot.fw.n.log_dropped;
+	out->cmd_rejected = sr->robot.fw.ctl.n.cmd_rejected;
+	out->mode = sr->robot.fw.last_out.mode;
 }
 
 void simrun_truth(const struct simrun *sr, double x[3], double pose[3])
 {
-	memcpy(x, sr->sim.plant.x, 3 * sizeof(double));
-	memcpy(pose, sr->sim.plant.pose, 3 * sizeof(double));
+	memcpy(x, sr->robot.sim.plant.x, 3 * sizeof(double));
+	memcpy(pose, sr->robot.sim.plant.pose, 3 * sizeof(double));
 }
 
 void simrun_set_estop(struct simrun *sr, bool pressed)
 {
-	atomic_store(&sr->lines.estop, pressed);
+	atomic_store(&sr->robot.sim_lines.estop, pressed);
 }
 
 struct sim_motor_faults *simrun_faults(struct simrun *sr)
 {
-	return &sr->sim.inject;
+	return &sr->robot.sim.inject;
 }
 
 void simrun_reference(const struct simrun *sr, double ref[3])
 {
 	for (int k = 0; k < 3; k++)
-		ref[k] = sr->fw.ctl.shaper.ref[k];
+		ref[k] = sr->robot.fw.ctl.shaper.ref[k];
 }
 
 uint64_t simrun_watchdog_trips(const struct simrun *sr)
 {
-	return sr->fw.ctl.n.watchdog_trips;
+	return sr->robot.fw.ctl.n.watchdog_trips;
 }

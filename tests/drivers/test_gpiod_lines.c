@@ -97,7 +97,7 @@ void __wrap_gpiod_chip_close(struct gpiod_chip *chip)
 	function_called();
 }
 
-static const struct gpiod_lines_config cfg = {
+static const struct gpiod_settings cfg = {
 	.chip = "gpiochip0", .estop_line = 3, .estop_active_low = true, .enable_line = 4,
 	.led_line = 5,
 };

@@ -31,7 +31,8 @@ static struct omni4_config faulty_config(double ecc)
 
 static void start(struct sim_motor *s, const struct omni4_config *cfg, bool noise)
 {
-	const struct sim_motor_config sc = sim_motor_config_from(cfg, &cfg->model, noise);
+	const struct sim_motor_config sc = sim_motor_config_from(
+		&cfg->sim, noise, &cfg->ctl.model, 1.0 / cfg->ctl.rate_hz, cfg->ctl.limits.supply_v);
 
 	assert_int_equal(sim_motor_init(s, &sc), 0);
 }
@@ -142,7 +143,7 @@ static struct ripple spin(const struct omni4_config *cfg)
 	}
 	for (int j = 0; j < 4; j++) {
 		for (int pass = 0; pass < 2; pass++) {
-			const double l = pass == 0 ? cfg->model.l : 1.0;
+			const double l = pass == 0 ? cfg->ctl.model.l : 1.0;
 			double cc = 0, ss = 0, cs = 0, yc = 0, ys = 0;
 
 			for (int k = 0; k < 1000; k++) {

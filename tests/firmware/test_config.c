@@ -41,17 +41,17 @@ static void test_good_file_overrides_defaults(void **state)
 
 	config_defaults(&cfg);
 	assert_int_equal(config_load_string(good, "robot.ini", &cfg, &err), 0);
-	assert_near(cfg.model.d, 0.1, 0);
-	assert_near(cfg.model.Kt, 0.021, 0);
-	assert_near(cfg.model.Cw, 0.12, 0);
-	assert_near(cfg.loop.rate_hz, 500, 0);
-	assert_true(cfg.loop.sched_fifo);
-	assert_int_equal(cfg.loop.priority, 70);
-	assert_int_equal(cfg.control.cmd_timeout_ms, 150);
-	assert_false(cfg.control.feedforward);
-	assert_true(cfg.control.feedback); /* default kept */
-	assert_string_equal(cfg.lcm.url, "memq://");
-	assert_string_equal(cfg.hal.motor, "socketcan");
+	assert_near(cfg.ctl.model.d, 0.1, 0);
+	assert_near(cfg.ctl.model.Kt, 0.021, 0);
+	assert_near(cfg.ctl.model.Cw, 0.12, 0);
+	assert_near(cfg.ctl.rate_hz, 500, 0);
+	assert_true(cfg.fw.loop.sched_fifo);
+	assert_int_equal(cfg.fw.loop.priority, 70);
+	assert_int_equal(cfg.ctl.control.cmd_timeout_ms, 150);
+	assert_false(cfg.ctl.control.feedforward);
+	assert_true(cfg.ctl.control.feedback); /* default kept */
+	assert_string_equal(cfg.fw.lcm_url, "memq://");
+	assert_int_equal(cfg.fw.motor, OMNI4_MOTOR_SOCKETCAN);
 	assert_string_equal(cfg.can.iface, "vcan0");
 	assert_int_equal(cfg.gpio.estop_line, 17);
 	assert_false(cfg.gpio.estop_active_low);
@@ -64,12 +64,12 @@ static void test_defaults_are_table3_and_safe(void **state)
 	struct config_error err;
 
 	config_defaults(&cfg);
-	assert_near(cfg.model.R, 4.3111, 0);
-	assert_near(cfg.limits.supply_v, 12.0, 0);
-	assert_non_null(strstr(cfg.lcm.url, "ttl=0"));
+	assert_near(cfg.ctl.model.R, 4.3111, 0);
+	assert_near(cfg.ctl.limits.supply_v, 12.0, 0);
+	assert_non_null(strstr(cfg.fw.lcm_url, "ttl=0"));
 	/* An empty file is valid: everything at its default. */
 	assert_int_equal(config_load_string("", "empty.ini", &cfg, &err), 0);
-	assert_near(cfg.model.M, 2.34, 0);
+	assert_near(cfg.ctl.model.M, 2.34, 0);
 }
 
 /* The documented defaults: docs/faults.md (fault limits) and docs/design.md (Table III,
@@ -82,19 +82,19 @@ static void test_defaults_are_the_documented_figures(void **state)
 				 0.4978, 0.6763, 0.0141, 1.8738, 2.2198, 0.1385};
 
 	config_defaults(&cfg);
-	const struct model_params *m = &cfg.model;
+	const struct model_params *m = &cfg.ctl.model;
 	const double got[] = {m->d, m->r, m->l, m->Kv, m->Kt, m->R, m->M, m->J,
 			      m->Bv, m->Bvn, m->Bw, m->Cv, m->Cvn, m->Cw};
 
 	for (size_t i = 0; i < sizeof(table3) / sizeof(table3[0]); i++)
 		assert_near(got[i], table3[i], 0);
-	assert_int_equal(cfg.control.cmd_timeout_ms, 200);
-	assert_near(cfg.control.stop_ramp_s, 0.2, 0);
-	assert_near(cfg.limits.current_max_a, 5.0, 0);
-	assert_near(cfg.limits.current_sensor_max_a, 10.2, 0);
-	assert_near(cfg.limits.supply_min_v, 9.0, 0);
-	assert_near(cfg.limits.supply_v, 12.0, 0);
-	assert_near(cfg.loop.rate_hz, 1000.0, 0);
+	assert_int_equal(cfg.ctl.control.cmd_timeout_ms, 200);
+	assert_near(cfg.ctl.control.stop_ramp_s, 0.2, 0);
+	assert_near(cfg.ctl.limits.current_max_a, 5.0, 0);
+	assert_near(cfg.ctl.limits.current_sensor_max_a, 10.2, 0);
+	assert_near(cfg.ctl.limits.supply_min_v, 9.0, 0);
+	assert_near(cfg.ctl.limits.supply_v, 12.0, 0);
+	assert_near(cfg.ctl.rate_hz, 1000.0, 0);
 }
 
 /* R must be > 0: 0 is refused, the smallest positive value in the file is taken. */
@@ -117,7 +117,7 @@ static void test_resistance_boundary_zero_refused_positive_taken(void **state)
 		 rest);
 	config_defaults(&cfg);
 	assert_int_equal(config_load_string(small, "robot.ini", &cfg, &err), 0);
-	assert_near(cfg.model.R, 1e-9, 0);
+	assert_near(cfg.ctl.model.R, 1e-9, 0);
 }
 
 static void test_unknown_key_is_reported_with_its_line(void **state)
@@ -214,7 +214,7 @@ static void test_written_model_section_reads_back_exactly(void **state)
 	assert_non_null(strstr(text, "\nR = 4.3111\n"));
 	unlink(path);
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
-		assert_near(model_params_get(&cfg.model, i), model_params_get(&p, i), 0);
+		assert_near(model_params_get(&cfg.ctl.model, i), model_params_get(&p, i), 0);
 }
 
 int main(void)

@@ -35,7 +35,7 @@ static void setup_ctl(void)
 	struct omni4_config cfg;
 
 	config_defaults(&cfg);
-	assert_int_equal(ctl_init(&c, &cfg), 0);
+	assert_int_equal(ctl_init(&c, &cfg.ctl), 0);
 }
 
 static struct motor_sample healthy(void)
@@ -418,7 +418,7 @@ static void test_overcurrent_through_the_sim_hal_without_noise(void **state)
 
 	config_defaults(&cfg);
 	for (int above = 0; above <= 1; above++) {
-		struct simrun *sr = simrun_create(&cfg, &cfg.model, false, NULL, err, sizeof(err));
+		struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, false, NULL, err, sizeof(err));
 		struct simrun_stats st;
 
 		assert_non_null(sr);

@@ -155,9 +155,9 @@ static struct ctl c;
 
 static void setup_ctl(void)
 {
-	struct omni4_config cfg;
+	struct ctl_settings cfg;
 
-	config_defaults(&cfg);
+	ctl_settings_defaults(&cfg);
 	assert_int_equal(ctl_init(&c, &cfg), 0);
 }
 
@@ -550,9 +550,9 @@ static void assert_key(const omni4_param_changed_t *m, int i, const char *key, c
 static void test_announcement_names_the_first_tick_and_the_values(void **state)
 {
 	(void)state;
-	struct omni4_config cfg;
+	struct ctl_settings cfg;
 
-	config_defaults(&cfg);
+	ctl_settings_defaults(&cfg);
 	g_motor = (struct fake_motor){.cur = {0.05, -0.05, 0.03, -0.02}};
 	assert_int_equal(fw_init(&g_fw, &cfg, (struct motor_hal){.ops = &fake_ops, .ctx = &g_motor},
 				 (struct line_hal){.ops = &line_none_ops}), 0);
@@ -604,9 +604,9 @@ static void test_announcement_names_the_first_tick_and_the_values(void **state)
 static void test_announcement_names_the_channels_beyond_the_limit(void **state)
 {
 	(void)state;
-	struct omni4_config cfg;
+	struct ctl_settings cfg;
 
-	config_defaults(&cfg);
+	ctl_settings_defaults(&cfg);
 	g_motor = (struct fake_motor){.cur = {-0.4, 0.1, 0, 0.3}};
 	assert_int_equal(fw_init(&g_fw, &cfg, (struct motor_hal){.ops = &fake_ops, .ctx = &g_motor},
 				 (struct line_hal){.ops = &line_none_ops}), 0);

@@ -92,7 +92,7 @@ static _Atomic int g_mode; /* the controller's mode after the last tick (loop th
 static void *loop_main(void *arg)
 {
 	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 200000};
-	double last_R = g_fw.ctl.cfg.model.R;
+	double last_R = g_fw.ctl.set.model.R;
 
 	(void)arg;
 	while (!atomic_load(&g_loop_stop)) {
@@ -102,13 +102,13 @@ static void *loop_main(void *arg)
 		fw_tick(&g_fw, atomic_fetch_add(&g_now_us, 1000) + 1000);
 		while (fw_pop_log(&g_fw, &e))
 			;
-		ff_q16_init(&want, &g_fw.ctl.cfg.model, g_fw.ctl.cfg.limits.supply_v);
+		ff_q16_init(&want, &g_fw.ctl.set.model, g_fw.ctl.set.limits.supply_v);
 		if (memcmp(&want, &g_fw.ctl.ff, sizeof(want)) ||
-		    g_fw.ctl.inv_4d != q16_from_double(1.0 / (4.0 * g_fw.ctl.cfg.model.d)))
+		    g_fw.ctl.inv_4d != q16_from_double(1.0 / (4.0 * g_fw.ctl.set.model.d)))
 			atomic_fetch_add(&g_inconsistent, 1);
-		if (g_fw.ctl.cfg.model.R != last_R) {
+		if (g_fw.ctl.set.model.R != last_R) {
 			atomic_fetch_add(&g_model_changes, 1);
-			last_R = g_fw.ctl.cfg.model.R;
+			last_R = g_fw.ctl.set.model.R;
 		}
 		atomic_store(&g_mode, g_fw.last_out.mode);
 		atomic_fetch_add(&g_ticks, 1);
@@ -122,11 +122,12 @@ static void setup_fw(const char *path, const char *secret, bool loop)
 	struct line_hal lines = {.ops = &line_none_ops, .ctx = NULL};
 
 	config_defaults(&g_cfg);
-	snprintf(g_cfg.params.secret, sizeof(g_cfg.params.secret), "%s", secret ? secret : "");
-	const struct sim_motor_config sc = sim_motor_config_from(&g_cfg, &g_cfg.model, false);
+	snprintf(g_cfg.fw.secret, sizeof(g_cfg.fw.secret), "%s", secret ? secret : "");
+	const struct sim_motor_config sc = sim_motor_config_from(&g_cfg.sim, false, &g_cfg.ctl.model,
+								 1.0 / g_cfg.ctl.rate_hz, g_cfg.ctl.limits.supply_v);
 
 	assert_int_equal(sim_motor_init(&g_sim, &sc), 0);
-	assert_int_equal(fw_init(&g_fw, &g_cfg, sim_motor_hal(&g_sim), lines), 0);
+	assert_int_equal(fw_init(&g_fw, &g_cfg.ctl, sim_motor_hal(&g_sim), lines), 0);
 	assert_int_equal(param_service_init(&g_ps, &g_fw, &g_cfg, path ? path : "/nonexistent/robot.ini",
 					    (struct param_out){.emit = capture}),
 			 0);
@@ -294,28 +295,28 @@ static void test_set_validates_like_the_ini_parser(void **state)
 static void distinctive(struct omni4_config *c)
 {
 	config_defaults(c);
-	c->model = (struct model_params){0.1 / 3, 0.03125, 4.7, 0.021, 0.0215, 3.3, 2.1, 0.019,
+	c->ctl.model = (struct model_params){0.1 / 3, 0.03125, 4.7, 0.021, 0.0215, 3.3, 2.1, 0.019,
 					 0.3, 0.7, 0.013, 1.7, 2.3, 0.11};
-	c->loop.rate_hz = 777.0;
-	c->loop.sched_fifo = true;
-	c->loop.priority = 42;
-	c->loop.cpu_dma_latency_us = 0;
-	c->control.kp = 1.0 / 7.0;
-	c->control.ki = 1e-5;
-	c->control.feedforward = false;
-	c->control.cmd_timeout_ms = 333;
-	c->limits.supply_v = 24.0;
-	c->limits.supply_min_v = 18.5;
-	c->limits.current_sensor_max_a = 20.25;
-	snprintf(c->lcm.url, sizeof(c->lcm.url), "udpm://239.255.76.67:7700?ttl=0");
-	snprintf(c->hal.motor, sizeof(c->hal.motor), "socketcan");
-	snprintf(c->hal.lines, sizeof(c->hal.lines), "gpiod");
+	c->ctl.rate_hz = 777.0;
+	c->fw.loop.sched_fifo = true;
+	c->fw.loop.priority = 42;
+	c->fw.loop.cpu_dma_latency_us = 0;
+	c->ctl.control.kp = 1.0 / 7.0;
+	c->ctl.control.ki = 1e-5;
+	c->ctl.control.feedforward = false;
+	c->ctl.control.cmd_timeout_ms = 333;
+	c->ctl.limits.supply_v = 24.0;
+	c->ctl.limits.supply_min_v = 18.5;
+	c->ctl.limits.current_sensor_max_a = 20.25;
+	snprintf(c->fw.lcm_url, sizeof(c->fw.lcm_url), "udpm://239.255.76.67:7700?ttl=0");
+	c->fw.motor = OMNI4_MOTOR_SOCKETCAN;
+	c->fw.lines = OMNI4_LINES_GPIOD;
 	c->sim.seed = 2147483647;
 	snprintf(c->can.iface, sizeof(c->can.iface), "vcan7");
 	snprintf(c->gpio.chip, sizeof(c->gpio.chip), "gpiochip3");
 	c->gpio.estop_line = 17;
 	c->gpio.estop_active_low = false;
-	snprintf(c->params.secret, sizeof(c->params.secret), "s3cret-token");
+	snprintf(c->fw.secret, sizeof(c->fw.secret), "s3cret-token");
 }
 
 static void assert_same_config(const struct omni4_config *a, const struct omni4_config *b)
@@ -329,8 +330,8 @@ static void assert_same_config(const struct omni4_config *a, const struct omni4_
 			fail_msg("%s.%s: '%s' != '%s'", config_key_at(i)->section,
 				 config_key_at(i)->name, va, vb);
 	}
-	assert_memory_equal(&a->model, &b->model, sizeof(a->model)); /* bit for bit */
-	assert_true(a->control.kp == b->control.kp);
+	assert_memory_equal(&a->ctl.model, &b->ctl.model, sizeof(a->ctl.model)); /* bit for bit */
+	assert_true(a->ctl.control.kp == b->ctl.control.kp);
 }
 
 static void test_writer_round_trip(void **state)
@@ -411,19 +412,19 @@ static void test_save_replaces_atomically_and_keeps_bak(void **state)
 	assert_int_equal(stat(tmp, &st), -1);      /* no temporary left */
 	config_defaults(&back);
 	assert_int_equal(config_load(bak, &back, &err), 0);
-	assert_near(back.control.kp, 3.0, 0);
+	assert_near(back.ctl.control.kp, 3.0, 0);
 	/* A second save: .bak is the first saved file. */
-	c.control.kp = 9.5;
+	c.ctl.control.kp = 9.5;
 	assert_int_equal(config_save(path, &c, NULL, why, sizeof(why)), 0);
 	config_defaults(&back);
 	assert_int_equal(config_load(bak, &back, &err), 0);
-	assert_near(back.control.kp, 1.0 / 7.0, 0);
+	assert_near(back.ctl.control.kp, 1.0 / 7.0, 0);
 	/* A directory it cannot write: an error with the reason, the file untouched. */
 	assert_true(config_save("/nonexistent-dir/robot.ini", &c, NULL, why, sizeof(why)) < 0);
 	assert_non_null(strstr(why, "/nonexistent-dir/robot.ini.tmp"));
 	config_defaults(&back);
 	assert_int_equal(config_load(path, &back, &err), 0);
-	assert_near(back.control.kp, 9.5, 0);
+	assert_near(back.ctl.control.kp, 9.5, 0);
 	remove_dir();
 }
 
@@ -443,7 +444,7 @@ static void test_set_applies_between_ticks(void **state)
 	assert_string_equal(r.params[0].key, "control.kp");
 	assert_string_equal(r.params[0].value, "40");
 	omni4_param_reply_t_decode_cleanup(&r);
-	assert_near(g_ps.running.control.kp, 40.0, 0);
+	assert_near(g_ps.running.ctl.control.kp, 40.0, 0);
 	/* one change notice with old and new values and the tick */
 	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 1);
 	for (int i = 0; i < g_n_out; i++)
@@ -460,7 +461,7 @@ static void test_set_applies_between_ticks(void **state)
 			omni4_param_changed_t_decode_cleanup(&m);
 		}
 	teardown_fw(true);
-	assert_near(g_fw.ctl.cfg.control.kp, 40.0, 0);
+	assert_near(g_fw.ctl.set.control.kp, 40.0, 0);
 }
 
 /* At start every value in force goes out once (source "start"), so a log that begins with the
@@ -507,7 +508,7 @@ static void test_start_announces_every_value(void **state)
 	}
 	fclose(f);
 	config_defaults(&back);
-	snprintf(back.params.secret, sizeof(back.params.secret), "%s", want.params.secret);
+	snprintf(back.fw.secret, sizeof(back.fw.secret), "%s", want.fw.secret);
 	if (config_load_string(text, "start.ini", &back, &err))
 		fail_msg("%s", err.msg);
 	assert_same_config(&want, &back);
@@ -531,9 +532,9 @@ static void test_nothing_changes_without_a_tick(void **state)
 		fail_msg("'%s'", msg);
 	/* withdrawn: neither the running copy nor the controller changed, and a later tick
 	 * does not pick it up */
-	assert_near(g_ps.running.model.R, 4.3111, 0);
+	assert_near(g_ps.running.ctl.model.R, 4.3111, 0);
 	fw_tick(&g_fw, 2000000);
-	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);
+	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);
 	assert_memory_equal(&ff0, &g_fw.ctl.ff, sizeof(ff0));
 
 	/* Prepared and offered by hand: before the tick nothing, after it everything. */
@@ -541,17 +542,17 @@ static void test_nothing_changes_without_a_tick(void **state)
 	struct omni4_config next = g_ps.running;
 	char why[320];
 
-	next.model.R = 8.6222;
-	next.model.M = 3.0;
-	assert_int_equal(fw_param_prepare(&g_fw, &next, false, &u, why, sizeof(why)), 0);
+	next.ctl.model.R = 8.6222;
+	next.ctl.model.M = 3.0;
+	assert_int_equal(fw_param_prepare(&g_fw, &next.ctl, false, &u, why, sizeof(why)), 0);
 	fw_param_offer(&g_fw, &u);
-	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);
+	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);
 	assert_memory_equal(&ff0, &g_fw.ctl.ff, sizeof(ff0));
 	const int64_t seq = g_fw.seq;
 
 	fw_tick(&g_fw, 2001000);
-	assert_near(g_fw.ctl.cfg.model.R, 8.6222, 0);
-	assert_near(g_fw.ctl.cfg.model.M, 3.0, 0);
+	assert_near(g_fw.ctl.set.model.R, 8.6222, 0);
+	assert_near(g_fw.ctl.set.model.M, 3.0, 0);
 	assert_memory_equal(&u.ff, &g_fw.ctl.ff, sizeof(u.ff));
 	struct fw_param_result r;
 
@@ -585,7 +586,7 @@ static void test_model_swap_is_atomic_under_load(void **state)
 	assert_int_equal(ok, 200);
 	assert_int_equal(atomic_load(&g_inconsistent), 0);
 	assert_true(atomic_load(&g_model_changes) >= 150); /* the loop ran on most of them */
-	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);   /* the last one (i = 199: a) */
+	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);   /* the last one (i = 199: a) */
 }
 
 static void test_refusals_say_why_and_change_nothing(void **state)
@@ -594,7 +595,7 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	char msg[320];
 
 	setup_fw(NULL, NULL, true);
-	const double kp = g_ps.running.control.kp;
+	const double kp = g_ps.running.ctl.control.kp;
 
 	assert_int_equal(set1("control.kp", "1e9", msg, sizeof(msg)),
 			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
@@ -628,8 +629,8 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	omni4_param_reply_t_decode_cleanup(&r);
 	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 0);
 	teardown_fw(true);
-	assert_near(g_fw.ctl.cfg.control.kp, kp, 0);
-	assert_near(g_fw.ctl.cfg.model.R, 4.3111, 0);
+	assert_near(g_fw.ctl.set.control.kp, kp, 0);
+	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);
 }
 
 static void test_idle_only_keys_wait_for_idle(void **state)
@@ -663,8 +664,8 @@ static void test_idle_only_keys_wait_for_idle(void **state)
 	assert_int_equal(atomic_load(&g_mode), CTL_IDLE);
 	assert_int_equal(set1("model.d", "0.1", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_OK);
 	teardown_fw(true);
-	assert_near(g_fw.ctl.cfg.model.d, 0.1, 0);
-	assert_near(g_fw.ctl.cfg.model.R, 5, 0);
+	assert_near(g_fw.ctl.set.model.d, 0.1, 0);
+	assert_near(g_fw.ctl.set.model.R, 5, 0);
 }
 
 static void test_load_merges_a_partial_model(void **state)
@@ -680,16 +681,16 @@ static void test_load_merges_a_partial_model(void **state)
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_int_equal(r.n, 2);
 	omni4_param_reply_t_decode_cleanup(&r);
-	assert_near(g_ps.running.model.Bv, 0.61, 0);
-	assert_near(g_ps.running.model.Cv, 1.5, 0);
-	assert_near(g_ps.running.model.R, 4.3111, 0); /* kept */
+	assert_near(g_ps.running.ctl.model.Bv, 0.61, 0);
+	assert_near(g_ps.running.ctl.model.Cv, 1.5, 0);
+	assert_near(g_ps.running.ctl.model.R, 4.3111, 0); /* kept */
 	/* a file that would make the merged model invalid: refused whole */
 	request(OMNI4_PARAM_REQUEST_T_OP_LOAD, 0, NULL, NULL, NULL, "[model]\nBvn = 0.9\nJ = 0\n");
 	last_reply(&r);
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(r.message, "model.J"));
 	omni4_param_reply_t_decode_cleanup(&r);
-	assert_near(g_ps.running.model.Bvn, 0.6763, 0);
+	assert_near(g_ps.running.ctl.model.Bvn, 0.6763, 0);
 	/* what the INI parser rejects, LOAD rejects with the file's name and line */
 	request(OMNI4_PARAM_REQUEST_T_OP_LOAD, 0, NULL, NULL, NULL, "[model]\nBv = 1\nBv = 2\n");
 	last_reply(&r);
@@ -777,7 +778,7 @@ static void test_broken_requests(void **state)
 	longer[0] ^= 0x40;
 	param_service_handle(&g_ps, longer, (size_t)len);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
-	assert_near(g_ps.running.control.kp, 20.0, 0);
+	assert_near(g_ps.running.ctl.control.kp, 20.0, 0);
 	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 6); /* + the 6 bad n and lengths */
 	/* decodable but wrong: unknown op, unknown key, a key twice, too many keys */
 	static const char *const two[] = {"control.kp", "control.kp"};
@@ -806,7 +807,7 @@ static void test_broken_requests(void **state)
 	request(OMNI4_PARAM_REQUEST_T_OP_GET, PARAM_MAX_KEYS + 1, many, NULL, NULL, NULL);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	teardown_fw(true);
-	assert_near(g_fw.ctl.cfg.control.kp, 20.0, 0);
+	assert_near(g_fw.ctl.set.control.kp, 20.0, 0);
 }
 
 static void test_secret_and_repeated_ids(void **state)
@@ -823,7 +824,7 @@ static void test_secret_and_repeated_ids(void **state)
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_DENIED);
 	request(OMNI4_PARAM_REQUEST_T_OP_SAVE, 0, NULL, NULL, NULL, NULL);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_DENIED);
-	assert_near(g_ps.running.control.kp, 20.0, 0);
+	assert_near(g_ps.running.ctl.control.kp, 20.0, 0);
 	/* reads need no secret, and never show it */
 	request(OMNI4_PARAM_REQUEST_T_OP_LIST, 0, NULL, NULL, NULL, NULL);
 	last_reply(&r);
@@ -853,7 +854,7 @@ static void test_secret_and_repeated_ids(void **state)
 			    g_out[g_n_out - 1].len);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_true(atomic_load(&g_ps.n.applied) == 1);
-	assert_near(g_ps.running.control.kp, 31.0, 0);
+	assert_near(g_ps.running.ctl.control.kp, 31.0, 0);
 	teardown_fw(true);
 }
 
@@ -882,8 +883,8 @@ static void test_save_writes_what_is_in_force(void **state)
 	teardown_fw(true);
 	config_defaults(&back);
 	assert_int_equal(config_load(path, &back, &err), 0);
-	assert_near(back.control.kp, 44.5, 0);
-	assert_near(back.model.Cw, 0.2, 0);
+	assert_near(back.ctl.control.kp, 44.5, 0);
+	assert_near(back.ctl.model.Cw, 0.2, 0);
 	remove_dir();
 }
 

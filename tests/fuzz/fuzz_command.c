@@ -15,7 +15,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 static void check(const struct ctl *c, const struct ctl_output *o)
 {
 	for (int j = 0; j < 4; j++) {
-		if (!isfinite(o->volts[j]) || fabsf(o->volts[j]) > c->cfg.limits.supply_v + 1e-3f)
+		if (!isfinite(o->volts[j]) || fabsf(o->volts[j]) > c->set.limits.supply_v + 1e-3f)
 			__builtin_trap();
 		if (!o->enable && o->volts[j] != 0.0f)
 			__builtin_trap();
@@ -30,7 +30,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	int64_t now = 1000000;
 
 	config_defaults(&cfg);
-	if (ctl_init(&c, &cfg))
+	if (ctl_init(&c, &cfg.ctl))
 		__builtin_trap();
 	struct motor_sample s = {{0.1f, 0.1f, 0.1f, 0.1f}, {1, 1, 1, 1}, 12.0f, 0};
 

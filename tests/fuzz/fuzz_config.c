@@ -22,7 +22,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	config_defaults(&cfg);
 	const int rc = config_load_string(text, "fuzz.ini", &cfg, &err);
 
-	if (rc == 0 && model_params_check(&cfg.model, NULL) != 0)
+	if (rc == 0 && model_params_check(&cfg.ctl.model, NULL) != 0)
 		__builtin_trap();
 	if (rc != 0 && err.msg[0] == '\0')
 		__builtin_trap();

@@ -26,7 +26,7 @@ static struct simrun *driving(void)
 	char err[256];
 
 	config_defaults(&cfg);
-	struct simrun *sr = simrun_create(&cfg, &cfg.model, true, NULL, err, sizeof(err));
+	struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, true, NULL, err, sizeof(err));
 
 	assert_non_null(sr);
 	const double v[3] = {1.0, 0, 0};
@@ -257,11 +257,11 @@ static void fw_on_sim_plant(struct fw *fw)
 	struct omni4_config cfg;
 
 	config_defaults(&cfg);
-	const struct sim_motor_config sc = {.params = cfg.model, .period_s = 1e-3, .supply_v = 12,
+	const struct sim_motor_config sc = {.params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12,
 					    .camera_rate_hz = 25};
 
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(fw, &cfg, sim_motor_hal(&sim),
+	assert_int_equal(fw_init(fw, &cfg.ctl, sim_motor_hal(&sim),
 				 (struct line_hal){.ops = &line_none_ops}), 0);
 }
 

@@ -7,6 +7,7 @@
 #include <lcm/lcm.h>
 #include <time.h>
 
+#include "omni4/config.h"
 #include "omni4/fw.h"
 #include "omni4/lcmio.h"
 #include "omni4/rtloop.h"
@@ -72,12 +73,12 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 
 	config_defaults(&cfg);
 	const struct sim_motor_config sc = {
-		.params = cfg.model, .period_s = 1e-3, .supply_v = 12, .current_noise_a = 0.02,
+		.params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12, .current_noise_a = 0.02,
 		.encoder_cpr = 10240, .camera_rate_hz = 25, .camera_pos_noise_m = 0.01,
 		.camera_theta_noise_rad = 0.05, .seed = 3,
 	};
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(&fw, &cfg, sim_motor_hal(&sim),
+	assert_int_equal(fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim),
 				 (struct line_hal){.ops = &line_none_ops}), 0);
 	sim_motor_set_pose_cb(&sim, sim_pose, &fw, 0);
 

@@ -16,7 +16,7 @@ enum { IDLE = 0, VELOCITY = 1, VOLTAGE = 2, COAST = 3, CLEAR = 4, FAULT = 5, EST
 static struct simrun *make(struct omni4_config *cfg, bool noise, const char *log)
 {
 	char err[256];
-	struct simrun *sr = simrun_create(cfg, &cfg->model, noise, log, err, sizeof(err));
+	struct simrun *sr = simrun_create(cfg, &cfg->ctl.model, noise, log, err, sizeof(err));
 
 	if (!sr)
 		fail_msg("simrun_create: %s", err);
@@ -53,9 +53,9 @@ static double track_rms_on(const struct model_params *plant, bool ff, bool fb, d
 	char err[256];
 
 	config_defaults(&cfg);
-	cfg.control.feedforward = ff;
-	cfg.control.feedback = fb;
-	struct simrun *sr = simrun_create(&cfg, plant ? plant : &cfg.model, true, NULL, err,
+	cfg.ctl.control.feedforward = ff;
+	cfg.ctl.control.feedback = fb;
+	struct simrun *sr = simrun_create(&cfg, plant ? plant : &cfg.ctl.model, true, NULL, err,
 					  sizeof(err));
 
 	if (!sr)
@@ -185,7 +185,7 @@ static void test_watchdog_ramps_to_zero_then_idles(void **state)
 			idle = (long)i;
 	}
 	print_message("watchdog: timeout %d ms, tripped after %ld ms, outputs off after %ld ms\n",
-		      cfg.control.cmd_timeout_ms, trip, idle);
+		      cfg.ctl.control.cmd_timeout_ms, trip, idle);
 	/* docs/faults.md: cmd_timeout_ms 200, stop ramp 200 ms. The command went in before tick 0
 	 * (utime 0): the trip is on the first tick more than 200 ms after it, the ramp then
 	 * takes exactly 200 ticks. */
@@ -441,7 +441,7 @@ static void test_voltage_ramp_reproduces_the_papers_ramped_step(void **state)
 	 * at tick i acts during the plant step of tick i + 1 (the first step sees 0 V). */
 	struct plant pl;
 
-	plant_init(&pl, &cfg.model);
+	plant_init(&pl, &cfg.ctl.model);
 	for (size_t i = 0; i < n; i++) {
 		const double ui = i == 0 ? 0.0 : level * fmin(1.0, (i - 1) * 1e-3 / ramp);
 		const double uu[4] = {0, -ui, 0, ui};
@@ -499,8 +499,8 @@ static void test_coast_gives_zero_current_and_free_deceleration(void **state)
 	double v0 = 0;
 
 	for (size_t i = c0 - 10; i < c0; i++)
-		v0 += m[i].wheel_speed[3] * cfg.model.r / 10;
-	const double t_stop = cfg.model.M / cfg.model.Bv * log(1 + cfg.model.Bv * v0 / cfg.model.Cv);
+		v0 += m[i].wheel_speed[3] * cfg.ctl.model.r / 10;
+	const double t_stop = cfg.ctl.model.M / cfg.ctl.model.Bv * log(1 + cfg.ctl.model.Bv * v0 / cfg.ctl.model.Cv);
 	size_t stop = n;
 
 	while (stop > c0 && m[stop - 1].wheel_speed[3] == 0.0f)

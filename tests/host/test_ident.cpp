@@ -245,7 +245,7 @@ const std::map<std::string, std::map<std::string, double>> &method_bounds() {
 void identify_robot(const model_params &p, unsigned seed, double bound) {
   omni4_config cfg;
   config_defaults(&cfg);
-  cfg.model = p;
+  cfg.ctl.model = p;
   cfg.sim.seed = static_cast<int>(seed);
   const std::string log = temp_path(".lcmlog");
   run_simulation(cfg, p, true, log, true, 0, 0);
@@ -409,7 +409,7 @@ LogData simulated_log(unsigned seed) {
   config_defaults(&cfg);
   cfg.sim.seed = static_cast<int>(seed);
   const std::string log = temp_path(".lcmlog");
-  run_simulation(cfg, cfg.model, true, log, true, 0, 0);
+  run_simulation(cfg, cfg.ctl.model, true, log, true, 0, 0);
   LogData d = read_log(log);
   std::remove(log.c_str());
   return d;
@@ -480,7 +480,7 @@ TEST(BadInput, TruncatedLogIsReadUpToTheCutAndTheMissingKindIsNamed) {
   omni4_config cfg;
   config_defaults(&cfg);
   const std::string log = temp_path(".lcmlog");
-  run_simulation(cfg, cfg.model, true, log, true, 0, 0);
+  run_simulation(cfg, cfg.ctl.model, true, log, true, 0, 0);
   const LogData full = read_log(log);
   // Cut in the middle of an event, at 60 %.
   const long cut = static_cast<long>(full.bytes_total * 0.6) + 7;
@@ -491,7 +491,7 @@ TEST(BadInput, TruncatedLogIsReadUpToTheCutAndTheMissingKindIsNamed) {
   EXPECT_GT(part.motors.size(), full.motors.size() / 2);
   EXPECT_LT(part.motors.size(), full.motors.size());
   // The cut log has no step runs: experiment 3 is missing and named, the rest is identified.
-  const IdentResult r = identify(split_segments(part), base_of(cfg.model));
+  const IdentResult r = identify(split_segments(part), base_of(cfg.ctl.model));
   EXPECT_TRUE(r.table.count("exp3_iv") == 0 || r.table.at("exp3_iv").empty());
   bool named = false;
   for (const std::string &m : r.missing) named |= m.find("no 'step' segments") != std::string::npos;
@@ -504,7 +504,7 @@ TEST(BadInput, CorruptBytesInTheMiddleAreSkippedAndTheRestIsRead) {
   omni4_config cfg;
   config_defaults(&cfg);
   const std::string log = temp_path(".lcmlog");
-  run_simulation(cfg, cfg.model, false, log, false, 5.0, 0);
+  run_simulation(cfg, cfg.ctl.model, false, log, false, 5.0, 0);
   const LogData full = read_log(log);
   {
     // The junk starts on the first event header after the middle of the file, so that it
@@ -780,10 +780,10 @@ TEST(Validation, RunsEndWhereTheFilterStillSeesOnlyTheDrive) {
   omni4_config cfg;
   config_defaults(&cfg);
   const std::string log = temp_path(".lcmlog");
-  run_simulation(cfg, cfg.model, false, log, true, 0, 0);
+  run_simulation(cfg, cfg.ctl.model, false, log, true, 0, 0);
   const LogData d = read_log(log);
   std::remove(log.c_str());
-  const Validation v = validate(split_segments(d), cfg.model);
+  const Validation v = validate(split_segments(d), cfg.ctl.model);
   std::printf("exact sensors, true parameters: e_max v %.2e vn %.2e w %.2e\n", v.axis[0].e_max,
               v.axis[1].e_max, v.axis[2].e_max);
   // Measured 5.8e-5, 5.8e-5 m/s, 1.1e-3 rad/s (with the runs' ends inside the filter window:

@@ -253,7 +253,7 @@ LogData sim_log(unsigned seed, const std::array<double, 4> &offset) {
   config_defaults(&cfg);
   cfg.sim.seed = static_cast<int>(seed);
   const std::string path = temp_path(".lcmlog");
-  run_simulation(cfg, cfg.model, true, path, true, 0, 0);
+  run_simulation(cfg, cfg.ctl.model, true, path, true, 0, 0);
   LogData d = read_log(path);
   std::remove(path.c_str());
   // The sensor's offset and noise on every reading, the bridge-off ones included.

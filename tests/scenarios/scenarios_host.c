@@ -1,7 +1,8 @@
-/* scenarios_host.c - the core's HIL scenarios on the host (the MCU runs the same: mcu/). */
+/* scenarios_host.c - the microcontroller image's scenarios on the host (the MCU runs the same:
+ * mcu/). */
 #include <stdio.h>
-#include <time.h>
 
+#include "omni4/clock.h"
 #include "scenarios.h"
 
 static void print_line(const char *line)
@@ -12,10 +13,7 @@ static void print_line(const char *line)
 
 static uint32_t now_ns(void)
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (uint32_t)((uint64_t)t.tv_sec * 1000000000u + (uint64_t)t.tv_nsec);
+	return (uint32_t)omni4_monotonic_ns();
 }
 
 int main(int argc, char **argv)

@@ -48,7 +48,7 @@ copy_with_libs() {
     cp -L "$lib" "$R$lib"
   done
 }
-for b in omni4-fw omni4-motorsim vcan_check; do copy_with_libs "$BIN/$b" "$R/omni4/"; done
+for b in omni4-fw omni4-fw-test-hooks omni4-motorsim vcan_check; do copy_with_libs "$BIN/$b" "$R/omni4/"; done
 for b in candump cansend cangen; do copy_with_libs "$(command -v $b)" "$R/bin/"; done
 copy_with_libs "$(command -v ip)" "$R/sbin/"
 cp "$SRC/tests/vcan/vm_init.sh" "$R/init"

@@ -93,7 +93,7 @@ for at in 1.2003 1.3127 1.4251 1.5379 1.6502 1.7631 1.8753 1.9877; do
   CD=$!
   n=0
   while ! grep -q listening /tmp/crash.log && [ $n -lt 100 ]; do sleep 0.1; n=$((n + 1)); done
-  omni4-fw --config /omni4/vcan.ini --crash-after $at -q > /tmp/fw2.log 2>&1 &
+  OMNI4_TEST_CRASH_AFTER_S=$at omni4-fw-test-hooks --config /omni4/vcan.ini -q > /tmp/fw2.log 2>&1 &
   FW=$!
   vcan_check rate 1.5 50 > /dev/null
   n=0

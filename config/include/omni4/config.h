@@ -1,32 +1,45 @@
 /*
- * config.h - the one INI file of a robot (inih): model parameters and firmware settings.
+ * config.h - the one INI file of a robot (inih): every layer's settings in one struct, read,
+ * checked and written through one key table.
  *
- * Sections and keys (SI units; defaults in config_defaults):
- *   [model]   d r l Kv Kt R M J Bv Bvn Bw Cv Cvn Cw   (all 14 required if the section is present)
- *   [loop]    rate_hz sched_fifo priority mlockall cpu_dma_latency_us
- *   [control] kp ki feedforward feedback cmd_timeout_ms stop_ramp_s
- *   [limits]  supply_v supply_min_v vel_lin_max vel_rot_max acc_lin_max acc_rot_max current_max_a
- *             current_sensor_max_a
- *   [lcm]     url
- *   [hal]     motor (sim|socketcan)  lines (none|sim|gpiod)
- *   [sim]     current_noise_a encoder_cpr camera_rate_hz camera_pos_noise_m
- *             camera_theta_noise_rad seed
- *   [can]     iface bitrate status_timeout_ms
- *   [gpio]    chip estop_line estop_active_low enable_line led_line
- *   [params]  secret (token a parameter change over LCM must carry; "" = none)
- * Unknown sections or keys, duplicate keys, malformed or out-of-range values are errors.
- * One table (config.c) holds every key with its type, range, unit and when it may change over
- * the bus; the parser, the writer and the parameter service read it through config_key_*.
+ * The layers own their settings and the rows of the table that fill them (key, default, range,
+ * unit, when it may change, one line of doc): the controller (core: ctl_keys.def), omni4-fw
+ * (fw_keys.def), the sim backend (sim_keys.def), SocketCAN (socketcan_keys.def), libgpiod
+ * (gpiod_keys.def). This file puts them together; docs/ini-keys.md is generated from the table
+ * (omni4-config-keys). Unknown sections or keys, duplicate keys, malformed or out-of-range
+ * values are errors; [model] holds all 14 keys or none.
  */
 #ifndef OMNI4_CONFIG_H
 #define OMNI4_CONFIG_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 
-#include "omni4/config_types.h"
+#include "omni4/ctl_settings.h"
+#include "omni4/fw_settings.h"
+#include "omni4/gpiod_settings.h"
 #include "omni4/params.h"
+#include "omni4/sim_settings.h"
+#include "omni4/socketcan_settings.h"
+
+/* A robot's whole INI. */
+struct omni4_config {
+	struct ctl_settings ctl;        /* [model] [loop] rate_hz [control] [limits] */
+	struct fw_settings fw;          /* [loop] real-time, [lcm] [hal] [params] */
+	struct sim_settings sim;        /* [sim] */
+	struct socketcan_settings can;  /* [can] */
+	struct gpiod_settings gpio;     /* [gpio] */
+};
+
+/* Every key's default (the tables' default column): the paper's Table III robot at 1 kHz on the
+ * sim backend. */
+void config_defaults(struct omni4_config *cfg);
+
+/* Room for any key's value as INI text, with its NUL (the longest string field is 128 bytes;
+ * test_config checks every key's default and limits fit). */
+#define CONFIG_VALUE_MAX 160
 
 struct config_error {
 	int line;      /* 0 when the error is not tied to a line */
@@ -60,7 +73,13 @@ int config_format_double(char *buf, size_t n, double v);
 
 /* ---- the key table ------------------------------------------------------------------------ */
 
-enum config_key_type { CONFIG_DOUBLE, CONFIG_INT, CONFIG_BOOL, CONFIG_STRING };
+enum config_key_type {
+	CONFIG_DOUBLE,
+	CONFIG_INT,
+	CONFIG_BOOL,
+	CONFIG_STRING, /* a char array of `size` bytes */
+	CONFIG_ENUM,   /* an int: the index of the value in choices */
+};
 
 /* When a key may change while omni4-fw runs (param_value_t CHANGE_* has the same numbers). */
 enum config_change {
@@ -74,8 +93,9 @@ struct config_key {
 	const char *name;
 	enum config_key_type type;
 	size_t offset;       /* in struct omni4_config */
+	size_t size;         /* of the field [bytes] */
 	double min, max;     /* inclusive range for numbers */
-	const char *choices; /* for strings: "a|b|c", NULL = any */
+	const char *choices; /* ENUM: "a|b|c", the enum's order */
 	const char *unit;    /* SI unit, "" for none */
 	enum config_change change;
 	const char *doc;     /* one line; names any check beyond the range */
@@ -115,9 +135,5 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
  */
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
 		size_t n);
-/* Called by config_save between the synced path.tmp and the replacement of path. Does nothing
- * here (a weak definition); a test build links a definition of its own that pauses, so a test
- * can kill the process right there (tests/hil/save_pause.c, omni4-fw-save-pause). */
-void config_save_before_replace(const char *tmp, const char *path);
 
 #endif /* OMNI4_CONFIG_H */

@@ -14,8 +14,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/config_types.h"
 #include "omni4/ctl_blocks.h"
+#include "omni4/ctl_settings.h"
 #include "omni4/feedforward.h"
 #include "omni4/hal.h"
 #include "omni4/q16.h"
@@ -89,8 +89,9 @@ struct ctl_counters {
 	uint64_t faults_latched;
 };
 
-/* The settings the tick uses, at its precision (single, the Cortex-M4F's FPU): taken from the
- * configuration at init and at every parameter change, never per tick. */
+/* The settings as the tick and the command check use them (single precision, the Cortex-M4F's
+ * FPU; the command limits in double, as commands are checked): derived from struct ctl_settings
+ * at init and at every parameter change, never per tick. The fast path reads only these. */
 struct ctl_tuning {
 	float dt;             /* loop period [s] */
 	float r;              /* wheel radius [m] */
@@ -100,10 +101,16 @@ struct ctl_tuning {
 	float supply_min;     /* [V] */
 	int64_t cmd_timeout_us;
 	int encoder_bad_ticks_max; /* ticks the rigid-body residual may stay too large */
+	float stop_ramp_s;    /* watchdog stop ramp [s] */
+	bool feedforward;
+	bool feedback;
+	double vel_lin_max;   /* command limits [m/s], [rad/s], [V] */
+	double vel_rot_max;
+	double supply_v;
 };
 
 struct ctl {
-	struct omni4_config cfg;
+	struct ctl_settings set; /* the settings in force (read off the loop: reports, tests) */
 	struct ff_q16 ff;
 	q16_t inv_4d;
 	int64_t period_us;      /* loop period [us] */
@@ -135,7 +142,7 @@ struct ctl {
 };
 
 /* -EINVAL if the configuration is unusable (bad model, non-positive rate). */
-int ctl_init(struct ctl *c, const struct omni4_config *cfg);
+int ctl_init(struct ctl *c, const struct ctl_settings *cfg);
 
 /*
  * Fast loop. Validate and apply a command received at now_us. Returns 0 if accepted, -EINVAL
@@ -155,7 +162,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 
 /* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
  * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
-void ctl_retune(struct ctl *c, const struct omni4_config *cfg, const struct ff_q16 *ff,
+void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
 		q16_t inv_4d);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */

@@ -13,8 +13,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/config_types.h"
 #include "omni4/ctl.h"
+#include "omni4/ctl_settings.h"
 #include "omni4/hal.h"
 #include "omni4/ring.h"
 
@@ -62,7 +62,7 @@ struct fw_counters {
  * old and new values.
  */
 struct fw_param_update {
-	struct omni4_config cfg;
+	struct ctl_settings set;
 	struct ff_q16 ff;
 	q16_t inv_4d;
 	bool idle_only; /* the loop refuses it (-EBUSY) if the bridges are driven at that tick */
@@ -73,9 +73,9 @@ struct fw_param_update {
  * the model and the limits). Both may be NULL. */
 struct fw_param_hooks {
 	/* Parameter thread: 0 if the HAL accepts cfg, else -EINVAL and why. */
-	int (*check)(void *ctx, const struct omni4_config *cfg, char *why, size_t n);
+	int (*check)(void *ctx, const struct ctl_settings *cfg, char *why, size_t n);
 	/* Loop thread, between two ticks, right after the controller took cfg. No allocation. */
-	void (*apply)(void *ctx, const struct omni4_config *cfg);
+	void (*apply)(void *ctx, const struct ctl_settings *cfg);
 	void *ctx;
 };
 
@@ -114,7 +114,7 @@ struct fw {
 };
 
 /* Start-up. Outputs are switched off. -EINVAL for a bad configuration. */
-int fw_init(struct fw *fw, const struct omni4_config *cfg, struct motor_hal motor,
+int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal motor,
 	    struct line_hal lines);
 
 /* Fast loop. One tick at controller time now_us. */
@@ -134,7 +134,7 @@ void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks);
 
 /* Parameter side. Validate cfg as start-up does (controller and HAL) and precompute what the
  * loop needs into u. 0, or -EINVAL and why. */
-int fw_param_prepare(struct fw *fw, const struct omni4_config *cfg, bool idle_only,
+int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
 		     struct fw_param_update *u, char *why, size_t n);
 
 /* Parameter side (one update at a time; the adapter waits between these calls: a thread polls,
@@ -149,7 +149,8 @@ bool fw_param_withdraw(struct fw *fw, struct fw_param_update *u);
 
 /* Shutdown / any exit path: outputs off (voltages 0, bridges and enable line off). */
 void fw_outputs_off(struct fw *fw);
-/* Crash handlers (any thread): outputs off now, and the loop stops driving for good. */
+/* Crash handlers (any thread, async-signal-safe): the loop stops driving for good, the motor
+ * backend's halt op runs (if it has one), then outputs off. */
 void fw_emergency_off(struct fw *fw);
 
 #endif /* OMNI4_FW_H */

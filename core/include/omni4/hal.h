@@ -3,7 +3,8 @@
  * context, thin inline wrappers. The loop includes this header only, never a backend's.
  *
  * Calling context: every op marked "fast loop" runs inside the fixed-rate loop: it must not
- * block, allocate or log; it returns 0 or a negative errno.
+ * block, allocate or log; it returns 0 or a negative errno. Each op says whether a backend must
+ * provide it (mandatory) or may leave it NULL (optional: the wrapper then does what is said).
  */
 #ifndef OMNI4_HAL_H
 #define OMNI4_HAL_H
@@ -26,15 +27,24 @@ struct motor_sample {
 };
 
 struct motor_hal_ops {
-	/* Fast loop. Turn the H-bridges on (driving) or off (free-wheeling, no braking). */
+	/* Mandatory. Fast loop. Turn the H-bridges on (driving) or off (free-wheeling, no
+	 * braking). */
 	int (*enable)(void *ctx, bool on);
-	/* Fast loop. Set the four channel voltages [V]; the caller has clamped them. */
+	/* Mandatory. Fast loop. Set the four channel voltages [V]; the caller has clamped them. */
 	int (*write)(void *ctx, const float volts[4]);
-	/* Fast loop. Latest reading; -EAGAIN if none is available yet. */
+	/* Mandatory. Fast loop. Latest reading; -EAGAIN if none is available yet. */
 	int (*read)(void *ctx, struct motor_sample *out);
-	/* Not in the fast loop. Ask the drivers to clear their latched faults. */
+	/* Optional (NULL: nothing to clear, 0). Fast loop, on the tick that takes a
+	 * MODE_CLEAR_FAULT command only: ask the drivers to clear their latched faults, without
+	 * waiting for their answer (the next readings show it). */
 	int (*clear_faults)(void *ctx);
-	/* Start-up / shutdown only. Outputs off, resources released. */
+	/* Optional (NULL: the caller's 0 V / disable writes are the last word). Any thread, also a
+	 * crash handler: async-signal-safe. Outputs off for good: every later enable / write is
+	 * dropped, and the backend makes sure its own off command is the last one to reach the
+	 * drivers even if another thread is in a write at that instant. */
+	void (*halt)(void *ctx);
+	/* Optional (NULL: nothing to release). Start-up / shutdown only. Outputs off, resources
+	 * released. */
 	void (*close)(void *ctx);
 };
 
@@ -63,6 +73,12 @@ static inline int hal_motor_clear_faults(const struct motor_hal *h)
 	return h->ops->clear_faults ? h->ops->clear_faults(h->ctx) : 0;
 }
 
+static inline void hal_motor_halt(const struct motor_hal *h)
+{
+	if (h->ops && h->ops->halt)
+		h->ops->halt(h->ctx);
+}
+
 static inline void hal_motor_close(const struct motor_hal *h)
 {
 	if (h->ops && h->ops->close)
@@ -71,13 +87,15 @@ static inline void hal_motor_close(const struct motor_hal *h)
 
 /* Digital lines: e-stop input, enable output, status LED. */
 struct line_hal_ops {
-	/* Fast loop. *active = e-stop pressed (after the configured polarity). */
+	/* Mandatory. Fast loop. *active = e-stop pressed (after the configured polarity). */
 	int (*read_estop)(void *ctx, bool *active);
-	/* Fast loop. Drive the enable output of the power stage. */
+	/* Mandatory. Fast loop; also the crash path (async-signal-safe). Drive the enable output
+	 * of the power stage. */
 	int (*set_enable)(void *ctx, bool on);
-	/* Fast loop. Status LED. */
+	/* Mandatory. Fast loop. Status LED. */
 	int (*set_led)(void *ctx, bool on);
-	/* Start-up / shutdown only. Lines released (enable low). */
+	/* Optional (NULL: nothing to release). Start-up / shutdown only. Lines released (enable
+	 * low). */
 	void (*close)(void *ctx);
 };
 

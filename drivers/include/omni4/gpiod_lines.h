@@ -10,6 +10,7 @@
 
 #include <stdbool.h>
 
+#include "omni4/gpiod_settings.h"
 #include "omni4/hal.h"
 
 #define GPIOD_ESTOP_RELEASE_TICKS 20
@@ -24,18 +25,10 @@ struct gpiod_lines {
 	bool pressed;
 };
 
-struct gpiod_lines_config {
-	const char *chip;     /* name, path or number ("gpiochip0", "/dev/gpiochip0", "0") */
-	int estop_line;       /* offset, -1 = none */
-	bool estop_active_low;
-	int enable_line;      /* -1 = none */
-	int led_line;         /* -1 = none */
-};
-
 extern const struct line_hal_ops gpiod_lines_ops;
 
 /* Start-up. -ENODEV (chip), -EINVAL (offset), -EBUSY (line in use) ...; nothing held on error. */
-int gpiod_lines_open(struct gpiod_lines *g, const struct gpiod_lines_config *cfg);
+int gpiod_lines_open(struct gpiod_lines *g, const struct gpiod_settings *cfg);
 
 static inline struct line_hal gpiod_lines_hal(struct gpiod_lines *g)
 {

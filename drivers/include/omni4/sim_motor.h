@@ -15,11 +15,11 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/config_types.h"
 #include "omni4/hal.h"
 #include "omni4/params.h"
 #include "omni4/plant.h"
 #include "omni4/rng.h"
+#include "omni4/sim_settings.h"
 
 struct sim_motor_config {
 	struct model_params params;
@@ -72,10 +72,12 @@ struct sim_motor {
 extern const struct motor_hal_ops sim_motor_ops;
 extern const struct line_hal_ops sim_line_ops;
 
-/* The settings of a robot's INI ([sim] sensor noise and faults, or exact sensors when noise
- * is false; the loop period and supply) with `plant` as the simulated robot. */
-struct sim_motor_config sim_motor_config_from(const struct omni4_config *cfg,
-					      const struct model_params *plant, bool noise);
+/* The [sim] settings (sensor noise and faults, or exact sensors when noise is false; the camera
+ * rate and the seed either way) with `plant` as the simulated robot, stepped every period_s
+ * from a supply of supply_v. */
+struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bool noise,
+					      const struct model_params *plant, double period_s,
+					      double supply_v);
 
 /* -EINVAL for invalid parameters or settings. */
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg);

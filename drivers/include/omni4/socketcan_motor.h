@@ -28,6 +28,7 @@
 #include <stdint.h>
 
 #include "omni4/can_proto.h"
+#include "omni4/ctl_settings.h"
 #include "omni4/hal.h"
 
 /* Frames drained per read: 64 per millisecond since the previous read (a real 1 Mbit/s bus
@@ -57,15 +58,18 @@ struct sc_limits {
 	int confirm_frames;     /* N: consecutive agreeing frames that confirm a held value */
 };
 
-/* The limits of a robot (SI units; dt = STATUS period [s], noise = current noise sigma [A]):
- * current_step = 2 supply / R + 10 noise + 1 LSB (L neglected: a full-scale voltage reversal
- * moves the current by 2 supply / R at once); speed_step = a_max dt / r + 2 LSB with
- * a_max = f_max (2/M + 4 d^2/J), f_max = l Kt (2 supply / R) / r (all four wheels at the
- * largest force, worst-case signs: the largest linear acceleration of one wheel's rim). */
-struct sc_limits sc_limits_from_model(double supply_v, double R, double Kt, double l, double r,
-				      double M, double J, double d, double dt, double noise_a,
-				      double current_limit_a);
-/* Table III robot, 12 V supply, 1 kHz STATUS, 0.02 A noise, 5 A limit, N = 3. */
+/* The driver boards' current-sense noise allowance in a STATUS step [A]: 10 sigma of their
+ * 0.02 A sense noise (a property of the boards, not of the robot's settings). */
+#define SC_CURRENT_NOISE_MARGIN_A 0.2
+
+/* The limits of a robot's controller settings (its STATUS period is the loop period):
+ * current_step = 2 supply / R + SC_CURRENT_NOISE_MARGIN_A + 1 LSB (L neglected: a full-scale
+ * voltage reversal moves the current by 2 supply / R at once); speed_step = a_max dt / r + 2 LSB
+ * with a_max = f_max (2/M + 4 d^2/J), f_max = l Kt (2 supply / R) / r (all four wheels at the
+ * largest force, worst-case signs: the largest linear acceleration of one wheel's rim); the
+ * current limit is limits.current_max_a; N = 3. */
+struct sc_limits sc_limits_for(const struct ctl_settings *s);
+/* sc_limits_for(the default settings): the Table III robot at 1 kHz. */
 struct sc_limits sc_limits_default(void);
 
 struct sc_status_run {

@@ -51,7 +51,8 @@ struct param_counters {
 
 struct param_service {
 	struct fw *fw;
-	struct omni4_config running; /* what the loop runs on (service thread only) */
+	struct omni4_config running; /* the robot's INI as in force (service thread only) */
+	struct omni4_config next;    /* a change being checked (service thread only) */
 	char path[PATH_MAX];         /* the robot's INI: SAVE writes it */
 	struct param_out out;
 	int64_t apply_timeout_us;

@@ -13,6 +13,9 @@
 #define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"   /* param_reply_t: robot -> client */
 #define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
 
+/* The robot's LCM URL unless its INI says otherwise: multicast that stays on the host (ttl=0). */
+#define OMNI4_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"
+
 /* experiment_t.kind of the mark that closes a segment (docs/log-contract.md). */
 #define OMNI4_MARK_END "end"
 

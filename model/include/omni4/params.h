@@ -27,6 +27,9 @@ extern const struct model_params model_params_table3;
 
 /* Names of the fields in declaration order, as used by the INI [model] section. */
 #define MODEL_PARAMS_COUNT 14
+/* The first MODEL_PARAMS_POSITIVE parameters (d r l Kv Kt R M J) must be > 0, the friction
+ * ones >= 0. */
+#define MODEL_PARAMS_POSITIVE 8
 extern const char *const model_params_names[MODEL_PARAMS_COUNT];
 
 /* Field i (0 .. MODEL_PARAMS_COUNT-1) of p, in the order of model_params_names. */

@@ -67,18 +67,6 @@ static inline q16_t q16_mul(q16_t a, q16_t b)
 	return q16_sat(q16_mul_wide(a, b));
 }
 
-/* Multiply by a plain integer; saturating. */
-static inline q16_t q16_mul_int(q16_t a, int32_t k)
-{
-	return q16_sat((int64_t)a * k);
-}
-
-/* Clamp to [lo, hi] (lo <= hi). */
-static inline q16_t q16_clamp(q16_t x, q16_t lo, q16_t hi)
-{
-	return x < lo ? lo : (x > hi ? hi : x);
-}
-
 /* Set-up and test helpers (double; not part of the per-tick fixed-point path). */
 static inline q16_t q16_from_double(double x)
 {

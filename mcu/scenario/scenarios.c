@@ -6,15 +6,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/config_types.h"
-#include "omni4/fw.h"
-#include "omni4/sim_motor.h"
+#include "omni4/robot.h"
 
-/* One controller, its plant and lines: static (an MCU has no heap, and struct fw holds rings). */
-static struct fw g_fw;
-static struct sim_motor g_sim;
-static struct sim_lines g_lines;
-static struct omni4_config g_cfg;
+/* One robot (the controller on the sim backends): static (an MCU has no heap, and struct fw
+ * holds rings). */
+static struct robot g_robot;
+static struct ctl_settings g_ctl;
+static struct sim_settings g_sim_set;
 static int64_t g_now_us, g_period_us, g_cmd_seq;
 static scenario_print_fn g_print;
 static scenario_wait_fn g_wait;
@@ -47,14 +45,16 @@ static int metered_write(void *ctx, const float volts[4])
 	return rc;
 }
 
-static const struct motor_hal_ops *metered_ops(void)
+/* robot_spec.wrap: the sim backend with its read and write metered. */
+static struct motor_hal metered(void *ctx, struct motor_hal backend)
 {
 	static struct motor_hal_ops ops;
 
-	ops = sim_motor_ops;
+	(void)ctx;
+	ops = *backend.ops;
 	ops.read = metered_read;
 	ops.write = metered_write;
-	return &ops;
+	return (struct motor_hal){.ops = &ops, .ctx = backend.ctx};
 }
 
 void scenarios_set_meter(const struct scenario_meter *m)
@@ -72,18 +72,18 @@ static void say(const char *fmt_name, bool ok, const char *figures)
 
 static int start(void)
 {
-	config_defaults(&g_cfg);
-	const struct sim_motor_config sc = sim_motor_config_from(&g_cfg, &g_cfg.model, false);
+	char why[128];
 
-	memset(&g_sim, 0, sizeof(g_sim));
-	memset(&g_lines, 0, sizeof(g_lines));
-	if (sim_motor_init(&g_sim, &sc))
-		return -1;
-	const struct motor_hal motor = {.ops = metered_ops(), .ctx = &g_sim};
+	ctl_settings_defaults(&g_ctl);
+	sim_settings_defaults(&g_sim_set);
+	/* Exact sensors; the camera's poses go to the ring, where tick() passes over them. */
+	const struct robot_spec spec = {.ctl = &g_ctl, .motor = OMNI4_MOTOR_SIM,
+					.lines = OMNI4_LINES_SIM, .sim = &g_sim_set,
+					.sim_exact = true, .wrap = metered};
 
-	if (fw_init(&g_fw, &g_cfg, motor, sim_line_hal(&g_lines)))
+	if (robot_open(&g_robot, &spec, why, sizeof(why)))
 		return -1;
-	g_period_us = (int64_t)llround(1e6 / g_cfg.loop.rate_hz);
+	g_period_us = (int64_t)llround(1e6 / g_ctl.rate_hz);
 	g_now_us = 0;
 	g_cmd_seq = 0;
 	return 0;
@@ -95,11 +95,10 @@ static void send(int8_t mode, const double vel[3])
 
 	if (vel)
 		memcpy(c.velocity, vel, sizeof(c.velocity));
-	fw_post_command(&g_fw, &c);
+	fw_post_command(&g_robot.fw, &c);
 }
 
-/* One tick; returns its sample (the ring holds this tick's motors sample, and no pose: the
- * camera callback is not set). */
+/* One tick; returns its motors sample (the ring may also hold a camera pose). */
 static struct log_entry tick(void)
 {
 	struct log_entry e, last = {.kind = 0};
@@ -109,7 +108,7 @@ static struct log_entry tick(void)
 	g_cost.hal = 0;
 	const uint32_t t0 = g_meter ? g_meter->read() : 0;
 
-	fw_tick(&g_fw, g_now_us);
+	fw_tick(&g_robot.fw, g_now_us);
 	if (g_meter) {
 		const uint32_t all = g_meter->read() - t0, ctl = all - g_cost.hal;
 
@@ -120,7 +119,7 @@ static struct log_entry tick(void)
 		g_cost.ctl_max = ctl > g_cost.ctl_max ? ctl : g_cost.ctl_max;
 	}
 	g_now_us += g_period_us;
-	while (fw_pop_log(&g_fw, &e))
+	while (fw_pop_log(&g_robot.fw, &e))
 		if (e.kind == LOG_MOTORS)
 			last = e;
 	return last;
@@ -131,7 +130,7 @@ static bool outputs_off(const struct log_entry *e)
 	for (int j = 0; j < 4; j++)
 		if (e->voltage[j] != 0.0f)
 			return false;
-	return !g_sim.enabled && !g_lines.enable;
+	return !g_robot.sim.enabled && !g_robot.sim_lines.enable;
 }
 
 /* Drive at vel for n ticks with a keep-alive every 50 ms; returns the last sample. */
@@ -166,7 +165,7 @@ static int tracking(void)
 			tick();
 			if (i >= 1000) { /* settled: the last 0.5 s of the 1.5 s hold */
 				for (int k = 0; k < 3; k++) {
-					const double e = g_sim.plant.x[k] - segs[s][k];
+					const double e = g_robot.sim.plant.x[k] - segs[s][k];
 
 					sum += e * e;
 				}
@@ -176,12 +175,12 @@ static int tracking(void)
 		rms[s] = sqrt(sum / n);
 		/* What is left is the Q16.16 feedforward's rounding, held by the PI. Measured
 		 * 9.9e-8 and 5.9e-5 (host and Cortex-M4 alike); bounds 3x. */
-		ok &= rms[s] < bound[s] && g_fw.ctl.mode == CTL_VELOCITY;
+		ok &= rms[s] < bound[s] && g_robot.fw.ctl.mode == CTL_VELOCITY;
 	}
 	char fig[160];
 
 	snprintf(fig, sizeof(fig), "rms_v=%.6e rms_vn_w=%.6e mode=%d", rms[0], rms[1],
-		 (int)g_fw.ctl.mode);
+		 (int)g_robot.fw.ctl.mode);
 	say("tracking", ok, fig);
 	return ok ? 0 : 1;
 }
@@ -206,7 +205,7 @@ static int watchdog(void)
 	/* docs/faults.md: [control] cmd_timeout_ms 200 and stop_ramp_s 0.2 at 1 kHz. The command
 	 * is taken at tick 0: no trip while 200 ms or less have passed (tick 200), the trip on
 	 * tick 201, then the stop ramp takes 200 ticks to reach 0 V and IDLE. */
-	ok &= trip == 201 && idle - trip == 200 && g_fw.ctl.n.watchdog_trips == 1;
+	ok &= trip == 201 && idle - trip == 200 && g_robot.fw.ctl.n.watchdog_trips == 1;
 	char fig[96];
 
 	snprintf(fig, sizeof(fig), "trip_tick=%ld idle_after=%ld", trip, idle - trip);
@@ -222,7 +221,7 @@ static int estop(void)
 	bool ok = start() == 0;
 
 	drive(v, 500);
-	atomic_store(&g_lines.estop, true);
+	atomic_store(&g_robot.sim_lines.estop, true);
 	const struct log_entry on = tick();
 	const bool off_at_once = on.mode == CTL_ESTOP && outputs_off(&on) &&
 				 (on.faults & CTL_FAULT_ESTOP);
@@ -230,7 +229,7 @@ static int estop(void)
 	send(CTL_CLEAR_FAULT, NULL); /* refused while pressed */
 	const struct log_entry held = tick();
 
-	atomic_store(&g_lines.estop, false);
+	atomic_store(&g_robot.sim_lines.estop, false);
 	const struct log_entry released = tick(); /* still ESTOP: latched until cleared */
 
 	send(CTL_CLEAR_FAULT, NULL);
@@ -257,13 +256,13 @@ static int overcurrent(void)
 	const struct log_entry before = tick();
 
 	/* 0.1 A above the 5 A limit of the defaults, whatever the wheel currents are. */
-	g_sim.inject.current_offset_a =
-		g_cfg.limits.current_max_a + 0.1 + fabs((double)before.current[0]) +
+	g_robot.sim.inject.current_offset_a =
+		g_ctl.limits.current_max_a + 0.1 + fabs((double)before.current[0]) +
 		fabs((double)before.current[1]) + fabs((double)before.current[2]) +
 		fabs((double)before.current[3]);
 	const struct log_entry at = tick();
 
-	g_sim.inject.current_offset_a = 0;
+	g_robot.sim.inject.current_offset_a = 0;
 	const struct log_entry after = tick();
 
 	ok &= before.mode == CTL_VELOCITY && at.mode == CTL_FAULT &&
@@ -284,11 +283,11 @@ static int stuck_encoder(void)
 	bool ok = start() == 0;
 
 	drive(v, 1000);
-	ok &= g_fw.ctl.mode == CTL_VELOCITY;
-	g_sim.inject.encoder_stuck[3] = true;
+	ok &= g_robot.fw.ctl.mode == CTL_VELOCITY;
+	g_robot.sim.inject.encoder_stuck[3] = true;
 	int ms = 0;
 
-	while (g_fw.ctl.mode != CTL_FAULT && ms < 2000) {
+	while (g_robot.fw.ctl.mode != CTL_FAULT && ms < 2000) {
 		if (ms % 50 == 0)
 			send(CTL_VELOCITY, stop);
 		tick();
@@ -297,7 +296,7 @@ static int stuck_encoder(void)
 	/* Wheel 3 frozen at 1 m/s while the robot brakes at 3 m/s^2: the residual passes 0.5 m/s
 	 * after 167 ms and must persist 50 ms (217 ms, the PI can only make it sooner, never
 	 * sooner than the 50 ms confirmation). */
-	ok &= ms >= 50 && ms <= 217 + 10 && (g_fw.ctl.latched & CTL_FAULT_ENCODER);
+	ok &= ms >= 50 && ms <= 217 + 10 && (g_robot.fw.ctl.latched & CTL_FAULT_ENCODER);
 	char fig[96];
 
 	snprintf(fig, sizeof(fig), "fault_after_ms=%d", ms);

@@ -1,8 +1,9 @@
 /*
- * scenarios.h - the controller core's HIL scenarios in portable C: the core (fw_tick) against the
- * sim backend (the model's plant, exact sensors), commands handed in as a receive side would,
- * the samples taken from the log ring. No OS, no LCM, no allocation: the same code runs on the
- * host (test_scenarios) and on the Cortex-M4 under qemu (mcu/), and both print the same lines.
+ * scenarios.h - the microcontroller image's command source: scripted scenarios in portable C
+ * that drive a robot built by the composition root (robot.h: the core on the sim backends, exact
+ * sensors), commands handed in as a receive side would, the samples taken from the log ring. No
+ * OS, no LCM, no allocation: the same code runs on the Cortex-M4 under qemu (mcu/) and on the
+ * host (test_scenarios), and both print the same lines.
  *
  * Each scenario checks its own outcome against the specification (docs/faults.md, the INI
  * defaults) and prints one line of figures: "NAME ok|FAILED key=value ...". Integer figures are

@@ -1,0 +1,24 @@
+/*
+ * sim_settings.h - the sensors of the "sim" motor backend as a robot's INI sets them ([sim]):
+ * noise, encoder resolution, the camera, and the sensor faults a test can ask for. Keys,
+ * defaults and ranges: sim_keys.def.
+ */
+#ifndef OMNI4_SIM_SETTINGS_H
+#define OMNI4_SIM_SETTINGS_H
+
+struct sim_settings {
+	double current_noise_a;        /* std dev [A] */
+	int encoder_cpr;               /* counts per wheel revolution; 0 = ideal */
+	double camera_rate_hz;
+	double camera_pos_noise_m;     /* std dev [m] */
+	double camera_theta_noise_rad; /* std dev [rad] */
+	int seed;
+	/* Sensor faults (0: none) */
+	double current_offset_a[4];    /* added to each channel's current readings [A] */
+	double encoder_eccentricity;   /* motor-shaft encoder reads theta + e sin(theta - phi) */
+};
+
+/* The defaults of sim_keys.def: the paper's set-up (1 cm / 3 deg camera at 25 Hz, ...). */
+void sim_settings_defaults(struct sim_settings *s);
+
+#endif /* OMNI4_SIM_SETTINGS_H */
