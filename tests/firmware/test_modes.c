@@ -73,7 +73,7 @@ enum from { F_IDLE, F_VELOCITY, F_VOLTAGE, F_STOP, F_COAST, F_FAULT, F_ESTOP, N_
 enum trig {
 	T_IDLE, T_VELOCITY, T_VOLTAGE, T_COAST, T_CLEAR, T_FAULT, T_ESTOP, T_WATCHDOG,
 	T_VELOCITY_SAME, /* the target in force again (keep-alive) */
-	T_VOLTAGE_SAME,
+	T_VOLTAGE_SAME, /* (the stop ramp's: 0 V) */
 	T_CLEAR_BUSY, /* CLEAR_FAULT while the cause persists */
 	N_TRIG
 };
@@ -104,7 +104,7 @@ struct rig {
 	int64_t last_cmd_t;  /* the last accepted motion command */
 	double x[3];         /* the velocity the readings' wheel speeds encode */
 	double vel_target[3];
-	double volt_target[4];
+	double volt_target[4]; /* F_VOLTAGE: its target; F_STOP: the stop ramp's, 0 V */
 	int64_t trip_t;      /* F_STOP: the watchdog's trip tick */
 	float trip_from[4];  /* F_STOP: the output before it */
 };
@@ -279,7 +279,7 @@ static const struct rule_of_cell MATRIX[N_FROM][N_TRIG] = {
 		       {R_STOP, CTL_VOLTAGE, 0}, NA, {R_KEEP, CTL_VOLTAGE, 0}, NA},
 	[F_STOP] = {OFF(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
 		    OFF(CTL_COAST), SAME(CTL_VOLTAGE), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		    {R_STOP_GOES_ON, CTL_VOLTAGE, 0}, NA, NA, NA},
+		    {R_STOP_GOES_ON, CTL_VOLTAGE, 0}, NA, {R_RAMP, CTL_VOLTAGE, 0}, NA},
 	[F_COAST] = {OFF(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
 		     SAME(CTL_COAST), SAME(CTL_COAST), OFF(CTL_FAULT), OFF(CTL_ESTOP),
 		     {R_COAST_TIMEOUT, CTL_IDLE, 0}, NA, NA, NA},
@@ -593,7 +593,7 @@ static void run_cell(enum from f, enum trig tr, bool moving)
 		check_vel_retarget(&a, ref0, integ0, vel);
 		break;
 	case R_RAMP:
-		check_ramp(&a, before.o.volts, U_B);
+		check_ramp(&a, before.o.volts, tr == T_VOLTAGE_SAME ? before.volt_target : U_B);
 		break;
 	default:
 		fail_msg("%s: no check for rule %d", cell, want.rule);
@@ -650,13 +650,13 @@ static void test_from_estop(void **state)
 	run_row(F_ESTOP);
 }
 
-/* Every cell of the matrix was asserted: 7 rows x 8 triggers, 2 keep-alives, 2 "cause
- * present", each at rest and moving. */
+/* Every cell of the matrix was asserted: 7 rows x 8 triggers, 3 same-target commands, 2
+ * "cause present", each at rest and moving. */
 static void test_every_cell_was_asserted(void **state)
 {
 	(void)state;
 	print_message("%d cells asserted\n", cells_asserted);
-	assert_int_equal(cells_asserted, 2 * (N_FROM * 8 + 2 + 2));
+	assert_int_equal(cells_asserted, 2 * (N_FROM * 8 + 3 + 2));
 }
 
 int main(void)
