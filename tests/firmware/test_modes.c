@@ -36,9 +36,9 @@
 
 static void make_ctl(struct ctl *c)
 {
-	struct omni4_config cfg;
+	struct ctl_settings cfg;
 
-	config_defaults(&cfg);
+	ctl_settings_defaults(&cfg);
 	assert_int_equal(ctl_init(c, &cfg), 0);
 }
 
