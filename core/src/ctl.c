@@ -205,7 +205,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 	int32_t f = 0;
 
 	if (read_rc == -EAGAIN)
-		return 0; /* no new reading this tick: keep the last estimate */
+		return c->reading_faults; /* no new reading: its conditions still stand */
 	if (read_rc < 0 || !s)
 		return CTL_FAULT_DRIVER_TIMEOUT;
 	f |= from_hal_faults(s->faults);
@@ -353,8 +353,9 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 
 	calibrate(c, now_us, sample, read_rc, cur);
 
-	const int32_t now_faults = check_sample(c, sample, cur, read_rc, now_us) |
-				   (c->cal.fault_mask ? CTL_FAULT_CURRENT_SENSOR : 0);
+	c->reading_faults = check_sample(c, sample, cur, read_rc, now_us);
+	const int32_t now_faults =
+		c->reading_faults | (c->cal.fault_mask ? CTL_FAULT_CURRENT_SENSOR : 0);
 	const struct motor_sample *s = read_rc == 0 ? sample : NULL;
 
 	c->present = now_faults;

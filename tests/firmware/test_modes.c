@@ -650,6 +650,34 @@ static void test_from_estop(void **state)
 	run_row(F_ESTOP);
 }
 
+/* A cause seen in the last reading still stands over ticks without a reading (read -EAGAIN,
+ * "none available yet"): CLEAR_FAULT is refused until a reading shows it gone, and nothing
+ * drives meanwhile (docs/modes.md, "Cause persists"). */
+static void test_a_tick_without_a_reading_keeps_the_cause(void **state)
+{
+	static const double v[3] = {0.5, 0, 0};
+	static struct rig r;
+
+	(void)state;
+	enter(&r, F_IDLE, false);
+	r.s.supply_v = (float)SPEC_SUPPLY_LOW_V;
+	tick(&r);
+	assert_int_equal(r.o.mode, CTL_FAULT);
+	for (int k = 0; k < 3; k++) {
+		ctl_step(&r.c, r.t, NULL, -EAGAIN, false, &r.o);
+		r.t += TICK_US;
+		assert_int_equal(cmd(&r, CTL_CLEAR_FAULT, NULL, NULL, 0), -EBUSY);
+		assert_int_equal(cmd(&r, CTL_VELOCITY, v, NULL, 0), -EPERM);
+		assert_true(off(&r.o));
+		assert_int_equal(r.o.mode, CTL_FAULT);
+	}
+	r.s.supply_v = (float)SPEC_SUPPLY_V; /* the next reading shows the cause gone */
+	tick(&r);
+	assert_int_equal(cmd(&r, CTL_CLEAR_FAULT, NULL, NULL, 0), 0);
+	tick(&r);
+	assert_int_equal(r.o.mode, CTL_IDLE);
+}
+
 /* Every cell of the matrix was asserted: 7 rows x 8 triggers, 3 same-target commands, 2
  * "cause present", each at rest and moving. */
 static void test_every_cell_was_asserted(void **state)
@@ -670,6 +698,7 @@ int main(void)
 		cmocka_unit_test(test_from_fault),
 		cmocka_unit_test(test_from_estop),
 		cmocka_unit_test(test_every_cell_was_asserted),
+		cmocka_unit_test(test_a_tick_without_a_reading_keeps_the_cause),
 	};
 
 	return cmocka_run_group_tests_name("modes", tests, NULL, NULL);

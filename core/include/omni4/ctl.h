@@ -118,6 +118,8 @@ struct ctl {
 	enum ctl_mode mode;
 	int32_t latched;        /* latching fault bits */
 	int32_t present;        /* fault conditions seen in the last tick */
+	int32_t reading_faults; /* conditions of the last reading: a tick without one (-EAGAIN)
+				 * keeps them, so a clear cannot slip through such a tick */
 	int32_t warnings;       /* non-latching bits */
 	int64_t last_cmd_us;    /* controller time of the last valid motion command */
 	/* VELOCITY */
@@ -145,9 +147,10 @@ struct ctl {
 int ctl_init(struct ctl *c, const struct ctl_settings *cfg);
 
 /*
- * Fast loop. Validate and apply a command received at now_us. Returns 0 if accepted, -EINVAL
- * if rejected (NaN/inf, out of range, unknown mode, clear while the cause persists); a
- * rejection is counted and flagged, never applied.
+ * Fast loop. Validate and apply a command received at now_us. Returns 0 if accepted; a
+ * rejection is counted and flagged, never applied: -EINVAL (NaN/inf, out of range, unknown
+ * mode), -EBUSY (a clear while the cause persists, as of the last reading), -EPERM (a motion
+ * command in FAULT or ESTOP).
  */
 int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us);
 
