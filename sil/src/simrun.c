@@ -10,7 +10,7 @@
 #include <time.h>
 
 #include "omni4/eventlog.h"
-#include "omni4/lcmio.h"
+#include "omni4/lcmcodec.h"
 #include "omni4/robot.h"
 #include "omni4_motors_t.h"
 
