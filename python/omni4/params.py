@@ -6,7 +6,7 @@ as the text the INI holds. A set of several keys (or a load) is applied by the l
 ticks, whole or not at all; the robot's reason comes back in the exception.
 
     from omni4.params import ParamClient
-    p = ParamClient("udpm://239.255.76.67:7667?ttl=0")
+    p = ParamClient()                  # omni4.DEFAULT_LCM_URL, or ParamClient("udpm://...")
     p.get("control.kp").value          # 20.0
     p.set("control.kp", 30)            # Applied(seq=..., ...)
     p.set({"model.R": 4.5, "model.Kv": 0.026})   # one atomic change

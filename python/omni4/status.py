@@ -141,14 +141,14 @@ def report(url, w, model):
     return lines
 
 
-EPILOG = """\
+EPILOG = f"""\
 Prints: mode; latching faults and (in the window) warnings by name; loop rate [Hz] from the
 controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
 currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
 (asked from the controller; "parameters: no answer" if it does not answer).
 Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw running?),
 2 usage error, 141 when stdout is closed early (omni4-status | head -1).
-example: omni4-status --lcm udpm://239.255.76.67:7667?ttl=0 --listen 2"""
+example: omni4-status --lcm {DEFAULT_LCM_URL} --listen 2"""
 
 
 def build_parser():
