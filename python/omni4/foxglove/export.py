@@ -16,19 +16,12 @@ import time
 import numpy as np
 
 import omni4
+from omni4 import _layout
 
 from . import ini, lcmlog, topics
 from .model import Predictor
 
 PROG = "omni4-mcap"
-
-# motors_t on the wire (lcm-gen encoding, big-endian): fingerprint, then the fields in order.
-# Used only when every payload has motors_t's fingerprint and size; checked against the
-# generated decoder by the tests.
-MOTORS_WIRE = np.dtype([("fp", ">u8"), ("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"),
-                        ("faults", ">i4"), ("voltage", ">f4", 4), ("current", ">f4", 4),
-                        ("wheel_speed", ">f4", 4)])
-
 
 class Usage(Exception):
     pass
@@ -37,23 +30,14 @@ class Usage(Exception):
 def decode_motors(payloads):
     """List of motors_t payloads -> dict of numpy arrays (utime, seq, mode, faults: (n,);
     voltage, current, wheel_speed: (n, 4) float32)."""
-    fp = omni4.motors_t._get_packed_fingerprint()
-    n = len(payloads)
-    if n and set(map(len, payloads)) == {MOTORS_WIRE.itemsize}:
-        a = np.frombuffer(b"".join(payloads), dtype=MOTORS_WIRE)
-        if (a["fp"] == int.from_bytes(fp, "big")).all():
-            return {k: a[k].astype(a[k].dtype.newbyteorder("=")) for k in MOTORS_WIRE.names
-                    if k != "fp"}
+    dt = _layout.wire_dtype(omni4.motors_t)
+    if payloads and set(map(len, payloads)) == {dt.itemsize}:
+        rec = np.frombuffer(b"".join(payloads), dtype=dt)
+        if (rec["fingerprint"] == _layout.fingerprint(omni4.motors_t)).all():
+            return _layout.fields_of(rec)
     # anything else: the generated decoder, message by message (raises on a bad payload)
-    ms = [omni4.motors_t.decode(p) for p in payloads]
-    return {"utime": np.array([m.utime for m in ms], dtype=np.int64),
-            "seq": np.array([m.seq for m in ms], dtype=np.int64),
-            "mode": np.array([m.mode for m in ms], dtype=np.int8),
-            "faults": np.array([m.faults for m in ms], dtype=np.int32),
-            "voltage": np.array([m.voltage for m in ms], dtype=np.float32).reshape(n, 4),
-            "current": np.array([m.current for m in ms], dtype=np.float32).reshape(n, 4),
-            "wheel_speed": np.array([m.wheel_speed for m in ms],
-                                    dtype=np.float32).reshape(n, 4)}
+    return _layout.fields_of_messages(omni4.motors_t,
+                                      [omni4.motors_t.decode(p) for p in payloads])
 
 
 def parse_args(argv):
@@ -109,7 +93,8 @@ def convert(events, params, w, health_period_s):
     classes = topics.lcm_classes()
     # motors_t is fixed-size: a payload of another size or fingerprint is not one (it goes
     # through event_messages, to OMNI4_MOTORS/undecodable)
-    fp, size = omni4.motors_t._get_packed_fingerprint(), MOTORS_WIRE.itemsize
+    fp = omni4.motors_t._get_packed_fingerprint()
+    size = _layout.wire_dtype(omni4.motors_t).itemsize
     is_mot = [ch == omni4.CHANNEL_MOTORS and len(d) == size and d[:8] == fp
               for _, ch, d in events]
     mot_idx = [i for i, m in enumerate(is_mot) if m]
