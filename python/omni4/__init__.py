@@ -35,6 +35,8 @@ from .log import Log, LogError, read_log  # noqa: E402
 from .robot import CommandRejected, Robot  # noqa: E402
 # The robot's parameters over LCM (omni4-param).
 from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa: E402
+# The robot INI reader (omni4.ini.read).
+from . import ini  # noqa: E402
 
 __all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "TYPES",
            "read_log", "Log", "LogError", "Robot", "CommandRejected",

@@ -20,7 +20,7 @@ import lcm
 
 import omni4
 
-from . import ini, topics
+from . import model, topics
 from .model import Predictor
 
 PROG = "omni4-bridge"
@@ -107,7 +107,7 @@ class Bridge:
 
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    params = ini.params_or_exit(PROG, a.params)
+    params = model.params_or_exit(PROG, a.params)
     try:
         lc = lcm.LCM(a.lcm)
     except Exception as e:  # lcm raises RuntimeError on a URL it cannot use

@@ -18,7 +18,7 @@ import numpy as np
 import omni4
 from omni4 import _layout
 
-from . import ini, lcmlog, topics
+from . import lcmlog, model, topics
 from .model import Predictor
 
 PROG = "omni4-mcap"
@@ -169,7 +169,7 @@ def merge_parts(parts, quiet):
 
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    params = ini.params_or_exit(PROG, a.params)
+    params = model.params_or_exit(PROG, a.params)
     t0 = time.perf_counter()
     parts, lost = [], []
     try:
