@@ -367,23 +367,31 @@ def main(argv=None):
     return run("omni4-param", _main, argv)
 
 
-def _main(argv=None):
-    args = _build_parser().parse_args(argv)
+def _usage_error(args):
+    """What is wrong with the command line, or None."""
     n = len(args.args)
     if args.command in ("list", "save", "dump") and n:
-        return _usage(f"{args.command} takes no arguments")
+        return f"{args.command} takes no arguments"
     if args.command == "get" and n < 1:
-        return _usage("get needs KEY")
+        return "get needs KEY"
     if args.command == "set" and (n < 2 or n % 2):
-        return _usage("set needs KEY VALUE [KEY VALUE ...]")
+        return "set needs KEY VALUE [KEY VALUE ...]"
     if args.command == "load" and n != 1:
-        return _usage("load needs one PARAMS.ini")
+        return "load needs one PARAMS.ini"
     if not (args.timeout > 0):
-        return _usage("--timeout must be > 0")
+        return "--timeout must be > 0"
     keys = args.args[0::2] if args.command == "set" else args.args
     for k in keys if args.command in ("get", "set") else ():
         if "." not in k:
-            return _usage(f"'{k}' is not a section.key name (e.g. control.kp)")
+            return f"'{k}' is not a section.key name (e.g. control.kp)"
+    return None
+
+
+def _main(argv=None):
+    args = _build_parser().parse_args(argv)
+    error = _usage_error(args)
+    if error:
+        return _usage(error)
     secret = args.secret if args.secret is not None else os.environ.get("OMNI4_PARAM_SECRET")
     text = None
     if args.command == "load":

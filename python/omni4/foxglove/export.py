@@ -88,25 +88,29 @@ class Writer(topics.Channels):
         self.mcap.close()
 
 
-def convert(events, params, w, health_period_s):
-    """Write all events (log order) and the derived topics into the Writer w."""
-    classes = topics.lcm_classes()
-    # motors_t is fixed-size: a payload of another size or fingerprint is not one (it goes
-    # through event_messages, to OMNI4_MOTORS/undecodable)
+def motors_events(events):
+    """(per event: is it a motors_t on OMNI4_MOTORS, the arrays of those, in order). motors_t
+    is fixed-size: a payload of another size or fingerprint is not one (it goes through
+    topics.event_messages, to OMNI4_MOTORS/undecodable)."""
     fp = omni4.motors_t._get_packed_fingerprint()
     size = _layout.wire_dtype(omni4.motors_t).itemsize
     is_mot = [ch == omni4.CHANNEL_MOTORS and len(d) == size and d[:8] == fp
               for _, ch, d in events]
-    mot_idx = [i for i, m in enumerate(is_mot) if m]
-    mot = decode_motors([events[i][2] for i in mot_idx])
+    return is_mot, decode_motors([d for (_, _, d), m in zip(events, is_mot) if m])
+
+
+def convert(events, params, w, health_period_s):
+    """Write all events (log order) and the derived topics into the Writer w."""
+    classes = topics.lcm_classes()
+    is_mot, mot = motors_events(events)
+    any_mot = len(mot["utime"]) > 0
     pred = Predictor(params)
     meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
                                           mot["voltage"], mot["wheel_speed"])
     pairs = zip(topics.motors_json_blocks(mot),
                 topics.velocity_json_blocks(mot, meas, predicted, restarted))
-    L = {k: mot[k].tolist() for k in ("utime", "seq", "mode", "faults")}  # for health
-    ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if mot_idx else None
-    ch_vel = w.get(topics.TOPIC_VELOCITY, "omni4.velocity") if mot_idx else None
+    ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if any_mot else None
+    ch_vel = w.get(topics.TOPIC_VELOCITY, "omni4.velocity") if any_mot else None
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
@@ -117,7 +121,7 @@ def convert(events, params, w, health_period_s):
     log_m = ch_mot.log if ch_mot else None
     log_v = ch_vel.log if ch_vel else None
     add = health.add
-    ut_l, sq_l, md_l, fl_l = L["utime"], L["seq"], L["mode"], L["faults"]
+    ut_l, sq_l, md_l, fl_l = (mot[f].tolist() for f in ("utime", "seq", "mode", "faults"))
     while i < n:
         t_us, chname, data = events[i]
         if t_us >= next_scene:  # the robot's body, once a second of log time
@@ -147,7 +151,7 @@ def convert(events, params, w, health_period_s):
         i += 1
         for topic, schema, msg in topics.event_messages(chname, data, t_us * 1000, classes):
             w.log(topic, schema, msg, t_us * 1000)
-    if mot_idx:
+    if any_mot:
         w.counts[omni4.CHANNEL_MOTORS] = w.counts[topics.TOPIC_VELOCITY] = k
         if health.n:  # the last, partial window
             w.log(topics.TOPIC_HEALTH, "omni4.health", health.report(health_period_s),
