@@ -17,7 +17,6 @@ Every wait is bounded: a request is sent, and sent again with the same request i
 came within ``timeout_s`` (the robot answers a repeated id from its cache, so a change is never
 applied twice), ``retries`` times; then ParamTimeout.
 """
-import argparse
 import dataclasses
 import os
 import random
@@ -28,6 +27,7 @@ import time
 import lcm
 
 from . import CHANNEL_PARAM_REPLY, CHANNEL_PARAM_REQ  # defined before this module is imported
+from ._cli import usage
 from .param_reply_t import param_reply_t
 from .param_request_t import param_request_t
 from .param_value_t import param_value_t
@@ -330,14 +330,10 @@ example: omni4-param set control.kp 30 && omni4-param save"""
 
 
 def _build_parser():
-    from ._cli import ArgumentParser
+    from ._cli import bus_tool_parser
 
-    from . import DEFAULT_LCM_URL
-    p = ArgumentParser(prog="omni4-param", description="Read and change the parameters of a running "
-                "omni4-fw over LCM.", epilog=USAGE_EPILOG,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
-                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p = bus_tool_parser("omni4-param", "Read and change the parameters of a running omni4-fw "
+                        "over LCM.", USAGE_EPILOG)
     p.add_argument("--secret", default=None, help="the robot's [params] secret")
     p.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="wait for one answer [s] (default 1; 3 tries)")
@@ -391,7 +387,7 @@ def _main(argv=None):
     args = _build_parser().parse_args(argv)
     error = _usage_error(args)
     if error:
-        return _usage(error)
+        return usage("omni4-param", error)
     secret = args.secret if args.secret is not None else os.environ.get("OMNI4_PARAM_SECRET")
     text = None
     if args.command == "load":
@@ -399,11 +395,12 @@ def _main(argv=None):
             with open(args.args[0], encoding="utf-8") as f:
                 text = f.read()
         except (OSError, UnicodeDecodeError) as e:
-            return _usage(f"{args.args[0]}: cannot read: {getattr(e, 'strerror', None) or e}")
+            return usage("omni4-param",
+                         f"{args.args[0]}: cannot read: {getattr(e, 'strerror', None) or e}")
     try:
         client = ParamClient(args.lcm, secret=secret, timeout_s=args.timeout)
     except ParamError as e:
-        return _usage(str(e))
+        return usage("omni4-param", str(e))
     out = sys.stdout
     try:
         if args.command == "list":
@@ -445,11 +442,6 @@ def _print_applied(a, out):
     for p in a.params:
         out.write(f"{p.key} = {p.text}\n")
     out.write(f"in force from tick {a.seq}\n")
-
-
-def _usage(message):
-    sys.stderr.write(f"omni4-param: {message} (try --help)\n")
-    return 2
 
 
 if __name__ == "__main__":

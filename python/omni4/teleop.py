@@ -15,7 +15,6 @@ axes of --axes (default 1,0,3: left stick up/down, left/right, right stick left/
 v, vn, w (stick up / left = positive) at full scale --joy-lin [m/s] and --joy-rot [rad/s];
 button 0 stops. A regular file of recorded events is replayed at its recorded times.
 """
-import argparse
 import errno
 import glob
 import os
@@ -26,7 +25,8 @@ import struct
 import sys
 import time
 
-from . import DEFAULT_LCM_URL, __version__
+from . import __version__
+from ._cli import usage
 
 PROG = "omni4-teleop"
 JS_EVENT = struct.Struct("<IhBB")     # struct js_event (linux/joystick.h), little-endian hosts
@@ -192,12 +192,9 @@ Exit status: 0 quit, 1 run-time error (e.g. the robot refused a command), 2 usag
 
 
 def build_parser():
-    from ._cli import ArgumentParser
+    from ._cli import bus_tool_parser
 
-    p = ArgumentParser(prog=PROG, description="Drive the omni4 robot by hand: keys or a gamepad.",
-                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
-                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p = bus_tool_parser(PROG, "Drive the omni4 robot by hand: keys or a gamepad.", EPILOG)
     p.add_argument("--rate", type=float, default=20.0, metavar="HZ",
                    help="command re-send rate [Hz] (default 20; at least 10)")
     p.add_argument("--step-lin", type=float, default=0.1, metavar="M_S",
@@ -216,11 +213,6 @@ def build_parser():
                    help="w at full stick [rad/s] (default 2)")
     p.add_argument("--version", action="store_true", help="print the version and exit")
     return p
-
-
-def _usage(message):
-    sys.stderr.write(f"{PROG}: {message} (try --help)\n")
-    return 2
 
 
 def _say(text):
@@ -315,19 +307,19 @@ def _drive(robot, t, stdin_fd, joystick, js_path):
 def _main(argv):
     args, axes, error = _parse(argv)
     if error:
-        return _usage(error)
+        return usage(PROG, error)
     if args.version:
         sys.stdout.write(f"{PROG} {__version__}\n")
         return 0
     try:
         joystick, js_path = _open_joystick(args)
     except OSError as e:
-        return _usage(f"--joystick {args.joystick}: {e.strerror}")
+        return usage(PROG, f"--joystick {args.joystick}: {e.strerror}")
     from .robot import CommandRejected, Robot
     try:
         robot = Robot(args.lcm, keepalive_s=1.0 / args.rate)
     except (RuntimeError, ValueError) as e:
-        return _usage(str(e))
+        return usage(PROG, str(e))
     term, status, old_handlers = None, 0, {}
 
     def on_signal(signum, _frame):

@@ -19,6 +19,7 @@ import time
 import lcm
 
 import omni4
+from omni4._cli import add_lcm_option
 
 from . import model, topics
 from .model import Predictor
@@ -31,8 +32,7 @@ def parse_args(argv):
         prog=PROG, description="Serve the robot's LCM channels on a Foxglove WebSocket, with "
         "the model's prediction beside the encoders' velocity. Open Foxglove on "
         "ws://HOST:PORT.")
-    ap.add_argument("--lcm", default=omni4.DEFAULT_LCM_URL, metavar="URL",
-                    help=f"LCM URL to listen on (default {omni4.DEFAULT_LCM_URL})")
+    add_lcm_option(ap, "LCM URL to listen on")
     ap.add_argument("--host", default="127.0.0.1", help="address the WebSocket server binds "
                     "to (default 127.0.0.1, this machine only; 0.0.0.0 for the network)")
     ap.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765; 0 = "
