@@ -18,11 +18,13 @@ for f in ./usr/bin/omni4-fw ./usr/bin/omni4-record ./usr/lib/systemd/system/omni
   if grep -q " $f\$" <<<"$files"; then echo "ok: $f"; else echo "FAIL: $f missing"; fail=1; fi
 done
 dpkg-deb -I "$deb" conffiles | grep -q /etc/omni4/robot.ini && echo "ok: robot.ini is a conffile" || { echo "FAIL: robot.ini not a conffile"; fail=1; }
-# The recorder unit listens where the packaged INI publishes, and its command line is accepted
-# (run for two seconds with the log directory moved to a scratch folder).
+# The recorder unit listens where the packaged INI publishes (both on the default URL, or the
+# same --lcm as the INI's url), and its command line is accepted (run for two seconds with the
+# log directory moved to a scratch folder).
 ini_url=$(sed -n 's/^url *= *//p' "$src/robot.ini")
-grep -q -- "--lcm $ini_url " "$src/omni4-logger.service" && echo "ok: recorder URL = robot.ini url" ||
-  { echo "FAIL: omni4-logger.service URL differs from robot.ini ($ini_url)"; fail=1; }
+unit_url=$(sed -n 's/^ExecStart=.* --lcm \([^ ]*\).*/\1/p' "$src/omni4-logger.service")
+[ "$ini_url" = "$unit_url" ] && echo "ok: recorder URL = robot.ini url (${ini_url:-both the default})" ||
+  { echo "FAIL: omni4-logger.service URL '$unit_url' differs from robot.ini's '$ini_url'"; fail=1; }
 scratch=$(mktemp -d)
 read -r -a args < <(sed -n 's/^ExecStart=[^ ]*//p' "$src/omni4-logger.service" |
                     sed "s|/var/log/omni4|$scratch|; s/%%/%/g")

@@ -6,10 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "omni4/channels.h"
+
 namespace omni4 {
 
 struct RunOptions {
-  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string url = OMNI4_DEFAULT_LCM_URL;
   std::string out;
   std::vector<std::string> only;  // experiment kinds to keep (empty = all)
   double hold_s = 3.0;            // constant-voltage part of each run [s]

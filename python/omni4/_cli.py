@@ -10,7 +10,7 @@ import os
 import subprocess
 import sys
 
-from . import __version__
+from . import DEFAULT_LCM_URL, __version__
 
 EXIT_BROKEN_PIPE = 141   # 128 + SIGPIPE: what the shell reports for a tool killed by it
 
@@ -19,7 +19,29 @@ class ArgumentParser(argparse.ArgumentParser):
     """A usage error is one line, `prog: message (try --help)`, and status 2."""
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: {message} (try --help)\n")
+        self.exit(usage(self.prog, message))
+
+
+def add_lcm_option(parser, what="the robot's LCM URL"):
+    """--lcm URL, by default DEFAULT_LCM_URL (omni4/channels.h), as every tool on the bus has it."""
+    parser.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
+                        help=f"{what} (default {DEFAULT_LCM_URL})")
+
+
+def bus_tool_parser(prog, description, epilog):
+    """The parser of a tool on the robot's bus: one-line usage errors, the epilog kept as
+    written, and --lcm."""
+    p = ArgumentParser(prog=prog, description=description, epilog=epilog,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_lcm_option(p)
+    return p
+
+
+def usage(prog, message):
+    """A usage error found after parsing, as ArgumentParser.error words it: one line; returns
+    the status 2."""
+    sys.stderr.write(f"{prog}: {message} (try --help)\n")
+    return 2
 
 
 def version():

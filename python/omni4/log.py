@@ -12,7 +12,8 @@ the channel name, the payload. The reader loads each file once, finds every sync
 numpy, walks the header chain the way host-tools/common/logdata.cpp does (an invalid header
 or a truncated event: skip to the next sync word, count the bytes), and decodes the
 fixed-size types (motors_t, pose_t, command_t) with one structured big-endian view over the
-gathered payloads: no Python loop per message. Variable-size types (experiment_t) and any
+gathered payloads (the dtype omni4._layout reads from the generated classes): no Python loop
+per message. Variable-size types (experiment_t) and any
 other type in omni4.TYPES go through the lcm-gen decoder, message by message.
 
 Nothing is dropped silently: a payload of the wrong size, with another type's fingerprint or
@@ -23,72 +24,29 @@ Values are not filtered: a NaN current in the log is a NaN here. Messages stay i
 """
 import io
 import os
-import re
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from . import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, TYPES, command_t,
-               motors_t, pose_t)
+from . import CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, TYPES, _layout
+from ._layout import FINGERPRINT_BYTES
 
 SYNC = 0xEDA1DA01
 HEADER_BYTES = 28       # sync (4), event number (8), log time (8), channel length (4), data length (4)
 MAX_CHANNEL_BYTES = 256  # a longer channel length is a corrupt header (as logdata.cpp)
-FINGERPRINT_BYTES = 8
 
 _HEADER = np.dtype([("sync", ">u4"), ("eventnum", ">i8"), ("utime", ">i8"),
                     ("clen", ">i4"), ("dlen", ">i4")])
 assert _HEADER.itemsize == HEADER_BYTES
 
-# Payload layouts of the fixed-size types, after the 8-byte fingerprint, in .lcm field order
-# (lcmtypes/*.lcm; LCM encodes big-endian and packed). Checked against the generated encoder
-# at import (_check_layout): a type whose layout no longer matches is decoded message by
-# message instead, never misread.
-_LAYOUTS = {
-    motors_t: [("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"), ("faults", ">i4"),
-               ("voltage", ">f4", (4,)), ("current", ">f4", (4,)), ("wheel_speed", ">f4", (4,))],
-    pose_t: [("utime", ">i8"), ("x", ">f8"), ("y", ">f8"), ("theta", ">f8")],
-    command_t: [("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"), ("velocity", ">f8", (3,)),
-                ("voltage", ">f8", (4,)), ("ramp_s", ">f8")],
-}
+# The fixed-size types of TYPES and their wire dtypes (omni4._layout, read from the generated
+# classes): these are decoded with one structured view, the others message by message.
+_FAST = {cls: _layout.wire_dtype(cls) for cls in TYPES.values()
+         if _layout.wire_dtype(cls) is not None}
 
 
 class LogError(ValueError):
     """A log that holds no intact LCM event (not an event log, empty, or all corrupt)."""
-
-
-def _fingerprint(cls):
-    return int.from_bytes(cls._get_packed_fingerprint(), "big")
-
-
-def _check_layout(cls, fields):
-    """The structured dtype for cls's payload (fingerprint first), or None if the layout does
-    not reproduce what the generated encoder writes for a probe message."""
-    dt = np.dtype([("fingerprint", ">u8")] + fields)
-    if [f[0] for f in fields] != list(cls.__slots__):
-        return None
-    probe = cls()
-    for k, f in enumerate(fields):
-        shape = f[2] if len(f) > 2 else ()
-        kind = np.dtype(f[1]).kind
-        vals = [(k + 1) * 3 + i if kind == "i" else (k + 1) * 0.5 + i * 0.25
-                for i in range(int(np.prod(shape)) if shape else 1)]
-        setattr(probe, f[0], vals if shape else vals[0])
-    data = probe.encode()
-    if len(data) != dt.itemsize:
-        return None
-    row = np.frombuffer(data, dtype=dt)[0]
-    if int(row["fingerprint"]) != _fingerprint(cls):
-        return None
-    for f in fields:
-        got, want = np.ravel(row[f[0]]).tolist(), np.ravel(getattr(probe, f[0])).tolist()
-        if got != want:
-            return None
-    return dt
-
-
-_FAST = {cls: dt for cls, dt in ((c, _check_layout(c, f)) for c, f in _LAYOUTS.items())
-         if dt is not None}
 
 
 class Channel:
@@ -335,9 +293,7 @@ def _channel_ids(buf, off, clen, names):
 
 def _empty_fields(cls):
     if cls in _FAST:
-        dt = _FAST[cls]
-        return {n: np.zeros((0,) + dt[n].shape, dt[n].base.newbyteorder("=")) for n in dt.names
-                if n != "fingerprint"}
+        return _layout.empty_fields(cls)
     out = {}
     for name in cls.__slots__:
         v = getattr(cls(), name)
@@ -376,11 +332,10 @@ def _decode_fast(buf, cls, doff, dlen):
         return _empty_fields(cls), np.zeros(0, np.int64), {"wrong_size": len(dlen)}
     rows = np.ascontiguousarray(sliding_window_view(buf, dt.itemsize)[doff[size_ok]])
     rec = rows.view(dt).ravel()
-    fp_ok = rec["fingerprint"] == _fingerprint(cls)
+    fp_ok = rec["fingerprint"] == _layout.fingerprint(cls)
     if not fp_ok.all():  # (a boolean index copies every record: only when needed)
         rec = rec[fp_ok]
-    fields = {n: rec[n].astype(dt[n].base.newbyteorder("="))
-              for n in dt.names if n != "fingerprint"}
+    fields = _layout.fields_of(rec)
     keep = np.flatnonzero(size_ok)[fp_ok]
     skipped = {"wrong_size": int((~size_ok).sum()), "wrong_fingerprint": int((~fp_ok).sum())}
     return fields, keep, skipped

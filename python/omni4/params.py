@@ -6,7 +6,7 @@ as the text the INI holds. A set of several keys (or a load) is applied by the l
 ticks, whole or not at all; the robot's reason comes back in the exception.
 
     from omni4.params import ParamClient
-    p = ParamClient("udpm://239.255.76.67:7667?ttl=0")
+    p = ParamClient()                  # omni4.DEFAULT_LCM_URL, or ParamClient("udpm://...")
     p.get("control.kp").value          # 20.0
     p.set("control.kp", 30)            # Applied(seq=..., ...)
     p.set({"model.R": 4.5, "model.Kv": 0.026})   # one atomic change
@@ -17,7 +17,6 @@ Every wait is bounded: a request is sent, and sent again with the same request i
 came within ``timeout_s`` (the robot answers a repeated id from its cache, so a change is never
 applied twice), ``retries`` times; then ParamTimeout.
 """
-import argparse
 import dataclasses
 import os
 import random
@@ -28,6 +27,7 @@ import time
 import lcm
 
 from . import CHANNEL_PARAM_REPLY, CHANNEL_PARAM_REQ  # defined before this module is imported
+from ._cli import usage
 from .param_reply_t import param_reply_t
 from .param_request_t import param_request_t
 from .param_value_t import param_value_t
@@ -330,14 +330,10 @@ example: omni4-param set control.kp 30 && omni4-param save"""
 
 
 def _build_parser():
-    from ._cli import ArgumentParser
+    from ._cli import bus_tool_parser
 
-    from . import DEFAULT_LCM_URL
-    p = ArgumentParser(prog="omni4-param", description="Read and change the parameters of a running "
-                "omni4-fw over LCM.", epilog=USAGE_EPILOG,
-                formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
-                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p = bus_tool_parser("omni4-param", "Read and change the parameters of a running omni4-fw "
+                        "over LCM.", USAGE_EPILOG)
     p.add_argument("--secret", default=None, help="the robot's [params] secret")
     p.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="wait for one answer [s] (default 1; 3 tries)")
@@ -367,23 +363,31 @@ def main(argv=None):
     return run("omni4-param", _main, argv)
 
 
-def _main(argv=None):
-    args = _build_parser().parse_args(argv)
+def _usage_error(args):
+    """What is wrong with the command line, or None."""
     n = len(args.args)
     if args.command in ("list", "save", "dump") and n:
-        return _usage(f"{args.command} takes no arguments")
+        return f"{args.command} takes no arguments"
     if args.command == "get" and n < 1:
-        return _usage("get needs KEY")
+        return "get needs KEY"
     if args.command == "set" and (n < 2 or n % 2):
-        return _usage("set needs KEY VALUE [KEY VALUE ...]")
+        return "set needs KEY VALUE [KEY VALUE ...]"
     if args.command == "load" and n != 1:
-        return _usage("load needs one PARAMS.ini")
+        return "load needs one PARAMS.ini"
     if not (args.timeout > 0):
-        return _usage("--timeout must be > 0")
+        return "--timeout must be > 0"
     keys = args.args[0::2] if args.command == "set" else args.args
     for k in keys if args.command in ("get", "set") else ():
         if "." not in k:
-            return _usage(f"'{k}' is not a section.key name (e.g. control.kp)")
+            return f"'{k}' is not a section.key name (e.g. control.kp)"
+    return None
+
+
+def _main(argv=None):
+    args = _build_parser().parse_args(argv)
+    error = _usage_error(args)
+    if error:
+        return usage("omni4-param", error)
     secret = args.secret if args.secret is not None else os.environ.get("OMNI4_PARAM_SECRET")
     text = None
     if args.command == "load":
@@ -391,11 +395,12 @@ def _main(argv=None):
             with open(args.args[0], encoding="utf-8") as f:
                 text = f.read()
         except (OSError, UnicodeDecodeError) as e:
-            return _usage(f"{args.args[0]}: cannot read: {getattr(e, 'strerror', None) or e}")
+            return usage("omni4-param",
+                         f"{args.args[0]}: cannot read: {getattr(e, 'strerror', None) or e}")
     try:
         client = ParamClient(args.lcm, secret=secret, timeout_s=args.timeout)
     except ParamError as e:
-        return _usage(str(e))
+        return usage("omni4-param", str(e))
     out = sys.stdout
     try:
         if args.command == "list":
@@ -437,11 +442,6 @@ def _print_applied(a, out):
     for p in a.params:
         out.write(f"{p.key} = {p.text}\n")
     out.write(f"in force from tick {a.seq}\n")
-
-
-def _usage(message):
-    sys.stderr.write(f"omni4-param: {message} (try --help)\n")
-    return 2
 
 
 if __name__ == "__main__":

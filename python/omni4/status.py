@@ -9,13 +9,13 @@ answer in time). --watch repeats every second until Ctrl-C.
 Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 usage error,
 141 when stdout is closed early (omni4-status | head -1: quiet).
 """
-import argparse
 import sys
 import time
 
 import lcm
 
 from . import CHANNEL_MOTORS, DEFAULT_LCM_URL, __version__, motors_t
+from ._cli import usage
 
 PROG = "omni4-status"
 RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
@@ -141,23 +141,20 @@ def report(url, w, model):
     return lines
 
 
-EPILOG = """\
+EPILOG = f"""\
 Prints: mode; latching faults and (in the window) warnings by name; loop rate [Hz] from the
 controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
 currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
 (asked from the controller; "parameters: no answer" if it does not answer).
 Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw running?),
 2 usage error, 141 when stdout is closed early (omni4-status | head -1).
-example: omni4-status --lcm udpm://239.255.76.67:7667?ttl=0 --listen 2"""
+example: omni4-status --lcm {DEFAULT_LCM_URL} --listen 2"""
 
 
 def build_parser():
-    from ._cli import ArgumentParser
+    from ._cli import bus_tool_parser
 
-    p = ArgumentParser(prog=PROG, description="One-shot status of the omni4 robot on an LCM URL.",
-                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
-                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p = bus_tool_parser(PROG, "One-shot status of the omni4 robot on an LCM URL.", EPILOG)
     p.add_argument("--listen", type=float, default=1.0, metavar="S",
                    help="listen to OMNI4_MOTORS for S seconds (default 1)")
     p.add_argument("--timeout", type=float, default=0.5, metavar="S",
@@ -174,13 +171,13 @@ def _main(argv):
         sys.stdout.write(f"{PROG} {__version__}\n")
         return 0
     if not (0 < args.listen <= 3600):
-        return _usage("--listen must be in (0, 3600] s")
+        return usage(PROG, "--listen must be in (0, 3600] s")
     if not (0 < args.timeout <= 60):
-        return _usage("--timeout must be in (0, 60] s")
+        return usage(PROG, "--timeout must be in (0, 60] s")
     try:
         lc = lcm.LCM(args.lcm)
     except Exception as e:  # lcm raises a bare RuntimeError
-        return _usage(f"cannot open LCM URL {args.lcm}: {e}")
+        return usage(PROG, f"cannot open LCM URL {args.lcm}: {e}")
     first = True
     while True:
         t0 = time.monotonic()
@@ -201,11 +198,6 @@ def _main(argv):
         if not args.watch:
             return 0
         time.sleep(max(0.0, 1.0 - (time.monotonic() - t0)))
-
-
-def _usage(message):
-    sys.stderr.write(f"{PROG}: {message} (try --help)\n")
-    return 2
 
 
 def main(argv=None):

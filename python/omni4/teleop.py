@@ -15,7 +15,6 @@ axes of --axes (default 1,0,3: left stick up/down, left/right, right stick left/
 v, vn, w (stick up / left = positive) at full scale --joy-lin [m/s] and --joy-rot [rad/s];
 button 0 stops. A regular file of recorded events is replayed at its recorded times.
 """
-import argparse
 import errno
 import glob
 import os
@@ -26,7 +25,8 @@ import struct
 import sys
 import time
 
-from . import DEFAULT_LCM_URL, __version__
+from . import __version__
+from ._cli import usage
 
 PROG = "omni4-teleop"
 JS_EVENT = struct.Struct("<IhBB")     # struct js_event (linux/joystick.h), little-endian hosts
@@ -192,12 +192,9 @@ Exit status: 0 quit, 1 run-time error (e.g. the robot refused a command), 2 usag
 
 
 def build_parser():
-    from ._cli import ArgumentParser
+    from ._cli import bus_tool_parser
 
-    p = ArgumentParser(prog=PROG, description="Drive the omni4 robot by hand: keys or a gamepad.",
-                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--lcm", default=DEFAULT_LCM_URL, metavar="URL",
-                   help=f"the robot's LCM URL (default {DEFAULT_LCM_URL})")
+    p = bus_tool_parser(PROG, "Drive the omni4 robot by hand: keys or a gamepad.", EPILOG)
     p.add_argument("--rate", type=float, default=20.0, metavar="HZ",
                    help="command re-send rate [Hz] (default 20; at least 10)")
     p.add_argument("--step-lin", type=float, default=0.1, metavar="M_S",
@@ -218,11 +215,6 @@ def build_parser():
     return p
 
 
-def _usage(message):
-    sys.stderr.write(f"{PROG}: {message} (try --help)\n")
-    return 2
-
-
 def _say(text):
     """One status line, drawn over the previous one (\\r\\n-safe in any terminal mode)."""
     try:
@@ -232,43 +224,103 @@ def _say(text):
         pass
 
 
-def _main(argv):
+def _parse(argv):
+    """(args, axes, None) or (None, None, usage error message)."""
     args = build_parser().parse_args(argv)
     if args.version:
-        sys.stdout.write(f"{PROG} {__version__}\n")
-        return 0
+        return args, None, None
     if not 10 <= args.rate <= 1000:
-        return _usage("--rate must be in [10, 1000] Hz (the watchdog is 200 ms)")
+        return None, None, "--rate must be in [10, 1000] Hz (the watchdog is 200 ms)"
     for name in ("step_lin", "step_rot", "joy_lin", "joy_rot"):
         if not getattr(args, name) > 0:
-            return _usage(f"--{name.replace('_', '-')} must be > 0")
+            return None, None, f"--{name.replace('_', '-')} must be > 0"
     try:
         axes = [int(a) for a in args.axes.split(",")]
         if len(axes) != 3 or not all(0 <= a < 256 for a in axes):
             raise ValueError
     except ValueError:
-        return _usage(f"--axes {args.axes}: three axis numbers V,VN,W expected")
-    js_path = None if args.no_joystick else args.joystick
-    if js_path is None and not args.no_joystick:
+        return None, None, f"--axes {args.axes}: three axis numbers V,VN,W expected"
+    return args, axes, None
+
+
+def _open_joystick(args):
+    """(Joystick or None, its path); OSError only for a --joystick named on the command line
+    (the default /dev/input/js* is optional)."""
+    if args.no_joystick:
+        return None, None
+    js_path = args.joystick
+    if js_path is None:
         found = sorted(glob.glob("/dev/input/js*"))
         js_path = found[0] if found else None
-    joystick = None
-    if js_path is not None:
-        try:
-            joystick = Joystick(js_path)
-        except OSError as e:
-            if args.joystick:
-                return _usage(f"--joystick {js_path}: {e.strerror}")
-            joystick = None
+    if js_path is None:
+        return None, None
+    try:
+        return Joystick(js_path), js_path
+    except OSError:
+        if args.joystick:
+            raise
+        return None, js_path
 
+
+def _limits(robot):
+    """(|v|, |vn| limit [m/s], |w| limit [rad/s], where they come from)."""
+    limits = dict(DEFAULT_LIMITS)
+    known = robot.limits                     # the controller's, if it answers
+    source = "controller's [limits]" if known else "defaults; the controller did not answer"
+    limits.update({k: v for k, v in known.items() if k in limits})
+    return limits["limits.vel_lin_max"], limits["limits.vel_rot_max"], source
+
+
+def _drive(robot, t, stdin_fd, joystick, js_path):
+    """Keys and joystick events into commands until quit, stdin closes or the replay ends."""
+    while not t.quit:
+        live_js = joystick is not None and not joystick.ended
+        fds = [stdin_fd]
+        if live_js and joystick.fileno() is not None:
+            fds.append(joystick.fileno())
+        timeout = 0.1
+        if live_js and joystick.replay:
+            timeout = min(timeout, joystick.next_due() or 0.0)
+        ready, _, _ = select.select(fds, [], [], timeout)
+        changed = False
+        if stdin_fd in ready:
+            data = os.read(stdin_fd, 64)
+            if not data:                      # stdin closed: stop and leave
+                break
+            for ch in data.decode("latin-1"):
+                changed |= t.key(ch)
+                if t.quit:
+                    break
+        if live_js:
+            for ev in joystick.events():
+                changed |= t.js_event(ev)
+            if joystick.ended and not joystick.replay:
+                t.v = [0.0, 0.0, 0.0]         # unplugged: stop
+                changed = True
+                _say(f"joystick {js_path} gone: stopped\r\n")
+        if changed and not t.quit:
+            robot.velocity(*t.v)
+            _say(t.line())
+        robot.check()
+
+
+def _main(argv):
+    args, axes, error = _parse(argv)
+    if error:
+        return usage(PROG, error)
+    if args.version:
+        sys.stdout.write(f"{PROG} {__version__}\n")
+        return 0
+    try:
+        joystick, js_path = _open_joystick(args)
+    except OSError as e:
+        return usage(PROG, f"--joystick {args.joystick}: {e.strerror}")
     from .robot import CommandRejected, Robot
     try:
         robot = Robot(args.lcm, keepalive_s=1.0 / args.rate)
     except (RuntimeError, ValueError) as e:
-        return _usage(str(e))
-    term = None
-    status = 0
-    old_handlers = {}
+        return usage(PROG, str(e))
+    term, status, old_handlers = None, 0, {}
 
     def on_signal(signum, _frame):
         raise KeyboardInterrupt
@@ -276,54 +328,18 @@ def _main(argv):
     try:
         for sig in (signal.SIGTERM, signal.SIGHUP):
             old_handlers[sig] = signal.signal(sig, on_signal)
-        limits = dict(DEFAULT_LIMITS)
-        known = robot.limits                     # the controller's, if it answers
-        source = "controller's [limits]" if known else "defaults; the controller did not answer"
-        limits.update({k: v for k, v in known.items() if k in limits})
-        lin_max, rot_max = limits["limits.vel_lin_max"], limits["limits.vel_rot_max"]
+        lin_max, rot_max, source = _limits(robot)
         t = Teleop(lin_max, rot_max, args.step_lin, args.step_rot, args.joy_lin, args.joy_rot,
                    axes)
-        stdin_fd = sys.stdin.fileno()
         sys.stdout.write(f"{PROG} on {args.lcm}: limits |v|, |vn| <= {lin_max:g} m/s, "
                          f"|w| <= {rot_max:g} rad/s ({source})\r\n"
                          "w/s v  a/d vn  q/e w  space stop  +/- step  x quit"
                          + (f"  joystick {js_path}" if joystick else "") + "\r\n")
         sys.stdout.flush()
-        term = Terminal(stdin_fd)
+        term = Terminal(sys.stdin.fileno())
         robot.velocity(0.0, 0.0, 0.0)
         _say(t.line())
-        stdin_open = True
-        while not t.quit:
-            fds = [stdin_fd] if stdin_open else []
-            if joystick is not None and joystick.fileno() is not None and not joystick.ended:
-                fds.append(joystick.fileno())
-            timeout = 0.1
-            if joystick is not None and joystick.replay and not joystick.ended:
-                timeout = min(timeout, joystick.next_due() or 0.0)
-            if not fds and (joystick is None or joystick.ended):
-                break
-            ready, _, _ = select.select(fds, [], [], timeout)
-            changed = False
-            if stdin_fd in ready:
-                data = os.read(stdin_fd, 64)
-                if not data:                      # stdin closed: stop and leave
-                    stdin_open = False
-                    break
-                for ch in data.decode("latin-1"):
-                    changed |= t.key(ch)
-                    if t.quit:
-                        break
-            if joystick is not None and not joystick.ended:
-                for ev in joystick.events():
-                    changed |= t.js_event(ev)
-                if joystick.ended and not joystick.replay:
-                    t.v = [0.0, 0.0, 0.0]         # unplugged: stop
-                    changed = True
-                    _say(f"joystick {js_path} gone: stopped\r\n")
-            if changed and not t.quit:
-                robot.velocity(*t.v)
-                _say(t.line())
-            robot.check()
+        _drive(robot, t, sys.stdin.fileno(), joystick, js_path)
     except KeyboardInterrupt:
         pass
     except CommandRejected as e:

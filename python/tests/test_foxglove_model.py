@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 import omni4
-from omni4.foxglove import export, ini, lcmlog, topics
-from omni4.foxglove.model import Predictor
+from omni4.foxglove import export, lcmlog, topics
+from omni4.foxglove.model import Predictor, read_model, table3
+from omni4.ini import ConfigError
 
 # The paper's Table III (docs/design.md), typed here independently of model/.
 T3 = dict(d=0.089, r=0.0325, l=5.0, Kv=0.0259, Kt=0.0259, R=4.3111, M=2.34, J=0.0228,
@@ -136,13 +137,13 @@ def write(tmp_path, name, text):
 
 
 def test_ini_model_section(tmp_path):
-    assert ini.table3() == pytest.approx(T3)
+    assert table3() == pytest.approx(T3)
     # no [model]: Table III, as the firmware
     p = write(tmp_path, "robot.ini", "[hal]\nmotor = sim\n[loop]\nrate_hz = 1000\n")
-    assert ini.read_model(p) == pytest.approx(T3)
+    assert read_model(p) == pytest.approx(T3)
     body = "".join(f"{k} = {v * 1.1} ; comment\n" for k, v in T3.items())
     p = write(tmp_path, "p.ini", "; identified\n[hal]\nmotor = sim\n[model]\n" + body)
-    got = ini.read_model(p)
+    got = read_model(p)
     assert got == pytest.approx({k: v * 1.1 for k, v in T3.items()})
 
 
@@ -157,18 +158,20 @@ def test_ini_model_section(tmp_path):
     ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()).replace("M = 2.34", "M = -2"),
      "not physical"),
     ("[model\nd = 1\n", ":1: malformed section header"),
+    ("[hal]\nmotor = sim\n[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items())
+     + "[hal]\nlines = none\n", ":18: duplicate section [hal]"),
     ("[model]\nd = nan\n", "is not finite"),
 ])
 def test_ini_errors_name_file_and_line(tmp_path, text, msg):
     p = write(tmp_path, "bad.ini", text)
-    with pytest.raises(ini.ConfigError) as e:
-        ini.read_model(p)
+    with pytest.raises(ConfigError) as e:
+        read_model(p)
     assert str(e.value).startswith(p + ":") and msg in str(e.value), str(e.value)
 
 
 def test_ini_missing_file(tmp_path):
-    with pytest.raises(ini.ConfigError, match="cannot read"):
-        ini.read_model(str(tmp_path / "none.ini"))
+    with pytest.raises(ConfigError, match="cannot read"):
+        read_model(str(tmp_path / "none.ini"))
 
 
 # ---- logs -----------------------------------------------------------------------------------

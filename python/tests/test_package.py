@@ -3,6 +3,8 @@ import os
 import re
 import sys
 
+import pytest
+
 import omni4
 
 LCM_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "lcmtypes")
@@ -39,14 +41,55 @@ def test_channels_map_to_types():
     assert omni4.TYPES[omni4.CHANNEL_EXPERIMENT] is omni4.experiment_t
 
 
-def test_channel_names_match_the_c_header():
-    """omni4.CHANNEL_* and MARK_* are the names of lcmtypes/include/omni4/channels.h, one for one."""
-    header = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
-    with open(header) as fh:
-        c_names = dict(re.findall(r'#define OMNI4_((?:CHANNEL|MARK)_\w+) "(\w+)"', fh.read()))
-    py_names = {n: getattr(omni4, n) for n in dir(omni4) if n.startswith(("CHANNEL_", "MARK_"))}
-    assert len(c_names) >= 8 and "MARK_END" in c_names
-    assert py_names == c_names
+def _gen_channels():
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+    try:
+        import gen_channels
+    finally:
+        sys.path.pop(0)
+    return gen_channels
+
+
+CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
+
+
+def test_channel_constants_are_generated_from_the_c_header():
+    """The build wrote omni4/_channels.py with the generator from channels.h as it is now (a
+    header changed after the install fails here), and the package takes its names from it."""
+    from omni4 import _channels
+    with open(CHANNELS_H) as fh:
+        text = fh.read()
+    with open(_channels.__file__) as fh:
+        assert fh.read() == _gen_channels().python_module(text, CHANNELS_H)
+    names = {n: v for n, v, _ in _gen_channels().constants(text)}
+    assert {"CHANNEL_MOTORS", "CHANNEL_CMD", "MARK_END", "DEFAULT_LCM_URL"} <= set(names)
+    for n, v in names.items():
+        assert getattr(omni4, n) == v and n in omni4.__all__
+
+
+def test_channel_generator_turns_defines_into_constants():
+    g = _gen_channels()
+    text = ('#ifndef G_H\n#define G_H\n/* c */\n#define OMNI4_CHANNEL_X "X_1"   /* x: a -> b */\n'
+            '  #  define OMNI4_MARK_Y "y"\n#endif\n')
+    assert g.constants(text) == [("CHANNEL_X", "X_1", "x: a -> b"), ("MARK_Y", "y", "")]
+    ns = {}
+    exec(g.python_module(text), ns)
+    assert (ns["CHANNEL_X"], ns["MARK_Y"], ns["__all__"]) == ("X_1", "y", ["CHANNEL_X", "MARK_Y"])
+
+
+@pytest.mark.parametrize("line, msg", [
+    ("#define OMNI4_RATE_HZ 1000", ":2: not `#define OMNI4_NAME"),
+    ('#define OMNI4_X "a\\"b"', ":2: not `#define OMNI4_NAME"),
+    ('#define OTHER_X "a"', ":2: not `#define OMNI4_NAME"),
+    ('#define OMNI4_CHANNEL_CMD "again"', ":2: OMNI4_CHANNEL_CMD defined twice"),
+])
+def test_channel_generator_refuses_what_it_cannot_carry_over(line, msg):
+    g = _gen_channels()
+    with pytest.raises(g.HeaderError) as e:
+        g.constants(f'#define OMNI4_CHANNEL_CMD "OMNI4_CMD"\n{line}\n', "h.h")
+    assert str(e.value).startswith("h.h" + msg), str(e.value)
+    with pytest.raises(g.HeaderError, match="h.h: no `#define"):
+        g.constants("#ifndef H\n#define H\n#endif\n", "h.h")
 
 
 def test_foxglove_tools_without_their_extra_say_so_in_one_line(monkeypatch, capsys):

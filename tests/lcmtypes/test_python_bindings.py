@@ -14,10 +14,17 @@ import subprocess
 import sys
 import tempfile
 
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 sys.path.insert(0, sys.argv[2])
+sys.path.append(os.path.join(ROOT, "python"))  # after the generated omni4
+import gen_channels  # noqa: E402  (the channel names of channels.h, as the package gets them)
 from omni4 import experiment_t, motors_t, pose_t  # noqa: E402  (generated at build time)
 
-TYPES = {"OMNI4_MOTORS": motors_t, "OMNI4_POSE": pose_t, "OMNI4_EXPERIMENT": experiment_t}
+with open(os.path.join(ROOT, "lcmtypes", "include", "omni4", "channels.h")) as _h:
+    CHANNELS = {name: value for name, value, _ in gen_channels.constants(_h.read())}
+MOTORS = CHANNELS["CHANNEL_MOTORS"]
+TYPES = {MOTORS: motors_t, CHANNELS["CHANNEL_POSE"]: pose_t,
+         CHANNELS["CHANNEL_EXPERIMENT"]: experiment_t}
 EVENT_SYNC = 0xEDA1DA01
 
 
@@ -58,7 +65,7 @@ def main():
             msg = TYPES[channel].decode(payload)
             counts[channel] = counts.get(channel, 0) + 1
             mismatched += msg.encode() != payload
-            if channel == "OMNI4_MOTORS":
+            if channel == MOTORS:
                 seqs.append(msg.seq)
                 for k, field in enumerate((msg.voltage, msg.current, msg.wheel_speed)):
                     sums[k] += sum(field)

@@ -1,6 +1,9 @@
 /*
- * channels.h - the LCM channel names of omni4 (docs/design.md), for C and C++. The Python
- * package's omni4.CHANNEL_* are checked against this file by its tests.
+ * channels.h - the LCM channel names of omni4 (docs/design.md) and the default LCM URL: the one
+ * place they are written. C and C++ include it; python/setup.py generates the Python package's
+ * omni4.CHANNEL_*, MARK_* and DEFAULT_LCM_URL from it (omni4/_channels.py) when the package is
+ * built, so every line here is `#define OMNI4_NAME "text"` with an optional comment (the
+ * generator refuses any other #define).
  */
 #ifndef OMNI4_CHANNELS_H
 #define OMNI4_CHANNELS_H

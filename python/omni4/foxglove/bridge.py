@@ -19,8 +19,9 @@ import time
 import lcm
 
 import omni4
+from omni4._cli import add_lcm_option
 
-from . import ini, topics
+from . import model, topics
 from .model import Predictor
 
 PROG = "omni4-bridge"
@@ -31,8 +32,7 @@ def parse_args(argv):
         prog=PROG, description="Serve the robot's LCM channels on a Foxglove WebSocket, with "
         "the model's prediction beside the encoders' velocity. Open Foxglove on "
         "ws://HOST:PORT.")
-    ap.add_argument("--lcm", default=omni4.DEFAULT_LCM_URL, metavar="URL",
-                    help=f"LCM URL to listen on (default {omni4.DEFAULT_LCM_URL})")
+    add_lcm_option(ap, "LCM URL to listen on")
     ap.add_argument("--host", default="127.0.0.1", help="address the WebSocket server binds "
                     "to (default 127.0.0.1, this machine only; 0.0.0.0 for the network)")
     ap.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765; 0 = "
@@ -105,9 +105,54 @@ class Bridge:
                         topics.scene_json(t_ns, self.params["d"], self.params["r"]), t_ns)
 
 
+def _pump(lc, bridge, a, stop, t_start):
+    """LCM into the bridge until stop fills or --duration [s] has passed; health and the scene
+    on their periods."""
+    next_health = t_start + a.health_period
+    next_scene = t_start
+    interrupted = 0
+    while not stop:
+        now = time.monotonic()
+        if a.duration and now - t_start >= a.duration:
+            break
+        try:
+            lc.handle_timeout(50)  # [ms]: bounded, so signals and timers are served
+            interrupted = 0
+        except OSError:
+            # select() inside was interrupted by a signal (SIGINT/SIGTERM: its handler runs
+            # right after this, and the loop ends); an error that repeats is real.
+            interrupted += 1
+            if interrupted > 3:
+                raise
+            continue
+        now = time.monotonic()
+        h, s = now >= next_health, now >= next_scene
+        if h or s:
+            bridge.tick(time.time_ns(), h, s)
+            if h:
+                next_health += a.health_period * max(1, int((now - next_health) //
+                                                            a.health_period) + 1)
+            if s:
+                next_scene = now + 1.0
+
+
+def _summary(bridge, wall_s, cpu_s):
+    rx = bridge.received.get(omni4.CHANNEL_MOTORS, 0)
+    print(f"{PROG}: {wall_s:.1f} s: received {rx} motors samples ({rx / wall_s:.0f} Hz), "
+          f"{sum(bridge.received.values())} LCM messages; sent "
+          f"{bridge.ch.counts[omni4.CHANNEL_MOTORS]} motors, "
+          f"{bridge.ch.counts[topics.TOPIC_VELOCITY]} velocity; "
+          f"CPU {100 * cpu_s / wall_s:.1f} %", file=sys.stderr)
+
+
+def _cpu_s():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    params = ini.params_or_exit(PROG, a.params)
+    params = model.params_or_exit(PROG, a.params)
     try:
         lc = lcm.LCM(a.lcm)
     except Exception as e:  # lcm raises RuntimeError on a URL it cannot use
@@ -129,52 +174,17 @@ def main(argv=None):
     if not a.quiet:
         print(f"{PROG}: serving ws://{a.host}:{server.port} (Foxglove) from {a.lcm}; "
               f"motors sent 1 in {a.decimate}", file=sys.stderr, flush=True)
-    t_start = time.monotonic()
-    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
-    next_health = t_start + a.health_period
-    next_scene = t_start
-    rc = 0
-    interrupted = 0
+    t_start, cpu0, rc = time.monotonic(), _cpu_s(), 0
     try:
-        while not stop:
-            now = time.monotonic()
-            if a.duration and now - t_start >= a.duration:
-                break
-            try:
-                lc.handle_timeout(50)  # [ms]: bounded, so signals and timers are served
-                interrupted = 0
-            except OSError:
-                # select() inside was interrupted by a signal (SIGINT/SIGTERM: its handler runs
-                # right after this, and the loop ends); an error that repeats is real.
-                interrupted += 1
-                if interrupted > 3:
-                    raise
-                continue
-            now = time.monotonic()
-            h, s = now >= next_health, now >= next_scene
-            if h or s:
-                bridge.tick(time.time_ns(), h, s)
-                if h:
-                    next_health += a.health_period * max(1, int((now - next_health) //
-                                                                a.health_period) + 1)
-                if s:
-                    next_scene = now + 1.0
+        _pump(lc, bridge, a, stop, t_start)
     except Exception as e:
         print(f"{PROG}: {type(e).__name__}: {e}", file=sys.stderr)
         rc = 1
     finally:
         lc.unsubscribe(sub)
         server.stop()
-    wall = time.monotonic() - t_start
-    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
-    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
     if not a.quiet:
-        rx = bridge.received.get(omni4.CHANNEL_MOTORS, 0)
-        print(f"{PROG}: {wall:.1f} s: received {rx} motors samples ({rx / wall:.0f} Hz), "
-              f"{sum(bridge.received.values())} LCM messages; sent "
-              f"{bridge.ch.counts[omni4.CHANNEL_MOTORS]} motors, "
-              f"{bridge.ch.counts[topics.TOPIC_VELOCITY]} velocity; "
-              f"CPU {100 * cpu / wall:.1f} %", file=sys.stderr)
+        _summary(bridge, time.monotonic() - t_start, _cpu_s() - cpu0)
     return rc
 
 

@@ -16,19 +16,12 @@ import time
 import numpy as np
 
 import omni4
+from omni4 import _layout
 
-from . import ini, lcmlog, topics
+from . import lcmlog, model, topics
 from .model import Predictor
 
 PROG = "omni4-mcap"
-
-# motors_t on the wire (lcm-gen encoding, big-endian): fingerprint, then the fields in order.
-# Used only when every payload has motors_t's fingerprint and size; checked against the
-# generated decoder by the tests.
-MOTORS_WIRE = np.dtype([("fp", ">u8"), ("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"),
-                        ("faults", ">i4"), ("voltage", ">f4", 4), ("current", ">f4", 4),
-                        ("wheel_speed", ">f4", 4)])
-
 
 class Usage(Exception):
     pass
@@ -37,23 +30,14 @@ class Usage(Exception):
 def decode_motors(payloads):
     """List of motors_t payloads -> dict of numpy arrays (utime, seq, mode, faults: (n,);
     voltage, current, wheel_speed: (n, 4) float32)."""
-    fp = omni4.motors_t._get_packed_fingerprint()
-    n = len(payloads)
-    if n and set(map(len, payloads)) == {MOTORS_WIRE.itemsize}:
-        a = np.frombuffer(b"".join(payloads), dtype=MOTORS_WIRE)
-        if (a["fp"] == int.from_bytes(fp, "big")).all():
-            return {k: a[k].astype(a[k].dtype.newbyteorder("=")) for k in MOTORS_WIRE.names
-                    if k != "fp"}
+    dt = _layout.wire_dtype(omni4.motors_t)
+    if payloads and set(map(len, payloads)) == {dt.itemsize}:
+        rec = np.frombuffer(b"".join(payloads), dtype=dt)
+        if (rec["fingerprint"] == _layout.fingerprint(omni4.motors_t)).all():
+            return _layout.fields_of(rec)
     # anything else: the generated decoder, message by message (raises on a bad payload)
-    ms = [omni4.motors_t.decode(p) for p in payloads]
-    return {"utime": np.array([m.utime for m in ms], dtype=np.int64),
-            "seq": np.array([m.seq for m in ms], dtype=np.int64),
-            "mode": np.array([m.mode for m in ms], dtype=np.int8),
-            "faults": np.array([m.faults for m in ms], dtype=np.int32),
-            "voltage": np.array([m.voltage for m in ms], dtype=np.float32).reshape(n, 4),
-            "current": np.array([m.current for m in ms], dtype=np.float32).reshape(n, 4),
-            "wheel_speed": np.array([m.wheel_speed for m in ms],
-                                    dtype=np.float32).reshape(n, 4)}
+    return _layout.fields_of_messages(omni4.motors_t,
+                                      [omni4.motors_t.decode(p) for p in payloads])
 
 
 def parse_args(argv):
@@ -104,24 +88,29 @@ class Writer(topics.Channels):
         self.mcap.close()
 
 
+def motors_events(events):
+    """(per event: is it a motors_t on OMNI4_MOTORS, the arrays of those, in order). motors_t
+    is fixed-size: a payload of another size or fingerprint is not one (it goes through
+    topics.event_messages, to OMNI4_MOTORS/undecodable)."""
+    fp = omni4.motors_t._get_packed_fingerprint()
+    size = _layout.wire_dtype(omni4.motors_t).itemsize
+    is_mot = [ch == omni4.CHANNEL_MOTORS and len(d) == size and d[:8] == fp
+              for _, ch, d in events]
+    return is_mot, decode_motors([d for (_, _, d), m in zip(events, is_mot) if m])
+
+
 def convert(events, params, w, health_period_s):
     """Write all events (log order) and the derived topics into the Writer w."""
     classes = topics.lcm_classes()
-    # motors_t is fixed-size: a payload of another size or fingerprint is not one (it goes
-    # through event_messages, to OMNI4_MOTORS/undecodable)
-    fp, size = omni4.motors_t._get_packed_fingerprint(), MOTORS_WIRE.itemsize
-    is_mot = [ch == omni4.CHANNEL_MOTORS and len(d) == size and d[:8] == fp
-              for _, ch, d in events]
-    mot_idx = [i for i, m in enumerate(is_mot) if m]
-    mot = decode_motors([events[i][2] for i in mot_idx])
+    is_mot, mot = motors_events(events)
+    any_mot = len(mot["utime"]) > 0
     pred = Predictor(params)
     meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
                                           mot["voltage"], mot["wheel_speed"])
     pairs = zip(topics.motors_json_blocks(mot),
                 topics.velocity_json_blocks(mot, meas, predicted, restarted))
-    L = {k: mot[k].tolist() for k in ("utime", "seq", "mode", "faults")}  # for health
-    ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if mot_idx else None
-    ch_vel = w.get(topics.TOPIC_VELOCITY, "omni4.velocity") if mot_idx else None
+    ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if any_mot else None
+    ch_vel = w.get(topics.TOPIC_VELOCITY, "omni4.velocity") if any_mot else None
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
@@ -132,7 +121,7 @@ def convert(events, params, w, health_period_s):
     log_m = ch_mot.log if ch_mot else None
     log_v = ch_vel.log if ch_vel else None
     add = health.add
-    ut_l, sq_l, md_l, fl_l = L["utime"], L["seq"], L["mode"], L["faults"]
+    ut_l, sq_l, md_l, fl_l = (mot[f].tolist() for f in ("utime", "seq", "mode", "faults"))
     while i < n:
         t_us, chname, data = events[i]
         if t_us >= next_scene:  # the robot's body, once a second of log time
@@ -162,7 +151,7 @@ def convert(events, params, w, health_period_s):
         i += 1
         for topic, schema, msg in topics.event_messages(chname, data, t_us * 1000, classes):
             w.log(topic, schema, msg, t_us * 1000)
-    if mot_idx:
+    if any_mot:
         w.counts[omni4.CHANNEL_MOTORS] = w.counts[topics.TOPIC_VELOCITY] = k
         if health.n:  # the last, partial window
             w.log(topics.TOPIC_HEALTH, "omni4.health", health.report(health_period_s),
@@ -184,7 +173,7 @@ def merge_parts(parts, quiet):
 
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
-    params = ini.params_or_exit(PROG, a.params)
+    params = model.params_or_exit(PROG, a.params)
     t0 = time.perf_counter()
     parts, lost = [], []
     try:

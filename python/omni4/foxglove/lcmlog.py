@@ -6,9 +6,9 @@ of the file is not returned and its bytes are counted as truncated. Nothing is d
 silently."""
 import os
 
-import struct
+import numpy as np
 
-from .. import CHANNEL_MOTORS
+from .. import CHANNEL_MOTORS, _layout, motors_t
 from ..log import HEADER_BYTES, SYNC, interleaved_error, read_events as _read_raw, seq_backwards
 
 SYNC_BYTES = SYNC.to_bytes(4, "big")
@@ -62,13 +62,15 @@ def read_events(path):
     if not raw.events:
         what = "empty file" if raw.size == 0 else "no intact LCM event in the file"
         raise LogError(f"{path}: {what} (not an LCM event log?)")
-    # Two controllers' OMNI4_MOTORS interleaved: refused as omni4.read_log refuses it. motors_t
-    # on the wire: fingerprint, utime, seq (8 bytes each, big-endian).
-    pairs = [struct.unpack_from(">qq", d, 8) for _t, ch, d in raw.events
-             if ch == CHANNEL_MOTORS and len(d) >= 24]
-    if len(pairs) > 1:
-        ut, sq = zip(*pairs)
-        err = interleaved_error(path, seq_backwards(sq, ut))
+    # Two controllers' OMNI4_MOTORS interleaved: refused as omni4.read_log refuses it, on the
+    # payloads that are motors_t (its size and fingerprint), as read_log counts them.
+    dt = _layout.wire_dtype(motors_t)
+    fp = motors_t._get_packed_fingerprint()
+    mot = [d for _t, ch, d in raw.events
+           if ch == CHANNEL_MOTORS and len(d) == dt.itemsize and d.startswith(fp)]
+    if len(mot) > 1:
+        rec = np.frombuffer(b"".join(mot), dt)
+        err = interleaved_error(path, seq_backwards(rec["seq"], rec["utime"]))
         if err:
             raise LogError(err)
     return raw.events, st

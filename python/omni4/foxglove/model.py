@@ -1,13 +1,18 @@
 """The project's model (model/src/*.c) through ctypes: encoder velocity (eqs 3-5) and the model's
-prediction from the logged voltages (plant_step, eq 23), sample by sample or for a whole log.
+prediction from the logged voltages (plant_step, eq 23), sample by sample or for a whole log;
+and its parameters, from the [model] of a robot INI (omni4.ini reads the file) or Table III.
 
 The shared library is built by python/setup.py from model/src/*.c and _predict.c (see there for
 when the prediction restarts from the encoders)."""
 import ctypes
 import glob
+import math
 import os
+import sys
 
 import numpy as np
+
+from .. import ini
 
 _LIB = None
 PARAM_NAMES = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
@@ -85,3 +90,51 @@ class Predictor:
                                   u.ctypes.data, w.ctypes.data, meas.ctypes.data,
                                   pred.ctypes.data, rst.ctypes.data)
         return meas, pred, rst.astype(bool)
+
+
+def table3():
+    """The paper's Table III, read from model/ (model_params_table3)."""
+    arr = (ctypes.c_double * len(PARAM_NAMES)).in_dll(lib(), "model_params_table3")
+    return dict(zip(PARAM_NAMES, list(arr)))
+
+
+def read_model(path):
+    """[model] of the robot INI at path -> dict of the 14 parameters (docs/design.md: d r l Kv
+    Kt R M J Bv Bvn Bw Cv Cvn Cw, SI units, all or none; none = Table III, as in the firmware).
+    Other sections are the firmware's and are not looked at. Errors: omni4.ini.ConfigError,
+    one line FILE:LINE: ..."""
+    f = ini.read(path)
+    found = {}
+    for key, val in f.section("model").items():
+        where = f.where("model", key)
+        if key not in PARAM_NAMES:
+            raise ini.ConfigError(f"{where}: unknown key '{key}' in [model] "
+                                  f"(expected {' '.join(PARAM_NAMES)})")
+        try:
+            found[key] = float(val)
+        except ValueError:
+            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not a number") from None
+        if not math.isfinite(found[key]):
+            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not finite")
+    if not found:
+        return table3()
+    first = f"{path}:{min(f.line('model', k) or 0 for k in found)}"
+    missing = [k for k in PARAM_NAMES if k not in found]
+    if missing:
+        raise ini.ConfigError(f"{first}: [model] lacks {' '.join(missing)} (all 14 keys or none)")
+    try:
+        Predictor(found)
+    except ValueError:
+        raise ini.ConfigError(f"{first}: [model] parameters are not physical (a non-positive "
+                              "d r l Kv Kt R M J or a negative friction)") from None
+    return found
+
+
+def params_or_exit(prog, path):
+    """--params of a command-line tool: the [model] of path (Table III if None); on a broken
+    INI one line on stderr and exit status 2 (a configuration error)."""
+    try:
+        return read_model(path) if path else table3()
+    except ini.ConfigError as e:
+        print(f"{prog}: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
