@@ -1,7 +1,8 @@
 """Generates, at build time, what the package takes from the rest of the repository so that each
 fact stays written once: the LCM message modules (omni4/command_t.py, ...) from
 ../lcmtypes/*.lcm with lcm-gen, and the channel names and default LCM URL (omni4/_channels.py)
-from ../lcmtypes/include/omni4/channels.h (gen_channels.py).
+from ../lcmtypes/include/omni4/channels.h (gen_channels.py), and the INI key list (omni4/_keys.py)
+from the layers' *_keys.def (gen_keys.py).
 
 lcm-gen is taken from $LCM_GEN, then beside the Python that builds (the lcm wheel of the
 environment the package goes into), then PATH (Debian's liblcm-bin). It must be 1.4 or newer:
@@ -24,6 +25,7 @@ MODEL_DIR = os.path.join(HERE, "..", "model")
 
 sys.path.insert(0, HERE)
 import gen_channels  # noqa: E402  (beside this file; not part of the package)
+import gen_keys  # noqa: E402
 
 
 def find_lcm_gen():
@@ -59,6 +61,12 @@ class BuildWithLcmTypes(build_py):
             except gen_channels.HeaderError as e:
                 raise SystemExit(f"omni4: {e}") from None
         with open(os.path.join(out, "_channels.py"), "w", encoding="utf-8") as f:
+            f.write(source)
+        try:
+            source = gen_keys.python_module(os.path.join(HERE, ".."))
+        except (OSError, gen_keys.KeyListError) as e:
+            raise SystemExit(f"omni4: {e}") from None
+        with open(os.path.join(out, "_keys.py"), "w", encoding="utf-8") as f:
             f.write(source)
 
 

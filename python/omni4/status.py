@@ -16,10 +16,10 @@ import lcm
 
 from . import CHANNEL_MOTORS, DEFAULT_LCM_URL, __version__, motors_t
 from ._cli import usage
+from ._keys import MODEL_KEYS
 
 PROG = "omni4-status"
 RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
-MODEL_KEYS = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
 MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
 FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t)
                     if n.startswith("FAULT_"))

@@ -92,6 +92,42 @@ def test_channel_generator_refuses_what_it_cannot_carry_over(line, msg):
         g.constants("#ifndef H\n#define H\n#endif\n", "h.h")
 
 
+def _gen_keys():
+    sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+    try:
+        import gen_keys
+    finally:
+        sys.path.pop(0)
+    return gen_keys
+
+
+REPO = os.path.join(os.path.dirname(__file__), "..", "..")
+
+
+def test_key_list_is_generated_from_the_layers_key_lists():
+    """omni4/_keys.py is the generator's output for the *_keys.def files as they are now, read in
+    the order config.c assembles them."""
+    from omni4 import _keys
+    g = _gen_keys()
+    with open(_keys.__file__) as fh:
+        assert fh.read() == g.python_module(REPO)
+    with open(os.path.join(REPO, "config", "src", "config.c")) as fh:
+        table = fh.read().split("static const struct config_key keys[] = {", 1)[1]
+    included = re.findall(r'#include "omni4/(\w+_keys\.def)"', table.split("\n};", 1)[0])
+    assert included == [os.path.basename(p) for p in g.DEF_FILES]
+    assert len(_keys.KEYS) == len(set(_keys.KEYS)) and ("hal", "motor", "choice") in _keys.KEYS
+    assert _keys.MODEL_KEYS == ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw",
+                                "Cv", "Cvn", "Cw")
+
+
+def test_key_generator_refuses_a_row_it_cannot_read():
+    g = _gen_keys()
+    assert g.rows('OMNI4_KEY(DBL, "a", "b_c", x, 1, 0, 1, NULL, "", LIVE, "d")\n', "k.def") == \
+        [("a", "b_c", "double")]
+    with pytest.raises(g.KeyListError, match=r"k.def:2: not"):
+        g.rows('/* */\nOMNI4_KEY(FLOAT, "a", "b", x, 1, 0, 1, NULL, "", LIVE, "d")\n', "k.def")
+
+
 def test_foxglove_tools_without_their_extra_say_so_in_one_line(monkeypatch, capsys):
     """omni4-bridge and omni4-mcap installed without the 'foxglove' extra: status 2 and one line
     naming the missing package, not a traceback."""

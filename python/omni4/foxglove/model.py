@@ -13,9 +13,10 @@ import sys
 import numpy as np
 
 from .. import ini
+from .._keys import MODEL_KEYS
 
 _LIB = None
-PARAM_NAMES = ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
+PARAM_NAMES = MODEL_KEYS  # the 14 [model] keys, in model_params_names order
 
 
 def lib():
