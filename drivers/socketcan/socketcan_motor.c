@@ -275,26 +275,13 @@ static int run_step(uint8_t from, uint8_t to)
 	return d >= 1 && d <= CAN_COUNTER_WINDOW ? d : 0;
 }
 
-/* Plausibility of a STATUS frame that passed CRC and counter (see the header). periods =
- * frame periods since the last accepted STATUS of the node (by counter). */
-static bool status_plausible(struct socketcan_motor *m, struct sc_node *n,
-			     const struct can_status *s, uint8_t counter, int periods)
+/* A held frame joins its run (agrees: its counter steps within the window from the run's latest
+ * and its values agree with that frame's). true when it is the confirm_frames-th in a row: taken
+ * (counted confirmed, the run ends); else held (counted implausible). */
+static bool run_confirms(struct socketcan_motor *m, struct sc_run *run, uint8_t counter,
+			 bool agrees)
 {
-	struct sc_status_run *run = &n->status_run;
-	const bool suspect = status_over_limit(&m->lim, s) ||
-			     (n->have_status && !status_near(&m->lim, s, &n->status, periods));
-
-	if (!suspect) {
-		run->len = 0;
-		return true;
-	}
-	const int d = run->len > 0 ? run_step(run->counter, counter) : 0;
-
-	if (d && status_near(&m->lim, s, &run->last, d))
-		run->len++;
-	else
-		run->len = 1;
-	run->last = *s;
+	run->len = agrees ? run->len + 1 : 1;
 	run->counter = counter;
 	if (run->len >= m->lim.confirm_frames) {
 		run->len = 0;
@@ -305,12 +292,33 @@ static bool status_plausible(struct socketcan_motor *m, struct sc_node *n,
 	return false;
 }
 
+/* Plausibility of a STATUS frame that passed CRC and counter (see the header). periods =
+ * frame periods since the last accepted STATUS of the node (by counter). */
+static bool status_plausible(struct socketcan_motor *m, struct sc_node *n,
+			     const struct can_status *s, uint8_t counter, int periods)
+{
+	const bool suspect = status_over_limit(&m->lim, s) ||
+			     (n->have_status && !status_near(&m->lim, s, &n->status, periods));
+
+	if (!suspect) {
+		n->status_run.len = 0;
+		return true;
+	}
+	const int d = n->status_run.len > 0 ? run_step(n->status_run.counter, counter) : 0;
+	const bool agrees = d && status_near(&m->lim, s, &n->status_held, d);
+
+	n->status_held = *s;
+	return run_confirms(m, &n->status_run, counter, agrees);
+}
+
 static bool health_same(const struct can_health *a, const struct can_health *b)
 {
 	return a->faults == b->faults && a->state == b->state &&
 	       fabsf(a->supply_v - b->supply_v) <= 0.5f;
 }
 
+/* A HEALTH frame that raises a fault or the FAULT state, or moves the supply by more than
+ * 0.5 V, is confirmed as a STATUS frame is. */
 static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
 			     const struct can_health *h, uint8_t counter)
 {
@@ -321,23 +329,15 @@ static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
 					    : alarming;
 
 	if (!suspect) {
-		n->health_run = 0;
+		n->health_run.len = 0;
 		return true;
 	}
-	if (n->health_run > 0 && run_step(n->health_held_counter, counter) &&
-	    health_same(h, &n->health_held))
-		n->health_run++;
-	else
-		n->health_run = 1;
+	const bool agrees = n->health_run.len > 0 &&
+			    run_step(n->health_run.counter, counter) &&
+			    health_same(h, &n->health_held);
+
 	n->health_held = *h;
-	n->health_held_counter = counter;
-	if (n->health_run >= m->lim.confirm_frames) {
-		n->health_run = 0;
-		m->n.confirmed++;
-		return true;
-	}
-	m->n.implausible++;
-	return false;
+	return run_confirms(m, &n->health_run, counter, agrees);
 }
 
 static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, int64_t now)

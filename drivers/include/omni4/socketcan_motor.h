@@ -72,10 +72,11 @@ struct sc_limits sc_limits_for(const struct ctl_settings *s);
 /* sc_limits_for(the default settings): the Table III robot at 1 kHz. */
 struct sc_limits sc_limits_default(void);
 
-struct sc_status_run {
-	struct can_status last; /* the latest held frame */
-	uint8_t counter;
-	int len; /* consecutive agreeing held frames, 0 = none */
+/* A run of held (implausible) frames of one kind from one node: confirmed as the
+ * confirm_frames-th consecutive one that agrees with its predecessor. */
+struct sc_run {
+	uint8_t counter; /* of the latest held frame */
+	int len;         /* consecutive agreeing held frames, 0 = none */
 };
 
 struct sc_node {
@@ -85,11 +86,10 @@ struct sc_node {
 	uint8_t status_counter, health_counter;
 	int status_candidate, health_candidate; /* counter of a rejected frame, -1 = none */
 	bool have_status, have_health;
-	struct sc_status_run status_run;
 	int status_periods; /* frame periods (by counter) since the last accepted STATUS */
+	struct can_status status_held; /* the latest held frame of each kind */
 	struct can_health health_held;
-	uint8_t health_held_counter;
-	int health_run;
+	struct sc_run status_run, health_run;
 };
 
 struct socketcan_motor {
