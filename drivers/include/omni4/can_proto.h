@@ -20,8 +20,7 @@
  *
  * Bus load at 1 kHz (worst-case bit stuffing, 8 data bytes: 135 bits with intermission):
  * per tick CMD_VOLTAGE + 2 STATUS = 405 bits, plus 2 HEALTH at 100 Hz = 27 bit/ms:
- * 432 kbit/s = 43.2 % of 1 Mbit/s (can_bus_load_1khz() computes it). The CRC-16 format keeps
- * the 8-byte frames, so the figure is the one of the former CRC-8 format.
+ * 432 kbit/s = 43.2 % of 1 Mbit/s (can_bus_load_1khz() computes it).
  */
 #ifndef OMNI4_CAN_PROTO_H
 #define OMNI4_CAN_PROTO_H
@@ -57,7 +56,12 @@ enum can_control { CAN_CTL_ENABLE = 1, CAN_CTL_DISABLE = 2, CAN_CTL_CLEAR_FAULTS
 #define CAN_DRV_OVERTEMP 0x02u
 #define CAN_DRV_UNDERVOLTAGE 0x04u
 #define CAN_DRV_HW 0x08u
-#define CAN_DRV_CMD_TIMEOUT 0x10u /* no CMD_VOLTAGE for 50 ms: the board disabled itself */
+#define CAN_DRV_CMD_TIMEOUT 0x10u /* no CMD_VOLTAGE for CAN_BOARD_CMD_TIMEOUT_US: the board
+				   * disabled itself */
+
+/* A driver board without a CMD_VOLTAGE for this long disables its bridges (its own watchdog,
+ * behind the controller's). */
+#define CAN_BOARD_CMD_TIMEOUT_US 50000
 
 enum can_drv_state { CAN_STATE_DISABLED = 0, CAN_STATE_ENABLED = 1, CAN_STATE_FAULT = 2 };
 
