@@ -1,0 +1,118 @@
+/*
+ * est.h - where the robot is and whether it slips: a model-based state estimator (an extended
+ * Kalman filter) in the controller core. Portable like the rest of the core: C11, single
+ * precision, fixed sizes, no allocation; an instance with init / reset / step (CMSIS style).
+ *
+ * State s = [x, y, theta, v, vn, w]: the world pose (m, m, rad; theta wrapped to (-pi, pi]) and
+ * the robot-frame velocity (m/s, m/s, rad/s; eq 1 maps one to the other), with its covariance.
+ * - Predict, every tick: eq 23 with the derived signs (dynamics.h), Coulomb and viscous
+ *   friction, driven by the voltages applied at that tick, or null traction (A_coast, no drive)
+ *   when the bridges are off; the pose integrates eq 1.
+ * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model).
+ * - Update with a camera pose at its capture time (pose_t.utime): the filter keeps a ring of
+ *   its past ticks (inputs, readings, state and covariance) and re-runs from the frame's tick
+ *   to now; frames older than EST_HISTORY ticks are counted and dropped.
+ * - Outliers are gated (a camera jump; a wheel reading the model cannot explain); a camera that
+ *   stops leaves odometry and the model carrying on with a growing covariance.
+ * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
+ *   v0 - v1 + v2 - v3 and the wheel innovations; EST_FLAG_COLLISION from the model-vs-wheels
+ *   innovation (the robot slowed or was pushed although the voltages say otherwise); thresholds
+ *   from the measured noise (est_settings).
+ * The model parameters in force follow the parameter service (est_set_model, between ticks).
+ */
+#ifndef OMNI4_EST_H
+#define OMNI4_EST_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/dynamics.h"
+#include "omni4/params.h"
+
+#ifndef EST_HISTORY
+#define EST_HISTORY 256 /* past ticks kept for the camera replay (256 ms at 1 kHz) */
+#endif
+
+#define EST_FLAG_SLIP 0x01u         /* a wheel slips (or spins free): its reading disagrees */
+#define EST_FLAG_COLLISION 0x02u    /* the robot moves unlike the voltages say (blocked, pushed) */
+#define EST_FLAG_CAMERA_STALE 0x04u /* no camera pose taken for EST_CAMERA_STALE_US */
+#define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no wheel reading (model only) */
+
+#define EST_CAMERA_STALE_US 500000
+
+/* Noise and thresholds of the filter (SI units, standard deviations). */
+struct est_settings {
+	float accel_noise_lin;   /* process noise on v, vn [m/s^2] */
+	float accel_noise_rot;   /* process noise on w [rad/s^2] */
+	float wheel_noise;       /* wheel linear speed reading [m/s] */
+	float cam_pos_noise;     /* camera position [m] */
+	float cam_theta_noise;   /* camera heading [rad] */
+	float gate_sigmas;       /* a camera innovation beyond this many sigmas is an outlier */
+	float slip_threshold;    /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s] */
+	int slip_ticks;
+	float collision_threshold; /* model-vs-wheel velocity innovation beyond it [m/s] */
+	int collision_ticks;
+	bool replay;             /* camera frames replayed from their capture time (false: applied
+				  * at arrival, as if they had no latency; for comparison) */
+};
+
+/* One tick's inputs. */
+struct est_input {
+	int64_t utime;          /* controller time of the tick [us] */
+	float volts[4];         /* applied [V] */
+	bool driven;            /* H-bridges on */
+	bool have_wheels;       /* a reading this tick */
+	float wheel_rad_s[4];   /* wheel angular speeds [rad/s] */
+};
+
+struct est_output {
+	int64_t utime;
+	float pose[3];          /* x, y [m], theta [rad] */
+	float vel[3];           /* v, vn [m/s], w [rad/s] (robot frame) */
+	float cov[6];           /* diagonal of the covariance, state order */
+	uint32_t flags;         /* EST_FLAG_* */
+	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading [m/s] */
+	float cam_innov[3];     /* last camera pose minus the estimate at its capture time */
+	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
+	uint32_t cam_taken, cam_gated, cam_too_old;
+};
+
+struct est {
+	/* private: see est.c */
+	struct est_settings set;
+	struct model_ss ss;      /* of the model in force (float copies below) */
+	float A[3], Ac[3], K[3], B[3][4];
+	float d, r;
+	float s[6], P[6][6];
+	struct est_output out;
+	struct {
+		struct est_input in;
+		float s[6], P[6][6]; /* after this tick's predict and update */
+	} hist[EST_HISTORY];
+	uint32_t head, count;
+	int slip_run, collision_run;
+	int64_t last_cam_us;
+	float dt;
+};
+
+/* The default noise and thresholds (the paper's camera, 1 kHz wheels). */
+void est_settings_defaults(struct est_settings *s);
+/* Start at the origin, at rest, with a wide pose covariance. -EINVAL for a bad model or rate. */
+int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
+	     double rate_hz);
+/* Between two ticks: the model in force changed. */
+void est_set_model(struct est *e, const struct model_params *p);
+/* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
+void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
+/* Fast loop, once per tick. */
+void est_step(struct est *e, const struct est_input *in);
+/* Fast loop, between ticks: a camera pose captured at capture_us, now_us = the current tick's
+ * time. 0 taken; -ERANGE older than the history (counted); -EINVAL gated or not finite
+ * (counted). */
+int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us);
+static inline const struct est_output *est_get(const struct est *e)
+{
+	return &e->out;
+}
+
+#endif /* OMNI4_EST_H */
