@@ -162,6 +162,45 @@ static int choice_name(const char *choices, int i, char *buf, size_t n)
 	return snprintf(buf, n, "%.*s", (int)(bar ? bar - c : (long)strlen(c)), c);
 }
 
+/* A number of key k (double, or int when integer): parsed whole, finite, within the key's
+ * range. 0, or -EINVAL with what and detail. */
+static int parse_number(const struct config_key *k, const char *value, bool integer, double *v,
+			const char **what, char *detail, size_t n)
+{
+	char *end;
+
+	errno = 0;
+	*v = integer ? (double)strtol(value, &end, 10) : strtod(value, &end);
+	if (end == value || *end || errno == ERANGE || !isfinite(*v)) {
+		snprintf(detail, n, "'%.60s' is not %s", value,
+			 integer ? "an integer" : "a finite number");
+		*what = "bad value";
+		return -EINVAL;
+	}
+	if (*v < k->min || *v > k->max) {
+		snprintf(detail, n, integer ? "%.0f outside [%g, %g]" : "%g outside [%g, %g]", *v,
+			 k->min, k->max);
+		*what = "out of range value";
+		return -EINVAL;
+	}
+	return 0;
+}
+
+/* A word of key k's choices, stored as its index. 0, or -EINVAL with what and detail. */
+static int parse_choice(const struct config_key *k, const char *value, char *base,
+			const char **what, char *detail, size_t n)
+{
+	const int iv = choice_index(value, k->choices);
+
+	if (iv < 0) {
+		snprintf(detail, n, "'%.60s' is not one of %s", value, k->choices);
+		*what = "bad value";
+		return -EINVAL;
+	}
+	memcpy(base, &iv, sizeof(iv));
+	return 0;
+}
+
 /*
  * Parse value into key k of cfg, range-checked. 0, or -EINVAL with what ("bad value",
  * "out of range value", "too long value") and detail ("" or why) filled in.
@@ -170,42 +209,19 @@ static int key_parse(const struct config_key *k, const char *value, struct omni4
 		     const char **what, char *detail, size_t n)
 {
 	char *base = (char *)cfg + k->offset;
-	char *end;
+	double v;
 
 	detail[0] = '\0';
 	switch (k->type) {
-	case CONFIG_DOUBLE: {
-		errno = 0;
-		const double v = strtod(value, &end);
-
-		if (end == value || *end || errno == ERANGE || !isfinite(v)) {
-			snprintf(detail, n, "'%.60s' is not a finite number", value);
-			*what = "bad value";
+	case CONFIG_DOUBLE:
+		if (parse_number(k, value, false, &v, what, detail, n))
 			return -EINVAL;
-		}
-		if (v < k->min || v > k->max) {
-			snprintf(detail, n, "%g outside [%g, %g]", v, k->min, k->max);
-			*what = "out of range value";
-			return -EINVAL;
-		}
 		memcpy(base, &v, sizeof(v)); /* base: a double field of the struct */
 		return 0;
-	}
 	case CONFIG_INT: {
-		errno = 0;
-		const long v = strtol(value, &end, 10);
-
-		if (end == value || *end || errno == ERANGE) {
-			snprintf(detail, n, "'%.60s' is not an integer", value);
-			*what = "bad value";
+		if (parse_number(k, value, true, &v, what, detail, n))
 			return -EINVAL;
-		}
-		if (v < k->min || v > k->max) {
-			snprintf(detail, n, "%ld outside [%g, %g]", v, k->min, k->max);
-			*what = "out of range value";
-			return -EINVAL;
-		}
-		const int iv = (int)v;
+		const int iv = (int)v; /* within the key's range, which is within int's */
 
 		memcpy(base, &iv, sizeof(iv));
 		return 0;
@@ -225,17 +241,8 @@ static int key_parse(const struct config_key *k, const char *value, struct omni4
 		}
 		snprintf(base, k->size, "%s", value);
 		return 0;
-	case CONFIG_ENUM: {
-		const int iv = choice_index(value, k->choices);
-
-		if (iv < 0) {
-			snprintf(detail, n, "'%.60s' is not one of %s", value, k->choices);
-			*what = "bad value";
-			return -EINVAL;
-		}
-		memcpy(base, &iv, sizeof(iv));
-		return 0;
-	}
+	case CONFIG_ENUM:
+		return parse_choice(k, value, base, what, detail, n);
 	}
 	*what = "bad value";
 	return -EINVAL;
