@@ -41,13 +41,17 @@ def test_channels_map_to_types():
     assert omni4.TYPES[omni4.CHANNEL_EXPERIMENT] is omni4.experiment_t
 
 
-def _gen_channels():
+def _generator(name):
+    """One of the build-time generators beside setup.py (not part of the package)."""
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
     try:
-        import gen_channels
+        return __import__(name)
     finally:
         sys.path.pop(0)
-    return gen_channels
+
+
+def _gen_channels():
+    return _generator("gen_channels")
 
 
 CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
@@ -93,12 +97,7 @@ def test_channel_generator_refuses_what_it_cannot_carry_over(line, msg):
 
 
 def _gen_keys():
-    sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-    try:
-        import gen_keys
-    finally:
-        sys.path.pop(0)
-    return gen_keys
+    return _generator("gen_keys")
 
 
 REPO = os.path.join(os.path.dirname(__file__), "..", "..")
