@@ -10,6 +10,7 @@ from .param_reply_t import param_reply_t
 from .param_request_t import param_request_t
 from .param_value_t import param_value_t
 from .pose_t import pose_t
+from .state_t import state_t
 
 __version__ = "0.1.0"
 
@@ -17,7 +18,8 @@ __version__ = "0.1.0"
 # lcmtypes/include/omni4/channels.h when the package is built.
 from ._channels import *  # noqa: E402,F401,F403
 from ._channels import __all__ as _CHANNEL_NAMES  # noqa: E402
-from ._channels import CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE  # noqa: E402
+from ._channels import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS,  # noqa: E402
+                        CHANNEL_POSE, CHANNEL_STATE)
 
 # Message class per channel, for decoding logs.
 TYPES = {
@@ -25,6 +27,7 @@ TYPES = {
     CHANNEL_CMD: command_t,
     CHANNEL_POSE: pose_t,
     CHANNEL_EXPERIMENT: experiment_t,
+    CHANNEL_STATE: state_t,
 }
 # The parameter channels carry variable-length types (not in TYPES, which read_log decodes into
 # fixed-shape arrays): decode them with param_changed_t.decode(...) etc.
@@ -38,7 +41,7 @@ from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa:
 # The robot INI reader (omni4.ini.read).
 from . import ini  # noqa: E402
 
-__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "TYPES",
+__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "TYPES",
            "read_log", "Log", "LogError", "Robot", "CommandRejected",
            "param_request_t", "param_reply_t", "param_value_t", "param_changed_t",
            "ParamClient", "ParamError", "ParamRefused", "ParamTimeout", *_CHANNEL_NAMES]

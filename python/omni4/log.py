@@ -28,7 +28,8 @@ import os
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from . import CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, TYPES, _layout
+from . import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, CHANNEL_STATE,
+               TYPES, _layout)
 from ._layout import FINGERPRINT_BYTES
 
 SYNC = 0xEDA1DA01
@@ -94,7 +95,8 @@ class FileStats:
 class Log:
     """An event log (or the parts of a split log, one stream) read into numpy arrays.
 
-    Attributes: `motors`, `pose`, `cmd`, `experiment` (Channel; empty if the log has none),
+    Attributes: `motors`, `pose`, `cmd`, `experiment`, `state` (the controller's estimate)
+    (Channel; empty if the log has none),
     `channels` (every decoded channel by name), `unknown` (channel -> list of (event_utime,
     payload bytes) for channels without an omni4 type; empty lists with keep_unknown=False),
     `unknown_counts` (channel -> events), `files` (FileStats per file), `events` (intact events),
@@ -114,6 +116,7 @@ class Log:
         self.pose = channels[CHANNEL_POSE]
         self.cmd = channels[CHANNEL_CMD]
         self.experiment = channels[CHANNEL_EXPERIMENT]
+        self.state = channels[CHANNEL_STATE]
         seq = self.motors.seq if hasattr(self.motors, "seq") else np.zeros(0, np.int64)
         d = np.diff(seq)
         self.seq_gaps = int((d[d > 1] - 1).sum())
