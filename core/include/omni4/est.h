@@ -10,8 +10,9 @@
  *   when the bridges are off; the pose integrates eq 1.
  * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model).
  * - Update with a camera pose at its capture time (pose_t.utime): the filter keeps a ring of
- *   its past ticks (inputs, readings, state and covariance) and re-runs from the frame's tick
- *   to now; frames older than EST_HISTORY ticks are counted and dropped.
+ *   its past ticks (inputs, readings, camera poses; state and covariance before every
+ *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
+ *   history (EST_HISTORY ticks, less up to EST_SNAP_EVERY - 1) are counted and dropped.
  * - Outliers are gated (a camera jump; a wheel reading the model cannot explain); a camera that
  *   stops leaves odometry and the model carrying on with a growing covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
@@ -39,6 +40,14 @@
 #define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no wheel reading (model only) */
 
 #define EST_CAMERA_STALE_US 500000
+
+/* Odometry error: the pose variance grows by EST_ODOM_POS^2 [m^2/m] (x and y) and
+ * EST_ODOM_THETA^2 [rad^2/m] per metre travelled (rotation counted at the wheels, d |w|). */
+#define EST_ODOM_POS 0.005f
+#define EST_ODOM_THETA 0.005f
+/* Frames refused by the gate in a row before the next one is taken anyway (with the pose
+ * variance widened by its innovation): a camera that keeps disagreeing is right. */
+#define EST_CAM_RESYNC 5
 
 /* Noise and thresholds of the filter (SI units, standard deviations). */
 struct est_settings {
@@ -72,27 +81,45 @@ struct est_output {
 	float cov[6];           /* diagonal of the covariance, state order */
 	uint32_t flags;         /* EST_FLAG_* */
 	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading [m/s] */
+	float vel_innov;        /* |wheel velocity - model prediction| of the last reading, w
+				 * as d w [m/s] (what EST_FLAG_COLLISION looks at) */
 	float cam_innov[3];     /* last camera pose minus the estimate at its capture time */
 	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
 	uint32_t cam_taken, cam_gated, cam_too_old;
 };
 
+/* One past tick as the camera replay needs it (private). */
+struct est_tick {
+	int64_t utime;
+	float volts[4];
+	float wheel[4];  /* wheel linear speeds [m/s] */
+	float cam[3];    /* a camera pose captured at this tick (have_cam) */
+	uint8_t driven, have_wheels, have_cam, pad;
+};
+
+#define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
+
 struct est {
 	/* private: see est.c */
 	struct est_settings set;
-	struct model_ss ss;      /* of the model in force (float copies below) */
-	float A[3], Ac[3], K[3], B[3][4];
-	float d, r;
+	float phi[3], gam[3];   /* per-tick velocity transition and input gain, bridges on */
+	float phic[3], gamc[3]; /* the same with the bridges off (A_coast) */
+	float B[3][4], C[3];    /* eq 26 B; Coulomb levels -K (>= 0) */
+	float q[3];             /* process variance per tick on v, vn, w */
+	float rw[3];            /* wheel reading variance mapped onto v, vn, w */
+	float rc[3];            /* camera variance x, y, theta */
+	float qo[2];            /* odometry variance per tick per m/s: position, heading */
+	float d, r, dt;
 	float s[6], P[6][6];
 	struct est_output out;
+	struct est_tick hist[EST_HISTORY];
 	struct {
-		struct est_input in;
-		float s[6], P[6][6]; /* after this tick's predict and update */
-	} hist[EST_HISTORY];
-	uint32_t head, count;
-	int slip_run, collision_run;
-	int64_t last_cam_us;
-	float dt;
+		float s[6], P[21]; /* upper triangle, row by row */
+	} snap[EST_HISTORY / EST_SNAP_EVERY];
+	uint32_t seq;           /* ticks since init/reset: the next tick's number */
+	int slip_run, collision_run, cam_gate_run;
+	int64_t last_cam_us;    /* capture time of the last camera pose taken */
+	bool have_cam;
 };
 
 /* The default noise and thresholds (the paper's camera, 1 kHz wheels). */

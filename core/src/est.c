@@ -1,0 +1,505 @@
+/*
+ * est.c - the model-based state estimator (est.h; docs/estimator.md).
+ *
+ * State s = [x, y, theta, v, vn, w], covariance P (6 x 6, kept symmetric: every operation
+ * writes the upper triangle and mirrors it).
+ * Predict: each velocity axis of eq 23 integrated exactly over the tick with the voltages held
+ * (x+ = phi x + gam (b - c sgn)), the Coulomb term as a dead zone (no sign chatter near zero,
+ * stiction at rest); the pose with eq 1 at the mid-step heading and mean velocity.
+ * P+ = F P F^T + Q with F = [[I + u e_theta^T, G], [0, diag(phi)]], applied as row and column
+ * operations (no 6 x 6 products).
+ * Update: the four wheel speeds. The columns of eq 2 are orthogonal, H^T H = diag(2, 2, 4 d^2),
+ * so the four readings are exactly the least-squares velocity (eqs 3-5) with the diagonal
+ * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
+ * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
+ * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
+ * at the frame's tick, and the ticks since re-run from the ring.
+ */
+#include "omni4/est.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "omni4/kinematics.h"
+
+#define PI_F 3.14159265358979f
+#define TWO_PI_F 6.28318530717959f
+#define NSNAP (EST_HISTORY / EST_SNAP_EVERY)
+
+_Static_assert(EST_HISTORY % EST_SNAP_EVERY == 0, "EST_HISTORY: a multiple of EST_SNAP_EVERY");
+
+static float wrap(float a)
+{
+	if (a > PI_F || a <= -PI_F)
+		a -= TWO_PI_F * floorf((a + PI_F) / TWO_PI_F);
+	if (a <= -PI_F)
+		a += TWO_PI_F;
+	return a;
+}
+
+void est_settings_defaults(struct est_settings *s)
+{
+	/* docs/estimator.md, "Noise figures and thresholds" */
+	s->accel_noise_lin = 1.0f;
+	s->accel_noise_rot = 10.0f;
+	s->wheel_noise = 0.0065f; /* 10240 cpr at 1 kHz: 0.18 rad/s quantisation x r */
+	s->cam_pos_noise = 0.01f;
+	s->cam_theta_noise = 0.0524f; /* 3 deg */
+	s->gate_sigmas = 5.0f;
+	s->slip_threshold = 0.08f;
+	s->slip_ticks = 3;
+	s->collision_threshold = 0.05f;
+	s->collision_ticks = 5;
+	s->replay = true;
+}
+
+/* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
+static void discretise(double a, double dt, float *phi, float *gam)
+{
+	const double p = exp(a * dt);
+
+	*phi = (float)p;
+	*gam = (float)(fabs(a) < 1e-12 ? dt : (p - 1.0) / a);
+}
+
+static void set_noise(struct est *e)
+{
+	const float qv = e->set.accel_noise_lin * e->dt, qw = e->set.accel_noise_rot * e->dt;
+	const float w2 = e->set.wheel_noise * e->set.wheel_noise;
+
+	e->q[0] = e->q[1] = qv * qv;
+	e->q[2] = qw * qw;
+	e->rw[0] = e->rw[1] = 0.5f * w2;
+	e->rw[2] = w2 / (4.0f * e->d * e->d);
+	e->rc[0] = e->rc[1] = e->set.cam_pos_noise * e->set.cam_pos_noise;
+	e->rc[2] = e->set.cam_theta_noise * e->set.cam_theta_noise;
+	e->qo[0] = EST_ODOM_POS * EST_ODOM_POS * e->dt;
+	e->qo[1] = EST_ODOM_THETA * EST_ODOM_THETA * e->dt;
+}
+
+void est_set_model(struct est *e, const struct model_params *p)
+{
+	struct model_ss ss;
+
+	if (model_params_check(p, NULL))
+		return;
+	dyn_state_space(p, &ss);
+	for (int k = 0; k < 3; k++) {
+		discretise(ss.A[k], e->dt, &e->phi[k], &e->gam[k]);
+		discretise(ss.A_coast[k], e->dt, &e->phic[k], &e->gamc[k]);
+		for (int j = 0; j < 4; j++)
+			e->B[k][j] = (float)ss.B[k][j];
+		e->C[k] = (float)-ss.K[k];
+	}
+	e->d = (float)p->d;
+	e->r = (float)p->r;
+	set_noise(e);
+}
+
+void est_reset(struct est *e, const float pose[3], const float pose_var[3])
+{
+	memset(e->s, 0, sizeof(e->s));
+	memset(e->P, 0, sizeof(e->P));
+	for (int k = 0; k < 3; k++) {
+		e->s[k] = isfinite(pose[k]) ? pose[k] : 0.0f;
+		e->P[k][k] = isfinite(pose_var[k]) && pose_var[k] > 0.0f ? pose_var[k] : 1.0f;
+	}
+	e->s[2] = wrap(e->s[2]);
+	/* At rest, give or take a few mm/s. */
+	e->P[3][3] = e->P[4][4] = 1e-4f;
+	e->P[5][5] = 1e-4f / (e->d * e->d);
+	memset(&e->out, 0, sizeof(e->out));
+	e->seq = 0;
+	e->slip_run = e->collision_run = e->cam_gate_run = 0;
+	e->last_cam_us = 0;
+	e->have_cam = false;
+}
+
+int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
+	     double rate_hz)
+{
+	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5))
+		return -EINVAL;
+	memset(e, 0, sizeof(*e));
+	if (s)
+		e->set = *s;
+	else
+		est_settings_defaults(&e->set);
+	e->dt = (float)(1.0 / rate_hz);
+	est_set_model(e, p);
+	static const float pose0[3] = {0.0f, 0.0f, 0.0f}, var0[3] = {1.0f, 1.0f, 10.0f};
+
+	est_reset(e, pose0, var0);
+	return 0;
+}
+
+/* Mirror the upper triangle into the lower. */
+static void symmetrise(float P[6][6])
+{
+	for (int i = 1; i < 6; i++)
+		for (int j = 0; j < i; j++)
+			P[i][j] = P[j][i];
+}
+
+/* Velocity axis: x+ = phi x + gam (b - c sgn), the Coulomb term a dead zone around the
+ * frictionless prediction (stops at zero rather than crossing it; stays while |b| <= c). */
+static float axis(float phi, float gam, float b, float c, float x)
+{
+	const float xf = phi * x + gam * b, fr = gam * c;
+
+	return xf > fr ? xf - fr : (xf < -fr ? xf + fr : 0.0f);
+}
+
+static void predict(struct est *e, const struct est_tick *t)
+{
+	float *s = e->s;
+	float(*P)[6] = e->P;
+	const bool drv = t->driven;
+	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
+	const float dt = e->dt;
+	float xm[3];
+
+	for (int k = 0; k < 3; k++) {
+		float b = 0.0f;
+
+		if (drv)
+			b = e->B[k][0] * t->volts[0] + e->B[k][1] * t->volts[1] +
+			    e->B[k][2] * t->volts[2] + e->B[k][3] * t->volts[3];
+		const float xn = axis(phi[k], gam[k], b, e->C[k], s[3 + k]);
+
+		xm[k] = 0.5f * (s[3 + k] + xn);
+		s[3 + k] = xn;
+	}
+	/* eq 1 inverted at the mid-step heading */
+	const float th = s[2] + 0.5f * dt * xm[2];
+	const float c = cosf(th), sn = sinf(th);
+	const float vx = c * xm[0] - sn * xm[1], vy = sn * xm[0] + c * xm[1];
+
+	s[0] += dt * vx;
+	s[1] += dt * vy;
+	s[2] = wrap(s[2] + dt * xm[2]);
+
+	/* P <- Fth P Fth^T, Fth = I + u e_2^T (the pose's dependence on theta) */
+	const float u0 = -dt * vy, u1 = dt * vx;
+
+	for (int j = 0; j < 6; j++) {
+		P[0][j] += u0 * P[2][j];
+		P[1][j] += u1 * P[2][j];
+	}
+	for (int i = 0; i < 6; i++) {
+		P[i][0] += u0 * P[i][2];
+		P[i][1] += u1 * P[i][2];
+	}
+	/* P <- T P T^T, T = [[I, G], [0, diag(phi)]], G = dt R(theta) (pose on velocity) */
+	const float gc = dt * c, gs = dt * sn;
+
+	for (int j = 0; j < 6; j++) {
+		P[0][j] += gc * P[3][j] - gs * P[4][j];
+		P[1][j] += gs * P[3][j] + gc * P[4][j];
+		P[2][j] += dt * P[5][j];
+		P[3][j] *= phi[0];
+		P[4][j] *= phi[1];
+		P[5][j] *= phi[2];
+	}
+	for (int i = 0; i < 6; i++) {
+		P[i][0] += gc * P[i][3] - gs * P[i][4];
+		P[i][1] += gs * P[i][3] + gc * P[i][4];
+		P[i][2] += dt * P[i][5];
+		P[i][3] *= phi[0];
+		P[i][4] *= phi[1];
+		P[i][5] *= phi[2];
+	}
+	P[3][3] += e->q[0];
+	P[4][4] += e->q[1];
+	P[5][5] += e->q[2];
+	/* odometry: a pose variance growing with the distance travelled */
+	const float dist = fabsf(xm[0]) + fabsf(xm[1]);
+
+	P[0][0] += e->qo[0] * dist;
+	P[1][1] += e->qo[0] * dist;
+	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2]));
+	symmetrise(P);
+}
+
+/* Scalar update of state component i with a reading of innovation nu and variance r. */
+static void scalar_update(struct est *e, int i, float nu, float r)
+{
+	float(*P)[6] = e->P;
+	float col[6];
+	const float S = P[i][i] + r;
+
+	if (!(S > 0.0f))
+		return;
+	const float inv = 1.0f / S;
+
+	for (int j = 0; j < 6; j++)
+		col[j] = P[j][i];
+	for (int j = 0; j < 6; j++) {
+		const float kj = col[j] * inv;
+
+		e->s[j] += kj * nu;
+		for (int l = j; l < 6; l++)
+			P[j][l] -= kj * col[l];
+	}
+	symmetrise(P);
+}
+
+/* The tick's wheel readings as a velocity (eqs 3-5) and the null-space residual. */
+static void wheel_velocity(const struct est *e, const float v[4], float z[3], float *null_res)
+{
+	z[0] = 0.5f * (v[3] - v[1]);
+	z[1] = 0.5f * (v[0] - v[2]);
+	z[2] = (v[0] + v[1] + v[2] + v[3]) / (4.0f * e->d);
+	*null_res = v[0] - v[1] + v[2] - v[3];
+}
+
+/* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
+ * and outputs), not a replay. */
+static void run_tick(struct est *e, const struct est_tick *t, bool live)
+{
+	predict(e, t);
+	bool slip_now = false;
+
+	if (t->have_wheels) {
+		float z[3], nr;
+
+		wheel_velocity(e, t->wheel, z, &nr);
+		slip_now = !(fabsf(nr) <= e->set.slip_threshold);
+		const float nu[3] = {z[0] - e->s[3], z[1] - e->s[4], z[2] - e->s[5]};
+
+		if (live) {
+			const float dw = e->d * nu[2];
+			const float c = sqrtf(nu[0] * nu[0] + nu[1] * nu[1] + dw * dw);
+
+			e->out.null_residual = nr;
+			e->out.vel_innov = c;
+			e->slip_run = slip_now ? e->slip_run + 1 : 0;
+			if (!slip_now)
+				e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
+		}
+		/* A wheel that does not fit a rigid body: this tick runs on the model alone. */
+		if (!slip_now)
+			for (int k = 0; k < 3; k++)
+				scalar_update(e, 3 + k, z[k] - e->s[3 + k], e->rw[k]);
+	} else if (live) {
+		e->slip_run = 0;
+		e->collision_run = 0;
+	}
+	if (t->have_cam) {
+		for (int k = 0; k < 3; k++) {
+			float nu = t->cam[k] - e->s[k];
+
+			if (k == 2)
+				nu = wrap(nu);
+			scalar_update(e, k, nu, e->rc[k]);
+		}
+		e->s[2] = wrap(e->s[2]);
+	}
+}
+
+static void put_snap(struct est *e, uint32_t n)
+{
+	int m = 0;
+
+	memcpy(e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, e->s, sizeof(e->s));
+	for (int i = 0; i < 6; i++)
+		for (int j = i; j < 6; j++)
+			e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++] = e->P[i][j];
+}
+
+static void get_snap(struct est *e, uint32_t n)
+{
+	int m = 0;
+
+	memcpy(e->s, e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, sizeof(e->s));
+	for (int i = 0; i < 6; i++)
+		for (int j = i; j < 6; j++)
+			e->P[i][j] = e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++];
+	symmetrise(e->P);
+}
+
+/* Ticks n .. to-1 re-run from the ring (snapshots re-taken on the way). */
+static void rerun(struct est *e, uint32_t n, uint32_t to)
+{
+	for (; n < to; n++) {
+		if (n % EST_SNAP_EVERY == 0)
+			put_snap(e, n);
+		run_tick(e, &e->hist[n % EST_HISTORY], false);
+	}
+}
+
+static void publish(struct est *e, int64_t utime)
+{
+	e->out.utime = utime;
+	for (int k = 0; k < 3; k++) {
+		e->out.pose[k] = e->s[k];
+		e->out.vel[k] = e->s[3 + k];
+	}
+	for (int k = 0; k < 6; k++)
+		e->out.cov[k] = e->P[k][k];
+}
+
+static bool all_finite(const float *v, int n)
+{
+	for (int k = 0; k < n; k++)
+		if (!isfinite(v[k]))
+			return false;
+	return true;
+}
+
+void est_step(struct est *e, const struct est_input *in)
+{
+	const uint32_t n = e->seq;
+	struct est_tick *t = &e->hist[n % EST_HISTORY];
+
+	t->utime = in->utime;
+	t->driven = in->driven && all_finite(in->volts, 4);
+	t->have_wheels = in->have_wheels && all_finite(in->wheel_rad_s, 4);
+	t->have_cam = 0;
+	for (int j = 0; j < 4; j++) {
+		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
+		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r : 0.0f;
+	}
+	if (n % EST_SNAP_EVERY == 0)
+		put_snap(e, n);
+	run_tick(e, t, true);
+	e->seq = n + 1;
+	if (!all_finite(e->s, 6) || !all_finite(&e->P[0][0], 36)) {
+		/* Cannot happen with finite settings; never let a NaN out: start again where the
+		 * last output was. */
+		static const float var[3] = {1.0f, 1.0f, 10.0f};
+		const struct est_output keep = e->out;
+
+		est_reset(e, keep.pose, var);
+		e->out = keep;
+	}
+
+	uint32_t f = 0;
+
+	if (!t->have_wheels)
+		f |= EST_FLAG_NO_WHEELS;
+	if (e->set.slip_ticks > 0 && e->slip_run >= e->set.slip_ticks)
+		f |= EST_FLAG_SLIP;
+	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks)
+		f |= EST_FLAG_COLLISION;
+	if (!e->have_cam || in->utime - e->last_cam_us > EST_CAMERA_STALE_US)
+		f |= EST_FLAG_CAMERA_STALE;
+	e->out.flags = f;
+	publish(e, in->utime);
+}
+
+/* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
+static float mahalanobis2(const struct est *e, const float nu[3])
+{
+	const float a = e->P[0][0] + e->rc[0], b = e->P[0][1], c = e->P[0][2];
+	const float d = e->P[1][1] + e->rc[1], f = e->P[1][2], g = e->P[2][2] + e->rc[2];
+	/* adjugate of the symmetric [[a b c] [b d f] [c f g]] */
+	const float A = d * g - f * f, Bv = c * f - b * g, Cv = b * f - c * d;
+	const float D = a * g - c * c, F = b * c - a * f, G = a * d - b * b;
+	const float det = a * A + b * Bv + c * Cv;
+
+	if (!(det > 0.0f))
+		return INFINITY;
+	const float q = nu[0] * (A * nu[0] + Bv * nu[1] + Cv * nu[2]) +
+			nu[1] * (Bv * nu[0] + D * nu[1] + F * nu[2]) +
+			nu[2] * (Cv * nu[0] + F * nu[1] + G * nu[2]);
+
+	return q / det;
+}
+
+/* Gate the pose z against the current state; apply it if it passes. The EST_CAM_RESYNC-th
+ * frame refused in a row is taken after all, the pose variance widened by its innovation (the
+ * estimate, not the camera, is what went wrong). */
+static int gate_and_apply(struct est *e, const float z[3])
+{
+	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], wrap(z[2] - e->s[2])};
+	const float g = e->set.gate_sigmas;
+
+	if (!(mahalanobis2(e, nu) <= g * g)) {
+		if (e->cam_gate_run + 1 < EST_CAM_RESYNC)
+			return -EINVAL;
+		for (int k = 0; k < 3; k++)
+			e->P[k][k] += nu[k] * nu[k];
+	}
+	for (int k = 0; k < 3; k++)
+		e->out.cam_innov[k] = nu[k];
+	for (int k = 0; k < 3; k++) {
+		float v = z[k] - e->s[k];
+
+		if (k == 2)
+			v = wrap(v);
+		scalar_update(e, k, v, e->rc[k]);
+	}
+	e->s[2] = wrap(e->s[2]);
+	return 0;
+}
+
+int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us)
+{
+	const float z[3] = {(float)pose[0], (float)pose[1], (float)wrap((float)pose[2])};
+
+	if (!all_finite(z, 3) || !isfinite(pose[2])) {
+		e->out.cam_gated++;
+		return -EINVAL;
+	}
+	const uint32_t n = e->seq;
+	const uint32_t oldest = n > EST_HISTORY ? n - EST_HISTORY : 0;
+
+	/* The frame's tick: the last one at or before the capture time. */
+	uint32_t k = n;
+
+	while (k > oldest && e->hist[(k - 1) % EST_HISTORY].utime > capture_us)
+		k--;
+	if (k == oldest) {
+		e->out.cam_too_old++;
+		return -ERANGE;
+	}
+	k--;
+	const uint32_t n0 = k - k % EST_SNAP_EVERY;
+
+	if (n0 < oldest) {
+		e->out.cam_too_old++;
+		return -ERANGE;
+	}
+	if (!e->set.replay) {
+		if (gate_and_apply(e, z)) {
+			e->cam_gate_run++;
+			e->out.cam_gated++;
+			return -EINVAL;
+		}
+	} else {
+		/* The state at tick k without its old camera pose (a newer frame replaces it) ... */
+		float s_now[6], P_now[6][6];
+		struct est_tick *tk = &e->hist[k % EST_HISTORY];
+		const uint8_t had = tk->have_cam;
+
+		memcpy(s_now, e->s, sizeof(s_now));
+		memcpy(P_now, e->P, sizeof(P_now));
+		get_snap(e, n0);
+		tk->have_cam = 0;
+		rerun(e, n0, k + 1);
+		if (gate_and_apply(e, z)) {
+			tk->have_cam = had;
+			memcpy(e->s, s_now, sizeof(s_now));
+			memcpy(e->P, P_now, sizeof(P_now));
+			e->cam_gate_run++;
+			e->out.cam_gated++;
+			return -EINVAL;
+		}
+		/* ... updated, kept for later replays, and the ticks since re-run. */
+		tk->have_cam = 1;
+		memcpy(tk->cam, z, sizeof(tk->cam));
+		rerun(e, k + 1, n);
+	}
+	e->cam_gate_run = 0;
+	e->out.cam_taken++;
+	e->out.cam_latency_us = now_us - capture_us;
+	if (!e->have_cam || capture_us > e->last_cam_us)
+		e->last_cam_us = capture_us;
+	e->have_cam = true;
+	if (now_us - e->last_cam_us <= EST_CAMERA_STALE_US)
+		e->out.flags &= ~EST_FLAG_CAMERA_STALE;
+	publish(e, e->out.utime);
+	return 0;
+}

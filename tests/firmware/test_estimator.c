@@ -1,0 +1,616 @@
+/* The state estimator (core/ est.h, docs/estimator.md) against independent computations:
+ * closed forms of eq 23 (coast, constant drive, pure rotation), the model/ plant (double,
+ * exact per-axis integration) with noisy wheels and a 25 Hz camera with latency, and injected
+ * faults (a wheel spinning off, a collision). Every figure is printed; the tolerances are 2-3x
+ * the figures measured (docs/estimator.md). 1 tick = 1 ms. */
+#include "omni4_test.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "omni4/dynamics.h"
+#include "omni4/est.h"
+#include "omni4/kinematics.h"
+#include "omni4/params.h"
+#include "omni4/plant.h"
+#include "omni4/rng.h"
+
+#define DT 1e-3
+#define TICK_US 1000
+#define PI 3.14159265358979323846
+
+static const struct model_params *P3 = &model_params_table3;
+
+static double wrap_pi(double a)
+{
+	a = fmod(a + PI, 2.0 * PI);
+	if (a < 0)
+		a += 2.0 * PI;
+	return a - PI;
+}
+
+/* ---- closed forms (model only: no wheel reading) ---------------------------------------- */
+
+static struct est E, E2;
+
+static void model_tick(struct est *e, int64_t t_us, const double u[4], bool driven)
+{
+	struct est_input in = {.utime = t_us, .driven = driven, .have_wheels = false};
+
+	for (int j = 0; j < 4; j++)
+		in.volts[j] = (float)u[j];
+	est_step(e, &in);
+}
+
+/* Drive along v to a steady velocity (eq 23 at rest: dyn_steady_velocity), then coast with the
+ * bridges off: v' = -(Bv v + Cv)/M, so v(t) = (v0 + Cv/Bv) e^{-Bv t/M} - Cv/Bv until it stops
+ * at t_stop = M/Bv ln(1 + Bv v0/Cv), then 0. */
+static void test_drive_then_coast_closed_form(void **state)
+{
+	(void)state;
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	const double u[4] = {0.0, -6.0, 0.0, 6.0};
+	int64_t t = 0;
+
+	for (int n = 0; n < 3000; n++, t += TICK_US)
+		model_tick(&E, t, u, true);
+	struct model_ss ss;
+	double xss[3];
+
+	dyn_state_space(P3, &ss);
+	dyn_steady_velocity(&ss, u, xss);
+	const struct est_output *o = est_get(&E);
+
+	printf("drive: v %.6f (steady %.6f), vn %.3g, w %.3g\n", o->vel[0], xss[0], o->vel[1],
+	       o->vel[2]);
+	assert_true(xss[0] > 0.3);
+	assert_near(o->vel[0], xss[0], 1e-4 * xss[0] + 1e-5);
+	assert_near(o->vel[1], 0.0, 1e-6);
+	assert_near(o->vel[2], 0.0, 1e-6);
+	/* Pose along x with theta 0: x = integral of v. */
+	assert_near(o->pose[1], 0.0, 1e-6);
+
+	const double v0 = o->vel[0], x0 = o->pose[0];
+	const double a = P3->Bv / P3->M, cb = P3->Cv / P3->Bv;
+	const double t_stop = log(1.0 + v0 / cb) / a;
+	double worst = 0.0;
+
+	for (int n = 1; n <= 1500; n++, t += TICK_US) {
+		model_tick(&E, t, u, false);
+		const double tt = n * DT;
+		const double want = tt < t_stop ? (v0 + cb) * exp(-a * tt) - cb : 0.0;
+
+		worst = fmax(worst, fabs(o->vel[0] - want));
+		if (tt >= t_stop + DT)
+			assert_true(o->vel[0] == 0.0f); /* stopped, no chatter */
+	}
+	/* distance: integral of v(t) up to t_stop */
+	const double dist = (v0 + cb) / a * (1.0 - exp(-a * t_stop)) - cb * t_stop;
+
+	printf("coast: v0 %.4f stop after %.1f ms, worst |v - closed form| %.3g m/s, distance "
+	       "%.5f m (closed form %.5f)\n",
+	       v0, 1e3 * t_stop, worst, o->pose[0] - x0, dist);
+	assert_true(worst < 2e-3); /* measured 6e-4: the stop tick (dead zone within one step) */
+	assert_near(o->pose[0] - x0, dist, 2e-4 + 1e-3 * dist);
+}
+
+/* Equal voltages on all four wheels: pure rotation, w' = A w + b - Cw/J from rest, so
+ * w(t) = wss (1 - e^{A t}) and theta(t) = wss (t - (e^{A t} - 1)/A), wrapped; x, y stay 0. */
+static void test_pure_rotation_closed_form(void **state)
+{
+	(void)state;
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	const double u[4] = {4.0, 4.0, 4.0, 4.0};
+	struct model_ss ss;
+
+	dyn_state_space(P3, &ss);
+	const double b = 4.0 * (ss.B[2][0] * 4.0) /* four wheels at 4 V */, c = -ss.K[2], A = ss.A[2];
+	const double wss = -(b - c) / A;
+	double worst = 0.0;
+
+	for (int n = 1; n <= 3000; n++) {
+		model_tick(&E, (int64_t)n * TICK_US, u, true);
+		const double tt = n * DT;
+		const double th = wss * (tt - (exp(A * tt) - 1.0) / A);
+		const struct est_output *o = est_get(&E);
+
+		worst = fmax(worst, fabs(wrap_pi(o->pose[2] - th)));
+		assert_true(o->pose[2] > -PI && o->pose[2] <= PI);
+		assert_near(o->pose[0], 0.0, 1e-6);
+		assert_near(o->pose[1], 0.0, 1e-6);
+	}
+	printf("rotation: w %.4f rad/s (closed form %.4f), worst heading error %.3g rad over 3 s\n",
+	       est_get(&E)->vel[2], wss, worst);
+	assert_near(est_get(&E)->vel[2], wss, 1e-3 * wss);
+	assert_true(worst < 3e-3); /* measured ~1e-3: float heading summed over 3000 ticks */
+}
+
+/* ---- against the plant --------------------------------------------------------------------- */
+
+#define CAM_PERIOD 40     /* 25 Hz */
+#define WHEEL_NOISE 0.2   /* rad/s: about the quantisation of 10240 cpr at 1 kHz */
+#define CAM_POS 0.01      /* m */
+#define CAM_TH (3.0 * PI / 180.0)
+
+struct frame {
+	int64_t capture_us;
+	double pose[3];
+	int due; /* tick it arrives */
+};
+
+struct sim {
+	struct plant pl;
+	struct est *e;
+	struct rng g;
+	int n;            /* ticks so far */
+	int latency;      /* camera latency [ticks] */
+	bool camera;      /* camera on */
+	struct frame q[8];
+	int nq;
+	double slip_rad_s[4]; /* added to the wheel readings */
+	double brake;         /* > 0: the body's velocity scaled by (1 - brake) each tick */
+	int rc_last;          /* est_camera's last return */
+	struct est_output pre; /* the output of the last tick before its camera poses */
+	double cam_err2;      /* sum of the raw camera's squared position error */
+	double cam_th2;
+	int cam_n;
+};
+
+static void sim_init(struct sim *S, struct est *e, const struct est_settings *set, uint64_t seed)
+{
+	memset(S, 0, sizeof(*S));
+	assert_int_equal(plant_init(&S->pl, P3), 0);
+	S->e = e;
+	assert_int_equal(est_init(e, set, P3, 1000.0), 0);
+	rng_seed(&S->g, seed);
+	S->latency = 40;
+	S->camera = true;
+}
+
+/* Normal driving: the four voltages as slow sines of different frequencies (up to ~0.6 m/s and
+ * ~4 rad/s), now and then a coast or a stop. */
+static bool profile(int n, double u[4])
+{
+	const double t = n * DT;
+	const double f[4] = {0.13, 0.21, 0.17, 0.29};
+	const double g[4] = {0.53, 0.37, 0.61, 0.43};
+
+	for (int j = 0; j < 4; j++)
+		u[j] = 7.0 * sin(2.0 * PI * f[j] * t + j) + 3.0 * sin(2.0 * PI * g[j] * t + 2.0 * j);
+	const int phase = (n / 1000) % 23;
+
+	if (phase == 7) /* a second with the bridges off */
+		return false;
+	if (phase == 15)
+		for (int j = 0; j < 4; j++)
+			u[j] = 0.0;
+	return true;
+}
+
+static void sim_tick(struct sim *S, const double u[4], bool driven)
+{
+	plant_step(&S->pl, u, driven, DT);
+	if (S->brake > 0.0)
+		for (int k = 0; k < 3; k++)
+			S->pl.x[k] *= 1.0 - S->brake;
+	S->n++;
+	const int64_t now = (int64_t)S->n * TICK_US;
+	double w[4];
+	struct est_input in = {.utime = now, .driven = driven, .have_wheels = true};
+
+	plant_wheel_speeds(&S->pl, w);
+	for (int j = 0; j < 4; j++) {
+		in.volts[j] = driven ? (float)u[j] : 0.0f;
+		in.wheel_rad_s[j] = (float)(w[j] + S->slip_rad_s[j] + rng_normal(&S->g, WHEEL_NOISE));
+	}
+	est_step(S->e, &in);
+	S->pre = *est_get(S->e);
+	if (S->camera && S->n % CAM_PERIOD == 0 && S->nq < 8) {
+		struct frame *f = &S->q[S->nq++];
+
+		f->capture_us = now;
+		f->pose[0] = S->pl.pose[0] + rng_normal(&S->g, CAM_POS);
+		f->pose[1] = S->pl.pose[1] + rng_normal(&S->g, CAM_POS);
+		f->pose[2] = wrap_pi(S->pl.pose[2] + rng_normal(&S->g, CAM_TH));
+		f->due = S->n + S->latency;
+		const double ex = f->pose[0] - S->pl.pose[0], ey = f->pose[1] - S->pl.pose[1];
+
+		S->cam_err2 += ex * ex + ey * ey;
+		S->cam_th2 += pow(wrap_pi(f->pose[2] - S->pl.pose[2]), 2);
+		S->cam_n++;
+	}
+	while (S->nq > 0 && S->q[0].due <= S->n) {
+		S->rc_last = est_camera(S->e, S->q[0].capture_us, S->q[0].pose, now);
+		memmove(&S->q[0], &S->q[1], (size_t)(S->nq - 1) * sizeof(S->q[0]));
+		S->nq--;
+	}
+}
+
+static double pos_err(const struct sim *S)
+{
+	const struct est_output *o = est_get(S->e);
+
+	return hypot(o->pose[0] - S->pl.pose[0], o->pose[1] - S->pl.pose[1]);
+}
+
+static double th_err(const struct sim *S)
+{
+	return fabs(wrap_pi(est_get(S->e)->pose[2] - S->pl.pose[2]));
+}
+
+struct figures {
+	double pos_rms, th_rms, cam_pos_rms, cam_th_rms, vmax;
+};
+
+/* 20 s of normal driving; errors from t = 2 s on. */
+static struct figures run_plant(struct est *e, bool replay, uint64_t seed)
+{
+	static struct sim S;
+	struct est_settings set;
+	struct figures fg = {0};
+	double se = 0.0, st = 0.0;
+	int m = 0;
+
+	est_settings_defaults(&set);
+	set.replay = replay;
+	sim_init(&S, e, &set, seed);
+	for (int n = 0; n < 20000; n++) {
+		double u[4];
+		const bool drv = profile(n, u);
+
+		sim_tick(&S, u, drv);
+		fg.vmax = fmax(fg.vmax, hypot(S.pl.x[0], S.pl.x[1]));
+		if (n >= 2000) {
+			se += pow(pos_err(&S), 2);
+			st += pow(th_err(&S), 2);
+			m++;
+		}
+	}
+	fg.pos_rms = sqrt(se / m);
+	fg.th_rms = sqrt(st / m);
+	fg.cam_pos_rms = sqrt(S.cam_err2 / S.cam_n);
+	fg.cam_th_rms = sqrt(S.cam_th2 / S.cam_n);
+	assert_int_equal(est_get(e)->cam_too_old, 0);
+	if (replay) {
+		assert_int_equal(est_get(e)->cam_gated, 0);
+		assert_int_equal((int)est_get(e)->cam_taken, S.cam_n - S.nq);
+	}
+	return fg;
+}
+
+static void test_plant_camera_40ms(void **state)
+{
+	(void)state;
+	const struct figures a = run_plant(&E, true, 1), b = run_plant(&E, false, 1);
+
+	printf("plant, 25 Hz camera 40 ms late, speed up to %.2f m/s: position RMS %.2f mm "
+	       "(camera %.2f mm), heading RMS %.3f deg (camera %.3f deg); replay off: %.2f mm, "
+	       "%.3f deg\n",
+	       a.vmax, 1e3 * a.pos_rms, 1e3 * a.cam_pos_rms, a.th_rms * 180 / PI,
+	       a.cam_th_rms * 180 / PI, 1e3 * b.pos_rms, b.th_rms * 180 / PI);
+	assert_true(a.vmax > 0.3);
+	/* measured: ~2 mm vs 14 mm, ~0.3 deg vs 3 deg */
+	assert_true(a.pos_rms < 0.35 * a.cam_pos_rms);
+	assert_true(a.th_rms < 0.25 * a.cam_th_rms);
+	assert_true(b.pos_rms > 1.5 * a.pos_rms);
+}
+
+/* A frame replayed 40 ticks late leaves the same state as the same frame applied at its own
+ * tick (a second estimator, no latency, replay off), compared when both have the same frames
+ * (the late one just after its frame, the other just before its next): the replay starts at
+ * the right tick. */
+static void test_replay_equals_on_time(void **state)
+{
+	(void)state;
+	static struct sim A, B;
+	struct est_settings on, off;
+
+	est_settings_defaults(&on);
+	off = on;
+	off.replay = false;
+	sim_init(&A, &E, &on, 7);
+	sim_init(&B, &E2, &off, 7);
+	B.latency = 0;
+	double worst = 0.0;
+
+	for (int n = 0; n < 3000; n++) {
+		double u[4];
+		const bool drv = profile(n + 4000, u);
+
+		sim_tick(&A, u, drv);
+		sim_tick(&B, u, drv);
+		if (A.n % CAM_PERIOD == 0 && A.n > 200)
+			for (int k = 0; k < 3; k++)
+				worst = fmax(worst, fabs(est_get(&E)->pose[k] - B.pre.pose[k]));
+	}
+	printf("replay vs on-time: worst pose difference %.3g after each frame\n", worst);
+	assert_true(est_get(&E)->cam_taken > 60);
+	assert_true(worst < 2e-5);
+}
+
+/* Camera gone for 2 s while driving: odometry and the model carry on, the covariance grows;
+ * back: converges (the error stays within 3x the steady RMS measured before the dropout). */
+static void test_camera_dropout(void **state)
+{
+	(void)state;
+	static struct sim S;
+
+	sim_init(&S, &E, NULL, 3);
+	double u[4], se = 0.0;
+	int n = 0;
+
+	for (; n < 5000; n++) {
+		sim_tick(&S, u, profile(n, u));
+		if (n >= 2000)
+			se += pow(pos_err(&S), 2);
+	}
+	const double rms = sqrt(se / 3000), var0 = est_get(&E)->cov[0];
+
+	S.camera = false;
+	bool stale = false;
+
+	for (; n < 7000; n++) {
+		sim_tick(&S, u, profile(n, u));
+		stale |= (est_get(&E)->flags & EST_FLAG_CAMERA_STALE) != 0;
+	}
+	const double e_end = pos_err(&S), var1 = est_get(&E)->cov[0];
+
+	S.camera = true;
+	int first_back = -1, last_out = -1;
+
+	for (; n < 9000; n++) {
+		const uint32_t taken = est_get(&E)->cam_taken;
+
+		sim_tick(&S, u, profile(n, u));
+		if (first_back < 0 && est_get(&E)->cam_taken > taken)
+			first_back = n;
+		if (first_back >= 0 && pos_err(&S) > 3.0 * rms)
+			last_out = n;
+	}
+	const int converged = last_out < 0 ? 0 : last_out + 1 - first_back;
+
+	printf("dropout 2 s: steady RMS %.2f mm; error at the end of the dropout %.2f mm "
+	       "(variance x%.1f), stale flag %d; back: within 3x the steady RMS for good %d ms "
+	       "after the first frame\n",
+	       1e3 * rms, 1e3 * e_end, var1 / var0, stale, converged);
+	assert_true(stale);
+	assert_true(var1 > 3.0 * var0);
+	assert_true(e_end < 0.02);
+	assert_true(first_back >= 0 && converged <= 500);
+	assert_false(est_get(&E)->flags & EST_FLAG_CAMERA_STALE);
+}
+
+/* Drive 3 s, then one wheel's reading spins off (+10 rad/s, 0.33 m/s) for 200 ms. */
+static void test_slip(void **state)
+{
+	(void)state;
+	static struct sim S;
+
+	sim_init(&S, &E, NULL, 5);
+	double u[4];
+	int n = 0;
+
+	for (; n < 3000; n++)
+		sim_tick(&S, u, profile(n, u));
+	assert_int_equal(est_get(&E)->flags & (EST_FLAG_SLIP | EST_FLAG_COLLISION), 0);
+	S.slip_rad_s[2] = 10.0;
+	int at = -1;
+
+	for (int k = 0; k < 200; k++, n++) {
+		sim_tick(&S, u, profile(n, u));
+		if (at < 0 && (est_get(&E)->flags & EST_FLAG_SLIP))
+			at = k + 1;
+		assert_false(est_get(&E)->flags & EST_FLAG_COLLISION);
+	}
+	S.slip_rad_s[2] = 0.0;
+	for (int k = 0; k < 20; k++, n++)
+		sim_tick(&S, u, profile(n, u));
+	printf("slip: SLIP after %d ms; estimate off by %.2f mm after the slip\n", at,
+	       1e3 * pos_err(&S));
+	assert_true(at >= 1 && at <= 20);
+	assert_false(est_get(&E)->flags & EST_FLAG_SLIP);
+	assert_true(pos_err(&S) < 0.01); /* the slipping wheel was not believed */
+}
+
+/* Drive straight at a steady speed, then the body is stopped (a wall: velocity -5 %/tick)
+ * while the voltages stay. */
+static void test_collision(void **state)
+{
+	(void)state;
+	static struct sim S;
+
+	sim_init(&S, &E, NULL, 9);
+	const double u[4] = {0.0, -8.0, 0.0, 8.0};
+	int n = 0;
+
+	for (; n < 2000; n++)
+		sim_tick(&S, u, true);
+	assert_true(S.pl.x[0] > 0.4);
+	assert_int_equal(est_get(&E)->flags & (EST_FLAG_SLIP | EST_FLAG_COLLISION), 0);
+	S.brake = 0.05;
+	int at = -1;
+
+	for (int k = 0; k < 100 && at < 0; k++, n++) {
+		sim_tick(&S, u, true);
+		if (est_get(&E)->flags & EST_FLAG_COLLISION)
+			at = k + 1;
+		assert_false(est_get(&E)->flags & EST_FLAG_SLIP);
+	}
+	printf("collision: COLLISION after %d ms (body at %.3f m/s)\n", at, S.pl.x[0]);
+	assert_true(at >= 1 && at <= 50);
+}
+
+/* 10 min of normal driving (600k ticks) with the default thresholds: no SLIP, no COLLISION.
+ * Also the figures the defaults come from: the spread of the null-space residual and of the
+ * velocity innovation on clean data. */
+static void test_no_false_alarms_10_min(void **state)
+{
+	(void)state;
+	static struct sim S;
+	struct est_settings set;
+
+	est_settings_defaults(&set);
+	sim_init(&S, &E, &set, 11);
+	double u[4], s2 = 0.0, i2 = 0.0, nmax = 0.0, imax = 0.0;
+	int slips = 0, colls = 0, m = 0;
+	uint32_t prev = 0;
+
+	for (int n = 0; n < 600000; n++) {
+		const bool drv = profile(n, u);
+
+		sim_tick(&S, u, drv);
+		const struct est_output *o = est_get(&E);
+
+		if ((o->flags & EST_FLAG_SLIP) && !(prev & EST_FLAG_SLIP))
+			slips++;
+		if ((o->flags & EST_FLAG_COLLISION) && !(prev & EST_FLAG_COLLISION))
+			colls++;
+		prev = o->flags;
+		if (n >= 1000) {
+			s2 += (double)o->null_residual * o->null_residual;
+			i2 += (double)o->vel_innov * o->vel_innov;
+			nmax = fmax(nmax, fabs(o->null_residual));
+			imax = fmax(imax, o->vel_innov);
+			m++;
+		}
+	}
+	printf("10 min normal driving: null residual RMS %.4f max %.4f m/s (threshold %.3f); "
+	       "velocity innovation RMS %.4f max %.4f m/s (threshold %.3f); SLIP %d, COLLISION %d; "
+	       "position error at the end %.2f mm\n",
+	       sqrt(s2 / m), nmax, set.slip_threshold, sqrt(i2 / m), imax, set.collision_threshold,
+	       slips, colls, 1e3 * pos_err(&S));
+	assert_int_equal(slips, 0);
+	assert_int_equal(colls, 0);
+	assert_true(pos_err(&S) < 0.01);
+}
+
+/* ---- camera edge cases ---------------------------------------------------------------------- */
+
+static void rest_ticks(struct est *e, int from, int count)
+{
+	const double u[4] = {0, 0, 0, 0};
+
+	for (int n = from; n < from + count; n++) {
+		struct est_input in = {.utime = (int64_t)n * TICK_US, .driven = true,
+				       .have_wheels = true};
+
+		(void)u;
+		est_step(e, &in);
+	}
+}
+
+static void test_theta_wrap(void **state)
+{
+	(void)state;
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	const float pose[3] = {0.0f, 0.0f, 3.10f}, var[3] = {1e-4f, 1e-4f, 0.01f};
+
+	est_reset(&E, pose, var);
+	rest_ticks(&E, 1, 100);
+	/* The camera sees -3.13 rad: 0.053 rad further round, across +-pi. */
+	const double cam[3] = {0.0, 0.0, -3.13};
+
+	assert_int_equal(est_camera(&E, 90 * TICK_US, cam, 100 * TICK_US), 0);
+	const struct est_output *o = est_get(&E);
+	const double want_innov = wrap_pi(-3.13 - 3.10);
+
+	printf("wrap: innovation %.4f rad (want %.4f), heading %.4f\n", o->cam_innov[2], want_innov,
+	       o->pose[2]);
+	assert_near(o->cam_innov[2], want_innov, 1e-4);
+	/* between 3.10 and 3.10 + 0.053 (wrapped) */
+	assert_true(wrap_pi(o->pose[2] - 3.10) > 0.01 && wrap_pi(o->pose[2] - 3.10) < 0.054);
+	assert_true(o->pose[2] > -PI && o->pose[2] <= PI);
+}
+
+static void test_gating_and_age(void **state)
+{
+	(void)state;
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	const float pose[3] = {1.0f, 2.0f, 0.5f}, var[3] = {1e-4f, 1e-4f, 1e-3f};
+
+	est_reset(&E, pose, var);
+	rest_ticks(&E, 1, 300);
+	const struct est_output *o = est_get(&E);
+	const double good[3] = {1.005, 2.0, 0.5}, jump[3] = {2.0, 2.0, 0.5};
+
+	/* 1 m jump: refused, state unchanged */
+	assert_int_equal(est_camera(&E, 290 * TICK_US, jump, 300 * TICK_US), -EINVAL);
+	assert_int_equal(o->cam_gated, 1);
+	assert_near(o->pose[0], 1.0, 1e-6);
+	/* 150 ms late: taken */
+	assert_int_equal(est_camera(&E, 150 * TICK_US, good, 300 * TICK_US), 0);
+	assert_int_equal(o->cam_taken, 1);
+	assert_int_equal(o->cam_latency_us, 150000);
+	assert_true(o->pose[0] > 1.001);
+	/* older than the ring (256 ticks): dropped and counted */
+	assert_int_equal(est_camera(&E, 20 * TICK_US, good, 300 * TICK_US), -ERANGE);
+	assert_int_equal(o->cam_too_old, 1);
+	/* not finite */
+	const double bad[3] = {NAN, 2.0, 0.5};
+
+	assert_int_equal(est_camera(&E, 290 * TICK_US, bad, 300 * TICK_US), -EINVAL);
+	assert_int_equal(o->cam_gated, 2);
+	assert_int_equal(o->cam_taken, 1);
+}
+
+static bool state_finite(const struct est_output *o)
+{
+	for (int k = 0; k < 3; k++)
+		if (!isfinite(o->pose[k]) || !isfinite(o->vel[k]))
+			return false;
+	for (int k = 0; k < 6; k++)
+		if (!isfinite(o->cov[k]))
+			return false;
+	return true;
+}
+
+static void test_nan_inputs(void **state)
+{
+	(void)state;
+	static struct sim S;
+
+	sim_init(&S, &E, NULL, 13);
+	double u[4];
+
+	for (int n = 0; n < 1000; n++)
+		sim_tick(&S, u, profile(n, u));
+	struct est_input in = {.utime = 1001 * TICK_US, .driven = true, .have_wheels = true};
+
+	in.volts[1] = NAN;
+	in.wheel_rad_s[2] = INFINITY;
+	est_step(&E, &in);
+	assert_true(state_finite(est_get(&E)));
+	assert_true(est_get(&E)->flags & EST_FLAG_NO_WHEELS);
+	in.utime += TICK_US;
+	in.volts[1] = 0.0f;
+	in.wheel_rad_s[2] = NAN;
+	est_step(&E, &in);
+	assert_true(state_finite(est_get(&E)));
+	struct est_settings set;
+
+	est_settings_defaults(&set);
+	assert_int_equal(est_init(&E, &set, P3, 0.0), -EINVAL);
+	assert_int_equal(est_init(&E, &set, P3, NAN), -EINVAL);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_drive_then_coast_closed_form),
+		cmocka_unit_test(test_pure_rotation_closed_form),
+		cmocka_unit_test(test_plant_camera_40ms),
+		cmocka_unit_test(test_replay_equals_on_time),
+		cmocka_unit_test(test_camera_dropout),
+		cmocka_unit_test(test_slip),
+		cmocka_unit_test(test_collision),
+		cmocka_unit_test(test_no_false_alarms_10_min),
+		cmocka_unit_test(test_theta_wrap),
+		cmocka_unit_test(test_gating_and_age),
+		cmocka_unit_test(test_nan_inputs),
+	};
+
+	printf("sizeof(struct est) %zu bytes on this host\n", sizeof(struct est));
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
