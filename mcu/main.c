@@ -29,15 +29,23 @@ void systick_handler(void)
 	g_ms++;
 }
 
-/* SysTick counts down from RELOAD-1; with the interrupt count it gives a running clock. */
+#define ICSR (*(volatile uint32_t *)0xE000ED04) /* interrupt control and state */
+#define ICSR_PENDSTSET (1u << 26)                /* SysTick exception pending */
+
+/* SysTick counts down from RELOAD-1; with the interrupt count it gives a running clock. A read
+ * just after the counter wrapped, before its interrupt has run, would otherwise miss that
+ * millisecond (a reading one RELOAD short, a span one RELOAD long). */
 static uint32_t counts(void)
 {
-	uint32_t ms, cvr;
+	uint32_t ms, cvr, pend;
 
 	do {
 		ms = g_ms;
 		cvr = SYST[2];
+		pend = ICSR & ICSR_PENDSTSET;
 	} while (ms != g_ms);
+	if (pend && cvr > RELOAD / 2u)
+		ms++;
 	return ms * RELOAD + (RELOAD - 1u - cvr);
 }
 
