@@ -13,12 +13,14 @@
  *   its past ticks (inputs, readings, camera poses; state and covariance before every
  *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
  *   history (EST_HISTORY ticks, less up to EST_SNAP_EVERY - 1) are counted and dropped.
- * - Outliers are gated (a camera jump; a wheel reading the model cannot explain); a camera that
- *   stops leaves odometry and the model carrying on with a growing covariance.
+ * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
+ *   frames in a row disagree; a wheel reading whose null-space residual is beyond
+ *   slip_threshold (that tick runs on the model alone). A camera that stops leaves odometry
+ *   and the model carrying on with a growing covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
- *   v0 - v1 + v2 - v3 and the wheel innovations; EST_FLAG_COLLISION from the model-vs-wheels
+ *   v0 - v1 + v2 - v3 (0 for a rigid body); EST_FLAG_COLLISION from the model-vs-wheels
  *   innovation (the robot slowed or was pushed although the voltages say otherwise); thresholds
- *   from the measured noise (est_settings).
+ *   from the measured noise (est_settings, docs/estimator.md).
  * The model parameters in force follow the parameter service (est_set_model, between ticks).
  */
 #ifndef OMNI4_EST_H
@@ -51,15 +53,18 @@
 
 /* Noise and thresholds of the filter (SI units, standard deviations). */
 struct est_settings {
-	float accel_noise_lin;   /* process noise on v, vn [m/s^2] */
-	float accel_noise_rot;   /* process noise on w [rad/s^2] */
+	float accel_noise_lin;   /* process noise on v, vn [m/s^2]: an acceleration held over a
+				  * tick, variance (accel_noise_lin dt)^2 per tick */
+	float accel_noise_rot;   /* process noise on w [rad/s^2], likewise */
 	float wheel_noise;       /* wheel linear speed reading [m/s] */
 	float cam_pos_noise;     /* camera position [m] */
 	float cam_theta_noise;   /* camera heading [rad] */
 	float gate_sigmas;       /* a camera innovation beyond this many sigmas is an outlier */
-	float slip_threshold;    /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s] */
+	float slip_threshold;    /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
+				  * a reading beyond it is not used */
 	int slip_ticks;
-	float collision_threshold; /* model-vs-wheel velocity innovation beyond it [m/s] */
+	float collision_threshold; /* model-vs-wheel velocity innovation (vel_innov) beyond it
+				    * for collision_ticks ticks: COLLISION [m/s] */
 	int collision_ticks;
 	bool replay;             /* camera frames replayed from their capture time (false: applied
 				  * at arrival, as if they had no latency; for comparison) */
