@@ -31,10 +31,14 @@ void systick_handler(void)
 
 #define ICSR (*(volatile uint32_t *)0xE000ED04) /* interrupt control and state */
 #define ICSR_PENDSTSET (1u << 26)                /* SysTick exception pending */
+#define WRAP_SETTLE 8u /* counts after a wrap within which its interrupt may not have run */
 
-/* SysTick counts down from RELOAD-1; with the interrupt count it gives a running clock. A read
- * just after the counter wrapped, before its interrupt has run, would otherwise miss that
- * millisecond (a reading one RELOAD short, a span one RELOAD long). */
+/* SysTick counts down from RELOAD-1; with the interrupt count it gives a running clock. Just
+ * after the counter wraps, its interrupt is pending and then taken, but under qemu the counter
+ * can read reloaded a little before the interrupt is even pending: a read there would miss that
+ * millisecond (a span measured across it one RELOAD off). A pending interrupt counts; within
+ * WRAP_SETTLE counts of a wrap with none pending, read again once they have passed (at most
+ * WRAP_SETTLE counts late, once per millisecond at most). */
 static uint32_t counts(void)
 {
 	uint32_t ms, cvr, pend;
@@ -43,7 +47,7 @@ static uint32_t counts(void)
 		ms = g_ms;
 		cvr = SYST[2];
 		pend = ICSR & ICSR_PENDSTSET;
-	} while (ms != g_ms);
+	} while (ms != g_ms || (!pend && cvr > RELOAD - 1u - WRAP_SETTLE));
 	if (pend && cvr > RELOAD / 2u)
 		ms++;
 	return ms * RELOAD + (RELOAD - 1u - cvr);
