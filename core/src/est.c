@@ -165,11 +165,11 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 }
 
 /* Mirror the upper triangle into the lower. */
-static void symmetrise(float P[6][6])
+static void symmetrise(struct est *e)
 {
 	for (int i = 1; i < 6; i++)
 		for (int j = 0; j < i; j++)
-			P[i][j] = P[j][i];
+			e->P[i][j] = e->P[j][i];
 }
 
 /* Velocity axis: x+ = phi x + gam (b - c sgn), the Coulomb term a dead zone around the
@@ -251,7 +251,7 @@ static void predict(struct est *e, const struct est_tick *t)
 	P[0][0] += e->qo[0] * dist;
 	P[1][1] += e->qo[0] * dist;
 	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2]));
-	symmetrise(P);
+	symmetrise(e);
 }
 
 /* Scalar update of state component i with a reading of innovation nu and variance r. */
@@ -314,7 +314,7 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 		if (!slip_now) {
 			for (int k = 0; k < 3; k++)
 				scalar_update(e, 3 + k, z[k] - e->s[3 + k], e->rw[k]);
-			symmetrise(e->P);
+			symmetrise(e);
 		}
 	} else if (live) {
 		e->slip_run = 0;
@@ -328,7 +328,7 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 				nu = wrap(nu);
 			scalar_update(e, k, nu, e->rc[k]);
 		}
-		symmetrise(e->P);
+		symmetrise(e);
 		e->s[2] = wrap(e->s[2]);
 	}
 }
@@ -351,7 +351,7 @@ static void get_snap(struct est *e, uint32_t n)
 	for (int i = 0; i < 6; i++)
 		for (int j = i; j < 6; j++)
 			e->P[i][j] = e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++];
-	symmetrise(e->P);
+	symmetrise(e);
 }
 
 /* Ticks n .. to-1 re-run from the ring (snapshots re-taken on the way). */
@@ -469,7 +469,7 @@ static int gate_and_apply(struct est *e, const float z[3])
 			v = wrap(v);
 		scalar_update(e, k, v, e->rc[k]);
 	}
-	symmetrise(e->P);
+	symmetrise(e);
 	e->s[2] = wrap(e->s[2]);
 	return 0;
 }
