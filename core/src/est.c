@@ -146,10 +146,23 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->have_cam = false;
 }
 
+static bool settings_ok(const struct est_settings *s)
+{
+	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot, s->wheel_noise,
+			     s->cam_pos_noise,   s->cam_theta_noise, s->gate_sigmas,
+			     s->slip_threshold,  s->collision_threshold};
+
+	for (unsigned k = 0; k < sizeof(pos) / sizeof(pos[0]); k++)
+		if (!(pos[k] > 0.0f && pos[k] < 1e6f))
+			return false;
+	return s->slip_ticks >= 1 && s->collision_ticks >= 1;
+}
+
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
 	     double rate_hz)
 {
-	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5))
+	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5) ||
+	    (s && !settings_ok(s)))
 		return -EINVAL;
 	memset(e, 0, sizeof(*e));
 	if (s)

@@ -672,6 +672,11 @@ static void test_nan_inputs(void **state)
 	est_settings_defaults(&set);
 	assert_int_equal(est_init(&E, &set, P3, 0.0), -EINVAL);
 	assert_int_equal(est_init(&E, &set, P3, NAN), -EINVAL);
+	set.wheel_noise = NAN;
+	assert_int_equal(est_init(&E, &set, P3, 1000.0), -EINVAL);
+	est_settings_defaults(&set);
+	set.slip_ticks = 0;
+	assert_int_equal(est_init(&E, &set, P3, 1000.0), -EINVAL);
 }
 
 int main(void)

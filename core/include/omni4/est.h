@@ -129,7 +129,8 @@ struct est {
 
 /* The default noise and thresholds (the paper's camera, 1 kHz wheels). */
 void est_settings_defaults(struct est_settings *s);
-/* Start at the origin, at rest, with a wide pose covariance. -EINVAL for a bad model or rate. */
+/* Start at the origin, at rest, with a wide pose covariance. s NULL: the defaults. -EINVAL for a
+ * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
 	     double rate_hz);
 /* Between two ticks: the model in force changed. */
