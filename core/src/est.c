@@ -323,12 +323,33 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 			if (!slip_now)
 				e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
 		}
-		/* A wheel that does not fit a rigid body: this tick runs on the model alone. */
-		if (!slip_now) {
-			for (int k = 0; k < 3; k++)
-				scalar_update(e, 3 + k, z[k] - e->s[3 + k], e->rw[k]);
-			symmetrise(e);
+		/* A reading that does not fit a rigid body: the wheel that disagrees most with the
+		 * prediction is left out (its reading replaced by the one the other three imply, which
+		 * zeroes the residual), the velocity from the other three, with twice the variance. */
+		float scale = 1.0f;
+
+		if (slip_now) {
+			const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
+			const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
+			float v[4], worst = -1.0f;
+			int jw = 0;
+
+			for (int j = 0; j < 4; j++) {
+				const float dj = fabsf(t->wheel[j] - pred[j]);
+
+				v[j] = t->wheel[j];
+				if (dj > worst) {
+					worst = dj;
+					jw = j;
+				}
+			}
+			v[jw] -= (jw & 1) ? -nr : nr;
+			wheel_velocity(e, v, z, &nr);
+			scale = 2.0f;
 		}
+		for (int k = 0; k < 3; k++)
+			scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
+		symmetrise(e);
 	} else if (live) {
 		e->slip_run = 0;
 		e->collision_run = 0;

@@ -20,6 +20,7 @@
 #define DT 1e-3
 #define TICK_US 1000
 #define PI 3.14159265358979323846
+#define VERR_SLIP 0.015 /* velocity error during a slip: measured 0.006 m/s */
 #define MEASURED_DS 1e-7  /* camera update vs batch Kalman, state: measured 3.6e-8 */
 #define MEASURED_DP 1.3e-7 /* ... covariance, relative: measured 4.3e-8 */
 
@@ -476,21 +477,25 @@ static void test_slip(void **state)
 	assert_int_equal(est_get(&E)->flags & (EST_FLAG_SLIP | EST_FLAG_COLLISION), 0);
 	S.slip_rad_s[2] = 10.0;
 	int at = -1;
+	double verr = 0.0;
 
 	for (int k = 0; k < 200; k++, n++) {
 		sim_tick(&S, u, profile(n, u));
 		if (at < 0 && (est_get(&E)->flags & EST_FLAG_SLIP))
 			at = k + 1;
 		assert_false(est_get(&E)->flags & EST_FLAG_COLLISION);
+		verr = fmax(verr, hypot(est_get(&E)->vel[0] - S.pl.x[0], est_get(&E)->vel[1] - S.pl.x[1]));
 	}
 	S.slip_rad_s[2] = 0.0;
 	for (int k = 0; k < 20; k++, n++)
 		sim_tick(&S, u, profile(n, u));
-	printf("slip: SLIP after %d ms; estimate off by %.2f mm after the slip\n", at,
-	       1e3 * pos_err(&S));
+	printf("slip: SLIP after %d ms; velocity off by %.4f m/s at worst during it (the wheel "
+	       "left out), position by %.2f mm after it\n",
+	       at, verr, 1e3 * pos_err(&S));
 	assert_true(at >= 1 && at <= 9); /* measured 3 (slip_ticks); required <= 20 */
 	assert_false(est_get(&E)->flags & EST_FLAG_SLIP);
-	assert_true(pos_err(&S) < 0.01); /* the slipping wheel was not believed */
+	assert_true(verr < VERR_SLIP);
+	assert_true(pos_err(&S) < 0.008); /* measured 2.6 mm: the slipping wheel was not believed */
 }
 
 /* Drive straight at a steady speed, then the body is stopped (a wall: velocity -5 %/tick)

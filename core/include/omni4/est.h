@@ -14,9 +14,10 @@
  *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
  *   history (EST_HISTORY ticks, less up to EST_SNAP_EVERY - 1) are counted and dropped.
  * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
- *   frames in a row disagree; a wheel reading whose null-space residual is beyond
- *   slip_threshold (that tick runs on the model alone). A camera that stops leaves odometry
- *   and the model carrying on with a growing covariance.
+ *   frames in a row disagree; in a wheel reading whose null-space residual is beyond
+ *   slip_threshold, the wheel farthest from the prediction (the other three give the
+ *   velocity). A camera that stops leaves odometry and the model carrying on with a growing
+ *   covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
  *   v0 - v1 + v2 - v3 (0 for a rigid body); EST_FLAG_COLLISION from the model-vs-wheels
  *   innovation (the robot slowed or was pushed although the voltages say otherwise); thresholds
@@ -61,7 +62,7 @@ struct est_settings {
 	float cam_theta_noise;   /* camera heading [rad] */
 	float gate_sigmas;       /* a camera innovation beyond this many sigmas is an outlier */
 	float slip_threshold;    /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
-				  * a reading beyond it is not used */
+				  * in a reading beyond it one wheel is left out */
 	int slip_ticks;
 	float collision_threshold; /* model-vs-wheel velocity innovation (vel_innov) beyond it
 				    * for collision_ticks ticks: COLLISION [m/s] */
