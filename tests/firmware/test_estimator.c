@@ -130,6 +130,30 @@ static void test_pure_rotation_closed_form(void **state)
 	assert_true(worst < 1.5e-4); /* measured 5.5e-5: float heading summed over 3000 ticks */
 }
 
+/* The model in force follows est_set_model: a heavier, more viscous robot reaches its own
+ * steady velocity (dyn_steady_velocity of the new parameters); a bad set is ignored. */
+static void test_set_model(void **state)
+{
+	(void)state;
+	struct model_params p = *P3, bad = *P3;
+	const double u[4] = {0.0, -6.0, 0.0, 6.0};
+	struct model_ss ss;
+	double xss[3];
+
+	p.M *= 2.0;
+	p.Bv *= 3.0;
+	bad.M = -1.0;
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	est_set_model(&E, &p);
+	est_set_model(&E, &bad);
+	for (int n = 1; n <= 6000; n++)
+		model_tick(&E, (int64_t)n * TICK_US, u, true);
+	dyn_state_space(&p, &ss);
+	dyn_steady_velocity(&ss, u, xss);
+	printf("set_model: v %.6f (steady of the new model %.6f)\n", est_get(&E)->vel[0], xss[0]);
+	assert_near(est_get(&E)->vel[0], xss[0], 5e-5 * xss[0]); /* measured 2.1e-5 relative */
+}
+
 /* ---- against the plant --------------------------------------------------------------------- */
 
 #define CAM_PERIOD 40     /* 25 Hz */
@@ -689,6 +713,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_drive_then_coast_closed_form),
 		cmocka_unit_test(test_pure_rotation_closed_form),
+		cmocka_unit_test(test_set_model),
 		cmocka_unit_test(test_plant_camera_40ms),
 		cmocka_unit_test(test_replay_equals_on_time),
 		cmocka_unit_test(test_camera_update_is_batch_kalman),
