@@ -15,11 +15,19 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	fw->motor = motor;
 	fw->lines = lines;
 	fw->late_us = llround(2e6 / cfg->rate_hz); /* [loop] rate_hz: restart only */
+	fw->state_every = (int)ceil(cfg->rate_hz / FW_STATE_HZ - 1e-9);
+	struct est_settings es;
+
+	est_settings_defaults(&es);
+	if (est_init(&fw->est, &es, &cfg->model, cfg->rate_hz))
+		return -EINVAL;
+	spsc_init(&fw->pose_ring, fw->pose_buf, FW_POSE_RING_SLOTS, sizeof(fw->pose_buf[0]));
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
 	atomic_init(&fw->halted, false);
 	atomic_init(&fw->param_pending, NULL);
 	atomic_init(&fw->param_done_gen, 0);
+	atomic_init(&fw->n.pose_dropped, 0);
 	fw_outputs_off(fw);
 	return 0;
 }
@@ -90,6 +98,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 		rc = -EBUSY;
 	} else {
 		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
+		est_set_model(&fw->est, &u->set.model);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
@@ -138,6 +147,49 @@ void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3])
 
 	memcpy(e.pose, pose, sizeof(e.pose));
 	log_push(fw, &e);
+	if (fw->n_tick_poses < FW_POSES_PER_TICK) {
+		struct fw_pose *p = &fw->tick_poses[fw->n_tick_poses++];
+
+		p->utime = utime;
+		memcpy(p->pose, pose, sizeof(p->pose));
+	}
+}
+
+bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3])
+{
+	struct fw_pose p = {.utime = utime};
+
+	memcpy(p.pose, pose, sizeof(p.pose));
+	if (spsc_push(&fw->pose_ring, &p))
+		return true;
+	atomic_fetch_add(&fw->n.pose_dropped, 1);
+	return false;
+}
+
+/* The estimator's tick: the voltages applied since the last tick (bridges as they were), this
+ * tick's reading, then the camera poses that came in (each at its capture time). Its state goes
+ * to the log every state_every ticks and whenever its flags change. */
+static void estimate(struct fw *fw, struct est_input *in)
+{
+	const int64_t now_us = in->utime;
+	struct fw_pose p;
+
+	est_step(&fw->est, in);
+	for (int i = 0; i < fw->n_tick_poses; i++)
+		est_camera(&fw->est, fw->tick_poses[i].utime, fw->tick_poses[i].pose, now_us);
+	fw->n_tick_poses = 0;
+	while (spsc_pop(&fw->pose_ring, &p))
+		est_camera(&fw->est, p.utime, p.pose, now_us);
+
+	const struct est_output *o = est_get(&fw->est);
+
+	if (fw->seq % fw->state_every == 0 || o->flags != fw->state_flags) {
+		struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_STATE};
+
+		e.state = *o;
+		fw->state_flags = o->flags;
+		log_push(fw, &e);
+	}
 }
 
 bool fw_pop_log(struct fw *fw, struct log_entry *e)
@@ -161,14 +213,12 @@ static void push_calibration(struct fw *fw, int64_t now_us)
 	log_push(fw, &e);
 }
 
-void fw_tick(struct fw *fw, int64_t now_us)
+/* Commands waiting in the mailbox, in order; a clear that leaves FAULT also clears the drivers'
+ * latched faults. */
+static void take_commands(struct fw *fw, int64_t now_us)
 {
 	struct ctl_command cmd;
-	struct motor_sample s;
-	struct ctl_output out;
-	bool estop = false;
 
-	take_params(fw, now_us); /* between ticks: the whole tick below runs on one set */
 	while (spsc_pop(&fw->cmd_ring, &cmd)) {
 		const bool was_fault = fw->ctl.mode == CTL_FAULT || fw->ctl.mode == CTL_ESTOP;
 
@@ -176,6 +226,52 @@ void fw_tick(struct fw *fw, int64_t now_us)
 		    was_fault)
 			hal_motor_clear_faults(&fw->motor);
 	}
+}
+
+/* The controller's output to the HAL (nothing but 0 V, bridges off, once halted). */
+static void drive(struct fw *fw, struct ctl_output *out)
+{
+	if (atomic_load_explicit(&fw->halted, memory_order_relaxed)) {
+		out->enable = false;
+		memset(out->volts, 0, sizeof(out->volts));
+	}
+	if (out->enable != fw->hw_enabled) {
+		hal_motor_enable(&fw->motor, out->enable);
+		hal_line_set_enable(&fw->lines, out->enable);
+		fw->hw_enabled = out->enable;
+	}
+	if (hal_motor_write(&fw->motor, out->volts) < 0)
+		fw->n.write_errors++;
+	hal_line_set_led(&fw->lines, out->mode == CTL_FAULT || out->mode == CTL_ESTOP);
+	fw->last_out = *out;
+}
+
+/* This tick's motors_t sample. A tick that starts a whole period or more late (the loop was
+ * starved; it re-aligns) is flagged in its own sample only, so a log shows which were late. */
+static void push_sample(struct fw *fw, int64_t now_us, const struct ctl_output *out)
+{
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
+			      .mode = out->mode, .faults = out->faults};
+
+	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
+		e.faults |= CTL_FAULT_OVERRUN;
+		fw->n.overruns++;
+	}
+	fw->last_tick_us = now_us;
+	memcpy(e.voltage, out->volts, sizeof(e.voltage));
+	memcpy(e.current, out->current, sizeof(e.current));
+	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
+	log_push(fw, &e);
+}
+
+void fw_tick(struct fw *fw, int64_t now_us)
+{
+	struct motor_sample s;
+	struct ctl_output out;
+	bool estop = false;
+
+	take_params(fw, now_us); /* between ticks: the whole tick below runs on one set */
+	take_commands(fw, now_us);
 	if (hal_line_read_estop(&fw->lines, &estop) < 0)
 		estop = true; /* an unreadable e-stop line is a pressed e-stop */
 
@@ -187,37 +283,17 @@ void fw_tick(struct fw *fw, int64_t now_us)
 		fw->n.read_errors++;
 	ctl_step(&fw->ctl, now_us, &fw->last_sample, rc, estop, &out);
 
-	if (atomic_load_explicit(&fw->halted, memory_order_relaxed)) {
-		out.enable = false;
-		memset(out.volts, 0, sizeof(out.volts));
-	}
-	if (out.enable != fw->hw_enabled) {
-		hal_motor_enable(&fw->motor, out.enable);
-		hal_line_set_enable(&fw->lines, out.enable);
-		fw->hw_enabled = out.enable;
-	}
-	if (hal_motor_write(&fw->motor, out.volts) < 0)
-		fw->n.write_errors++;
-	hal_line_set_led(&fw->lines, out.mode == CTL_FAULT || out.mode == CTL_ESTOP);
-	fw->last_out = out;
+	/* What drove the robot up to this reading, for the estimator (it runs after the outputs
+	 * are out, so its cost never delays them). */
+	struct est_input in = {.utime = now_us, .driven = fw->hw_enabled, .have_wheels = rc == 0};
+
+	memcpy(in.volts, fw->last_out.volts, sizeof(in.volts));
+	memcpy(in.wheel_rad_s, fw->last_sample.wheel_rad_s, sizeof(in.wheel_rad_s));
+	drive(fw, &out);
 	if (fw->ctl.cal.gen != fw->cal_gen) /* new offsets, subtracted from this tick on */
 		push_calibration(fw, now_us);
-
-	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
-			      .mode = out.mode, .faults = out.faults};
-
-	/* A tick that starts a whole period or more late (the loop was starved; it re-aligns):
-	 * flagged in this tick's sample only, so a log shows which samples were late. */
-	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
-		e.faults |= CTL_FAULT_OVERRUN;
-		fw->n.overruns++;
-	}
-	fw->last_tick_us = now_us;
-
-	memcpy(e.voltage, out.volts, sizeof(e.voltage));
-	memcpy(e.current, out.current, sizeof(e.current));
-	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
-	log_push(fw, &e);
+	estimate(fw, &in);
+	push_sample(fw, now_us, &out);
 	fw->seq++;
 	fw->n.ticks++;
 }

@@ -10,6 +10,13 @@
 #include "omni4_motors_t.h"
 #include "omni4_param_changed_t.h"
 #include "omni4_pose_t.h"
+#include "omni4_state_t.h"
+
+/* The estimator's flags go out unchanged as state_t's. */
+_Static_assert(EST_FLAG_SLIP == OMNI4_STATE_T_FLAG_SLIP, "state_t flags");
+_Static_assert(EST_FLAG_COLLISION == OMNI4_STATE_T_FLAG_COLLISION, "state_t flags");
+_Static_assert(EST_FLAG_CAMERA_STALE == OMNI4_STATE_T_FLAG_CAMERA_STALE, "state_t flags");
+_Static_assert(EST_FLAG_NO_WHEELS == OMNI4_STATE_T_FLAG_NO_WHEELS, "state_t flags");
 
 /* The controller's modes and fault bits go out unchanged as motors_t's (lcmtypes/), and
  * command_t's modes come in unchanged: the two vocabularies must agree bit by bit. */
@@ -109,11 +116,33 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
 }
 
+/* The estimator's output as a state_t. */
+static int encode_state(const struct log_entry *e, void *buf, size_t cap)
+{
+	const struct est_output *o = &e->state;
+	omni4_state_t m = {.utime = e->utime, .seq = e->seq, .flags = (int32_t)o->flags,
+			   .null_residual = o->null_residual,
+			   .camera_latency_us = o->cam_latency_us,
+			   .camera_taken = (int32_t)o->cam_taken, .camera_gated = (int32_t)o->cam_gated,
+			   .camera_too_old = (int32_t)o->cam_too_old};
+
+	for (int k = 0; k < 3; k++) {
+		m.pose[k] = o->pose[k];
+		m.velocity[k] = o->vel[k];
+		m.camera_innovation[k] = o->cam_innov[k];
+	}
+	memcpy(m.covariance, o->cov, sizeof(m.covariance));
+	return omni4_state_t_encode(buf, 0, (int)cap, &m);
+}
+
 int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const char **channel)
 {
 	int n;
 
-	if (e->kind == LOG_CALIBRATION) {
+	if (e->kind == LOG_STATE) {
+		*channel = OMNI4_CHANNEL_STATE;
+		n = encode_state(e, buf, cap);
+	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);
 	} else if (e->kind == LOG_POSE) {

@@ -15,7 +15,7 @@ from omni4 import log as omni4_log
 from omni4 import LogError, read_log
 
 SIM_TIMEOUT_S = 60   # omni4-sim --experiments takes ~0.5 s
-PREFIX_BYTES = 2_000_000  # ~16 s of the experiments (~17000 events): voltage and coast runs
+PREFIX_BYTES = 2_400_000  # ~17 s of the experiments (~19000 events): voltage and coast runs
 
 
 def event_bounds(data):

@@ -39,6 +39,8 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 			sr->st.motors++;
 		else if (!strcmp(channel, OMNI4_CHANNEL_POSE))
 			sr->st.pose++;
+		else if (!strcmp(channel, OMNI4_CHANNEL_STATE))
+			sr->st.state++;
 		else
 			sr->st.calibrations++; /* OMNI4_PARAM_CHANGED, source "calibration" */
 	}

@@ -15,6 +15,7 @@
 
 #include "omni4/ctl.h"
 #include "omni4/ctl_settings.h"
+#include "omni4/est.h"
 #include "omni4/hal.h"
 #include "omni4/ring.h"
 
@@ -22,12 +23,16 @@
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
 #endif
 #define FW_CMD_RING_SLOTS 64
+#define FW_POSE_RING_SLOTS 16 /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
+#define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
+#define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
 
-enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3 };
+enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4 };
 
 /*
  * One log ring entry, not yet encoded: a motors_t sample (currents with the offsets in force
- * subtracted), a pose_t sample, or a new set of current-sense offsets (announced as a
+ * subtracted), a pose_t sample, the state estimate (state: a state_t), or a new set of
+ * current-sense offsets (announced as a
  * param_changed_t with source "calibration"): then seq is the first tick whose currents have
  * them subtracted (pushed before that tick's sample), current[] the new offsets [A], voltage[]
  * the previous ones [A], faults the channels beyond the limit (bit j = channel j), mode the
@@ -41,9 +46,20 @@ struct log_entry {
 	int8_t mode;
 	uint16_t cal_samples;
 	int32_t faults;
-	float voltage[4];
-	float current[4];
-	float wheel_speed[4];
+	union {
+		struct {
+			float voltage[4];
+			float current[4];
+			float wheel_speed[4];
+			double pose[3];
+		};
+		struct est_output state; /* LOG_STATE */
+	};
+};
+
+/* A camera pose as a receive thread hands it to the loop (fw_post_pose). */
+struct fw_pose {
+	int64_t utime; /* capture time [us] */
 	double pose[3];
 };
 
@@ -54,6 +70,7 @@ struct fw_counters {
 	uint64_t read_errors;
 	uint64_t write_errors;
 	uint64_t overruns;      /* ticks that started a whole period or more late (FAULT_OVERRUN) */
+	_Atomic uint32_t pose_dropped; /* camera pose mailbox full (wraps after 2^32) */
 };
 
 /*
@@ -89,6 +106,7 @@ struct fw_param_result {
 
 struct fw {
 	struct ctl ctl;
+	struct est est;         /* the state estimate (est.h), stepped after the controller */
 	struct motor_hal motor;
 	struct line_hal lines;
 	struct spsc_ring cmd_ring;
@@ -101,6 +119,10 @@ struct fw {
 	uint32_t cal_gen;       /* the controller's offset sets announced in the log ring */
 	int64_t last_tick_us;   /* start of the previous tick (overrun check) */
 	int64_t late_us;        /* two loop periods [us]: a tick this far after the last is late */
+	int state_every;        /* ticks between two LOG_STATE entries */
+	uint32_t state_flags;   /* flags of the last LOG_STATE entry */
+	struct fw_pose tick_poses[FW_POSES_PER_TICK]; /* poses handed in during this tick */
+	int n_tick_poses;
 	struct fw_counters n;
 	/* Parameter change hand-over (parameter thread -> loop). */
 	_Atomic(struct fw_param_update *) param_pending;
@@ -109,6 +131,8 @@ struct fw {
 	struct fw_param_result param_done;
 	uint32_t param_gen;              /* parameter side only */
 	struct fw_param_hooks param_hooks;
+	struct spsc_ring pose_ring;
+	struct fw_pose pose_buf[FW_POSE_RING_SLOTS];
 	struct ctl_command cmd_buf[FW_CMD_RING_SLOTS];
 	struct log_entry log_buf[FW_LOG_RING_SLOTS];
 };
@@ -123,8 +147,13 @@ void fw_tick(struct fw *fw, int64_t now_us);
 /* Receive thread. false if the mailbox is full (counted). */
 bool fw_post_command(struct fw *fw, const struct ctl_command *cmd);
 
-/* Loop thread (e.g. a simulated camera called from the HAL read). */
+/* Loop thread (a simulated camera called from the HAL read): the pose goes to the log (as
+ * pose_t) and, after this tick's estimator step, to the estimator at its capture time utime. */
 void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
+/* Receive thread (a camera on the bus): the pose goes to the estimator at the next tick, at its
+ * capture time utime (not to the log: it is on the bus already). false if the mailbox is full
+ * (counted). */
+bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3]);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);

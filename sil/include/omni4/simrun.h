@@ -25,6 +25,7 @@ struct simrun_stats {
 	uint64_t ticks;
 	uint64_t messages;       /* written to the log, all channels */
 	uint64_t motors, pose, cmd, other;
+	uint64_t state;          /* the controller's estimate (OMNI4_STATE) */
 	uint64_t calibrations;   /* current-offset notices (OMNI4_PARAM_CHANGED) */
 	uint64_t log_errors;     /* failed writes (never silently: the caller reports them) */
 	uint64_t log_dropped;    /* ring overflow */
