@@ -5,12 +5,36 @@
 #include "omni4/rtloop.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
 
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
+#include "omni4_pose_t.h"
+
+/* Receive thread: a camera pose for the estimator (a bad one counted, never passed on). */
+static void on_pose(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct lcmio *io = user;
+	omni4_pose_t p;
+
+	(void)channel;
+	if (rbuf->data_size > INT32_MAX ||
+	    omni4_pose_t_decode(rbuf->data, 0, (int)rbuf->data_size, &p) != (int)rbuf->data_size ||
+	    !isfinite(p.x) || !isfinite(p.y) || !isfinite(p.theta)) {
+		atomic_fetch_add(&io->pose_bad, 1);
+		return;
+	}
+	fw_post_pose(io->fw, p.utime, (const double[3]){p.x, p.y, p.theta});
+}
+
+int lcmio_take_camera(struct lcmio *io)
+{
+	io->pose_sub = lcm_subscribe(io->lcm, OMNI4_CHANNEL_POSE, on_pose, io);
+	return io->pose_sub ? 0 : -EIO;
+}
 
 static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
@@ -210,6 +234,8 @@ void lcmio_stop(struct lcmio *io)
 	pthread_join(io->log_thread, NULL);
 	if (io->motors_sub)
 		lcm_unsubscribe(io->lcm, io->motors_sub);
+	if (io->pose_sub)
+		lcm_unsubscribe(io->lcm, io->pose_sub);
 	lcm_unsubscribe(io->lcm, io->sub);
 	io->started = 0;
 }

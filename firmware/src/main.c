@@ -351,6 +351,9 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 		param_service_stop(&app->params);
 		return 1;
 	}
+	if (app->robot.motor_kind != OMNI4_MOTOR_SIM && lcmio_take_camera(&io))
+		fprintf(stderr, "omni4-fw: warning: cannot subscribe to OMNI4_POSE: the estimate "
+			"runs on the wheels and the model alone\n");
 	rc = run_loop(app, cfg, o, &loop);
 	fw_outputs_off(&app->robot.fw);
 	lcmio_stop(&io);

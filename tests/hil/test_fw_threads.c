@@ -2,6 +2,7 @@
  * LCM receive thread and the logger thread, as in omni4-fw, on the sim backend. */
 #include "omni4_test.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 #include <lcm/lcm.h>
@@ -14,6 +15,7 @@
 #include "omni4/sim_motor.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
+#include "omni4_pose_t.h"
 
 struct rx {
 	int64_t count;
@@ -140,10 +142,65 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 	lcm_destroy(lcm);
 }
 
+/* A camera on the bus (lcmio_take_camera): its poses on OMNI4_POSE reach the loop's estimator
+ * at their capture time; an undecodable or non-finite one is counted and never passed on. */
+static void test_camera_poses_from_the_bus_reach_the_estimator(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	static struct sim_motor sim;
+	struct omni4_config cfg;
+
+	config_defaults(&cfg);
+	const struct sim_motor_config sc = {.params = cfg.ctl.model, .period_s = 1e-3,
+					    .supply_v = 12, .camera_rate_hz = 25};
+
+	assert_int_equal(sim_motor_init(&sim, &sc), 0); /* no pose callback: the bus is the camera */
+	assert_int_equal(fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim),
+				 (struct line_hal){.ops = &line_none_ops}), 0);
+	lcm_t *lcm = lcm_create("memq://");
+	struct lcmio io;
+
+	assert_non_null(lcm);
+	assert_int_equal(lcmio_start(&io, lcm, &fw), 0);
+	assert_int_equal(lcmio_take_camera(&io), 0);
+	static const unsigned char junk[5] = {1, 2, 3, 4, 5};
+	int64_t t = 0;
+
+	for (int k = 0; k < 400; k++, t += 1000) {
+		if (k % 40 == 20) { /* 25 Hz, captured 20 ms before this tick, at the origin */
+			const omni4_pose_t p = {.utime = t - 20000, .x = 0.0, .y = 0.0, .theta = 0.0};
+
+			assert_int_equal(omni4_pose_t_publish(lcm, OMNI4_CHANNEL_POSE, &p), 0);
+		}
+		if (k == 100) {
+			const omni4_pose_t nan_pose = {.utime = t, .x = NAN};
+
+			omni4_pose_t_publish(lcm, OMNI4_CHANNEL_POSE, &nan_pose);
+			lcm_publish(lcm, OMNI4_CHANNEL_POSE, junk, sizeof(junk));
+		}
+		sleep_ms(1); /* the receive thread hands the poses over */
+		fw_tick(&fw, t);
+	}
+	lcmio_stop(&io);
+	const struct est_output *o = est_get(&fw.est);
+
+	print_message("camera on the bus: %u taken, %u gated, %llu bad, latency %lld us\n",
+		      o->cam_taken, o->cam_gated, (unsigned long long)atomic_load(&io.pose_bad),
+		      (long long)o->cam_latency_us);
+	assert_int_equal(atomic_load(&io.pose_bad), 2);
+	assert_int_equal(o->cam_gated, 0);
+	assert_in_range(o->cam_taken, 9, 10); /* 10 sent; the last may still be in the mailbox */
+	assert_int_equal(o->cam_latency_us, 20000);
+	assert_false(o->flags & EST_FLAG_CAMERA_STALE);
+	lcm_destroy(lcm);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_loop_thread_logs_every_tick_through_lcm),
+		cmocka_unit_test(test_camera_poses_from_the_bus_reach_the_estimator),
 	};
 
 	return cmocka_run_group_tests_name("fw_threads", tests, NULL, NULL);

@@ -38,6 +38,8 @@ struct lcmio {
 	void *note_ctx;
 	/* OMNI4_MOTORS watch (lcmio_start_watching; NULL: not subscribed). */
 	lcm_subscription_t *motors_sub;
+	lcm_subscription_t *pose_sub;  /* OMNI4_POSE -> the estimator (lcmio_take_camera) */
+	_Atomic uint64_t pose_bad;     /* undecodable or non-finite pose_t */
 	lcmio_foreign_fn foreign_cb;
 	void *foreign_ctx;
 	_Atomic uint64_t own_heard; /* our own samples heard back */
@@ -63,6 +65,12 @@ int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
  * of samples heard (0: no other controller publishes there), the first one's seq and utime in
  * *seq, *utime. -errno if LCM fails. */
 long lcmio_listen_motors(lcm_t *lcm, int ms, int64_t *seq, int64_t *utime);
+
+/* After start: camera poses on OMNI4_POSE (pose_t.utime = capture time) go to the loop's
+ * estimator (fw_post_pose). For a robot whose camera is on the bus; a simulated camera feeds
+ * the estimator from inside the loop instead (and publishes its poses: not to be taken again).
+ * 0 or -EIO. */
+int lcmio_take_camera(struct lcmio *io);
 
 /* Stop both threads; the logger drains what is left in the ring first. */
 void lcmio_stop(struct lcmio *io);
