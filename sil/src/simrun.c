@@ -20,6 +20,8 @@ struct simrun {
 	int64_t utime0;
 	int64_t period_us;
 	struct simrun_stats st;
+	simrun_tap_fn tap;
+	void *tap_ctx;
 };
 
 static int write_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
@@ -33,6 +35,8 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 	struct simrun *sr = ctx;
 	const int rc = write_event(sr, channel, utime, data, len);
 
+	if (sr->tap)
+		sr->tap(sr->tap_ctx, channel, utime, data, len);
 	if (rc == 0) {
 		sr->st.messages++;
 		if (!strcmp(channel, OMNI4_CHANNEL_MOTORS))
@@ -180,4 +184,15 @@ void simrun_reference(const struct simrun *sr, double ref[3])
 uint64_t simrun_watchdog_trips(const struct simrun *sr)
 {
 	return sr->robot.fw.ctl.n.watchdog_trips;
+}
+
+void simrun_set_tap(struct simrun *sr, simrun_tap_fn fn, void *ctx)
+{
+	sr->tap = fn;
+	sr->tap_ctx = ctx;
+}
+
+const struct est_output *simrun_estimate(const struct simrun *sr)
+{
+	return est_get(&sr->robot.fw.est);
 }

@@ -65,6 +65,17 @@ uint64_t simrun_watchdog_trips(const struct simrun *sr);
 
 /* Test access: press / release the simulated e-stop; inject faults via the returned struct. */
 void simrun_set_estop(struct simrun *sr, bool pressed);
+
+/* Every message the controller emits (motors_t, pose_t, state_t, ...), as encoded, also when no
+ * log is written: for benchmarks and tests that score what the robot says. NULL: none. */
+typedef void (*simrun_tap_fn)(void *ctx, const char *channel, int64_t utime, const void *data,
+			      size_t len);
+void simrun_set_tap(struct simrun *sr, simrun_tap_fn fn, void *ctx);
+
+/* The controller's state estimate after the last tick (est.h's est_output, as a pointer to its
+ * first fields: utime, pose[3], vel[3], cov[6], flags). */
+struct est_output;
+const struct est_output *simrun_estimate(const struct simrun *sr);
 struct sim_motor_faults *simrun_faults(struct simrun *sr);
 
 #ifdef __cplusplus

@@ -1,0 +1,268 @@
+/*
+ * est_bench - the controller's state estimate against the simulated robot's true state, beside
+ * two peers computed in the same run: the raw camera and wheel odometry alone (the wheels'
+ * forward kinematics integrated, written here, apart from the model library), plus the same
+ * estimator with the camera replay switched off (frames applied at arrival).
+ *
+ * The drive (lockstep simulator, sensors from the robot INI's [sim]): the paper's validation
+ * steps (velocity steps along v, vn, w and back), then a path with turns at 1-2 m/s.
+ * usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]
+ * Prints one line per estimate: position RMS [mm], heading RMS [deg], and the ratios the
+ * estimate achieves against each peer.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "omni4/channels.h"
+#include "omni4/config.h"
+#include "omni4/est.h"
+#include "omni4/simrun.h"
+#include "omni4_command_t.h"
+#include "omni4_motors_t.h"
+#include "omni4_pose_t.h"
+
+#define PI 3.14159265358979323846
+
+struct score {
+	double se_pos, se_th; /* sums of squared errors [m^2], [rad^2] */
+	long n;
+};
+
+struct bench {
+	struct simrun *sr;
+	double d, r, period_s;
+	int64_t utime0;
+	long ticks_max;
+	double (*truth)[3];   /* world pose per tick */
+	/* wheel odometry */
+	double odo[3];
+	int64_t odo_last;
+	/* the estimator again, frames at arrival */
+	struct est late;
+	omni4_motors_t prev;
+	bool have_prev;
+	struct score est, late_score, cam, odo_score;
+	FILE *csv;
+};
+
+static double wrap(double a)
+{
+	while (a > PI)
+		a -= 2 * PI;
+	while (a <= -PI)
+		a += 2 * PI;
+	return a;
+}
+
+static void add(struct score *s, const double truth[3], double x, double y, double th)
+{
+	const double dx = x - truth[0], dy = y - truth[1], dth = wrap(th - truth[2]);
+
+	s->se_pos += dx * dx + dy * dy;
+	s->se_th += dth * dth;
+	s->n++;
+}
+
+static const double *truth_at(const struct bench *b, int64_t utime)
+{
+	const long k = (long)llround((double)(utime - b->utime0) * 1e-6 / b->period_s);
+
+	return k >= 0 && k < b->ticks_max ? b->truth[k] : NULL;
+}
+
+/* Wheel odometry: eqs 3-5 from the four wheel speeds (rows of eq 2: [0 1 d], [-1 0 d],
+ * [0 -1 d], [1 0 d]), the pose integrated at the mid-step heading. */
+static void odometry(struct bench *b, const omni4_motors_t *m)
+{
+	double vw[4];
+
+	for (int j = 0; j < 4; j++)
+		vw[j] = m->wheel_speed[j] * b->r;
+	const double v = 0.5 * (vw[3] - vw[1]), vn = 0.5 * (vw[0] - vw[2]);
+	const double w = (vw[0] + vw[1] + vw[2] + vw[3]) / (4.0 * b->d);
+	const double dt = b->odo_last ? (double)(m->utime - b->odo_last) * 1e-6 : 0.0;
+	const double th = b->odo[2] + 0.5 * w * dt;
+
+	b->odo[0] += dt * (cos(th) * v - sin(th) * vn);
+	b->odo[1] += dt * (sin(th) * v + cos(th) * vn);
+	b->odo[2] = wrap(b->odo[2] + w * dt);
+	b->odo_last = m->utime;
+}
+
+static void on_motors(struct bench *b, const omni4_motors_t *m)
+{
+	const double *t = truth_at(b, m->utime);
+	/* the frames-at-arrival twin: what drove the robot up to this reading, as the loop has it */
+	struct est_input in = {.utime = m->utime, .have_wheels = true};
+
+	if (b->have_prev) {
+		in.driven = b->prev.mode == OMNI4_MOTORS_T_MODE_VELOCITY ||
+			    b->prev.mode == OMNI4_MOTORS_T_MODE_VOLTAGE;
+		memcpy(in.volts, b->prev.voltage, sizeof(in.volts));
+	}
+	memcpy(in.wheel_rad_s, m->wheel_speed, sizeof(in.wheel_rad_s));
+	est_step(&b->late, &in);
+	b->prev = *m;
+	b->have_prev = true;
+	odometry(b, m);
+	if (!t)
+		return;
+	const struct est_output *o = simrun_estimate(b->sr);
+	const struct est_output *l = est_get(&b->late);
+
+	add(&b->est, t, o->pose[0], o->pose[1], o->pose[2]);
+	add(&b->late_score, t, l->pose[0], l->pose[1], l->pose[2]);
+	add(&b->odo_score, t, b->odo[0], b->odo[1], b->odo[2]);
+	if (b->csv && m->seq % 20 == 0)
+		fprintf(b->csv, "%.3f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f\n",
+			(double)(m->utime - b->utime0) * 1e-6, t[0], t[1], o->pose[0], o->pose[1],
+			b->odo[0], b->odo[1], l->pose[0], l->pose[1]);
+}
+
+static void on_pose(struct bench *b, const omni4_pose_t *p, int64_t arrival)
+{
+	const double *t = truth_at(b, p->utime);
+	const double z[3] = {p->x, p->y, p->theta};
+
+	est_camera(&b->late, p->utime, z, arrival);
+	if (t)
+		add(&b->cam, t, p->x, p->y, p->theta);
+}
+
+static void tap(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
+{
+	struct bench *b = ctx;
+	/* The messages of a tick come out after its plant step: the plant is at this tick's time. */
+	const long k = (long)llround((double)(simrun_now_us(b->sr) - b->utime0) * 1e-6 / b->period_s);
+	double vel[3];
+
+	if (k >= 0 && k < b->ticks_max)
+		simrun_truth(b->sr, vel, b->truth[k]);
+
+	if (!strcmp(channel, OMNI4_CHANNEL_MOTORS)) {
+		omni4_motors_t m;
+
+		if (omni4_motors_t_decode(data, 0, (int)len, &m) == (int)len)
+			on_motors(b, &m);
+	} else if (!strcmp(channel, OMNI4_CHANNEL_POSE)) {
+		omni4_pose_t p;
+
+		if (omni4_pose_t_decode(data, 0, (int)len, &p) == (int)len)
+			on_pose(b, &p, simrun_now_us(b->sr));
+	}
+	(void)utime;
+}
+
+static void command(struct bench *b, double v, double vn, double w, int64_t *seq)
+{
+	unsigned char buf[256];
+	omni4_command_t c = {.utime = simrun_now_us(b->sr), .seq = (*seq)++,
+			     .mode = OMNI4_COMMAND_T_MODE_VELOCITY, .velocity = {v, vn, w}};
+	const int n = omni4_command_t_encode(buf, 0, sizeof(buf), &c);
+
+	simrun_command(b->sr, buf, (size_t)n);
+}
+
+/* The velocity asked for at time t [s]: validation steps, then the path. */
+static void drive_at(double t, double steps_s, double x[3])
+{
+	static const double steps[][3] = {{1, 0, 0}, {0, 0, 0}, {0, 1, 0}, {0, 0, 0}, {0, 0, 6},
+					  {0, 0, 0}, {-1, 0, 0}, {0, 0, 0}, {0, -1, 0}, {0, 0, 0}};
+	const int n = (int)(sizeof(steps) / sizeof(steps[0]));
+
+	if (t < steps_s) {
+		memcpy(x, steps[(int)(t / (steps_s / n)) % n], 3 * sizeof(double));
+		return;
+	}
+	const double s = t - steps_s;
+
+	x[0] = 1.5 + 0.5 * sin(2 * PI * s / 15.0);   /* 1-2 m/s */
+	x[1] = 0.3 * sin(2 * PI * s / 7.0);
+	x[2] = 1.2 * sin(2 * PI * s / 10.0);         /* turns */
+}
+
+static void report(const char *name, const struct score *s, const struct score *est)
+{
+	const double pos = sqrt(s->se_pos / (double)s->n), th = sqrt(s->se_th / (double)s->n);
+	const double epos = sqrt(est->se_pos / (double)est->n), eth = sqrt(est->se_th / (double)est->n);
+
+	printf("%-34s position RMS %8.2f mm  heading RMS %6.3f deg  (estimate/this: %.3f, %.3f)\n",
+	       name, 1e3 * pos, th * 180.0 / PI, epos / pos, eth / th);
+}
+
+int main(int argc, char **argv)
+{
+	const char *ini = NULL, *csv = NULL;
+	double path_s = 60.0, steps_s = 20.0;
+	struct omni4_config cfg;
+	struct config_error err;
+	char why[256];
+
+	for (int i = 1; i < argc; i++) {
+		if (!strcmp(argv[i], "--ini") && i + 1 < argc)
+			ini = argv[++i];
+		else if (!strcmp(argv[i], "--path-s") && i + 1 < argc)
+			path_s = atof(argv[++i]);
+		else if (!strcmp(argv[i], "--csv") && i + 1 < argc)
+			csv = argv[++i];
+		else {
+			fprintf(stderr, "usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
+			return 2;
+		}
+	}
+	config_defaults(&cfg);
+	if (ini && config_load(ini, &cfg, &err)) {
+		fprintf(stderr, "est_bench: %s\n", err.msg);
+		return 2;
+	}
+	static struct bench b;
+	struct est_settings es;
+
+	b.sr = simrun_create(&cfg, &cfg.ctl.model, true, NULL, why, sizeof(why));
+	if (!b.sr) {
+		fprintf(stderr, "est_bench: %s\n", why);
+		return 1;
+	}
+	b.d = cfg.ctl.model.d;
+	b.r = cfg.ctl.model.r;
+	b.period_s = simrun_period_s(b.sr);
+	b.utime0 = simrun_now_us(b.sr);
+	b.ticks_max = (long)((steps_s + path_s) / b.period_s) + 2;
+	b.truth = calloc((size_t)b.ticks_max, sizeof(*b.truth));
+	est_settings_defaults(&es);
+	es.replay = false;
+	if (!b.truth || est_init(&b.late, &es, &cfg.ctl.model, cfg.ctl.rate_hz)) {
+		fprintf(stderr, "est_bench: cannot start\n");
+		return 1;
+	}
+	b.csv = csv ? fopen(csv, "w") : NULL;
+	if (b.csv)
+		fprintf(b.csv, "t_s,true_x,true_y,est_x,est_y,odo_x,odo_y,late_x,late_y\n");
+	simrun_set_tap(b.sr, tap, &b);
+	int64_t seq = 0;
+
+	for (long k = 0; k + 1 < b.ticks_max; k++) {
+		const double t = (double)k * b.period_s;
+		double x[3];
+
+		if (k % 20 == 0) {
+			drive_at(t, steps_s, x);
+			command(&b, x[0], x[1], x[2], &seq);
+		}
+		simrun_tick(b.sr);
+	}
+	printf("est_bench: %.0f s (validation steps %.0f s, path %.0f s at 1-2 m/s with turns), "
+	       "%ld ticks\n", steps_s + path_s, steps_s, path_s, b.ticks_max - 1);
+	report("estimate (camera replayed)", &b.est, &b.est);
+	report("estimate, frames at arrival", &b.late_score, &b.est);
+	report("raw camera (at capture time)", &b.cam, &b.est);
+	report("wheel odometry alone", &b.odo_score, &b.est);
+	if (b.csv)
+		fclose(b.csv);
+	simrun_destroy(b.sr);
+	free(b.truth);
+	return 0;
+}
