@@ -1,0 +1,347 @@
+"""What omni4-ros and omni4-rosbag compute, without ROS: the wheels' forward kinematics and
+odometry, the /cmd_vel gate (finite, clamped to the controller's limits, fresh), the state
+estimate's adapter, and the diagnostics' contents. Plain Python, so it is tested (and used by
+the bag writer) without rclpy.
+
+Signs and numbering: docs/kinematics.md. Robot frame (base_link): x = v forward, y = vn to the
+left, z up (REP 103). Wheel j sits at 90*j degrees from the v axis: 0 front, 1 left, 2 rear,
+3 right; its positive rim speed points counter-clockwise."""
+import math
+
+from .. import motors_t
+
+JOINT_NAMES = ("wheel_0_front_joint", "wheel_1_left_joint", "wheel_2_rear_joint",
+               "wheel_3_right_joint")
+# Table III of the paper (docs/ini-keys.md defaults): used until the robot's own are read.
+TABLE_III = {"model.d": 0.089, "model.r": 0.0325, "model.l": 5.0, "model.Kt": 0.0259}
+GEOMETRY_KEYS = tuple(TABLE_III)
+LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max")
+
+MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
+FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t) if n.startswith("FAULT_"))
+LATCHING = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT | motors_t.FAULT_DRIVER |
+            motors_t.FAULT_BUS | motors_t.FAULT_ENCODER | motors_t.FAULT_CURRENT_SENSOR |
+            motors_t.FAULT_SUPPLY)
+WARNINGS = motors_t.FAULT_CMD_TIMEOUT | motors_t.FAULT_CMD_REJECTED | \
+    motors_t.FAULT_LOG_OVERFLOW | motors_t.FAULT_OVERRUN
+
+# Odometry noise model (docs/ros.md, "Covariances"): the sim's and the paper's encoders give
+# 0.13-0.16 rad/s of noise per 1 kHz wheel-speed sample; wheels slip ~1 % of the distance.
+WHEEL_SPEED_SIGMA = 0.15      # [rad/s] per sample
+SLIP_FRACTION = 0.01          # pose std dev grows by this fraction of the distance travelled
+SLIP_ROT_FRACTION = 0.02      # heading std dev grows by this fraction of the angle turned
+                              # (plus the linear slip over d)
+
+
+def fault_names(bits):
+    """The FAULT_* names (without the prefix) of the set bits; unknown bits as 0x...."""
+    names = [name for bit, name in FAULT_BITS if bits & bit]
+    rest = bits & ~sum(bit for bit, _ in FAULT_BITS)
+    if rest:
+        names.append(f"0x{rest:x}")
+    return names
+
+
+def forward_kinematics(wheel_rad_s, d, r):
+    """Eqs 3-5: (v, vn, w) [m/s, m/s, rad/s] from the four wheel angular speeds [rad/s]."""
+    v0, v1, v2, v3 = (r * w for w in wheel_rad_s)
+    return (v3 - v1) / 2.0, (v0 - v2) / 2.0, (v0 + v1 + v2 + v3) / (4.0 * d)
+
+
+def inverse_kinematics(v, vn, w, d, r):
+    """Eq 2: the four wheel angular speeds [rad/s] of a robot velocity."""
+    return ((vn + d * w) / r, (-v + d * w) / r, (-vn + d * w) / r, (v + d * w) / r)
+
+
+def yaw_quaternion(theta):
+    """(x, y, z, w) of a rotation by theta about z."""
+    return 0.0, 0.0, math.sin(theta / 2.0), math.cos(theta / 2.0)
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+class WheelOdometry:
+    """Integrates motors_t samples: pose (x, y, theta) in odom, velocity in base_link, wheel
+    positions [rad], wheel torques [N m] (l Kt i), and a diagonal covariance.
+
+    The pose integrates eq 1 with the mid-interval heading over each sample's dt (the
+    controller's utime); a first sample, a dt <= 0 or a gap longer than max_dt_s only restarts
+    the clock (the gap's motion is lost, and counted in `gaps`)."""
+
+    def __init__(self, geometry=None, max_dt_s=0.1):
+        self.geometry = dict(TABLE_III)
+        if geometry:
+            self.geometry.update(geometry)
+        self.max_dt_s = max_dt_s
+        self.x = self.y = self.theta = 0.0
+        self.vel = (0.0, 0.0, 0.0)
+        self.wheel_pos = [0.0] * 4
+        self.wheel_vel = [0.0] * 4
+        self.effort = [0.0] * 4
+        self.var_xy = 0.0
+        self.var_theta = 0.0
+        self.samples = 0
+        self.gaps = 0
+        self.last_utime = None
+        self.last_seq = None
+        self.lost = 0            # seq gaps: samples the controller sent that never came
+
+    def set_geometry(self, **kv):
+        for k, v in kv.items():
+            self.geometry[k] = float(v)
+
+    def step(self, m):
+        """One motors_t (or anything with utime, seq, wheel_speed, current)."""
+        d, r = self.geometry["model.d"], self.geometry["model.r"]
+        torque_per_a = self.geometry["model.l"] * self.geometry["model.Kt"]
+        ws = [float(w) for w in m.wheel_speed]
+        if not all(math.isfinite(w) for w in ws):
+            return False
+        if self.last_seq is not None and m.seq > self.last_seq + 1:
+            self.lost += m.seq - self.last_seq - 1
+        self.last_seq = m.seq
+        dt = None if self.last_utime is None else (m.utime - self.last_utime) * 1e-6
+        self.last_utime = m.utime
+        v, vn, w = forward_kinematics(ws, d, r)
+        self.vel = (v, vn, w)
+        self.wheel_vel = ws
+        self.effort = [torque_per_a * float(i) for i in m.current]
+        self.samples += 1
+        if dt is None or dt <= 0 or dt > self.max_dt_s:
+            if dt is not None:
+                self.gaps += 1
+            return True
+        th = self.theta + 0.5 * w * dt
+        c, s = math.cos(th), math.sin(th)
+        dx, dy = (c * v - s * vn) * dt, (s * v + c * vn) * dt
+        self.x += dx
+        self.y += dy
+        dth = w * dt
+        self.theta = wrap(self.theta + dth)
+        for j in range(4):
+            self.wheel_pos[j] += ws[j] * dt
+        ds = math.hypot(dx, dy)
+        self.var_xy += (SLIP_FRACTION * ds) ** 2
+        self.var_theta += (SLIP_ROT_FRACTION * abs(dth) + SLIP_FRACTION * ds / (2 * d)) ** 2
+        return True
+
+    def twist_sigmas(self):
+        """Std devs of (v, vn, w) of one sample from the wheel-speed noise through eqs 3-5."""
+        d, r = self.geometry["model.d"], self.geometry["model.r"]
+        s = r * WHEEL_SPEED_SIGMA
+        return s / math.sqrt(2.0), s / math.sqrt(2.0), s / (2.0 * d)
+
+    def pose_covariance(self):
+        """6x6 row-major (x, y, z, roll, pitch, yaw); z, roll, pitch fixed (planar): 1e-9."""
+        c = [0.0] * 36
+        c[0] = c[7] = max(self.var_xy, 1e-9)
+        c[14] = c[21] = c[28] = 1e-9
+        c[35] = max(self.var_theta, 1e-9)
+        return c
+
+    def twist_covariance(self):
+        sv, svn, sw = self.twist_sigmas()
+        c = [0.0] * 36
+        c[0], c[7], c[35] = sv * sv, svn * svn, sw * sw
+        c[14] = c[21] = c[28] = 1e-9
+        return c
+
+
+class StateEstimate:
+    """The controller's state estimate (omni4.state_t on OMNI4_STATE, when the package has the
+    type) as the same fields WheelOdometry offers. state_t follows core/include/omni4/est.h's
+    est_output: pose[3] (x, y [m], theta [rad], world frame), vel[3] (v, vn [m/s], w [rad/s],
+    robot frame), cov[6] (the diagonal of the covariance in state order x, y, theta, v, vn, w).
+    Field names differing from these are looked up under the alternatives below."""
+
+    def __init__(self):
+        self.x = self.y = self.theta = 0.0
+        self.vel = (0.0, 0.0, 0.0)
+        self.cov = [1e-9] * 6
+        self.samples = 0
+        self.utime = None
+
+    @staticmethod
+    def _field(m, *names):
+        for n in names:
+            if hasattr(m, n):
+                return getattr(m, n)
+        raise AttributeError(f"state_t has none of {names}")
+
+    def take(self, m):
+        try:
+            pose = self._field(m, "pose")
+        except AttributeError:
+            pose = (m.x, m.y, m.theta)
+        vel = self._field(m, "vel", "velocity")
+        try:
+            cov = list(self._field(m, "cov", "covariance", "var"))
+        except AttributeError:
+            cov = [1e-9] * 6
+        vals = [float(a) for a in (*pose, *vel)]
+        if not all(math.isfinite(a) for a in vals):
+            return False
+        self.x, self.y, self.theta = vals[:3]
+        self.vel = tuple(vals[3:6])
+        if len(cov) == 36:      # a full 6x6 matrix: its diagonal
+            cov = [cov[7 * i] for i in range(6)]
+        self.cov = [max(float(c), 1e-9) if math.isfinite(float(c)) else 1e6 for c in cov[:6]]
+        self.samples += 1
+        self.utime = getattr(m, "utime", None)
+        return True
+
+    def pose_covariance(self):
+        c = [0.0] * 36
+        c[0], c[7], c[35] = self.cov[0], self.cov[1], self.cov[2]
+        c[14] = c[21] = c[28] = 1e-9
+        return c
+
+    def twist_covariance(self):
+        c = [0.0] * 36
+        c[0], c[7], c[35] = self.cov[3], self.cov[4], self.cov[5]
+        c[14] = c[21] = c[28] = 1e-9
+        return c
+
+
+def state_type():
+    """(omni4.state_t, its channel) when the package has the controller's state estimate, else
+    (None, None): omni4-ros then computes odometry from the wheels."""
+    import omni4
+    cls = getattr(omni4, "state_t", None)
+    if cls is None:
+        try:
+            from .. import state_t as mod  # generated module omni4/state_t.py
+            cls = getattr(mod, "state_t", None)
+        except ImportError:
+            cls = None
+    if cls is None:
+        return None, None
+    return cls, getattr(omni4, "CHANNEL_STATE", "OMNI4_STATE")
+
+
+class CmdGate:
+    """The /cmd_vel gate: a Twist (v, vn, w) becomes a velocity command only if every value is
+    finite (else refused and counted: `refused_nonfinite`) and the controller's limits are
+    known (else `refused_no_limits`); values beyond [limits] vel_lin_max / vel_rot_max are
+    clamped to them, axis by axis, and counted (`clamped`)."""
+
+    def __init__(self, limits=None):
+        self.limits = dict(limits) if limits else {}
+        self.received = 0
+        self.accepted = 0
+        self.clamped = 0
+        self.refused_nonfinite = 0
+        self.refused_no_limits = 0
+
+    def known(self):
+        return all(k in self.limits for k in LIMIT_KEYS)
+
+    def check(self, v, vn, w):
+        """(command, reason): command (v, vn, w) to send, or None with the reason."""
+        self.received += 1
+        vals = (float(v), float(vn), float(w))
+        if not all(math.isfinite(a) for a in vals):
+            self.refused_nonfinite += 1
+            return None, f"refused: /cmd_vel not finite (v {vals[0]}, vn {vals[1]}, w {vals[2]})"
+        if not self.known():
+            self.refused_no_limits += 1
+            return None, "refused: the controller's [limits] are not known yet"
+        lin, rot = self.limits["limits.vel_lin_max"], self.limits["limits.vel_rot_max"]
+        out = (max(-lin, min(lin, vals[0])), max(-lin, min(lin, vals[1])),
+               max(-rot, min(rot, vals[2])))
+        self.accepted += 1
+        if out != vals:
+            self.clamped += 1
+            return out, (f"clamped: /cmd_vel ({vals[0]:g}, {vals[1]:g}, {vals[2]:g}) to [limits] "
+                         f"vel_lin_max {lin:g} m/s, vel_rot_max {rot:g} rad/s")
+        return out, None
+
+
+class MotorsWindow:
+    """What the diagnostics report per period: the samples, the OR of their fault bits, the
+    loop rate from the controller's clock, and the lost samples (seq gaps)."""
+
+    def __init__(self):
+        self.reset()
+        self.lost_total = 0
+        self.rejected_edges = 0
+        self.last = None
+        self._prev_seq = None
+        self._prev_rejected = False
+
+    def reset(self):
+        self.n = 0
+        self.bits = 0
+        self.first = None
+        self.lost = 0
+
+    def take(self, m):
+        if self._prev_seq is not None and m.seq > self._prev_seq + 1:
+            self.lost += m.seq - self._prev_seq - 1
+            self.lost_total += m.seq - self._prev_seq - 1
+        self._prev_seq = m.seq
+        rej = bool(m.faults & motors_t.FAULT_CMD_REJECTED)
+        if rej and not self._prev_rejected:
+            self.rejected_edges += 1
+        self._prev_rejected = rej
+        if self.first is None:
+            self.first = m
+        self.last = m
+        self.n += 1
+        self.bits |= m.faults
+
+    def rate_hz(self):
+        a, b = self.first, self.last
+        if a is None or b is None or b.seq <= a.seq or b.utime <= a.utime:
+            return float("nan")
+        return (b.seq - a.seq) / ((b.utime - a.utime) * 1e-6)
+
+
+def diagnostic_statuses(window, gate, counters, model, odom_source):
+    """The DiagnosticStatus contents as plain tuples: [(level, name, message, [(key, value)])].
+    level: 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus)."""
+    out = []
+    last = window.last
+    if last is None or window.n == 0:
+        out.append((3, "omni4: controller", "no OMNI4_MOTORS in the last period", [
+            ("samples", "0"), ("lost samples (total)", str(window.lost_total))]))
+    else:
+        names = fault_names(window.bits)
+        mode = MODE_NAMES.get(last.mode, f"UNKNOWN({last.mode})")
+        if last.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or window.bits & LATCHING:
+            level = 2
+        elif window.bits & WARNINGS or window.lost:
+            level = 1
+        else:
+            level = 0
+        msg = f"mode {mode}" + (f", faults {' '.join(names)}" if names else ", no faults")
+        out.append((level, "omni4: controller", msg, [
+            ("mode", mode),
+            ("faults", " ".join(names) or "none"),
+            ("faults now", " ".join(fault_names(last.faults)) or "none"),
+            ("loop rate [Hz]", f"{window.rate_hz():.1f}"),
+            ("samples", str(window.n)),
+            ("lost samples", str(window.lost)),
+            ("lost samples (total)", str(window.lost_total)),
+        ]))
+    cmd_level = 1 if (gate.refused_nonfinite or gate.clamped or window.rejected_edges) else 0
+    out.append((cmd_level, "omni4: commands",
+                f"{gate.accepted} taken, {gate.clamped} clamped, {gate.refused_nonfinite} not "
+                f"finite, {window.rejected_edges} rejected by the controller", [
+                    ("cmd_vel received", str(gate.received)),
+                    ("cmd_vel taken", str(gate.accepted)),
+                    ("clamped", str(gate.clamped)),
+                    ("refused not finite", str(gate.refused_nonfinite)),
+                    ("refused limits unknown", str(gate.refused_no_limits)),
+                    ("CMD rejections (controller)", str(window.rejected_edges)),
+                    *[(k, str(v)) for k, v in counters.items()],
+                ]))
+    if model:
+        out.append((0, "omni4: model", "the [model] in force",
+                    [(k, v) for k, v in model.items()]))
+    else:
+        out.append((1, "omni4: model", "the [model] in force is not known (no answer)", []))
+    out.append((0, "omni4: odometry", f"from {odom_source}", [("source", odom_source)]))
+    return out
