@@ -1,0 +1,183 @@
+"""omni4.ros.core, without ROS: the forward kinematics against eq 2, wheel odometry (a straight
+line, a circle, torques l Kt i, lost samples), the /cmd_vel gate (NaN and inf refused, limits
+clamped, nothing before the limits are known), the state_t fallback (no omni4.state_t in the
+package: odometry from the wheels; a state_t-like message: its fields), the diagnostics'
+fault names, and the URDF's geometry against Table III and docs/kinematics.md."""
+import math
+import xml.etree.ElementTree as ET
+
+import pytest
+
+import omni4
+from omni4.ros import URDF, core
+
+D, R = 0.089, 0.0325
+
+
+class Sample:
+    def __init__(self, utime, seq, wheel_speed, current=(0.0, 0.0, 0.0, 0.0), faults=0, mode=1):
+        self.utime, self.seq, self.wheel_speed, self.current = utime, seq, wheel_speed, current
+        self.faults, self.mode = faults, mode
+
+
+@pytest.mark.parametrize("vel", [(0.3, 0.0, 0.0), (0.0, -0.2, 0.0), (0.0, 0.0, 2.0),
+                                 (-0.2, 0.1, -1.0)])
+def test_forward_kinematics_inverts_eq2(vel):
+    w = core.inverse_kinematics(*vel, D, R)
+    assert core.forward_kinematics(w, D, R) == pytest.approx(vel, abs=1e-12)
+
+
+def test_ik_signs_match_docs_kinematics():
+    # v > 0: wheel 3 (right) forward, wheel 1 (left) backward; w > 0: every wheel forward.
+    w = core.inverse_kinematics(0.3, 0, 0, D, R)
+    assert w[3] > 0 and w[1] < 0 and w[0] == w[2] == 0
+    assert all(x > 0 for x in core.inverse_kinematics(0, 0, 1.0, D, R))
+
+
+def _run(odo, vel, seconds, rate=1000, t0=1_000_000_000, seq0=0, current=(0, 0, 0, 0)):
+    w = core.inverse_kinematics(*vel, D, R)
+    n = int(seconds * rate)
+    for k in range(n + 1):
+        odo.step(Sample(t0 + k * 1000000 // rate, seq0 + k, w, current))
+    return t0 + n * 1000000 // rate, seq0 + n
+
+
+def test_odometry_straight_line_and_circle():
+    odo = core.WheelOdometry()
+    _run(odo, (0.3, 0.0, 0.0), 2.0)
+    assert (odo.x, odo.y, odo.theta) == pytest.approx((0.6, 0.0, 0.0), abs=1e-9)
+    assert odo.wheel_pos[3] == pytest.approx(0.6 / R) and odo.wheel_pos[1] == pytest.approx(-0.6 / R)
+    # A full circle: v = 0.2 m/s, w = 1 rad/s for 2 pi s comes back to the start.
+    odo = core.WheelOdometry()
+    _run(odo, (0.2, 0.0, 1.0), 2 * math.pi)
+    assert math.hypot(odo.x, odo.y) < 1e-3 and abs(core.wrap(odo.theta)) < 1e-3
+    # The covariance grows with the distance travelled (~1 % of it as std dev).
+    assert math.sqrt(odo.pose_covariance()[0]) == pytest.approx(0.01 * 2 * math.pi * 0.2 /
+                                                                 math.sqrt(2 * math.pi * 1000),
+                                                                 rel=0.05)
+
+
+def test_odometry_effort_and_lost_samples():
+    odo = core.WheelOdometry({"model.l": 5.0, "model.Kt": 0.0259})
+    t, s = _run(odo, (0.3, 0, 0), 0.1, current=(1.0, -2.0, 0.5, 0.0))
+    assert odo.effort == pytest.approx([5 * 0.0259, -2 * 5 * 0.0259, 0.5 * 5 * 0.0259, 0.0])
+    odo.step(Sample(t + 5000, s + 5, core.inverse_kinematics(0.3, 0, 0, D, R)))
+    assert odo.lost == 4
+    x = odo.x
+    odo.step(Sample(t + 5000 + 10 ** 6, s + 6, core.inverse_kinematics(0.3, 0, 0, D, R)))
+    assert odo.x == x and odo.gaps == 1, "a gap > 0.1 s restarts the clock"
+    assert not odo.step(Sample(t + 10 ** 7, s + 7, (float("nan"), 0, 0, 0)))
+
+
+def test_gate_refuses_nonfinite_and_clamps():
+    g = core.CmdGate()
+    assert g.check(0.1, 0, 0) == (None, "refused: the controller's [limits] are not known yet")
+    g.limits.update({"limits.vel_lin_max": 3.0, "limits.vel_rot_max": 20.0})
+    for bad in ((float("nan"), 0, 0), (0, float("inf"), 0), (0, 0, float("-inf"))):
+        cmd, why = g.check(*bad)
+        assert cmd is None and "not finite" in why
+    assert g.refused_nonfinite == 3
+    assert g.check(0.3, -0.1, 1.0) == ((0.3, -0.1, 1.0), None)
+    cmd, why = g.check(100.0, -5.0, 30.0)
+    assert cmd == (3.0, -3.0, 20.0) and "clamped" in why and g.clamped == 1
+    assert g.accepted == 2 and g.received == 6
+
+
+def test_state_fallback_when_the_package_has_no_state_t(monkeypatch):
+    monkeypatch.delattr(omni4, "state_t", raising=False)
+    import sys
+    monkeypatch.setitem(sys.modules, "omni4.state_t", None)   # import of it fails
+    assert core.state_type() == (None, None)
+
+
+def test_state_t_with_est_output_fields():
+    class FakeState:
+        utime = 123
+        pose = (1.0, 2.0, 0.5)
+        vel = (0.3, 0.0, 0.1)
+        cov = (1e-4, 2e-4, 3e-4, 4e-4, 5e-4, 6e-4)
+
+    monkey = type("M", (), {"state_t": FakeState, "CHANNEL_STATE": "OMNI4_STATE"})
+    st = core.StateEstimate()
+    assert st.take(FakeState())
+    assert (st.x, st.y, st.theta, st.vel) == (1.0, 2.0, 0.5, (0.3, 0.0, 0.1))
+    assert st.pose_covariance()[0] == 1e-4 and st.pose_covariance()[35] == 3e-4
+    assert st.twist_covariance()[35] == 6e-4
+    bad = FakeState()
+    bad.pose = (float("nan"), 0, 0)
+    assert not st.take(bad) and st.x == 1.0
+    assert monkey.CHANNEL_STATE == "OMNI4_STATE"
+
+
+def test_diagnostics_name_faults_and_levels():
+    w = core.MotorsWindow()
+    g = core.CmdGate()
+    w.take(Sample(0, 1, (0, 0, 0, 0), faults=0, mode=0))
+    w.take(Sample(1000, 3, (0, 0, 0, 0), faults=omni4.motors_t.FAULT_CMD_REJECTED, mode=0))
+    rows = core.diagnostic_statuses(w, g, {}, {"model.d": "0.089"}, "wheels")
+    level, name, msg, values = rows[0]
+    assert name == "omni4: controller" and level == 1 and "CMD_REJECTED" in msg
+    assert dict(values)["lost samples"] == "1" and w.rejected_edges == 1
+    w.reset()
+    w.take(Sample(2000, 4, (0, 0, 0, 0), faults=omni4.motors_t.FAULT_OVERCURRENT,
+                  mode=omni4.motors_t.MODE_FAULT))
+    rows = core.diagnostic_statuses(w, g, {}, {}, "wheels")
+    assert rows[0][0] == 2 and "OVERCURRENT" in rows[0][2] and "mode FAULT" in rows[0][2]
+    assert rows[2][0] == 1, "an unknown model is a warning"
+
+
+def test_urdf_has_the_four_wheels_of_table_iii():
+    root = ET.parse(URDF).getroot()
+    joints = {j.get("name"): j for j in root.iter("joint")}
+    assert sorted(joints) == sorted(core.JOINT_NAMES)
+    for j, name in enumerate(core.JOINT_NAMES):
+        x, y, z = (float(a) for a in joints[name].find("origin").get("xyz").split())
+        a = math.pi / 2 * j
+        assert (x, y, z) == pytest.approx((D * math.cos(a), D * math.sin(a), R), abs=1e-6)
+        assert joints[name].get("type") == "continuous"
+        assert joints[name].find("axis").get("xyz") == "1 0 0"
+        assert float(joints[name].find("origin").get("rpy").split()[2]) == pytest.approx(a, abs=1e-6)
+    radii = {float(c.get("radius")) for c in root.iter("cylinder")}
+    assert R in radii
+
+
+# ---- the two commands as a shell runs them (as test_cli.py checks the others) --------------
+
+def _tool(name):
+    import os
+    import sys
+    p = os.path.join(os.path.dirname(sys.executable), name)
+    assert os.access(p, os.X_OK), f"{p}: not installed (pip install './python[ros]')"
+    return p
+
+
+@pytest.mark.parametrize("name", ["omni4-ros", "omni4-rosbag"])
+def test_version_help_and_closed_stdout(name):
+    import os
+    import subprocess
+    r = subprocess.run([_tool(name), "--version"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0 and r.stdout.startswith(f"{name} {omni4.__version__}"), r
+    rd, wr = os.pipe()
+    os.close(rd)
+    try:
+        r = subprocess.run([_tool(name), "--help"], stdout=wr, stderr=subprocess.PIPE, text=True,
+                           timeout=30)
+    finally:
+        os.close(wr)
+    assert r.returncode == 141 and r.stderr == "", r.stderr
+
+
+@pytest.mark.parametrize("argv, status, words", [
+    (["omni4-ros", "--rate", "0"], 2, "--rate must be in"),
+    (["omni4-ros", "--fresh", "100"], 2, "--fresh must be in"),
+    (["omni4-ros", "--bogus"], 2, "unrecognized arguments"),
+    (["omni4-rosbag", "x.lcmlog"], 2, "--out"),
+    (["omni4-rosbag", "/nonexistent/x.lcmlog", "--out", "/tmp/omni4-rosbag-never"], 1,
+     "/nonexistent/x.lcmlog"),
+])
+def test_errors_are_one_line(argv, status, words):
+    import subprocess
+    r = subprocess.run([_tool(argv[0]), *argv[1:]], capture_output=True, text=True, timeout=30)
+    assert r.returncode == status, r
+    assert r.stderr.count("\n") == 1 and words in r.stderr and "Traceback" not in r.stderr, \
+        r.stderr
