@@ -35,7 +35,7 @@ class Omni4Ros:
     """The node. url: omni4-fw's LCM URL; secret: its [params] secret (or None)."""
 
     def __init__(self, url, secret=None, rate_hz=50.0, fresh_s=FRESH_S, odom_source="auto",
-                 frame_prefix=""):
+                 frame_prefix="", stop_hold_s=STOP_HOLD_S):
         import rclpy
         from rclpy.callback_groups import ReentrantCallbackGroup
         from rclpy.node import Node
@@ -49,6 +49,7 @@ class Omni4Ros:
 
         self.url = url
         self.fresh_s = float(fresh_s)
+        self.stop_hold_s = float(stop_hold_s)
         self.frame_odom = f"{frame_prefix}odom"
         self.frame_base = f"{frame_prefix}base_link"
         self.odom_source = odom_source
@@ -205,7 +206,7 @@ class Omni4Ros:
             if cmd is not None:
                 self._send(command_t.MODE_VELOCITY, cmd)
             elif stopping is not None:
-                if now - stopping < STOP_HOLD_S:
+                if now - stopping < self.stop_hold_s:
                     self._send(command_t.MODE_VELOCITY, (0.0, 0.0, 0.0))
                 else:
                     with self._lock:
@@ -402,6 +403,9 @@ def _parser():
                    help="/odom and /joint_states rate [Hz] (default 50)")
     p.add_argument("--fresh", type=float, default=FRESH_S, metavar="S",
                    help=f"a /cmd_vel older than this stops the robot [s] (default {FRESH_S:g})")
+    p.add_argument("--stop-hold", type=float, default=STOP_HOLD_S, metavar="S",
+                   help="after a stale /cmd_vel: zero velocity this long, then IDLE [s] "
+                   f"(default {STOP_HOLD_S:g})")
     p.add_argument("--odom-source", choices=["auto", "wheels"], default="auto",
                    help="auto: the controller's state_t when it arrives, else the wheels")
     return p
@@ -424,6 +428,8 @@ def _main(argv=None):
         return usage(PROG, "--rate must be in (0, 1000] Hz")
     if not (0.05 <= args.fresh <= 10):
         return usage(PROG, "--fresh must be in [0.05, 10] s")
+    if not (0 <= args.stop_hold <= 10):
+        return usage(PROG, "--stop-hold must be in [0, 10] s")
     try:
         import rclpy
         from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -437,7 +443,7 @@ def _main(argv=None):
     try:
         try:
             node = Omni4Ros(args.lcm, secret=secret, rate_hz=args.rate, fresh_s=args.fresh,
-                            odom_source=args.odom_source)
+                            odom_source=args.odom_source, stop_hold_s=args.stop_hold)
         except RuntimeError as e:
             sys.stderr.write(f"{PROG}: {e}\n")
             return 1
