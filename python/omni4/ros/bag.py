@@ -10,6 +10,7 @@ Per source event, in log order, bag time = the event's log time (the logger's re
   each second of OMNI4_MOTORS log time -> /diagnostics (diagnostic_msgs/DiagnosticArray)
 The geometry (d, r, l, Kt) comes from the log's OMNI4_PARAM_CHANGED (the controller announces
 every parameter at start), else from --params ROBOT.ini, else Table III."""
+import heapq
 import os
 import sys
 
@@ -93,7 +94,9 @@ def convert(paths, out, params_path=None):
         q = core.yaw_quaternion(th)
         return Quat(x=q[0], y=q[1], z=q[2], w=q[3])
 
-    events = []        # (log time [us], order, topic, message)
+    # Per source, in log order: (log time [us], topic, message); merged by time, each source
+    # keeping its own order (a logger's receive times may step back a little).
+    motors_ev, cmd_ev, pose_ev = [], [], []
     mo = log.motors
     for i in range(len(mo)):
         m = _Rec()
@@ -121,10 +124,10 @@ def convert(paths, out, params_path=None):
             header=header(t_us, "odom"), child_frame_id="base_link",
             transform=T["geometry_msgs/msg/Transform"](
                 translation=Vec3(x=odom.x, y=odom.y, z=0.0), rotation=quat(odom.theta)))])
-        events += [(t_us, 0, "/joint_states", js), (t_us, 1, "/odom", od), (t_us, 2, "/tf", tf)]
+        motors_ev += [(t_us, "/joint_states", js), (t_us, "/odom", od), (t_us, "/tf", tf)]
         # /diagnostics: once per second of log time, over that second's samples
         if window.first is not None and t_us - window_start >= 1000000:
-            events.append((t_us, 3, "/diagnostics", _diag(T, header(t_us, ""), window, gate, geo)))
+            motors_ev.append((t_us, "/diagnostics", _diag(T, header(t_us, ""), window, gate, geo)))
             window.reset()
         if window.first is None:
             window_start = t_us
@@ -134,22 +137,22 @@ def convert(paths, out, params_path=None):
         if int(cmd.mode[i]) != command_t.MODE_VELOCITY:
             continue
         vel = cmd.velocity[i]
-        events.append((int(cmd.event_utime[i]), 4, "/cmd_vel", Twist(
+        cmd_ev.append((int(cmd.event_utime[i]), "/cmd_vel", Twist(
             linear=Vec3(x=float(vel[0]), y=float(vel[1]), z=0.0),
             angular=Vec3(x=0.0, y=0.0, z=float(vel[2])))))
     po = log.pose
     for i in range(len(po)):
         t_us = int(po.event_utime[i])
-        events.append((t_us, 5, "/camera/pose", T["geometry_msgs/msg/PoseStamped"](
+        pose_ev.append((t_us, "/camera/pose", T["geometry_msgs/msg/PoseStamped"](
             header=header(t_us, "world"),
             pose=Pose(position=Point(x=float(po.x[i]), y=float(po.y[i]), z=0.0),
                       orientation=quat(float(po.theta[i]))))))
-    events.sort(key=lambda e: (e[0], e[1]))
+    events = heapq.merge(motors_ev, cmd_ev, pose_ev, key=lambda e: e[0])
 
     writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
     with writer:
         conns = {t: writer.add_connection(t, typ, typestore=ts) for t, typ in TOPICS.items()}
-        for t_us, _, topic, msg in events:
+        for t_us, topic, msg in events:
             writer.write(conns[topic], t_us * 1000, ts.serialize_cdr(msg, TOPICS[topic]))
             counts[topic] += 1
     return counts
