@@ -134,11 +134,12 @@ class Ros:
         rclpy.init(context=self.ctx)
         self.node = rclpy.create_node("omni4_test_client", context=self.ctx)
         self.lock = threading.Lock()
-        self.odom, self.joints, self.diag, self.tf = [], [], [], []
+        self.odom, self.joints, self.diag, self.tf, self.wodom = [], [], [], [], []
         for typ, topic, into in ((Odometry, "/odom", self.odom), (JointState, "/joint_states",
                                  self.joints), (DiagnosticArray, "/diagnostics", self.diag),
-                                 (TFMessage, "/tf", self.tf)):
-            self.node.create_subscription(typ, topic, self._on(into), 10)
+                                 (TFMessage, "/tf", self.tf), (Odometry, "/wheels/odom",
+                                 self.wodom)):
+            self.node.create_subscription(typ, topic, self._on(into, topic), 10)
         self.pub = self.node.create_publisher(Twist, "/cmd_vel", 10)
         self.ex = SingleThreadedExecutor(context=self.ctx)
         self.ex.add_node(self.node)
@@ -151,8 +152,11 @@ class Ros:
         except Exception:  # shutdown of the context ends the spin
             pass
 
-    def _on(self, into):
+    def _on(self, into, topic):
         def cb(m):
+            if topic == "/diagnostics" and not any(s.name.startswith("omni4: ")
+                                                   for s in m.status):
+                return                            # the /wheels node's (wheels/omni4: ...)
             with self.lock:
                 into.append((time.monotonic(), m))
                 if len(into) > 10000:
@@ -172,13 +176,13 @@ class Ros:
             time.sleep(0.02)
         pytest.fail(f"no /{what} message as wanted within {timeout_s:g} s")
 
-    def stamped(self, what, lo_us, hi_us, last=False, timeout_s=5.0):
+    def stamped(self, what, lo_us, hi_us, last=False, timeout_s=5.0, pred=lambda m: True):
         """The first (or last) message on `what` stamped in [lo_us, hi_us) (the controller's
-        clock); waits for one stamped at or after hi_us when last."""
+        clock) that satisfies pred; waits for one stamped at or after hi_us when last."""
         end = time.monotonic() + timeout_s * SCALE
         while time.monotonic() < end:
             with self.lock:
-                msgs = [m for _, m in getattr(self, what)]
+                msgs = [m for _, m in getattr(self, what) if pred(m)]
             got = [m for m in msgs if lo_us <= _stamp_us(m) < hi_us]
             if got and (not last or _stamp_us(msgs[-1]) >= hi_us):
                 return got[-1] if last else got[0]
@@ -283,10 +287,20 @@ class Stack:
                                      ["--lcm", self.url], stdout=self.ros_out,
                                      stderr=subprocess.STDOUT)
         self.procs.append((self.node, "omni4-ros"))
+        # A second omni4-ros with the wheels' odometry alone, beside the first (which takes
+        # the controller's state_t): its topics under /wheels, its frames wheels/odom ->
+        # wheels/base_link.
+        self.wheels = subprocess.Popen(_venv_tool("omni4-ros", "omni4.ros.node") +
+                                       ["--lcm", self.url, "--odom-source", "wheels",
+                                        "--frame-prefix", "wheels/", "--ros-args", "-r",
+                                        "__ns:=/wheels"], stdout=self.ros_out,
+                                       stderr=subprocess.STDOUT)
+        self.procs.append((self.wheels, "omni4-ros (wheels)"))
         self.ros = Ros()
         # Up: /diagnostics with the [model] known (the node has read the parameters).
         self.ros.latest("diag", 15, pred=lambda a: any(
             s.name == "omni4: model" and s.level == b"\x00" for s in a.status))
+        self.ros.latest("wodom", 15)
 
     def node_output(self):
         self.ros_out.flush()
@@ -345,12 +359,14 @@ def _now_us():
 
 
 def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
-    """Times come from the controller's clock (the samples', the frames' and the /odom stamps),
+    """/odom from the controller's state_t (omni4-ros's default while OMNI4_STATE comes) and
+    /wheels/odom from the wheels alone, both against 0.3 m/s x 2 s and the camera.
+    Times come from the controller's clock (the samples', the frames' and the /odom stamps),
     not from arrival: a test process or node that falls behind on a loaded machine sees the
     same data, later."""
     ros, bus = stack.ros, stack.bus
     t_start = _now_us()
-    o0 = _odom_xy_th(ros.stamped("odom", t_start - 200000, t_start, last=True))
+    o0 = {k: ros.stamped(k, t_start - 200000, t_start, last=True) for k in ("odom", "wodom")}
     c0 = bus.pose_mean(t_start - 1000000, t_start, last=True)
     first, _ = ros.drive(DRIVE_S, v=V)
     time.sleep(max(0.0, first + DRIVE_S - time.monotonic()))
@@ -360,16 +376,8 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
     t_rest = _now_us() + 400000                          # ramp 0.1 s; margin
     bus.wait_motors(lambda m: m.utime > t_rest and _at_rest(m), 3 * SCALE,
                     "wheels at rest after the zero /cmd_vel")
-    odom1 = ros.stamped("odom", t_rest, t_rest + 10 ** 7)
-    o1 = _odom_xy_th(odom1)
-    # /tf: the same transform, odom -> base_link, with the same stamp.
-    tf = ros.stamped("tf", _stamp_us(odom1), _stamp_us(odom1) + 1).transforms[0]
-    assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
-    assert (tf.transform.translation.x, tf.transform.translation.y) == pytest.approx(o1[:2])
-    assert tf.transform.rotation.z == pytest.approx(odom1.pose.pose.orientation.z)
+    o1 = {k: ros.stamped(k, t_rest, t_rest + 10 ** 7) for k in ("odom", "wodom")}
     c1 = bus.pose_mean(t_rest, t_rest + 10 ** 7)
-    dx, dy = o1[0] - o0[0], o1[1] - o0[1]
-    dist = math.hypot(dx, dy)
     cam = math.hypot(c1[0] - c0[0], c1[1] - c0[1])
     # The simulated plant advances one period per tick; a tick that comes late (an overrun on
     # a loaded machine: utime steps by 2 ms or more) moves the plant, and so the camera, one
@@ -379,17 +387,37 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
         ms = [m for _, m in bus.motors if t_start <= m.utime <= t_rest]
     late_s = sum(max(0.0, (b.utime - a.utime) * 1e-6 - 0.001) for a, b in zip(ms, ms[1:])
                  if b.seq == a.seq + 1)
-    print(f"odometry: {dist:.4f} m (dx {dx:+.4f}, dy {dy:+.4f}, dtheta "
-          f"{o1[2] - o0[2]:+.4f} rad) for {V} m/s x {DRIVE_S} s = {V * DRIVE_S:.3f} m; "
-          f"camera {cam:.4f} m; |odom - camera| {abs(dist - cam):.4f} m; late ticks "
-          f"{late_s * 1e3:.1f} ms")
-    assert abs(dist - V * DRIVE_S) < ODOM_TOL_M, f"odometry moved {dist:.4f} m"
-    assert abs(dy) < DRIFT_TOL_M and abs(o1[2] - o0[2]) < HEADING_TOL_RAD
-    assert dx > 0, "v > 0 must move the odometry along +x (REP 103)"
-    assert abs(dist - cam) < CAMERA_TOL_M + V * late_s, \
-        f"odometry {dist:.4f} m, camera {cam:.4f} m, late ticks {late_s * 1e3:.1f} ms"
+    for key, topic in (("odom", "/odom (state_t)"), ("wodom", "/wheels/odom (wheels)")):
+        p0, p1 = _odom_xy_th(o0[key]), _odom_xy_th(o1[key])
+        dx, dy = p1[0] - p0[0], p1[1] - p0[1]
+        dist = math.hypot(dx, dy)
+        print(f"{topic}: {dist:.4f} m (dx {dx:+.4f}, dy {dy:+.4f}, dtheta "
+              f"{p1[2] - p0[2]:+.4f} rad) for {V} m/s x {DRIVE_S} s = {V * DRIVE_S:.3f} m; "
+              f"camera {cam:.4f} m; |odom - camera| {abs(dist - cam):.4f} m; late ticks "
+              f"{late_s * 1e3:.1f} ms")
+        assert abs(dist - V * DRIVE_S) < ODOM_TOL_M, f"{topic} moved {dist:.4f} m"
+        assert abs(dy) < DRIFT_TOL_M and abs(p1[2] - p0[2]) < HEADING_TOL_RAD, topic
+        assert dx > 0, "v > 0 must move the odometry along +x (REP 103)"
+        assert abs(dist - cam) < CAMERA_TOL_M + V * late_s, \
+            f"{topic} {dist:.4f} m, camera {cam:.4f} m, late ticks {late_s * 1e3:.1f} ms"
+    assert o1["odom"].header.frame_id == "odom" and o1["odom"].child_frame_id == "base_link"
+    assert o1["wodom"].header.frame_id == "wheels/odom"
+    a = ros.latest("diag", 3, after=time.monotonic() - 1.0, pred=lambda a: _diag_status(
+        a, "omni4: odometry").message.startswith("from state_t"))
+    assert a is not None
+    # /tf: the same transform, odom -> base_link, with the same stamp.
+    odom1 = o1["odom"]
+    tfm = ros.stamped("tf", _stamp_us(odom1), _stamp_us(odom1) + 1,
+                      pred=lambda m: m.transforms[0].child_frame_id == "base_link")
+    tf = tfm.transforms[0]
+    assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
+    assert (tf.transform.translation.x, tf.transform.translation.y) == \
+        pytest.approx(_odom_xy_th(odom1)[:2])
+    assert tf.transform.rotation.z == pytest.approx(odom1.pose.pose.orientation.z)
     # The joint states follow the wheels: at rest now, positions integrated while moving
     # (wheel 3, right, turned forward by ~dist / r; wheel 1, left, backward).
+    dist = math.hypot(_odom_xy_th(o1["wodom"])[0] - _odom_xy_th(o0["wodom"])[0],
+                      _odom_xy_th(o1["wodom"])[1] - _odom_xy_th(o0["wodom"])[1])
     j = ros.stamped("joints", t_rest, t_rest + 10 ** 7)
     assert list(j.name) == ["wheel_0_front_joint", "wheel_1_left_joint", "wheel_2_rear_joint",
                             "wheel_3_right_joint"]

@@ -299,13 +299,14 @@ class MotorsWindow:
         return (b.seq - a.seq) / ((b.utime - a.utime) * 1e-6)
 
 
-def diagnostic_statuses(window, gate, counters, model, odom_source):
+def diagnostic_statuses(window, gate, counters, model, odom_source, prefix="omni4"):
     """The DiagnosticStatus contents as plain tuples: [(level, name, message, [(key, value)])].
-    level: 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus)."""
+    level: 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus). Names are
+    "PREFIX: controller", "PREFIX: commands", "PREFIX: model", "PREFIX: odometry"."""
     out = []
     last = window.last
     if last is None or window.n == 0:
-        out.append((3, "omni4: controller", "no OMNI4_MOTORS in the last period", [
+        out.append((3, f"{prefix}: controller", "no OMNI4_MOTORS in the last period", [
             ("samples", "0"), ("lost samples (total)", str(window.lost_total))]))
     else:
         names = fault_names(window.bits)
@@ -317,7 +318,7 @@ def diagnostic_statuses(window, gate, counters, model, odom_source):
         else:
             level = 0
         msg = f"mode {mode}" + (f", faults {' '.join(names)}" if names else ", no faults")
-        out.append((level, "omni4: controller", msg, [
+        out.append((level, f"{prefix}: controller", msg, [
             ("mode", mode),
             ("faults", " ".join(names) or "none"),
             ("faults now", " ".join(fault_names(last.faults)) or "none"),
@@ -327,7 +328,7 @@ def diagnostic_statuses(window, gate, counters, model, odom_source):
             ("lost samples (total)", str(window.lost_total)),
         ]))
     cmd_level = 1 if (gate.refused_nonfinite or gate.clamped or window.rejected_edges) else 0
-    out.append((cmd_level, "omni4: commands",
+    out.append((cmd_level, f"{prefix}: commands",
                 f"{gate.accepted} taken, {gate.clamped} clamped, {gate.refused_nonfinite} not "
                 f"finite, {window.rejected_edges} rejected by the controller", [
                     ("cmd_vel received", str(gate.received)),
@@ -339,9 +340,9 @@ def diagnostic_statuses(window, gate, counters, model, odom_source):
                     *[(k, str(v)) for k, v in counters.items()],
                 ]))
     if model:
-        out.append((0, "omni4: model", "the [model] in force",
+        out.append((0, f"{prefix}: model", "the [model] in force",
                     [(k, v) for k, v in model.items()]))
     else:
-        out.append((1, "omni4: model", "the [model] in force is not known (no answer)", []))
-    out.append((0, "omni4: odometry", f"from {odom_source}", [("source", odom_source)]))
+        out.append((1, f"{prefix}: model", "the [model] in force is not known (no answer)", []))
+    out.append((0, f"{prefix}: odometry", f"from {odom_source}", [("source", odom_source)]))
     return out

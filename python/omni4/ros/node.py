@@ -55,6 +55,9 @@ class Omni4Ros:
         self.odom_source = odom_source
         self.node = Node("omni4")
         self.log = self.node.get_logger()
+        # /diagnostics is one topic for every node: the statuses carry the node's name
+        # ("omni4: controller"; under a namespace "robot1/omni4: controller").
+        self._diag_prefix = self.node.get_fully_qualified_name().lstrip("/")
         self._lock = threading.Lock()
         self._closed = threading.Event()
         self._local = threading.local()          # guard: parameter updates from the robot
@@ -338,7 +341,8 @@ class Omni4Ros:
         from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
         with self._lock:
             rows = core.diagnostic_statuses(self.window, self.gate, dict(self.counters),
-                                             dict(self.model), self._odom_source_name())
+                                             dict(self.model), self._odom_source_name(),
+                                             self._diag_prefix)
             self.window.reset()
         a = self._DiagnosticArray()
         a.header.stamp = self.node.get_clock().now().to_msg()
@@ -408,6 +412,8 @@ def _parser():
                    f"(default {STOP_HOLD_S:g})")
     p.add_argument("--odom-source", choices=["auto", "wheels"], default="auto",
                    help="auto: the controller's state_t when it arrives, else the wheels")
+    p.add_argument("--frame-prefix", default="", metavar="P",
+                   help="prefix of the frame ids (P + odom, P + base_link), e.g. robot1/")
     return p
 
 
@@ -443,7 +449,8 @@ def _main(argv=None):
     try:
         try:
             node = Omni4Ros(args.lcm, secret=secret, rate_hz=args.rate, fresh_s=args.fresh,
-                            odom_source=args.odom_source, stop_hold_s=args.stop_hold)
+                            odom_source=args.odom_source, stop_hold_s=args.stop_hold,
+                            frame_prefix=args.frame_prefix)
         except RuntimeError as e:
             sys.stderr.write(f"{PROG}: {e}\n")
             return 1
