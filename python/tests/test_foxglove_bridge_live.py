@@ -178,7 +178,7 @@ def test_bridge_serves_motors_pose_and_prediction(tmp_path):
         port = read_port(br, 20)
         cl = FoxgloveClient(port, 10)
         want = [omni4.CHANNEL_MOTORS, omni4.CHANNEL_POSE, topics.TOPIC_VELOCITY, topics.TOPIC_TF,
-                topics.TOPIC_HEALTH, topics.TOPIC_SCENE]
+                topics.TOPIC_HEALTH, topics.TOPIC_SCENE, topics.TOPIC_ESTIMATE]
         cl.wait_advertised(want, 10)
         assert cl.channels[omni4.CHANNEL_MOTORS]["schemaName"] == "omni4.motors_t"
         assert cl.channels[topics.TOPIC_TF]["schemaName"] == "foxglove.FrameTransform"
@@ -229,7 +229,10 @@ def test_bridge_serves_motors_pose_and_prediction(tmp_path):
         if p is not None:
             assert (j["x"], j["y"], j["theta"]) == (p.x, p.y, p.theta)
     assert sum(j["utime"] in poses for j in bp) >= 0.95 * len(bp)
-    tf = [j for _, j in cl.msgs[topics.TOPIC_TF]]
+    # /tf: the camera's pose (world -> robot) and the controller's estimate (-> robot_estimate)
+    tf = [j for _, j in cl.msgs[topics.TOPIC_TF] if j["child_frame_id"] == "robot"]
+    est = [j for _, j in cl.msgs[topics.TOPIC_TF] if j["child_frame_id"] == "robot_estimate"]
+    assert est and len(est) - 1 <= len(cl.msgs[topics.TOPIC_ESTIMATE]) <= len(est)  # as above
     assert len(bp) - 1 <= len(tf) <= len(bp)  # the collection may stop between the two
     for j, p in zip(tf, bp):
         assert (j["translation"]["x"], j["translation"]["y"]) == (p["x"], p["y"])

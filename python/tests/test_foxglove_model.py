@@ -352,7 +352,8 @@ def check_mcap_against_log(got, logged, params):
     np.testing.assert_allclose(dif, enc - prd, rtol=0, atol=1e-12)
     assert [j["restarted"] for _, _, j in vel] == rst.tolist()
     # pose as Foxglove's transform and pose
-    tf, pose = got[topics.TOPIC_TF], got[topics.TOPIC_POSE]
+    tf = [x for x in got[topics.TOPIC_TF] if x[2]["child_frame_id"] == "robot"]
+    pose = got[topics.TOPIC_POSE]
     assert len(tf) == len(pose) == len(logged[omni4.CHANNEL_POSE])
     for (t, schema, j), (_, data) in zip(tf, logged[omni4.CHANNEL_POSE]):
         m = omni4.pose_t.decode(data)
@@ -592,3 +593,22 @@ def test_bridge_cli_errors(tmp_path, capsys):
     assert rc == 1 and len(err) == 1 and "cannot serve on 127.0.0.1:" in err[0]
     rc, err = run("--lcm", "memq://", "--port", "0", "--duration", "0.2")
     assert rc == 0 and "serving ws://127.0.0.1:" in err[0] and "received 0 motors" in err[1]
+
+
+def test_state_estimate_beside_the_camera_pose():
+    """A state_t on OMNI4_STATE: its fields, and the estimate as a transform world ->
+    robot_estimate and a pose on /omni4/estimate (the camera's stay world -> robot)."""
+    m = omni4.state_t()
+    m.utime, m.seq, m.pose, m.flags = 123, 7, [1.5, -0.25, 3.0], omni4.state_t.FLAG_SLIP
+    out = topics.event_messages(omni4.CHANNEL_STATE, m.encode(), 5_000_000_000,
+                                topics.lcm_classes())
+    by_topic = {t: (s, json.loads(j)) for t, s, j in out}
+    assert set(by_topic) == {omni4.CHANNEL_STATE, topics.TOPIC_TF, topics.TOPIC_ESTIMATE}
+    assert by_topic[omni4.CHANNEL_STATE][1]["flags"] == 1
+    s, tf = by_topic[topics.TOPIC_TF]
+    assert s == "foxglove.FrameTransform" and tf["child_frame_id"] == "robot_estimate"
+    assert (tf["translation"]["x"], tf["translation"]["y"]) == (1.5, -0.25)
+    assert abs(2 * math.atan2(tf["rotation"]["z"], tf["rotation"]["w"]) - 3.0) < 1e-12
+    s, pose = by_topic[topics.TOPIC_ESTIMATE]
+    assert s == "foxglove.PoseInFrame" and pose["frame_id"] == "world"
+    assert pose["timestamp"] == {"sec": 5, "nsec": 0}

@@ -11,6 +11,8 @@ schema encoding "jsonschema"). Topic list and fields: docs/design.md, "Foxglove 
 - /omni4/health: loop rate, overruns, dropped samples, rejected commands, per window.
 - /tf (foxglove.FrameTransform world -> robot), /omni4/pose (foxglove.PoseInFrame),
   /omni4/scene (foxglove.SceneUpdate: the body and the four wheels in frame "robot").
+- The controller's state estimate (OMNI4_STATE, state_t) beside the camera's pose: /tf
+  world -> robot_estimate and /omni4/estimate (foxglove.PoseInFrame).
   Their timestamps are the log (receive) time, the time Foxglove plays back in.
 """
 import base64
@@ -26,8 +28,10 @@ TOPIC_HEALTH = "/omni4/health"
 TOPIC_TF = "/tf"
 TOPIC_POSE = "/omni4/pose"
 TOPIC_SCENE = "/omni4/scene"
+TOPIC_ESTIMATE = "/omni4/estimate"
 WORLD_FRAME = "world"
 ROBOT_FRAME = "robot"
+ESTIMATE_FRAME = "robot_estimate"
 
 # Mode names: the MODE_* constants of motors_t and command_t (lcmtypes/), by value.
 MODE_NAMES = {getattr(t, n): n[len("MODE_"):] for t in (omni4.command_t, omni4.motors_t)
@@ -155,7 +159,7 @@ CHANNEL_SCHEMA = {omni4.CHANNEL_MOTORS: "omni4.motors_t", omni4.CHANNEL_CMD: "om
                   omni4.CHANNEL_EXPERIMENT: "omni4.experiment_t"}
 DERIVED = {TOPIC_VELOCITY: "omni4.velocity", TOPIC_HEALTH: "omni4.health",
            TOPIC_TF: "foxglove.FrameTransform", TOPIC_POSE: "foxglove.PoseInFrame",
-           TOPIC_SCENE: "foxglove.SceneUpdate"}
+           TOPIC_SCENE: "foxglove.SceneUpdate", TOPIC_ESTIMATE: "foxglove.PoseInFrame"}
 
 
 def schema_bytes(name):
@@ -246,6 +250,11 @@ def event_messages(chname, data, t_ns, classes):
         tf, pose = pose_topics(t_ns, msg.x, msg.y, msg.theta)
         return [(chname, "omni4.pose_t", pose_json(msg)), (TOPIC_TF, DERIVED[TOPIC_TF], tf),
                 (TOPIC_POSE, DERIVED[TOPIC_POSE], pose)]
+    if isinstance(msg, omni4.state_t) and chname == omni4.CHANNEL_STATE:
+        tf, pose = pose_topics(t_ns, *msg.pose, child=ESTIMATE_FRAME)
+        return [(chname, "omni4.lcm_fields", fields_json(msg)),
+                (TOPIC_TF, DERIVED[TOPIC_TF], tf),
+                (TOPIC_ESTIMATE, DERIVED[TOPIC_ESTIMATE], pose)]
     if isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
         return [(chname, "omni4.command_t", command_json(msg))]
     if isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
@@ -293,12 +302,13 @@ def velocity_json(utime, seq, mode, meas, pred, restarted):
                        "w": meas[2] - pred[2]}})
 
 
-def pose_topics(stamp_ns, x, y, theta):
-    """(FrameTransform world -> robot, PoseInFrame in world) for a camera pose."""
+def pose_topics(stamp_ns, x, y, theta, child=ROBOT_FRAME):
+    """(FrameTransform world -> child, PoseInFrame in world) for a pose: the camera's (child
+    "robot") or the controller's estimate ("robot_estimate")."""
     t = _stamp(stamp_ns)
     q = {"x": 0.0, "y": 0.0, "z": math.sin(0.5 * theta), "w": math.cos(0.5 * theta)}
     tf = orjson.dumps({"timestamp": t, "parent_frame_id": WORLD_FRAME,
-                       "child_frame_id": ROBOT_FRAME,
+                       "child_frame_id": child,
                        "translation": {"x": x, "y": y, "z": 0.0}, "rotation": q})
     pose = orjson.dumps({"timestamp": t, "frame_id": WORLD_FRAME,
                          "pose": {"position": {"x": x, "y": y, "z": 0.0}, "orientation": q}})
