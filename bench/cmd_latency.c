@@ -23,15 +23,10 @@
 static _Atomic int64_t seen_ns;  /* when the awaited value was first written */
 static _Atomic float awaited;
 
-static int64_t now_ns(void)
-{
-	return omni4_monotonic_ns();
-}
-
 static int stamp_write(void *ctx, const float volts[4])
 {
 	if (volts[0] == atomic_load(&awaited) && atomic_load(&seen_ns) == 0)
-		atomic_store(&seen_ns, now_ns());
+		atomic_store(&seen_ns, omni4_monotonic_ns());
 	return sim_motor_ops.write(ctx, volts);
 }
 
@@ -105,10 +100,10 @@ int main(int argc, char **argv)
 		nanosleep(&wait, NULL); /* a random phase against the loop */
 		atomic_store(&seen_ns, 0);
 		atomic_store(&awaited, v);
-		const int64_t t0 = now_ns();
+		const int64_t t0 = omni4_monotonic_ns();
 
 		omni4_command_t_publish(tx, OMNI4_CHANNEL_CMD, &c);
-		while (!atomic_load(&seen_ns) && now_ns() - t0 < 50000000) {
+		while (!atomic_load(&seen_ns) && omni4_monotonic_ns() - t0 < 50000000) {
 			const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000};
 
 			nanosleep(&nap, NULL);

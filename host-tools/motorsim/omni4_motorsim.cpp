@@ -16,6 +16,7 @@
 
 extern "C" {
 #include "omni4/can_proto.h"
+#include "omni4/clock.h"
 #include "omni4/config.h"
 #include "omni4/plant.h"
 #include "omni4/rng.h"
@@ -252,12 +253,10 @@ void inject_test_frames(int fd, double t, Options &o, const Boards &b) {
   }
 }
 
-void sleep_one_ms(timespec &next) {
-  next.tv_nsec += 1000000;
-  if (next.tv_nsec >= 1000000000) {
-    next.tv_nsec -= 1000000000;
-    ++next.tv_sec;
-  }
+// Sleeps until next_ns + 1 ms on the monotonic clock (omni4_monotonic_ns) and advances next_ns.
+void sleep_one_ms(int64_t &next_ns) {
+  next_ns += 1000000;
+  const timespec next{static_cast<time_t>(next_ns / 1000000000), static_cast<long>(next_ns % 1000000000)};
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !g_stop) {
   }
 }
@@ -292,8 +291,7 @@ int main(int argc, char **argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   rng_seed(&sim.g, 7);
-  timespec next;
-  clock_gettime(CLOCK_MONOTONIC, &next);
+  int64_t next = omni4_monotonic_ns();
   const int64_t t0 = sc_os_now_us();
   for (long tick = 0; !g_stop; ++tick) {
     const int64_t now = sc_os_now_us();
