@@ -8,6 +8,10 @@
 
 #include "omni4/channels.h"
 
+extern "C" {
+#include "omni4/params.h"
+}
+
 namespace omni4 {
 
 struct RunOptions {
@@ -26,7 +30,8 @@ struct HandRunOptions {
   int pushes = 3;                                   // counted runs per direction
   std::vector<std::string> directions{"v", "vn", "w"};
   double push_timeout_s = 30;                       // wait for each push (and its stop) [s]
-  double d_m = 0.089, r_m = 0.0325;                 // eqs 3-5 (BASE.ini; Table III otherwise)
+  double d_m = model_params_table3.d;               // eqs 3-5 (BASE.ini; Table III otherwise)
+  double r_m = model_params_table3.r;
 };
 
 // Experiment 2 by hand: only MODE_COAST keep-alives (never VOLTAGE or VELOCITY), a "coast" mark
