@@ -76,13 +76,10 @@ std::string fmt_offsets(const std::array<double, 4> &a) {
   return buf;
 }
 
-}  // namespace
-
-std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &opt) {
-  std::vector<std::string> warn;
-  auto &m = log.motors;
-  log.current_offsets.clear();
-  // Epochs: [0, first notice's seq), then one per notice.
+// The log's offset epochs: [0, first notice's seq), then one per calibration notice (empty
+// leading stretches dropped). A notice that found a sensor fault adds a warning.
+std::vector<OffsetEpoch> offset_epochs(const LogData &log, std::vector<std::string> &warn) {
+  const auto &m = log.motors;
   std::vector<OffsetEpoch> ep(1);
   size_t k = 0;
   for (size_t c = 0; c < log.calibrations.size(); ++c) {
@@ -102,9 +99,14 @@ std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &o
   // Drop empty leading stretches (a notice at the log's first sample).
   ep.erase(std::remove_if(ep.begin(), ep.end(), [](const OffsetEpoch &e) { return e.m1 <= e.m0; }),
            ep.end());
+  return ep;
+}
 
-  std::vector<Accumulator> acc(ep.size());
-  Accumulator all;
+// The usable bridge-off readings of each epoch into acc[e], and of all of them into all:
+// not driven, no reading fault, at least guard_s after the last drive.
+void accumulate_bridge_off(const std::vector<MotorsSample> &m, const std::vector<OffsetEpoch> &ep,
+                           const OffsetOptions &opt, std::vector<Accumulator> &acc,
+                           Accumulator &all) {
   int64_t last_driven = INT64_MIN;
   for (size_t e = 0; e < ep.size(); ++e) {
     for (size_t q = ep[e].m0; q < ep[e].m1; ++q) {
@@ -123,20 +125,15 @@ std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &o
     acc[e].drop_partial_batch();
     all.merge(acc[e]);
   }
-  if (all.n < opt.min_samples) {
-    warn.push_back(log.path + ": " + std::to_string(all.n) +
-                   " samples with the bridges off (need " + std::to_string(opt.min_samples) +
-                   "): current-sense offsets not estimated, currents used as logged (record "
-                   "some rest in IDLE before or after the runs)");
-    for (OffsetEpoch &e : ep) {
-      e.offset_a.fill(0);
-      e.se_a.fill(NAN);
-    }
-    log.current_offsets = ep;
-    return warn;
-  }
-  std::array<double, 4> pm{}, ps{};
-  all.result(pm, ps);
+}
+
+// Each epoch's offsets (its own estimate, or the whole log's pooled one pm +- ps when it has
+// too few samples) subtracted from its currents.
+void subtract_offsets(LogData &log, std::vector<OffsetEpoch> &ep,
+                      const std::vector<Accumulator> &acc, const std::array<double, 4> &pm,
+                      const std::array<double, 4> &ps, const OffsetOptions &opt,
+                      std::vector<std::string> &warn) {
+  auto &m = log.motors;
   for (size_t e = 0; e < ep.size(); ++e) {
     ep[e].samples = acc[e].n;
     if (acc[e].n >= opt.min_samples) {
@@ -162,6 +159,32 @@ std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &o
         m[q].i[j] = static_cast<float>(m[q].i[j] - ep[e].offset_a[j]);
     ep[e].subtracted = true;
   }
+}
+
+}  // namespace
+
+std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &opt) {
+  std::vector<std::string> warn;
+  log.current_offsets.clear();
+  std::vector<OffsetEpoch> ep = offset_epochs(log, warn);
+  std::vector<Accumulator> acc(ep.size());
+  Accumulator all;
+  accumulate_bridge_off(log.motors, ep, opt, acc, all);
+  if (all.n < opt.min_samples) {
+    warn.push_back(log.path + ": " + std::to_string(all.n) +
+                   " samples with the bridges off (need " + std::to_string(opt.min_samples) +
+                   "): current-sense offsets not estimated, currents used as logged (record "
+                   "some rest in IDLE before or after the runs)");
+    for (OffsetEpoch &e : ep) {
+      e.offset_a.fill(0);
+      e.se_a.fill(NAN);
+    }
+    log.current_offsets = ep;
+    return warn;
+  }
+  std::array<double, 4> pm{}, ps{};
+  all.result(pm, ps);
+  subtract_offsets(log, ep, acc, pm, ps, opt, warn);
   log.current_offsets = ep;
   return warn;
 }
