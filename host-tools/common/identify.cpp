@@ -212,15 +212,11 @@ double mean_over(const std::vector<MotorsSample> &m, size_t a, size_t b, F f) {
 
 // ---- motor test (eq 22) ----------------------------------------------------------------
 
-void motor_test(Context &c) {
-  IdentResult &res = c.res;
+// Eq 22 holds in every steady state with the bridges driven: the steady rotation windows of
+// experiment 1 add their four motors' points to the motor test's. One point per driven motor
+// and window: mean voltage, current and motor speed.
+void collect_motor_points(Context &c) {
   const double l = c.P.base.l;
-  if (c.segments_of("motor", nullptr) == 0) {
-    c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " + record_hint("motor"));
-    return;
-  }
-  // Eq 22 holds in every steady state with the bridges driven: the steady rotation windows of
-  // experiment 1 add their four motors' points to the motor test's.
   auto wins = c.windows("motor", nullptr, &SegmentWindows::steady);
   const auto rot = c.windows("steady_rotation", nullptr, &SegmentWindows::steady);
   wins.insert(wins.end(), rot.begin(), rot.end());
@@ -237,81 +233,105 @@ void motor_test(Context &c) {
                  "current " + std::to_string(i) + " A too small for u/i");
         continue;
       }
-      res.motor_points.push_back({j, u, i, wm, c.epoch_of(w.s->log, w.w.m0)});
+      c.res.motor_points.push_back({j, u, i, wm, c.epoch_of(w.s->log, w.w.m0)});
     }
   }
-  // Fit of one motor (or all: -1) with the offset of every epoch moved by delta (4 per epoch):
-  // the residual offsets' uncertainty is borrowed through it.
-  auto fit_with = [&](int motor, const Eigen::VectorXd *delta) {
-    std::vector<const MotorPoint *> pts;
-    for (const MotorPoint &p : res.motor_points)
-      if (motor < 0 || p.motor == motor) pts.push_back(&p);
-    // Eq 22 as i = u / R - (Kv / R) w: the noise is in the measured current (the voltage is
-    // what was applied and the window's mean speed is far more precise), so the current is
-    // the regressand; Kv = -c_w / c_u and R = 1 / c_u, their covariance by propagation.
-    Eigen::MatrixXd X(pts.size(), 2);
-    Eigen::VectorXd y(pts.size());
-    for (size_t k = 0; k < pts.size(); ++k) {
-      double i = pts[k]->i;
-      if (delta && pts[k]->epoch >= 0) i -= (*delta)[4 * pts[k]->epoch + pts[k]->motor];
-      X(k, 0) = pts[k]->u;
-      X(k, 1) = pts[k]->wm;
-      y[k] = i;
-    }
-    const std::string what = motor < 0 ? "motor test (all motors)"
-                                       : "motor test (motor " + std::to_string(motor) + ")";
-    const Fit g = least_squares(X, y, 1.0, what);
-    if (!(g.theta[0] > 0)) throw IdentError(what + ": the current does not grow with the voltage");
-    Fit f = g;
-    f.theta[0] = -g.theta[1] / g.theta[0];  // Kv
-    f.theta[1] = 1 / g.theta[0];            // R
-    Eigen::Matrix2d J;                      // d(Kv, R) / d(c_u, c_w)
-    J << g.theta[1] / (g.theta[0] * g.theta[0]), -1 / g.theta[0],
-        -1 / (g.theta[0] * g.theta[0]), 0;
-    f.cov = J * g.cov * J.transpose();
-    return f;
-  };
-  const Eigen::VectorXd off_se = c.offset_se();
-  auto borrowed = [&](int motor) {
-    return propagate_independent(
-        [&](const Eigen::VectorXd &d) -> Eigen::VectorXd { return fit_with(motor, &d).theta; },
-        Eigen::VectorXd::Zero(off_se.size()), off_se);
-  };
-  double rsum = 0, rvar = 0, rvar_b = 0;
-  int nR = 0;
-  for (int j = 0; j < 4; ++j) {
-    const size_t n = std::count_if(res.motor_points.begin(), res.motor_points.end(),
-                                   [&](const MotorPoint &p) { return p.motor == j; });
-    if (n < 3) {
-      c.missing("R" + std::to_string(j) + ", Kv" + std::to_string(j) + " (motor " +
-                std::to_string(j) + "): " + std::to_string(n) +
-                " steady points with the motor driven, need 3 at different loads; the "
-                "pooled Kv and R come from the other motors");
-      continue;
-    }
-    try {
-      const Fit f = fit_with(j, nullptr);
-      const Eigen::VectorXd b = borrowed(j);
-      res.Kv_motor[j] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);
-      res.R_motor[j] = with_borrowed(f.theta[1], std::sqrt(f.cov(1, 1)), b[1]);
-      rsum += f.theta[1];
-      rvar += f.cov(1, 1);
-      rvar_b += b[1] * b[1];
-      ++nR;
-    } catch (const IdentError &e) {
-      c.missing(std::string(e.what()) + " (the runs give one operating point: vary the load)");
-    }
+}
+
+// Fit of one motor (or all: -1) with the offset of every epoch moved by delta (4 per epoch):
+// the residual offsets' uncertainty is borrowed through it.
+Fit fit_motor(const std::vector<MotorPoint> &points, int motor, const Eigen::VectorXd *delta) {
+  std::vector<const MotorPoint *> pts;
+  for (const MotorPoint &p : points)
+    if (motor < 0 || p.motor == motor) pts.push_back(&p);
+  // Eq 22 as i = u / R - (Kv / R) w: the noise is in the measured current (the voltage is
+  // what was applied and the window's mean speed is far more precise), so the current is
+  // the regressand; Kv = -c_w / c_u and R = 1 / c_u, their covariance by propagation.
+  Eigen::MatrixXd X(pts.size(), 2);
+  Eigen::VectorXd y(pts.size());
+  for (size_t k = 0; k < pts.size(); ++k) {
+    double i = pts[k]->i;
+    if (delta && pts[k]->epoch >= 0) i -= (*delta)[4 * pts[k]->epoch + pts[k]->motor];
+    X(k, 0) = pts[k]->u;
+    X(k, 1) = pts[k]->wm;
+    y[k] = i;
+  }
+  const std::string what = motor < 0 ? "motor test (all motors)"
+                                     : "motor test (motor " + std::to_string(motor) + ")";
+  const Fit g = least_squares(X, y, 1.0, what);
+  if (!(g.theta[0] > 0)) throw IdentError(what + ": the current does not grow with the voltage");
+  Fit f = g;
+  f.theta[0] = -g.theta[1] / g.theta[0];  // Kv
+  f.theta[1] = 1 / g.theta[0];            // R
+  Eigen::Matrix2d J;                      // d(Kv, R) / d(c_u, c_w)
+  J << g.theta[1] / (g.theta[0] * g.theta[0]), -1 / g.theta[0],
+      -1 / (g.theta[0] * g.theta[0]), 0;
+  f.cov = J * g.cov * J.transpose();
+  return f;
+}
+
+// What the fit of one motor (or all: -1) borrows from the current offsets' standard errors.
+Eigen::VectorXd motor_borrowed(const std::vector<MotorPoint> &points, int motor,
+                               const Eigen::VectorXd &off_se) {
+  return propagate_independent(
+      [&](const Eigen::VectorXd &d) -> Eigen::VectorXd { return fit_motor(points, motor, &d).theta; },
+      Eigen::VectorXd::Zero(off_se.size()), off_se);
+}
+
+// The sums of the per-motor R (value, own and borrowed variance) the paper averages.
+struct RSum {
+  double sum = 0, var = 0, var_b = 0;
+  int n = 0;
+};
+
+// Kv and R of motor j from its own points (at least 3), added to rs.
+void fit_one_motor(Context &c, int j, const Eigen::VectorXd &off_se, RSum &rs) {
+  IdentResult &res = c.res;
+  const size_t n = std::count_if(res.motor_points.begin(), res.motor_points.end(),
+                                 [&](const MotorPoint &p) { return p.motor == j; });
+  if (n < 3) {
+    c.missing("R" + std::to_string(j) + ", Kv" + std::to_string(j) + " (motor " +
+              std::to_string(j) + "): " + std::to_string(n) +
+              " steady points with the motor driven, need 3 at different loads; the "
+              "pooled Kv and R come from the other motors");
+    return;
   }
   try {
-    const Fit all = fit_with(-1, nullptr);
-    res.table["motor"]["Kv"] = with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)), borrowed(-1)[0]);
+    const Fit f = fit_motor(res.motor_points, j, nullptr);
+    const Eigen::VectorXd b = motor_borrowed(res.motor_points, j, off_se);
+    res.Kv_motor[j] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);
+    res.R_motor[j] = with_borrowed(f.theta[1], std::sqrt(f.cov(1, 1)), b[1]);
+    rs.sum += f.theta[1];
+    rs.var += f.cov(1, 1);
+    rs.var_b += b[1] * b[1];
+    ++rs.n;
+  } catch (const IdentError &e) {
+    c.missing(std::string(e.what()) + " (the runs give one operating point: vary the load)");
+  }
+}
+
+void motor_test(Context &c) {
+  IdentResult &res = c.res;
+  if (c.segments_of("motor", nullptr) == 0) {
+    c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " + record_hint("motor"));
+    return;
+  }
+  collect_motor_points(c);
+  const Eigen::VectorXd off_se = c.offset_se();
+  RSum rs;
+  for (int j = 0; j < 4; ++j) fit_one_motor(c, j, off_se, rs);
+  try {
+    const Fit all = fit_motor(res.motor_points, -1, nullptr);
+    res.table["motor"]["Kv"] = with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)),
+                                             motor_borrowed(res.motor_points, -1, off_se)[0]);
   } catch (const IdentError &e) {
     c.missing(std::string("Kv: ") + e.what());
   }
   // The paper averages R over the motors (here: over those with a fit). The motors' borrowed
   // parts are taken as independent (each motor has its own channel's offset).
-  if (nR > 0)
-    res.table["motor"]["R"] = with_borrowed(rsum / nR, std::sqrt(rvar) / nR, std::sqrt(rvar_b) / nR);
+  if (rs.n > 0)
+    res.table["motor"]["R"] =
+        with_borrowed(rs.sum / rs.n, std::sqrt(rs.var) / rs.n, std::sqrt(rs.var_b) / rs.n);
   else c.missing("R (motor test): no motor has enough steady points");
 }
 
@@ -329,9 +349,75 @@ double slope(const std::vector<double> &t, const std::vector<double> &y) {
   return den > 0 ? num / den : NAN;
 }
 
+// Camera: slope of the unwrapped heading over the window (NaN with fewer than 5 frames).
+double camera_rate(const CameraTrack &ct, double ta, double tb) {
+  std::vector<double> t, th;
+  for (size_t k = std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin();
+       k < ct.t.size() && ct.t[k] <= tb; ++k) {
+    t.push_back(ct.t[k]);
+    th.push_back(ct.theta[k]);
+  }
+  return t.size() >= 5 ? slope(t, th) : NAN;
+}
+
+// The point of one steady rotation window (mean currents, their torque, encoder and camera
+// rates) into res.rotation_points, or the window rejected.
+void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow &w) {
+  const auto &m = w.s->log->motors;
+  const auto &enc = c.P.enc.at(w.s->log);
+  double imean[4] = {0, 0, 0, 0}, wenc = 0;
+  for (size_t k = w.w.m0; k < w.w.m1; ++k) {
+    for (int j = 0; j < 4; ++j) imean[j] += m[k].i[j];
+    wenc += enc.raw[k][2];
+  }
+  const double n = static_cast<double>(w.w.m1 - w.w.m0);
+  for (double &i : imean) i /= n;
+  wenc /= n;
+  if (std::abs(wenc) < kStopSpeed[2]) {
+    c.reject(w, "steady window", "the robot did not turn (stiction): w " + std::to_string(wenc));
+    return;
+  }
+  // The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
+  double f[4], robot_f[3];
+  dyn_wheel_forces(&p, imean, f);
+  dyn_robot_forces(p.d, f, robot_f);
+  const double torque = robot_f[2];
+  const double wcam = camera_rate(c.P.cam.at(w.s->log), m[w.w.m0].utime * 1e-6,
+                                  m[w.w.m1 - 1].utime * 1e-6);
+  if (cam && !std::isfinite(wcam)) {
+    c.reject(w, "steady window", "fewer than 5 camera frames in the window");
+    return;
+  }
+  RotationPoint pt{w.s->level, wcam, wenc, torque};
+  for (int j = 0; j < 4; ++j) pt.imean[j] = imean[j];
+  pt.epoch = c.epoch_of(w.s->log, w.w.m0);
+  c.res.rotation_points.push_back(pt);
+}
+
+// T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
+// x = [Kt, delta (4 per offset epoch)] (none: as measured): what experiment 1 borrows.
+Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p, bool cam,
+                 const Eigen::VectorXd *x) {
+  model_params q = p;
+  if (x) q.Kt = (*x)[0];
+  Eigen::MatrixXd X(points.size(), 2);
+  Eigen::VectorXd y(points.size());
+  for (size_t k = 0; k < points.size(); ++k) {
+    const RotationPoint &pt = points[k];
+    double i[4], f[4], robot_f[3];
+    for (int j = 0; j < 4; ++j)
+      i[j] = pt.imean[j] - (x && pt.epoch >= 0 ? (*x)[1 + 4 * pt.epoch + j] : 0.0);
+    dyn_wheel_forces(&q, i, f);
+    dyn_robot_forces(q.d, f, robot_f);
+    X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
+    X(k, 1) = 1.0;
+    y[k] = robot_f[2];
+  }
+  return least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
+}
+
 void experiment1(Context &c) {
   IdentResult &res = c.res;
-  const model_params &base = c.P.base;
   if (c.segments_of("steady_rotation", nullptr) == 0) {
     c.missing("Bw, Cw (experiment 1, eq 16): no 'steady_rotation' segments; " +
               record_hint("steady_rotation"));
@@ -342,83 +428,29 @@ void experiment1(Context &c) {
     c.missing("Bw, Cw (experiment 1): the torque needs Kt = Kv from the motor test");
     return;
   }
-  model_params p = base;  // geometry; Kt = Kv of the motor test
+  model_params p = c.P.base;  // geometry; Kt = Kv of the motor test
   p.Kv = p.Kt = kv->second.value;
   const bool cam = c.P.opt.source == VelocitySource::Camera;
-  for (const SegWindow &w : c.windows("steady_rotation", nullptr, &SegmentWindows::steady)) {
-    const auto &m = w.s->log->motors;
-    const auto &enc = c.P.enc.at(w.s->log);
-    double imean[4] = {0, 0, 0, 0}, wenc = 0;
-    for (size_t k = w.w.m0; k < w.w.m1; ++k) {
-      for (int j = 0; j < 4; ++j) imean[j] += m[k].i[j];
-      wenc += enc.raw[k][2];
-    }
-    const double n = static_cast<double>(w.w.m1 - w.w.m0);
-    for (double &i : imean) i /= n;
-    wenc /= n;
-    if (std::abs(wenc) < kStopSpeed[2]) {
-      c.reject(w, "steady window", "the robot did not turn (stiction): w " + std::to_string(wenc));
-      continue;
-    }
-    // The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
-    double f[4], robot_f[3];
-    dyn_wheel_forces(&p, imean, f);
-    dyn_robot_forces(p.d, f, robot_f);
-    const double torque = robot_f[2];
-    // Camera: slope of the unwrapped heading over the same window.
-    const CameraTrack &ct = c.P.cam.at(w.s->log);
-    const double ta = m[w.w.m0].utime * 1e-6, tb = m[w.w.m1 - 1].utime * 1e-6;
-    std::vector<double> t, th;
-    for (size_t k = std::lower_bound(ct.t.begin(), ct.t.end(), ta) - ct.t.begin();
-         k < ct.t.size() && ct.t[k] <= tb; ++k) {
-      t.push_back(ct.t[k]);
-      th.push_back(ct.theta[k]);
-    }
-    const double wcam = t.size() >= 5 ? slope(t, th) : NAN;
-    if (cam && !std::isfinite(wcam)) {
-      c.reject(w, "steady window", "fewer than 5 camera frames in the window");
-      continue;
-    }
-    RotationPoint pt{w.s->level, wcam, wenc, torque};
-    for (int j = 0; j < 4; ++j) pt.imean[j] = imean[j];
-    pt.epoch = c.epoch_of(w.s->log, w.w.m0);
-    res.rotation_points.push_back(pt);
-  }
+  for (const SegWindow &w : c.windows("steady_rotation", nullptr, &SegmentWindows::steady))
+    rotation_point(c, p, cam, w);
   if (res.rotation_points.size() < 3) {
     c.missing("Bw, Cw (experiment 1): " + std::to_string(res.rotation_points.size()) +
               " usable steady rotation windows, need 3 at different speeds; " +
               record_hint("steady_rotation"));
     return;
   }
-  // T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
-  // x = [Kt, delta (4 per offset epoch)]: what experiment 1 borrows.
-  auto fit_with = [&](const Eigen::VectorXd *x) {
-    model_params q = p;
-    if (x) q.Kt = (*x)[0];
-    Eigen::MatrixXd X(res.rotation_points.size(), 2);
-    Eigen::VectorXd y(res.rotation_points.size());
-    for (size_t k = 0; k < res.rotation_points.size(); ++k) {
-      const RotationPoint &pt = res.rotation_points[k];
-      double i[4], f[4], robot_f[3];
-      for (int j = 0; j < 4; ++j)
-        i[j] = pt.imean[j] - (x && pt.epoch >= 0 ? (*x)[1 + 4 * pt.epoch + j] : 0.0);
-      dyn_wheel_forces(&q, i, f);
-      dyn_robot_forces(q.d, f, robot_f);
-      X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
-      X(k, 1) = 1.0;
-      y[k] = robot_f[2];
-    }
-    return least_squares(X, y, 1.0, "experiment 1 (T = Bw w + Cw)");
-  };
   try {
-    const Fit f = fit_with(nullptr);
+    const Fit f = fit_rotation(res.rotation_points, p, cam, nullptr);
     const Eigen::VectorXd off_se = c.offset_se();
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()), se(1 + off_se.size());
     x0[0] = p.Kt;
     se[0] = kv->second.se;
     se.tail(off_se.size()) = off_se;
     const Eigen::VectorXd b = propagate_independent(
-        [&](const Eigen::VectorXd &x) -> Eigen::VectorXd { return fit_with(&x).theta; }, x0, se);
+        [&](const Eigen::VectorXd &x) -> Eigen::VectorXd {
+          return fit_rotation(res.rotation_points, p, cam, &x).theta;
+        },
+        x0, se);
     res.table["exp1"]["Bw"] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);
     res.table["exp1"]["Cw"] = with_borrowed(f.theta[1], std::sqrt(f.cov(1, 1)), b[1]);
   } catch (const IdentError &e) {
@@ -715,28 +747,20 @@ StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, i
   return d;
 }
 
-void experiment3(Context &c) {
-  IdentResult &res = c.res;
-  const model_params &base = c.P.base;
-  const auto kv = res.table["motor"].find("Kv");
-  if (c.segments_of("step", nullptr) == 0) {
-    c.missing("R, Bv, Bvn, Cv, Cvn, J, Bw, Cw (experiment 3): no 'step' segments; " +
-              record_hint("step"));
-    return;
-  }
-  if (kv == res.table["motor"].end() || !kv->second.ok()) {
-    c.missing("experiment 3: the state-space parameters need Kv from the motor test");
-    return;
-  }
-  model_params p = base;  // geometry and M; Kt = Kv of the motor test; R and J as found
-  p.Kv = p.Kt = kv->second.value;
+// The three axes' regressions are independent: one task each (the messages stay in order).
+struct AxisFit {
+  StateSpaceFits f;
+  std::string error;  // empty: f holds the fits
+};
+
+// The LS and IV fits of experiment 3 per axis; have[axis]: the axis has them.
+struct Exp3Fits {
   std::array<Fit, 3> ls, iv;
   std::array<bool, 3> have{};
-  // The three axes' regressions are independent: one task each (the messages stay in order).
-  struct AxisFit {
-    StateSpaceFits f;
-    std::string error;  // empty: f holds the fits
-  };
+};
+
+Exp3Fits fit_step_axes(Context &c) {
+  Exp3Fits out;
   std::array<std::future<AxisFit>, 3> pending;
   for (int axis = 0; axis < 3; ++axis) {
     const char *dir = kDirs[axis];
@@ -768,40 +792,50 @@ void experiment3(Context &c) {
       c.missing(names + ": " + a.error);
       continue;
     }
-    ls[axis] = a.f.ls;
-    iv[axis] = a.f.iv;
-    have[axis] = true;
+    out.ls[axis] = a.f.ls;
+    out.iv[axis] = a.f.iv;
+    out.have[axis] = true;
   }
-  // The derived parameters as functions of x = [theta_v, theta_vn, theta_w (3 each), Kv, R of
-  // the motor test]: the axis's own theta is the method's data; Kv (eq 26's b and the back-EMF
-  // term), R (through the other axes' theta2, or the motor test's R along w alone) are
-  // borrowed, each with its own standard error (block-diagonal covariance: the motor test's
-  // segments are not the steps'). Bv = -M theta1 - 2 emf(Kv, R) is a small difference of two
-  // large numbers, so a 1 % error of Kv or R can move it by 10 %: the SE says so.
-  const Estimate Rm = lookup(res, "motor", "R");
-  const Estimate &Kv = kv->second;
-  for (const auto &[name, fits] : {std::pair<std::string, std::array<Fit, 3> *>{"exp3_ls", &ls},
-                                   {"exp3_iv", &iv}}) {
-    auto &t = res.table[name];
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(11);
-    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(11, 11);
+  return out;
+}
+
+// The derived parameters as functions of x = [theta_v, theta_vn, theta_w (3 each), Kv, R of
+// the motor test]: the axis's own theta is the method's data; Kv (eq 26's b and the back-EMF
+// term), R (through the other axes' theta2, or the motor test's R along w alone) are
+// borrowed, each with its own standard error (block-diagonal covariance: the motor test's
+// segments are not the steps'). Bv = -M theta1 - 2 emf(Kv, R) is a small difference of two
+// large numbers, so a 1 % error of Kv or R can move it by 10 %: the SE says so.
+struct Derivation {
+  const IdentOptions &opt;
+  model_params &p;  // geometry and M; Kt = Kv of the motor test; R as found
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(11);
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(11, 11);
+  std::vector<int> r_axes;  // the axes R comes from (none: the motor test's)
+  std::vector<double> rw;   // weights of the R combination
+
+  Derivation(const IdentOptions &o, model_params &p_, const std::array<Fit, 3> &fits,
+             const std::array<bool, 3> &have, const Estimate &Kv, const Estimate &Rm)
+      : opt(o), p(p_) {
     for (int axis = 0; axis < 3; ++axis) {
       if (!have[axis]) continue;
-      x0.segment<3>(3 * axis) = (*fits)[axis].theta;
-      C.block<3, 3>(3 * axis, 3 * axis) = (*fits)[axis].cov;
+      x0.segment<3>(3 * axis) = fits[axis].theta;
+      C.block<3, 3>(3 * axis, 3 * axis) = fits[axis].cov;
     }
     x0[9] = Kv.value;
     C(9, 9) = std::isfinite(Kv.se) ? Kv.se * Kv.se : 0.0;
     x0[10] = Rm.ok() ? Rm.value : NAN;
     C(10, 10) = Rm.ok() && std::isfinite(Rm.se) ? Rm.se * Rm.se : 0.0;
-    auto with_kv = [&](const Eigen::VectorXd &x) {
-      model_params q = p;
-      q.Kv = q.Kt = x[9];
-      return q;
-    };
-    // theta2 along v and vn gives R (eq 26): from each, combined. The axes are compared and
-    // weighted on their own data only (Kv is common to both and cancels in the comparison).
-    std::vector<int> r_axes;
+  }
+
+  model_params with_kv(const Eigen::VectorXd &x) const {
+    model_params q = p;
+    q.Kv = q.Kt = x[9];
+    return q;
+  }
+  // theta2 along v and vn gives R (eq 26): from each, combined. The axes are compared and
+  // weighted on their own data only (Kv is common to both and cancels in the comparison).
+  // False when there is nothing to derive (along w alone without a motor test R).
+  bool r_weights(const std::array<bool, 3> &have, bool motor_R) {
     std::vector<Estimate> Rs;
     for (int axis = 0; axis < 2; ++axis) {
       if (!have[axis]) continue;
@@ -809,72 +843,104 @@ void experiment3(Context &c) {
       Rs.push_back(propagate([&](const Eigen::VectorXd &x) { return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1]); },
                              x0, C, {3 * axis, 3 * axis + 1, 3 * axis + 2}));
     }
-    std::vector<double> rw;  // weights of the R combination
+    if (Rs.empty()) return motor_R;
     Agreement rag;
-    if (!Rs.empty()) {
-      combine_methods(Rs, c.P.opt, &rag);
-      double wsum = 0;
-      for (const Estimate &e : Rs) {
-        const double se = std::max(std::hypot(e.se, c.P.opt.method_floor * e.value), 1e-300);
-        rw.push_back(rag.agree ? 1 / (se * se) : 1.0);
-        wsum += rw.back();
-      }
-      for (double &w : rw) w /= wsum;
-    } else if (!Rm.ok()) {
-      continue;  // along w alone without a motor test R: nothing to derive
+    combine_methods(Rs, opt, &rag);
+    double wsum = 0;
+    for (const Estimate &e : Rs) {
+      const double se = std::max(std::hypot(e.se, opt.method_floor * e.value), 1e-300);
+      rw.push_back(rag.agree ? 1 / (se * se) : 1.0);
+      wsum += rw.back();
     }
-    auto R_of = [&](const Eigen::VectorXd &x) {
-      if (r_axes.empty()) return x[10];
-      double R = 0;
-      for (size_t k = 0; k < r_axes.size(); ++k)
-        R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1]);
-      return R;
-    };
-    auto params_of = [&](const Eigen::VectorXd &x) {
-      model_params q = with_kv(x);
-      q.R = R_of(x);
-      return q;
-    };
+    for (double &w : rw) w /= wsum;
+    return true;
+  }
+  double R_of(const Eigen::VectorXd &x) const {
+    if (r_axes.empty()) return x[10];
+    double R = 0;
+    for (size_t k = 0; k < r_axes.size(); ++k)
+      R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1]);
+    return R;
+  }
+  model_params params_of(const Eigen::VectorXd &x) const {
+    model_params q = with_kv(x);
+    q.R = R_of(x);
+    return q;
+  }
+  Estimate prop(const std::function<double(const Eigen::VectorXd &)> &f,
+                const std::vector<Eigen::Index> &own) const {
+    return propagate(f, x0, C, own);
+  }
+
+  // R from the driven axes' theta2.
+  void derive_R(std::map<std::string, Estimate> &t) {
     std::vector<Eigen::Index> own_r;
     for (int axis : r_axes)
       for (int k = 0; k < 3; ++k) own_r.push_back(3 * axis + k);
-    if (!r_axes.empty()) t["R"] = propagate(R_of, x0, C, own_r);
+    if (!r_axes.empty())
+      t["R"] = prop([&](const Eigen::VectorXd &x) { return R_of(x); }, own_r);
     p.R = R_of(x0);
-    for (int axis = 0; axis < 2; ++axis) {
-      if (!have[axis]) continue;
-      const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
-      // B with the R of this axis's own theta2: theta1 and theta2 come from one fit and their
-      // errors are correlated, so B = -M (theta1 + 2 Kv l theta2 / r) is far more precise than
-      // with an R that mixes in the other axis's noise.
-      auto own_R = [&](const Eigen::VectorXd &x) {
-        model_params q = with_kv(x);
-        q.R = R_from_theta2(q, axis, x[3 * axis + 1]);
-        return q;
-      };
-      t[axis == 0 ? "Bv" : "Bvn"] = propagate(
-          [&](const Eigen::VectorXd &x) { return B_from_theta1(own_R(x), axis, x[3 * axis]); },
-          x0, C, own);
-      t[axis == 0 ? "Cv" : "Cvn"] = propagate(
-          [&](const Eigen::VectorXd &x) { return C_from_theta3(params_of(x), axis, x[3 * axis + 2]); },
-          x0, C, own);
-    }
-    // Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
-    if (have[2]) {
-      auto with_J = [&](const Eigen::VectorXd &x) {
-        model_params q = params_of(x);
-        q.J = J_from_theta2(q, x[7]);
-        return q;
-      };
-      const std::vector<Eigen::Index> own = {6, 7, 8};
-      t["J"] = propagate([&](const Eigen::VectorXd &x) { return with_J(x).J; }, x0, C, own);
-      t["Bw"] = propagate([&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6]); },
-                          x0, C, own);
-      t["Cw"] = propagate([&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); },
-                          x0, C, own);
-    }
+  }
+
+  // Along v or vn: B with the R of this axis's own theta2: theta1 and theta2 come from one fit
+  // and their errors are correlated, so B = -M (theta1 + 2 Kv l theta2 / r) is far more precise
+  // than with an R that mixes in the other axis's noise. C with the combined R.
+  void derive_linear(std::map<std::string, Estimate> &t, int axis) const {
+    const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
+    auto own_R = [&](const Eigen::VectorXd &x) {
+      model_params q = with_kv(x);
+      q.R = R_from_theta2(q, axis, x[3 * axis + 1]);
+      return q;
+    };
+    t[axis == 0 ? "Bv" : "Bvn"] = prop(
+        [&](const Eigen::VectorXd &x) { return B_from_theta1(own_R(x), axis, x[3 * axis]); }, own);
+    t[axis == 0 ? "Cv" : "Cvn"] = prop(
+        [&](const Eigen::VectorXd &x) { return C_from_theta3(params_of(x), axis, x[3 * axis + 2]); },
+        own);
+  }
+
+  // Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
+  void derive_rotation(std::map<std::string, Estimate> &t) const {
+    auto with_J = [&](const Eigen::VectorXd &x) {
+      model_params q = params_of(x);
+      q.J = J_from_theta2(q, x[7]);
+      return q;
+    };
+    const std::vector<Eigen::Index> own = {6, 7, 8};
+    t["J"] = prop([&](const Eigen::VectorXd &x) { return with_J(x).J; }, own);
+    t["Bw"] = prop([&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6]); }, own);
+    t["Cw"] = prop([&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); }, own);
+  }
+};
+
+void experiment3(Context &c) {
+  IdentResult &res = c.res;
+  const auto kv = res.table["motor"].find("Kv");
+  if (c.segments_of("step", nullptr) == 0) {
+    c.missing("R, Bv, Bvn, Cv, Cvn, J, Bw, Cw (experiment 3): no 'step' segments; " +
+              record_hint("step"));
+    return;
+  }
+  if (kv == res.table["motor"].end() || !kv->second.ok()) {
+    c.missing("experiment 3: the state-space parameters need Kv from the motor test");
+    return;
+  }
+  model_params p = c.P.base;  // geometry and M; Kt = Kv of the motor test; R and J as found
+  p.Kv = p.Kt = kv->second.value;
+  const Exp3Fits fits = fit_step_axes(c);
+  const Estimate Rm = lookup(res, "motor", "R");
+  for (const auto &[name, axis_fits] :
+       {std::pair<std::string, const std::array<Fit, 3> *>{"exp3_ls", &fits.ls},
+        {"exp3_iv", &fits.iv}}) {
+    auto &t = res.table[name];
+    Derivation d(c.P.opt, p, *axis_fits, fits.have, kv->second, Rm);
+    if (!d.r_weights(fits.have, Rm.ok())) continue;
+    d.derive_R(t);
+    for (int axis = 0; axis < 2; ++axis)
+      if (fits.have[axis]) d.derive_linear(t, axis);
+    if (fits.have[2]) d.derive_rotation(t);
   }
 }
-
 
 // Instruments: the noise-free response of the current model to the logged input (Euler over
 // the row times, from the first measured value of each run).
