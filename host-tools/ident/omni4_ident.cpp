@@ -261,7 +261,8 @@ Estimate find_estimate(const IdentResult &r, const char *method, const char *par
   return pit == mit->second.end() ? Estimate{} : pit->second;
 }
 
-void print_table(const IdentResult &r, const model_params *truth) {
+// One row per parameter: every method's estimate, the methods' agreement, the error to truth.
+void print_estimates(const IdentResult &r, const model_params *truth) {
   static const char *const headers[6] = {"motor test", "exp 1", "exp 2", "exp 3 LS",
                                          "exp 3 IV", "final"};
   std::printf("\n%-5s", "param");
@@ -286,21 +287,10 @@ void print_table(const IdentResult &r, const model_params *truth) {
     }
     std::printf("\n");
   }
-  std::printf("(± standard error, with what the method borrows (Kv, R, Bw, Cw, current "
-              "offsets) included; bNN: NN %% of its variance is borrowed. final: the methods' "
-              "estimates, each SE raised to at least 0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
-              "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
-  std::printf("units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
-              "N, Cw N m\n");
-  std::printf("R per motor (eq 22):");
-  for (int j = 0; j < 4; ++j)
-    if (r.R_motor[j].ok()) std::printf("  R%d %.4f", j, r.R_motor[j].value);
-    else std::printf("  R%d -", j);
-  std::printf("\nKv per motor:       ");
-  for (int j = 0; j < 4; ++j)
-    if (r.Kv_motor[j].ok()) std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
-    else std::printf("  K%d -", j);
-  std::printf("\n");
+}
+
+// Disagreeing methods, and final values whose SE is over 1 % of the value.
+void print_warnings(const IdentResult &r) {
   for (const char *p : kIdentParams) {
     const Agreement &ag = r.agreement.at(p);
     if (ag.methods >= 2 && !ag.agree)
@@ -323,6 +313,26 @@ void print_table(const IdentResult &r, const model_params *truth) {
     std::printf("warning: thin data: %s (standard error over 1 %%: not pinned to 2 %%; record "
                 "more runs of the experiments that give them, or longer ones)\n",
                 thin.c_str());
+}
+
+void print_table(const IdentResult &r, const model_params *truth) {
+  print_estimates(r, truth);
+  std::printf("(± standard error, with what the method borrows (Kv, R, Bw, Cw, current "
+              "offsets) included; bNN: NN %% of its variance is borrowed. final: the methods' "
+              "estimates, each SE raised to at least 0.5 %% of its value, agree when their chi-square p >= 0.01: inverse-variance "
+              "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
+  std::printf("units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
+              "N, Cw N m\n");
+  std::printf("R per motor (eq 22):");
+  for (int j = 0; j < 4; ++j)
+    if (r.R_motor[j].ok()) std::printf("  R%d %.4f", j, r.R_motor[j].value);
+    else std::printf("  R%d -", j);
+  std::printf("\nKv per motor:       ");
+  for (int j = 0; j < 4; ++j)
+    if (r.Kv_motor[j].ok()) std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
+    else std::printf("  K%d -", j);
+  std::printf("\n");
+  print_warnings(r);
 }
 
 // Windows: used per kind, rejected per reason (every one with --verbose).
@@ -482,6 +492,23 @@ void check_writable(const std::string &path) {
   if (access(dir.c_str(), W_OK) != 0) die(path + ": cannot write in " + dir + ": " + std::strerror(errno));
 }
 
+// What was not identified and why (partial), or the notes; the file written.
+void print_outcome(const IdentResult &r, const std::string &out) {
+  if (!r.complete()) {
+    std::string which;
+    for (const char *p : kIdentParams)
+      if (!r.identified.at(p)) which += std::string(which.empty() ? "" : ", ") + p;
+    std::printf("\npartial identification: not identified: %s\n", which.c_str());
+    for (const std::string &m : r.missing) std::printf("  missing: %s\n", m.c_str());
+    std::printf("wrote %s with the identified parameters only (values the robot file gives are "
+                "kept, marked; the firmware refuses a [model] with missing keys)\n",
+                out.c_str());
+    return;
+  }
+  for (const std::string &m : r.missing) std::printf("note: %s\n", m.c_str());
+  std::printf("wrote %s\n", out.c_str());
+}
+
 int cmd_identify(const IdentifyArgs &a) {
   check_writable(a.out);
   ensure_dir(a.csv);
@@ -520,19 +547,7 @@ int cmd_identify(const IdentifyArgs &a) {
     export_offsets_csv(a.csv, logs);
   }
   if (!a.csv.empty() && a.boot_n > 0) export_bootstrap_csv(a.csv, r, boot);
-  if (!r.complete()) {
-    std::string which;
-    for (const char *p : kIdentParams)
-      if (!r.identified.at(p)) which += std::string(which.empty() ? "" : ", ") + p;
-    std::printf("\npartial identification: not identified: %s\n", which.c_str());
-    for (const std::string &m : r.missing) std::printf("  missing: %s\n", m.c_str());
-    std::printf("wrote %s with the identified parameters only (values the robot file gives are "
-                "kept, marked; the firmware refuses a [model] with missing keys)\n",
-                a.out.c_str());
-    return 0;
-  }
-  for (const std::string &m : r.missing) std::printf("note: %s\n", m.c_str());
-  std::printf("wrote %s\n", a.out.c_str());
+  print_outcome(r, a.out);
   return 0;
 }
 
@@ -563,24 +578,9 @@ void write_json(const std::string &path, const Validation &v) {
   if (std::rename(tmp.c_str(), path.c_str()) != 0) die(path + ": " + std::strerror(errno));
 }
 
-int cmd_validate(const std::vector<std::string> &params, const std::string &json,
-                 const std::string &csv, const std::string &source,
-                 const std::vector<std::string> &paths) {
-  check_writable(json);
-  ensure_dir(csv);
-  const IdentOptions opt = ident_options(source, 0.3);
-  if (params.empty() || params.size() > 2) die("give --params once or twice", 2);
-  std::vector<model_params> sets;
-  for (const auto &p : params) sets.push_back(load_params(p, false));
-  const auto logs = load_logs(paths, sets[0].l, false);
-  const auto segs = segments_of(logs);
-  std::vector<Validation> vals;
-  try {
-    for (const auto &p : sets) vals.push_back(validate(segs, p, opt));
-  } catch (const IdentError &e) {
-    die(e.what());
-  }
-  // Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
+// Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
+void print_validation(const std::vector<std::string> &params, const std::vector<Validation> &vals,
+                      const IdentOptions &opt) {
   for (const WindowRecord &w : vals[0].rejected)
     std::printf("not validated: %s, segment %zu (%s %s), %.2f-%.2f s: %s\n", w.what.c_str(),
                 w.segment, w.kind.c_str(), w.direction.c_str(), w.t0_s, w.t1_s, w.reason.c_str());
@@ -608,19 +608,46 @@ int cmd_validate(const std::vector<std::string> &params, const std::string &json
   }
   std::printf("paper Table IV (final): v 0.061 0.008 0.024 | vn 0.068 -0.009 0.026 | "
               "w 2.504 -0.452 0.732\n");
-  write_json(json, vals[0]);
-  std::printf("wrote %s\n", json.c_str());
-  if (!csv.empty()) {
-    ensure_dir(csv);
-    for (size_t k = 0; k < vals.size(); ++k) {
-      auto f = open_csv(csv, k == 0 ? "validation.csv" : "validation_" + std::to_string(k) + ".csv");
-      f << "segment,direction,level_V,t_s,v,vn,w,v_sim,vn_sim,w_sim\n";
-      for (const auto &p : vals[k].points)
-        f << p.segment << ',' << p.direction << ',' << p.level << ',' << p.t << ','
-          << p.measured[0] << ',' << p.measured[1] << ',' << p.measured[2] << ','
-          << p.simulated[0] << ',' << p.simulated[1] << ',' << p.simulated[2] << '\n';
-    }
+}
+
+// Measured and simulated velocities, one CSV per parameter set.
+void write_validation_csv(const std::string &csv, const std::vector<Validation> &vals) {
+  ensure_dir(csv);
+  for (size_t k = 0; k < vals.size(); ++k) {
+    auto f = open_csv(csv, k == 0 ? "validation.csv" : "validation_" + std::to_string(k) + ".csv");
+    f << "segment,direction,level_V,t_s,v,vn,w,v_sim,vn_sim,w_sim\n";
+    for (const auto &p : vals[k].points)
+      f << p.segment << ',' << p.direction << ',' << p.level << ',' << p.t << ','
+        << p.measured[0] << ',' << p.measured[1] << ',' << p.measured[2] << ','
+        << p.simulated[0] << ',' << p.simulated[1] << ',' << p.simulated[2] << '\n';
   }
+}
+
+struct ValidateArgs {
+  std::vector<std::string> params;
+  std::string json, csv, source = "encoder";
+  std::vector<std::string> logs;
+};
+
+int cmd_validate(const ValidateArgs &va) {
+  check_writable(va.json);
+  ensure_dir(va.csv);
+  const IdentOptions opt = ident_options(va.source, 0.3);
+  if (va.params.empty() || va.params.size() > 2) die("give --params once or twice", 2);
+  std::vector<model_params> sets;
+  for (const auto &p : va.params) sets.push_back(load_params(p, false));
+  const auto logs = load_logs(va.logs, sets[0].l, false);
+  const auto segs = segments_of(logs);
+  std::vector<Validation> vals;
+  try {
+    for (const auto &p : sets) vals.push_back(validate(segs, p, opt));
+  } catch (const IdentError &e) {
+    die(e.what());
+  }
+  print_validation(va.params, vals, opt);
+  write_json(va.json, vals[0]);
+  std::printf("wrote %s\n", va.json.c_str());
+  if (!va.csv.empty()) write_validation_csv(va.csv, vals);
   return 0;
 }
 
@@ -629,6 +656,71 @@ int cmd_run_hand(const RunOptions &ropt, HandRunOptions hopt, const std::string 
   hopt.d_m = base.d;
   hopt.r_m = base.r;
   return run_hand(ropt, hopt);
+}
+
+CLI::App *add_identify(CLI::App &app, IdentifyArgs &ia) {
+  auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
+  id->add_option("--robot", ia.robot, "BASE.ini with the measured d, r, l, M in [model]")->required();
+  id->add_option("--out", ia.out, "PARAMS.ini to write (firmware-loadable [model] section)")->required();
+  id->add_option("--truth", ia.truth, "known parameters (simulation): print the error of each");
+  id->add_option("--csv", ia.csv, "export every segment, window and fit as CSV into this folder");
+  id->add_option("--velocity", ia.source, "robot velocity source: encoder (default) or camera");
+  id->add_option("--bootstrap", ia.boot_n, "also estimate the uncertainty by resampling whole runs, "
+                                           "N replicates (0: off)")
+      ->check(CLI::Range(0, 100000))->capture_default_str();
+  id->add_option("--steady-tol", ia.steady_tol_pct,
+                 "steady window: speed within this % of its final value (plus 2 mm/s, 0.01 rad/s)")
+      ->check(CLI::Range(0.01, 20.0))->capture_default_str();
+  id->add_flag("--verbose,-v", ia.verbose, "list every rejected window with its reason");
+  id->add_option("logs", ia.logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
+  return id;
+}
+
+CLI::App *add_validate(CLI::App &app, ValidateArgs &v) {
+  auto *va = app.add_subcommand("validate", "simulate the model on the logged inputs (Table IV)");
+  va->add_option("--params", v.params, "PARAMS.ini (give twice to compare two sets)")->required();
+  va->add_option("--json", v.json, "write e_max, e_mean, sigma per velocity (first --params)")
+      ->required();
+  va->add_option("--csv", v.csv, "export measured and simulated velocities as CSV");
+  va->add_option("--velocity", v.source, "measured velocity: encoder (default) or camera");
+  va->add_option("logs", v.logs, "LCM event logs")->required();
+  return va;
+}
+
+struct RunArgs {
+  RunOptions ropt;
+  HandRunOptions hopt;
+  std::string hand_robot;
+  CLI::Option *hand = nullptr;  // --hand given
+};
+
+CLI::App *add_run(CLI::App &app, RunArgs &r) {
+  auto *ru = app.add_subcommand("run", "drive a robot (or omni4-fw on the sim backend) through "
+                                       "the experiment sequence over LCM, recording a log");
+  RunOptions &ropt = r.ropt;
+  HandRunOptions &hopt = r.hopt;
+  ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
+  ru->add_option("--out", ropt.out, "event log to record")->required();
+  auto *only = ru->add_option("--only", ropt.only,
+                              "run only these kinds (steady_rotation coast motor step)");
+  auto *hold = ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
+      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
+  auto *settle = ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
+      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
+  auto *hand = ru->add_flag("--hand", "experiment 2 by hand: the bridges stay disabled, you push "
+                                      "the robot along each direction and let it coast to rest "
+                                      "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
+      ->excludes(only, hold, settle);
+  r.hand = hand;
+  ru->add_option("--robot", r.hand_robot, "BASE.ini: d and r for the robot velocity (eqs 3-5); "
+                                          "Table III otherwise")->needs(hand);
+  ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
+      ->check(CLI::Range(1, 100))->capture_default_str()->needs(hand);
+  ru->add_option("--directions", hopt.directions, "directions to push along, comma separated")
+      ->delimiter(',')->check(CLI::IsMember({"v", "vn", "w"}))->capture_default_str()->needs(hand);
+  ru->add_option("--push-timeout", hopt.push_timeout_s, "wait for each push and its stop [s]")
+      ->check(CLI::Range(1.0, 3600.0))->capture_default_str()->needs(hand);
+  return ru;
 }
 
 }  // namespace
@@ -643,59 +735,12 @@ int main(int argc, char **argv) {
                "omni4-ident"};
   omni4_cli_setup(app);
   app.require_subcommand(1);
-
-  auto *id = app.add_subcommand("identify", "identify the model parameters from experiment logs");
   IdentifyArgs ia;
-  id->add_option("--robot", ia.robot, "BASE.ini with the measured d, r, l, M in [model]")->required();
-  id->add_option("--out", ia.out, "PARAMS.ini to write (firmware-loadable [model] section)")->required();
-  id->add_option("--truth", ia.truth, "known parameters (simulation): print the error of each");
-  id->add_option("--csv", ia.csv, "export every segment, window and fit as CSV into this folder");
-  id->add_option("--velocity", ia.source, "robot velocity source: encoder (default) or camera");
-  id->add_option("--bootstrap", ia.boot_n, "also estimate the uncertainty by resampling whole runs, "
-                                           "N replicates (0: off)")
-      ->check(CLI::Range(0, 100000))->capture_default_str();
-  id->add_option("--steady-tol", ia.steady_tol_pct,
-                 "steady window: speed within this % of its final value (plus 2 mm/s, 0.01 rad/s)")
-      ->check(CLI::Range(0.01, 20.0))->capture_default_str();
-  id->add_flag("--verbose,-v", ia.verbose, "list every rejected window with its reason");
-  id->add_option("logs", ia.logs, "LCM event logs with OMNI4_EXPERIMENT marks")->required();
-
-  auto *va = app.add_subcommand("validate", "simulate the model on the logged inputs (Table IV)");
-  std::vector<std::string> params;
-  std::string json, vcsv, vsource = "encoder";
-  std::vector<std::string> vlogs;
-  va->add_option("--params", params, "PARAMS.ini (give twice to compare two sets)")->required();
-  va->add_option("--json", json, "write e_max, e_mean, sigma per velocity (first --params)")
-      ->required();
-  va->add_option("--csv", vcsv, "export measured and simulated velocities as CSV");
-  va->add_option("--velocity", vsource, "measured velocity: encoder (default) or camera");
-  va->add_option("logs", vlogs, "LCM event logs")->required();
-
-  auto *ru = app.add_subcommand("run", "drive a robot (or omni4-fw on the sim backend) through "
-                                       "the experiment sequence over LCM, recording a log");
-  RunOptions ropt;
-  ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
-  ru->add_option("--out", ropt.out, "event log to record")->required();
-  auto *only = ru->add_option("--only", ropt.only,
-                              "run only these kinds (steady_rotation coast motor step)");
-  auto *hold = ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
-      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
-  auto *settle = ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
-      ->check(CLI::Range(0.2, 60.0))->capture_default_str();
-  HandRunOptions hopt;
-  std::string hand_robot;
-  auto *hand = ru->add_flag("--hand", "experiment 2 by hand: the bridges stay disabled, you push "
-                                      "the robot along each direction and let it coast to rest "
-                                      "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
-      ->excludes(only, hold, settle);
-  ru->add_option("--robot", hand_robot, "BASE.ini: d and r for the robot velocity (eqs 3-5); "
-                                        "Table III otherwise")->needs(hand);
-  ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
-      ->check(CLI::Range(1, 100))->capture_default_str()->needs(hand);
-  ru->add_option("--directions", hopt.directions, "directions to push along, comma separated")
-      ->delimiter(',')->check(CLI::IsMember({"v", "vn", "w"}))->capture_default_str()->needs(hand);
-  ru->add_option("--push-timeout", hopt.push_timeout_s, "wait for each push and its stop [s]")
-      ->check(CLI::Range(1.0, 3600.0))->capture_default_str()->needs(hand);
+  ValidateArgs vargs;
+  RunArgs rargs;
+  auto *id = add_identify(app, ia);
+  auto *va = add_validate(app, vargs);
+  auto *ru = add_run(app, rargs);
 
   // A mistyped command: say which ones there are (CLI11 would say only that one is required).
   const auto named = app.get_subcommands([&](CLI::App *sc) { return argc > 1 && sc->get_name() == argv[1]; });
@@ -706,8 +751,8 @@ int main(int argc, char **argv) {
   }
   OMNI4_CLI_PARSE(app, argc, argv);
   if (id->parsed()) return cmd_identify(ia);
-  if (va->parsed()) return cmd_validate(params, json, vcsv, vsource, vlogs);
-  if (ru->parsed() && *hand) return cmd_run_hand(ropt, hopt, hand_robot);
-  if (ru->parsed()) return run_experiments(ropt);
+  if (va->parsed()) return cmd_validate(vargs);
+  if (ru->parsed() && *rargs.hand) return cmd_run_hand(rargs.ropt, rargs.hopt, rargs.hand_robot);
+  if (ru->parsed()) return run_experiments(rargs.ropt);
   return 2;
 }
