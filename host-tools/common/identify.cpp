@@ -44,6 +44,47 @@ double chi2_sf(double x, int dof) {
   return std::erfc(std::sqrt(h)) + sum;
 }
 
+namespace {
+
+// Two or more estimates: their inverse-variance weighted mean (each SE raised to at least
+// method_floor of its value) when their chi-square agrees, else their plain mean.
+Estimate combine_several(const std::vector<Estimate> &ok, const IdentOptions &opt,
+                         Agreement &ag) {
+  double wsum = 0, vsum = 0;
+  std::vector<double> se(ok.size());
+  for (size_t k = 0; k < ok.size(); ++k) {
+    const double s = std::isfinite(ok[k].se) ? ok[k].se : 0.0;
+    se[k] = std::max(std::hypot(s, opt.method_floor * std::abs(ok[k].value)), 1e-300);
+    wsum += 1 / (se[k] * se[k]);
+    vsum += ok[k].value / (se[k] * se[k]);
+  }
+  const double mean = vsum / wsum;
+  for (size_t k = 0; k < ok.size(); ++k) ag.chi2 += std::pow((ok[k].value - mean) / se[k], 2);
+  ag.dof = static_cast<int>(ok.size()) - 1;
+  ag.p = chi2_sf(ag.chi2, ag.dof);
+  ag.agree = ag.p >= opt.agree_p;
+  if (ag.agree) {
+    // The borrowed variance of a weighted mean, with the weights taken as fixed.
+    double vb = 0;
+    for (size_t k = 0; k < ok.size(); ++k)
+      vb += std::pow(ok[k].se_borrowed / (se[k] * se[k] * wsum), 2);
+    ag.rule = "weighted mean";
+    return {mean, std::sqrt(1 / wsum), std::sqrt(vb)};
+  }
+  double m = 0, ss = 0;
+  for (const Estimate &e : ok) m += e.value / static_cast<double>(ok.size());
+  double vb = 0;
+  for (const Estimate &e : ok) {
+    ss += (e.value - m) * (e.value - m);
+    vb += std::pow(e.se_borrowed / static_cast<double>(ok.size()), 2);
+  }
+  const double se_m = std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()));
+  ag.rule = "methods disagree: plain mean";
+  return {m, se_m, std::min(se_m, std::sqrt(vb))};
+}
+
+}  // namespace
+
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
                          Agreement *agreement) {
   Agreement ag;
@@ -67,38 +108,7 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
     out = ok[0];
     ag.rule = weak.empty() ? "one method" : "one method (the other too uncertain)";
   } else {
-    double wsum = 0, vsum = 0;
-    std::vector<double> se(ok.size());
-    for (size_t k = 0; k < ok.size(); ++k) {
-      const double s = std::isfinite(ok[k].se) ? ok[k].se : 0.0;
-      se[k] = std::max(std::hypot(s, opt.method_floor * std::abs(ok[k].value)), 1e-300);
-      wsum += 1 / (se[k] * se[k]);
-      vsum += ok[k].value / (se[k] * se[k]);
-    }
-    const double mean = vsum / wsum;
-    for (size_t k = 0; k < ok.size(); ++k) ag.chi2 += std::pow((ok[k].value - mean) / se[k], 2);
-    ag.dof = static_cast<int>(ok.size()) - 1;
-    ag.p = chi2_sf(ag.chi2, ag.dof);
-    ag.agree = ag.p >= opt.agree_p;
-    if (ag.agree) {
-      // The borrowed variance of a weighted mean, with the weights taken as fixed.
-      double vb = 0;
-      for (size_t k = 0; k < ok.size(); ++k)
-        vb += std::pow(ok[k].se_borrowed / (se[k] * se[k] * wsum), 2);
-      out = {mean, std::sqrt(1 / wsum), std::sqrt(vb)};
-      ag.rule = "weighted mean";
-    } else {
-      double m = 0, ss = 0;
-      for (const Estimate &e : ok) m += e.value / static_cast<double>(ok.size());
-      double vb = 0;
-      for (const Estimate &e : ok) {
-        ss += (e.value - m) * (e.value - m);
-        vb += std::pow(e.se_borrowed / static_cast<double>(ok.size()), 2);
-      }
-      const double se_m = std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()));
-      out = {m, se_m, std::min(se_m, std::sqrt(vb))};
-      ag.rule = "methods disagree: plain mean";
-    }
+    out = combine_several(ok, opt, ag);
   }
   if (agreement) *agreement = ag;
   return out;
@@ -468,12 +478,15 @@ struct CoastFit {
 };
 
 // Encoder velocities, integral form: x(t) = x0_w - b int x dt - c (t - t0_w). No numerical
-// differentiation.
-CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int axis,
-                           const std::string &dir) {
-  struct Row { size_t win; double t, x, integral; };
-  std::vector<Row> rows;
-  int half = 20;
+// differentiation. One row per valid encoder sample of the windows.
+struct EncoderRow {
+  size_t win;
+  double t, x, integral;
+};
+
+std::vector<EncoderRow> encoder_coast_rows(const Context &c, const std::vector<SegWindow> &wins,
+                                           int axis, int &half) {
+  std::vector<EncoderRow> rows;
   for (size_t wi = 0; wi < wins.size(); ++wi) {
     const SegWindow &w = wins[wi];
     const auto &enc = c.P.enc.at(w.s->log);
@@ -487,52 +500,47 @@ CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int a
       rows.push_back({wi, t, x, integral});
     }
   }
-  CoastFit out;
-  if (rows.size() < 10) return out;
-  // One x0 per window and shared b, c: the window intercepts are taken out by subtracting each
-  // window's means (Frisch-Waugh-Lovell: the same b, c and covariance as the regression with a
-  // column per window, without a QR of a matrix as wide as the windows are many).
-  const size_t nw = wins.size();
-  std::vector<double> t0(nw, NAN), n_w(nw, 0), my(nw, 0), mi(nw, 0), mt(nw, 0);
-  for (const Row &r : rows)
-    if (std::isnan(t0[r.win])) t0[r.win] = r.t;
-  for (const Row &r : rows) {
-    n_w[r.win] += 1;
-    my[r.win] += r.x;
-    mi[r.win] += r.integral;
-    mt[r.win] += r.t - t0[r.win];
+  return rows;
+}
+
+// Each window's start time and means of x, the integral and the time since its start.
+struct WindowMeans {
+  std::vector<double> t0, n_w, my, mi, mt;
+  size_t used = 0;  // windows with rows
+
+  WindowMeans(const std::vector<EncoderRow> &rows, size_t nw)
+      : t0(nw, NAN), n_w(nw, 0), my(nw, 0), mi(nw, 0), mt(nw, 0) {
+    for (const EncoderRow &r : rows)
+      if (std::isnan(t0[r.win])) t0[r.win] = r.t;
+    for (const EncoderRow &r : rows) {
+      n_w[r.win] += 1;
+      my[r.win] += r.x;
+      mi[r.win] += r.integral;
+      mt[r.win] += r.t - t0[r.win];
+    }
+    for (size_t w = 0; w < nw; ++w) {
+      if (n_w[w] == 0) continue;
+      ++used;
+      my[w] /= n_w[w];
+      mi[w] /= n_w[w];
+      mt[w] /= n_w[w];
+    }
   }
-  size_t used_windows = 0;
-  for (size_t w = 0; w < nw; ++w) {
-    if (n_w[w] == 0) continue;
-    ++used_windows;
-    my[w] /= n_w[w];
-    mi[w] /= n_w[w];
-    mt[w] /= n_w[w];
-  }
-  const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
-  if (n <= static_cast<Eigen::Index>(used_windows + 2))
-    throw IdentError("experiment 2 (coast-down along " + dir + "): too few samples");
-  Eigen::MatrixXd X(n, 2);
-  Eigen::VectorXd y(n);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    const Row &r = rows[static_cast<size_t>(k)];
-    X(k, 0) = -(r.integral - mi[r.win]);
-    X(k, 1) = -((r.t - t0[r.win]) - mt[r.win]);
-    y[k] = r.x - my[r.win];
-  }
-  const Fit bc = least_squares(X, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
-  // Residual variance with the intercepts' degrees of freedom counted.
-  const double dof_fix = static_cast<double>(n - 2) / static_cast<double>(n - 2 - static_cast<Eigen::Index>(used_windows));
-  out.f.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(used_windows) + 2);
+};
+
+// theta = [x0 per window with rows..., b, c] of the shared fit bc; the fitted coast curves.
+void encoder_coast_result(Context &c, const std::vector<SegWindow> &wins,
+                          const std::vector<EncoderRow> &rows, const WindowMeans &wm,
+                          const Fit &bc, double dof_fix, const std::string &dir, CoastFit &out) {
+  out.f.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(wm.used) + 2);
   out.f.cov = Eigen::MatrixXd::Zero(out.f.theta.size(), out.f.theta.size());
   const Eigen::Index nb = out.f.theta.size() - 2;
   const double b = bc.theta[0], cc = bc.theta[1];
-  std::vector<double> x0(nw, NAN);
+  std::vector<double> x0(wins.size(), NAN);
   Eigen::Index col = 0;
-  for (size_t w = 0; w < nw; ++w) {
-    if (n_w[w] == 0) continue;
-    x0[w] = my[w] + b * mi[w] + cc * mt[w];
+  for (size_t w = 0; w < wins.size(); ++w) {
+    if (wm.n_w[w] == 0) continue;
+    x0[w] = wm.my[w] + b * wm.mi[w] + cc * wm.mt[w];
     out.f.theta[col++] = x0[w];  // intercepts: values only (their covariance is not used)
   }
   out.f.theta[nb] = b;
@@ -541,19 +549,62 @@ CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int a
   out.f.sigma2 = bc.sigma2 * dof_fix;
   out.f.n = bc.n;
   out.ok = true;
-  for (const Row &r : rows)
-    c.res.coast_curves[dir].push_back({wins[r.win].seg, r.t - t0[r.win], r.x,
-                                       x0[r.win] - b * r.integral - cc * (r.t - t0[r.win])});
+  for (const EncoderRow &r : rows)
+    c.res.coast_curves[dir].push_back({wins[r.win].seg, r.t - wm.t0[r.win], r.x,
+                                       x0[r.win] - b * r.integral - cc * (r.t - wm.t0[r.win])});
+}
+
+CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int axis,
+                           const std::string &dir) {
+  int half = 20;
+  const std::vector<EncoderRow> rows = encoder_coast_rows(c, wins, axis, half);
+  CoastFit out;
+  if (rows.size() < 10) return out;
+  // One x0 per window and shared b, c: the window intercepts are taken out by subtracting each
+  // window's means (Frisch-Waugh-Lovell: the same b, c and covariance as the regression with a
+  // column per window, without a QR of a matrix as wide as the windows are many).
+  const WindowMeans wm(rows, wins.size());
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
+  if (n <= static_cast<Eigen::Index>(wm.used + 2))
+    throw IdentError("experiment 2 (coast-down along " + dir + "): too few samples");
+  Eigen::MatrixXd X(n, 2);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const EncoderRow &r = rows[static_cast<size_t>(k)];
+    X(k, 0) = -(r.integral - wm.mi[r.win]);
+    X(k, 1) = -((r.t - wm.t0[r.win]) - wm.mt[r.win]);
+    y[k] = r.x - wm.my[r.win];
+  }
+  const Fit bc = least_squares(X, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
+  // Residual variance with the intercepts' degrees of freedom counted.
+  const double dof_fix = static_cast<double>(n - 2) / static_cast<double>(n - 2 - static_cast<Eigen::Index>(wm.used));
+  encoder_coast_result(c, wins, rows, wm, bc, dof_fix, dir, out);
   return out;
 }
 
 // Camera poses, in the position domain (no differentiation of 25 Hz poses): with p the
 // displacement along the axis (robot frame) and tau the time since the window start,
 // p = p0 + (x0 + b p0) tau - b int p dtau - c tau^2 / 2. One p0 and one slope per window.
-CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int axis,
-                          const std::string &dir) {
-  struct Row { size_t win; double tau, p, integral, measured; };
-  std::vector<Row> rows;
+struct CameraRow {
+  size_t win;
+  double tau, p, integral, measured;
+};
+
+// The displacement along axis between camera frames prev and k (robot frame).
+double frame_step(const CameraTrack &ct, const std::vector<PoseSample> &pose, int axis,
+                  size_t prev, size_t k) {
+  if (axis == 2) return ct.theta[k] - ct.theta[prev];
+  const double h = std::isfinite(ct.heading[k]) && std::isfinite(ct.heading[prev])
+                       ? 0.5 * (ct.heading[k] + ct.heading[prev])
+                       : 0.5 * (ct.theta[k] + ct.theta[prev]);
+  const double dx = pose[k].x - pose[prev].x, dy = pose[k].y - pose[prev].y;
+  return axis == 0 ? std::cos(h) * dx + std::sin(h) * dy : -std::sin(h) * dx + std::cos(h) * dy;
+}
+
+// One row per camera frame of the windows; a window with fewer than 6 frames is rejected.
+std::vector<CameraRow> camera_coast_rows(Context &c, const std::vector<SegWindow> &wins,
+                                         int axis) {
+  std::vector<CameraRow> rows;
   for (size_t wi = 0; wi < wins.size(); ++wi) {
     const SegWindow &w = wins[wi];
     const CameraTrack &ct = c.P.cam.at(w.s->log);
@@ -565,17 +616,7 @@ CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int ax
     const size_t first = rows.size();
     double p = 0, integral = 0;
     for (size_t prev = k; k < ct.t.size() && ct.t[k] <= tb; prev = k++) {
-      if (k != prev) {
-        if (axis == 2) {
-          p += ct.theta[k] - ct.theta[prev];
-        } else {
-          const double h = std::isfinite(ct.heading[k]) && std::isfinite(ct.heading[prev])
-                               ? 0.5 * (ct.heading[k] + ct.heading[prev])
-                               : 0.5 * (ct.theta[k] + ct.theta[prev]);
-          const double dx = pose[k].x - pose[prev].x, dy = pose[k].y - pose[prev].y;
-          p += axis == 0 ? std::cos(h) * dx + std::sin(h) * dy : -std::sin(h) * dx + std::cos(h) * dy;
-        }
-      }
+      if (k != prev) p += frame_step(ct, pose, axis, prev, k);
       const double ps = w.w.sign * p;
       const double tau = ct.t[k] - t_first;
       if (rows.size() > first) integral += 0.5 * (ps + rows.back().p) * (tau - rows.back().tau);
@@ -586,6 +627,34 @@ CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int ax
       rows.resize(first);
     }
   }
+  return rows;
+}
+
+// Fitted velocity x(tau) = x0 - b (p - p0) - c tau with x0 = slope - b p0, from the fit over
+// the kept columns (p0 per window, slope per window, b, c).
+void camera_coast_curves(Context &c, const std::vector<SegWindow> &wins,
+                         const std::vector<CameraRow> &rows,
+                         const std::vector<Eigen::Index> &keep, const Fit &f,
+                         const std::string &dir) {
+  const size_t nw = wins.size();
+  const Eigen::Index nk = static_cast<Eigen::Index>(keep.size());
+  const double b = f.theta[nk - 2], cc = f.theta[nk - 1];
+  std::vector<double> p0(nw, 0), s0(nw, 0);
+  for (Eigen::Index col = 0; col < nk - 2; ++col) {
+    const size_t orig = static_cast<size_t>(keep[static_cast<size_t>(col)]);
+    if (orig < nw) p0[orig] = f.theta[col];
+    else s0[orig - nw] = f.theta[col];
+  }
+  for (const CameraRow &r : rows) {
+    const double x0 = s0[r.win] - b * p0[r.win];
+    c.res.coast_curves[dir].push_back(
+        {wins[r.win].seg, r.tau, r.measured, x0 - b * (r.p - p0[r.win]) - cc * r.tau});
+  }
+}
+
+CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int axis,
+                          const std::string &dir) {
+  const std::vector<CameraRow> rows = camera_coast_rows(c, wins, axis);
   CoastFit out;
   if (rows.size() < 12) return out;
   const size_t nw = wins.size();
@@ -605,21 +674,32 @@ CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int ax
   for (size_t col = 0; col < keep.size(); ++col) Xk.col(col) = X.col(keep[col]);
   out.f = least_squares(Xk, y, 1.0, "experiment 2 (coast-down along " + dir + ", camera)");
   out.ok = true;
-  // Fitted velocity x(tau) = x0 - b (p - p0) - c tau with x0 = slope - b p0.
-  const Eigen::Index nk = static_cast<Eigen::Index>(keep.size());
-  const double b = out.f.theta[nk - 2], cc = out.f.theta[nk - 1];
-  std::vector<double> p0(nw, 0), s0(nw, 0);
-  for (Eigen::Index col = 0; col < nk - 2; ++col) {
-    const size_t orig = static_cast<size_t>(keep[static_cast<size_t>(col)]);
-    if (orig < nw) p0[orig] = out.f.theta[col];
-    else s0[orig - nw] = out.f.theta[col];
-  }
-  for (const Row &r : rows) {
-    const double x0 = s0[r.win] - b * p0[r.win];
-    c.res.coast_curves[dir].push_back(
-        {wins[r.win].seg, r.tau, r.measured, x0 - b * (r.p - p0[r.win]) - cc * r.tau});
-  }
+  camera_coast_curves(c, wins, rows, keep, out.f, dir);
   return out;
+}
+
+// J from the coast-down about w (its fit x' = -b x - c) and Bw, Cw of experiment 1: eq 20.
+void coast_J(Context &c, const Estimate &b, const Estimate &cst) {
+  IdentResult &res = c.res;
+  const auto &e1 = res.table["exp1"];
+  const auto bw = e1.find("Bw"), cw = e1.find("Cw");
+  if (bw == e1.end() || cw == e1.end()) {
+    c.missing("J (experiment 2, eq 20): needs Bw and Cw of experiment 1");
+    return;
+  }
+  const Estimate Bw = bw->second, Cw = cw->second;
+  // eq 20 over the coast-down: J (b w + c) = Bw w + Cw in the least-squares sense.
+  double num = 0, den = 0;
+  for (const CurvePoint &p : res.coast_curves["w"]) {
+    const double a = b.value * p.fitted + cst.value;
+    num += a * (Bw.value * p.fitted + Cw.value);
+    den += a * a;
+  }
+  const double J = num / den;
+  // Relative errors of b, c (own) and of Bw, Cw (borrowed) add (first order).
+  const double rel_own = std::hypot(b.se / b.value, cst.se / cst.value);
+  const double rel_b = std::hypot(Bw.se / Bw.value, Cw.se / Cw.value);
+  res.table["exp2"]["J"] = with_borrowed(J, std::abs(J) * rel_own, std::abs(J) * rel_b);
 }
 
 void experiment2(Context &c) {
@@ -660,25 +740,7 @@ void experiment2(Context &c) {
       res.table["exp2"][C] = {base.M * cst.value, base.M * cst.se};
       continue;
     }
-    const auto &e1 = res.table["exp1"];
-    const auto bw = e1.find("Bw"), cw = e1.find("Cw");
-    if (bw == e1.end() || cw == e1.end()) {
-      c.missing("J (experiment 2, eq 20): needs Bw and Cw of experiment 1");
-      continue;
-    }
-    const Estimate Bw = bw->second, Cw = cw->second;
-    // eq 20 over the coast-down: J (b w + c) = Bw w + Cw in the least-squares sense.
-    double num = 0, den = 0;
-    for (const CurvePoint &p : res.coast_curves["w"]) {
-      const double a = b.value * p.fitted + cst.value;
-      num += a * (Bw.value * p.fitted + Cw.value);
-      den += a * a;
-    }
-    const double J = num / den;
-    // Relative errors of b, c (own) and of Bw, Cw (borrowed) add (first order).
-    const double rel_own = std::hypot(b.se / b.value, cst.se / cst.value);
-    const double rel_b = std::hypot(Bw.se / Bw.value, Cw.se / Cw.value);
-    res.table["exp2"]["J"] = with_borrowed(J, std::abs(J) * rel_own, std::abs(J) * rel_b);
+    coast_J(c, b, cst);
   }
 }
 
@@ -1014,34 +1076,29 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
   return P;
 }
 
-IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in) {
-  std::vector<size_t> all(P.segments.size());
-  std::iota(all.begin(), all.end(), 0);
-  const std::vector<size_t> &use = use_in ? *use_in : all;
-  IdentResult res;
-  for (size_t i : use) ++res.segments_used[P.segments[i].kind];
-  if (!use_in) {  // the report: every window found and every rejection
-    for (size_t i = 0; i < P.segments.size(); ++i) {
-      const Segment &s = P.segments[i];
-      const SegmentWindows &w = P.windows[i];
-      auto used = [&](const std::vector<Window> &ws, const char *what) {
-        for (const Window &x : ws)
-          res.windows.push_back({i, s.kind, s.direction, what, seg_time(s, x.m0),
-                                 seg_time(s, x.m1 - 1), true, ""});
-      };
-      used(w.steady, "steady window");
-      used(w.coast, "coast-down");
-      used(w.step, "step");
-      for (const Rejection &r : w.rejected)
-        res.windows.push_back({i, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
-    }
-  }
-  Context c{P, use, res};
-  motor_test(c);
-  experiment1(c);
-  experiment2(c);
-  experiment3(c);
+namespace {
 
+// The report: every window found and every rejection.
+void record_windows(const Prepared &P, IdentResult &res) {
+  for (size_t i = 0; i < P.segments.size(); ++i) {
+    const Segment &s = P.segments[i];
+    const SegmentWindows &w = P.windows[i];
+    auto used = [&](const std::vector<Window> &ws, const char *what) {
+      for (const Window &x : ws)
+        res.windows.push_back({i, s.kind, s.direction, what, seg_time(s, x.m0),
+                               seg_time(s, x.m1 - 1), true, ""});
+    };
+    used(w.steady, "steady window");
+    used(w.coast, "coast-down");
+    used(w.step, "step");
+    for (const Rejection &r : w.rejected)
+      res.windows.push_back({i, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
+  }
+}
+
+// Each parameter's final value from the methods that give it (combine_methods), into
+// res.table["final"] and res.final. Returns how many were found.
+size_t combine_final(const Prepared &P, IdentResult &res) {
   auto &fin = res.table["final"];
   static const std::map<std::string, std::vector<const char *>> sources = {
       {"Kv", {"motor"}},          {"R", {"motor", "exp3_iv"}},  {"J", {"exp2", "exp3_iv"}},
@@ -1063,7 +1120,24 @@ IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in) {
       if (std::string(p) == model_params_names[i]) *model_params_field(&res.final, i) = e.value;
   }
   if (res.identified["Kv"]) res.final.Kt = res.final.Kv;
-  if (found == 0) {
+  return found;
+}
+
+}  // namespace
+
+IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in) {
+  std::vector<size_t> all(P.segments.size());
+  std::iota(all.begin(), all.end(), 0);
+  const std::vector<size_t> &use = use_in ? *use_in : all;
+  IdentResult res;
+  for (size_t i : use) ++res.segments_used[P.segments[i].kind];
+  if (!use_in) record_windows(P, res);
+  Context c{P, use, res};
+  motor_test(c);
+  experiment1(c);
+  experiment2(c);
+  experiment3(c);
+  if (combine_final(P, res) == 0) {
     std::string why = "nothing can be identified from these logs:";
     for (const std::string &m : res.missing) why += "\n  " + m;
     throw IdentError(why);
