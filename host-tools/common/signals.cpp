@@ -51,16 +51,13 @@ int find_axis(const std::string &direction) {
 }
 
 
-EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s) {
-  EncoderTrack out;
-  const auto &m = log.motors;
+namespace {
+
+// The robot velocity of every sample (eqs 3-5), the filter's time step and half width, and
+// whether each sample joins the previous one (next seq, about one step later).
+void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, double half_s,
+                    EncoderTrack &out) {
   const size_t n = m.size();
-  out.raw.resize(n);
-  out.x.assign(n, {NAN, NAN, NAN});
-  out.dx.assign(n, {NAN, NAN, NAN});
-  out.ok.assign(n, 0);
-  out.joined.assign(n, 0);
-  if (n < 3) return out;
   std::vector<int64_t> steps(n - 1);
   for (size_t k = 1; k < n; ++k) steps[k - 1] = m[k].utime - m[k - 1].utime;
   std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
@@ -77,38 +74,58 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
       out.joined[k] = m[k].seq == m[k - 1].seq + 1 && 2 * gap > step_us && 2 * gap < 3 * step_us;
     }
   }
+}
+
+// The filter over the contiguous block [a, b) (at least one whole window long): per axis, the
+// raw series is copied into a contiguous array y and each filter tap is one pass over the block
+// (a loop over k with unit stride: the compiler vectorises it). xs, ds: work arrays.
+void filter_block(const SgFilter &f, size_t a, size_t b, std::vector<double> &y,
+                  std::vector<double> &xs, std::vector<double> &ds, EncoderTrack &out) {
+  const int h = out.half;
+  const size_t k0 = a + h, k1 = b - h;  // centres [k0, k1)
+  for (int ax = 0; ax < 3; ++ax) {
+    for (size_t k = a; k < b; ++k) y[k] = out.raw[k][ax];
+    std::fill(xs.begin() + k0, xs.begin() + k1, 0.0);
+    std::fill(ds.begin() + k0, ds.begin() + k1, 0.0);
+    for (int q = -h; q <= h; ++q) {
+      const double cs = f.smooth[q + h], cd = f.deriv[q + h];
+      const double *src = y.data() + (static_cast<std::ptrdiff_t>(k0) + q);
+      double *__restrict xo = xs.data() + k0;
+      double *__restrict dout = ds.data() + k0;
+      for (size_t i = 0; i < k1 - k0; ++i) {
+        xo[i] += cs * src[i];
+        dout[i] += cd * src[i];
+      }
+    }
+    for (size_t k = k0; k < k1; ++k) {
+      out.x[k][ax] = xs[k];
+      out.dx[k][ax] = ds[k] / out.dt;
+    }
+  }
+  for (size_t k = k0; k < k1; ++k) out.ok[k] = 1;
+}
+
+}  // namespace
+
+EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s) {
+  EncoderTrack out;
+  const auto &m = log.motors;
+  const size_t n = m.size();
+  out.raw.resize(n);
+  out.x.assign(n, {NAN, NAN, NAN});
+  out.dx.assign(n, {NAN, NAN, NAN});
+  out.ok.assign(n, 0);
+  out.joined.assign(n, 0);
+  if (n < 3) return out;
+  raw_velocities(m, d, r, half_s, out);
   const int h = out.half;
   const SgFilter f = savitzky_golay(h, 2);
-  // Contiguous blocks [a, b): the filter runs inside each, never across a gap. Per axis, the
-  // raw series is copied into a contiguous array and each filter tap is one pass over the
-  // block (a loop over k with unit stride: the compiler vectorises it).
+  // Contiguous blocks [a, b): the filter runs inside each, never across a gap.
   std::vector<double> y(n), xs(n), ds(n);
   size_t a = 0;
   for (size_t b = 1; b <= n; ++b) {
     if (b < n && out.joined[b]) continue;
-    if (b >= a + 2 * h + 1) {
-      const size_t k0 = a + h, k1 = b - h;  // centres [k0, k1)
-      for (int ax = 0; ax < 3; ++ax) {
-        for (size_t k = a; k < b; ++k) y[k] = out.raw[k][ax];
-        std::fill(xs.begin() + k0, xs.begin() + k1, 0.0);
-        std::fill(ds.begin() + k0, ds.begin() + k1, 0.0);
-        for (int q = -h; q <= h; ++q) {
-          const double cs = f.smooth[q + h], cd = f.deriv[q + h];
-          const double *src = y.data() + (static_cast<std::ptrdiff_t>(k0) + q);
-          double *__restrict xo = xs.data() + k0;
-          double *__restrict dout = ds.data() + k0;
-          for (size_t i = 0; i < k1 - k0; ++i) {
-            xo[i] += cs * src[i];
-            dout[i] += cd * src[i];
-          }
-        }
-        for (size_t k = k0; k < k1; ++k) {
-          out.x[k][ax] = xs[k];
-          out.dx[k][ax] = ds[k] / out.dt;
-        }
-      }
-      for (size_t k = k0; k < k1; ++k) out.ok[k] = 1;
-    }
+    if (b >= a + 2 * h + 1) filter_block(f, a, b, y, xs, ds, out);
     a = b;
   }
   return out;

@@ -134,6 +134,51 @@ void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptio
                                 opt.steady_min_s, longest)});
 }
 
+// From the first sample k of a motion along axis (sign: its direction) in [k, b): follow the
+// speed up to its peak; the free coast starts once it has fallen 3 % below the peak and 50 ms
+// have passed (a push by hand lets go gradually). start == b: no free coast (stopped: the
+// robot stopped again before one could be seen).
+struct CoastStart {
+  size_t peak, start;
+  bool stopped;
+};
+
+CoastStart free_coast_start(const std::vector<MotorsSample> &m, const EncoderTrack &enc, int axis,
+                            double sign, double stop, size_t k, size_t b) {
+  CoastStart c{k, b, false};
+  for (size_t q = k; q < b; ++q) {
+    if (!enc.ok[q]) continue;
+    const double x = sign * enc.x[q][axis];
+    if (x > sign * enc.x[c.peak][axis]) c.peak = q;
+    if (x <= 0.97 * sign * enc.x[c.peak][axis] && (m[q].utime - m[c.peak].utime) >= 50000) {
+      c.start = q;
+      break;
+    }
+    if (x < stop) {  // stopped again before a free coast could be seen
+      c.stopped = true;
+      break;
+    }
+  }
+  return c;
+}
+
+// The coast-down [start, end) of a motion with peak speed peak_x: kept, or rejected as too
+// slow or too short.
+void judge_coast(const Segment &s, size_t start, size_t end, double sign, double peak_x,
+                 double stop, const WindowOptions &opt, SegmentWindows &out) {
+  const double dur = span_s(s.log->motors, start, end);
+  if (peak_x < 3 * stop) {
+    out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
+                            fmt("too slow: peak %.3g, need %.3g", peak_x, 3 * stop)});
+  } else if (dur < opt.coast_min_s) {
+    out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
+                            fmt("too short: %.2f s of free deceleration, need %.2f s", dur,
+                                opt.coast_min_s)});
+  } else {
+    out.coast.push_back({start, end, sign});
+  }
+}
+
 void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const WindowOptions &opt,
                    SegmentWindows &out) {
   const auto &m = s.log->motors;
@@ -148,48 +193,21 @@ void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const Wi
       if (k >= b) break;
       moved = true;
       const double sign = enc.x[k][axis] > 0 ? 1.0 : -1.0;
-      // Follow the speed up to its peak; the free coast starts once it has fallen 3 % below
-      // the peak and 50 ms have passed (a push by hand lets go gradually).
-      size_t peak = k;
-      size_t start = b;
-      bool stopped = false;
-      for (size_t q = k; q < b; ++q) {
-        if (!enc.ok[q]) continue;
-        const double x = sign * enc.x[q][axis];
-        if (x > sign * enc.x[peak][axis]) peak = q;
-        if (x <= 0.97 * sign * enc.x[peak][axis] && (m[q].utime - m[peak].utime) >= 50000) {
-          start = q;
-          break;
-        }
-        if (x < stop) {  // stopped again before a free coast could be seen
-          stopped = true;
-          break;
-        }
-      }
-      const double peak_x = sign * enc.x[peak][axis];
-      if (start >= b) {
+      const CoastStart c = free_coast_start(m, enc, axis, sign, stop, k, b);
+      const double peak_x = sign * enc.x[c.peak][axis];
+      if (c.start >= b) {
         out.rejected.push_back({"coast-down", seg_time(s, k), seg_time(s, b - 1),
-                                stopped ? fmt("stopped within 50 ms of its peak of %.3g", peak_x)
-                                        : fmt("no free deceleration after the peak of %.3g "
-                                              "(bridges driven again or the segment ends)",
-                                              peak_x)});
-        k = std::max(peak + 1, k + 1);
+                                c.stopped ? fmt("stopped within 50 ms of its peak of %.3g", peak_x)
+                                          : fmt("no free deceleration after the peak of %.3g "
+                                                "(bridges driven again or the segment ends)",
+                                                peak_x)});
+        k = std::max(c.peak + 1, k + 1);
         while (k < b && enc.ok[k] && std::abs(enc.x[k][axis]) > stop) ++k;
         continue;
       }
-      size_t end = start;
+      size_t end = c.start;
       while (end < b && (!enc.ok[end] || sign * enc.x[end][axis] >= stop)) ++end;
-      const double dur = span_s(m, start, end);
-      if (peak_x < 3 * stop) {
-        out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
-                                fmt("too slow: peak %.3g, need %.3g", peak_x, 3 * stop)});
-      } else if (dur < opt.coast_min_s) {
-        out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
-                                fmt("too short: %.2f s of free deceleration, need %.2f s", dur,
-                                    opt.coast_min_s)});
-      } else {
-        out.coast.push_back({start, end, sign});
-      }
+      judge_coast(s, c.start, end, sign, peak_x, stop, opt, out);
       k = end;
     }
   }
