@@ -25,6 +25,13 @@ bool IdentResult::complete() const {
   return true;
 }
 
+Estimate find_estimate(const IdentResult &r, const char *method, const char *param) {
+  const auto m = r.table.find(method);
+  if (m == r.table.end()) return {};
+  const auto p = m->second.find(param);
+  return p == m->second.end() ? Estimate{} : p->second;
+}
+
 double chi2_sf(double x, int dof) {
   if (dof <= 0) return 1.0;
   if (!(x > 0)) return 1.0;
@@ -744,13 +751,6 @@ void experiment2(Context &c) {
   }
 }
 
-Estimate lookup(const IdentResult &r, const char *method, const char *param) {
-  const auto m = r.table.find(method);
-  if (m == r.table.end()) return {};
-  const auto p = m->second.find(param);
-  return p == m->second.end() ? Estimate{} : p->second;
-}
-
 // ---- experiment 3 (eqs 31-35) ----------------------------------------------------------
 
 double input_of(const MotorsSample &m, int axis) {
@@ -990,7 +990,7 @@ void experiment3(Context &c) {
   model_params p = c.P.base;  // geometry and M; Kt = Kv of the motor test; R and J as found
   p.Kv = p.Kt = kv->second.value;
   const Exp3Fits fits = fit_step_axes(c);
-  const Estimate Rm = lookup(res, "motor", "R");
+  const Estimate Rm = find_estimate(res, "motor", "R");
   for (const auto &[name, axis_fits] :
        {std::pair<std::string, const std::array<Fit, 3> *>{"exp3_ls", &fits.ls},
         {"exp3_iv", &fits.iv}}) {
@@ -1108,7 +1108,7 @@ size_t combine_final(const Prepared &P, IdentResult &res) {
   size_t found = 0;
   for (const char *p : kIdentParams) {
     std::vector<Estimate> est;
-    for (const char *m : sources.at(p)) est.push_back(lookup(res, m, p));
+    for (const char *m : sources.at(p)) est.push_back(find_estimate(res, m, p));
     Agreement ag;
     const Estimate e = combine_methods(est, P.opt, &ag);
     res.agreement[p] = ag;

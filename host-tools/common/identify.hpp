@@ -85,6 +85,9 @@ struct IdentResult {
   std::vector<std::string> missing;  // one line per thing that could not be identified
 };
 
+// The estimate of param by method (not ok() when the method gave none).
+Estimate find_estimate(const IdentResult &r, const char *method, const char *param);
+
 // Encoder and camera tracks and windows of every segment, computed once (identify and the
 // bootstrap replicates share them).
 struct Prepared {

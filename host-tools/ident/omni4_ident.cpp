@@ -254,13 +254,6 @@ double field(const model_params &p, const std::string &name) {
 // the 2 % that identification aims at (two standard errors).
 bool thin_estimate(const Estimate &e) { return std::isfinite(e.se) && e.se > 0.01 * std::abs(e.value); }
 
-Estimate find_estimate(const IdentResult &r, const char *method, const char *param) {
-  const auto mit = r.table.find(method);
-  if (mit == r.table.end()) return {};
-  const auto pit = mit->second.find(param);
-  return pit == mit->second.end() ? Estimate{} : pit->second;
-}
-
 // One row per parameter: every method's estimate, the methods' agreement, the error to truth.
 void print_estimates(const IdentResult &r, const model_params *truth) {
   static const char *const headers[6] = {"motor test", "exp 1", "exp 2", "exp 3 LS",
