@@ -29,6 +29,14 @@ LOG_PLOT_POINTS = 4000  # min/max pairs per line in a log figure: extremes kept,
 SEGMENT_COLORS = {"steady_rotation": "C0", "coast": "C1", "motor": "C2", "step": "C3"}
 
 
+def save(fig, out, name, rect=None):
+    """Lays fig out (inside rect), writes it to out/name at 110 dpi and closes it; returns name."""
+    fig.tight_layout(rect=rect)
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
 def read_csv(path):
     if not os.path.exists(path):
         return []
@@ -61,11 +69,7 @@ def fig_rotation(rows, params, out):
     ax.set_title("Experiment 1: steady rotation (eq 16)")
     ax.grid(True)
     ax.legend()
-    name = "exp1_torque.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "exp1_torque.png")
 
 
 def fig_coast(rows, out):
@@ -87,9 +91,7 @@ def fig_coast(rows, out):
         ax.grid(True)
         ax.legend(fontsize=7)
         name = f"exp2_coast_{d}.png"
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, name), dpi=110)
-        plt.close(fig)
+        save(fig, out, name)
         names.append(name)
     return names
 
@@ -113,11 +115,7 @@ def fig_motor(rows, params, out):
     ax.set_title("Motor test (eq 22)")
     ax.grid(True)
     ax.legend(fontsize=8)
-    name = "motor_test.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "motor_test.png")
 
 
 PARAMS = ["Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"]
@@ -148,11 +146,7 @@ def fig_bootstrap(samples, summary, out):
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
     fig.suptitle("Bootstrap over runs: replicates, final value (red), 95 % interval (dashed)",
                  fontsize=10)
-    fig.tight_layout()
-    name = "bootstrap.png"
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "bootstrap.png")
 
 
 def fig_windows(rows, out):
@@ -175,11 +169,7 @@ def fig_windows(rows, out):
     ax.set_xlabel("t since the segment's mark [s]")
     ax.set_title("Windows found in the data: used (green), rejected (red)")
     ax.grid(True, axis="x")
-    name = "windows.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "windows.png")
 
 
 def fig_validation(rows, out):
@@ -207,9 +197,7 @@ def fig_validation(rows, out):
         axes[1].set_xlabel("t [s]")
         axes[1].grid(True)
         name = f"validation_{d}.png"
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, name), dpi=110)
-        plt.close(fig)
+        save(fig, out, name)
         names.append(name)
     return names
 
@@ -275,9 +263,7 @@ def fig_log(path, index, out):
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=8, ncol=len(labels), loc="lower center")
     name = f"log_{index}_{os.path.basename(path).replace('.', '_')}.png"
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
+    save(fig, out, name, rect=(0, 0.03, 1, 1))
     lines = [f"`{path}`: {t[-1]:.1f} s of OMNI4_MOTORS, {len(e)} experiment marks, "
              f"{len(log.pose)} poses, {len(log.cmd)} commands.", "", "```"]
     return name, lines + log.summary().splitlines() + ["```", ""]
