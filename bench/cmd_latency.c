@@ -20,7 +20,7 @@
 #include "omni4/rtloop.h"
 #include "omni4_command_t.h"
 
-static _Atomic int64_t seen_ns;  /* when the awaited value was first written */
+static _Atomic int64_t seen_ns; /* when the awaited value was first written */
 static _Atomic float awaited;
 
 static int stamp_write(void *ctx, const float volts[4])
@@ -66,8 +66,10 @@ static int measure(lcm_t *tx, int n, double *lat)
 	for (int k = 0; k < n; k++) {
 		const float v = 0.5f + 0.01f * (float)(k % 500);
 		const struct timespec wait = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
-		omni4_command_t c = {.seq = k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
-				     .voltage = {v, v, v, v}, .ramp_s = 0};
+		omni4_command_t c = {.seq = k,
+				     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+				     .voltage = {v, v, v, v},
+				     .ramp_s = 0};
 
 		nanosleep(&wait, NULL); /* a random phase against the loop */
 		atomic_store(&seen_ns, 0);
@@ -100,9 +102,13 @@ int main(int argc, char **argv)
 	}
 	ctl_settings_defaults(&ctl);
 	sim_settings_defaults(&sim);
-	const struct robot_spec spec = {.ctl = &ctl, .motor = OMNI4_MOTOR_SIM,
-					.lines = OMNI4_LINES_NONE, .sim = &sim, .sim_exact = true,
-					.utime0 = rtloop_clock_us(), .wrap = stamped};
+	const struct robot_spec spec = {.ctl = &ctl,
+					.motor = OMNI4_MOTOR_SIM,
+					.lines = OMNI4_LINES_NONE,
+					.sim = &sim,
+					.sim_exact = true,
+					.utime0 = rtloop_clock_us(),
+					.wrap = stamped};
 	struct fw *fw = &robot.fw;
 
 	if (robot_open(&robot, &spec, why, sizeof(why))) {

@@ -39,7 +39,7 @@ struct recorder {
 	lcm_eventlog_t *log; /* NULL once the next part of a series could not be opened */
 	char base[4000];     /* --out after strftime */
 	char path[4096];     /* the file being written */
-	int part;            /* -1: one file; else the NN of FILE.NN */
+	int part;	     /* -1: one file; else the NN of FILE.NN */
 	uint64_t split_bytes, bytes;
 	uint64_t written, errors;
 	uint64_t requests_skipped; /* OMNI4_PARAM_REQ messages left out */
@@ -54,24 +54,26 @@ static void on_signal(int sig)
 
 static void usage(FILE *f)
 {
-	fprintf(f,
-		"usage: omni4-record --out FILE [--lcm URL] [--channel REGEX] [--duration S]\n"
-		"                    [--split-mb MB] [-q]\n"
-		"Records LCM messages into an LCM event log (lcm-logplayer, omni4-ident read it),\n"
-		"with a 100000-message receive queue: a recorder that waits for the CPU or the disk\n"
-		"for a moment loses nothing.\n"
-		"  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are expanded;\n"
-		"                       an existing file is never overwritten\n"
-		"  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
-		"  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
-		"                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
-		"                       never recorded\n"
-		"  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
-		"  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
-		"                       holds MB megabytes\n"
-		"  -q, --quiet          no progress line\n"
-		"  -h, --help           this text\n"
-		"example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
+	fprintf(
+	    f,
+	    "usage: omni4-record --out FILE [--lcm URL] [--channel REGEX] [--duration S]\n"
+	    "                    [--split-mb MB] [-q]\n"
+	    "Records LCM messages into an LCM event log (lcm-logplayer, omni4-ident read it),\n"
+	    "with a 100000-message receive queue: a recorder that waits for the CPU or the disk\n"
+	    "for a moment loses nothing.\n"
+	    "  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are "
+	    "expanded;\n"
+	    "                       an existing file is never overwritten\n"
+	    "  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
+	    "  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
+	    "                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
+	    "                       never recorded\n"
+	    "  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
+	    "  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
+	    "                       holds MB megabytes\n"
+	    "  -q, --quiet          no progress line\n"
+	    "  -h, --help           this text\n"
+	    "example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
 }
 
 /* Opens the one file, or the next one of the series; never over an existing file. */
@@ -142,8 +144,8 @@ static bool parse_number(const char *opt, const char *arg, double lo, double hi,
 	const double v = strtod(arg, &end);
 
 	if (end == arg || *end || !(v >= lo && v <= hi)) {
-		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg, lo,
-			hi);
+		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg,
+			lo, hi);
 		return false;
 	}
 	*out = v;
@@ -159,19 +161,28 @@ struct record_args {
 /* The command line into *a: -1 to go on, else the exit status (0 after --help or --version). */
 static int parse_args(int argc, char **argv, struct record_args *a)
 {
-	static const struct option opts[] = {
-		{"out", required_argument, NULL, 'o'},      {"lcm", required_argument, NULL, 'l'},
-		{"channel", required_argument, NULL, 'c'},  {"duration", required_argument, NULL, 'd'},
-		{"split-mb", required_argument, NULL, 's'}, {"quiet", no_argument, NULL, 'q'},
-		{"help", no_argument, NULL, 'h'},           {"version", no_argument, NULL, 'V'},
-		{NULL, 0, NULL, 0}};
+	static const struct option opts[] = {{"out", required_argument, NULL, 'o'},
+					     {"lcm", required_argument, NULL, 'l'},
+					     {"channel", required_argument, NULL, 'c'},
+					     {"duration", required_argument, NULL, 'd'},
+					     {"split-mb", required_argument, NULL, 's'},
+					     {"quiet", no_argument, NULL, 'q'},
+					     {"help", no_argument, NULL, 'h'},
+					     {"version", no_argument, NULL, 'V'},
+					     {NULL, 0, NULL, 0}};
 	int c;
 
 	while ((c = omni4_getopt_long("omni4-record", argc, argv, "o:l:c:d:s:qh", opts)) != -1) {
 		switch (c) {
-		case 'o': a->out = optarg; break;
-		case 'l': a->url = optarg; break;
-		case 'c': a->channel = optarg; break;
+		case 'o':
+			a->out = optarg;
+			break;
+		case 'l':
+			a->url = optarg;
+			break;
+		case 'c':
+			a->channel = optarg;
+			break;
 		case 'd':
 			if (!parse_number("duration", optarg, 1e-3, 1e9, &a->duration))
 				return 2;
@@ -180,9 +191,15 @@ static int parse_args(int argc, char **argv, struct record_args *a)
 			if (!parse_number("split-mb", optarg, 0.01, 1e6, &a->split_mb))
 				return 2;
 			break;
-		case 'q': a->quiet = true; break;
-		case 'h': usage(stdout); return 0;
-		case 'V': printf("omni4-record %s\n", OMNI4_VERSION); return 0;
+		case 'q':
+			a->quiet = true;
+			break;
+		case 'h':
+			usage(stdout);
+			return 0;
+		case 'V':
+			printf("omni4-record %s\n", OMNI4_VERSION);
+			return 0;
 		default: /* '?': omni4_getopt_long said what */
 			return 2;
 		}
@@ -192,7 +209,8 @@ static int parse_args(int argc, char **argv, struct record_args *a)
 		return 2;
 	}
 	if (optind != argc) {
-		fprintf(stderr, "omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
+		fprintf(stderr,
+			"omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
 			argv[optind]);
 		return 2;
 	}
@@ -208,7 +226,8 @@ static bool name_log(struct recorder *r, const struct record_args *a)
 	r->part = a->split_mb > 0 ? 0 : -1;
 	r->split_bytes = (uint64_t)(a->split_mb * 1e6);
 	if (!localtime_r(&now, &tm) || !strftime(r->base, sizeof(r->base), a->out, &tm)) {
-		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n", a->out);
+		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n",
+			a->out);
 		return false;
 	}
 	return true;
@@ -226,7 +245,8 @@ static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct re
 		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r->path, a->channel,
 			a->url ? a->url : "LCM's default URL");
 	while (!g_stop && !(a->duration > 0 && mono_s() - t0 >= a->duration)) {
-		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to stop */
+		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to
+		 * stop */
 		if (lcm_handle_timeout(lcm, 50) < 0 && !g_stop && errno != EINTR) {
 			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
 			r->first_errno = r->errors ? r->first_errno : EIO;
@@ -256,9 +276,10 @@ static int report(const struct recorder *r, const struct record_args *a)
 			tty && !a->quiet ? "\n" : "", r->path, (unsigned long long)r->written,
 			(unsigned long long)r->errors, strerror(r->first_errno));
 	else if (!a->quiet)
-		fprintf(stderr, "%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
-			tty ? "\n" : "", r->base, r->part >= 0 ? ".NN" : "", (unsigned long long)r->written,
-			(unsigned long long)r->requests_skipped);
+		fprintf(stderr,
+			"%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
+			tty ? "\n" : "", r->base, r->part >= 0 ? ".NN" : "",
+			(unsigned long long)r->written, (unsigned long long)r->requests_skipped);
 	return r->errors ? 1 : 0;
 }
 
@@ -275,7 +296,8 @@ int main(int argc, char **argv)
 	lcm_t *lcm = lcm_create(a.url);
 
 	if (!lcm) {
-		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n", a.url ? a.url : "(default)");
+		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n",
+			a.url ? a.url : "(default)");
 		return 1;
 	}
 	if (open_next(&r)) {
