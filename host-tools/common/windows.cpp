@@ -52,6 +52,32 @@ std::vector<std::pair<size_t, size_t>> mode_runs(const Segment &s, bool driven)
 	return out;
 }
 
+// The mean raw encoder velocity over the block of samples starting at a.
+struct Block {
+	size_t a;
+	std::array<double, 3> x;
+};
+
+// Final value ref: the last two blocks (the first two of blocks, which run backwards). The
+// tolerance tol grows by 3 standard deviations of a block mean's measurement noise, estimated
+// from the hold itself: the lower quartile of the differences of neighbouring blocks
+// (|N(0, s)| has its quartile at 0.3186 s) is blind to a transient over up to 3/4 of the hold;
+// a difference of two block means has s = sqrt(2) sigma.
+void final_value(const std::vector<Block> &blocks, const WindowOptions &opt,
+		 std::array<double, 3> &ref, std::array<double, 3> &tol)
+{
+	std::vector<double> diff(blocks.size() - 1);
+	for (int ax = 0; ax < 3; ++ax) {
+		ref[ax] = 0.5 * (blocks[0].x[ax] + blocks[1].x[ax]);
+		for (size_t q = 0; q + 1 < blocks.size(); ++q)
+			diff[q] = std::abs(blocks[q].x[ax] - blocks[q + 1].x[ax]);
+		std::nth_element(diff.begin(), diff.begin() + diff.size() / 4, diff.end());
+		const double noise = diff[diff.size() / 4] / 0.3186 / std::sqrt(2.0);
+		tol[ax] = opt.steady_tol * std::abs(ref[ax]) +
+			  (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v) + 3 * noise;
+	}
+}
+
 // The settled tail of a constant-voltage hold [a, b), or a rejection.
 void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const WindowOptions &opt,
 	    SegmentWindows &out)
@@ -61,10 +87,6 @@ void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const
 	    std::max<size_t>(5, static_cast<size_t>(std::lround(opt.block_s / enc.dt)));
 	// Block means of the raw encoder velocity, from the end backwards (so the last block is
 	// full).
-	struct Block {
-		size_t a;
-		std::array<double, 3> x;
-	};
 	std::vector<Block> blocks;
 	for (size_t e = b; e >= a + nb; e -= nb) {
 		std::array<double, 3> x{};
@@ -79,22 +101,8 @@ void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const
 					fmt("hold of %.2f s too short to test", hold)});
 		return;
 	}
-	// Final value: the last two blocks. The tolerance grows by 3 standard deviations of a block
-	// mean's measurement noise, estimated from the hold itself: the lower quartile of the
-	// differences of neighbouring blocks (|N(0, s)| has its quartile at 0.3186 s) is blind to a
-	// transient over up to 3/4 of the hold; a difference of two block means has s = sqrt(2)
-	// sigma.
 	std::array<double, 3> ref{}, tol{};
-	std::vector<double> diff(blocks.size() - 1);
-	for (int ax = 0; ax < 3; ++ax) {
-		ref[ax] = 0.5 * (blocks[0].x[ax] + blocks[1].x[ax]);
-		for (size_t q = 0; q + 1 < blocks.size(); ++q)
-			diff[q] = std::abs(blocks[q].x[ax] - blocks[q + 1].x[ax]);
-		std::nth_element(diff.begin(), diff.begin() + diff.size() / 4, diff.end());
-		const double noise = diff[diff.size() / 4] / 0.3186 / std::sqrt(2.0);
-		tol[ax] = opt.steady_tol * std::abs(ref[ax]) +
-			  (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v) + 3 * noise;
-	}
+	final_value(blocks, opt, ref, tol);
 	size_t keep = 0;
 	for (const Block &bl : blocks) {
 		bool within = true;
