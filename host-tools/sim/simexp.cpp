@@ -9,7 +9,6 @@
 #include <thread>
 
 #include "experiments.hpp"
-#include "omni4/experiment_t.hpp"
 
 namespace omni4
 {
@@ -62,12 +61,9 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 		}
 	}
 	if (experiments) { // close the last segment
-		experiment_t end{};
-		end.utime = simrun_now_us(sr.get());
-		end.kind = OMNI4_MARK_END;
-		std::vector<uint8_t> buf(end.getEncodedSize());
-		end.encode(buf.data(), 0, static_cast<int>(buf.size()));
-		simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, buf.data(), buf.size());
+		const std::vector<uint8_t> end =
+		    encode_mark(simrun_now_us(sr.get()), OMNI4_MARK_END);
+		simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, end.data(), end.size());
 	}
 	if (progress && !interrupted)
 		progress(1.0, phases.size(), phases.size());
