@@ -20,18 +20,13 @@
 #include "omni4/rtloop.h"
 #include "omni4_command_t.h"
 
-static _Atomic int64_t seen_ns;  /* when the awaited value was first written */
+static _Atomic int64_t seen_ns; /* when the awaited value was first written */
 static _Atomic float awaited;
-
-static int64_t now_ns(void)
-{
-	return omni4_monotonic_ns();
-}
 
 static int stamp_write(void *ctx, const float volts[4])
 {
 	if (volts[0] == atomic_load(&awaited) && atomic_load(&seen_ns) == 0)
-		atomic_store(&seen_ns, now_ns());
+		atomic_store(&seen_ns, omni4_monotonic_ns());
 	return sim_motor_ops.write(ctx, volts);
 }
 
@@ -58,6 +53,41 @@ static void tick(void *ctx, int64_t now_us)
 	fw_tick(ctx, now_us);
 }
 
+/*
+ * Publishes n VOLTAGE commands with distinct values, each at a random phase against the loop,
+ * and puts the latency of each one that reached the HAL within 50 ms into lat [us]. Returns
+ * how many did.
+ */
+static int measure(lcm_t *tx, int n, double *lat)
+{
+	int got = 0;
+
+	srand(7);
+	for (int k = 0; k < n; k++) {
+		const float v = 0.5f + 0.01f * (float)(k % 500);
+		const struct timespec wait = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
+		omni4_command_t c = {.seq = k,
+				     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+				     .voltage = {v, v, v, v},
+				     .ramp_s = 0};
+
+		nanosleep(&wait, NULL); /* a random phase against the loop */
+		atomic_store(&seen_ns, 0);
+		atomic_store(&awaited, v);
+		const int64_t t0 = omni4_monotonic_ns();
+
+		omni4_command_t_publish(tx, OMNI4_CHANNEL_CMD, &c);
+		while (!atomic_load(&seen_ns) && omni4_monotonic_ns() - t0 < 50000000) {
+			const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000};
+
+			nanosleep(&nap, NULL);
+		}
+		if (atomic_load(&seen_ns))
+			lat[got++] = (double)(atomic_load(&seen_ns) - t0) / 1000.0;
+	}
+	return got;
+}
+
 int main(int argc, char **argv)
 {
 	static struct robot robot;
@@ -72,9 +102,13 @@ int main(int argc, char **argv)
 	}
 	ctl_settings_defaults(&ctl);
 	sim_settings_defaults(&sim);
-	const struct robot_spec spec = {.ctl = &ctl, .motor = OMNI4_MOTOR_SIM,
-					.lines = OMNI4_LINES_NONE, .sim = &sim, .sim_exact = true,
-					.utime0 = rtloop_clock_us(), .wrap = stamped};
+	const struct robot_spec spec = {.ctl = &ctl,
+					.motor = OMNI4_MOTOR_SIM,
+					.lines = OMNI4_LINES_NONE,
+					.sim = &sim,
+					.sim_exact = true,
+					.utime0 = rtloop_clock_us(),
+					.wrap = stamped};
 	struct fw *fw = &robot.fw;
 
 	if (robot_open(&robot, &spec, why, sizeof(why))) {
@@ -93,29 +127,8 @@ int main(int argc, char **argv)
 	if (lcmio_start(&io, rx, fw) || rtloop_start(&loop, 1000.0, 80, 0, tick, fw))
 		return 1;
 	double *lat = calloc((size_t)n, sizeof(double));
-	int got = 0;
+	const int got = measure(tx, n, lat);
 
-	srand(7);
-	for (int k = 0; k < n; k++) {
-		const float v = 0.5f + 0.01f * (float)(k % 500);
-		const struct timespec wait = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
-		omni4_command_t c = {.seq = k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
-				     .voltage = {v, v, v, v}, .ramp_s = 0};
-
-		nanosleep(&wait, NULL); /* a random phase against the loop */
-		atomic_store(&seen_ns, 0);
-		atomic_store(&awaited, v);
-		const int64_t t0 = now_ns();
-
-		omni4_command_t_publish(tx, OMNI4_CHANNEL_CMD, &c);
-		while (!atomic_load(&seen_ns) && now_ns() - t0 < 50000000) {
-			const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000};
-
-			nanosleep(&nap, NULL);
-		}
-		if (atomic_load(&seen_ns))
-			lat[got++] = (double)(atomic_load(&seen_ns) - t0) / 1000.0;
-	}
 	rtloop_request_stop(&loop);
 	rtloop_join(&loop);
 	lcmio_stop(&io);

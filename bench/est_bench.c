@@ -36,7 +36,7 @@ struct bench {
 	double d, r, period_s;
 	int64_t utime0;
 	long ticks_max;
-	double (*truth)[3];   /* world pose per tick */
+	double (*truth)[3]; /* world pose per tick */
 	/* wheel odometry */
 	double odo[3];
 	int64_t odo_last;
@@ -95,7 +95,8 @@ static void odometry(struct bench *b, const omni4_motors_t *m)
 static void on_motors(struct bench *b, const omni4_motors_t *m)
 {
 	const double *t = truth_at(b, m->utime);
-	/* the frames-at-arrival twin: what drove the robot up to this reading, as the loop has it */
+	/* the frames-at-arrival twin: what drove the robot up to this reading, as the loop has it
+	 */
 	struct est_input in = {.utime = m->utime, .have_wheels = true};
 
 	if (b->have_prev) {
@@ -135,8 +136,10 @@ static void on_pose(struct bench *b, const omni4_pose_t *p, int64_t arrival)
 static void tap(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
 {
 	struct bench *b = ctx;
-	/* The messages of a tick come out after its plant step: the plant is at this tick's time. */
-	const long k = (long)llround((double)(simrun_now_us(b->sr) - b->utime0) * 1e-6 / b->period_s);
+	/* The messages of a tick come out after its plant step: the plant is at this tick's time.
+	 */
+	const long k =
+	    (long)llround((double)(simrun_now_us(b->sr) - b->utime0) * 1e-6 / b->period_s);
 	double vel[3];
 
 	if (k >= 0 && k < b->ticks_max)
@@ -159,8 +162,10 @@ static void tap(void *ctx, const char *channel, int64_t utime, const void *data,
 static void command(struct bench *b, double v, double vn, double w, int64_t *seq)
 {
 	unsigned char buf[256];
-	omni4_command_t c = {.utime = simrun_now_us(b->sr), .seq = (*seq)++,
-			     .mode = OMNI4_COMMAND_T_MODE_VELOCITY, .velocity = {v, vn, w}};
+	omni4_command_t c = {.utime = simrun_now_us(b->sr),
+			     .seq = (*seq)++,
+			     .mode = OMNI4_COMMAND_T_MODE_VELOCITY,
+			     .velocity = {v, vn, w}};
 	const int n = omni4_command_t_encode(buf, 0, sizeof(buf), &c);
 
 	simrun_command(b->sr, buf, (size_t)n);
@@ -169,7 +174,7 @@ static void command(struct bench *b, double v, double vn, double w, int64_t *seq
 /* The velocity asked for at time t [s]: validation steps, then the path. */
 static void drive_at(double t, double steps_s, double x[3])
 {
-	static const double steps[][3] = {{1, 0, 0}, {0, 0, 0}, {0, 1, 0}, {0, 0, 0}, {0, 0, 6},
+	static const double steps[][3] = {{1, 0, 0}, {0, 0, 0},	 {0, 1, 0}, {0, 0, 0},	{0, 0, 6},
 					  {0, 0, 0}, {-1, 0, 0}, {0, 0, 0}, {0, -1, 0}, {0, 0, 0}};
 	const int n = (int)(sizeof(steps) / sizeof(steps[0]));
 
@@ -179,15 +184,16 @@ static void drive_at(double t, double steps_s, double x[3])
 	}
 	const double s = t - steps_s;
 
-	x[0] = 1.5 + 0.5 * sin(2 * PI * s / 15.0);   /* 1-2 m/s */
+	x[0] = 1.5 + 0.5 * sin(2 * PI * s / 15.0); /* 1-2 m/s */
 	x[1] = 0.3 * sin(2 * PI * s / 7.0);
-	x[2] = 1.2 * sin(2 * PI * s / 10.0);         /* turns */
+	x[2] = 1.2 * sin(2 * PI * s / 10.0); /* turns */
 }
 
 static void report(const char *name, const struct score *s, const struct score *est)
 {
 	const double pos = sqrt(s->se_pos / (double)s->n), th = sqrt(s->se_th / (double)s->n);
-	const double epos = sqrt(est->se_pos / (double)est->n), eth = sqrt(est->se_th / (double)est->n);
+	const double epos = sqrt(est->se_pos / (double)est->n),
+		     eth = sqrt(est->se_th / (double)est->n);
 
 	printf("%-34s position RMS %8.2f mm  heading RMS %6.3f deg  (estimate/this: %.3f, %.3f)\n",
 	       name, 1e3 * pos, th * 180.0 / PI, epos / pos, eth / th);
@@ -209,7 +215,8 @@ int main(int argc, char **argv)
 		else if (!strcmp(argv[i], "--csv") && i + 1 < argc)
 			csv = argv[++i];
 		else {
-			fprintf(stderr, "usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
+			fprintf(stderr,
+				"usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
 			return 2;
 		}
 	}
@@ -255,7 +262,8 @@ int main(int argc, char **argv)
 		simrun_tick(b.sr);
 	}
 	printf("est_bench: %.0f s (validation steps %.0f s, path %.0f s at 1-2 m/s with turns), "
-	       "%ld ticks\n", steps_s + path_s, steps_s, path_s, b.ticks_max - 1);
+	       "%ld ticks\n",
+	       steps_s + path_s, steps_s, path_s, b.ticks_max - 1);
 	report("estimate (camera replayed)", &b.est, &b.est);
 	report("estimate, frames at arrival", &b.late_score, &b.est);
 	report("raw camera (at capture time)", &b.cam, &b.est);

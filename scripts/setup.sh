@@ -51,16 +51,24 @@ fi
 # omni4-bridge and omni4-mcap (python/omni4/foxglove): the Foxglove SDK (WebSocket server,
 # MCAP writer) and a fast JSON encoder; for their tests the mcap reader (+ zstandard), and a
 # WebSocket client. Pinned; reinstalled only when a version differs.
-FOX_PIP=("foxglove-sdk==0.30.3" "orjson==3.13.0" "mcap==1.6.0" "zstandard==0.25.0" "websockets==17.4")
-if ! .venv/bin/python - "${FOX_PIP[@]}" 2>/dev/null <<'PY'
+# pip_pinned NAME==VERSION...: installs them into .venv unless every one is there at its version.
+pip_pinned() {
+  if ! .venv/bin/python - "$@" 2>/dev/null <<'PY'
 import sys
 from importlib.metadata import version
 sys.exit(any(version(n) != v for n, v in (p.split("==") for p in sys.argv[1:])))
 PY
-then
-  echo "setup: pip install ${FOX_PIP[*]} (into .venv)"
-  .venv/bin/pip install --quiet "${FOX_PIP[@]}"
-fi
+  then
+    echo "setup: pip install $* (into .venv)"
+    .venv/bin/pip install --quiet "$@"
+  fi
+}
+FOX_PIP=("foxglove-sdk==0.30.3" "orjson==3.13.0" "mcap==1.6.0" "zstandard==0.25.0" "websockets==17.4")
+pip_pinned "${FOX_PIP[@]}"
+# The style check (scripts/check_style.sh): clang-format for the layout of C and C++, lizard for
+# the length of functions. Pinned, so that every machine formats alike.
+STYLE_PIP=("clang-format==23.1.3" "lizard==1.24.3")
+pip_pinned "${STYLE_PIP[@]}"
 # The TypeScript MCAP reader (@mcap/core) the tests check omni4-mcap's files with:
 # tests/foxglove/package.json + package-lock.json pin it; npm ci installs exactly those.
 if ! command -v node >/dev/null || ! command -v npm >/dev/null; then

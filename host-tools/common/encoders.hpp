@@ -31,13 +31,14 @@
 
 #include "logdata.hpp"
 
-namespace omni4 {
+namespace omni4
+{
 
 struct TickRescale {
-  bool applied = false;   // the speeds were rescaled to the true intervals
-  double period_s = 0;    // the nominal period (median interval)
-  double jitter_s = 0;    // RMS deviation of the intervals from it
-  double roughness_logged = 0, roughness_rescaled = 0;  // mean squared second difference
+	bool applied = false; // the speeds were rescaled to the true intervals
+	double period_s = 0;  // the nominal period (median interval)
+	double jitter_s = 0;  // RMS deviation of the intervals from it
+	double roughness_logged = 0, roughness_rescaled = 0; // mean squared second difference
 };
 
 // Rescales log.motors' wheel speeds by (nominal period / true interval) where that makes them
@@ -46,25 +47,25 @@ struct TickRescale {
 TickRescale rescale_to_tick_intervals(LogData &log);
 
 struct EccentricityOptions {
-  double box_s = 0.1;          // moving average that takes the slow speed out [s]
-  double chunk_s = 20.0;       // stretch fitted with its own coefficients [s]
-  double min_speed = 2.0;      // wheel speed below which a sample carries no ripple [rad/s]
-  double significance = 4.0;   // a harmonic is removed when its amplitude is over this many SE
+	double box_s = 0.1;	   // moving average that takes the slow speed out [s]
+	double chunk_s = 20.0;	   // stretch fitted with its own coefficients [s]
+	double min_speed = 2.0;	   // wheel speed below which a sample carries no ripple [rad/s]
+	double significance = 4.0; // a harmonic is removed when its amplitude is over this many SE
 };
 
 struct RippleFit {
-  size_t m0 = 0, m1 = 0;  // motors index range of the stretch
-  // Per wheel: relative amplitude of the once-per-motor-revolution ripple, its standard
-  // error, and whether it was removed.
-  std::array<double, 4> motor_eps{}, motor_se{};
-  std::array<bool, 4> motor_removed{};
-  size_t samples = 0;  // samples used (wheel turning, filter window complete)
+	size_t m0 = 0, m1 = 0; // motors index range of the stretch
+	// Per wheel: relative amplitude of the once-per-motor-revolution ripple, its standard
+	// error, and whether it was removed.
+	std::array<double, 4> motor_eps{}, motor_se{};
+	std::array<bool, 4> motor_removed{};
+	size_t samples = 0; // samples used (wheel turning, filter window complete)
 };
 
 // Estimates the ripple of log.motors' wheel speeds in stretches of chunk_s and divides it out
 // in place. gear: the gear ratio l (motor revolutions per wheel revolution). Returns one fit
 // per stretch.
 std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
-                                             const EccentricityOptions &opt = {});
+					     const EccentricityOptions &opt = {});
 
-}  // namespace omni4
+} // namespace omni4

@@ -7,36 +7,37 @@
 #include <string>
 #include <vector>
 
-namespace omni4 {
+namespace omni4
+{
 
 struct Phase {
-  double duration_s = 0;
-  int8_t mode = 0;                      // command_t::MODE_*
-  std::array<double, 4> voltage{};      // [V]
-  std::array<double, 3> velocity{};     // [m/s, m/s, rad/s]
-  double ramp_s = 0;                    // [s]
-  std::string mark_kind;                // non-empty: OMNI4_EXPERIMENT at the phase start
-  std::string mark_direction;
-  double mark_level = 0;                // [V]
-  bool end_mark = false;                // OMNI4_EXPERIMENT "end" at the phase start
+	double duration_s = 0;
+	int8_t mode = 0;		  // command_t::MODE_*
+	std::array<double, 4> voltage{};  // [V]
+	std::array<double, 3> velocity{}; // [m/s, m/s, rad/s]
+	double ramp_s = 0;		  // [s]
+	std::string mark_kind;		  // non-empty: OMNI4_EXPERIMENT at the phase start
+	std::string mark_direction;
+	double mark_level = 0; // [V]
+	bool end_mark = false; // OMNI4_EXPERIMENT "end" at the phase start
 };
 
 // Encoded OMNI4_EXPERIMENT mark and a bare OMNI4_CMD of one mode (no velocity, no voltage).
 std::vector<uint8_t> encode_mark(int64_t utime, const std::string &kind,
-                                 const std::string &direction = "", double level = 0);
+				 const std::string &direction = "", double level = 0);
 std::vector<uint8_t> encode_command(int64_t utime, int64_t seq, int8_t mode);
 
 // Channel voltage pattern per volt of drive along "v", "vn" or "w" (columns of eq 26).
 std::array<double, 4> drive_pattern(const std::string &direction);
 
 struct SequenceOptions {
-  std::vector<double> rotation_levels{3, 4, 5, 6, 7, 8};  // experiment 1 [V]
-  std::vector<double> coast_levels{6, 9};                 // push-off voltage before coasting [V]
-  std::vector<double> motor_levels{4, 8, 11};             // motor test [V]
-  std::vector<double> step_levels{4, 6, 8};               // experiment 3 ramped steps [V]
-  double ramp_s = 0.5;
-  double hold_s = 3.0;
-  double settle_s = 3.0;  // coasting to rest between runs
+	std::vector<double> rotation_levels{3, 4, 5, 6, 7, 8}; // experiment 1 [V]
+	std::vector<double> coast_levels{6, 9};	    // push-off voltage before coasting [V]
+	std::vector<double> motor_levels{4, 8, 11}; // motor test [V]
+	std::vector<double> step_levels{4, 6, 8};   // experiment 3 ramped steps [V]
+	double ramp_s = 0.5;
+	double hold_s = 3.0;
+	double settle_s = 3.0; // coasting to rest between runs
 };
 
 // The whole sequence: steady rotation, null-traction coast-downs along v, vn, w, motor runs,
@@ -46,31 +47,41 @@ std::vector<Phase> paper_sequence(const SequenceOptions &opt = {});
 double total_duration_s(const std::vector<Phase> &phases);
 
 // Plays a timeline: call due() with the present time since start; it returns what to publish.
-class SequencePlayer {
- public:
-  struct Output {
-    bool has_command = false;
-    std::vector<uint8_t> command;     // encoded command_t
-    std::vector<std::vector<uint8_t>> marks;  // encoded experiment_t, in order
-  };
+class SequencePlayer
+{
+      public:
+	struct Output {
+		bool has_command = false;
+		std::vector<uint8_t> command;		 // encoded command_t
+		std::vector<std::vector<uint8_t>> marks; // encoded experiment_t, in order
+	};
 
-  SequencePlayer(std::vector<Phase> phases, double keepalive_s = 0.05);
-  // t_s: time since start; utime: the clock stamped into the messages [us].
-  Output due(double t_s, int64_t utime);
-  bool done() const { return index_ >= phases_.size(); }
-  size_t phase_index() const { return index_; }
-  size_t phase_count() const { return phases_.size(); }
-  // A zero-voltage IDLE command (safe stop).
-  static std::vector<uint8_t> stop_command(int64_t utime, int64_t seq);
+	SequencePlayer(std::vector<Phase> phases, double keepalive_s = 0.05);
+	// t_s: time since start; utime: the clock stamped into the messages [us].
+	Output due(double t_s, int64_t utime);
+	bool done() const
+	{
+		return index_ >= phases_.size();
+	}
+	size_t phase_index() const
+	{
+		return index_;
+	}
+	size_t phase_count() const
+	{
+		return phases_.size();
+	}
+	// A zero-voltage IDLE command (safe stop).
+	static std::vector<uint8_t> stop_command(int64_t utime, int64_t seq);
 
- private:
-  std::vector<Phase> phases_;
-  double keepalive_s_;
-  size_t index_ = 0;
-  double phase_start_s_ = 0;
-  double last_sent_s_ = -1e9;
-  bool started_ = false;
-  int64_t seq_ = 0;
+      private:
+	std::vector<Phase> phases_;
+	double keepalive_s_;
+	size_t index_ = 0;
+	double phase_start_s_ = 0;
+	double last_sent_s_ = -1e9;
+	bool started_ = false;
+	int64_t seq_ = 0;
 };
 
-}  // namespace omni4
+} // namespace omni4

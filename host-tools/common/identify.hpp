@@ -21,94 +21,105 @@ extern "C" {
 #include "omni4/params.h"
 }
 
-namespace omni4 {
+namespace omni4
+{
 
 enum class VelocitySource { Encoder, Camera };
 
 struct IdentOptions {
-  VelocitySource source = VelocitySource::Encoder;
-  WindowOptions windows;
-  // Methods agree on a parameter when the chi-square of their estimates about the weighted
-  // mean has a p-value of at least agree_p.
-  double agree_p = 0.01;
-  // Relative standard-error floor of every method (model error: the residual SE of a long,
-  // clean window can be far smaller than what the method's assumptions support).
-  double method_floor = 0.005;
-  // A method whose SE exceeds this fraction of its value is shown but not combined.
-  double max_rel_se = 0.1;
+	VelocitySource source = VelocitySource::Encoder;
+	WindowOptions windows;
+	// Methods agree on a parameter when the chi-square of their estimates about the weighted
+	// mean has a p-value of at least agree_p.
+	double agree_p = 0.01;
+	// Relative standard-error floor of every method (model error: the residual SE of a long,
+	// clean window can be far smaller than what the method's assumptions support).
+	double method_floor = 0.005;
+	// A method whose SE exceeds this fraction of its value is shown but not combined.
+	double max_rel_se = 0.1;
 };
 
 // Points kept for plots and CSV export.
 // epoch: index into Prepared::offset_epochs of the current offsets in force (-1: none known).
-struct MotorPoint { int motor; double u, i, wm; int epoch = -1; };  // [V, A, rad/s]
+struct MotorPoint {
+	int motor;
+	double u, i, wm;
+	int epoch = -1;
+}; // [V, A, rad/s]
 struct RotationPoint {
-  double level, omega_cam, omega_enc, torque;  // [V, rad/s, rad/s, N m]
-  std::array<double, 4> imean{};               // mean currents of the window [A]
-  int epoch = -1;
+	double level, omega_cam, omega_enc, torque; // [V, rad/s, rad/s, N m]
+	std::array<double, 4> imean{};		    // mean currents of the window [A]
+	int epoch = -1;
 };
-struct CurvePoint { size_t segment; double t, measured, fitted; };
+struct CurvePoint {
+	size_t segment;
+	double t, measured, fitted;
+};
 
 // A window used or rejected, for the report.
 struct WindowRecord {
-  size_t segment = 0;
-  std::string kind, direction;  // of the segment
-  std::string what;             // "steady window", "coast-down", "step", "segment", ...
-  double t0_s = 0, t1_s = 0;    // from the segment's mark
-  bool used = false;
-  std::string reason;           // why it was rejected
+	size_t segment = 0;
+	std::string kind, direction; // of the segment
+	std::string what;	     // "steady window", "coast-down", "step", "segment", ...
+	double t0_s = 0, t1_s = 0;   // from the segment's mark
+	bool used = false;
+	std::string reason; // why it was rejected
 };
 
 struct Agreement {
-  int methods = 0;  // estimates combined
-  int too_uncertain = 0;  // estimates left out: SE above max_rel_se of the value
-  double chi2 = 0;
-  int dof = 0;
-  double p = 1;
-  bool agree = true;
-  std::string rule;  // how the final value was formed
+	int methods = 0;       // estimates combined
+	int too_uncertain = 0; // estimates left out: SE above max_rel_se of the value
+	double chi2 = 0;
+	int dof = 0;
+	double p = 1;
+	bool agree = true;
+	std::string rule; // how the final value was formed
 };
 
 struct IdentResult {
-  // Per method: parameter name -> estimate. Method names: "motor", "exp1", "exp2",
-  // "exp3_ls", "exp3_iv", "final".
-  std::map<std::string, std::map<std::string, Estimate>> table;
-  std::array<Estimate, 4> R_motor{}, Kv_motor{};  // not ok() for a motor without data
-  model_params final{};           // base with the identified values (see identified)
-  std::map<std::string, bool> identified;  // by kIdentParams name
-  bool complete() const;
-  std::map<std::string, Agreement> agreement;  // by parameter
-  std::vector<MotorPoint> motor_points;
-  std::vector<RotationPoint> rotation_points;
-  std::map<std::string, std::vector<CurvePoint>> coast_curves;  // by direction
-  std::map<std::string, size_t> segments_used;                  // by kind
-  std::vector<WindowRecord> windows;                            // used and rejected
-  std::vector<std::string> missing;  // one line per thing that could not be identified
+	// Per method: parameter name -> estimate. Method names: "motor", "exp1", "exp2",
+	// "exp3_ls", "exp3_iv", "final".
+	std::map<std::string, std::map<std::string, Estimate>> table;
+	std::array<Estimate, 4> R_motor{}, Kv_motor{}; // not ok() for a motor without data
+	model_params final{};			// base with the identified values (see identified)
+	std::map<std::string, bool> identified; // by kIdentParams name
+	bool complete() const;
+	std::map<std::string, Agreement> agreement; // by parameter
+	std::vector<MotorPoint> motor_points;
+	std::vector<RotationPoint> rotation_points;
+	std::map<std::string, std::vector<CurvePoint>> coast_curves; // by direction
+	std::map<std::string, size_t> segments_used;		     // by kind
+	std::vector<WindowRecord> windows;			     // used and rejected
+	std::vector<std::string> missing; // one line per thing that could not be identified
 };
+
+// The estimate of param by method (not ok() when the method gave none).
+Estimate find_estimate(const IdentResult &r, const char *method, const char *param);
 
 // Encoder and camera tracks and windows of every segment, computed once (identify and the
 // bootstrap replicates share them).
 struct Prepared {
-  model_params base{};
-  IdentOptions opt;
-  std::vector<Segment> segments;
-  std::vector<SegmentWindows> windows;  // per segment
-  std::map<const LogData *, EncoderTrack> enc;
-  std::map<const LogData *, CameraTrack> cam;
-  // The current-offset epochs of the logs (LogData::current_offsets, filled by
-  // calibrate_currents) whose offsets were estimated: their standard errors are borrowed by the
-  // motor test and experiment 1.
-  std::vector<std::pair<const LogData *, size_t>> offset_epochs;
+	model_params base{};
+	IdentOptions opt;
+	std::vector<Segment> segments;
+	std::vector<SegmentWindows> windows; // per segment
+	std::map<const LogData *, EncoderTrack> enc;
+	std::map<const LogData *, CameraTrack> cam;
+	// The current-offset epochs of the logs (LogData::current_offsets, filled by
+	// calibrate_currents) whose offsets were estimated: their standard errors are borrowed by
+	// the motor test and experiment 1.
+	std::vector<std::pair<const LogData *, size_t>> offset_epochs;
 };
 
 // base: the measured d, r, l, M (other fields ignored).
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
-                 const IdentOptions &opt = {});
+		 const IdentOptions &opt = {});
 
 // Identifies what the segments (all, or the indices in `use`, repeats allowed) support.
 // Throws IdentError only when no parameter at all can be identified (the message lists why).
 IdentResult identify(const Prepared &prep, const std::vector<size_t> *use = nullptr);
 IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
-                     const IdentOptions &opt = {});
+		     const IdentOptions &opt = {});
 
 // Final value of one parameter from the methods' estimates. An estimate with an SE above
 // opt.max_rel_se of its value is left out (shown in the table only). Each SE is first raised to the
@@ -117,7 +128,7 @@ IdentResult identify(const std::vector<Segment> &segments, const model_params &b
 // own rule, "averaged with results from all 3 experimental methods"), so that no method with a
 // small but biased residual SE overrides the others; the disagreement is reported.
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
-                         Agreement *agreement = nullptr);
+			 Agreement *agreement = nullptr);
 
 // Experiment 3 along one axis (eqs 31-35): rows of dx/dt = theta1 x + theta2 u + theta3 sign(x),
 // filtered velocity x, filtered input u and the filtered derivative y, per run of contiguous
@@ -125,14 +136,14 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
 // the current estimate to the logged input (from each run's first measured x), three times.
 // Measurement noise in x biases LS towards zero (errors in variables), not IV.
 struct StateSpaceData {
-  Eigen::MatrixXd X;          // [x, input, sign(x)]
-  Eigen::VectorXd y;          // dx/dt
-  std::vector<double> t;      // [s] of each row
-  std::vector<size_t> start;  // first row of each run
-  int half = 20;              // filter half-window [samples]: rows within 2 half + 1 correlate
+	Eigen::MatrixXd X;	   // [x, input, sign(x)]
+	Eigen::VectorXd y;	   // dx/dt
+	std::vector<double> t;	   // [s] of each row
+	std::vector<size_t> start; // first row of each run
+	int half = 20;		   // filter half-window [samples]: rows within 2 half + 1 correlate
 };
 struct StateSpaceFits {
-  Fit ls, iv;
+	Fit ls, iv;
 };
 // Throws IdentError("what (LS|IV): ...") when the rows cannot give the three parameters.
 StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what);
@@ -144,15 +155,15 @@ StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what)
 double axis_input(const double u_v[4], int axis);
 // The inverses, given p's geometry (d, r, l), M, Kt and Kv; J_from_theta2 and B_from_theta1
 // also need p.R, and along w B_from_theta1 and C_from_theta3 need p.J.
-double R_from_theta2(const model_params &p, int axis, double theta2);  // axis 0 or 1 [ohm]
-double J_from_theta2(const model_params &p, double theta2);            // [kg m^2]
-double B_from_theta1(const model_params &p, int axis, double theta1);  // Bv, Bvn, Bw
-double C_from_theta3(const model_params &p, int axis, double theta3);  // Cv, Cvn, Cw
+double R_from_theta2(const model_params &p, int axis, double theta2); // axis 0 or 1 [ohm]
+double J_from_theta2(const model_params &p, double theta2);	      // [kg m^2]
+double B_from_theta1(const model_params &p, int axis, double theta1); // Bv, Bvn, Bw
+double C_from_theta3(const model_params &p, int axis, double theta3); // Cv, Cvn, Cw
 
 // Upper tail of the chi-square distribution with dof degrees of freedom.
 double chi2_sf(double x, int dof);
 
-extern const char *const kIdentParams[9];   // Kv R J Bv Bvn Bw Cv Cvn Cw
-extern const char *const kIdentMethods[6];  // motor exp1 exp2 exp3_ls exp3_iv final
+extern const char *const kIdentParams[9];  // Kv R J Bv Bvn Bw Cv Cvn Cw
+extern const char *const kIdentMethods[6]; // motor exp1 exp2 exp3_ls exp3_iv final
 
-}  // namespace omni4
+} // namespace omni4

@@ -16,13 +16,14 @@
 
 #include "logdata.hpp"
 
-namespace omni4 {
+namespace omni4
+{
 
 struct OffsetOptions {
-  double guard_s = 0.020;    // bridge-off samples this soon after a driven one are not used
-                             // (the winding current decays through the bridge's diodes)
-  size_t min_samples = 100;  // fewer in an epoch: the log's pooled estimate is used instead
-  size_t batch = 32;         // batch length of the batch-means standard error [samples]
+	double guard_s = 0.020;	  // bridge-off samples this soon after a driven one are not used
+				  // (the winding current decays through the bridge's diodes)
+	size_t min_samples = 100; // fewer in an epoch: the log's pooled estimate is used instead
+	size_t batch = 32;	  // batch length of the batch-means standard error [samples]
 };
 
 // Bridge-off samples used: at least guard_s after the last driven sample (none before it in
@@ -34,4 +35,4 @@ struct OffsetOptions {
 // notice that reports a channel over its limit).
 std::vector<std::string> calibrate_currents(LogData &log, const OffsetOptions &opt = {});
 
-}  // namespace omni4
+} // namespace omni4

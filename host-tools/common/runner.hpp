@@ -8,14 +8,19 @@
 
 #include "omni4/channels.h"
 
-namespace omni4 {
+extern "C" {
+#include "omni4/params.h"
+}
+
+namespace omni4
+{
 
 struct RunOptions {
-  std::string url = OMNI4_DEFAULT_LCM_URL;
-  std::string out;
-  std::vector<std::string> only;  // experiment kinds to keep (empty = all)
-  double hold_s = 3.0;            // constant-voltage part of each run [s]
-  double settle_s = 3.0;          // coasting to rest between runs [s]
+	std::string url = OMNI4_DEFAULT_LCM_URL;
+	std::string out;
+	std::vector<std::string> only; // experiment kinds to keep (empty = all)
+	double hold_s = 3.0;	       // constant-voltage part of each run [s]
+	double settle_s = 3.0;	       // coasting to rest between runs [s]
 };
 
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close
@@ -23,10 +28,11 @@ struct RunOptions {
 int run_experiments(const RunOptions &opt);
 
 struct HandRunOptions {
-  int pushes = 3;                                   // counted runs per direction
-  std::vector<std::string> directions{"v", "vn", "w"};
-  double push_timeout_s = 30;                       // wait for each push (and its stop) [s]
-  double d_m = 0.089, r_m = 0.0325;                 // eqs 3-5 (BASE.ini; Table III otherwise)
+	int pushes = 3; // counted runs per direction
+	std::vector<std::string> directions{"v", "vn", "w"};
+	double push_timeout_s = 30;	    // wait for each push (and its stop) [s]
+	double d_m = model_params_table3.d; // eqs 3-5 (BASE.ini; Table III otherwise)
+	double r_m = model_params_table3.r;
 };
 
 // Experiment 2 by hand: only MODE_COAST keep-alives (never VOLTAGE or VELOCITY), a "coast" mark
@@ -34,4 +40,4 @@ struct HandRunOptions {
 // opt.out. Returns the exit status (1: no OMNI4_MOTORS on the bus; 130: interrupted).
 int run_hand(const RunOptions &opt, const HandRunOptions &hand);
 
-}  // namespace omni4
+} // namespace omni4

@@ -6,8 +6,8 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -16,294 +16,337 @@
 
 extern "C" {
 #include "omni4/can_proto.h"
+#include "omni4/clock.h"
 #include "omni4/config.h"
 #include "omni4/plant.h"
 #include "omni4/rng.h"
 #include "omni4/sc_os.h"
 }
 
-namespace {
+namespace
+{
 
 volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
+void on_signal(int)
+{
+	g_stop = 1;
+}
 
-constexpr int64_t kCmdTimeoutUs = 50000;  // a board disables itself without commands
+constexpr int64_t kCmdTimeoutUs = 50000; // a board disables itself without commands
 
 struct Stats {
-  unsigned long long rx = 0, tx = 0, tx_dropped = 0, crc_errors = 0, replayed = 0, cmd_timeouts = 0;
+	unsigned long long rx = 0, tx = 0, tx_dropped = 0, crc_errors = 0, replayed = 0,
+			   cmd_timeouts = 0;
 };
 
-float clip(double x, float lim) {
-  return static_cast<float>(std::fmax(-lim, std::fmin(lim, x)));
+float clip(double x, float lim)
+{
+	return static_cast<float>(std::fmax(-lim, std::fmin(lim, x)));
 }
 
 // The receiver's counter policy of the protocol (as the controller's, socketcan_motor.h): a
 // frame is taken if its counter is 1..CAN_COUNTER_WINDOW ahead of the last taken one; any
 // other value is rejected unless the next frame continues from it (resynchronisation).
 struct CounterWindow {
-  bool have = false;
-  uint8_t last = 0;
-  int candidate = -1;
-  bool accept(uint8_t now) {
-    if (have) {
-      const int gap = can_counter_gap(last, now);
-      if (gap == -EALREADY || gap > CAN_COUNTER_WINDOW - 1) {
-        if (gap != -EALREADY && candidate >= 0 &&
-            can_counter_gap(static_cast<uint8_t>(candidate), now) == 0) {
-          candidate = -1;
-          last = now;
-          return true;
-        }
-        candidate = gap == -EALREADY ? -1 : now;
-        return false;
-      }
-    }
-    have = true;
-    candidate = -1;
-    last = now;
-    return true;
-  }
+	bool have = false;
+	uint8_t last = 0;
+	int candidate = -1;
+	bool accept(uint8_t now)
+	{
+		if (have) {
+			const int gap = can_counter_gap(last, now);
+			if (gap == -EALREADY || gap > CAN_COUNTER_WINDOW - 1) {
+				if (gap != -EALREADY && candidate >= 0 &&
+				    can_counter_gap(static_cast<uint8_t>(candidate), now) == 0) {
+					candidate = -1;
+					last = now;
+					return true;
+				}
+				candidate = gap == -EALREADY ? -1 : now;
+				return false;
+			}
+		}
+		have = true;
+		candidate = -1;
+		last = now;
+		return true;
+	}
 };
 
 struct Options {
-  std::string iface = "vcan0", params_path;
-  double duration_s = 0, replay_at = -1, corrupt_at = -1;
-  bool no_noise = false, quiet = false;
+	std::string iface = "vcan0", params_path;
+	double duration_s = 0, replay_at = -1, corrupt_at = -1;
+	bool no_noise = false, quiet = false;
 };
 
-void add_options(CLI::App &app, Options &o) {
-  app.add_option("--iface", o.iface, "CAN interface")->capture_default_str();
-  app.add_option("--params", o.params_path, "robot INI ([model]; default Table III)");
-  app.add_option("--duration", o.duration_s, "stop after S seconds (default: until SIGINT)");
-  app.add_flag("--no-noise", o.no_noise, "exact current readings");
-  // Test hooks: not in the user's help (group "").
-  app.add_option("--replay-at", o.replay_at, "test: at S seconds, send the last STATUS_0 again")
-      ->group("");
-  app.add_option("--corrupt-at", o.corrupt_at, "test: at S seconds, send a STATUS_0 with a bad CRC")
-      ->group("");
-  app.add_flag("-q,--quiet", o.quiet, "no summary");
+void add_options(CLI::App &app, Options &o)
+{
+	app.add_option("--iface", o.iface, "CAN interface")->capture_default_str();
+	app.add_option("--params", o.params_path, "robot INI ([model]; default Table III)");
+	app.add_option("--duration", o.duration_s, "stop after S seconds (default: until SIGINT)");
+	app.add_flag("--no-noise", o.no_noise, "exact current readings");
+	// Test hooks: not in the user's help (group "").
+	app.add_option("--replay-at", o.replay_at,
+		       "test: at S seconds, send the last STATUS_0 again")
+	    ->group("");
+	app.add_option("--corrupt-at", o.corrupt_at,
+		       "test: at S seconds, send a STATUS_0 with a bad CRC")
+	    ->group("");
+	app.add_flag("-q,--quiet", o.quiet, "no summary");
 }
 
 // The robot INI (Table III without one) and the plant it describes. Returns 0 or the exit
 // status after a one-line error.
-int load_robot(const std::string &params_path, omni4_config *cfg, plant *pl) {
-  config_defaults(cfg);
-  if (!params_path.empty()) {
-    config_error err;
-    if (config_load(params_path.c_str(), cfg, &err)) {
-      std::fprintf(stderr, "omni4-motorsim: %s\n", err.msg);
-      return 2;
-    }
-  }
-  if (plant_init(pl, &cfg->ctl.model)) {
-    std::fprintf(stderr, "omni4-motorsim: invalid model parameters\n");
-    return 2;
-  }
-  return 0;
+int load_robot(const std::string &params_path, omni4_config *cfg, plant *pl)
+{
+	config_defaults(cfg);
+	if (!params_path.empty()) {
+		config_error err;
+		if (config_load(params_path.c_str(), cfg, &err)) {
+			std::fprintf(stderr, "omni4-motorsim: %s\n", err.msg);
+			return 2;
+		}
+	}
+	if (plant_init(pl, &cfg->ctl.model)) {
+		std::fprintf(stderr, "omni4-motorsim: invalid model parameters\n");
+		return 2;
+	}
+	return 0;
 }
 
 // What the two boards remember between ticks.
 struct Boards {
-  double u[4] = {0, 0, 0, 0};  // commanded voltages [V]
-  bool cmd_enable = false, ctl_enable = true;
-  CounterWindow cmd_window;
-  bool have_ctl_counter = false;
-  uint8_t ctl_counter = 0;
-  uint8_t status_counter[2] = {0, 0}, health_counter[2] = {0, 0};
-  uint8_t drv_faults = 0;
-  int64_t last_cmd = 0;
-  omni4_can_frame last_status0{};
+	double u[4] = {0, 0, 0, 0}; // commanded voltages [V]
+	bool cmd_enable = false, ctl_enable = true;
+	CounterWindow cmd_window;
+	bool have_ctl_counter = false;
+	uint8_t ctl_counter = 0;
+	uint8_t status_counter[2] = {0, 0}, health_counter[2] = {0, 0};
+	uint8_t drv_faults = 0;
+	int64_t last_cmd = 0;
+	omni4_can_frame last_status0{};
 
-  bool driven() const { return cmd_enable && ctl_enable && !(drv_faults & CAN_DRV_CMD_TIMEOUT); }
+	bool driven() const
+	{
+		return cmd_enable && ctl_enable && !(drv_faults & CAN_DRV_CMD_TIMEOUT);
+	}
 };
 
-void take_cmd_voltage(const omni4_can_frame &f, int64_t now, Boards &b, Stats &st) {
-  float v[4];
-  bool en;
-  uint8_t c;
-  if (can_decode_cmd_voltage(&f, v, &en, &c)) {
-    ++st.crc_errors;
-    return;
-  }
-  if (!b.cmd_window.accept(c)) {
-    ++st.replayed;
-    return;
-  }
-  for (int j = 0; j < 4; ++j) b.u[j] = v[j];
-  b.cmd_enable = en;
-  b.last_cmd = now;
-  b.drv_faults &= static_cast<uint8_t>(~CAN_DRV_CMD_TIMEOUT);
+void take_cmd_voltage(const omni4_can_frame &f, int64_t now, Boards &b, Stats &st)
+{
+	float v[4];
+	bool en;
+	uint8_t c;
+	if (can_decode_cmd_voltage(&f, v, &en, &c)) {
+		++st.crc_errors;
+		return;
+	}
+	if (!b.cmd_window.accept(c)) {
+		++st.replayed;
+		return;
+	}
+	for (int j = 0; j < 4; ++j)
+		b.u[j] = v[j];
+	b.cmd_enable = en;
+	b.last_cmd = now;
+	b.drv_faults &= static_cast<uint8_t>(~CAN_DRV_CMD_TIMEOUT);
 }
 
-void take_control(const omni4_can_frame &f, Boards &b, Stats &st) {
-  enum can_control cmd;
-  uint8_t c;
-  if (can_decode_control(&f, &cmd, &c) != 0) {
-    ++st.crc_errors;
-    return;
-  }
-  // Control frames are sparse events (a restarted controller's first ENABLE must not wait
-  // for a second frame): only the same counter again is refused; 36 reserved bits keep
-  // a random frame's acceptance far below the protocol's bound.
-  if (b.have_ctl_counter && can_counter_gap(b.ctl_counter, c) == -EALREADY) {
-    ++st.replayed;
-    return;
-  }
-  b.have_ctl_counter = true;
-  b.ctl_counter = c;
-  if (cmd == CAN_CTL_ENABLE) b.ctl_enable = true;
-  if (cmd == CAN_CTL_DISABLE) b.ctl_enable = false;
-  if (cmd == CAN_CTL_CLEAR_FAULTS) b.drv_faults = 0;
+void take_control(const omni4_can_frame &f, Boards &b, Stats &st)
+{
+	enum can_control cmd;
+	uint8_t c;
+	if (can_decode_control(&f, &cmd, &c) != 0) {
+		++st.crc_errors;
+		return;
+	}
+	// Control frames are sparse events (a restarted controller's first ENABLE must not wait
+	// for a second frame): only the same counter again is refused; 36 reserved bits keep
+	// a random frame's acceptance far below the protocol's bound.
+	if (b.have_ctl_counter && can_counter_gap(b.ctl_counter, c) == -EALREADY) {
+		++st.replayed;
+		return;
+	}
+	b.have_ctl_counter = true;
+	b.ctl_counter = c;
+	if (cmd == CAN_CTL_ENABLE)
+		b.ctl_enable = true;
+	if (cmd == CAN_CTL_DISABLE)
+		b.ctl_enable = false;
+	if (cmd == CAN_CTL_CLEAR_FAULTS)
+		b.drv_faults = 0;
 }
 
 // Everything the controller sent since the last tick.
-void receive_commands(int fd, int64_t now, Boards &b, Stats &st) {
-  omni4_can_frame f;
-  uint32_t err;
-  int rc;
-  while ((rc = sc_os_recv(fd, &f, &err)) > 0) {
-    if (rc != 1) continue;
-    ++st.rx;
-    if (f.id == CAN_ID_CMD_VOLTAGE) take_cmd_voltage(f, now, b, st);
-    else take_control(f, b, st);
-  }
+void receive_commands(int fd, int64_t now, Boards &b, Stats &st)
+{
+	omni4_can_frame f;
+	uint32_t err;
+	int rc;
+	while ((rc = sc_os_recv(fd, &f, &err)) > 0) {
+		if (rc != 1)
+			continue;
+		++st.rx;
+		if (f.id == CAN_ID_CMD_VOLTAGE)
+			take_cmd_voltage(f, now, b, st);
+		else
+			take_control(f, b, st);
+	}
 }
 
-void check_cmd_timeout(int64_t now, Boards &b, Stats &st) {
-  if (b.last_cmd && now - b.last_cmd > kCmdTimeoutUs && !(b.drv_faults & CAN_DRV_CMD_TIMEOUT)) {
-    b.drv_faults |= CAN_DRV_CMD_TIMEOUT;
-    ++st.cmd_timeouts;
-  }
+void check_cmd_timeout(int64_t now, Boards &b, Stats &st)
+{
+	if (b.last_cmd && now - b.last_cmd > kCmdTimeoutUs &&
+	    !(b.drv_faults & CAN_DRV_CMD_TIMEOUT)) {
+		b.drv_faults |= CAN_DRV_CMD_TIMEOUT;
+		++st.cmd_timeouts;
+	}
 }
 
-void send_counted(int fd, const omni4_can_frame &f, Stats &st) {
-  if (sc_os_send(fd, &f)) ++st.tx_dropped;
-  else ++st.tx;
+void send_counted(int fd, const omni4_can_frame &f, Stats &st)
+{
+	if (sc_os_send(fd, &f))
+		++st.tx_dropped;
+	else
+		++st.tx;
 }
 
 // The simulator: the CAN socket, the robot and its plant, the boards' state, the counts.
 struct Sim {
-  int fd = -1;
-  omni4_config cfg;
-  plant pl;
-  rng g;
-  Boards b;
-  Stats st;
+	int fd = -1;
+	omni4_config cfg;
+	plant pl;
+	rng g;
+	Boards b;
+	Stats st;
 };
 
-void send_status(Sim &sim, int n, const double w[4], bool noisy) {
-  can_status s;
-  for (int k = 0; k < 2; ++k) {
-    const int j = 2 * n + k;
-    const double noise = noisy ? rng_normal(&sim.g, sim.cfg.sim.current_noise_a) : 0.0;
-    s.current_a[k] = clip(sim.pl.current_a[j] + noise, CAN_CURR_MAX);
-    s.speed_rad_s[k] = clip(w[j], CAN_SPEED_MAX);
-  }
-  omni4_can_frame f;
-  can_encode_status(n, &s, sim.b.status_counter[n]++ & 0xF, &f);
-  if (n == 0) sim.b.last_status0 = f;
-  send_counted(sim.fd, f, sim.st);
+void send_status(Sim &sim, int n, const double w[4], bool noisy)
+{
+	can_status s;
+	for (int k = 0; k < 2; ++k) {
+		const int j = 2 * n + k;
+		const double noise = noisy ? rng_normal(&sim.g, sim.cfg.sim.current_noise_a) : 0.0;
+		s.current_a[k] = clip(sim.pl.current_a[j] + noise, CAN_CURR_MAX);
+		s.speed_rad_s[k] = clip(w[j], CAN_SPEED_MAX);
+	}
+	omni4_can_frame f;
+	can_encode_status(n, &s, sim.b.status_counter[n]++ & 0xF, &f);
+	if (n == 0)
+		sim.b.last_status0 = f;
+	send_counted(sim.fd, f, sim.st);
 }
 
-void send_health(Sim &sim, int n, bool driven) {
-  Boards &b = sim.b;
-  // The command timeout is the board protecting itself, not a hardware fault: it keeps
-  // the state "disabled" so that the controller's own timeout logic rules.
-  const bool self_off = b.drv_faults == CAN_DRV_CMD_TIMEOUT;
-  can_health hh{};
-  hh.faults = self_off ? 0 : b.drv_faults;
-  hh.supply_v = static_cast<float>(sim.cfg.ctl.limits.supply_v);
-  hh.temp_c = 30;
-  hh.state = static_cast<uint8_t>(self_off       ? CAN_STATE_DISABLED
-                                  : b.drv_faults ? CAN_STATE_FAULT
-                                  : driven       ? CAN_STATE_ENABLED
-                                                 : CAN_STATE_DISABLED);
-  omni4_can_frame f;
-  can_encode_health(n, &hh, b.health_counter[n]++ & 0xF, &f);
-  send_counted(sim.fd, f, sim.st);
+void send_health(Sim &sim, int n, bool driven)
+{
+	Boards &b = sim.b;
+	// The command timeout is the board protecting itself, not a hardware fault: it keeps
+	// the state "disabled" so that the controller's own timeout logic rules.
+	const bool self_off = b.drv_faults == CAN_DRV_CMD_TIMEOUT;
+	can_health hh{};
+	hh.faults = self_off ? 0 : b.drv_faults;
+	hh.supply_v = static_cast<float>(sim.cfg.ctl.limits.supply_v);
+	hh.temp_c = 30;
+	hh.state = static_cast<uint8_t>(self_off       ? CAN_STATE_DISABLED
+					: b.drv_faults ? CAN_STATE_FAULT
+					: driven       ? CAN_STATE_ENABLED
+						       : CAN_STATE_DISABLED);
+	omni4_can_frame f;
+	can_encode_health(n, &hh, b.health_counter[n]++ & 0xF, &f);
+	send_counted(sim.fd, f, sim.st);
 }
 
 // One board period: commands in, the plant stepped 1 ms, STATUS of both nodes out (HEALTH
 // of node n at ticks n, n + 10, ...).
-void simulate_tick(Sim &sim, long tick, int64_t now, bool no_noise) {
-  receive_commands(sim.fd, now, sim.b, sim.st);
-  check_cmd_timeout(now, sim.b, sim.st);
-  const bool driven = sim.b.driven();
-  plant_step(&sim.pl, sim.b.u, driven, 1e-3);
-  double w[4];
-  plant_wheel_speeds(&sim.pl, w);
-  for (int n = 0; n < CAN_NODES; ++n) {
-    send_status(sim, n, w, !no_noise && driven);
-    if (tick % 10 == n) send_health(sim, n, driven);
-  }
+void simulate_tick(Sim &sim, long tick, int64_t now, bool no_noise)
+{
+	receive_commands(sim.fd, now, sim.b, sim.st);
+	check_cmd_timeout(now, sim.b, sim.st);
+	const bool driven = sim.b.driven();
+	plant_step(&sim.pl, sim.b.u, driven, 1e-3);
+	double w[4];
+	plant_wheel_speeds(&sim.pl, w);
+	for (int n = 0; n < CAN_NODES; ++n) {
+		send_status(sim, n, w, !no_noise && driven);
+		if (tick % 10 == n)
+			send_health(sim, n, driven);
+	}
 }
 
 // The test options: the last STATUS_0 again (same counter), or with a flipped bit, once each.
-void inject_test_frames(int fd, double t, Options &o, const Boards &b) {
-  if (o.replay_at >= 0 && t >= o.replay_at) {
-    sc_os_send(fd, &b.last_status0);  // same counter again
-    o.replay_at = -1;
-  }
-  if (o.corrupt_at >= 0 && t >= o.corrupt_at) {
-    omni4_can_frame bad = b.last_status0;
-    bad.data[2] ^= 0x10;
-    sc_os_send(fd, &bad);
-    o.corrupt_at = -1;
-  }
+void inject_test_frames(int fd, double t, Options &o, const Boards &b)
+{
+	if (o.replay_at >= 0 && t >= o.replay_at) {
+		sc_os_send(fd, &b.last_status0); // same counter again
+		o.replay_at = -1;
+	}
+	if (o.corrupt_at >= 0 && t >= o.corrupt_at) {
+		omni4_can_frame bad = b.last_status0;
+		bad.data[2] ^= 0x10;
+		sc_os_send(fd, &bad);
+		o.corrupt_at = -1;
+	}
 }
 
-void sleep_one_ms(timespec &next) {
-  next.tv_nsec += 1000000;
-  if (next.tv_nsec >= 1000000000) {
-    next.tv_nsec -= 1000000000;
-    ++next.tv_sec;
-  }
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !g_stop) {
-  }
+// Sleeps until next_ns + 1 ms on the monotonic clock (omni4_monotonic_ns) and advances next_ns.
+void sleep_one_ms(int64_t &next_ns)
+{
+	next_ns += 1000000;
+	const timespec next{static_cast<time_t>(next_ns / 1000000000),
+			    static_cast<long>(next_ns % 1000000000)};
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR &&
+	       !g_stop) {
+	}
 }
 
-void print_summary(const Stats &st, const plant &pl) {
-  std::fprintf(stderr,
-               "omni4-motorsim: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-               "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f\n",
-               st.rx, st.tx, st.tx_dropped, st.crc_errors, st.replayed, st.cmd_timeouts,
-               pl.x[0], pl.x[1], pl.x[2]);
+void print_summary(const Stats &st, const plant &pl)
+{
+	std::fprintf(
+	    stderr,
+	    "omni4-motorsim: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
+	    "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f\n",
+	    st.rx, st.tx, st.tx_dropped, st.crc_errors, st.replayed, st.cmd_timeouts, pl.x[0],
+	    pl.x[1], pl.x[2]);
 }
 
-}  // namespace
+} // namespace
 
-int main(int argc, char **argv) {
-  CLI::App app{"Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
-               "Example: omni4-motorsim --iface vcan0 --params robot.ini",
-               "omni4-motorsim"};
-  omni4_cli_setup(app);
-  Options o;
-  add_options(app, o);
-  OMNI4_CLI_PARSE(app, argc, argv);
+int main(int argc, char **argv)
+{
+	CLI::App app{
+	    "Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
+	    "Example: omni4-motorsim --iface vcan0 --params robot.ini",
+	    "omni4-motorsim"};
+	omni4_cli_setup(app);
+	Options o;
+	add_options(app, o);
+	OMNI4_CLI_PARSE(app, argc, argv);
 
-  Sim sim;
-  if (int status = load_robot(o.params_path, &sim.cfg, &sim.pl)) return status;
-  const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
-  if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
-    std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
-                 std::strerror(-rc));
-    return 1;
-  }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  rng_seed(&sim.g, 7);
-  timespec next;
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  const int64_t t0 = sc_os_now_us();
-  for (long tick = 0; !g_stop; ++tick) {
-    const int64_t now = sc_os_now_us();
-    const double t = (now - t0) * 1e-6;
-    if (o.duration_s > 0 && t >= o.duration_s) break;
-    simulate_tick(sim, tick, now, o.no_noise);
-    inject_test_frames(sim.fd, t, o, sim.b);
-    sleep_one_ms(next);
-  }
-  sc_os_close(sim.fd);
-  if (!o.quiet) print_summary(sim.st, sim.pl);
-  return 0;
+	Sim sim;
+	if (int status = load_robot(o.params_path, &sim.cfg, &sim.pl))
+		return status;
+	const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
+	if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
+		std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
+			     std::strerror(-rc));
+		return 1;
+	}
+	std::signal(SIGINT, on_signal);
+	std::signal(SIGTERM, on_signal);
+	rng_seed(&sim.g, 7);
+	int64_t next = omni4_monotonic_ns();
+	const int64_t t0 = sc_os_now_us();
+	for (long tick = 0; !g_stop; ++tick) {
+		const int64_t now = sc_os_now_us();
+		const double t = (now - t0) * 1e-6;
+		if (o.duration_s > 0 && t >= o.duration_s)
+			break;
+		simulate_tick(sim, tick, now, o.no_noise);
+		inject_test_frames(sim.fd, t, o, sim.b);
+		sleep_one_ms(next);
+	}
+	sc_os_close(sim.fd);
+	if (!o.quiet)
+		print_summary(sim.st, sim.pl);
+	return 0;
 }

@@ -29,6 +29,14 @@ LOG_PLOT_POINTS = 4000  # min/max pairs per line in a log figure: extremes kept,
 SEGMENT_COLORS = {"steady_rotation": "C0", "coast": "C1", "motor": "C2", "step": "C3"}
 
 
+def save(fig, out, name, rect=None):
+    """Lays fig out (inside rect), writes it to out/name at 110 dpi and closes it; returns name."""
+    fig.tight_layout(rect=rect)
+    fig.savefig(os.path.join(out, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
 def read_csv(path):
     if not os.path.exists(path):
         return []
@@ -61,11 +69,7 @@ def fig_rotation(rows, params, out):
     ax.set_title("Experiment 1: steady rotation (eq 16)")
     ax.grid(True)
     ax.legend()
-    name = "exp1_torque.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "exp1_torque.png")
 
 
 def fig_coast(rows, out):
@@ -87,9 +91,7 @@ def fig_coast(rows, out):
         ax.grid(True)
         ax.legend(fontsize=7)
         name = f"exp2_coast_{d}.png"
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, name), dpi=110)
-        plt.close(fig)
+        save(fig, out, name)
         names.append(name)
     return names
 
@@ -113,11 +115,7 @@ def fig_motor(rows, params, out):
     ax.set_title("Motor test (eq 22)")
     ax.grid(True)
     ax.legend(fontsize=8)
-    name = "motor_test.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "motor_test.png")
 
 
 PARAMS = ["Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw"]
@@ -148,11 +146,7 @@ def fig_bootstrap(samples, summary, out):
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 4))
     fig.suptitle("Bootstrap over runs: replicates, final value (red), 95 % interval (dashed)",
                  fontsize=10)
-    fig.tight_layout()
-    name = "bootstrap.png"
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "bootstrap.png")
 
 
 def fig_windows(rows, out):
@@ -175,11 +169,7 @@ def fig_windows(rows, out):
     ax.set_xlabel("t since the segment's mark [s]")
     ax.set_title("Windows found in the data: used (green), rejected (red)")
     ax.grid(True, axis="x")
-    name = "windows.png"
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
-    return name
+    return save(fig, out, "windows.png")
 
 
 def fig_validation(rows, out):
@@ -207,9 +197,7 @@ def fig_validation(rows, out):
         axes[1].set_xlabel("t [s]")
         axes[1].grid(True)
         name = f"validation_{d}.png"
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, name), dpi=110)
-        plt.close(fig)
+        save(fig, out, name)
         names.append(name)
     return names
 
@@ -275,26 +263,15 @@ def fig_log(path, index, out):
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=8, ncol=len(labels), loc="lower center")
     name = f"log_{index}_{os.path.basename(path).replace('.', '_')}.png"
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
-    fig.savefig(os.path.join(out, name), dpi=110)
-    plt.close(fig)
+    save(fig, out, name, rect=(0, 0.03, 1, 1))
     lines = [f"`{path}`: {t[-1]:.1f} s of OMNI4_MOTORS, {len(e)} experiment marks, "
              f"{len(log.pose)} poses, {len(log.cmd)} commands.", "", "```"]
     return name, lines + log.summary().splitlines() + ["```", ""]
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("csv_dir")
-    ap.add_argument("out_dir")
-    ap.add_argument("--json", help="validation JSON of omni4-ident validate")
-    ap.add_argument("--log", nargs="+", default=[], metavar="LOG",
-                    help="event logs whose raw series to draw (needs the omni4 package)")
-    a = ap.parse_args()
-    if not os.path.isdir(a.csv_dir):
-        sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
-    os.makedirs(a.out_dir, exist_ok=True)
+def draw_figures(a):
+    """Every figure of the CSV folder (and of the logs); returns (figure names, the logs' lines,
+    the parameter table, the windows and the bootstrap rows)."""
     params = params_table(read_csv(os.path.join(a.csv_dir, "params.csv")))
     figs = []
     figs.append(fig_motor(read_csv(os.path.join(a.csv_dir, "motor_points.csv")), params, a.out_dir))
@@ -312,76 +289,112 @@ def main():
         name, lines = fig_log(path, k, a.out_dir)
         figs.append(name)
         log_lines += lines
-    figs = [f for f in figs if f]
+    return [f for f in figs if f], log_lines, params, windows, boot
+
+
+def params_section(params, agreement):
+    """The methods' estimates of every parameter, with the methods' agreement."""
+    methods = ["motor", "exp1", "exp2", "exp3_ls", "exp3_iv", "final", "true"]
+    present = [m for m in methods if any(m in params[p] for p in params)]
+    lines = ["| param | " + " | ".join(present) + " | methods |",
+             "|---" * (len(present) + 2) + "|"]
+    for p in PARAMS:
+        cells = []
+        for m in present:
+            v = params.get(p, {}).get(m)
+            cells.append("" if v is None else f"{v[0]:.4g}")
+        ag = agreement.get(p)
+        note = ""
+        if ag and int(ag["methods"]) >= 2:
+            note = ("agree" if ag["agree"] == "1" else "**DISAGREE**") + \
+                f" (p = {float(ag['p']):.2g})"
+        lines.append(f"| {p} | " + " | ".join(cells) + f" | {note} |")
+    return lines + ["", "Final: each method's SE raised to at least 0.5 % of its value; if the "
+                    "methods agree (chi-square p >= 0.01) their inverse-variance weighted mean, "
+                    "otherwise their plain mean.", ""]
+
+
+def windows_section(windows):
+    """How many windows of each kind were used, and every rejected one with its reason."""
+    used = defaultdict(int)
+    rejected = []
+    for r in windows:
+        if r["used"] == "1":
+            used[f"{r['what']} ({r['kind']})"] += 1
+        else:
+            rejected.append(r)
+    lines = ["## Windows found in the data", "",
+             ", ".join(f"{n} {k}" for k, n in sorted(used.items())) +
+             f"; {len(rejected)} rejected.", ""]
+    if rejected:
+        lines += ["| segment | kind | dir | what | from [s] | to [s] | reason |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in rejected:
+            lines.append(f"| {r['segment']} | {r['kind']} | {r['direction']} | {r['what']} | "
+                         f"{float(r['t0_s']):.2f} | {float(r['t1_s']):.2f} | {r['reason']} |")
+        lines.append("")
+    return lines
+
+
+def bootstrap_section(boot):
+    """The final values' analytic and bootstrap standard errors."""
+    lines = ["## Uncertainty of the final values", "",
+             "Analytic: from the regression residuals. Bootstrap: whole runs resampled "
+             "within each experiment kind and direction.", "",
+             "| param | final | SE analytic | SE bootstrap | 95 % interval (bootstrap) |",
+             "|---|---|---|---|---|"]
+    for r in boot:
+        lines.append(f"| {r['param']} | {float(r['final']):.5g} | "
+                     f"{float(r['se_analytic']):.2g} | {float(r['se_bootstrap']):.2g} | "
+                     f"[{float(r['lo95']):.5g}, {float(r['hi95']):.5g}] |")
+    return lines + [""]
+
+
+def validation_section(path):
+    """The validation JSON's errors per axis beside the paper's Table IV."""
+    with open(path) as f:
+        val = json.load(f)
+    paper = {"v": (0.061, 0.008, 0.024), "vn": (0.068, -0.009, 0.026),
+             "w": (2.504, -0.452, 0.732)}
+    lines = ["## Validation (eqs 28-30) beside the paper's Table IV (final)", "",
+             "| vel [m/s, m/s, rad/s] | e_max | mean | sigma | paper e_max | paper mean | "
+             "paper sigma |",
+             "|---|---|---|---|---|---|---|"]
+    for k in ["v", "vn", "w"]:
+        e = val[k]
+        p = paper[k]
+        if e.get("e_max") is None:  # no step run along this axis
+            lines.append(f"| {k} | no data | | | {p[0]} | {p[1]} | {p[2]} |")
+            continue
+        lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
+                     f"{p[0]} | {p[1]} | {p[2]} |")
+    return lines + [""]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("csv_dir")
+    ap.add_argument("out_dir")
+    ap.add_argument("--json", help="validation JSON of omni4-ident validate")
+    ap.add_argument("--log", nargs="+", default=[], metavar="LOG",
+                    help="event logs whose raw series to draw (needs the omni4 package)")
+    a = ap.parse_args()
+    if not os.path.isdir(a.csv_dir):
+        sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
+    os.makedirs(a.out_dir, exist_ok=True)
+    figs, log_lines, params, windows, boot = draw_figures(a)
     agreement = {r["param"]: r for r in read_csv(os.path.join(a.csv_dir, "agreement.csv"))}
 
     lines = ["# omni4 identification report", ""]
     if params:
-        methods = ["motor", "exp1", "exp2", "exp3_ls", "exp3_iv", "final", "true"]
-        present = [m for m in methods if any(m in params[p] for p in params)]
-        lines.append("| param | " + " | ".join(present) + " | methods |")
-        lines.append("|---" * (len(present) + 2) + "|")
-        for p in PARAMS:
-            cells = []
-            for m in present:
-                v = params.get(p, {}).get(m)
-                cells.append("" if v is None else f"{v[0]:.4g}")
-            ag = agreement.get(p)
-            note = ""
-            if ag and int(ag["methods"]) >= 2:
-                note = ("agree" if ag["agree"] == "1" else "**DISAGREE**") + \
-                    f" (p = {float(ag['p']):.2g})"
-            lines.append(f"| {p} | " + " | ".join(cells) + f" | {note} |")
-        lines += ["", "Final: each method's SE raised to at least 0.5 % of its value; if the "
-                  "methods agree (chi-square p >= 0.01) their inverse-variance weighted mean, "
-                  "otherwise their plain mean.", ""]
+        lines += params_section(params, agreement)
     if windows:
-        used = defaultdict(int)
-        rejected = []
-        for r in windows:
-            if r["used"] == "1":
-                used[f"{r['what']} ({r['kind']})"] += 1
-            else:
-                rejected.append(r)
-        lines += ["## Windows found in the data", "",
-                  ", ".join(f"{n} {k}" for k, n in sorted(used.items())) +
-                  f"; {len(rejected)} rejected.", ""]
-        if rejected:
-            lines += ["| segment | kind | dir | what | from [s] | to [s] | reason |",
-                      "|---|---|---|---|---|---|---|"]
-            for r in rejected:
-                lines.append(f"| {r['segment']} | {r['kind']} | {r['direction']} | {r['what']} | "
-                             f"{float(r['t0_s']):.2f} | {float(r['t1_s']):.2f} | {r['reason']} |")
-            lines.append("")
+        lines += windows_section(windows)
     if boot:
-        lines += ["## Uncertainty of the final values", "",
-                  "Analytic: from the regression residuals. Bootstrap: whole runs resampled "
-                  "within each experiment kind and direction.", "",
-                  "| param | final | SE analytic | SE bootstrap | 95 % interval (bootstrap) |",
-                  "|---|---|---|---|---|"]
-        for r in boot:
-            lines.append(f"| {r['param']} | {float(r['final']):.5g} | "
-                         f"{float(r['se_analytic']):.2g} | {float(r['se_bootstrap']):.2g} | "
-                         f"[{float(r['lo95']):.5g}, {float(r['hi95']):.5g}] |")
-        lines.append("")
+        lines += bootstrap_section(boot)
     if a.json and os.path.exists(a.json):
-        with open(a.json) as f:
-            val = json.load(f)
-        paper = {"v": (0.061, 0.008, 0.024), "vn": (0.068, -0.009, 0.026),
-                 "w": (2.504, -0.452, 0.732)}
-        lines += ["## Validation (eqs 28-30) beside the paper's Table IV (final)", "",
-                  "| vel [m/s, m/s, rad/s] | e_max | mean | sigma | paper e_max | paper mean | "
-                  "paper sigma |",
-                  "|---|---|---|---|---|---|---|"]
-        for k in ["v", "vn", "w"]:
-            e = val[k]
-            p = paper[k]
-            if e.get("e_max") is None:  # no step run along this axis
-                lines.append(f"| {k} | no data | | | {p[0]} | {p[1]} | {p[2]} |")
-                continue
-            lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
-                         f"{p[0]} | {p[1]} | {p[2]} |")
-        lines.append("")
+        lines += validation_section(a.json)
     if log_lines:
         lines += ["## Logs", ""] + log_lines
     lines += ["## Figures", ""]

@@ -21,16 +21,15 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/getopt_exact.h"
-#include "omni4/version.h"
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "omni4/channels.h"
+#include "omni4/clock.h"
+#include "omni4/eventlog.h"
 #include "omni4/getopt_exact.h"
 #include "omni4/version.h"
-#include "omni4/channels.h"
-#include "omni4/eventlog.h"
 
 #define RECORD_QUEUE_MESSAGES 100000
 
@@ -40,7 +39,7 @@ struct recorder {
 	lcm_eventlog_t *log; /* NULL once the next part of a series could not be opened */
 	char base[4000];     /* --out after strftime */
 	char path[4096];     /* the file being written */
-	int part;            /* -1: one file; else the NN of FILE.NN */
+	int part;	     /* -1: one file; else the NN of FILE.NN */
 	uint64_t split_bytes, bytes;
 	uint64_t written, errors;
 	uint64_t requests_skipped; /* OMNI4_PARAM_REQ messages left out */
@@ -55,24 +54,26 @@ static void on_signal(int sig)
 
 static void usage(FILE *f)
 {
-	fprintf(f,
-		"usage: omni4-record --out FILE [--lcm URL] [--channel REGEX] [--duration S]\n"
-		"                    [--split-mb MB] [-q]\n"
-		"Records LCM messages into an LCM event log (lcm-logplayer, omni4-ident read it),\n"
-		"with a 100000-message receive queue: a recorder that waits for the CPU or the disk\n"
-		"for a moment loses nothing.\n"
-		"  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are expanded;\n"
-		"                       an existing file is never overwritten\n"
-		"  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
-		"  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
-		"                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
-		"                       never recorded\n"
-		"  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
-		"  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
-		"                       holds MB megabytes\n"
-		"  -q, --quiet          no progress line\n"
-		"  -h, --help           this text\n"
-		"example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
+	fprintf(
+	    f,
+	    "usage: omni4-record --out FILE [--lcm URL] [--channel REGEX] [--duration S]\n"
+	    "                    [--split-mb MB] [-q]\n"
+	    "Records LCM messages into an LCM event log (lcm-logplayer, omni4-ident read it),\n"
+	    "with a 100000-message receive queue: a recorder that waits for the CPU or the disk\n"
+	    "for a moment loses nothing.\n"
+	    "  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are "
+	    "expanded;\n"
+	    "                       an existing file is never overwritten\n"
+	    "  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
+	    "  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
+	    "                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
+	    "                       never recorded\n"
+	    "  -d, --duration S     stop after S seconds (default: until SIGINT/SIGTERM)\n"
+	    "  -s, --split-mb MB    write FILE.00, FILE.01, ...: the next part starts once a part\n"
+	    "                       holds MB megabytes\n"
+	    "  -q, --quiet          no progress line\n"
+	    "  -h, --help           this text\n"
+	    "example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
 }
 
 /* Opens the one file, or the next one of the series; never over an existing file. */
@@ -133,10 +134,7 @@ static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 
 static double mono_s(void)
 {
-	struct timespec t;
-
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (double)t.tv_sec + (double)t.tv_nsec * 1e-9;
+	return (double)omni4_monotonic_ns() * 1e-9;
 }
 
 /* Parses a positive number within [lo, hi]; false (and a one-line error) otherwise. */
@@ -146,80 +144,170 @@ static bool parse_number(const char *opt, const char *arg, double lo, double hi,
 	const double v = strtod(arg, &end);
 
 	if (end == arg || *end || !(v >= lo && v <= hi)) {
-		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg, lo,
-			hi);
+		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg,
+			lo, hi);
 		return false;
 	}
 	*out = v;
 	return true;
 }
 
-int main(int argc, char **argv)
+struct record_args {
+	const char *out, *url, *channel;
+	double duration, split_mb;
+	bool quiet;
+};
+
+/* The command line into *a: -1 to go on, else the exit status (0 after --help or --version). */
+static int parse_args(int argc, char **argv, struct record_args *a)
 {
-	static const struct option opts[] = {
-		{"out", required_argument, NULL, 'o'},      {"lcm", required_argument, NULL, 'l'},
-		{"channel", required_argument, NULL, 'c'},  {"duration", required_argument, NULL, 'd'},
-		{"split-mb", required_argument, NULL, 's'}, {"quiet", no_argument, NULL, 'q'},
-		{"help", no_argument, NULL, 'h'},           {"version", no_argument, NULL, 'V'},
-		{NULL, 0, NULL, 0}};
-	static struct recorder r;
-	const char *out = NULL, *url = NULL, *channel = "OMNI4_.*";
-	double duration = 0, split_mb = 0;
-	bool quiet = false;
+	static const struct option opts[] = {{"out", required_argument, NULL, 'o'},
+					     {"lcm", required_argument, NULL, 'l'},
+					     {"channel", required_argument, NULL, 'c'},
+					     {"duration", required_argument, NULL, 'd'},
+					     {"split-mb", required_argument, NULL, 's'},
+					     {"quiet", no_argument, NULL, 'q'},
+					     {"help", no_argument, NULL, 'h'},
+					     {"version", no_argument, NULL, 'V'},
+					     {NULL, 0, NULL, 0}};
 	int c;
 
 	while ((c = omni4_getopt_long("omni4-record", argc, argv, "o:l:c:d:s:qh", opts)) != -1) {
 		switch (c) {
-		case 'o': out = optarg; break;
-		case 'l': url = optarg; break;
-		case 'c': channel = optarg; break;
+		case 'o':
+			a->out = optarg;
+			break;
+		case 'l':
+			a->url = optarg;
+			break;
+		case 'c':
+			a->channel = optarg;
+			break;
 		case 'd':
-			if (!parse_number("duration", optarg, 1e-3, 1e9, &duration))
+			if (!parse_number("duration", optarg, 1e-3, 1e9, &a->duration))
 				return 2;
 			break;
 		case 's':
-			if (!parse_number("split-mb", optarg, 0.01, 1e6, &split_mb))
+			if (!parse_number("split-mb", optarg, 0.01, 1e6, &a->split_mb))
 				return 2;
 			break;
-		case 'q': quiet = true; break;
-		case 'h': usage(stdout); return 0;
-		case 'V': printf("omni4-record %s\n", OMNI4_VERSION); return 0;
+		case 'q':
+			a->quiet = true;
+			break;
+		case 'h':
+			usage(stdout);
+			return 0;
+		case 'V':
+			printf("omni4-record %s\n", OMNI4_VERSION);
+			return 0;
 		default: /* '?': omni4_getopt_long said what */
 			return 2;
 		}
 	}
-	if (!out) {
+	if (!a->out) {
 		fprintf(stderr, "omni4-record: --out FILE is required (see omni4-record --help)\n");
 		return 2;
 	}
 	if (optind != argc) {
-		fprintf(stderr, "omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
+		fprintf(stderr,
+			"omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
 			argv[optind]);
 		return 2;
 	}
+	return -1;
+}
+
+/* The file name (--out after strftime) and the split size into *r: false after a one-line error. */
+static bool name_log(struct recorder *r, const struct record_args *a)
+{
 	const time_t now = time(NULL);
 	struct tm tm;
 
-	r.part = split_mb > 0 ? 0 : -1;
-	r.split_bytes = (uint64_t)(split_mb * 1e6);
-	if (!localtime_r(&now, &tm) || !strftime(r.base, sizeof(r.base), out, &tm)) {
-		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n", out);
-		return 2;
+	r->part = a->split_mb > 0 ? 0 : -1;
+	r->split_bytes = (uint64_t)(a->split_mb * 1e6);
+	if (!localtime_r(&now, &tm) || !strftime(r->base, sizeof(r->base), a->out, &tm)) {
+		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n",
+			a->out);
+		return false;
 	}
-	lcm_t *lcm = lcm_create(url);
+	return true;
+}
+
+/* Receives and writes until a signal, the duration or an error; a progress line a second. */
+static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct record_args *a)
+{
+	const bool tty = isatty(STDERR_FILENO);
+	const double t0 = mono_s();
+	double next_report = t0 + 1.0;
+	uint64_t last = 0;
+
+	if (!a->quiet)
+		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r->path, a->channel,
+			a->url ? a->url : "LCM's default URL");
+	while (!g_stop && !(a->duration > 0 && mono_s() - t0 >= a->duration)) {
+		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to
+		 * stop */
+		if (lcm_handle_timeout(lcm, 50) < 0 && !g_stop && errno != EINTR) {
+			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
+			r->first_errno = r->errors ? r->first_errno : EIO;
+			r->errors++;
+			break;
+		}
+		if (mono_s() < next_report)
+			continue;
+		if (r->log)
+			fflush(r->log->f);
+		if (!a->quiet)
+			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
+				tty ? "\r" : "", next_report - t0, (unsigned long long)r->written,
+				(unsigned long long)(r->written - last), tty ? "" : "\n");
+		last = r->written;
+		next_report += 1.0;
+	}
+}
+
+/* The closing line: what was written, or what failed; the exit status. */
+static int report(const struct recorder *r, const struct record_args *a)
+{
+	const bool tty = isatty(STDERR_FILENO);
+
+	if (r->errors)
+		fprintf(stderr, "%somni4-record: %s: %llu messages written, %llu failed (%s)\n",
+			tty && !a->quiet ? "\n" : "", r->path, (unsigned long long)r->written,
+			(unsigned long long)r->errors, strerror(r->first_errno));
+	else if (!a->quiet)
+		fprintf(stderr,
+			"%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
+			tty ? "\n" : "", r->base, r->part >= 0 ? ".NN" : "",
+			(unsigned long long)r->written, (unsigned long long)r->requests_skipped);
+	return r->errors ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+	static struct recorder r;
+	struct record_args a = {.channel = "OMNI4_.*"};
+	const int status = parse_args(argc, argv, &a);
+
+	if (status >= 0)
+		return status;
+	if (!name_log(&r, &a))
+		return 2;
+	lcm_t *lcm = lcm_create(a.url);
 
 	if (!lcm) {
-		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n", url ? url : "(default)");
+		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n",
+			a.url ? a.url : "(default)");
 		return 1;
 	}
 	if (open_next(&r)) {
 		lcm_destroy(lcm);
 		return 1;
 	}
-	lcm_subscription_t *sub = lcm_subscribe(lcm, channel, record, &r);
+	lcm_subscription_t *sub = lcm_subscribe(lcm, a.channel, record, &r);
 
 	if (!sub) {
-		fprintf(stderr, "omni4-record: cannot subscribe to '%s'\n", channel);
+		fprintf(stderr, "omni4-record: cannot subscribe to '%s'\n", a.channel);
 		lcm_eventlog_destroy(r.log);
 		lcm_destroy(lcm);
 		return 1;
@@ -231,33 +319,7 @@ int main(int argc, char **argv)
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	const bool tty = isatty(STDERR_FILENO);
-	const double t0 = mono_s();
-	double next_report = t0 + 1.0;
-	uint64_t last = 0;
-
-	if (!quiet)
-		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r.path, channel,
-			url ? url : "LCM's default URL");
-	while (!g_stop && !(duration > 0 && mono_s() - t0 >= duration)) {
-		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to stop */
-		if (lcm_handle_timeout(lcm, 50) < 0 && !g_stop && errno != EINTR) {
-			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
-			r.first_errno = r.errors ? r.first_errno : EIO;
-			r.errors++;
-			break;
-		}
-		if (mono_s() < next_report)
-			continue;
-		if (r.log)
-			fflush(r.log->f);
-		if (!quiet)
-			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
-				tty ? "\r" : "", next_report - t0, (unsigned long long)r.written,
-				(unsigned long long)(r.written - last), tty ? "" : "\n");
-		last = r.written;
-		next_report += 1.0;
-	}
+	record_until_stopped(lcm, &r, &a);
 	/* What LCM already holds is written before the log is closed. */
 	while (r.log && lcm_handle_timeout(lcm, 0) > 0)
 		;
@@ -265,13 +327,5 @@ int main(int argc, char **argv)
 	lcm_destroy(lcm);
 	if (r.log)
 		lcm_eventlog_destroy(r.log);
-	if (r.errors)
-		fprintf(stderr, "%somni4-record: %s: %llu messages written, %llu failed (%s)\n",
-			tty && !quiet ? "\n" : "", r.path, (unsigned long long)r.written,
-			(unsigned long long)r.errors, strerror(r.first_errno));
-	else if (!quiet)
-		fprintf(stderr, "%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
-			tty ? "\n" : "", r.base, r.part >= 0 ? ".NN" : "", (unsigned long long)r.written,
-			(unsigned long long)r.requests_skipped);
-	return r.errors ? 1 : 0;
+	return report(&r, &a);
 }

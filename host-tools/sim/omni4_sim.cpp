@@ -4,9 +4,9 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <csignal>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <string>
 #include <thread>
@@ -14,125 +14,183 @@
 #include "omni4/motors_t.hpp"
 #include "simexp.hpp"
 
+namespace
+{
 
-namespace {
-
-std::string fault_names(int32_t f) {
-  using m = omni4::motors_t;  // the bits of lcmtypes/motors_t.lcm
-  static const std::pair<int32_t, const char *> names[] = {
-      {m::FAULT_OVERCURRENT, "OVERCURRENT"},   {m::FAULT_DRIVER_TIMEOUT, "DRIVER_TIMEOUT"},
-      {m::FAULT_DRIVER, "DRIVER"},             {m::FAULT_BUS, "BUS"},
-      {m::FAULT_ENCODER, "ENCODER"},           {m::FAULT_CURRENT_SENSOR, "CURRENT_SENSOR"},
-      {m::FAULT_SUPPLY, "SUPPLY"},             {m::FAULT_ESTOP, "ESTOP"},
-      {m::FAULT_CMD_TIMEOUT, "CMD_TIMEOUT"},   {m::FAULT_CMD_REJECTED, "CMD_REJECTED"},
-      {m::FAULT_LOG_OVERFLOW, "LOG_OVERFLOW"}, {m::FAULT_OVERRUN, "OVERRUN"}};
-  std::string s;
-  for (const auto &[bit, name] : names)
-    if (f & bit) s += (s.empty() ? "" : "|") + std::string(name);
-  return s.empty() ? "none" : s;
+std::string fault_names(int32_t f)
+{
+	using m = omni4::motors_t; // the bits of lcmtypes/motors_t.lcm
+	static const std::pair<int32_t, const char *> names[] = {
+	    {m::FAULT_OVERCURRENT, "OVERCURRENT"},
+	    {m::FAULT_DRIVER_TIMEOUT, "DRIVER_TIMEOUT"},
+	    {m::FAULT_DRIVER, "DRIVER"},
+	    {m::FAULT_BUS, "BUS"},
+	    {m::FAULT_ENCODER, "ENCODER"},
+	    {m::FAULT_CURRENT_SENSOR, "CURRENT_SENSOR"},
+	    {m::FAULT_SUPPLY, "SUPPLY"},
+	    {m::FAULT_ESTOP, "ESTOP"},
+	    {m::FAULT_CMD_TIMEOUT, "CMD_TIMEOUT"},
+	    {m::FAULT_CMD_REJECTED, "CMD_REJECTED"},
+	    {m::FAULT_LOG_OVERFLOW, "LOG_OVERFLOW"},
+	    {m::FAULT_OVERRUN, "OVERRUN"}};
+	std::string s;
+	for (const auto &[bit, name] : names)
+		if (f & bit)
+			s += (s.empty() ? "" : "|") + std::string(name);
+	return s.empty() ? "none" : s;
 }
 
-}  // namespace
+} // namespace
 
-namespace {
+namespace
+{
 volatile sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
-}  // namespace
+void on_signal(int)
+{
+	g_stop = 1;
+}
 
-int main(int argc, char **argv) {
-  CLI::App app{
-      "Simulated omni4 robot: the firmware loop and the model plant in lockstep, logging to an\n"
-      "LCM event log.\n"
-      "Example: omni4-sim --params robot.ini --experiments --speed max --out sim.lcmlog",
-      "omni4-sim"};
-  omni4_cli_setup(app);
-  std::string params_path, out_path, speed = "max";
-  bool experiments = false, no_noise = false, quiet = false;
-  int seed = -1;
-  double duration_s = 0;
-  app.add_option("--params", params_path,
-                 "robot INI file: [model] of the simulated robot and firmware settings "
-                 "(default: Table III)");
-  app.add_flag("--experiments", experiments,
-               "run the paper's experiment sequence (steady rotation, coast-downs, motor runs, "
-               "ramped steps)");
-  app.add_option("--duration", duration_s, "without --experiments: idle run length [s]")
-      ->check(CLI::Range(0.0, 36000.0));
-  app.add_option("--speed", speed, "'max' (as fast as possible) or a real-time factor, e.g. 1");
-  app.add_option("--out", out_path, "event log to write")->required();
-  app.add_option("--seed", seed, "noise seed (default: [sim] seed)")->check(CLI::Range(0, 2147483647));
-  app.add_flag("--no-noise", no_noise, "exact sensors (no current, encoder or camera noise)");
-  app.add_flag("-q,--quiet", quiet, "no progress line");
-  OMNI4_CLI_PARSE(app, argc, argv);
+struct SimArgs {
+	std::string params_path, out_path, speed = "max";
+	bool experiments = false, no_noise = false, quiet = false;
+	int seed = -1;
+	double duration_s = 0;
+	double rtf = 0; // real-time factor from speed; 0 = max
+};
 
-  double rtf = 0;  // 0 = max
-  if (speed != "max") {
-    char *end = nullptr;
-    rtf = std::strtod(speed.c_str(), &end);
-    if (end == speed.c_str() || *end || !(rtf > 0) || !std::isfinite(rtf)) {
-      std::fprintf(stderr, "omni4-sim: --speed must be 'max' or a positive number, not '%s'\n",
-                   speed.c_str());
-      return 2;
-    }
-  }
-  if (!experiments && !(duration_s > 0)) {
-    std::fprintf(stderr, "omni4-sim: nothing to do: give --experiments or --duration S\n");
-    return 2;
-  }
+void add_options(CLI::App &app, SimArgs &a)
+{
+	app.add_option("--params", a.params_path,
+		       "robot INI file: [model] of the simulated robot and firmware settings "
+		       "(default: Table III)");
+	app.add_flag(
+	    "--experiments", a.experiments,
+	    "run the paper's experiment sequence (steady rotation, coast-downs, motor runs, "
+	    "ramped steps)");
+	app.add_option("--duration", a.duration_s, "without --experiments: idle run length [s]")
+	    ->check(CLI::Range(0.0, 36000.0));
+	app.add_option("--speed", a.speed,
+		       "'max' (as fast as possible) or a real-time factor, e.g. 1");
+	app.add_option("--out", a.out_path, "event log to write")->required();
+	app.add_option("--seed", a.seed, "noise seed (default: [sim] seed)")
+	    ->check(CLI::Range(0, 2147483647));
+	app.add_flag("--no-noise", a.no_noise,
+		     "exact sensors (no current, encoder or camera noise)");
+	app.add_flag("-q,--quiet", a.quiet, "no progress line");
+}
 
-  omni4_config cfg;
-  config_defaults(&cfg);
-  if (!params_path.empty()) {
-    config_error err;
-    if (config_load(params_path.c_str(), &cfg, &err) != 0) {
-      std::fprintf(stderr, "omni4-sim: %s\n", err.msg);
-      return 2;
-    }
-  }
-  if (seed >= 0) cfg.sim.seed = seed;
+// --speed into a.rtf and the run's length: 0, or 2 after a one-line error.
+int check_args(SimArgs &a)
+{
+	if (a.speed != "max") {
+		char *end = nullptr;
+		a.rtf = std::strtod(a.speed.c_str(), &end);
+		if (end == a.speed.c_str() || *end || !(a.rtf > 0) || !std::isfinite(a.rtf)) {
+			std::fprintf(
+			    stderr,
+			    "omni4-sim: --speed must be 'max' or a positive number, not '%s'\n",
+			    a.speed.c_str());
+			return 2;
+		}
+	}
+	if (!a.experiments && !(a.duration_s > 0)) {
+		std::fprintf(stderr,
+			     "omni4-sim: nothing to do: give --experiments or --duration S\n");
+		return 2;
+	}
+	return 0;
+}
 
-  const bool tty = isatty(STDERR_FILENO);
-  int last_decile = -1;
-  auto progress = [&](double frac, size_t phase, size_t phases) {
-    const int pct = static_cast<int>(100 * frac);
-    if (quiet || (!tty && pct / 10 == last_decile)) return;
-    // On a terminal the line updates in place; in a log, one line per 10 %.
-    std::fprintf(stderr, "%somni4-sim: %3d%%  phase %zu/%zu%s", tty ? "\r" : "", pct,
-                 std::min(phase + 1, phases), phases, tty ? "" : "\n");
-    last_decile = pct / 10;
-  };
-  // Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log is
-  // written out whole (exit status 130).
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  omni4::SimRunResult r;
-  try {
-    r = omni4::run_simulation(cfg, cfg.ctl.model, !no_noise, out_path, experiments, duration_s, rtf,
-                              progress, [] { return g_stop != 0; });
-  } catch (const std::exception &e) {
-    std::fprintf(stderr, "omni4-sim: %s\n", e.what());
-    return 1;
-  }
-  if (!quiet && tty) std::fprintf(stderr, "\n");
-  const simrun_stats &st = r.stats;
-  std::printf("omni4-sim: wrote %s: %llu messages (OMNI4_MOTORS %llu, OMNI4_POSE %llu, "
-              "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu, OMNI4_PARAM_CHANGED %llu)\n",
-              out_path.c_str(), (unsigned long long)st.messages, (unsigned long long)st.motors,
-              (unsigned long long)st.pose, (unsigned long long)st.cmd,
-              (unsigned long long)st.other, (unsigned long long)st.calibrations);
-  std::printf("omni4-sim: %.1f s simulated in %.2f s wall (real-time factor %.0fx), %llu ticks; "
-              "faults seen: %s; commands rejected: %llu\n",
-              r.simulated_s, r.wall_s, r.simulated_s / r.wall_s, (unsigned long long)st.ticks,
-              fault_names(st.faults).c_str(), (unsigned long long)st.cmd_rejected);
-  if (st.log_errors || st.log_dropped) {
-    std::fprintf(stderr, "omni4-sim: %llu log write errors, %llu samples dropped\n",
-                 (unsigned long long)st.log_errors, (unsigned long long)st.log_dropped);
-    return 1;
-  }
-  if (r.interrupted) {
-    std::fprintf(stderr, "omni4-sim: interrupted after %.1f s simulated; %s is complete up to "
-                 "there (the open segment closed)\n", r.simulated_s, out_path.c_str());
-    return 130;
-  }
-  return 0;
+// The robot INI (defaults without one) with --seed applied: 0, or 2 after a one-line error.
+int load_config(const SimArgs &a, omni4_config &cfg)
+{
+	config_defaults(&cfg);
+	if (!a.params_path.empty()) {
+		config_error err;
+		if (config_load(a.params_path.c_str(), &cfg, &err) != 0) {
+			std::fprintf(stderr, "omni4-sim: %s\n", err.msg);
+			return 2;
+		}
+	}
+	if (a.seed >= 0)
+		cfg.sim.seed = a.seed;
+	return 0;
+}
+
+// What the run wrote and how fast; the exit status (1: log errors, 130: interrupted).
+int report(const SimArgs &a, const omni4::SimRunResult &r)
+{
+	const simrun_stats &st = r.stats;
+	std::printf("omni4-sim: wrote %s: %llu messages (OMNI4_MOTORS %llu, OMNI4_POSE %llu, "
+		    "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu, OMNI4_PARAM_CHANGED %llu)\n",
+		    a.out_path.c_str(), (unsigned long long)st.messages,
+		    (unsigned long long)st.motors, (unsigned long long)st.pose,
+		    (unsigned long long)st.cmd, (unsigned long long)st.other,
+		    (unsigned long long)st.calibrations);
+	std::printf(
+	    "omni4-sim: %.1f s simulated in %.2f s wall (real-time factor %.0fx), %llu ticks; "
+	    "faults seen: %s; commands rejected: %llu\n",
+	    r.simulated_s, r.wall_s, r.simulated_s / r.wall_s, (unsigned long long)st.ticks,
+	    fault_names(st.faults).c_str(), (unsigned long long)st.cmd_rejected);
+	if (st.log_errors || st.log_dropped) {
+		std::fprintf(stderr, "omni4-sim: %llu log write errors, %llu samples dropped\n",
+			     (unsigned long long)st.log_errors, (unsigned long long)st.log_dropped);
+		return 1;
+	}
+	if (r.interrupted) {
+		std::fprintf(stderr,
+			     "omni4-sim: interrupted after %.1f s simulated; %s is complete up to "
+			     "there (the open segment closed)\n",
+			     r.simulated_s, a.out_path.c_str());
+		return 130;
+	}
+	return 0;
+}
+} // namespace
+
+int main(int argc, char **argv)
+{
+	CLI::App app{
+	    "Simulated omni4 robot: the firmware loop and the model plant in lockstep, logging to "
+	    "an\n"
+	    "LCM event log.\n"
+	    "Example: omni4-sim --params robot.ini --experiments --speed max --out sim.lcmlog",
+	    "omni4-sim"};
+	omni4_cli_setup(app);
+	SimArgs a;
+	add_options(app, a);
+	OMNI4_CLI_PARSE(app, argc, argv);
+	if (int status = check_args(a))
+		return status;
+	omni4_config cfg;
+	if (int status = load_config(a, cfg))
+		return status;
+
+	const bool tty = isatty(STDERR_FILENO);
+	int last_decile = -1;
+	auto progress = [&](double frac, size_t phase, size_t phases) {
+		const int pct = static_cast<int>(100 * frac);
+		if (a.quiet || (!tty && pct / 10 == last_decile))
+			return;
+		// On a terminal the line updates in place; in a log, one line per 10 %.
+		std::fprintf(stderr, "%somni4-sim: %3d%%  phase %zu/%zu%s", tty ? "\r" : "", pct,
+			     std::min(phase + 1, phases), phases, tty ? "" : "\n");
+		last_decile = pct / 10;
+	};
+	// Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log
+	// is written out whole (exit status 130).
+	std::signal(SIGINT, on_signal);
+	std::signal(SIGTERM, on_signal);
+	omni4::SimRunResult r;
+	try {
+		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, a.out_path,
+					  a.experiments, a.duration_s, a.rtf, progress,
+					  [] { return g_stop != 0; });
+	} catch (const std::exception &e) {
+		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
+		return 1;
+	}
+	if (!a.quiet && tty)
+		std::fprintf(stderr, "\n");
+	return report(a, r);
 }

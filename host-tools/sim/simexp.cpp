@@ -9,66 +9,70 @@
 #include <thread>
 
 #include "experiments.hpp"
-#include "omni4/experiment_t.hpp"
 
-namespace omni4 {
+namespace omni4
+{
 
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
-                            const std::string &log_path, bool experiments, double idle_s,
-                            double rtf,
-                            const std::function<void(double, size_t, size_t)> &progress,
-                            const std::function<bool()> &stop) {
-  char err[256];
-  std::unique_ptr<simrun, void (*)(simrun *)> sr(
-      simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
-                    sizeof(err)),
-      simrun_destroy);
-  if (!sr) throw std::runtime_error(err);
+			    const std::string &log_path, bool experiments, double idle_s,
+			    double rtf, const std::function<void(double, size_t, size_t)> &progress,
+			    const std::function<bool()> &stop)
+{
+	char err[256];
+	std::unique_ptr<simrun, void (*)(simrun *)> sr(
+	    simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
+			  sizeof(err)),
+	    simrun_destroy);
+	if (!sr)
+		throw std::runtime_error(err);
 
-  std::vector<Phase> phases;
-  if (experiments) phases = paper_sequence();
-  const double total_s = experiments ? total_duration_s(phases) : idle_s;
-  SequencePlayer player(phases);
-  const double dt = simrun_period_s(sr.get());
-  const long ticks = std::lround(total_s / dt);
-  const auto wall0 = std::chrono::steady_clock::now();
-  long next_report = 0;
-  long k = 0;
-  bool interrupted = false;
-  for (; k < ticks; ++k) {
-    if (stop && stop()) {
-      interrupted = true;
-      break;
-    }
-    if (experiments) {
-      const auto out = player.due(k * dt, simrun_now_us(sr.get()));
-      for (const auto &m : out.marks)
-        simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, m.data(), m.size());
-      if (out.has_command) simrun_command(sr.get(), out.command.data(), out.command.size());
-    }
-    simrun_tick(sr.get());
-    if (rtf > 0)
-      std::this_thread::sleep_until(wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));
-    if (progress && k >= next_report) {
-      progress(static_cast<double>(k + 1) / ticks, player.phase_index(), phases.size());
-      next_report += std::max(1L, ticks / 100);
-    }
-  }
-  if (experiments) {  // close the last segment
-    experiment_t end{};
-    end.utime = simrun_now_us(sr.get());
-    end.kind = OMNI4_MARK_END;
-    std::vector<uint8_t> buf(end.getEncodedSize());
-    end.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, buf.data(), buf.size());
-  }
-  if (progress && !interrupted) progress(1.0, phases.size(), phases.size());
-  SimRunResult r;
-  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  r.simulated_s = static_cast<double>(k) * dt;
-  r.interrupted = interrupted;
-  simrun_get_stats(sr.get(), &r.stats);
-  return r;
+	std::vector<Phase> phases;
+	if (experiments)
+		phases = paper_sequence();
+	const double total_s = experiments ? total_duration_s(phases) : idle_s;
+	SequencePlayer player(phases);
+	const double dt = simrun_period_s(sr.get());
+	const long ticks = std::lround(total_s / dt);
+	const auto wall0 = std::chrono::steady_clock::now();
+	long next_report = 0;
+	long k = 0;
+	bool interrupted = false;
+	for (; k < ticks; ++k) {
+		if (stop && stop()) {
+			interrupted = true;
+			break;
+		}
+		if (experiments) {
+			const auto out = player.due(k * dt, simrun_now_us(sr.get()));
+			for (const auto &m : out.marks)
+				simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, m.data(),
+					       m.size());
+			if (out.has_command)
+				simrun_command(sr.get(), out.command.data(), out.command.size());
+		}
+		simrun_tick(sr.get());
+		if (rtf > 0)
+			std::this_thread::sleep_until(
+			    wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));
+		if (progress && k >= next_report) {
+			progress(static_cast<double>(k + 1) / ticks, player.phase_index(),
+				 phases.size());
+			next_report += std::max(1L, ticks / 100);
+		}
+	}
+	if (experiments) { // close the last segment
+		const std::vector<uint8_t> end =
+		    encode_mark(simrun_now_us(sr.get()), OMNI4_MARK_END);
+		simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, end.data(), end.size());
+	}
+	if (progress && !interrupted)
+		progress(1.0, phases.size(), phases.size());
+	SimRunResult r;
+	r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+	r.simulated_s = static_cast<double>(k) * dt;
+	r.interrupted = interrupted;
+	simrun_get_stats(sr.get(), &r.stats);
+	return r;
 }
 
-}  // namespace omni4
+} // namespace omni4

@@ -9,13 +9,14 @@ extern "C" {
 #include "omni4/simrun.h"
 }
 
-namespace omni4 {
+namespace omni4
+{
 
 struct SimRunResult {
-  simrun_stats stats{};
-  double simulated_s = 0;
-  double wall_s = 0;
-  bool interrupted = false;  // stop() ended the run early
+	simrun_stats stats{};
+	double simulated_s = 0;
+	double wall_s = 0;
+	bool interrupted = false; // stop() ended the run early
 };
 
 // cfg: firmware settings; plant: the simulated robot. rtf <= 0: as fast as possible, else a
@@ -24,9 +25,9 @@ struct SimRunResult {
 // ends the run early, with the open segment closed and the log complete (interrupted set).
 // Throws std::runtime_error on set-up errors.
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
-                            const std::string &log_path, bool experiments, double idle_s,
-                            double rtf,
-                            const std::function<void(double, size_t, size_t)> &progress = {},
-                            const std::function<bool()> &stop = {});
+			    const std::string &log_path, bool experiments, double idle_s,
+			    double rtf,
+			    const std::function<void(double, size_t, size_t)> &progress = {},
+			    const std::function<bool()> &stop = {});
 
-}  // namespace omni4
+} // namespace omni4
