@@ -57,6 +57,105 @@ def _geometry(log, params_path):
     return geo
 
 
+class _Messages:
+    """The ROS 2 messages of the bag, built with rosbags' type store."""
+
+    def __init__(self, ts):
+        self.T = ts.types
+
+    def stamp(self, us):
+        us = int(us)
+        return self.T["builtin_interfaces/msg/Time"](sec=us // 1000000,
+                                                     nanosec=(us % 1000000) * 1000)
+
+    def header(self, us, frame):
+        return self.T["std_msgs/msg/Header"](stamp=self.stamp(us), frame_id=frame)
+
+    def vec3(self, x, y, z):
+        return self.T["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
+
+    def pose(self, x, y, th):
+        q = core.yaw_quaternion(th)
+        T = self.T
+        return T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]))
+
+    def twist(self, v, vn, w):
+        return self.T["geometry_msgs/msg/Twist"](linear=self.vec3(v, vn, 0.0),
+                                                 angular=self.vec3(0.0, 0.0, w))
+
+    def joint_states(self, t_us, odom):
+        import numpy as np
+        return self.T["sensor_msgs/msg/JointState"](
+            header=self.header(t_us, ""), name=list(core.JOINT_NAMES),
+            position=np.array(odom.wheel_pos, dtype=np.float64),
+            velocity=np.array(odom.wheel_vel, dtype=np.float64),
+            effort=np.array(odom.effort, dtype=np.float64))
+
+    def odometry(self, t_us, odom):
+        import numpy as np
+        T, v = self.T, odom.vel
+        return T["nav_msgs/msg/Odometry"](
+            header=self.header(t_us, "odom"), child_frame_id="base_link",
+            pose=T["geometry_msgs/msg/PoseWithCovariance"](
+                pose=self.pose(odom.x, odom.y, odom.theta),
+                covariance=np.array(odom.pose_covariance(), dtype=np.float64)),
+            twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                twist=self.twist(v[0], v[1], v[2]),
+                covariance=np.array(odom.twist_covariance(), dtype=np.float64)))
+
+    def tf(self, t_us, odom):
+        T = self.T
+        p = self.pose(odom.x, odom.y, odom.theta)
+        return T["tf2_msgs/msg/TFMessage"](transforms=[T["geometry_msgs/msg/TransformStamped"](
+            header=self.header(t_us, "odom"), child_frame_id="base_link",
+            transform=T["geometry_msgs/msg/Transform"](
+                translation=self.vec3(odom.x, odom.y, 0.0), rotation=p.orientation))])
+
+
+def _motors_events(msgs, log, geo):
+    """/joint_states, /odom and /tf per motors sample, /diagnostics once per second of log time
+    (over that second's samples): (log time [us], topic, message) in log order."""
+    odom, window, gate = core.WheelOdometry(geo), core.MotorsWindow(), core.CmdGate()
+    out, window_start, mo = [], None, log.motors
+    for i in range(len(mo)):
+        m = _Rec()
+        m.utime, m.seq = int(mo.utime[i]), int(mo.seq[i])
+        m.mode, m.faults = int(mo.mode[i]), int(mo.faults[i])
+        m.wheel_speed, m.current = mo.wheel_speed[i], mo.current[i]
+        odom.step(m)
+        t_us = int(mo.event_utime[i])
+        out += [(t_us, "/joint_states", msgs.joint_states(t_us, odom)),
+                (t_us, "/odom", msgs.odometry(t_us, odom)), (t_us, "/tf", msgs.tf(t_us, odom))]
+        if window.first is not None and t_us - window_start >= 1000000:
+            out.append((t_us, "/diagnostics",
+                        _diag(msgs.T, msgs.header(t_us, ""), window, gate, geo)))
+            window.reset()
+        if window.first is None:
+            window_start = t_us
+        window.take(m)
+    return out
+
+
+def _cmd_events(msgs, log):
+    """/cmd_vel from each VELOCITY command."""
+    cmd = log.cmd
+    return [(int(cmd.event_utime[i]), "/cmd_vel", msgs.twist(*(float(x) for x in cmd.velocity[i])))
+            for i in range(len(cmd)) if int(cmd.mode[i]) == command_t.MODE_VELOCITY]
+
+
+def _pose_events(msgs, log):
+    """/camera/pose (PoseStamped in world) from each camera pose."""
+    po, out = log.pose, []
+    for i in range(len(po)):
+        t_us = int(po.event_utime[i])
+        out.append((t_us, "/camera/pose", msgs.T["geometry_msgs/msg/PoseStamped"](
+            header=msgs.header(t_us, "world"),
+            pose=msgs.pose(float(po.x[i]), float(po.y[i]), float(po.theta[i])))))
+    return out
+
+
 def convert(paths, out, params_path=None):
     """Writes the bag; returns {topic: messages written}."""
     from rosbags.rosbag2 import StoragePlugin, Writer
@@ -65,92 +164,15 @@ def convert(paths, out, params_path=None):
     from .. import read_log
 
     ts = get_typestore(getattr(Stores, TYPESTORE))
-    T = ts.types
-    Time = T["builtin_interfaces/msg/Time"]
-    Header = T["std_msgs/msg/Header"]
-    Vec3 = T["geometry_msgs/msg/Vector3"]
-    Point = T["geometry_msgs/msg/Point"]
-    Quat = T["geometry_msgs/msg/Quaternion"]
-    Pose = T["geometry_msgs/msg/Pose"]
-    Twist = T["geometry_msgs/msg/Twist"]
-    import numpy as np
-
+    msgs = _Messages(ts)
     log = read_log(paths)
     geo = _geometry(log, params_path)
-    odom = core.WheelOdometry(geo)
-    window = core.MotorsWindow()
-    gate = core.CmdGate()       # the diagnostics' layout; a log has no /cmd_vel gate
-    window_start = None
+    # Per source in log order, merged by log time, each source keeping its own order (a
+    # logger's receive times may step back a little).
+    events = heapq.merge(_motors_events(msgs, log, geo), _cmd_events(msgs, log),
+                         _pose_events(msgs, log), key=lambda e: e[0])
     counts = {t: 0 for t in TOPICS}
-
-    def stamp(us):
-        us = int(us)
-        return Time(sec=us // 1000000, nanosec=(us % 1000000) * 1000)
-
-    def header(us, frame):
-        return Header(stamp=stamp(us), frame_id=frame)
-
-    def quat(th):
-        q = core.yaw_quaternion(th)
-        return Quat(x=q[0], y=q[1], z=q[2], w=q[3])
-
-    # Per source, in log order: (log time [us], topic, message); merged by time, each source
-    # keeping its own order (a logger's receive times may step back a little).
-    motors_ev, cmd_ev, pose_ev = [], [], []
-    mo = log.motors
-    for i in range(len(mo)):
-        m = _Rec()
-        m.utime, m.seq = int(mo.utime[i]), int(mo.seq[i])
-        m.mode, m.faults = int(mo.mode[i]), int(mo.faults[i])
-        m.wheel_speed, m.current = mo.wheel_speed[i], mo.current[i]
-        odom.step(m)
-        t_us = int(mo.event_utime[i])
-        h = header(t_us, "")
-        js = T["sensor_msgs/msg/JointState"](
-            header=h, name=list(core.JOINT_NAMES),
-            position=np.array(odom.wheel_pos, dtype=np.float64),
-            velocity=np.array(odom.wheel_vel, dtype=np.float64),
-            effort=np.array(odom.effort, dtype=np.float64))
-        pose = Pose(position=Point(x=odom.x, y=odom.y, z=0.0), orientation=quat(odom.theta))
-        v = odom.vel
-        od = T["nav_msgs/msg/Odometry"](
-            header=header(t_us, "odom"), child_frame_id="base_link",
-            pose=T["geometry_msgs/msg/PoseWithCovariance"](
-                pose=pose, covariance=np.array(odom.pose_covariance(), dtype=np.float64)),
-            twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                twist=Twist(linear=Vec3(x=v[0], y=v[1], z=0.0), angular=Vec3(x=0.0, y=0.0, z=v[2])),
-                covariance=np.array(odom.twist_covariance(), dtype=np.float64)))
-        tf = T["tf2_msgs/msg/TFMessage"](transforms=[T["geometry_msgs/msg/TransformStamped"](
-            header=header(t_us, "odom"), child_frame_id="base_link",
-            transform=T["geometry_msgs/msg/Transform"](
-                translation=Vec3(x=odom.x, y=odom.y, z=0.0), rotation=quat(odom.theta)))])
-        motors_ev += [(t_us, "/joint_states", js), (t_us, "/odom", od), (t_us, "/tf", tf)]
-        # /diagnostics: once per second of log time, over that second's samples
-        if window.first is not None and t_us - window_start >= 1000000:
-            motors_ev.append((t_us, "/diagnostics", _diag(T, header(t_us, ""), window, gate, geo)))
-            window.reset()
-        if window.first is None:
-            window_start = t_us
-        window.take(m)
-    cmd = log.cmd
-    for i in range(len(cmd)):
-        if int(cmd.mode[i]) != command_t.MODE_VELOCITY:
-            continue
-        vel = cmd.velocity[i]
-        cmd_ev.append((int(cmd.event_utime[i]), "/cmd_vel", Twist(
-            linear=Vec3(x=float(vel[0]), y=float(vel[1]), z=0.0),
-            angular=Vec3(x=0.0, y=0.0, z=float(vel[2])))))
-    po = log.pose
-    for i in range(len(po)):
-        t_us = int(po.event_utime[i])
-        pose_ev.append((t_us, "/camera/pose", T["geometry_msgs/msg/PoseStamped"](
-            header=header(t_us, "world"),
-            pose=Pose(position=Point(x=float(po.x[i]), y=float(po.y[i]), z=0.0),
-                      orientation=quat(float(po.theta[i]))))))
-    events = heapq.merge(motors_ev, cmd_ev, pose_ev, key=lambda e: e[0])
-
-    writer = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
-    with writer:
+    with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         conns = {t: writer.add_connection(t, typ, typestore=ts) for t, typ in TOPICS.items()}
         for t_us, topic, msg in events:
             writer.write(conns[topic], t_us * 1000, ts.serialize_cdr(msg, TOPICS[topic]))

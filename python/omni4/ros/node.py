@@ -37,15 +37,7 @@ class Omni4Ros:
     def __init__(self, url, secret=None, rate_hz=50.0, fresh_s=FRESH_S, odom_source="auto",
                  frame_prefix="", stop_hold_s=STOP_HOLD_S):
         import rclpy
-        from rclpy.callback_groups import ReentrantCallbackGroup
         from rclpy.node import Node
-        from diagnostic_msgs.msg import DiagnosticArray
-        from geometry_msgs.msg import Twist
-        from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import JointState
-        from std_srvs.srv import Trigger
-
-        from ..params import ParamClient
 
         self.url = url
         self.fresh_s = float(fresh_s)
@@ -76,6 +68,24 @@ class Omni4Ros:
         self._cmd_at = 0.0
         self._stopping_since = None
 
+        self._open_lcm(url, secret, odom_source)
+        self._open_ros(rate_hz)
+        self._rclpy = rclpy
+        self._threads = [threading.Thread(target=self._rx_loop, name="omni4-ros-lcm", daemon=True),
+                         threading.Thread(target=self._keepalive_loop, name="omni4-ros-keepalive",
+                                          daemon=True),
+                         threading.Thread(target=self._param_loop, name="omni4-ros-params",
+                                          daemon=True)]
+        for t in self._threads:
+            t.start()
+        tf = "and /tf" if self._TF else "(no tf2_msgs here: /tf not published, see docs/ros.md)"
+        self.log.info(f"on LCM {url}: /cmd_vel -> {CHANNEL_CMD}; /odom, /joint_states {tf}; "
+                      f"odometry from {self._odom_source_name()}")
+
+    def _open_lcm(self, url, secret, odom_source):
+        """The robot's bus: motors_t, parameter notices, the estimate; the parameter client."""
+        from ..params import ParamClient
+
         try:
             self.lc = lcm.LCM(url)
             self._lc_param = lcm.LCM(url)
@@ -88,6 +98,16 @@ class Omni4Ros:
         self.state_cls, state_channel = core.state_type()
         if self.state_cls is not None and odom_source != "wheels":
             self.lc.subscribe(state_channel, self._on_state)
+
+
+    def _open_ros(self, rate_hz):
+        """Publishers, the /cmd_vel subscription, services, parameters and timers."""
+        from rclpy.callback_groups import ReentrantCallbackGroup
+        from diagnostic_msgs.msg import DiagnosticArray
+        from geometry_msgs.msg import Twist
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import JointState
+        from std_srvs.srv import Trigger
 
         from builtin_interfaces.msg import Time
         self._Odometry, self._JointState, self._DiagnosticArray = Odometry, JointState, DiagnosticArray
@@ -110,17 +130,6 @@ class Omni4Ros:
         self.node.add_on_set_parameters_callback(self._on_set_parameters)
         self.node.create_timer(1.0 / rate_hz, self._publish_state)
         self.node.create_timer(1.0, self._publish_diagnostics, callback_group=group)
-        self._rclpy = rclpy
-        self._threads = [threading.Thread(target=self._rx_loop, name="omni4-ros-lcm", daemon=True),
-                         threading.Thread(target=self._keepalive_loop, name="omni4-ros-keepalive",
-                                          daemon=True),
-                         threading.Thread(target=self._param_loop, name="omni4-ros-params",
-                                          daemon=True)]
-        for t in self._threads:
-            t.start()
-        tf = "and /tf" if self._TF else "(no tf2_msgs here: /tf not published, see docs/ros.md)"
-        self.log.info(f"on LCM {url}: /cmd_vel -> {CHANNEL_CMD}; /odom, /joint_states {tf}; "
-                      f"odometry from {self._odom_source_name()}")
 
     # ---- LCM side ----------------------------------------------------------------------------
     def _rx_loop(self):
