@@ -32,8 +32,6 @@ void on_signal(int)
 	g_stop = 1;
 }
 
-constexpr int64_t kCmdTimeoutUs = 50000; // a board disables itself without commands
-
 struct Stats {
 	unsigned long long rx = 0, tx = 0, tx_dropped = 0, crc_errors = 0, replayed = 0,
 			   cmd_timeouts = 0;
@@ -196,7 +194,7 @@ void receive_commands(int fd, int64_t now, Boards &b, Stats &st)
 
 void check_cmd_timeout(int64_t now, Boards &b, Stats &st)
 {
-	if (b.last_cmd && now - b.last_cmd > kCmdTimeoutUs &&
+	if (b.last_cmd && now - b.last_cmd > CAN_BOARD_CMD_TIMEOUT_US &&
 	    !(b.drv_faults & CAN_DRV_CMD_TIMEOUT)) {
 		b.drv_faults |= CAN_DRV_CMD_TIMEOUT;
 		++st.cmd_timeouts;

@@ -64,7 +64,8 @@ static void usage(FILE *f)
 	    "  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are "
 	    "expanded;\n"
 	    "                       an existing file is never overwritten\n"
-	    "  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else LCM's default)\n"
+	    "  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else the robot's,\n"
+	    "                       " OMNI4_DEFAULT_LCM_URL ")\n"
 	    "  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
 	    "                       (" OMNI4_CHANNEL_PARAM_REQ ": they may carry the secret) are\n"
 	    "                       never recorded\n"
@@ -242,8 +243,7 @@ static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct re
 	uint64_t last = 0;
 
 	if (!a->quiet)
-		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r->path, a->channel,
-			a->url ? a->url : "LCM's default URL");
+		fprintf(stderr, "omni4-record: %s <- %s on %s\n", r->path, a->channel, a->url);
 	while (!g_stop && !(a->duration > 0 && mono_s() - t0 >= a->duration)) {
 		/* < 0 also when a signal interrupts the wait: only an error if nothing asked to
 		 * stop */
@@ -293,11 +293,13 @@ int main(int argc, char **argv)
 		return status;
 	if (!name_log(&r, &a))
 		return 2;
+	if (!a.url) /* LCM's own convention first, then the robot's default */
+		a.url =
+		    getenv("LCM_DEFAULT_URL") ? getenv("LCM_DEFAULT_URL") : OMNI4_DEFAULT_LCM_URL;
 	lcm_t *lcm = lcm_create(a.url);
 
 	if (!lcm) {
-		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n",
-			a.url ? a.url : "(default)");
+		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n", a.url);
 		return 1;
 	}
 	if (open_next(&r)) {
