@@ -67,9 +67,9 @@ static int measure(lcm_t *tx, int n, double *lat)
 		const float v = 0.5f + 0.01f * (float)(k % 500);
 		const struct timespec wait = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
 		omni4_command_t c = {.seq = k,
-				     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
-				     .voltage = {v, v, v, v},
-				     .ramp_s = 0};
+		                     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+		                     .voltage = {v, v, v, v},
+		                     .ramp_s = 0};
 
 		nanosleep(&wait, NULL); /* a random phase against the loop */
 		atomic_store(&seen_ns, 0);
@@ -103,12 +103,12 @@ int main(int argc, char **argv)
 	ctl_settings_defaults(&ctl);
 	sim_settings_defaults(&sim);
 	const struct robot_spec spec = {.ctl = &ctl,
-					.motor = OMNI4_MOTOR_SIM,
-					.lines = OMNI4_LINES_NONE,
-					.sim = &sim,
-					.sim_exact = true,
-					.utime0 = rtloop_clock_us(),
-					.wrap = stamped};
+	                                .motor = OMNI4_MOTOR_SIM,
+	                                .lines = OMNI4_LINES_NONE,
+	                                .sim = &sim,
+	                                .sim_exact = true,
+	                                .utime0 = rtloop_clock_us(),
+	                                .wrap = stamped};
 	struct fw *fw = &robot.fw;
 
 	if (robot_open(&robot, &spec, why, sizeof(why))) {

@@ -101,7 +101,7 @@ static void on_motors(struct bench *b, const omni4_motors_t *m)
 
 	if (b->have_prev) {
 		in.driven = b->prev.mode == OMNI4_MOTORS_T_MODE_VELOCITY ||
-			    b->prev.mode == OMNI4_MOTORS_T_MODE_VOLTAGE;
+		            b->prev.mode == OMNI4_MOTORS_T_MODE_VOLTAGE;
 		memcpy(in.volts, b->prev.voltage, sizeof(in.volts));
 	}
 	memcpy(in.wheel_rad_s, m->wheel_speed, sizeof(in.wheel_rad_s));
@@ -119,8 +119,8 @@ static void on_motors(struct bench *b, const omni4_motors_t *m)
 	add(&b->odo_score, t, b->odo[0], b->odo[1], b->odo[2]);
 	if (b->csv && m->seq % 20 == 0)
 		fprintf(b->csv, "%.3f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f\n",
-			(double)(m->utime - b->utime0) * 1e-6, t[0], t[1], o->pose[0], o->pose[1],
-			b->odo[0], b->odo[1], l->pose[0], l->pose[1]);
+		        (double)(m->utime - b->utime0) * 1e-6, t[0], t[1], o->pose[0], o->pose[1],
+		        b->odo[0], b->odo[1], l->pose[0], l->pose[1]);
 }
 
 static void on_pose(struct bench *b, const omni4_pose_t *p, int64_t arrival)
@@ -163,9 +163,9 @@ static void command(struct bench *b, double v, double vn, double w, int64_t *seq
 {
 	unsigned char buf[256];
 	omni4_command_t c = {.utime = simrun_now_us(b->sr),
-			     .seq = (*seq)++,
-			     .mode = OMNI4_COMMAND_T_MODE_VELOCITY,
-			     .velocity = {v, vn, w}};
+	                     .seq = (*seq)++,
+	                     .mode = OMNI4_COMMAND_T_MODE_VELOCITY,
+	                     .velocity = {v, vn, w}};
 	const int n = omni4_command_t_encode(buf, 0, sizeof(buf), &c);
 
 	simrun_command(b->sr, buf, (size_t)n);
@@ -174,8 +174,8 @@ static void command(struct bench *b, double v, double vn, double w, int64_t *seq
 /* The velocity asked for at time t [s]: validation steps, then the path. */
 static void drive_at(double t, double steps_s, double x[3])
 {
-	static const double steps[][3] = {{1, 0, 0}, {0, 0, 0},	 {0, 1, 0}, {0, 0, 0},	{0, 0, 6},
-					  {0, 0, 0}, {-1, 0, 0}, {0, 0, 0}, {0, -1, 0}, {0, 0, 0}};
+	static const double steps[][3] = {{1, 0, 0}, {0, 0, 0},  {0, 1, 0}, {0, 0, 0},  {0, 0, 6},
+	                                  {0, 0, 0}, {-1, 0, 0}, {0, 0, 0}, {0, -1, 0}, {0, 0, 0}};
 	const int n = (int)(sizeof(steps) / sizeof(steps[0]));
 
 	if (t < steps_s) {
@@ -193,7 +193,7 @@ static void report(const char *name, const struct score *s, const struct score *
 {
 	const double pos = sqrt(s->se_pos / (double)s->n), th = sqrt(s->se_th / (double)s->n);
 	const double epos = sqrt(est->se_pos / (double)est->n),
-		     eth = sqrt(est->se_th / (double)est->n);
+	             eth = sqrt(est->se_th / (double)est->n);
 
 	printf("%-34s position RMS %8.2f mm  heading RMS %6.3f deg  (estimate/this: %.3f, %.3f)\n",
 	       name, 1e3 * pos, th * 180.0 / PI, epos / pos, eth / th);
@@ -216,7 +216,7 @@ int main(int argc, char **argv)
 			csv = argv[++i];
 		else {
 			fprintf(stderr,
-				"usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
+			        "usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
 			return 2;
 		}
 	}

@@ -18,8 +18,8 @@ static int none_set(void *ctx, bool on)
 }
 
 const struct line_hal_ops line_none_ops = {
-	.read_estop = none_read_estop,
-	.set_enable = none_set,
-	.set_led = none_set,
-	.close = NULL,
+    .read_estop = none_read_estop,
+    .set_enable = none_set,
+    .set_led = none_set,
+    .close = NULL,
 };

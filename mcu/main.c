@@ -17,10 +17,10 @@
 
 #define SYST ((volatile uint32_t *)0xE000E010) /* CSR, RVR, CVR, CALIB */
 #define SYSCLK_HZ 25000000u                    /* MPS2 AN386 system clock */
-#define RELOAD (SYSCLK_HZ / 1000u)              /* 1 kHz */
+#define RELOAD (SYSCLK_HZ / 1000u)             /* 1 kHz */
 
-static volatile uint32_t g_ms;       /* SysTick interrupts so far */
-static uint32_t g_served;            /* ticks the main loop has run */
+static volatile uint32_t g_ms;        /* SysTick interrupts so far */
+static uint32_t g_served;             /* ticks the main loop has run */
 static uint32_t g_instr_per_count_q8; /* instructions per SysTick count, x256 */
 
 void systick_handler(void);
@@ -30,7 +30,7 @@ void systick_handler(void)
 }
 
 #define ICSR (*(volatile uint32_t *)0xE000ED04) /* interrupt control and state */
-#define ICSR_PENDSTSET (1u << 26)                /* SysTick exception pending */
+#define ICSR_PENDSTSET (1u << 26)               /* SysTick exception pending */
 #define WRAP_SETTLE 8u /* counts after a wrap within which its interrupt may not have run */
 
 /* SysTick counts down from RELOAD-1; with the interrupt count it gives a running clock. Just
@@ -95,7 +95,7 @@ int main(void)
 	g_served = g_ms;
 
 	static const struct scenario_meter meter = {
-		.read = instructions, .unit = "instructions (qemu -icount, calibrated on NOPs)"};
+	    .read = instructions, .unit = "instructions (qemu -icount, calibrated on NOPs)"};
 
 	scenarios_set_meter(&meter);
 	printf("cortex-m4: SysTick 1 kHz, calibration %lu counts for 102000 instructions\n",

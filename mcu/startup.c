@@ -19,14 +19,28 @@ void default_handler(void)
 }
 
 __attribute__((section(".vectors"), used)) static void (*const vectors[16])(void) = {
-	(void (*)(void))(&__stack_top), reset_handler, default_handler, default_handler,
-	default_handler, default_handler, default_handler, 0, 0, 0, 0, default_handler,
-	default_handler, 0, default_handler, systick_handler,
+    (void (*)(void))(&__stack_top),
+    reset_handler,
+    default_handler,
+    default_handler,
+    default_handler,
+    default_handler,
+    default_handler,
+    0,
+    0,
+    0,
+    0,
+    default_handler,
+    default_handler,
+    0,
+    default_handler,
+    systick_handler,
 };
 
 void reset_handler(void)
 {
-	memcpy(&__data_start__, &__etext, (size_t)((char *)&__data_end__ - (char *)&__data_start__));
+	memcpy(&__data_start__, &__etext,
+	       (size_t)((char *)&__data_end__ - (char *)&__data_start__));
 	memset(&__bss_start__, 0, (size_t)((char *)&__bss_end__ - (char *)&__bss_start__));
 	/* CPACR: full access to CP10/CP11 (the FPU) before any float instruction. */
 	*(volatile uint32_t *)0xE000ED88 |= 0xFu << 20;

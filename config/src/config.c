@@ -25,9 +25,18 @@
 
 /* A row of a layer's key list (ctl_keys.def and the others) as a row of the table, its field
  * located in struct omni4_config under member `part`. */
-#define ROW(part, kind, section, key, field, def, lo, hi, choices, unit, change, doc)          \
-	{section, key, CONFIG_##kind, offsetof(struct omni4_config, part.field),                \
-	 sizeof(((struct omni4_config *)0)->part.field), lo, hi, choices, unit, change, doc},
+#define ROW(part, kind, section, key, field, def, lo, hi, choices, unit, change, doc)              \
+	{section,                                                                                  \
+	 key,                                                                                      \
+	 CONFIG_##kind,                                                                            \
+	 offsetof(struct omni4_config, part.field),                                                \
+	 sizeof(((struct omni4_config *)0)->part.field),                                           \
+	 lo,                                                                                       \
+	 hi,                                                                                       \
+	 choices,                                                                                  \
+	 unit,                                                                                     \
+	 change,                                                                                   \
+	 doc},
 
 /*
  * The one table of keys: the INI parser, the writer and the parameter service (over LCM) all
@@ -58,10 +67,10 @@ static const struct config_key keys[] = {
 #define DEFAULT_INT(dst, def) (dst) = (def)
 #define DEFAULT_BOOL(dst, def) (dst) = (def)
 #define DEFAULT_ENUM(dst, def) (dst) = (def)
-#define DEFAULT_STR(dst, def)                                                                   \
-	do {                                                                                    \
-		_Static_assert(sizeof(def) <= sizeof(dst), "default too long");                \
-		memcpy((dst), (def), sizeof(def));                                              \
+#define DEFAULT_STR(dst, def)                                                                      \
+	do {                                                                                       \
+		_Static_assert(sizeof(def) <= sizeof(dst), "default too long");                    \
+		memcpy((dst), (def), sizeof(def));                                                 \
 	} while (0)
 
 void config_defaults(struct omni4_config *cfg)
@@ -96,7 +105,7 @@ struct parse_state {
 };
 
 static int fail(struct parse_state *st, int line, const char *what, const char *section,
-		const char *name, const char *detail)
+                const char *name, const char *detail)
 {
 	if (st->failed)
 		return 0;
@@ -104,10 +113,10 @@ static int fail(struct parse_state *st, int line, const char *what, const char *
 	st->err->line = line;
 	if (line > 0)
 		snprintf(st->err->msg, sizeof(st->err->msg), "%s:%d: %s '%s' in [%s]%s%s", st->name,
-			 line, what, name, section, detail ? ": " : "", detail ? detail : "");
+		         line, what, name, section, detail ? ": " : "", detail ? detail : "");
 	else
 		snprintf(st->err->msg, sizeof(st->err->msg), "%s: %s '%s' in [%s]%s%s", st->name,
-			 what, name, section, detail ? ": " : "", detail ? detail : "");
+		         what, name, section, detail ? ": " : "", detail ? detail : "");
 	return 0;
 }
 
@@ -165,7 +174,7 @@ static int choice_name(const char *choices, int i, char *buf, size_t n)
 /* A number of key k (double, or int when integer): parsed whole, finite, within the key's
  * range. 0, or -EINVAL with what and detail. */
 static int parse_number(const struct config_key *k, const char *value, bool integer, double *v,
-			const char **what, char *detail, size_t n)
+                        const char **what, char *detail, size_t n)
 {
 	char *end;
 
@@ -173,13 +182,13 @@ static int parse_number(const struct config_key *k, const char *value, bool inte
 	*v = integer ? (double)strtol(value, &end, 10) : strtod(value, &end);
 	if (end == value || *end || errno == ERANGE || !isfinite(*v)) {
 		snprintf(detail, n, "'%.60s' is not %s", value,
-			 integer ? "an integer" : "a finite number");
+		         integer ? "an integer" : "a finite number");
 		*what = "bad value";
 		return -EINVAL;
 	}
 	if (*v < k->min || *v > k->max) {
 		snprintf(detail, n, integer ? "%.0f outside [%g, %g]" : "%g outside [%g, %g]", *v,
-			 k->min, k->max);
+		         k->min, k->max);
 		*what = "out of range value";
 		return -EINVAL;
 	}
@@ -188,7 +197,7 @@ static int parse_number(const struct config_key *k, const char *value, bool inte
 
 /* A word of key k's choices, stored as its index. 0, or -EINVAL with what and detail. */
 static int parse_choice(const struct config_key *k, const char *value, char *base,
-			const char **what, char *detail, size_t n)
+                        const char **what, char *detail, size_t n)
 {
 	const int iv = choice_index(value, k->choices);
 
@@ -206,7 +215,7 @@ static int parse_choice(const struct config_key *k, const char *value, char *bas
  * "out of range value", "too long value") and detail ("" or why) filled in.
  */
 static int key_parse(const struct config_key *k, const char *value, struct omni4_config *cfg,
-		     const char **what, char *detail, size_t n)
+                     const char **what, char *detail, size_t n)
 {
 	char *base = (char *)cfg + k->offset;
 	double v;
@@ -248,7 +257,8 @@ static int key_parse(const struct config_key *k, const char *value, struct omni4
 	return -EINVAL;
 }
 
-static int set_value(struct parse_state *st, const struct config_key *k, const char *value, int line)
+static int set_value(struct parse_state *st, const struct config_key *k, const char *value,
+                     int line)
 {
 	char detail[128];
 	const char *what = NULL;
@@ -274,7 +284,8 @@ static int on_line(void *user, int line, const char *section, const char *name, 
 		st->seen[i] = true;
 		if (st->pairs) {
 			if (st->pairs(st->pairs_ctx, (int)i, value))
-				return fail(st, line, "cannot take", section, name, "too many keys");
+				return fail(st, line, "cannot take", section, name,
+				            "too many keys");
 			return 1;
 		}
 		return set_value(st, &keys[i], value, line);
@@ -300,7 +311,7 @@ static int after_parse(struct parse_state *st, int rc)
 {
 	if (rc == -1) {
 		snprintf(st->err->msg, sizeof(st->err->msg), "%s: cannot open: %s", st->name,
-			 strerror(errno));
+		         strerror(errno));
 		return -ENOENT;
 	}
 	if (rc == -2) {
@@ -310,7 +321,7 @@ static int after_parse(struct parse_state *st, int rc)
 	if (rc > 0 && !st->failed) {
 		st->err->line = rc;
 		snprintf(st->err->msg, sizeof(st->err->msg),
-			 "%s:%d: syntax error (expected [section] or key = value)", st->name, rc);
+		         "%s:%d: syntax error (expected [section] or key = value)", st->name, rc);
 		return -EINVAL;
 	}
 	if (st->failed)
@@ -392,12 +403,15 @@ static int handler(void *user, const char *section, const char *name, const char
 }
 
 static int parse_ex(struct line_reader *reader, const char *name, struct omni4_config *cfg,
-		    struct config_error *err, uint32_t *model_seen,
-		    int (*pairs)(void *ctx, int key, const char *value), void *pairs_ctx)
+                    struct config_error *err, uint32_t *model_seen,
+                    int (*pairs)(void *ctx, int key, const char *value), void *pairs_ctx)
 {
-	struct parse_state st = {.cfg = cfg, .err = err, .name = name,
-				 .partial_model = model_seen != NULL, .pairs = pairs,
-				 .pairs_ctx = pairs_ctx};
+	struct parse_state st = {.cfg = cfg,
+	                         .err = err,
+	                         .name = name,
+	                         .partial_model = model_seen != NULL,
+	                         .pairs = pairs,
+	                         .pairs_ctx = pairs_ctx};
 	struct handler_ctx h = {.st = &st, .reader = reader};
 	int rc;
 
@@ -413,13 +427,13 @@ static int parse_ex(struct line_reader *reader, const char *name, struct omni4_c
 }
 
 static int parse(struct line_reader *reader, const char *name, struct omni4_config *cfg,
-		 struct config_error *err, uint32_t *model_seen)
+                 struct config_error *err, uint32_t *model_seen)
 {
 	return parse_ex(reader, name, cfg, err, model_seen, NULL, NULL);
 }
 
 static int load_file(const char *path, struct omni4_config *cfg, struct config_error *err,
-		     uint32_t *model_seen)
+                     uint32_t *model_seen)
 {
 	struct line_reader r = {.f = fopen(path, "r")};
 	int rc;
@@ -440,13 +454,13 @@ int config_load(const char *path, struct omni4_config *cfg, struct config_error 
 }
 
 int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *model_seen,
-			struct config_error *err)
+                        struct config_error *err)
 {
 	return load_file(path, cfg, err, model_seen);
 }
 
 int config_load_string(const char *text, const char *name, struct omni4_config *cfg,
-		       struct config_error *err)
+                       struct config_error *err)
 {
 	struct line_reader r = {.text = text};
 
@@ -481,8 +495,8 @@ int config_write_model(FILE *f, const struct model_params *p)
 }
 
 int config_parse_pairs(const char *text, const char *name,
-		       int (*pair)(void *ctx, int key, const char *value), void *ctx,
-		       struct config_error *err)
+                       int (*pair)(void *ctx, int key, const char *value), void *ctx,
+                       struct config_error *err)
 {
 	struct line_reader r = {.text = text};
 	struct omni4_config scratch; /* untouched: every value goes to pair */
@@ -580,8 +594,8 @@ int config_key_set(struct omni4_config *cfg, int i, const char *value, char *why
 		return -EINVAL;
 	}
 	if (key_parse(k, value, cfg, &what, detail, sizeof(detail))) {
-		snprintf(why, n, "%s.%s: %s%s%s", k->section, k->name, what,
-			 detail[0] ? ": " : "", detail);
+		snprintf(why, n, "%s.%s: %s%s%s", k->section, k->name, what, detail[0] ? ": " : "",
+		         detail);
 		return -EINVAL;
 	}
 	return 0;
@@ -594,7 +608,7 @@ int config_check(const struct omni4_config *cfg, char *why, size_t n)
 
 	if (check_whole(cfg, &bad, &reason)) {
 		snprintf(why, n, "%s.%s: invalid value: %s", keys[bad].section, keys[bad].name,
-			 reason);
+		         reason);
 		return -EINVAL;
 	}
 	return 0;
@@ -624,7 +638,7 @@ static int write_section(FILE *f, const struct omni4_config *cfg, size_t i)
 		if (config_key_format(cfg, (int)j, value, sizeof(value)))
 			return -EINVAL;
 		if (fprintf(f, "; %s%s%s%s\n%s = %s\n", k->doc, k->unit[0] ? " [" : "", k->unit,
-			    k->unit[0] ? "]" : "", k->name, value) < 0)
+		            k->unit[0] ? "]" : "", k->name, value) < 0)
 			return -EIO;
 	}
 	return 0;
@@ -701,7 +715,7 @@ static int copy_file(const char *src, const char *dst)
 }
 
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
-		size_t n)
+                size_t n)
 {
 	char tmp[PATH_MAX], bak[PATH_MAX];
 	struct stat st;
@@ -714,7 +728,8 @@ int config_save(const char *path, const struct omni4_config *cfg, const char *he
 		return -ENAMETOOLONG;
 	}
 	if (stat(path, &st) == 0)
-		mode = st.st_mode & 07777; /* keep the file's permissions (it may hold the secret) */
+		mode =
+		    st.st_mode & 07777; /* keep the file's permissions (it may hold the secret) */
 	const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
 
 	if (fd < 0) {

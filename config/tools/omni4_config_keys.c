@@ -52,7 +52,7 @@ static void range_text(const struct config_key *k, char *buf, size_t n)
 			const int len = (int)(bar ? bar - c : (long)strlen(c));
 
 			used += (size_t)snprintf(buf + used, n - used, "%s`%.*s`",
-						 used ? " \\| " : "", len, c);
+			                         used ? " \\| " : "", len, c);
 			c = bar ? bar + 1 : NULL;
 		}
 		return;
@@ -86,9 +86,9 @@ static void print_key(const struct config_key *k, const char *def, const char *r
 	const bool quoted = k->type == CONFIG_STRING || k->type == CONFIG_ENUM;
 
 	if (!json) {
-		printf("| `[%s]` | `%s` | %s | %s | %s | `%s%s%s` | %s | %s |\n", k->section, k->name,
-		       type_name(k->type), k->unit[0] ? k->unit : "–", range, quoted ? "\"" : "",
-		       def, quoted ? "\"" : "", change_name(k->change), k->doc);
+		printf("| `[%s]` | `%s` | %s | %s | %s | `%s%s%s` | %s | %s |\n", k->section,
+		       k->name, type_name(k->type), k->unit[0] ? k->unit : "–", range,
+		       quoted ? "\"" : "", def, quoted ? "\"" : "", change_name(k->change), k->doc);
 		return;
 	}
 	printf("{\"section\": ");
@@ -125,7 +125,7 @@ int main(int argc, char **argv)
 
 		if (config_key_format(&cfg, i, def, sizeof(def))) {
 			fprintf(stderr, "omni4-config-keys: %s.%s: default cannot be written\n",
-				k->section, k->name);
+			        k->section, k->name);
 			return 1;
 		}
 		range_text(k, range, sizeof(range));

@@ -8,7 +8,6 @@
 #include <math.h>
 #include <string.h>
 
-
 /* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
 #define ENCODER_RESIDUAL_MAX_M_S 0.5f
 #define ENCODER_BAD_TIME_S 0.05
@@ -30,29 +29,29 @@ static void tune(struct ctl *c)
 	const struct ctl_settings *cfg = &c->set;
 	const double dt = 1.0 / cfg->rate_hz;
 	const float acc_max[3] = {(float)cfg->limits.acc_lin_max, (float)cfg->limits.acc_lin_max,
-				  (float)cfg->limits.acc_rot_max};
+	                          (float)cfg->limits.acc_rot_max};
 
 	c->t = (struct ctl_tuning){
-		.dt = (float)dt,
-		.r = (float)cfg->model.r,
-		.u_max = (float)cfg->limits.supply_v,
-		/* Limits compared at the samples' precision (float): a reading of 10.2 A is the
-		 * float nearest 10.2, which is below the double 10.2. */
-		.current_max = (float)cfg->limits.current_max_a,
-		.sensor_max = (float)cfg->limits.current_sensor_max_a,
-		.supply_min = (float)cfg->limits.supply_min_v,
-		.cmd_timeout_us = (int64_t)cfg->control.cmd_timeout_ms * 1000,
-		.stop_ramp_s = (float)cfg->control.stop_ramp_s,
-		.feedforward = cfg->control.feedforward,
-		.feedback = cfg->control.feedback,
-		.vel_lin_max = cfg->limits.vel_lin_max,
-		.vel_rot_max = cfg->limits.vel_rot_max,
-		.supply_v = cfg->limits.supply_v,
-		.encoder_bad_ticks_max = (int)ceil(ENCODER_BAD_TIME_S / dt - 1e-9),
+	    .dt = (float)dt,
+	    .r = (float)cfg->model.r,
+	    .u_max = (float)cfg->limits.supply_v,
+	    /* Limits compared at the samples' precision (float): a reading of 10.2 A is the
+	     * float nearest 10.2, which is below the double 10.2. */
+	    .current_max = (float)cfg->limits.current_max_a,
+	    .sensor_max = (float)cfg->limits.current_sensor_max_a,
+	    .supply_min = (float)cfg->limits.supply_min_v,
+	    .cmd_timeout_us = (int64_t)cfg->control.cmd_timeout_ms * 1000,
+	    .stop_ramp_s = (float)cfg->control.stop_ramp_s,
+	    .feedforward = cfg->control.feedforward,
+	    .feedback = cfg->control.feedback,
+	    .vel_lin_max = cfg->limits.vel_lin_max,
+	    .vel_rot_max = cfg->limits.vel_rot_max,
+	    .supply_v = cfg->limits.supply_v,
+	    .encoder_bad_ticks_max = (int)ceil(ENCODER_BAD_TIME_S / dt - 1e-9),
 	};
 	for (int j = 0; j < 4; j++)
-		ctl_pi_set_gains(&c->pi[j], (float)cfg->control.kp, (float)cfg->control.ki,
-				 c->t.dt, c->t.u_max);
+		ctl_pi_set_gains(&c->pi[j], (float)cfg->control.kp, (float)cfg->control.ki, c->t.dt,
+		                 c->t.u_max);
 	const struct ctl_shaper keep = c->shaper;
 
 	ctl_shaper_init(&c->shaper, acc_max, c->t.dt);
@@ -77,11 +76,11 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 	ctl_ramp_reset(&c->ramp, c->out); /* outputs at 0 V, no ramp in progress */
 	c->mode = CTL_IDLE;
 	static const struct ctl_cal_cfg cal = {
-		.samples = CTL_CAL_SAMPLES,
-		.settle_us = CTL_CAL_SETTLE_US,
-		.limit_a = CTL_CAL_LIMIT_A,
-		.change_min_a = CTL_CAL_CHANGE_MIN_A,
-		.change_sigmas = CTL_CAL_CHANGE_SIGMAS,
+	    .samples = CTL_CAL_SAMPLES,
+	    .settle_us = CTL_CAL_SETTLE_US,
+	    .limit_a = CTL_CAL_LIMIT_A,
+	    .change_min_a = CTL_CAL_CHANGE_MIN_A,
+	    .change_sigmas = CTL_CAL_CHANGE_SIGMAS,
 	};
 
 	ctl_cal_init(&c->cal, &cal);
@@ -90,7 +89,7 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 }
 
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
-		q16_t inv_4d)
+                q16_t inv_4d)
 {
 	c->set = *cfg;
 	c->ff = *ff;
@@ -136,7 +135,6 @@ static bool command_in_range(const struct ctl *c, const struct ctl_command *cmd)
 	return true;
 }
 
-
 int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 {
 	if (cmd->mode < CTL_IDLE || cmd->mode > CTL_CLEAR_FAULT || !command_in_range(c, cmd))
@@ -180,10 +178,10 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 		break;
 	case CTL_VOLTAGE: {
 		const float to[4] = {(float)cmd->voltage[0], (float)cmd->voltage[1],
-				     (float)cmd->voltage[2], (float)cmd->voltage[3]};
+		                     (float)cmd->voltage[2], (float)cmd->voltage[3]};
 		/* A repeated command (keep-alive) must not restart a ramp in progress. */
-		const bool same = c->mode == CTL_VOLTAGE && !c->stopping &&
-				  !memcmp(c->ramp.to, to, sizeof(to));
+		const bool same =
+		    c->mode == CTL_VOLTAGE && !c->stopping && !memcmp(c->ramp.to, to, sizeof(to));
 
 		if (!same)
 			ctl_ramp_start(&c->ramp, c->out, to, (float)cmd->ramp_s, now_us);
@@ -200,7 +198,7 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 
 /* s: the raw reading; cur: its currents minus the offsets in force. */
 static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const float cur[4],
-			    int read_rc, int64_t now_us)
+                            int read_rc, int64_t now_us)
 {
 	int32_t f = 0;
 
@@ -260,7 +258,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 static void watchdog(struct ctl *c, int64_t now_us)
 {
 	const bool moving = c->mode == CTL_VELOCITY || c->mode == CTL_COAST ||
-			    (c->mode == CTL_VOLTAGE && !c->stopping);
+	                    (c->mode == CTL_VOLTAGE && !c->stopping);
 
 	if (!moving || now_us - c->last_cmd_us <= c->t.cmd_timeout_us)
 		return;
@@ -310,8 +308,8 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
 		} else {
-			c->out[j] = ff > c->t.u_max ? c->t.u_max
-						    : (ff < -c->t.u_max ? -c->t.u_max : ff);
+			c->out[j] =
+			    ff > c->t.u_max ? c->t.u_max : (ff < -c->t.u_max ? -c->t.u_max : ff);
 		}
 	}
 }
@@ -330,8 +328,8 @@ static bool cal_reading_ok(const struct ctl *c, const struct motor_sample *s)
 
 /* The offset calibration's step on this tick's reading, then the reading's currents minus the
  * offsets in force (NaN without a reading). */
-static void calibrate(struct ctl *c, int64_t now_us, const struct motor_sample *sample,
-		      int read_rc, float cur[4])
+static void calibrate(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
+                      float cur[4])
 {
 	const bool off = !c->enabled_prev;
 
@@ -347,7 +345,7 @@ static void calibrate(struct ctl *c, int64_t now_us, const struct motor_sample *
 }
 
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
-	      bool estop, struct ctl_output *out)
+              bool estop, struct ctl_output *out)
 {
 	float cur[4];
 
@@ -355,7 +353,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 
 	c->reading_faults = check_sample(c, sample, cur, read_rc, now_us);
 	const int32_t now_faults =
-		c->reading_faults | (c->cal.fault_mask ? CTL_FAULT_CURRENT_SENSOR : 0);
+	    c->reading_faults | (c->cal.fault_mask ? CTL_FAULT_CURRENT_SENSOR : 0);
 	const struct motor_sample *s = read_rc == 0 ? sample : NULL;
 
 	c->present = now_faults;

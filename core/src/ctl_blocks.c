@@ -39,7 +39,7 @@ float ctl_pi_step(struct ctl_pi *s, float ff, float e)
 }
 
 void ctl_ramp_start(struct ctl_ramp *r, const float from[4], const float to[4], float len_s,
-		    int64_t now_us)
+                    int64_t now_us)
 {
 	memcpy(r->from, from, sizeof(r->from));
 	memcpy(r->to, to, sizeof(r->to));

@@ -46,7 +46,8 @@ static void sin_cos(float a, float *s, float *c)
 	const float r = (a - q * 1.57079625f) - q * 7.54978995e-8f;
 	const float r2 = r * r;
 	const float sr = r * (1.0f + r2 * (-1.0f / 6 + r2 * (1.0f / 120 + r2 * (-1.0f / 5040))));
-	const float cr = 1.0f + r2 * (-0.5f + r2 * (1.0f / 24 + r2 * (-1.0f / 720 + r2 * (1.0f / 40320))));
+	const float cr =
+	    1.0f + r2 * (-0.5f + r2 * (1.0f / 24 + r2 * (-1.0f / 720 + r2 * (1.0f / 40320))));
 
 	switch ((int)q & 3) {
 	case 0:
@@ -148,9 +149,9 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 
 static bool settings_ok(const struct est_settings *s)
 {
-	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot, s->wheel_noise,
-			     s->cam_pos_noise,   s->cam_theta_noise, s->gate_sigmas,
-			     s->slip_threshold,  s->collision_threshold};
+	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot,    s->wheel_noise,
+	                     s->cam_pos_noise,   s->cam_theta_noise,    s->gate_sigmas,
+	                     s->slip_threshold,  s->collision_threshold};
 
 	for (unsigned k = 0; k < sizeof(pos) / sizeof(pos[0]); k++)
 		if (!(pos[k] > 0.0f && pos[k] < 1e6f))
@@ -159,7 +160,7 @@ static bool settings_ok(const struct est_settings *s)
 }
 
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
-	     double rate_hz)
+             double rate_hz)
 {
 	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5) ||
 	    (s && !settings_ok(s)))
@@ -197,7 +198,7 @@ static float axis(float phi, float gam, float b, float c, float x)
 static void predict(struct est *e, const struct est_tick *t)
 {
 	float *s = e->s;
-	float(*P)[6] = e->P;
+	float (*P)[6] = e->P;
 	const bool drv = t->driven;
 	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
 	const float dt = e->dt;
@@ -270,7 +271,7 @@ static void predict(struct est *e, const struct est_tick *t)
 /* Scalar update of state component i with a reading of innovation nu and variance r. */
 static void scalar_update(struct est *e, int i, float nu, float r)
 {
-	float(*P)[6] = e->P;
+	float (*P)[6] = e->P;
 	float col[6];
 	const float S = P[i][i] + r;
 
@@ -321,16 +322,19 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 			e->out.vel_innov = c;
 			e->slip_run = slip_now ? e->slip_run + 1 : 0;
 			if (!slip_now)
-				e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
+				e->collision_run =
+				    c > e->set.collision_threshold ? e->collision_run + 1 : 0;
 		}
 		/* A reading that does not fit a rigid body: the wheel that disagrees most with the
-		 * prediction is left out (its reading replaced by the one the other three imply, which
-		 * zeroes the residual), the velocity from the other three, with twice the variance. */
+		 * prediction is left out (its reading replaced by the one the other three imply,
+		 * which zeroes the residual), the velocity from the other three, with twice the
+		 * variance. */
 		float scale = 1.0f;
 
 		if (slip_now) {
 			const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
-			const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
+			const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2],
+			                       x[0] + x[2]};
 			float v[4], worst = -1.0f;
 			int jw = 0;
 
@@ -435,7 +439,7 @@ void est_step(struct est *e, const struct est_input *in)
 	run_tick(e, t, true);
 	e->seq = n + 1;
 	const float sum = e->s[0] + e->s[1] + e->s[2] + e->s[3] + e->s[4] + e->s[5] + e->P[0][0] +
-			  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];
+	                  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];
 
 	if (!isfinite(sum)) { /* a NaN or inf anywhere reaches the diagonal */
 		/* Cannot happen with finite settings; never let a NaN out: start again where the
@@ -474,8 +478,8 @@ static float mahalanobis2(const struct est *e, const float nu[3])
 	if (!(det > 0.0f))
 		return INFINITY;
 	const float q = nu[0] * (A * nu[0] + Bv * nu[1] + Cv * nu[2]) +
-			nu[1] * (Bv * nu[0] + D * nu[1] + F * nu[2]) +
-			nu[2] * (Cv * nu[0] + F * nu[1] + G * nu[2]);
+	                nu[1] * (Bv * nu[0] + D * nu[1] + F * nu[2]) +
+	                nu[2] * (Cv * nu[0] + F * nu[1] + G * nu[2]);
 
 	return q / det;
 }
@@ -542,7 +546,8 @@ int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t 
 			return -EINVAL;
 		}
 	} else {
-		/* The state at tick k without its old camera pose (a newer frame replaces it) ... */
+		/* The state at tick k without its old camera pose (a newer frame replaces it) ...
+		 */
 		float s_now[6], P_now[6][6];
 		struct est_tick *tk = &e->hist[k % EST_HISTORY];
 		const uint8_t had = tk->have_cam;

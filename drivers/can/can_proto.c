@@ -101,7 +101,7 @@ static void finish(uint32_t id, uint64_t w, uint8_t counter, struct omni4_can_fr
 #define RESERVED_HEALTH (((1ull << 10) - 1) << 34)
 
 static int check(const struct omni4_can_frame *f, uint32_t id, uint64_t reserved, uint64_t *w,
-		 uint8_t *counter)
+                 uint8_t *counter)
 {
 	if (f->id != id || f->dlc != 8)
 		return -EINVAL;
@@ -114,7 +114,7 @@ static int check(const struct omni4_can_frame *f, uint32_t id, uint64_t reserved
 }
 
 int can_encode_cmd_voltage(const float volts[4], bool enable, uint8_t counter,
-			   struct omni4_can_frame *f)
+                           struct omni4_can_frame *f)
 {
 	uint64_t w = 0, raw;
 
@@ -129,7 +129,7 @@ int can_encode_cmd_voltage(const float volts[4], bool enable, uint8_t counter,
 }
 
 int can_decode_cmd_voltage(const struct omni4_can_frame *f, float volts[4], bool *enable,
-			   uint8_t *counter)
+                           uint8_t *counter)
 {
 	uint64_t w;
 	const int rc = check(f, CAN_ID_CMD_VOLTAGE, RESERVED_CMD_VOLTAGE, &w, counter);
@@ -166,7 +166,7 @@ int can_decode_control(const struct omni4_can_frame *f, enum can_control *cmd, u
 }
 
 int can_encode_status(int node, const struct can_status *s, uint8_t counter,
-		      struct omni4_can_frame *f)
+                      struct omni4_can_frame *f)
 {
 	uint64_t w = 0, raw;
 
@@ -185,7 +185,7 @@ int can_encode_status(int node, const struct can_status *s, uint8_t counter,
 }
 
 int can_decode_status(const struct omni4_can_frame *f, int *node, struct can_status *s,
-		      uint8_t *counter)
+                      uint8_t *counter)
 {
 	uint64_t w;
 	int rc = -EINVAL;
@@ -204,7 +204,7 @@ int can_decode_status(const struct omni4_can_frame *f, int *node, struct can_sta
 }
 
 int can_encode_health(int node, const struct can_health *h, uint8_t counter,
-		      struct omni4_can_frame *f)
+                      struct omni4_can_frame *f)
 {
 	uint64_t w = 0;
 
@@ -221,7 +221,7 @@ int can_encode_health(int node, const struct can_health *h, uint8_t counter,
 }
 
 int can_decode_health(const struct omni4_can_frame *f, int *node, struct can_health *h,
-		      uint8_t *counter)
+                      uint8_t *counter)
 {
 	uint64_t w;
 	int rc = -EINVAL;

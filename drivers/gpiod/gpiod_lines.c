@@ -25,7 +25,7 @@ static void release(struct gpiod_lines *g)
 }
 
 static int request(struct gpiod_lines *g, int offset, bool output, int flags,
-		   struct gpiod_line **out)
+                   struct gpiod_line **out)
 {
 	if (offset < 0)
 		return 0;
@@ -34,7 +34,7 @@ static int request(struct gpiod_lines *g, int offset, bool output, int flags,
 	if (!l)
 		return errno ? -errno : -EINVAL;
 	const int rc = output ? gpiod_line_request_output_flags(l, CONSUMER, flags, 0)
-			      : gpiod_line_request_input_flags(l, CONSUMER, flags);
+	                      : gpiod_line_request_input_flags(l, CONSUMER, flags);
 
 	if (rc)
 		return errno ? -errno : -EBUSY;
@@ -51,7 +51,7 @@ int gpiod_lines_open(struct gpiod_lines *g, const struct gpiod_settings *cfg)
 	if (!g->chip)
 		return errno ? -errno : -ENODEV;
 	rc = request(g, cfg->estop_line, false,
-		     cfg->estop_active_low ? GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW : 0, &g->estop);
+	             cfg->estop_active_low ? GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW : 0, &g->estop);
 	if (rc)
 		goto err;
 	rc = request(g, cfg->enable_line, true, 0, &g->enable);
@@ -115,8 +115,8 @@ static void close_lines(void *ctx)
 }
 
 const struct line_hal_ops gpiod_lines_ops = {
-	.read_estop = read_estop,
-	.set_enable = set_enable,
-	.set_led = set_led,
-	.close = close_lines,
+    .read_estop = read_estop,
+    .set_enable = set_enable,
+    .set_led = set_led,
+    .close = close_lines,
 };

@@ -19,8 +19,8 @@ int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
 {
 	struct sockaddr_can addr = {.can_family = AF_CAN};
 	struct can_filter filters[16];
-	const can_err_mask_t err_mask = CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT |
-					CAN_ERR_TX_TIMEOUT | CAN_ERR_RESTARTED;
+	const can_err_mask_t err_mask =
+	    CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TX_TIMEOUT | CAN_ERR_RESTARTED;
 	int s, rc;
 
 	if (n_ids < 0 || n_ids > 16 || strlen(iface) >= IFNAMSIZ)
@@ -38,7 +38,7 @@ int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
 		filters[i].can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
 	}
 	if (n_ids && setsockopt(s, SOL_CAN_RAW, CAN_RAW_FILTER, filters,
-				(socklen_t)(n_ids * sizeof(filters[0])))) {
+	                        (socklen_t)(n_ids * sizeof(filters[0])))) {
 		rc = -errno;
 		goto err_close;
 	}

@@ -13,7 +13,7 @@
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms)
 {
 	const uint32_t ids[] = {CAN_ID_STATUS(0), CAN_ID_STATUS(1), CAN_ID_HEALTH(0),
-				CAN_ID_HEALTH(1)};
+	                        CAN_ID_HEALTH(1)};
 
 	memset(m, 0, sizeof(*m));
 	m->fd = -1;
@@ -41,10 +41,10 @@ struct sc_limits sc_limits_for(const struct ctl_settings *s)
 	const double a_max = f_max * (2.0 / p->M + 4.0 * p->d * p->d / p->J);
 
 	return (struct sc_limits){
-		.current_step_a = (float)(i_step + SC_CURRENT_NOISE_MARGIN_A + CAN_CURR_LSB),
-		.speed_step_rad_s = (float)(a_max / s->rate_hz / p->r + 2.0 * CAN_SPEED_LSB),
-		.current_limit_a = (float)s->limits.current_max_a,
-		.confirm_frames = 3,
+	    .current_step_a = (float)(i_step + SC_CURRENT_NOISE_MARGIN_A + CAN_CURR_LSB),
+	    .speed_step_rad_s = (float)(a_max / s->rate_hz / p->r + 2.0 * CAN_SPEED_LSB),
+	    .current_limit_a = (float)s->limits.current_max_a,
+	    .confirm_frames = 3,
 	};
 }
 
@@ -151,7 +151,7 @@ static int sc_write(void *ctx, const float volts[4])
 
 /* One frame from the crash path: a full TX queue is retried until deadline_us. */
 static bool halt_send(struct socketcan_motor *m, const struct omni4_can_frame *f,
-		      int64_t deadline_us)
+                      int64_t deadline_us)
 {
 	for (;;) {
 		const int rc = sc_os_send(m->fd, f);
@@ -223,7 +223,7 @@ int socketcan_motor_halt(struct socketcan_motor *m)
 
 /* Accept a frame's counter (see the policy in the header); losses and rejections counted. */
 static bool counter_ok(struct socketcan_motor *m, bool have, uint8_t *last, int *candidate,
-		       uint8_t now)
+                       uint8_t now)
 {
 	if (have) {
 		const int gap = can_counter_gap(*last, now);
@@ -250,7 +250,7 @@ static bool counter_ok(struct socketcan_motor *m, bool have, uint8_t *last, int 
  * no single frame moves a wheel speed by more than 2 steps, below the controller's
  * encoder-jump threshold). */
 static bool status_near(const struct sc_limits *lim, const struct can_status *a,
-			const struct can_status *b, int k)
+                        const struct can_status *b, int k)
 {
 	const float f = (float)(k < 1 ? 1 : k > 2 ? 2 : k);
 
@@ -279,7 +279,7 @@ static int run_step(uint8_t from, uint8_t to)
  * and its values agree with that frame's). true when it is the confirm_frames-th in a row: taken
  * (counted confirmed, the run ends); else held (counted implausible). */
 static bool run_confirms(struct socketcan_motor *m, struct sc_run *run, uint8_t counter,
-			 bool agrees)
+                         bool agrees)
 {
 	run->len = agrees ? run->len + 1 : 1;
 	run->counter = counter;
@@ -295,10 +295,10 @@ static bool run_confirms(struct socketcan_motor *m, struct sc_run *run, uint8_t 
 /* Plausibility of a STATUS frame that passed CRC and counter (see the header). periods =
  * frame periods since the last accepted STATUS of the node (by counter). */
 static bool status_plausible(struct socketcan_motor *m, struct sc_node *n,
-			     const struct can_status *s, uint8_t counter, int periods)
+                             const struct can_status *s, uint8_t counter, int periods)
 {
 	const bool suspect = status_over_limit(&m->lim, s) ||
-			     (n->have_status && !status_near(&m->lim, s, &n->status, periods));
+	                     (n->have_status && !status_near(&m->lim, s, &n->status, periods));
 
 	if (!suspect) {
 		n->status_run.len = 0;
@@ -320,21 +320,20 @@ static bool health_same(const struct can_health *a, const struct can_health *b)
 /* A HEALTH frame that raises a fault or the FAULT state, or moves the supply by more than
  * 0.5 V, is confirmed as a STATUS frame is. */
 static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
-			     const struct can_health *h, uint8_t counter)
+                             const struct can_health *h, uint8_t counter)
 {
 	const bool alarming = h->faults || h->state == CAN_STATE_FAULT;
-	const bool suspect = n->have_health ? !health_same(h, &n->health) &&
-						      (alarming || fabsf(h->supply_v -
-									 n->health.supply_v) > 0.5f)
-					    : alarming;
+	const bool suspect = n->have_health
+	                         ? !health_same(h, &n->health) &&
+	                               (alarming || fabsf(h->supply_v - n->health.supply_v) > 0.5f)
+	                         : alarming;
 
 	if (!suspect) {
 		n->health_run.len = 0;
 		return true;
 	}
-	const bool agrees = n->health_run.len > 0 &&
-			    run_step(n->health_run.counter, counter) &&
-			    health_same(h, &n->health_held);
+	const bool agrees = n->health_run.len > 0 && run_step(n->health_run.counter, counter) &&
+	                    health_same(h, &n->health_held);
 
 	n->health_held = *h;
 	return run_confirms(m, &n->health_run, counter, agrees);
@@ -436,8 +435,7 @@ static int drain_frames(struct socketcan_motor *m, int64_t now)
 
 /* The HAL fault bits of one node: silent for longer than the status timeout (since open if it
  * never reported), or a fault in its last accepted HEALTH. */
-static uint32_t node_faults(const struct socketcan_motor *m, const struct sc_node *nd,
-			    int64_t now)
+static uint32_t node_faults(const struct socketcan_motor *m, const struct sc_node *nd, int64_t now)
 {
 	const int64_t since = nd->have_status ? nd->last_status_us : m->opened_us;
 	uint32_t faults = 0;
@@ -463,10 +461,12 @@ static bool fill_sample(const struct socketcan_motor *m, struct motor_sample *ou
 		faults |= node_faults(m, nd, now);
 		all &= nd->have_status;
 		if (nd->have_health)
-			supply = isnan(supply) ? nd->health.supply_v : fminf(supply, nd->health.supply_v);
+			supply = isnan(supply) ? nd->health.supply_v
+			                       : fminf(supply, nd->health.supply_v);
 		for (int c = 0; c < 2; c++) {
 			out->current_a[2 * n + c] = nd->have_status ? nd->status.current_a[c] : NAN;
-			out->wheel_rad_s[2 * n + c] = nd->have_status ? nd->status.speed_rad_s[c] : NAN;
+			out->wheel_rad_s[2 * n + c] =
+			    nd->have_status ? nd->status.speed_rad_s[c] : NAN;
 		}
 	}
 	out->supply_v = supply;
@@ -538,10 +538,10 @@ static void sc_halt(void *ctx)
 }
 
 const struct motor_hal_ops socketcan_motor_ops = {
-	.enable = sc_enable,
-	.write = sc_write,
-	.read = sc_read,
-	.clear_faults = sc_clear_faults,
-	.halt = sc_halt,
-	.close = sc_close,
+    .enable = sc_enable,
+    .write = sc_write,
+    .read = sc_read,
+    .clear_faults = sc_clear_faults,
+    .halt = sc_halt,
+    .close = sc_close,
 };

@@ -6,8 +6,7 @@
 
 #include "omni4/clock.h"
 
-struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
-				      int64_t timeout_us)
+struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u, int64_t timeout_us)
 {
 	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 100000};
 	struct fw_param_result r = {.rc = -ETIMEDOUT, .seq = -1};

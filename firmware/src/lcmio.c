@@ -145,8 +145,8 @@ long lcmio_listen_motors(lcm_t *lcm, int ms, int64_t *seq, int64_t *utime)
 static void *log_main(void *arg)
 {
 	struct lcmio *io = arg;
-	const struct lcmio_sink sink = {.emit = publish, .ctx = io, .note = io->note,
-					.note_ctx = io->note_ctx};
+	const struct lcmio_sink sink = {
+	    .emit = publish, .ctx = io, .note = io->note, .note_ctx = io->note_ctx};
 	const struct timespec nap = {.tv_sec = 0, .tv_nsec = 500000};
 
 	for (;;) {
@@ -170,14 +170,14 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw)
 }
 
 int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
-		       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx)
+                       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx)
 {
 	return lcmio_start_watching(io, lcm, fw, note, note_ctx, NULL, NULL);
 }
 
 int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
-			 void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
-			 lcmio_foreign_fn foreign, void *foreign_ctx)
+                         void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
+                         lcmio_foreign_fn foreign, void *foreign_ctx)
 {
 	int rc;
 

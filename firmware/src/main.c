@@ -40,18 +40,18 @@ static void on_signal(int sig)
 static void usage(FILE *f)
 {
 	fprintf(f,
-		"usage: omni4-fw --config ROBOT.ini [--duration S] [--quiet]\n"
-		"Runs the omni4 controller: the fixed-rate loop on the HAL backends of ROBOT.ini\n"
-		"([hal] motor = sim|socketcan, lines = none|sim|gpiod), commands from OMNI4_CMD,\n"
-		"one OMNI4_MOTORS message per tick on the [lcm] url. Parameters can be read and\n"
-		"changed while it runs (omni4-param, channel OMNI4_PARAM_REQ); 'save' rewrites\n"
-		"ROBOT.ini atomically (the previous file is kept as ROBOT.ini.bak).\n"
-		"  -c, --config FILE   robot INI file (required)\n"
-		"  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
-		"  -q, --quiet         no status line\n"
-		"  -h, --help          this text\n"
-		"      --version       the version and the git description it was built from\n"
-		"example: omni4-fw --config /etc/omni4/robot.ini\n");
+	        "usage: omni4-fw --config ROBOT.ini [--duration S] [--quiet]\n"
+	        "Runs the omni4 controller: the fixed-rate loop on the HAL backends of ROBOT.ini\n"
+	        "([hal] motor = sim|socketcan, lines = none|sim|gpiod), commands from OMNI4_CMD,\n"
+	        "one OMNI4_MOTORS message per tick on the [lcm] url. Parameters can be read and\n"
+	        "changed while it runs (omni4-param, channel OMNI4_PARAM_REQ); 'save' rewrites\n"
+	        "ROBOT.ini atomically (the previous file is kept as ROBOT.ini.bak).\n"
+	        "  -c, --config FILE   robot INI file (required)\n"
+	        "  -d, --duration S    stop after S seconds (default: run until SIGINT/SIGTERM)\n"
+	        "  -q, --quiet         no status line\n"
+	        "  -h, --help          this text\n"
+	        "      --version       the version and the git description it was built from\n"
+	        "example: omni4-fw --config /etc/omni4/robot.ini\n");
 }
 
 /* SIGSEGV/SIGABRT/...: switch the outputs off (the HAL writes are plain syscalls; the motor
@@ -88,23 +88,25 @@ static void on_calibration(void *ctx, const struct log_entry *e)
 		lcmio_fault_channels((uint32_t)e->faults, ch);
 		for (int j = 0; j < 4; j++)
 			if (e->faults & (1 << j))
-				fprintf(stderr,
-					"omni4-fw: FAULT_CURRENT_SENSOR: channel %d: current offset "
-					"%.6f A beyond the %.2f A limit (bridges off, mean of %u "
-					"readings, tick %lld)\n",
-					j, (double)a[j], (double)CTL_CAL_LIMIT_A,
-					(unsigned)e->cal_samples, (long long)e->seq);
-		fprintf(stderr, "omni4-fw: current sensor fault on channel%s %s: the controller stays "
-			"in FAULT until a calibration within the limit and MODE_CLEAR_FAULT\n",
-			strchr(ch, ',') ? "s" : "", ch);
+				fprintf(
+				    stderr,
+				    "omni4-fw: FAULT_CURRENT_SENSOR: channel %d: current offset "
+				    "%.6f A beyond the %.2f A limit (bridges off, mean of %u "
+				    "readings, tick %lld)\n",
+				    j, (double)a[j], (double)CTL_CAL_LIMIT_A,
+				    (unsigned)e->cal_samples, (long long)e->seq);
+		fprintf(stderr,
+		        "omni4-fw: current sensor fault on channel%s %s: the controller stays "
+		        "in FAULT until a calibration within the limit and MODE_CLEAR_FAULT\n",
+		        strchr(ch, ',') ? "s" : "", ch);
 		return;
 	}
 	if (!quiet)
 		fprintf(stderr,
-			"omni4-fw: current offsets %.6f %.6f %.6f %.6f A subtracted from tick %lld "
-			"on (bridges off, mean of %u readings)\n",
-			(double)a[0], (double)a[1], (double)a[2], (double)a[3], (long long)e->seq,
-			(unsigned)e->cal_samples);
+		        "omni4-fw: current offsets %.6f %.6f %.6f %.6f A subtracted from tick %lld "
+		        "on (bridges off, mean of %u readings)\n",
+		        (double)a[0], (double)a[1], (double)a[2], (double)a[3], (long long)e->seq,
+		        (unsigned)e->cal_samples);
 }
 
 static void tick(void *ctx, int64_t now_us)
@@ -122,10 +124,9 @@ struct options {
 static int parse_options(int argc, char **argv, struct options *o)
 {
 	static const struct option opts[] = {
-		{"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
-		{"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
-		{"version", no_argument, NULL, 'V'},
-		{NULL, 0, NULL, 0},
+	    {"config", required_argument, NULL, 'c'}, {"duration", required_argument, NULL, 'd'},
+	    {"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
+	    {"version", no_argument, NULL, 'V'},      {NULL, 0, NULL, 0},
 	};
 	int c;
 
@@ -170,15 +171,15 @@ static int parse_options(int argc, char **argv, struct options *o)
 static int build(struct app *app, const struct omni4_config *cfg, const char *path)
 {
 	const struct robot_spec spec = {
-		.ctl = &cfg->ctl,
-		.motor = (enum omni4_motor_backend)cfg->fw.motor,
-		.lines = (enum omni4_lines_backend)cfg->fw.lines,
-		.sim = &cfg->sim,
-		.utime0 = rtloop_clock_us(),
-		.can = &cfg->can,
-		.gpio = &cfg->gpio,
-		.wrap = peer_guard_wrap,
-		.wrap_ctx = &app->guard,
+	    .ctl = &cfg->ctl,
+	    .motor = (enum omni4_motor_backend)cfg->fw.motor,
+	    .lines = (enum omni4_lines_backend)cfg->fw.lines,
+	    .sim = &cfg->sim,
+	    .utime0 = rtloop_clock_us(),
+	    .can = &cfg->can,
+	    .gpio = &cfg->gpio,
+	    .wrap = peer_guard_wrap,
+	    .wrap_ctx = &app->guard,
 	};
 	char why[256];
 
@@ -231,7 +232,7 @@ static void prepare_process(const struct omni4_config *cfg)
 
 		if (dma_fd < 0)
 			fprintf(stderr, "omni4-fw: warning: /dev/cpu_dma_latency: %s\n",
-				strerror(-dma_fd));
+			        strerror(-dma_fd));
 	}
 	struct sigaction sa = {.sa_handler = on_signal};
 
@@ -256,15 +257,15 @@ static void wait_for_stop(const struct options *o)
 static void print_can_counters(const struct sc_counters *n)
 {
 	fprintf(stderr,
-		"omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-		"lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
-		"confirmed %llu\n",
-		(unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
-		(unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
-		(unsigned long long)n->replayed, (unsigned long long)n->lost,
-		(unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
-		(unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
-		(unsigned long long)n->confirmed);
+	        "omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
+	        "lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
+	        "confirmed %llu\n",
+	        (unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
+	        (unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
+	        (unsigned long long)n->replayed, (unsigned long long)n->lost,
+	        (unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
+	        (unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
+	        (unsigned long long)n->confirmed);
 }
 
 static void print_summary(const struct app *app, struct lcmio *io, const struct rtloop *loop)
@@ -273,23 +274,23 @@ static void print_summary(const struct app *app, struct lcmio *io, const struct 
 	const struct param_counters *p = &app->params.n;
 
 	fprintf(stderr,
-		"omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
-		"max %.0f us; published %llu, log dropped %llu, commands rejected %llu, "
-		"undecodable %llu\n",
-		(unsigned long long)loop->ticks, (unsigned long long)loop->overruns,
-		rtloop_latency_percentile_us(loop, 50), rtloop_latency_percentile_us(loop, 99),
-		loop->latency_max_ns / 1e3, (unsigned long long)atomic_load(&io->published),
-		(unsigned long long)fw->n.log_dropped, (unsigned long long)fw->ctl.n.cmd_rejected,
-		(unsigned long long)atomic_load(&io->rx_bad));
+	        "omni4-fw: %llu ticks, %llu overruns, wake-up latency p50 %.0f us p99 %.0f us "
+	        "max %.0f us; published %llu, log dropped %llu, commands rejected %llu, "
+	        "undecodable %llu\n",
+	        (unsigned long long)loop->ticks, (unsigned long long)loop->overruns,
+	        rtloop_latency_percentile_us(loop, 50), rtloop_latency_percentile_us(loop, 99),
+	        loop->latency_max_ns / 1e3, (unsigned long long)atomic_load(&io->published),
+	        (unsigned long long)fw->n.log_dropped, (unsigned long long)fw->ctl.n.cmd_rejected,
+	        (unsigned long long)atomic_load(&io->rx_bad));
 	fprintf(stderr,
-		"omni4-fw: params: requests %llu, applied %llu, refused %llu, denied %llu, "
-		"bad %llu, busy %llu, saved %llu\n",
-		(unsigned long long)atomic_load(&p->requests),
-		(unsigned long long)atomic_load(&p->applied),
-		(unsigned long long)atomic_load(&p->refused),
-		(unsigned long long)atomic_load(&p->denied),
-		(unsigned long long)atomic_load(&p->bad), (unsigned long long)atomic_load(&p->busy),
-		(unsigned long long)atomic_load(&p->saved));
+	        "omni4-fw: params: requests %llu, applied %llu, refused %llu, denied %llu, "
+	        "bad %llu, busy %llu, saved %llu\n",
+	        (unsigned long long)atomic_load(&p->requests),
+	        (unsigned long long)atomic_load(&p->applied),
+	        (unsigned long long)atomic_load(&p->refused),
+	        (unsigned long long)atomic_load(&p->denied),
+	        (unsigned long long)atomic_load(&p->bad), (unsigned long long)atomic_load(&p->busy),
+	        (unsigned long long)atomic_load(&p->saved));
 	if (app->robot.motor_kind == OMNI4_MOTOR_SOCKETCAN)
 		print_can_counters(&app->robot.can.n);
 }
@@ -306,11 +307,12 @@ static void describe(const struct omni4_config *cfg, char *buf, size_t n)
 
 /* The loop from start to stop (SIGINT / SIGTERM, --duration). 0 or 1 (said on stderr). */
 static int run_loop(struct app *app, const struct omni4_config *cfg, const struct options *o,
-		    struct rtloop *loop)
+                    struct rtloop *loop)
 {
 	const struct fw_settings *f = &cfg->fw;
-	const int rc = rtloop_start(loop, cfg->ctl.rate_hz, f->loop.sched_fifo ? f->loop.priority : 0,
-				    0, tick, &app->robot.fw);
+	const int rc =
+	    rtloop_start(loop, cfg->ctl.rate_hz, f->loop.sched_fifo ? f->loop.priority : 0, 0, tick,
+	                 &app->robot.fw);
 	char what[256];
 
 	if (rc) {
@@ -330,8 +332,7 @@ static int run_loop(struct app *app, const struct omni4_config *cfg, const struc
 
 /* The parameter service, the LCM threads and the loop; runs until stopped, then stops them in
  * reverse order with the outputs off. The exit status. */
-static int run(struct app *app, const struct omni4_config *cfg, const struct options *o,
-	       lcm_t *lcm)
+static int run(struct app *app, const struct omni4_config *cfg, const struct options *o, lcm_t *lcm)
 {
 	struct lcmio io;
 	struct rtloop loop = {0};
@@ -341,11 +342,11 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 	rc = param_service_start(&app->params, lcm);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start the parameter service: %s\n",
-			strerror(-rc));
+		        strerror(-rc));
 		return 1;
 	}
 	rc = lcmio_start_watching(&io, lcm, &app->robot.fw, on_calibration, (void *)&o->quiet,
-				  peer_on_foreign, &app->guard);
+	                          peer_on_foreign, &app->guard);
 	if (rc) {
 		fprintf(stderr, "omni4-fw: cannot start LCM threads: %s\n", strerror(-rc));
 		param_service_stop(&app->params);
@@ -353,7 +354,7 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 	}
 	if (app->robot.motor_kind != OMNI4_MOTOR_SIM && lcmio_take_camera(&io))
 		fprintf(stderr, "omni4-fw: warning: cannot subscribe to OMNI4_POSE: the estimate "
-			"runs on the wheels and the model alone\n");
+		                "runs on the wheels and the model alone\n");
 	rc = run_loop(app, cfg, o, &loop);
 	fw_outputs_off(&app->robot.fw);
 	lcmio_stop(&io);
@@ -361,8 +362,10 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 	if (!o->quiet || rc)
 		print_summary(app, &io, &loop);
 	if (atomic_load(&io.foreign)) {
-		fprintf(stderr, "omni4-fw: %llu OMNI4_MOTORS samples from another controller heard "
-			"on %s\n", (unsigned long long)atomic_load(&io.foreign), cfg->fw.lcm_url);
+		fprintf(stderr,
+		        "omni4-fw: %llu OMNI4_MOTORS samples from another controller heard "
+		        "on %s\n",
+		        (unsigned long long)atomic_load(&io.foreign), cfg->fw.lcm_url);
 		rc = 1;
 	}
 	return rc;

@@ -35,14 +35,14 @@ static struct scratch g_scratch; /* one service per process */
 
 static const char *mode_name(int mode)
 {
-	static const char *const names[] = {"IDLE", "VELOCITY", "VOLTAGE", "COAST", "CLEAR",
-					    "FAULT", "ESTOP"};
+	static const char *const names[] = {"IDLE",  "VELOCITY", "VOLTAGE", "COAST",
+	                                    "CLEAR", "FAULT",    "ESTOP"};
 
 	return mode >= 0 && mode <= 6 ? names[mode] : "?";
 }
 
 int param_service_init(struct param_service *ps, struct fw *fw, const struct omni4_config *cfg,
-		       const char *path, struct param_out out)
+                       const char *path, struct param_out out)
 {
 	memset(ps, 0, sizeof(*ps));
 	if (!path || strlen(path) >= sizeof(ps->path))
@@ -76,15 +76,15 @@ static void fill_entry(struct param_service *ps, struct scratch *s, int i, int k
 	else if (config_key_format(&ps->running, key, s->new_value[i], VALUE_MAX))
 		snprintf(s->new_value[i], VALUE_MAX, "(unprintable)");
 	*e = (omni4_param_value_t){
-		.key = s->dotted[i],
-		.value = s->new_value[i],
-		.unit = (char *)k->unit,
-		.type = (int8_t)k->type,
-		.min = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->min : 0.0,
-		.max = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->max : 0.0,
-		.choices = (char *)(k->choices ? k->choices : ""),
-		.change = (int8_t)k->change,
-		.doc = (char *)k->doc,
+	    .key = s->dotted[i],
+	    .value = s->new_value[i],
+	    .unit = (char *)k->unit,
+	    .type = (int8_t)k->type,
+	    .min = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->min : 0.0,
+	    .max = k->type == CONFIG_DOUBLE || k->type == CONFIG_INT ? k->max : 0.0,
+	    .choices = (char *)(k->choices ? k->choices : ""),
+	    .change = (int8_t)k->change,
+	    .doc = (char *)k->doc,
 	};
 }
 
@@ -140,20 +140,26 @@ static void reply(struct param_service *ps, omni4_param_reply_t *r, bool cache)
 }
 
 static void simple_reply(struct param_service *ps, int64_t id, int8_t op, int8_t result,
-			 const char *message, bool cache)
+                         const char *message, bool cache)
 {
-	omni4_param_reply_t r = {.request_id = id, .op = op, .result = result,
-				 .message = (char *)message, .seq = -1};
+	omni4_param_reply_t r = {
+	    .request_id = id, .op = op, .result = result, .message = (char *)message, .seq = -1};
 
 	reply(ps, &r, cache);
 }
 
 static void notice(struct param_service *ps, struct scratch *s, int64_t id, const char *source,
-		   const char *path, int64_t seq, int64_t utime)
+                   const char *path, int64_t seq, int64_t utime)
 {
-	omni4_param_changed_t m = {.utime = utime, .seq = seq, .request_id = id,
-				   .source = (char *)source, .path = (char *)path, .n = s->n,
-				   .keys = s->keys_p, .old_values = s->old_p, .values = s->new_p};
+	omni4_param_changed_t m = {.utime = utime,
+	                           .seq = seq,
+	                           .request_id = id,
+	                           .source = (char *)source,
+	                           .path = (char *)path,
+	                           .n = s->n,
+	                           .keys = s->keys_p,
+	                           .old_values = s->old_p,
+	                           .values = s->new_p};
 	const int size = omni4_param_changed_t_encoded_size(&m);
 	void *buf = size > 0 ? malloc((size_t)size) : NULL;
 
@@ -181,17 +187,19 @@ void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime
 static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 {
 	struct scratch *s = &g_scratch;
-	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
-				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .seq = -1};
+	omni4_param_reply_t r = {.request_id = q->request_id,
+	                         .op = q->op,
+	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
+	                         .seq = -1};
 	char why[WHY_MAX];
 	int n = 0;
 
 	if (q->op == OMNI4_PARAM_REQUEST_T_OP_GET && q->n > 0) {
 		if (q->n > PARAM_MAX_KEYS) {
 			snprintf(why, sizeof(why), "%d keys in one request: at most %d", q->n,
-				 PARAM_MAX_KEYS);
-			simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST,
-				     why, false);
+			         PARAM_MAX_KEYS);
+			simple_reply(ps, q->request_id, q->op,
+			             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 			return;
 		}
 		for (int i = 0; i < q->n; i++) {
@@ -199,9 +207,9 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 
 			if (key < 0) {
 				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
-					 q->keys[i]);
+				         q->keys[i]);
 				simple_reply(ps, q->request_id, q->op,
-					     OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+				             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 				return;
 			}
 			fill_entry(ps, s, n++, key);
@@ -242,8 +250,8 @@ static void refuse(struct param_service *ps, const omni4_param_request_t *q, con
 /* The keys that differ (by their INI text) between the running configuration and ps->next,
  * into s's change list; *first_idle = the first that may change only while the bridges are not
  * driven (-1: none). Their count, or -1 with why when one may change only at a restart. */
-static int collect_changes(struct param_service *ps, struct scratch *s, int *first_idle,
-			   char *why, size_t n_why)
+static int collect_changes(struct param_service *ps, struct scratch *s, int *first_idle, char *why,
+                           size_t n_why)
 {
 	char old_v[VALUE_MAX], new_v[VALUE_MAX];
 	int changed = 0;
@@ -253,12 +261,13 @@ static int collect_changes(struct param_service *ps, struct scratch *s, int *fir
 		const struct config_key *k = config_key_at(key);
 
 		if (config_key_format(&ps->running, key, old_v, sizeof(old_v)) ||
-		    config_key_format(&ps->next, key, new_v, sizeof(new_v)) || !strcmp(old_v, new_v))
+		    config_key_format(&ps->next, key, new_v, sizeof(new_v)) ||
+		    !strcmp(old_v, new_v))
 			continue;
 		if (k->change == CONFIG_RESTART) {
 			snprintf(why, n_why,
-				 "%s.%s: restart only (change it in the INI and restart omni4-fw)",
-				 k->section, k->name);
+			         "%s.%s: restart only (change it in the INI and restart omni4-fw)",
+			         k->section, k->name);
 			return -1;
 		}
 		if (k->change == CONFIG_IDLE && *first_idle < 0)
@@ -278,31 +287,33 @@ static int collect_changes(struct param_service *ps, struct scratch *s, int *fir
 
 /* The loop did not take the change (res.rc != 0): say why. */
 static void reply_not_taken(struct param_service *ps, const omni4_param_request_t *q,
-			    const struct fw_param_result *res, int first_idle)
+                            const struct fw_param_result *res, int first_idle)
 {
 	char why[WHY_MAX];
 
 	if (res->rc == -EBUSY) {
 		const struct config_key *k = config_key_at(first_idle);
 
-		snprintf(why, sizeof(why),
-			 "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
-			 "the robot is in %s: nothing changed",
-			 k->section, k->name, mode_name(res->mode));
+		snprintf(
+		    why, sizeof(why),
+		    "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
+		    "the robot is in %s: nothing changed",
+		    k->section, k->name, mode_name(res->mode));
 		refuse(ps, q, why);
 		return;
 	}
-	snprintf(why, sizeof(why),
-		 "the loop did not take the change within %lld ms (is it running?): nothing changed",
-		 (long long)(ps->apply_timeout_us / 1000));
+	snprintf(
+	    why, sizeof(why),
+	    "the loop did not take the change within %lld ms (is it running?): nothing changed",
+	    (long long)(ps->apply_timeout_us / 1000));
 	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, false);
 }
 
 /* The change is in force from tick res.seq: the notice, then the reply with the changed keys'
  * new values. */
 static void reply_changed(struct param_service *ps, struct scratch *s,
-			  const omni4_param_request_t *q, const char *source, int changed,
-			  const struct fw_param_result *res)
+                          const omni4_param_request_t *q, const char *source, int changed,
+                          const struct fw_param_result *res)
 {
 	char dotted[PARAM_MAX_KEYS][64];
 	char why[WHY_MAX];
@@ -313,17 +324,21 @@ static void reply_changed(struct param_service *ps, struct scratch *s,
 	for (int i = 0; i < changed; i++)
 		fill_entry(ps, s, i, config_key_find(dotted[i]));
 	snprintf(why, sizeof(why), "%d key%s changed, in force from tick %lld", changed,
-		 changed == 1 ? "" : "s", (long long)res->seq);
-	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
-				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = why,
-				 .seq = res->seq, .n = changed, .params = s->entries};
+	         changed == 1 ? "" : "s", (long long)res->seq);
+	omni4_param_reply_t r = {.request_id = q->request_id,
+	                         .op = q->op,
+	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
+	                         .message = why,
+	                         .seq = res->seq,
+	                         .n = changed,
+	                         .params = s->entries};
 
 	reply(ps, &r, true);
 }
 
 /* Validate s's pairs against the running configuration, have the loop take them, reply. */
-static void apply_pairs(struct param_service *ps, struct scratch *s,
-			const omni4_param_request_t *q, const char *source)
+static void apply_pairs(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
+                        const char *source)
 {
 	char why[WHY_MAX];
 	int first_idle;
@@ -338,16 +353,17 @@ static void apply_pairs(struct param_service *ps, struct scratch *s,
 
 	if (changed < 0 || config_check(&ps->next, why, sizeof(why)) ||
 	    fw_param_prepare(ps->fw, &ps->next.ctl, first_idle >= 0, &ps->update, why,
-			     sizeof(why))) {
+	                     sizeof(why))) {
 		refuse(ps, q, why);
 		return;
 	}
 	if (changed == 0) {
 		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_OK,
-			     "no change: the values are already in force", true);
+		             "no change: the values are already in force", true);
 		return;
 	}
-	const struct fw_param_result res = fw_param_apply(ps->fw, &ps->update, ps->apply_timeout_us);
+	const struct fw_param_result res =
+	    fw_param_apply(ps->fw, &ps->update, ps->apply_timeout_us);
 
 	if (res.rc) {
 		reply_not_taken(ps, q, &res, first_idle);
@@ -367,19 +383,23 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 
 	gmtime_r(&now, &tm);
 	strftime(header, sizeof(header),
-		 "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ; the previous file is "
-		 "kept as .bak",
-		 &tm);
+	         "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ; the previous file is "
+	         "kept as .bak",
+	         &tm);
 	if (config_save(ps->path, &ps->running, header, why, sizeof(why))) {
-		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, true);
+		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
+		             true);
 		return;
 	}
 	atomic_fetch_add(&ps->n.saved, 1);
 	s->n = 0;
 	notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
-	omni4_param_reply_t r = {.request_id = q->request_id, .op = q->op,
-				 .result = OMNI4_PARAM_REPLY_T_RESULT_OK, .message = "saved",
-				 .seq = -1, .path = ps->path};
+	omni4_param_reply_t r = {.request_id = q->request_id,
+	                         .op = q->op,
+	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
+	                         .message = "saved",
+	                         .seq = -1,
+	                         .path = ps->path};
 
 	reply(ps, &r, true);
 }
@@ -395,7 +415,7 @@ static bool take_string(const unsigned char *b, size_t len, size_t *pos)
 	if (len - *pos < 4)
 		return false;
 	const uint32_t n = (uint32_t)b[*pos] << 24 | (uint32_t)b[*pos + 1] << 16 |
-			   (uint32_t)b[*pos + 2] << 8 | b[*pos + 3];
+	                   (uint32_t)b[*pos + 2] << 8 | b[*pos + 3];
 
 	*pos += 4;
 	if (n < 1 || n > len - *pos || b[*pos + n - 1] != 0)
@@ -414,7 +434,7 @@ static bool request_wire_ok(const void *data, size_t len, int max_n, char *why, 
 		return false;
 	}
 	const int32_t n = (int32_t)((uint32_t)b[pos] << 24 | (uint32_t)b[pos + 1] << 16 |
-				    (uint32_t)b[pos + 2] << 8 | b[pos + 3]);
+	                            (uint32_t)b[pos + 2] << 8 | b[pos + 3]);
 
 	pos += 4;
 	if (n < 0 || n > max_n) {
@@ -436,7 +456,7 @@ static bool request_wire_ok(const void *data, size_t len, int max_n, char *why, 
 
 /* SET: the keys by name into s, then applied. 0, or -1 with why (a bad request). */
 static int do_set(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-		  char *why, size_t n_why)
+                  char *why, size_t n_why)
 {
 	if (q->n < 1 || q->n > PARAM_MAX_KEYS) {
 		snprintf(why, n_why, "SET with %d keys: 1 to %d", q->n, PARAM_MAX_KEYS);
@@ -461,14 +481,14 @@ static int do_set(struct param_service *ps, struct scratch *s, const omni4_param
 
 /* LOAD: the INI text's keys into s, then applied. 0, or -1 with why (a bad request). */
 static int do_load(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-		   char *why, size_t n_why)
+                   char *why, size_t n_why)
 {
 	const char *name = q->name[0] ? q->name : "(load)";
 	struct config_error err;
 
 	if (strlen(q->text) > PARAM_MAX_TEXT) {
 		snprintf(why, n_why, "LOAD text of %zu bytes: at most %d", strlen(q->text),
-			 PARAM_MAX_TEXT);
+		         PARAM_MAX_TEXT);
 		return -1;
 	}
 	if (config_parse_pairs(q->text, name, add_pair, s, &err)) {
@@ -485,7 +505,7 @@ static int do_load(struct param_service *ps, struct scratch *s, const omni4_para
 
 /* One decoded request, its secret checked. 0, or -1 with why (a bad request). */
 static int dispatch(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-		    char *why, size_t n_why)
+                    char *why, size_t n_why)
 {
 	switch (q->op) {
 	case OMNI4_PARAM_REQUEST_T_OP_LIST:
@@ -514,10 +534,11 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	atomic_fetch_add(&ps->n.requests, 1);
 	char wire[96] = "";
 
-	if (len > INT32_MAX || !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) ||
+	if (len > INT32_MAX ||
+	    !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) ||
 	    omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
 		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)%s%s", len,
-			 wire[0] ? ": " : "", wire);
+		         wire[0] ? ": " : "", wire);
 		atomic_fetch_add(&ps->n.bad, 1);
 		simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 		return;
@@ -525,13 +546,14 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	if (cache_replay(ps, q.request_id))
 		goto out;
 	const bool writes = q.op == OMNI4_PARAM_REQUEST_T_OP_SET ||
-			    q.op == OMNI4_PARAM_REQUEST_T_OP_LOAD ||
-			    q.op == OMNI4_PARAM_REQUEST_T_OP_SAVE;
+	                    q.op == OMNI4_PARAM_REQUEST_T_OP_LOAD ||
+	                    q.op == OMNI4_PARAM_REQUEST_T_OP_SAVE;
 
 	if (writes && ps->running.fw.secret[0] && strcmp(q.secret, ps->running.fw.secret)) {
 		atomic_fetch_add(&ps->n.denied, 1);
 		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_DENIED,
-			     "wrong or missing secret (the robot's INI sets [params] secret)", false);
+		             "wrong or missing secret (the robot's INI sets [params] secret)",
+		             false);
 		goto out;
 	}
 	memset(s->key, 0, sizeof(s->key));
@@ -540,7 +562,7 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	if (dispatch(ps, s, &q, why, sizeof(why))) {
 		atomic_fetch_add(&ps->n.bad, 1);
 		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why,
-			     false);
+		             false);
 	}
 out:
 	omni4_param_request_t_decode_cleanup(&q);
@@ -580,11 +602,14 @@ static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 
 	if (rbuf->data_size <= INT32_MAX &&
 	    omni4_param_request_t_decode(rbuf->data, 0, (int)rbuf->data_size, &q) ==
-		    (int)rbuf->data_size) {
-		omni4_param_reply_t r = {.utime = rtloop_clock_us(), .request_id = q.request_id,
-					 .op = q.op, .result = OMNI4_PARAM_REPLY_T_RESULT_BUSY,
-					 .message = "busy: too many requests queued, try again",
-					 .seq = -1, .path = ""};
+	        (int)rbuf->data_size) {
+		omni4_param_reply_t r = {.utime = rtloop_clock_us(),
+		                         .request_id = q.request_id,
+		                         .op = q.op,
+		                         .result = OMNI4_PARAM_REPLY_T_RESULT_BUSY,
+		                         .message = "busy: too many requests queued, try again",
+		                         .seq = -1,
+		                         .path = ""};
 		unsigned char buf[256];
 		const int n = omni4_param_reply_t_encode(buf, 0, sizeof(buf), &r);
 

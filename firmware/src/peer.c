@@ -20,9 +20,10 @@ lcm_t *peer_open_lcm_alone(const char *url)
 	if (heard < 0) {
 		fprintf(stderr, "omni4-fw: cannot receive on LCM at '%s'\n", url);
 	} else if (heard > 0) {
-		fprintf(stderr, "omni4-fw: another controller is publishing OMNI4_MOTORS on %s "
-			"(seq %lld utime %lld heard within %d ms): refusing to start\n",
-			url, (long long)seq, (long long)utime, PEER_LISTEN_MS);
+		fprintf(stderr,
+		        "omni4-fw: another controller is publishing OMNI4_MOTORS on %s "
+		        "(seq %lld utime %lld heard within %d ms): refusing to start\n",
+		        url, (long long)seq, (long long)utime, PEER_LISTEN_MS);
 	} else {
 		return lcm;
 	}
@@ -64,12 +65,12 @@ static void guard_halt(void *ctx)
 }
 
 static const struct motor_hal_ops peer_guard_ops = {
-	.enable = guard_enable,
-	.write = guard_write,
-	.read = guard_read,
-	.clear_faults = guard_clear_faults,
-	.halt = guard_halt,
-	.close = NULL, /* the robot closes the backend */
+    .enable = guard_enable,
+    .write = guard_write,
+    .read = guard_read,
+    .clear_faults = guard_clear_faults,
+    .halt = guard_halt,
+    .close = NULL, /* the robot closes the backend */
 };
 
 struct motor_hal peer_guard_wrap(void *ctx, struct motor_hal backend)
@@ -87,8 +88,10 @@ void peer_on_foreign(void *ctx, int64_t seq, int64_t utime)
 	const int64_t prev = atomic_exchange(&g->last_us, now);
 
 	if (!prev || now - prev >= PEER_HOLD_US)
-		fprintf(stderr, "omni4-fw: FAULT_BUS: another controller is publishing OMNI4_MOTORS "
-			"on %s (seq %lld utime %lld is not one of ours): outputs off; the "
-			"controller stays in FAULT until it has been silent for 1 s and "
-			"MODE_CLEAR_FAULT\n", g->url, (long long)seq, (long long)utime);
+		fprintf(stderr,
+		        "omni4-fw: FAULT_BUS: another controller is publishing OMNI4_MOTORS "
+		        "on %s (seq %lld utime %lld is not one of ours): outputs off; the "
+		        "controller stays in FAULT until it has been silent for 1 s and "
+		        "MODE_CLEAR_FAULT\n",
+		        g->url, (long long)seq, (long long)utime);
 }

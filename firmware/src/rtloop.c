@@ -96,7 +96,7 @@ static void *loop_main(void *arg)
 }
 
 int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_ticks,
-		 rtloop_tick_fn tick, void *ctx)
+                 rtloop_tick_fn tick, void *ctx)
 {
 	pthread_attr_t attr;
 	int rc;
@@ -124,8 +124,8 @@ int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_tic
 	rc = pthread_create(&l->thread, &attr, loop_main, l);
 	if (rc == EPERM && priority > 0) {
 		snprintf(l->warning, sizeof(l->warning),
-			 "SCHED_FIFO priority %d not permitted; running at normal priority",
-			 priority);
+		         "SCHED_FIFO priority %d not permitted; running at normal priority",
+		         priority);
 		pthread_attr_destroy(&attr);
 		pthread_attr_init(&attr);
 		pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);

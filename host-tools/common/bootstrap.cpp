@@ -28,7 +28,7 @@ std::vector<std::vector<size_t>> strata(const std::vector<Segment> &segments)
 // One replicate: its final values in kIdentParams order (NaN where the full data identify
 // nothing either), or empty if it could not identify what the full data do.
 std::vector<double> replicate(const Prepared &prep, const std::vector<std::vector<size_t>> &groups,
-			      const std::map<std::string, bool> &wanted, uint64_t seed)
+                              const std::map<std::string, bool> &wanted, uint64_t seed)
 {
 	std::mt19937_64 rng(seed);
 	std::vector<size_t> drawn;
@@ -69,8 +69,8 @@ double percentile(std::vector<double> v, double q)
 } // namespace
 
 BootstrapResult bootstrap_runs(const std::vector<Segment> &segments, const model_params &base,
-			       const IdentOptions &opt, int replicates, uint64_t seed,
-			       const std::function<void(int, int)> &progress)
+                               const IdentOptions &opt, int replicates, uint64_t seed,
+                               const std::function<void(int, int)> &progress)
 {
 	BootstrapResult res;
 	res.replicates = replicates;
@@ -90,8 +90,8 @@ BootstrapResult bootstrap_runs(const std::vector<Segment> &segments, const model
 		std::vector<std::future<std::vector<double>>> batch;
 		for (int k = first; k < std::min(replicates, first + workers); ++k)
 			batch.push_back(std::async(std::launch::async, replicate, std::cref(prep),
-						   std::cref(groups), std::cref(wanted),
-						   seed + static_cast<uint64_t>(k)));
+			                           std::cref(groups), std::cref(wanted),
+			                           seed + static_cast<uint64_t>(k)));
 		for (size_t b = 0; b < batch.size(); ++b) {
 			values[static_cast<size_t>(first) + b] = batch[b].get();
 			if (progress)

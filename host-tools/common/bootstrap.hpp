@@ -26,14 +26,14 @@ struct BootstrapStats {
 
 struct BootstrapResult {
 	int replicates = 0; // asked for
-	int failed = 0;	    // replicates whose resampled runs could not be identified (skipped)
-	std::map<std::string, BootstrapStats> final;	    // by parameter name (kIdentParams)
+	int failed = 0;     // replicates whose resampled runs could not be identified (skipped)
+	std::map<std::string, BootstrapStats> final;        // by parameter name (kIdentParams)
 	std::map<std::string, std::vector<double>> samples; // final values of every replicate
 };
 
 // progress(done, total) is called from the calling thread as replicates finish.
 BootstrapResult bootstrap_runs(const std::vector<Segment> &segments, const model_params &base,
-			       const IdentOptions &opt, int replicates, uint64_t seed,
-			       const std::function<void(int, int)> &progress = {});
+                               const IdentOptions &opt, int replicates, uint64_t seed,
+                               const std::function<void(int, int)> &progress = {});
 
 } // namespace omni4

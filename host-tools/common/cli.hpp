@@ -27,7 +27,7 @@ inline void omni4_cli_setup(CLI::App &app)
 			return (app).exit(e_);                                                     \
 		} catch (const CLI::ParseError &e_) {                                              \
 			std::fprintf(stderr, "%s: %s (see %s --help)\n", (app).get_name().c_str(), \
-				     e_.what(), (app).get_name().c_str());                         \
+			             e_.what(), (app).get_name().c_str());                         \
 			return 2;                                                                  \
 		}                                                                                  \
 	} while (0)

@@ -14,7 +14,7 @@ namespace
 // Centred moving average of y over [k - h, k + h] for the k of [a + h, b - h), by prefix sums
 // (per block, so the sums stay small); other entries of out untouched.
 void box(const std::vector<double> &y, size_t a, size_t b, int h, std::vector<double> &prefix,
-	 std::vector<double> &out)
+         std::vector<double> &out)
 {
 	const size_t n = b - a, w = 2 * static_cast<size_t>(h) + 1;
 	if (n < w)
@@ -132,11 +132,11 @@ struct RippleWork {
 	const std::vector<MotorsSample> &m;
 	double gear, dt;
 	size_t q = 1;
-	int hd = 2;					// half box width in groups
-	std::vector<size_t> first;			// first sample of each group
+	int hd = 2;                                     // half box width in groups
+	std::vector<size_t> first;                      // first sample of each group
 	std::vector<std::pair<size_t, size_t>> dblocks; // blocks of groups
-	std::vector<double> th, y, thd, ws, prefix;	// angle; group speed, angle, slow speed
-	std::array<std::vector<double>, 2> g, gb;	// regressors and their slow part
+	std::vector<double> th, y, thd, ws, prefix;     // angle; group speed, angle, slow speed
+	std::array<std::vector<double>, 2> g, gb;       // regressors and their slow part
 
 	RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h)
 	    : m(m_), gear(gear_), dt(dt_)
@@ -170,7 +170,7 @@ struct RippleWork {
 			const int64_t gap = m[k].seq - m[k - 1].seq;
 			const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
 			th[k] = th[k - 1] +
-				dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
+			        dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
 		}
 		for (size_t i = 0; i < first.size(); ++i) {
 			double sy = 0, st = 0;
@@ -208,7 +208,7 @@ struct RippleWork {
 	// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
 	// block; advances i0 past the stretch. Returns the groups used.
 	size_t normal_equations(const RippleFit &f, double min_speed, size_t &i0,
-				Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
+	                        Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
 	{
 		const size_t nd = first.size();
 		A = Eigen::Matrix2d::Zero();
@@ -239,8 +239,8 @@ struct RippleWork {
 // Solves stretch f's normal equations for motor j and, if the ripple is significant, divides
 // it out of the stretch's speeds.
 void fit_and_remove(RippleWork &rw, RippleFit &f, int j, const Eigen::Matrix2d &A,
-		    const Eigen::Vector2d &r, double yy, size_t used,
-		    const EccentricityOptions &opt, std::vector<MotorsSample> &m)
+                    const Eigen::Vector2d &r, double yy, size_t used,
+                    const EccentricityOptions &opt, std::vector<MotorsSample> &m)
 {
 	if (used < 50)
 		return;
@@ -270,7 +270,7 @@ void fit_and_remove(RippleWork &rw, RippleFit &f, int j, const Eigen::Matrix2d &
 } // namespace
 
 std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
-					     const EccentricityOptions &opt)
+                                             const EccentricityOptions &opt)
 {
 	auto &m = log.motors;
 	const size_t n = m.size();

@@ -47,9 +47,9 @@ struct TickRescale {
 TickRescale rescale_to_tick_intervals(LogData &log);
 
 struct EccentricityOptions {
-	double box_s = 0.1;	   // moving average that takes the slow speed out [s]
-	double chunk_s = 20.0;	   // stretch fitted with its own coefficients [s]
-	double min_speed = 2.0;	   // wheel speed below which a sample carries no ripple [rad/s]
+	double box_s = 0.1;        // moving average that takes the slow speed out [s]
+	double chunk_s = 20.0;     // stretch fitted with its own coefficients [s]
+	double min_speed = 2.0;    // wheel speed below which a sample carries no ripple [rad/s]
 	double significance = 4.0; // a harmonic is removed when its amplitude is over this many SE
 };
 
@@ -66,6 +66,6 @@ struct RippleFit {
 // in place. gear: the gear ratio l (motor revolutions per wheel revolution). Returns one fit
 // per stretch.
 std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
-					     const EccentricityOptions &opt = {});
+                                             const EccentricityOptions &opt = {});
 
 } // namespace omni4

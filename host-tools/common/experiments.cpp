@@ -60,7 +60,7 @@ void settle(std::vector<Phase> &seq, double settle_s)
 
 // One marked run: a voltage step with an initial ramp along dir, held, then coasting to rest.
 void ramped_run(std::vector<Phase> &seq, const SequenceOptions &opt, const char *kind,
-		const char *dir, double level)
+                const char *dir, double level)
 {
 	Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level), opt.ramp_s);
 	p.mark_kind = kind;
@@ -132,7 +132,7 @@ template <typename T> std::vector<uint8_t> encode(const T &msg)
 } // namespace
 
 std::vector<uint8_t> encode_mark(int64_t utime, const std::string &kind, const std::string &dir,
-				 double level)
+                                 double level)
 {
 	experiment_t m;
 	m.utime = utime;

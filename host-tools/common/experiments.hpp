@@ -12,11 +12,11 @@ namespace omni4
 
 struct Phase {
 	double duration_s = 0;
-	int8_t mode = 0;		  // command_t::MODE_*
+	int8_t mode = 0;                  // command_t::MODE_*
 	std::array<double, 4> voltage{};  // [V]
 	std::array<double, 3> velocity{}; // [m/s, m/s, rad/s]
-	double ramp_s = 0;		  // [s]
-	std::string mark_kind;		  // non-empty: OMNI4_EXPERIMENT at the phase start
+	double ramp_s = 0;                // [s]
+	std::string mark_kind;            // non-empty: OMNI4_EXPERIMENT at the phase start
 	std::string mark_direction;
 	double mark_level = 0; // [V]
 	bool end_mark = false; // OMNI4_EXPERIMENT "end" at the phase start
@@ -24,7 +24,7 @@ struct Phase {
 
 // Encoded OMNI4_EXPERIMENT mark and a bare OMNI4_CMD of one mode (no velocity, no voltage).
 std::vector<uint8_t> encode_mark(int64_t utime, const std::string &kind,
-				 const std::string &direction = "", double level = 0);
+                                 const std::string &direction = "", double level = 0);
 std::vector<uint8_t> encode_command(int64_t utime, int64_t seq, int8_t mode);
 
 // Channel voltage pattern per volt of drive along "v", "vn" or "w" (columns of eq 26).
@@ -32,7 +32,7 @@ std::array<double, 4> drive_pattern(const std::string &direction);
 
 struct SequenceOptions {
 	std::vector<double> rotation_levels{3, 4, 5, 6, 7, 8}; // experiment 1 [V]
-	std::vector<double> coast_levels{6, 9};	    // push-off voltage before coasting [V]
+	std::vector<double> coast_levels{6, 9};     // push-off voltage before coasting [V]
 	std::vector<double> motor_levels{4, 8, 11}; // motor test [V]
 	std::vector<double> step_levels{4, 6, 8};   // experiment 3 ramped steps [V]
 	double ramp_s = 0.5;
@@ -52,7 +52,7 @@ class SequencePlayer
       public:
 	struct Output {
 		bool has_command = false;
-		std::vector<uint8_t> command;		 // encoded command_t
+		std::vector<uint8_t> command;            // encoded command_t
 		std::vector<std::vector<uint8_t>> marks; // encoded experiment_t, in order
 	};
 

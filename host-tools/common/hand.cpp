@@ -110,7 +110,7 @@ HandDetector::Event HandDetector::on_moving(int64_t utime)
 {
 	const double sign = push_.peak < 0 ? -1.0 : 1.0;
 	const double speed = sign * mean_[push_.axis]; // along the push [m/s or rad/s]
-	if (speed > std::abs(push_.peak)) {	       // still accelerating (or pushed again)
+	if (speed > std::abs(push_.peak)) {            // still accelerating (or pushed again)
 		push_.peak = mean_[push_.axis];
 		push_.peak_utime = utime;
 		state_ = State::Pushing;

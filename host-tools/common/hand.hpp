@@ -22,12 +22,12 @@ namespace omni4
 
 struct HandOptions {
 	std::array<double, 3> rest_speed{0.05, 0.05,
-					 0.5}; // at rest: every |x| below [m/s, m/s, rad/s]
-	double rest_s = 0.5;		       // ... for this long [s]
+	                                 0.5}; // at rest: every |x| below [m/s, m/s, rad/s]
+	double rest_s = 0.5;                   // ... for this long [s]
 	double push_factor = 3.0; // a push: speed along one axis above this x its rest threshold
 	double drop_frac = 0.03;  // coasting: speed this fraction below its peak ...
 	double drop_min_s = 0.05; // ... and this long after the peak [s]
-	double smooth_s = 0.02;	  // moving average of the velocities over this window [s]
+	double smooth_s = 0.02;   // moving average of the velocities over this window [s]
 };
 
 class HandDetector
@@ -47,12 +47,12 @@ class HandDetector
 
 	// The present (or last) push. Times in the samples' clock [us].
 	struct Push {
-		int axis = 0;	    // expected axis: 0 v, 1 vn, 2 w
+		int axis = 0;       // expected axis: 0 v, 1 vn, 2 w
 		int moved_axis = 0; // the axis the robot moved along most (WrongAxis: not `axis`)
 		double moved_speed = 0; // its smoothed speed when the push was seen [m/s or rad/s]
-		double peak = 0;	// signed peak speed along `axis` (smoothed) [m/s or rad/s]
+		double peak = 0;        // signed peak speed along `axis` (smoothed) [m/s or rad/s]
 		int64_t armed_utime = 0, start_utime = 0, peak_utime = 0, still_utime = 0,
-			stop_utime = 0;
+		        stop_utime = 0;
 		double push_s() const
 		{
 			return (peak_utime - start_utime) * 1e-6;

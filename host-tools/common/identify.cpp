@@ -106,7 +106,7 @@ Estimate combine_several(const std::vector<Estimate> &ok, const IdentOptions &op
 } // namespace
 
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
-			 Agreement *agreement)
+                         Agreement *agreement)
 {
 	Agreement ag;
 	std::vector<Estimate> ok, weak;
@@ -194,7 +194,7 @@ struct Context {
 	IdentResult &res;
 
 	std::vector<SegWindow> windows(const char *kind, const char *dir,
-				       std::vector<Window> SegmentWindows::*which) const
+	                               std::vector<Window> SegmentWindows::*which) const
 	{
 		std::vector<SegWindow> out;
 		for (size_t i : use) {
@@ -216,8 +216,8 @@ struct Context {
 	void reject(const SegWindow &w, const std::string &what, const std::string &reason)
 	{
 		res.windows.push_back({w.seg, w.s->kind, w.s->direction, what,
-				       seg_time(*w.s, w.w.m0), seg_time(*w.s, w.w.m1 - 1), false,
-				       reason});
+		                       seg_time(*w.s, w.w.m0), seg_time(*w.s, w.w.m1 - 1), false,
+		                       reason});
 	}
 	void missing(const std::string &line)
 	{
@@ -243,8 +243,8 @@ struct Context {
 			for (int j = 0; j < 4; ++j)
 				se[static_cast<Eigen::Index>(4 * e + j)] =
 				    P.offset_epochs[e]
-					.first->current_offsets[P.offset_epochs[e].second]
-					.se_a[j];
+				        .first->current_offsets[P.offset_epochs[e].second]
+				        .se_a[j];
 		return se;
 	}
 };
@@ -289,17 +289,17 @@ void collect_motor_points(Context &c)
 		const auto &m = w.s->log->motors;
 		for (int j = 0; j < 4; ++j) {
 			const double u = mean_over(m, w.w.m0, w.w.m1,
-						   [&](const MotorsSample &s) { return s.u[j]; });
+			                           [&](const MotorsSample &s) { return s.u[j]; });
 			const double i = mean_over(m, w.w.m0, w.w.m1,
-						   [&](const MotorsSample &s) { return s.i[j]; });
+			                           [&](const MotorsSample &s) { return s.i[j]; });
 			const double wm =
 			    l * mean_over(m, w.w.m0, w.w.m1,
-					  [&](const MotorsSample &s) { return s.w[j]; });
+			                  [&](const MotorsSample &s) { return s.w[j]; });
 			if (std::abs(u) < 0.5)
 				continue; // this motor is not driven in this run
 			if (std::abs(i) < 0.05) {
 				c.reject(w, "motor " + std::to_string(j) + " point",
-					 "current " + std::to_string(i) + " A too small for u/i");
+				         "current " + std::to_string(i) + " A too small for u/i");
 				continue;
 			}
 			c.res.motor_points.push_back({j, u, i, wm, c.epoch_of(w.s->log, w.w.m0)});
@@ -329,14 +329,14 @@ Fit fit_motor(const std::vector<MotorPoint> &points, int motor, const Eigen::Vec
 		y[k] = i;
 	}
 	const std::string what = motor < 0 ? "motor test (all motors)"
-					   : "motor test (motor " + std::to_string(motor) + ")";
+	                                   : "motor test (motor " + std::to_string(motor) + ")";
 	const Fit g = least_squares(X, y, 1.0, what);
 	if (!(g.theta[0] > 0))
 		throw IdentError(what + ": the current does not grow with the voltage");
 	Fit f = g;
 	f.theta[0] = -g.theta[1] / g.theta[0]; // Kv
-	f.theta[1] = 1 / g.theta[0];	       // R
-	Eigen::Matrix2d J;		       // d(Kv, R) / d(c_u, c_w)
+	f.theta[1] = 1 / g.theta[0];           // R
+	Eigen::Matrix2d J;                     // d(Kv, R) / d(c_u, c_w)
 	J << g.theta[1] / (g.theta[0] * g.theta[0]), -1 / g.theta[0],
 	    -1 / (g.theta[0] * g.theta[0]), 0;
 	f.cov = J * g.cov * J.transpose();
@@ -345,7 +345,7 @@ Fit fit_motor(const std::vector<MotorPoint> &points, int motor, const Eigen::Vec
 
 // What the fit of one motor (or all: -1) borrows from the current offsets' standard errors.
 Eigen::VectorXd motor_borrowed(const std::vector<MotorPoint> &points, int motor,
-			       const Eigen::VectorXd &off_se)
+                               const Eigen::VectorXd &off_se)
 {
 	return propagate_independent(
 	    [&](const Eigen::VectorXd &d) -> Eigen::VectorXd {
@@ -365,12 +365,12 @@ void fit_one_motor(Context &c, int j, const Eigen::VectorXd &off_se, RSum &rs)
 {
 	IdentResult &res = c.res;
 	const size_t n = std::count_if(res.motor_points.begin(), res.motor_points.end(),
-				       [&](const MotorPoint &p) { return p.motor == j; });
+	                               [&](const MotorPoint &p) { return p.motor == j; });
 	if (n < 3) {
 		c.missing("R" + std::to_string(j) + ", Kv" + std::to_string(j) + " (motor " +
-			  std::to_string(j) + "): " + std::to_string(n) +
-			  " steady points with the motor driven, need 3 at different loads; the "
-			  "pooled Kv and R come from the other motors");
+		          std::to_string(j) + "): " + std::to_string(n) +
+		          " steady points with the motor driven, need 3 at different loads; the "
+		          "pooled Kv and R come from the other motors");
 		return;
 	}
 	try {
@@ -384,7 +384,7 @@ void fit_one_motor(Context &c, int j, const Eigen::VectorXd &off_se, RSum &rs)
 		++rs.n;
 	} catch (const IdentError &e) {
 		c.missing(std::string(e.what()) +
-			  " (the runs give one operating point: vary the load)");
+		          " (the runs give one operating point: vary the load)");
 	}
 }
 
@@ -393,7 +393,7 @@ void motor_test(Context &c)
 	IdentResult &res = c.res;
 	if (c.segments_of("motor", nullptr) == 0) {
 		c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " +
-			  record_hint("motor"));
+		          record_hint("motor"));
 		return;
 	}
 	collect_motor_points(c);
@@ -405,7 +405,7 @@ void motor_test(Context &c)
 		const Fit all = fit_motor(res.motor_points, -1, nullptr);
 		res.table["motor"]["Kv"] =
 		    with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)),
-				  motor_borrowed(res.motor_points, -1, off_se)[0]);
+		                  motor_borrowed(res.motor_points, -1, off_se)[0]);
 	} catch (const IdentError &e) {
 		c.missing(std::string("Kv: ") + e.what());
 	}
@@ -413,7 +413,7 @@ void motor_test(Context &c)
 	// parts are taken as independent (each motor has its own channel's offset).
 	if (rs.n > 0)
 		res.table["motor"]["R"] = with_borrowed(rs.sum / rs.n, std::sqrt(rs.var) / rs.n,
-							std::sqrt(rs.var_b) / rs.n);
+		                                        std::sqrt(rs.var_b) / rs.n);
 	else
 		c.missing("R (motor test): no motor has enough steady points");
 }
@@ -463,7 +463,7 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 	wenc /= n;
 	if (std::abs(wenc) < kStopSpeed[2]) {
 		c.reject(w, "steady window",
-			 "the robot did not turn (stiction): w " + std::to_string(wenc));
+		         "the robot did not turn (stiction): w " + std::to_string(wenc));
 		return;
 	}
 	// The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
@@ -487,7 +487,7 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 // T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
 // x = [Kt, delta (4 per offset epoch)] (none: as measured): what experiment 1 borrows.
 Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p, bool cam,
-		 const Eigen::VectorXd *x)
+                 const Eigen::VectorXd *x)
 {
 	model_params q = p;
 	if (x)
@@ -514,7 +514,7 @@ void experiment1(Context &c)
 	IdentResult &res = c.res;
 	if (c.segments_of("steady_rotation", nullptr) == 0) {
 		c.missing("Bw, Cw (experiment 1, eq 16): no 'steady_rotation' segments; " +
-			  record_hint("steady_rotation"));
+		          record_hint("steady_rotation"));
 		return;
 	}
 	const auto kv = res.table["motor"].find("Kv");
@@ -529,15 +529,15 @@ void experiment1(Context &c)
 		rotation_point(c, p, cam, w);
 	if (res.rotation_points.size() < 3) {
 		c.missing("Bw, Cw (experiment 1): " + std::to_string(res.rotation_points.size()) +
-			  " usable steady rotation windows, need 3 at different speeds; " +
-			  record_hint("steady_rotation"));
+		          " usable steady rotation windows, need 3 at different speeds; " +
+		          record_hint("steady_rotation"));
 		return;
 	}
 	try {
 		const Fit f = fit_rotation(res.rotation_points, p, cam, nullptr);
 		const Eigen::VectorXd off_se = c.offset_se();
 		Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()),
-				se(1 + off_se.size());
+		                se(1 + off_se.size());
 		x0[0] = p.Kt;
 		se[0] = kv->second.se;
 		se.tail(off_se.size()) = off_se;
@@ -570,7 +570,7 @@ struct EncoderRow {
 };
 
 std::vector<EncoderRow> encoder_coast_rows(const Context &c, const std::vector<SegWindow> &wins,
-					   int axis, int &half)
+                                           int axis, int &half)
 {
 	std::vector<EncoderRow> rows;
 	for (size_t wi = 0; wi < wins.size(); ++wi) {
@@ -621,8 +621,8 @@ struct WindowMeans {
 
 // theta = [x0 per window with rows..., b, c] of the shared fit bc; the fitted coast curves.
 void encoder_coast_result(Context &c, const std::vector<SegWindow> &wins,
-			  const std::vector<EncoderRow> &rows, const WindowMeans &wm, const Fit &bc,
-			  double dof_fix, const std::string &dir, CoastFit &out)
+                          const std::vector<EncoderRow> &rows, const WindowMeans &wm, const Fit &bc,
+                          double dof_fix, const std::string &dir, CoastFit &out)
 {
 	out.f.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(wm.used) + 2);
 	out.f.cov = Eigen::MatrixXd::Zero(out.f.theta.size(), out.f.theta.size());
@@ -650,7 +650,7 @@ void encoder_coast_result(Context &c, const std::vector<SegWindow> &wins,
 }
 
 CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int axis,
-			   const std::string &dir)
+                           const std::string &dir)
 {
 	int half = 20;
 	const std::vector<EncoderRow> rows = encoder_coast_rows(c, wins, axis, half);
@@ -676,7 +676,7 @@ CoastFit coast_fit_encoder(Context &c, const std::vector<SegWindow> &wins, int a
 	    least_squares(X, y, 2 * half + 1, "experiment 2 (coast-down along " + dir + ")");
 	// Residual variance with the intercepts' degrees of freedom counted.
 	const double dof_fix = static_cast<double>(n - 2) /
-			       static_cast<double>(n - 2 - static_cast<Eigen::Index>(wm.used));
+	                       static_cast<double>(n - 2 - static_cast<Eigen::Index>(wm.used));
 	encoder_coast_result(c, wins, rows, wm, bc, dof_fix, dir, out);
 	return out;
 }
@@ -691,16 +691,16 @@ struct CameraRow {
 
 // The displacement along axis between camera frames prev and k (robot frame).
 double frame_step(const CameraTrack &ct, const std::vector<PoseSample> &pose, int axis, size_t prev,
-		  size_t k)
+                  size_t k)
 {
 	if (axis == 2)
 		return ct.theta[k] - ct.theta[prev];
 	const double h = std::isfinite(ct.heading[k]) && std::isfinite(ct.heading[prev])
-			     ? 0.5 * (ct.heading[k] + ct.heading[prev])
-			     : 0.5 * (ct.theta[k] + ct.theta[prev]);
+	                     ? 0.5 * (ct.heading[k] + ct.heading[prev])
+	                     : 0.5 * (ct.theta[k] + ct.theta[prev]);
 	const double dx = pose[k].x - pose[prev].x, dy = pose[k].y - pose[prev].y;
 	return axis == 0 ? std::cos(h) * dx + std::sin(h) * dy
-			 : -std::sin(h) * dx + std::cos(h) * dy;
+	                 : -std::sin(h) * dx + std::cos(h) * dy;
 }
 
 // One row per camera frame of the windows; a window with fewer than 6 frames is rejected.
@@ -738,8 +738,8 @@ std::vector<CameraRow> camera_coast_rows(Context &c, const std::vector<SegWindow
 // Fitted velocity x(tau) = x0 - b (p - p0) - c tau with x0 = slope - b p0, from the fit over
 // the kept columns (p0 per window, slope per window, b, c).
 void camera_coast_curves(Context &c, const std::vector<SegWindow> &wins,
-			 const std::vector<CameraRow> &rows, const std::vector<Eigen::Index> &keep,
-			 const Fit &f, const std::string &dir)
+                         const std::vector<CameraRow> &rows, const std::vector<Eigen::Index> &keep,
+                         const Fit &f, const std::string &dir)
 {
 	const size_t nw = wins.size();
 	const Eigen::Index nk = static_cast<Eigen::Index>(keep.size());
@@ -760,7 +760,7 @@ void camera_coast_curves(Context &c, const std::vector<SegWindow> &wins,
 }
 
 CoastFit coast_fit_camera(Context &c, const std::vector<SegWindow> &wins, int axis,
-			  const std::string &dir)
+                          const std::string &dir)
 {
 	const std::vector<CameraRow> rows = camera_coast_rows(c, wins, axis);
 	CoastFit out;
@@ -825,25 +825,25 @@ void experiment2(Context &c)
 		if (wins.empty()) {
 			const size_t nseg = c.segments_of("coast", dir);
 			c.missing(names + " (experiment 2 along " + dir + "): " +
-				  (nseg ? std::to_string(nseg) +
-					      " coast segments but no usable coast-down (see "
-					      "the rejected windows)"
-					: std::string("no coast segments")) +
-				  "; " + record_hint("coast"));
+			          (nseg ? std::to_string(nseg) +
+			                      " coast segments but no usable coast-down (see "
+			                      "the rejected windows)"
+			                : std::string("no coast segments")) +
+			          "; " + record_hint("coast"));
 			continue;
 		}
 		CoastFit cf;
 		try {
 			cf = c.P.opt.source == VelocitySource::Camera
-				 ? coast_fit_camera(c, wins, axis, dir)
-				 : coast_fit_encoder(c, wins, axis, dir);
+			         ? coast_fit_camera(c, wins, axis, dir)
+			         : coast_fit_encoder(c, wins, axis, dir);
 		} catch (const IdentError &e) {
 			c.missing(names + ": " + e.what());
 			continue;
 		}
 		if (!cf.ok) {
 			c.missing(names + " (experiment 2 along " + dir +
-				  "): the coast-downs hold too few samples");
+			          "): the coast-downs hold too few samples");
 			continue;
 		}
 		const Fit &f = cf.f;
@@ -852,7 +852,7 @@ void experiment2(Context &c)
 		const Estimate cst{f.theta[nc], std::sqrt(f.cov(nc, nc))};
 		if (axis < 2) {
 			const std::string B = axis == 0 ? "Bv" : "Bvn",
-					  C = axis == 0 ? "Cv" : "Cvn";
+			                  C = axis == 0 ? "Cv" : "Cvn";
 			res.table["exp2"][B] = {base.M * b.value, base.M * b.se}; // eqs 17-18
 			res.table["exp2"][C] = {base.M * cst.value, base.M * cst.se};
 			continue;
@@ -951,7 +951,7 @@ Exp3Fits fit_step_axes(Context &c)
 			    AxisFit a;
 			    try {
 				    a.f = fit_state_space(axis_data(c, w, axis),
-							  std::string("experiment 3 along ") + dir);
+				                          std::string("experiment 3 along ") + dir);
 			    } catch (const IdentError &e) {
 				    a.error = e.what();
 			    }
@@ -961,15 +961,15 @@ Exp3Fits fit_step_axes(Context &c)
 	for (int axis = 0; axis < 3; ++axis) {
 		const char *dir = kDirs[axis];
 		const std::string names = axis == 0   ? "Bv, Cv"
-					  : axis == 1 ? "Bvn, Cvn"
-						      : "J, Bw, Cw";
+		                          : axis == 1 ? "Bvn, Cvn"
+		                                      : "J, Bw, Cw";
 		if (!pending[axis].valid()) {
 			const size_t nseg = c.segments_of("step", dir);
 			c.missing(names + " (experiment 3 along " + dir + "): " +
-				  (nseg
-				       ? std::to_string(nseg) + " step segments but no usable drive"
+			          (nseg
+			               ? std::to_string(nseg) + " step segments but no usable drive"
 				       : std::string("no step segments")) +
-				  "; " + record_hint("step"));
+			          "; " + record_hint("step"));
 			continue;
 		}
 		AxisFit a = pending[axis].get();
@@ -996,10 +996,10 @@ struct Derivation {
 	Eigen::VectorXd x0 = Eigen::VectorXd::Zero(11);
 	Eigen::MatrixXd C = Eigen::MatrixXd::Zero(11, 11);
 	std::vector<int> r_axes; // the axes R comes from (none: the motor test's)
-	std::vector<double> rw;	 // weights of the R combination
+	std::vector<double> rw;  // weights of the R combination
 
 	Derivation(const IdentOptions &o, model_params &p_, const std::array<Fit, 3> &fits,
-		   const std::array<bool, 3> &have, const Estimate &Kv, const Estimate &Rm)
+	           const std::array<bool, 3> &have, const Estimate &Kv, const Estimate &Rm)
 	    : opt(o), p(p_)
 	{
 		for (int axis = 0; axis < 3; ++axis) {
@@ -1067,7 +1067,7 @@ struct Derivation {
 		return q;
 	}
 	Estimate prop(const std::function<double(const Eigen::VectorXd &)> &f,
-		      const std::vector<Eigen::Index> &own) const
+	              const std::vector<Eigen::Index> &own) const
 	{
 		return propagate(f, x0, C, own);
 	}
@@ -1132,7 +1132,7 @@ void experiment3(Context &c)
 	const auto kv = res.table["motor"].find("Kv");
 	if (c.segments_of("step", nullptr) == 0) {
 		c.missing("R, Bv, Bvn, Cv, Cvn, J, Bw, Cw (experiment 3): no 'step' segments; " +
-			  record_hint("step"));
+		          record_hint("step"));
 		return;
 	}
 	if (kv == res.table["motor"].end() || !kv->second.ok()) {
@@ -1189,14 +1189,14 @@ StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what)
 	Eigen::VectorXd theta = f.ls.theta;
 	for (int it = 0; it < 3; ++it) {
 		f.iv = instrumental_variables(instruments(d, theta), d.X, d.y, 2 * d.half + 1,
-					      what + " (IV)");
+		                              what + " (IV)");
 		theta = f.iv.theta;
 	}
 	return f;
 }
 
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
-		 const IdentOptions &opt)
+                 const IdentOptions &opt)
 {
 	Prepared P;
 	P.base = base;
@@ -1254,8 +1254,8 @@ void record_windows(const Prepared &P, IdentResult &res)
 		auto used = [&](const std::vector<Window> &ws, const char *what) {
 			for (const Window &x : ws)
 				res.windows.push_back({i, s.kind, s.direction, what,
-						       seg_time(s, x.m0), seg_time(s, x.m1 - 1),
-						       true, ""});
+				                       seg_time(s, x.m0), seg_time(s, x.m1 - 1),
+				                       true, ""});
 		};
 		used(w.steady, "steady window");
 		used(w.coast, "coast-down");
@@ -1272,7 +1272,7 @@ size_t combine_final(const Prepared &P, IdentResult &res)
 {
 	auto &fin = res.table["final"];
 	static const std::map<std::string, std::vector<const char *>> sources = {
-	    {"Kv", {"motor"}},		 {"R", {"motor", "exp3_iv"}},  {"J", {"exp2", "exp3_iv"}},
+	    {"Kv", {"motor"}},           {"R", {"motor", "exp3_iv"}},  {"J", {"exp2", "exp3_iv"}},
 	    {"Bv", {"exp2", "exp3_iv"}}, {"Bvn", {"exp2", "exp3_iv"}}, {"Bw", {"exp1", "exp3_iv"}},
 	    {"Cv", {"exp2", "exp3_iv"}}, {"Cvn", {"exp2", "exp3_iv"}}, {"Cw", {"exp1", "exp3_iv"}}};
 	res.final = P.base;
@@ -1325,14 +1325,14 @@ IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in)
 		int bad = -1;
 		if (model_params_check(&res.final, &bad))
 			throw IdentError(std::string("identified parameters are not physical: ") +
-					 model_params_names[bad] + " = " +
-					 std::to_string(model_params_get(&res.final, bad)));
+			                 model_params_names[bad] + " = " +
+			                 std::to_string(model_params_get(&res.final, bad)));
 	}
 	return res;
 }
 
 IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
-		     const IdentOptions &opt)
+                     const IdentOptions &opt)
 {
 	return identify(prepare(segments, base, opt));
 }

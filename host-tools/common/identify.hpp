@@ -48,7 +48,7 @@ struct MotorPoint {
 }; // [V, A, rad/s]
 struct RotationPoint {
 	double level, omega_cam, omega_enc, torque; // [V, rad/s, rad/s, N m]
-	std::array<double, 4> imean{};		    // mean currents of the window [A]
+	std::array<double, 4> imean{};              // mean currents of the window [A]
 	int epoch = -1;
 };
 struct CurvePoint {
@@ -60,7 +60,7 @@ struct CurvePoint {
 struct WindowRecord {
 	size_t segment = 0;
 	std::string kind, direction; // of the segment
-	std::string what;	     // "steady window", "coast-down", "step", "segment", ...
+	std::string what;            // "steady window", "coast-down", "step", "segment", ...
 	double t0_s = 0, t1_s = 0;   // from the segment's mark
 	bool used = false;
 	std::string reason; // why it was rejected
@@ -81,15 +81,15 @@ struct IdentResult {
 	// "exp3_ls", "exp3_iv", "final".
 	std::map<std::string, std::map<std::string, Estimate>> table;
 	std::array<Estimate, 4> R_motor{}, Kv_motor{}; // not ok() for a motor without data
-	model_params final{};			// base with the identified values (see identified)
+	model_params final{};                   // base with the identified values (see identified)
 	std::map<std::string, bool> identified; // by kIdentParams name
 	bool complete() const;
 	std::map<std::string, Agreement> agreement; // by parameter
 	std::vector<MotorPoint> motor_points;
 	std::vector<RotationPoint> rotation_points;
 	std::map<std::string, std::vector<CurvePoint>> coast_curves; // by direction
-	std::map<std::string, size_t> segments_used;		     // by kind
-	std::vector<WindowRecord> windows;			     // used and rejected
+	std::map<std::string, size_t> segments_used;                 // by kind
+	std::vector<WindowRecord> windows;                           // used and rejected
 	std::vector<std::string> missing; // one line per thing that could not be identified
 };
 
@@ -113,13 +113,13 @@ struct Prepared {
 
 // base: the measured d, r, l, M (other fields ignored).
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
-		 const IdentOptions &opt = {});
+                 const IdentOptions &opt = {});
 
 // Identifies what the segments (all, or the indices in `use`, repeats allowed) support.
 // Throws IdentError only when no parameter at all can be identified (the message lists why).
 IdentResult identify(const Prepared &prep, const std::vector<size_t> *use = nullptr);
 IdentResult identify(const std::vector<Segment> &segments, const model_params &base,
-		     const IdentOptions &opt = {});
+                     const IdentOptions &opt = {});
 
 // Final value of one parameter from the methods' estimates. An estimate with an SE above
 // opt.max_rel_se of its value is left out (shown in the table only). Each SE is first raised to the
@@ -128,7 +128,7 @@ IdentResult identify(const std::vector<Segment> &segments, const model_params &b
 // own rule, "averaged with results from all 3 experimental methods"), so that no method with a
 // small but biased residual SE overrides the others; the disagreement is reported.
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
-			 Agreement *agreement = nullptr);
+                         Agreement *agreement = nullptr);
 
 // Experiment 3 along one axis (eqs 31-35): rows of dx/dt = theta1 x + theta2 u + theta3 sign(x),
 // filtered velocity x, filtered input u and the filtered derivative y, per run of contiguous
@@ -136,11 +136,11 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
 // the current estimate to the logged input (from each run's first measured x), three times.
 // Measurement noise in x biases LS towards zero (errors in variables), not IV.
 struct StateSpaceData {
-	Eigen::MatrixXd X;	   // [x, input, sign(x)]
-	Eigen::VectorXd y;	   // dx/dt
-	std::vector<double> t;	   // [s] of each row
+	Eigen::MatrixXd X;         // [x, input, sign(x)]
+	Eigen::VectorXd y;         // dx/dt
+	std::vector<double> t;     // [s] of each row
 	std::vector<size_t> start; // first row of each run
-	int half = 20;		   // filter half-window [samples]: rows within 2 half + 1 correlate
+	int half = 20;             // filter half-window [samples]: rows within 2 half + 1 correlate
 };
 struct StateSpaceFits {
 	Fit ls, iv;
@@ -156,7 +156,7 @@ double axis_input(const double u_v[4], int axis);
 // The inverses, given p's geometry (d, r, l), M, Kt and Kv; J_from_theta2 and B_from_theta1
 // also need p.R, and along w B_from_theta1 and C_from_theta3 need p.J.
 double R_from_theta2(const model_params &p, int axis, double theta2); // axis 0 or 1 [ohm]
-double J_from_theta2(const model_params &p, double theta2);	      // [kg m^2]
+double J_from_theta2(const model_params &p, double theta2);           // [kg m^2]
 double B_from_theta1(const model_params &p, int axis, double theta1); // Bv, Bvn, Bw
 double C_from_theta3(const model_params &p, int axis, double theta3); // Cv, Cvn, Cw
 

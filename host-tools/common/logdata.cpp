@@ -123,7 +123,7 @@ struct Mapping {
 			const int e = errno;
 			close(fd);
 			throw std::runtime_error(path + ": " +
-						 (e ? std::strerror(e) : "not a regular file"));
+			                         (e ? std::strerror(e) : "not a regular file"));
 		}
 		size = static_cast<size_t>(st.st_size);
 		if (size) {
@@ -160,11 +160,11 @@ size_t event_at(const uint8_t *p, size_t n, size_t pos, Event &ev)
 	const int32_t clen = static_cast<int32_t>(be32(p + pos + 20));
 	const int32_t dlen = static_cast<int32_t>(be32(p + pos + 24));
 	const bool ok = be32(p + pos) == kSync && clen > 0 && clen <= kMaxChannel && dlen >= 0 &&
-			pos + kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen) <= n;
+	                pos + kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen) <= n;
 	if (!ok)
 		return 0;
 	ev.channel = std::string_view(reinterpret_cast<const char *>(p + pos + kHeader),
-				      static_cast<size_t>(clen));
+	                              static_cast<size_t>(clen));
 	ev.data = p + pos + kHeader + clen;
 	ev.len = dlen;
 	return kHeader + static_cast<size_t>(clen) + static_cast<size_t>(dlen);
@@ -302,9 +302,9 @@ void sort_by_time(LogData &d)
 	sort(d.pose);
 	sort(d.marks);
 	if (!std::is_sorted(d.calibrations.begin(), d.calibrations.end(),
-			    [](const auto &a, const auto &b) { return a.seq < b.seq; }))
+	                    [](const auto &a, const auto &b) { return a.seq < b.seq; }))
 		std::stable_sort(d.calibrations.begin(), d.calibrations.end(),
-				 [](const auto &a, const auto &b) { return a.seq < b.seq; });
+		                 [](const auto &a, const auto &b) { return a.seq < b.seq; });
 }
 
 } // namespace
@@ -354,13 +354,13 @@ std::vector<Segment> split_segments(const LogData &log)
 	auto motors_at = [&](int64_t t) {
 		return static_cast<size_t>(
 		    std::lower_bound(log.motors.begin(), log.motors.end(), t,
-				     [](const MotorsSample &s, int64_t v) { return s.utime < v; }) -
+		                     [](const MotorsSample &s, int64_t v) { return s.utime < v; }) -
 		    log.motors.begin());
 	};
 	auto pose_at = [&](int64_t t) {
 		return static_cast<size_t>(
 		    std::lower_bound(log.pose.begin(), log.pose.end(), t,
-				     [](const PoseSample &s, int64_t v) { return s.utime < v; }) -
+		                     [](const PoseSample &s, int64_t v) { return s.utime < v; }) -
 		    log.pose.begin());
 	};
 	const int64_t t_end = log.motors.empty() ? 0 : log.motors.back().utime + 1;

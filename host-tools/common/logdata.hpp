@@ -34,23 +34,23 @@ struct Mark {
 // OMNI4_PARAM_CHANGED notice with source "calibration").
 struct CalibrationNotice {
 	int64_t utime = 0;
-	int64_t seq = 0;		  // first motors_t.seq with these offsets subtracted
+	int64_t seq = 0;                  // first motors_t.seq with these offsets subtracted
 	std::array<double, 4> offset_a{}; // [A]; NaN for a channel the notice does not give
-	int samples = 0;		  // samples the controller averaged (0 if not given)
-	std::string fault_channels;	  // channels over the offset limit ("" if none)
+	int samples = 0;                  // samples the controller averaged (0 if not given)
+	std::string fault_channels;       // channels over the offset limit ("" if none)
 };
 
 // A stretch of a log over which the same current offsets were in force, and the offsets left
 // in its logged currents as estimated from its own bridge-off samples (offsets.hpp).
 struct OffsetEpoch {
-	size_t m0 = 0, m1 = 0;	// motors index range [m0, m1)
-	int notice = -1;	// index into LogData::calibrations that opened it; -1: none
-	size_t samples = 0;	// bridge-off samples averaged
+	size_t m0 = 0, m1 = 0;  // motors index range [m0, m1)
+	int notice = -1;        // index into LogData::calibrations that opened it; -1: none
+	size_t samples = 0;     // bridge-off samples averaged
 	bool estimated = false; // offset_a / se_a come from this stretch's own samples
-	bool pooled = false;	// too few samples here: the estimate of the whole log was used
+	bool pooled = false;    // too few samples here: the estimate of the whole log was used
 	std::array<double, 4> offset_a{}; // residual offset in the logged current [A]
-	std::array<double, 4> se_a{};	  // its standard error [A]
-	bool subtracted = false;	  // offset_a has been subtracted from motors[m0, m1)
+	std::array<double, 4> se_a{};     // its standard error [A]
+	bool subtracted = false;          // offset_a has been subtracted from motors[m0, m1)
 };
 
 struct LogData {
@@ -60,16 +60,16 @@ struct LogData {
 	std::vector<Mark> marks;
 	std::vector<CalibrationNotice> calibrations; // in seq order
 	std::vector<OffsetEpoch> current_offsets;    // filled by calibrate_currents (offsets.hpp)
-	uint64_t events = 0;			     // events read
-	uint64_t undecodable = 0;		     // events on our channels that failed to decode
+	uint64_t events = 0;                         // events read
+	uint64_t undecodable = 0;                    // events on our channels that failed to decode
 	uint64_t implausible = 0; // decoded, but a time, sequence number or value no log can hold
 	uint64_t other_channels = 0;
 	uint64_t bytes_total = 0; // file size
 	uint64_t bytes_skipped =
-	    0;		       // file bytes after the last intact event (truncation/corruption)
+	    0;                 // file bytes after the last intact event (truncation/corruption)
 	uint64_t seq_gaps = 0; // missing motors_t samples (seq jumps)
 	uint64_t seq_backwards = 0; // motors_t samples whose seq is at or below the previous one's
-				    // in file order (an exact repeat, same seq and utime, is not)
+	                            // in file order (an exact repeat, same seq and utime, is not)
 };
 
 // More motors_t samples than this going backwards in one log: two controllers' streams
@@ -85,8 +85,8 @@ struct Segment {
 	std::string kind, direction;
 	double level = 0;
 	const LogData *log = nullptr;
-	size_t m0 = 0, m1 = 0;	// motors index range [m0, m1)
-	size_t p0 = 0, p1 = 0;	// pose index range [p0, p1)
+	size_t m0 = 0, m1 = 0;  // motors index range [m0, m1)
+	size_t p0 = 0, p1 = 0;  // pose index range [p0, p1)
 	int64_t t0 = 0, t1 = 0; // [us]
 };
 

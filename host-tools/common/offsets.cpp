@@ -65,7 +65,7 @@ struct Accumulator {
 			mean[j] = sum[j] / nn;
 			const double var =
 			    n > 1 ? std::max(0.0, (sum2[j] - nn * mean[j] * mean[j]) / (nn - 1))
-				  : 0;
+			          : 0;
 			double s = std::sqrt(var / nn);
 			if (batches.size() >= 8) {
 				double bm = 0, bv = 0;
@@ -76,7 +76,7 @@ struct Accumulator {
 					bv += (b[j] - bm) * (b[j] - bm);
 				bv /= static_cast<double>(batches.size() - 1);
 				s = std::max(s,
-					     std::sqrt(bv / static_cast<double>(batches.size())));
+				             std::sqrt(bv / static_cast<double>(batches.size())));
 			}
 			se[j] = s;
 		}
@@ -108,9 +108,9 @@ std::vector<OffsetEpoch> offset_epochs(const LogData &log, std::vector<std::stri
 		ep.push_back(e);
 		if (!log.calibrations[c].fault_channels.empty())
 			warn.push_back(log.path + ": the controller's calibration at seq " +
-				       std::to_string(seq) + " found channel(s) " +
-				       log.calibrations[c].fault_channels +
-				       " over its offset limit (current sensor fault)");
+			               std::to_string(seq) + " found channel(s) " +
+			               log.calibrations[c].fault_channels +
+			               " over its offset limit (current sensor fault)");
 	}
 	ep.back().m1 = m.size();
 	// Drop empty leading stretches (a notice at the log's first sample).
@@ -123,8 +123,8 @@ std::vector<OffsetEpoch> offset_epochs(const LogData &log, std::vector<std::stri
 // The usable bridge-off readings of each epoch into acc[e], and of all of them into all:
 // not driven, no reading fault, at least guard_s after the last drive.
 void accumulate_bridge_off(const std::vector<MotorsSample> &m, const std::vector<OffsetEpoch> &ep,
-			   const OffsetOptions &opt, std::vector<Accumulator> &acc,
-			   Accumulator &all)
+                           const OffsetOptions &opt, std::vector<Accumulator> &acc,
+                           Accumulator &all)
 {
 	int64_t last_driven = INT64_MIN;
 	for (size_t e = 0; e < ep.size(); ++e) {
@@ -153,9 +153,9 @@ void accumulate_bridge_off(const std::vector<MotorsSample> &m, const std::vector
 // Each epoch's offsets (its own estimate, or the whole log's pooled one pm +- ps when it has
 // too few samples) subtracted from its currents.
 void subtract_offsets(LogData &log, std::vector<OffsetEpoch> &ep,
-		      const std::vector<Accumulator> &acc, const std::array<double, 4> &pm,
-		      const std::array<double, 4> &ps, const OffsetOptions &opt,
-		      std::vector<std::string> &warn)
+                      const std::vector<Accumulator> &acc, const std::array<double, 4> &pm,
+                      const std::array<double, 4> &ps, const OffsetOptions &opt,
+                      std::vector<std::string> &warn)
 {
 	auto &m = log.motors;
 	for (size_t e = 0; e < ep.size(); ++e) {
@@ -175,8 +175,8 @@ void subtract_offsets(LogData &log, std::vector<OffsetEpoch> &ep,
 				    log.path + ": " + std::to_string(acc[e].n) +
 				    " bridge-off samples after " +
 				    (ep[e].notice >= 0
-					 ? "the calibration at seq " +
-					       std::to_string(log.calibrations[ep[e].notice].seq)
+				         ? "the calibration at seq " +
+				               std::to_string(log.calibrations[ep[e].notice].seq)
 					 : std::string("the log's start")) +
 				    ": its residual offsets taken from the whole log (" +
 				    fmt_offsets(pm) + " A)");

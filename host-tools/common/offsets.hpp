@@ -20,10 +20,10 @@ namespace omni4
 {
 
 struct OffsetOptions {
-	double guard_s = 0.020;	  // bridge-off samples this soon after a driven one are not used
-				  // (the winding current decays through the bridge's diodes)
+	double guard_s = 0.020;   // bridge-off samples this soon after a driven one are not used
+	                          // (the winding current decays through the bridge's diodes)
 	size_t min_samples = 100; // fewer in an epoch: the log's pooled estimate is used instead
-	size_t batch = 32;	  // batch length of the batch-means standard error [samples]
+	size_t batch = 32;        // batch length of the batch-means standard error [samples]
 };
 
 // Bridge-off samples used: at least guard_s after the last driven sample (none before it in

@@ -9,12 +9,12 @@ namespace omni4
 {
 
 Fit least_squares(const Eigen::MatrixXd &X, const Eigen::VectorXd &y, double corr_len,
-		  const std::string &what)
+                  const std::string &what)
 {
 	const Eigen::Index n = X.rows(), p = X.cols();
 	if (n <= p)
 		throw IdentError(what + ": too few samples (" + std::to_string(n) + ") for " +
-				 std::to_string(p) + " parameters");
+		                 std::to_string(p) + " parameters");
 	Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
 	qr.setThreshold(1e-10);
 	if (qr.rank() < p)
@@ -31,7 +31,7 @@ Fit least_squares(const Eigen::MatrixXd &X, const Eigen::VectorXd &y, double cor
 }
 
 Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
-			   const Eigen::VectorXd &y, double corr_len, const std::string &what)
+                           const Eigen::VectorXd &y, double corr_len, const std::string &what)
 {
 	const Eigen::Index n = X.rows(), p = X.cols();
 	if (n <= p)
@@ -51,8 +51,8 @@ Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
 }
 
 Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
-		   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
-		   const std::vector<Eigen::Index> &own)
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
+                   const std::vector<Eigen::Index> &own)
 {
 	Estimate e;
 	e.value = f(theta);
@@ -77,7 +77,7 @@ Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
 
 Eigen::VectorXd
 propagate_independent(const std::function<Eigen::VectorXd(const Eigen::VectorXd &)> &f,
-		      const Eigen::VectorXd &x0, const Eigen::VectorXd &se)
+                      const Eigen::VectorXd &x0, const Eigen::VectorXd &se)
 {
 	Eigen::VectorXd var;
 	for (Eigen::Index k = 0; k < x0.size(); ++k) {

@@ -28,11 +28,11 @@ struct Fit {
 // covariance sigma^2 (X^T X)^-1 is scaled by it. Throws IdentError("what: singular ...") when
 // X is rank deficient.
 Fit least_squares(const Eigen::MatrixXd &X, const Eigen::VectorXd &y, double corr_len,
-		  const std::string &what);
+                  const std::string &what);
 
 // theta = (Z^T X)^-1 Z^T y with instruments Z (same shape as X).
 Fit instrumental_variables(const Eigen::MatrixXd &Z, const Eigen::MatrixXd &X,
-			   const Eigen::VectorXd &y, double corr_len, const std::string &what);
+                           const Eigen::VectorXd &y, double corr_len, const std::string &what);
 
 struct Estimate {
 	double value = std::numeric_limits<double>::quiet_NaN();
@@ -50,14 +50,14 @@ struct Estimate {
 // own: the indices of theta that are the method's own data; the variance from the others is
 // reported as se_borrowed (own and borrowed entries must be uncorrelated in cov). Empty: all own.
 Estimate propagate(const std::function<double(const Eigen::VectorXd &)> &f,
-		   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
-		   const std::vector<Eigen::Index> &own = {});
+                   const Eigen::VectorXd &theta, const Eigen::MatrixXd &cov,
+                   const std::vector<Eigen::Index> &own = {});
 
 // Standard deviations of the outputs of f caused by independent inputs x0 with standard errors
 // se (first order, central differences with a step of one SE; an input with a zero or
 // non-finite SE contributes nothing).
 Eigen::VectorXd
 propagate_independent(const std::function<Eigen::VectorXd(const Eigen::VectorXd &)> &f,
-		      const Eigen::VectorXd &x0, const Eigen::VectorXd &se);
+                      const Eigen::VectorXd &x0, const Eigen::VectorXd &se);
 
 } // namespace omni4

@@ -48,7 +48,7 @@ void on_signal(int)
 int64_t wall_us()
 {
 	return std::chrono::duration_cast<std::chrono::microseconds>(
-		   std::chrono::system_clock::now().time_since_epoch())
+	           std::chrono::system_clock::now().time_since_epoch())
 	    .count();
 }
 
@@ -78,13 +78,13 @@ class Recording
 		lcm_ = lcm_create(opt.url.c_str());
 		if (!lcm_) {
 			std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n",
-				     opt.url.c_str());
+			             opt.url.c_str());
 			return false;
 		}
 		log_ = lcm_eventlog_create(opt.out.c_str(), "w");
 		if (!log_) {
 			std::fprintf(stderr, "omni4-ident run: %s: %s\n", opt.out.c_str(),
-				     std::strerror(errno));
+			             std::strerror(errno));
 			return false;
 		}
 		sub_ = lcm_subscribe(lcm_, ".*", record, this);
@@ -128,7 +128,7 @@ class Recording
 	{
 		auto *self = static_cast<Recording *>(user);
 		if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
-					 rbuf->data_size) == 0)
+		                         rbuf->data_size) == 0)
 			++self->written_;
 		else
 			++self->errors_;
@@ -328,9 +328,9 @@ int run_experiments(const RunOptions &opt)
 		if (g_interrupted)
 			return 130;
 		std::fprintf(stderr,
-			     "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
-			     "running on that URL?\n",
-			     opt.url.c_str(), kFirstMotorsS);
+		             "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
+		             "running on that URL?\n",
+		             opt.url.c_str(), kFirstMotorsS);
 		return 1;
 	}
 	SequencePlayer player(phases);
@@ -350,16 +350,16 @@ int run_experiments(const RunOptions &opt)
 	}
 	const bool ok = stop_run(rec);
 	std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
-		     g_interrupted ? "interrupted, robot stopped;"
-		     : lost	   ? "aborted, the robot stopped answering;"
-				   : "done;",
-		     opt.out.c_str(), static_cast<unsigned long long>(rec.written()),
-		     ok ? "" : " (write errors!)");
+	             g_interrupted ? "interrupted, robot stopped;"
+	             : lost        ? "aborted, the robot stopped answering;"
+	                           : "done;",
+	             opt.out.c_str(), static_cast<unsigned long long>(rec.written()),
+	             ok ? "" : " (write errors!)");
 	if (lost) {
 		std::fprintf(stderr,
-			     "omni4-ident run: no OMNI4_MOTORS for %g s on %s: did omni4-fw stop? "
-			     "(the log holds the run up to then)\n",
-			     kMotorsWaitS, opt.url.c_str());
+		             "omni4-ident run: no OMNI4_MOTORS for %g s on %s: did omni4-fw stop? "
+		             "(the log holds the run up to then)\n",
+		             kMotorsWaitS, opt.url.c_str());
 		return 1;
 	}
 	return g_interrupted ? 130 : (ok ? 0 : 1);
@@ -502,12 +502,12 @@ void HandRun::show_status()
 	last_status_s_ = now;
 	last_pct_ = pct;
 	static const char *const what[5] = {"waiting for the robot to rest", "at rest",
-					    "waiting for the push", "pushed", "coasting"};
+	                                    "waiting for the push", "pushed", "coasting"};
 	char buf[200];
 	std::snprintf(buf, sizeof(buf), "omni4-ident run: %3d%%  %s %d/%d  %s  logged %llu", pct,
-		      hand_axis_name(cur_axis_), cur_k_ + 1, hand_.pushes,
-		      what[static_cast<int>(det_.state())],
-		      static_cast<unsigned long long>(rec_.written()));
+	              hand_axis_name(cur_axis_), cur_k_ + 1, hand_.pushes,
+	              what[static_cast<int>(det_.state())],
+	              static_cast<unsigned long long>(rec_.written()));
 	progress_.status(buf);
 }
 
@@ -548,7 +548,7 @@ bool HandRun::wait_first_motors()
 void HandRun::open_segment(int axis)
 {
 	rec_.publish(OMNI4_CHANNEL_EXPERIMENT,
-		     encode_mark(controller_us(), "coast", hand_axis_name(axis), 0));
+	             encode_mark(controller_us(), "coast", hand_axis_name(axis), 0));
 	segment_open_ = true;
 }
 
@@ -573,7 +573,7 @@ void HandRun::say(int axis, int k, const char *fmt, ...)
 	std::vsnprintf(buf, sizeof(buf), fmt, ap);
 	va_end(ap);
 	progress_.line("omni4-ident run: %s %d/%d: %s", hand_axis_name(axis), k + 1, hand_.pushes,
-		       buf);
+	               buf);
 }
 
 HandRun::Step HandRun::rest_step(int axis, int k)
@@ -598,7 +598,7 @@ HandRun::Step HandRun::push_step(int axis, int k)
 	say(axis, k, "%s", instruction(axis));
 	det_.expect_push(axis, hand_.push_timeout_s);
 	const Waited w = wait_for({Event::PushStarted, Event::WrongAxis, Event::NoPush},
-				  hand_.push_timeout_s + kMotorsWaitS);
+	                          hand_.push_timeout_s + kMotorsWaitS);
 	if (stopped_by(w))
 		return Step::Quit;
 	if (w.why == Why::Got && w.ev == Event::PushStarted)
@@ -660,15 +660,15 @@ void HandRun::report(bool ok)
 	for (int a = 0; a < 3; ++a)
 		if (wanted_[a])
 			runs += std::string(runs.empty() ? "" : ", ") + hand_axis_name(a) + " " +
-				std::to_string(counted_[a]) + "/" + std::to_string(wanted_[a]);
+			        std::to_string(counted_[a]) + "/" + std::to_string(wanted_[a]);
 	std::fprintf(stderr,
-		     "omni4-ident run: %s %s: %llu messages logged; runs %s (%d along the "
-		     "wrong axis, %d missed)%s\n",
-		     g_interrupted  ? "interrupted, robot stopped;"
-		     : motors_lost_ ? "aborted;"
-				    : "done;",
-		     opt_.out.c_str(), static_cast<unsigned long long>(rec_.written()),
-		     runs.c_str(), wrong_, missed_, ok ? "" : " (write errors!)");
+	             "omni4-ident run: %s %s: %llu messages logged; runs %s (%d along the "
+	             "wrong axis, %d missed)%s\n",
+	             g_interrupted  ? "interrupted, robot stopped;"
+	             : motors_lost_ ? "aborted;"
+	                            : "done;",
+	             opt_.out.c_str(), static_cast<unsigned long long>(rec_.written()),
+	             runs.c_str(), wrong_, missed_, ok ? "" : " (write errors!)");
 }
 
 int HandRun::run()
@@ -682,15 +682,15 @@ int HandRun::run()
 		return 2;
 	}
 	if (!rec_.open(opt_,
-		       [this](const char *ch, const lcm_recv_buf_t *rb) { on_message(ch, rb); }))
+	               [this](const char *ch, const lcm_recv_buf_t *rb) { on_message(ch, rb); }))
 		return 1;
 	if (!wait_first_motors() && !g_interrupted) {
 		rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE), nullptr);
 		std::remove(opt_.out.c_str());
 		std::fprintf(stderr,
-			     "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
-			     "running?\n",
-			     opt_.url.c_str(), kMotorsWaitS);
+		             "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
+		             "running?\n",
+		             opt_.url.c_str(), kMotorsWaitS);
 		return 1;
 	}
 	slots_total_ = static_cast<int>(axes.size()) * hand_.pushes;
@@ -704,7 +704,7 @@ int HandRun::run()
 	}
 	const auto end = encode_mark(controller_us(), OMNI4_MARK_END);
 	const bool ok = rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE),
-				    segment_open_ ? &end : nullptr);
+	                            segment_open_ ? &end : nullptr);
 	report(ok);
 	if (motors_lost_) {
 		std::fprintf(

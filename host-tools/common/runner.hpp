@@ -19,8 +19,8 @@ struct RunOptions {
 	std::string url = OMNI4_DEFAULT_LCM_URL;
 	std::string out;
 	std::vector<std::string> only; // experiment kinds to keep (empty = all)
-	double hold_s = 3.0;	       // constant-voltage part of each run [s]
-	double settle_s = 3.0;	       // coasting to rest between runs [s]
+	double hold_s = 3.0;           // constant-voltage part of each run [s]
+	double settle_s = 3.0;         // coasting to rest between runs [s]
 };
 
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close
@@ -30,7 +30,7 @@ int run_experiments(const RunOptions &opt);
 struct HandRunOptions {
 	int pushes = 3; // counted runs per direction
 	std::vector<std::string> directions{"v", "vn", "w"};
-	double push_timeout_s = 30;	    // wait for each push (and its stop) [s]
+	double push_timeout_s = 30;         // wait for each push (and its stop) [s]
 	double d_m = model_params_table3.d; // eqs 3-5 (BASE.ini; Table III otherwise)
 	double r_m = model_params_table3.r;
 };

@@ -67,7 +67,7 @@ namespace
 // The robot velocity of every sample (eqs 3-5), the filter's time step and half width, and
 // whether each sample joins the previous one (next seq, about one step later).
 void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, double half_s,
-		    EncoderTrack &out)
+                    EncoderTrack &out)
 {
 	const size_t n = m.size();
 	std::vector<int64_t> steps(n - 1);
@@ -86,7 +86,7 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, doub
 		if (k > 0) {
 			const int64_t gap = m[k].utime - m[k - 1].utime;
 			out.joined[k] = m[k].seq == m[k - 1].seq + 1 && 2 * gap > step_us &&
-					2 * gap < 3 * step_us;
+			                2 * gap < 3 * step_us;
 		}
 	}
 }
@@ -95,7 +95,7 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, doub
 // raw series is copied into a contiguous array y and each filter tap is one pass over the block
 // (a loop over k with unit stride: the compiler vectorises it). xs, ds: work arrays.
 void filter_block(const SgFilter &f, size_t a, size_t b, std::vector<double> &y,
-		  std::vector<double> &xs, std::vector<double> &ds, EncoderTrack &out)
+                  std::vector<double> &xs, std::vector<double> &ds, EncoderTrack &out)
 {
 	const int h = out.half;
 	const size_t k0 = a + h, k1 = b - h; // centres [k0, k1)
@@ -154,8 +154,8 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
 }
 
 CameraTrack pose_velocity(const std::vector<double> &t, const std::vector<double> &px,
-			  const std::vector<double> &py, const std::vector<double> &theta,
-			  double half_s)
+                          const std::vector<double> &py, const std::vector<double> &theta,
+                          double half_s)
 {
 	CameraTrack out;
 	const size_t n = t.size();

@@ -33,22 +33,22 @@ SgFilter savitzky_golay(int half, int order);
 
 // Robot velocity from the wheel encoders of a whole log (index = index into log.motors).
 struct EncoderTrack {
-	double dt = 0;				// nominal sample period [s] (median spacing)
-	int half = 0;				// SG half window [samples]
+	double dt = 0;                          // nominal sample period [s] (median spacing)
+	int half = 0;                           // SG half window [samples]
 	std::vector<std::array<double, 3>> raw; // eqs 3-5 per sample [m/s, m/s, rad/s]
-	std::vector<std::array<double, 3>> x;	// SG-smoothed (valid where ok)
-	std::vector<std::array<double, 3>> dx;	// SG derivative [m/s^2, m/s^2, rad/s^2]
-	std::vector<uint8_t> ok;		// a full contiguous window lies around the sample
-	std::vector<uint8_t> joined;		// sample k follows k-1 with no lost sample
+	std::vector<std::array<double, 3>> x;   // SG-smoothed (valid where ok)
+	std::vector<std::array<double, 3>> dx;  // SG derivative [m/s^2, m/s^2, rad/s^2]
+	std::vector<uint8_t> ok;                // a full contiguous window lies around the sample
+	std::vector<uint8_t> joined;            // sample k follows k-1 with no lost sample
 };
 
 EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s = 0.020);
 
 // Robot velocity from the camera poses of a whole log (index = index into log.pose).
 struct CameraTrack {
-	std::vector<double> t;		      // [s] (utime)
-	std::vector<double> theta;	      // unwrapped heading [rad]
-	std::vector<double> heading;	      // smoothed heading [rad] (valid where ok)
+	std::vector<double> t;                // [s] (utime)
+	std::vector<double> theta;            // unwrapped heading [rad]
+	std::vector<double> heading;          // smoothed heading [rad] (valid where ok)
 	std::vector<std::array<double, 3>> x; // robot-frame velocity (valid where ok)
 	std::vector<uint8_t> ok;
 };
@@ -56,8 +56,8 @@ struct CameraTrack {
 CameraTrack camera_track(const LogData &log, double half_s = 0.18);
 // The same estimator on any pose series (times [s], world x, y [m], heading [rad]).
 CameraTrack pose_velocity(const std::vector<double> &t, const std::vector<double> &px,
-			  const std::vector<double> &py, const std::vector<double> &theta,
-			  double half_s);
+                          const std::vector<double> &py, const std::vector<double> &theta,
+                          double half_s);
 
 // Unwrap an angle sequence in place (removes 2 pi jumps).
 void unwrap(std::vector<double> &a);

@@ -62,7 +62,7 @@ struct Errors {
 // the frame times and both pose series go through the same local-quadratic velocity estimator
 // (+-0.4 s), so its smoothing acts on both alike and e is model error plus camera noise.
 void compare_camera(plant &pl, const Segment &s, size_t si, int axis, const Window &w, size_t k0,
-		    Errors &err)
+                    Errors &err)
 {
 	const auto &m = s.log->motors;
 	const auto &pose = s.log->pose;
@@ -93,7 +93,7 @@ void compare_camera(plant &pl, const Segment &s, size_t si, int axis, const Wind
 	for (size_t q = 0; q < t.size(); ++q) // full windows only: no one-sided fits
 		if (meas.ok[q] && sim.ok[q] && t[q] - half >= t.front() && t[q] + half <= t.back())
 			err.add(axis, {si, s.direction, s.level, t[q] - s.t0 * 1e-6, meas.x[q],
-				       sim.x[q]});
+			               sim.x[q]});
 }
 
 // One drive, encoders: compared only where the measured velocity's filter window lies inside
@@ -101,7 +101,7 @@ void compare_camera(plant &pl, const Segment &s, size_t si, int axis, const Wind
 // before it (at rest) mixes in what the model is not driven through here, and its last samples
 // would set e_max.
 void compare_encoder(plant &pl, const Segment &s, size_t si, int axis, const Window &w, size_t k0,
-		     const EncoderTrack &enc, Errors &err)
+                     const EncoderTrack &enc, Errors &err)
 {
 	const auto &m = s.log->motors;
 	const size_t h = static_cast<size_t>(enc.half);
@@ -113,18 +113,18 @@ void compare_encoder(plant &pl, const Segment &s, size_t si, int axis, const Win
 		if (k < w.m0 + h || k + h >= w.m1)
 			continue;
 		err.add(axis, {si,
-			       s.direction,
-			       s.level,
-			       (m[k].utime - s.t0) * 1e-6,
-			       enc.x[k],
-			       {pl.x[0], pl.x[1], pl.x[2]}});
+		               s.direction,
+		               s.level,
+		               (m[k].utime - s.t0) * 1e-6,
+		               enc.x[k],
+		               {pl.x[0], pl.x[1], pl.x[2]}});
 	}
 }
 
 } // namespace
 
 Validation validate(const std::vector<Segment> &segments, const model_params &p,
-		    const IdentOptions &opt)
+                    const IdentOptions &opt)
 {
 	Validation v;
 	Errors err{v};
@@ -151,8 +151,8 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
 				++k0;
 			if (k0 + 10 >= w.m1) {
 				v.rejected.push_back({si, s.kind, s.direction, "step",
-						      seg_time(s, w.m0), seg_time(s, w.m1 - 1),
-						      false, "no valid encoder velocity"});
+				                      seg_time(s, w.m0), seg_time(s, w.m1 - 1),
+				                      false, "no valid encoder velocity"});
 				continue;
 			}
 			++v.runs;

@@ -41,6 +41,6 @@ struct Validation {
 // start of the drive, against the measured velocity: the wheel encoders (eqs 3-5,
 // SG-smoothed) or the camera (opt.source). Throws IdentError if no step window exists.
 Validation validate(const std::vector<Segment> &segments, const model_params &p,
-		    const IdentOptions &opt = {});
+                    const IdentOptions &opt = {});
 
 } // namespace omni4

@@ -64,7 +64,7 @@ struct Block {
 // (|N(0, s)| has its quartile at 0.3186 s) is blind to a transient over up to 3/4 of the hold;
 // a difference of two block means has s = sqrt(2) sigma.
 void final_value(const std::vector<Block> &blocks, const WindowOptions &opt,
-		 std::array<double, 3> &ref, std::array<double, 3> &tol)
+                 std::array<double, 3> &ref, std::array<double, 3> &tol)
 {
 	std::vector<double> diff(blocks.size() - 1);
 	for (int ax = 0; ax < 3; ++ax) {
@@ -74,13 +74,13 @@ void final_value(const std::vector<Block> &blocks, const WindowOptions &opt,
 		std::nth_element(diff.begin(), diff.begin() + diff.size() / 4, diff.end());
 		const double noise = diff[diff.size() / 4] / 0.3186 / std::sqrt(2.0);
 		tol[ax] = opt.steady_tol * std::abs(ref[ax]) +
-			  (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v) + 3 * noise;
+		          (ax == 2 ? opt.steady_floor_w : opt.steady_floor_v) + 3 * noise;
 	}
 }
 
 // The settled tail of a constant-voltage hold [a, b), or a rejection.
 void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const WindowOptions &opt,
-	    SegmentWindows &out)
+            SegmentWindows &out)
 {
 	const auto &m = s.log->motors;
 	const size_t nb =
@@ -98,7 +98,7 @@ void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const
 	const double hold = span_s(m, a, b);
 	if (blocks.size() < 2) {
 		out.rejected.push_back({"steady window", seg_time(s, a), seg_time(s, b - 1),
-					fmt("hold of %.2f s too short to test", hold)});
+		                        fmt("hold of %.2f s too short to test", hold)});
 		return;
 	}
 	std::array<double, 3> ref{}, tol{};
@@ -116,18 +116,18 @@ void settle(const Segment &s, const EncoderTrack &enc, size_t a, size_t b, const
 	const double settled = span_s(m, start, b);
 	if (settled + enc.dt < opt.steady_min_s) {
 		out.rejected.push_back({"steady window", seg_time(s, a), seg_time(s, b - 1),
-					fmt("speed not settled: within %.1f %% of its final value "
-					    "only for the last %.2f s of "
-					    "a %.2f s hold",
-					    100 * opt.steady_tol, settled, hold) +
-					    fmt(" (need %.2f s)", opt.steady_min_s)});
+		                        fmt("speed not settled: within %.1f %% of its final value "
+		                            "only for the last %.2f s of "
+		                            "a %.2f s hold",
+		                            100 * opt.steady_tol, settled, hold) +
+		                            fmt(" (need %.2f s)", opt.steady_min_s)});
 		return;
 	}
 	out.steady.push_back({start, b, 1});
 }
 
 void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptions &opt,
-		    SegmentWindows &out)
+                    SegmentWindows &out)
 {
 	const auto &m = s.log->motors;
 	size_t holds = 0;
@@ -141,10 +141,10 @@ void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptio
 			bool same = k < b;
 			for (int j = 0; same && j < 4; ++j) {
 				const double l = std::min(lo[j], m[k].u[j]),
-					     h = std::max(hi[j], m[k].u[j]);
+				             h = std::max(hi[j], m[k].u[j]);
 				same = h - l <=
 				       opt.volt_tol_v +
-					   opt.volt_tol_rel * std::max(std::abs(l), std::abs(h));
+				           opt.volt_tol_rel * std::max(std::abs(l), std::abs(h));
 			}
 			if (same) {
 				for (int j = 0; j < 4; ++j) {
@@ -168,7 +168,7 @@ void steady_windows(const Segment &s, const EncoderTrack &enc, const WindowOptio
 		out.rejected.push_back(
 		    {"segment", 0, seg_time(s, s.m1 - 1),
 		     fmt("no constant-voltage hold of %.2f s or more (longest %.2f s)",
-			 opt.steady_min_s, longest)});
+		         opt.steady_min_s, longest)});
 }
 
 // From the first sample k of a motion along axis (sign: its direction) in [k, b): follow the
@@ -181,7 +181,7 @@ struct CoastStart {
 };
 
 CoastStart free_coast_start(const std::vector<MotorsSample> &m, const EncoderTrack &enc, int axis,
-			    double sign, double stop, size_t k, size_t b)
+                            double sign, double stop, size_t k, size_t b)
 {
 	CoastStart c{k, b, false};
 	for (size_t q = k; q < b; ++q) {
@@ -206,23 +206,23 @@ CoastStart free_coast_start(const std::vector<MotorsSample> &m, const EncoderTra
 // The coast-down [start, end) of a motion with peak speed peak_x: kept, or rejected as too
 // slow or too short.
 void judge_coast(const Segment &s, size_t start, size_t end, double sign, double peak_x,
-		 double stop, const WindowOptions &opt, SegmentWindows &out)
+                 double stop, const WindowOptions &opt, SegmentWindows &out)
 {
 	const double dur = span_s(s.log->motors, start, end);
 	if (peak_x < 3 * stop) {
 		out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
-					fmt("too slow: peak %.3g, need %.3g", peak_x, 3 * stop)});
+		                        fmt("too slow: peak %.3g, need %.3g", peak_x, 3 * stop)});
 	} else if (dur < opt.coast_min_s) {
 		out.rejected.push_back({"coast-down", seg_time(s, start), seg_time(s, end - 1),
-					fmt("too short: %.2f s of free deceleration, need %.2f s",
-					    dur, opt.coast_min_s)});
+		                        fmt("too short: %.2f s of free deceleration, need %.2f s",
+		                            dur, opt.coast_min_s)});
 	} else {
 		out.coast.push_back({start, end, sign});
 	}
 }
 
 void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const WindowOptions &opt,
-		   SegmentWindows &out)
+                   SegmentWindows &out)
 {
 	const auto &m = s.log->motors;
 	const double stop = kStopSpeed[axis];
@@ -245,7 +245,7 @@ void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const Wi
 				out.rejected.push_back(
 				    {"coast-down", seg_time(s, k), seg_time(s, b - 1),
 				     c.stopped
-					 ? fmt("stopped within 50 ms of its peak of %.3g", peak_x)
+				         ? fmt("stopped within 50 ms of its peak of %.3g", peak_x)
 					 : fmt("no free deceleration after the peak of %.3g "
 					       "(bridges driven again or the segment ends)",
 					       peak_x)});
@@ -263,11 +263,11 @@ void coast_windows(const Segment &s, const EncoderTrack &enc, int axis, const Wi
 	}
 	if (!moved)
 		out.rejected.push_back({"segment", 0, seg_time(s, s.m1 - 1),
-					"no motion along the segment's axis with the bridges off"});
+		                        "no motion along the segment's axis with the bridges off"});
 }
 
 void step_windows(const Segment &s, const EncoderTrack &enc, int axis, const WindowOptions &opt,
-		  SegmentWindows &out)
+                  SegmentWindows &out)
 {
 	const auto &m = s.log->motors;
 	const auto runs = mode_runs(s, true);
@@ -306,7 +306,7 @@ SegmentWindows find_windows(const Segment &s, const EncoderTrack &enc, const Win
 	const int axis = find_axis(s.direction);
 	if (axis < 0) {
 		out.rejected.push_back({"segment", 0, seg_time(s, s.m1 - 1),
-					"unknown direction '" + s.direction + "' (v, vn or w)"});
+		                        "unknown direction '" + s.direction + "' (v, vn or w)"});
 		return out;
 	}
 	if (s.kind == "coast")

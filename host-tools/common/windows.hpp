@@ -33,7 +33,7 @@ struct WindowOptions {
 	double steady_floor_v = 0.002; // ... plus this [m/s] on v and vn
 	double steady_floor_w = 0.01;  // ... plus this [rad/s] on w
 	double steady_min_s = 0.4;     // shortest steady window [s]
-	double block_s = 0.05;	       // block length for the steadiness test [s]
+	double block_s = 0.05;         // block length for the steadiness test [s]
 	double coast_min_s = 0.2;      // shortest coast-down window [s]
 	double step_min_s = 0.3;       // shortest driven run for a step window [s]
 };

@@ -66,12 +66,12 @@ void print_encoder_fixes(const LogData &d, const SensorFix &fix)
 		}
 	if (removed)
 		std::printf("%s: encoder ripple once per motor revolution removed in %d of %zu "
-			    "wheel-stretches (largest: wheel %d, %.2f %% ±%.2f)\n",
-			    d.path.c_str(), removed, 4 * fix.ripple.size(), wheel, 100 * worst,
-			    100 * worst_se);
+		            "wheel-stretches (largest: wheel %d, %.2f %% ±%.2f)\n",
+		            d.path.c_str(), removed, 4 * fix.ripple.size(), wheel, 100 * worst,
+		            100 * worst_se);
 	else
 		std::printf("%s: no encoder ripple over 4 SE (largest %.2f %% ±%.2f)\n",
-			    d.path.c_str(), 100 * worst, 100 * worst_se);
+		            d.path.c_str(), 100 * worst, 100 * worst_se);
 }
 
 // Current-sense offsets of every log (estimated from its bridge-off samples and subtracted
@@ -85,24 +85,24 @@ void print_offsets(const std::vector<LogData> &logs, const std::vector<std::stri
 		for (const OffsetEpoch &e : d.current_offsets) {
 			std::string from =
 			    e.notice >= 0
-				? " from seq " + std::to_string(d.calibrations[e.notice].seq)
-				: std::string();
+			        ? " from seq " + std::to_string(d.calibrations[e.notice].seq)
+			        : std::string();
 			if (!e.subtracted) {
 				std::printf("  %s%s: not estimated\n", d.path.c_str(),
-					    from.c_str());
+				            from.c_str());
 				continue;
 			}
 			std::printf("  %s%s: %zu samples%s\n   ", d.path.c_str(), from.c_str(),
-				    e.samples,
-				    e.pooled ? " (too few: the log's pooled estimate)" : "");
+			            e.samples,
+			            e.pooled ? " (too few: the log's pooled estimate)" : "");
 			for (int j = 0; j < 4; ++j)
 				std::printf("  m%d %+.4f ±%.4f", j, e.offset_a[j], e.se_a[j]);
 			std::printf("\n");
 			if (e.notice >= 0) {
 				const CalibrationNotice &n = d.calibrations[e.notice];
 				std::printf("    the controller subtracted (its calibration over "
-					    "%d samples):",
-					    n.samples);
+				            "%d samples):",
+				            n.samples);
 				for (int j = 0; j < 4; ++j)
 					std::printf("  m%d %+.4f", j, n.offset_a[j]);
 				std::printf("\n");
@@ -110,8 +110,8 @@ void print_offsets(const std::vector<LogData> &logs, const std::vector<std::stri
 		}
 		if (d.calibrations.empty())
 			std::printf("    (the log holds no calibration notice: the controller "
-				    "subtracted nothing "
-				    "that it announced)\n");
+			            "subtracted nothing "
+			            "that it announced)\n");
 	}
 	for (const std::string &w : warnings)
 		std::printf("warning: %s\n", w.c_str());
@@ -156,8 +156,8 @@ std::vector<LogData> load_logs(const std::vector<std::string> &paths, double gea
 			launch();
 		const LogData &d = l.d;
 		std::printf("%s: %llu events (%zu motors, %zu poses, %zu marks)", paths[i].c_str(),
-			    (unsigned long long)d.events, d.motors.size(), d.pose.size(),
-			    d.marks.size());
+		            (unsigned long long)d.events, d.motors.size(), d.pose.size(),
+		            d.marks.size());
 		if (d.bytes_skipped || d.undecodable || d.implausible || d.seq_gaps)
 			std::printf(
 			    "; skipped %llu of %llu bytes (truncated or corrupt), %llu undecodable "
@@ -170,7 +170,7 @@ std::vector<LogData> load_logs(const std::vector<std::string> &paths, double gea
 		std::printf("\n");
 		print_encoder_fixes(d, l.fix);
 		warnings.insert(warnings.end(), l.fix.offset_warnings.begin(),
-				l.fix.offset_warnings.end());
+		                l.fix.offset_warnings.end());
 		logs.push_back(std::move(l.d));
 	}
 	if (offsets)
@@ -213,14 +213,14 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 	config_defaults(&cfg);
 	uint32_t seen = 0;
 	const int rc = partial ? config_load_partial(path.c_str(), &cfg, &seen, &err)
-			       : config_load(path.c_str(), &cfg, &err);
+	                       : config_load(path.c_str(), &cfg, &err);
 	if (rc)
 		die(err.msg, 2);
 	if (partial) {
 		for (int i : {0, 1, 2, 6}) // d r l M
 			if (!(seen & (1u << i)))
 				die(path + ": the robot file must give the measured '" +
-					model_params_names[i] + "' in [model]",
+				        model_params_names[i] + "' in [model]",
 				    2);
 	}
 	if (seen_out)
@@ -232,7 +232,7 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 // not identified is taken from BASE.ini if it gives one (said in a comment), else left out, so
 // that the firmware refuses the file ("missing key") instead of running on a guess.
 void write_params(const std::string &path, const IdentResult &r, const model_params &base,
-		  uint32_t base_seen, const std::string &comment)
+                  uint32_t base_seen, const std::string &comment)
 {
 	const std::string tmp = path + ".tmp" + std::to_string(getpid());
 	FILE *f = std::fopen(tmp.c_str(), "w");
@@ -243,8 +243,8 @@ void write_params(const std::string &path, const IdentResult &r, const model_par
 		ok = ok && config_write_model(f, &r.final) == 0;
 	} else {
 		ok = ok && std::fprintf(
-			       f, "; partial identification: see the missing list of omni4-ident\n"
-				  "[model]\n") > 0;
+		               f, "; partial identification: see the missing list of omni4-ident\n"
+		                  "[model]\n") > 0;
 		for (int i = 0; i < MODEL_PARAMS_COUNT; ++i) {
 			const std::string name = model_params_names[i];
 			const auto id = r.identified.find(name == "Kt" ? "Kv" : name);
@@ -254,15 +254,15 @@ void write_params(const std::string &path, const IdentResult &r, const model_par
 			if (measured || (id != r.identified.end() && id->second))
 				ok = ok &&
 				     config_format_double(v, sizeof(v),
-							  model_params_get(&r.final, i)) > 0 &&
+				                          model_params_get(&r.final, i)) > 0 &&
 				     std::fprintf(f, "%s = %s\n", name.c_str(), v) > 0;
 			else if (base_seen & (1u << i))
 				ok = ok &&
 				     config_format_double(v, sizeof(v),
-							  model_params_get(&base, i)) > 0 &&
+				                          model_params_get(&base, i)) > 0 &&
 				     std::fprintf(f,
-						  "%s = %s ; not identified: from the robot file\n",
-						  name.c_str(), v) > 0;
+				                  "%s = %s ; not identified: from the robot file\n",
+				                  name.c_str(), v) > 0;
 			else
 				ok = ok &&
 				     std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
@@ -282,7 +282,7 @@ std::string fmt(const Estimate &e)
 	char buf[64];
 	if (std::isfinite(e.se) && e.se_borrowed > 0.05 * e.se)
 		std::snprintf(buf, sizeof(buf), "%.4g ±%.2g b%.0f", e.value, e.se,
-			      100 * e.se_borrowed * e.se_borrowed / (e.se * e.se));
+		              100 * e.se_borrowed * e.se_borrowed / (e.se * e.se));
 	else if (std::isfinite(e.se))
 		std::snprintf(buf, sizeof(buf), "%.4g ±%.2g", e.value, e.se);
 	else
@@ -308,8 +308,8 @@ bool thin_estimate(const Estimate &e)
 // One row per parameter: every method's estimate, the methods' agreement, the error to truth.
 void print_estimates(const IdentResult &r, const model_params *truth)
 {
-	static const char *const headers[6] = {"motor test", "exp 1",	 "exp 2",
-					       "exp 3 LS",   "exp 3 IV", "final"};
+	static const char *const headers[6] = {"motor test", "exp 1",    "exp 2",
+	                                       "exp 3 LS",   "exp 3 IV", "final"};
 	std::printf("\n%-5s", "param");
 	for (const char *h : headers)
 		std::printf(" %22s", h);
@@ -325,10 +325,10 @@ void print_estimates(const IdentResult &r, const model_params *truth)
 		char agree[32] = "";
 		if (ag.methods >= 2)
 			std::snprintf(agree, sizeof(agree), "%s p=%.2g",
-				      ag.agree ? "agree" : "DISAGREE", ag.p);
+			              ag.agree ? "agree" : "DISAGREE", ag.p);
 		if (thin_estimate(find_estimate(r, "final", p)))
 			std::strncat(agree, agree[0] ? " THIN" : "THIN",
-				     sizeof(agree) - std::strlen(agree) - 1);
+			             sizeof(agree) - std::strlen(agree) - 1);
 		std::printf(" %-12s", agree);
 		const Estimate fin = find_estimate(r, "final", p);
 		if (truth && fin.ok()) {
@@ -358,7 +358,7 @@ void print_warnings(const IdentResult &r)
 		if (e.ok() && thin_estimate(e)) {
 			char buf[96];
 			std::snprintf(buf, sizeof(buf), "%s%s ±%.1f %%", thin.empty() ? "" : ", ",
-				      p, 100 * e.se / std::abs(e.value));
+			              p, 100 * e.se / std::abs(e.value));
 			thin += buf;
 		}
 	}
@@ -406,7 +406,7 @@ void print_windows(const IdentResult &r, const std::vector<Segment> &segs, bool 
 			++used[w.what + " (" + w.kind + ")"];
 		else
 			++rejected[w.what + " (" + w.kind +
-				   "): " + w.reason.substr(0, w.reason.find(':'))];
+			           "): " + w.reason.substr(0, w.reason.find(':'))];
 	}
 	std::printf("windows found in the data:");
 	for (const auto &[k, n] : used)
@@ -501,7 +501,7 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
 	    "and direction (%d could not be identified and were skipped)\n",
 	    b.replicates, runs, b.failed);
 	std::printf("%-5s %12s %12s %12s %25s\n", "param", "final", "SE analytic", "SE bootstrap",
-		    "95 % interval (bootstrap)");
+	            "95 % interval (bootstrap)");
 	for (const char *p : kIdentParams) {
 		const auto it = b.final.find(p);
 		const Estimate e = find_estimate(r, "final", p);
@@ -512,7 +512,7 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
 			continue;
 		}
 		std::printf("%-5s %12.5g %12.2g %12.2g   [%10.5g, %10.5g]\n", p, e.value, e.se,
-			    it->second.se, it->second.lo95, it->second.hi95);
+		            it->second.se, it->second.lo95, it->second.hi95);
 	}
 }
 
@@ -583,8 +583,8 @@ void check_writable(const std::string &path)
 {
 	const size_t slash = path.find_last_of('/');
 	const std::string dir = slash == std::string::npos ? "."
-				: slash == 0		   ? "/"
-							   : path.substr(0, slash);
+	                        : slash == 0               ? "/"
+	                                                   : path.substr(0, slash);
 	struct stat st{};
 	if (stat(dir.c_str(), &st) != 0)
 		die(path + ": " + dir + ": " + std::strerror(errno));
@@ -646,13 +646,13 @@ int cmd_identify(const IdentifyArgs &a)
 		boot = bootstrap_runs(segs, base, opt, a.boot_n, 1, [&](int done, int total) {
 			if (tty || done == total)
 				std::fprintf(stderr, "%somni4-ident: bootstrap %d/%d%s",
-					     tty ? "\r" : "", done, total,
-					     done == total ? "\n" : "");
+				             tty ? "\r" : "", done, total,
+				             done == total ? "\n" : "");
 		});
 		print_bootstrap(r, boot, segs.size());
 	}
 	write_params(a.out, r, base, base_seen,
-		     "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)");
+	             "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)");
 	if (!a.csv.empty()) {
 		export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
 		export_offsets_csv(a.csv, logs);
@@ -678,15 +678,15 @@ void write_json(const std::string &path, const Validation &v)
 			const AxisErrors &ax = v.axis[a];
 			if (ax.n == 0)
 				std::snprintf(buf, sizeof(buf),
-					      "%s\"%s\": {\"e_max\": null, \"e_mean\": null, "
-					      "\"sigma\": null, \"n\": 0}",
-					      a ? ", " : "", names[a]);
+				              "%s\"%s\": {\"e_max\": null, \"e_mean\": null, "
+				              "\"sigma\": null, \"n\": 0}",
+				              a ? ", " : "", names[a]);
 			else
 				std::snprintf(buf, sizeof(buf),
-					      "%s\"%s\": {\"e_max\": %.6g, \"e_mean\": %.6g, "
-					      "\"sigma\": %.6g, \"n\": %zu}",
-					      a ? ", " : "", names[a], ax.e_max, ax.e_mean,
-					      ax.sigma, ax.n);
+				              "%s\"%s\": {\"e_max\": %.6g, \"e_mean\": %.6g, "
+				              "\"sigma\": %.6g, \"n\": %zu}",
+				              a ? ", " : "", names[a], ax.e_max, ax.e_mean,
+				              ax.sigma, ax.n);
 			f << buf;
 		}
 		f << "}\n";
@@ -699,19 +699,19 @@ void write_json(const std::string &path, const Validation &v)
 
 // Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
 void print_validation(const std::vector<std::string> &params, const std::vector<Validation> &vals,
-		      const IdentOptions &opt)
+                      const IdentOptions &opt)
 {
 	for (const WindowRecord &w : vals[0].rejected)
 		std::printf("not validated: %s, segment %zu (%s %s), %.2f-%.2f s: %s\n",
-			    w.what.c_str(), w.segment, w.kind.c_str(), w.direction.c_str(), w.t0_s,
-			    w.t1_s, w.reason.c_str());
+		            w.what.c_str(), w.segment, w.kind.c_str(), w.direction.c_str(), w.t0_s,
+		            w.t1_s, w.reason.c_str());
 	std::printf("\nvalidation on %zu step runs (measured = %s; simulated = model driven by the "
-		    "logged voltages from the encoder velocity at the start of each drive)\n%-5s",
-		    vals[0].runs,
-		    opt.source == VelocitySource::Camera
-			? "camera poses, local quadratic over 0.36 s"
+	            "logged voltages from the encoder velocity at the start of each drive)\n%-5s",
+	            vals[0].runs,
+	            opt.source == VelocitySource::Camera
+	                ? "camera poses, local quadratic over 0.36 s"
 			: "wheel encoders, eqs 3-5",
-		    "vel");
+	            "vel");
 	for (const auto &p : params)
 		std::printf(" | %-32.32s", p.c_str());
 	std::printf("\n%-5s", "");
@@ -727,11 +727,11 @@ void print_validation(const std::vector<std::string> &params, const std::vector<
 				std::printf(" | %-32s", "no data (no step run along it)");
 			else
 				std::printf(" | %10.4f %10.4f %10.4f", v.axis[a].e_max,
-					    v.axis[a].e_mean, v.axis[a].sigma);
+				            v.axis[a].e_mean, v.axis[a].sigma);
 		std::printf("\n");
 	}
 	std::printf("paper Table IV (final): v 0.061 0.008 0.024 | vn 0.068 -0.009 0.026 | "
-		    "w 2.504 -0.452 0.732\n");
+	            "w 2.504 -0.452 0.732\n");
 }
 
 // Measured and simulated velocities, one CSV per parameter set.
@@ -740,7 +740,7 @@ void write_validation_csv(const std::string &csv, const std::vector<Validation> 
 	ensure_dir(csv);
 	for (size_t k = 0; k < vals.size(); ++k) {
 		auto f = open_csv(csv, k == 0 ? "validation.csv"
-					      : "validation_" + std::to_string(k) + ".csv");
+		                              : "validation_" + std::to_string(k) + ".csv");
 		f << "segment,direction,level_V,t_s,v,vn,w,v_sim,vn_sim,w_sim\n";
 		for (const auto &p : vals[k].points)
 			f << p.segment << ',' << p.direction << ',' << p.level << ',' << p.t << ','
@@ -800,14 +800,14 @@ CLI::App *add_identify(CLI::App &app, IdentifyArgs &ia)
 	id->add_option("--out", ia.out, "PARAMS.ini to write (firmware-loadable [model] section)")
 	    ->required();
 	id->add_option("--truth", ia.truth,
-		       "known parameters (simulation): print the error of each");
+	               "known parameters (simulation): print the error of each");
 	id->add_option("--csv", ia.csv,
-		       "export every segment, window and fit as CSV into this folder");
+	               "export every segment, window and fit as CSV into this folder");
 	id->add_option("--velocity", ia.source,
-		       "robot velocity source: encoder (default) or camera");
+	               "robot velocity source: encoder (default) or camera");
 	id->add_option("--bootstrap", ia.boot_n,
-		       "also estimate the uncertainty by resampling whole runs, "
-		       "N replicates (0: off)")
+	               "also estimate the uncertainty by resampling whole runs, "
+	               "N replicates (0: off)")
 	    ->check(CLI::Range(0, 100000))
 	    ->capture_default_str();
 	id->add_option(
@@ -845,29 +845,29 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 {
 	auto *ru =
 	    app.add_subcommand("run", "drive a robot (or omni4-fw on the sim backend) through "
-				      "the experiment sequence over LCM, recording a log");
+	                              "the experiment sequence over LCM, recording a log");
 	RunOptions &ropt = r.ropt;
 	HandRunOptions &hopt = r.hopt;
 	ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
 	ru->add_option("--out", ropt.out, "event log to record")->required();
 	auto *only = ru->add_option("--only", ropt.only,
-				    "run only these kinds (steady_rotation coast motor step)");
+	                            "run only these kinds (steady_rotation coast motor step)");
 	auto *hold = ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
-			 ->check(CLI::Range(0.2, 60.0))
-			 ->capture_default_str();
+	                 ->check(CLI::Range(0.2, 60.0))
+	                 ->capture_default_str();
 	auto *settle =
 	    ru->add_option("--settle", ropt.settle_s, "coasting to rest between runs [s]")
-		->check(CLI::Range(0.2, 60.0))
-		->capture_default_str();
+	        ->check(CLI::Range(0.2, 60.0))
+	        ->capture_default_str();
 	auto *hand =
 	    ru->add_flag("--hand", "experiment 2 by hand: the bridges stay disabled, you push "
-				   "the robot along each direction and let it coast to rest "
-				   "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
-		->excludes(only, hold, settle);
+	                           "the robot along each direction and let it coast to rest "
+	                           "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
+	        ->excludes(only, hold, settle);
 	r.hand = hand;
 	ru->add_option("--robot", r.hand_robot,
-		       "BASE.ini: d and r for the robot velocity (eqs 3-5); "
-		       "Table III otherwise")
+	               "BASE.ini: d and r for the robot velocity (eqs 3-5); "
+	               "Table III otherwise")
 	    ->needs(hand);
 	ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
 	    ->check(CLI::Range(1, 100))
@@ -890,12 +890,12 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 int main(int argc, char **argv)
 {
 	CLI::App app{"omni4 identification: fit the paper's model to LCM logs and validate it.\n"
-		     "Examples:\n"
-		     "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
-		     "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
-		     "  omni4-ident run --out robot.lcmlog\n"
-		     "  omni4-ident run --hand --robot base.ini --out hand.lcmlog",
-		     "omni4-ident"};
+	             "Examples:\n"
+	             "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
+	             "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
+	             "  omni4-ident run --out robot.lcmlog\n"
+	             "  omni4-ident run --hand --robot base.ini --out hand.lcmlog",
+	             "omni4-ident"};
 	omni4_cli_setup(app);
 	app.require_subcommand(1);
 	IdentifyArgs ia;
@@ -910,9 +910,9 @@ int main(int argc, char **argv)
 	    [&](CLI::App *sc) { return argc > 1 && sc->get_name() == argv[1]; });
 	if (argc > 1 && argv[1][0] != '-' && named.empty()) {
 		std::fprintf(stderr,
-			     "omni4-ident: unknown command '%s' (identify, validate or run; see "
-			     "omni4-ident --help)\n",
-			     argv[1]);
+		             "omni4-ident: unknown command '%s' (identify, validate or run; see "
+		             "omni4-ident --help)\n",
+		             argv[1]);
 		return 2;
 	}
 	OMNI4_CLI_PARSE(app, argc, argv);

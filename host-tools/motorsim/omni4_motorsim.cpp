@@ -34,7 +34,7 @@ void on_signal(int)
 
 struct Stats {
 	unsigned long long rx = 0, tx = 0, tx_dropped = 0, crc_errors = 0, replayed = 0,
-			   cmd_timeouts = 0;
+	                   cmd_timeouts = 0;
 };
 
 float clip(double x, float lim)
@@ -85,10 +85,10 @@ void add_options(CLI::App &app, Options &o)
 	app.add_flag("--no-noise", o.no_noise, "exact current readings");
 	// Test hooks: not in the user's help (group "").
 	app.add_option("--replay-at", o.replay_at,
-		       "test: at S seconds, send the last STATUS_0 again")
+	               "test: at S seconds, send the last STATUS_0 again")
 	    ->group("");
 	app.add_option("--corrupt-at", o.corrupt_at,
-		       "test: at S seconds, send a STATUS_0 with a bad CRC")
+	               "test: at S seconds, send a STATUS_0 with a bad CRC")
 	    ->group("");
 	app.add_flag("-q,--quiet", o.quiet, "no summary");
 }
@@ -246,9 +246,9 @@ void send_health(Sim &sim, int n, bool driven)
 	hh.supply_v = static_cast<float>(sim.cfg.ctl.limits.supply_v);
 	hh.temp_c = 30;
 	hh.state = static_cast<uint8_t>(self_off       ? CAN_STATE_DISABLED
-					: b.drv_faults ? CAN_STATE_FAULT
-					: driven       ? CAN_STATE_ENABLED
-						       : CAN_STATE_DISABLED);
+	                                : b.drv_faults ? CAN_STATE_FAULT
+	                                : driven       ? CAN_STATE_ENABLED
+	                                               : CAN_STATE_DISABLED);
 	omni4_can_frame f;
 	can_encode_health(n, &hh, b.health_counter[n]++ & 0xF, &f);
 	send_counted(sim.fd, f, sim.st);
@@ -291,7 +291,7 @@ void sleep_one_ms(int64_t &next_ns)
 {
 	next_ns += 1000000;
 	const timespec next{static_cast<time_t>(next_ns / 1000000000),
-			    static_cast<long>(next_ns % 1000000000)};
+	                    static_cast<long>(next_ns % 1000000000)};
 	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR &&
 	       !g_stop) {
 	}
@@ -326,7 +326,7 @@ int main(int argc, char **argv)
 	const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
 	if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
 		std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
-			     std::strerror(-rc));
+		             std::strerror(-rc));
 		return 1;
 	}
 	std::signal(SIGINT, on_signal);

@@ -39,7 +39,7 @@ struct recorder {
 	lcm_eventlog_t *log; /* NULL once the next part of a series could not be opened */
 	char base[4000];     /* --out after strftime */
 	char path[4096];     /* the file being written */
-	int part;	     /* -1: one file; else the NN of FILE.NN */
+	int part;            /* -1: one file; else the NN of FILE.NN */
 	uint64_t split_bytes, bytes;
 	uint64_t written, errors;
 	uint64_t requests_skipped; /* OMNI4_PARAM_REQ messages left out */
@@ -111,7 +111,7 @@ static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 		return;
 	}
 	const int rc = omni4_eventlog_write(r->log, channel, rbuf->recv_utime, rbuf->data,
-					    (size_t)rbuf->data_size);
+	                                    (size_t)rbuf->data_size);
 
 	if (rc) {
 		if (!r->errors)
@@ -146,7 +146,7 @@ static bool parse_number(const char *opt, const char *arg, double lo, double hi,
 
 	if (end == arg || *end || !(v >= lo && v <= hi)) {
 		fprintf(stderr, "omni4-record: --%s: '%s' is not a number in [%g, %g]\n", opt, arg,
-			lo, hi);
+		        lo, hi);
 		return false;
 	}
 	*out = v;
@@ -163,14 +163,14 @@ struct record_args {
 static int parse_args(int argc, char **argv, struct record_args *a)
 {
 	static const struct option opts[] = {{"out", required_argument, NULL, 'o'},
-					     {"lcm", required_argument, NULL, 'l'},
-					     {"channel", required_argument, NULL, 'c'},
-					     {"duration", required_argument, NULL, 'd'},
-					     {"split-mb", required_argument, NULL, 's'},
-					     {"quiet", no_argument, NULL, 'q'},
-					     {"help", no_argument, NULL, 'h'},
-					     {"version", no_argument, NULL, 'V'},
-					     {NULL, 0, NULL, 0}};
+	                                     {"lcm", required_argument, NULL, 'l'},
+	                                     {"channel", required_argument, NULL, 'c'},
+	                                     {"duration", required_argument, NULL, 'd'},
+	                                     {"split-mb", required_argument, NULL, 's'},
+	                                     {"quiet", no_argument, NULL, 'q'},
+	                                     {"help", no_argument, NULL, 'h'},
+	                                     {"version", no_argument, NULL, 'V'},
+	                                     {NULL, 0, NULL, 0}};
 	int c;
 
 	while ((c = omni4_getopt_long("omni4-record", argc, argv, "o:l:c:d:s:qh", opts)) != -1) {
@@ -211,8 +211,8 @@ static int parse_args(int argc, char **argv, struct record_args *a)
 	}
 	if (optind != argc) {
 		fprintf(stderr,
-			"omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
-			argv[optind]);
+		        "omni4-record: unexpected argument '%s' (see omni4-record --help)\n",
+		        argv[optind]);
 		return 2;
 	}
 	return -1;
@@ -228,7 +228,7 @@ static bool name_log(struct recorder *r, const struct record_args *a)
 	r->split_bytes = (uint64_t)(a->split_mb * 1e6);
 	if (!localtime_r(&now, &tm) || !strftime(r->base, sizeof(r->base), a->out, &tm)) {
 		fprintf(stderr, "omni4-record: --out '%s' expands to nothing or is too long\n",
-			a->out);
+		        a->out);
 		return false;
 	}
 	return true;
@@ -259,8 +259,8 @@ static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct re
 			fflush(r->log->f);
 		if (!a->quiet)
 			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
-				tty ? "\r" : "", next_report - t0, (unsigned long long)r->written,
-				(unsigned long long)(r->written - last), tty ? "" : "\n");
+			        tty ? "\r" : "", next_report - t0, (unsigned long long)r->written,
+			        (unsigned long long)(r->written - last), tty ? "" : "\n");
 		last = r->written;
 		next_report += 1.0;
 	}
@@ -273,13 +273,13 @@ static int report(const struct recorder *r, const struct record_args *a)
 
 	if (r->errors)
 		fprintf(stderr, "%somni4-record: %s: %llu messages written, %llu failed (%s)\n",
-			tty && !a->quiet ? "\n" : "", r->path, (unsigned long long)r->written,
-			(unsigned long long)r->errors, strerror(r->first_errno));
+		        tty && !a->quiet ? "\n" : "", r->path, (unsigned long long)r->written,
+		        (unsigned long long)r->errors, strerror(r->first_errno));
 	else if (!a->quiet)
 		fprintf(stderr,
-			"%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
-			tty ? "\n" : "", r->base, r->part >= 0 ? ".NN" : "",
-			(unsigned long long)r->written, (unsigned long long)r->requests_skipped);
+		        "%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",
+		        tty ? "\n" : "", r->base, r->part >= 0 ? ".NN" : "",
+		        (unsigned long long)r->written, (unsigned long long)r->requests_skipped);
 	return r->errors ? 1 : 0;
 }
 

@@ -61,8 +61,8 @@ struct SimArgs {
 void add_options(CLI::App &app, SimArgs &a)
 {
 	app.add_option("--params", a.params_path,
-		       "robot INI file: [model] of the simulated robot and firmware settings "
-		       "(default: Table III)");
+	               "robot INI file: [model] of the simulated robot and firmware settings "
+	               "(default: Table III)");
 	app.add_flag(
 	    "--experiments", a.experiments,
 	    "run the paper's experiment sequence (steady rotation, coast-downs, motor runs, "
@@ -70,12 +70,12 @@ void add_options(CLI::App &app, SimArgs &a)
 	app.add_option("--duration", a.duration_s, "without --experiments: idle run length [s]")
 	    ->check(CLI::Range(0.0, 36000.0));
 	app.add_option("--speed", a.speed,
-		       "'max' (as fast as possible) or a real-time factor, e.g. 1");
+	               "'max' (as fast as possible) or a real-time factor, e.g. 1");
 	app.add_option("--out", a.out_path, "event log to write")->required();
 	app.add_option("--seed", a.seed, "noise seed (default: [sim] seed)")
 	    ->check(CLI::Range(0, 2147483647));
 	app.add_flag("--no-noise", a.no_noise,
-		     "exact sensors (no current, encoder or camera noise)");
+	             "exact sensors (no current, encoder or camera noise)");
 	app.add_flag("-q,--quiet", a.quiet, "no progress line");
 }
 
@@ -95,7 +95,7 @@ int check_args(SimArgs &a)
 	}
 	if (!a.experiments && !(a.duration_s > 0)) {
 		std::fprintf(stderr,
-			     "omni4-sim: nothing to do: give --experiments or --duration S\n");
+		             "omni4-sim: nothing to do: give --experiments or --duration S\n");
 		return 2;
 	}
 	return 0;
@@ -122,11 +122,11 @@ int report(const SimArgs &a, const omni4::SimRunResult &r)
 {
 	const simrun_stats &st = r.stats;
 	std::printf("omni4-sim: wrote %s: %llu messages (OMNI4_MOTORS %llu, OMNI4_POSE %llu, "
-		    "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu, OMNI4_PARAM_CHANGED %llu)\n",
-		    a.out_path.c_str(), (unsigned long long)st.messages,
-		    (unsigned long long)st.motors, (unsigned long long)st.pose,
-		    (unsigned long long)st.cmd, (unsigned long long)st.other,
-		    (unsigned long long)st.calibrations);
+	            "OMNI4_CMD %llu, OMNI4_EXPERIMENT %llu, OMNI4_PARAM_CHANGED %llu)\n",
+	            a.out_path.c_str(), (unsigned long long)st.messages,
+	            (unsigned long long)st.motors, (unsigned long long)st.pose,
+	            (unsigned long long)st.cmd, (unsigned long long)st.other,
+	            (unsigned long long)st.calibrations);
 	std::printf(
 	    "omni4-sim: %.1f s simulated in %.2f s wall (real-time factor %.0fx), %llu ticks; "
 	    "faults seen: %s; commands rejected: %llu\n",
@@ -134,14 +134,14 @@ int report(const SimArgs &a, const omni4::SimRunResult &r)
 	    fault_names(st.faults).c_str(), (unsigned long long)st.cmd_rejected);
 	if (st.log_errors || st.log_dropped) {
 		std::fprintf(stderr, "omni4-sim: %llu log write errors, %llu samples dropped\n",
-			     (unsigned long long)st.log_errors, (unsigned long long)st.log_dropped);
+		             (unsigned long long)st.log_errors, (unsigned long long)st.log_dropped);
 		return 1;
 	}
 	if (r.interrupted) {
 		std::fprintf(stderr,
-			     "omni4-sim: interrupted after %.1f s simulated; %s is complete up to "
-			     "there (the open segment closed)\n",
-			     r.simulated_s, a.out_path.c_str());
+		             "omni4-sim: interrupted after %.1f s simulated; %s is complete up to "
+		             "there (the open segment closed)\n",
+		             r.simulated_s, a.out_path.c_str());
 		return 130;
 	}
 	return 0;
@@ -174,7 +174,7 @@ int main(int argc, char **argv)
 			return;
 		// On a terminal the line updates in place; in a log, one line per 10 %.
 		std::fprintf(stderr, "%somni4-sim: %3d%%  phase %zu/%zu%s", tty ? "\r" : "", pct,
-			     std::min(phase + 1, phases), phases, tty ? "" : "\n");
+		             std::min(phase + 1, phases), phases, tty ? "" : "\n");
 		last_decile = pct / 10;
 	};
 	// Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log
@@ -184,8 +184,8 @@ int main(int argc, char **argv)
 	omni4::SimRunResult r;
 	try {
 		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, a.out_path,
-					  a.experiments, a.duration_s, a.rtf, progress,
-					  [] { return g_stop != 0; });
+		                          a.experiments, a.duration_s, a.rtf, progress,
+		                          [] { return g_stop != 0; });
 	} catch (const std::exception &e) {
 		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
 		return 1;

@@ -14,14 +14,14 @@ namespace omni4
 {
 
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
-			    const std::string &log_path, bool experiments, double idle_s,
-			    double rtf, const std::function<void(double, size_t, size_t)> &progress,
-			    const std::function<bool()> &stop)
+                            const std::string &log_path, bool experiments, double idle_s,
+                            double rtf, const std::function<void(double, size_t, size_t)> &progress,
+                            const std::function<bool()> &stop)
 {
 	char err[256];
 	std::unique_ptr<simrun, void (*)(simrun *)> sr(
 	    simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
-			  sizeof(err)),
+	                  sizeof(err)),
 	    simrun_destroy);
 	if (!sr)
 		throw std::runtime_error(err);
@@ -46,7 +46,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 			const auto out = player.due(k * dt, simrun_now_us(sr.get()));
 			for (const auto &m : out.marks)
 				simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, m.data(),
-					       m.size());
+				               m.size());
 			if (out.has_command)
 				simrun_command(sr.get(), out.command.data(), out.command.size());
 		}
@@ -56,7 +56,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 			    wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));
 		if (progress && k >= next_report) {
 			progress(static_cast<double>(k + 1) / ticks, player.phase_index(),
-				 phases.size());
+			         phases.size());
 			next_report += std::max(1L, ticks / 100);
 		}
 	}

@@ -25,9 +25,9 @@ struct SimRunResult {
 // ends the run early, with the open segment closed and the log complete (interrupted set).
 // Throws std::runtime_error on set-up errors.
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
-			    const std::string &log_path, bool experiments, double idle_s,
-			    double rtf,
-			    const std::function<void(double, size_t, size_t)> &progress = {},
-			    const std::function<bool()> &stop = {});
+                            const std::string &log_path, bool experiments, double idle_s,
+                            double rtf,
+                            const std::function<void(double, size_t, size_t)> &progress = {},
+                            const std::function<bool()> &stop = {});
 
 } // namespace omni4

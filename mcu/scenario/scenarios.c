@@ -80,9 +80,12 @@ static int start(void)
 	ctl_settings_defaults(&g_ctl);
 	sim_settings_defaults(&g_sim_set);
 	/* Exact sensors; the camera's poses go to the ring, where tick() passes over them. */
-	const struct robot_spec spec = {.ctl = &g_ctl, .motor = OMNI4_MOTOR_SIM,
-					.lines = OMNI4_LINES_SIM, .sim = &g_sim_set,
-					.sim_exact = true, .wrap = metered};
+	const struct robot_spec spec = {.ctl = &g_ctl,
+	                                .motor = OMNI4_MOTOR_SIM,
+	                                .lines = OMNI4_LINES_SIM,
+	                                .sim = &g_sim_set,
+	                                .sim_exact = true,
+	                                .wrap = metered};
 
 	if (robot_open(&g_robot, &spec, why, sizeof(why)))
 		return -1;
@@ -183,7 +186,7 @@ static int tracking(void)
 	char fig[160];
 
 	snprintf(fig, sizeof(fig), "rms_v=%.6e rms_vn_w=%.6e mode=%d", rms[0], rms[1],
-		 (int)g_robot.fw.ctl.mode);
+	         (int)g_robot.fw.ctl.mode);
 	say("tracking", ok, fig);
 	return ok ? 0 : 1;
 }
@@ -226,8 +229,8 @@ static int estop(void)
 	drive(v, 500);
 	atomic_store(&g_robot.sim_lines.estop, true);
 	const struct log_entry on = tick();
-	const bool off_at_once = on.mode == CTL_ESTOP && outputs_off(&on) &&
-				 (on.faults & CTL_FAULT_ESTOP);
+	const bool off_at_once =
+	    on.mode == CTL_ESTOP && outputs_off(&on) && (on.faults & CTL_FAULT_ESTOP);
 
 	send(CTL_CLEAR_FAULT, NULL); /* refused while pressed */
 	const struct log_entry held = tick();
@@ -242,8 +245,8 @@ static int estop(void)
 	      cleared.mode == CTL_IDLE && outputs_off(&cleared);
 	char fig[128];
 
-	snprintf(fig, sizeof(fig), "mode_pressed=%d mode_released=%d mode_cleared=%d",
-		 (int)on.mode, (int)released.mode, (int)cleared.mode);
+	snprintf(fig, sizeof(fig), "mode_pressed=%d mode_released=%d mode_cleared=%d", (int)on.mode,
+	         (int)released.mode, (int)cleared.mode);
 	say("estop", ok, fig);
 	return ok ? 0 : 1;
 }
@@ -260,9 +263,9 @@ static int overcurrent(void)
 
 	/* 0.1 A above the 5 A limit of the defaults, whatever the wheel currents are. */
 	g_robot.sim.inject.current_offset_a =
-		g_ctl.limits.current_max_a + 0.1 + fabs((double)before.current[0]) +
-		fabs((double)before.current[1]) + fabs((double)before.current[2]) +
-		fabs((double)before.current[3]);
+	    g_ctl.limits.current_max_a + 0.1 + fabs((double)before.current[0]) +
+	    fabs((double)before.current[1]) + fabs((double)before.current[2]) +
+	    fabs((double)before.current[3]);
 	const struct log_entry at = tick();
 
 	g_robot.sim.inject.current_offset_a = 0;
@@ -273,7 +276,7 @@ static int overcurrent(void)
 	char fig[96];
 
 	snprintf(fig, sizeof(fig), "mode_at=%d faults_at=0x%04x", (int)at.mode,
-		 (unsigned)at.faults);
+	         (unsigned)at.faults);
 	say("overcurrent", ok, fig);
 	return ok ? 0 : 1;
 }
@@ -334,7 +337,8 @@ static void estimator_cost(void)
 	for (int i = 1; i <= EST_COST_TICKS; i++) {
 		const double t = i * 1e-3;
 		double u[4], w[4];
-		struct est_input in = {.utime = (int64_t)i * 1000, .driven = true, .have_wheels = true};
+		struct est_input in = {
+		    .utime = (int64_t)i * 1000, .driven = true, .have_wheels = true};
 
 		for (int j = 0; j < 4; j++)
 			u[j] = 7.0 * sin(6.283185307179586 * (0.2 + 0.1 * j) * t + j);
@@ -353,7 +357,8 @@ static void estimator_cost(void)
 		step_max = c > step_max ? c : step_max;
 		if (i % EST_CAM_PERIOD == 0)
 			for (int k = 0; k < 3; k++)
-				cam[i / EST_CAM_PERIOD][k] = pl.pose[k] + rng_normal(&g, k < 2 ? 0.01 : 0.05);
+				cam[i / EST_CAM_PERIOD][k] =
+				    pl.pose[k] + rng_normal(&g, k < 2 ? 0.01 : 0.05);
 		const int ci = i - EST_CAM_LATENCY; /* the tick of the frame arriving now */
 
 		if (ci > 0 && ci % EST_CAM_PERIOD == 0) {
@@ -362,8 +367,8 @@ static void estimator_cost(void)
 			const uint32_t k = (uint32_t)ci - 1u, n0 = k - k % EST_SNAP_EVERY;
 
 			t0 = g_meter->read();
-			const int rc = est_camera(&g_est, (int64_t)ci * 1000, cam[ci / EST_CAM_PERIOD],
-						  in.utime);
+			const int rc = est_camera(&g_est, (int64_t)ci * 1000,
+			                          cam[ci / EST_CAM_PERIOD], in.utime);
 			const uint32_t cc = g_meter->read() - t0;
 
 			frames++;
@@ -376,14 +381,14 @@ static void estimator_cost(void)
 	const struct est_output *o = est_get(&g_est);
 
 	snprintf(line, sizeof(line),
-		 "estimator cost: est_step mean %lu max %lu %s over %d ticks; est_camera (frame %d "
-		 "ms late) mean %lu max %lu, per replayed tick %lu, %lu of %lu frames taken; "
-		 "sizeof(struct est) %lu bytes; position error at the end %.1f mm",
-		 (unsigned long)(step_sum / EST_COST_TICKS), (unsigned long)step_max, g_meter->unit,
-		 EST_COST_TICKS, EST_CAM_LATENCY, (unsigned long)(frames ? cam_sum / frames : 0),
-		 (unsigned long)cam_max, (unsigned long)(replayed ? cam_sum / replayed : 0),
-		 (unsigned long)taken, (unsigned long)frames, (unsigned long)sizeof(struct est),
-		 1e3 * hypot(o->pose[0] - pl.pose[0], o->pose[1] - pl.pose[1]));
+	         "estimator cost: est_step mean %lu max %lu %s over %d ticks; est_camera (frame %d "
+	         "ms late) mean %lu max %lu, per replayed tick %lu, %lu of %lu frames taken; "
+	         "sizeof(struct est) %lu bytes; position error at the end %.1f mm",
+	         (unsigned long)(step_sum / EST_COST_TICKS), (unsigned long)step_max, g_meter->unit,
+	         EST_COST_TICKS, EST_CAM_LATENCY, (unsigned long)(frames ? cam_sum / frames : 0),
+	         (unsigned long)cam_max, (unsigned long)(replayed ? cam_sum / replayed : 0),
+	         (unsigned long)taken, (unsigned long)frames, (unsigned long)sizeof(struct est),
+	         1e3 * hypot(o->pose[0] - pl.pose[0], o->pose[1] - pl.pose[1]));
 	g_print(line);
 }
 
@@ -401,11 +406,11 @@ int scenarios_run(scenario_print_fn print, scenario_wait_fn wait_tick)
 	if (g_meter) {
 		/* Not compared between builds: a cost, not a result. */
 		snprintf(line, sizeof(line),
-			 "cost: whole tick mean %lu max %lu %s; controller (tick minus the sim "
-			 "plant's HAL read/write) mean %lu max %lu %s, over %lu ticks",
-			 (unsigned long)(g_cost.tick_sum / n), (unsigned long)g_cost.tick_max,
-			 g_meter->unit, (unsigned long)(g_cost.ctl_sum / n),
-			 (unsigned long)g_cost.ctl_max, g_meter->unit, (unsigned long)g_cost.n);
+		         "cost: whole tick mean %lu max %lu %s; controller (tick minus the sim "
+		         "plant's HAL read/write) mean %lu max %lu %s, over %lu ticks",
+		         (unsigned long)(g_cost.tick_sum / n), (unsigned long)g_cost.tick_max,
+		         g_meter->unit, (unsigned long)(g_cost.ctl_sum / n),
+		         (unsigned long)g_cost.ctl_max, g_meter->unit, (unsigned long)g_cost.n);
 		print(line);
 	}
 	failed += watchdog();

@@ -25,9 +25,9 @@ int main(void)
 	rng_seed(&g, 5);
 	for (int n = 0; n < 2000; n++) {
 		const double vel[3] = {rng_uniform(&g, -3, 3), rng_uniform(&g, -3, 3),
-				       rng_uniform(&g, -20, 20)};
+		                       rng_uniform(&g, -20, 20)};
 		const double acc[3] = {rng_uniform(&g, -10, 10), rng_uniform(&g, -10, 10),
-				       rng_uniform(&g, -10, 10)};
+		                       rng_uniform(&g, -10, 10)};
 		q16_t vq[3], aq[3], uq[4];
 		double u[4];
 

@@ -15,8 +15,8 @@ void dyn_wheel_forces(const struct model_params *p, const double current_a[4], d
 
 void dyn_robot_forces(double d, const double f[4], double robot_f[3])
 {
-	robot_f[0] = f[3] - f[1];                  /* eq 9 */
-	robot_f[1] = f[0] - f[2];                  /* eq 10 */
+	robot_f[0] = f[3] - f[1];                     /* eq 9 */
+	robot_f[1] = f[0] - f[2];                     /* eq 10 */
 	robot_f[2] = d * (f[0] + f[1] + f[2] + f[3]); /* eq 11 */
 }
 
@@ -49,9 +49,9 @@ void dyn_state_space(const struct model_params *p, struct model_ss *ss)
 	ss->A[2] = -4.0 * d * d * emf / p->J + ss->A_coast[2];
 
 	const double B[3][4] = {
-		{0.0, -b / p->M, 0.0, b / p->M},
-		{b / p->M, 0.0, -b / p->M, 0.0},
-		{b * d / p->J, b * d / p->J, b * d / p->J, b * d / p->J},
+	    {0.0, -b / p->M, 0.0, b / p->M},
+	    {b / p->M, 0.0, -b / p->M, 0.0},
+	    {b * d / p->J, b * d / p->J, b * d / p->J, b * d / p->J},
 	};
 	for (int k = 0; k < 3; k++)
 		for (int j = 0; j < 4; j++)

@@ -15,11 +15,12 @@ double ff_sign(double x, double band)
 }
 
 void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
-		 double u_max, double u[4])
+                 double u_max, double u[4])
 {
-	const double Fv = p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN);
+	const double Fv =
+	    p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN);
 	const double Fvn =
-		p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN);
+	    p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN);
 	const double T = p->J * acc[2] + p->Bw * vel[2] + p->Cw * ff_sign(vel[2], FF_SIGN_BAND_ROT);
 	const double share[3] = {Fv / 2.0, Fvn / 2.0, T / (4.0 * p->d * p->d)};
 	double f[4], vw[4];
@@ -42,7 +43,7 @@ int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max)
 	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
 	const double kemf = p->Kv * p->l / p->r; /* [V/(m/s)] at the wheel rim */
 	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
-			       k4d * p->Bw + kemf * p->d};
+	                       k4d * p->Bw + kemf * p->d};
 	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
 	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
 

@@ -6,13 +6,24 @@
 #include <stddef.h>
 
 const struct model_params model_params_table3 = {
-	.d = 0.089, .r = 0.0325, .l = 5.0, .Kv = 0.0259, .Kt = 0.0259, .R = 4.3111,
-	.M = 2.34, .J = 0.0228, .Bv = 0.4978, .Bvn = 0.6763, .Bw = 0.0141,
-	.Cv = 1.8738, .Cvn = 2.2198, .Cw = 0.1385,
+    .d = 0.089,
+    .r = 0.0325,
+    .l = 5.0,
+    .Kv = 0.0259,
+    .Kt = 0.0259,
+    .R = 4.3111,
+    .M = 2.34,
+    .J = 0.0228,
+    .Bv = 0.4978,
+    .Bvn = 0.6763,
+    .Bw = 0.0141,
+    .Cv = 1.8738,
+    .Cvn = 2.2198,
+    .Cw = 0.1385,
 };
 
 const char *const model_params_names[MODEL_PARAMS_COUNT] = {
-	"d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw",
+    "d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw",
 };
 
 /* The first 8 fields (d .. J) must be strictly positive; frictions may be zero. */
@@ -20,8 +31,8 @@ const char *const model_params_names[MODEL_PARAMS_COUNT] = {
 double *model_params_field(struct model_params *p, int i)
 {
 	double *const f[MODEL_PARAMS_COUNT] = {&p->d,  &p->r,  &p->l,   &p->Kv, &p->Kt,
-					       &p->R,  &p->M,  &p->J,   &p->Bv, &p->Bvn,
-					       &p->Bw, &p->Cv, &p->Cvn, &p->Cw};
+	                                       &p->R,  &p->M,  &p->J,   &p->Bv, &p->Bvn,
+	                                       &p->Bw, &p->Cv, &p->Cvn, &p->Cw};
 
 	return i < 0 || i >= MODEL_PARAMS_COUNT ? NULL : f[i];
 }

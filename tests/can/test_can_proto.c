@@ -23,8 +23,8 @@ static void test_frame_layout_follows_the_specification(void **state)
 	assert_int_equal(can_encode_cmd_voltage(v, true, 0xA, &f), 0);
 	assert_int_equal(f.data[0], 0x01); /* voltage_0 = 1 LSB */
 	assert_int_equal(f.data[5], 0xA1); /* enable bit 40, counter bits 44-47 */
-	const uint8_t crc_in[8] = {f.data[0], f.data[1], f.data[2], f.data[3], f.data[4],
-				   f.data[5], 0x10, 0x4F};
+	const uint8_t crc_in[8] = {f.data[0], f.data[1], f.data[2], f.data[3],
+	                           f.data[4], f.data[5], 0x10,      0x4F};
 	const uint16_t crc = can_crc16(crc_in, 8);
 
 	assert_int_equal(f.data[6], crc & 0xFF);
@@ -233,8 +233,8 @@ static void test_bus_load_at_1khz_is_below_half_of_1_mbit(void **state)
 	const double old_load = (3 * 135 + 0.2 * 135) * 1000.0 / 1e6;
 
 	print_message("CAN bus load at 1 kHz, worst-case stuffing: %.1f %% of 1 Mbit/s "
-		      "(CRC-16 E2E format; former CRC-8 format %.1f %%)\n", 100 * load,
-		      100 * old_load);
+	              "(CRC-16 E2E format; former CRC-8 format %.1f %%)\n",
+	              100 * load, 100 * old_load);
 	assert_near(load, 0.432, 0.0005);
 	assert_true(load <= 0.5);
 }
@@ -242,15 +242,15 @@ static void test_bus_load_at_1khz_is_below_half_of_1_mbit(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_crc16_matches_the_ccitt_false_check_value),
-		cmocka_unit_test(test_frame_layout_follows_the_specification),
-		cmocka_unit_test(test_cmd_voltage_round_trip_within_half_lsb),
-		cmocka_unit_test(test_status_and_health_round_trip),
-		cmocka_unit_test(test_out_of_range_values_are_refused_not_clipped),
-		cmocka_unit_test(test_every_one_two_and_three_bit_error_is_detected),
-		cmocka_unit_test(test_reserved_bits_are_checked),
-		cmocka_unit_test(test_counter_gap_finds_replays_and_losses),
-		cmocka_unit_test(test_bus_load_at_1khz_is_below_half_of_1_mbit),
+	    cmocka_unit_test(test_crc16_matches_the_ccitt_false_check_value),
+	    cmocka_unit_test(test_frame_layout_follows_the_specification),
+	    cmocka_unit_test(test_cmd_voltage_round_trip_within_half_lsb),
+	    cmocka_unit_test(test_status_and_health_round_trip),
+	    cmocka_unit_test(test_out_of_range_values_are_refused_not_clipped),
+	    cmocka_unit_test(test_every_one_two_and_three_bit_error_is_detected),
+	    cmocka_unit_test(test_reserved_bits_are_checked),
+	    cmocka_unit_test(test_counter_gap_finds_replays_and_losses),
+	    cmocka_unit_test(test_bus_load_at_1khz_is_below_half_of_1_mbit),
 	};
 
 	return cmocka_run_group_tests_name("can_proto", tests, NULL, NULL);

@@ -10,11 +10,12 @@
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 
-static inline int hil_send(struct simrun *sr, int8_t mode, const double vel[3], const double volt[4],
-			   double ramp_s)
+static inline int hil_send(struct simrun *sr, int8_t mode, const double vel[3],
+                           const double volt[4], double ramp_s)
 {
 	static int64_t seq;
-	omni4_command_t c = {.utime = simrun_now_us(sr), .seq = seq++, .mode = mode, .ramp_s = ramp_s};
+	omni4_command_t c = {
+	    .utime = simrun_now_us(sr), .seq = seq++, .mode = mode, .ramp_s = ramp_s};
 	uint8_t buf[256];
 
 	if (vel)

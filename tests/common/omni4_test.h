@@ -12,13 +12,15 @@
 
 /* |got - want| <= tol, with both values in the failure message (cmocka 1.1.5 has no
  * assert_double_equal). NaN never passes. */
-#define assert_near(got, want, tol) omni4_assert_near((got), (want), (tol), #got, __FILE__, __LINE__)
+#define assert_near(got, want, tol)                                                                \
+	omni4_assert_near((got), (want), (tol), #got, __FILE__, __LINE__)
 
 static inline void omni4_assert_near(double got, double want, double tol, const char *expr,
-				     const char *file, int line)
+                                     const char *file, int line)
 {
 	if (!(fabs(got - want) <= tol)) {
-		print_error("%s:%d: %s = %.12g, want %.12g +- %.3g\n", file, line, expr, got, want, tol);
+		print_error("%s:%d: %s = %.12g, want %.12g +- %.3g\n", file, line, expr, got, want,
+		            tol);
 		fail();
 	}
 }

@@ -16,8 +16,8 @@ static int released[8], values[8];
 struct gpiod_chip *__wrap_gpiod_chip_open_lookup(const char *descr);
 struct gpiod_line *__wrap_gpiod_chip_get_line(struct gpiod_chip *chip, unsigned int offset);
 int __wrap_gpiod_line_request_input_flags(struct gpiod_line *line, const char *consumer, int flags);
-int __wrap_gpiod_line_request_output_flags(struct gpiod_line *line, const char *consumer,
-					   int flags, int default_val);
+int __wrap_gpiod_line_request_output_flags(struct gpiod_line *line, const char *consumer, int flags,
+                                           int default_val);
 int __wrap_gpiod_line_get_value(struct gpiod_line *line);
 int __wrap_gpiod_line_set_value(struct gpiod_line *line, int value);
 void __wrap_gpiod_line_release(struct gpiod_line *line);
@@ -58,8 +58,8 @@ int __wrap_gpiod_line_request_input_flags(struct gpiod_line *line, const char *c
 	return mock_type(int);
 }
 
-int __wrap_gpiod_line_request_output_flags(struct gpiod_line *line, const char *consumer,
-					   int flags, int default_val)
+int __wrap_gpiod_line_request_output_flags(struct gpiod_line *line, const char *consumer, int flags,
+                                           int default_val)
 {
 	const int i = index_of(line);
 
@@ -98,8 +98,11 @@ void __wrap_gpiod_chip_close(struct gpiod_chip *chip)
 }
 
 static const struct gpiod_settings cfg = {
-	.chip = "gpiochip0", .estop_line = 3, .estop_active_low = true, .enable_line = 4,
-	.led_line = 5,
+    .chip = "gpiochip0",
+    .estop_line = 3,
+    .estop_active_low = true,
+    .enable_line = 4,
+    .led_line = 5,
 };
 
 static int reset(void **state)
@@ -116,7 +119,7 @@ static void expect_open_ok(void)
 	will_return(__wrap_gpiod_chip_open_lookup, 1);
 	expect_value(__wrap_gpiod_line_request_input_flags, i, 3);
 	expect_value(__wrap_gpiod_line_request_input_flags, flags,
-		     GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW);
+	             GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW);
 	will_return(__wrap_gpiod_line_request_input_flags, 0);
 	expect_value(__wrap_gpiod_line_request_output_flags, i, 4);
 	will_return(__wrap_gpiod_line_request_output_flags, 0);
@@ -234,7 +237,7 @@ static void test_missing_chip_and_busy_line_fail_cleanly(void **state)
 	will_return(__wrap_gpiod_chip_open_lookup, 1);
 	expect_value(__wrap_gpiod_line_request_input_flags, i, 3);
 	expect_value(__wrap_gpiod_line_request_input_flags, flags,
-		     GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW);
+	             GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW);
 	will_return(__wrap_gpiod_line_request_input_flags, 0);
 	expect_value(__wrap_gpiod_line_request_output_flags, i, 4);
 	will_return(__wrap_gpiod_line_request_output_flags, -1);
@@ -246,10 +249,10 @@ static void test_missing_chip_and_busy_line_fail_cleanly(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup(test_open_requests_each_line_and_close_releases_them_low, reset),
-		cmocka_unit_test_setup(test_estop_asserts_at_once_and_releases_after_debounce, reset),
-		cmocka_unit_test_setup(test_unreadable_estop_counts_as_pressed, reset),
-		cmocka_unit_test_setup(test_missing_chip_and_busy_line_fail_cleanly, reset),
+	    cmocka_unit_test_setup(test_open_requests_each_line_and_close_releases_them_low, reset),
+	    cmocka_unit_test_setup(test_estop_asserts_at_once_and_releases_after_debounce, reset),
+	    cmocka_unit_test_setup(test_unreadable_estop_counts_as_pressed, reset),
+	    cmocka_unit_test_setup(test_missing_chip_and_busy_line_fail_cleanly, reset),
 	};
 
 	return cmocka_run_group_tests_name("gpiod_lines", tests, NULL, NULL);

@@ -166,9 +166,9 @@ static void test_replayed_and_corrupt_frames_are_rejected_and_counted(void **sta
 
 	push_both(1.0f, 10.0f, 3);
 	hal_motor_read(&h, &s);
-	push_status(0, 1.5f, 10.5f, 3); /* replay: same counter */
+	push_status(0, 1.5f, 10.5f, 3);  /* replay: same counter */
 	push_status(0, 1.5f, 10.5f, 12); /* far off: stale */
-	push_status(0, 2.0f, 11.0f, 5); /* 1 lost: accepted */
+	push_status(0, 2.0f, 11.0f, 5);  /* 1 lost: accepted */
 	rxerr[rx_tail] = 0;
 	push_status(1, 1.5f, 10.5f, 4);
 	rxq[rx_tail - 1].data[1] ^= 0x40; /* corrupt */
@@ -233,7 +233,6 @@ static void test_a_flood_is_cut_at_the_per_tick_bound(void **state)
 	hal_motor_close(&h);
 }
 
-
 /* Counter gaps, from the protocol specification (can_proto.h, socketcan_motor.h), not from the
  * code's constants: a counter 1, 2 or 3 ahead of the last accepted one is accepted (0, 1, 2
  * frames lost); 4 or more ahead, the same value again, or behind (15 ahead = one behind) is
@@ -265,8 +264,8 @@ static struct gap_result counter_step(int step)
 }
 
 /* Frames that arrive while the loop is stalled queue up: a read 10 ms late takes up to 4 x 64
- * frames (the cap: 4 ms' worth), so both nodes' STATUS behind 100 junk frames are seen (no DRIVER_TIMEOUT with a 5 ms
- * status timeout), while a read on time still stops at 64. */
+ * frames (the cap: 4 ms' worth), so both nodes' STATUS behind 100 junk frames are seen (no
+ * DRIVER_TIMEOUT with a 5 ms status timeout), while a read on time still stops at 64. */
 static void push_junk_status(int n)
 {
 	for (int k = 0; k < n; k++) {
@@ -324,22 +323,21 @@ static void test_counter_gap_boundaries_from_the_specification(void **state)
 		bool accepted;
 		uint64_t lost, replayed;
 	} spec[] = {
-		{1, true, 0, 0},   /* the next frame */
-		{2, true, 1, 0},   /* one lost */
-		{3, true, 2, 0},   /* two lost: the edge of the window */
-		{4, false, 0, 1},  /* three lost: outside the window */
-		{5, false, 0, 1},
-		{8, false, 0, 1},  /* half way round */
-		{15, false, 0, 1}, /* one behind: an old frame */
-		{16, false, 0, 1}, /* the same counter again: a replay */
+	    {1, true, 0, 0},                     /* the next frame */
+	    {2, true, 1, 0},                     /* one lost */
+	    {3, true, 2, 0},                     /* two lost: the edge of the window */
+	    {4, false, 0, 1},                    /* three lost: outside the window */
+	    {5, false, 0, 1},  {8, false, 0, 1}, /* half way round */
+	    {15, false, 0, 1},                   /* one behind: an old frame */
+	    {16, false, 0, 1},                   /* the same counter again: a replay */
 	};
 
 	for (unsigned k = 0; k < sizeof(spec) / sizeof(spec[0]); k++) {
 		const struct gap_result r = counter_step(spec[k].step);
 
 		print_message("counter step %2d: %s, lost %llu, rejected %llu\n", spec[k].step,
-			      r.accepted ? "accepted" : "rejected", (unsigned long long)r.lost,
-			      (unsigned long long)r.replayed);
+		              r.accepted ? "accepted" : "rejected", (unsigned long long)r.lost,
+		              (unsigned long long)r.replayed);
 		assert_int_equal(r.accepted, spec[k].accepted);
 		assert_int_equal(r.lost, spec[k].lost);
 		assert_int_equal(r.replayed, spec[k].replayed);
@@ -379,8 +377,8 @@ static void test_default_limits_follow_the_motor_physics(void **state)
 	const struct sc_limits l = sc_limits_default();
 
 	print_message("plausibility: |di| <= %.3f A, |dw| <= %.3f rad/s per frame, over %.1f A "
-		      "needs %d consecutive frames\n", l.current_step_a, l.speed_step_rad_s,
-		      l.current_limit_a, l.confirm_frames);
+	              "needs %d consecutive frames\n",
+	              l.current_step_a, l.speed_step_rad_s, l.current_limit_a, l.confirm_frames);
 	assert_near(l.current_step_a, 5.567 + 0.2 + 0.02, 0.01);
 	assert_near(l.speed_step_rad_s, 1.532 + 0.25, 0.01);
 	assert_int_equal(l.confirm_frames, 3);
@@ -543,10 +541,10 @@ static void test_a_million_junk_status_frames_latch_nothing(void **state)
 		}
 	}
 	print_message("%ld junk STATUS frames in %ld reads: %ld passed CRC-16 + reserved bits "
-		      "(expected %.1f), %llu rejected by CRC, %llu by counter, %llu held as "
-		      "implausible, 0 faults\n", junk, reads, crc_valid, n_junk / 262144.0,
-		      (unsigned long long)m.n.crc_errors, (unsigned long long)m.n.replayed,
-		      (unsigned long long)m.n.implausible);
+	              "(expected %.1f), %llu rejected by CRC, %llu by counter, %llu held as "
+	              "implausible, 0 faults\n",
+	              junk, reads, crc_valid, n_junk / 262144.0, (unsigned long long)m.n.crc_errors,
+	              (unsigned long long)m.n.replayed, (unsigned long long)m.n.implausible);
 	/* 2^-18 per frame: 3.8 expected; a CRC-8 format would pass ~3900. */
 	assert_true(crc_valid <= 12);
 	hal_motor_close(&h);
@@ -654,7 +652,8 @@ static void crash_race(long stall_ms, int want_sent)
 			assert_true(v[j] == 0.0f);
 	}
 	print_message("crash race, send preempted %ld ms: %d loop writes, halt frames last (%d "
-		      "frames on the bus)\n", stall_ms, r.writes, sent_n);
+	              "frames on the bus)\n",
+	              stall_ms, r.writes, sent_n);
 	hal_motor_close(&(struct motor_hal){.ops = &socketcan_motor_ops, .ctx = &m});
 }
 
@@ -676,21 +675,24 @@ static void test_crash_halt_frames_are_last_after_a_long_preemption(void **state
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup(test_status_frames_become_a_motor_sample, reset),
-		cmocka_unit_test_setup(test_replayed_and_corrupt_frames_are_rejected_and_counted, reset),
-		cmocka_unit_test_setup(test_silent_node_times_out_and_bus_off_faults, reset),
-		cmocka_unit_test_setup(test_a_flood_is_cut_at_the_per_tick_bound, reset),
-		cmocka_unit_test_setup(test_a_late_read_catches_up_with_the_queue, reset),
-		cmocka_unit_test_setup(test_counter_gap_boundaries_from_the_specification, reset),
-		cmocka_unit_test_setup(test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame,
-				       reset),
-		cmocka_unit_test_setup(test_default_limits_follow_the_motor_physics, reset),
-		cmocka_unit_test_setup(test_an_implausible_jump_is_held_not_acted_on, reset),
-		cmocka_unit_test_setup(test_an_over_limit_current_needs_three_consecutive_frames, reset),
-		cmocka_unit_test_setup(test_a_fault_report_in_health_needs_three_consecutive_frames, reset),
-		cmocka_unit_test_setup(test_a_million_junk_status_frames_latch_nothing, reset),
-		cmocka_unit_test_setup(test_crash_halt_frames_are_the_last_on_the_bus, reset),
-		cmocka_unit_test_setup(test_crash_halt_frames_are_last_after_a_long_preemption, reset),
+	    cmocka_unit_test_setup(test_status_frames_become_a_motor_sample, reset),
+	    cmocka_unit_test_setup(test_replayed_and_corrupt_frames_are_rejected_and_counted,
+	                           reset),
+	    cmocka_unit_test_setup(test_silent_node_times_out_and_bus_off_faults, reset),
+	    cmocka_unit_test_setup(test_a_flood_is_cut_at_the_per_tick_bound, reset),
+	    cmocka_unit_test_setup(test_a_late_read_catches_up_with_the_queue, reset),
+	    cmocka_unit_test_setup(test_counter_gap_boundaries_from_the_specification, reset),
+	    cmocka_unit_test_setup(
+	        test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame, reset),
+	    cmocka_unit_test_setup(test_default_limits_follow_the_motor_physics, reset),
+	    cmocka_unit_test_setup(test_an_implausible_jump_is_held_not_acted_on, reset),
+	    cmocka_unit_test_setup(test_an_over_limit_current_needs_three_consecutive_frames,
+	                           reset),
+	    cmocka_unit_test_setup(test_a_fault_report_in_health_needs_three_consecutive_frames,
+	                           reset),
+	    cmocka_unit_test_setup(test_a_million_junk_status_frames_latch_nothing, reset),
+	    cmocka_unit_test_setup(test_crash_halt_frames_are_the_last_on_the_bus, reset),
+	    cmocka_unit_test_setup(test_crash_halt_frames_are_last_after_a_long_preemption, reset),
 	};
 
 	return cmocka_run_group_tests_name("socketcan_motor", tests, NULL, NULL);

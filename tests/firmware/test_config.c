@@ -10,16 +10,16 @@
 #include "omni4/config.h"
 
 static const char *good =
-	"; a robot\n"
-	"[model]\n"
-	"d = 0.1\nr = 0.03\nl = 4\nKv = 0.02\nKt = 0.021\nR = 3.5\nM = 2.5\nJ = 0.03\n"
-	"Bv = 0.5\nBvn = 0.6\nBw = 0.01\nCv = 1.5\nCvn = 2.0\nCw = 0.12\n"
-	"\n[loop]\nrate_hz = 500\nsched_fifo = yes\npriority = 70\n"
-	"[control]\nkp = 10\ncmd_timeout_ms = 150\nfeedforward = false\n"
-	"[lcm]\nurl = memq://\n"
-	"[hal]\nmotor = socketcan\nlines = gpiod\n"
-	"[can]\niface = vcan0\n"
-	"[gpio]\nestop_line = 17\nestop_active_low = off\n";
+    "; a robot\n"
+    "[model]\n"
+    "d = 0.1\nr = 0.03\nl = 4\nKv = 0.02\nKt = 0.021\nR = 3.5\nM = 2.5\nJ = 0.03\n"
+    "Bv = 0.5\nBvn = 0.6\nBw = 0.01\nCv = 1.5\nCvn = 2.0\nCw = 0.12\n"
+    "\n[loop]\nrate_hz = 500\nsched_fifo = yes\npriority = 70\n"
+    "[control]\nkp = 10\ncmd_timeout_ms = 150\nfeedforward = false\n"
+    "[lcm]\nurl = memq://\n"
+    "[hal]\nmotor = socketcan\nlines = gpiod\n"
+    "[can]\niface = vcan0\n"
+    "[gpio]\nestop_line = 17\nestop_active_low = off\n";
 
 static void expect_error(const char *text, int rc, int line, const char *fragment)
 {
@@ -78,13 +78,13 @@ static void test_defaults_are_the_documented_figures(void **state)
 {
 	(void)state;
 	struct omni4_config cfg;
-	const double table3[] = {0.089, 0.0325, 5, 0.0259, 0.0259, 4.3111, 2.34, 0.0228,
-				 0.4978, 0.6763, 0.0141, 1.8738, 2.2198, 0.1385};
+	const double table3[] = {0.089,  0.0325, 5,      0.0259, 0.0259, 4.3111, 2.34,
+	                         0.0228, 0.4978, 0.6763, 0.0141, 1.8738, 2.2198, 0.1385};
 
 	config_defaults(&cfg);
 	const struct model_params *m = &cfg.ctl.model;
-	const double got[] = {m->d, m->r, m->l, m->Kv, m->Kt, m->R, m->M, m->J,
-			      m->Bv, m->Bvn, m->Bw, m->Cv, m->Cvn, m->Cw};
+	const double got[] = {m->d, m->r,  m->l,   m->Kv, m->Kt, m->R,   m->M,
+	                      m->J, m->Bv, m->Bvn, m->Bw, m->Cv, m->Cvn, m->Cw};
 
 	for (size_t i = 0; i < sizeof(table3) / sizeof(table3[0]); i++)
 		assert_near(got[i], table3[i], 0);
@@ -113,8 +113,8 @@ static void test_resistance_boundary_zero_refused_positive_taken(void **state)
 	char small[1100];
 	const char *rest = strstr(good, "R = 3.5") + strlen("R = 3.5");
 
-	snprintf(small, sizeof(small), "%.*sR = 1e-9%s", (int)(strstr(good, "R = 3.5") - good), good,
-		 rest);
+	snprintf(small, sizeof(small), "%.*sR = 1e-9%s", (int)(strstr(good, "R = 3.5") - good),
+	         good, rest);
 	config_defaults(&cfg);
 	assert_int_equal(config_load_string(small, "robot.ini", &cfg, &err), 0);
 	assert_near(cfg.ctl.model.R, 1e-9, 0);
@@ -124,7 +124,7 @@ static void test_unknown_key_is_reported_with_its_line(void **state)
 {
 	(void)state;
 	expect_error("[loop]\nrate_hz = 100\nrat_hz = 5\n", -EINVAL, 3,
-		     "robot.ini:3: unknown key 'rat_hz' in [loop]");
+	             "robot.ini:3: unknown key 'rat_hz' in [loop]");
 	expect_error("[motors]\nR = 1\n", -EINVAL, 2, "unknown key 'R' in [motors]");
 }
 
@@ -167,7 +167,8 @@ static void test_negative_resistance_is_rejected(void **state)
 static void test_duplicate_key_and_syntax_error(void **state)
 {
 	(void)state;
-	expect_error("[loop]\nrate_hz = 100\nrate_hz = 200\n", -EINVAL, 3, "duplicate key 'rate_hz'");
+	expect_error("[loop]\nrate_hz = 100\nrate_hz = 200\n", -EINVAL, 3,
+	             "duplicate key 'rate_hz'");
 	expect_error("[loop]\nrate_hz 100\n", -EINVAL, 2, "robot.ini:2: syntax error");
 	expect_error("[loop\n", -EINVAL, 1, "syntax error");
 }
@@ -220,18 +221,18 @@ static void test_written_model_section_reads_back_exactly(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_good_file_overrides_defaults),
-		cmocka_unit_test(test_defaults_are_table3_and_safe),
-		cmocka_unit_test(test_defaults_are_the_documented_figures),
-		cmocka_unit_test(test_resistance_boundary_zero_refused_positive_taken),
-		cmocka_unit_test(test_unknown_key_is_reported_with_its_line),
-		cmocka_unit_test(test_bad_number_is_reported_with_its_line),
-		cmocka_unit_test(test_out_of_range_value_is_rejected),
-		cmocka_unit_test(test_missing_model_key_is_named),
-		cmocka_unit_test(test_negative_resistance_is_rejected),
-		cmocka_unit_test(test_duplicate_key_and_syntax_error),
-		cmocka_unit_test(test_missing_file_is_enoent),
-		cmocka_unit_test(test_written_model_section_reads_back_exactly),
+	    cmocka_unit_test(test_good_file_overrides_defaults),
+	    cmocka_unit_test(test_defaults_are_table3_and_safe),
+	    cmocka_unit_test(test_defaults_are_the_documented_figures),
+	    cmocka_unit_test(test_resistance_boundary_zero_refused_positive_taken),
+	    cmocka_unit_test(test_unknown_key_is_reported_with_its_line),
+	    cmocka_unit_test(test_bad_number_is_reported_with_its_line),
+	    cmocka_unit_test(test_out_of_range_value_is_rejected),
+	    cmocka_unit_test(test_missing_model_key_is_named),
+	    cmocka_unit_test(test_negative_resistance_is_rejected),
+	    cmocka_unit_test(test_duplicate_key_and_syntax_error),
+	    cmocka_unit_test(test_missing_file_is_enoent),
+	    cmocka_unit_test(test_written_model_section_reads_back_exactly),
 	};
 
 	return cmocka_run_group_tests_name("config", tests, NULL, NULL);

@@ -48,7 +48,8 @@ static void test_pi_antiwindup_and_clamp(void **state)
 	float u = 0;
 
 	for (int n = 0; n < 5000; n++)
-		u = ctl_pi_step(&pi, 10.0f, 0.3f); /* ff 10 V + 6 V: saturated from the first step */
+		u = ctl_pi_step(&pi, 10.0f,
+		                0.3f); /* ff 10 V + 6 V: saturated from the first step */
 	assert_true(u == 12.0f);
 	near(pi.integ, 0.0, 1e-6); /* never integrated: saturated from the start */
 	u = ctl_pi_step(&pi, 10.0f, -0.05f);
@@ -80,13 +81,13 @@ static void test_ramp_is_linear_and_ends_on_time(void **state)
 	assert_true(ctl_ramp_step(&r, 1200000, out));  /* the end, 200 ms after the start */
 	for (int j = 0; j < 4; j++)
 		assert_true(out[j] == to[j]);
-	ctl_ramp_start(&r, from, to, 0.0f, 5);          /* zero length: there at once */
+	ctl_ramp_start(&r, from, to, 0.0f, 5); /* zero length: there at once */
 	assert_true(ctl_ramp_step(&r, 5, out));
 	assert_true(out[0] == 6.0f);
-	ctl_ramp_start(&r, from, to, 0.2f, 1000000);    /* reset in the middle of a ramp */
+	ctl_ramp_start(&r, from, to, 0.2f, 1000000); /* reset in the middle of a ramp */
 	ctl_ramp_reset(&r, from);
 	for (int64_t t = 0; t <= 2000000; t += 1000000) {
-		assert_true(ctl_ramp_step(&r, t, out));  /* done at any time, holding `from` */
+		assert_true(ctl_ramp_step(&r, t, out)); /* done at any time, holding `from` */
 		for (int j = 0; j < 4; j++)
 			assert_true(out[j] == from[j]);
 	}
@@ -129,10 +130,10 @@ static void test_shaper_follows_at_the_rate_limit(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_pi_is_p_plus_integral),
-		cmocka_unit_test(test_pi_antiwindup_and_clamp),
-		cmocka_unit_test(test_ramp_is_linear_and_ends_on_time),
-		cmocka_unit_test(test_shaper_follows_at_the_rate_limit),
+	    cmocka_unit_test(test_pi_is_p_plus_integral),
+	    cmocka_unit_test(test_pi_antiwindup_and_clamp),
+	    cmocka_unit_test(test_ramp_is_linear_and_ends_on_time),
+	    cmocka_unit_test(test_shaper_follows_at_the_rate_limit),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

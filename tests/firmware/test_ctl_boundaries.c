@@ -15,14 +15,15 @@
 #include "omni4_motors_t.h"
 
 /* docs/faults.md */
-#define SPEC_CMD_TIMEOUT_MS 200     /* command stream stops: cmd_timeout_ms 200 */
-#define SPEC_STOP_RAMP_MS 200       /* voltages ramp to 0 over stop_ramp_s (200 ms) */
-#define SPEC_CURRENT_MAX_A 5.0      /* over-current: > current_max_a, 5 A */
-#define SPEC_SENSOR_MAX_A 10.2      /* current sensor saturated: reading >= 10.2 A */
-#define SPEC_SUPPLY_MIN_V 9.0       /* supply sag: < supply_min_v, 9 V */
-#define SPEC_JUMP_RAD_S2 5000.0     /* encoder jump: step > 5000 rad/s^2 x time since the last reading */
-#define SPEC_RESIDUAL_M_S 0.5       /* encoder stuck: v0 - v1 + v2 - v3 > 0.5 m/s ... */
-#define SPEC_RESIDUAL_MS 50         /* ... for 50 ms */
+#define SPEC_CMD_TIMEOUT_MS 200 /* command stream stops: cmd_timeout_ms 200 */
+#define SPEC_STOP_RAMP_MS 200   /* voltages ramp to 0 over stop_ramp_s (200 ms) */
+#define SPEC_CURRENT_MAX_A 5.0  /* over-current: > current_max_a, 5 A */
+#define SPEC_SENSOR_MAX_A 10.2  /* current sensor saturated: reading >= 10.2 A */
+#define SPEC_SUPPLY_MIN_V 9.0   /* supply sag: < supply_min_v, 9 V */
+#define SPEC_JUMP_RAD_S2                                                                           \
+	5000.0                /* encoder jump: step > 5000 rad/s^2 x time since the last reading */
+#define SPEC_RESIDUAL_M_S 0.5 /* encoder stuck: v0 - v1 + v2 - v3 > 0.5 m/s ... */
+#define SPEC_RESIDUAL_MS 50   /* ... for 50 ms */
 /* docs/design.md: supply 12 V; loop 1 kHz */
 #define SPEC_SUPPLY_V 12.0
 #define SPEC_DT_S 1e-3
@@ -89,8 +90,8 @@ static void watchdog_boundary(int8_t mode)
 	for (int ms = 0; ms <= SPEC_CMD_TIMEOUT_MS; ms++) {
 		o = step((int64_t)ms * TICK_US, &s);
 		if (o.faults & OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT)
-			fail_msg("mode %d: watchdog tripped at %d ms, command only %d ms old", mode, ms,
-				 ms);
+			fail_msg("mode %d: watchdog tripped at %d ms, command only %d ms old", mode,
+			         ms, ms);
 		assert_int_equal(o.mode, mode);
 	}
 	o = step((int64_t)(SPEC_CMD_TIMEOUT_MS + 1) * TICK_US, &s);
@@ -160,8 +161,8 @@ static void expect_fault(const struct motor_sample *s, int32_t bit, const char *
 	const struct ctl_output o = one_sample(s);
 
 	if (!(o.faults & bit) || o.mode != CTL_FAULT)
-		fail_msg("%s: want FAULT with bit 0x%x in the same tick, got mode %d faults 0x%x", what,
-			 (unsigned)bit, o.mode, (unsigned)o.faults);
+		fail_msg("%s: want FAULT with bit 0x%x in the same tick, got mode %d faults 0x%x",
+		         what, (unsigned)bit, o.mode, (unsigned)o.faults);
 	assert_off(&o);
 }
 
@@ -171,7 +172,7 @@ static void expect_no_fault(const struct motor_sample *s, int32_t bit, const cha
 
 	if (o.faults & bit)
 		fail_msg("%s: fault bit 0x%x set inside the limit (mode %d faults 0x%x)", what,
-			 (unsigned)bit, o.mode, (unsigned)o.faults);
+		         (unsigned)bit, o.mode, (unsigned)o.faults);
 }
 
 static void test_overcurrent_just_below_and_just_above_the_limit(void **state)
@@ -220,9 +221,9 @@ static void test_hal_driver_faults_latch_their_own_fault(void **state)
 		int32_t want;
 		const char *what;
 	} map[] = {
-		{HAL_FAULT_DRIVER_TIMEOUT, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, "driver timeout"},
-		{HAL_FAULT_DRIVER, OMNI4_MOTORS_T_FAULT_DRIVER, "driver fault"},
-		{HAL_FAULT_BUS, OMNI4_MOTORS_T_FAULT_BUS, "bus off"},
+	    {HAL_FAULT_DRIVER_TIMEOUT, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, "driver timeout"},
+	    {HAL_FAULT_DRIVER, OMNI4_MOTORS_T_FAULT_DRIVER, "driver fault"},
+	    {HAL_FAULT_BUS, OMNI4_MOTORS_T_FAULT_BUS, "bus off"},
 	};
 
 	for (size_t k = 0; k < sizeof(map) / sizeof(map[0]); k++) {
@@ -232,8 +233,8 @@ static void test_hal_driver_faults_latch_their_own_fault(void **state)
 		const struct ctl_output o = one_sample(&s);
 
 		if (o.mode != CTL_FAULT || o.faults != map[k].want)
-			fail_msg("%s: want FAULT with 0x%x only, got mode %d faults 0x%x", map[k].what,
-				 (unsigned)map[k].want, o.mode, (unsigned)o.faults);
+			fail_msg("%s: want FAULT with 0x%x only, got mode %d faults 0x%x",
+			         map[k].what, (unsigned)map[k].want, o.mode, (unsigned)o.faults);
 		assert_off(&o);
 	}
 }
@@ -303,10 +304,12 @@ static void test_encoder_jump_bound_grows_with_the_time_since_the_last_reading(v
 		for (int sign = -1; sign <= 1; sign += 2) {
 			if (jump_after_gap(sign * (max_step - 0.05), missing))
 				fail_msg("step %.2f rad/s after 20 ms (%s) tripped ENCODER",
-					 sign * (max_step - 0.05), missing ? "no readings" : "late tick");
+				         sign * (max_step - 0.05),
+				         missing ? "no readings" : "late tick");
 			if (!jump_after_gap(sign * (max_step + 0.05), missing))
 				fail_msg("step %.2f rad/s after 20 ms (%s) did not trip ENCODER",
-					 sign * (max_step + 0.05), missing ? "no readings" : "late tick");
+				         sign * (max_step + 0.05),
+				         missing ? "no readings" : "late tick");
 		}
 	}
 }
@@ -337,7 +340,8 @@ static void test_encoder_residual_over_0_5_m_s_for_50_ms(void **state)
 	const int neg = residual_fault_tick(-(SPEC_RESIDUAL_M_S + 0.01));
 
 	print_message("residual 0.49 m/s: fault at %d (none = -1); 0.51 m/s: at tick %d; "
-		      "-0.51 m/s: at tick %d\n", below, above, neg);
+	              "-0.51 m/s: at tick %d\n",
+	              below, above, neg);
 	assert_int_equal(below, -1);
 	/* over the limit from tick 1: the 50 ms are complete at tick 50 */
 	assert_int_equal(above, SPEC_RESIDUAL_MS);
@@ -418,7 +422,8 @@ static void test_overcurrent_through_the_sim_hal_without_noise(void **state)
 
 	config_defaults(&cfg);
 	for (int above = 0; above <= 1; above++) {
-		struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, false, NULL, err, sizeof(err));
+		struct simrun *sr =
+		    simrun_create(&cfg, &cfg.ctl.model, false, NULL, err, sizeof(err));
 		struct simrun_stats st;
 
 		assert_non_null(sr);
@@ -482,20 +487,20 @@ static void test_pi_integrator_stops_while_the_output_saturates(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_watchdog_trips_one_tick_after_exactly_cmd_timeout),
-		cmocka_unit_test(test_watchdog_commands_exactly_cmd_timeout_apart_never_trip),
-		cmocka_unit_test(test_overcurrent_just_below_and_just_above_the_limit),
-		cmocka_unit_test(test_current_sensor_rail_at_10_2_A),
-		cmocka_unit_test(test_hal_driver_faults_latch_their_own_fault),
-		cmocka_unit_test(test_supply_sag_below_9_V),
-		cmocka_unit_test(test_encoder_jump_just_below_and_just_above_5000_rad_s2),
-		cmocka_unit_test(test_encoder_jump_bound_grows_with_the_time_since_the_last_reading),
-		cmocka_unit_test(test_encoder_residual_over_0_5_m_s_for_50_ms),
-		cmocka_unit_test(test_driver_silent_faults_in_the_same_tick),
-		cmocka_unit_test(test_estop_disables_outputs_in_the_same_tick),
-		cmocka_unit_test(test_voltage_command_at_and_beyond_the_supply),
-		cmocka_unit_test(test_overcurrent_through_the_sim_hal_without_noise),
-		cmocka_unit_test(test_pi_integrator_stops_while_the_output_saturates),
+	    cmocka_unit_test(test_watchdog_trips_one_tick_after_exactly_cmd_timeout),
+	    cmocka_unit_test(test_watchdog_commands_exactly_cmd_timeout_apart_never_trip),
+	    cmocka_unit_test(test_overcurrent_just_below_and_just_above_the_limit),
+	    cmocka_unit_test(test_current_sensor_rail_at_10_2_A),
+	    cmocka_unit_test(test_hal_driver_faults_latch_their_own_fault),
+	    cmocka_unit_test(test_supply_sag_below_9_V),
+	    cmocka_unit_test(test_encoder_jump_just_below_and_just_above_5000_rad_s2),
+	    cmocka_unit_test(test_encoder_jump_bound_grows_with_the_time_since_the_last_reading),
+	    cmocka_unit_test(test_encoder_residual_over_0_5_m_s_for_50_ms),
+	    cmocka_unit_test(test_driver_silent_faults_in_the_same_tick),
+	    cmocka_unit_test(test_estop_disables_outputs_in_the_same_tick),
+	    cmocka_unit_test(test_voltage_command_at_and_beyond_the_supply),
+	    cmocka_unit_test(test_overcurrent_through_the_sim_hal_without_noise),
+	    cmocka_unit_test(test_pi_integrator_stops_while_the_output_saturates),
 	};
 
 	return cmocka_run_group_tests_name("ctl_boundaries", tests, NULL, NULL);

@@ -18,12 +18,12 @@
 #include "omni4_param_changed_t.h"
 
 /* docs/faults.md, "current-sense offset" rows */
-#define SPEC_SETTLE_MS 50          /* bridges off this long before a reading counts */
-#define SPEC_SAMPLES 400           /* readings per channel in one measurement */
-#define SPEC_LIMIT_A 0.25          /* an offset beyond it: FAULT CURRENT_SENSOR */
-#define SPEC_CHANGE_MIN_A 0.005    /* a new set needs a channel moved by more than 5 mA ... */
-#define SPEC_CHANGE_SIGMAS 5.0     /* ... and by more than 5 standard errors */
-#define SPEC_CURRENT_MAX_A 5.0     /* over-current: > current_max_a, 5 A */
+#define SPEC_SETTLE_MS 50       /* bridges off this long before a reading counts */
+#define SPEC_SAMPLES 400        /* readings per channel in one measurement */
+#define SPEC_LIMIT_A 0.25       /* an offset beyond it: FAULT CURRENT_SENSOR */
+#define SPEC_CHANGE_MIN_A 0.005 /* a new set needs a channel moved by more than 5 mA ... */
+#define SPEC_CHANGE_SIGMAS 5.0  /* ... and by more than 5 standard errors */
+#define SPEC_CURRENT_MAX_A 5.0  /* over-current: > current_max_a, 5 A */
 #define SPEC_SUPPLY_V 12.0
 #define TICK_US 1000
 /* The first set at start-up: readings from 50 ms on, the 400th at 449 ms. */
@@ -37,10 +37,10 @@ static const int32_t OC = OMNI4_MOTORS_T_FAULT_OVERCURRENT;
 static struct ctl_cal_cfg spec_cfg(void)
 {
 	return (struct ctl_cal_cfg){.samples = SPEC_SAMPLES,
-				    .settle_us = SPEC_SETTLE_MS * 1000,
-				    .limit_a = (float)SPEC_LIMIT_A,
-				    .change_min_a = (float)SPEC_CHANGE_MIN_A,
-				    .change_sigmas = (float)SPEC_CHANGE_SIGMAS};
+	                            .settle_us = SPEC_SETTLE_MS * 1000,
+	                            .limit_a = (float)SPEC_LIMIT_A,
+	                            .change_min_a = (float)SPEC_CHANGE_MIN_A,
+	                            .change_sigmas = (float)SPEC_CHANGE_SIGMAS};
 }
 
 static void noisy(struct rng *g, const double c[4], double sigma, float out[4])
@@ -481,7 +481,7 @@ static int fake_read(void *ctx, struct motor_sample *out)
 }
 
 static const struct motor_hal_ops fake_ops = {
-	.enable = fake_enable, .write = fake_write, .read = fake_read};
+    .enable = fake_enable, .write = fake_write, .read = fake_read};
 
 static struct fw g_fw;
 static struct fake_motor g_motor;
@@ -539,7 +539,7 @@ static omni4_param_changed_t encode_decode(const struct log_entry *e)
 }
 
 static void assert_key(const omni4_param_changed_t *m, int i, const char *key, const char *old,
-		       const char *value)
+                       const char *value)
 {
 	assert_true(i < m->n);
 	assert_string_equal(m->keys[i], key);
@@ -555,7 +555,8 @@ static void test_announcement_names_the_first_tick_and_the_values(void **state)
 	ctl_settings_defaults(&cfg);
 	g_motor = (struct fake_motor){.cur = {0.05, -0.05, 0.03, -0.02}};
 	assert_int_equal(fw_init(&g_fw, &cfg, (struct motor_hal){.ops = &fake_ops, .ctx = &g_motor},
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	                         (struct line_hal){.ops = &line_none_ops}),
+	                 0);
 	/* Two measurements: the first set at 449 ms, the second (unchanged) dropped at 849 ms. */
 	struct ring_view v = run_loop(0, SPEC_SETTLE_MS + 2 * SPEC_SAMPLES);
 
@@ -609,7 +610,8 @@ static void test_announcement_names_the_channels_beyond_the_limit(void **state)
 	ctl_settings_defaults(&cfg);
 	g_motor = (struct fake_motor){.cur = {-0.4, 0.1, 0, 0.3}};
 	assert_int_equal(fw_init(&g_fw, &cfg, (struct motor_hal){.ops = &fake_ops, .ctx = &g_motor},
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	                         (struct line_hal){.ops = &line_none_ops}),
+	                 0);
 	struct ring_view v = run_loop(0, SPEC_SETTLE_MS + 2 * SPEC_SAMPLES);
 
 	assert_int_equal(v.notices, 1);
@@ -641,20 +643,20 @@ static void test_announcement_names_the_channels_beyond_the_limit(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_block_mean_of_constants_plus_noise),
-		cmocka_unit_test(test_block_drive_aborts_the_measurement),
-		cmocka_unit_test(test_block_counts_readings_not_ticks),
-		cmocka_unit_test(test_start_up_set_after_settle_time_and_n_readings),
-		cmocka_unit_test(test_start_up_set_counts_readings),
-		cmocka_unit_test(test_commands_before_calibration_and_drive_aborts_it),
-		cmocka_unit_test(test_bad_reading_restarts_the_measurement),
-		cmocka_unit_test(test_offset_limit_just_inside_and_just_outside),
-		cmocka_unit_test(test_overcurrent_check_sees_the_offset_subtracted),
-		cmocka_unit_test(test_recalibration_only_past_5_mA),
-		cmocka_unit_test(test_recalibration_does_not_follow_noise),
-		cmocka_unit_test(test_offset_fault_clears_only_after_a_good_set),
-		cmocka_unit_test(test_announcement_names_the_first_tick_and_the_values),
-		cmocka_unit_test(test_announcement_names_the_channels_beyond_the_limit),
+	    cmocka_unit_test(test_block_mean_of_constants_plus_noise),
+	    cmocka_unit_test(test_block_drive_aborts_the_measurement),
+	    cmocka_unit_test(test_block_counts_readings_not_ticks),
+	    cmocka_unit_test(test_start_up_set_after_settle_time_and_n_readings),
+	    cmocka_unit_test(test_start_up_set_counts_readings),
+	    cmocka_unit_test(test_commands_before_calibration_and_drive_aborts_it),
+	    cmocka_unit_test(test_bad_reading_restarts_the_measurement),
+	    cmocka_unit_test(test_offset_limit_just_inside_and_just_outside),
+	    cmocka_unit_test(test_overcurrent_check_sees_the_offset_subtracted),
+	    cmocka_unit_test(test_recalibration_only_past_5_mA),
+	    cmocka_unit_test(test_recalibration_does_not_follow_noise),
+	    cmocka_unit_test(test_offset_fault_clears_only_after_a_good_set),
+	    cmocka_unit_test(test_announcement_names_the_first_tick_and_the_values),
+	    cmocka_unit_test(test_announcement_names_the_channels_beyond_the_limit),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

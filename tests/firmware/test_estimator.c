@@ -20,8 +20,8 @@
 #define DT 1e-3
 #define TICK_US 1000
 #define PI 3.14159265358979323846
-#define VERR_SLIP 0.015 /* velocity error during a slip: measured 0.006 m/s */
-#define MEASURED_DS 1e-7  /* camera update vs batch Kalman, state: measured 3.6e-8 */
+#define VERR_SLIP 0.015    /* velocity error during a slip: measured 0.006 m/s */
+#define MEASURED_DS 1e-7   /* camera update vs batch Kalman, state: measured 3.6e-8 */
 #define MEASURED_DP 1.3e-7 /* ... covariance, relative: measured 4.3e-8 */
 
 static const struct model_params *P3 = &model_params_table3;
@@ -109,7 +109,8 @@ static void test_pure_rotation_closed_form(void **state)
 	struct model_ss ss;
 
 	dyn_state_space(P3, &ss);
-	const double b = 4.0 * (ss.B[2][0] * 4.0) /* four wheels at 4 V */, c = -ss.K[2], A = ss.A[2];
+	const double b = 4.0 * (ss.B[2][0] * 4.0) /* four wheels at 4 V */, c = -ss.K[2],
+	             A = ss.A[2];
 	const double wss = -(b - c) / A;
 	double worst = 0.0;
 
@@ -156,9 +157,9 @@ static void test_set_model(void **state)
 
 /* ---- against the plant --------------------------------------------------------------------- */
 
-#define CAM_PERIOD 40     /* 25 Hz */
-#define WHEEL_NOISE 0.2   /* rad/s: about the quantisation of 10240 cpr at 1 kHz */
-#define CAM_POS 0.01      /* m */
+#define CAM_PERIOD 40   /* 25 Hz */
+#define WHEEL_NOISE 0.2 /* rad/s: about the quantisation of 10240 cpr at 1 kHz */
+#define CAM_POS 0.01    /* m */
 #define CAM_TH (3.0 * PI / 180.0)
 
 struct frame {
@@ -171,16 +172,16 @@ struct sim {
 	struct plant pl;
 	struct est *e;
 	struct rng g;
-	int n;            /* ticks so far */
-	int latency;      /* camera latency [ticks] */
-	bool camera;      /* camera on */
+	int n;       /* ticks so far */
+	int latency; /* camera latency [ticks] */
+	bool camera; /* camera on */
 	struct frame q[8];
 	int nq;
-	double slip_rad_s[4]; /* added to the wheel readings */
-	double brake;         /* > 0: the body's velocity scaled by (1 - brake) each tick */
-	int rc_last;          /* est_camera's last return */
+	double slip_rad_s[4];  /* added to the wheel readings */
+	double brake;          /* > 0: the body's velocity scaled by (1 - brake) each tick */
+	int rc_last;           /* est_camera's last return */
 	struct est_output pre; /* the output of the last tick before its camera poses */
-	double cam_err2;      /* sum of the raw camera's squared position error */
+	double cam_err2;       /* sum of the raw camera's squared position error */
 	double cam_th2;
 	int cam_n;
 };
@@ -205,7 +206,8 @@ static bool profile(int n, double u[4])
 	const double g[4] = {0.53, 0.37, 0.61, 0.43};
 
 	for (int j = 0; j < 4; j++)
-		u[j] = 7.0 * sin(2.0 * PI * f[j] * t + j) + 3.0 * sin(2.0 * PI * g[j] * t + 2.0 * j);
+		u[j] =
+		    7.0 * sin(2.0 * PI * f[j] * t + j) + 3.0 * sin(2.0 * PI * g[j] * t + 2.0 * j);
 	const int phase = (n / 1000) % 23;
 
 	if (phase == 7) /* a second with the bridges off */
@@ -230,7 +232,8 @@ static void sim_tick(struct sim *S, const double u[4], bool driven)
 	plant_wheel_speeds(&S->pl, w);
 	for (int j = 0; j < 4; j++) {
 		in.volts[j] = driven ? (float)u[j] : 0.0f;
-		in.wheel_rad_s[j] = (float)(w[j] + S->slip_rad_s[j] + rng_normal(&S->g, WHEEL_NOISE));
+		in.wheel_rad_s[j] =
+		    (float)(w[j] + S->slip_rad_s[j] + rng_normal(&S->g, WHEEL_NOISE));
 	}
 	est_step(S->e, &in);
 	S->pre = *est_get(S->e);
@@ -386,10 +389,11 @@ static void test_camera_update_is_batch_kalman(void **state)
 			P0[i][j] = E.P[i][j];
 	}
 	assert_true(fabs(P0[0][2]) > 1e-6 && fabs(P0[1][2]) > 1e-6); /* correlated */
-	const double z[3] = {S.pl.pose[0] + 0.005, S.pl.pose[1] - 0.004, wrap_pi(S.pl.pose[2] + 0.02)};
+	const double z[3] = {S.pl.pose[0] + 0.005, S.pl.pose[1] - 0.004,
+	                     wrap_pi(S.pl.pose[2] + 0.02)};
 	const double r[3] = {set.cam_pos_noise * set.cam_pos_noise,
-			     set.cam_pos_noise * set.cam_pos_noise,
-			     set.cam_theta_noise * set.cam_theta_noise};
+	                     set.cam_pos_noise * set.cam_pos_noise,
+	                     set.cam_theta_noise * set.cam_theta_noise};
 	const double nu[3] = {z[0] - s0[0], z[1] - s0[1], wrap_pi(z[2] - s0[2])};
 
 	/* K^T = S^-1 (H P)  by Gauss-Jordan on [S | H P] column by column */
@@ -429,7 +433,8 @@ static void test_camera_update_is_batch_kalman(void **state)
 		}
 	}
 	printf("camera update vs batch Kalman: state %.3g, covariance %.3g (relative to "
-	       "sqrt(Pii Pjj))\n", ds, dP);
+	       "sqrt(Pii Pjj))\n",
+	       ds, dP);
 	assert_true(ds < MEASURED_DS);
 	assert_true(dP < MEASURED_DP);
 }
@@ -508,7 +513,8 @@ static void test_slip(void **state)
 		if (at < 0 && (est_get(&E)->flags & EST_FLAG_SLIP))
 			at = k + 1;
 		assert_false(est_get(&E)->flags & EST_FLAG_COLLISION);
-		verr = fmax(verr, hypot(est_get(&E)->vel[0] - S.pl.x[0], est_get(&E)->vel[1] - S.pl.x[1]));
+		verr = fmax(
+		    verr, hypot(est_get(&E)->vel[0] - S.pl.x[0], est_get(&E)->vel[1] - S.pl.x[1]));
 	}
 	S.slip_rad_s[2] = 0.0;
 	for (int k = 0; k < 20; k++, n++)
@@ -601,8 +607,8 @@ static void rest_ticks(struct est *e, int from, int count)
 	const double u[4] = {0, 0, 0, 0};
 
 	for (int n = from; n < from + count; n++) {
-		struct est_input in = {.utime = (int64_t)n * TICK_US, .driven = true,
-				       .have_wheels = true};
+		struct est_input in = {
+		    .utime = (int64_t)n * TICK_US, .driven = true, .have_wheels = true};
 
 		(void)u;
 		est_step(e, &in);
@@ -711,19 +717,19 @@ static void test_nan_inputs(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_drive_then_coast_closed_form),
-		cmocka_unit_test(test_pure_rotation_closed_form),
-		cmocka_unit_test(test_set_model),
-		cmocka_unit_test(test_plant_camera_40ms),
-		cmocka_unit_test(test_replay_equals_on_time),
-		cmocka_unit_test(test_camera_update_is_batch_kalman),
-		cmocka_unit_test(test_camera_dropout),
-		cmocka_unit_test(test_slip),
-		cmocka_unit_test(test_collision),
-		cmocka_unit_test(test_no_false_alarms_10_min),
-		cmocka_unit_test(test_theta_wrap),
-		cmocka_unit_test(test_gating_and_age),
-		cmocka_unit_test(test_nan_inputs),
+	    cmocka_unit_test(test_drive_then_coast_closed_form),
+	    cmocka_unit_test(test_pure_rotation_closed_form),
+	    cmocka_unit_test(test_set_model),
+	    cmocka_unit_test(test_plant_camera_40ms),
+	    cmocka_unit_test(test_replay_equals_on_time),
+	    cmocka_unit_test(test_camera_update_is_batch_kalman),
+	    cmocka_unit_test(test_camera_dropout),
+	    cmocka_unit_test(test_slip),
+	    cmocka_unit_test(test_collision),
+	    cmocka_unit_test(test_no_false_alarms_10_min),
+	    cmocka_unit_test(test_theta_wrap),
+	    cmocka_unit_test(test_gating_and_age),
+	    cmocka_unit_test(test_nan_inputs),
 	};
 
 	printf("sizeof(struct est) %zu bytes on this host\n", sizeof(struct est));

@@ -21,16 +21,16 @@
 /* docs/ini-keys.md defaults, docs/design.md (Table III robot), docs/faults.md */
 #define SPEC_DT_S 1e-3
 #define TICK_US 1000
-#define SPEC_KP 20.0            /* V/(m/s) */
-#define SPEC_KI 200.0           /* V/m */
-#define SPEC_ACC_LIN 3.0        /* m/s^2 */
-#define SPEC_ACC_ROT 30.0       /* rad/s^2 */
+#define SPEC_KP 20.0      /* V/(m/s) */
+#define SPEC_KI 200.0     /* V/m */
+#define SPEC_ACC_LIN 3.0  /* m/s^2 */
+#define SPEC_ACC_ROT 30.0 /* rad/s^2 */
 #define SPEC_CMD_TIMEOUT_US 200000
 #define SPEC_STOP_RAMP_TICKS 200 /* stop_ramp_s 0.2 */
 #define SPEC_SUPPLY_V 12.0
-#define SPEC_SUPPLY_LOW_V 8.0   /* below supply_min_v 9 V: FAULT SUPPLY */
-#define SPEC_D 0.089            /* m */
-#define SPEC_R 0.0325           /* m */
+#define SPEC_SUPPLY_LOW_V 8.0 /* below supply_min_v 9 V: FAULT SUPPLY */
+#define SPEC_D 0.089          /* m */
+#define SPEC_R 0.0325         /* m */
 
 /* ---- the only places that know how a controller is built and what is inside it ---------- */
 
@@ -71,26 +71,40 @@ static double clampd(double x, double lim)
 
 enum from { F_IDLE, F_VELOCITY, F_VOLTAGE, F_STOP, F_COAST, F_FAULT, F_ESTOP, N_FROM };
 enum trig {
-	T_IDLE, T_VELOCITY, T_VOLTAGE, T_COAST, T_CLEAR, T_FAULT, T_ESTOP, T_WATCHDOG,
+	T_IDLE,
+	T_VELOCITY,
+	T_VOLTAGE,
+	T_COAST,
+	T_CLEAR,
+	T_FAULT,
+	T_ESTOP,
+	T_WATCHDOG,
 	T_VELOCITY_SAME, /* the target in force again (keep-alive) */
-	T_VOLTAGE_SAME, /* (the stop ramp's: 0 V) */
-	T_CLEAR_BUSY, /* CLEAR_FAULT while the cause persists */
+	T_VOLTAGE_SAME,  /* (the stop ramp's: 0 V) */
+	T_CLEAR_BUSY,    /* CLEAR_FAULT while the cause persists */
 	N_TRIG
 };
-static const char *const from_name[N_FROM] = {"IDLE", "VELOCITY", "VOLTAGE", "VOLTAGE(stop)",
-					      "COAST", "FAULT", "ESTOP"};
-static const char *const trig_name[N_TRIG] = {
-	"cmd IDLE", "cmd VELOCITY", "cmd VOLTAGE", "cmd COAST", "cmd CLEAR_FAULT", "latched fault",
-	"e-stop", "watchdog", "cmd VELOCITY (same target)", "cmd VOLTAGE (same target)",
-	"cmd CLEAR_FAULT (cause present)"};
+static const char *const from_name[N_FROM] = {"IDLE",  "VELOCITY", "VOLTAGE", "VOLTAGE(stop)",
+                                              "COAST", "FAULT",    "ESTOP"};
+static const char *const trig_name[N_TRIG] = {"cmd IDLE",
+                                              "cmd VELOCITY",
+                                              "cmd VOLTAGE",
+                                              "cmd COAST",
+                                              "cmd CLEAR_FAULT",
+                                              "latched fault",
+                                              "e-stop",
+                                              "watchdog",
+                                              "cmd VELOCITY (same target)",
+                                              "cmd VOLTAGE (same target)",
+                                              "cmd CLEAR_FAULT (cause present)"};
 
 /* The moving robot (docs/modes.md), and the targets. */
 static const double X_MOVING[3] = {0.4, -0.2, 1.5};
-static const double X_TARGET_A[3] = {0.7, 0.0, -0.5};  /* the from-state's (moving) */
-static const double X_TARGET_B[3] = {0.1, 0.5, 2.5};   /* the trigger's (moving) */
-static const double X_GO[3] = {0.3, -0.1, 1.0};        /* the trigger's (at rest) */
-static const double U_A[4] = {2.0, -1.5, 1.0, -2.5};   /* the from-state's (moving) */
-static const double U_B[4] = {-1.0, 3.0, 1.5, -0.5};   /* the trigger's */
+static const double X_TARGET_A[3] = {0.7, 0.0, -0.5}; /* the from-state's (moving) */
+static const double X_TARGET_B[3] = {0.1, 0.5, 2.5};  /* the trigger's (moving) */
+static const double X_GO[3] = {0.3, -0.1, 1.0};       /* the trigger's (at rest) */
+static const double U_A[4] = {2.0, -1.5, 1.0, -2.5};  /* the from-state's (moving) */
+static const double U_B[4] = {-1.0, 3.0, 1.5, -0.5};  /* the trigger's */
 #define RAMP_A_S 0.05
 #define RAMP_B_S 0.1
 #define RAMP_B_TICKS 100
@@ -105,21 +119,21 @@ struct rig {
 	double x[3];         /* the velocity the readings' wheel speeds encode */
 	double vel_target[3];
 	double volt_target[4]; /* F_VOLTAGE: its target; F_STOP: the stop ramp's, 0 V */
-	int64_t trip_t;      /* F_STOP: the watchdog's trip tick */
-	float trip_from[4];  /* F_STOP: the output before it */
+	int64_t trip_t;        /* F_STOP: the watchdog's trip tick */
+	float trip_from[4];    /* F_STOP: the output before it */
 };
 
 static char cell[160];
 static int cells_asserted;
 
-#define CHECK(cond, ...)                                                                   \
-	do {                                                                               \
-		if (!(cond)) {                                                             \
-			print_error("%s: ", cell);                                         \
-			print_error(__VA_ARGS__);                                          \
-			print_error("\n");                                                 \
-			fail_msg("%s:%d: %s", __FILE__, __LINE__, #cond);                  \
-		}                                                                          \
+#define CHECK(cond, ...)                                                                           \
+	do {                                                                                       \
+		if (!(cond)) {                                                                     \
+			print_error("%s: ", cell);                                                 \
+			print_error(__VA_ARGS__);                                                  \
+			print_error("\n");                                                         \
+			fail_msg("%s:%d: %s", __FILE__, __LINE__, #cond);                          \
+		}                                                                                  \
 	} while (0)
 
 static void near(double got, double want, double tol, const char *what, int j)
@@ -232,7 +246,8 @@ static void enter(struct rig *r, enum from f, bool moving)
 		double ref[3], acc[3], integ[4], most_i = 0, most_u = 0, most_off = 0;
 
 		ctl_state(&r->c, ref, acc, integ);
-		/* plain comparisons, not fmax: see test_ctl_boundaries (aarch64 GCC 12's vectoriser) */
+		/* plain comparisons, not fmax: see test_ctl_boundaries (aarch64 GCC 12's
+		 * vectoriser) */
 		for (int j = 0; j < 4; j++) {
 			if (fabs(integ[j]) > most_i)
 				most_i = fabs(integ[j]);
@@ -251,8 +266,19 @@ static void enter(struct rig *r, enum from f, bool moving)
 /* ---- the rules (docs/modes.md, "The rules") -------------------------------------------- */
 
 enum rule {
-	R_NA, R_SAME, R_OFF, R_VEL_START, R_VEL_RETARGET, R_RAMP, R_KEEP, R_STOP, R_STOP_GOES_ON,
-	R_COAST_TIMEOUT, R_NOT_WATCHED, R_REJECT, R_CLEAR,
+	R_NA,
+	R_SAME,
+	R_OFF,
+	R_VEL_START,
+	R_VEL_RETARGET,
+	R_RAMP,
+	R_KEEP,
+	R_STOP,
+	R_STOP_GOES_ON,
+	R_COAST_TIMEOUT,
+	R_NOT_WATCHED,
+	R_REJECT,
+	R_CLEAR,
 };
 
 struct rule_of_cell {
@@ -268,27 +294,83 @@ struct rule_of_cell {
 
 /* The matrix of docs/modes.md. */
 static const struct rule_of_cell MATRIX[N_FROM][N_TRIG] = {
-	[F_IDLE] = {SAME(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
-		    OFF(CTL_COAST), SAME(CTL_IDLE), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		    {R_NOT_WATCHED, CTL_IDLE, 0}, NA, NA, NA},
-	[F_VELOCITY] = {OFF(CTL_IDLE), {R_VEL_RETARGET, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
-			OFF(CTL_COAST), SAME(CTL_VELOCITY), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-			{R_STOP, CTL_VOLTAGE, 0}, SAME(CTL_VELOCITY), NA, NA},
-	[F_VOLTAGE] = {OFF(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
-		       OFF(CTL_COAST), SAME(CTL_VOLTAGE), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		       {R_STOP, CTL_VOLTAGE, 0}, NA, {R_KEEP, CTL_VOLTAGE, 0}, NA},
-	[F_STOP] = {OFF(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
-		    OFF(CTL_COAST), SAME(CTL_VOLTAGE), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		    {R_STOP_GOES_ON, CTL_VOLTAGE, 0}, NA, {R_RAMP, CTL_VOLTAGE, 0}, NA},
-	[F_COAST] = {OFF(CTL_IDLE), {R_VEL_START, CTL_VELOCITY, 0}, {R_RAMP, CTL_VOLTAGE, 0},
-		     SAME(CTL_COAST), SAME(CTL_COAST), OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		     {R_COAST_TIMEOUT, CTL_IDLE, 0}, NA, NA, NA},
-	[F_FAULT] = {REJ(CTL_FAULT, EPERM), REJ(CTL_FAULT, EPERM), REJ(CTL_FAULT, EPERM),
-		     REJ(CTL_FAULT, EPERM), {R_CLEAR, CTL_IDLE, 0}, OFF(CTL_FAULT), OFF(CTL_ESTOP),
-		     {R_NOT_WATCHED, CTL_FAULT, 0}, NA, NA, REJ(CTL_FAULT, EBUSY)},
-	[F_ESTOP] = {REJ(CTL_ESTOP, EPERM), REJ(CTL_ESTOP, EPERM), REJ(CTL_ESTOP, EPERM),
-		     REJ(CTL_ESTOP, EPERM), {R_CLEAR, CTL_IDLE, 0}, OFF(CTL_ESTOP), OFF(CTL_ESTOP),
-		     {R_NOT_WATCHED, CTL_ESTOP, 0}, NA, NA, REJ(CTL_ESTOP, EBUSY)},
+    [F_IDLE] = {SAME(CTL_IDLE),
+                {R_VEL_START, CTL_VELOCITY, 0},
+                {R_RAMP, CTL_VOLTAGE, 0},
+                OFF(CTL_COAST),
+                SAME(CTL_IDLE),
+                OFF(CTL_FAULT),
+                OFF(CTL_ESTOP),
+                {R_NOT_WATCHED, CTL_IDLE, 0},
+                NA,
+                NA,
+                NA},
+    [F_VELOCITY] = {OFF(CTL_IDLE),
+                    {R_VEL_RETARGET, CTL_VELOCITY, 0},
+                    {R_RAMP, CTL_VOLTAGE, 0},
+                    OFF(CTL_COAST),
+                    SAME(CTL_VELOCITY),
+                    OFF(CTL_FAULT),
+                    OFF(CTL_ESTOP),
+                    {R_STOP, CTL_VOLTAGE, 0},
+                    SAME(CTL_VELOCITY),
+                    NA,
+                    NA},
+    [F_VOLTAGE] = {OFF(CTL_IDLE),
+                   {R_VEL_START, CTL_VELOCITY, 0},
+                   {R_RAMP, CTL_VOLTAGE, 0},
+                   OFF(CTL_COAST),
+                   SAME(CTL_VOLTAGE),
+                   OFF(CTL_FAULT),
+                   OFF(CTL_ESTOP),
+                   {R_STOP, CTL_VOLTAGE, 0},
+                   NA,
+                   {R_KEEP, CTL_VOLTAGE, 0},
+                   NA},
+    [F_STOP] = {OFF(CTL_IDLE),
+                {R_VEL_START, CTL_VELOCITY, 0},
+                {R_RAMP, CTL_VOLTAGE, 0},
+                OFF(CTL_COAST),
+                SAME(CTL_VOLTAGE),
+                OFF(CTL_FAULT),
+                OFF(CTL_ESTOP),
+                {R_STOP_GOES_ON, CTL_VOLTAGE, 0},
+                NA,
+                {R_RAMP, CTL_VOLTAGE, 0},
+                NA},
+    [F_COAST] = {OFF(CTL_IDLE),
+                 {R_VEL_START, CTL_VELOCITY, 0},
+                 {R_RAMP, CTL_VOLTAGE, 0},
+                 SAME(CTL_COAST),
+                 SAME(CTL_COAST),
+                 OFF(CTL_FAULT),
+                 OFF(CTL_ESTOP),
+                 {R_COAST_TIMEOUT, CTL_IDLE, 0},
+                 NA,
+                 NA,
+                 NA},
+    [F_FAULT] = {REJ(CTL_FAULT, EPERM),
+                 REJ(CTL_FAULT, EPERM),
+                 REJ(CTL_FAULT, EPERM),
+                 REJ(CTL_FAULT, EPERM),
+                 {R_CLEAR, CTL_IDLE, 0},
+                 OFF(CTL_FAULT),
+                 OFF(CTL_ESTOP),
+                 {R_NOT_WATCHED, CTL_FAULT, 0},
+                 NA,
+                 NA,
+                 REJ(CTL_FAULT, EBUSY)},
+    [F_ESTOP] = {REJ(CTL_ESTOP, EPERM),
+                 REJ(CTL_ESTOP, EPERM),
+                 REJ(CTL_ESTOP, EPERM),
+                 REJ(CTL_ESTOP, EPERM),
+                 {R_CLEAR, CTL_IDLE, 0},
+                 OFF(CTL_ESTOP),
+                 OFF(CTL_ESTOP),
+                 {R_NOT_WATCHED, CTL_ESTOP, 0},
+                 NA,
+                 NA,
+                 REJ(CTL_ESTOP, EBUSY)},
 };
 
 /* The switch tick of rule OFF: bridges off, 0 V, integrals 0. */
@@ -321,16 +403,17 @@ static void check_twin(struct rig *a, struct rig *b, int n, int32_t ignore)
 		      "tick %d: faults 0x%x, without the trigger 0x%x", k, (unsigned)a->o.faults,
 		      (unsigned)b->o.faults);
 		for (int j = 0; j < 4; j++)
-			CHECK(a->o.volts[j] == b->o.volts[j], "tick %d: volts[%d] %.9g, without %.9g",
-			      k, j, a->o.volts[j], b->o.volts[j]);
+			CHECK(a->o.volts[j] == b->o.volts[j],
+			      "tick %d: volts[%d] %.9g, without %.9g", k, j, a->o.volts[j],
+			      b->o.volts[j]);
 		ctl_state(&a->c, ra, aa, ia);
 		ctl_state(&b->c, rb, ab, ib);
 		for (int i = 0; i < 3; i++)
-			CHECK(ra[i] == rb[i] && aa[i] == ab[i], "tick %d: reference[%d] %.9g, without %.9g",
-			      k, i, ra[i], rb[i]);
+			CHECK(ra[i] == rb[i] && aa[i] == ab[i],
+			      "tick %d: reference[%d] %.9g, without %.9g", k, i, ra[i], rb[i]);
 		for (int j = 0; j < 4; j++)
-			CHECK(ia[j] == ib[j], "tick %d: integral[%d] %.9g, without %.9g", k, j, ia[j],
-			      ib[j]);
+			CHECK(ia[j] == ib[j], "tick %d: integral[%d] %.9g, without %.9g", k, j,
+			      ia[j], ib[j]);
 	}
 }
 
@@ -340,7 +423,7 @@ static void check_twin(struct rig *a, struct rig *b, int n, int32_t ignore)
 static void check_vel_start(struct rig *a, const struct rig *before, const double target[3])
 {
 	const double max_step[3] = {SPEC_ACC_LIN * SPEC_DT_S, SPEC_ACC_LIN * SPEC_DT_S,
-				    SPEC_ACC_ROT * SPEC_DT_S};
+	                            SPEC_ACC_ROT * SPEC_DT_S};
 	double ref[3], acc[3], integ[4], want_ref[3], want_acc[3], step[3], u_ff[4];
 
 	ctl_state(&a->c, ref, acc, integ);
@@ -356,7 +439,8 @@ static void check_vel_start(struct rig *a, const struct rig *before, const doubl
 		const double e = ik(j, step); /* IK(ref) - r w = IK(x + step) - IK(x) */
 
 		near(integ[j], SPEC_KI * SPEC_DT_S * e, 1e-4, "integral (from 0)", j);
-		near(a->o.volts[j], u_ff[j] + SPEC_KP * e + SPEC_KI * SPEC_DT_S * e, 0.02, "volts", j);
+		near(a->o.volts[j], u_ff[j] + SPEC_KP * e + SPEC_KI * SPEC_DT_S * e, 0.02, "volts",
+		     j);
 	}
 	CHECK(a->o.enable, "bridges off in VELOCITY");
 
@@ -379,18 +463,18 @@ static void check_vel_start(struct rig *a, const struct rig *before, const doubl
 		CHECK(a->o.mode == CTL_VELOCITY, "tick %d: mode %d", k, a->o.mode);
 		for (int j = 0; j < 4; j++)
 			CHECK(fabsf(a->o.volts[j] - f.o.volts[j]) <= 1e-6f,
-			      "tick %d: volts[%d] %.9g, a fresh controller %.9g (history leaks in)", k,
-			      j, a->o.volts[j], f.o.volts[j]);
+			      "tick %d: volts[%d] %.9g, a fresh controller %.9g (history leaks in)",
+			      k, j, a->o.volts[j], f.o.volts[j]);
 	}
 }
 
 /* VEL-RETARGET at the switch tick: the reference goes on from where it was, the integrals go
  * on integrating. */
 static void check_vel_retarget(const struct rig *a, const double ref0[3], const double integ0[4],
-			       const double target[3])
+                               const double target[3])
 {
 	const double max_step[3] = {SPEC_ACC_LIN * SPEC_DT_S, SPEC_ACC_LIN * SPEC_DT_S,
-				    SPEC_ACC_ROT * SPEC_DT_S};
+	                            SPEC_ACC_ROT * SPEC_DT_S};
 	double ref[3], acc[3], integ[4], want_ref[3];
 
 	ctl_state(&a->c, ref, acc, integ);
@@ -432,7 +516,8 @@ static void check_stop_ramp(struct rig *a, int64_t trip_t, const float u0[4])
 
 		CHECK(a->o.faults & CTL_FAULT_CMD_TIMEOUT, "stop ramp tick %d: no CMD_TIMEOUT", k);
 		if (k >= SPEC_STOP_RAMP_TICKS) {
-			CHECK(a->o.mode == CTL_IDLE, "stop ramp over: mode %d, want IDLE", a->o.mode);
+			CHECK(a->o.mode == CTL_IDLE, "stop ramp over: mode %d, want IDLE",
+			      a->o.mode);
 			check_off(a);
 			return;
 		}
@@ -474,7 +559,7 @@ static void run_cell(enum from f, enum trig tr, bool moving)
 	if (want.rule == R_NA)
 		return;
 	snprintf(cell, sizeof(cell), "%s -> %s (%s)", from_name[f], trig_name[tr],
-		 moving ? "moving" : "at rest");
+	         moving ? "moving" : "at rest");
 	enter(&a, f, moving);
 	b = a;
 	before = a;
@@ -546,9 +631,9 @@ static void run_cell(enum from f, enum trig tr, bool moving)
 			for (int k = 0; k < 1000; k++) {
 				tick(&a);
 				CHECK(a.o.mode == want.mode && off(&a.o) &&
-					      !(a.o.faults & CTL_FAULT_CMD_TIMEOUT),
-				      "%d ms without commands: mode %d faults 0x%x", k + 1, a.o.mode,
-				      (unsigned)a.o.faults);
+				          !(a.o.faults & CTL_FAULT_CMD_TIMEOUT),
+				      "%d ms without commands: mode %d faults 0x%x", k + 1,
+				      a.o.mode, (unsigned)a.o.faults);
 			}
 			break;
 		}
@@ -690,15 +775,15 @@ static void test_every_cell_was_asserted(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_from_idle),
-		cmocka_unit_test(test_from_velocity),
-		cmocka_unit_test(test_from_voltage),
-		cmocka_unit_test(test_from_the_watchdog_stop_ramp),
-		cmocka_unit_test(test_from_coast),
-		cmocka_unit_test(test_from_fault),
-		cmocka_unit_test(test_from_estop),
-		cmocka_unit_test(test_every_cell_was_asserted),
-		cmocka_unit_test(test_a_tick_without_a_reading_keeps_the_cause),
+	    cmocka_unit_test(test_from_idle),
+	    cmocka_unit_test(test_from_velocity),
+	    cmocka_unit_test(test_from_voltage),
+	    cmocka_unit_test(test_from_the_watchdog_stop_ramp),
+	    cmocka_unit_test(test_from_coast),
+	    cmocka_unit_test(test_from_fault),
+	    cmocka_unit_test(test_from_estop),
+	    cmocka_unit_test(test_every_cell_was_asserted),
+	    cmocka_unit_test(test_a_tick_without_a_reading_keeps_the_cause),
 	};
 
 	return cmocka_run_group_tests_name("modes", tests, NULL, NULL);

@@ -59,8 +59,9 @@ static void last_reply(omni4_param_reply_t *r)
 {
 	for (int i = g_n_out - 1; i >= 0; i--)
 		if (!strcmp(g_out[i].channel, OMNI4_CHANNEL_PARAM_REPLY)) {
-			assert_int_equal(omni4_param_reply_t_decode(g_out[i].data, 0, (int)g_out[i].len, r),
-					 (int)g_out[i].len);
+			assert_int_equal(
+			    omni4_param_reply_t_decode(g_out[i].data, 0, (int)g_out[i].len, r),
+			    (int)g_out[i].len);
 			return;
 		}
 	fail_msg("no reply emitted");
@@ -123,14 +124,16 @@ static void setup_fw(const char *path, const char *secret, bool loop)
 
 	config_defaults(&g_cfg);
 	snprintf(g_cfg.fw.secret, sizeof(g_cfg.fw.secret), "%s", secret ? secret : "");
-	const struct sim_motor_config sc = sim_motor_config_from(&g_cfg.sim, false, &g_cfg.ctl.model,
-								 1.0 / g_cfg.ctl.rate_hz, g_cfg.ctl.limits.supply_v);
+	const struct sim_motor_config sc =
+	    sim_motor_config_from(&g_cfg.sim, false, &g_cfg.ctl.model, 1.0 / g_cfg.ctl.rate_hz,
+	                          g_cfg.ctl.limits.supply_v);
 
 	assert_int_equal(sim_motor_init(&g_sim, &sc), 0);
 	assert_int_equal(fw_init(&g_fw, &g_cfg.ctl, sim_motor_hal(&g_sim), lines), 0);
-	assert_int_equal(param_service_init(&g_ps, &g_fw, &g_cfg, path ? path : "/nonexistent/robot.ini",
-					    (struct param_out){.emit = capture}),
-			 0);
+	assert_int_equal(param_service_init(&g_ps, &g_fw, &g_cfg,
+	                                    path ? path : "/nonexistent/robot.ini",
+	                                    (struct param_out){.emit = capture}),
+	                 0);
 	g_ps.apply_timeout_us = 200000;
 	clear_out();
 	atomic_store(&g_loop_stop, false);
@@ -156,7 +159,7 @@ static int64_t g_next_id = 1000;
 
 /* Encode and handle one request; returns its id. keys/values: n entries (values may be NULL). */
 static int64_t request(int8_t op, int n, const char *const *keys, const char *const *values,
-		       const char *secret, const char *text)
+                       const char *secret, const char *text)
 {
 	char *k[PARAM_MAX_KEYS + 1], *v[PARAM_MAX_KEYS + 1];
 
@@ -164,9 +167,15 @@ static int64_t request(int8_t op, int n, const char *const *keys, const char *co
 		k[i] = (char *)keys[i];
 		v[i] = (char *)(values ? values[i] : "");
 	}
-	omni4_param_request_t q = {.utime = 1, .request_id = ++g_next_id, .op = op,
-				   .secret = (char *)(secret ? secret : ""), .n = n, .keys = k,
-				   .values = v, .name = "test.ini", .text = (char *)(text ? text : "")};
+	omni4_param_request_t q = {.utime = 1,
+	                           .request_id = ++g_next_id,
+	                           .op = op,
+	                           .secret = (char *)(secret ? secret : ""),
+	                           .n = n,
+	                           .keys = k,
+	                           .values = v,
+	                           .name = "test.ini",
+	                           .text = (char *)(text ? text : "")};
 	unsigned char buf[8192];
 	const int len = omni4_param_request_t_encode(buf, 0, sizeof(buf), &q);
 
@@ -190,7 +199,8 @@ static int8_t set1(const char *key, const char *value, char *message, size_t n)
 	return result;
 }
 
-/* ---- the key table and validation -------------------------------------------------------------- */
+/* ---- the key table and validation --------------------------------------------------------------
+ */
 
 /* The last reply has this result code (and is released). */
 static void expect_result(int8_t result)
@@ -235,8 +245,8 @@ static void test_table_model_keys_in_order(void **state)
 static void test_set_validates_like_the_ini_parser(void **state)
 {
 	(void)state;
-	static const char *const extra[] = {"abc", "", "1e400", "nan", "inf", "0x10", "2.5",
-					    "true", "off", "-1", "sim", "gpiod", "12abc"};
+	static const char *const extra[] = {"abc",  "",    "1e400", "nan", "inf",   "0x10", "2.5",
+	                                    "true", "off", "-1",    "sim", "gpiod", "12abc"};
 	int compared = 0, refused = 0;
 
 	for (int i = MODEL_PARAMS_COUNT; i < config_key_count(); i++) {
@@ -249,8 +259,10 @@ static void test_set_validates_like_the_ini_parser(void **state)
 
 			snprintf(values[nv++], 64, "%.17g", k->min);
 			snprintf(values[nv++], 64, "%.17g", k->max);
-			snprintf(values[nv++], 64, "%.17g", k->min - (k->type == CONFIG_INT ? 1 : 1e-9 * span + 1e-12));
-			snprintf(values[nv++], 64, "%.17g", k->max + (k->type == CONFIG_INT ? 1 : 1e-9 * span + 1e-12));
+			snprintf(values[nv++], 64, "%.17g",
+			         k->min - (k->type == CONFIG_INT ? 1 : 1e-9 * span + 1e-12));
+			snprintf(values[nv++], 64, "%.17g",
+			         k->max + (k->type == CONFIG_INT ? 1 : 1e-9 * span + 1e-12));
 		}
 		for (int j = 0; j < nv + (int)(sizeof(extra) / sizeof(extra[0])); j++) {
 			const char *v = j < nv ? values[j] : extra[j - nv];
@@ -260,8 +272,8 @@ static void test_set_validates_like_the_ini_parser(void **state)
 
 			config_defaults(&a);
 			config_defaults(&b);
-			const int len = snprintf(text, sizeof(text), "[%s]\n%s = %s\n", k->section,
-						 k->name, v);
+			const int len =
+			    snprintf(text, sizeof(text), "[%s]\n%s = %s\n", k->section, k->name, v);
 
 			assert_true(len > 0 && (size_t)len < sizeof(text));
 			const int ini = config_load_string(text, "t.ini", &a, &err);
@@ -271,8 +283,8 @@ static void test_set_validates_like_the_ini_parser(void **state)
 			if (!bus)
 				bus = config_check(&b, why, sizeof(why));
 			if ((ini == 0) != (bus == 0))
-				fail_msg("%s.%s = '%s': INI %d (%s), bus %d (%s)", k->section, k->name, v,
-					 ini, err.msg, bus, why);
+				fail_msg("%s.%s = '%s': INI %d (%s), bus %d (%s)", k->section,
+				         k->name, v, ini, err.msg, bus, why);
 			if (bus) {
 				char dotted[64];
 
@@ -295,8 +307,8 @@ static void test_set_validates_like_the_ini_parser(void **state)
 static void distinctive(struct omni4_config *c)
 {
 	config_defaults(c);
-	c->ctl.model = (struct model_params){0.1 / 3, 0.03125, 4.7, 0.021, 0.0215, 3.3, 2.1, 0.019,
-					 0.3, 0.7, 0.013, 1.7, 2.3, 0.11};
+	c->ctl.model = (struct model_params){0.1 / 3, 0.03125, 4.7, 0.021, 0.0215, 3.3, 2.1,
+	                                     0.019,   0.3,     0.7, 0.013, 1.7,    2.3, 0.11};
 	c->ctl.rate_hz = 777.0;
 	c->fw.loop.sched_fifo = true;
 	c->fw.loop.priority = 42;
@@ -328,7 +340,7 @@ static void assert_same_config(const struct omni4_config *a, const struct omni4_
 		assert_int_equal(config_key_format(b, i, vb, sizeof(vb)), 0);
 		if (strcmp(va, vb))
 			fail_msg("%s.%s: '%s' != '%s'", config_key_at(i)->section,
-				 config_key_at(i)->name, va, vb);
+			         config_key_at(i)->name, va, vb);
 	}
 	assert_memory_equal(&a->ctl.model, &b->ctl.model, sizeof(a->ctl.model)); /* bit for bit */
 	assert_true(a->ctl.control.kp == b->ctl.control.kp);
@@ -428,7 +440,8 @@ static void test_save_replaces_atomically_and_keeps_bak(void **state)
 	remove_dir();
 }
 
-/* ---- the service -------------------------------------------------------------------------------- */
+/* ---- the service --------------------------------------------------------------------------------
+ */
 
 static void test_set_applies_between_ticks(void **state)
 {
@@ -451,8 +464,8 @@ static void test_set_applies_between_ticks(void **state)
 		if (!strcmp(g_out[i].channel, OMNI4_CHANNEL_PARAM_CHANGED)) {
 			omni4_param_changed_t m;
 
-			assert_true(omni4_param_changed_t_decode(g_out[i].data, 0, (int)g_out[i].len,
-								 &m) > 0);
+			assert_true(omni4_param_changed_t_decode(g_out[i].data, 0,
+			                                         (int)g_out[i].len, &m) > 0);
 			assert_string_equal(m.source, "set");
 			assert_int_equal(m.n, 1);
 			assert_string_equal(m.old_values[0], "20");
@@ -485,7 +498,7 @@ static void test_start_announces_every_value(void **state)
 	for (size_t i = 0; i + 12 <= g_out[0].len; i++) /* the secret is nowhere in the bytes */
 		assert_memory_not_equal(g_out[0].data + i, "s3cret-token", 12);
 	assert_int_equal(omni4_param_changed_t_decode(g_out[0].data, 0, (int)g_out[0].len, &m),
-			 (int)g_out[0].len);
+	                 (int)g_out[0].len);
 	assert_string_equal(m.source, "start");
 	assert_string_equal(m.path, "/etc/omni4/robot.ini");
 	assert_int_equal(m.seq, 17);
@@ -504,7 +517,7 @@ static void test_start_announces_every_value(void **state)
 			continue;
 		}
 		fprintf(f, "[%.*s]\n%s = %s\n", (int)(dot - m.keys[i]), m.keys[i], dot + 1,
-			m.values[i]);
+		        m.values[i]);
 	}
 	fclose(f);
 	config_defaults(&back);
@@ -527,7 +540,7 @@ static void test_nothing_changes_without_a_tick(void **state)
 	const struct ff_q16 ff0 = g_fw.ctl.ff;
 
 	assert_int_equal(set1("model.R", "8.6222", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_FAILED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_FAILED);
 	if (!strstr(msg, "nothing changed"))
 		fail_msg("'%s'", msg);
 	/* withdrawn: neither the running copy nor the controller changed, and a later tick
@@ -586,7 +599,7 @@ static void test_model_swap_is_atomic_under_load(void **state)
 	assert_int_equal(ok, 200);
 	assert_int_equal(atomic_load(&g_inconsistent), 0);
 	assert_true(atomic_load(&g_model_changes) >= 150); /* the loop ran on most of them */
-	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);   /* the last one (i = 199: a) */
+	assert_near(g_fw.ctl.set.model.R, 4.3111, 0);      /* the last one (i = 199: a) */
 }
 
 static void test_refusals_say_why_and_change_nothing(void **state)
@@ -598,24 +611,25 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	const double kp = g_ps.running.ctl.control.kp;
 
 	assert_int_equal(set1("control.kp", "1e9", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "control.kp: out of range value: 1e+09 outside [0, 10000]"));
-	assert_int_equal(set1("model.R", "-1", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	assert_int_equal(set1("model.R", "-1", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "model.R: invalid value: must be > 0"));
 	assert_int_equal(set1("model.Bv", "-0.1", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "must be >= 0"));
 	assert_int_equal(set1("limits.supply_min_v", "13", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "must be below supply_v"));
 	assert_int_equal(set1("loop.rate_hz", "500", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "loop.rate_hz: restart only"));
 	assert_int_equal(set1("params.secret", "x", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	/* the same value as in force is no change, even for a restart-only key */
 	assert_int_equal(set1("loop.rate_hz", "1000", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_OK);
+	                 OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_non_null(strstr(msg, "no change"));
 	/* a multi-key set with one bad value changes none of them */
 	static const char *const keys[] = {"control.kp", "model.R", "control.ki"};
@@ -637,18 +651,19 @@ static void test_idle_only_keys_wait_for_idle(void **state)
 {
 	(void)state;
 	char msg[320];
-	const struct ctl_command go = {.utime = 1, .seq = 1, .mode = CTL_VELOCITY,
-				       .velocity = {0.2, 0, 0}};
+	const struct ctl_command go = {
+	    .utime = 1, .seq = 1, .mode = CTL_VELOCITY, .velocity = {0.2, 0, 0}};
 
 	setup_fw(NULL, NULL, true);
 	/* no keep-alive here: a watchdog longer than the test */
 	assert_int_equal(set1("control.cmd_timeout_ms", "600000", msg, sizeof(msg)),
-			 OMNI4_PARAM_REPLY_T_RESULT_OK);
+	                 OMNI4_PARAM_REPLY_T_RESULT_OK);
 	fw_post_command(&g_fw, &go);
 	for (int i = 0; i < 2000 && atomic_load(&g_mode) != CTL_VELOCITY; i++)
 		usleep(1000);
 	assert_int_equal(atomic_load(&g_mode), CTL_VELOCITY);
-	assert_int_equal(set1("model.d", "0.1", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	assert_int_equal(set1("model.d", "0.1", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	if (!strstr(msg, "model.d: only while the bridges are not driven") ||
 	    !strstr(msg, "VELOCITY"))
 		fail_msg("'%s'", msg);
@@ -676,7 +691,7 @@ static void test_load_merges_a_partial_model(void **state)
 	setup_fw(NULL, NULL, true);
 	/* identified keys only (as omni4-ident writes when data is partial) */
 	request(OMNI4_PARAM_REQUEST_T_OP_LOAD, 0, NULL, NULL, NULL,
-		"; identified\n[model]\nBv = 0.61\nCv = 1.5 ; comment\n");
+	        "; identified\n[model]\nBv = 0.61\nCv = 1.5 ; comment\n");
 	last_reply(&r);
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_int_equal(r.n, 2);
@@ -713,9 +728,14 @@ static void test_broken_requests(void **state)
 	static const char *const key[] = {"control.kp"};
 	static const char *const val[] = {"30"};
 	char *k[1] = {(char *)key[0]}, *v[1] = {(char *)val[0]};
-	omni4_param_request_t q = {.request_id = 77, .op = OMNI4_PARAM_REQUEST_T_OP_SET,
-				   .secret = "", .n = 1, .keys = k, .values = v, .name = "",
-				   .text = ""};
+	omni4_param_request_t q = {.request_id = 77,
+	                           .op = OMNI4_PARAM_REQUEST_T_OP_SET,
+	                           .secret = "",
+	                           .n = 1,
+	                           .keys = k,
+	                           .values = v,
+	                           .name = "",
+	                           .text = ""};
 	unsigned char buf[512];
 	const int len = omni4_param_request_t_encode(buf, 0, sizeof(buf), &q);
 	omni4_param_reply_t r;
@@ -779,7 +799,8 @@ static void test_broken_requests(void **state)
 	param_service_handle(&g_ps, longer, (size_t)len);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
 	assert_near(g_ps.running.ctl.control.kp, 20.0, 0);
-	assert_true(atomic_load(&g_ps.n.bad) == (uint64_t)len + 2 + 6); /* + the 6 bad n and lengths */
+	assert_true(atomic_load(&g_ps.n.bad) ==
+	            (uint64_t)len + 2 + 6); /* + the 6 bad n and lengths */
 	/* decodable but wrong: unknown op, unknown key, a key twice, too many keys */
 	static const char *const two[] = {"control.kp", "control.kp"};
 	static const char *const unknown[] = {"control.kq"};
@@ -838,9 +859,14 @@ static void test_secret_and_repeated_ids(void **state)
 	omni4_param_reply_t_decode_cleanup(&r);
 	/* with it: applied once, even if the request arrives twice (a retry) */
 	char *k[1] = {(char *)key[0]}, *v[1] = {(char *)val[0]};
-	omni4_param_request_t q = {.request_id = 9001, .op = OMNI4_PARAM_REQUEST_T_OP_SET,
-				   .secret = "tok3n", .n = 1, .keys = k, .values = v, .name = "",
-				   .text = ""};
+	omni4_param_request_t q = {.request_id = 9001,
+	                           .op = OMNI4_PARAM_REQUEST_T_OP_SET,
+	                           .secret = "tok3n",
+	                           .n = 1,
+	                           .keys = k,
+	                           .values = v,
+	                           .name = "",
+	                           .text = ""};
 	unsigned char buf[512];
 	const int len = omni4_param_request_t_encode(buf, 0, sizeof(buf), &q);
 
@@ -851,7 +877,7 @@ static void test_secret_and_repeated_ids(void **state)
 	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_CHANGED), 1);
 	assert_int_equal(g_out[g_n_out - 1].len, g_out[g_n_out - 2].len);
 	assert_memory_equal(g_out[g_n_out - 1].data, g_out[g_n_out - 2].data,
-			    g_out[g_n_out - 1].len);
+	                    g_out[g_n_out - 1].len);
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_true(atomic_load(&g_ps.n.applied) == 1);
 	assert_near(g_ps.running.ctl.control.kp, 31.0, 0);
@@ -873,7 +899,8 @@ static void test_save_writes_what_is_in_force(void **state)
 	fputs("[hal]\nmotor = sim\n", f);
 	fclose(f);
 	setup_fw(path, NULL, true);
-	assert_int_equal(set1("control.kp", "44.5", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_OK);
+	assert_int_equal(set1("control.kp", "44.5", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_int_equal(set1("model.Cw", "0.2", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_OK);
 	request(OMNI4_PARAM_REQUEST_T_OP_SAVE, 0, NULL, NULL, NULL, NULL);
 	last_reply(&r);
@@ -891,20 +918,20 @@ static void test_save_writes_what_is_in_force(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_table_model_keys_in_order),
-		cmocka_unit_test(test_set_validates_like_the_ini_parser),
-		cmocka_unit_test(test_writer_round_trip),
-		cmocka_unit_test(test_save_replaces_atomically_and_keeps_bak),
-		cmocka_unit_test(test_start_announces_every_value),
-		cmocka_unit_test(test_set_applies_between_ticks),
-		cmocka_unit_test(test_nothing_changes_without_a_tick),
-		cmocka_unit_test(test_model_swap_is_atomic_under_load),
-		cmocka_unit_test(test_refusals_say_why_and_change_nothing),
-		cmocka_unit_test(test_idle_only_keys_wait_for_idle),
-		cmocka_unit_test(test_load_merges_a_partial_model),
-		cmocka_unit_test(test_broken_requests),
-		cmocka_unit_test(test_secret_and_repeated_ids),
-		cmocka_unit_test(test_save_writes_what_is_in_force),
+	    cmocka_unit_test(test_table_model_keys_in_order),
+	    cmocka_unit_test(test_set_validates_like_the_ini_parser),
+	    cmocka_unit_test(test_writer_round_trip),
+	    cmocka_unit_test(test_save_replaces_atomically_and_keeps_bak),
+	    cmocka_unit_test(test_start_announces_every_value),
+	    cmocka_unit_test(test_set_applies_between_ticks),
+	    cmocka_unit_test(test_nothing_changes_without_a_tick),
+	    cmocka_unit_test(test_model_swap_is_atomic_under_load),
+	    cmocka_unit_test(test_refusals_say_why_and_change_nothing),
+	    cmocka_unit_test(test_idle_only_keys_wait_for_idle),
+	    cmocka_unit_test(test_load_merges_a_partial_model),
+	    cmocka_unit_test(test_broken_requests),
+	    cmocka_unit_test(test_secret_and_repeated_ids),
+	    cmocka_unit_test(test_save_writes_what_is_in_force),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

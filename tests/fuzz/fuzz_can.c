@@ -79,8 +79,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		crc_is_checked(&f);
 		g = f;
 		g.data[6 + (data[0] & 1)] ^= (uint8_t)(1u << (data[1] % 8));
-		if (can_decode_cmd_voltage(&g, v, &en, &c) == 0 || can_decode_control(&g, &cmd, &c) == 0 ||
-		    can_decode_status(&g, &node, &s, &c) == 0 || can_decode_health(&g, &node, &h, &c) == 0)
+		if (can_decode_cmd_voltage(&g, v, &en, &c) == 0 ||
+		    can_decode_control(&g, &cmd, &c) == 0 ||
+		    can_decode_status(&g, &node, &s, &c) == 0 ||
+		    can_decode_health(&g, &node, &h, &c) == 0)
 			__builtin_trap();
 	}
 	(void)can_counter_gap(data[0], data[1]);

@@ -40,13 +40,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
 		if (lcmio_decode_command(data + 1, n, &cmd) != 0 && n >= 8) {
 			/* Not a command_t: build one from the bytes, values of every magnitude. */
-			omni4_command_t m = {.utime = now, .seq = data[1], .mode = (int8_t)(data[2] % 8 - 1)};
+			omni4_command_t m = {
+			    .utime = now, .seq = data[1], .mode = (int8_t)(data[2] % 8 - 1)};
 			const double scale[4] = {0.001, 1.0, 100.0, 1e12};
 
 			for (int k = 0; k < 3; k++)
-				m.velocity[k] = (int8_t)data[1 + (k + 3) % n] * scale[data[1 + k] & 3];
+				m.velocity[k] =
+				    (int8_t)data[1 + (k + 3) % n] * scale[data[1 + k] & 3];
 			for (int k = 0; k < 4; k++)
-				m.voltage[k] = (int8_t)data[1 + (k + 4) % n] * scale[data[2 + k % 3] & 3] / 8;
+				m.voltage[k] =
+				    (int8_t)data[1 + (k + 4) % n] * scale[data[2 + k % 3] & 3] / 8;
 			m.ramp_s = data[1 + 7 % n] == 0xFF ? NAN : data[1 + 7 % n] / 64.0;
 			uint8_t buf[256];
 			const int len = omni4_command_t_encode(buf, 0, sizeof(buf), &m);

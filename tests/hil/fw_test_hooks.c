@@ -22,7 +22,7 @@ int __wrap_rename(const char *from, const char *to);
 static void sleep_s(double s)
 {
 	const struct timespec t = {.tv_sec = (time_t)s,
-				   .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
+	                           .tv_nsec = (long)((s - (double)(time_t)s) * 1e9)};
 
 	nanosleep(&t, NULL);
 }

@@ -51,7 +51,8 @@ int main(int argc, char **argv)
 				} else if (m.seq > last + 1) {
 					gaps += m.seq - last - 1;
 					if (show_gaps)
-						printf("gap: %lld missing after seq %lld (t = %.3f s)\n",
+						printf("gap: %lld missing after seq %lld (t = %.3f "
+						       "s)\n",
 						       (long long)m.seq - last - 1, last,
 						       (ev->timestamp - t0) * 1e-6);
 				} else if (m.seq <= last) {

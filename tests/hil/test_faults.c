@@ -155,15 +155,15 @@ static const struct matrix_case {
 	const char *scenario, *outcome;
 	int (*run)(struct simrun *sr);
 } matrix_cases[] = {
-	{"command stream stops (timeout 200 ms)", "ramp to 0 V in 200 ms, then IDLE",
-	 command_stream_stops},
-	{"command flood, 10 per tick (10 kHz)", "all applied in order, loop rate unchanged",
-	 command_flood},
-	{"NaN / inf / huge / unknown-mode command", "rejected, counted, last valid one kept",
-	 bad_commands},
-	{"e-stop pressed mid-run, then released", "outputs off; ESTOP until CLEAR after release",
-	 estop_pressed_then_released},
-	{"encoder stuck (frozen reading)", "FAULT ENCODER (rigid-body residual)", encoder_stuck},
+    {"command stream stops (timeout 200 ms)", "ramp to 0 V in 200 ms, then IDLE",
+     command_stream_stops},
+    {"command flood, 10 per tick (10 kHz)", "all applied in order, loop rate unchanged",
+     command_flood},
+    {"NaN / inf / huge / unknown-mode command", "rejected, counted, last valid one kept",
+     bad_commands},
+    {"e-stop pressed mid-run, then released", "outputs off; ESTOP until CLEAR after release",
+     estop_pressed_then_released},
+    {"encoder stuck (frozen reading)", "FAULT ENCODER (rigid-body residual)", encoder_stuck},
 };
 
 static void test_fault_matrix(void **state)
@@ -213,17 +213,17 @@ static const struct latch_case {
 	int32_t bit;
 	bool cause_persists; /* a clear must be refused while it does */
 } latch_cases[] = {
-	{"encoder jump (0.5 rad in one tick)", "FAULT ENCODER, outputs off", inject_encoder_jump,
-	 OMNI4_MOTORS_T_FAULT_ENCODER, false},
-	{"current sensor saturated (10.235 A)", "FAULT CURRENT_SENSOR + OVERCURRENT",
-	 inject_sensor_rail, OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR | OMNI4_MOTORS_T_FAULT_OVERCURRENT,
-	 true},
-	{"over-current (> 5 A)", "FAULT OVERCURRENT, outputs off", inject_overcurrent,
-	 OMNI4_MOTORS_T_FAULT_OVERCURRENT, true},
-	{"supply sag (8 V < 9 V)", "FAULT SUPPLY, outputs off", inject_supply_sag,
-	 OMNI4_MOTORS_T_FAULT_SUPPLY, true},
-	{"motor driver silent (sim HAL read fails)", "FAULT DRIVER_TIMEOUT; no clear while silent",
-	 inject_silent_driver, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, true},
+    {"encoder jump (0.5 rad in one tick)", "FAULT ENCODER, outputs off", inject_encoder_jump,
+     OMNI4_MOTORS_T_FAULT_ENCODER, false},
+    {"current sensor saturated (10.235 A)", "FAULT CURRENT_SENSOR + OVERCURRENT",
+     inject_sensor_rail, OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR | OMNI4_MOTORS_T_FAULT_OVERCURRENT,
+     true},
+    {"over-current (> 5 A)", "FAULT OVERCURRENT, outputs off", inject_overcurrent,
+     OMNI4_MOTORS_T_FAULT_OVERCURRENT, true},
+    {"supply sag (8 V < 9 V)", "FAULT SUPPLY, outputs off", inject_supply_sag,
+     OMNI4_MOTORS_T_FAULT_SUPPLY, true},
+    {"motor driver silent (sim HAL read fails)", "FAULT DRIVER_TIMEOUT; no clear while silent",
+     inject_silent_driver, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT, true},
 };
 
 static void test_latching_faults_on_their_first_tick(void **state)
@@ -238,7 +238,7 @@ static void test_latching_faults_on_their_first_tick(void **state)
 
 		if (t != 1)
 			fail_msg("%s: FAULT with 0x%x after %d ticks, want 1", lc->scenario,
-				 (unsigned)lc->bit, t);
+			         (unsigned)lc->bit, t);
 		if (lc->cause_persists) {
 			hil_send(sr, CLEAR, NULL, NULL, 0);
 			hil_run(sr, 0.01);
@@ -257,12 +257,13 @@ static void fw_on_sim_plant(struct fw *fw)
 	struct omni4_config cfg;
 
 	config_defaults(&cfg);
-	const struct sim_motor_config sc = {.params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12,
-					    .camera_rate_hz = 25};
+	const struct sim_motor_config sc = {
+	    .params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12, .camera_rate_hz = 25};
 
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(fw, &cfg.ctl, sim_motor_hal(&sim),
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	assert_int_equal(
+	    fw_init(fw, &cfg.ctl, sim_motor_hal(&sim), (struct line_hal){.ops = &line_none_ops}),
+	    0);
 }
 
 static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **state)
@@ -319,7 +320,7 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 			continue;
 		if (!!(e.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
 			fail_msg("tick %zu at %lld us: OVERRUN %s", k, (long long)start_us[k],
-				 late[k] ? "missing" : "set on a tick on time");
+			         late[k] ? "missing" : "set on a tick on time");
 		k++;
 	}
 	assert_int_equal(k, 7);
@@ -330,10 +331,10 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_fault_matrix),
-		cmocka_unit_test(test_latching_faults_on_their_first_tick),
-		cmocka_unit_test(test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss),
-		cmocka_unit_test(test_a_late_tick_carries_overrun_in_its_own_sample),
+	    cmocka_unit_test(test_fault_matrix),
+	    cmocka_unit_test(test_latching_faults_on_their_first_tick),
+	    cmocka_unit_test(test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss),
+	    cmocka_unit_test(test_a_late_tick_carries_overrun_in_its_own_sample),
 	};
 
 	return cmocka_run_group_tests_name("faults", tests, NULL, NULL);

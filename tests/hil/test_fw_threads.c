@@ -75,13 +75,20 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 
 	config_defaults(&cfg);
 	const struct sim_motor_config sc = {
-		.params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12, .current_noise_a = 0.02,
-		.encoder_cpr = 10240, .camera_rate_hz = 25, .camera_pos_noise_m = 0.01,
-		.camera_theta_noise_rad = 0.05, .seed = 3,
+	    .params = cfg.ctl.model,
+	    .period_s = 1e-3,
+	    .supply_v = 12,
+	    .current_noise_a = 0.02,
+	    .encoder_cpr = 10240,
+	    .camera_rate_hz = 25,
+	    .camera_pos_noise_m = 0.01,
+	    .camera_theta_noise_rad = 0.05,
+	    .seed = 3,
 	};
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
-	assert_int_equal(fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim),
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	assert_int_equal(
+	    fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim), (struct line_hal){.ops = &line_none_ops}),
+	    0);
 	sim_motor_set_pose_cb(&sim, sim_pose, &fw, 0);
 
 	lcm_t *lcm = lcm_create("memq://");
@@ -113,11 +120,11 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 		;
 
 	print_message("loop thread: %llu ticks, %llu overruns, latency p50 %.0f us p99 %.0f us "
-		      "max %.0f us; received %lld motors_t (%lld gaps), %lld poses\n",
-		      (unsigned long long)loop.ticks, (unsigned long long)loop.overruns,
-		      rtloop_latency_percentile_us(&loop, 50), rtloop_latency_percentile_us(&loop, 99),
-		      loop.latency_max_ns / 1e3, (long long)rx.count, (long long)rx.gaps,
-		      (long long)rx.pose);
+	              "max %.0f us; received %lld motors_t (%lld gaps), %lld poses\n",
+	              (unsigned long long)loop.ticks, (unsigned long long)loop.overruns,
+	              rtloop_latency_percentile_us(&loop, 50),
+	              rtloop_latency_percentile_us(&loop, 99), loop.latency_max_ns / 1e3,
+	              (long long)rx.count, (long long)rx.gaps, (long long)rx.pose);
 	assert_int_equal(loop.ticks, N);
 	/* Not real-time here (no SCHED_FIFO, a shared 2-core machine). Measured: p50 62 us,
 	 * p99 454 us, 9 overruns in 3000 ticks (0.3 %) on a quiet machine; p50 64 us, p99
@@ -152,12 +159,14 @@ static void test_camera_poses_from_the_bus_reach_the_estimator(void **state)
 	struct omni4_config cfg;
 
 	config_defaults(&cfg);
-	const struct sim_motor_config sc = {.params = cfg.ctl.model, .period_s = 1e-3,
-					    .supply_v = 12, .camera_rate_hz = 25};
+	const struct sim_motor_config sc = {
+	    .params = cfg.ctl.model, .period_s = 1e-3, .supply_v = 12, .camera_rate_hz = 25};
 
-	assert_int_equal(sim_motor_init(&sim, &sc), 0); /* no pose callback: the bus is the camera */
-	assert_int_equal(fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim),
-				 (struct line_hal){.ops = &line_none_ops}), 0);
+	assert_int_equal(sim_motor_init(&sim, &sc),
+	                 0); /* no pose callback: the bus is the camera */
+	assert_int_equal(
+	    fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim), (struct line_hal){.ops = &line_none_ops}),
+	    0);
 	lcm_t *lcm = lcm_create("memq://");
 	struct lcmio io;
 
@@ -169,7 +178,8 @@ static void test_camera_poses_from_the_bus_reach_the_estimator(void **state)
 
 	for (int k = 0; k < 400; k++, t += 1000) {
 		if (k % 40 == 20) { /* 25 Hz, captured 20 ms before this tick, at the origin */
-			const omni4_pose_t p = {.utime = t - 20000, .x = 0.0, .y = 0.0, .theta = 0.0};
+			const omni4_pose_t p = {
+			    .utime = t - 20000, .x = 0.0, .y = 0.0, .theta = 0.0};
 
 			assert_int_equal(omni4_pose_t_publish(lcm, OMNI4_CHANNEL_POSE, &p), 0);
 		}
@@ -186,8 +196,8 @@ static void test_camera_poses_from_the_bus_reach_the_estimator(void **state)
 	const struct est_output *o = est_get(&fw.est);
 
 	print_message("camera on the bus: %u taken, %u gated, %llu bad, latency %lld us\n",
-		      o->cam_taken, o->cam_gated, (unsigned long long)atomic_load(&io.pose_bad),
-		      (long long)o->cam_latency_us);
+	              o->cam_taken, o->cam_gated, (unsigned long long)atomic_load(&io.pose_bad),
+	              (long long)o->cam_latency_us);
 	assert_int_equal(atomic_load(&io.pose_bad), 2);
 	assert_int_equal(o->cam_gated, 0);
 	assert_in_range(o->cam_taken, 9, 10); /* 10 sent; the last may still be in the mailbox */
@@ -199,8 +209,8 @@ static void test_camera_poses_from_the_bus_reach_the_estimator(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_loop_thread_logs_every_tick_through_lcm),
-		cmocka_unit_test(test_camera_poses_from_the_bus_reach_the_estimator),
+	    cmocka_unit_test(test_loop_thread_logs_every_tick_through_lcm),
+	    cmocka_unit_test(test_camera_poses_from_the_bus_reach_the_estimator),
 	};
 
 	return cmocka_run_group_tests_name("fw_threads", tests, NULL, NULL);

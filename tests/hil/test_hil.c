@@ -43,7 +43,7 @@ static int8_t mode_of(struct simrun *sr)
 
 /* Velocity profile: a sequence of targets held 1.5 s each (the controller shapes the ramps). */
 static const double profile[][3] = {
-	{0.8, 0, 0}, {0.8, 0.5, 0}, {-0.6, 0.5, 3}, {0, 0, -6}, {1.5, -1, 2}, {0, 0, 0},
+    {0.8, 0, 0}, {0.8, 0.5, 0}, {-0.6, 0.5, 3}, {0, 0, -6}, {1.5, -1, 2}, {0, 0, 0},
 };
 
 /* plant NULL: the plant is the controller's model (Table III). */
@@ -55,8 +55,8 @@ static double track_rms_on(const struct model_params *plant, bool ff, bool fb, d
 	config_defaults(&cfg);
 	cfg.ctl.control.feedforward = ff;
 	cfg.ctl.control.feedback = fb;
-	struct simrun *sr = simrun_create(&cfg, plant ? plant : &cfg.ctl.model, true, NULL, err,
-					  sizeof(err));
+	struct simrun *sr =
+	    simrun_create(&cfg, plant ? plant : &cfg.ctl.model, true, NULL, err, sizeof(err));
 
 	if (!sr)
 		fail_msg("simrun_create: %s", err);
@@ -73,7 +73,8 @@ static double track_rms_on(const struct model_params *plant, bool ff, bool fb, d
 			simrun_truth(sr, x, pose);
 			simrun_reference(sr, ref);
 			for (int a = 0; a < 3; a++)
-				sq[a] += (x[a] - ref[a]) * (x[a] - ref[a]) * (a == 2 ? 0.089 * 0.089 : 1);
+				sq[a] += (x[a] - ref[a]) * (x[a] - ref[a]) *
+				         (a == 2 ? 0.089 * 0.089 : 1);
 			n++;
 		}
 	}
@@ -96,11 +97,12 @@ static void test_feedforward_plus_pi_tracks_better_than_pi_alone(void **state)
 	const double fb = track_rms(false, true, b);
 	const double ff = track_rms(true, false, c);
 
-	print_message("velocity tracking RMS (v m/s, vn m/s, w rad/s; combined wheel-equivalent m/s):\n"
-		      "  feedforward + PI : %.4f %.4f %.4f | %.4f\n"
-		      "  PI only          : %.4f %.4f %.4f | %.4f\n"
-		      "  feedforward only : %.4f %.4f %.4f | %.4f\n",
-		      a[0], a[1], a[2], both, b[0], b[1], b[2], fb, c[0], c[1], c[2], ff);
+	print_message(
+	    "velocity tracking RMS (v m/s, vn m/s, w rad/s; combined wheel-equivalent m/s):\n"
+	    "  feedforward + PI : %.4f %.4f %.4f | %.4f\n"
+	    "  PI only          : %.4f %.4f %.4f | %.4f\n"
+	    "  feedforward only : %.4f %.4f %.4f | %.4f\n",
+	    a[0], a[1], a[2], both, b[0], b[1], b[2], fb, c[0], c[1], c[2], ff);
 	/* Bounds at 2-3x the measured figures (FF+PI 0.0010 0.0008 0.0061 | 0.0013; PI only
 	 * 0.0492 0.0394 0.2546 | 0.0670; FF only 0.0012 0.0010 0.0075 | 0.0017). */
 	const double max_both[4] = {0.003, 0.002, 0.015, 0.003};
@@ -142,9 +144,9 @@ static void test_feedback_corrects_a_plant_that_differs_from_the_model(void **st
 	const double ff = track_rms_on(&plant, true, false, c);
 
 	print_message("plant off the model (M, J x1.3, B x1.5, C x1.3, R x1.15), tracking RMS:\n"
-		      "  feedforward + PI : %.4f %.4f %.4f | %.4f\n"
-		      "  feedforward only : %.4f %.4f %.4f | %.4f\n",
-		      a[0], a[1], a[2], both, c[0], c[1], c[2], ff);
+	              "  feedforward + PI : %.4f %.4f %.4f | %.4f\n"
+	              "  feedforward only : %.4f %.4f %.4f | %.4f\n",
+	              a[0], a[1], a[2], both, c[0], c[1], c[2], ff);
 	for (int k = 0; k < 3; k++)
 		assert_true(a[k] <= c[k]);
 	assert_true(both <= ff);
@@ -185,7 +187,7 @@ static void test_watchdog_ramps_to_zero_then_idles(void **state)
 			idle = (long)i;
 	}
 	print_message("watchdog: timeout %d ms, tripped after %ld ms, outputs off after %ld ms\n",
-		      cfg.ctl.control.cmd_timeout_ms, trip, idle);
+	              cfg.ctl.control.cmd_timeout_ms, trip, idle);
 	/* docs/faults.md: cmd_timeout_ms 200, stop ramp 200 ms. The command went in before tick 0
 	 * (utime 0): the trip is on the first tick more than 200 ms after it, the ramp then
 	 * takes exactly 200 ticks. */
@@ -305,7 +307,8 @@ static void test_stuck_encoder_is_detected_by_the_redundant_wheel(void **state)
 		ms++;
 	}
 	print_message("frozen encoder (wheel 3 at 1 m/s, robot braking at 3 m/s^2): FAULT after "
-		      "%d ms\n", ms);
+	              "%d ms\n",
+	              ms);
 	/* Closed form without the PI reacting to the frozen wheel: the residual is 1 - v, over
 	 * 0.5 m/s once v < 0.5 m/s, 0.5 / 3 = 167 ms into the braking, plus the 50 ms the
 	 * residual must persist: 217 ms. The PI, driving wheel 3 to its frozen reading, can only
@@ -449,7 +452,7 @@ static void test_voltage_ramp_reproduces_the_papers_ramped_step(void **state)
 		plant_step(&pl, uu, true, 1e-3);
 	}
 	print_message("ramped step %.0f V / %.1f s: v after 1.5 s = %.4f m/s (plant alone %.4f)\n",
-		      level, ramp, x[0], pl.x[0]);
+	              level, ramp, x[0], pl.x[0]);
 	assert_near(x[0], pl.x[0], 1e-9);
 	free(m);
 	unlink(path);
@@ -500,17 +503,19 @@ static void test_coast_gives_zero_current_and_free_deceleration(void **state)
 
 	for (size_t i = c0 - 10; i < c0; i++)
 		v0 += m[i].wheel_speed[3] * cfg.ctl.model.r / 10;
-	const double t_stop = cfg.ctl.model.M / cfg.ctl.model.Bv * log(1 + cfg.ctl.model.Bv * v0 / cfg.ctl.model.Cv);
+	const double t_stop =
+	    cfg.ctl.model.M / cfg.ctl.model.Bv * log(1 + cfg.ctl.model.Bv * v0 / cfg.ctl.model.Cv);
 	size_t stop = n;
 
 	while (stop > c0 && m[stop - 1].wheel_speed[3] == 0.0f)
 		stop--;
 	const double t_meas = (double)(stop - c0) * 1e-3;
 
-	print_message("coast from %.4f m/s: stopped after %.3f s, closed form %.3f s (diff %+.1f ms)\n",
-		      v0, t_meas, t_stop, (t_meas - t_stop) * 1e3);
+	print_message(
+	    "coast from %.4f m/s: stopped after %.3f s, closed form %.3f s (diff %+.1f ms)\n", v0,
+	    t_meas, t_stop, (t_meas - t_stop) * 1e3);
 	assert_near(t_meas, t_stop, 0.010); /* measured -4.0 ms */
-	assert_true(n - stop >= 300); /* at rest (stiction) for the rest of the run */
+	assert_true(n - stop >= 300);       /* at rest (stiction) for the rest of the run */
 	free(m);
 	unlink(path);
 }
@@ -518,17 +523,17 @@ static void test_coast_gives_zero_current_and_free_deceleration(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_feedforward_plus_pi_tracks_better_than_pi_alone),
-		cmocka_unit_test(test_feedback_corrects_a_plant_that_differs_from_the_model),
-		cmocka_unit_test(test_watchdog_ramps_to_zero_then_idles),
-		cmocka_unit_test(test_estop_disables_outputs_within_one_tick_and_latches),
-		cmocka_unit_test(test_fault_latches_and_clears_only_when_cause_is_gone),
-		cmocka_unit_test(test_stuck_encoder_is_detected_by_the_redundant_wheel),
-		cmocka_unit_test(test_encoder_jump_faults_within_one_tick),
-		cmocka_unit_test(test_bad_commands_are_rejected_counted_and_never_applied),
-		cmocka_unit_test(test_n_ticks_give_exactly_n_contiguous_motors_messages),
-		cmocka_unit_test(test_voltage_ramp_reproduces_the_papers_ramped_step),
-		cmocka_unit_test(test_coast_gives_zero_current_and_free_deceleration),
+	    cmocka_unit_test(test_feedforward_plus_pi_tracks_better_than_pi_alone),
+	    cmocka_unit_test(test_feedback_corrects_a_plant_that_differs_from_the_model),
+	    cmocka_unit_test(test_watchdog_ramps_to_zero_then_idles),
+	    cmocka_unit_test(test_estop_disables_outputs_within_one_tick_and_latches),
+	    cmocka_unit_test(test_fault_latches_and_clears_only_when_cause_is_gone),
+	    cmocka_unit_test(test_stuck_encoder_is_detected_by_the_redundant_wheel),
+	    cmocka_unit_test(test_encoder_jump_faults_within_one_tick),
+	    cmocka_unit_test(test_bad_commands_are_rejected_counted_and_never_applied),
+	    cmocka_unit_test(test_n_ticks_give_exactly_n_contiguous_motors_messages),
+	    cmocka_unit_test(test_voltage_ramp_reproduces_the_papers_ramped_step),
+	    cmocka_unit_test(test_coast_gives_zero_current_and_free_deceleration),
 	};
 
 	return cmocka_run_group_tests_name("hil", tests, NULL, NULL);

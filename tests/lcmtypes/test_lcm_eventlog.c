@@ -33,15 +33,14 @@ static int teardown(void **state)
 	return 0;
 }
 
-static void write_event(lcm_eventlog_t *log, const char *channel, int64_t utime, void *buf,
-			int len)
+static void write_event(lcm_eventlog_t *log, const char *channel, int64_t utime, void *buf, int len)
 {
 	lcm_eventlog_event_t ev = {
-		.timestamp = utime,
-		.channellen = (int32_t)strlen(channel),
-		.datalen = len,
-		.channel = (char *)channel,
-		.data = buf,
+	    .timestamp = utime,
+	    .channellen = (int32_t)strlen(channel),
+	    .datalen = len,
+	    .channel = (char *)channel,
+	    .data = buf,
 	};
 
 	assert_int_equal(lcm_eventlog_write_event(log, &ev), 0);
@@ -51,13 +50,20 @@ static void test_every_type_round_trips_through_an_event_log(void **state)
 {
 	(void)state;
 	char dir[] = "v";
-	omni4_command_t cmd = {.utime = 11, .seq = 7, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
-			       .velocity = {0.1, -0.2, 3.0}, .voltage = {1, -2, 3.5, -12},
-			       .ramp_s = 0.25};
-	omni4_motors_t mot = {.utime = 12, .seq = 123456789012LL, .mode = OMNI4_MOTORS_T_MODE_FAULT,
-			      .faults = OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_ESTOP,
-			      .voltage = {1.5f, 2, 3, 4}, .current = {-0.5f, 0, 0.25f, 9},
-			      .wheel_speed = {10, -20, 30.5f, 0}};
+	omni4_command_t cmd = {.utime = 11,
+	                       .seq = 7,
+	                       .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+	                       .velocity = {0.1, -0.2, 3.0},
+	                       .voltage = {1, -2, 3.5, -12},
+	                       .ramp_s = 0.25};
+	omni4_motors_t mot = {.utime = 12,
+	                      .seq = 123456789012LL,
+	                      .mode = OMNI4_MOTORS_T_MODE_FAULT,
+	                      .faults =
+	                          OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_ESTOP,
+	                      .voltage = {1.5f, 2, 3, 4},
+	                      .current = {-0.5f, 0, 0.25f, 9},
+	                      .wheel_speed = {10, -20, 30.5f, 0}};
 	omni4_pose_t pose = {.utime = 13, .x = 1.25, .y = -3.5, .theta = 3.1};
 	omni4_experiment_t exp = {.utime = 14, .kind = "coast", .direction = dir, .level = 6.0};
 	uint8_t buf[4][512];
@@ -154,9 +160,9 @@ static void test_decoder_rejects_wrong_type_and_short_buffers(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test_setup_teardown(test_every_type_round_trips_through_an_event_log,
-						setup, teardown),
-		cmocka_unit_test(test_decoder_rejects_wrong_type_and_short_buffers),
+	    cmocka_unit_test_setup_teardown(test_every_type_round_trips_through_an_event_log, setup,
+	                                    teardown),
+	    cmocka_unit_test(test_decoder_rejects_wrong_type_and_short_buffers),
 	};
 
 	return cmocka_run_group_tests_name("lcm_eventlog", tests, NULL, NULL);

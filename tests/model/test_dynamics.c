@@ -70,9 +70,9 @@ static void test_state_space_equals_equation_chain(void **state)
 	dyn_wheel_forces(p, i, f);
 	dyn_robot_forces(p->d, f, F);
 	const double want[3] = {
-		(F[0] - p->Bv * x[0] - p->Cv) / p->M,
-		(F[1] - p->Bvn * x[1] + p->Cvn) / p->M,
-		(F[2] - p->Bw * x[2] - p->Cw) / p->J,
+	    (F[0] - p->Bv * x[0] - p->Cv) / p->M,
+	    (F[1] - p->Bvn * x[1] + p->Cvn) / p->M,
+	    (F[2] - p->Bw * x[2] - p->Cw) / p->J,
 	};
 	const double sgn[3] = {1, -1, 1};
 
@@ -123,8 +123,8 @@ static void test_table3_defaults_are_the_paper_values(void **state)
 {
 	(void)state;
 	const double want[MODEL_PARAMS_COUNT] = {0.089,  0.0325, 5,      0.0259, 0.0259,
-						 4.3111, 2.34,   0.0228, 0.4978, 0.6763,
-						 0.0141, 1.8738, 2.2198, 0.1385};
+	                                         4.3111, 2.34,   0.0228, 0.4978, 0.6763,
+	                                         0.0141, 1.8738, 2.2198, 0.1385};
 
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
 		assert_near(model_params_get(&model_params_table3, i), want[i], 0);
@@ -133,12 +133,12 @@ static void test_table3_defaults_are_the_paper_values(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_sensitivity_numbers_of_section_V_D),
-		cmocka_unit_test(test_state_space_signs_are_the_derived_ones),
-		cmocka_unit_test(test_state_space_equals_equation_chain),
-		cmocka_unit_test(test_motor_equation_round_trip),
-		cmocka_unit_test(test_params_check_rejects_nonsense),
-		cmocka_unit_test(test_table3_defaults_are_the_paper_values),
+	    cmocka_unit_test(test_sensitivity_numbers_of_section_V_D),
+	    cmocka_unit_test(test_state_space_signs_are_the_derived_ones),
+	    cmocka_unit_test(test_state_space_equals_equation_chain),
+	    cmocka_unit_test(test_motor_equation_round_trip),
+	    cmocka_unit_test(test_params_check_rejects_nonsense),
+	    cmocka_unit_test(test_table3_defaults_are_the_paper_values),
 	};
 
 	return cmocka_run_group_tests_name("dynamics", tests, NULL, NULL);

@@ -17,9 +17,9 @@ static const struct model_params *P = &model_params_table3;
 static double ff_q16_error(const struct ff_q16 *ff, const double vel[3], const double acc[3])
 {
 	const q16_t vq[3] = {q16_from_double(vel[0]), q16_from_double(vel[1]),
-			     q16_from_double(vel[2])};
+	                     q16_from_double(vel[2])};
 	const q16_t aq[3] = {q16_from_double(acc[0]), q16_from_double(acc[1]),
-			     q16_from_double(acc[2])};
+	                     q16_from_double(acc[2])};
 	double u[4], worst = 0;
 	q16_t uq[4];
 
@@ -67,14 +67,14 @@ static void test_ff_q16_within_bound_of_double_over_envelope(void **state)
 		worst = e > worst ? e : worst;
 	}
 	print_message("feedforward q16 vs double: max |du| = %.3g V over |v|,|vn|<=3 m/s, "
-		      "|w|<=20 rad/s, |a|<=10 (bound %.3g V)\n", worst, FF_Q16_BOUND_V);
+	              "|w|<=20 rad/s, |a|<=10 (bound %.3g V)\n",
+	              worst, FF_Q16_BOUND_V);
 	assert_true(worst <= FF_Q16_BOUND_V);
 }
 
 /* The same sum in double from the Q16.16 gains: what the integer code must equal within its
  * rounding (3 products per axis, 2 axes per wheel: 3 LSB), clamped once to +-u_max. */
-static double ff_q16_reference(const struct ff_q16 *ff, const q16_t vq[3], const q16_t aq[3],
-			       int j)
+static double ff_q16_reference(const struct ff_q16 *ff, const q16_t vq[3], const q16_t aq[3], int j)
 {
 	double h[3];
 
@@ -83,8 +83,8 @@ static double ff_q16_reference(const struct ff_q16 *ff, const q16_t vq[3], const
 
 		sgn = sgn > 1 ? 1 : (sgn < -1 ? -1 : sgn);
 		h[k] = (q16_to_double(ff->k_acc[k]) * q16_to_double(aq[k]) +
-			q16_to_double(ff->k_vel[k]) * q16_to_double(vq[k]) +
-			q16_to_double(ff->k_coul[k]) * sgn);
+		        q16_to_double(ff->k_vel[k]) * q16_to_double(vq[k]) +
+		        q16_to_double(ff->k_coul[k]) * sgn);
 	}
 	const double u[4] = {h[1] + h[2], h[2] - h[0], h[2] - h[1], h[0] + h[2]};
 	const double um = q16_to_double(ff->u_max);
@@ -110,9 +110,9 @@ static void test_ff_q16_full_input_range_never_wraps(void **state)
 
 		for (int k = 0; k < 3; k++) {
 			vq[k] = n < 15625 ? ends[(n / p5[k]) % 5]
-					  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
+			                  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
 			aq[k] = n < 15625 ? ends[(n / p5[k + 3]) % 5]
-					  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
+			                  : (q16_t)(rng_uniform(&g, -2147483648.0, 2147483647.0));
 			if (n >= 15625 && (n & 1)) { /* half of them near the velocity envelope */
 				vq[k] >>= 12;
 				aq[k] >>= 12;
@@ -120,13 +120,15 @@ static void test_ff_q16_full_input_range_never_wraps(void **state)
 		}
 		ff_voltages_q16(&ff, vq, aq, uq);
 		for (int j = 0; j < 4; j++) {
-			const double e = fabs(q16_to_double(uq[j]) - ff_q16_reference(&ff, vq, aq, j));
+			const double e =
+			    fabs(q16_to_double(uq[j]) - ff_q16_reference(&ff, vq, aq, j));
 
 			worst = e > worst ? e : worst;
 		}
 	}
 	print_message("feedforward q16 over the whole int32 input range: max |du| vs exact = %.3g "
-		      "LSB\n", worst * Q16_ONE);
+	              "LSB\n",
+	              worst * Q16_ONE);
 	assert_true(worst * Q16_ONE <= 3.0);
 }
 
@@ -215,21 +217,23 @@ static void test_ff_alone_makes_the_plant_follow_a_profile(void **state)
 		}
 	}
 	print_message("feedforward only, open loop, %.0f s: RMS error v %.4f m/s, vn %.4f m/s, "
-		      "w %.4f rad/s; max %.4f, %.4f, %.4f\n", T, sqrt(sq[0] / n), sqrt(sq[1] / n),
-		      sqrt(sq[2] / n), worst[0], worst[1], worst[2]);
+	              "w %.4f rad/s; max %.4f, %.4f, %.4f\n",
+	              T, sqrt(sq[0] / n), sqrt(sq[1] / n), sqrt(sq[2] / n), worst[0], worst[1],
+	              worst[2]);
 	/* 2.5x the measured RMS 0.0005, 0.0014, 0.0056 and max 0.0025, 0.0049, 0.0257 */
-	assert_true(sqrt(sq[0] / n) < 0.0013 && sqrt(sq[1] / n) < 0.0035 && sqrt(sq[2] / n) < 0.014);
+	assert_true(sqrt(sq[0] / n) < 0.0013 && sqrt(sq[1] / n) < 0.0035 &&
+	            sqrt(sq[2] / n) < 0.014);
 	assert_true(worst[0] < 0.0065 && worst[1] < 0.0125 && worst[2] < 0.065);
 }
 
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_ff_q16_within_bound_of_double_over_envelope),
-		cmocka_unit_test(test_ff_q16_full_input_range_never_wraps),
-		cmocka_unit_test(test_ff_clamps_to_supply),
-		cmocka_unit_test(test_ff_steady_velocity_is_an_equilibrium_of_eq23),
-		cmocka_unit_test(test_ff_alone_makes_the_plant_follow_a_profile),
+	    cmocka_unit_test(test_ff_q16_within_bound_of_double_over_envelope),
+	    cmocka_unit_test(test_ff_q16_full_input_range_never_wraps),
+	    cmocka_unit_test(test_ff_clamps_to_supply),
+	    cmocka_unit_test(test_ff_steady_velocity_is_an_equilibrium_of_eq23),
+	    cmocka_unit_test(test_ff_alone_makes_the_plant_follow_a_profile),
 	};
 
 	return cmocka_run_group_tests_name("feedforward", tests, NULL, NULL);

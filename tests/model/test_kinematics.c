@@ -33,7 +33,7 @@ static void test_ik_fk_round_trip_within_1e12(void **state)
 	rng_seed(&g, 42);
 	for (int n = 0; n < 10000; n++) {
 		const double x[3] = {rng_uniform(&g, -3, 3), rng_uniform(&g, -3, 3),
-				     rng_uniform(&g, -20, 20)};
+		                     rng_uniform(&g, -20, 20)};
 		double v[4], y[3];
 
 		ik_wheel_speeds(d, x, v);
@@ -93,9 +93,9 @@ static void test_ik_q16_matches_double_within_12_lsb(void **state)
 	rng_seed(&g, 3);
 	for (int n = 0; n < 100000; n++) {
 		const double x[3] = {rng_uniform(&g, -3, 3), rng_uniform(&g, -3, 3),
-				     rng_uniform(&g, -20, 20)};
+		                     rng_uniform(&g, -20, 20)};
 		const q16_t xq[3] = {q16_from_double(x[0]), q16_from_double(x[1]),
-				     q16_from_double(x[2])};
+		                     q16_from_double(x[2])};
 		double v[4];
 		q16_t vq[4];
 
@@ -109,7 +109,7 @@ static void test_ik_q16_matches_double_within_12_lsb(void **state)
 	}
 	/* Quantisation of d (0.5 LSB) times |w| <= 20 plus rounding: < 12 LSB. */
 	print_message("ik q16 vs double: max |error| = %.3g m/s (%.1f LSB)\n", worst,
-		      worst * Q16_ONE);
+	              worst * Q16_ONE);
 	assert_true(worst < 12.0 / Q16_ONE);
 }
 
@@ -169,7 +169,7 @@ static void test_q16_saturates_instead_of_wrapping(void **state)
 	/* d*w small: the rows saturate only where the exact value is out of range. */
 	ik_wheel_speeds_q16(Q16_ONE / 4, (q16_t[3]){Q16_MAX, Q16_MIN, 4 * Q16_ONE}, v);
 	assert_int_equal(v[0], Q16_MIN + Q16_ONE); /* -32768 + 1 */
-	assert_int_equal(v[1], Q16_ONE - Q16_MAX);  /* 1 - 32767.99998 */
+	assert_int_equal(v[1], Q16_ONE - Q16_MAX); /* 1 - 32767.99998 */
 	assert_int_equal(v[2], Q16_MAX);           /* 1 + 32768 */
 	assert_int_equal(v[3], Q16_MAX);           /* 32767.99998 + 1 */
 }
@@ -177,13 +177,13 @@ static void test_q16_saturates_instead_of_wrapping(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_ik_rows_match_eq2),
-		cmocka_unit_test(test_ik_fk_round_trip_within_1e12),
-		cmocka_unit_test(test_fk_is_least_squares_inverse_of_ik),
-		cmocka_unit_test(test_frame_rotation_round_trip_and_closed_form),
-		cmocka_unit_test(test_ik_q16_matches_double_within_12_lsb),
-		cmocka_unit_test(test_fk_q16_matches_double),
-		cmocka_unit_test(test_q16_saturates_instead_of_wrapping),
+	    cmocka_unit_test(test_ik_rows_match_eq2),
+	    cmocka_unit_test(test_ik_fk_round_trip_within_1e12),
+	    cmocka_unit_test(test_fk_is_least_squares_inverse_of_ik),
+	    cmocka_unit_test(test_frame_rotation_round_trip_and_closed_form),
+	    cmocka_unit_test(test_ik_q16_matches_double_within_12_lsb),
+	    cmocka_unit_test(test_fk_q16_matches_double),
+	    cmocka_unit_test(test_q16_saturates_instead_of_wrapping),
 	};
 
 	return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);

@@ -6,17 +6,14 @@
  *                        800), no fault
  *   vcan_check rate S [HZ]   command for S seconds; check only the rate and seq continuity
  *   vcan_check clear     send MODE_CLEAR_FAULT; check the controller leaves FAULT
- *   vcan_check flood N S IFACE TIMEOUT_MS  command v = 0.5 m/s and send N random 8-byte frames on the
- *                        STATUS IDs (0x020, 0x021 alternately) on IFACE, paced at 40 per
- *                        OMNI4_MOTORS sample seen (the controller reads 64 frames per tick and
- *                        gets 2 STATUS per ms: the junk never overflows its socket queue, it
- *                        examines every frame); at most S seconds. Checks: all N sent, no
- *                        sample with a latching fault or FAULT mode, no seq gaps; except
- *                        DRIVER_TIMEOUT (and seq gaps) when a board's real STATUS frames
- *                        really stopped for TIMEOUT_MS ([can] status_timeout_ms) or longer
- *   vcan_check calm S PID...  command until every PID has exited (at most S seconds): check
- *                        that no sample shows a latching fault or FAULT mode, seq continuity,
- *                        and that the PIDs (the flood generators) finished in time
+ *   vcan_check flood N S IFACE TIMEOUT_MS  command v = 0.5 m/s and send N random 8-byte frames on
+ * the STATUS IDs (0x020, 0x021 alternately) on IFACE, paced at 40 per OMNI4_MOTORS sample seen (the
+ * controller reads 64 frames per tick and gets 2 STATUS per ms: the junk never overflows its socket
+ * queue, it examines every frame); at most S seconds. Checks: all N sent, no sample with a latching
+ * fault or FAULT mode, no seq gaps; except DRIVER_TIMEOUT (and seq gaps) when a board's real STATUS
+ * frames really stopped for TIMEOUT_MS ([can] status_timeout_ms) or longer vcan_check calm S PID...
+ * command until every PID has exited (at most S seconds): check that no sample shows a latching
+ * fault or FAULT mode, seq continuity, and that the PIDs (the flood generators) finished in time
  *   vcan_check fault S PID  keep commanding, SIGKILL the motor simulator PID after 0.5 s,
  *                        wait up to S seconds for FAULT with DRIVER_TIMEOUT; print the
  *                        detection time and check the outputs are off
@@ -61,15 +58,15 @@ struct state {
 	int32_t faults;
 	float volt_abs_max_after_fault;
 	int fault_seen;
-	long latched;      /* samples with a latching fault bit or mode FAULT */
+	long latched; /* samples with a latching fault bit or mode FAULT */
 	int32_t latched_bits;
 	double first_latched_s; /* when the first one arrived (monotonic) */
 };
 
-#define LATCHING (OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |     \
-		  OMNI4_MOTORS_T_FAULT_DRIVER | OMNI4_MOTORS_T_FAULT_BUS |                       \
-		  OMNI4_MOTORS_T_FAULT_ENCODER | OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR |            \
-		  OMNI4_MOTORS_T_FAULT_SUPPLY)
+#define LATCHING                                                                                   \
+	(OMNI4_MOTORS_T_FAULT_OVERCURRENT | OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |                  \
+	 OMNI4_MOTORS_T_FAULT_DRIVER | OMNI4_MOTORS_T_FAULT_BUS | OMNI4_MOTORS_T_FAULT_ENCODER |   \
+	 OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR | OMNI4_MOTORS_T_FAULT_SUPPLY)
 
 /* A process that exists and is not a zombie (its parent may not have reaped it yet). */
 static int running(int pid)
@@ -143,7 +140,8 @@ static int cmp_double(const void *a, const void *b)
 static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 {
 	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
-	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	struct sockaddr_can addr = {.can_family = AF_CAN,
+	                            .can_ifindex = (int)if_nametoindex(iface)};
 	const struct can_filter flt = {.can_id = CAN_ID_CMD_VOLTAGE, .can_mask = CAN_SFF_MASK};
 	double *lat = calloc((size_t)n, sizeof(double));
 	int got = 0;
@@ -160,8 +158,9 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 		/* distinct values on the 40 mV grid of CMD_VOLTAGE */
 		const float v = 0.52f + 0.04f * (float)(k % 50); /* 0.52 .. 2.48 V, as before */
 		const struct timespec phase = {.tv_sec = 0, .tv_nsec = 2000000 + rand() % 1000000};
-		omni4_command_t c = {.seq = 1000000 + k, .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
-				     .voltage = {v, v, v, v}};
+		omni4_command_t c = {.seq = 1000000 + k,
+		                     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+		                     .voltage = {v, v, v, v}};
 		struct can_frame cf;
 
 		nanosleep(&phase, NULL);
@@ -179,7 +178,8 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 			bool en;
 			uint8_t ctr;
 
-			if (poll(&p, 1, 50) <= 0 || read(fd, &cf, sizeof(cf)) != (ssize_t)sizeof(cf))
+			if (poll(&p, 1, 50) <= 0 ||
+			    read(fd, &cf, sizeof(cf)) != (ssize_t)sizeof(cf))
 				continue;
 			f.id = cf.can_id & CAN_SFF_MASK;
 			f.dlc = cf.can_dlc;
@@ -194,15 +194,16 @@ static int cmd_to_can_latency(lcm_t *lcm, int n, const char *iface)
 	close(fd);
 	qsort(lat, (size_t)got, sizeof(double), cmp_double);
 	if (got)
-		printf("%s: OMNI4_CMD -> CMD_VOLTAGE on %s: p50 %.0f p99 %.0f max %.0f us over %d of "
-		       "%d commands\n", got == n ? "ok" : "FAIL", iface, lat[got / 2],
-		       lat[(int)(0.99 * (got - 1))], lat[got - 1], got, n);
+		printf(
+		    "%s: OMNI4_CMD -> CMD_VOLTAGE on %s: p50 %.0f p99 %.0f max %.0f us over %d of "
+		    "%d commands\n",
+		    got == n ? "ok" : "FAIL", iface, lat[got / 2], lat[(int)(0.99 * (got - 1))],
+		    lat[got - 1], got, n);
 	else
 		printf("FAIL: no command reached %s\n", iface);
 	free(lat);
 	return got == n ? 0 : 1;
 }
-
 
 /* The driver boards' real STATUS frames, told from the junk by their CRC, with the kernel's
  * receive time (SO_TIMESTAMP: when the frame went on the bus, however late we read it): the
@@ -218,9 +219,10 @@ struct status_watch {
 
 static int watch_open(struct status_watch *w, const char *iface)
 {
-	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	struct sockaddr_can addr = {.can_family = AF_CAN,
+	                            .can_ifindex = (int)if_nametoindex(iface)};
 	const struct can_filter flt[2] = {{CAN_ID_STATUS(0), CAN_SFF_MASK},
-					  {CAN_ID_STATUS(1), CAN_SFF_MASK}};
+	                                  {CAN_ID_STATUS(1), CAN_SFF_MASK}};
 	const int one = 1;
 
 	memset(w, 0, sizeof(*w));
@@ -239,8 +241,10 @@ static void watch_drain(struct status_watch *w)
 		struct can_frame cf;
 		char ctl[CMSG_SPACE(sizeof(struct timeval))];
 		struct iovec iov = {.iov_base = &cf, .iov_len = sizeof(cf)};
-		struct msghdr msg = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = ctl,
-				     .msg_controllen = sizeof(ctl)};
+		struct msghdr msg = {.msg_iov = &iov,
+		                     .msg_iovlen = 1,
+		                     .msg_control = ctl,
+		                     .msg_controllen = sizeof(ctl)};
 
 		if (recvmsg(w->fd, &msg, 0) != (ssize_t)sizeof(cf))
 			return;
@@ -272,7 +276,8 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface, doubl
 	struct status_watch w;
 
 	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
-	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	struct sockaddr_can addr = {.can_family = AF_CAN,
+	                            .can_ifindex = (int)if_nametoindex(iface)};
 	struct state s = {0};
 	omni4_command_t cmd = {.mode = OMNI4_COMMAND_T_MODE_VELOCITY, .velocity = {0.5, 0, 0}};
 	uint64_t x = 0x2545F4914F6CDD1Dull;
@@ -292,7 +297,7 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface, doubl
 	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, NULL, 0); /* we receive nothing */
 	setsockopt(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &zero, sizeof(zero));
 	omni4_motors_t_subscription_t *sub =
-		omni4_motors_t_subscribe(lcm, "OMNI4_MOTORS", on_motors, &s);
+	    omni4_motors_t_subscribe(lcm, "OMNI4_MOTORS", on_motors, &s);
 
 	omni4_motors_t_subscription_set_queue_capacity(sub, 100000);
 	const double t0 = now_s();
@@ -339,23 +344,21 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface, doubl
 	const double elapsed = now_s() - t0;
 	/* Only DRIVER_TIMEOUT (and the rejections of commands in FAULT that follow it) may be
 	 * latched, and only if a board really was silent for the status timeout. */
-	const int32_t explained = OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT |
-				  OMNI4_MOTORS_T_FAULT_CMD_REJECTED;
+	const int32_t explained =
+	    OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT | OMNI4_MOTORS_T_FAULT_CMD_REJECTED;
 	const int silent = w.max_gap_s >= timeout_s;
-	const int faults_ok =
-		s.latched == 0 || (silent && !(s.latched_bits & ~explained));
-	const int ok = sent == n && faults_ok && s.n > 0 && w.valid > 0 &&
-		       (s.gaps == 0 || silent);
+	const int faults_ok = s.latched == 0 || (silent && !(s.latched_bits & ~explained));
+	const int ok = sent == n && faults_ok && s.n > 0 && w.valid > 0 && (s.gaps == 0 || silent);
 
 	printf("%s: flood: %ld of %ld junk STATUS frames in %.1f s (%.0f frames/s), %ld samples "
 	       "(%.0f Hz), %ld with a latching fault (bits 0x%x, first at %.2f s), %ld seq gaps, "
 	       "mode %d, %ld full-queue waits; the boards' STATUS: %ld valid, longest silence "
-	       "%.0f ms (status timeout %.0f ms)%s\n", ok ? "ok" : "FAIL", sent, n, elapsed,
-	       sent / elapsed, s.n, s.n / elapsed, s.latched, s.latched_bits,
-	       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode, busy, w.valid,
-	       w.max_gap_s * 1e3, timeout_s * 1e3,
+	       "%.0f ms (status timeout %.0f ms)%s\n",
+	       ok ? "ok" : "FAIL", sent, n, elapsed, sent / elapsed, s.n, s.n / elapsed, s.latched,
+	       s.latched_bits, s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode, busy,
+	       w.valid, w.max_gap_s * 1e3, timeout_s * 1e3,
 	       s.latched && ok ? ": the boards were silent (VM starved), DRIVER_TIMEOUT is right"
-			       : "");
+	                       : "");
 	omni4_motors_t_unsubscribe(lcm, sub);
 	close(w.fd);
 	close(fd);
@@ -369,10 +372,11 @@ static int junk_flood(lcm_t *lcm, long n, double max_s, const char *iface, doubl
 #define CAPTURE_MARKER_ID 0x7FF
 static int capture(const char *iface, double max_s)
 {
-	struct sockaddr_can addr = {.can_family = AF_CAN, .can_ifindex = (int)if_nametoindex(iface)};
+	struct sockaddr_can addr = {.can_family = AF_CAN,
+	                            .can_ifindex = (int)if_nametoindex(iface)};
 	const struct can_filter flt[3] = {{CAN_ID_CMD_VOLTAGE, CAN_SFF_MASK},
-					  {CAN_ID_CMD_CONTROL, CAN_SFF_MASK},
-					  {CAPTURE_MARKER_ID, CAN_SFF_MASK}};
+	                                  {CAN_ID_CMD_CONTROL, CAN_SFF_MASK},
+	                                  {CAPTURE_MARKER_ID, CAN_SFF_MASK}};
 	const int fd = socket(PF_CAN, SOCK_RAW, CAN_RAW);
 	const int rcvbuf = 1 << 22;
 	long n = 0, driven = 0;
@@ -400,7 +404,8 @@ static int capture(const char *iface, double max_s)
 		const uint32_t id = cf.can_id & CAN_SFF_MASK;
 
 		if (id == CAPTURE_MARKER_ID) {
-			printf("capture: %ld frames, %ld with a non-zero voltage, last CMD_VOLTAGE %s\n",
+			printf("capture: %ld frames, %ld with a non-zero voltage, last CMD_VOLTAGE "
+			       "%s\n",
 			       n, driven, last);
 			close(fd);
 			return 0;
@@ -422,8 +427,9 @@ static int capture(const char *iface, double max_s)
 int main(int argc, char **argv)
 {
 	if (argc < 2) {
-		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
-				"latency N IFACE\n");
+		fprintf(stderr,
+		        "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
+		        "latency N IFACE\n");
 		return 2;
 	}
 	const int track = !strcmp(argv[1], "track"), rate = !strcmp(argv[1], "rate");
@@ -438,7 +444,8 @@ int main(int argc, char **argv)
 		int rc;
 
 		if (n <= 0 || !(max_s > 0) || !(timeout_ms > 0)) {
-			fprintf(stderr, "usage: vcan_check flood N SECONDS IFACE STATUS_TIMEOUT_MS\n");
+			fprintf(stderr,
+			        "usage: vcan_check flood N SECONDS IFACE STATUS_TIMEOUT_MS\n");
 			return 2;
 		}
 		if (!l) {
@@ -485,8 +492,9 @@ int main(int argc, char **argv)
 		waited[k] = atoi(argv[3 + k]);
 	if (!(track || rate || clear || fault || calm) || !(dur > 0) || (fault && victim <= 0) ||
 	    (calm && n_waited < 1)) {
-		fprintf(stderr, "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
-				"calm SECONDS PID... | latency N IFACE\n");
+		fprintf(stderr,
+		        "usage: vcan_check track|rate SECONDS | clear | fault SECONDS PID | "
+		        "calm SECONDS PID... | latency N IFACE\n");
 		return 2;
 	}
 	lcm_t *lcm = lcm_create(NULL);
@@ -496,7 +504,8 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	struct state s = {0};
-	omni4_motors_t_subscription_t *sub = omni4_motors_t_subscribe(lcm, "OMNI4_MOTORS", on_motors, &s);
+	omni4_motors_t_subscription_t *sub =
+	    omni4_motors_t_subscribe(lcm, "OMNI4_MOTORS", on_motors, &s);
 
 	omni4_motors_t_subscription_set_queue_capacity(sub, 100000);
 	omni4_command_t cmd = {.mode = OMNI4_COMMAND_T_MODE_VELOCITY, .velocity = {0.5, 0, 0}};
@@ -543,13 +552,15 @@ int main(int argc, char **argv)
 			alive += running(waited[k]);
 		ok = !alive && s.latched == 0 && s.gaps == 0 && s.n > 0;
 		printf("%s: flood over %.1f s%s: %ld samples (%.0f Hz), %ld with a latching fault "
-		       "(bits 0x%x, first at %.2f s), %ld seq gaps, mode %d\n", ok ? "ok" : "FAIL",
-		       elapsed, alive ? " (generators still running at the time limit)" : "", s.n,
+		       "(bits 0x%x, first at %.2f s), %ld seq gaps, mode %d\n",
+		       ok ? "ok" : "FAIL", elapsed,
+		       alive ? " (generators still running at the time limit)" : "", s.n,
 		       s.n / elapsed, s.latched, s.latched_bits,
 		       s.latched ? s.first_latched_s - t0 : 0.0, s.gaps, s.mode);
 	} else if (clear) {
 		ok = s.mode != OMNI4_MOTORS_T_MODE_FAULT && s.n > 0;
-		printf("%s: clear fault: mode %d, faults 0x%x\n", ok ? "ok" : "FAIL", s.mode, s.faults);
+		printf("%s: clear fault: mode %d, faults 0x%x\n", ok ? "ok" : "FAIL", s.mode,
+		       s.faults);
 	} else if (rate) {
 		ok = s.gaps == 0 && s.n >= min_hz * elapsed;
 		printf("%s: %ld samples in %.1f s (%.0f Hz), %ld seq gaps, mode %d, faults 0x%x\n",
@@ -557,11 +568,12 @@ int main(int argc, char **argv)
 	} else if (track) {
 		const double v = s.v_n ? s.v_sum / s.v_n : NAN;
 
-		ok = fabs(v - 0.5) < 0.05 && s.gaps == 0 && s.mode == OMNI4_MOTORS_T_MODE_VELOCITY &&
-		     s.n >= min_hz * elapsed;
+		ok = fabs(v - 0.5) < 0.05 && s.gaps == 0 &&
+		     s.mode == OMNI4_MOTORS_T_MODE_VELOCITY && s.n >= min_hz * elapsed;
 		printf("%s: tracking over %.1f s: v %.4f m/s (target 0.5), %ld samples (%.0f Hz), "
 		       "%ld seq gaps, mode %d, faults 0x%x\n",
-		       ok ? "ok" : "FAIL", elapsed, v, s.n, s.n / elapsed, s.gaps, s.mode, s.faults);
+		       ok ? "ok" : "FAIL", elapsed, v, s.n, s.n / elapsed, s.gaps, s.mode,
+		       s.faults);
 	} else {
 		ok = t_fault >= 0 && s.volt_abs_max_after_fault == 0.0f;
 		printf("%s: motor driver killed -> FAULT (DRIVER_TIMEOUT) %s after %.0f ms (status "

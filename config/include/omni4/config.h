@@ -26,11 +26,11 @@
 
 /* A robot's whole INI. */
 struct omni4_config {
-	struct ctl_settings ctl;        /* [model] [loop] rate_hz [control] [limits] */
-	struct fw_settings fw;          /* [loop] real-time, [lcm] [hal] [params] */
-	struct sim_settings sim;        /* [sim] */
-	struct socketcan_settings can;  /* [can] */
-	struct gpiod_settings gpio;     /* [gpio] */
+	struct ctl_settings ctl;       /* [model] [loop] rate_hz [control] [limits] */
+	struct fw_settings fw;         /* [loop] real-time, [lcm] [hal] [params] */
+	struct sim_settings sim;       /* [sim] */
+	struct socketcan_settings can; /* [can] */
+	struct gpiod_settings gpio;    /* [gpio] */
 };
 
 /* Every key's default (the tables' default column): the paper's Table III robot at 1 kHz on the
@@ -46,7 +46,6 @@ struct config_error {
 	char msg[256]; /* "PATH:LINE: what is wrong" */
 };
 
-
 /*
  * Load PATH over the defaults. 0 on success; -ENOENT if the file cannot be opened; -EINVAL on
  * any error in it, described in err (first error only).
@@ -54,7 +53,7 @@ struct config_error {
 int config_load(const char *path, struct omni4_config *cfg, struct config_error *err);
 /* Same, from a string in memory; name is used in messages. */
 int config_load_string(const char *text, const char *name, struct omni4_config *cfg,
-		       struct config_error *err);
+                       struct config_error *err);
 
 /*
  * Like config_load, but [model] may hold any subset of its keys (e.g. a BASE.ini with only the
@@ -62,7 +61,7 @@ int config_load_string(const char *text, const char *name, struct omni4_config *
  * model_params_names[i] present.
  */
 int config_load_partial(const char *path, struct omni4_config *cfg, uint32_t *model_seen,
-			struct config_error *err);
+                        struct config_error *err);
 
 /* Write a [model] section that config_load reads back exactly (config_format_double). Returns 0
  * or -EIO. */
@@ -98,7 +97,7 @@ struct config_key {
 	const char *choices; /* ENUM: "a|b|c", the enum's order */
 	const char *unit;    /* SI unit, "" for none */
 	enum config_change change;
-	const char *doc;     /* one line; names any check beyond the range */
+	const char *doc; /* one line; names any check beyond the range */
 };
 
 int config_key_count(void);
@@ -120,8 +119,8 @@ int config_check(const struct omni4_config *cfg, char *why, size_t n);
  * parsed; unknown and duplicate keys and syntax errors are errors as in config_load). pair
  * returns non-zero to stop ("too many keys"). 0 or -EINVAL with err. */
 int config_parse_pairs(const char *text, const char *name,
-		       int (*pair)(void *ctx, int key, const char *value), void *ctx,
-		       struct config_error *err);
+                       int (*pair)(void *ctx, int key, const char *value), void *ctx,
+                       struct config_error *err);
 
 /* Write every key of cfg, all sections, so that config_load reads back the same values; a
  * comment line with each key's doc and unit; header (may be NULL) as the first comment.
@@ -134,6 +133,6 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
  * directory. The file keeps its permissions. 0 or a negative errno with why.
  */
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
-		size_t n);
+                size_t n);
 
 #endif /* OMNI4_CONFIG_H */

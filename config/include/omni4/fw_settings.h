@@ -15,11 +15,12 @@ struct fw_settings {
 		bool sched_fifo;
 		int priority;
 		bool mlockall;
-		int cpu_dma_latency_us; /* -1 = leave the CPU idle states alone; 0 = no deep C-state */
+		int cpu_dma_latency_us; /* -1 = leave the CPU idle states alone; 0 = no deep C-state
+		                         */
 	} loop;
 	char lcm_url[128];
-	int motor;       /* enum omni4_motor_backend */
-	int lines;       /* enum omni4_lines_backend */
+	int motor;        /* enum omni4_motor_backend */
+	int lines;        /* enum omni4_lines_backend */
 	char secret[128]; /* "" = parameter changes over LCM need no token */
 };
 

@@ -33,20 +33,22 @@ enum ctl_mode {
 /* The controller's fault and state bits (ctl_output.faults). Latching faults force CTL_FAULT
  * and stay until a successful CTL_CLEAR_FAULT; the others are reported, not latching. The
  * numbering is the one of motors_t (the LCM adapter checks it bit by bit at compile time). */
-#define CTL_FAULT_OVERCURRENT 0x0001     /* |current| above limits.current_max_a */
-#define CTL_FAULT_DRIVER_TIMEOUT 0x0002  /* no reading from the motor drivers */
-#define CTL_FAULT_DRIVER 0x0004          /* a motor driver reported a fault */
-#define CTL_FAULT_BUS 0x0008             /* the bus to the drivers is down */
-#define CTL_FAULT_ENCODER 0x0010         /* wheel speed not finite, jumped, or stuck */
-#define CTL_FAULT_CURRENT_SENSOR 0x0020  /* current reading not finite or at the rail, or a
-                                          * calibrated offset beyond CTL_CAL_LIMIT_A */
-#define CTL_FAULT_SUPPLY 0x0040          /* supply below limits.supply_min_v */
-#define CTL_FAULT_ESTOP 0x0100           /* e-stop active (mode CTL_ESTOP) */
-#define CTL_FAULT_CMD_TIMEOUT 0x0200     /* watchdog fired */
-#define CTL_FAULT_CMD_REJECTED 0x0400    /* the last command was rejected */
-#define CTL_FAULT_LOG_OVERFLOW 0x0800    /* flagged by the loop: log samples were dropped */
-#define CTL_FAULT_OVERRUN 0x1000         /* set by the loop (fw.c) in the sample of a tick that
-                                          * started a whole period or more late */
+#define CTL_FAULT_OVERCURRENT 0x0001    /* |current| above limits.current_max_a */
+#define CTL_FAULT_DRIVER_TIMEOUT 0x0002 /* no reading from the motor drivers */
+#define CTL_FAULT_DRIVER 0x0004         /* a motor driver reported a fault */
+#define CTL_FAULT_BUS 0x0008            /* the bus to the drivers is down */
+#define CTL_FAULT_ENCODER 0x0010        /* wheel speed not finite, jumped, or stuck */
+/* CURRENT_SENSOR: a current reading not finite or at the rail, or a calibrated offset beyond
+ * CTL_CAL_LIMIT_A. */
+#define CTL_FAULT_CURRENT_SENSOR 0x0020
+#define CTL_FAULT_SUPPLY 0x0040       /* supply below limits.supply_min_v */
+#define CTL_FAULT_ESTOP 0x0100        /* e-stop active (mode CTL_ESTOP) */
+#define CTL_FAULT_CMD_TIMEOUT 0x0200  /* watchdog fired */
+#define CTL_FAULT_CMD_REJECTED 0x0400 /* the last command was rejected */
+#define CTL_FAULT_LOG_OVERFLOW 0x0800 /* flagged by the loop: log samples were dropped */
+/* OVERRUN: set by the loop (fw.c) in the sample of a tick that started a whole period or more
+ * late. */
+#define CTL_FAULT_OVERRUN 0x1000
 
 /*
  * Current-sense offsets (docs/faults.md): measured with the bridges off (true current 0) once
@@ -75,10 +77,10 @@ struct ctl_command {
 };
 
 struct ctl_output {
-	float volts[4];  /* [V], within +-supply_v; 0 whenever !enable */
-	bool enable;     /* H-bridges on */
+	float volts[4]; /* [V], within +-supply_v; 0 whenever !enable */
+	bool enable;    /* H-bridges on */
 	int8_t mode;
-	int32_t faults;  /* CTL_FAULT_* */
+	int32_t faults;   /* CTL_FAULT_* */
 	float current[4]; /* the sample's currents minus the offsets in force [A]; NaN: none */
 };
 
@@ -93,18 +95,18 @@ struct ctl_counters {
  * FPU; the command limits in double, as commands are checked): derived from struct ctl_settings
  * at init and at every parameter change, never per tick. The fast path reads only these. */
 struct ctl_tuning {
-	float dt;             /* loop period [s] */
-	float r;              /* wheel radius [m] */
-	float u_max;          /* supply: output bound [V] */
-	float current_max;    /* over-current level [A] */
-	float sensor_max;     /* a current reading at or beyond this is a saturated sensor [A] */
-	float supply_min;     /* [V] */
+	float dt;          /* loop period [s] */
+	float r;           /* wheel radius [m] */
+	float u_max;       /* supply: output bound [V] */
+	float current_max; /* over-current level [A] */
+	float sensor_max;  /* a current reading at or beyond this is a saturated sensor [A] */
+	float supply_min;  /* [V] */
 	int64_t cmd_timeout_us;
 	int encoder_bad_ticks_max; /* ticks the rigid-body residual may stay too large */
-	float stop_ramp_s;    /* watchdog stop ramp [s] */
+	float stop_ramp_s;         /* watchdog stop ramp [s] */
 	bool feedforward;
 	bool feedback;
-	double vel_lin_max;   /* command limits [m/s], [rad/s], [V] */
+	double vel_lin_max; /* command limits [m/s], [rad/s], [V] */
 	double vel_rot_max;
 	double supply_v;
 };
@@ -113,33 +115,33 @@ struct ctl {
 	struct ctl_settings set; /* the settings in force (read off the loop: reports, tests) */
 	struct ff_q16 ff;
 	q16_t inv_4d;
-	int64_t period_us;      /* loop period [us] */
+	int64_t period_us; /* loop period [us] */
 	struct ctl_tuning t;
 	enum ctl_mode mode;
 	int32_t latched;        /* latching fault bits */
 	int32_t present;        /* fault conditions seen in the last tick */
 	int32_t reading_faults; /* conditions of the last reading: a tick without one (-EAGAIN)
-				 * keeps them, so a clear cannot slip through such a tick */
+	                         * keeps them, so a clear cannot slip through such a tick */
 	int32_t warnings;       /* non-latching bits */
 	int64_t last_cmd_us;    /* controller time of the last valid motion command */
 	/* VELOCITY */
 	float vel_target[3];
 	struct ctl_shaper shaper; /* shaped reference [m/s, m/s, rad/s] and its derivative */
-	struct ctl_pi pi[4];    /* PI on each wheel's linear speed */
+	struct ctl_pi pi[4];      /* PI on each wheel's linear speed */
 	/* VOLTAGE ramp */
 	struct ctl_ramp ramp;
-	bool stopping;          /* watchdog stop ramp in progress */
+	bool stopping; /* watchdog stop ramp in progress */
 	/* Last output and plausibility state */
 	float out[4];
-	float x_est[3];         /* robot velocity from the wheel speeds (eqs 3-5) */
+	float x_est[3]; /* robot velocity from the wheel speeds (eqs 3-5) */
 	int encoder_bad_ticks;
-	float last_wheel[4];    /* last wheel speeds [rad/s], for the jump check */
-	int64_t last_wheel_us;  /* controller time of that reading [us] */
+	float last_wheel[4];   /* last wheel speeds [rad/s], for the jump check */
+	int64_t last_wheel_us; /* controller time of that reading [us] */
 	bool have_wheel;
 	/* Current-sense offsets */
 	struct ctl_cal cal;
-	bool enabled_prev;      /* bridges on after the last tick (while this tick's reading was
-				 * taken) */
+	bool enabled_prev; /* bridges on after the last tick (while this tick's reading was
+	                    * taken) */
 	struct ctl_counters n;
 };
 
@@ -161,12 +163,12 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us);
  * first tick of a new set being the one whose step changed it).
  */
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
-	      bool estop, struct ctl_output *out);
+              bool estop, struct ctl_output *out);
 
 /* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
  * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
-		q16_t inv_4d);
+                q16_t inv_4d);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
 void ctl_flag(struct ctl *c, int32_t bits);

@@ -1,8 +1,8 @@
 /*
  * ctl_blocks.h - the controller's small signal blocks, each an instance struct with
  * init / reset / step in the CMSIS-DSP manner: a PI with anti-windup, a voltage ramp, a
- * reference shaper (rate limiter), the current-sense offset calibration. Single precision (the Cortex-M4F's FPU); no state outside
- * the instance, no allocation.
+ * reference shaper (rate limiter), the current-sense offset calibration. Single precision (the
+ * Cortex-M4F's FPU); no state outside the instance, no allocation.
  */
 #ifndef OMNI4_CTL_BLOCKS_H
 #define OMNI4_CTL_BLOCKS_H
@@ -14,10 +14,10 @@
  * the output is saturated in the direction the error pushes (conditional integration), and
  * is itself held within +-limit. */
 struct ctl_pi {
-	float kp;     /* [V per unit of e] */
-	float ki_dt;  /* ki x the step period [V per unit of e, per step] */
-	float limit;  /* output and integral bound [V] */
-	float integ;  /* state [V] */
+	float kp;    /* [V per unit of e] */
+	float ki_dt; /* ki x the step period [V per unit of e, per step] */
+	float limit; /* output and integral bound [V] */
+	float integ; /* state [V] */
 };
 
 void ctl_pi_init(struct ctl_pi *s, float kp, float ki, float dt, float limit);
@@ -35,7 +35,7 @@ struct ctl_ramp {
 
 /* The ramp's init: from `from` to `to` over len_s (0: at `to` at once) from now_us on. */
 void ctl_ramp_start(struct ctl_ramp *r, const float from[4], const float to[4], float len_s,
-		    int64_t now_us);
+                    int64_t now_us);
 /* No ramp in progress: the outputs stay at `hold` (done at once). */
 void ctl_ramp_reset(struct ctl_ramp *r, const float hold[4]);
 /* The outputs at now_us; true once the ramp has reached `to`. */
@@ -79,10 +79,10 @@ struct ctl_cal_cfg {
 struct ctl_cal {
 	struct ctl_cal_cfg cfg;
 	/* The set in force (all 0 until the first measurement completes). */
-	float offset[4];      /* [A], subtracted from every reading */
-	float var[4];         /* variance of the readings it came from [A^2] */
-	uint32_t fault_mask;  /* bit j: |offset[j]| > limit_a */
-	uint32_t gen;         /* sets that came into force; 0 = not calibrated yet */
+	float offset[4];     /* [A], subtracted from every reading */
+	float var[4];        /* variance of the readings it came from [A^2] */
+	uint32_t fault_mask; /* bit j: |offset[j]| > limit_a */
+	uint32_t gen;        /* sets that came into force; 0 = not calibrated yet */
 	/* The set before it (0 before the first), for the announcement. */
 	float prev[4];
 	uint32_t prev_fault_mask;

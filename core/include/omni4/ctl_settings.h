@@ -14,11 +14,12 @@ struct ctl_settings {
 	struct model_params model;
 	double rate_hz; /* loop rate [Hz] */
 	struct {
-		double kp;          /* PI on wheel linear speed [V/(m/s)] */
-		double ki;          /* [V/m] */
+		double kp; /* PI on wheel linear speed [V/(m/s)] */
+		double ki; /* [V/m] */
 		bool feedforward;
 		bool feedback;
-		int cmd_timeout_ms; /* watchdog: no valid command for this long -> ramp to 0 -> IDLE */
+		int cmd_timeout_ms; /* watchdog: no valid command for this long -> ramp to 0 -> IDLE
+		                     */
 		double stop_ramp_s; /* ramp length of that stop [s] */
 	} control;
 	struct {
@@ -29,7 +30,8 @@ struct ctl_settings {
 		double acc_lin_max;   /* reference shaping [m/s^2] */
 		double acc_rot_max;   /* [rad/s^2] */
 		double current_max_a; /* over-current fault level [A] */
-		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor [A] */
+		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor
+		                                [A] */
 	} limits;
 };
 

@@ -54,30 +54,30 @@
 
 /* Noise and thresholds of the filter (SI units, standard deviations). */
 struct est_settings {
-	float accel_noise_lin;   /* process noise on v, vn [m/s^2]: an acceleration held over a
-				  * tick, variance (accel_noise_lin dt)^2 per tick */
-	float accel_noise_rot;   /* process noise on w [rad/s^2], likewise */
-	float wheel_noise;       /* wheel linear speed reading [m/s] */
-	float cam_pos_noise;     /* camera position [m] */
-	float cam_theta_noise;   /* camera heading [rad] */
-	float gate_sigmas;       /* a camera innovation beyond this many sigmas is an outlier */
-	float slip_threshold;    /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
-				  * in a reading beyond it one wheel is left out */
+	float accel_noise_lin; /* process noise on v, vn [m/s^2]: an acceleration held over a
+	                        * tick, variance (accel_noise_lin dt)^2 per tick */
+	float accel_noise_rot; /* process noise on w [rad/s^2], likewise */
+	float wheel_noise;     /* wheel linear speed reading [m/s] */
+	float cam_pos_noise;   /* camera position [m] */
+	float cam_theta_noise; /* camera heading [rad] */
+	float gate_sigmas;     /* a camera innovation beyond this many sigmas is an outlier */
+	float slip_threshold;  /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
+	                        * in a reading beyond it one wheel is left out */
 	int slip_ticks;
 	float collision_threshold; /* model-vs-wheel velocity innovation (vel_innov) beyond it
-				    * for collision_ticks ticks: COLLISION [m/s] */
+	                            * for collision_ticks ticks: COLLISION [m/s] */
 	int collision_ticks;
-	bool replay;             /* camera frames replayed from their capture time (false: applied
-				  * at arrival, as if they had no latency; for comparison) */
+	bool replay; /* camera frames replayed from their capture time (false: applied
+	              * at arrival, as if they had no latency; for comparison) */
 };
 
 /* One tick's inputs. */
 struct est_input {
-	int64_t utime;          /* controller time of the tick [us] */
-	float volts[4];         /* applied [V] */
-	bool driven;            /* H-bridges on */
-	bool have_wheels;       /* a reading this tick */
-	float wheel_rad_s[4];   /* wheel angular speeds [rad/s] */
+	int64_t utime;        /* controller time of the tick [us] */
+	float volts[4];       /* applied [V] */
+	bool driven;          /* H-bridges on */
+	bool have_wheels;     /* a reading this tick */
+	float wheel_rad_s[4]; /* wheel angular speeds [rad/s] */
 };
 
 struct est_output {
@@ -88,7 +88,7 @@ struct est_output {
 	uint32_t flags;         /* EST_FLAG_* */
 	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading [m/s] */
 	float vel_innov;        /* |wheel velocity - model prediction| of the last reading, w
-				 * as d w [m/s] (what EST_FLAG_COLLISION looks at) */
+	                         * as d w [m/s] (what EST_FLAG_COLLISION looks at) */
 	float cam_innov[3];     /* last camera pose minus the estimate at its capture time */
 	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
 	uint32_t cam_taken, cam_gated, cam_too_old;
@@ -98,8 +98,8 @@ struct est_output {
 struct est_tick {
 	int64_t utime;
 	float volts[4];
-	float wheel[4];  /* wheel linear speeds [m/s] */
-	float cam[3];    /* a camera pose captured at this tick (have_cam) */
+	float wheel[4]; /* wheel linear speeds [m/s] */
+	float cam[3];   /* a camera pose captured at this tick (have_cam) */
 	uint8_t driven, have_wheels, have_cam, pad;
 };
 
@@ -122,9 +122,9 @@ struct est {
 	struct {
 		float s[6], P[21]; /* upper triangle, row by row */
 	} snap[EST_HISTORY / EST_SNAP_EVERY];
-	uint32_t seq;           /* ticks since init/reset: the next tick's number */
+	uint32_t seq; /* ticks since init/reset: the next tick's number */
 	int slip_run, collision_run, cam_gate_run;
-	int64_t last_cam_us;    /* capture time of the last camera pose taken */
+	int64_t last_cam_us; /* capture time of the last camera pose taken */
 	bool have_cam;
 };
 
@@ -133,7 +133,7 @@ void est_settings_defaults(struct est_settings *s);
 /* Start at the origin, at rest, with a wide pose covariance. s NULL: the defaults. -EINVAL for a
  * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
-	     double rate_hz);
+             double rate_hz);
 /* Between two ticks: the model in force changed. */
 void est_set_model(struct est *e, const struct model_params *p);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */

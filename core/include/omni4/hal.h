@@ -20,10 +20,10 @@
 
 /* One reading of the four motor channels. */
 struct motor_sample {
-	float current_a[4];    /* measured motor current [A]; NaN if unknown */
-	float wheel_rad_s[4];  /* wheel angular speed after the gearbox [rad/s]; NaN if unknown */
-	float supply_v;        /* H-bridge supply [V]; NaN if not measured */
-	uint32_t faults;       /* driver-side fault bits (HAL_FAULT_*), 0 if healthy */
+	float current_a[4];   /* measured motor current [A]; NaN if unknown */
+	float wheel_rad_s[4]; /* wheel angular speed after the gearbox [rad/s]; NaN if unknown */
+	float supply_v;       /* H-bridge supply [V]; NaN if not measured */
+	uint32_t faults;      /* driver-side fault bits (HAL_FAULT_*), 0 if healthy */
 };
 
 struct motor_hal_ops {

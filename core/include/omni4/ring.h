@@ -16,7 +16,7 @@ struct spsc_ring {
 	_Atomic size_t tail; /* next slot to read (consumer) */
 	size_t mask;         /* capacity - 1, capacity a power of two */
 	size_t slot_size;
-	unsigned char *buf;  /* capacity * slot_size bytes */
+	unsigned char *buf; /* capacity * slot_size bytes */
 };
 
 /* capacity must be a power of two >= 2; -EINVAL otherwise. */

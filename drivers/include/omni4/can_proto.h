@@ -36,11 +36,11 @@
 #define CAN_NODES 2
 
 /* Signal ranges are those of the signed raw fields: [-2^(n-1), 2^(n-1) - 1] LSB. */
-#define CAN_VOLT_LSB 0.04f    /* [V], 10 bit: -20.48 .. 20.44 */
+#define CAN_VOLT_LSB 0.04f /* [V], 10 bit: -20.48 .. 20.44 */
 #define CAN_VOLT_MAX 20.44f
-#define CAN_CURR_LSB 0.02f    /* [A], 10 bit: -10.24 .. 10.22 */
+#define CAN_CURR_LSB 0.02f /* [A], 10 bit: -10.24 .. 10.22 */
 #define CAN_CURR_MAX 10.22f
-#define CAN_SPEED_LSB 0.125f  /* [rad/s], 11 bit: -128 .. 127.875 */
+#define CAN_SPEED_LSB 0.125f /* [rad/s], 11 bit: -128 .. 127.875 */
 #define CAN_SPEED_MAX 127.875f
 
 /* E2E data ID of a frame ID (enters the CRC, never sent). */
@@ -56,8 +56,8 @@ enum can_control { CAN_CTL_ENABLE = 1, CAN_CTL_DISABLE = 2, CAN_CTL_CLEAR_FAULTS
 #define CAN_DRV_OVERTEMP 0x02u
 #define CAN_DRV_UNDERVOLTAGE 0x04u
 #define CAN_DRV_HW 0x08u
-#define CAN_DRV_CMD_TIMEOUT 0x10u /* no CMD_VOLTAGE for CAN_BOARD_CMD_TIMEOUT_US: the board
-				   * disabled itself */
+/* No CMD_VOLTAGE for CAN_BOARD_CMD_TIMEOUT_US: the board disabled itself. */
+#define CAN_DRV_CMD_TIMEOUT 0x10u
 
 /* A driver board without a CMD_VOLTAGE for this long disables its bridges (its own watchdog,
  * behind the controller's). */
@@ -78,10 +78,10 @@ struct can_status {
 };
 
 struct can_health {
-	uint8_t faults;  /* CAN_DRV_* */
-	float supply_v;  /* [V] */
-	int8_t temp_c;   /* [deg C] */
-	uint8_t state;   /* enum can_drv_state */
+	uint8_t faults; /* CAN_DRV_* */
+	float supply_v; /* [V] */
+	int8_t temp_c;  /* [deg C] */
+	uint8_t state;  /* enum can_drv_state */
 };
 
 /* CRC-16/CCITT-FALSE (check value 0x29B1 for "123456789"). */
@@ -91,22 +91,22 @@ uint16_t can_frame_crc(const struct omni4_can_frame *f);
 
 /* Encoders: -ERANGE for a value outside the signal's range or NaN; -EINVAL for a bad node. */
 int can_encode_cmd_voltage(const float volts[4], bool enable, uint8_t counter,
-			   struct omni4_can_frame *f);
+                           struct omni4_can_frame *f);
 int can_encode_control(enum can_control cmd, uint8_t counter, struct omni4_can_frame *f);
 int can_encode_status(int node, const struct can_status *s, uint8_t counter,
-		      struct omni4_can_frame *f);
+                      struct omni4_can_frame *f);
 int can_encode_health(int node, const struct can_health *h, uint8_t counter,
-		      struct omni4_can_frame *f);
+                      struct omni4_can_frame *f);
 
 /* Decoders: -EINVAL wrong ID or DLC; -EBADMSG CRC mismatch or reserved bits set. *counter
  * gets the rolling counter. */
 int can_decode_cmd_voltage(const struct omni4_can_frame *f, float volts[4], bool *enable,
-			   uint8_t *counter);
+                           uint8_t *counter);
 int can_decode_control(const struct omni4_can_frame *f, enum can_control *cmd, uint8_t *counter);
 int can_decode_status(const struct omni4_can_frame *f, int *node, struct can_status *s,
-		      uint8_t *counter);
+                      uint8_t *counter);
 int can_decode_health(const struct omni4_can_frame *f, int *node, struct can_health *h,
-		      uint8_t *counter);
+                      uint8_t *counter);
 
 /* Rolling counter check: 0 = the expected next value; -EALREADY = the same value again (stale
  * or replayed frame); otherwise the number of frames missed (1..14; 14 = one behind). */

@@ -41,13 +41,13 @@
 
 struct sc_counters {
 	uint64_t rx_frames, tx_frames, tx_dropped;
-	uint64_t crc_errors;   /* bad CRC or DLC on our IDs */
-	uint64_t replayed;     /* same counter as the previous frame of that ID: rejected */
-	uint64_t lost;         /* counter jumps */
+	uint64_t crc_errors; /* bad CRC or DLC on our IDs */
+	uint64_t replayed;   /* same counter as the previous frame of that ID: rejected */
+	uint64_t lost;       /* counter jumps */
 	uint64_t error_frames, bus_off;
-	uint64_t flood_cut;    /* reads that stopped at their frame budget */
-	uint64_t implausible;  /* frames held by the plausibility check (not acted on) */
-	uint64_t confirmed;    /* held values taken after confirm_frames consecutive frames */
+	uint64_t flood_cut;   /* reads that stopped at their frame budget */
+	uint64_t implausible; /* frames held by the plausibility check (not acted on) */
+	uint64_t confirmed;   /* held values taken after confirm_frames consecutive frames */
 };
 
 /* Plausibility limits of STATUS frames (per frame period, i.e. per counter step). */
@@ -96,7 +96,7 @@ struct socketcan_motor {
 	int fd;
 	int64_t timeout_us;
 	int64_t opened_us;
-	int64_t last_read_us;   /* time of the previous read (frame budget) */
+	int64_t last_read_us; /* time of the previous read (frame budget) */
 	bool enabled;
 	bool bus_off;
 	uint8_t cmd_counter, ctl_counter;

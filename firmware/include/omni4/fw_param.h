@@ -13,7 +13,6 @@
  * 0.1 ms) until it is taken between two ticks; u must stay valid until this returns. After
  * timeout_us the update is withdrawn (rc -ETIMEDOUT, nothing changed) unless the loop took it
  * meanwhile, in which case its answer is awaited. */
-struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u,
-				      int64_t timeout_us);
+struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u, int64_t timeout_us);
 
 #endif /* OMNI4_FW_PARAM_H */

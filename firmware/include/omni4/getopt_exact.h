@@ -17,11 +17,11 @@
 
 /* The option's own argument: before its value when the value came as the next argument. */
 static inline const char *omni4_getopt_given(char *const argv[], int optind_now,
-					     const char *optarg_now)
+                                             const char *optarg_now)
 {
-	return optarg_now && optind_now >= 2 && optarg_now == argv[optind_now - 1] ?
-		       argv[optind_now - 2] :
-		       argv[optind_now - 1];
+	return optarg_now && optind_now >= 2 && optarg_now == argv[optind_now - 1]
+	           ? argv[optind_now - 2]
+		   : argv[optind_now - 1];
 }
 
 static inline bool omni4_getopt_exact(const char *given, const struct option *opts, int li)
@@ -36,7 +36,7 @@ static inline bool omni4_getopt_exact(const char *given, const struct option *op
 
 /* getopt_long(argc, argv, shortopts, opts) with the checks above; getopt's own messages off. */
 static inline int omni4_getopt_long(const char *prog, int argc, char *const argv[],
-				    const char *shortopts, const struct option *opts)
+                                    const char *shortopts, const struct option *opts)
 {
 	int li = -1;
 
@@ -47,14 +47,14 @@ static inline int omni4_getopt_long(const char *prog, int argc, char *const argv
 		return c;
 	if (c == '?') {
 		fprintf(stderr, "%s: '%s' is not an option or lacks its value (see %s --help)\n",
-			prog, argv[optind - 1], prog);
+		        prog, argv[optind - 1], prog);
 		return '?';
 	}
 	const char *given = omni4_getopt_given(argv, optind, optarg);
 
 	if (!omni4_getopt_exact(given, opts, li)) {
-		fprintf(stderr, "%s: '%s': give the whole option name (see %s --help)\n", prog, given,
-			prog);
+		fprintf(stderr, "%s: '%s': give the whole option name (see %s --help)\n", prog,
+		        given, prog);
 		return '?';
 	}
 	return c;

@@ -31,15 +31,15 @@ struct lcmio {
 	lcm_subscription_t *sub;
 	pthread_t rx_thread, log_thread;
 	atomic_bool stop;
-	_Atomic uint64_t rx_bad;   /* undecodable command messages */
+	_Atomic uint64_t rx_bad; /* undecodable command messages */
 	_Atomic uint64_t published;
 	_Atomic uint64_t publish_errors;
 	void (*note)(void *note_ctx, const struct log_entry *e);
 	void *note_ctx;
 	/* OMNI4_MOTORS watch (lcmio_start_watching; NULL: not subscribed). */
 	lcm_subscription_t *motors_sub;
-	lcm_subscription_t *pose_sub;  /* OMNI4_POSE -> the estimator (lcmio_take_camera) */
-	_Atomic uint64_t pose_bad;     /* undecodable or non-finite pose_t */
+	lcm_subscription_t *pose_sub; /* OMNI4_POSE -> the estimator (lcmio_take_camera) */
+	_Atomic uint64_t pose_bad;    /* undecodable or non-finite pose_t */
 	lcmio_foreign_fn foreign_cb;
 	void *foreign_ctx;
 	_Atomic uint64_t own_heard; /* our own samples heard back */
@@ -53,13 +53,13 @@ int lcmio_start(struct lcmio *io, lcm_t *lcm, struct fw *fw);
 /* The same, with note (may be NULL) called on the logger thread for every new set of
  * current-sense offsets (lcmio_sink.note). */
 int lcmio_start_noting(struct lcmio *io, lcm_t *lcm, struct fw *fw,
-		       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx);
+                       void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx);
 /* The same, also listening to OMNI4_MOTORS: the logger keeps the (seq, utime) of what it
  * publishes, and every sample heard that is not one of them goes to foreign (receive thread;
  * counted in io->foreign). */
 int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
-			 void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
-			 lcmio_foreign_fn foreign, void *foreign_ctx);
+                         void (*note)(void *note_ctx, const struct log_entry *e), void *note_ctx,
+                         lcmio_foreign_fn foreign, void *foreign_ctx);
 
 /* Before a controller starts: listens on lcm for OMNI4_MOTORS for ms milliseconds. The number
  * of samples heard (0: no other controller publishes there), the first one's seq and utime in

@@ -27,10 +27,10 @@
 #include "omni4/config.h"
 #include "omni4/fw.h"
 
-#define PARAM_MAX_KEYS 64        /* keys in one request (the table has fewer) */
-#define PARAM_MAX_TEXT 65536     /* bytes of INI text in one LOAD */
-#define PARAM_QUEUE 8            /* requests waiting for the service thread */
-#define PARAM_CACHE 16           /* replies kept for repeated request ids */
+#define PARAM_MAX_KEYS 64             /* keys in one request (the table has fewer) */
+#define PARAM_MAX_TEXT 65536          /* bytes of INI text in one LOAD */
+#define PARAM_QUEUE 8                 /* requests waiting for the service thread */
+#define PARAM_CACHE 16                /* replies kept for repeated request ids */
 #define PARAM_APPLY_TIMEOUT_US 500000 /* the loop takes a change within this (plus 3 periods) */
 
 /* Where replies and change notices go (lcm_publish in the robot; a buffer in the tests). */
@@ -81,7 +81,7 @@ struct param_service {
 
 /* cfg: the configuration the controller was started with; path: its INI file. */
 int param_service_init(struct param_service *ps, struct fw *fw, const struct omni4_config *cfg,
-		       const char *path, struct param_out out);
+                       const char *path, struct param_out out);
 /* Handle one encoded param_request_t now, on the calling thread (the service thread; tests):
  * emits its reply and, for a change or a save, a param_changed_t. */
 void param_service_handle(struct param_service *ps, const void *data, size_t len);

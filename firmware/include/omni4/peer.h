@@ -23,9 +23,9 @@
 #define PEER_HOLD_US 1000000
 
 struct peer_guard {
-	struct motor_hal backend;     /* what the guard forwards to */
-	const char *url;              /* for the messages */
-	_Atomic int64_t last_us;      /* rtloop_clock_us() of the last foreign sample; 0 none */
+	struct motor_hal backend; /* what the guard forwards to */
+	const char *url;          /* for the messages */
+	_Atomic int64_t last_us;  /* rtloop_clock_us() of the last foreign sample; 0 none */
 };
 
 /* lcm_create(url), then OMNI4_MOTORS listened for PEER_LISTEN_MS. The lcm_t, or NULL (said on

@@ -13,7 +13,11 @@
 #include <stdint.h>
 
 #define RTLOOP_HIST_US 10000
-#define RTLOOP_STACK_BYTES (256 * 1024) /* loop and LCM threads; locked in RAM by mlockall */ /* latency histogram: 1 us bins up to 10 ms, then one overflow bin */
+#define RTLOOP_STACK_BYTES                                                                         \
+	(256 *                                                                                     \
+	 1024) /* loop and LCM threads; locked in RAM by mlockall */ /* latency histogram: 1 us    \
+	                                                                bins up to 10 ms, then one \
+	                                                                overflow bin */
 
 typedef void (*rtloop_tick_fn)(void *ctx, int64_t now_us);
 
@@ -21,7 +25,7 @@ struct rtloop {
 	int64_t period_ns;
 	rtloop_tick_fn tick;
 	void *ctx;
-	int64_t max_ticks;      /* 0 = until stopped */
+	int64_t max_ticks; /* 0 = until stopped */
 	atomic_bool stop;
 	pthread_t thread;
 	bool started;
@@ -30,7 +34,7 @@ struct rtloop {
 	uint64_t overruns;
 	int64_t latency_max_ns;
 	uint32_t hist[RTLOOP_HIST_US + 1];
-	char warning[160];      /* non-fatal set-up problem (e.g. SCHED_FIFO not permitted) */
+	char warning[160]; /* non-fatal set-up problem (e.g. SCHED_FIFO not permitted) */
 };
 
 /* Controller clock [us]: CLOCK_MONOTONIC shifted to the Unix epoch at first use. */
@@ -46,7 +50,7 @@ int rtloop_cpu_dma_latency(int us);
 /* Start the loop thread. priority > 0 asks for SCHED_FIFO at that priority (on failure the
  * loop runs at normal priority and warning says why). */
 int rtloop_start(struct rtloop *l, double rate_hz, int priority, int64_t max_ticks,
-		 rtloop_tick_fn tick, void *ctx);
+                 rtloop_tick_fn tick, void *ctx);
 void rtloop_request_stop(struct rtloop *l);
 void rtloop_join(struct rtloop *l);
 

@@ -8,13 +8,13 @@
 #ifndef OMNI4_CHANNELS_H
 #define OMNI4_CHANNELS_H
 
-#define OMNI4_CHANNEL_CMD "OMNI4_CMD"                   /* command_t: operator / runner -> controller */
-#define OMNI4_CHANNEL_MOTORS "OMNI4_MOTORS"             /* motors_t: one per loop tick */
-#define OMNI4_CHANNEL_POSE "OMNI4_POSE"                 /* pose_t: camera / tracker */
-#define OMNI4_CHANNEL_EXPERIMENT "OMNI4_EXPERIMENT"     /* experiment_t: segment marks */
-#define OMNI4_CHANNEL_PARAM_REQ "OMNI4_PARAM_REQ"       /* param_request_t: client -> robot */
-#define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"   /* param_reply_t: robot -> client */
-#define OMNI4_CHANNEL_STATE "OMNI4_STATE"               /* state_t: the controller's estimate */
+#define OMNI4_CHANNEL_CMD "OMNI4_CMD"               /* command_t: operator / runner -> controller */
+#define OMNI4_CHANNEL_MOTORS "OMNI4_MOTORS"         /* motors_t: one per loop tick */
+#define OMNI4_CHANNEL_POSE "OMNI4_POSE"             /* pose_t: camera / tracker */
+#define OMNI4_CHANNEL_EXPERIMENT "OMNI4_EXPERIMENT" /* experiment_t: segment marks */
+#define OMNI4_CHANNEL_PARAM_REQ "OMNI4_PARAM_REQ"   /* param_request_t: client -> robot */
+#define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"     /* param_reply_t: robot -> client */
+#define OMNI4_CHANNEL_STATE "OMNI4_STATE"                 /* state_t: the controller's estimate */
 #define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
 
 /* The robot's LCM URL unless its INI says otherwise: multicast that stays on the host (ttl=0). */

@@ -17,7 +17,7 @@
 
 /* Appends one event stamped utime [us]. 0, or -errno (-EIO if the writer left none). */
 static inline int omni4_eventlog_write(lcm_eventlog_t *log, const char *channel, int64_t utime,
-				       const void *data, size_t len)
+                                       const void *data, size_t len)
 {
 	lcm_eventlog_event_t ev;
 

@@ -1,8 +1,8 @@
 /*
  * dynamics.h - forces, motor equation and the state-space model (eqs 6-15, 21, 23-27).
  *
- * Sign convention (docs/design.md, "Model conventions"): the paper's printed A (eq 25) has the back-EMF term with a
- * plus sign; derived from eqs 9-15 and 21 it decelerates the robot, so here
+ * Sign convention (docs/design.md, "Model conventions"): the paper's printed A (eq 25) has the
+ * back-EMF term with a plus sign; derived from eqs 9-15 and 21 it decelerates the robot, so here
  *   A11 = -(2 Kt Kv l^2 / (r^2 R M) + Bv / M), A22 likewise with Bvn,
  *   A33 = -(4 d^2 Kt Kv l^2 / (r^2 R J) + Bw / J).
  * B (eq 26) and K (eq 27) are as printed.
@@ -28,9 +28,9 @@ double motor_current(const struct model_params *p, double voltage_v, double moto
 
 /* The model of eq 23: dx/dt = A x + B u + K sign(x); A and K are diagonal. */
 struct model_ss {
-	double A[3];    /* diagonal of A [1/s] */
-	double B[3][4]; /* [(m/s^2)/V] rows 0,1; [(rad/s^2)/V] row 2 */
-	double K[3];    /* diagonal of K [m/s^2], [m/s^2], [rad/s^2] */
+	double A[3];       /* diagonal of A [1/s] */
+	double B[3][4];    /* [(m/s^2)/V] rows 0,1; [(rad/s^2)/V] row 2 */
+	double K[3];       /* diagonal of K [m/s^2], [m/s^2], [rad/s^2] */
 	double A_coast[3]; /* diagonal of A with the H-bridges off (no back-EMF braking) */
 };
 

@@ -1,9 +1,9 @@
 /*
  * feedforward.h - model-based feedforward: desired velocity and acceleration -> four channel
  * voltages (docs/design.md):
- *   Fv = M a_v + Bv v + Cv sgn(v), Fvn = M a_vn + Bvn vn + Cvn sgn(vn), T = J a_w + Bw w + Cw sgn(w)
- *   f  = IK(d) [Fv/2, Fvn/2, T/(4 d^2)]
- *   u_j = (R r / (l Kt)) f_j + (Kv l / r) v_j, clamped to +-u_max.
+ *   Fv = M a_v + Bv v + Cv sgn(v), Fvn = M a_vn + Bvn vn + Cvn sgn(vn), T = J a_w + Bw w + Cw
+ * sgn(w) f  = IK(d) [Fv/2, Fvn/2, T/(4 d^2)] u_j = (R r / (l Kt)) f_j + (Kv l / r) v_j, clamped to
+ * +-u_max.
  *
  * sgn is a dead-banded sign: a saturated linear ramp, sgn(x) = clamp(x / band, -1, 1), with
  * band FF_SIGN_BAND_LIN (v, vn) and FF_SIGN_BAND_ROT (w). It is exactly 0 at rest (no
@@ -23,20 +23,20 @@ double ff_sign(double x, double band);
 
 /* Double feedforward. vel = [v, vn, w], acc = [a_v, a_vn, a_w]; u_max [V] > 0. */
 void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
-		 double u_max, double u[4]);
+                 double u_max, double u[4]);
 
 /*
  * Fixed-point coefficients, all Q16.16, prepared once by ff_q16_init from the double
  * parameters. Composite gains keep every product well scaled (volts per unit of input).
  */
 struct ff_q16 {
-	q16_t d;          /* [m] */
-	q16_t k_acc[3];   /* R r/(l Kt) * [M/2, M/2, J/(4d)]   [V/(m/s^2)], [V/(rad/s^2)] */
-	q16_t k_vel[3];   /* R r/(l Kt) * [Bv/2, Bvn/2, Bw/(4d)] + Kv l/r * [1, 1, d]: viscous
-			   * friction and back-EMF, both linear in the velocity, in one gain */
-	q16_t k_coul[3];  /* R r/(l Kt) * [Cv/2, Cvn/2, Cw/(4d)] [V] */
+	q16_t d;             /* [m] */
+	q16_t k_acc[3];      /* R r/(l Kt) * [M/2, M/2, J/(4d)]   [V/(m/s^2)], [V/(rad/s^2)] */
+	q16_t k_vel[3];      /* R r/(l Kt) * [Bv/2, Bvn/2, Bw/(4d)] + Kv l/r * [1, 1, d]: viscous
+	                      * friction and back-EMF, both linear in the velocity, in one gain */
+	q16_t k_coul[3];     /* R r/(l Kt) * [Cv/2, Cvn/2, Cw/(4d)] [V] */
 	int32_t sgn_gain[3]; /* 1/band per axis (integer) */
-	q16_t u_max;      /* [V] */
+	q16_t u_max;         /* [V] */
 };
 
 /* Returns -EINVAL for parameters that fail model_params_check or u_max <= 0. */

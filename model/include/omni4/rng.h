@@ -9,7 +9,7 @@
 
 struct rng {
 	uint64_t s;
-	double spare;   /* second Box-Muller sample */
+	double spare; /* second Box-Muller sample */
 	int has_spare;
 };
 

@@ -23,15 +23,15 @@ struct simrun;
 
 struct simrun_stats {
 	uint64_t ticks;
-	uint64_t messages;       /* written to the log, all channels */
+	uint64_t messages; /* written to the log, all channels */
 	uint64_t motors, pose, cmd, other;
-	uint64_t state;          /* the controller's estimate (OMNI4_STATE) */
-	uint64_t calibrations;   /* current-offset notices (OMNI4_PARAM_CHANGED) */
-	uint64_t log_errors;     /* failed writes (never silently: the caller reports them) */
-	uint64_t log_dropped;    /* ring overflow */
+	uint64_t state;        /* the controller's estimate (OMNI4_STATE) */
+	uint64_t calibrations; /* current-offset notices (OMNI4_PARAM_CHANGED) */
+	uint64_t log_errors;   /* failed writes (never silently: the caller reports them) */
+	uint64_t log_dropped;  /* ring overflow */
 	uint64_t cmd_rejected;
-	int32_t faults;          /* OR of every motors_t.faults written */
-	int8_t mode;             /* controller mode after the last tick */
+	int32_t faults; /* OR of every motors_t.faults written */
+	int8_t mode;    /* controller mode after the last tick */
 };
 
 /*
@@ -39,8 +39,9 @@ struct simrun_stats {
  * noise = false gives exact sensors. log_path NULL = no log. On error returns NULL and puts a
  * one-line reason in err (size errlen).
  */
-struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_params *plant_params,
-			     bool noise, const char *log_path, char *err, size_t errlen);
+struct simrun *simrun_create(const struct omni4_config *cfg,
+                             const struct model_params *plant_params, bool noise,
+                             const char *log_path, char *err, size_t errlen);
 void simrun_destroy(struct simrun *sr);
 
 /* Controller clock of the next tick [us]. */
@@ -69,7 +70,7 @@ void simrun_set_estop(struct simrun *sr, bool pressed);
 /* Every message the controller emits (motors_t, pose_t, state_t, ...), as encoded, also when no
  * log is written: for benchmarks and tests that score what the robot says. NULL: none. */
 typedef void (*simrun_tap_fn)(void *ctx, const char *channel, int64_t utime, const void *data,
-			      size_t len);
+                              size_t len);
 void simrun_set_tap(struct simrun *sr, simrun_tap_fn fn, void *ctx);
 
 /* The controller's state estimate after the last tick (est.h's est_output, as a pointer to its
