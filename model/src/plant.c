@@ -1,4 +1,5 @@
-/* plant.c - exact per-axis integration of eq 23 with Coulomb friction and stiction. */
+/* plant.c - exact per-axis integration of eq 23 with Coulomb friction and stiction, and the
+ * floor: traction limit, wheel inertia, radius errors, creep (plant.h). */
 #include "omni4/plant.h"
 
 #include "omni4/kinematics.h"
@@ -63,6 +64,25 @@ int plant_init(struct plant *pl, const struct model_params *p)
 		return -EINVAL;
 	pl->p = *p;
 	dyn_state_space(p, &pl->ss);
+	pl->floor = (struct plant_floor){0};
+	for (int j = 0; j < 4; j++)
+		pl->r_eff[j] = p->r;
+	plant_reset(pl);
+	return 0;
+}
+
+int plant_set_floor(struct plant *pl, const struct plant_floor *f)
+{
+	if (!(f->traction_mu >= 0.0 && isfinite(f->traction_mu)) || !isfinite(f->wheel_inertia) ||
+	    (f->traction_mu > 0.0 && !(f->wheel_inertia > 0.0)) ||
+	    !(f->slip_noise >= 0.0 && isfinite(f->slip_noise)))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++)
+		if (!(fabs(f->radius_error[j]) < 0.5))
+			return -EINVAL;
+	pl->floor = *f;
+	for (int j = 0; j < 4; j++)
+		pl->r_eff[j] = pl->p.r * (1.0 + f->radius_error[j]);
 	plant_reset(pl);
 	return 0;
 }
@@ -76,14 +96,24 @@ void plant_reset(struct plant *pl)
 	for (int j = 0; j < 4; j++) {
 		pl->current_a[j] = 0.0;
 		pl->voltage_v[j] = 0.0;
+		pl->rim[j] = 0.0;
+		pl->creep[j] = 0.0;
+		pl->slipping[j] = false;
+		pl->slip_dir[j] = 0;
 	}
+	for (int k = 0; k < 3; k++)
+		pl->ext_force[k] = 0.0;
+	pl->blocked = false;
 	pl->driven = false;
+	rng_seed(&pl->rng, pl->floor.seed);
 }
 
-void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
+/* The paper's plant: every wheel grips (the whole step exact per axis). */
+static void exact_step(struct plant *pl, const double u[4], bool driven, double dt)
 {
 	const struct model_ss *ss = &pl->ss;
 	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
+	const double inertia[3] = {pl->p.M, pl->p.M, pl->p.J};
 
 	for (int k = 0; k < 3; k++) {
 		double b = 0.0;
@@ -91,6 +121,8 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 		if (driven)
 			for (int j = 0; j < 4; j++)
 				b += ss->B[k][j] * u[j];
+		if (pl->ext_force[k] != 0.0)
+			b += pl->ext_force[k] / inertia[k];
 		pl->x[k] = axis_step(driven ? ss->A[k] : ss->A_coast[k], b, -ss->K[k], pl->x[k], dt);
 	}
 
@@ -110,15 +142,230 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 		pl->voltage_v[j] = driven ? u[j] : 0.0;
 		pl->current_a[j] =
 			driven ? motor_current(&pl->p, u[j], motor_speed_rad_s(&pl->p, vw[j])) : 0.0;
+		pl->rim[j] = vw[j];
 	}
 	pl->driven = driven;
 }
 
+/* The traction limit per wheel, mu M g / 4 [N]. */
+static double traction_limit(const struct plant *pl)
+{
+	return pl->floor.traction_mu * pl->p.M * PLANT_G / 4.0;
+}
+
+/* Traction force [N] a gripping wheel j needs at ground speed v [m/s] (massless wheel,
+ * eqs 12-13 with eq 21 at radius r_eff_j). */
+static double grip_force(const struct plant *pl, int j, double u, bool driven, double v)
+{
+	const struct model_params *p = &pl->p;
+	const double rj = pl->r_eff[j];
+
+	if (!driven)
+		return 0.0;
+	return p->l * p->Kt * (u - p->Kv * p->l * v / rj) / (p->R * rj);
+}
+
+/* Does a gripping wheel need more than the traction limit at robot velocity x? */
+static bool beyond_limit(const struct plant *pl, const double u[4], bool driven,
+			 const double x[3])
+{
+	const double lim = traction_limit(pl);
+	double vg[4];
+
+	if (!(pl->floor.traction_mu > 0.0))
+		return false;
+	ik_wheel_speeds(pl->p.d, x, vg);
+	for (int j = 0; j < 4; j++)
+		if (fabs(grip_force(pl, j, u[j], driven, vg[j])) > lim)
+			return true;
+	return false;
+}
+
+/* Wheel j's share of the robot forces (eqs 9-11): robot_f[k] = sum_j G(k, j) f_j. */
+static double g_coef(const struct plant *pl, int k, int j)
+{
+	static const double G[3][4] = {{0, -1, 0, 1}, {1, 0, -1, 0}, {1, 1, 1, 1}};
+
+	return k == 2 ? pl->p.d * G[2][j] : G[k][j];
+}
+
+/* Eq 2's row j: v_j = IK(j, :) x. */
+static double ik_coef(const struct plant *pl, int j, int k)
+{
+	static const double IK[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
+
+	return k == 2 ? pl->p.d * IK[j][2] : IK[j][k];
+}
+
+/* One substep of h with some wheel slipping, or with the body blocked or radius errors. */
+static void floor_substep(struct plant *pl, const double u[4], bool driven, double h)
+{
+	const struct model_params *p = &pl->p;
+	const struct model_ss *ss = &pl->ss;
+	const bool limit = pl->floor.traction_mu > 0.0;
+	const double lim = traction_limit(pl);
+	const double inertia[3] = {p->M, p->M, p->J};
+	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
+	double vg[4], a[3], b[3];
+	int dir[4];
+
+	ik_wheel_speeds(p->d, pl->x, vg);
+	for (int k = 0; k < 3; k++) {
+		a[k] = ss->A_coast[k]; /* viscous friction only: the motors come in per wheel */
+		b[k] = pl->ext_force[k] / inertia[k];
+	}
+	for (int j = 0; j < 4; j++) {
+		if (!pl->slipping[j] && limit) {
+			const double fg = grip_force(pl, j, u[j], driven, vg[j]);
+
+			if (fabs(fg) > lim) { /* breaks loose: slip velocity 0, growing along fg */
+				pl->slipping[j] = true;
+				pl->slip_dir[j] = (int8_t)(fg > 0 ? 1 : -1);
+				pl->rim[j] = vg[j];
+			}
+		}
+		if (pl->slipping[j]) {
+			const double sig = pl->rim[j] - vg[j];
+
+			dir[j] = sig > 0 ? 1 : (sig < 0 ? -1 : pl->slip_dir[j]);
+			for (int k = 0; k < 3; k++)
+				b[k] += g_coef(pl, k, j) * lim * dir[j] / inertia[k];
+		} else if (driven) {
+			/* f_j = c1 u_j - c2 v_j: the own axis's back-EMF exact, the others held. */
+			const double rj = pl->r_eff[j];
+			const double c1 = p->l * p->Kt / (p->R * rj);
+			const double c2 = p->l * p->l * p->Kt * p->Kv / (p->R * rj * rj);
+
+			for (int k = 0; k < 3; k++) {
+				const double g = g_coef(pl, k, j);
+				double other = 0.0;
+
+				if (g == 0.0)
+					continue;
+				for (int m = 0; m < 3; m++)
+					if (m != k)
+						other += ik_coef(pl, j, m) * pl->x[m];
+				a[k] -= g * c2 * ik_coef(pl, j, k) / inertia[k];
+				b[k] += g * (c1 * u[j] - c2 * other) / inertia[k];
+			}
+		}
+	}
+	if (pl->blocked) {
+		for (int k = 0; k < 3; k++)
+			pl->x[k] = 0.0;
+	} else {
+		for (int k = 0; k < 3; k++)
+			pl->x[k] = axis_step(a[k], b[k], -ss->K[k], pl->x[k], h);
+		const double x_mid[3] = {0.5 * (x_old[0] + pl->x[0]), 0.5 * (x_old[1] + pl->x[1]),
+					 0.5 * (x_old[2] + pl->x[2])};
+		double xw[3];
+
+		frame_robot_to_world(pl->pose[2] + 0.5 * h * x_mid[2], x_mid, xw);
+		for (int k = 0; k < 3; k++)
+			pl->pose[k] += h * xw[k];
+	}
+
+	/* The wheels: a slipping one on its own inertia, J_w w' = l Kt i - r F sgn(slip). */
+	const double Jw = pl->floor.wheel_inertia;
+	const double aw = driven ? -p->l * p->l * p->Kt * p->Kv / (Jw * p->R) : 0.0;
+
+	ik_wheel_speeds(p->d, pl->x, vg);
+	for (int j = 0; j < 4; j++) {
+		if (!pl->slipping[j]) {
+			pl->rim[j] = vg[j];
+			continue;
+		}
+		const double rj = pl->r_eff[j];
+		const double bw = (driven ? rj * p->l * p->Kt * u[j] / (Jw * p->R) : 0.0) -
+				  rj * rj * lim * dir[j] / Jw;
+		const double rim = lin_solve(aw, bw, pl->rim[j], h);
+		const double sig = rim - vg[j];
+
+		if (sig * dir[j] > 0) {
+			pl->rim[j] = rim;
+		} else { /* the slip velocity came back to 0: grips again */
+			pl->slipping[j] = false;
+			pl->slip_dir[j] = 0;
+			pl->rim[j] = vg[j];
+		}
+	}
+}
+
+static void floor_step(struct plant *pl, const double u[4], bool driven, double dt)
+{
+	const struct model_params *p = &pl->p;
+	int n = (int)ceil(dt / PLANT_SUBSTEP_S - 1e-9);
+
+	if (n < 1)
+		n = 1;
+	if (pl->blocked)
+		for (int k = 0; k < 3; k++)
+			pl->x[k] = 0.0;
+	for (int i = 0; i < n; i++)
+		floor_substep(pl, u, driven, dt / n);
+	for (int j = 0; j < 4; j++) {
+		pl->voltage_v[j] = driven ? u[j] : 0.0;
+		pl->current_a[j] =
+			driven ? (u[j] - p->Kv * p->l * pl->rim[j] / pl->r_eff[j]) / p->R : 0.0;
+	}
+	pl->driven = driven;
+}
+
+/* The creep process over dt (Gauss-Markov, stationary std dev slip_noise). */
+static void creep_step(struct plant *pl, double dt)
+{
+	const double phi = exp(-dt / PLANT_CREEP_TAU_S);
+	const double q = pl->floor.slip_noise * sqrt(1.0 - phi * phi);
+
+	for (int j = 0; j < 4; j++)
+		pl->creep[j] = phi * pl->creep[j] + rng_normal(&pl->rng, q);
+}
+
+void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
+{
+	bool general = pl->blocked;
+
+	for (int j = 0; j < 4; j++)
+		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0;
+	if (!general && beyond_limit(pl, u, driven, pl->x))
+		general = true;
+	if (!general) {
+		struct plant before = *pl;
+
+		exact_step(pl, u, driven, dt);
+		if (beyond_limit(pl, u, driven, pl->x)) { /* broke loose inside the step */
+			*pl = before;
+			general = true;
+		}
+	}
+	if (general)
+		floor_step(pl, u, driven, dt);
+	if (pl->floor.slip_noise > 0.0)
+		creep_step(pl, dt);
+}
+
 void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4])
 {
-	double vw[4];
-
-	ik_wheel_speeds(pl->p.d, pl->x, vw);
 	for (int j = 0; j < 4; j++)
-		wheel_rad_s[j] = vw[j] / pl->p.r;
+		wheel_rad_s[j] = (pl->floor.slip_noise > 0.0 ? pl->rim[j] + pl->creep[j] : pl->rim[j]) /
+				 pl->r_eff[j];
+}
+
+void plant_wheel_slip(const struct plant *pl, double slip_m_s[4])
+{
+	double vg[4];
+
+	ik_wheel_speeds(pl->p.d, pl->x, vg);
+	for (int j = 0; j < 4; j++)
+		slip_m_s[j] = pl->rim[j] + pl->creep[j] - vg[j];
+}
+
+uint32_t plant_slip_flags(const struct plant *pl)
+{
+	uint32_t f = 0;
+
+	for (int j = 0; j < 4; j++)
+		if (pl->slipping[j])
+			f |= 1u << j;
+	return f;
 }
