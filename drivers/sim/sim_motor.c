@@ -34,6 +34,13 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 				     noise ? sim->current_offset_a[2] : 0.0,
 				     noise ? sim->current_offset_a[3] : 0.0},
 		.encoder_eccentricity = noise ? sim->encoder_eccentricity : 0.0,
+		/* The floor and the camera's timing: the world's, with exact sensors too. */
+		.floor = {.traction_mu = sim->traction_mu, .wheel_inertia = sim->wheel_inertia,
+			  .radius_error = {sim->wheel_radius_error[0], sim->wheel_radius_error[1],
+					   sim->wheel_radius_error[2], sim->wheel_radius_error[3]},
+			  .slip_noise = sim->slip_noise},
+		.camera_latency_s = sim->camera_latency_ms * 1e-3,
+		.truth = sim->truth,
 	};
 }
 
@@ -62,10 +69,19 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	for (int j = 0; j < 4; j++)
 		if (!isfinite(cfg->current_offset_a[j]))
 			return -EINVAL;
+	/* The queue holds latency x rate frames, plus the one captured at the delivery tick. */
+	if (!(cfg->camera_latency_s >= 0.0) ||
+	    !(cfg->camera_latency_s * cfg->camera_rate_hz < SIM_CAM_QUEUE - 1))
+		return -EINVAL;
 	memset(s, 0, sizeof(*s));
-	if (plant_init(&s->plant, &cfg->params))
+	struct plant_floor floor = cfg->floor;
+
+	/* The creep from a generator of its own: the sensor noise stream stays the same. */
+	floor.seed = cfg->seed ^ 0x5851f42d4c957f2dull;
+	if (plant_init(&s->plant, &cfg->params) || plant_set_floor(&s->plant, &floor))
 		return -EINVAL;
 	s->cfg = *cfg;
+	s->cam_latency_us = (int64_t)llround(cfg->camera_latency_s * 1e6);
 	rng_seed(&s->rng, cfg->seed);
 	s->period_us = (int64_t)llround(cfg->period_s * 1e6);
 	s->cam_period_s = 1.0 / cfg->camera_rate_hz;
@@ -92,6 +108,28 @@ void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int6
 	s->utime0 = utime0;
 }
 
+void sim_motor_set_truth_cb(struct sim_motor *s, sim_truth_cb cb, void *user, int64_t utime0)
+{
+	s->on_truth = cb;
+	s->on_truth_user = user;
+	s->truth_utime0 = utime0;
+}
+
+void sim_motor_truth(const struct sim_motor *s, struct sim_truth *t)
+{
+	memcpy(t->pose, s->plant.pose, sizeof(t->pose));
+	memcpy(t->vel, s->plant.x, sizeof(t->vel));
+	plant_wheel_slip(&s->plant, t->wheel_slip);
+	t->flags = plant_slip_flags(&s->plant);
+	if (s->inject.blocked)
+		t->flags |= SIM_TRUTH_BLOCKED;
+	if (s->inject.ext_force[0] != 0.0 || s->inject.ext_force[1] != 0.0 ||
+	    s->inject.ext_force[2] != 0.0)
+		t->flags |= SIM_TRUTH_PUSHED;
+	if (s->inject.camera_off)
+		t->flags |= SIM_TRUTH_CAMERA_OFF;
+}
+
 static int sim_enable(void *ctx, bool on)
 {
 	struct sim_motor *s = ctx;
@@ -115,20 +153,40 @@ static int sim_write(void *ctx, const float volts[4])
 	return 0;
 }
 
+/* The camera: a frame captured every camera period (the plant's pose plus noise), queued,
+ * and every queued frame whose latency has passed handed to the pose callback with its
+ * capture time. While camera_off nothing is captured and what falls due is lost. */
 static void camera(struct sim_motor *s, double t_s)
 {
-	if (t_s + 1e-9 < s->next_cam_s)
-		return;
-	s->next_cam_s += s->cam_period_s;
-	if (!s->on_pose)
-		return;
-	const double pose[3] = {
-		s->plant.pose[0] + rng_normal(&s->rng, s->cfg.camera_pos_noise_m),
-		s->plant.pose[1] + rng_normal(&s->rng, s->cfg.camera_pos_noise_m),
-		s->plant.pose[2] + rng_normal(&s->rng, s->cfg.camera_theta_noise_rad),
-	};
+	if (t_s + 1e-9 >= s->next_cam_s) {
+		s->next_cam_s += s->cam_period_s;
+		if (s->on_pose && !s->inject.camera_off) {
+			if (s->cam_count == SIM_CAM_QUEUE) {
+				s->cam_lost++;
+			} else {
+				struct sim_cam_frame *f =
+					&s->cam_q[(s->cam_head + s->cam_count) % SIM_CAM_QUEUE];
 
-	s->on_pose(s->on_pose_user, s->utime0 + s->t_us, pose);
+				f->capture_us = s->t_us;
+				f->pose[0] = s->plant.pose[0] +
+					     rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
+				f->pose[1] = s->plant.pose[1] +
+					     rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
+				f->pose[2] = s->plant.pose[2] +
+					     rng_normal(&s->rng, s->cfg.camera_theta_noise_rad);
+				s->cam_count++;
+			}
+		}
+	}
+	while (s->cam_count &&
+	       s->cam_q[s->cam_head].capture_us + s->cam_latency_us <= s->t_us) {
+		const struct sim_cam_frame *f = &s->cam_q[s->cam_head];
+
+		if (s->on_pose && !s->inject.camera_off)
+			s->on_pose(s->on_pose_user, s->utime0 + f->capture_us, f->pose);
+		s->cam_head = (s->cam_head + 1) % SIM_CAM_QUEUE;
+		s->cam_count--;
+	}
 }
 
 static int sim_read(void *ctx, struct motor_sample *out)
@@ -138,9 +196,17 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	double w_before[4], w_after[4];
 
 	plant_wheel_speeds(&s->plant, w_before);
+	memcpy(s->plant.ext_force, s->inject.ext_force, sizeof(s->plant.ext_force));
+	s->plant.blocked = s->inject.blocked;
 	plant_step(&s->plant, s->volts, s->enabled, dt);
 	plant_wheel_speeds(&s->plant, w_after);
 	s->t_us += s->period_us;
+	if (s->on_truth && s->cfg.truth) {
+		struct sim_truth t;
+
+		sim_motor_truth(s, &t);
+		s->on_truth(s->on_truth_user, s->truth_utime0 + s->t_us, &t);
+	}
 	camera(s, (double)s->t_us * 1e-6);
 
 	if (s->inject.silent)

@@ -7,6 +7,13 @@
  * current channel (also with the bridges off) and an eccentric encoder on each motor shaft
  * (motor angle = l x wheel angle, read as theta + e sin(theta - phi_j), phases from the seed:
  * a once-per-motor-turn speed ripple of relative amplitude e).
+ * The floor ([sim] traction_mu, wheel_inertia, wheel_radius_error_0..3, slip_noise; plant.h)
+ * is the plant's, with the wheel speed readings following the wheels' own speeds, and applies
+ * with exact sensors too. The camera's latency ([sim] camera_latency_ms) likewise: a pose is
+ * delivered that much after its capture, stamped with the capture time, through a fixed queue
+ * of SIM_CAM_QUEUE frames (latency x rate must stay below SIM_CAM_QUEUE - 1).
+ * With [sim] truth the plant's true state goes, once per read, to the truth callback (the
+ * simulators log it).
  */
 #ifndef OMNI4_SIM_MOTOR_H
 #define OMNI4_SIM_MOTOR_H
@@ -33,7 +40,12 @@ struct sim_motor_config {
 	uint64_t seed;
 	double current_offset_a[4];    /* added to each channel's current readings [A] */
 	double encoder_eccentricity;   /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
+	struct plant_floor floor;      /* traction limit, radius errors, creep (seed: ignored) */
+	double camera_latency_s;       /* capture -> delivery [s] */
+	bool truth;                    /* call the truth callback (sim_motor_set_truth_cb) */
 };
+
+#define SIM_CAM_QUEUE 32 /* camera frames in flight */
 
 /* Faults a test can inject (all off after init). */
 struct sim_motor_faults {
@@ -44,9 +56,33 @@ struct sim_motor_faults {
 	double current_offset_a;  /* added to every current reading */
 	double supply_v;          /* > 0: overrides the supply reading (sag) */
 	uint32_t driver_faults;   /* reported in motor_sample.faults */
+	/* The world (plant.h), held while set */
+	double ext_force[3];      /* on the body [Fv N, Fvn N, T N m] (a push, a collision) */
+	bool blocked;             /* body held at rest; the motors keep pushing (stall or slip) */
+	bool camera_off;          /* no frames captured nor delivered (a dropout) */
 };
 
 typedef void (*sim_pose_cb)(void *user, int64_t utime, const double pose[3]);
+
+/* The plant's true state after a step (sim_truth_t). */
+struct sim_truth {
+	double pose[3];       /* world x, y [m], theta [rad] */
+	double vel[3];        /* robot frame v, vn [m/s], w [rad/s] */
+	double wheel_slip[4]; /* rim speed minus ground speed at the wheel [m/s] */
+	uint32_t flags;       /* SIM_TRUTH_* */
+};
+
+#define SIM_TRUTH_SLIP_MASK 0x0fu /* bit j: wheel j slips (beyond the traction limit) */
+#define SIM_TRUTH_BLOCKED 0x10u   /* the body is held (sim_motor_faults.blocked) */
+#define SIM_TRUTH_PUSHED 0x20u    /* an external force acts (sim_motor_faults.ext_force) */
+#define SIM_TRUTH_CAMERA_OFF 0x40u
+
+typedef void (*sim_truth_cb)(void *user, int64_t utime, const struct sim_truth *t);
+
+struct sim_cam_frame {
+	int64_t capture_us; /* t_us at capture */
+	double pose[3];
+};
 
 struct sim_motor {
 	struct sim_motor_config cfg;
@@ -67,6 +103,13 @@ struct sim_motor {
 	sim_pose_cb on_pose;
 	void *on_pose_user;
 	int64_t utime0;         /* added to t_us in pose timestamps */
+	int64_t cam_latency_us;
+	struct sim_cam_frame cam_q[SIM_CAM_QUEUE]; /* captured, not yet delivered (FIFO) */
+	unsigned cam_head, cam_count;
+	uint64_t cam_lost;      /* frames that found the queue full (never with a valid config) */
+	sim_truth_cb on_truth;
+	void *on_truth_user;
+	int64_t truth_utime0;   /* added to t_us in truth timestamps */
 };
 
 extern const struct motor_hal_ops sim_motor_ops;
@@ -89,6 +132,11 @@ static inline struct motor_hal sim_motor_hal(struct sim_motor *s)
 
 /* Camera samples are handed to cb (from inside read(), i.e. in the loop's context). */
 void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int64_t utime0);
+/* The plant's true state after every step, to cb (inside read(), before its faults), stamped
+ * utime0 + the simulated time. */
+void sim_motor_set_truth_cb(struct sim_motor *s, sim_truth_cb cb, void *user, int64_t utime0);
+/* The true state now. */
+void sim_motor_truth(const struct sim_motor *s, struct sim_truth *t);
 
 /* The sim line backend: an e-stop a test can press. */
 struct sim_lines {

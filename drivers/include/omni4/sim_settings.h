@@ -6,6 +6,8 @@
 #ifndef OMNI4_SIM_SETTINGS_H
 #define OMNI4_SIM_SETTINGS_H
 
+#include <stdbool.h>
+
 struct sim_settings {
 	double current_noise_a;        /* std dev [A] */
 	int encoder_cpr;               /* counts per wheel revolution; 0 = ideal */
@@ -16,6 +18,13 @@ struct sim_settings {
 	/* Sensor faults (0: none) */
 	double current_offset_a[4];    /* added to each channel's current readings [A] */
 	double encoder_eccentricity;   /* motor-shaft encoder reads theta + e sin(theta - phi) */
+	/* The floor and the camera's timing (0: off; plant.h) */
+	double traction_mu;            /* wheel-floor friction; 0 = no traction limit */
+	double wheel_inertia;          /* reflected at the wheel [kg m^2] */
+	double wheel_radius_error[4];  /* relative effective-radius error per wheel */
+	double slip_noise;             /* creep std dev [m/s] */
+	double camera_latency_ms;      /* capture -> delivery [ms] */
+	bool truth;                    /* the plant's true state to the truth callback */
 };
 
 /* The defaults of sim_keys.def: the paper's set-up (1 cm / 3 deg camera at 25 Hz, ...). */
