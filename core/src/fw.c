@@ -192,6 +192,20 @@ static void estimate(struct fw *fw, struct est_input *in)
 	}
 }
 
+void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
+		   const double wheel_slip[4], uint32_t flags)
+{
+	struct log_entry e = {.utime = utime, .seq = fw->seq, .kind = LOG_TRUTH,
+			      .faults = (int32_t)flags};
+
+	memcpy(e.pose, pose, sizeof(e.pose));
+	for (int k = 0; k < 3; k++)
+		e.voltage[k] = (float)vel[k];
+	for (int j = 0; j < 4; j++)
+		e.current[j] = (float)wheel_slip[j];
+	log_push(fw, &e);
+}
+
 bool fw_pop_log(struct fw *fw, struct log_entry *e)
 {
 	return spsc_pop(&fw->log_ring, e);

@@ -10,6 +10,7 @@
 #include "omni4_motors_t.h"
 #include "omni4_param_changed_t.h"
 #include "omni4_pose_t.h"
+#include "omni4_sim_truth_t.h"
 #include "omni4_state_t.h"
 
 /* The estimator's flags go out unchanged as state_t's. */
@@ -145,6 +146,14 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);
+	} else if (e->kind == LOG_TRUTH) { /* fw.h: velocity in voltage[], slip in current[] */
+		omni4_sim_truth_t t = {.utime = e->utime, .seq = e->seq, .flags = e->faults};
+
+		memcpy(t.pose, e->pose, sizeof(t.pose));
+		memcpy(t.vel, e->voltage, sizeof(t.vel));
+		memcpy(t.wheel_slip, e->current, sizeof(t.wheel_slip));
+		*channel = OMNI4_CHANNEL_SIM_TRUTH;
+		n = omni4_sim_truth_t_encode(buf, 0, (int)cap, &t);
 	} else if (e->kind == LOG_POSE) {
 		const omni4_pose_t p = {.utime = e->utime, .x = e->pose[0], .y = e->pose[1],
 					.theta = e->pose[2]};

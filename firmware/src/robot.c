@@ -154,6 +154,12 @@ static void on_sim_pose(void *user, int64_t utime, const double pose[3])
 	fw_push_pose(user, utime, pose);
 }
 
+/* The sim backend's true plant state, once per read (the simulators log it). */
+static void on_sim_truth(void *user, int64_t utime, const struct sim_truth *t)
+{
+	fw_push_truth(user, utime, t->pose, t->vel, t->wheel_slip, t->flags);
+}
+
 /* The controller on the opened backends, with the backend's hooks and pose source. */
 static int start_controller(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
@@ -171,9 +177,12 @@ static int start_controller(struct robot *r, const struct robot_spec *spec, char
 		fw_set_param_hooks(&r->fw, &hooks);
 	}
 #endif
-	if (spec->motor == OMNI4_MOTOR_SIM)
+	if (spec->motor == OMNI4_MOTOR_SIM) {
 		sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw,
 				      spec->utime0 - r->sim.period_us);
+		sim_motor_set_truth_cb(&r->sim, on_sim_truth, &r->fw,
+				       spec->utime0 - r->sim.period_us);
+	}
 	return 0;
 }
 

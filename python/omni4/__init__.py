@@ -11,6 +11,7 @@ from .param_request_t import param_request_t
 from .param_value_t import param_value_t
 from .pose_t import pose_t
 from .state_t import state_t
+from .sim_truth_t import sim_truth_t
 
 __version__ = "0.1.0"
 
@@ -20,6 +21,7 @@ from ._channels import *  # noqa: E402,F401,F403
 from ._channels import __all__ as _CHANNEL_NAMES  # noqa: E402
 from ._channels import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS,  # noqa: E402
                         CHANNEL_POSE, CHANNEL_STATE)
+from ._channels import CHANNEL_SIM_TRUTH  # noqa: E402
 
 # Message class per channel, for decoding logs.
 TYPES = {
@@ -28,6 +30,7 @@ TYPES = {
     CHANNEL_POSE: pose_t,
     CHANNEL_EXPERIMENT: experiment_t,
     CHANNEL_STATE: state_t,
+    CHANNEL_SIM_TRUTH: sim_truth_t,  # the simulated plant's true state (simulators only)
 }
 # The parameter channels carry variable-length types (not in TYPES, which read_log decodes into
 # fixed-shape arrays): decode them with param_changed_t.decode(...) etc.
@@ -41,7 +44,7 @@ from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa:
 # The robot INI reader (omni4.ini.read).
 from . import ini  # noqa: E402
 
-__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "TYPES",
+__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "sim_truth_t", "TYPES",
            "read_log", "Log", "LogError", "Robot", "CommandRejected",
            "param_request_t", "param_reply_t", "param_value_t", "param_changed_t",
            "ParamClient", "ParamError", "ParamRefused", "ParamTimeout", *_CHANNEL_NAMES]

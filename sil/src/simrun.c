@@ -45,6 +45,8 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 			sr->st.pose++;
 		else if (!strcmp(channel, OMNI4_CHANNEL_STATE))
 			sr->st.state++;
+		else if (!strcmp(channel, OMNI4_CHANNEL_SIM_TRUTH))
+			sr->st.other++; /* the plant's true state, one per tick */
 		else
 			sr->st.calibrations++; /* OMNI4_PARAM_CHANGED, source "calibration" */
 	}

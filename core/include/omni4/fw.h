@@ -27,7 +27,7 @@
 #define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
 #define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
 
-enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4 };
+enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4, LOG_TRUTH = 5 };
 
 /*
  * One log ring entry, not yet encoded: a motors_t sample (currents with the offsets in force
@@ -38,6 +38,9 @@ enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4
  * the previous ones [A], faults the channels beyond the limit (bit j = channel j), mode the
  * previous set's such bits (-1: this is the first set), and cal_samples the readings per
  * channel the new ones are the mean of.
+ * LOG_TRUTH (simulators only: the plant's true state after the tick's step, sim_truth_t):
+ * pose[] the world pose, voltage[0..2] the robot-frame velocity [v, vn, w], current[] the
+ * wheel slip velocities [m/s], faults the truth flags; seq the tick.
  */
 struct log_entry {
 	int64_t utime;
@@ -154,6 +157,9 @@ void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
  * capture time utime (not to the log: it is on the bus already). false if the mailbox is full
  * (counted). */
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3]);
+/* Loop thread (a simulated plant's true state, from the HAL read): a LOG_TRUTH entry. */
+void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
+		   const double wheel_slip[4], uint32_t flags);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);
