@@ -40,7 +40,6 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 					   sim->wheel_radius_error[2], sim->wheel_radius_error[3]},
 			  .slip_noise = sim->slip_noise},
 		.camera_latency_s = sim->camera_latency_ms * 1e-3,
-		.truth = sim->truth,
 	};
 }
 
@@ -201,7 +200,7 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	plant_step(&s->plant, s->volts, s->enabled, dt);
 	plant_wheel_speeds(&s->plant, w_after);
 	s->t_us += s->period_us;
-	if (s->on_truth && s->cfg.truth) {
+	if (s->on_truth) {
 		struct sim_truth t;
 
 		sim_motor_truth(s, &t);

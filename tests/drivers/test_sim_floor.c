@@ -1,6 +1,6 @@
 /*
  * The sim backend's floor and camera timing ([sim] traction_mu, wheel_inertia,
- * wheel_radius_error_0..3, slip_noise, camera_latency_ms, truth; docs/ini-keys.md) and the
+ * wheel_radius_error_0..3, slip_noise, camera_latency_ms; docs/ini-keys.md) and the
  * world faults (sim_motor_faults.ext_force, blocked, camera_off): the keys, the camera's
  * latency and dropout, wheel odometry with a radius error, the readings of slipping wheels and
  * the truth callback, against the plant and closed forms.
@@ -44,14 +44,12 @@ static void test_keys_defaults_and_ranges(void **state)
 	for (int j = 0; j < 4; j++)
 		assert_true(cfg.sim.wheel_radius_error[j] == 0.0);
 	assert_true(cfg.sim.slip_noise == 0.0 && cfg.sim.camera_latency_ms == 0.0);
-	assert_false(cfg.sim.truth);
 	cfg = config_ini("[sim]\ntraction_mu = 0.4\nwheel_inertia = 2e-4\nwheel_radius_error_0 = "
 			 "0.01\nwheel_radius_error_3 = -0.02\nslip_noise = 0.003\n"
-			 "camera_latency_ms = 40\ntruth = 1\n");
+			 "camera_latency_ms = 40\n");
 	assert_true(cfg.sim.traction_mu == 0.4 && cfg.sim.wheel_inertia == 2e-4);
 	assert_true(cfg.sim.wheel_radius_error[0] == 0.01 && cfg.sim.wheel_radius_error[3] == -0.02);
 	assert_true(cfg.sim.slip_noise == 0.003 && cfg.sim.camera_latency_ms == 40.0);
-	assert_true(cfg.sim.truth);
 	const char *bad[] = {"[sim]\ntraction_mu = 2.1\n", "[sim]\nwheel_radius_error_2 = 0.11\n",
 			     "[sim]\ncamera_latency_ms = 501\n", "[sim]\nslip_noise = -0.001\n",
 			     "[sim]\nwheel_inertia = 0\n"};
@@ -269,7 +267,7 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 	static const float u[4] = {6, 6, 6, 6};
 	struct motor_sample m;
 	struct truths tr = {0};
-	const struct omni4_config cfg = config_ini("[sim]\ntraction_mu = 0.3\ntruth = 1\n");
+	const struct omni4_config cfg = config_ini("[sim]\ntraction_mu = 0.3\n");
 	const struct model_params *p = &cfg.ctl.model;
 	const double F = 0.3 * p->M * 9.80665 / 4;
 	const double s_ss = p->r * 6 / (p->l * p->Kv) - p->r * p->r * p->R * F /
@@ -314,7 +312,7 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 }
 
 /* The truth callback: once per read (also when the driver is silent), the plant's state;
- * never without [sim] truth. */
+ * nothing once it is taken away. */
 static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 {
 	(void)state;
@@ -323,8 +321,7 @@ static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 	static const float u[4] = {2, -1, 3, 4};
 	struct motor_sample m;
 	struct truths tr = {0};
-	const struct omni4_config on = config_ini("[sim]\ntruth = 1\nslip_noise = 0.01\n");
-	const struct omni4_config off = config_ini("[sim]\n");
+	const struct omni4_config on = config_ini("[sim]\nslip_noise = 0.01\n");
 
 	start(&s, &on, true);
 	sim_motor_set_truth_cb(&s, on_truth, &tr, 0);
@@ -352,8 +349,7 @@ static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 	assert_int_equal(t.flags, 0);
 
 	tr.n = 0;
-	start(&s, &off, true);
-	sim_motor_set_truth_cb(&s, on_truth, &tr, 0);
+	sim_motor_set_truth_cb(&s, NULL, NULL, 0);
 	for (int k = 0; k < 10; k++)
 		ops->read(&s, &m);
 	assert_int_equal(tr.n, 0);

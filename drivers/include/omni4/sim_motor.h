@@ -12,7 +12,7 @@
  * with exact sensors too. The camera's latency ([sim] camera_latency_ms) likewise: a pose is
  * delivered that much after its capture, stamped with the capture time, through a fixed queue
  * of SIM_CAM_QUEUE frames (latency x rate must stay below SIM_CAM_QUEUE - 1).
- * With [sim] truth the plant's true state goes, once per read, to the truth callback (the
+ * The plant's true state goes, once per read, to the truth callback if one is set (the
  * simulators log it).
  */
 #ifndef OMNI4_SIM_MOTOR_H
@@ -42,7 +42,6 @@ struct sim_motor_config {
 	double encoder_eccentricity;   /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
 	struct plant_floor floor;      /* traction limit, radius errors, creep (seed: ignored) */
 	double camera_latency_s;       /* capture -> delivery [s] */
-	bool truth;                    /* call the truth callback (sim_motor_set_truth_cb) */
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */

@@ -6,8 +6,6 @@
 #ifndef OMNI4_SIM_SETTINGS_H
 #define OMNI4_SIM_SETTINGS_H
 
-#include <stdbool.h>
-
 struct sim_settings {
 	double current_noise_a;        /* std dev [A] */
 	int encoder_cpr;               /* counts per wheel revolution; 0 = ideal */
@@ -24,7 +22,6 @@ struct sim_settings {
 	double wheel_radius_error[4];  /* relative effective-radius error per wheel */
 	double slip_noise;             /* creep std dev [m/s] */
 	double camera_latency_ms;      /* capture -> delivery [ms] */
-	bool truth;                    /* the plant's true state to the truth callback */
 };
 
 /* The defaults of sim_keys.def: the paper's set-up (1 cm / 3 deg camera at 25 Hz, ...). */
