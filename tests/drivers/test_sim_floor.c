@@ -43,7 +43,7 @@ static void test_keys_defaults_and_ranges(void **state)
 	assert_true(cfg.sim.traction_mu == 0.0 && cfg.sim.wheel_inertia == 1e-4);
 	for (int j = 0; j < 4; j++)
 		assert_true(cfg.sim.wheel_radius_error[j] == 0.0);
-	assert_true(cfg.sim.slip_noise == 0.0 && cfg.sim.camera_latency_ms == 0.0);
+	assert_true(cfg.sim.slip_noise == 0.0 && cfg.sim.camera_latency_ms == 40.0);
 	cfg = config_ini("[sim]\ntraction_mu = 0.4\nwheel_inertia = 2e-4\nwheel_radius_error_0 = "
 			 "0.01\nwheel_radius_error_3 = -0.02\nslip_noise = 0.003\n"
 			 "camera_latency_ms = 40\n");
@@ -118,7 +118,7 @@ static void test_camera_latency_delivers_the_captured_pose_later(void **state)
 	static struct frames f, f0;
 	static double pose[TICKS + 1][3];
 	const struct omni4_config cfg = config_ini("[sim]\ncamera_latency_ms = 40\n");
-	const struct omni4_config cfg0 = config_ini("[sim]\n");
+	const struct omni4_config cfg0 = config_ini("[sim]\ncamera_latency_ms = 0\n");
 
 	start(&s, &cfg, false);
 	drive(&s, &f, pose, -1, -1);

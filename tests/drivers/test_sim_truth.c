@@ -123,7 +123,7 @@ static void test_poses_beside_the_truth_and_none_without_a_source(void **state)
 	const struct lcmio_sink sink = {.emit = emit, .ctx = &s};
 	uint64_t errors = 0;
 
-	open_robot("[sim]\n");
+	open_robot("[sim]\ncamera_latency_ms = 0\n");
 	for (int k = 0; k < 500; k++) {
 		fw_tick(&R.fw, 5000000 + k * R.sim.period_us);
 		lcmio_drain(&R.fw, &sink, &errors);

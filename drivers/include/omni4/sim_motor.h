@@ -1,7 +1,7 @@
 /*
  * sim_motor.h - the "sim" backend of the motor and line HALs: the model/ plant behind the HAL
  * with the sensors of the paper's set-up (noisy currents, quantised encoders, a 25 Hz camera
- * with 1 cm / 3 deg noise). Each read() advances the plant by one loop period with the
+ * with 1 cm / 3 deg noise and 40 ms latency). Each read() advances the plant by one loop period with the
  * voltages last written, so the loop and the plant run in lockstep whatever the wall clock.
  * Sensor faults a robot's INI may ask for ([sim], off by default): a constant offset per
  * current channel (also with the bridges off) and an eccentric encoder on each motor shaft
