@@ -197,25 +197,25 @@ static double ik_coef(const struct plant *pl, int j, int k)
 	return k == 2 ? pl->p.d * IK[j][2] : IK[j][k];
 }
 
-/* One substep of h with some wheel slipping, or with the body blocked or radius errors. */
-static void floor_substep(struct plant *pl, const double u[4], bool driven, double h)
+/* The body's per-axis x' = a x + b - c sgn(x) for a substep: viscous friction and the external
+ * force, each slipping wheel's kinetic force F dir_j (wheels breaking loose now start slipping
+ * along their force), each gripping wheel's motor force with its own axis's back-EMF in a and
+ * the other axes' held from the substep's start (eqs 9-13, 21). */
+static void substep_forces(struct plant *pl, const double u[4], bool driven, double a[3],
+			   double b[3], int dir[4])
 {
 	const struct model_params *p = &pl->p;
-	const struct model_ss *ss = &pl->ss;
-	const bool limit = pl->floor.traction_mu > 0.0;
 	const double lim = traction_limit(pl);
 	const double inertia[3] = {p->M, p->M, p->J};
-	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
-	double vg[4], a[3], b[3];
-	int dir[4];
+	double vg[4];
 
 	ik_wheel_speeds(p->d, pl->x, vg);
 	for (int k = 0; k < 3; k++) {
-		a[k] = ss->A_coast[k]; /* viscous friction only: the motors come in per wheel */
+		a[k] = pl->ss.A_coast[k]; /* viscous friction only: the motors come in per wheel */
 		b[k] = pl->ext_force[k] / inertia[k];
 	}
 	for (int j = 0; j < 4; j++) {
-		if (!pl->slipping[j] && limit) {
+		if (!pl->slipping[j] && pl->floor.traction_mu > 0.0) {
 			const double fg = grip_force(pl, j, u[j], driven, vg[j]);
 
 			if (fabs(fg) > lim) { /* breaks loose: slip velocity 0, growing along fg */
@@ -224,6 +224,7 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 				pl->rim[j] = vg[j];
 			}
 		}
+		dir[j] = 0;
 		if (pl->slipping[j]) {
 			const double sig = pl->rim[j] - vg[j];
 
@@ -250,24 +251,18 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 			}
 		}
 	}
-	if (pl->blocked) {
-		for (int k = 0; k < 3; k++)
-			pl->x[k] = 0.0;
-	} else {
-		for (int k = 0; k < 3; k++)
-			pl->x[k] = axis_step(a[k], b[k], -ss->K[k], pl->x[k], h);
-		const double x_mid[3] = {0.5 * (x_old[0] + pl->x[0]), 0.5 * (x_old[1] + pl->x[1]),
-					 0.5 * (x_old[2] + pl->x[2])};
-		double xw[3];
+}
 
-		frame_robot_to_world(pl->pose[2] + 0.5 * h * x_mid[2], x_mid, xw);
-		for (int k = 0; k < 3; k++)
-			pl->pose[k] += h * xw[k];
-	}
-
-	/* The wheels: a slipping one on its own inertia, J_w w' = l Kt i - r F sgn(slip). */
+/* The wheels after a substep: a slipping one on its own inertia, J_w w' = l Kt i - r F dir_j,
+ * until its slip velocity returns to 0; a gripping one at its ground speed. */
+static void substep_wheels(struct plant *pl, const double u[4], bool driven, const int dir[4],
+			   double h)
+{
+	const struct model_params *p = &pl->p;
+	const double lim = traction_limit(pl);
 	const double Jw = pl->floor.wheel_inertia;
 	const double aw = driven ? -p->l * p->l * p->Kt * p->Kv / (Jw * p->R) : 0.0;
+	double vg[4];
 
 	ik_wheel_speeds(p->d, pl->x, vg);
 	for (int j = 0; j < 4; j++) {
@@ -289,6 +284,31 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 			pl->rim[j] = vg[j];
 		}
 	}
+}
+
+/* One substep of h with some wheel slipping, or with the body blocked or radius errors. */
+static void floor_substep(struct plant *pl, const double u[4], bool driven, double h)
+{
+	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
+	double a[3], b[3];
+	int dir[4];
+
+	substep_forces(pl, u, driven, a, b, dir);
+	if (pl->blocked) {
+		for (int k = 0; k < 3; k++)
+			pl->x[k] = 0.0;
+	} else {
+		for (int k = 0; k < 3; k++)
+			pl->x[k] = axis_step(a[k], b[k], -pl->ss.K[k], pl->x[k], h);
+		const double x_mid[3] = {0.5 * (x_old[0] + pl->x[0]), 0.5 * (x_old[1] + pl->x[1]),
+					 0.5 * (x_old[2] + pl->x[2])};
+		double xw[3];
+
+		frame_robot_to_world(pl->pose[2] + 0.5 * h * x_mid[2], x_mid, xw);
+		for (int k = 0; k < 3; k++)
+			pl->pose[k] += h * xw[k];
+	}
+	substep_wheels(pl, u, driven, dir, h);
 }
 
 static void floor_step(struct plant *pl, const double u[4], bool driven, double dt)
