@@ -7,9 +7,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Folders whose C and C++ files must be formatted (core config drivers firmware sil mcu model
-# tests follow once they are).
-FORMAT_DIRS="host-tools bench"
+# Folders whose C and C++ files must be formatted: every one that holds C or C++.
+FORMAT_DIRS="core config drivers firmware sil mcu model tests lcmtypes host-tools bench"
 # Production folders whose functions must stay within MAX_LINES (tests/ and the model's and
 # mcu's test programs are not production).
 LENGTH_DIRS="host-tools core config drivers firmware sil mcu model/src python/omni4"

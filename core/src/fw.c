@@ -5,9 +5,8 @@
 #include <math.h>
 #include <string.h>
 
-
 int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal motor,
-	    struct line_hal lines)
+            struct line_hal lines)
 {
 	memset(fw, 0, sizeof(*fw));
 	if (ctl_init(&fw->ctl, cfg))
@@ -38,7 +37,7 @@ void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks)
 }
 
 int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
-		     struct fw_param_update *u, char *why, size_t n)
+                     struct fw_param_update *u, char *why, size_t n)
 {
 	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
 
@@ -87,7 +86,7 @@ bool fw_param_withdraw(struct fw *fw, struct fw_param_update *u)
 static void take_params(struct fw *fw, int64_t now_us)
 {
 	struct fw_param_update *u =
-		atomic_exchange_explicit(&fw->param_pending, NULL, memory_order_acq_rel);
+	    atomic_exchange_explicit(&fw->param_pending, NULL, memory_order_acq_rel);
 
 	if (!u)
 		return;
@@ -103,7 +102,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
 	fw->param_done = (struct fw_param_result){
-		.rc = rc, .mode = (int)fw->ctl.mode, .seq = fw->seq, .utime = now_us};
+	    .rc = rc, .mode = (int)fw->ctl.mode, .seq = fw->seq, .utime = now_us};
 	atomic_store_explicit(&fw->param_done_gen, u->gen, memory_order_release);
 }
 
@@ -193,10 +192,10 @@ static void estimate(struct fw *fw, struct est_input *in)
 }
 
 void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
-		   const double wheel_slip[4], uint32_t flags)
+                   const double wheel_slip[4], uint32_t flags)
 {
-	struct log_entry e = {.utime = utime, .seq = fw->seq, .kind = LOG_TRUTH,
-			      .faults = (int32_t)flags};
+	struct log_entry e = {
+	    .utime = utime, .seq = fw->seq, .kind = LOG_TRUTH, .faults = (int32_t)flags};
 
 	memcpy(e.pose, pose, sizeof(e.pose));
 	for (int k = 0; k < 3; k++)
@@ -216,10 +215,12 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e)
 static void push_calibration(struct fw *fw, int64_t now_us)
 {
 	const struct ctl_cal *cal = &fw->ctl.cal;
-	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_CALIBRATION,
-			      .mode = cal->gen == 1 ? -1 : (int8_t)cal->prev_fault_mask,
-			      .cal_samples = (uint16_t)cal->cfg.samples,
-			      .faults = (int32_t)cal->fault_mask};
+	struct log_entry e = {.utime = now_us,
+	                      .seq = fw->seq,
+	                      .kind = LOG_CALIBRATION,
+	                      .mode = cal->gen == 1 ? -1 : (int8_t)cal->prev_fault_mask,
+	                      .cal_samples = (uint16_t)cal->cfg.samples,
+	                      .faults = (int32_t)cal->fault_mask};
 
 	memcpy(e.current, cal->offset, sizeof(e.current));
 	memcpy(e.voltage, cal->prev, sizeof(e.voltage));
@@ -264,8 +265,11 @@ static void drive(struct fw *fw, struct ctl_output *out)
  * starved; it re-aligns) is flagged in its own sample only, so a log shows which were late. */
 static void push_sample(struct fw *fw, int64_t now_us, const struct ctl_output *out)
 {
-	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS,
-			      .mode = out->mode, .faults = out->faults};
+	struct log_entry e = {.utime = now_us,
+	                      .seq = fw->seq,
+	                      .kind = LOG_MOTORS,
+	                      .mode = out->mode,
+	                      .faults = out->faults};
 
 	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
 		e.faults |= CTL_FAULT_OVERRUN;

@@ -16,30 +16,31 @@ void sim_settings_defaults(struct sim_settings *s)
 }
 
 struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bool noise,
-					      const struct model_params *plant, double period_s,
-					      double supply_v)
+                                              const struct model_params *plant, double period_s,
+                                              double supply_v)
 {
 	return (struct sim_motor_config){
-		.params = *plant,
-		.period_s = period_s,
-		.supply_v = supply_v,
-		.current_noise_a = noise ? sim->current_noise_a : 0.0,
-		.encoder_cpr = noise ? sim->encoder_cpr : 0,
-		.camera_rate_hz = sim->camera_rate_hz,
-		.camera_pos_noise_m = noise ? sim->camera_pos_noise_m : 0.0,
-		.camera_theta_noise_rad = noise ? sim->camera_theta_noise_rad : 0.0,
-		.seed = (uint64_t)sim->seed,
-		.current_offset_a = {noise ? sim->current_offset_a[0] : 0.0,
-				     noise ? sim->current_offset_a[1] : 0.0,
-				     noise ? sim->current_offset_a[2] : 0.0,
-				     noise ? sim->current_offset_a[3] : 0.0},
-		.encoder_eccentricity = noise ? sim->encoder_eccentricity : 0.0,
-		/* The floor and the camera's timing: the world's, with exact sensors too. */
-		.floor = {.traction_mu = sim->traction_mu, .wheel_inertia = sim->wheel_inertia,
-			  .radius_error = {sim->wheel_radius_error[0], sim->wheel_radius_error[1],
-					   sim->wheel_radius_error[2], sim->wheel_radius_error[3]},
-			  .slip_noise = sim->slip_noise},
-		.camera_latency_s = sim->camera_latency_ms * 1e-3,
+	    .params = *plant,
+	    .period_s = period_s,
+	    .supply_v = supply_v,
+	    .current_noise_a = noise ? sim->current_noise_a : 0.0,
+	    .encoder_cpr = noise ? sim->encoder_cpr : 0,
+	    .camera_rate_hz = sim->camera_rate_hz,
+	    .camera_pos_noise_m = noise ? sim->camera_pos_noise_m : 0.0,
+	    .camera_theta_noise_rad = noise ? sim->camera_theta_noise_rad : 0.0,
+	    .seed = (uint64_t)sim->seed,
+	    .current_offset_a = {noise ? sim->current_offset_a[0] : 0.0,
+	                         noise ? sim->current_offset_a[1] : 0.0,
+	                         noise ? sim->current_offset_a[2] : 0.0,
+	                         noise ? sim->current_offset_a[3] : 0.0},
+	    .encoder_eccentricity = noise ? sim->encoder_eccentricity : 0.0,
+	    /* The floor and the camera's timing: the world's, with exact sensors too. */
+	    .floor = {.traction_mu = sim->traction_mu,
+	              .wheel_inertia = sim->wheel_inertia,
+	              .radius_error = {sim->wheel_radius_error[0], sim->wheel_radius_error[1],
+	                               sim->wheel_radius_error[2], sim->wheel_radius_error[3]},
+	              .slip_noise = sim->slip_noise},
+	    .camera_latency_s = sim->camera_latency_ms * 1e-3,
 	};
 }
 
@@ -92,7 +93,8 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	rng_seed(&phases, cfg->seed ^ 0x9e3779b97f4a7c15ull);
 	for (int j = 0; j < 4; j++) {
 		s->ecc_phase[j] = rng_uniform(&phases, 0.0, TWO_PI);
-		if (cfg->encoder_eccentricity > 0.0) { /* the reading at rest is where counting starts */
+		if (cfg->encoder_eccentricity >
+		    0.0) { /* the reading at rest is where counting starts */
 			s->ecc_read[j] = eccentric_reading(s, j, 0.0);
 			s->counts[j] = encoder_counts(s, s->ecc_read[j]);
 		}
@@ -164,21 +166,20 @@ static void camera(struct sim_motor *s, double t_s)
 				s->cam_lost++;
 			} else {
 				struct sim_cam_frame *f =
-					&s->cam_q[(s->cam_head + s->cam_count) % SIM_CAM_QUEUE];
+				    &s->cam_q[(s->cam_head + s->cam_count) % SIM_CAM_QUEUE];
 
 				f->capture_us = s->t_us;
 				f->pose[0] = s->plant.pose[0] +
-					     rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
+				             rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
 				f->pose[1] = s->plant.pose[1] +
-					     rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
+				             rng_normal(&s->rng, s->cfg.camera_pos_noise_m);
 				f->pose[2] = s->plant.pose[2] +
-					     rng_normal(&s->rng, s->cfg.camera_theta_noise_rad);
+				             rng_normal(&s->rng, s->cfg.camera_theta_noise_rad);
 				s->cam_count++;
 			}
 		}
 	}
-	while (s->cam_count &&
-	       s->cam_q[s->cam_head].capture_us + s->cam_latency_us <= s->t_us) {
+	while (s->cam_count && s->cam_q[s->cam_head].capture_us + s->cam_latency_us <= s->t_us) {
 		const struct sim_cam_frame *f = &s->cam_q[s->cam_head];
 
 		if (s->on_pose && !s->inject.camera_off)
@@ -214,7 +215,8 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	const int cpr = s->cfg.encoder_cpr;
 
 	for (int j = 0; j < 4; j++) {
-		s->wheel_angle[j] += 0.5 * dt * (w_before[j] + w_after[j]) + s->inject.encoder_jump_rad;
+		s->wheel_angle[j] +=
+		    0.5 * dt * (w_before[j] + w_after[j]) + s->inject.encoder_jump_rad;
 		double speed = w_after[j];
 
 		if (s->cfg.encoder_eccentricity > 0.0) {
@@ -239,8 +241,8 @@ static int sim_read(void *ctx, struct motor_sample *out)
 		out->wheel_rad_s[j] = s->inject.encoder_stuck[j] ? s->last_speed[j] : (float)speed;
 		s->last_speed[j] = out->wheel_rad_s[j];
 
-		double i = s->plant.current_a[j] + s->cfg.current_offset_a[j] +
-			   s->inject.current_offset_a;
+		double i =
+		    s->plant.current_a[j] + s->cfg.current_offset_a[j] + s->inject.current_offset_a;
 
 		if (s->enabled)
 			i += rng_normal(&s->rng, s->cfg.current_noise_a);
@@ -271,11 +273,11 @@ static void sim_close(void *ctx)
 }
 
 const struct motor_hal_ops sim_motor_ops = {
-	.enable = sim_enable,
-	.write = sim_write,
-	.read = sim_read,
-	.clear_faults = sim_clear_faults,
-	.close = sim_close,
+    .enable = sim_enable,
+    .write = sim_write,
+    .read = sim_read,
+    .clear_faults = sim_clear_faults,
+    .close = sim_close,
 };
 
 static int sim_read_estop(void *ctx, bool *active)
@@ -299,8 +301,8 @@ static int sim_set_led(void *ctx, bool on)
 }
 
 const struct line_hal_ops sim_line_ops = {
-	.read_estop = sim_read_estop,
-	.set_enable = sim_set_enable,
-	.set_led = sim_set_led,
-	.close = NULL,
+    .read_estop = sim_read_estop,
+    .set_enable = sim_set_enable,
+    .set_led = sim_set_led,
+    .close = NULL,
 };

@@ -81,9 +81,9 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 {
 	enum { KEYS = 6, VAL = 32 };
 	static const char *const names[KEYS] = {
-		"calibration.current_offset_a0", "calibration.current_offset_a1",
-		"calibration.current_offset_a2", "calibration.current_offset_a3",
-		"calibration.samples",           "calibration.fault_channels",
+	    "calibration.current_offset_a0", "calibration.current_offset_a1",
+	    "calibration.current_offset_a2", "calibration.current_offset_a3",
+	    "calibration.samples",           "calibration.fault_channels",
 	};
 	char now[KEYS][VAL], before[KEYS][VAL];
 	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
@@ -108,9 +108,15 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 		values[k] = now[k];
 		old_values[k] = before[k];
 	}
-	const omni4_param_changed_t m = {.utime = e->utime, .seq = e->seq, .request_id = 0,
-					 .source = (char *)"calibration", .path = (char *)"", .n = n,
-					 .keys = keys, .old_values = old_values, .values = values};
+	const omni4_param_changed_t m = {.utime = e->utime,
+	                                 .seq = e->seq,
+	                                 .request_id = 0,
+	                                 .source = (char *)"calibration",
+	                                 .path = (char *)"",
+	                                 .n = n,
+	                                 .keys = keys,
+	                                 .old_values = old_values,
+	                                 .values = values};
 
 	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
 		return -ENOSPC;
@@ -121,11 +127,14 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 static int encode_state(const struct log_entry *e, void *buf, size_t cap)
 {
 	const struct est_output *o = &e->state;
-	omni4_state_t m = {.utime = e->utime, .seq = e->seq, .flags = (int32_t)o->flags,
-			   .null_residual = o->null_residual,
-			   .camera_latency_us = o->cam_latency_us,
-			   .camera_taken = (int32_t)o->cam_taken, .camera_gated = (int32_t)o->cam_gated,
-			   .camera_too_old = (int32_t)o->cam_too_old};
+	omni4_state_t m = {.utime = e->utime,
+	                   .seq = e->seq,
+	                   .flags = (int32_t)o->flags,
+	                   .null_residual = o->null_residual,
+	                   .camera_latency_us = o->cam_latency_us,
+	                   .camera_taken = (int32_t)o->cam_taken,
+	                   .camera_gated = (int32_t)o->cam_gated,
+	                   .camera_too_old = (int32_t)o->cam_too_old};
 
 	for (int k = 0; k < 3; k++) {
 		m.pose[k] = o->pose[k];
@@ -155,14 +164,14 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 		*channel = OMNI4_CHANNEL_SIM_TRUTH;
 		n = omni4_sim_truth_t_encode(buf, 0, (int)cap, &t);
 	} else if (e->kind == LOG_POSE) {
-		const omni4_pose_t p = {.utime = e->utime, .x = e->pose[0], .y = e->pose[1],
-					.theta = e->pose[2]};
+		const omni4_pose_t p = {
+		    .utime = e->utime, .x = e->pose[0], .y = e->pose[1], .theta = e->pose[2]};
 
 		*channel = OMNI4_CHANNEL_POSE;
 		n = omni4_pose_t_encode(buf, 0, (int)cap, &p);
 	} else {
-		omni4_motors_t m = {.utime = e->utime, .seq = e->seq, .mode = e->mode,
-				    .faults = e->faults};
+		omni4_motors_t m = {
+		    .utime = e->utime, .seq = e->seq, .mode = e->mode, .faults = e->faults};
 
 		memcpy(m.voltage, e->voltage, sizeof(m.voltage));
 		memcpy(m.current, e->current, sizeof(m.current));

@@ -11,10 +11,9 @@
 static int open_sim_motor(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct ctl_settings *c = spec->ctl;
-	const struct sim_motor_config sc =
-		sim_motor_config_from(spec->sim, !spec->sim_exact,
-				      spec->plant ? spec->plant : &c->model, 1.0 / c->rate_hz,
-				      c->limits.supply_v);
+	const struct sim_motor_config sc = sim_motor_config_from(
+	    spec->sim, !spec->sim_exact, spec->plant ? spec->plant : &c->model, 1.0 / c->rate_hz,
+	    c->limits.supply_v);
 
 	if (sim_motor_init(&r->sim, &sc)) {
 		snprintf(why, n, "invalid [sim] settings");
@@ -55,10 +54,11 @@ static int open_socketcan(struct robot *r, const struct robot_spec *spec, char *
 	const double load = can_bus_load_1khz(cs->bitrate) * spec->ctl->rate_hz / 1000.0;
 
 	if (load > 0.5) {
-		snprintf(why, n,
-			 "[can] bitrate %d bit/s is too slow for [loop] rate_hz %g: the motor-driver "
-			 "protocol would take %.0f %% of the bus (at most 50 %%)",
-			 cs->bitrate, spec->ctl->rate_hz, 100.0 * load);
+		snprintf(
+		    why, n,
+		    "[can] bitrate %d bit/s is too slow for [loop] rate_hz %g: the motor-driver "
+		    "protocol would take %.0f %% of the bus (at most 50 %%)",
+		    cs->bitrate, spec->ctl->rate_hz, 100.0 * load);
 		return -1;
 	}
 	const int rc = socketcan_motor_open(&r->can, cs->iface, cs->status_timeout_ms);
@@ -81,9 +81,9 @@ static const struct {
 	enum omni4_motor_backend kind;
 	int (*open)(struct robot *r, const struct robot_spec *spec, char *why, size_t n);
 } motor_backends[] = {
-	{OMNI4_MOTOR_SIM, open_sim_motor},
+    {OMNI4_MOTOR_SIM, open_sim_motor},
 #ifdef OMNI4_ROBOT_LINUX
-	{OMNI4_MOTOR_SOCKETCAN, open_socketcan},
+    {OMNI4_MOTOR_SOCKETCAN, open_socketcan},
 #endif
 };
 
@@ -130,10 +130,10 @@ static const struct {
 	enum omni4_lines_backend kind;
 	int (*open)(struct robot *r, const struct robot_spec *spec, char *why, size_t n);
 } line_backends[] = {
-	{OMNI4_LINES_NONE, open_no_lines},
-	{OMNI4_LINES_SIM, open_sim_lines},
+    {OMNI4_LINES_NONE, open_no_lines},
+    {OMNI4_LINES_SIM, open_sim_lines},
 #ifdef OMNI4_ROBOT_LINUX
-	{OMNI4_LINES_GPIOD, open_gpiod_lines},
+    {OMNI4_LINES_GPIOD, open_gpiod_lines},
 #endif
 };
 
@@ -171,17 +171,17 @@ static int start_controller(struct robot *r, const struct robot_spec *spec, char
 	}
 #ifdef OMNI4_ROBOT_LINUX
 	if (spec->motor == OMNI4_MOTOR_SOCKETCAN) {
-		const struct fw_param_hooks hooks = {.check = can_limits_check,
-						     .apply = can_limits_apply, .ctx = &r->can};
+		const struct fw_param_hooks hooks = {
+		    .check = can_limits_check, .apply = can_limits_apply, .ctx = &r->can};
 
 		fw_set_param_hooks(&r->fw, &hooks);
 	}
 #endif
 	if (spec->motor == OMNI4_MOTOR_SIM) {
 		sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw,
-				      spec->utime0 - r->sim.period_us);
+		                      spec->utime0 - r->sim.period_us);
 		sim_motor_set_truth_cb(&r->sim, on_sim_truth, &r->fw,
-				       spec->utime0 - r->sim.period_us);
+		                       spec->utime0 - r->sim.period_us);
 	}
 	return 0;
 }

@@ -123,12 +123,13 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 				b += ss->B[k][j] * u[j];
 		if (pl->ext_force[k] != 0.0)
 			b += pl->ext_force[k] / inertia[k];
-		pl->x[k] = axis_step(driven ? ss->A[k] : ss->A_coast[k], b, -ss->K[k], pl->x[k], dt);
+		pl->x[k] =
+		    axis_step(driven ? ss->A[k] : ss->A_coast[k], b, -ss->K[k], pl->x[k], dt);
 	}
 
 	/* World pose: eq 1 inverted with the mid-step heading and mean velocity. */
 	const double x_mid[3] = {0.5 * (x_old[0] + pl->x[0]), 0.5 * (x_old[1] + pl->x[1]),
-				 0.5 * (x_old[2] + pl->x[2])};
+	                         0.5 * (x_old[2] + pl->x[2])};
 	double xw[3];
 
 	frame_robot_to_world(pl->pose[2] + 0.5 * dt * x_mid[2], x_mid, xw);
@@ -141,7 +142,7 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 	for (int j = 0; j < 4; j++) {
 		pl->voltage_v[j] = driven ? u[j] : 0.0;
 		pl->current_a[j] =
-			driven ? motor_current(&pl->p, u[j], motor_speed_rad_s(&pl->p, vw[j])) : 0.0;
+		    driven ? motor_current(&pl->p, u[j], motor_speed_rad_s(&pl->p, vw[j])) : 0.0;
 		pl->rim[j] = vw[j];
 	}
 	pl->driven = driven;
@@ -166,8 +167,7 @@ static double grip_force(const struct plant *pl, int j, double u, bool driven, d
 }
 
 /* Does a gripping wheel need more than the traction limit at robot velocity x? */
-static bool beyond_limit(const struct plant *pl, const double u[4], bool driven,
-			 const double x[3])
+static bool beyond_limit(const struct plant *pl, const double u[4], bool driven, const double x[3])
 {
 	const double lim = traction_limit(pl);
 	double vg[4];
@@ -202,7 +202,7 @@ static double ik_coef(const struct plant *pl, int j, int k)
  * along their force), each gripping wheel's motor force with its own axis's back-EMF in a and
  * the other axes' held from the substep's start (eqs 9-13, 21). */
 static void substep_forces(struct plant *pl, const double u[4], bool driven, double a[3],
-			   double b[3], int dir[4])
+                           double b[3], int dir[4])
 {
 	const struct model_params *p = &pl->p;
 	const double lim = traction_limit(pl);
@@ -256,7 +256,7 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, dou
 /* The wheels after a substep: a slipping one on its own inertia, J_w w' = l Kt i - r F dir_j,
  * until its slip velocity returns to 0; a gripping one at its ground speed. */
 static void substep_wheels(struct plant *pl, const double u[4], bool driven, const int dir[4],
-			   double h)
+                           double h)
 {
 	const struct model_params *p = &pl->p;
 	const double lim = traction_limit(pl);
@@ -272,7 +272,7 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 		}
 		const double rj = pl->r_eff[j];
 		const double bw = (driven ? rj * p->l * p->Kt * u[j] / (Jw * p->R) : 0.0) -
-				  rj * rj * lim * dir[j] / Jw;
+		                  rj * rj * lim * dir[j] / Jw;
 		const double rim = lin_solve(aw, bw, pl->rim[j], h);
 		const double sig = rim - vg[j];
 
@@ -301,7 +301,7 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 		for (int k = 0; k < 3; k++)
 			pl->x[k] = axis_step(a[k], b[k], -pl->ss.K[k], pl->x[k], h);
 		const double x_mid[3] = {0.5 * (x_old[0] + pl->x[0]), 0.5 * (x_old[1] + pl->x[1]),
-					 0.5 * (x_old[2] + pl->x[2])};
+		                         0.5 * (x_old[2] + pl->x[2])};
 		double xw[3];
 
 		frame_robot_to_world(pl->pose[2] + 0.5 * h * x_mid[2], x_mid, xw);
@@ -326,7 +326,7 @@ static void floor_step(struct plant *pl, const double u[4], bool driven, double 
 	for (int j = 0; j < 4; j++) {
 		pl->voltage_v[j] = driven ? u[j] : 0.0;
 		pl->current_a[j] =
-			driven ? (u[j] - p->Kv * p->l * pl->rim[j] / pl->r_eff[j]) / p->R : 0.0;
+		    driven ? (u[j] - p->Kv * p->l * pl->rim[j] / pl->r_eff[j]) / p->R : 0.0;
 	}
 	pl->driven = driven;
 }
@@ -367,8 +367,9 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4])
 {
 	for (int j = 0; j < 4; j++)
-		wheel_rad_s[j] = (pl->floor.slip_noise > 0.0 ? pl->rim[j] + pl->creep[j] : pl->rim[j]) /
-				 pl->r_eff[j];
+		wheel_rad_s[j] =
+		    (pl->floor.slip_noise > 0.0 ? pl->rim[j] + pl->creep[j] : pl->rim[j]) /
+		    pl->r_eff[j];
 }
 
 void plant_wheel_slip(const struct plant *pl, double slip_m_s[4])

@@ -15,7 +15,7 @@ from omni4 import log as omni4_log
 from omni4 import LogError, read_log
 
 SIM_TIMEOUT_S = 60   # omni4-sim --experiments takes ~0.5 s
-PREFIX_BYTES = 2_400_000  # ~17 s of the experiments (~19000 events): voltage and coast runs
+PREFIX_BYTES = 5_000_001  # ~17 s of the experiments with the simulated truth (~37000 events)
 
 
 def event_bounds(data):
@@ -291,7 +291,7 @@ def test_fixed_size_path_equals_message_by_message_decode(logs):
 
 def test_fixed_size_types_take_the_structured_view():
     assert set(omni4_log._FAST) == {omni4.motors_t, omni4.pose_t, omni4.command_t,
-                                     omni4.state_t}
+                                     omni4.state_t, omni4.sim_truth_t}
 
 
 def test_faster_than_eventlog_decode(logs):

@@ -22,7 +22,7 @@ def test_log_figure_and_summary(tmp_path, omni4_bin):
                         "--out", str(full)], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     log = tmp_path / "sim.lcmlog"
-    log.write_bytes(full.read_bytes()[:3_000_000])  # ~25 s, cut inside an event
+    log.write_bytes(full.read_bytes()[:6_000_000])  # ~25 s (with the truth), cut inside an event
     csv = tmp_path / "csv"
     csv.mkdir()
     r = report(csv, tmp_path / "out", "--log", log)

@@ -25,7 +25,7 @@ struct simrun {
 };
 
 static int write_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
-		       size_t len)
+                       size_t len)
 {
 	return sr->log ? omni4_eventlog_write(sr->log, channel, utime, data, len) : 0;
 }
@@ -53,8 +53,9 @@ static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *
 	return rc;
 }
 
-struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_params *plant_params,
-			     bool noise, const char *log_path, char *err, size_t errlen)
+struct simrun *simrun_create(const struct omni4_config *cfg,
+                             const struct model_params *plant_params, bool noise,
+                             const char *log_path, char *err, size_t errlen)
 {
 	struct simrun *sr = calloc(1, sizeof(*sr));
 	struct timespec now;
@@ -67,13 +68,13 @@ struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_
 	sr->utime0 = (int64_t)now.tv_sec * 1000000 + now.tv_nsec / 1000;
 	/* The plant state after the step in tick k is the one sampled at tick k's time. */
 	const struct robot_spec spec = {
-		.ctl = &cfg->ctl,
-		.motor = OMNI4_MOTOR_SIM,
-		.lines = OMNI4_LINES_SIM,
-		.sim = &cfg->sim,
-		.sim_exact = !noise,
-		.plant = plant_params,
-		.utime0 = sr->utime0,
+	    .ctl = &cfg->ctl,
+	    .motor = OMNI4_MOTOR_SIM,
+	    .lines = OMNI4_LINES_SIM,
+	    .sim = &cfg->sim,
+	    .sim_exact = !noise,
+	    .plant = plant_params,
+	    .utime0 = sr->utime0,
 	};
 
 	if (robot_open(&sr->robot, &spec, err, errlen))
@@ -82,7 +83,8 @@ struct simrun *simrun_create(const struct omni4_config *cfg, const struct model_
 	if (log_path) {
 		sr->log = lcm_eventlog_create(log_path, "w");
 		if (!sr->log) {
-			snprintf(err, errlen, "%s: cannot create log: %s", log_path, strerror(errno));
+			snprintf(err, errlen, "%s: cannot create log: %s", log_path,
+			         strerror(errno));
 			goto err_free;
 		}
 	}

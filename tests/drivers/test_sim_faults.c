@@ -20,9 +20,9 @@ static struct omni4_config faulty_config(double ecc)
 	char ini[512];
 
 	snprintf(ini, sizeof(ini),
-		 "[sim]\ncurrent_offset_a0 = %g\ncurrent_offset_a1 = %g\ncurrent_offset_a2 = %g\n"
-		 "current_offset_a3 = %g\nencoder_eccentricity = %g\n",
-		 OFF[0], OFF[1], OFF[2], OFF[3], ecc);
+	         "[sim]\ncurrent_offset_a0 = %g\ncurrent_offset_a1 = %g\ncurrent_offset_a2 = %g\n"
+	         "current_offset_a3 = %g\nencoder_eccentricity = %g\n",
+	         OFF[0], OFF[1], OFF[2], OFF[3], ecc);
 	config_defaults(&cfg);
 	if (config_load_string(ini, "test.ini", &cfg, &err))
 		fail_msg("%s", err.msg);
@@ -32,7 +32,7 @@ static struct omni4_config faulty_config(double ecc)
 static void start(struct sim_motor *s, const struct omni4_config *cfg, bool noise)
 {
 	const struct sim_motor_config sc = sim_motor_config_from(
-		&cfg->sim, noise, &cfg->ctl.model, 1.0 / cfg->ctl.rate_hz, cfg->ctl.limits.supply_v);
+	    &cfg->sim, noise, &cfg->ctl.model, 1.0 / cfg->ctl.rate_hz, cfg->ctl.limits.supply_v);
 
 	assert_int_equal(sim_motor_init(s, &sc), 0);
 }
@@ -63,8 +63,8 @@ static void test_keys_ranges_and_defaults(void **state)
 	assert_int_equal(config_key_set(&cfg, e, "0.1", why, sizeof(why)), 0);
 	assert_int_not_equal(config_key_set(&cfg, e, "0.11", why, sizeof(why)), 0);
 	assert_int_not_equal(config_key_set(&cfg, e, "-0.01", why, sizeof(why)), 0);
-	assert_int_not_equal(config_load_string("[sim]\ncurrent_offset_a3 = 2\n", "bad.ini", &cfg,
-						&err), 0);
+	assert_int_not_equal(
+	    config_load_string("[sim]\ncurrent_offset_a3 = 2\n", "bad.ini", &cfg, &err), 0);
 	assert_non_null(strstr(err.msg, "current_offset_a3"));
 }
 
@@ -189,10 +189,11 @@ static void test_encoder_eccentricity_ripple(void **state)
 		const double tol = cpr_case == 0 ? 0.02 * ecc : 0.1 * ecc;
 
 		for (int j = 0; j < 4; j++) {
-			print_message("cpr %d channel %d: mean %.4f rad/s (without %.4f), ripple %.5f "
-				      "at phase %.3f rad (once per wheel turn %.5f; without: %.5f)\n",
-				      ecc_cfg.sim.encoder_cpr, j, r1.mean[j], r0.mean[j], r1.amp[j],
-				      r1.phase[j], r1.amp_wheel[j], r0.amp[j]);
+			print_message(
+			    "cpr %d channel %d: mean %.4f rad/s (without %.4f), ripple %.5f "
+			    "at phase %.3f rad (once per wheel turn %.5f; without: %.5f)\n",
+			    ecc_cfg.sim.encoder_cpr, j, r1.mean[j], r0.mean[j], r1.amp[j],
+			    r1.phase[j], r1.amp_wheel[j], r0.amp[j]);
 			assert_true(fabs(r1.mean[j]) > 20.0);
 			assert_near(r1.mean[j], r0.mean[j], 0.005 * fabs(r0.mean[j]));
 			assert_near(r1.amp[j], ecc, tol);
@@ -220,9 +221,9 @@ static void test_encoder_eccentricity_ripple(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_keys_ranges_and_defaults),
-		cmocka_unit_test(test_current_offsets_bridges_off_and_on),
-		cmocka_unit_test(test_encoder_eccentricity_ripple),
+	    cmocka_unit_test(test_keys_ranges_and_defaults),
+	    cmocka_unit_test(test_current_offsets_bridges_off_and_on),
+	    cmocka_unit_test(test_encoder_eccentricity_ripple),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -28,7 +28,7 @@ static struct omni4_config config_ini(const char *ini)
 static void start(struct sim_motor *s, const struct omni4_config *cfg, bool noise)
 {
 	const struct sim_motor_config sc = sim_motor_config_from(
-		&cfg->sim, noise, &cfg->ctl.model, 1.0 / cfg->ctl.rate_hz, cfg->ctl.limits.supply_v);
+	    &cfg->sim, noise, &cfg->ctl.model, 1.0 / cfg->ctl.rate_hz, cfg->ctl.limits.supply_v);
 
 	assert_int_equal(sim_motor_init(s, &sc), 0);
 }
@@ -45,14 +45,15 @@ static void test_keys_defaults_and_ranges(void **state)
 		assert_true(cfg.sim.wheel_radius_error[j] == 0.0);
 	assert_true(cfg.sim.slip_noise == 0.0 && cfg.sim.camera_latency_ms == 40.0);
 	cfg = config_ini("[sim]\ntraction_mu = 0.4\nwheel_inertia = 2e-4\nwheel_radius_error_0 = "
-			 "0.01\nwheel_radius_error_3 = -0.02\nslip_noise = 0.003\n"
-			 "camera_latency_ms = 40\n");
+	                 "0.01\nwheel_radius_error_3 = -0.02\nslip_noise = 0.003\n"
+	                 "camera_latency_ms = 40\n");
 	assert_true(cfg.sim.traction_mu == 0.4 && cfg.sim.wheel_inertia == 2e-4);
-	assert_true(cfg.sim.wheel_radius_error[0] == 0.01 && cfg.sim.wheel_radius_error[3] == -0.02);
+	assert_true(cfg.sim.wheel_radius_error[0] == 0.01 &&
+	            cfg.sim.wheel_radius_error[3] == -0.02);
 	assert_true(cfg.sim.slip_noise == 0.003 && cfg.sim.camera_latency_ms == 40.0);
 	const char *bad[] = {"[sim]\ntraction_mu = 2.1\n", "[sim]\nwheel_radius_error_2 = 0.11\n",
-			     "[sim]\ncamera_latency_ms = 501\n", "[sim]\nslip_noise = -0.001\n",
-			     "[sim]\nwheel_inertia = 0\n"};
+	                     "[sim]\ncamera_latency_ms = 501\n", "[sim]\nslip_noise = -0.001\n",
+	                     "[sim]\nwheel_inertia = 0\n"};
 
 	for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
 		config_defaults(&cfg);
@@ -86,7 +87,7 @@ static void on_pose(void *user, int64_t utime, const double pose[3])
 
 /* The robot driven (it turns and translates) for 3 s; the plant's pose at every tick kept. */
 static void drive(struct sim_motor *s, struct frames *f, double plant_pose[TICKS + 1][3],
-		  int off_from, int off_to)
+                  int off_from, int off_to)
 {
 	const struct motor_hal_ops *ops = &sim_motor_ops;
 	static const float u[4] = {3, -2, 1, 4};
@@ -123,7 +124,7 @@ static void test_camera_latency_delivers_the_captured_pose_later(void **state)
 	start(&s, &cfg, false);
 	drive(&s, &f, pose, -1, -1);
 	print_message("%d frames, first captured at %lld us, arrived at %lld us\n", f.n,
-		      (long long)f.capture[0], (long long)f.arrival[0]);
+	              (long long)f.capture[0], (long long)f.arrival[0]);
 	/* captured at the first read (1 ms), then every 40 ms: 0.04 .. 2.96 s */
 	assert_int_equal(f.n, 75);
 	for (int i = 0; i < f.n; i++) {
@@ -156,7 +157,7 @@ static void test_camera_latency_beyond_the_queue_is_refused(void **state)
 	static struct sim_motor s;
 	struct omni4_config cfg = config_ini("[sim]\ncamera_rate_hz = 100\n");
 	struct sim_motor_config sc = sim_motor_config_from(
-		&cfg.sim, true, &cfg.ctl.model, 1.0 / cfg.ctl.rate_hz, cfg.ctl.limits.supply_v);
+	    &cfg.sim, true, &cfg.ctl.model, 1.0 / cfg.ctl.rate_hz, cfg.ctl.limits.supply_v);
 
 	sc.camera_latency_s = (SIM_CAM_QUEUE - 1) / 100.0;
 	assert_int_equal(sim_motor_init(&s, &sc), -EINVAL);
@@ -205,8 +206,9 @@ static double odometry_ratio(double e)
 	double dist = 0;
 
 	snprintf(ini, sizeof(ini),
-		 "[sim]\nwheel_radius_error_0 = %g\nwheel_radius_error_1 = %g\n"
-		 "wheel_radius_error_2 = %g\nwheel_radius_error_3 = %g\n", e, e, e, e);
+	         "[sim]\nwheel_radius_error_0 = %g\nwheel_radius_error_1 = %g\n"
+	         "wheel_radius_error_2 = %g\nwheel_radius_error_3 = %g\n",
+	         e, e, e, e);
 	const struct omni4_config cfg = config_ini(ini);
 
 	start(&s, &cfg, false); /* exact sensors: encoder_cpr 0 */
@@ -225,7 +227,7 @@ static double odometry_ratio(double e)
 	}
 	assert_true(s.plant.x[0] == 0.0 && s.plant.pose[0] > 0.5);
 	print_message("e = %+.3f: odometry %.6f m, true %.6f m, ratio %.9f (1/(1+e) = %.9f)\n", e,
-		      dist, s.plant.pose[0], dist / s.plant.pose[0], 1 / (1 + e));
+	              dist, s.plant.pose[0], dist / s.plant.pose[0], 1 / (1 + e));
 	return dist / s.plant.pose[0];
 }
 
@@ -270,8 +272,8 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 	const struct omni4_config cfg = config_ini("[sim]\ntraction_mu = 0.3\n");
 	const struct model_params *p = &cfg.ctl.model;
 	const double F = 0.3 * p->M * 9.80665 / 4;
-	const double s_ss = p->r * 6 / (p->l * p->Kv) - p->r * p->r * p->R * F /
-							    (p->l * p->l * p->Kt * p->Kv);
+	const double s_ss =
+	    p->r * 6 / (p->l * p->Kv) - p->r * p->r * p->R * F / (p->l * p->l * p->Kt * p->Kv);
 
 	start(&s, &cfg, false);
 	sim_motor_set_truth_cb(&s, on_truth, &tr, 1000000);
@@ -284,7 +286,7 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 	assert_int_equal(tr.utime[0], 1000000 + 1000);
 	for (int j = 0; j < 4; j++) {
 		print_message("wheel %d: %.4f rad/s (steady %.4f), %.4f A\n", j, m.wheel_rad_s[j],
-			      s_ss / p->r, m.current_a[j]);
+		              s_ss / p->r, m.current_a[j]);
 		assert_near(m.wheel_rad_s[j], s_ss / p->r, 1e-4 * s_ss / p->r); /* 19 tau_w */
 		assert_near(m.current_a[j], (6 - p->Kv * p->l * m.wheel_rad_s[j]) / p->R, 1e-5);
 	}
@@ -358,13 +360,13 @@ static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_keys_defaults_and_ranges),
-		cmocka_unit_test(test_camera_latency_delivers_the_captured_pose_later),
-		cmocka_unit_test(test_camera_latency_beyond_the_queue_is_refused),
-		cmocka_unit_test(test_camera_dropout),
-		cmocka_unit_test(test_radius_error_makes_odometry_drift_by_it),
-		cmocka_unit_test(test_blocked_wheels_spin_and_the_readings_follow_them),
-		cmocka_unit_test(test_truth_callback_once_per_read_equal_to_the_plant),
+	    cmocka_unit_test(test_keys_defaults_and_ranges),
+	    cmocka_unit_test(test_camera_latency_delivers_the_captured_pose_later),
+	    cmocka_unit_test(test_camera_latency_beyond_the_queue_is_refused),
+	    cmocka_unit_test(test_camera_dropout),
+	    cmocka_unit_test(test_radius_error_makes_odometry_drift_by_it),
+	    cmocka_unit_test(test_blocked_wheels_spin_and_the_readings_follow_them),
+	    cmocka_unit_test(test_truth_callback_once_per_read_equal_to_the_plant),
 	};
 
 	return cmocka_run_group_tests_name("sim_floor", tests, NULL, NULL);

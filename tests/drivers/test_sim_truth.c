@@ -53,9 +53,12 @@ static void open_robot(const char *ini)
 	config_defaults(&cfg);
 	if (config_load_string(ini, "test.ini", &cfg, &err))
 		fail_msg("%s", err.msg);
-	const struct robot_spec spec = {.ctl = &cfg.ctl, .motor = OMNI4_MOTOR_SIM,
-					.lines = OMNI4_LINES_SIM, .sim = &cfg.sim,
-					.sim_exact = false, .utime0 = 5000000};
+	const struct robot_spec spec = {.ctl = &cfg.ctl,
+	                                .motor = OMNI4_MOTOR_SIM,
+	                                .lines = OMNI4_LINES_SIM,
+	                                .sim = &cfg.sim,
+	                                .sim_exact = false,
+	                                .utime0 = 5000000};
 
 	if (robot_open(&R, &spec, why, sizeof(why)))
 		fail_msg("%s", why);
@@ -65,8 +68,8 @@ static void open_robot(const char *ini)
  * along v), kept alive every 50 ms: the controller pushes, the wheels slip. */
 static void command(int64_t now_us, int64_t seq)
 {
-	const struct ctl_command c = {.utime = now_us, .seq = seq, .mode = CTL_VELOCITY,
-				      .velocity = {0.5, 0.0, 1.0}};
+	const struct ctl_command c = {
+	    .utime = now_us, .seq = seq, .mode = CTL_VELOCITY, .velocity = {0.5, 0.0, 1.0}};
 
 	fw_post_command(&R.fw, &c);
 }
@@ -107,7 +110,7 @@ static void test_one_truth_per_tick_equal_to_the_plant(void **state)
 		slipping += (s.last.flags & OMNI4_SIM_TRUTH_T_FLAG_SLIP_0) != 0;
 	}
 	print_message("3000 ticks: %d truth, %d motors, %d pose; wheel 0 slipped in %d ticks\n",
-		      s.truth, s.motors, s.pose, slipping);
+	              s.truth, s.motors, s.pose, slipping);
 	assert_int_equal(errors, 0);
 	assert_true(slipping > 100);
 	assert_int_equal(R.fw.n.log_dropped, 0);
@@ -168,21 +171,22 @@ static void test_ring_headroom_with_the_truth(void **state)
 	const int without = ticks_until_the_ring_overflows(false);
 
 	print_message("log ring of %d entries, undrained, overflows after %d ticks with the truth, "
-		      "%d without\n", FW_LOG_RING_SLOTS, with, without);
+	              "%d without\n",
+	              FW_LOG_RING_SLOTS, with, without);
 	const double per_tick_with = (double)FW_LOG_RING_SLOTS / with;
 	const double per_tick_without = (double)FW_LOG_RING_SLOTS / without;
 
 	print_message("entries per tick: %.4f with, %.4f without\n", per_tick_with,
-		      per_tick_without);
+	              per_tick_without);
 	assert_near(per_tick_with - per_tick_without, 1.0, 0.003);
 }
 
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_one_truth_per_tick_equal_to_the_plant),
-		cmocka_unit_test(test_poses_beside_the_truth_and_none_without_a_source),
-		cmocka_unit_test(test_ring_headroom_with_the_truth),
+	    cmocka_unit_test(test_one_truth_per_tick_equal_to_the_plant),
+	    cmocka_unit_test(test_poses_beside_the_truth_and_none_without_a_source),
+	    cmocka_unit_test(test_ring_headroom_with_the_truth),
 	};
 
 	return cmocka_run_group_tests_name("sim_truth", tests, NULL, NULL);

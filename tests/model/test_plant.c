@@ -88,7 +88,7 @@ static void test_time_constants_are_minus_one_over_A_ii(void **state)
 
 	run(&pl, uv, true, tau_v, dt);
 	print_message("tau_v = %.4f s: v/v_ss = %.5f (1 - 1/e = %.5f)\n", tau_v, pl.x[0] / xs[0],
-		      1 - exp(-1));
+	              1 - exp(-1));
 	/* closed form at the time actually run (tau rounded to dt): 1 - exp(-t/tau) */
 	assert_near(pl.x[0] / xs[0], 1 - exp(-(double)lround(tau_v / dt) * dt / tau_v), 1e-9);
 
@@ -197,8 +197,10 @@ static void test_stiction_breaks_away_in_both_directions_on_every_axis(void **st
 			for (int j = 0; j < 4; j++)
 				u[j] = sign * 1.01 * U_break * pattern[k][j];
 			run(&pl, u, true, 0.05, 1e-3);
-			print_message("axis %d, drive %+d: breakaway at %.4f V, speed after 50 ms at "
-				      "1.01x: %+.6e\n", k, sign, U_break, pl.x[k]);
+			print_message(
+			    "axis %d, drive %+d: breakaway at %.4f V, speed after 50 ms at "
+			    "1.01x: %+.6e\n",
+			    k, sign, U_break, pl.x[k]);
 			/* closed form: x' = A x + f, f = 0.01 C / inertia, from rest for 50 ms */
 			const double f = sign * 0.01 * coulomb[k] / inertia[k];
 			const double want = -f / A[k] * (1 - exp(A[k] * 0.05));
@@ -232,7 +234,8 @@ static void test_reversal_through_zero_inside_one_step(void **state)
 	pl.x[0] = x0;
 	plant_step(&pl, u, true, dt);
 	print_message("reversal: stops at %.4f s, speed after the %.2f s step %+.6f m/s (closed "
-		      "form %+.6f)\n", t0, dt, pl.x[0], want);
+	              "form %+.6f)\n",
+	              t0, dt, pl.x[0], want);
 	assert_true(t0 > 0 && t0 < dt);
 	assert_near(pl.x[0], want, 1e-9 * fabs(want));
 }
@@ -248,7 +251,7 @@ static void test_pose_integrates_rotation_and_translation(void **state)
 	pl.p.Bv = pl.p.Bvn = pl.p.Bw = pl.p.Cv = pl.p.Cvn = pl.p.Cw = 0;
 	dyn_state_space(&pl.p, &pl.ss);
 	pl.x[0] = 1.0;
-	pl.x[2] = 1.0; /* a circle of radius 1 m */
+	pl.x[2] = 1.0;                           /* a circle of radius 1 m */
 	run(&pl, u0, false, M_PI, M_PI / 31416); /* a whole number of steps */
 	/* After half a turn, starting at the origin heading +x: at (0, 2), heading pi. */
 	assert_near(pl.pose[0], 0.0, 1e-6);
@@ -269,14 +272,14 @@ static void test_init_rejects_bad_params(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_steady_speed_under_constant_voltage_matches_closed_form),
-		cmocka_unit_test(test_time_constants_are_minus_one_over_A_ii),
-		cmocka_unit_test(test_coast_down_stops_at_closed_form_time_and_stays),
-		cmocka_unit_test(test_stiction_holds_below_coulomb_and_breaks_away_above),
-		cmocka_unit_test(test_stiction_breaks_away_in_both_directions_on_every_axis),
-		cmocka_unit_test(test_reversal_through_zero_inside_one_step),
-		cmocka_unit_test(test_pose_integrates_rotation_and_translation),
-		cmocka_unit_test(test_init_rejects_bad_params),
+	    cmocka_unit_test(test_steady_speed_under_constant_voltage_matches_closed_form),
+	    cmocka_unit_test(test_time_constants_are_minus_one_over_A_ii),
+	    cmocka_unit_test(test_coast_down_stops_at_closed_form_time_and_stays),
+	    cmocka_unit_test(test_stiction_holds_below_coulomb_and_breaks_away_above),
+	    cmocka_unit_test(test_stiction_breaks_away_in_both_directions_on_every_axis),
+	    cmocka_unit_test(test_reversal_through_zero_inside_one_step),
+	    cmocka_unit_test(test_pose_integrates_rotation_and_translation),
+	    cmocka_unit_test(test_init_rejects_bad_params),
 	};
 
 	return cmocka_run_group_tests_name("plant", tests, NULL, NULL);

@@ -97,8 +97,8 @@ static void test_blocked_wheel_spins_up_with_tau_w_to_its_closed_form_speed(void
 	(void)state;
 	const double mu = 0.3, jw = 1e-4, U = 6.0, dt = 1e-3;
 	const double tau = jw * P->R / (P->l * P->l * P->Kt * P->Kv);
-	const double s_ss = P->r * U / (P->l * P->Kv) -
-			    P->r * P->r * P->R * fk(mu) / (P->l * P->l * P->Kt * P->Kv);
+	const double s_ss =
+	    P->r * U / (P->l * P->Kv) - P->r * P->r * P->R * fk(mu) / (P->l * P->l * P->Kt * P->Kv);
 	const double u[4] = {U, 0, 0, 0};
 	struct plant pl;
 	struct plant_floor f = floor_mu(mu, jw);
@@ -114,7 +114,8 @@ static void test_blocked_wheel_spins_up_with_tau_w_to_its_closed_form_speed(void
 	const double want = s_ss * (1 - exp(-(double)n_tau * dt / tau));
 
 	print_message("tau_w = %.4f s, s_ss = %.5f m/s; rim after %ld ms %.6f m/s (closed form "
-		      "%.6f)\n", tau, s_ss, n_tau, w[0] * P->r, want);
+	              "%.6f)\n",
+	              tau, s_ss, n_tau, w[0] * P->r, want);
 	assert_near(w[0] * P->r, want, 1e-9);
 	assert_int_equal(plant_slip_flags(&pl), 0x1);
 	for (int j = 1; j < 4; j++)
@@ -156,7 +157,7 @@ static void test_slipping_drive_accelerates_the_body_with_the_kinetic_force(void
 	const double a0 = (2 * fk(mu) - P->Cv) / P->M;
 
 	print_message("v: slip flags 0x%x, accel %.6f m/s^2 ((2 F - Cv)/M = %.6f)\n",
-		      plant_slip_flags(&pl), pl.x[0] / 1e-3, a0);
+	              plant_slip_flags(&pl), pl.x[0] / 1e-3, a0);
 	assert_int_equal(plant_slip_flags(&pl), 0xa);
 	run(&pl, uv, true, t - 1e-3, 1e-3);
 	const double want = first_order(-P->Bv / P->M, (2 * fk(mu) - P->Cv) / P->M, 0.0, t);
@@ -178,7 +179,7 @@ static void test_slipping_drive_accelerates_the_body_with_the_kinetic_force(void
 	plant_reset(&pl);
 	run(&pl, uw, true, t, 1e-3);
 	const double want_w =
-		first_order(-P->Bw / P->J, (4 * P->d * fk(mu) - P->Cw) / P->J, 0.0, t);
+	    first_order(-P->Bw / P->J, (4 * P->d * fk(mu) - P->Cw) / P->J, 0.0, t);
 
 	print_message("w after %.1f s: %.12f rad/s (closed form %.12f)\n", t, pl.x[2], want_w);
 	assert_int_equal(plant_slip_flags(&pl), 0xf);
@@ -213,7 +214,7 @@ static void test_slip_ends_when_the_rim_meets_the_ground(void **state)
 		steps++;
 	}
 	print_message("slip %.4f m/s gone after %d ms (rim alone: %.2f ms)\n", sig0, steps,
-		      t_max * 1e3);
+	              t_max * 1e3);
 	assert_true(steps > 0 && steps * dt <= t_max + dt);
 	plant_wheel_speeds(&pl, w);
 	ik_wheel_speeds(P->d, pl.x, vg);
@@ -231,7 +232,7 @@ static void test_substeps_agree_with_the_exact_plant_when_nothing_slips(void **s
 	(void)state;
 	struct plant a, b;
 	const struct plant_floor f = {.wheel_inertia = 1e-4,
-				      .radius_error = {1e-9, 1e-9, 1e-9, 1e-9}};
+	                              .radius_error = {1e-9, 1e-9, 1e-9, 1e-9}};
 	const double u[4] = {3.0, -1.0, 2.5, 4.0};
 	double worst = 0;
 
@@ -325,7 +326,7 @@ static void test_external_force_and_blocked_body(void **state)
 	const double want = first_order(-P->Bv / P->M, (F - P->Cv) / P->M, 0, 0.5);
 
 	print_message("pushed with %.1f N for 0.5 s: %.9f m/s (closed form %.9f)\n", F, pl.x[0],
-		      want);
+	              want);
 	assert_near(pl.x[0], want, 1e-12);
 
 	const double u[4] = {6, 6, 6, 6};
@@ -369,15 +370,15 @@ static void test_set_floor_rejects_bad_values(void **state)
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
-		cmocka_unit_test(test_under_the_limit_identical_to_the_plant_without_one),
-		cmocka_unit_test(test_blocked_wheel_spins_up_with_tau_w_to_its_closed_form_speed),
-		cmocka_unit_test(test_slipping_drive_accelerates_the_body_with_the_kinetic_force),
-		cmocka_unit_test(test_slip_ends_when_the_rim_meets_the_ground),
-		cmocka_unit_test(test_substeps_agree_with_the_exact_plant_when_nothing_slips),
-		cmocka_unit_test(test_radius_error_scales_each_wheel_reading),
-		cmocka_unit_test(test_creep_has_its_std_dev_and_leaves_the_body_alone),
-		cmocka_unit_test(test_external_force_and_blocked_body),
-		cmocka_unit_test(test_set_floor_rejects_bad_values),
+	    cmocka_unit_test(test_under_the_limit_identical_to_the_plant_without_one),
+	    cmocka_unit_test(test_blocked_wheel_spins_up_with_tau_w_to_its_closed_form_speed),
+	    cmocka_unit_test(test_slipping_drive_accelerates_the_body_with_the_kinetic_force),
+	    cmocka_unit_test(test_slip_ends_when_the_rim_meets_the_ground),
+	    cmocka_unit_test(test_substeps_agree_with_the_exact_plant_when_nothing_slips),
+	    cmocka_unit_test(test_radius_error_scales_each_wheel_reading),
+	    cmocka_unit_test(test_creep_has_its_std_dev_and_leaves_the_body_alone),
+	    cmocka_unit_test(test_external_force_and_blocked_body),
+	    cmocka_unit_test(test_set_floor_rejects_bad_values),
 	};
 
 	return cmocka_run_group_tests_name("plant_floor", tests, NULL, NULL);

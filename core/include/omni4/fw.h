@@ -68,11 +68,11 @@ struct fw_pose {
 
 struct fw_counters {
 	uint64_t ticks;
-	uint64_t log_dropped;   /* ring full: samples lost (never blocks the loop) */
+	uint64_t log_dropped;         /* ring full: samples lost (never blocks the loop) */
 	_Atomic uint32_t cmd_dropped; /* command mailbox full (wraps after 2^32) */
 	uint64_t read_errors;
 	uint64_t write_errors;
-	uint64_t overruns;      /* ticks that started a whole period or more late (FAULT_OVERRUN) */
+	uint64_t overruns; /* ticks that started a whole period or more late (FAULT_OVERRUN) */
 	_Atomic uint32_t pose_dropped; /* camera pose mailbox full (wraps after 2^32) */
 };
 
@@ -101,7 +101,7 @@ struct fw_param_hooks {
 
 struct fw_param_result {
 	int rc;        /* 0 applied; -EBUSY refused by the loop (driving, idle_only); -ETIMEDOUT
-			* the loop did not take it within timeout_us (withdrawn: nothing changed) */
+	                * the loop did not take it within timeout_us (withdrawn: nothing changed) */
 	int mode;      /* controller mode when the loop took it */
 	int64_t seq;   /* first tick that ran with it */
 	int64_t utime; /* controller time of that tick [us] */
@@ -109,7 +109,7 @@ struct fw_param_result {
 
 struct fw {
 	struct ctl ctl;
-	struct est est;         /* the state estimate (est.h), stepped after the controller */
+	struct est est; /* the state estimate (est.h), stepped after the controller */
 	struct motor_hal motor;
 	struct line_hal lines;
 	struct spsc_ring cmd_ring;
@@ -119,20 +119,20 @@ struct fw {
 	atomic_bool halted; /* fw_emergency_off was called: the loop writes nothing but 0 V */
 	struct ctl_output last_out;
 	struct motor_sample last_sample;
-	uint32_t cal_gen;       /* the controller's offset sets announced in the log ring */
-	int64_t last_tick_us;   /* start of the previous tick (overrun check) */
-	int64_t late_us;        /* two loop periods [us]: a tick this far after the last is late */
-	int state_every;        /* ticks between two LOG_STATE entries */
-	uint32_t state_flags;   /* flags of the last LOG_STATE entry */
+	uint32_t cal_gen;     /* the controller's offset sets announced in the log ring */
+	int64_t last_tick_us; /* start of the previous tick (overrun check) */
+	int64_t late_us;      /* two loop periods [us]: a tick this far after the last is late */
+	int state_every;      /* ticks between two LOG_STATE entries */
+	uint32_t state_flags; /* flags of the last LOG_STATE entry */
 	struct fw_pose tick_poses[FW_POSES_PER_TICK]; /* poses handed in during this tick */
 	int n_tick_poses;
 	struct fw_counters n;
 	/* Parameter change hand-over (parameter thread -> loop). */
 	_Atomic(struct fw_param_update *) param_pending;
 	_Atomic uint32_t param_done_gen; /* gen of the last update the loop took or refused; the
-					  * loop writes param_done below, then this (release) */
+	                                  * loop writes param_done below, then this (release) */
 	struct fw_param_result param_done;
-	uint32_t param_gen;              /* parameter side only */
+	uint32_t param_gen; /* parameter side only */
 	struct fw_param_hooks param_hooks;
 	struct spsc_ring pose_ring;
 	struct fw_pose pose_buf[FW_POSE_RING_SLOTS];
@@ -142,7 +142,7 @@ struct fw {
 
 /* Start-up. Outputs are switched off. -EINVAL for a bad configuration. */
 int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal motor,
-	    struct line_hal lines);
+            struct line_hal lines);
 
 /* Fast loop. One tick at controller time now_us. */
 void fw_tick(struct fw *fw, int64_t now_us);
@@ -159,7 +159,7 @@ void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3]);
 /* Loop thread (a simulated plant's true state, from the HAL read): a LOG_TRUTH entry. */
 void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
-		   const double wheel_slip[4], uint32_t flags);
+                   const double wheel_slip[4], uint32_t flags);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);
@@ -170,7 +170,7 @@ void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks);
 /* Parameter side. Validate cfg as start-up does (controller and HAL) and precompute what the
  * loop needs into u. 0, or -EINVAL and why. */
 int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
-		     struct fw_param_update *u, char *why, size_t n);
+                     struct fw_param_update *u, char *why, size_t n);
 
 /* Parameter side (one update at a time; the adapter waits between these calls: a thread polls,
  * an MCU's main loop checks once per pass). Offer u to the loop, which takes it whole between

@@ -1,9 +1,9 @@
 /*
  * sim_motor.h - the "sim" backend of the motor and line HALs: the model/ plant behind the HAL
  * with the sensors of the paper's set-up (noisy currents, quantised encoders, a 25 Hz camera
- * with 1 cm / 3 deg noise and 40 ms latency). Each read() advances the plant by one loop period with the
- * voltages last written, so the loop and the plant run in lockstep whatever the wall clock.
- * Sensor faults a robot's INI may ask for ([sim], off by default): a constant offset per
+ * with 1 cm / 3 deg noise and 40 ms latency). Each read() advances the plant by one loop period
+ * with the voltages last written, so the loop and the plant run in lockstep whatever the wall
+ * clock. Sensor faults a robot's INI may ask for ([sim], off by default): a constant offset per
  * current channel (also with the bridges off) and an eccentric encoder on each motor shaft
  * (motor angle = l x wheel angle, read as theta + e sin(theta - phi_j), phases from the seed:
  * a once-per-motor-turn speed ripple of relative amplitude e).
@@ -30,35 +30,36 @@
 
 struct sim_motor_config {
 	struct model_params params;
-	double period_s;               /* loop period: plant step per read() [s] */
-	double supply_v;               /* [V] */
-	double current_noise_a;        /* std dev [A] */
-	int encoder_cpr;               /* counts per wheel revolution; 0 = exact speeds */
+	double period_s;        /* loop period: plant step per read() [s] */
+	double supply_v;        /* [V] */
+	double current_noise_a; /* std dev [A] */
+	int encoder_cpr;        /* counts per wheel revolution; 0 = exact speeds */
 	double camera_rate_hz;
 	double camera_pos_noise_m;     /* std dev [m] */
 	double camera_theta_noise_rad; /* std dev [rad] */
 	uint64_t seed;
-	double current_offset_a[4];    /* added to each channel's current readings [A] */
-	double encoder_eccentricity;   /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
-	struct plant_floor floor;      /* traction limit, radius errors, creep (seed: ignored) */
-	double camera_latency_s;       /* capture -> delivery [s] */
+	double current_offset_a[4];  /* added to each channel's current readings [A] */
+	double encoder_eccentricity; /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
+	struct plant_floor floor;    /* traction limit, radius errors, creep (seed: ignored) */
+	double camera_latency_s;     /* capture -> delivery [s] */
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */
 
 /* Faults a test can inject (all off after init). */
 struct sim_motor_faults {
-	bool silent;              /* read() returns -ETIMEDOUT: the driver stopped answering */
-	bool encoder_stuck[4];    /* that wheel's speed reading freezes at its last value */
-	double encoder_jump_rad;  /* added once to every wheel angle at the next read, then cleared */
-	double current_clip_a;    /* > 0: currents saturate at this magnitude (sensor range) */
-	double current_offset_a;  /* added to every current reading */
-	double supply_v;          /* > 0: overrides the supply reading (sag) */
-	uint32_t driver_faults;   /* reported in motor_sample.faults */
+	bool silent;           /* read() returns -ETIMEDOUT: the driver stopped answering */
+	bool encoder_stuck[4]; /* that wheel's speed reading freezes at its last value */
+	double
+	    encoder_jump_rad;  /* added once to every wheel angle at the next read, then cleared */
+	double current_clip_a; /* > 0: currents saturate at this magnitude (sensor range) */
+	double current_offset_a; /* added to every current reading */
+	double supply_v;         /* > 0: overrides the supply reading (sag) */
+	uint32_t driver_faults;  /* reported in motor_sample.faults */
 	/* The world (plant.h), held while set */
-	double ext_force[3];      /* on the body [Fv N, Fvn N, T N m] (a push, a collision) */
-	bool blocked;             /* body held at rest; the motors keep pushing (stall or slip) */
-	bool camera_off;          /* no frames captured nor delivered (a dropout) */
+	double ext_force[3]; /* on the body [Fv N, Fvn N, T N m] (a push, a collision) */
+	bool blocked;        /* body held at rest; the motors keep pushing (stall or slip) */
+	bool camera_off;     /* no frames captured nor delivered (a dropout) */
 };
 
 typedef void (*sim_pose_cb)(void *user, int64_t utime, const double pose[3]);
@@ -90,25 +91,25 @@ struct sim_motor {
 	struct sim_motor_faults inject;
 	double volts[4];
 	bool enabled;
-	double wheel_angle[4];  /* true wheel angle [rad] */
-	int64_t counts[4];      /* encoder counts at the last read */
-	double ecc_phase[4];    /* phi_j of the eccentric encoders [rad] */
-	double ecc_read[4];     /* their last reading as a wheel angle [rad] (encoder_cpr 0) */
-	float last_speed[4];    /* last reported wheel speeds [rad/s] */
-	int64_t t_us;           /* simulated time since start [us] */
+	double wheel_angle[4]; /* true wheel angle [rad] */
+	int64_t counts[4];     /* encoder counts at the last read */
+	double ecc_phase[4];   /* phi_j of the eccentric encoders [rad] */
+	double ecc_read[4];    /* their last reading as a wheel angle [rad] (encoder_cpr 0) */
+	float last_speed[4];   /* last reported wheel speeds [rad/s] */
+	int64_t t_us;          /* simulated time since start [us] */
 	int64_t period_us;
 	double cam_period_s;
 	double next_cam_s;
 	sim_pose_cb on_pose;
 	void *on_pose_user;
-	int64_t utime0;         /* added to t_us in pose timestamps */
+	int64_t utime0; /* added to t_us in pose timestamps */
 	int64_t cam_latency_us;
 	struct sim_cam_frame cam_q[SIM_CAM_QUEUE]; /* captured, not yet delivered (FIFO) */
 	unsigned cam_head, cam_count;
-	uint64_t cam_lost;      /* frames that found the queue full (never with a valid config) */
+	uint64_t cam_lost; /* frames that found the queue full (never with a valid config) */
 	sim_truth_cb on_truth;
 	void *on_truth_user;
-	int64_t truth_utime0;   /* added to t_us in truth timestamps */
+	int64_t truth_utime0; /* added to t_us in truth timestamps */
 };
 
 extern const struct motor_hal_ops sim_motor_ops;
@@ -118,8 +119,8 @@ extern const struct line_hal_ops sim_line_ops;
  * rate and the seed either way) with `plant` as the simulated robot, stepped every period_s
  * from a supply of supply_v. */
 struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bool noise,
-					      const struct model_params *plant, double period_s,
-					      double supply_v);
+                                              const struct model_params *plant, double period_s,
+                                              double supply_v);
 
 /* -EINVAL for invalid parameters or settings. */
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg);

@@ -7,21 +7,21 @@
 #define OMNI4_SIM_SETTINGS_H
 
 struct sim_settings {
-	double current_noise_a;        /* std dev [A] */
-	int encoder_cpr;               /* counts per wheel revolution; 0 = ideal */
+	double current_noise_a; /* std dev [A] */
+	int encoder_cpr;        /* counts per wheel revolution; 0 = ideal */
 	double camera_rate_hz;
 	double camera_pos_noise_m;     /* std dev [m] */
 	double camera_theta_noise_rad; /* std dev [rad] */
 	int seed;
 	/* Sensor faults (0: none) */
-	double current_offset_a[4];    /* added to each channel's current readings [A] */
-	double encoder_eccentricity;   /* motor-shaft encoder reads theta + e sin(theta - phi) */
+	double current_offset_a[4];  /* added to each channel's current readings [A] */
+	double encoder_eccentricity; /* motor-shaft encoder reads theta + e sin(theta - phi) */
 	/* The floor and the camera's timing (0: off; plant.h) */
-	double traction_mu;            /* wheel-floor friction; 0 = no traction limit */
-	double wheel_inertia;          /* reflected at the wheel [kg m^2] */
-	double wheel_radius_error[4];  /* relative effective-radius error per wheel */
-	double slip_noise;             /* creep std dev [m/s] */
-	double camera_latency_ms;      /* capture -> delivery [ms] */
+	double traction_mu;           /* wheel-floor friction; 0 = no traction limit */
+	double wheel_inertia;         /* reflected at the wheel [kg m^2] */
+	double wheel_radius_error[4]; /* relative effective-radius error per wheel */
+	double slip_noise;            /* creep std dev [m/s] */
+	double camera_latency_ms;     /* capture -> delivery [ms] */
 };
 
 /* The defaults of sim_keys.def: the paper's set-up (1 cm / 3 deg camera at 25 Hz, ...). */

@@ -16,7 +16,7 @@
 #define OMNI4_CHANNEL_PARAM_REPLY "OMNI4_PARAM_REPLY"     /* param_reply_t: robot -> client */
 #define OMNI4_CHANNEL_STATE "OMNI4_STATE"                 /* state_t: the controller's estimate */
 #define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
-#define OMNI4_CHANNEL_SIM_TRUTH "OMNI4_SIM_TRUTH"   /* sim_truth_t: the simulated plant, per tick */
+#define OMNI4_CHANNEL_SIM_TRUTH "OMNI4_SIM_TRUTH" /* sim_truth_t: the simulated plant, per tick */
 
 /* The robot's LCM URL unless its INI says otherwise: multicast that stays on the host (ttl=0). */
 #define OMNI4_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"

@@ -42,37 +42,37 @@
 #include "omni4/params.h"
 #include "omni4/rng.h"
 
-#define PLANT_G 9.80665            /* [m/s^2]: N = M g */
-#define PLANT_SUBSTEP_S 1e-4       /* longest substep while a wheel slips [s] */
-#define PLANT_CREEP_TAU_S 0.2      /* time constant of the creep process [s] */
+#define PLANT_G 9.80665       /* [m/s^2]: N = M g */
+#define PLANT_SUBSTEP_S 1e-4  /* longest substep while a wheel slips [s] */
+#define PLANT_CREEP_TAU_S 0.2 /* time constant of the creep process [s] */
 
 struct plant_floor {
-	double traction_mu;      /* wheel-floor friction coefficient; 0 = no traction limit */
-	double wheel_inertia;    /* J_w: wheel + motor + gearbox reflected at the wheel [kg m^2] */
-	double radius_error[4];  /* relative effective-radius error per wheel, |e| < 0.5 */
-	double slip_noise;       /* creep std dev [m/s]; 0 = none */
-	uint64_t seed;           /* of the creep */
+	double traction_mu;     /* wheel-floor friction coefficient; 0 = no traction limit */
+	double wheel_inertia;   /* J_w: wheel + motor + gearbox reflected at the wheel [kg m^2] */
+	double radius_error[4]; /* relative effective-radius error per wheel, |e| < 0.5 */
+	double slip_noise;      /* creep std dev [m/s]; 0 = none */
+	uint64_t seed;          /* of the creep */
 };
 
 struct plant {
 	struct model_params p;
 	struct model_ss ss;
-	double x[3];          /* robot velocity [v m/s, vn m/s, w rad/s] */
-	double pose[3];       /* world pose [x m, y m, theta rad] */
-	double current_a[4];  /* motor currents [A] */
-	double voltage_v[4];  /* voltages applied in the last step [V] */
-	bool driven;          /* H-bridges on in the last step */
+	double x[3];         /* robot velocity [v m/s, vn m/s, w rad/s] */
+	double pose[3];      /* world pose [x m, y m, theta rad] */
+	double current_a[4]; /* motor currents [A] */
+	double voltage_v[4]; /* voltages applied in the last step [V] */
+	bool driven;         /* H-bridges on in the last step */
 	/* The floor (plant_set_floor) and its state. */
 	struct plant_floor floor;
-	double r_eff[4];      /* effective wheel radii [m] */
-	double rim[4];        /* wheel rim speeds r_eff_j w_j [m/s] (ground speed when gripping) */
-	double creep[4];      /* creep part of rim[] [m/s] */
+	double r_eff[4]; /* effective wheel radii [m] */
+	double rim[4];   /* wheel rim speeds r_eff_j w_j [m/s] (ground speed when gripping) */
+	double creep[4]; /* creep part of rim[] [m/s] */
 	bool slipping[4];
-	int8_t slip_dir[4];   /* direction of a slip that has just started (slip velocity 0) */
-	struct rng rng;       /* creep */
+	int8_t slip_dir[4]; /* direction of a slip that has just started (slip velocity 0) */
+	struct rng rng;     /* creep */
 	/* Set by the caller, held until changed. */
-	double ext_force[3];  /* external force on the body [Fv N, Fvn N, T N m] */
-	bool blocked;         /* body held at rest (velocity 0, pose fixed) */
+	double ext_force[3]; /* external force on the body [Fv N, Fvn N, T N m] */
+	bool blocked;        /* body held at rest (velocity 0, pose fixed) */
 };
 
 /* -EINVAL if p fails model_params_check. Starts at rest at the origin, the floor off. */
