@@ -18,10 +18,9 @@ GEOMETRY_KEYS = tuple(TABLE_III)
 LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max")
 
 MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
-FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t) if n.startswith("FAULT_"))
-LATCHING = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT | motors_t.FAULT_DRIVER |
-            motors_t.FAULT_BUS | motors_t.FAULT_ENCODER | motors_t.FAULT_CURRENT_SENSOR |
-            motors_t.FAULT_SUPPLY)
+# The fault names and latching bits: omni4-status's (one list for every tool).
+from ..status import FAULT_BITS, LATCHING, fault_names  # noqa: E402,F401
+
 WARNINGS = motors_t.FAULT_CMD_TIMEOUT | motors_t.FAULT_CMD_REJECTED | \
     motors_t.FAULT_LOG_OVERFLOW | motors_t.FAULT_OVERRUN
 
@@ -31,15 +30,6 @@ WHEEL_SPEED_SIGMA = 0.15      # [rad/s] per sample
 SLIP_FRACTION = 0.01          # pose std dev grows by this fraction of the distance travelled
 SLIP_ROT_FRACTION = 0.02      # heading std dev grows by this fraction of the angle turned
                               # (plus the linear slip over d)
-
-
-def fault_names(bits):
-    """The FAULT_* names (without the prefix) of the set bits; unknown bits as 0x...."""
-    names = [name for bit, name in FAULT_BITS if bits & bit]
-    rest = bits & ~sum(bit for bit, _ in FAULT_BITS)
-    if rest:
-        names.append(f"0x{rest:x}")
-    return names
 
 
 def forward_kinematics(wheel_rad_s, d, r):
