@@ -19,10 +19,12 @@
 #include "omni4/channels.h"
 #include "omni4/config.h"
 #include "omni4/est.h"
+#include "omni4/sim_motor.h"
 #include "omni4/simrun.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_pose_t.h"
+#include "omni4_sim_truth_t.h"
 
 #define PI 3.14159265358979323846
 
@@ -46,6 +48,12 @@ struct bench {
 	bool have_prev;
 	struct score est, late_score, cam, odo_score;
 	FILE *csv;
+	/* episodes: the truth's flags, the estimate's flags and error per tick */
+	uint32_t truth_flags, est_flags;
+	double err_m; /* the estimate's position error at the last motors sample [m] */
+	long false_slip, false_collision; /* flag onsets outside any injected episode */
+	bool in_episode;
+	int64_t last_pose_arrival;
 };
 
 static double wrap(double a)
@@ -114,6 +122,15 @@ static void on_motors(struct bench *b, const omni4_motors_t *m)
 	const struct est_output *o = simrun_estimate(b->sr);
 	const struct est_output *l = est_get(&b->late);
 
+	b->err_m = hypot(o->pose[0] - t[0], o->pose[1] - t[1]);
+	if (!b->in_episode) {
+		b->false_slip += (o->flags & EST_FLAG_SLIP) && !(b->est_flags & EST_FLAG_SLIP);
+		b->false_collision +=
+		    (o->flags & EST_FLAG_COLLISION) && !(b->est_flags & EST_FLAG_COLLISION);
+	}
+	b->est_flags = o->flags;
+	if (b->in_episode)
+		return; /* the scores are of normal driving */
 	add(&b->est, t, o->pose[0], o->pose[1], o->pose[2]);
 	add(&b->late_score, t, l->pose[0], l->pose[1], l->pose[2]);
 	add(&b->odo_score, t, b->odo[0], b->odo[1], b->odo[2]);
@@ -129,7 +146,8 @@ static void on_pose(struct bench *b, const omni4_pose_t *p, int64_t arrival)
 	const double z[3] = {p->x, p->y, p->theta};
 
 	est_camera(&b->late, p->utime, z, arrival);
-	if (t)
+	b->last_pose_arrival = arrival;
+	if (t && !b->in_episode)
 		add(&b->cam, t, p->x, p->y, p->theta);
 }
 
@@ -150,6 +168,11 @@ static void tap(void *ctx, const char *channel, int64_t utime, const void *data,
 
 		if (omni4_motors_t_decode(data, 0, (int)len, &m) == (int)len)
 			on_motors(b, &m);
+	} else if (!strcmp(channel, OMNI4_CHANNEL_SIM_TRUTH)) {
+		omni4_sim_truth_t tr;
+
+		if (omni4_sim_truth_t_decode(data, 0, (int)len, &tr) == (int)len)
+			b->truth_flags = (uint32_t)tr.flags;
 	} else if (!strcmp(channel, OMNI4_CHANNEL_POSE)) {
 		omni4_pose_t p;
 
@@ -187,6 +210,90 @@ static void drive_at(double t, double steps_s, double x[3])
 	x[0] = 1.5 + 0.5 * sin(2 * PI * s / 15.0); /* 1-2 m/s */
 	x[1] = 0.3 * sin(2 * PI * s / 7.0);
 	x[2] = 1.2 * sin(2 * PI * s / 10.0); /* turns */
+}
+
+static void drive_for(struct bench *b, double s, const double x[3], int64_t *seq)
+{
+	const long n = (long)(s / b->period_s);
+
+	for (long k = 0; k < n; k++) {
+		if (k % 20 == 0)
+			command(b, x[0], x[1], x[2], seq);
+		simrun_tick(b->sr);
+	}
+}
+
+/* Ticks from now until the estimate's flag is set (or max_s), the robot driven at x. */
+static double ms_until_flag(struct bench *b, uint32_t flag, double max_s, const double x[3],
+                            int64_t *seq, bool voltage)
+{
+	const long n = (long)(max_s / b->period_s);
+
+	for (long k = 0; k < n; k++) {
+		if (k % 20 == 0 && !voltage)
+			command(b, x[0], x[1], x[2], seq);
+		simrun_tick(b->sr);
+		if (b->est_flags & flag)
+			return (double)(k + 1) * b->period_s * 1e3;
+	}
+	return -1.0;
+}
+
+/* After the path: a 2 s camera dropout while driving, a collision (the body pushed back), and
+ * (with [sim] traction_mu > 0) a voltage step that crosses the traction limit. */
+static void episodes(struct bench *b, int64_t *seq)
+{
+	static const double cruise[3] = {1.5, 0.0, 0.5};
+	struct sim_motor_faults *f = simrun_faults(b->sr);
+
+	b->in_episode = true;
+	drive_for(b, 3.0, cruise, seq);
+	f->camera_off = true;
+	drive_for(b, 2.0, cruise, seq);
+	const double gap_end_mm = 1e3 * b->err_m;
+
+	f->camera_off = false;
+	const int64_t back = simrun_now_us(b->sr);
+	double conv_ms = -1.0;
+
+	for (long k = 0; k < (long)(1.0 / b->period_s) && conv_ms < 0; k++) {
+		if (k % 20 == 0)
+			command(b, cruise[0], cruise[1], cruise[2], seq);
+		simrun_tick(b->sr);
+		if (b->last_pose_arrival > back && b->err_m < 0.005)
+			conv_ms = (double)(simrun_now_us(b->sr) - b->last_pose_arrival) * 1e-3;
+	}
+	printf("camera dropped 2 s at 1.5 m/s: position error at the end of the gap %.1f mm; back "
+	       "within 5 mm %.0f ms after the first frame\n",
+	       gap_end_mm, conv_ms);
+	drive_for(b, 2.0, cruise, seq);
+	f->ext_force[0] = -40.0; /* a wall: 40 N against the motion */
+	const double coll_ms = ms_until_flag(b, EST_FLAG_COLLISION, 0.5, cruise, seq, false);
+
+	f->ext_force[0] = 0.0;
+	printf("collision (40 N against the motion): COLLISION after %.0f ms\n", coll_ms);
+	drive_for(b, 2.0, (const double[3]){0, 0, 0}, seq);
+	unsigned char buf[256];
+	omni4_command_t c = {.utime = simrun_now_us(b->sr),
+	                     .seq = (*seq)++,
+	                     .mode = OMNI4_COMMAND_T_MODE_VOLTAGE,
+	                     .voltage = {12, 0, 0, 0}};
+	const int n = omni4_command_t_encode(buf, 0, sizeof(buf), &c);
+
+	simrun_command(b->sr, buf, (size_t)n);
+	double slip_truth_ms = -1.0, slip_est_ms = -1.0;
+
+	for (long k = 0; k < (long)(0.2 / b->period_s); k++) {
+		simrun_tick(b->sr);
+		if (slip_truth_ms < 0 && (b->truth_flags & 0x0f))
+			slip_truth_ms = (double)(k + 1) * b->period_s * 1e3;
+		if (slip_est_ms < 0 && (b->est_flags & EST_FLAG_SLIP))
+			slip_est_ms = (double)(k + 1) * b->period_s * 1e3;
+	}
+	printf(
+	    "12 V on wheel 0 alone, 200 ms: a wheel beyond its traction limit after %.0f ms, SLIP "
+	    "after %.0f ms (-1: never)\n",
+	    slip_truth_ms, slip_est_ms);
 }
 
 static void report(const char *name, const struct score *s, const struct score *est)
@@ -237,7 +344,9 @@ int main(int argc, char **argv)
 	b.r = cfg.ctl.model.r;
 	b.period_s = simrun_period_s(b.sr);
 	b.utime0 = simrun_now_us(b.sr);
-	b.ticks_max = (long)((steps_s + path_s) / b.period_s) + 2;
+	const long ticks_run = (long)((steps_s + path_s) / b.period_s) + 1;
+
+	b.ticks_max = ticks_run + (long)(20.0 / b.period_s); /* and the episodes after the path */
 	b.truth = calloc((size_t)b.ticks_max, sizeof(*b.truth));
 	est_settings_defaults(&es);
 	es.replay = false;
@@ -251,7 +360,7 @@ int main(int argc, char **argv)
 	simrun_set_tap(b.sr, tap, &b);
 	int64_t seq = 0;
 
-	for (long k = 0; k + 1 < b.ticks_max; k++) {
+	for (long k = 0; k < ticks_run; k++) {
 		const double t = (double)k * b.period_s;
 		double x[3];
 
@@ -263,11 +372,14 @@ int main(int argc, char **argv)
 	}
 	printf("est_bench: %.0f s (validation steps %.0f s, path %.0f s at 1-2 m/s with turns), "
 	       "%ld ticks\n",
-	       steps_s + path_s, steps_s, path_s, b.ticks_max - 1);
+	       steps_s + path_s, steps_s, path_s, ticks_run);
 	report("estimate (camera replayed)", &b.est, &b.est);
 	report("estimate, frames at arrival", &b.late_score, &b.est);
 	report("raw camera (at capture time)", &b.cam, &b.est);
 	report("wheel odometry alone", &b.odo_score, &b.est);
+	printf("normal driving: %ld SLIP and %ld COLLISION flag onsets in %.0f s\n", b.false_slip,
+	       b.false_collision, steps_s + path_s);
+	episodes(&b, &seq);
 	if (b.csv)
 		fclose(b.csv);
 	simrun_destroy(b.sr);
