@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "omni4/ctl.h"
-#include "omni4/lcmio.h"
+#include "omni4/lcmcodec.h"
 #include "omni4_command_t.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -25,12 +25,12 @@ static void check(const struct ctl *c, const struct ctl_output *o)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
 	static struct ctl c;
-	struct omni4_config cfg;
+	struct ctl_settings cfg;
 	struct ctl_output out;
 	int64_t now = 1000000;
 
-	config_defaults(&cfg);
-	if (ctl_init(&c, &cfg.ctl))
+	ctl_settings_defaults(&cfg);
+	if (ctl_init(&c, &cfg))
 		__builtin_trap();
 	struct motor_sample s = {{0.1f, 0.1f, 0.1f, 0.1f}, {1, 1, 1, 1}, 12.0f, 0};
 
