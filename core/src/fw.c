@@ -151,7 +151,8 @@ void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3])
 
 		p->utime = utime;
 		memcpy(p->pose, pose, sizeof(p->pose));
-	}
+	} else
+		atomic_fetch_add(&fw->n.pose_dropped, 1); /* more than a tick can take: counted */
 }
 
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3])

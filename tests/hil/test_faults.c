@@ -328,6 +328,24 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 	row("loop tick a whole period late", "OVERRUN in that tick's sample only", -1);
 }
 
+/* A simulated camera that hands in more poses in one tick than FW_POSES_PER_TICK: the estimator
+ * takes FW_POSES_PER_TICK of them, the rest are counted, and all go to the log. */
+static void test_poses_beyond_a_tick_are_counted(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	const double pose[3] = {0, 0, 0};
+
+	fw_on_sim_plant(&fw);
+	for (int k = 0; k < FW_POSES_PER_TICK + 2; k++)
+		fw_push_pose(&fw, 0, pose);
+	fw_tick(&fw, 1000);
+	assert_int_equal(atomic_load(&fw.n.pose_dropped), 2);
+	assert_int_equal(est_get(&fw.est)->cam_taken + est_get(&fw.est)->cam_gated +
+	                     est_get(&fw.est)->cam_too_old,
+	                 FW_POSES_PER_TICK);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -335,6 +353,7 @@ int main(void)
 	    cmocka_unit_test(test_latching_faults_on_their_first_tick),
 	    cmocka_unit_test(test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss),
 	    cmocka_unit_test(test_a_late_tick_carries_overrun_in_its_own_sample),
+	    cmocka_unit_test(test_poses_beyond_a_tick_are_counted),
 	};
 
 	return cmocka_run_group_tests_name("faults", tests, NULL, NULL);

@@ -73,7 +73,8 @@ struct fw_counters {
 	uint64_t read_errors;
 	uint64_t write_errors;
 	uint64_t overruns; /* ticks that started a whole period or more late (FAULT_OVERRUN) */
-	_Atomic uint32_t pose_dropped; /* camera pose mailbox full (wraps after 2^32) */
+	_Atomic uint32_t pose_dropped; /* camera poses the estimator never saw: mailbox full, or
+	                                * more in one tick than FW_POSES_PER_TICK (wraps at 2^32) */
 };
 
 /*
