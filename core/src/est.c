@@ -82,6 +82,7 @@ void est_settings_defaults(struct est_settings *s)
 	s->slip_ticks = 3;
 	s->collision_threshold = 0.05f;
 	s->collision_ticks = 5;
+	s->calibrate = true;
 	s->replay = true;
 }
 
@@ -107,6 +108,7 @@ static void set_noise(struct est *e)
 	e->rc[2] = e->set.cam_theta_noise * e->set.cam_theta_noise;
 	e->qo[0] = EST_ODOM_POS * EST_ODOM_POS * e->dt;
 	e->qo[1] = EST_ODOM_THETA * EST_ODOM_THETA * e->dt;
+	e->qt = EST_DRIFT_THETA * EST_DRIFT_THETA * e->dt;
 }
 
 void est_set_model(struct est *e, const struct model_params *p)
@@ -171,6 +173,7 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 	else
 		est_settings_defaults(&e->set);
 	e->dt = (float)(1.0 / rate_hz);
+	e->cal_forget = 1.0f - e->dt / EST_CAL_TAU_S;
 	est_set_model(e, p);
 	static const float pose0[3] = {0.0f, 0.0f, 0.0f}, var0[3] = {1.0f, 1.0f, 10.0f};
 
@@ -264,7 +267,7 @@ static void predict(struct est *e, const struct est_tick *t)
 
 	P[0][0] += e->qo[0] * dist;
 	P[1][1] += e->qo[0] * dist;
-	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2]));
+	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2])) + e->qt;
 	symmetrise(e);
 }
 
@@ -300,60 +303,67 @@ static void wheel_velocity(const struct est *e, const float v[4], float z[3], fl
 	*null_res = v[0] - v[1] + v[2] - v[3];
 }
 
+/* A reading that does not fit a rigid body: the wheel that disagrees most with the prediction
+ * is left out (its reading replaced by the one the other three imply, which zeroes the
+ * residual nr), z the velocity from the other three. */
+static void leave_out_worst(const struct est *e, const float wh[4], float nr, float z[3])
+{
+	const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
+	const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
+	float v[4], worst = -1.0f, nr2;
+	int jw = 0;
+
+	for (int j = 0; j < 4; j++) {
+		const float dj = fabsf(wh[j] - pred[j]);
+
+		v[j] = wh[j];
+		if (dj > worst) {
+			worst = dj;
+			jw = j;
+		}
+	}
+	v[jw] -= (jw & 1) ? -nr : nr;
+	wheel_velocity(e, v, z, &nr2);
+}
+
+/* The wheel update (scale-corrected readings); live: the flags' counters too. The collision
+ * innovation is the velocity of the wheels that fit (a slipping one left out) against the
+ * model's prediction. */
+static void wheel_update(struct est *e, const struct est_tick *t, bool live)
+{
+	float z[3], nr, wh[4];
+
+	for (int j = 0; j < 4; j++)
+		wh[j] = t->wheel[j] * (1.0f + e->cal[j]);
+	wheel_velocity(e, wh, z, &nr);
+	const bool slip_now = !(fabsf(nr) <= e->set.slip_threshold);
+
+	if (slip_now)
+		leave_out_worst(e, wh, nr, z);
+	if (live) {
+		const float nu[3] = {z[0] - e->s[3], z[1] - e->s[4], e->d * (z[2] - e->s[5])};
+		const float c = sqrtf(nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]);
+
+		e->out.null_residual = nr;
+		e->out.vel_innov = c;
+		e->slip_run = slip_now ? e->slip_run + 1 : 0;
+		e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
+	}
+	/* three wheels: twice the variance */
+	const float scale = slip_now ? 2.0f : 1.0f;
+
+	for (int k = 0; k < 3; k++)
+		scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
+	symmetrise(e);
+}
+
 /* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
  * and outputs), not a replay. */
 static void run_tick(struct est *e, const struct est_tick *t, bool live)
 {
 	predict(e, t);
-	bool slip_now = false;
-
 	if (t->have_wheels) {
-		float z[3], nr;
-
-		wheel_velocity(e, t->wheel, z, &nr);
-		slip_now = !(fabsf(nr) <= e->set.slip_threshold);
-		const float nu[3] = {z[0] - e->s[3], z[1] - e->s[4], z[2] - e->s[5]};
-
-		if (live) {
-			const float dw = e->d * nu[2];
-			const float c = sqrtf(nu[0] * nu[0] + nu[1] * nu[1] + dw * dw);
-
-			e->out.null_residual = nr;
-			e->out.vel_innov = c;
-			e->slip_run = slip_now ? e->slip_run + 1 : 0;
-			if (!slip_now)
-				e->collision_run =
-				    c > e->set.collision_threshold ? e->collision_run + 1 : 0;
-		}
-		/* A reading that does not fit a rigid body: the wheel that disagrees most with the
-		 * prediction is left out (its reading replaced by the one the other three imply,
-		 * which zeroes the residual), the velocity from the other three, with twice the
-		 * variance. */
-		float scale = 1.0f;
-
-		if (slip_now) {
-			const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
-			const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2],
-			                       x[0] + x[2]};
-			float v[4], worst = -1.0f;
-			int jw = 0;
-
-			for (int j = 0; j < 4; j++) {
-				const float dj = fabsf(t->wheel[j] - pred[j]);
-
-				v[j] = t->wheel[j];
-				if (dj > worst) {
-					worst = dj;
-					jw = j;
-				}
-			}
-			v[jw] -= (jw & 1) ? -nr : nr;
-			wheel_velocity(e, v, z, &nr);
-			scale = 2.0f;
-		}
-		for (int k = 0; k < 3; k++)
-			scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
-		symmetrise(e);
+		wheel_update(e, t, live);
 	} else if (live) {
 		e->slip_run = 0;
 		e->collision_run = 0;
@@ -411,6 +421,8 @@ static void publish(struct est *e, int64_t utime)
 	}
 	for (int k = 0; k < 6; k++)
 		e->out.cov[k] = e->P[k][k];
+	for (int j = 0; j < 4; j++)
+		e->out.wheel_scale[j] = e->cal[j];
 }
 
 static bool all_finite(const float *v, int n)
@@ -419,6 +431,87 @@ static bool all_finite(const float *v, int n)
 		if (!isfinite(v[k]))
 			return false;
 	return true;
+}
+
+/* The scale errors k = N a with N's columns (1,-1,1,-1)/2, (1,1,-1,-1)/2, (1,-1,-1,1)/2: the
+ * three patterns orthogonal to the common scale (1,1,1,1), which no equation fixes (k_j = -1 for
+ * all j, every wheel read as 0, satisfies them all). */
+static const float cal_N[4][3] = {
+    {0.5f, 0.5f, 0.5f}, {-0.5f, 0.5f, -0.5f}, {0.5f, -0.5f, -0.5f}, {-0.5f, -0.5f, 0.5f}};
+
+/* One reading's null-space equation sum_j s_j g_j k_j = -sum_j s_j g_j (g_j = r w_j, signs
+ * s = +, -, +, -), in a, added to the forgotten normal equations. */
+static void cal_accumulate(struct est *e, const float g[4])
+{
+	const float phi[4] = {g[0], -g[1], g[2], -g[3]};
+	const float y = -(phi[0] + phi[1] + phi[2] + phi[3]);
+	const float lam = e->cal_forget;
+	float q[3];
+	int m = 0;
+
+	for (int i = 0; i < 3; i++)
+		q[i] = cal_N[0][i] * phi[0] + cal_N[1][i] * phi[1] + cal_N[2][i] * phi[2] +
+		       cal_N[3][i] * phi[3];
+	for (int i = 0; i < 3; i++) {
+		e->cal_b[i] = lam * e->cal_b[i] + q[i] * y;
+		for (int j = i; j < 3; j++, m++)
+			e->cal_A[m] = lam * e->cal_A[m] + q[i] * q[j];
+	}
+}
+
+/* a = (A + prior I)^-1 b by Cholesky (A + prior I is positive definite); k = N a, clamped. */
+static void cal_solve(struct est *e)
+{
+	float L[3][3] = {{0}}, y[3], a[3];
+	const float *A = e->cal_A;
+	const float ridge = EST_CAL_PRIOR;
+	static const int idx[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};
+
+	for (int i = 0; i < 3; i++) {
+		for (int j = 0; j <= i; j++) {
+			float sum = A[idx[i][j]] + (i == j ? ridge : 0.0f);
+
+			for (int l = 0; l < j; l++)
+				sum -= L[i][l] * L[j][l];
+			if (i == j) {
+				if (!(sum > 0.0f))
+					return;
+				L[i][i] = sqrtf(sum);
+			} else {
+				L[i][j] = sum / L[j][j];
+			}
+		}
+	}
+	for (int i = 0; i < 3; i++) {
+		float sum = e->cal_b[i];
+
+		for (int l = 0; l < i; l++)
+			sum -= L[i][l] * y[l];
+		y[i] = sum / L[i][i];
+	}
+	for (int i = 2; i >= 0; i--) {
+		float sum = y[i];
+
+		for (int l = i + 1; l < 3; l++)
+			sum -= L[l][i] * a[l];
+		a[i] = sum / L[i][i];
+	}
+	for (int j = 0; j < 4; j++) {
+		const float k = cal_N[j][0] * a[0] + cal_N[j][1] * a[1] + cal_N[j][2] * a[2];
+
+		e->cal[j] = fminf(fmaxf(k, -EST_CAL_MAX), EST_CAL_MAX);
+	}
+}
+
+/* A live reading that fits a rigid body (not flagged as slip) teaches the calibration. */
+static void calibrate(struct est *e, const struct est_tick *t, uint32_t n)
+{
+	if (!e->set.calibrate)
+		return;
+	if (t->have_wheels && e->slip_run == 0 && !(e->out.flags & EST_FLAG_COLLISION))
+		cal_accumulate(e, t->wheel);
+	if (n % EST_CAL_EVERY == EST_CAL_EVERY - 1)
+		cal_solve(e);
 }
 
 void est_step(struct est *e, const struct est_input *in)
@@ -437,6 +530,7 @@ void est_step(struct est *e, const struct est_input *in)
 	if (n % EST_SNAP_EVERY == 0)
 		put_snap(e, n);
 	run_tick(e, t, true);
+	calibrate(e, t, n);
 	e->seq = n + 1;
 	const float sum = e->s[0] + e->s[1] + e->s[2] + e->s[3] + e->s[4] + e->s[5] + e->P[0][0] +
 	                  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];

@@ -45,9 +45,25 @@
 #define EST_CAMERA_STALE_US 500000
 
 /* Odometry error: the pose variance grows by EST_ODOM_POS^2 [m^2/m] (x and y) and
- * EST_ODOM_THETA^2 [rad^2/m] per metre travelled (rotation counted at the wheels, d |w|). */
-#define EST_ODOM_POS 0.005f
+ * EST_ODOM_THETA^2 [rad^2/m] per metre travelled (rotation counted at the wheels, d |w|), and
+ * the heading's by EST_DRIFT_THETA^2 [rad^2/s] per second: the wheels' creep, a random walk of
+ * the heading read from them (docs/estimator.md). */
+#define EST_ODOM_POS 0.008f
 #define EST_ODOM_THETA 0.005f
+#define EST_DRIFT_THETA 0.01f
+/* Wheel scale calibration: a rigid body's wheel ground speeds satisfy g0 - g1 + g2 - g3 = 0
+ * (eq 2), so every reading r w_j (1 + k_j) gives one linear equation in the wheels' scale errors
+ * k_j (effective radius / nominal - 1). The equations of the last EST_CAL_TAU_S (exponential
+ * forgetting) are solved by least squares every EST_CAL_EVERY ticks, with a prior of 0 worth
+ * EST_CAL_PRIOR [(m/s)^2] of squared regressor (a 1 % error against the readings' 1 cm/s noise;
+ * the same as 1 ms of readings at 1 m/s, so it only holds the first few ticks), within
+ * +-EST_CAL_MAX. The common scale of all four wheels has no equation (every wheel read as 0
+ * satisfies them all): it is not estimated and stays the model's r. Readings flagged as slip or
+ * collision are left out. */
+#define EST_CAL_TAU_S 30.0f
+#define EST_CAL_EVERY 50
+#define EST_CAL_PRIOR 1.0f
+#define EST_CAL_MAX 0.05f
 /* Frames refused by the gate in a row before the next one is taken anyway (with the pose
  * variance widened by its innovation): a camera that keeps disagreeing is right. */
 #define EST_CAM_RESYNC 5
@@ -67,8 +83,9 @@ struct est_settings {
 	float collision_threshold; /* model-vs-wheel velocity innovation (vel_innov) beyond it
 	                            * for collision_ticks ticks: COLLISION [m/s] */
 	int collision_ticks;
-	bool replay; /* camera frames replayed from their capture time (false: applied
-	              * at arrival, as if they had no latency; for comparison) */
+	bool calibrate; /* the wheels' scale errors learnt from the null space (EST_CAL_*) */
+	bool replay;    /* camera frames replayed from their capture time (false: applied
+	                 * at arrival, as if they had no latency; for comparison) */
 };
 
 /* One tick's inputs. */
@@ -92,6 +109,7 @@ struct est_output {
 	float cam_innov[3];     /* last camera pose minus the estimate at its capture time */
 	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
 	uint32_t cam_taken, cam_gated, cam_too_old;
+	float wheel_scale[4]; /* learnt scale error k_j per wheel (ground = r w_j (1 + k_j)) */
 };
 
 /* One past tick as the camera replay needs it (private). */
@@ -114,9 +132,13 @@ struct est {
 	float q[3];             /* process variance per tick on v, vn, w */
 	float rw[3];            /* wheel reading variance mapped onto v, vn, w */
 	float rc[3];            /* camera variance x, y, theta */
+	float qt;               /* heading variance per tick from EST_DRIFT_THETA */
 	float qo[2];            /* odometry variance per tick per m/s: position, heading */
 	float d, r, dt;
 	float s[6], P[6][6];
+	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*) */
+	float cal_A[6], cal_b[3]; /* the calibration's normal equations (upper triangle) */
+	float cal_forget;         /* per tick */
 	struct est_output out;
 	struct est_tick hist[EST_HISTORY];
 	struct {
