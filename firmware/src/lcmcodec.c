@@ -142,6 +142,7 @@ static int encode_state(const struct log_entry *e, void *buf, size_t cap)
 		m.camera_innovation[k] = o->cam_innov[k];
 	}
 	memcpy(m.covariance, o->cov, sizeof(m.covariance));
+	memcpy(m.wheel_scale, o->wheel_scale, sizeof(m.wheel_scale));
 	return omni4_state_t_encode(buf, 0, (int)cap, &m);
 }
 
