@@ -548,7 +548,7 @@ static void test_wheel_scales(void **state)
 	    th_on * 180 / PI, th_off * 180 / PI, v * (e[1] - e[3]) / (4 * P3->d) * 2.0 * 180 / PI);
 	for (int j = 0; j < 4; j++)
 		assert_true(k_off[j] == 0.0);
-	assert_true(worst < 0.0002);       /* measured 0.000074 */
+	assert_true(worst < 0.0002);        /* measured 0.000074 */
 	assert_true(th_on < 0.15 * th_off); /* measured 0.056 */
 }
 
