@@ -37,7 +37,7 @@ echo
 echo "== 4. plots and report =="
 # The project's venv: it has the omni4 package (omni4.read_log draws the log's raw series).
 .venv/bin/python host-tools/plots/omni4_report.py "$OUT/csv" "$OUT/report" --json "$OUT/validation.json" \
-  --log "$OUT/sim.lcmlog"
+  --log "$OUT/sim.lcmlog" --params "$OUT/params.ini"
 echo "report: $OUT/report/report.md"
 echo
 echo "== 5. the log for Foxglove (MCAP, with the identified model's prediction beside the encoders) =="

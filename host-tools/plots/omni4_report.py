@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots and a one-page Markdown report from the CSV exports of omni4-ident.
 
-usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json] [--log LOG...]
+usage: omni4_report.py CSV_DIR OUT_DIR [--json VALIDATION.json] [--log LOG...] [--params INI]
 
 CSV_DIR holds what `omni4-ident identify --csv DIR` and `omni4-ident validate --csv DIR` wrote.
 Figures follow the paper: T vs w (exp 1, fig 4a), coast-down with its fit (exp 2, fig 4b),
@@ -11,7 +11,10 @@ when `identify --bootstrap N` ran, the bootstrap distribution of every final par
 --log LOG...: the raw time series of each event log (wheel speeds, currents, voltages, the
 experiment segments shaded) and what was read from it, through the omni4 Python package
 (omni4.read_log; `pip install ./python`, or the project's .venv/bin/python). A split log is
-given as its parts or as FILE when only FILE.00, FILE.01, ... exist.
+given as its parts or as FILE when only FILE.00, FILE.01, ... exist. A log with the
+controller's state estimate (OMNI4_STATE) also gets a figure of the paths: the estimate, the
+camera (OMNI4_POSE), wheel odometry (eqs 3-5 integrated, d and r of --params, default Table III)
+and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time.
 """
 import argparse
 import csv
@@ -21,6 +24,7 @@ import sys
 from collections import defaultdict
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -231,7 +235,7 @@ def fig_log(path, index, out):
         sys.exit(f"omni4_report: {e}")
     m = log.motors
     if not len(m):
-        return None, [f"{path}: no OMNI4_MOTORS samples", ""] + log.summary().splitlines()
+        return None, [f"{path}: no OMNI4_MOTORS samples", ""] + log.summary().splitlines(), None
     t0 = m.utime[0]
     t = (m.utime - t0) * 1e-6
     fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
@@ -266,7 +270,84 @@ def fig_log(path, index, out):
     save(fig, out, name, rect=(0, 0.03, 1, 1))
     lines = [f"`{path}`: {t[-1]:.1f} s of OMNI4_MOTORS, {len(e)} experiment marks, "
              f"{len(log.pose)} poses, {len(log.cmd)} commands.", "", "```"]
-    return name, lines + log.summary().splitlines() + ["```", ""]
+    return name, lines + log.summary().splitlines() + ["```", ""], log
+
+
+def wheel_odometry(m, d, r, start):
+    """Eqs 3-5 from the wheel speeds (rows of eq 2: [0 1 d], [-1 0 d], [0 -1 d], [1 0 d]), the
+    pose integrated at the mid-step heading from start (x, y, theta) -> (n, 3)."""
+    g = m.wheel_speed * r
+    v, vn = 0.5 * (g[:, 3] - g[:, 1]), 0.5 * (g[:, 0] - g[:, 2])
+    w = g.sum(axis=1) / (4.0 * d)
+    dt = np.diff(m.utime, prepend=m.utime[0]) * 1e-6
+    th = start[2] + np.cumsum(w * dt)
+    mid = th - 0.5 * w * dt
+    x = start[0] + np.cumsum(dt * (np.cos(mid) * v - np.sin(mid) * vn))
+    y = start[1] + np.cumsum(dt * (np.sin(mid) * v + np.cos(mid) * vn))
+    return np.column_stack([x, y, th])
+
+
+def path_error(ut, xy, truth):
+    """|xy - truth| at the times ut, the truth interpolated [m]."""
+    tx = np.interp(ut, truth.utime, truth.pose[:, 0])
+    ty = np.interp(ut, truth.utime, truth.pose[:, 1])
+    return np.hypot(xy[:, 0] - tx, xy[:, 1] - ty)
+
+
+def fig_paths(log, index, name_of_log, out, d, r):
+    """The paths of one log with a state estimate; returns (figure name, summary lines)."""
+    import omni4
+    st, cam, m = log.state, log.pose, log.motors
+    truth = log.channels.get(omni4.CHANNEL_SIM_TRUTH)
+    have_truth = truth is not None and len(truth) > 1
+    start = truth.pose[0] if have_truth else st.pose[0]
+    odo = wheel_odometry(m, d, r, start)
+    cam_xy = np.column_stack([cam.x, cam.y]) if len(cam) else np.zeros((0, 2))
+    series = [("estimate (OMNI4_STATE)", st.utime, st.pose, "C0"),
+              ("camera (OMNI4_POSE)", cam.utime if len(cam) else np.zeros(0), cam_xy, "C1"),
+              ("wheel odometry", m.utime, odo, "C2")]
+    fig, axes = plt.subplots(1, 2 if have_truth else 1, figsize=(13 if have_truth else 7, 6),
+                             squeeze=False)
+    ax = axes[0][0]
+    if have_truth:
+        ax.plot(truth.pose[:, 0], truth.pose[:, 1], "k-", lw=1.2, label="true (OMNI4_SIM_TRUTH)")
+    for label, _, xy, c in series:
+        ax.plot(xy[:, 0], xy[:, 1], "." if "camera" in label else "-", color=c, ms=1.5,
+                lw=0.8, label=label)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"Paths, {name_of_log}")
+    lines = []
+    if have_truth:
+        ax = axes[0][1]
+        t0 = m.utime[0]
+        for label, ut, xy, c in series:
+            if not len(ut):
+                continue
+            err = path_error(ut, xy, truth)
+            ax.semilogy((ut - t0) * 1e-6, np.maximum(err * 1e3, 1e-2),
+                        "." if "camera" in label else "-", color=c, lw=0.6, ms=1.0, label=label)
+            lines.append(f"- {label}: position RMS against the truth "
+                         f"{1e3 * np.sqrt(np.mean(err ** 2)):.2f} mm, max {1e3 * err.max():.1f} mm")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("position error against the truth [mm]")
+        ax.grid(True, which="both", lw=0.3)
+        ax.legend(fontsize=8)
+    name = f"paths_{index}_{name_of_log.replace('.', '_')}.png"
+    save(fig, out, name)
+    return name, (["Paths (estimate, camera, wheel odometry against the simulator's truth):", ""]
+                  + lines + [""] if lines else [])
+
+
+def robot_geometry(params_path):
+    """d and r [m] of the robot INI's [model] (all 14 keys, as omni4-ident writes it), or of
+    Table III."""
+    from omni4.foxglove import model
+    p = model.params_or_exit("omni4_report", params_path)
+    return p["d"], p["r"]
 
 
 def draw_figures(a):
@@ -286,9 +367,14 @@ def draw_figures(a):
     figs.append(fig_windows(windows, a.out_dir))
     log_lines = []
     for k, path in enumerate(a.log):
-        name, lines = fig_log(path, k, a.out_dir)
+        name, lines, log = fig_log(path, k, a.out_dir)
         figs.append(name)
         log_lines += lines
+        if log is not None and len(log.state) and len(log.motors):
+            d, r = robot_geometry(a.params)
+            name, lines = fig_paths(log, k, os.path.basename(path), a.out_dir, d, r)
+            figs.append(name)
+            log_lines += lines
     return [f for f in figs if f], log_lines, params, windows, boot
 
 
@@ -379,6 +465,9 @@ def main():
     ap.add_argument("--json", help="validation JSON of omni4-ident validate")
     ap.add_argument("--log", nargs="+", default=[], metavar="LOG",
                     help="event logs whose raw series to draw (needs the omni4 package)")
+    ap.add_argument("--params", metavar="INI",
+                    help="robot INI whose [model] d and r the wheel odometry of the paths "
+                         "figure uses (default: Table III)")
     a = ap.parse_args()
     if not os.path.isdir(a.csv_dir):
         sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
