@@ -80,7 +80,7 @@ void est_settings_defaults(struct est_settings *s)
 	s->gate_sigmas = 5.0f;
 	s->slip_threshold = 0.08f;
 	s->slip_ticks = 3;
-	s->collision_threshold = 0.05f;
+	s->collision_threshold = 0.02f;
 	s->collision_ticks = 5;
 	s->calibrate = true;
 	s->replay = true;
@@ -143,6 +143,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->P[3][3] = e->P[4][4] = 1e-4f;
 	e->P[5][5] = 1e-4f / (e->d * e->d);
 	memset(&e->out, 0, sizeof(e->out));
+	memset(e->innov_avg, 0, sizeof(e->innov_avg));
 	e->seq = 0;
 	e->slip_run = e->collision_run = e->cam_gate_run = 0;
 	e->last_cam_us = 0;
@@ -342,7 +343,11 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		leave_out_worst(e, wh, nr, z);
 	if (live) {
 		const float nu[3] = {z[0] - e->s[3], z[1] - e->s[4], e->d * (z[2] - e->s[5])};
-		const float c = sqrtf(nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]);
+		float *m = e->innov_avg;
+
+		for (int k = 0; k < 3; k++)
+			m[k] += (nu[k] - m[k]) * (1.0f / EST_INNOV_AVG_TICKS);
+		const float c = sqrtf(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
 
 		e->out.null_residual = nr;
 		e->out.vel_innov = c;

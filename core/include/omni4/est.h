@@ -43,6 +43,9 @@
 #define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no wheel reading (model only) */
 
 #define EST_CAMERA_STALE_US 500000
+/* The velocity innovation behind EST_FLAG_COLLISION is averaged exponentially over this many
+ * ticks: the wheels' noise averages out, a sustained push does not. */
+#define EST_INNOV_AVG_TICKS 8
 
 /* Odometry error: the pose variance grows by EST_ODOM_POS^2 [m^2/m] (x and y) and
  * EST_ODOM_THETA^2 [rad^2/m] per metre travelled (rotation counted at the wheels, d |w|), and
@@ -80,8 +83,8 @@ struct est_settings {
 	float slip_threshold;  /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
 	                        * in a reading beyond it one wheel is left out */
 	int slip_ticks;
-	float collision_threshold; /* model-vs-wheel velocity innovation (vel_innov) beyond it
-	                            * for collision_ticks ticks: COLLISION [m/s] */
+	float collision_threshold; /* model-vs-wheel velocity innovation, averaged (vel_innov),
+	                            * beyond it for collision_ticks ticks: COLLISION [m/s] */
 	int collision_ticks;
 	bool calibrate; /* the wheels' scale errors learnt from the null space (EST_CAL_*) */
 	bool replay;    /* camera frames replayed from their capture time (false: applied
@@ -104,8 +107,9 @@ struct est_output {
 	float cov[6];           /* diagonal of the covariance, state order */
 	uint32_t flags;         /* EST_FLAG_* */
 	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading [m/s] */
-	float vel_innov;        /* |wheel velocity - model prediction| of the last reading, w
-	                         * as d w [m/s] (what EST_FLAG_COLLISION looks at) */
+	float vel_innov;        /* |wheel velocity - model prediction|, w as d w, averaged over
+	                         * the last readings (EST_INNOV_AVG_TICKS) [m/s] (what
+	                         * EST_FLAG_COLLISION looks at) */
 	float cam_innov[3];     /* last camera pose minus the estimate at its capture time */
 	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
 	uint32_t cam_taken, cam_gated, cam_too_old;
@@ -144,7 +148,8 @@ struct est {
 	struct {
 		float s[6], P[21]; /* upper triangle, row by row */
 	} snap[EST_HISTORY / EST_SNAP_EVERY];
-	uint32_t seq; /* ticks since init/reset: the next tick's number */
+	uint32_t seq;       /* ticks since init/reset: the next tick's number */
+	float innov_avg[3]; /* the velocity innovation averaged (EST_INNOV_AVG_TICKS) */
 	int slip_run, collision_run, cam_gate_run;
 	int64_t last_cam_us; /* capture time of the last camera pose taken */
 	bool have_cam;
