@@ -51,7 +51,7 @@
  * EST_ODOM_THETA^2 [rad^2/m] per metre travelled (rotation counted at the wheels, d |w|), and
  * the heading's by EST_DRIFT_THETA^2 [rad^2/s] per second: the wheels' creep, a random walk of
  * the heading read from them (docs/estimator.md). */
-#define EST_ODOM_POS 0.008f
+#define EST_ODOM_POS 0.005f
 #define EST_ODOM_THETA 0.005f
 #define EST_DRIFT_THETA 0.01f
 /* Wheel scale calibration: a rigid body's wheel ground speeds satisfy g0 - g1 + g2 - g3 = 0
@@ -63,7 +63,7 @@
  * +-EST_CAL_MAX. The common scale of all four wheels has no equation (every wheel read as 0
  * satisfies them all): it is not estimated and stays the model's r. Readings flagged as slip or
  * collision are left out. */
-#define EST_CAL_TAU_S 30.0f
+#define EST_CAL_TAU_S 60.0f
 #define EST_CAL_EVERY 50
 #define EST_CAL_PRIOR 1.0f
 #define EST_CAL_MAX 0.05f
