@@ -21,8 +21,8 @@
 #define TICK_US 1000
 #define PI 3.14159265358979323846
 #define VERR_SLIP 0.015    /* velocity error during a slip: measured 0.006 m/s */
-#define MEASURED_DS 1e-7   /* camera update vs batch Kalman, state: measured 3.6e-8 */
-#define MEASURED_DP 1.3e-7 /* ... covariance, relative: measured 4.3e-8 */
+#define MEASURED_DS 1e-7   /* camera update vs batch Kalman, state: measured 2.7e-8 */
+#define MEASURED_DP 1.5e-7 /* ... covariance, relative: measured 6.8e-8 */
 
 static const struct model_params *P3 = &model_params_table3;
 
@@ -323,7 +323,7 @@ static void test_plant_camera_40ms(void **state)
 	       a.vmax, 1e3 * a.pos_rms, 1e3 * a.cam_pos_rms, a.th_rms * 180 / PI,
 	       a.cam_th_rms * 180 / PI, 1e3 * b.pos_rms, b.th_rms * 180 / PI);
 	assert_true(a.vmax > 0.3);
-	/* measured: 3.2 mm vs 13.7 mm, 0.25 deg vs 2.9 deg; replay off 39 mm, 11 deg */
+	/* measured: 3.3 mm vs 13.7 mm, 0.38 deg vs 2.9 deg; replay off 37 mm, 10.8 deg */
 	assert_true(a.pos_rms < 0.008 && a.pos_rms < 0.6 * a.cam_pos_rms);
 	assert_true(a.th_rms < 0.6 * PI / 180.0 && a.th_rms < 0.25 * a.cam_th_rms);
 	assert_true(b.pos_rms > 4.0 * a.pos_rms && b.th_rms > 4.0 * a.th_rms);
@@ -490,7 +490,7 @@ static void test_camera_dropout(void **state)
 	       1e3 * rms, 1e3 * e_end, var1 / var0, stale, converged);
 	assert_true(stale);
 	assert_true(var1 > 2.0 * var0); /* measured x5.1 */
-	assert_true(e_end < 0.008);     /* measured 2.7 mm; required <= 2 cm */
+	assert_true(e_end < 0.012);     /* measured 4.9 mm; required <= 2 cm */
 	assert_true(first_back >= 0 && converged <= 500);
 	assert_false(est_get(&E)->flags & EST_FLAG_CAMERA_STALE);
 }
