@@ -513,10 +513,19 @@ static void calibrate(struct est *e, const struct est_tick *t, uint32_t n)
 {
 	if (!e->set.calibrate)
 		return;
-	if (t->have_wheels && e->slip_run == 0 && !(e->out.flags & EST_FLAG_COLLISION))
+	if (t->have_wheels && e->slip_run == 0 && e->collision_run == 0)
 		cal_accumulate(e, t->wheel);
 	if (n % EST_CAL_EVERY == EST_CAL_EVERY - 1)
 		cal_solve(e);
+}
+
+/* A reading is finite and no wheel faster than EST_WHEEL_MAX_M_S. */
+static bool plausible_wheels(const float w[4], float r)
+{
+	for (int j = 0; j < 4; j++)
+		if (!(fabsf(w[j] * r) <= EST_WHEEL_MAX_M_S))
+			return false;
+	return true;
 }
 
 void est_step(struct est *e, const struct est_input *in)
@@ -526,7 +535,7 @@ void est_step(struct est *e, const struct est_input *in)
 
 	t->utime = in->utime;
 	t->driven = in->driven && all_finite(in->volts, 4);
-	t->have_wheels = in->have_wheels && all_finite(in->wheel_rad_s, 4);
+	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
 	t->have_cam = 0;
 	for (int j = 0; j < 4; j++) {
 		t->volts[j] = t->driven ? in->volts[j] : 0.0f;

@@ -803,6 +803,23 @@ static void test_nan_inputs(void **state)
 	in.wheel_rad_s[2] = NAN;
 	est_step(&E, &in);
 	assert_true(state_finite(est_get(&E)));
+	/* Finite but absurd: all four at 1e20 rad/s (a rigid spin, no null-space residual) for
+	 * more than a calibration solve; then 50 m/s + 1 % on one wheel: no reading either. */
+	for (int k = 0; k < 120; k++) {
+		in.utime += TICK_US;
+		for (int j = 0; j < 4; j++)
+			in.wheel_rad_s[j] = 1e20f;
+		est_step(&E, &in);
+		assert_true(est_get(&E)->flags & EST_FLAG_NO_WHEELS);
+	}
+	in.utime += TICK_US;
+	in.wheel_rad_s[0] = (float)(50.5 / P3->r);
+	in.wheel_rad_s[1] = in.wheel_rad_s[2] = in.wheel_rad_s[3] = 0.0f;
+	est_step(&E, &in);
+	assert_true(est_get(&E)->flags & EST_FLAG_NO_WHEELS);
+	assert_true(state_finite(est_get(&E)));
+	for (int j = 0; j < 4; j++)
+		assert_true(fabsf(est_get(&E)->wheel_scale[j]) <= EST_CAL_MAX);
 	struct est_settings set;
 
 	est_settings_defaults(&set);

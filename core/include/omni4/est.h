@@ -40,9 +40,12 @@
 #define EST_FLAG_SLIP 0x01u         /* a wheel slips (or spins free): its reading disagrees */
 #define EST_FLAG_COLLISION 0x02u    /* the robot moves unlike the voltages say (blocked, pushed) */
 #define EST_FLAG_CAMERA_STALE 0x04u /* no camera pose taken for EST_CAMERA_STALE_US */
-#define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no wheel reading (model only) */
+#define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no (plausible) wheel reading: model only */
 
 #define EST_CAMERA_STALE_US 500000
+/* A wheel reading beyond this ground speed [m/s] (or not finite) is no reading: no omni-wheel
+ * robot goes that fast, and the filter's and the calibration's sums stay finite. */
+#define EST_WHEEL_MAX_M_S 50.0f
 /* The velocity innovation behind EST_FLAG_COLLISION is averaged exponentially over this many
  * ticks: the wheels' noise averages out, a sustained push does not. */
 #define EST_INNOV_AVG_TICKS 8
