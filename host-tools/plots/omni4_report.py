@@ -274,11 +274,10 @@ def fig_log(path, index, out):
 
 
 def wheel_odometry(m, d, r, start):
-    """Eqs 3-5 from the wheel speeds (rows of eq 2: [0 1 d], [-1 0 d], [0 -1 d], [1 0 d]), the
+    """Eqs 3-5 (omni4.ros.core.forward_kinematics, on the columns) from the wheel speeds, the
     pose integrated at the mid-step heading from start (x, y, theta) -> (n, 3)."""
-    g = m.wheel_speed * r
-    v, vn = 0.5 * (g[:, 3] - g[:, 1]), 0.5 * (g[:, 0] - g[:, 2])
-    w = g.sum(axis=1) / (4.0 * d)
+    from omni4.ros.core import forward_kinematics
+    v, vn, w = forward_kinematics(m.wheel_speed.T, d, r)
     dt = np.diff(m.utime, prepend=m.utime[0]) * 1e-6
     th = start[2] + np.cumsum(w * dt)
     mid = th - 0.5 * w * dt
