@@ -17,6 +17,8 @@
 #include <strings.h>
 
 #define INF INFINITY
+#define CONFIG_MAX_SECTIONS 16 /* sections remembered for the repeat check */
+#define CONFIG_SECTION_LEN 32
 #define LIVE CONFIG_LIVE
 #define IDLE CONFIG_IDLE
 #define RESTART CONFIG_RESTART
@@ -102,7 +104,31 @@ struct parse_state {
 	int (*pairs)(void *ctx, int key, const char *value);
 	void *pairs_ctx;
 	int line; /* current line, counted by the handler from inih's reports */
+	/* the sections met so far, in order; cur: the one the keys are in now (-1 none) */
+	char sections[CONFIG_MAX_SECTIONS][CONFIG_SECTION_LEN];
+	int n_sections, cur;
 };
+
+/* A key of section at line: refused if the section was closed earlier (a repeated [section],
+ * reported at its header line: the same message as the Python reader's). */
+static int check_section(struct parse_state *st, const char *section, int header_line)
+{
+	if (st->cur >= 0 && !strcmp(st->sections[st->cur], section))
+		return 1;
+	for (int i = 0; i < st->n_sections; i++) {
+		if (strcmp(st->sections[i], section))
+			continue;
+		st->failed = true;
+		st->err->line = header_line;
+		snprintf(st->err->msg, sizeof(st->err->msg), "%s:%d: duplicate section [%s]",
+		         st->name, header_line, section);
+		return 0;
+	}
+	if (st->n_sections < CONFIG_MAX_SECTIONS)
+		snprintf(st->sections[st->n_sections], CONFIG_SECTION_LEN, "%s", section);
+	st->cur = st->n_sections < CONFIG_MAX_SECTIONS ? st->n_sections++ : -1;
+	return 1;
+}
 
 static int fail(struct parse_state *st, int line, const char *what, const char *section,
                 const char *name, const char *detail)
@@ -359,7 +385,8 @@ struct line_reader {
 	const char *text; /* string source, or NULL */
 	FILE *f;          /* file source */
 	int line;
-	bool mid_line; /* the last chunk did not end a line (line longer than inih's buffer) */
+	int header_line; /* of the last [section] header */
+	bool mid_line;   /* the last chunk did not end a line (line longer than inih's buffer) */
 };
 
 static char *read_line(char *buf, int size, void *stream)
@@ -382,8 +409,15 @@ static char *read_line(char *buf, int size, void *stream)
 		buf[n] = '\0';
 		r->text += n;
 	}
-	if (!r->mid_line)
+	if (!r->mid_line) {
 		r->line++;
+		const char *c = buf;
+
+		while (*c == ' ' || *c == '\t')
+			c++;
+		if (*c == '[')
+			r->header_line = r->line;
+	}
 	const size_t len = strlen(buf);
 
 	r->mid_line = len > 0 && buf[len - 1] != '\n';
@@ -399,6 +433,8 @@ static int handler(void *user, const char *section, const char *name, const char
 {
 	struct handler_ctx *h = user;
 
+	if (!h->st->failed && !check_section(h->st, section, h->reader->header_line))
+		return 0;
 	return on_line(h->st, h->reader->line, section, name, value);
 }
 
@@ -411,7 +447,8 @@ static int parse_ex(struct line_reader *reader, const char *name, struct omni4_c
 	                         .name = name,
 	                         .partial_model = model_seen != NULL,
 	                         .pairs = pairs,
-	                         .pairs_ctx = pairs_ctx};
+	                         .pairs_ctx = pairs_ctx,
+	                         .cur = -1};
 	struct handler_ctx h = {.st = &st, .reader = reader};
 	int rc;
 

@@ -171,6 +171,10 @@ static void test_duplicate_key_and_syntax_error(void **state)
 	             "duplicate key 'rate_hz'");
 	expect_error("[loop]\nrate_hz 100\n", -EINVAL, 2, "robot.ini:2: syntax error");
 	expect_error("[loop\n", -EINVAL, 1, "syntax error");
+	/* a section that comes back after another: refused at its second header, as the Python
+	 * reader (omni4.ini) does */
+	expect_error("[loop]\npriority = 50\n[sim]\nseed = 3\n[loop]\nmlockall = 1\n", -EINVAL, 5,
+	             "robot.ini:5: duplicate section [loop]");
 }
 
 static void test_missing_file_is_enoent(void **state)
