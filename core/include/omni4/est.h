@@ -8,7 +8,8 @@
  * - Predict, every tick: eq 23 with the derived signs (dynamics.h), Coulomb and viscous
  *   friction, driven by the voltages applied at that tick, or null traction (A_coast, no drive)
  *   when the bridges are off; the pose integrates eq 1.
- * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model).
+ * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model),
+ *   each corrected by the wheel's scale error, learnt from the null space (EST_CAL_*).
  * - Update with a camera pose at its capture time (pose_t.utime): the filter keeps a ring of
  *   its past ticks (inputs, readings, camera poses; state and covariance before every
  *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
@@ -20,8 +21,9 @@
  *   covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
  *   v0 - v1 + v2 - v3 (0 for a rigid body); EST_FLAG_COLLISION from the model-vs-wheels
- *   innovation (the robot slowed or was pushed although the voltages say otherwise); thresholds
- *   from the measured noise (est_settings, docs/estimator.md).
+ *   innovation averaged over EST_INNOV_AVG_TICKS (the robot slowed or was pushed although the
+ *   voltages say otherwise); thresholds from the measured noise (est_settings,
+ *   docs/estimator.md).
  * The model parameters in force follow the parameter service (est_set_model, between ticks).
  */
 #ifndef OMNI4_EST_H
