@@ -104,18 +104,20 @@ struct parse_state {
 	int (*pairs)(void *ctx, int key, const char *value);
 	void *pairs_ctx;
 	int line; /* current line, counted by the handler from inih's reports */
-	/* the sections met so far, in order; cur: the one the keys are in now (-1 none) */
+	/* the sections met so far, in order: the last one is the keys' section now */
 	char sections[CONFIG_MAX_SECTIONS][CONFIG_SECTION_LEN];
-	int n_sections, cur;
+	int n_sections;
 };
 
 /* A key of section at line: refused if the section was closed earlier (a repeated [section],
  * reported at its header line: the same message as the Python reader's). */
 static int check_section(struct parse_state *st, const char *section, int header_line)
 {
-	if (st->cur >= 0 && !strcmp(st->sections[st->cur], section))
+	const int last = st->n_sections - 1;
+
+	if (last >= 0 && !strcmp(st->sections[last], section))
 		return 1;
-	for (int i = 0; i < st->n_sections; i++) {
+	for (int i = 0; i < last; i++) {
 		if (strcmp(st->sections[i], section))
 			continue;
 		st->failed = true;
@@ -125,8 +127,7 @@ static int check_section(struct parse_state *st, const char *section, int header
 		return 0;
 	}
 	if (st->n_sections < CONFIG_MAX_SECTIONS)
-		snprintf(st->sections[st->n_sections], CONFIG_SECTION_LEN, "%s", section);
-	st->cur = st->n_sections < CONFIG_MAX_SECTIONS ? st->n_sections++ : -1;
+		snprintf(st->sections[st->n_sections++], CONFIG_SECTION_LEN, "%s", section);
 	return 1;
 }
 
@@ -447,8 +448,7 @@ static int parse_ex(struct line_reader *reader, const char *name, struct omni4_c
 	                         .name = name,
 	                         .partial_model = model_seen != NULL,
 	                         .pairs = pairs,
-	                         .pairs_ctx = pairs_ctx,
-	                         .cur = -1};
+	                         .pairs_ctx = pairs_ctx};
 	struct handler_ctx h = {.st = &st, .reader = reader};
 	int rc;
 
