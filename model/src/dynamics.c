@@ -76,3 +76,72 @@ void dyn_steady_velocity(const struct model_ss *ss, const double u[4], double x[
 		x[k] = -(b + ss->K[k] * (b > 0 ? 1.0 : -1.0)) / ss->A[k];
 	}
 }
+
+/* Each expression below is its scalar twin's with wheel j's constants, in the same order: with
+ * equal wheels the results are the same bits (tests/model/test_wheels.c). */
+void dyn_wheel_forces_wheels(const struct model_params *p, const struct model_wheels *w,
+                             const double current_a[4], double force_n[4])
+{
+	for (int j = 0; j < 4; j++)
+		force_n[j] = p->l * w->Kt[j] / w->r[j] * current_a[j]; /* eqs 12-13 */
+}
+
+void motor_speeds_wheels(const struct model_params *p, const struct model_wheels *w,
+                         const double wheel_speed_m_s[4], double motor_rad_s[4])
+{
+	for (int j = 0; j < 4; j++)
+		motor_rad_s[j] = p->l * wheel_speed_m_s[j] / w->r[j];
+}
+
+void motor_voltages_wheels(const struct model_wheels *w, const double current_a[4],
+                           const double motor_rad_s[4], double voltage_v[4])
+{
+	for (int j = 0; j < 4; j++)
+		voltage_v[j] = w->R[j] * current_a[j] + w->Kv[j] * motor_rad_s[j]; /* eq 21 */
+}
+
+void motor_currents_wheels(const struct model_wheels *w, const double voltage_v[4],
+                           const double motor_rad_s[4], double current_a[4])
+{
+	for (int j = 0; j < 4; j++)
+		current_a[j] = (voltage_v[j] - w->Kv[j] * motor_rad_s[j]) / w->R[j];
+}
+
+void dyn_state_space_wheels(const struct model_params *p, const struct model_wheels *w,
+                            struct model_ss_wheels *ss)
+{
+	const double l = p->l, d = p->d, M = p->M, J = p->J;
+	double e[4], b[4]; /* back-EMF braking [N/(m/s)] and drive gain [N/V] of each wheel */
+
+	for (int j = 0; j < 4; j++) {
+		e[j] = w->Kt[j] * w->Kv[j] * l * l / (w->r[j] * w->r[j] * w->R[j]);
+		b[j] = l * w->Kt[j] / (w->r[j] * w->R[j]);
+	}
+	ss->A_coast[0] = -p->Bv / M;
+	ss->A_coast[1] = -p->Bvn / M;
+	ss->A_coast[2] = -p->Bw / J;
+	/* A = -Minv (IK^T diag(e) IK + diag(B)); the pairs summed first: e + e is exact. */
+	const double e13 = e[1] + e[3], e02 = e[0] + e[2];
+
+	ss->A[0][0] = -e13 / M + ss->A_coast[0];
+	ss->A[1][1] = -e02 / M + ss->A_coast[1];
+	ss->A[2][2] = -d * d * (e02 + e13) / J + ss->A_coast[2];
+	ss->A[0][1] = ss->A[1][0] = 0.0;     /* no wheel pushes along both v and vn */
+	ss->A[0][2] = d * (e[1] - e[3]) / M; /* +0 with equal wheels */
+	ss->A[1][2] = d * (e[2] - e[0]) / M;
+	ss->A[2][0] = d * (e[1] - e[3]) / J;
+	ss->A[2][1] = d * (e[2] - e[0]) / J;
+
+	const double B[3][4] = {
+	    {0.0, -b[1] / M, 0.0, b[3] / M},
+	    {b[0] / M, 0.0, -b[2] / M, 0.0},
+	    {b[0] * d / J, b[1] * d / J, b[2] * d / J, b[3] * d / J},
+	};
+	for (int k = 0; k < 3; k++)
+		for (int j = 0; j < 4; j++)
+			ss->B[k][j] = B[k][j];
+
+	ss->K[0] = -p->Cv / M; /* eq 27 */
+	ss->K[1] = -p->Cvn / M;
+	ss->K[2] = -p->Cw / J;
+}

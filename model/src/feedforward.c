@@ -57,3 +57,61 @@ int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max)
 	ff->u_max = q16_from_double(u_max);
 	return 0;
 }
+
+void ff_voltages_wheels(const struct model_params *p, const struct model_wheels *w,
+                        const double vel[3], const double acc[3], double u_max, double u[4])
+{
+	const double Fv =
+	    p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN);
+	const double Fvn =
+	    p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN);
+	const double T = p->J * acc[2] + p->Bw * vel[2] + p->Cw * ff_sign(vel[2], FF_SIGN_BAND_ROT);
+	const double share[3] = {Fv / 2.0, Fvn / 2.0, T / (4.0 * p->d * p->d)};
+	double f[4], vw[4];
+
+	ik_wheel_speeds(p->d, share, f);
+	ik_wheel_speeds(p->d, vel, vw);
+	for (int j = 0; j < 4; j++) {
+		const double uj = w->R[j] * w->r[j] / (p->l * w->Kt[j]) * f[j] +
+		                  w->Kv[j] * p->l / w->r[j] * vw[j];
+
+		u[j] = uj > u_max ? u_max : (uj < -u_max ? -u_max : uj);
+	}
+}
+
+/* ff_q16_init's gains for one wheel's constants (the same expressions, so the same bits). */
+static void ff_q16_wheel_gains(const struct model_params *p, double R, double r, double Kt,
+                               double Kv, q16_t k_acc[3], q16_t k_vel[3], q16_t k_coul[3])
+{
+	const double kf = R * r / (p->l * Kt); /* [V/N] */
+	const double k4d = kf / (4.0 * p->d);
+	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
+	const double kemf = Kv * p->l / r; /* [V/(m/s)] at the wheel rim */
+	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
+	                       k4d * p->Bw + kemf * p->d};
+	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
+
+	for (int k = 0; k < 3; k++) {
+		k_acc[k] = q16_from_double(acc[k]);
+		k_vel[k] = q16_from_double(vel[k]);
+		k_coul[k] = q16_from_double(coul[k]);
+	}
+}
+
+int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
+                       const struct model_wheels *w, double u_max)
+{
+	if (model_params_check(p, NULL) || model_wheels_check(w, NULL) || !(u_max > 0.0) ||
+	    !isfinite(u_max))
+		return -EINVAL;
+	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
+
+	ff->d = q16_from_double(p->d);
+	for (int j = 0; j < 4; j++)
+		ff_q16_wheel_gains(p, w->R[j], w->r[j], w->Kt[j], w->Kv[j], ff->k_acc[j],
+		                   ff->k_vel[j], ff->k_coul[j]);
+	for (int k = 0; k < 3; k++)
+		ff->sgn_gain[k] = (int32_t)lround(1.0 / band[k]);
+	ff->u_max = q16_from_double(u_max);
+	return 0;
+}

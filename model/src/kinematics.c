@@ -1,6 +1,7 @@
 /* kinematics.c - eqs 1-5, double. The Q16.16 twins live in kinematics_q16.c. */
 #include "omni4/kinematics.h"
 
+#include <errno.h>
 #include <math.h>
 
 void ik_wheel_speeds(double d, const double x[3], double v_wheel[4])
@@ -38,4 +39,42 @@ void frame_robot_to_world(double theta, const double x_robot[3], double x_world[
 	x_world[0] = c * v - s * vn;
 	x_world[1] = s * v + c * vn;
 	x_world[2] = x_robot[2];
+}
+
+void ik_wheel_rates(double d, const double r[4], const double x[3], double wheel_rad_s[4])
+{
+	double v[4];
+
+	ik_wheel_speeds(d, x, v);
+	for (int j = 0; j < 4; j++)
+		wheel_rad_s[j] = v[j] / r[j];
+}
+
+void fk_robot_velocity_rates(double d, const double r[4], const double wheel_rad_s[4], double x[3])
+{
+	double v[4];
+
+	for (int j = 0; j < 4; j++)
+		v[j] = wheel_rad_s[j] * r[j];
+	fk_robot_velocity(d, v, x);
+}
+
+int kin_wheels_q16_init(struct kin_wheels_q16 *k, double d, const double r[4])
+{
+	const double r_min = 1.0 / 32768.0; /* 1/r_j must stay below the Q16.16 maximum */
+
+	if (!(isfinite(d) && d > 0.0 && 1.0 / (4.0 * d) < 32768.0))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++)
+		if (!(r[j] >= r_min && r[j] < 1.0))
+			return -EINVAL;
+	k->d = q16_from_double(d);
+	k->inv_4d = q16_from_double(1.0 / (4.0 * d));
+	for (int j = 0; j < 4; j++) {
+		const double q = r[j] * 2147483648.0 + 0.5; /* Q0.31, rounded; r < 1 */
+
+		k->inv_r[j] = q16_from_double(1.0 / r[j]);
+		k->r_q31[j] = q >= 2147483647.0 ? INT32_MAX : (int32_t)q;
+	}
+	return 0;
 }

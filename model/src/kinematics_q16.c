@@ -34,3 +34,26 @@ void fk_robot_velocity_q16(q16_t inv_4d, const q16_t v_wheel[4], q16_t x[3])
 	p = p >= 0 ? (p + half) >> 16 : -((-p + half) >> 16);
 	x[2] = q16_sat(p);
 }
+
+void ik_wheel_rates_q16(const struct kin_wheels_q16 *k, const q16_t x[3], q16_t wheel_rad_s[4])
+{
+	q16_t v[4];
+
+	ik_wheel_speeds_q16(k->d, x, v);
+	for (int j = 0; j < 4; j++)
+		wheel_rad_s[j] = q16_mul(v[j], k->inv_r[j]);
+}
+
+void fk_robot_velocity_rates_q16(const struct kin_wheels_q16 *k, const q16_t wheel_rad_s[4],
+                                 q16_t x[3])
+{
+	const int64_t half = (int64_t)1 << 30;
+	q16_t v[4];
+
+	for (int j = 0; j < 4; j++) {
+		const int64_t p = (int64_t)wheel_rad_s[j] * k->r_q31[j]; /* Q16.47 */
+
+		v[j] = (q16_t)(p >= 0 ? (p + half) >> 31 : -((-p + half) >> 31));
+	}
+	fk_robot_velocity_q16(k->inv_4d, v, x);
+}

@@ -59,3 +59,29 @@ int model_params_check(const struct model_params *p, int *bad)
 	}
 	return 0;
 }
+
+void model_wheels_from_params(const struct model_params *p, struct model_wheels *w)
+{
+	for (int j = 0; j < 4; j++) {
+		w->r[j] = p->r;
+		w->Kv[j] = p->Kv;
+		w->Kt[j] = p->Kt;
+		w->R[j] = p->R;
+	}
+}
+
+int model_wheels_check(const struct model_wheels *w, int *bad)
+{
+	const double *const f[4] = {w->r, w->Kv, w->Kt, w->R};
+
+	for (int i = 0; i < 16; i++) {
+		const double v = f[i / 4][i % 4];
+
+		if (!(isfinite(v) && v > 0.0)) {
+			if (bad)
+				*bad = i;
+			return -EINVAL;
+		}
+	}
+	return 0;
+}

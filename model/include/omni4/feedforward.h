@@ -50,4 +50,38 @@ int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max);
  */
 void ff_voltages_q16(const struct ff_q16 *ff, const q16_t vel[3], const q16_t acc[3], q16_t u[4]);
 
+/*
+ * Per-wheel drives (struct model_wheels; docs/model.md). The body's forces are shared out as
+ * above (the least-squares f, which does not depend on the motors), and each wheel gets the
+ * voltage that makes its own motor give f_j at its rim speed v_j:
+ *   u_j = (R_j r_j / (l Kt_j)) f_j + (Kv_j l / r_j) v_j, clamped to +-u_max.
+ * With four equal wheels, the bits of ff_voltages / ff_voltages_q16.
+ */
+void ff_voltages_wheels(const struct model_params *p, const struct model_wheels *w,
+                        const double vel[3], const double acc[3], double u_max, double u[4]);
+
+/* ff_q16 with one set of axis gains per wheel: k_*[j] are ff_q16's k_* with wheel j's
+ * R_j r_j / (l Kt_j) and Kv_j l / r_j (only the two axes that move wheel j are used). */
+struct ff_q16_wheels {
+	q16_t d;             /* [m] */
+	q16_t k_acc[4][3];   /* [V/(m/s^2)], [V/(rad/s^2)] */
+	q16_t k_vel[4][3];   /* [V/(m/s)], [V/(rad/s)] */
+	q16_t k_coul[4][3];  /* [V] */
+	int32_t sgn_gain[3]; /* 1/band per axis (integer) */
+	q16_t u_max;         /* [V] */
+};
+
+/* -EINVAL if p fails model_params_check, w fails model_wheels_check or u_max <= 0. */
+int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
+                       const struct model_wheels *w, double u_max);
+
+/*
+ * ff_voltages_q16_wheels - the per-wheel feedforward in Q16.16 (integer only; fast loop).
+ * Scaling and overflow: as ff_voltages_q16, with wheel j's gains: each wheel sums two axis
+ * terms of three rounded Q16.16 products each (all below 2^48 in int64_t, no overflow for any
+ * input); the one saturation is the final clamp to +-u_max.
+ */
+void ff_voltages_q16_wheels(const struct ff_q16_wheels *ff, const q16_t vel[3], const q16_t acc[3],
+                            q16_t u[4]);
+
 #endif /* OMNI4_FEEDFORWARD_H */

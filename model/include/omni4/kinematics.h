@@ -34,4 +34,42 @@ void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4]);
  */
 void fk_robot_velocity_q16(q16_t inv_4d, const q16_t v_wheel[4], q16_t x[3]);
 
+/*
+ * Per-wheel radius (docs/model.md): wheel j's angular speed after the gearbox [rad/s] is its rim
+ * speed / r_j. ik_wheel_rates: eq 2, then / r_j. fk_robot_velocity_rates: rim speeds r_j w_j,
+ * then eqs 3-5. With four equal radii r, the bits of ik_wheel_speeds then / r, and of * r then
+ * fk_robot_velocity (what a scalar caller does).
+ */
+void ik_wheel_rates(double d, const double r[4], const double x[3], double wheel_rad_s[4]);
+void fk_robot_velocity_rates(double d, const double r[4], const double wheel_rad_s[4], double x[3]);
+
+/* Fixed-point geometry with per-wheel radii, prepared once by kin_wheels_q16_init. */
+struct kin_wheels_q16 {
+	q16_t d;          /* [m], Q16.16 */
+	q16_t inv_4d;     /* 1/(4 d) [1/m], Q16.16 */
+	q16_t inv_r[4];   /* 1/r_j [1/m], Q16.16 (30.77 for r = 0.0325: 2^-16 is 5e-7 of it) */
+	int32_t r_q31[4]; /* r_j [m] in Q0.31 (2^-31 m): Q16.16 would keep only 11 bits of 0.0325 */
+};
+
+/* -EINVAL unless d > 0 and every r_j is in (0, 1) m (Q0.31) and not below 2^-15 m (1/r_j
+ * fits Q16.16); everything finite. */
+int kin_wheels_q16_init(struct kin_wheels_q16 *k, double d, const double r[4]);
+
+/*
+ * ik_wheel_rates_q16 - eq 2 then / r_j, in Q16.16.
+ * Scaling and overflow: x in Q16.16; the rim speeds are ik_wheel_speeds_q16's (saturated at
+ * +-32768 m/s); each times inv_r_j (Q16.16 x Q16.16 -> Q32.32 in int64_t, exact) rounded to
+ * Q16.16 and saturated at +-32768 rad/s (a rim speed of +-1065 m/s for r = 0.0325 m).
+ */
+void ik_wheel_rates_q16(const struct kin_wheels_q16 *k, const q16_t x[3], q16_t wheel_rad_s[4]);
+
+/*
+ * fk_robot_velocity_rates_q16 - r_j w_j then eqs 3-5, in Q16.16.
+ * Scaling and overflow: w_j in Q16.16 times r_j in Q0.31 -> Q16.47 in int64_t (exact, |.| <
+ * 2^62), rounded to Q16.16 (|rim speed| < |w_j| since r_j < 1 m: never saturates); then
+ * fk_robot_velocity_q16 with inv_4d (saturates at the q16_t range).
+ */
+void fk_robot_velocity_rates_q16(const struct kin_wheels_q16 *k, const q16_t wheel_rad_s[4],
+                                 q16_t x[3]);
+
 #endif /* OMNI4_KINEMATICS_H */

@@ -43,4 +43,27 @@ double model_params_get(const struct model_params *p, int i);
  */
 int model_params_check(const struct model_params *p, int *bad);
 
+/*
+ * The drive constants of each wheel j = 0..3 (docs/model.md): its own wheel radius, back-EMF
+ * and torque constants and motor + H-bridge resistance. The rest (d, l, M, J and the body's
+ * friction) stays one per robot in struct model_params. Every function taking a struct
+ * model_wheels reads r, Kv, Kt and R from it and ignores those fields of struct model_params.
+ */
+struct model_wheels {
+	double r[4];  /* wheel radius [m] */
+	double Kv[4]; /* back-EMF constant [V/(rad/s)] */
+	double Kt[4]; /* torque constant [N m/A] */
+	double R[4];  /* motor + H-bridge resistance [ohm] */
+};
+
+/* Four equal wheels with the scalar r, Kv, Kt, R of p: the paper's robot. With these, every
+ * _wheels function gives the same bits as its scalar twin. */
+void model_wheels_from_params(const struct model_params *p, struct model_wheels *w);
+
+/*
+ * 0 if every r, Kv, Kt and R of w is finite and > 0; -EINVAL otherwise, and *bad (may be NULL)
+ * gets 4 * field + wheel of the first offending value (field 0 r, 1 Kv, 2 Kt, 3 R).
+ */
+int model_wheels_check(const struct model_wheels *w, int *bad);
+
 #endif /* OMNI4_PARAMS_H */
