@@ -36,28 +36,36 @@ void ff_voltages_q16(const struct ff_q16 *ff, const q16_t vel[3], const q16_t ac
 	u[3] = clamp_volts(h0 + h2, ff->u_max);
 }
 
-/* axis_volts with wheel j's gains. */
-static int64_t wheel_axis_volts(const struct ff_q16_wheels *ff, int j, int k, q16_t v, q16_t a)
+/* The dead-banded sign of v on axis k, Q16.16 in [-1, 1]. */
+static q16_t axis_sign(const struct ff_q16_wheels *ff, int k, q16_t v)
 {
-	int64_t sgn = (int64_t)v * ff->sgn_gain[k]; /* dead-banded sign, Q16.16 in [-1, 1] */
+	const int64_t sgn = (int64_t)v * ff->sgn_gain[k];
 
-	sgn = sgn > Q16_ONE ? Q16_ONE : (sgn < -Q16_ONE ? -Q16_ONE : sgn);
+	return (q16_t)(sgn > Q16_ONE ? Q16_ONE : (sgn < -Q16_ONE ? -Q16_ONE : sgn));
+}
+
+/* axis_volts with wheel j's gains and the axis' sign s computed once per tick. */
+static int64_t wheel_axis_volts(const struct ff_q16_wheels *ff, int j, int k, q16_t v, q16_t a,
+                                q16_t s)
+{
 	return q16_mul_wide(ff->k_acc[j][k], a) + q16_mul_wide(ff->k_vel[j][k], v) +
-	       q16_mul_wide(ff->k_coul[j][k], (q16_t)sgn);
+	       q16_mul_wide(ff->k_coul[j][k], s);
 }
 
 void ff_voltages_q16_wheels(const struct ff_q16_wheels *ff, const q16_t vel[3], const q16_t acc[3],
                             q16_t u[4])
 {
+	const q16_t s[3] = {axis_sign(ff, 0, vel[0]), axis_sign(ff, 1, vel[1]),
+	                    axis_sign(ff, 2, vel[2])};
 	/* eq 2's pattern: wheel 0 = vn + w, 1 = w - v, 2 = w - vn, 3 = v + w. */
-	const int64_t u0 =
-	    wheel_axis_volts(ff, 0, 1, vel[1], acc[1]) + wheel_axis_volts(ff, 0, 2, vel[2], acc[2]);
-	const int64_t u1 =
-	    wheel_axis_volts(ff, 1, 2, vel[2], acc[2]) - wheel_axis_volts(ff, 1, 0, vel[0], acc[0]);
-	const int64_t u2 =
-	    wheel_axis_volts(ff, 2, 2, vel[2], acc[2]) - wheel_axis_volts(ff, 2, 1, vel[1], acc[1]);
-	const int64_t u3 =
-	    wheel_axis_volts(ff, 3, 0, vel[0], acc[0]) + wheel_axis_volts(ff, 3, 2, vel[2], acc[2]);
+	const int64_t u0 = wheel_axis_volts(ff, 0, 1, vel[1], acc[1], s[1]) +
+	                   wheel_axis_volts(ff, 0, 2, vel[2], acc[2], s[2]);
+	const int64_t u1 = wheel_axis_volts(ff, 1, 2, vel[2], acc[2], s[2]) -
+	                   wheel_axis_volts(ff, 1, 0, vel[0], acc[0], s[0]);
+	const int64_t u2 = wheel_axis_volts(ff, 2, 2, vel[2], acc[2], s[2]) -
+	                   wheel_axis_volts(ff, 2, 1, vel[1], acc[1], s[1]);
+	const int64_t u3 = wheel_axis_volts(ff, 3, 0, vel[0], acc[0], s[0]) +
+	                   wheel_axis_volts(ff, 3, 2, vel[2], acc[2], s[2]);
 
 	u[0] = clamp_volts(u0, ff->u_max);
 	u[1] = clamp_volts(u1, ff->u_max);
