@@ -61,6 +61,21 @@ def _one_line(path, e, lines):
     return f"{path}:{no}: syntax error (expected [section] or key = value): '{text}'"
 
 
+def _first_error(text, e):
+    """The error of the earliest line: configparser raises a repeated section or key at once
+    but a syntax error only at the end, so a repeat after a syntax error would hide it. The
+    lines before the repeat, read again, have that syntax error if there is one."""
+    if not isinstance(e, (configparser.DuplicateSectionError, configparser.DuplicateOptionError)):
+        return e
+    try:
+        _parser().read_string("".join(text.splitlines(True)[:e.lineno - 1]))
+    except configparser.ParsingError as earlier:
+        return earlier
+    except configparser.Error:
+        pass
+    return e
+
+
 def read(path):
     """The INI file at path as an Ini; ConfigError when it cannot be read or is malformed."""
     try:
@@ -73,7 +88,7 @@ def read(path):
     try:
         p.read_string(text, source=str(path))
     except configparser.Error as e:
-        raise ConfigError(_one_line(path, e, lines)) from None
+        raise ConfigError(_one_line(path, _first_error(text, e), lines)) from None
     sections = {s: dict(p.items(s)) for s in p.sections()}
     return Ini(path, sections, _key_lines(p, lines))
 

@@ -1,7 +1,38 @@
 """omni4.ini: the one robot INI reader of the package, strict as omni4-fw's loader."""
+import pathlib
+
 import pytest
 
 from omni4 import ini
+
+CASES = pathlib.Path(__file__).resolve().parents[2] / "tests" / "config" / "ini_cases.txt"
+
+
+def shared_cases():
+    """tests/config/ini_cases.txt, the table omni4-fw's loader runs too (test_config): one
+    (table line, accept, line, text expected, INI text) per case."""
+    out, case = [], None
+    for no, raw in enumerate(CASES.read_text().splitlines(True), 1):
+        if raw.startswith("=== "):
+            words = raw.split(maxsplit=3)
+            case = [no, words[1] == "accept", int(words[2]) if words[1] == "refuse" else 0,
+                    words[3].rstrip("\n") if len(words) > 3 else "", ""]
+            out.append(case)
+        elif case is not None:
+            case[4] += raw
+    return [pytest.param(*c, id=f"ini_cases.txt:{c[0]}") for c in out]
+
+
+@pytest.mark.parametrize("at, accept, line, expected, text", shared_cases())
+def test_shared_ini_cases(tmp_path, at, accept, line, expected, text):
+    p = write(tmp_path, text, name="case.ini")
+    if accept:
+        ini.read(p)
+        return
+    with pytest.raises(ini.ConfigError) as e:
+        ini.read(p)
+    where = f"{p}:{line}: "
+    assert str(e.value).startswith(where) and expected in str(e.value)[len(where):], at
 
 
 def write(tmp_path, text, name="robot.ini", mode="w"):
