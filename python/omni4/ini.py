@@ -1,8 +1,10 @@
 """The robot INI (docs/configuration.md) for the Python tools: the one reader of the package.
 
 configparser, as strict as omni4-fw's loader (config/): a repeated key is an error (and so is a
-repeated section), keys keep their case (Kv, R), ';' and '#' start a comment on a line of its own
-or after white space, no interpolation, no DEFAULT section. What the keys mean is the caller's
+repeated section, in any position), keys keep their case (Kv, R), ';' and '#' start a comment on
+a line of its own, ';' also after white space in a line (as in inih: a '#' there is part of the
+value), no interpolation, no DEFAULT section. tests/config/ini_cases.txt is the table of cases
+both readers run. What the keys mean is the caller's
 business (omni4.foxglove.model reads [model]). Every error is one line, ConfigError("FILE:LINE:
 ..."), FILE alone when no line is to blame."""
 import configparser
@@ -37,7 +39,7 @@ class Ini:
 
 def _parser():
     p = configparser.ConfigParser(strict=True, interpolation=None, delimiters=("=", ":"),
-                                  comment_prefixes=(";", "#"), inline_comment_prefixes=(";", "#"),
+                                  comment_prefixes=(";", "#"), inline_comment_prefixes=(";",),
                                   empty_lines_in_values=False, default_section="\0")
     p.optionxform = str  # keys are case-sensitive, as in the C loader
     return p

@@ -15,8 +15,10 @@ def shared_cases():
     for no, raw in enumerate(CASES.read_text().splitlines(True), 1):
         if raw.startswith("=== "):
             words = raw.split(maxsplit=3)
-            case = [no, words[1] == "accept", int(words[2]) if words[1] == "refuse" else 0,
-                    words[3].rstrip("\n") if len(words) > 3 else "", ""]
+            accept = words[1] == "accept"
+            rest = raw.rstrip("\n").split(" ", 2 if accept else 3)
+            case = [no, accept, 0 if accept else int(words[2]),
+                    rest[-1] if len(rest) > (2 if accept else 3) else "", ""]
             out.append(case)
         elif case is not None:
             case[4] += raw
@@ -27,7 +29,11 @@ def shared_cases():
 def test_shared_ini_cases(tmp_path, at, accept, line, expected, text):
     p = write(tmp_path, text, name="case.ini")
     if accept:
-        ini.read(p)
+        f = ini.read(p)
+        if expected:  # "section.key value"
+            dotted, value = expected.split(" ", 1)
+            section, key = dotted.split(".")
+            assert f.section(section).get(key) == value, at
         return
     with pytest.raises(ini.ConfigError) as e:
         ini.read(p)
@@ -42,7 +48,7 @@ def write(tmp_path, text, name="robot.ini", mode="w"):
 
 
 def test_sections_keys_lines_and_comments(tmp_path):
-    p = write(tmp_path, "; robot\n\n[model]\nKv = 0.0259 ; inline\nR: 4.3 # also inline\n"
+    p = write(tmp_path, "; robot\n\n[model]\nKv = 0.0259 ; inline\nR: 4.3 ; also inline\n"
                         "# comment\n[lcm]\nurl = udpm://239.255.76.67:7000?ttl=0\n")
     f = ini.read(p)
     assert f.sections == {"model": {"Kv": "0.0259", "R": "4.3"},

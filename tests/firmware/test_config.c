@@ -212,7 +212,7 @@ struct ini_case {
 	int at; /* line of its "===" in the table */
 	bool accept;
 	int line;
-	char text_expected[96];
+	char text_expected[96]; /* refuse: in the message; accept: "section.key value" */
 	char ini[1024];
 };
 
@@ -232,8 +232,10 @@ static bool next_case(FILE *f, int *table_line, struct ini_case *c)
 	buf[strcspn(buf, "\n")] = '\0';
 	int used = 0;
 
-	c->accept = !strcmp(buf, "=== accept");
-	if (!c->accept && sscanf(buf, "=== refuse %d %n", &c->line, &used) != 1)
+	c->accept = !strncmp(buf, "=== accept", 10) && (!buf[10] || buf[10] == ' ');
+	if (c->accept)
+		used = buf[10] ? 11 : 0;
+	else if (sscanf(buf, "=== refuse %d %n", &c->line, &used) != 1)
 		fail_msg("ini_cases.txt:%d: neither accept nor refuse LINE", c->at);
 	if (used)
 		snprintf(c->text_expected, sizeof(c->text_expected), "%s", buf + used);
@@ -247,6 +249,28 @@ static bool next_case(FILE *f, int *table_line, struct ini_case *c)
 	}
 	fseek(f, start, SEEK_SET);
 	return true;
+}
+
+/* An accepted case's "section.key value": the key as the loader read it. */
+static void expect_case_value(const struct ini_case *c, const struct omni4_config *cfg)
+{
+	char dotted[64], value[CONFIG_VALUE_MAX];
+	const char *space = strchr(c->text_expected, ' ');
+
+	assert_non_null(space);
+	snprintf(dotted, sizeof(dotted), "%.*s", (int)(space - c->text_expected), c->text_expected);
+	const int k = config_key_find(dotted);
+
+	if (k < 0)
+		fail_msg("ini_cases.txt:%d: no key %s", c->at, dotted);
+	/* a string as read (config_key_format refuses one the writer could not write back) */
+	if (config_key_at(k)->type == CONFIG_STRING)
+		snprintf(value, sizeof(value), "%s", (const char *)cfg + config_key_at(k)->offset);
+	else if (config_key_format(cfg, k, value, sizeof(value)))
+		fail_msg("ini_cases.txt:%d: %s cannot be formatted", c->at, dotted);
+	if (strcmp(value, space + 1))
+		fail_msg("ini_cases.txt:%d: %s is '%s', expected '%s'", c->at, dotted, value,
+		         space + 1);
 }
 
 /* The table both readers run (python/tests/test_ini.py runs it on omni4.ini). */
@@ -275,6 +299,8 @@ static void test_shared_ini_cases(void **state)
 		snprintf(where, sizeof(where), "case.ini:%d: ", c.line);
 		if (c.accept && rc)
 			fail_msg("ini_cases.txt:%d: refused: %s", c.at, err.msg);
+		if (c.accept && c.text_expected[0])
+			expect_case_value(&c, &cfg);
 		if (!c.accept &&
 		    (!rc || err.line != c.line || strncmp(err.msg, where, strlen(where)) ||
 		     !strstr(err.msg + strlen(where), c.text_expected)))
