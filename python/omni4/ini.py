@@ -78,19 +78,51 @@ def _first_error(text, e):
     return e
 
 
-def read(path):
-    """The INI file at path as an Ini; ConfigError when it cannot be read or is malformed."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
-    lines = text.splitlines()
+def _continuation(lines):
+    """inih's continuation line: after a key, before the next [section], a line that starts with
+    white space and is neither blank nor a comment (blank and comment lines between do not end
+    the key). The C loader takes it as the key given again; configparser as part of the value,
+    or after a blank or comment line as a new key. (line, section, key) of the first, or None."""
+    section = key = None
+    for no, raw in enumerate(lines, 1):
+        text = raw.strip()
+        if not text or text[0] in ";#":
+            continue
+        if key is not None and raw[0] in " \t":
+            return no, section, key
+        if text[0] == "[":
+            section, key = text[1:].split("]", 1)[0], None
+            continue
+        m = re.match(r"([^=:]*?)\s*[=:]", text)
+        if m and section is not None:
+            key = m.group(1)
+    return None
+
+
+def _parse(path, text, lines):
+    """text parsed by configparser (strict); ConfigError at its first error."""
     p = _parser()
     try:
         p.read_string(text, source=str(path))
     except configparser.Error as e:
         raise ConfigError(_one_line(path, _first_error(text, e), lines)) from None
+    return p
+
+
+def read(path):
+    """The INI file at path as an Ini; ConfigError when it cannot be read or is malformed."""
+    try:
+        with open(path, encoding="utf-8-sig") as fh:  # a BOM skipped, as inih does
+            text = fh.read()
+    except (OSError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
+    lines = text.splitlines()
+    cont = _continuation(lines)
+    if cont:  # an error before it is the first; else the key given again, as C says
+        no, section, key = cont
+        _parse(path, "".join(text.splitlines(True)[:no - 1]), lines)
+        raise ConfigError(f"{path}:{no}: duplicate key '{key}' in [{section}]")
+    p = _parse(path, text, lines)
     sections = {s: dict(p.items(s)) for s in p.sections()}
     return Ini(path, sections, _key_lines(p, lines))
 

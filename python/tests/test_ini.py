@@ -85,6 +85,13 @@ def test_unreadable_files(tmp_path):
         ini.read(str(tmp_path))
 
 
+def test_a_utf8_bom_is_skipped_as_inih_does(tmp_path):
+    f = ini.read(write(tmp_path, b"\xef\xbb\xbf[lcm]\nurl = x\n", mode="wb"))
+    assert f.sections == {"lcm": {"url": "x"}} and f.line("lcm") == 1
+    with pytest.raises(ini.ConfigError, match=r":2: duplicate section \[lcm\]$"):
+        ini.read(write(tmp_path, b"\xef\xbb\xbf[lcm]\n[lcm]\n", mode="wb"))
+
+
 def test_no_default_section_and_no_interpolation(tmp_path):
     f = ini.read(write(tmp_path, "[DEFAULT]\nk = 1\n[a]\nj = %(k)s 100%\n"))
     assert f.sections == {"DEFAULT": {"k": "1"}, "a": {"j": "%(k)s 100%"}}

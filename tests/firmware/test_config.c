@@ -182,6 +182,20 @@ static void test_supply_rule_is_reported_with_a_line(void **state)
 	             "invalid value for 'supply_min_v' in [limits]: must be below supply_v");
 }
 
+/* A UTF-8 BOM is skipped (inih does; so does omni4.ini), also by the repeated-section check. */
+static void test_a_utf8_bom_is_skipped(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_int_equal(
+	    config_load_string("\xEF\xBB\xBF[loop]\nrate_hz = 500\n", "robot.ini", &cfg, &err), 0);
+	assert_near(cfg.ctl.rate_hz, 500.0, 0);
+	expect_error("\xEF\xBB\xBF[loop]\n[loop]\n", -EINVAL, 2, "duplicate section [loop]");
+}
+
 /* The first error in the file is the one reported, whichever kind it is. */
 static void test_first_error_in_the_file_is_reported(void **state)
 {
@@ -385,6 +399,7 @@ int main(void)
 	    cmocka_unit_test(test_duplicate_key_and_syntax_error),
 	    cmocka_unit_test(test_supply_rule_is_reported_with_a_line),
 	    cmocka_unit_test(test_first_error_in_the_file_is_reported),
+	    cmocka_unit_test(test_a_utf8_bom_is_skipped),
 	    cmocka_unit_test(test_directory_is_refused),
 	    cmocka_unit_test(test_shared_ini_cases),
 	    cmocka_unit_test(test_missing_file_is_enoent),
