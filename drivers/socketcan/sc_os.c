@@ -9,6 +9,7 @@
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
@@ -102,4 +103,24 @@ int sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
 int64_t sc_os_now_us(void)
 {
 	return omni4_monotonic_us();
+}
+
+const char *sc_os_strerror(int rc, char *buf, size_t n)
+{
+	const char *hint = "";
+
+	if (rc == -EAFNOSUPPORT || rc == -EPROTONOSUPPORT)
+		hint =
+		    " (this kernel has no CAN support: load the can and can_raw modules, or use a "
+		    "kernel with CONFIG_CAN; for a test bus see docs/can.md)";
+	else if (rc == -ENODEV)
+		hint =
+		    " (no network interface of that name: 'ip link' lists them; [can] iface names "
+		    "it; for a test bus see docs/can.md)";
+	else if (rc == -ENETDOWN)
+		hint =
+		    " (the interface is down: 'ip link set IFACE up', with its bitrate for a real "
+		    "bus; see docs/can.md)";
+	snprintf(buf, n, "%s%s", strerror(-rc), hint);
+	return buf;
 }

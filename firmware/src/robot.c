@@ -64,7 +64,10 @@ static int open_socketcan(struct robot *r, const struct robot_spec *spec, char *
 	const int rc = socketcan_motor_open(&r->can, cs->iface, cs->status_timeout_ms);
 
 	if (rc) {
-		snprintf(why, n, "CAN interface '%s': %s", cs->iface, strerror(-rc));
+		char text[256];
+
+		snprintf(why, n, "CAN interface '%s': %s", cs->iface,
+		         sc_os_strerror(rc, text, sizeof(text)));
 		return -1;
 	}
 	r->motor = socketcan_motor_hal(&r->can);

@@ -1,7 +1,44 @@
 """omni4.ini: the one robot INI reader of the package, strict as omni4-fw's loader."""
+import pathlib
+
 import pytest
 
 from omni4 import ini
+
+CASES = pathlib.Path(__file__).resolve().parents[2] / "tests" / "config" / "ini_cases.txt"
+
+
+def shared_cases():
+    """tests/config/ini_cases.txt, the table omni4-fw's loader runs too (test_config): one
+    (table line, accept, line, text expected, INI text) per case."""
+    out, case = [], None
+    for no, raw in enumerate(CASES.read_text().splitlines(True), 1):
+        if raw.startswith("=== "):
+            words = raw.split(maxsplit=3)
+            accept = words[1] == "accept"
+            rest = raw.rstrip("\n").split(" ", 2 if accept else 3)
+            case = [no, accept, 0 if accept else int(words[2]),
+                    rest[-1] if len(rest) > (2 if accept else 3) else "", ""]
+            out.append(case)
+        elif case is not None:
+            case[4] += raw
+    return [pytest.param(*c, id=f"ini_cases.txt:{c[0]}") for c in out]
+
+
+@pytest.mark.parametrize("at, accept, line, expected, text", shared_cases())
+def test_shared_ini_cases(tmp_path, at, accept, line, expected, text):
+    p = write(tmp_path, text, name="case.ini")
+    if accept:
+        f = ini.read(p)
+        if expected:  # "section.key value"
+            dotted, value = expected.split(" ", 1)
+            section, key = dotted.split(".")
+            assert f.section(section).get(key) == value, at
+        return
+    with pytest.raises(ini.ConfigError) as e:
+        ini.read(p)
+    where = f"{p}:{line}: "
+    assert str(e.value).startswith(where) and expected in str(e.value)[len(where):], at
 
 
 def write(tmp_path, text, name="robot.ini", mode="w"):
@@ -11,7 +48,7 @@ def write(tmp_path, text, name="robot.ini", mode="w"):
 
 
 def test_sections_keys_lines_and_comments(tmp_path):
-    p = write(tmp_path, "; robot\n\n[model]\nKv = 0.0259 ; inline\nR: 4.3 # also inline\n"
+    p = write(tmp_path, "; robot\n\n[model]\nKv = 0.0259 ; inline\nR: 4.3 ; also inline\n"
                         "# comment\n[lcm]\nurl = udpm://239.255.76.67:7000?ttl=0\n")
     f = ini.read(p)
     assert f.sections == {"model": {"Kv": "0.0259", "R": "4.3"},
@@ -46,6 +83,13 @@ def test_unreadable_files(tmp_path):
         ini.read(p)
     with pytest.raises(ini.ConfigError, match="cannot read"):
         ini.read(str(tmp_path))
+
+
+def test_a_utf8_bom_is_skipped_as_inih_does(tmp_path):
+    f = ini.read(write(tmp_path, b"\xef\xbb\xbf[lcm]\nurl = x\n", mode="wb"))
+    assert f.sections == {"lcm": {"url": "x"}} and f.line("lcm") == 1
+    with pytest.raises(ini.ConfigError, match=r":2: duplicate section \[lcm\]$"):
+        ini.read(write(tmp_path, b"\xef\xbb\xbf[lcm]\n[lcm]\n", mode="wb"))
 
 
 def test_no_default_section_and_no_interpolation(tmp_path):

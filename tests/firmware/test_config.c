@@ -31,6 +31,11 @@ static void expect_error(const char *text, int rc, int line, const char *fragmen
 	assert_int_equal(err.line, line);
 	if (!strstr(err.msg, fragment))
 		fail_msg("message '%s' lacks '%s'", err.msg, fragment);
+	char where[32];
+
+	snprintf(where, sizeof(where), "robot.ini:%d: ", line);
+	if (line > 0 && strncmp(err.msg, where, strlen(where)))
+		fail_msg("message '%s' does not start with '%s'", err.msg, where);
 }
 
 static void test_good_file_overrides_defaults(void **state)
@@ -109,7 +114,7 @@ static void test_resistance_boundary_zero_refused_positive_taken(void **state)
 	char *p = strstr(text, "R = 3.5");
 
 	memcpy(p, "R = 0  ", 7);
-	expect_error(text, -EINVAL, 0, "invalid value for 'R' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 8, "invalid value for 'R' in [model]: must be > 0");
 	char small[1100];
 	const char *rest = strstr(good, "R = 3.5") + strlen("R = 3.5");
 
@@ -149,7 +154,9 @@ static void test_out_of_range_value_is_rejected(void **state)
 static void test_missing_model_key_is_named(void **state)
 {
 	(void)state;
-	expect_error("[model]\nd = 0.1\nr = 0.03\n", -EINVAL, 0, "missing key 'l' in [model]");
+	/* at the [model] header: the section that lacks it */
+	expect_error("; robot\n[model]\nd = 0.1\nr = 0.03\n", -EINVAL, 2,
+	             "missing key 'l' in [model]");
 }
 
 static void test_negative_resistance_is_rejected(void **state)
@@ -161,7 +168,162 @@ static void test_negative_resistance_is_rejected(void **state)
 	char *p = strstr(text, "R = 3.5");
 
 	memcpy(p, "R =-3.5", 7);
-	expect_error(text, -EINVAL, 0, "invalid value for 'R' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 8, "invalid value for 'R' in [model]: must be > 0");
+}
+
+/* The one rule across two keys (supply_min_v < supply_v) blames supply_min_v's line, or
+ * supply_v's when supply_min_v is the default. */
+static void test_supply_rule_is_reported_with_a_line(void **state)
+{
+	(void)state;
+	expect_error("[limits]\nsupply_v = 12\n\nsupply_min_v = 12\n", -EINVAL, 4,
+	             "invalid value for 'supply_min_v' in [limits]: must be below supply_v");
+	expect_error("[loop]\nrate_hz = 500\n[limits]\nsupply_v = 5\n", -EINVAL, 4,
+	             "invalid value for 'supply_min_v' in [limits]: must be below supply_v");
+}
+
+/* A UTF-8 BOM is skipped (inih does; so does omni4.ini), also by the repeated-section check. */
+static void test_a_utf8_bom_is_skipped(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	config_defaults(&cfg);
+	assert_int_equal(
+	    config_load_string("\xEF\xBB\xBF[loop]\nrate_hz = 500\n", "robot.ini", &cfg, &err), 0);
+	assert_near(cfg.ctl.rate_hz, 500.0, 0);
+	expect_error("\xEF\xBB\xBF[loop]\n[loop]\n", -EINVAL, 2, "duplicate section [loop]");
+}
+
+/* The first error in the file is the one reported, whichever kind it is. */
+static void test_first_error_in_the_file_is_reported(void **state)
+{
+	(void)state;
+	expect_error("[loop]\nrate_hz 500\nnope = 1\n", -EINVAL, 2, "syntax error");
+	expect_error("[loop]\nnope = 1\nrate_hz 500\n", -EINVAL, 2, "unknown key 'nope'");
+}
+
+/* A directory given as the file is refused (fopen takes it; its read fails), not read as an
+ * empty file with the defaults. */
+static void test_directory_is_refused(void **state)
+{
+	(void)state;
+	char dir[] = "/tmp/omni4_test_config_dir_XXXXXX";
+	struct omni4_config cfg;
+	struct config_error err;
+
+	assert_non_null(mkdtemp(dir));
+	config_defaults(&cfg);
+	assert_int_equal(config_load(dir, &cfg, &err), -EISDIR);
+	assert_non_null(strstr(err.msg, ": cannot read: Is a directory"));
+	assert_int_equal(config_load_partial(dir, &cfg, &(uint32_t){0}, &err), -EISDIR);
+	rmdir(dir);
+}
+
+/* One case of tests/config/ini_cases.txt: its text, and what the reader must say. */
+struct ini_case {
+	int at; /* line of its "===" in the table */
+	bool accept;
+	int line;
+	char text_expected[96]; /* refuse: in the message; accept: "section.key value" */
+	char ini[1024];
+};
+
+/* The next case of the table from f into c; false at its end. */
+static bool next_case(FILE *f, int *table_line, struct ini_case *c)
+{
+	char buf[256];
+	long start;
+
+	do {
+		if (!fgets(buf, sizeof(buf), f))
+			return false;
+		++*table_line;
+	} while (strncmp(buf, "=== ", 4));
+	memset(c, 0, sizeof(*c));
+	c->at = *table_line;
+	buf[strcspn(buf, "\n")] = '\0';
+	int used = 0;
+
+	c->accept = !strncmp(buf, "=== accept", 10) && (!buf[10] || buf[10] == ' ');
+	if (c->accept)
+		used = buf[10] ? 11 : 0;
+	else if (sscanf(buf, "=== refuse %d %n", &c->line, &used) != 1)
+		fail_msg("ini_cases.txt:%d: neither accept nor refuse LINE", c->at);
+	if (used)
+		snprintf(c->text_expected, sizeof(c->text_expected), "%s", buf + used);
+	for (;;) {
+		start = ftell(f);
+		if (!fgets(buf, sizeof(buf), f) || !strncmp(buf, "=== ", 4))
+			break;
+		++*table_line;
+		assert_true(strlen(c->ini) + strlen(buf) < sizeof(c->ini));
+		strcat(c->ini, buf);
+	}
+	fseek(f, start, SEEK_SET);
+	return true;
+}
+
+/* An accepted case's "section.key value": the key as the loader read it. */
+static void expect_case_value(const struct ini_case *c, const struct omni4_config *cfg)
+{
+	char dotted[64], value[CONFIG_VALUE_MAX];
+	const char *space = strchr(c->text_expected, ' ');
+
+	assert_non_null(space);
+	snprintf(dotted, sizeof(dotted), "%.*s", (int)(space - c->text_expected), c->text_expected);
+	const int k = config_key_find(dotted);
+
+	if (k < 0)
+		fail_msg("ini_cases.txt:%d: no key %s", c->at, dotted);
+	/* a string as read (config_key_format refuses one the writer could not write back) */
+	if (config_key_at(k)->type == CONFIG_STRING)
+		snprintf(value, sizeof(value), "%s", (const char *)cfg + config_key_at(k)->offset);
+	else if (config_key_format(cfg, k, value, sizeof(value)))
+		fail_msg("ini_cases.txt:%d: %s cannot be formatted", c->at, dotted);
+	if (strcmp(value, space + 1))
+		fail_msg("ini_cases.txt:%d: %s is '%s', expected '%s'", c->at, dotted, value,
+		         space + 1);
+}
+
+/* The table both readers run (python/tests/test_ini.py runs it on omni4.ini). */
+static void test_shared_ini_cases(void **state)
+{
+	(void)state;
+	const char *src = getenv("OMNI4_SOURCE_DIR");
+	char path[512];
+
+	assert_non_null(src);
+	snprintf(path, sizeof(path), "%s/tests/config/ini_cases.txt", src);
+	FILE *f = fopen(path, "r");
+	struct ini_case c;
+	int table_line = 0, n = 0;
+
+	assert_non_null(f);
+	while (next_case(f, &table_line, &c)) {
+		struct omni4_config cfg;
+		struct config_error err;
+		char where[32];
+
+		config_defaults(&cfg);
+		const int rc = config_load_string(c.ini, "case.ini", &cfg, &err);
+
+		n++;
+		snprintf(where, sizeof(where), "case.ini:%d: ", c.line);
+		if (c.accept && rc)
+			fail_msg("ini_cases.txt:%d: refused: %s", c.at, err.msg);
+		if (c.accept && c.text_expected[0])
+			expect_case_value(&c, &cfg);
+		if (!c.accept &&
+		    (!rc || err.line != c.line || strncmp(err.msg, where, strlen(where)) ||
+		     !strstr(err.msg + strlen(where), c.text_expected)))
+			fail_msg("ini_cases.txt:%d: expected line %d '%s', got %d: '%s'", c.at,
+			         c.line, c.text_expected, rc ? err.line : 0,
+			         rc ? err.msg : "accepted");
+	}
+	fclose(f);
+	assert_true(n >= 10);
 }
 
 static void test_duplicate_key_and_syntax_error(void **state)
@@ -235,6 +397,11 @@ int main(void)
 	    cmocka_unit_test(test_missing_model_key_is_named),
 	    cmocka_unit_test(test_negative_resistance_is_rejected),
 	    cmocka_unit_test(test_duplicate_key_and_syntax_error),
+	    cmocka_unit_test(test_supply_rule_is_reported_with_a_line),
+	    cmocka_unit_test(test_first_error_in_the_file_is_reported),
+	    cmocka_unit_test(test_a_utf8_bom_is_skipped),
+	    cmocka_unit_test(test_directory_is_refused),
+	    cmocka_unit_test(test_shared_ini_cases),
 	    cmocka_unit_test(test_missing_file_is_enoent),
 	    cmocka_unit_test(test_written_model_section_reads_back_exactly),
 	};

@@ -8,6 +8,7 @@
 #define OMNI4_SC_OS_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "omni4/can_proto.h"
@@ -26,5 +27,9 @@ int sc_os_send(int fd, const struct omni4_can_frame *f);
 int sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class);
 /* CLOCK_MONOTONIC [us]. */
 int64_t sc_os_now_us(void);
+/* The message for rc (a negative errno of the functions above) in buf, which it returns:
+ * strerror's text, with what to check for the errors a first set-up meets (a kernel without
+ * CAN, an interface that does not exist or is down). */
+const char *sc_os_strerror(int rc, char *buf, size_t n);
 
 #endif /* OMNI4_SC_OS_H */

@@ -30,6 +30,7 @@
 #include "omni4/can_proto.h"
 #include "omni4/ctl_settings.h"
 #include "omni4/hal.h"
+#include "omni4/sc_os.h"
 
 /* Frames drained per read: 64 per millisecond since the previous read (a real 1 Mbit/s bus
  * carries at most 7.4 frames per ms), at most 4 ms' worth (256 frames, a real bus's backlog of
@@ -109,7 +110,7 @@ struct socketcan_motor {
 
 extern const struct motor_hal_ops socketcan_motor_ops;
 
-/* Start-up. -ENODEV etc. from the socket layer; the message helper is strerror(-rc). */
+/* Start-up. -ENODEV etc. from the socket layer; the message helper is sc_os_strerror(). */
 int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms);
 
 /* Replace the plausibility limits (after open; the default is sc_limits_default()). -EINVAL

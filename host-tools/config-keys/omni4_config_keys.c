@@ -2,13 +2,15 @@
  * omni4-config-keys - the INI key table as text, generated from the table itself (config.h): a
  * Markdown table for docs/ini-keys.md, or one JSON object per key. The docs' table is this
  * program's output (tests/host/check_ini_doc.py compares and, with --write, rewrites it).
- * usage: omni4-config-keys --markdown | --json
+ * A tool beside omni4-record: the same option loop (omni4/getopt_exact.h) and --version.
  */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "omni4/config.h"
+#include "omni4/getopt_exact.h"
+#include "omni4/version.h"
 
 static const char *type_name(enum config_key_type t)
 {
@@ -106,15 +108,72 @@ static void print_key(const struct config_key *k, const char *def, const char *r
 	printf("}\n");
 }
 
-int main(int argc, char **argv)
+static void usage(FILE *f)
 {
-	const bool json = argc == 2 && !strcmp(argv[1], "--json");
-	struct omni4_config cfg;
+	fprintf(f, "usage: omni4-config-keys --markdown | --json\n"
+	           "Prints the robot INI's key table (section, key, type, unit, range or choices,\n"
+	           "default, when a change takes effect, description), generated from the table\n"
+	           "omni4-fw's loader reads with: docs/ini-keys.md's table is its output.\n"
+	           "  -m, --markdown   a Markdown table\n"
+	           "  -j, --json       one JSON object per key, one per line\n"
+	           "  -h, --help       this text\n"
+	           "      --version    the version and the git description it was built from\n"
+	           "example: omni4-config-keys --json | grep '\"section\": \"limits\"'\n");
+}
 
-	if (argc != 2 || (!json && strcmp(argv[1], "--markdown"))) {
-		fprintf(stderr, "usage: omni4-config-keys --markdown | --json\n");
+/* The command line: -1 to go on with *json set, else the exit status (0 after --help or
+ * --version, 2 for a usage error). */
+static int parse_args(int argc, char **argv, bool *json)
+{
+	static const struct option opts[] = {
+	    {"markdown", no_argument, NULL, 'm'},
+	    {"json", no_argument, NULL, 'j'},
+	    {"help", no_argument, NULL, 'h'},
+	    {"version", no_argument, NULL, 'V'},
+	    {NULL, 0, NULL, 0},
+	};
+	int c, formats = 0;
+
+	while ((c = omni4_getopt_long("omni4-config-keys", argc, argv, "mjh", opts)) != -1) {
+		switch (c) {
+		case 'm':
+		case 'j':
+			*json = c == 'j';
+			formats++;
+			break;
+		case 'h':
+			usage(stdout);
+			return 0;
+		case 'V':
+			printf("omni4-config-keys %s\n", OMNI4_VERSION);
+			return 0;
+		default: /* '?': omni4_getopt_long said what */
+			return 2;
+		}
+	}
+	if (optind != argc) {
+		fprintf(stderr,
+		        "omni4-config-keys: unexpected argument '%s' (see omni4-config-keys "
+		        "--help)\n",
+		        argv[optind]);
 		return 2;
 	}
+	if (formats != 1) {
+		fprintf(stderr, "omni4-config-keys: give one of --markdown or --json (see "
+		                "omni4-config-keys --help)\n");
+		return 2;
+	}
+	return -1;
+}
+
+int main(int argc, char **argv)
+{
+	bool json = false;
+	struct omni4_config cfg;
+	const int rc = parse_args(argc, argv, &json);
+
+	if (rc >= 0)
+		return rc;
 	config_defaults(&cfg);
 	if (!json)
 		printf("| section | key | type | unit | range / choices | default | change | "
