@@ -325,8 +325,9 @@ int main(int argc, char **argv)
 		return status;
 	const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
 	if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
+		char why[256];
 		std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
-		             std::strerror(-rc));
+		             sc_os_strerror(rc, why, sizeof why));
 		return 1;
 	}
 	std::signal(SIGINT, on_signal);

@@ -62,6 +62,9 @@ else
   expect 1 stderr 1 "CAN interface 'omni4none0': Address family not supported by protocol \(this kernel has no CAN support: load the can and can_raw modules, or use a kernel with CONFIG_CAN; for a test bus see docs/can.md\)$" -- \
     "$BIN/omni4-fw" --config "$T/can.ini" --duration 1
 fi
+# omni4-motorsim opens the bus through the same adapter and says the same.
+expect 1 stderr 1 "^omni4-motorsim: CAN interface 'omni4none0': (No such device \(no network interface|Address family not supported by protocol \(this kernel has no CAN support)" -- \
+  "$BIN/omni4-motorsim" --iface omni4none0
 
 echo "cli_first_use: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
