@@ -17,11 +17,13 @@ waited for.
 Refused commands. The controller refuses (and ignores: the previous command stays in force, the
 watchdog then stops the robot) a command out of its limits, not finite, or not allowed in its
 mode; it says so only by the FAULT_CMD_REJECTED bit (0x0400) in the samples that follow. This
-client makes a refusal an exception, CommandRejected (a ValueError):
+client makes a refusal an exception, CommandRejected (a ValueError, so `except ValueError`
+code still catches it):
 
-- before sending: velocity() and voltage() compare the command with the controller's
-  `[limits]` (vel_lin_max, vel_rot_max, supply_v, read with a GET on the first command and
-  followed on OMNI4_PARAM_CHANGED) and ramp_s with [0, 60] s, and raise naming the limit
+- before sending: velocity() and voltage() refuse a NaN or infinite value, and compare the
+  command with the controller's `[limits]` (vel_lin_max, vel_rot_max, supply_v, read with a
+  GET on the first command and followed on OMNI4_PARAM_CHANGED) and ramp_s with [0, 60] s,
+  and raise naming the limit
   ("v 100 m/s beyond [limits] vel_lin_max 3 m/s"); nothing is sent, the command kept alive
   before stays so. If the controller does not answer the GET, the check is skipped (the GET
   is tried again 5 s later).
@@ -84,12 +86,11 @@ def _describe(msg):
     return f"mode {msg.mode}"
 
 
-def _finite(name, values, n):
+def _values(name, values, n):
+    """The n values as floats; ValueError if there are not n (a call that is no command)."""
     vals = [float(x) for x in values]
     if len(vals) != n:
         raise ValueError(f"{name}: {n} values expected, got {len(vals)}")
-    if not all(math.isfinite(x) for x in vals):
-        raise ValueError(f"{name}: values must be finite, got {vals}")
     return vals
 
 
@@ -170,7 +171,8 @@ class Robot:
         self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VELOCITY
-        msg.velocity = _finite("velocity", (v_m_s, vn_m_s, w_rad_s), 3)
+        msg.velocity = _values("velocity", (v_m_s, vn_m_s, w_rad_s), 3)
+        self._refuse_nonfinite(msg, "velocity", msg.velocity)
         lim = self._known_limits()
         if lim:
             for name, x, key, unit in (("v", msg.velocity[0], "vel_lin_max", "m/s"),
@@ -189,8 +191,9 @@ class Robot:
         self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VOLTAGE
-        msg.voltage = _finite("voltage", volts, 4)
-        msg.ramp_s = _finite("ramp_s", (ramp_s,), 1)[0]
+        msg.voltage = _values("voltage", volts, 4)
+        msg.ramp_s = _values("ramp_s", (ramp_s,), 1)[0]
+        self._refuse_nonfinite(msg, "voltage", msg.voltage + [msg.ramp_s])
         if not 0.0 <= msg.ramp_s <= RAMP_MAX_S:
             self._refuse(f"{_describe(msg)}: ramp_s {msg.ramp_s:g} s outside [0, {RAMP_MAX_S:g}] s")
         top = (self._known_limits() or {}).get("limits.supply_v")
@@ -218,6 +221,12 @@ class Robot:
         """The controller's limits this client checks commands against ({key: value}; empty
         when unknown or disabled)."""
         return dict(self._known_limits() or {})
+
+    def _refuse_nonfinite(self, msg, name, vals):
+        """CommandRejected, nothing sent, if a value is NaN or infinite (the controller
+        refuses such a command whole)."""
+        if not all(math.isfinite(x) for x in vals):
+            self._refuse(f"{_describe(msg)}: {name} values must be finite")
 
     def _refuse(self, reason, msg=None):
         with self._lock:
