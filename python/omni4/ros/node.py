@@ -287,9 +287,11 @@ class Omni4Ros:
     # ---- ROS side ----------------------------------------------------------------------------
     def _on_cmd_vel(self, msg):
         with self._lock:
-            cmd, why = self.gate.check(msg.linear.x, msg.linear.y, msg.angular.z)
-        if why:
-            self.log.warn(why, throttle_duration_sec=1.0)
+            cmd, line = self.gate.take(msg.linear.x, msg.linear.y, msg.angular.z)
+        # Throttled per kind by the gate (rclpy's throttle is one per call site: a NaN stream
+        # would hide every clamp).
+        if line:
+            self.log.warn(line)
         if cmd is None:
             return
         with self._lock:
