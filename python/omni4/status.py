@@ -180,7 +180,9 @@ def report(url, w, model):
         f"voltage [V]: {_vec(m.voltage)}",
         f"wheel speed [rad/s]: {_vec(m.wheel_speed)}",
     ]
-    if model is None:
+    if model is False:
+        lines.append("parameters: not asked (the robot fell silent)")
+    elif model is None:
         lines.append("parameters: no answer")
     else:
         lines.append("model: " + " ".join(
@@ -252,7 +254,10 @@ def _main(argv):
                                  f"{args.listen:g} s: is omni4-fw running?\n")
                 return 1
         else:
-            lines = report(args.lcm, w, read_model(args.lcm, args.timeout))
+            # A robot silent for half the time already is not asked: the unanswered request
+            # would hold back the "no robot answers" line by up to 2 x --timeout.
+            quiet = silence.clock() - silence.last >= NO_ROBOT_S / 2
+            lines = report(args.lcm, w, False if quiet else read_model(args.lcm, args.timeout))
             if tty and silence.lost_at is not None:
                 lines.append(f"last silence: {silence.gap_s:.1f} s without {CHANNEL_MOTORS}")
             block = time.strftime("%H:%M:%S ") + "\n".join(lines) + "\n"
