@@ -98,11 +98,11 @@ def _values(name, values, n):
 CLEAR_HINTS = (
     (motors_t.FAULT_OVERCURRENT, "a current above [limits] current_max_a"),
     (motors_t.FAULT_CURRENT_SENSOR, "a current sensor at its rail, or a current-sense offset "
-     "beyond 0.25 A (taken once a measured set within the limit is in force)"),
+     "beyond 0.25 A; a clear is taken once a measured set within the limit is in force"),
     (motors_t.FAULT_DRIVER_TIMEOUT, "a motor driver is silent"),
     (motors_t.FAULT_DRIVER, "a motor driver reports a fault"),
     (motors_t.FAULT_BUS, "the bus to the drivers is down, or another controller publishes "
-     "OMNI4_MOTORS on this URL (taken 1 s after it is silent)"),
+     "OMNI4_MOTORS on this URL; a clear is taken 1 s after it falls silent"),
     (motors_t.FAULT_ENCODER, "an encoder reading is implausible"),
     (motors_t.FAULT_SUPPLY, "the supply is below [limits] supply_min_v"),
 )

@@ -167,6 +167,15 @@ def test_clear_fault_refused_while_a_current_sensor_fault_is_present(omni4_bin, 
                                    "a latching fault is still present: CURRENT_SENSOR (")
         assert "0.25 A" in r.stderr
         assert fw.bus.wait(lambda m: True, 1.0).mode == FAULT
+        # the same from Python: a clear refused with the reason, a command in FAULT refused
+        with omni4.Robot(fw.url, limits=False) as robot:
+            with pytest.raises(omni4.CommandRejected, match=r"clear_fault\(\) refused by the "
+                               r"controller on .*: still FAULT: .*CURRENT_SENSOR"):
+                robot.clear_fault(timeout_s=2.0)
+            with pytest.raises(omni4.CommandRejected, match=r"the robot is in FAULT .*omni4-param "
+                                                            r"clear-fault"):
+                robot.velocity(0.1, 0, 0, wait=True)
+            assert robot.rejected == 2
     finally:
         fw.stop()
 
