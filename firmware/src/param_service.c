@@ -198,6 +198,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 		if (q->n > PARAM_MAX_KEYS) {
 			snprintf(why, sizeof(why), "%d keys in one request: at most %d", q->n,
 			         PARAM_MAX_KEYS);
+			atomic_fetch_add(&ps->n.bad, 1);
 			simple_reply(ps, q->request_id, q->op,
 			             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 			return;
@@ -208,6 +209,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 			if (key < 0) {
 				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
 				         q->keys[i]);
+				atomic_fetch_add(&ps->n.bad, 1);
 				simple_reply(ps, q->request_id, q->op,
 				             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 				return;

@@ -320,13 +320,18 @@ commands:
   save                          write the values in force to the robot's INI (atomically)
   load PARAMS.ini               apply the keys of an INI file (e.g. omni4-ident identify --out)
   dump                          the values in force as INI text (> robot.ini)
+  clear-fault                   MODE_CLEAR_FAULT: FAULT / ESTOP -> IDLE once the cause is gone;
+                                a refusal says why (e-stop still asserted, a fault's cause present)
 
 Keys are the INI's section.key (control.kp, model.R, ...). Rules: live = in any mode, idle =
-only while the bridges are not driven, restart = only in the INI. Exit status: 0 done, 1 refused
-by the robot or no answer, 2 usage or configuration error, 141 when stdout is closed early
-(omni4-param list | head: quiet, as a tool killed by SIGPIPE). The secret can also come from
-$OMNI4_PARAM_SECRET (so it does not show in the process list).
-example: omni4-param set control.kp 30 && omni4-param save"""
+only while the bridges are not driven, restart = only in the INI. Exit status: 0 done
+(clear-fault: out of FAULT / ESTOP, or nothing to clear), 1 refused by the robot or no answer,
+2 usage or configuration error, 141 when stdout is closed early (omni4-param list | head:
+quiet, as a tool killed by SIGPIPE). The secret can also come from $OMNI4_PARAM_SECRET (so it
+does not show in the process list). clear-fault waits --timeout for a sample, then for the
+verdict, and sends nothing but the clear.
+example: omni4-param set control.kp 30 && omni4-param save
+example: omni4-param clear-fault"""
 
 
 def _build_parser():
@@ -338,8 +343,8 @@ def _build_parser():
     p.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="wait for one answer [s] (default 1; 3 tries)")
     p.add_argument("--version", action="store_true", help="print the version and exit")
-    p.add_argument("command", choices=["list", "get", "set", "save", "load", "dump"],
-                   metavar="COMMAND")
+    p.add_argument("command", choices=["list", "get", "set", "save", "load", "dump",
+                                       "clear-fault"], metavar="COMMAND")
     p.add_argument("args", nargs="*", metavar="ARG")
     return p
 
@@ -366,7 +371,7 @@ def main(argv=None):
 def _usage_error(args):
     """What is wrong with the command line, or None."""
     n = len(args.args)
-    if args.command in ("list", "save", "dump") and n:
+    if args.command in ("list", "save", "dump", "clear-fault") and n:
         return f"{args.command} takes no arguments"
     if args.command == "get" and n < 1:
         return "get needs KEY"
@@ -388,6 +393,8 @@ def _main(argv=None):
     error = _usage_error(args)
     if error:
         return usage("omni4-param", error)
+    if args.command == "clear-fault":
+        return _clear_fault(args.lcm, args.timeout, sys.stdout)
     secret = args.secret if args.secret is not None else os.environ.get("OMNI4_PARAM_SECRET")
     text = None
     if args.command == "load":
@@ -432,6 +439,40 @@ def _main(argv=None):
         return 1
     finally:
         client.close()
+    return 0
+
+
+def _clear_fault(url, timeout_s, out):
+    """omni4-param clear-fault: what omni4.Robot.clear_fault() does, said in one line; sends
+    nothing else (no IDLE: another client's drive outside FAULT goes on). 0 out of FAULT (or
+    nothing to clear), 1 refused (why on stderr) or no controller, 2 a bad LCM URL."""
+    from . import motors_t
+    from .robot import CommandRejected, Robot
+    from .status import MODE_NAMES, fault_names
+    try:
+        robot = Robot(url, limits=False)
+    except (RuntimeError, ValueError) as e:
+        return usage("omni4-param", str(e))
+    try:
+        before = robot.wait_motors(lambda m: True, timeout_s, what="an OMNI4_MOTORS sample")
+        m = robot.clear_fault(timeout_s=timeout_s)
+    except TimeoutError:
+        sys.stderr.write(f"omni4-param: clear-fault: no OMNI4_MOTORS on {url} within "
+                         f"{timeout_s:g} s (is omni4-fw running on this URL?)\n")
+        return 1
+    except CommandRejected as e:
+        sys.stderr.write(f"omni4-param: clear-fault refused: {e.reason.split(': ', 1)[1]}\n")
+        return 1
+    finally:
+        robot.close(stop=False)
+
+    def state(s):
+        names = " ".join(fault_names(s.faults)) or "no faults"
+        return f"{MODE_NAMES.get(s.mode, s.mode)}, {names}"
+    if before.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP):
+        out.write(f"cleared: {state(m)} (was {state(before)})\n")
+    else:
+        out.write(f"nothing to clear: {state(m)} (latched bits and warnings reset)\n")
     return 0
 
 

@@ -17,11 +17,13 @@ waited for.
 Refused commands. The controller refuses (and ignores: the previous command stays in force, the
 watchdog then stops the robot) a command out of its limits, not finite, or not allowed in its
 mode; it says so only by the FAULT_CMD_REJECTED bit (0x0400) in the samples that follow. This
-client makes a refusal an exception, CommandRejected (a ValueError):
+client makes a refusal an exception, CommandRejected (a ValueError, so `except ValueError`
+code still catches it):
 
-- before sending: velocity() and voltage() compare the command with the controller's
-  `[limits]` (vel_lin_max, vel_rot_max, supply_v, read with a GET on the first command and
-  followed on OMNI4_PARAM_CHANGED) and ramp_s with [0, 60] s, and raise naming the limit
+- before sending: velocity() and voltage() refuse a NaN or infinite value, and compare the
+  command with the controller's `[limits]` (vel_lin_max, vel_rot_max, supply_v, read with a
+  GET on the first command and followed on OMNI4_PARAM_CHANGED) and ramp_s with [0, 60] s,
+  and raise naming the limit
   ("v 100 m/s beyond [limits] vel_lin_max 3 m/s"); nothing is sent, the command kept alive
   before stays so. If the controller does not answer the GET, the check is skipped (the GET
   is tried again 5 s later).
@@ -84,13 +86,42 @@ def _describe(msg):
     return f"mode {msg.mode}"
 
 
-def _finite(name, values, n):
+def _values(name, values, n):
+    """The n values as floats; ValueError if there are not n (a call that is no command)."""
     vals = [float(x) for x in values]
     if len(vals) != n:
         raise ValueError(f"{name}: {n} values expected, got {len(vals)}")
-    if not all(math.isfinite(x) for x in vals):
-        raise ValueError(f"{name}: values must be finite, got {vals}")
     return vals
+
+
+# Why a controller keeps FAULT after a clear: the cause of each latching bit (docs/faults.md).
+CLEAR_HINTS = (
+    (motors_t.FAULT_OVERCURRENT, "a current above [limits] current_max_a"),
+    (motors_t.FAULT_CURRENT_SENSOR, "a current sensor at its rail, or a current-sense offset "
+     "beyond 0.25 A; a clear is taken once a measured set within the limit is in force"),
+    (motors_t.FAULT_DRIVER_TIMEOUT, "a motor driver is silent"),
+    (motors_t.FAULT_DRIVER, "a motor driver reports a fault"),
+    (motors_t.FAULT_BUS, "the bus to the drivers is down, or another controller publishes "
+     "OMNI4_MOTORS on this URL; a clear is taken 1 s after it falls silent"),
+    (motors_t.FAULT_ENCODER, "an encoder reading is implausible"),
+    (motors_t.FAULT_SUPPLY, "the supply is below [limits] supply_min_v"),
+)
+
+
+def clear_refusal_reason(m):
+    """One line: why the controller keeps sample m's FAULT / ESTOP after a CLEAR_FAULT (it takes
+    the clear only when the e-stop line is released and no latching fault's cause is present)."""
+    from .status import MODE_NAMES, fault_names
+    mode = MODE_NAMES.get(m.mode, f"mode {m.mode}")
+    why = []
+    if m.faults & motors_t.FAULT_ESTOP:
+        why.append("the e-stop line is still asserted (ESTOP): release it, then clear")
+    latched = [f"{fault_names(bit)[0]} ({hint})" for bit, hint in CLEAR_HINTS if m.faults & bit]
+    if latched:
+        why.append("the cause of a latching fault is still present: " + "; ".join(latched))
+    if not why:
+        why.append(f"faults 0x{m.faults:04x}: the cause is still present")
+    return f"still {mode}: " + "; ".join(why)
 
 
 class Robot:
@@ -170,7 +201,8 @@ class Robot:
         self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VELOCITY
-        msg.velocity = _finite("velocity", (v_m_s, vn_m_s, w_rad_s), 3)
+        msg.velocity = _values("velocity", (v_m_s, vn_m_s, w_rad_s), 3)
+        self._refuse_nonfinite(msg, "velocity", msg.velocity)
         lim = self._known_limits()
         if lim:
             for name, x, key, unit in (("v", msg.velocity[0], "vel_lin_max", "m/s"),
@@ -189,8 +221,9 @@ class Robot:
         self._raise_rejected()
         msg = command_t()
         msg.mode = command_t.MODE_VOLTAGE
-        msg.voltage = _finite("voltage", volts, 4)
-        msg.ramp_s = _finite("ramp_s", (ramp_s,), 1)[0]
+        msg.voltage = _values("voltage", volts, 4)
+        msg.ramp_s = _values("ramp_s", (ramp_s,), 1)[0]
+        self._refuse_nonfinite(msg, "voltage", msg.voltage + [msg.ramp_s])
         if not 0.0 <= msg.ramp_s <= RAMP_MAX_S:
             self._refuse(f"{_describe(msg)}: ramp_s {msg.ramp_s:g} s outside [0, {RAMP_MAX_S:g}] s")
         top = (self._known_limits() or {}).get("limits.supply_v")
@@ -218,6 +251,12 @@ class Robot:
         """The controller's limits this client checks commands against ({key: value}; empty
         when unknown or disabled)."""
         return dict(self._known_limits() or {})
+
+    def _refuse_nonfinite(self, msg, name, vals):
+        """CommandRejected, nothing sent, if a value is NaN or infinite (the controller
+        refuses such a command whole)."""
+        if not all(math.isfinite(x) for x in vals):
+            self._refuse(f"{_describe(msg)}: {name} values must be finite")
 
     def _refuse(self, reason, msg=None):
         with self._lock:
@@ -274,19 +313,59 @@ class Robot:
         self._command(msg, keep_alive=False)
 
     def clear_fault(self, timeout_s=1.0):
-        """Sends CLEAR_FAULT (the controller leaves FAULT / ESTOP for IDLE if the cause is gone)
-        and forgets the command kept alive. Waits up to timeout_s [s] for a motors_t sample
-        in a mode other than FAULT / ESTOP without latching faults and returns it; raises
-        TimeoutError if none comes (cause still present, or no controller on the URL)."""
+        """Sends CLEAR_FAULT (the controller leaves FAULT / ESTOP for IDLE if the cause is gone;
+        in another mode it resets the latched bits and warnings) and forgets the command kept
+        alive. Returns the first motors_t sample (arriving from now on) in a mode other than
+        FAULT / ESTOP without latching faults. A sample still in FAULT / ESTOP once the clear
+        has had time to act (as for wait=True) raises CommandRejected saying why the controller
+        keeps it (clear_refusal_reason: the e-stop line still asserted, a latching fault's
+        cause still present); no sample within timeout_s [s]: TimeoutError."""
         msg = command_t()
         msg.mode = command_t.MODE_CLEAR_FAULT
-        self._command(msg, keep_alive=False)
+        q = queue.Queue(self._queue_len)
         with self._lock:
-            self._rejected = None                # what was refused before the clear is moot
-        return self.wait_motors(
-            lambda m: m.mode not in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) and
-            not m.faults & LATCHING_FAULTS, timeout_s, what="a sample out of FAULT after "
-            "CLEAR_FAULT")
+            self._queues.add(q)
+        try:
+            self._command(msg, keep_alive=False)
+            with self._lock:
+                self._rejected = None            # what was refused before the clear is moot
+                sent_s = self._last_send_s
+            m = self._clear_verdict(q, sent_s, time.monotonic() + timeout_s)
+        finally:
+            with self._lock:
+                self._queues.discard(q)
+        if m is None:
+            last = self._latest
+            state = "no sample at all" if last is None else \
+                f"last: mode {last.mode}, faults 0x{last.faults:04x}"
+            raise TimeoutError(f"omni4.Robot: a sample out of FAULT after CLEAR_FAULT did not "
+                               f"arrive within {timeout_s} s on {self.url} ({state})")
+        if m.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or m.faults & LATCHING_FAULTS:
+            with self._lock:
+                self.rejected += 1
+            raise CommandRejected(f"clear_fault() refused by the controller on {self.url}: "
+                                  f"{clear_refusal_reason(m)}", msg)
+        return m
+
+    def _clear_verdict(self, q, sent_s, deadline):
+        """The first sample out of FAULT, or the first still in it once the clear has settled
+        (3 samples and max(10 ms, 10 loop periods) after the send), or None at the deadline."""
+        n = 0
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            try:
+                m = q.get(timeout=left)
+            except queue.Empty:
+                return None
+            n += 1
+            if m.mode not in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) and \
+                    not m.faults & LATCHING_FAULTS:
+                return m
+            since = time.monotonic() - sent_s
+            if n >= 3 and since >= max(CONFIRM_MIN_S, CONFIRM_TICKS * self._period_s):
+                return m
 
     def _command(self, msg, keep_alive, wait=False):
         if self._closed.is_set():
@@ -331,7 +410,8 @@ class Robot:
             msg = p["msg"]
             mode = _MODE_NAMES.get(m.mode)
             if mode:
-                why = (f"the robot is in {mode} (faults 0x{m.faults:04x}); clear_fault() first"
+                why = (f"the robot is in {mode} (faults 0x{m.faults:04x}); clear_fault() "
+                       "(omni4-param clear-fault) first"
                        if mode == "FAULT" else f"the robot is in {mode}")
             else:
                 why = "out of the controller's limits, not finite, or not allowed now"
@@ -468,12 +548,17 @@ class Robot:
         return self._params
 
     # ---- life cycle ----------------------------------------------------------------------
-    def close(self):
-        """Sends IDLE, ends the keep-alive and receive threads (bounded joins). Idempotent."""
+    def close(self, stop=True):
+        """Sends IDLE (stop=False: sends nothing, e.g. after a clear that must not stop another
+        client's drive), ends the keep-alive and receive threads (bounded joins). Idempotent."""
         if self._closed.is_set():
             return
         try:
-            self.stop()
+            if stop:
+                self.stop()
+            else:
+                with self._lock:
+                    self._cmd = None
         finally:
             self._closed.set()
             self._wake.set()
@@ -503,4 +588,5 @@ class Robot:
         return f"<omni4.Robot {self.url} {state}: sent {self.sent}, received {self.received}>"
 
 
-__all__ = ["Robot", "CommandRejected", "DEFAULT_KEEPALIVE_S", "LATCHING_FAULTS"]
+__all__ = ["Robot", "CommandRejected", "DEFAULT_KEEPALIVE_S", "LATCHING_FAULTS",
+           "clear_refusal_reason"]

@@ -4,7 +4,10 @@ Listens to OMNI4_MOTORS for a bounded time (--listen, default 1 s), then prints 
 mode, its latching faults and warnings by name, the measured loop rate and overruns, lost
 samples (gaps in seq), the last currents, voltages and wheel speeds, and the [model] in force
 (a LIST request to the controller's parameter service; "parameters: no answer" if it does not
-answer in time). --watch repeats every second until Ctrl-C.
+answer in time). --watch repeats every second until Ctrl-C: on a terminal it redraws the block
+in place (cursor home, clear to the end of the screen), piped it writes one block after another.
+When no OMNI4_MOTORS has been heard for NO_ROBOT_S (1 s) it says so on stderr at once (within
+the listening window, not at its end), and says when the robot answers again.
 
 Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 usage error,
 141 when stdout is closed early (omni4-status | head -1: quiet).
@@ -20,6 +23,9 @@ from ._keys import MODEL_KEYS
 
 PROG = "omni4-status"
 RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
+NO_ROBOT_S = 1.0                # no OMNI4_MOTORS this long [s]: "no robot answers"
+POLL_MS = 100                   # a listening window looks at the silence this often [ms]
+REDRAW = "\x1b[H\x1b[J"          # a terminal's cursor home + clear to the end of the screen
 MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
 FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t)
                     if n.startswith("FAULT_"))
@@ -73,8 +79,48 @@ class Window:
         return bits
 
 
-def listen(lc, seconds):
-    """The motors_t samples that arrive within `seconds` [s] on lc."""
+class Silence:
+    """Whether a stream is silent: check() returns "lost" once when nothing has been heard for
+    timeout_s [s] (since the start, or since the last message), "back" once when a message is
+    heard after that, else None. heard() notes a message; clock: monotonic [s]."""
+
+    def __init__(self, timeout_s=NO_ROBOT_S, clock=time.monotonic):
+        self.timeout_s = float(timeout_s)
+        self.clock = clock
+        self.start = clock()
+        self.last = None             # clock time of the last message heard
+        self.silent = False
+        self.lost_at = None          # clock time of the last message (or the start) before
+        self.gap_s = 0.0             # the length of the last silence that ended [s]
+
+    def heard(self, t=None):
+        self.last = self.clock() if t is None else t
+
+    def check(self):
+        ref = self.start if self.last is None else self.last
+        quiet = self.clock() - ref >= self.timeout_s
+        if quiet == self.silent:
+            return None
+        self.silent = quiet
+        if quiet:
+            self.lost_at = ref
+            return "lost"
+        self.gap_s = self.last - self.lost_at
+        return "back"
+
+
+def silence_line(prog, url, event, silence):
+    """The line a tool says for a Silence event ("lost" or "back")."""
+    if event == "lost":
+        return (f"{prog}: no robot answers on {url}: no {CHANNEL_MOTORS} for "
+                f"{silence.timeout_s:g} s (is omni4-fw running on this URL?)")
+    return (f"{prog}: the robot on {url} answers again ({CHANNEL_MOTORS} after "
+            f"{silence.gap_s:.1f} s of silence)")
+
+
+def listen(lc, seconds, poll=None):
+    """The motors_t samples that arrive within `seconds` [s] on lc; poll(count so far) is
+    called at least every POLL_MS while it listens."""
     got = []
 
     def on_motors(_channel, data):
@@ -91,7 +137,9 @@ def listen(lc, seconds):
             left = end - time.monotonic()
             if left <= 0:
                 break
-            lc.handle_timeout(max(1, int(left * 1000)))
+            lc.handle_timeout(max(1, min(POLL_MS, int(left * 1000))))
+            if poll is not None:
+                poll(len(got))
     finally:
         lc.unsubscribe(sub)
     return Window(got, seconds)
@@ -132,7 +180,9 @@ def report(url, w, model):
         f"voltage [V]: {_vec(m.voltage)}",
         f"wheel speed [rad/s]: {_vec(m.wheel_speed)}",
     ]
-    if model is None:
+    if model is False:
+        lines.append("parameters: not asked (the robot fell silent)")
+    elif model is None:
         lines.append("parameters: no answer")
     else:
         lines.append("model: " + " ".join(
@@ -146,6 +196,8 @@ Prints: mode; latching faults and (in the window) warnings by name; loop rate [H
 controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
 currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
 (asked from the controller; "parameters: no answer" if it does not answer).
+--watch: redrawn in place on a terminal, one block after another when piped. No OMNI4_MOTORS
+for 1 s: "no robot answers" on stderr at once, and a line when it answers again.
 Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw running?),
 2 usage error, 141 when stdout is closed early (omni4-status | head -1).
 example: omni4-status --lcm {DEFAULT_LCM_URL} --listen 2"""
@@ -160,7 +212,7 @@ def build_parser():
     p.add_argument("--timeout", type=float, default=0.5, metavar="S",
                    help="wait for the parameter answer [s] per try, 2 tries (default 0.5)")
     p.add_argument("--watch", action="store_true",
-                   help="repeat every second until Ctrl-C")
+                   help="repeat every second until Ctrl-C (in place on a terminal)")
     p.add_argument("--version", action="store_true", help="print the version and exit")
     return p
 
@@ -178,26 +230,46 @@ def _main(argv):
         lc = lcm.LCM(args.lcm)
     except Exception as e:  # lcm raises a bare RuntimeError
         return usage(PROG, f"cannot open LCM URL {args.lcm}: {e}")
+    tty = args.watch and sys.stdout.isatty()
+    silence = Silence()
+    seen = [0]
+
+    def poll(n):
+        if n > seen[0]:
+            silence.heard()
+        seen[0] = n
+        event = silence.check()
+        if event:
+            sys.stderr.write(silence_line(PROG, args.lcm, event, silence) + "\n")
+            sys.stderr.flush()
+
     first = True
     while True:
         t0 = time.monotonic()
-        w = listen(lc, args.listen)
+        seen[0] = 0
+        w = listen(lc, args.listen, poll)
         if w.last is None:
-            sys.stderr.write(f"{PROG}: no {CHANNEL_MOTORS} on {args.lcm} within "
-                             f"{args.listen:g} s: is omni4-fw running?\n")
             if not args.watch:
+                sys.stderr.write(f"{PROG}: no {CHANNEL_MOTORS} on {args.lcm} within "
+                                 f"{args.listen:g} s: is omni4-fw running?\n")
                 return 1
         else:
-            model = read_model(args.lcm, args.timeout)
-            if not first:
-                sys.stdout.write("\n")
-            sys.stdout.write(time.strftime("%H:%M:%S ") + "\n".join(report(args.lcm, w, model))
-                             + "\n")
+            # A robot silent for half the time already is not asked: the unanswered request
+            # would hold back the "no robot answers" line by up to 2 x --timeout.
+            quiet = silence.clock() - silence.last >= NO_ROBOT_S / 2
+            lines = report(args.lcm, w, False if quiet else read_model(args.lcm, args.timeout))
+            if tty and silence.lost_at is not None:
+                lines.append(f"last silence: {silence.gap_s:.1f} s without {CHANNEL_MOTORS}")
+            block = time.strftime("%H:%M:%S ") + "\n".join(lines) + "\n"
+            sys.stdout.write((REDRAW if tty else "" if first else "\n") + block)
             sys.stdout.flush()
             first = False
         if not args.watch:
             return 0
-        time.sleep(max(0.0, 1.0 - (time.monotonic() - t0)))
+        rest = 1.0 - (time.monotonic() - t0)
+        if rest > 0:
+            seen[0] = 0
+            listen(lc, rest, poll)               # the silence is watched in between too
 
 
 def main(argv=None):

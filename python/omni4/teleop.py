@@ -6,7 +6,8 @@ the robot), + / -  double / halve the steps, x or Ctrl-C  quit (sends IDLE).
 
 The command goes out as VELOCITY on OMNI4_CMD through omni4.Robot, re-sent at --rate (20 Hz),
 well inside the controller's 200 ms command watchdog: if this program dies, the watchdog stops
-the robot. Quitting, or stdin closing, sends IDLE first. The terminal's settings are restored on
+the robot. Quitting, or stdin closing, sends IDLE first. When no OMNI4_MOTORS has come for 1 s
+it says "no robot answers" (the commands go nowhere), and says when the robot answers again. The terminal's settings are restored on
 every way out.
 
 Gamepad: the Linux joystick interface (/dev/input/js0, or --joystick PATH): 8-byte js_event
@@ -184,7 +185,8 @@ keys: w/s v +/-, a/d vn +/- (left positive), q/e w +/- (counter-clockwise positi
       space stop (zero velocity), +/- double/halve the steps, x or Ctrl-C quit (IDLE)
 The command is re-sent at --rate; if this program dies, the controller's command watchdog
 ([control] cmd_timeout_ms, 200 ms by default) stops the robot. Quitting or the end of stdin sends
-IDLE. Commands are clamped to the controller's [limits] (vel_lin_max, vel_rot_max, read over
+IDLE. No OMNI4_MOTORS for 1 s: "no robot answers" is said (and when it answers again).
+Commands are clamped to the controller's [limits] (vel_lin_max, vel_rot_max, read over
 LCM; 3 m/s and 20 rad/s, the defaults, if it does not answer).
 gamepad: /dev/input/js0 if present, or --joystick PATH (a device, or a file of recorded 8-byte
 js_event records, replayed at their times); --axes V,VN,W axis numbers; button 0 stops.
@@ -271,8 +273,22 @@ def _limits(robot):
     return limits["limits.vel_lin_max"], limits["limits.vel_rot_max"], source
 
 
-def _drive(robot, t, stdin_fd, joystick, js_path):
-    """Keys and joystick events into commands until quit, stdin closes or the replay ends."""
+def _watch_robot(robot, silence, url, t):
+    """Says (on its own line, the command line redrawn below it) when no OMNI4_MOTORS has come
+    for 1 s (the commands go nowhere) and when the robot answers again."""
+    from .status import silence_line
+    age = robot.latest_age_s
+    if age != float("inf"):
+        silence.heard(silence.clock() - age)
+    event = silence.check()
+    if event:
+        _say(silence_line(PROG, url, event, silence) + "\r\n")
+        _say(t.line())
+
+
+def _drive(robot, t, stdin_fd, joystick, js_path, silence=None):
+    """Keys and joystick events into commands until quit, stdin closes or the replay ends;
+    silence (status.Silence): said when no robot answers."""
     while not t.quit:
         live_js = joystick is not None and not joystick.ended
         fds = [stdin_fd]
@@ -302,6 +318,8 @@ def _drive(robot, t, stdin_fd, joystick, js_path):
             robot.velocity(*t.v)
             _say(t.line())
         robot.check()
+        if silence is not None:
+            _watch_robot(robot, silence, robot.url, t)
 
 
 def _main(argv):
@@ -316,6 +334,8 @@ def _main(argv):
     except OSError as e:
         return usage(PROG, f"--joystick {args.joystick}: {e.strerror}")
     from .robot import CommandRejected, Robot
+    from .status import Silence
+    silence = Silence()
     try:
         robot = Robot(args.lcm, keepalive_s=1.0 / args.rate)
     except (RuntimeError, ValueError) as e:
@@ -339,7 +359,7 @@ def _main(argv):
         term = Terminal(sys.stdin.fileno())
         robot.velocity(0.0, 0.0, 0.0)
         _say(t.line())
-        _drive(robot, t, sys.stdin.fileno(), joystick, js_path)
+        _drive(robot, t, sys.stdin.fileno(), joystick, js_path, silence)
     except KeyboardInterrupt:
         pass
     except CommandRejected as e:

@@ -83,6 +83,50 @@ def test_gate_refuses_nonfinite_and_clamps():
     assert g.accepted == 2 and g.received == 6
 
 
+def test_each_refusal_and_each_clamp_is_said_once_a_second_per_kind():
+    """A NaN stream at 50 Hz and a 50 m/s /cmd_vel clamped to 3 m/s in between: each kind is
+    said at its first occurrence and again once its own second has passed (an injected clock),
+    with the count of those held back; a NaN said never silences a clamp."""
+    now = [100.0]
+    g = core.CmdGate(clock=lambda: now[0])
+    cmd, line = g.take(0.1, 0, 0)
+    assert cmd is None and line == "refused: the controller's [limits] are not known yet"
+    g.limits.update({"limits.vel_lin_max": 3.0, "limits.vel_rot_max": 20.0})
+    said = []
+    for k in range(100):                       # 2 s at 50 Hz: NaN, NaN, ..., and a clamp at 0.01 s
+        now[0] = 100.0 + k * 0.02
+        cmd, line = g.take(float("nan"), 0, 0)
+        assert cmd is None
+        said.append((round(now[0] - 100.0, 3), line))
+        if k in (0, 10, 49, 50, 60):
+            now[0] += 0.01
+            cmd, line = g.take(50.0, 0, 0)
+            assert cmd == (3.0, 0.0, 0.0)
+            said.append((round(now[0] - 100.0, 3), line))
+    lines = [(t, ln) for t, ln in said if ln]
+    assert lines == [
+        (0.0, "refused: /cmd_vel not finite (v nan, vn 0.0, w 0.0)"),
+        (0.01, "clamped: /cmd_vel (50, 0, 0) to [limits] vel_lin_max 3 m/s, vel_rot_max 20 rad/s"),
+        (1.0, "refused: /cmd_vel not finite (v nan, vn 0.0, w 0.0) (and 49 more like it since "
+              "the last)"),
+        (1.01, "clamped: /cmd_vel (50, 0, 0) to [limits] vel_lin_max 3 m/s, vel_rot_max 20 rad/s"
+               " (and 2 more like it since the last)"),
+    ]
+    assert g.refused_nonfinite == 100 and g.clamped == 5 and g.refused_no_limits == 1
+
+
+def test_throttle_keeps_a_clock_per_kind():
+    now = [0.0]
+    t = core.Throttle(1.0, clock=lambda: now[0])
+    assert t.say("a", "x") == "x" and t.say("b", "y") == "y"
+    now[0] = 0.999
+    assert t.say("a", "x") is None and t.say("b", "y") is None
+    now[0] = 1.0
+    assert t.say("a", "x") == "x (and 1 more like it since the last)"
+    assert t.say("a", "x") is None
+    assert t.say("b", "y") == "y (and 1 more like it since the last)"
+
+
 def test_state_fallback_when_the_package_has_no_state_t(monkeypatch):
     monkeypatch.delattr(omni4, "state_t", raising=False)
     import sys

@@ -7,6 +7,7 @@ Signs and numbering: docs/kinematics.md. Robot frame (base_link): x = v forward,
 left, z up (REP 103). Wheel j sits at 90*j degrees from the v axis: 0 front, 1 left, 2 rear,
 3 right; its positive rim speed points counter-clockwise."""
 import math
+import time
 
 from .. import motors_t
 
@@ -211,32 +212,69 @@ def state_type():
     return cls, getattr(omni4, "CHANNEL_STATE", "OMNI4_STATE")
 
 
+class Throttle:
+    """Lets a log line of each kind through at most once per period_s [s], each kind on its own
+    clock, so a stream of one kind (NaN /cmd_vel) never hides another (a clamp). The lines held
+    back are counted and the count said with the next line of that kind. clock: monotonic [s]."""
+
+    def __init__(self, period_s=1.0, clock=time.monotonic):
+        self.period_s = float(period_s)
+        self.clock = clock
+        self._said = {}          # kind -> clock time of the last line said
+        self._held = {}          # kind -> lines held back since
+
+    def say(self, kind, text):
+        """The line to log now (text, plus the count held back), or None."""
+        now = self.clock()
+        last = self._said.get(kind)
+        if last is not None and now - last < self.period_s:
+            self._held[kind] = self._held.get(kind, 0) + 1
+            return None
+        held = self._held.pop(kind, 0)
+        self._said[kind] = now
+        return text + (f" (and {held} more like it since the last)" if held else "")
+
+
 class CmdGate:
     """The /cmd_vel gate: a Twist (v, vn, w) becomes a velocity command only if every value is
     finite (else refused and counted: `refused_nonfinite`) and the controller's limits are
     known (else `refused_no_limits`); values beyond [limits] vel_lin_max / vel_rot_max are
-    clamped to them, axis by axis, and counted (`clamped`)."""
+    clamped to them, axis by axis, and counted (`clamped`). take() also says each refusal and
+    each clamp, at most once per say_period_s per kind (Throttle on `clock`)."""
 
-    def __init__(self, limits=None):
+    KINDS = ("not finite", "limits unknown", "clamped")
+
+    def __init__(self, limits=None, clock=time.monotonic, say_period_s=1.0):
         self.limits = dict(limits) if limits else {}
         self.received = 0
         self.accepted = 0
         self.clamped = 0
         self.refused_nonfinite = 0
         self.refused_no_limits = 0
+        self.kind = None         # the last check's: one of KINDS, or None (taken as it was)
+        self.notes = Throttle(say_period_s, clock)
 
     def known(self):
         return all(k in self.limits for k in LIMIT_KEYS)
 
+    def take(self, v, vn, w):
+        """(command or None, the line to log now or None): check() with its reason said
+        through the per-kind throttle."""
+        cmd, why = self.check(v, vn, w)
+        return cmd, (self.notes.say(self.kind, why) if why else None)
+
     def check(self, v, vn, w):
         """(command, reason): command (v, vn, w) to send, or None with the reason."""
         self.received += 1
+        self.kind = None
         vals = (float(v), float(vn), float(w))
         if not all(math.isfinite(a) for a in vals):
             self.refused_nonfinite += 1
+            self.kind = "not finite"
             return None, f"refused: /cmd_vel not finite (v {vals[0]}, vn {vals[1]}, w {vals[2]})"
         if not self.known():
             self.refused_no_limits += 1
+            self.kind = "limits unknown"
             return None, "refused: the controller's [limits] are not known yet"
         lin, rot = self.limits["limits.vel_lin_max"], self.limits["limits.vel_rot_max"]
         out = (max(-lin, min(lin, vals[0])), max(-lin, min(lin, vals[1])),
@@ -244,6 +282,7 @@ class CmdGate:
         self.accepted += 1
         if out != vals:
             self.clamped += 1
+            self.kind = "clamped"
             return out, (f"clamped: /cmd_vel ({vals[0]:g}, {vals[1]:g}, {vals[2]:g}) to [limits] "
                          f"vel_lin_max {lin:g} m/s, vel_rot_max {rot:g} rad/s")
         return out, None

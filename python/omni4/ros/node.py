@@ -287,9 +287,11 @@ class Omni4Ros:
     # ---- ROS side ----------------------------------------------------------------------------
     def _on_cmd_vel(self, msg):
         with self._lock:
-            cmd, why = self.gate.check(msg.linear.x, msg.linear.y, msg.angular.z)
-        if why:
-            self.log.warn(why, throttle_duration_sec=1.0)
+            cmd, line = self.gate.take(msg.linear.x, msg.linear.y, msg.angular.z)
+        # Throttled per kind by the gate (rclpy's throttle is one per call site: a NaN stream
+        # would hide every clamp).
+        if line:
+            self.log.warn(line)
         if cmd is None:
             return
         with self._lock:
@@ -376,11 +378,16 @@ class Omni4Ros:
                 res.success, res.message = True, f"mode {core.MODE_NAMES.get(m.mode)}"
                 return res
             time.sleep(0.01)
+        from ..robot import clear_refusal_reason
         m = self.window.last
         res.success = False
-        res.message = ("no OMNI4_MOTORS from omni4-fw" if m is None else
-                       f"still mode {core.MODE_NAMES.get(m.mode)}, faults "
-                       f"{' '.join(core.fault_names(m.faults)) or 'none'} after 1 s")
+        if m is None:
+            res.message = "no OMNI4_MOTORS from omni4-fw"
+        elif m.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or m.faults & core.LATCHING:
+            res.message = f"refused after 1 s: {clear_refusal_reason(m)}"   # omni4-param's words
+        else:
+            res.message = (f"still mode {core.MODE_NAMES.get(m.mode)}, faults "
+                           f"{' '.join(core.fault_names(m.faults)) or 'none'} after 1 s")
         return res
 
     def _srv_save(self, _req, res):
