@@ -77,6 +77,11 @@ static int resolve_links(const char *path, char *target, size_t n)
 	return -ELOOP;
 }
 
+int omni4_out_resolve(const char *path, char *target, size_t n)
+{
+	return resolve_links(path, target, n);
+}
+
 static int open_fd(struct omni4_out *o, int fd, char *why, size_t n)
 {
 	o->f = fdopen(fd, "w");

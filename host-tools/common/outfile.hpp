@@ -34,6 +34,11 @@ class OutFile
 	{
 		return out_.in_place;
 	}
+	// Where a writer that opens by name writes: the temporary, or the device or FIFO itself.
+	const char *write_path() const
+	{
+		return out_.tmp[0] ? out_.tmp : out_.target;
+	}
 	void write(const std::string &text);
 	void commit();
 

@@ -8,10 +8,13 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 
 #include "omni4/motors_t.hpp"
+#include "outfile.hpp"
 #include "simexp.hpp"
 
 namespace
@@ -146,6 +149,23 @@ int report(const SimArgs &a, const omni4::SimRunResult &r)
 	}
 	return 0;
 }
+// --out as every output is written (outfile.hpp): the log replaces the file once complete, a
+// symbolic link's target is replaced, a FIFO or device is written in place. A write error
+// replaces nothing: 0, or 1 after one line naming --out.
+int finish_out(OutFile &out, const SimArgs &a, const simrun_stats &st)
+{
+	try {
+		if (st.log_errors)
+			throw OutError(a.out_path + ": " +
+			               std::strerror(st.log_errno ? st.log_errno : EIO) + " (" +
+			               std::to_string(st.log_errors) + " log write errors)");
+		out.commit();
+	} catch (const OutError &e) {
+		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
+		return 1;
+	}
+	return 0;
+}
 } // namespace
 
 int main(int argc, char **argv)
@@ -181,9 +201,16 @@ int main(int argc, char **argv)
 	// is written out whole (exit status 130).
 	std::signal(SIGINT, on_signal);
 	std::signal(SIGTERM, on_signal);
+	std::unique_ptr<OutFile> out;
+	try {
+		out = std::make_unique<OutFile>(a.out_path);
+	} catch (const OutError &e) {
+		std::fprintf(stderr, "omni4-sim: cannot create log: %s\n", e.what());
+		return 1;
+	}
 	omni4::SimRunResult r;
 	try {
-		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, a.out_path,
+		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, out->write_path(),
 		                          a.experiments, a.duration_s, a.rtf, progress,
 		                          [] { return g_stop != 0; });
 	} catch (const std::exception &e) {
@@ -192,5 +219,7 @@ int main(int argc, char **argv)
 	}
 	if (!a.quiet && tty)
 		std::fprintf(stderr, "\n");
+	if (int status = finish_out(*out, a, r.stats))
+		return status;
 	return report(a, r);
 }

@@ -46,6 +46,9 @@ struct omni4_out {
 /* Opens path for writing as above; new_mode (less the umask) for a file that did not exist. */
 int omni4_out_open(struct omni4_out *o, const char *path, mode_t new_mode, int flags, char *why,
                    size_t n);
+/* path with its symbolic links followed (the file omni4_out_open writes): path itself when it
+ * is no link. 0 or a negative errno. */
+int omni4_out_resolve(const char *path, char *target, size_t n);
 /* Whether omni4_out_open could write path, without opening it (a FIFO would wait for its
  * reader): before a long computation whose result goes there. 0, or a negative errno with why
  * (a directory, an existing file with OMNI4_OUT_STREAM, the folder missing or not writable). */
