@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -51,6 +52,16 @@ static int sync_dir_of(const char *path)
 	return rc;
 }
 
+/* target, reached through a link: its canonical name when it exists (no ".." left). */
+static int resolved(char *target, size_t n, bool through_link)
+{
+	char real[PATH_MAX];
+
+	if (through_link && realpath(target, real) && strlen(real) < n)
+		snprintf(target, n, "%s", real);
+	return 0;
+}
+
 /* path with its symbolic links followed (also to a file that does not exist yet) into
  * target. A relative link is read from the link's own directory, as the kernel does. */
 static int resolve_links(const char *path, char *target, size_t n)
@@ -63,7 +74,7 @@ static int resolve_links(const char *path, char *target, size_t n)
 		if (lstat(target, &st))
 			return errno == ENOENT ? 0 : -errno;
 		if (!S_ISLNK(st.st_mode))
-			return 0;
+			return resolved(target, n, i > 0);
 		const ssize_t len = readlink(target, link, sizeof(link) - 1);
 
 		if (len < 0)
@@ -82,9 +93,44 @@ int omni4_out_resolve(const char *path, char *target, size_t n)
 	return resolve_links(path, target, n);
 }
 
+/* stdio's writes to fd, keeping the first error's errno (stdio itself keeps only a flag). */
+static ssize_t cookie_write(void *cookie, const char *buf, size_t n)
+{
+	struct omni4_out *o = cookie;
+	size_t done = 0;
+
+	while (done < n) {
+		const ssize_t w = write(o->fd, buf + done, n - done);
+
+		if (w < 0 && errno == EINTR)
+			continue;
+		if (w <= 0) {
+			if (!o->write_errno)
+				o->write_errno = w < 0 ? errno : EIO;
+			return (ssize_t)done; /* short: stdio marks the stream failed */
+		}
+		done += (size_t)w;
+	}
+	return (ssize_t)n;
+}
+
+static int cookie_close(void *cookie)
+{
+	struct omni4_out *o = cookie;
+	const int rc = close(o->fd);
+
+	if (rc && !o->write_errno)
+		o->write_errno = errno;
+	o->fd = -1;
+	return rc;
+}
+
 static int open_fd(struct omni4_out *o, int fd, char *why, size_t n)
 {
-	o->f = fdopen(fd, "w");
+	static const cookie_io_functions_t io = {.write = cookie_write, .close = cookie_close};
+
+	o->fd = fd;
+	o->f = fopencookie(o, "w", io);
 	if (!o->f) {
 		const int rc = -errno;
 
@@ -136,6 +182,7 @@ int omni4_out_open(struct omni4_out *o, const char *path, mode_t new_mode, int f
 	struct stat st;
 
 	memset(o, 0, sizeof(*o));
+	o->fd = -1;
 	if ((size_t)snprintf(o->path, sizeof(o->path), "%s", path) >= sizeof(o->path))
 		return fail(why, n, path, "", -ENAMETOOLONG);
 	const int rc = resolve_links(path, o->target, sizeof(o->target));
@@ -206,19 +253,18 @@ static int flush_and_close(struct omni4_out *o)
 	struct stat st;
 	int rc = 0;
 
-	errno = 0;
 	if (fflush(o->f) || ferror(o->f))
-		rc = errno ? -errno : -EIO;
+		rc = -(o->write_errno ? o->write_errno : EIO);
 	if (!rc && o->tmp[0] && o->existed) {
-		if (fchown(fileno(o->f), o->uid, o->gid)) /* only where allowed */
+		if (fchown(o->fd, o->uid, o->gid)) /* only where allowed */
 			errno = 0;
-		if (fchmod(fileno(o->f), o->mode))
+		if (fchmod(o->fd, o->mode))
 			rc = -errno;
 	}
-	if (!rc && !fstat(fileno(o->f), &st) && S_ISREG(st.st_mode) && fsync(fileno(o->f)))
+	if (!rc && !fstat(o->fd, &st) && S_ISREG(st.st_mode) && fsync(o->fd))
 		rc = -errno;
 	if (fclose(o->f) && !rc)
-		rc = -errno;
+		rc = -(o->write_errno ? o->write_errno : EIO);
 	o->f = NULL;
 	return rc;
 }

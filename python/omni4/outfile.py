@@ -55,6 +55,19 @@ def check_out(path):
         raise OutError(path, f"cannot write in {folder}: {os.strerror(errno.EACCES)}")
 
 
+class _Writes:
+    """The file of a with block: its writes fail as OutError; the rest is the file's."""
+
+    def __init__(self, out):
+        self._out = out
+
+    def write(self, data):
+        return self._out.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self._out.file, name)
+
+
 class OutFile:
     """An output being written: .file (text, or bytes with binary=True); commit() or the end of
     a with block replaces the target (or finishes writing it in place); abort() or an exception
@@ -94,7 +107,11 @@ class OutFile:
             raise
 
     def write(self, data):
-        return self.file.write(data)
+        """file.write, a failure as OutError naming the path (ENOSPC on /dev/full)."""
+        try:
+            return self.file.write(data)
+        except OSError as e:
+            raise OutError(self.path, e) from None
 
     def _finish(self):
         f, old = self.file, self._old
@@ -146,7 +163,7 @@ class OutFile:
             self.tmp = None
 
     def __enter__(self):
-        return self.file
+        return _Writes(self)
 
     def __exit__(self, kind, value, tb):
         if kind is None:

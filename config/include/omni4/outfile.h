@@ -31,8 +31,12 @@ extern "C" {
 
 #define OMNI4_OUT_STREAM 1 /* write where it is; never over an existing regular file */
 
+/* f is a stream over fd whose writes remember their errno: the struct must not move while f is
+ * open. */
 struct omni4_out {
 	FILE *f;                 /* write through this; NULL once committed or aborted */
+	int fd;                  /* under f */
+	int write_errno;         /* the first failed write's errno (ENOSPC, EPIPE...), 0 if none */
 	bool in_place;           /* a device, FIFO or socket (or OMNI4_OUT_STREAM) */
 	bool existed;            /* target was there before (a regular file: it is replaced) */
 	char path[PATH_MAX];     /* as named */
