@@ -918,13 +918,17 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 
 int main(int argc, char **argv)
 {
-	CLI::App app{"omni4 identification: fit the paper's model to LCM logs and validate it.\n"
-	             "Examples:\n"
-	             "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
-	             "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
-	             "  omni4-ident run --out robot.lcmlog\n"
-	             "  omni4-ident run --hand --robot base.ini --out hand.lcmlog",
-	             "omni4-ident"};
+	CLI::App app{
+	    "omni4 identification: fit the paper's model to LCM logs and validate it.\n"
+	    "Examples:\n"
+	    "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
+	    "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
+	    "  omni4-ident run --out robot.lcmlog\n"
+	    "  omni4-ident run --hand --robot base.ini --out hand.lcmlog\n"
+	    "identify --out, validate --json and the --csv files: a file is replaced through a\n"
+	    "temporary beside it; a symbolic link's target is replaced, the link kept; a FIFO\n"
+	    "or device is written in place (every write checked); a directory is refused.",
+	    "omni4-ident"};
 	omni4_cli_setup(app);
 	app.require_subcommand(1);
 	IdentifyArgs ia;

@@ -74,7 +74,10 @@ void add_options(CLI::App &app, SimArgs &a)
 	    ->check(CLI::Range(0.0, 36000.0));
 	app.add_option("--speed", a.speed,
 	               "'max' (as fast as possible) or a real-time factor, e.g. 1");
-	app.add_option("--out", a.out_path, "event log to write")->required();
+	app.add_option("--out", a.out_path,
+	               "event log to write (a file is replaced once the log is complete; a "
+	               "symbolic link's target replaced; a FIFO or device written in place)")
+	    ->required();
 	app.add_option("--seed", a.seed, "noise seed (default: [sim] seed)")
 	    ->check(CLI::Range(0, 2147483647));
 	app.add_flag("--no-noise", a.no_noise,
