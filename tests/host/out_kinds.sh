@@ -7,7 +7,8 @@
 # usage: out_kinds.sh BUILD/bin SOURCE_DIR
 set -u
 BIN=$1
-VENV=$2/.venv/bin
+SRC=$2
+VENV=$SRC/.venv/bin
 . "$(dirname "$0")/../hil/bounded_wait.sh"
 T=$(mktemp -d)
 READERS=()
@@ -201,6 +202,28 @@ ln -s later "$B/link"
 run "omni4-rosbag --out a link to a new folder" 0 "" -- "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/link" -q
 check "omni4-rosbag: the link kept, the bag at its target" test -L "$B/link" -a -s "$B/later/metadata.yaml"
 check "omni4-rosbag: no work folder left" test -z "$(ls -A "$B" | grep tmp)"
+
+# The report's OUT_DIR: report.md a symbolic link (kept, target written), a figure a full device
+# (one line, status 1, the node kept), OUT_DIR an existing file (refused, untouched).
+P="$T/report"
+mkdir -p "$P/out" "$P/real"
+bounded_run 60 "identify --csv" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" \
+  --out "$P/p.ini" --csv "$P/csv" "$T/full.lcmlog" >/dev/null || bad "identify --csv for the report"
+echo old >"$P/real/report.md"
+ln -s ../real/report.md "$P/out/report.md"
+run "report with report.md a link" 0 "" -- "$VENV/python" "$SRC/host-tools/plots/omni4_report.py" \
+  "$P/csv" "$P/out"
+check "report: the link kept, its target written" test -L "$P/out/report.md" -a \
+  "$(head -1 "$P/real/report.md")" = "# omni4 identification report"
+rm "$P/out/motor_test.png"
+mknod "$P/out/motor_test.png" c 1 7
+run "report with a figure a full device" 1 "motor_test.png: No space left on device" -- \
+  "$VENV/python" "$SRC/host-tools/plots/omni4_report.py" "$P/csv" "$P/out"
+check "report: the full node kept" node_is "$P/out/motor_test.png" "character special file 1,7"
+echo keep >"$P/file"
+run "report OUT_DIR a file" 1 "file: exists and is not a folder" -- \
+  "$VENV/python" "$SRC/host-tools/plots/omni4_report.py" "$P/csv" "$P/file"
+check "report: OUT_DIR file untouched" grep -qx keep "$P/file"
 
 echo "out_kinds: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
