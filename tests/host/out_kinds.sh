@@ -151,29 +151,40 @@ WROTE_BEFORE="wrote $T/c.json" run "validate --csv DIR with a full device CSV" 1
   "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/c.json" --csv "$T/csv" "$T/full.lcmlog"
 
 # omni4-record: a FIFO (a reader streams the log) and a full device, with messages on the bus.
-publish() {
-  "$VENV/python" -c '
-import sys, time, lcm
+# No timing: the messages are published once the recorder says it has subscribed, and it is
+# stopped (SIGTERM: it writes what LCM holds, then closes) once they are all sent.
+# record_published OUT STATUS PATTERN
+record_published() {
+  local out=$1 want=$2 pattern=$3 rec n=0 rc
+  "$BIN/omni4-record" --lcm "$URL" --out "$out" >/dev/null 2>"$T/rec.err" &
+  rec=$!
+  while ! grep -q ' <- ' "$T/rec.err" && kill -0 "$rec" 2>/dev/null && [ "$n" -lt 600 ]; do
+    sleep 0.1
+    n=$((n + 1))
+  done
+  bounded_run 60 publisher -- "$VENV/python" -c '
+import sys, lcm
 bus = lcm.LCM(sys.argv[1])
-time.sleep(0.5)
 for _ in range(30):
-    bus.publish("OMNI4_TEST", b"x" * 4000)
-    time.sleep(0.03)' "$URL" &
-  PUB=$!
+    bus.publish("OMNI4_TEST", b"x" * 4000)' "$URL"
+  kill -TERM "$rec" 2>/dev/null
+  bounded_wait "$rec" 30 "omni4-record --out $out"
+  rc=$?
+  if [ "$rc" -eq "$want" ] && grep -q -- "$pattern" "$T/rec.err"; then
+    ok "omni4-record to $(basename "$out") -> $rc: $(grep -m1 -- "$pattern" "$T/rec.err")"
+  else
+    bad "omni4-record to $(basename "$out") -> $rc (want $want): $(tail -3 "$T/rec.err")"
+  fi
 }
 R="$T/record"
 kinds "$R"
 reader "$R"
-publish
-run "omni4-record to a FIFO" 0 "" -- "$BIN/omni4-record" --lcm "$URL" --out "$R/fifo" --duration 4 -q
+record_published "$R/fifo" 0 "30 messages"
 reader_done "$R" omni4-record
-bounded_wait "$PUB" 30 "publisher" >/dev/null
 check "omni4-record: the FIFO's reader got the log" starts_lcm "$R/fifo.out"
-check "omni4-record: the reader got messages" test "$(stat -c %s "$R/fifo.out")" -gt 4000
-publish
-run "omni4-record to /dev/full's 1,7" 1 "full: .*No space left on device" -- \
-  "$BIN/omni4-record" --lcm "$URL" --out "$R/full" --duration 4 -q
-bounded_wait "$PUB" 30 "publisher" >/dev/null
+check "omni4-record: the reader got every message" test "$(stat -c %s "$R/fifo.out")" -ge \
+  $((30 * (28 + 10 + 4000)))
+record_published "$R/full" 1 "full: .*No space left on device"
 check "omni4-record: the full node kept" node_is "$R/full" "character special file 1,7"
 run "omni4-record to a link to a file" 1 "link exists; not overwriting it" -- \
   "$BIN/omni4-record" --lcm "$URL" --out "$R/link" --duration 1 -q
