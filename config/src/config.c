@@ -2,6 +2,7 @@
 #include "omni4/config.h"
 
 #include "omni4/channels.h"
+#include "omni4/outfile.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -777,35 +778,15 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header)
 	return fflush(f) ? -EIO : 0;
 }
 
-static int sync_dir_of(const char *path)
-{
-	char dir[PATH_MAX];
-	const char *slash = strrchr(path, '/');
-
-	if (!slash)
-		snprintf(dir, sizeof(dir), ".");
-	else if (slash == path)
-		snprintf(dir, sizeof(dir), "/");
-	else
-		snprintf(dir, sizeof(dir), "%.*s", (int)(slash - path), path);
-	const int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-
-	if (fd < 0)
-		return -errno;
-	const int rc = fsync(fd) ? -errno : 0;
-
-	close(fd);
-	return rc;
-}
-
 /* Copy src to dst through dst.tmp (fsync, rename): for file systems without hard links. */
 static int copy_file(const char *src, const char *dst)
 {
-	char tmp[PATH_MAX + 8];
+	char tmp[PATH_MAX + 16];
 	char buf[4096];
 	int rc = 0;
 
-	snprintf(tmp, sizeof(tmp), "%s.tmp", dst);
+	if ((size_t)snprintf(tmp, sizeof(tmp), "%s.tmp", dst) >= sizeof(tmp))
+		return -ENAMETOOLONG;
 	FILE *in = fopen(src, "rb");
 
 	if (!in)
@@ -834,75 +815,49 @@ static int copy_file(const char *src, const char *dst)
 	return rc;
 }
 
-int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
-                size_t n)
+/* The file about to be replaced becomes target.bak (a hard link: the file itself never goes
+ * away), beside the file itself when the INI is reached through a symbolic link. */
+static int keep_previous(const struct omni4_out *o, char *why, size_t n)
 {
-	char tmp[PATH_MAX], bak[PATH_MAX];
-	struct stat st;
-	mode_t mode = 0644;
+	char bak[PATH_MAX + 8];
 	int rc;
 
-	if (snprintf(tmp, sizeof(tmp), "%s.tmp", path) >= (int)sizeof(tmp) ||
-	    snprintf(bak, sizeof(bak), "%s.bak", path) >= (int)sizeof(bak)) {
-		snprintf(why, n, "%s: path too long", path);
+	if (o->in_place || !o->existed)
+		return 0;
+	if ((size_t)snprintf(bak, sizeof(bak), "%s.bak", o->target) >= sizeof(bak)) {
+		snprintf(why, n, "%s: path too long", o->path);
 		return -ENAMETOOLONG;
 	}
-	if (stat(path, &st) == 0)
-		mode =
-		    st.st_mode & 07777; /* keep the file's permissions (it may hold the secret) */
-	const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-
-	if (fd < 0) {
-		rc = -errno;
-		snprintf(why, n, "%s: cannot create: %s", tmp, strerror(-rc));
-		return rc;
-	}
-	FILE *f = fdopen(fd, "w");
-
-	if (!f) {
-		rc = -errno;
-		close(fd);
-		unlink(tmp);
-		snprintf(why, n, "%s: %s", tmp, strerror(-rc));
-		return rc;
-	}
-	rc = config_write(f, cfg, header);
-	if (rc == -EINVAL) {
-		snprintf(why, n, "a string value cannot be written to an INI file unchanged");
-	} else if (rc || fchmod(fd, mode) || fsync(fd)) {
-		rc = rc ? rc : -errno;
-		snprintf(why, n, "%s: write failed: %s", tmp, strerror(-rc));
-	}
-	if (fclose(f) && !rc) {
-		rc = -EIO;
-		snprintf(why, n, "%s: close failed", tmp);
-	}
-	if (rc) {
-		unlink(tmp);
-		return rc;
-	}
-	/* The previous file becomes .bak (a hard link: the file itself never goes away). */
 	if (unlink(bak) && errno != ENOENT) {
 		rc = -errno;
 		snprintf(why, n, "%s: cannot replace: %s", bak, strerror(-rc));
-		unlink(tmp);
 		return rc;
 	}
-	if (link(path, bak) && errno != ENOENT && (rc = copy_file(path, bak))) {
+	if (link(o->target, bak) && errno != ENOENT && (rc = copy_file(o->target, bak))) {
 		snprintf(why, n, "%s: cannot keep the previous file: %s", bak, strerror(-rc));
-		unlink(tmp);
-		return rc;
-	}
-	if (rename(tmp, path)) {
-		rc = -errno;
-		snprintf(why, n, "%s: rename failed: %s", path, strerror(-rc));
-		unlink(tmp);
-		return rc;
-	}
-	rc = sync_dir_of(path);
-	if (rc) {
-		snprintf(why, n, "%s: directory sync failed: %s", path, strerror(-rc));
 		return rc;
 	}
 	return 0;
+}
+
+int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
+                size_t n)
+{
+	struct omni4_out o;
+	int rc = omni4_out_open(&o, path, 0644, 0, why, n);
+
+	if (rc)
+		return rc;
+	rc = config_write(o.f, cfg, header);
+	if (rc == -EINVAL) {
+		snprintf(why, n, "a string value cannot be written to an INI file unchanged");
+		omni4_out_abort(&o);
+		return rc;
+	}
+	/* -EIO: the commit below finds the stream's error and says which */
+	if (!rc && (rc = keep_previous(&o, why, n))) {
+		omni4_out_abort(&o);
+		return rc;
+	}
+	return omni4_out_commit(&o, why, n);
 }

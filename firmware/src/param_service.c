@@ -2,9 +2,11 @@
 #include "omni4/param_service.h"
 
 #include "omni4/fw_param.h"
+#include "omni4/outfile.h"
 #include "omni4/rtloop.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -396,12 +398,17 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	atomic_fetch_add(&ps->n.saved, 1);
 	s->n = 0;
 	notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
+	/* the file written: a symbolic link's target (its .bak beside it), the link kept */
+	char written[PATH_MAX];
+
+	if (omni4_out_resolve(ps->path, written, sizeof(written)))
+		snprintf(written, sizeof(written), "%s", ps->path);
 	omni4_param_reply_t r = {.request_id = q->request_id,
 	                         .op = q->op,
 	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
 	                         .message = "saved",
 	                         .seq = -1,
-	                         .path = ps->path};
+	                         .path = written};
 
 	reply(ps, &r, true);
 }

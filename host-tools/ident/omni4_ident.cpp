@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <future>
 #include <map>
 #include <string>
@@ -21,6 +22,7 @@
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "offsets.hpp"
+#include "outfile.hpp"
 #include "runner.hpp"
 #include "validate.hpp"
 
@@ -228,16 +230,12 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 	return cfg.ctl.model;
 }
 
-// Write next to the target, then rename: never a half-written PARAMS file. A parameter that was
+// Written as every output (outfile.hpp): never a half-written PARAMS file. A parameter that was
 // not identified is taken from BASE.ini if it gives one (said in a comment), else left out, so
 // that the firmware refuses the file ("missing key") instead of running on a guess.
-void write_params(const std::string &path, const IdentResult &r, const model_params &base,
-                  uint32_t base_seen, const std::string &comment)
+void write_params_to(FILE *f, const IdentResult &r, const model_params &base, uint32_t base_seen,
+                     const std::string &comment)
 {
-	const std::string tmp = path + ".tmp" + std::to_string(getpid());
-	FILE *f = std::fopen(tmp.c_str(), "w");
-	if (!f)
-		die(tmp + ": " + std::strerror(errno));
 	bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0;
 	if (r.complete()) {
 		ok = ok && config_write_model(f, &r.final) == 0;
@@ -268,10 +266,19 @@ void write_params(const std::string &path, const IdentResult &r, const model_par
 				     std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
 		}
 	}
-	ok = (std::fclose(f) == 0) && ok;
-	if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-		std::remove(tmp.c_str());
-		die(path + ": write failed: " + std::strerror(errno));
+	if (!ok && !std::ferror(f))
+		throw OutError("a value cannot be written");
+}
+
+void write_params(const std::string &path, const IdentResult &r, const model_params &base,
+                  uint32_t base_seen, const std::string &comment)
+{
+	try {
+		OutFile out(path);
+		write_params_to(out.file(), r, base, base_seen, comment);
+		out.commit();
+	} catch (const OutError &e) { // the temporary is gone (out destroyed), the target as it was
+		die(e.what());
 	}
 }
 
@@ -443,14 +450,34 @@ void ensure_dir(const std::string &dir)
 				die(part + ": " + std::strerror(errno));
 		}
 	}
+	struct stat st{};
+	if (stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) // an existing file is not replaced
+		die(dir + ": not a folder (--csv names a folder)");
 }
 
-std::ofstream open_csv(const std::string &dir, const std::string &name)
+// One file of a --csv folder: built in memory, written by close() as every output is.
+class CsvFile : public std::ostringstream
 {
-	std::ofstream f(dir + "/" + name);
-	if (!f)
-		die(dir + "/" + name + ": cannot write");
-	return f;
+      public:
+	explicit CsvFile(std::string path) : path_(std::move(path))
+	{
+	}
+	void close()
+	{
+		try {
+			write_file(path_, str());
+		} catch (const OutError &e) {
+			die(e.what());
+		}
+	}
+
+      private:
+	std::string path_;
+};
+
+CsvFile open_csv(const std::string &dir, const std::string &name)
+{
+	return CsvFile(dir + "/" + name);
 }
 
 void export_ident_csv(const std::string &dir, const IdentResult &r, const model_params *truth)
@@ -460,22 +487,26 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
 	f << "motor,u_V,i_A,wm_rad_s\n";
 	for (const auto &p : r.motor_points)
 		f << p.motor << ',' << p.u << ',' << p.i << ',' << p.wm << '\n';
+	f.close();
 	auto g = open_csv(dir, "rotation_points.csv");
 	g << "level_V,omega_cam_rad_s,omega_enc_rad_s,torque_Nm\n";
 	for (const auto &p : r.rotation_points)
 		g << p.level << ',' << p.omega_cam << ',' << p.omega_enc << ',' << p.torque << '\n';
+	g.close();
 	auto h = open_csv(dir, "coast_curves.csv");
 	h << "direction,segment,t_s,measured,fitted\n";
 	for (const auto &[dir_name, pts] : r.coast_curves)
 		for (const auto &p : pts)
 			h << dir_name << ',' << p.segment << ',' << p.t << ',' << p.measured << ','
 			  << p.fitted << '\n';
+	h.close();
 	auto w = open_csv(dir, "windows.csv");
 	w << "segment,kind,direction,what,t0_s,t1_s,used,reason\n";
 	for (const auto &x : r.windows)
 		w << x.segment << ',' << x.kind << ',' << x.direction << ',' << x.what << ','
 		  << x.t0_s << ',' << x.t1_s << ',' << (x.used ? 1 : 0) << ",\"" << x.reason
 		  << "\"\n";
+	w.close();
 	auto a = open_csv(dir, "agreement.csv");
 	a << "param,methods,chi2,dof,p,agree,rule\n";
 	for (const char *p : kIdentParams) {
@@ -483,6 +514,7 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
 		a << p << ',' << ag.methods << ',' << ag.chi2 << ',' << ag.dof << ',' << ag.p << ','
 		  << (ag.agree ? 1 : 0) << ',' << ag.rule << '\n';
 	}
+	a.close();
 	auto t = open_csv(dir, "params.csv");
 	t << "param,method,value,se,se_borrowed\n";
 	for (const auto &[m, row] : r.table)
@@ -492,6 +524,7 @@ void export_ident_csv(const std::string &dir, const IdentResult &r, const model_
 	if (truth)
 		for (const char *p : kIdentParams)
 			t << p << ",true," << field(*truth, p) << ",,\n";
+	t.close();
 }
 
 void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs)
@@ -535,6 +568,7 @@ void export_offsets_csv(const std::string &dir, const std::vector<LogData> &logs
 				f << '\n';
 			}
 		}
+	f.close();
 }
 
 void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const BootstrapResult &b)
@@ -551,11 +585,13 @@ void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const Bo
 		f << p << ',' << e.value << ',' << e.se << ',' << s.se << ',' << s.lo95 << ','
 		  << s.hi95 << '\n';
 	}
+	f.close();
 	auto g = open_csv(dir, "bootstrap_samples.csv");
 	g << "param,value\n";
 	for (const auto &[p, xs] : b.samples)
 		for (double x : xs)
 			g << p << ',' << x << '\n';
+	g.close();
 }
 
 struct IdentifyArgs {
@@ -577,21 +613,15 @@ IdentOptions ident_options(const std::string &source, double steady_tol_pct)
 	return opt;
 }
 
-// An output file's folder must exist and be writable before any work is done (the file is
-// written at the end, through a temporary next to it).
+// An output must be writable before any work is done (it is written at the end, outfile.hpp):
+// its folder exists and is writable, or it is a device or FIFO; a directory is refused.
 void check_writable(const std::string &path)
 {
-	const size_t slash = path.find_last_of('/');
-	const std::string dir = slash == std::string::npos ? "."
-	                        : slash == 0               ? "/"
-	                                                   : path.substr(0, slash);
-	struct stat st{};
-	if (stat(dir.c_str(), &st) != 0)
-		die(path + ": " + dir + ": " + std::strerror(errno));
-	if (!S_ISDIR(st.st_mode))
-		die(path + ": " + dir + " is not a folder");
-	if (access(dir.c_str(), W_OK) != 0)
-		die(path + ": cannot write in " + dir + ": " + std::strerror(errno));
+	try {
+		check_out(path);
+	} catch (const OutError &e) {
+		die(e.what());
+	}
 }
 
 // What was not identified and why (partial), or the notes; the file written.
@@ -665,11 +695,8 @@ int cmd_identify(const IdentifyArgs &a)
 
 void write_json(const std::string &path, const Validation &v)
 {
-	const std::string tmp = path + ".tmp" + std::to_string(getpid());
 	{
-		std::ofstream f(tmp);
-		if (!f)
-			die(path + ": cannot write");
+		std::ostringstream f;
 		static const char *const names[3] = {"v", "vn", "w"};
 		f << "{";
 		// An axis without validation data is null, never a perfect 0.
@@ -690,11 +717,12 @@ void write_json(const std::string &path, const Validation &v)
 			f << buf;
 		}
 		f << "}\n";
-		if (!f)
-			die(path + ": write failed");
+		try {
+			write_file(path, f.str());
+		} catch (const OutError &e) {
+			die(e.what());
+		}
 	}
-	if (std::rename(tmp.c_str(), path.c_str()) != 0)
-		die(path + ": " + std::strerror(errno));
 }
 
 // Table IV layout: e_max, mean, sigma per velocity, one block per parameter set.
@@ -747,6 +775,7 @@ void write_validation_csv(const std::string &csv, const std::vector<Validation> 
 			  << p.measured[0] << ',' << p.measured[1] << ',' << p.measured[2] << ','
 			  << p.simulated[0] << ',' << p.simulated[1] << ',' << p.simulated[2]
 			  << '\n';
+		f.close();
 	}
 }
 
@@ -889,13 +918,17 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 
 int main(int argc, char **argv)
 {
-	CLI::App app{"omni4 identification: fit the paper's model to LCM logs and validate it.\n"
-	             "Examples:\n"
-	             "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
-	             "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
-	             "  omni4-ident run --out robot.lcmlog\n"
-	             "  omni4-ident run --hand --robot base.ini --out hand.lcmlog",
-	             "omni4-ident"};
+	CLI::App app{
+	    "omni4 identification: fit the paper's model to LCM logs and validate it.\n"
+	    "Examples:\n"
+	    "  omni4-ident identify --robot base.ini --out params.ini sim.lcmlog\n"
+	    "  omni4-ident validate --params params.ini --json val.json sim.lcmlog\n"
+	    "  omni4-ident run --out robot.lcmlog\n"
+	    "  omni4-ident run --hand --robot base.ini --out hand.lcmlog\n"
+	    "identify --out, validate --json and the --csv files: a file is replaced through a\n"
+	    "temporary beside it; a symbolic link's target is replaced, the link kept; a FIFO\n"
+	    "or device is written in place (every write checked); a directory is refused.",
+	    "omni4-ident"};
 	omni4_cli_setup(app);
 	app.require_subcommand(1);
 	IdentifyArgs ia;

@@ -15,6 +15,11 @@ given as its parts or as FILE when only FILE.00, FILE.01, ... exist. A log with 
 controller's state estimate (OMNI4_STATE) also gets a figure of the paths: the estimate, the
 camera (OMNI4_POSE), wheel odometry (eqs 3-5 integrated, d and r of --params, default Table III)
 and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time.
+
+OUT_DIR is made if missing (an existing file there is refused); each file in it is written as
+every omni4 output is (omni4.outfile: a temporary beside it and a rename, a symbolic link's
+target replaced, a FIFO or device in place); a file that cannot be written ends the report with
+one line naming it and status 1. Needs the omni4 package for that too.
 """
 import argparse
 import csv
@@ -35,8 +40,14 @@ SEGMENT_COLORS = {"steady_rotation": "C0", "coast": "C1", "motor": "C2", "step":
 
 def save(fig, out, name, rect=None):
     """Lays fig out (inside rect), writes it to out/name at 110 dpi and closes it; returns name."""
+    from omni4.outfile import OutError, OutFile
     fig.tight_layout(rect=rect)
-    fig.savefig(os.path.join(out, name), dpi=110)
+    path = os.path.join(out, name)
+    try:
+        with OutFile(path, binary=True) as f:
+            fig.savefig(f, dpi=110, format="png")
+    except OSError as e:  # a write into it failed (the file is left as it was)
+        raise OutError(path, e) from None
     plt.close(fig)
     return name
 
@@ -470,7 +481,25 @@ def main():
     a = ap.parse_args()
     if not os.path.isdir(a.csv_dir):
         sys.exit(f"omni4_report: {a.csv_dir}: no such folder")
-    os.makedirs(a.out_dir, exist_ok=True)
+    try:
+        from omni4.outfile import OutError
+    except ImportError as e:
+        sys.exit(f"omni4_report: needs the omni4 package ({e}): pip install ./python")
+    if os.path.exists(a.out_dir) and not os.path.isdir(a.out_dir):
+        sys.exit(f"omni4_report: {a.out_dir}: exists and is not a folder (OUT_DIR is a folder; "
+                 "nothing replaced)")
+    try:
+        os.makedirs(a.out_dir, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"omni4_report: {a.out_dir}: {e.strerror} (OUT_DIR is a folder; nothing replaced)")
+    try:
+        write_report(a)
+    except OutError as e:
+        sys.exit(f"omni4_report: {e}")
+
+
+def write_report(a):
+    from omni4.outfile import OutFile
     figs, log_lines, params, windows, boot = draw_figures(a)
     agreement = {r["param"]: r for r in read_csv(os.path.join(a.csv_dir, "agreement.csv"))}
 
@@ -488,7 +517,7 @@ def main():
     lines += ["## Figures", ""]
     for f in figs:
         lines += [f"![{f}]({f})", ""]
-    with open(os.path.join(a.out_dir, "report.md"), "w") as f:
+    with OutFile(os.path.join(a.out_dir, "report.md")) as f:
         f.write("\n".join(lines))
     print(f"omni4_report: wrote {len(figs)} figures and report.md to {a.out_dir}")
 

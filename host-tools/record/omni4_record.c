@@ -7,8 +7,11 @@
  * the queue holds 100000 messages (5 s at 20 kHz, ~13 MB of OMNI4_MOTORS): a stall costs
  * memory, not samples. The log is flushed once a second, so a power cut loses at most that.
  * With --split-mb the log is a series FILE.00, FILE.01, ..., each closed once it holds the size
- * given. Parameter requests (OMNI4_PARAM_REQ) are never written: they may carry the robot's
- * [params] secret in plain text; what they changed is on OMNI4_PARAM_CHANGED, which is.
+ * given. A FIFO or a device is written in place (a reader streams the log), a symbolic link to a
+ * new file is followed, an existing file is never overwritten (omni4/outfile.h, streaming);
+ * every write, the flushes and the close are checked. Parameter requests (OMNI4_PARAM_REQ) are
+ * never written: they may carry the robot's [params] secret in plain text; what they changed is on
+ * OMNI4_PARAM_CHANGED, which is.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -29,6 +32,7 @@
 #include "omni4/clock.h"
 #include "omni4/eventlog.h"
 #include "omni4/getopt_exact.h"
+#include "omni4/outfile.h"
 #include "omni4/version.h"
 
 #define RECORD_QUEUE_MESSAGES 100000
@@ -36,10 +40,12 @@
 static volatile sig_atomic_t g_stop;
 
 struct recorder {
-	lcm_eventlog_t *log; /* NULL once the next part of a series could not be opened */
-	char base[4000];     /* --out after strftime */
-	char path[4096];     /* the file being written */
-	int part;            /* -1: one file; else the NN of FILE.NN */
+	lcm_eventlog_t *log; /* &ev while a file is open; NULL once one could not be opened */
+	lcm_eventlog_t ev;   /* liblcm's writer over out.f */
+	struct omni4_out out;
+	char base[4000]; /* --out after strftime */
+	char path[4096]; /* the file being written */
+	int part;        /* -1: one file; else the NN of FILE.NN */
 	uint64_t split_bytes, bytes;
 	uint64_t written, errors;
 	uint64_t requests_skipped; /* OMNI4_PARAM_REQ messages left out */
@@ -63,7 +69,8 @@ static void usage(FILE *f)
 	    "for a moment loses nothing.\n"
 	    "  -o, --out FILE       log to write; strftime conversions (%%Y, %%m, ...) are "
 	    "expanded;\n"
-	    "                       an existing file is never overwritten\n"
+	    "                       an existing file is never overwritten; a FIFO or device is\n"
+	    "                       written in place (e.g. a reader streaming the log)\n"
 	    "  -l, --lcm URL        LCM URL (default: $LCM_DEFAULT_URL, else the robot's,\n"
 	    "                       " OMNI4_DEFAULT_LCM_URL ")\n"
 	    "  -c, --channel REGEX  channels to record (default: OMNI4_.*); parameter requests\n"
@@ -77,28 +84,46 @@ static void usage(FILE *f)
 	    "example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
 }
 
+static void count_error(struct recorder *r, int err)
+{
+	if (!r->errors)
+		r->first_errno = err;
+	r->errors++;
+}
+
 /* Opens the one file, or the next one of the series; never over an existing file. */
 static int open_next(struct recorder *r)
 {
-	struct stat st;
+	char why[PATH_MAX + 200];
 
 	if (r->part < 0)
 		snprintf(r->path, sizeof(r->path), "%s", r->base);
 	else
 		snprintf(r->path, sizeof(r->path), "%s.%02d", r->base, r->part);
-	if (stat(r->path, &st) == 0) {
-		fprintf(stderr, "omni4-record: %s exists; not overwriting it\n", r->path);
-		return -EEXIST;
-	}
-	r->log = lcm_eventlog_create(r->path, "w");
-	if (!r->log) {
-		const int e = errno;
+	const int rc = omni4_out_open(&r->out, r->path, 0666, OMNI4_OUT_STREAM, why, sizeof(why));
 
-		fprintf(stderr, "omni4-record: %s: %s\n", r->path, strerror(e));
-		return -e;
+	if (rc) {
+		fprintf(stderr, "omni4-record: %s\n", why);
+		return rc;
 	}
+	r->ev = (lcm_eventlog_t){.f = r->out.f};
+	r->log = &r->ev;
 	r->bytes = 0;
 	return 0;
+}
+
+/* Flushes, syncs and closes the file being written; a failure counts as an error. */
+static void close_log(struct recorder *r)
+{
+	char why[PATH_MAX + 200];
+
+	if (!r->log)
+		return;
+	r->log = NULL;
+	const int rc = omni4_out_commit(&r->out, why, sizeof(why));
+
+	if (rc)
+		count_error(r, -rc);
 }
 
 static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
@@ -114,20 +139,16 @@ static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 	                                    (size_t)rbuf->data_size);
 
 	if (rc) {
-		if (!r->errors)
-			r->first_errno = -rc;
-		r->errors++;
+		count_error(r, -rc);
 		return;
 	}
 	r->written++;
 	r->bytes += OMNI4_EVENT_HEADER_BYTES + strlen(channel) + (uint64_t)rbuf->data_size;
 	if (r->part >= 0 && r->bytes >= r->split_bytes) {
-		lcm_eventlog_destroy(r->log);
+		close_log(r);
 		r->part++;
 		if (open_next(r)) {
-			r->log = NULL;
-			r->first_errno = r->errors ? r->first_errno : EIO;
-			r->errors++;
+			count_error(r, EIO);
 			g_stop = 1;
 		}
 	}
@@ -249,14 +270,13 @@ static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct re
 		 * stop */
 		if (lcm_handle_timeout(lcm, 50) < 0 && !g_stop && errno != EINTR) {
 			fprintf(stderr, "omni4-record: LCM receive failed; stopping\n");
-			r->first_errno = r->errors ? r->first_errno : EIO;
-			r->errors++;
+			count_error(r, EIO);
 			break;
 		}
 		if (mono_s() < next_report)
 			continue;
-		if (r->log)
-			fflush(r->log->f);
+		if (r->log && fflush(r->log->f))
+			count_error(r, errno);
 		if (!a->quiet)
 			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
 			        tty ? "\r" : "", next_report - t0, (unsigned long long)r->written,
@@ -310,7 +330,7 @@ int main(int argc, char **argv)
 
 	if (!sub) {
 		fprintf(stderr, "omni4-record: cannot subscribe to '%s'\n", a.channel);
-		lcm_eventlog_destroy(r.log);
+		close_log(&r);
 		lcm_destroy(lcm);
 		return 1;
 	}
@@ -321,13 +341,13 @@ int main(int argc, char **argv)
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN); /* a FIFO's reader gone: EPIPE, reported, instead of death */
 	record_until_stopped(lcm, &r, &a);
 	/* What LCM already holds is written before the log is closed. */
 	while (r.log && lcm_handle_timeout(lcm, 0) > 0)
 		;
 	lcm_unsubscribe(lcm, sub);
 	lcm_destroy(lcm);
-	if (r.log)
-		lcm_eventlog_destroy(r.log);
+	close_log(&r);
 	return report(&r, &a);
 }

@@ -8,10 +8,13 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 
 #include "omni4/motors_t.hpp"
+#include "outfile.hpp"
 #include "simexp.hpp"
 
 namespace
@@ -71,7 +74,10 @@ void add_options(CLI::App &app, SimArgs &a)
 	    ->check(CLI::Range(0.0, 36000.0));
 	app.add_option("--speed", a.speed,
 	               "'max' (as fast as possible) or a real-time factor, e.g. 1");
-	app.add_option("--out", a.out_path, "event log to write")->required();
+	app.add_option("--out", a.out_path,
+	               "event log to write (a file is replaced once the log is complete; a "
+	               "symbolic link's target replaced; a FIFO or device written in place)")
+	    ->required();
 	app.add_option("--seed", a.seed, "noise seed (default: [sim] seed)")
 	    ->check(CLI::Range(0, 2147483647));
 	app.add_flag("--no-noise", a.no_noise,
@@ -146,6 +152,23 @@ int report(const SimArgs &a, const omni4::SimRunResult &r)
 	}
 	return 0;
 }
+// --out as every output is written (outfile.hpp): the log replaces the file once complete, a
+// symbolic link's target is replaced, a FIFO or device is written in place. A write error
+// replaces nothing: 0, or 1 after one line naming --out.
+int finish_out(OutFile &out, const SimArgs &a, const simrun_stats &st)
+{
+	try {
+		if (st.log_errors)
+			throw OutError(a.out_path + ": " +
+			               std::strerror(st.log_errno ? st.log_errno : EIO) + " (" +
+			               std::to_string(st.log_errors) + " log write errors)");
+		out.commit();
+	} catch (const OutError &e) {
+		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
+		return 1;
+	}
+	return 0;
+}
 } // namespace
 
 int main(int argc, char **argv)
@@ -181,9 +204,16 @@ int main(int argc, char **argv)
 	// is written out whole (exit status 130).
 	std::signal(SIGINT, on_signal);
 	std::signal(SIGTERM, on_signal);
+	std::unique_ptr<OutFile> out;
+	try {
+		out = std::make_unique<OutFile>(a.out_path);
+	} catch (const OutError &e) {
+		std::fprintf(stderr, "omni4-sim: cannot create log: %s\n", e.what());
+		return 1;
+	}
 	omni4::SimRunResult r;
 	try {
-		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, a.out_path,
+		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, out->write_path(),
 		                          a.experiments, a.duration_s, a.rtf, progress,
 		                          [] { return g_stop != 0; });
 	} catch (const std::exception &e) {
@@ -192,5 +222,7 @@ int main(int argc, char **argv)
 	}
 	if (!a.quiet && tty)
 		std::fprintf(stderr, "\n");
+	if (int status = finish_out(*out, a, r.stats))
+		return status;
 	return report(a, r);
 }

@@ -71,6 +71,7 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 	r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 	r.simulated_s = static_cast<double>(k) * dt;
 	r.interrupted = interrupted;
+	simrun_flush_log(sr.get()); // a failure is in the stats (log_errors, log_errno)
 	simrun_get_stats(sr.get(), &r.stats);
 	return r;
 }

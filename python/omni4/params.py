@@ -281,7 +281,8 @@ class ParamClient:
 
     def save(self):
         """Write the values in force to the robot's INI (atomically; the previous file is kept
-        as .bak). Returns the path written (on the robot)."""
+        as .bak). Returns the path written (on the robot): when the INI is a symbolic link, the
+        file it points to (replaced, its .bak beside it; the link is kept)."""
         return self._request(param_request_t.OP_SAVE).path
 
     def dump(self):

@@ -424,11 +424,12 @@ def test_kill9_during_save_leaves_a_config_that_loads(robot, tmp_path):
         with ParamClient(url, timeout_s=SCALE) as p:
             p.set("control.kp", 33)
         _send_save(url)
-        tmp = tmp_path / "robot.ini.tmp"
+        def tmp_exists():  # robot.ini.tmpPID, the writer's temporary
+            return any(tmp_path.glob("robot.ini.tmp*"))
         deadline = time.monotonic() + 3 * SCALE
-        while not tmp.exists() and time.monotonic() < deadline:
+        while not tmp_exists() and time.monotonic() < deadline:
             time.sleep(0.002)
-        assert tmp.exists(), "save did not start writing robot.ini.tmp"
+        assert tmp_exists(), "save did not start writing robot.ini.tmpPID"
         time.sleep(0.1)
     finally:
         fw.kill()

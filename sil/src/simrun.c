@@ -27,7 +27,11 @@ struct simrun {
 static int write_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
                        size_t len)
 {
-	return sr->log ? omni4_eventlog_write(sr->log, channel, utime, data, len) : 0;
+	const int rc = sr->log ? omni4_eventlog_write(sr->log, channel, utime, data, len) : 0;
+
+	if (rc && !sr->st.log_errno)
+		sr->st.log_errno = -rc;
+	return rc;
 }
 
 static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
@@ -103,6 +107,18 @@ void simrun_destroy(struct simrun *sr)
 	if (sr->log)
 		lcm_eventlog_destroy(sr->log);
 	free(sr);
+}
+
+int simrun_flush_log(struct simrun *sr)
+{
+	if (!sr->log || !fflush(sr->log->f))
+		return 0;
+	const int e = errno ? errno : EIO;
+
+	sr->st.log_errors++;
+	if (!sr->st.log_errno)
+		sr->st.log_errno = e;
+	return -e;
 }
 
 int64_t simrun_now_us(const struct simrun *sr)

@@ -128,9 +128,11 @@ int config_parse_pairs(const char *text, const char *name,
 int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
 /*
  * Replace the INI file at path by cfg so that a crash or power cut at any instant leaves either
- * the old or the new complete file: write path.tmp in the same directory, fsync it, keep the
- * previous file as path.bak (hard link, or a synced copy), rename path.tmp over path, fsync the
- * directory. The file keeps its permissions. 0 or a negative errno with why.
+ * the old or the new complete file: write a temporary in the same directory, fsync it, keep the
+ * previous file as path.bak (hard link, or a synced copy), rename the temporary over path, fsync
+ * the directory (omni4/outfile.h). The file keeps its permissions. A symbolic link is kept and
+ * the file it points to is replaced (its .bak beside it); a device or FIFO is written in place.
+ * 0 or a negative errno with why.
  */
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
                 size_t n);

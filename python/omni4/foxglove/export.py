@@ -17,6 +17,7 @@ import numpy as np
 
 import omni4
 from omni4 import _layout
+from omni4.outfile import OutError, OutFile
 
 from . import lcmlog, model, topics
 from .model import Predictor
@@ -50,7 +51,9 @@ def parse_args(argv):
                     "split recording, or recordings of the same run from several machines "
                     "(merged by log time when out of order or overlapping)")
     ap.add_argument("--out", required=True, metavar="OUT.mcap", help="MCAP file to write "
-                    "(replaced; written to a temporary first)")
+                    "(a file is replaced through a temporary beside it; a symbolic link's "
+                    "target is replaced, the link kept; a FIFO or device gets the finished "
+                    "file; a directory is refused)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
                     "prediction runs (default: the paper's Table III)")
     ap.add_argument("--compression", choices=("zstd", "lz4"), default="zstd",
@@ -171,6 +174,36 @@ def merge_parts(parts, quiet):
     return list(heapq.merge(*parts, key=lambda e: e[0]))
 
 
+def write_mcap(out, events, params, a):
+    """The MCAP into out as every output is written (omni4.outfile: a file through a temporary
+    and a rename, a symbolic link's target, a FIFO or device in place). The MCAP writer seeks:
+    for a FIFO or device the file is made in an unnamed temporary file first, then copied in.
+    Returns the Writer (counts, size); raises OutError or what the conversion raised."""
+    import shutil
+    import tempfile
+    out = OutFile(out, binary=True)
+    try:
+        sink = tempfile.TemporaryFile() if out.in_place else out.file
+        w = Writer(sink, a.compression, a.chunk_kib * 1024)
+        try:
+            convert(events, params, w, a.health_period)
+        finally:
+            w.close()
+        w.size = sink.seek(0, os.SEEK_END)
+        if out.in_place:
+            sink.seek(0)
+            shutil.copyfileobj(sink, out.file)
+            sink.close()
+    except OSError as e:  # writing the output (the logs were read before)
+        out.abort()
+        raise OutError(out.path, e) from None
+    except BaseException:
+        out.abort()
+        raise
+    out.commit()
+    return w
+
+
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
     params = model.params_or_exit(PROG, a.params)
@@ -189,21 +222,16 @@ def main(argv=None):
         print(f"{PROG}: {e}", file=sys.stderr)
         return 1
     events = merge_parts(parts, a.quiet)
-    out_dir = os.path.dirname(os.path.abspath(a.out))
+    out_dir = os.path.dirname(os.path.realpath(a.out))
     if not os.path.isdir(out_dir):
         print(f"{PROG}: {a.out}: directory {out_dir} does not exist", file=sys.stderr)
         return 2
-    tmp = f"{a.out}.tmp{os.getpid()}"
     try:
-        w = Writer(tmp, a.compression, a.chunk_kib * 1024)
-        try:
-            convert(events, params, w, a.health_period)
-        finally:
-            w.close()
-        os.replace(tmp, a.out)
+        w = write_mcap(a.out, events, params, a)
+    except OutError as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return 1
     except Exception as e:  # a decoder or the writer refused: one line, no partial OUT
-        if os.path.exists(tmp):
-            os.unlink(tmp)
         print(f"{PROG}: {type(e).__name__}: {e}", file=sys.stderr)
         return 1
     dt = time.perf_counter() - t0
@@ -212,7 +240,7 @@ def main(argv=None):
         per = ", ".join(f"{t} {n}" for t, n in sorted(w.counts.items()))
         span = (events[-1][0] - events[0][0]) * 1e-6
         print(f"{PROG}: {n_lcm} LCM events ({span:.1f} s of log) -> {a.out} "
-              f"({os.path.getsize(a.out) / 1e6:.1f} MB, {a.compression}) in {dt:.2f} s: {per}",
+              f"({w.size / 1e6:.1f} MB, {a.compression}) in {dt:.2f} s: {per}",
               file=sys.stderr)
     for line in lost:
         print(f"{PROG}: {line}; the {n_lcm} complete events were converted", file=sys.stderr)

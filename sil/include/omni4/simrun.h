@@ -28,6 +28,7 @@ struct simrun_stats {
 	uint64_t state;        /* the controller's estimate (OMNI4_STATE) */
 	uint64_t calibrations; /* current-offset notices (OMNI4_PARAM_CHANGED) */
 	uint64_t log_errors;   /* failed writes (never silently: the caller reports them) */
+	int log_errno;         /* the first failed write's errno (ENOSPC...), 0 if none */
 	uint64_t log_dropped;  /* ring overflow */
 	uint64_t cmd_rejected;
 	int32_t faults; /* OR of every motors_t.faults written */
@@ -43,6 +44,9 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
                              const struct model_params *plant_params, bool noise,
                              const char *log_path, char *err, size_t errlen);
 void simrun_destroy(struct simrun *sr);
+/* Writes out what the log holds in memory (before reading the stats, at the end of a run): 0, or
+ * a negative errno, counted as a log error. */
+int simrun_flush_log(struct simrun *sr);
 
 /* Controller clock of the next tick [us]. */
 int64_t simrun_now_us(const struct simrun *sr);
