@@ -127,7 +127,7 @@ struct Mapping {
 		}
 		size = static_cast<size_t>(st.st_size);
 		if (size) {
-			void *m = mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0);
+			void *m = mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
 			if (m == MAP_FAILED) {
 				const int e = errno;
 				close(fd);

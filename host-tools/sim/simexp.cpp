@@ -72,6 +72,11 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 	r.simulated_s = static_cast<double>(k) * dt;
 	r.interrupted = interrupted;
 	simrun_get_stats(sr.get(), &r.stats);
+	const char *names[SIMRUN_CHANNELS_MAX];
+	uint64_t counts[SIMRUN_CHANNELS_MAX];
+	const size_t n = simrun_channel_counts(sr.get(), names, counts, SIMRUN_CHANNELS_MAX);
+	for (size_t c = 0; c < n && c < SIMRUN_CHANNELS_MAX; ++c)
+		r.channels.emplace_back(names[c], counts[c]);
 	return r;
 }
 
