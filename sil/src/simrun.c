@@ -90,10 +90,47 @@ static void count_channel(struct simrun *sr, const char *channel)
 	sr->st.messages++;
 }
 
+static void put_be32(unsigned char *p, uint32_t v)
+{
+	p[0] = (unsigned char)(v >> 24);
+	p[1] = (unsigned char)(v >> 16);
+	p[2] = (unsigned char)(v >> 8);
+	p[3] = (unsigned char)v;
+}
+
+static void put_be64(unsigned char *p, int64_t v)
+{
+	put_be32(p, (uint32_t)((uint64_t)v >> 32));
+	put_be32(p + 4, (uint32_t)(uint64_t)v);
+}
+
+/* One event, as omni4_eventlog_write (liblcm's lcm_eventlog_write_event) lays it out: sync word,
+ * event number, time, channel length, data length, channel, data. The lockstep run writes
+ * ~400000 events per simulated experiment sequence: one buffered fwrite each instead of liblcm's
+ * seven. Larger than the buffer: liblcm's own writer. */
 static int write_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
                        size_t len)
 {
-	return sr->log ? omni4_eventlog_write(sr->log, channel, utime, data, len) : 0;
+	unsigned char buf[OMNI4_EVENT_HEADER_BYTES + SIMRUN_CHANNEL_NAME_MAX + LCMIO_MAX_MSG];
+	const size_t clen = strlen(channel);
+	const size_t n = OMNI4_EVENT_HEADER_BYTES + clen + len;
+
+	if (!sr->log)
+		return 0;
+	if (clen >= SIMRUN_CHANNEL_NAME_MAX || len > LCMIO_MAX_MSG)
+		return omni4_eventlog_write(sr->log, channel, utime, data, len);
+	put_be32(buf, 0xEDA1DA01u);
+	put_be64(buf + 4, sr->log->eventcount);
+	put_be64(buf + 12, utime);
+	put_be32(buf + 20, (uint32_t)clen);
+	put_be32(buf + 24, (uint32_t)len);
+	memcpy(buf + OMNI4_EVENT_HEADER_BYTES, channel, clen);
+	memcpy(buf + OMNI4_EVENT_HEADER_BYTES + clen, data, len);
+	errno = 0;
+	if (fwrite_unlocked(buf, 1, n, sr->log->f) != n) /* this thread only writes it */
+		return errno ? -errno : -EIO;
+	sr->log->eventcount++;
+	return 0;
 }
 
 static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
@@ -145,6 +182,8 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
 			         strerror(errno));
 			goto err_free;
 		}
+		/* 1 MiB of stdio buffer: one write(2) per ~7000 events instead of per 4 kB */
+		setvbuf(sr->log->f, NULL, _IOFBF, 1 << 20);
 	}
 	return sr;
 
