@@ -10,7 +10,7 @@ that count (every channel the log holds is listed, the parts add up to the total
 prints no experiment phase; --no-truth leaves OMNI4_SIM_TRUTH out, --no-estimate OMNI4_STATE, and
 the [sim] keys do the same; leaving them out changes no OMNI4_MOTORS sample (the estimate only
 indicates: the controller's outputs, currents and wheel speeds are byte for byte the same,
-utime aside). Prints one line per check; exit status 0 when all pass, 1 otherwise.
+utime aside); the event numbers run 0, 1, 2, ... Prints one line per check; exit status 0 when all pass, 1 otherwise.
 """
 import collections
 import os
@@ -52,10 +52,14 @@ def summary(stdout):
 
 
 def log_events(path):
-    """{channel: [data, ...]} of every event in the log, read by lcm.EventLog."""
+    """{channel: [data, ...]} of every event in the log, read by lcm.EventLog; checks that the
+    event numbers run 0, 1, 2, ... as liblcm's writer numbers them."""
     out = collections.defaultdict(list)
+    nums = []
     for ev in lcm.EventLog(path, "r"):
         out[ev.channel].append(ev.data)
+        nums.append(ev.eventnum)
+    check(nums == list(range(len(nums))), f"{os.path.basename(path)}: event numbers 0..N-1")
     return out
 
 
