@@ -7,6 +7,7 @@ bridge BIN SECONDS [DECIMATE]: omni4-fw (sim backend, 1 kHz, udpm) for SECONDS; 
 mcap LOG REPS: omni4-mcap on LOG, REPS times, beside a plain converter written the obvious way
   (lcm.EventLog, the generated decoder, json.dumps, the mcap library's Writer with zstd chunks; no
   derived topics), interleaved. Prints wall times per minute of log."""
+import base64
 import json
 import os
 import random
@@ -119,9 +120,12 @@ def naive_convert(log, out):
             if ev.channel not in chans:
                 sid = w.register_schema(ev.channel, "jsonschema", b'{"type":"object"}')
                 chans[ev.channel] = w.register_channel(ev.channel, "json", sid)
-            m = cls.decode(ev.data)
-            d = {k: (list(v) if isinstance(v, (list, tuple)) else v)
-                 for k, v in ((k, getattr(m, k)) for k in m.__slots__)}
+            if cls is None:  # a channel without an omni4 type (OMNI4_PARAM_CHANGED): raw bytes
+                d = {"data_base64": base64.b64encode(ev.data).decode()}
+            else:
+                m = cls.decode(ev.data)
+                d = {k: (list(v) if isinstance(v, (list, tuple)) else v)
+                     for k, v in ((k, getattr(m, k)) for k in m.__slots__)}
             w.add_message(chans[ev.channel], ev.timestamp * 1000, json.dumps(d).encode(),
                           ev.timestamp * 1000)
         w.finish()

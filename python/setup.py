@@ -83,4 +83,11 @@ MODEL_LIB = Extension(
     libraries=["m"],
 )
 
-setup(cmdclass={"build_py": BuildWithLcmTypes}, ext_modules=[MODEL_LIB])
+# The event-log walk of omni4.read_log (omni4/_logwalk.c), loaded with ctypes by omni4/log.py.
+LOG_LIB = Extension(
+    "omni4._omni4log",
+    sources=["omni4/_logwalk.c"],
+    extra_compile_args=["-std=c11", "-O2"],
+)
+
+setup(cmdclass={"build_py": BuildWithLcmTypes}, ext_modules=[MODEL_LIB, LOG_LIB])

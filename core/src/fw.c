@@ -174,6 +174,12 @@ static void estimate(struct fw *fw, struct est_input *in)
 	const int64_t now_us = in->utime;
 	struct fw_pose p;
 
+	if (fw->no_estimate) { /* the poses are dropped unseen, as they arrive */
+		fw->n_tick_poses = 0;
+		while (spsc_pop(&fw->pose_ring, &p))
+			;
+		return;
+	}
 	est_step(&fw->est, in);
 	for (int i = 0; i < fw->n_tick_poses; i++)
 		est_camera(&fw->est, fw->tick_poses[i].utime, fw->tick_poses[i].pose, now_us);

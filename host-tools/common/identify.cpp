@@ -1195,6 +1195,14 @@ StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what)
 	return f;
 }
 
+size_t log_workers(size_t n_logs)
+{
+	// Up to two per core: with fewer logs than twice the cores (3 logs on 2 cores) every log
+	// runs at once and the cores share them evenly, instead of the last one running alone.
+	const size_t cores = std::max(1u, std::thread::hardware_concurrency());
+	return std::max(cores, std::min(n_logs, 2 * cores));
+}
+
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
                  const IdentOptions &opt)
 {
@@ -1221,7 +1229,7 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
 				    i, find_windows(segments[i], t.enc, opt.windows));
 		return t;
 	};
-	const size_t workers = std::max(1u, std::thread::hardware_concurrency());
+	const size_t workers = log_workers(logs.size());
 	std::vector<std::future<Tracks>> pending;
 	P.windows.resize(segments.size());
 	size_t next = 0;

@@ -111,6 +111,10 @@ struct Prepared {
 	std::vector<std::pair<const LogData *, size_t>> offset_epochs;
 };
 
+// Tasks to run at once when each log is one task: the cores, or up to twice as many when there
+// are that many logs (the OS shares the cores evenly among them).
+size_t log_workers(size_t n_logs);
+
 // base: the measured d, r, l, M (other fields ignored).
 Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
                  const IdentOptions &opt = {});

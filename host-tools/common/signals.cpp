@@ -130,6 +130,9 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
 	EncoderTrack out;
 	const auto &m = log.motors;
 	const size_t n = m.size();
+	reserve_huge(out.raw, n);
+	reserve_huge(out.x, n);
+	reserve_huge(out.dx, n);
 	out.raw.resize(n);
 	out.x.assign(n, {NAN, NAN, NAN});
 	out.dx.assign(n, {NAN, NAN, NAN});
@@ -141,7 +144,11 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
 	const int h = out.half;
 	const SgFilter f = savitzky_golay(h, 2);
 	// Contiguous blocks [a, b): the filter runs inside each, never across a gap.
-	std::vector<double> y(n), xs(n), ds(n);
+	std::vector<double> y, xs, ds;
+	for (auto *v : {&y, &xs, &ds}) {
+		reserve_huge(*v, n);
+		v->resize(n);
+	}
 	size_t a = 0;
 	for (size_t b = 1; b <= n; ++b) {
 		if (b < n && out.joined[b])

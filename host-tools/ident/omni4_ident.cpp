@@ -137,7 +137,7 @@ std::vector<LogData> load_logs(const std::vector<std::string> &paths, double gea
 		return l;
 	};
 	std::vector<std::future<Loaded>> pending;
-	const size_t workers = std::max(1u, std::thread::hardware_concurrency());
+	const size_t workers = log_workers(paths.size());
 	std::vector<LogData> logs;
 	std::vector<std::string> warnings;
 	logs.reserve(paths.size());

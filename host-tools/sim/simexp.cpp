@@ -73,6 +73,11 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 	r.interrupted = interrupted;
 	simrun_flush_log(sr.get()); // a failure is in the stats (log_errors, log_errno)
 	simrun_get_stats(sr.get(), &r.stats);
+	const char *names[SIMRUN_CHANNELS_MAX];
+	uint64_t counts[SIMRUN_CHANNELS_MAX];
+	const size_t n = simrun_channel_counts(sr.get(), names, counts, SIMRUN_CHANNELS_MAX);
+	for (size_t c = 0; c < n && c < SIMRUN_CHANNELS_MAX; ++c)
+		r.channels.emplace_back(names[c], counts[c]);
 	return r;
 }
 

@@ -3,6 +3,8 @@
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 extern "C" {
 #include "omni4/config.h"
@@ -14,6 +16,9 @@ namespace omni4
 
 struct SimRunResult {
 	simrun_stats stats{};
+	// The events written per channel, in the order each channel was first written (they add
+	// up to stats.messages).
+	std::vector<std::pair<std::string, uint64_t>> channels;
 	double simulated_s = 0;
 	double wall_s = 0;
 	bool interrupted = false; // stop() ended the run early

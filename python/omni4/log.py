@@ -8,13 +8,15 @@
 
 The log format is LCM's (lcm/eventlog.h): per event a 28-byte big-endian header (sync word
 0xEDA1DA01, event number int64, log time int64 [us], channel length int32, data length int32),
-the channel name, the payload. The reader loads each file once, finds every sync word with
-numpy, walks the header chain the way host-tools/common/logdata.cpp does (an invalid header
-or a truncated event: skip to the next sync word, count the bytes), and decodes the
-fixed-size types (motors_t, pose_t, command_t) with one structured big-endian view over the
-gathered payloads (the dtype omni4._layout reads from the generated classes): no Python loop
-per message. Variable-size types (experiment_t) and any
-other type in omni4.TYPES go through the lcm-gen decoder, message by message.
+the channel name, the payload. The reader loads each file once, walks the header chain the
+way host-tools/common/logdata.cpp does (an invalid header or a truncated event: skip to the next
+sync word, count the bytes; in C, _logwalk.c, which also names each event's channel and gathers
+the payloads; the same in numpy where that library is not built), and decodes the fixed-size
+types (motors_t, pose_t, command_t, state_t, sim_truth_t) with one structured big-endian view
+over the gathered payloads (the dtype omni4._layout reads from the generated classes): no
+Python loop per message. Variable-size types (experiment_t) and any other type in omni4.TYPES
+go through the lcm-gen decoder, message by message. The parameter channels (NAMED_RAW:
+param_changed_t, param_reply_t, param_request_t) are kept raw; the summary names their type.
 
 Nothing is dropped silently: a payload of the wrong size, with another type's fingerprint or
 that the decoder refuses is counted per channel (`Channel.skipped`), bytes between intact
@@ -22,14 +24,17 @@ events and a truncated tail are counted per file (`Log.files`), and channels wit
 type are kept as raw payloads (`Log.unknown`) or only counted (`keep_unknown=False`).
 Values are not filtered: a NaN current in the log is a NaN here. Messages stay in log order.
 """
+import ctypes
+import glob
 import io
 import os
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from . import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_POSE, CHANNEL_STATE,
-               TYPES, _layout)
+from . import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED,
+               CHANNEL_PARAM_REPLY, CHANNEL_PARAM_REQ, CHANNEL_POSE, CHANNEL_STATE, TYPES,
+               _layout, param_changed_t, param_reply_t, param_request_t)
 from ._layout import FINGERPRINT_BYTES
 
 SYNC = 0xEDA1DA01
@@ -44,6 +49,13 @@ assert _HEADER.itemsize == HEADER_BYTES
 # classes): these are decoded with one structured view, the others message by message.
 _FAST = {cls: _layout.wire_dtype(cls) for cls in TYPES.values()
          if _layout.wire_dtype(cls) is not None}
+
+
+# Channels whose omni4 type read_log does not decode into arrays (variable-length types: their
+# events are kept raw in Log.unknown, as any channel outside TYPES; decode them with the class's
+# decode()). The summary names their type.
+NAMED_RAW = {CHANNEL_PARAM_CHANGED: param_changed_t, CHANNEL_PARAM_REPLY: param_reply_t,
+             CHANNEL_PARAM_REQ: param_request_t}
 
 
 class LogError(ValueError):
@@ -141,7 +153,9 @@ class Log:
                 bad = ", ".join(f"{v} {k}" for k, v in sorted(ch.skipped.items()) if v)
                 lines.append(f"  {name}: {len(ch)}" + (f" (skipped: {bad})" if bad else ""))
         for name, n in sorted(self.unknown_counts.items()):
-            lines.append(f"  {name}: {n} (no omni4 type)")
+            cls = NAMED_RAW.get(name)
+            what = f"{cls.__name__}, kept raw" if cls else "no omni4 type"
+            lines.append(f"  {name}: {n} ({what})")
         if len(self.motors):
             lines.append(f"  motors_t seq gaps {self.seq_gaps}, duplicates {self.seq_duplicates}")
         for f in self.files:
@@ -225,7 +239,48 @@ def _sync_positions(buf, lo, hi):
     return first[hit].astype(np.int64)
 
 
+_LIB = []  # [the ctypes library of _logwalk.c, or None where it is not built]
+
+
+def _walk_lib():
+    """omni4_log_walk of the package's _omni4log library (python/setup.py builds it), or None."""
+    if not _LIB:
+        here = os.path.dirname(os.path.abspath(__file__))
+        found = sorted(glob.glob(os.path.join(here, "_omni4log*.so")))
+        L = None
+        if found:
+            L = ctypes.CDLL(found[0])
+            L.omni4_log_walk.restype = ctypes.c_size_t
+            L.omni4_log_walk.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int64,
+                                         ctypes.c_size_t] + [ctypes.c_void_p] * 6
+            L.omni4_log_gather.restype = None
+            L.omni4_log_gather.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p,
+                                           ctypes.c_size_t, ctypes.c_void_p]
+            L.omni4_log_channel_ids.restype = None
+            L.omni4_log_channel_ids.argtypes = [ctypes.c_void_p, ctypes.c_size_t] + \
+                [ctypes.c_void_p] * 5 + [ctypes.c_size_t, ctypes.c_void_p]
+        _LIB.append(L)
+    return _LIB[0]
+
+
 def _walk(buf, lo, hi):
+    """The intact events of one file buf[lo:hi] (see _walk_numpy), with _logwalk.c's one pass
+    from event to event; _walk_numpy where the library is not built. Same results."""
+    L = _walk_lib()
+    if L is None:
+        return _walk_numpy(buf, lo, hi)
+    seg = buf[lo:hi]
+    cap = (hi - lo) // (HEADER_BYTES + 1) + 1  # no event is shorter than 29 bytes
+    out = np.empty((4, cap), np.int64)
+    used, tail = ctypes.c_int64(), ctypes.c_int64()
+    k = L.omni4_log_walk(seg.ctypes.data, hi - lo, MAX_CHANNEL_BYTES, cap,
+                         *(out[i].ctypes.data for i in range(4)), ctypes.byref(used),
+                         ctypes.byref(tail))
+    off, clen, dlen, utime = (out[i, :k] for i in range(4))
+    return off + lo, clen, dlen, utime, (hi - lo) - used.value, tail.value
+
+
+def _walk_numpy(buf, lo, hi):
     """The intact events of one file buf[lo:hi], as logdata.cpp finds them: from the start,
     an event whose header is valid (sync, 0 < channel length <= 256, data length >= 0, the
     whole event inside the file) is taken and the walk continues after it; otherwise the walk
@@ -268,10 +323,43 @@ def _walk(buf, lo, hi):
     return off + lo, clen, dlen, hdr["utime"][take].astype(np.int64), n - used, tail
 
 
+def _known_ids(buf, off, clen, names):
+    """Index into `names` of every event whose channel is one of them, else -1 (_logwalk.c's
+    byte comparison; None where the library is not built)."""
+    L = _walk_lib()
+    if L is None:
+        return None
+    enc = [nm.encode() for nm in names]
+    blob = np.frombuffer(b"".join(enc) or b"\0", np.uint8)
+    nlen = np.array([len(b) for b in enc], np.int64)
+    noff = np.concatenate([[0], np.cumsum(nlen)[:-1]]).astype(np.int64)
+    off = np.ascontiguousarray(off, np.int64)
+    clen = np.ascontiguousarray(clen, np.int64)
+    ids = np.empty(len(off), np.int64)
+    L.omni4_log_channel_ids(buf.ctypes.data, len(off), off.ctypes.data, clen.ctypes.data,
+                            blob.ctypes.data, noff.ctypes.data, nlen.ctypes.data, len(names),
+                            ids.ctypes.data)
+    return ids
+
+
 def _channel_ids(buf, off, clen, names):
     """Channel index of every event (into `names`, which grows with the unknown channels)."""
+    known = _known_ids(buf, off, clen, names)
+    if known is not None:  # only the other channels are left to name below
+        ids = known
+        todo = np.flatnonzero(ids < 0)
+        sub = _channel_ids_numpy(buf, off[todo], clen[todo], names)
+        ids[todo] = sub
+        return ids
+    return _channel_ids_numpy(buf, off, clen, names)
+
+
+def _channel_ids_numpy(buf, off, clen, names):
+    """_channel_ids with numpy alone: per channel length, the names compared as byte strings."""
     ids = np.full(len(off), -1, np.int64)
     index = {nm: i for i, nm in enumerate(names)}
+    if len(off) == 0:
+        return ids
     for L in np.flatnonzero(np.bincount(clen)):
         sel = np.flatnonzero(clen == L)
         raw = np.ascontiguousarray(sliding_window_view(buf, int(L))[off[sel] + HEADER_BYTES])
@@ -327,13 +415,24 @@ def _column(vals, like):
     return out
 
 
+def _gather(buf, doff, size):
+    """The payloads at doff (each `size` bytes, inside buf) as a contiguous (len, size) array."""
+    L = _walk_lib()
+    if L is None:
+        return np.ascontiguousarray(sliding_window_view(buf, size)[doff])
+    doff = np.ascontiguousarray(doff, np.int64)
+    rows = np.empty((len(doff), size), np.uint8)
+    L.omni4_log_gather(buf.ctypes.data, len(doff), doff.ctypes.data, size, rows.ctypes.data)
+    return rows
+
+
 def _decode_fast(buf, cls, doff, dlen):
     """Fixed-size type: one gather of the payloads and a big-endian structured view."""
     dt = _FAST[cls]
     size_ok = dlen == dt.itemsize
     if not size_ok.any():  # also keeps a log shorter than one payload out of the window view
         return _empty_fields(cls), np.zeros(0, np.int64), {"wrong_size": len(dlen)}
-    rows = np.ascontiguousarray(sliding_window_view(buf, dt.itemsize)[doff[size_ok]])
+    rows = _gather(buf, doff[size_ok], dt.itemsize)
     rec = rows.view(dt).ravel()
     fp_ok = rec["fingerprint"] == _layout.fingerprint(cls)
     if not fp_ok.all():  # (a boolean index copies every record: only when needed)

@@ -125,6 +125,9 @@ struct fw {
 	int64_t late_us;      /* two loop periods [us]: a tick this far after the last is late */
 	int state_every;      /* ticks between two LOG_STATE entries */
 	uint32_t state_flags; /* flags of the last LOG_STATE entry */
+	bool no_estimate;     /* the estimator is left out (no LOG_STATE entries; camera poses
+	                       * still go to the log); false after fw_init. Set before the loop
+	                       * runs (an adapter may; the lockstep simulator does on request) */
 	struct fw_pose tick_poses[FW_POSES_PER_TICK]; /* poses handed in during this tick */
 	int n_tick_poses;
 	struct fw_counters n;

@@ -6,6 +6,8 @@
 #ifndef OMNI4_SIM_SETTINGS_H
 #define OMNI4_SIM_SETTINGS_H
 
+#include <stdbool.h>
+
 struct sim_settings {
 	double current_noise_a; /* std dev [A] */
 	int encoder_cpr;        /* counts per wheel revolution; 0 = ideal */
@@ -22,6 +24,9 @@ struct sim_settings {
 	double wheel_radius_error[4]; /* relative effective-radius error per wheel */
 	double slip_noise;            /* creep std dev [m/s] */
 	double camera_latency_ms;     /* capture -> delivery [ms] */
+	/* The lockstep simulator only (sil/) */
+	bool truth;    /* log the plant's true state (OMNI4_SIM_TRUTH) */
+	bool estimate; /* run the state estimator (OMNI4_STATE) */
 };
 
 /* The defaults of sim_keys.def: the paper's set-up (1 cm / 3 deg camera at 25 Hz, ...). */

@@ -21,12 +21,17 @@ extern "C" {
 
 struct simrun;
 
+/* Events written to the log (or handed to the tap when there is none), counted per channel:
+ * messages is their total, the named ones are parts of it and other the rest. */
 struct simrun_stats {
 	uint64_t ticks;
-	uint64_t messages; /* written to the log, all channels */
-	uint64_t motors, pose, cmd, other;
+	uint64_t messages; /* all channels */
+	uint64_t motors, pose, cmd;
 	uint64_t state;        /* the controller's estimate (OMNI4_STATE) */
+	uint64_t truth;        /* the plant's true state (OMNI4_SIM_TRUTH) */
+	uint64_t experiment;   /* marks (OMNI4_EXPERIMENT) */
 	uint64_t calibrations; /* current-offset notices (OMNI4_PARAM_CHANGED) */
+	uint64_t other;        /* any other channel (simrun_publish) */
 	uint64_t log_errors;   /* failed writes (never silently: the caller reports them) */
 	int log_errno;         /* the first failed write's errno (ENOSPC...), 0 if none */
 	uint64_t log_dropped;  /* ring overflow */
@@ -37,7 +42,9 @@ struct simrun_stats {
 
 /*
  * Start-up. plant_params: the simulated robot (truth); cfg: the firmware's settings and model.
- * noise = false gives exact sensors. log_path NULL = no log. On error returns NULL and puts a
+ * noise = false gives exact sensors. log_path NULL = no log. cfg->sim.truth and
+ * cfg->sim.estimate ([sim] truth, estimate): false leaves OMNI4_SIM_TRUTH out of the log and
+ * the state estimator (OMNI4_STATE) out of the loop. On error returns NULL and puts a
  * one-line reason in err (size errlen).
  */
 struct simrun *simrun_create(const struct omni4_config *cfg,
@@ -61,6 +68,14 @@ int simrun_publish(struct simrun *sr, const char *channel, const void *data, siz
 void simrun_tick(struct simrun *sr);
 
 void simrun_get_stats(const struct simrun *sr, struct simrun_stats *out);
+
+/* The events written per channel, in the order each channel was first written: up to max
+ * names and counts; returns how many channels there are (the names live as long as sr). The
+ * counts add up to simrun_stats.messages. */
+#define SIMRUN_CHANNELS_MAX 32
+#define SIMRUN_CHANNEL_NAME_MAX 64
+size_t simrun_channel_counts(const struct simrun *sr, const char **names, uint64_t *counts,
+                             size_t max);
 
 /* Test access: the true plant state [v, vn, w] and pose [x, y, theta]. */
 void simrun_truth(const struct simrun *sr, double x[3], double pose[3]);
