@@ -1,7 +1,7 @@
 """omni4-status and omni4-teleop. Live (against omni4-fw on the sim backend over udpm, ttl=0,
-fixed ports 7621-7623 of the range 7600-7699 that no test draws a random port from): the status
-of a controller at rest (IDLE, the loop rate of its [loop] rate_hz, no faults, the model's R of
-its INI), the one-line error with no controller; teleop driven through a pseudo-terminal (w,
+URLs of their own: conftest.lcm_test_url): the status of a controller at rest (IDLE, a loop
+rate measured from its samples, never above its [loop] rate_hz, no faults, the model's R of its
+INI), the one-line error with no controller; teleop driven through a pseudo-terminal (w,
 space, x: VELOCITY with v > 0, then ~0, exit 0, the terminal's settings restored), by a closing
 stdin, and by a recorded joystick event stream. Not live: the key and js_event mapping, the
 fault names."""
@@ -19,6 +19,7 @@ import time
 
 import lcm
 import pytest
+from conftest import lcm_test_url
 
 import omni4
 from omni4 import status, teleop
@@ -26,10 +27,10 @@ from omni4 import status, teleop
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 START_TIMEOUT_S = 10 * SCALE
 EXIT_TIMEOUT_S = 10 * SCALE
-MOVE_TIMEOUT_S = 3 * SCALE
-URL_STATUS = "udpm://239.255.76.67:7621?ttl=0"
-URL_NOBODY = "udpm://239.255.76.67:7622?ttl=0"
-URL_TELEOP = "udpm://239.255.76.67:7623?ttl=0"
+# Waits for an event (a speed reached, a mode): failure bounds only, generous so that a loaded
+# machine cannot reach them; a passing test never waits them out.
+MOVE_TIMEOUT_S = 20 * SCALE
+URL_STATUS, URL_NOBODY, URL_TELEOP = lcm_test_url(), lcm_test_url(), lcm_test_url()
 RATE_HZ = 500                  # not the default 1000: the status must measure it
 R_M = 0.0325                   # wheel radius [m], Table III
 MODEL = dict(d=0.089, r=R_M, l=5, Kv=0.0259, Kt=0.0259, R=4.7, M=2.34, J=0.0228, Bv=0.4978,
@@ -148,8 +149,17 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
         assert r.returncode == 0, r.stderr
         assert re.search(r"^mode: IDLE$", r.stdout, re.M)
         assert re.search(r"^faults: none$", r.stdout, re.M)
-        rate = float(re.search(r"^loop: ([0-9.]+) Hz", r.stdout, re.M).group(1))
-        assert abs(rate - RATE_HZ) <= 0.1 * RATE_HZ, rate
+        loop = re.search(r"^loop: ([0-9.]+) Hz, overruns (\d+), lost samples (\d+)$",
+                         r.stdout, re.M)
+        assert loop, r.stdout
+        rate, overruns, lost = float(loop.group(1)), int(loop.group(2)), int(loop.group(3))
+        # The rate is measured from the controller's clock (ticks per second of utime). A busy
+        # machine makes the loop skip ticks (overruns), so it may be anything below 500 Hz; it
+        # can never be above: no tick starts before its deadline, so k ticks span at least k - 2
+        # periods, and 1 s at 500 Hz holds ~500 ticks (a status printing the default 1000 Hz,
+        # or a count of samples per second of its own, fails here).
+        assert 0 < rate <= 1.1 * RATE_HZ, r.stdout
+        assert overruns >= 0 and lost >= 0
         got_r = float(re.search(r"\bR=([0-9.eE+-]+) ohm", r.stdout).group(1))
         assert got_r == MODEL["R"]
         for what in ("current [A]:", "voltage [V]:", "wheel speed [rad/s]:", "lost samples"):
@@ -168,14 +178,18 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         first = p.stdout.readline()
         assert f"robot on {URL_STATUS}" in first
-        time.sleep(2.5)                          # a report a second: two or three more
+        out = first
+        while out.count("mode: IDLE") < 2:       # a report a second: wait for the second
+            line = p.stdout.readline()
+            assert line, f"omni4-status --watch ended after {out!r}"
+            out += line
         p.send_signal(signal.SIGINT)
         try:
             status = p.wait(timeout=EXIT_TIMEOUT_S)
         except subprocess.TimeoutExpired:
             p.kill()
             pytest.fail(f"omni4-status --watch still running {EXIT_TIMEOUT_S} s after SIGINT")
-        out, err = first + p.stdout.read(), p.stderr.read()
+        out, err = out + p.stdout.read(), p.stderr.read()
         assert status == 0 and err == "", err
         assert out.count("mode: IDLE") >= 2, out
     finally:
