@@ -40,7 +40,6 @@ DRIVE_S = 2.0
 # camera| 0.0001-0.006 m on a calm machine (the camera's 1 cm noise, averaged over 10 frames),
 # plus V x the late ticks' time under load (below); sideways and heading drift <= 0.0001 m,
 # 0.0002 rad. Tolerances: 2-3x.
-ODOM_TOL_M = 0.02
 CAMERA_TOL_M = 0.012
 DRIFT_TOL_M = 0.005
 HEADING_TOL_RAD = 0.01
@@ -400,7 +399,13 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
               f"{p1[2] - p0[2]:+.4f} rad) for {V} m/s x {DRIVE_S} s = {V * DRIVE_S:.3f} m; "
               f"camera {cam:.4f} m; |odom - camera| {abs(dist - cam):.4f} m; late ticks "
               f"{late_s * 1e3:.1f} ms")
-        assert abs(dist - V * DRIVE_S) < ODOM_TOL_M, f"{topic} moved {dist:.4f} m"
+        # The distance itself depends on how long the controller drove: DRIVE_S of this
+        # process's publishing, stretched or cut by how late a loaded machine delivers the
+        # first and the last /cmd_vel, and shortened by skipped ticks (the plant advances one
+        # period per tick). Bounded loosely here (measured 0.5927-0.6392 m, once beside
+        # stress-ng); the odometry's precision is checked against the camera, below, which
+        # saw the same motion.
+        assert 0.5 * V * DRIVE_S < dist < 1.5 * V * DRIVE_S, f"{topic} moved {dist:.4f} m"
         # The estimate takes the camera (3 deg noise per frame): its heading and sideways
         # position wander more than the wheels' (measured <= 6.5 mrad, 2.1 mm).
         drift, heading = (DRIFT_TOL_M, HEADING_TOL_RAD) if key == "wodom" else (0.006, 0.02)
