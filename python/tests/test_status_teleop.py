@@ -61,7 +61,8 @@ class Firmware:
         ini = tmp_path / "robot.ini"
         ini.write_text(f"[lcm]\nurl = {url}\n[hal]\nmotor = sim\n{extra}")
         self.log = open(tmp_path / "fw.stderr", "w+")
-        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "120", "-q"],
+        # --duration: a bound only (stop() ends it); 120 s ran out beside stress-ng
+        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "900", "-q"],
                                      stdout=self.log, stderr=subprocess.STDOUT)
         self.bus = Bus(url)
         if self.bus.wait(lambda m: True, START_TIMEOUT_S) is None:
