@@ -4,7 +4,8 @@ with motors_t.decode of every OMNI4_MOTORS event (what a script does without the
 The peer decodes only OMNI4_MOTORS; read_log decodes every channel.
 
 usage: read_log.py LOG [REPS]   (the project's .venv/bin/python; REPS of each, interleaved)
-prints: read_log s min/med/max A/B/C, peer s min/med/max D/E/F, bytes N, events E, motors M
+prints: read_log s min/med/max A/B/C, peer s min/med/max D/E/F, bytes N, events E, motors M,
+        peer/read_log R x (the medians' ratio: how many times faster read_log is)
 """
 import statistics
 import sys
@@ -41,7 +42,8 @@ def main():
                      f"lcm.EventLog {n}")
     fmt = lambda v: f"{min(v):.3f}/{statistics.median(v):.3f}/{max(v):.3f}"  # noqa: E731
     print(f"read_log s min/med/max {fmt(ours)}, peer s min/med/max {fmt(theirs)}, "
-          f"bytes {log.bytes_total}, events {log.events}, motors {len(log.motors)}")
+          f"bytes {log.bytes_total}, events {log.events}, motors {len(log.motors)}, "
+          f"peer/read_log {statistics.median(theirs) / statistics.median(ours):.1f} x")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,26 @@
-"""Shared fixtures of the package's tests."""
+"""Shared fixtures of the package's tests, and the LCM URL of a test."""
 import os
+import random
 
 import pytest
+
+# The tests' udpm ports: never LCM's and omni4's default 7667 (a robot on the default URL on
+# this machine never meets a test), nor bench/'s 7700-7899. tests/hil/bounded_wait.sh
+# (test_lcm_url) and tests/firmware/livebus.py draw from the same range.
+TEST_PORTS = (7900, 10999)
+
+
+def lcm_test_url():
+    """A udpm URL of the caller's own (ttl=0, a random port of TEST_PORTS): every live test
+    puts its programs on one (`--lcm URL`, `[lcm] url` in its INI); `from conftest import
+    lcm_test_url`."""
+    return f"udpm://239.255.76.67:{random.randint(*TEST_PORTS)}?ttl=0"
+
+
+@pytest.fixture
+def lcm_url():
+    """lcm_test_url() for one test."""
+    return lcm_test_url()
 
 
 @pytest.fixture(scope="session")

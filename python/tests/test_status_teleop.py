@@ -1,9 +1,12 @@
 """omni4-status and omni4-teleop. Live (against omni4-fw on the sim backend over udpm, ttl=0,
-fixed ports 7621-7623 of the range 7600-7699 that no test draws a random port from): the status
-of a controller at rest (IDLE, the loop rate of its [loop] rate_hz, no faults, the model's R of
-its INI), the one-line error with no controller; teleop driven through a pseudo-terminal (w,
+URLs of their own: conftest.lcm_test_url): the status of a controller at rest (IDLE, a loop
+rate measured from its samples, never above its [loop] rate_hz, no faults, the model's R of its
+INI), the one-line error with no controller; teleop driven through a pseudo-terminal (w,
 space, x: VELOCITY with v > 0, then ~0, exit 0, the terminal's settings restored), by a closing
-stdin, and by a recorded joystick event stream. Not live: the key and js_event mapping, the
+stdin, and by joystick events fed through a FIFO as a device gives them (a recorded file is
+replayed at times counted from its opening, before omni4-teleop has the controller's [limits]:
+on a loaded machine the whole replay can be due at once; the FIFO sends the stick's moves when
+the test has seen the effect of the last). Not live: the key and js_event mapping, the
 fault names."""
 import os
 import pty
@@ -19,17 +22,27 @@ import time
 
 import lcm
 import pytest
+from conftest import lcm_test_url
 
 import omni4
 from omni4 import status, teleop
 
 SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
 START_TIMEOUT_S = 10 * SCALE
-EXIT_TIMEOUT_S = 10 * SCALE
-MOVE_TIMEOUT_S = 3 * SCALE
-URL_STATUS = "udpm://239.255.76.67:7621?ttl=0"
-URL_NOBODY = "udpm://239.255.76.67:7622?ttl=0"
-URL_TELEOP = "udpm://239.255.76.67:7623?ttl=0"
+EXIT_TIMEOUT_S = 60 * SCALE     # a failure bound: omni4-teleop's exit took > 10 s beside stress-ng
+# Waits for an event (a speed reached, a mode): failure bounds only, generous so that a loaded
+# machine cannot reach them; a passing test never waits them out.
+MOVE_TIMEOUT_S = 20 * SCALE
+# omni4-teleop prints its banner once it has asked for the controller's [limits] (omni4.Robot:
+# a GET of 0.25 s per try, again 5 s later without an answer; the reply comes through the same
+# Python receive thread as every OMNI4_MOTORS sample). Beside stress-ng --cpu 2 and a 1 kHz
+# controller the banner took 11 s to over 90 s, or came with the defaults ("the controller did
+# not answer"); with the controller at TELEOP_RATE_HZ, 0.4-0.5 s. The banner is waited for up
+# to 90 s, and either source is accepted (this test's controller has the default limits;
+# test_commands_live checks that the limits are read).
+BANNER_TIMEOUT_S = 90 * SCALE
+TELEOP_RATE_HZ = 100           # the teleop tests' controller: fewer samples for the client
+URL_STATUS, URL_NOBODY, URL_TELEOP = lcm_test_url(), lcm_test_url(), lcm_test_url()
 RATE_HZ = 500                  # not the default 1000: the status must measure it
 R_M = 0.0325                   # wheel radius [m], Table III
 MODEL = dict(d=0.089, r=R_M, l=5, Kv=0.0259, Kt=0.0259, R=4.7, M=2.34, J=0.0228, Bv=0.4978,
@@ -48,7 +61,8 @@ class Firmware:
         ini = tmp_path / "robot.ini"
         ini.write_text(f"[lcm]\nurl = {url}\n[hal]\nmotor = sim\n{extra}")
         self.log = open(tmp_path / "fw.stderr", "w+")
-        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "120", "-q"],
+        # --duration: a bound only (stop() ends it); 120 s ran out beside stress-ng
+        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "900", "-q"],
                                      stdout=self.log, stderr=subprocess.STDOUT)
         self.bus = Bus(url)
         if self.bus.wait(lambda m: True, START_TIMEOUT_S) is None:
@@ -148,8 +162,17 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
         assert r.returncode == 0, r.stderr
         assert re.search(r"^mode: IDLE$", r.stdout, re.M)
         assert re.search(r"^faults: none$", r.stdout, re.M)
-        rate = float(re.search(r"^loop: ([0-9.]+) Hz", r.stdout, re.M).group(1))
-        assert abs(rate - RATE_HZ) <= 0.1 * RATE_HZ, rate
+        loop = re.search(r"^loop: ([0-9.]+) Hz, overruns (\d+), lost samples (\d+)$",
+                         r.stdout, re.M)
+        assert loop, r.stdout
+        rate, overruns, lost = float(loop.group(1)), int(loop.group(2)), int(loop.group(3))
+        # The rate is measured from the controller's clock (ticks per second of utime). A busy
+        # machine makes the loop skip ticks (overruns), so it may be anything below 500 Hz; it
+        # can never be above: no tick starts before its deadline, so k ticks span at least k - 2
+        # periods, and 1 s at 500 Hz holds ~500 ticks (a status printing the default 1000 Hz,
+        # or a count of samples per second of its own, fails here).
+        assert 0 < rate <= 1.1 * RATE_HZ, r.stdout
+        assert overruns >= 0 and lost >= 0
         got_r = float(re.search(r"\bR=([0-9.eE+-]+) ohm", r.stdout).group(1))
         assert got_r == MODEL["R"]
         for what in ("current [A]:", "voltage [V]:", "wheel speed [rad/s]:", "lost samples"):
@@ -168,14 +191,18 @@ def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         first = p.stdout.readline()
         assert f"robot on {URL_STATUS}" in first
-        time.sleep(2.5)                          # a report a second: two or three more
+        out = first
+        while out.count("mode: IDLE") < 2:       # a report a second: wait for the second
+            line = p.stdout.readline()
+            assert line, f"omni4-status --watch ended after {out!r}"
+            out += line
         p.send_signal(signal.SIGINT)
         try:
             status = p.wait(timeout=EXIT_TIMEOUT_S)
         except subprocess.TimeoutExpired:
             p.kill()
             pytest.fail(f"omni4-status --watch still running {EXIT_TIMEOUT_S} s after SIGINT")
-        out, err = first + p.stdout.read(), p.stderr.read()
+        out, err = out + p.stdout.read(), p.stderr.read()
         assert status == 0 and err == "", err
         assert out.count("mode: IDLE") >= 2, out
     finally:
@@ -232,7 +259,8 @@ class Pty:
 
 @pytest.fixture(scope="module")
 def fw_teleop(omni4_bin, tmp_path_factory):
-    fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("teleop"), URL_TELEOP)
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("teleop"), URL_TELEOP,
+                  f"[loop]\nrate_hz = {TELEOP_RATE_HZ}\n")
     yield fw
     fw.stop()
 
@@ -246,7 +274,9 @@ def test_teleop_keys_drive_and_stop(fw_teleop):
     bus = fw_teleop.bus
     t = Pty(["--lcm", URL_TELEOP, "--no-joystick"])
     try:
-        t.read_until(rb"limits \|v\|, \|vn\| <= 3 m/s, \|w\| <= 20 rad/s \(controller", 10 * SCALE)
+        t.read_until(rb"limits \|v\|, \|vn\| <= 3 m/s, \|w\| <= 20 rad/s "
+                     rb"\((controller's \[limits\]|defaults; the controller did not answer)\)",
+                     BANNER_TIMEOUT_S)
         t.send(b"w")
         m = bus.wait(lambda m: driving(m) and v_of(m) > 0.08, MOVE_TIMEOUT_S)
         assert m is not None, f"no VELOCITY with v > 0.08 m/s after w (last {bus.last})"
@@ -289,19 +319,28 @@ def test_teleop_stops_when_stdin_closes(fw_teleop):
 
 
 @pytest.mark.live
-def test_teleop_recorded_joystick_drives_and_stops(fw_teleop, tmp_path):
+def test_teleop_joystick_drives_and_stops(fw_teleop, tmp_path):
     bus = fw_teleop.bus
-    js = tmp_path / "js.events"
+    js = tmp_path / "js.fifo"
+    os.mkfifo(js)
     ev = struct.Struct("<IhBB")
-    js.write_bytes(ev.pack(1000, 0, 0x82, 1) + ev.pack(1000, 0, 0x81, 0) +   # init events
-                   ev.pack(1500, -32767, 2, 1) +                           # stick up: +v
-                   ev.pack(3000, 0, 2, 1))                                 # released
     t = Pty(["--lcm", URL_TELEOP, "--joystick", str(js)])
+    w = None
     try:
-        t.read_until(rb"joystick", 10 * SCALE)
+        end = time.monotonic() + BANNER_TIMEOUT_S
+        while w is None:                          # the writer end, once omni4-teleop reads it
+            try:
+                w = os.open(js, os.O_WRONLY | os.O_NONBLOCK)
+            except OSError:
+                assert time.monotonic() < end and t.proc.poll() is None, "joystick not opened"
+                time.sleep(0.05)
+        os.write(w, ev.pack(1000, 0, 0x82, 1) + ev.pack(1000, 0, 0x81, 0))   # init events
+        t.read_until(rb"joystick", BANNER_TIMEOUT_S)
+        os.write(w, ev.pack(1500, -32767, 2, 1))                            # stick up: +v
         m = bus.wait(lambda m: driving(m) and v_of(m) > 0.3, MOVE_TIMEOUT_S)
         assert m is not None, f"no VELOCITY with v > 0.3 m/s from the stick (last {bus.last})"
         print(f"stick up: v {v_of(m):.4f} m/s")
+        os.write(w, ev.pack(3000, 0, 2, 1))                                 # released
         m = bus.wait(lambda m: driving(m) and abs(v_of(m)) < 0.005, MOVE_TIMEOUT_S)
         assert m is not None, f"v not ~0 after the stick was released (last {bus.last})"
         print(f"released: v {v_of(m):.4f} m/s")
@@ -310,5 +349,7 @@ def test_teleop_recorded_joystick_drives_and_stops(fw_teleop, tmp_path):
         assert status == 0, t.out
         assert after == t.before
     finally:
+        if w is not None:
+            os.close(w)
         if t.proc.poll() is None:
             t.proc.kill()

@@ -3,6 +3,7 @@ thread of its own that sends commands and waits (bounded, named) for what it has
 
 A test subclasses Bus, subscribes its channels in __init__ before calling start(), and keeps
 what it hears under self.lock."""
+import random
 import threading
 import time
 
@@ -11,6 +12,15 @@ import lcm
 import omni4
 
 results = []
+
+# The tests' udpm ports (as python/tests/conftest.py and tests/hil/bounded_wait.sh): never the
+# default 7667, where a user's robot may run, nor bench/'s 7700-7899.
+TEST_PORTS = (7900, 10999)
+
+
+def test_url(port=None):
+    """udpm://239.255.76.67:PORT?ttl=0: the given port, else a random one of TEST_PORTS."""
+    return f"udpm://239.255.76.67:{port or random.randint(*TEST_PORTS)}?ttl=0"
 
 
 def check(ok, what):

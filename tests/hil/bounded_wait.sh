@@ -41,3 +41,10 @@ bounded_run() {
   [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ] && { echo "FAIL: hung: $where (still running after $secs s)"; return 124; }
   return "$rc"
 }
+
+# test_lcm_url: prints a udpm URL of the test's own: ttl=0, a random port of the tests' range
+# 7900-10999 (never LCM's and omni4's default 7667, nor bench/'s 7700-7899), so a robot running
+# on the default URL on this machine never meets a test, nor a test another one.
+test_lcm_url() {
+  echo "udpm://239.255.76.67:$((7900 + RANDOM % 3100))?ttl=0"
+}

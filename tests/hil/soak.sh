@@ -3,7 +3,9 @@
 # soak) through real LCM (udpm, ttl=0) into lcm-logger and omni4-record (split into 1 MB parts)
 # side by side, with a command stream. Checks: every sample in the omni4-record log (no seq gap, across
 # the parts), the lcm-logger log well formed (its misses reported), none dropped in the
-# controller, RSS flat (no leak), the loop's latency and overruns.
+# controller, RSS flat (no leak), the loop's figures there and consistent. How fast the loop
+# wakes (latency, overruns) is the machine's: printed here, measured by bench/run beside
+# cyclictest; never a bound here.
 # lcm-logger is Debian's C binary (liblcm-bin), called by path: the PyPI lcm package's
 # lcm-logger (in .venv/bin, first on the PATH when the venv is active) is a Python wrapper
 # that, started in the background of a script, ignores SIGINT and never passes it on, so
@@ -15,15 +17,21 @@ LCM_LOGGER=${OMNI4_LCM_LOGGER:-/usr/bin/lcm-logger}
 [ -x "$LCM_LOGGER" ] || { echo "FAIL: $LCM_LOGGER missing (apt-get install liblcm-bin)"; echo "0 passed, 1 failed"; exit 1; }
 D=${OMNI4_SOAK_S:-30}
 T=$(mktemp -d)
-PORT=$((7900 + RANDOM % 200))
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+URL=$(test_lcm_url)  # udpm, ttl=0, a port of this test's own (bounded_wait.sh)
 trap 'kill ${FW:-} ${LG:-} ${RC:-} ${DR:-} 2>/dev/null; rm -rf "$T"' EXIT
 printf '[lcm]\nurl = %s\n' "$URL" > "$T/fw.ini"
 "$LCM_LOGGER" --lcm-url="$URL" -c OMNI4_MOTORS -f "$T/soak.lcmlog" >/dev/null 2>&1 &
 LG=$!
-"$BIN/omni4-record" --lcm "$URL" --channel OMNI4_MOTORS --split-mb 1 --out "$T/rec.lcmlog" -q &
+"$BIN/omni4-record" --lcm "$URL" --channel OMNI4_MOTORS --split-mb 1 --out "$T/rec.lcmlog" 2>"$T/rec.err" &
 RC=$!
-sleep 0.5
+# The controller starts once the recorder has subscribed (its " <- " line): an event, not a time.
+n=0
+until grep -q " <- " "$T/rec.err" 2>/dev/null; do
+  [ "$n" -lt 300 ] && kill -0 $RC 2>/dev/null ||
+    { echo "FAIL: omni4-record did not subscribe within 30 s: $(cat "$T/rec.err")"; echo "0 passed, 1 failed"; exit 1; }
+  sleep 0.1; n=$((n + 1))
+done
+sleep 0.5  # lcm-logger, started first, is not waited for: its misses are reported, not failed
 "$BIN/omni4-fw" --config "$T/fw.ini" --duration "$D" > "$T/fw.log" 2>&1 &
 FW=$!
 # A robot that is being driven: velocity commands at 20 Hz, 0.5 m/s, through LCM.
@@ -72,21 +80,16 @@ echo "lcm-logger: $(( ${ticks:-0} - ${motors:-0} )) of $ticks samples missed in 
 [ "$growth" -lt 512 ] || { echo "FAIL: RSS grew by $growth kB"; fail=1; }
 # Loop timing, not real-time here (no SCHED_FIFO, a shared 2-core machine): measured p50
 # 66-67 us, p99 175-314 us, 11-15 overruns and 34-51 ticks short in 10 s (0.1-0.5 %); a
-# parallel compile pushes p99 to ~4 ms and overruns to ~2 % (test_fw_threads). Bounds: p50
-# 200 us (~3x), p99 5 periods, overruns and missing ticks 5 % of the ticks; times
-# OMNI4_TEST_TIME_SCALE (> 1 in the sanitizer builds).
-S=${OMNI4_TEST_TIME_SCALE:-1}
+# parallel compile pushes p99 to ~4 ms and overruns to ~2 %. Those are the machine's figures
+# (bench/run measures them beside cyclictest): printed, not bounded. Checked: the summary has
+# them, and they are consistent (p50 <= p99, ticks > 0).
 overruns=$(sed -n 's/.* ticks, \([0-9]*\) overruns.*/\1/p' "$T/fw.log")
 p50=$(sed -n 's/.*latency p50 \([0-9]*\) us.*/\1/p' "$T/fw.log")
 p99=$(sed -n 's/.*p99 \([0-9]*\) us.*/\1/p' "$T/fw.log")
 echo "loop: $overruns overruns, p50 $p50 us, p99 $p99 us, $ticks of $((D * 1000)) ticks"
-awk -v o="${overruns:-x}" -v a="${p50:-x}" -v b="${p99:-x}" -v t="${ticks:-0}" -v d="$D" -v s="$S" 'BEGIN {
-  bad = 0
+awk -v o="${overruns:-x}" -v a="${p50:-x}" -v b="${p99:-x}" -v t="${ticks:-0}" -v d="$D" 'BEGIN {
   if (o !~ /^[0-9]+$/ || a !~ /^[0-9]+$/ || b !~ /^[0-9]+$/) { print "FAIL: no loop figures in the omni4-fw summary"; exit 1 }
-  if (a > 200 * s) { printf "FAIL: latency p50 %d us > %d us\n", a, 200 * s; bad = 1 }
-  if (b > 5000 * s) { printf "FAIL: latency p99 %d us > %d us\n", b, 5000 * s; bad = 1 }
-  if (o > 0.05 * s * d * 1000) { printf "FAIL: %d overruns > %d\n", o, 0.05 * s * d * 1000; bad = 1 }
-  if (t < (1 - 0.05 * s) * d * 1000) { printf "FAIL: %d ticks in %d s\n", t, d; bad = 1 }
-  exit bad }' || fail=1
+  if (a > b || t <= 0) { printf "FAIL: inconsistent loop figures: p50 %d us, p99 %d us, %d ticks\n", a, b, t; exit 1 }
+  exit 0 }' || fail=1
 [ $fail -eq 0 ] && echo "1 passed, 0 failed" || echo "0 passed, 1 failed"
 exit $fail

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # CLI contract of omni4-sim / omni4-ident / omni4-fw / omni4-record on bad input: a clear one-line error, a non-zero
-# status, and no half-written output file.
+# status, and no half-written output file. Every program that opens LCM here is on this test's
+# own URL (test_lcm_url): a robot running on the default URL on this machine changes nothing.
 set -u
 BIN=$1
 . "$(dirname "$0")/../hil/bounded_wait.sh"
+URL=$(test_lcm_url)
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fail=0
@@ -92,14 +94,21 @@ printf '[lcm]\nurl = udpm://300.1.1.1:7667?ttl=0\n' > "$T/badlcm.ini"
 expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-fw" --config "$T/badlcm.ini" --duration 1
 # [can] bitrate: the protocol at 1 kHz needs 43.2 % of 1 Mbit/s (worst-case stuffing); the bus
 # may be at most half used, so 800 kbit/s (54 %) is refused before any interface is opened.
-printf '[hal]\nmotor = socketcan\nlines = none\n[can]\nbitrate = 800000\n' > "$T/slowcan.ini"
+printf '[hal]\nmotor = socketcan\nlines = none\n[can]\nbitrate = 800000\n[lcm]\nurl = %s\n' "$URL" > "$T/slowcan.ini"
 expect 1 "\[can\] bitrate 800000 bit/s is too slow for \[loop\] rate_hz 1000: the motor-driver protocol would take 54 % of the bus" -- "$BIN/omni4-fw" --config "$T/slowcan.ini" --duration 1
-# The packaged default config parses; it then asks for the robot's CAN interface.
-expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$(dirname "$0")/../../packaging/robot.ini"
+# The packaged default config parses; it then asks for the robot's CAN interface (on this
+# test's URL: the packaged file has no [lcm] section, so one is added to a copy).
+{ cat "$(dirname "$0")/../../packaging/robot.ini"; printf '\n[lcm]\nurl = %s\n' "$URL"; } > "$T/packaged.ini"
+expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$T/packaged.ini"
 # omni4-sim interrupted: status 130, one line, and a log whose every event is whole.
 "$BIN/omni4-sim" --experiments --speed 1 --out "$T/int.lcmlog" -q >"$T/int.out" 2>&1 &
 sim=$!
-sleep 1.5
+# interrupted once it is writing its log (an event, not a time: a loaded machine starts it late)
+n=0
+while [ ! -s "$T/int.lcmlog" ] && [ "$n" -lt 600 ] && kill -0 "$sim" 2>/dev/null; do
+  sleep 0.1; n=$((n + 1))
+done
+sleep 0.5
 kill -INT "$sim"
 bounded_wait "$sim" 20 "omni4-sim after SIGINT"
 rc=$?
@@ -115,7 +124,7 @@ else
   echo "ok: the interrupted log reads whole: $(grep events <<<"$int_read")"; pass=$((pass + 1))
 fi
 # A run with no controller on its URL: one line naming the URL within 5 s, status 1, no log.
-expect 1 "no OMNI4_MOTORS on udpm://239.255.76.67:7601?ttl=0 within 5 s" -- "$BIN/omni4-ident" run --lcm "udpm://239.255.76.67:7601?ttl=0" --out "$T/norobot.lcmlog" --only coast
+expect 1 "no OMNI4_MOTORS on $URL within 5 s" -- "$BIN/omni4-ident" run --lcm "$URL" --out "$T/norobot.lcmlog" --only coast
 [ -e "$T/norobot.lcmlog" ] && { echo "FAIL: omni4-ident run left a log without a robot"; fail=$((fail + 1)); }
 # omni4-record: bad options, an existing file (kept intact), an unwritable place, no LCM.
 expect 0 "usage" -- "$BIN/omni4-record" --help
@@ -126,9 +135,9 @@ expect 0 "^omni4-record [0-9]*\.[0-9]*\.[0-9]*" -- "$BIN/omni4-record" --version
 expect 2 "duration: 'soon' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --duration soon
 expect 2 "split-mb: '0' is not a number" -- "$BIN/omni4-record" --out "$T/r.lcmlog" --split-mb 0
 echo keep > "$T/old.lcmlog"
-expect 1 "old.lcmlog exists; not overwriting it" -- "$BIN/omni4-record" --out "$T/old.lcmlog" --duration 1
+expect 1 "old.lcmlog exists; not overwriting it" -- "$BIN/omni4-record" --lcm "$URL" --out "$T/old.lcmlog" --duration 1
 grep -qx keep "$T/old.lcmlog" || { echo "FAIL: old.lcmlog was touched"; fail=$((fail + 1)); }
-expect 1 "nodir/r.lcmlog: No such file or directory" -- "$BIN/omni4-record" --out "$T/nodir/r.lcmlog" --duration 1
+expect 1 "nodir/r.lcmlog: No such file or directory" -- "$BIN/omni4-record" --lcm "$URL" --out "$T/nodir/r.lcmlog" --duration 1
 expect 1 "cannot open LCM at 'udpm://300.1.1.1" -- "$BIN/omni4-record" --lcm "udpm://300.1.1.1:7667?ttl=0" --out "$T/r2.lcmlog" --duration 1
 [ -e "$T/r.lcmlog" ] || [ -e "$T/r2.lcmlog" ] && { echo "FAIL: omni4-record wrote a log despite the error"; fail=$((fail + 1)); }
 

@@ -5,8 +5,7 @@ set -u
 BIN=$1
 . "$(dirname "$0")/../hil/bounded_wait.sh"
 T=$(mktemp -d)
-PORT=$((7700 + RANDOM % 200))
-URL="udpm://239.255.76.67:$PORT?ttl=0"
+URL=$(test_lcm_url)  # udpm, ttl=0, a port of this test's own (bounded_wait.sh)
 trap 'kill ${FW:-} 2>/dev/null; rm -rf "$T"' EXIT
 printf '[lcm]\nurl = %s\n[control]\ncmd_timeout_ms = 300\n' "$URL" > "$T/fw.ini"
 "$BIN/omni4-fw" --config "$T/fw.ini" --duration 60 -q &
