@@ -279,9 +279,7 @@ class Robot:
             try:
                 from .params import ParamClient, ParamError
                 if self._limits_client is None:
-                    self._limits_client = ParamClient(self._lc, secret=self._secret,
-                                                      timeout_s=LIMITS_TIMEOUT_S, retries=1,
-                                                      pump=False)
+                    self._limits_client = self._open_limits_client(ParamClient)
                 got = {p.key: float(p.value) for p in self._limits_client.get_many(LIMIT_KEYS)}
             except (ImportError, ParamError, ValueError):
                 self._limits_retry_s = time.monotonic() + LIMITS_RETRY_S
@@ -290,6 +288,16 @@ class Robot:
                 if self._limits is None:
                     self._limits = got
         return self._limits or None
+
+    def _open_limits_client(self, client_type):
+        """The GET of the limits on an LCM instance of its own (on the robot's URL), which this
+        thread handles while it waits: the reply never queues behind the receive thread's 1 kHz
+        of samples, which on a loaded host can take seconds. memq:// is one instance's own bus,
+        so there the robot's instance is shared (its receive thread delivers the reply)."""
+        if (self.url or "").startswith("memq://"):
+            return client_type(self._lc, secret=self._secret, timeout_s=LIMITS_TIMEOUT_S,
+                               retries=1, pump=False)
+        return client_type(self.url, secret=self._secret, timeout_s=LIMITS_TIMEOUT_S, retries=1)
 
     def _on_param_changed(self, _channel, data):
         try:
