@@ -301,6 +301,11 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
 	}
 	ik_wheel_speeds_q16(c->ff.d, ref_q, wheel_ref_q);
+	/* Per-wheel feedforward (each drive's own R_j r_j / (l Kt_j) and Kv_j l / r_j, prepared
+	 * at init / retune). Scaling and overflow: ref and acc in Q16.16 from the shaper's floats
+	 * (within the command limits, far inside the format's +-32768); wheel j sums two axis terms
+	 * of three rounded Q16.16 products in int64_t (below 2^48, no overflow for any input); the
+	 * one saturation is the final clamp to +-u_max. Equal wheels: ff_voltages_q16's bits. */
 	if (c->t.feedforward)
 		ff_voltages_q16_wheels(&c->ff, ref_q, acc_q, ff_q);
 	else
