@@ -56,7 +56,9 @@ def python_module(root):
              "# (section, key, type) of every INI key, in the key table's order.",
              "KEYS = ("]
     lines += [f"    ({s!r}, {k!r}, {t!r})," for s, k, t in keys]
-    lines += [")", "# The [model] keys, in model_params_names order.",
-              "MODEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model')", "",
-              "__all__ = ['KEYS', 'MODEL_KEYS']"]
+    lines += [")", "# The scalar [model] keys (the paper's model), in model_params_names order.",
+              "MODEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' not in k)",
+              "# Each drive's own r, Kv, Kt, R (r_0 .. R_3; optional, absent = the scalar).",
+              "MODEL_WHEEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' in k)", "",
+              "__all__ = ['KEYS', 'MODEL_KEYS', 'MODEL_WHEEL_KEYS']"]
     return "\n".join(lines) + "\n"

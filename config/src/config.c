@@ -94,6 +94,33 @@ void config_defaults(struct omni4_config *cfg)
 
 #define N_KEYS (sizeof(keys) / sizeof(keys[0]))
 
+/* Key k's index 4 q + j in ctl.wheels if it is a per-wheel [model] key (its field lies in
+ * ctl.wheels, whose doubles are in CTL_WHEEL_KEY's order), else -1. */
+static int wheel_index(const struct config_key *k)
+{
+	const size_t base = offsetof(struct omni4_config, ctl.wheels);
+
+	if (k->offset < base || k->offset >= base + sizeof(struct model_wheels))
+		return -1;
+	return (int)((k->offset - base) / sizeof(double));
+}
+
+/* Key k's bit in ctl.wheel_keys, 0 if it is not a per-wheel key. */
+static uint16_t wheel_bit(const struct config_key *k)
+{
+	const int i = wheel_index(k);
+
+	return i < 0 ? 0 : (uint16_t)(1u << i);
+}
+
+/* After key k took a value: a wheel key is that wheel's own from now on; every wheel without
+ * its own key takes its scalar (which may just have changed). */
+static void wheel_keys_after(struct omni4_config *cfg, const struct config_key *k)
+{
+	cfg->ctl.wheel_keys |= wheel_bit(k);
+	ctl_settings_wheels_follow(&cfg->ctl);
+}
+
 struct parse_state {
 	struct omni4_config *cfg;
 	struct config_error *err;
@@ -357,10 +384,15 @@ static int after_parse(struct parse_state *st, int model_line)
 	if (st->pairs)
 		return 0; /* key = value pairs handed out, nothing checked across keys */
 
+	/* [model]: all or nothing (a wheel key needs the scalars), and physically meaningful. */
 	bool any = false;
 
-	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
-		any |= st->seen[i];
+	for (size_t i = 0; i < N_KEYS; i++) {
+		if (st->seen[i])
+			st->cfg->ctl.wheel_keys |= wheel_bit(&keys[i]);
+		any |= st->seen[i] && (i < MODEL_PARAMS_COUNT || wheel_bit(&keys[i]));
+	}
+	ctl_settings_wheels_follow(&st->cfg->ctl);
 	if (st->partial_model)
 		return 0;
 	for (int i = 0; any && i < MODEL_PARAMS_COUNT; i++)
@@ -675,6 +707,15 @@ int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n
 		double v;
 
 		memcpy(&v, base, sizeof(v));
+		if (wheel_index(k) >= 0) { /* the value in force: the scalar without its own key */
+			struct model_wheels w;
+			double all[CTL_WHEEL_KEYS];
+
+			_Static_assert(sizeof(w) == sizeof(all), "struct model_wheels: 16 doubles");
+			ctl_settings_wheels(&cfg->ctl, &w);
+			memcpy(all, &w, sizeof(all));
+			v = all[wheel_index(k)];
+		}
 		len = config_format_double(buf, n, v);
 		break;
 	}
@@ -719,6 +760,7 @@ int config_key_set(struct omni4_config *cfg, int i, const char *value, char *why
 		         detail);
 		return -EINVAL;
 	}
+	wheel_keys_after(cfg, k);
 	return 0;
 }
 
@@ -754,7 +796,9 @@ static int write_section(FILE *f, const struct omni4_config *cfg, size_t i)
 	for (size_t j = i; j < N_KEYS; j++) {
 		const struct config_key *k = &keys[j];
 
-		if (strcmp(k->section, keys[i].section))
+		/* a wheel without its own key: it takes the scalar on reading */
+		if (strcmp(k->section, keys[i].section) ||
+		    (wheel_bit(k) && !(cfg->ctl.wheel_keys & wheel_bit(k))))
 			continue;
 		if (config_key_format(cfg, (int)j, value, sizeof(value)))
 			return -EINVAL;

@@ -30,10 +30,13 @@ static void tune(struct ctl *c)
 	const double dt = 1.0 / cfg->rate_hz;
 	const float acc_max[3] = {(float)cfg->limits.acc_lin_max, (float)cfg->limits.acc_lin_max,
 	                          (float)cfg->limits.acc_rot_max};
+	struct model_wheels w;
+
+	ctl_settings_wheels(cfg, &w);
 
 	c->t = (struct ctl_tuning){
 	    .dt = (float)dt,
-	    .r = (float)cfg->model.r,
+	    .r = {(float)w.r[0], (float)w.r[1], (float)w.r[2], (float)w.r[3]},
 	    .u_max = (float)cfg->limits.supply_v,
 	    /* Limits compared at the samples' precision (float): a reading of 10.2 A is the
 	     * float nearest 10.2, which is below the double 10.2. */
@@ -67,7 +70,10 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 	memset(c, 0, sizeof(*c));
 	if (ctl_settings_check(cfg, &bad, &why))
 		return -EINVAL;
-	if (ff_q16_init(&c->ff, &cfg->model, cfg->limits.supply_v))
+	struct model_wheels w;
+
+	ctl_settings_wheels(cfg, &w);
+	if (ff_q16_wheels_init(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
 		return -EINVAL;
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);
@@ -88,7 +94,7 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 	return 0;
 }
 
-void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
+void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
                 q16_t inv_4d)
 {
 	c->set = *cfg;
@@ -226,7 +232,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 		} else if (c->have_wheel && fabsf(w - c->last_wheel[j]) > max_step) {
 			f |= CTL_FAULT_ENCODER;
 		}
-		vw[j] = w * c->t.r;
+		vw[j] = w * c->t.r[j]; /* rim speed: wheel j's own radius */
 	}
 	for (int j = 0; j < 4 && speeds_ok; j++)
 		c->last_wheel[j] = s->wheel_rad_s[j];
@@ -295,8 +301,13 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
 	}
 	ik_wheel_speeds_q16(c->ff.d, ref_q, wheel_ref_q);
+	/* Per-wheel feedforward (each drive's own R_j r_j / (l Kt_j) and Kv_j l / r_j, prepared
+	 * at init / retune). Scaling and overflow: ref and acc in Q16.16 from the shaper's floats
+	 * (within the command limits, far inside the format's +-32768); wheel j sums two axis terms
+	 * of three rounded Q16.16 products in int64_t (below 2^48, no overflow for any input); the
+	 * one saturation is the final clamp to +-u_max. Equal wheels: ff_voltages_q16's bits. */
 	if (c->t.feedforward)
-		ff_voltages_q16(&c->ff, ref_q, acc_q, ff_q);
+		ff_voltages_q16_wheels(&c->ff, ref_q, acc_q, ff_q);
 	else
 		memset(ff_q, 0, sizeof(ff_q));
 
@@ -304,7 +315,8 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 		const float ff = q16_to_float(ff_q[j]);
 
 		if (c->t.feedback && s) {
-			const float e = q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r;
+			const float e =
+			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
 
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
 		} else {

@@ -14,6 +14,29 @@ void ctl_settings_defaults(struct ctl_settings *s)
 #undef OMNI4_KEY
 }
 
+void ctl_settings_wheels(const struct ctl_settings *s, struct model_wheels *w)
+{
+	model_wheels_from_params(&s->model, w);
+	for (int j = 0; j < 4; j++) {
+		if (s->wheel_keys & CTL_WHEEL_KEY(0, j))
+			w->r[j] = s->wheels.r[j];
+		if (s->wheel_keys & CTL_WHEEL_KEY(1, j))
+			w->Kv[j] = s->wheels.Kv[j];
+		if (s->wheel_keys & CTL_WHEEL_KEY(2, j))
+			w->Kt[j] = s->wheels.Kt[j];
+		if (s->wheel_keys & CTL_WHEEL_KEY(3, j))
+			w->R[j] = s->wheels.R[j];
+	}
+}
+
+void ctl_settings_wheels_follow(struct ctl_settings *s)
+{
+	struct model_wheels w;
+
+	ctl_settings_wheels(s, &w);
+	s->wheels = w;
+}
+
 int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **why)
 {
 	int bad = 0;
@@ -21,6 +44,14 @@ int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **
 	if (model_params_check(&s->model, &bad)) {
 		*bad_key = bad;
 		*why = bad < MODEL_PARAMS_POSITIVE ? "must be > 0" : "must be >= 0";
+		return -EINVAL;
+	}
+	struct model_wheels w;
+
+	ctl_settings_wheels(s, &w);
+	if (model_wheels_check(&w, &bad)) {
+		*bad_key = MODEL_PARAMS_COUNT + bad;
+		*why = "must be > 0";
 		return -EINVAL;
 	}
 	*bad_key = -1;

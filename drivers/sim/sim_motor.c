@@ -39,6 +39,10 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 	              .wheel_inertia = sim->wheel_inertia,
 	              .radius_error = {sim->wheel_radius_error[0], sim->wheel_radius_error[1],
 	                               sim->wheel_radius_error[2], sim->wheel_radius_error[3]},
+	              .R_error = {sim->motor_R_error[0], sim->motor_R_error[1],
+	                          sim->motor_R_error[2], sim->motor_R_error[3]},
+	              .Kv_error = {sim->motor_Kv_error[0], sim->motor_Kv_error[1],
+	                           sim->motor_Kv_error[2], sim->motor_Kv_error[3]},
 	              .slip_noise = sim->slip_noise},
 	    .camera_latency_s = sim->camera_latency_ms * 1e-3,
 	};

@@ -36,13 +36,22 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 struct sc_limits sc_limits_for(const struct ctl_settings *s)
 {
 	const struct model_params *p = &s->model;
-	const double i_step = 2.0 * s->limits.supply_v / p->R;
-	const double f_max = p->l * p->Kt * i_step / p->r;
+	struct model_wheels w; /* each drive's own R, Kt, r: the worst wheel sets each limit */
+	double i_step = 0.0, f_max = 0.0, r_min = INFINITY;
+
+	ctl_settings_wheels(s, &w);
+	for (int j = 0; j < 4; j++) {
+		const double i_j = 2.0 * s->limits.supply_v / w.R[j];
+
+		i_step = fmax(i_step, i_j);
+		f_max = fmax(f_max, p->l * w.Kt[j] * i_j / w.r[j]);
+		r_min = fmin(r_min, w.r[j]);
+	}
 	const double a_max = f_max * (2.0 / p->M + 4.0 * p->d * p->d / p->J);
 
 	return (struct sc_limits){
 	    .current_step_a = (float)(i_step + SC_CURRENT_NOISE_MARGIN_A + CAN_CURR_LSB),
-	    .speed_step_rad_s = (float)(a_max / s->rate_hz / p->r + 2.0 * CAN_SPEED_LSB),
+	    .speed_step_rad_s = (float)(a_max / s->rate_hz / r_min + 2.0 * CAN_SPEED_LSB),
 	    .current_limit_a = (float)s->limits.current_max_a,
 	    .confirm_frames = 3,
 	};

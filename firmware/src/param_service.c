@@ -362,6 +362,9 @@ static void apply_pairs(struct param_service *ps, struct scratch *s, const omni4
 		return;
 	}
 	if (changed == 0) {
+		/* a wheel key set to the value it follows: no number changes, but it is that
+		 * wheel's own from now on (saved, and no longer following its scalar) */
+		ps->running.ctl.wheel_keys = ps->next.ctl.wheel_keys;
 		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_OK,
 		             "no change: the values are already in force", true);
 		return;

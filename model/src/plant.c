@@ -65,8 +65,12 @@ int plant_init(struct plant *pl, const struct model_params *p)
 	pl->p = *p;
 	dyn_state_space(p, &pl->ss);
 	pl->floor = (struct plant_floor){0};
-	for (int j = 0; j < 4; j++)
+	for (int j = 0; j < 4; j++) {
 		pl->r_eff[j] = p->r;
+		pl->R_eff[j] = p->R;
+		pl->Kv_eff[j] = p->Kv;
+		pl->Kt_eff[j] = p->Kt;
+	}
 	plant_reset(pl);
 	return 0;
 }
@@ -78,11 +82,16 @@ int plant_set_floor(struct plant *pl, const struct plant_floor *f)
 	    !(f->slip_noise >= 0.0 && isfinite(f->slip_noise)))
 		return -EINVAL;
 	for (int j = 0; j < 4; j++)
-		if (!(fabs(f->radius_error[j]) < 0.5))
+		if (!(fabs(f->radius_error[j]) < 0.5) || !(fabs(f->R_error[j]) < 0.5) ||
+		    !(fabs(f->Kv_error[j]) < 0.5))
 			return -EINVAL;
 	pl->floor = *f;
-	for (int j = 0; j < 4; j++)
+	for (int j = 0; j < 4; j++) {
 		pl->r_eff[j] = pl->p.r * (1.0 + f->radius_error[j]);
+		pl->R_eff[j] = pl->p.R * (1.0 + f->R_error[j]);
+		pl->Kv_eff[j] = pl->p.Kv * (1.0 + f->Kv_error[j]);
+		pl->Kt_eff[j] = pl->p.Kt * (1.0 + f->Kv_error[j]);
+	}
 	plant_reset(pl);
 	return 0;
 }
@@ -163,7 +172,7 @@ static double grip_force(const struct plant *pl, int j, double u, bool driven, d
 
 	if (!driven)
 		return 0.0;
-	return p->l * p->Kt * (u - p->Kv * p->l * v / rj) / (p->R * rj);
+	return p->l * pl->Kt_eff[j] * (u - pl->Kv_eff[j] * p->l * v / rj) / (pl->R_eff[j] * rj);
 }
 
 /* Does a gripping wheel need more than the traction limit at robot velocity x? */
@@ -234,8 +243,9 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, dou
 		} else if (driven) {
 			/* f_j = c1 u_j - c2 v_j: the own axis's back-EMF exact, the others held. */
 			const double rj = pl->r_eff[j];
-			const double c1 = p->l * p->Kt / (p->R * rj);
-			const double c2 = p->l * p->l * p->Kt * p->Kv / (p->R * rj * rj);
+			const double Kt = pl->Kt_eff[j], R = pl->R_eff[j];
+			const double c1 = p->l * Kt / (R * rj);
+			const double c2 = p->l * p->l * Kt * pl->Kv_eff[j] / (R * rj * rj);
 
 			for (int k = 0; k < 3; k++) {
 				const double g = g_coef(pl, k, j);
@@ -261,7 +271,6 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 	const struct model_params *p = &pl->p;
 	const double lim = traction_limit(pl);
 	const double Jw = pl->floor.wheel_inertia;
-	const double aw = driven ? -p->l * p->l * p->Kt * p->Kv / (Jw * p->R) : 0.0;
 	double vg[4];
 
 	ik_wheel_speeds(p->d, pl->x, vg);
@@ -270,9 +279,10 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 			pl->rim[j] = vg[j];
 			continue;
 		}
-		const double rj = pl->r_eff[j];
-		const double bw = (driven ? rj * p->l * p->Kt * u[j] / (Jw * p->R) : 0.0) -
-		                  rj * rj * lim * dir[j] / Jw;
+		const double rj = pl->r_eff[j], Kt = pl->Kt_eff[j], R = pl->R_eff[j];
+		const double aw = driven ? -p->l * p->l * Kt * pl->Kv_eff[j] / (Jw * R) : 0.0;
+		const double bw =
+		    (driven ? rj * p->l * Kt * u[j] / (Jw * R) : 0.0) - rj * rj * lim * dir[j] / Jw;
 		const double rim = lin_solve(aw, bw, pl->rim[j], h);
 		const double sig = rim - vg[j];
 
@@ -286,7 +296,7 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 	}
 }
 
-/* One substep of h with some wheel slipping, or with the body blocked or radius errors. */
+/* One substep of h with some wheel slipping, or with the body blocked, radius or motor errors. */
 static void floor_substep(struct plant *pl, const double u[4], bool driven, double h)
 {
 	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
@@ -326,7 +336,9 @@ static void floor_step(struct plant *pl, const double u[4], bool driven, double 
 	for (int j = 0; j < 4; j++) {
 		pl->voltage_v[j] = driven ? u[j] : 0.0;
 		pl->current_a[j] =
-		    driven ? (u[j] - p->Kv * p->l * pl->rim[j] / pl->r_eff[j]) / p->R : 0.0;
+		    driven
+		        ? (u[j] - pl->Kv_eff[j] * p->l * pl->rim[j] / pl->r_eff[j]) / pl->R_eff[j]
+		        : 0.0;
 	}
 	pl->driven = driven;
 }
@@ -346,7 +358,8 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 	bool general = pl->blocked;
 
 	for (int j = 0; j < 4; j++)
-		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0;
+		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0 ||
+		          pl->floor.R_error[j] != 0.0 || pl->floor.Kv_error[j] != 0.0;
 	if (!general && beyond_limit(pl, u, driven, pl->x))
 		general = true;
 	if (!general) {

@@ -291,12 +291,16 @@ class ParamClient:
 
 
 def format_ini(params, header=None):
-    """INI text of a list of Param, in the robot's sections."""
+    """INI text of a list of Param, in the robot's sections. A drive's own [model] key (R_2, ...)
+    equal to its scalar is left out: absent, it reads back as the scalar (configuration.md)."""
     out = []
     if header:
         out.append(f"; {header}")
     section = None
+    scalar = {p.name: p.text for p in params if p.section == "model"}
     for p in params:
+        if p.section == "model" and "_" in p.name and scalar.get(p.name[:-2]) == p.text:
+            continue
         if p.section != section:
             if section is not None:
                 out.append("")
@@ -320,7 +324,8 @@ commands:
   set KEY VALUE [KEY VALUE ...] change them together between two loop ticks (or none)
   save                          write the values in force to the robot's INI (atomically)
   load PARAMS.ini               apply the keys of an INI file (e.g. omni4-ident identify --out)
-  dump                          the values in force as INI text (> robot.ini)
+  dump                          the values in force as INI text (> robot.ini; a wheel's
+                                own model key only where it differs from the scalar)
   clear-fault                   MODE_CLEAR_FAULT: FAULT / ESTOP -> IDLE once the cause is gone;
                                 a refusal says why (e-stop still asserted, a fault's cause present)
 

@@ -145,6 +145,9 @@ def test_ini_model_section(tmp_path):
     p = write(tmp_path, "p.ini", "; identified\n[hal]\nmotor = sim\n[model]\n" + body)
     got = read_model(p)
     assert got == pytest.approx({k: v * 1.1 for k, v in T3.items()})
+    # a drive's own keys (docs/configuration.md) are taken; the prediction keeps the scalars
+    p = write(tmp_path, "w.ini", "[model]\n" + body + "R_2 = 5.1\nr_0 = 0.033\n")
+    assert read_model(p) == pytest.approx({k: v * 1.1 for k, v in T3.items()})
 
 
 @pytest.mark.parametrize("text,msg", [
@@ -161,6 +164,11 @@ def test_ini_model_section(tmp_path):
     ("[hal]\nmotor = sim\n[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items())
      + "[hal]\nlines = none\n", ":18: duplicate section [hal]"),
     ("[model]\nd = nan\n", "is not finite"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "Kv_3 = 0\n",
+     ":16: [model] Kv_3 = '0' must be > 0"),
+    ("[model]\nR_1 = 4\n", ":2: [model] lacks d r l"),
+    ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "R_4 = 1\n",
+     ":16: unknown key 'R_4'"),
 ])
 def test_ini_errors_name_file_and_line(tmp_path, text, msg):
     p = write(tmp_path, "bad.ini", text)

@@ -118,6 +118,8 @@ def test_key_list_is_generated_from_the_layers_key_lists():
     assert len(_keys.KEYS) == len(set(_keys.KEYS)) and ("hal", "motor", "choice") in _keys.KEYS
     assert _keys.MODEL_KEYS == ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw",
                                 "Cv", "Cvn", "Cw")
+    assert _keys.MODEL_WHEEL_KEYS == tuple(f"{q}_{j}" for q in ("r", "Kv", "Kt", "R")
+                                           for j in range(4))
 
 
 def test_key_generator_refuses_a_row_it_cannot_read():

@@ -97,6 +97,12 @@ def test_values_and_ini_text():
     text = params.format_ini([p, s])
     assert "[control]\n; gain [V/(m/s)] (live)\nkp = 30\n" in text
     assert "(set)" not in text.split("secret =")[0] and "\nsecret" not in text
+    # a wheel's own key: written where it differs from its scalar, left out where equal
+    m = [params.Param(f"model.{k}", v, "ohm", 0, 0.0, 0.0, "", "live", "R")
+         for k, v in (("R", "4.3"), ("R_0", "4.3"), ("R_1", "4.5"), ("Kv_2", "4.3"))]
+    text = params.format_ini(m)
+    assert "\nR = 4.3\n" in text and "\nR_1 = 4.5\n" in text and "\nKv_2 = 4.3\n" in text
+    assert "R_0" not in text
 
 
 def test_cli_usage_errors_exit_2(capsys, tmp_path):

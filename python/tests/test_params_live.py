@@ -316,9 +316,13 @@ def test_set_save_restart(robot, tmp_path):
         assert abs(du[1] + want) < 0.03 * want and abs(du[3] - want) < 0.03 * want, du
         assert abs(du[0]) < 0.02 and abs(du[2]) < 0.02, du
         assert ticks_model >= 0, ticks_model
-        c = mon.wait_for_changed(lambda c: c.keys == ["model.R"], "after the model change")
+        # The four wheels have no R_j of their own: they follow R, in the same notice.
+        wheels_r = [f"model.R_{j}" for j in range(4)]
+        c = mon.wait_for_changed(lambda c: c.keys == ["model.R"] + wheels_r,
+                                 "after the model change")
         assert c.source == "set" and c.seq == a.seq
-        assert c.old_values == ["4.3111"]
+        assert c.old_values == ["4.3111"] * 5
+        assert all(p.get(k).value == 2 * R_OHM for k in wheels_r)
 
         # Refused, with the reason, and nothing changed.
         with pytest.raises(ParamRefused, match=r"control.kp: out of range value: 1e\+09 outside "

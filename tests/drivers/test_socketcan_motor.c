@@ -386,6 +386,32 @@ static void test_default_limits_follow_the_motor_physics(void **state)
 	assert_true(l.speed_step_rad_s < 5.0f);
 }
 
+/* Drives that differ: the worst wheel sets each limit (R_2 10 % low: its current steps by
+ * 2 x 12 V / (0.9 x 4.3111 ohm); r_1 5 % small: its rate steps the most). Equal wheel keys
+ * give the default limits exactly. */
+static void test_limits_follow_the_worst_wheel(void **state)
+{
+	(void)state;
+	struct ctl_settings s;
+	const struct sc_limits d = sc_limits_default();
+
+	ctl_settings_defaults(&s);
+	model_wheels_from_params(&s.model, &s.wheels);
+	s.wheel_keys = 0xffff;
+	struct sc_limits l = sc_limits_for(&s);
+
+	assert_memory_equal(&l, &d, sizeof(l));
+	s.wheels.R[2] = 0.9 * s.model.R;
+	s.wheels.r[1] = 0.95 * s.model.r;
+	l = sc_limits_for(&s);
+	const double i2 = 2.0 * 12.0 / (0.9 * 4.3111);
+	/* wheel 2's force l Kt i2 / r over the default's l Kt i / r, the rate over r_1 */
+	const double w_step = (d.speed_step_rad_s - 2.0 * CAN_SPEED_LSB) / 0.9 / 0.95;
+
+	assert_near(l.current_step_a, i2 + 0.2 + CAN_CURR_LSB, 1e-4);
+	assert_near(l.speed_step_rad_s, w_step + 2.0 * CAN_SPEED_LSB, 1e-4);
+}
+
 static void test_an_implausible_jump_is_held_not_acted_on(void **state)
 {
 	(void)state;
@@ -685,6 +711,7 @@ int main(void)
 	    cmocka_unit_test_setup(
 	        test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame, reset),
 	    cmocka_unit_test_setup(test_default_limits_follow_the_motor_physics, reset),
+	    cmocka_unit_test_setup(test_limits_follow_the_worst_wheel, reset),
 	    cmocka_unit_test_setup(test_an_implausible_jump_is_held_not_acted_on, reset),
 	    cmocka_unit_test_setup(test_an_over_limit_current_needs_three_consecutive_frames,
 	                           reset),

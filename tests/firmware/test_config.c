@@ -384,6 +384,89 @@ static void test_written_model_section_reads_back_exactly(void **state)
 		assert_near(model_params_get(&cfg.ctl.model, i), model_params_get(&p, i), 0);
 }
 
+/* The [model] of `good` with extra lines after it (wheel keys), the rest of `good` after. */
+static void good_with(char *buf, size_t n, const char *extra)
+{
+	const char *split = strstr(good, "\n[loop]");
+
+	snprintf(buf, n, "%.*s%s%s", (int)(split - good), good, extra, split);
+}
+
+/* A wheel key overrides its scalar for that wheel only; the other wheels, and the other
+ * quantities of the same wheel, are the scalar's (docs/configuration.md, "Per-wheel drives"). */
+static void test_wheel_key_overrides_its_scalar_for_that_wheel_only(void **state)
+{
+	(void)state;
+	static const struct {
+		const char *key;
+		int q, j; /* 0 r, 1 Kv, 2 Kt, 3 R; wheel */
+	} cases[] = {{"r_0", 0, 0},  {"r_3", 0, 3},  {"Kv_1", 1, 1}, {"Kv_2", 1, 2},
+	             {"Kt_0", 2, 0}, {"Kt_3", 2, 3}, {"R_1", 3, 1},  {"R_2", 3, 2}};
+	const double scalar[4] = {0.03, 0.02, 0.021, 3.5}; /* good's r Kv Kt R */
+
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+		struct omni4_config cfg;
+		struct config_error err;
+		struct model_wheels w;
+		char text[2048], line[64];
+
+		snprintf(line, sizeof(line), "%s = 0.777\n", cases[c].key);
+		good_with(text, sizeof(text), line);
+		config_defaults(&cfg);
+		if (config_load_string(text, "robot.ini", &cfg, &err))
+			fail_msg("%s", err.msg);
+		ctl_settings_wheels(&cfg.ctl, &w);
+		const double *const got[4] = {w.r, w.Kv, w.Kt, w.R};
+
+		for (int q = 0; q < 4; q++)
+			for (int j = 0; j < 4; j++) {
+				const double want =
+				    q == cases[c].q && j == cases[c].j ? 0.777 : scalar[q];
+
+				if (got[q][j] != want)
+					fail_msg("%s: quantity %d wheel %d is %.17g, not %.17g",
+					         cases[c].key, q, j, got[q][j], want);
+			}
+		assert_near(cfg.ctl.model.R, 3.5, 0); /* the scalar itself stays */
+		assert_int_equal(cfg.ctl.wheel_keys, CTL_WHEEL_KEY(cases[c].q, cases[c].j));
+	}
+}
+
+/* No wheel keys: the scalar model's four equal wheels, bit for bit. */
+static void test_no_wheel_keys_are_the_scalar_model(void **state)
+{
+	(void)state;
+	struct omni4_config cfg;
+	struct config_error err;
+	struct model_wheels got, want;
+
+	config_defaults(&cfg);
+	assert_int_equal(config_load_string(good, "robot.ini", &cfg, &err), 0);
+	ctl_settings_wheels(&cfg.ctl, &got);
+	model_wheels_from_params(&cfg.ctl.model, &want);
+	assert_memory_equal(&got, &want, sizeof(got));
+	assert_memory_equal(&cfg.ctl.wheels, &want, sizeof(want)); /* the keys read the same */
+	assert_int_equal(cfg.ctl.wheel_keys, 0);
+}
+
+/* A wheel key is checked like its scalar (> 0), named in the error; it needs the scalars. */
+static void test_wheel_key_errors(void **state)
+{
+	(void)state;
+	char text[2048];
+
+	good_with(text, sizeof(text), "R_3 = 0\n");
+	expect_error(text, -EINVAL, 0, "invalid value for 'R_3' in [model]: must be > 0");
+	good_with(text, sizeof(text), "Kv_0 = -0.02\n");
+	expect_error(text, -EINVAL, 0, "invalid value for 'Kv_0' in [model]: must be > 0");
+	good_with(text, sizeof(text), "r_2 = abc\n");
+	expect_error(text, -EINVAL, 17, "bad value for 'r_2' in [model]");
+	good_with(text, sizeof(text), "R_1 = 3\nR_1 = 3\n");
+	expect_error(text, -EINVAL, 18, "duplicate key 'R_1' in [model]");
+	expect_error("[model]\nR_0 = 3\n", -EINVAL, 0, "missing key 'd' in [model]");
+	expect_error("[model]\nR_4 = 3\n", -EINVAL, 2, "unknown key 'R_4' in [model]");
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -404,6 +487,9 @@ int main(void)
 	    cmocka_unit_test(test_shared_ini_cases),
 	    cmocka_unit_test(test_missing_file_is_enoent),
 	    cmocka_unit_test(test_written_model_section_reads_back_exactly),
+	    cmocka_unit_test(test_wheel_key_overrides_its_scalar_for_that_wheel_only),
+	    cmocka_unit_test(test_no_wheel_keys_are_the_scalar_model),
+	    cmocka_unit_test(test_wheel_key_errors),
 	};
 
 	return cmocka_run_group_tests_name("config", tests, NULL, NULL);

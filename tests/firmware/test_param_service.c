@@ -98,12 +98,14 @@ static void *loop_main(void *arg)
 	(void)arg;
 	while (!atomic_load(&g_loop_stop)) {
 		struct log_entry e;
-		struct ff_q16 want;
+		struct ff_q16_wheels want;
+		struct model_wheels w;
 
 		fw_tick(&g_fw, atomic_fetch_add(&g_now_us, 1000) + 1000);
 		while (fw_pop_log(&g_fw, &e))
 			;
-		ff_q16_init(&want, &g_fw.ctl.set.model, g_fw.ctl.set.limits.supply_v);
+		ctl_settings_wheels(&g_fw.ctl.set, &w);
+		ff_q16_wheels_init(&want, &g_fw.ctl.set.model, &w, g_fw.ctl.set.limits.supply_v);
 		if (memcmp(&want, &g_fw.ctl.ff, sizeof(want)) ||
 		    g_fw.ctl.inv_4d != q16_from_double(1.0 / (4.0 * g_fw.ctl.set.model.d)))
 			atomic_fetch_add(&g_inconsistent, 1);
@@ -239,6 +241,11 @@ static void test_table_model_keys_in_order(void **state)
 	assert_int_equal(config_key_at(config_key_find("loop.rate_hz"))->change, CONFIG_RESTART);
 	assert_int_equal(config_key_at(config_key_find("lcm.url"))->change, CONFIG_RESTART);
 	assert_int_equal(config_key_at(config_key_find("params.secret"))->change, CONFIG_RESTART);
+	/* a wheel key has its scalar's rule; the table fits a request */
+	assert_int_equal(config_key_at(config_key_find("model.R_3"))->change, CONFIG_LIVE);
+	assert_int_equal(config_key_at(config_key_find("model.Kt_0"))->change, CONFIG_LIVE);
+	assert_int_equal(config_key_at(config_key_find("model.r_2"))->change, CONFIG_IDLE);
+	assert_true(config_key_count() <= PARAM_MAX_KEYS);
 }
 
 /* A value is accepted over the bus exactly when the INI parser accepts it. */
@@ -252,6 +259,9 @@ static void test_set_validates_like_the_ini_parser(void **state)
 	for (int i = MODEL_PARAMS_COUNT; i < config_key_count(); i++) {
 		const struct config_key *k = config_key_at(i);
 		char values[8][64];
+
+		if (!strcmp(k->section, "model"))
+			continue; /* a wheel key needs the scalars: test_wheel_keys_validate_... */
 		int nv = 0;
 
 		if (k->type == CONFIG_DOUBLE || k->type == CONFIG_INT) {
@@ -300,6 +310,52 @@ static void test_set_validates_like_the_ini_parser(void **state)
 	}
 	assert_true(compared > 300);
 	assert_true(refused > 100);
+}
+
+/* A wheel key is accepted over the bus exactly when an INI with the scalars and that key is. */
+static void test_wheel_keys_validate_like_the_ini_parser(void **state)
+{
+	(void)state;
+	static const char *const vals[] = {"0.5", "4.3111", "1e-9", "0",     "-1",  "nan",
+	                                   "inf", "abc",    "",     "1e400", "0x10"};
+	int wheel_keys = 0, refused = 0;
+
+	for (int i = MODEL_PARAMS_COUNT; i < config_key_count(); i++) {
+		const struct config_key *k = config_key_at(i);
+
+		if (strcmp(k->section, "model"))
+			continue;
+		wheel_keys++;
+		for (size_t j = 0; j < sizeof(vals) / sizeof(vals[0]); j++) {
+			struct omni4_config a, b;
+			struct config_error err;
+			char text[2048], why[320], dotted[64];
+			int len = snprintf(text, sizeof(text), "[model]\n");
+
+			config_defaults(&a);
+			config_defaults(&b);
+			for (int m = 0; m < MODEL_PARAMS_COUNT; m++)
+				len += snprintf(text + len, sizeof(text) - (size_t)len,
+				                "%s = %.17g\n", model_params_names[m],
+				                model_params_get(&a.ctl.model, m));
+			snprintf(text + len, sizeof(text) - (size_t)len, "%s = %s\n", k->name,
+			         vals[j]);
+			const int ini = config_load_string(text, "t.ini", &a, &err);
+			int bus = config_key_set(&b, i, vals[j], why, sizeof(why));
+
+			if (!bus)
+				bus = config_check(&b, why, sizeof(why));
+			if ((ini == 0) != (bus == 0))
+				fail_msg("%s = '%s': INI %d (%s), bus %d (%s)", k->name, vals[j],
+				         ini, err.msg, bus, why);
+			snprintf(dotted, sizeof(dotted), "model.%s", k->name);
+			if (bus && !strstr(why, dotted))
+				fail_msg("reason '%s' does not name %s", why, dotted);
+			refused += bus != 0;
+		}
+	}
+	assert_int_equal(wheel_keys, 16);
+	assert_int_equal(refused, 16 * 7); /* 0 -1 nan inf abc "" 1e400 */
 }
 
 /* ---- the INI writer and the atomic save ------------------------------------------------------ */
@@ -548,7 +604,7 @@ static void test_nothing_changes_without_a_tick(void **state)
 	char msg[320];
 
 	setup_fw(NULL, NULL, false); /* no loop thread */
-	const struct ff_q16 ff0 = g_fw.ctl.ff;
+	const struct ff_q16_wheels ff0 = g_fw.ctl.ff;
 
 	assert_int_equal(set1("model.R", "8.6222", msg, sizeof(msg)),
 	                 OMNI4_PARAM_REPLY_T_RESULT_FAILED);
@@ -926,6 +982,111 @@ static void test_save_writes_what_is_in_force(void **state)
 	remove_dir();
 }
 
+/* GET of one key: its value in force into buf. */
+static void get1(const char *key, char *buf, size_t n)
+{
+	omni4_param_reply_t r;
+
+	request(OMNI4_PARAM_REQUEST_T_OP_GET, 1, &key, NULL, NULL, NULL);
+	last_reply(&r);
+	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_OK);
+	assert_int_equal(r.n, 1);
+	snprintf(buf, n, "%s", r.params[0].value);
+	omni4_param_reply_t_decode_cleanup(&r);
+}
+
+static void expect_param(const char *key, const char *want)
+{
+	char got[160];
+
+	get1(key, got, sizeof(got));
+	if (strcmp(got, want))
+		fail_msg("%s = '%s', not '%s'", key, got, want);
+}
+
+/* The controller runs on the feedforward of these wheels: the scalar model's, R_2 and R_3
+ * as given (built here from the scalars, independently of the settings' wheel keys). */
+static void expect_controller_wheels(double R, double R2, double R3)
+{
+	struct model_params p = g_fw.ctl.set.model;
+	struct model_wheels w;
+	struct ff_q16_wheels want;
+
+	p.R = R;
+	model_wheels_from_params(&p, &w);
+	w.R[2] = R2;
+	w.R[3] = R3;
+	assert_int_equal(ff_q16_wheels_init(&want, &p, &w, g_fw.ctl.set.limits.supply_v), 0);
+	assert_memory_equal(&want, &g_fw.ctl.ff, sizeof(want));
+}
+
+/* The wheel keys over the bus: set (a wheel's own), GET, a scalar set moves only the wheels
+ * without their own key, refusals name the key, and SAVE writes the own ones only. */
+static void test_wheel_keys_over_the_bus(void **state)
+{
+	(void)state;
+	char path[128], msg[320];
+	omni4_param_reply_t r;
+
+	make_dir();
+	snprintf(path, sizeof(path), "%s/robot.ini", g_dir);
+	setup_fw(path, NULL, true);
+	expect_param("model.R_2", "4.3111"); /* no key of its own: the scalar */
+	assert_int_equal(set1("model.R_2", "5.25", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_OK);
+	expect_param("model.R_2", "5.25");
+	expect_param("model.R_1", "4.3111");
+	expect_param("model.R", "4.3111");
+	expect_controller_wheels(4.3111, 5.25, 4.3111);
+	/* a wheel key set to the value it follows: its own from now on */
+	assert_int_equal(set1("model.R_3", "4.3111", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_OK);
+	assert_non_null(strstr(msg, "no change"));
+	/* the scalar: the wheels without a key of their own follow it, in the same change */
+	assert_int_equal(set1("model.R", "4", msg, sizeof(msg)), OMNI4_PARAM_REPLY_T_RESULT_OK);
+	last_reply(&r);
+	assert_int_equal(r.n, 3);
+	assert_string_equal(r.params[0].key, "model.R");
+	assert_string_equal(r.params[1].key, "model.R_0");
+	assert_string_equal(r.params[2].key, "model.R_1");
+	omni4_param_reply_t_decode_cleanup(&r);
+	expect_param("model.R_0", "4");
+	expect_param("model.R_2", "5.25");
+	expect_param("model.R_3", "4.3111");
+	expect_controller_wheels(4.0, 5.25, 4.3111);
+	/* refused whole, the key named, nothing changed */
+	assert_int_equal(set1("model.R_1", "0", msg, sizeof(msg)),
+	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
+	assert_non_null(strstr(msg, "model.R_1"));
+	expect_param("model.R_1", "4");
+	/* SAVE: the scalars as in force and the wheels' own keys, nothing else */
+	request(OMNI4_PARAM_REQUEST_T_OP_SAVE, 0, NULL, NULL, NULL, NULL);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_OK);
+	const struct omni4_config running = g_ps.running;
+
+	teardown_fw(true);
+	char text[16384];
+	FILE *f = fopen(path, "r");
+
+	assert_non_null(f);
+	text[fread(text, 1, sizeof(text) - 1, f)] = '\0';
+	fclose(f);
+	assert_non_null(strstr(text, "\nR = 4\n"));
+	assert_non_null(strstr(text, "\nR_2 = 5.25\n"));
+	assert_non_null(strstr(text, "\nR_3 = 4.3111\n"));
+	assert_null(strstr(text, "\nR_0 ="));
+	assert_null(strstr(text, "\nR_1 ="));
+	assert_null(strstr(text, "\nKv_0 ="));
+	struct omni4_config back;
+	struct config_error err;
+
+	config_defaults(&back);
+	assert_int_equal(config_load(path, &back, &err), 0);
+	assert_same_config(&running, &back);
+	assert_int_equal(back.ctl.wheel_keys, CTL_WHEEL_KEY(3, 2) | CTL_WHEEL_KEY(3, 3));
+	remove_dir();
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -943,6 +1104,8 @@ int main(void)
 	    cmocka_unit_test(test_broken_requests),
 	    cmocka_unit_test(test_secret_and_repeated_ids),
 	    cmocka_unit_test(test_save_writes_what_is_in_force),
+	    cmocka_unit_test(test_wheel_keys_validate_like_the_ini_parser),
+	    cmocka_unit_test(test_wheel_keys_over_the_bus),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -17,6 +17,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "omni4/dynamics.h"
 #include "omni4/kinematics.h"
 #include "omni4/plant.h"
 
@@ -273,6 +274,71 @@ static void test_radius_error_scales_each_wheel_reading(void **state)
 	}
 }
 
+/* 3x3 determinant (Cramer's rule below). */
+static double det3(const double m[3][3])
+{
+	return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+	       m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+	       m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+/* Motor errors: each wheel's force and current use its own R (1 + e_R) and Kv, Kt (1 + e_Kv)
+ * (and radius): at constant voltages the plant settles where the per-wheel model
+ * (dyn_state_space_wheels, docs/model.md) is at rest, A x + B u + K sgn(x) = 0, and each
+ * current is eq 21 with that wheel's own constants. */
+static void test_motor_errors_settle_where_the_per_wheel_model_does(void **state)
+{
+	(void)state;
+	const struct plant_floor f = {.radius_error = {0.01, -0.01, 0.0, 0.0},
+	                              .R_error = {0.05, -0.05, 0.03, -0.02},
+	                              .Kv_error = {-0.04, 0.05, 0.02, -0.05}};
+	const double u[4] = {6.0, -2.0, 1.0, 5.0}; /* every axis well beyond its stiction */
+	struct plant pl;
+	struct model_wheels w;
+	struct model_ss_wheels ss;
+
+	model_wheels_from_params(P, &w);
+	for (int j = 0; j < 4; j++) {
+		w.r[j] *= 1.0 + f.radius_error[j];
+		w.R[j] *= 1.0 + f.R_error[j];
+		w.Kv[j] *= 1.0 + f.Kv_error[j];
+		w.Kt[j] *= 1.0 + f.Kv_error[j];
+	}
+	dyn_state_space_wheels(P, &w, &ss);
+	assert_int_equal(plant_init(&pl, P), 0);
+	assert_int_equal(plant_set_floor(&pl, &f), 0);
+	run(&pl, u, true, 12.0, 1e-3);
+	double rhs[3], x[3];
+
+	for (int k = 0; k < 3; k++) {
+		rhs[k] = ss.K[k] * (pl.x[k] > 0 ? 1.0 : -1.0);
+		for (int j = 0; j < 4; j++)
+			rhs[k] += ss.B[k][j] * u[j];
+		rhs[k] = -rhs[k];
+	}
+	for (int c = 0; c < 3; c++) { /* A x = rhs */
+		double m[3][3];
+
+		memcpy(m, ss.A, sizeof(m));
+		for (int k = 0; k < 3; k++)
+			m[k][c] = rhs[k];
+		x[c] = det3(m) / det3(ss.A);
+	}
+	for (int k = 0; k < 3; k++) {
+		assert_true(fabs(x[k]) > 0.05);
+		if (fabs(pl.x[k] - x[k]) > 1e-6 * fabs(x[k]))
+			fail_msg("axis %d: plant %.9f, per-wheel model at rest %.9f", k, pl.x[k],
+			         x[k]);
+	}
+	double vw[4], wm[4], cur[4];
+
+	ik_wheel_speeds(P->d, pl.x, vw);
+	motor_speeds_wheels(P, &w, vw, wm);
+	motor_currents_wheels(&w, u, wm, cur);
+	for (int j = 0; j < 4; j++)
+		assert_near(pl.current_a[j], cur[j], 1e-9);
+}
+
 /* The creep: stationary std dev slip_noise (200 s, correlated over 0.2 s: ~500 independent
  * samples, 3 standard errors of the variance ~ 20 %), mean ~0; the body does not see it. */
 static void test_creep_has_its_std_dev_and_leaves_the_body_alone(void **state)
@@ -361,6 +427,10 @@ static void test_set_floor_rejects_bad_values(void **state)
 	assert_int_not_equal(plant_set_floor(&pl, &f), 0);
 	f = (struct plant_floor){.radius_error = {0, 0, 0.5, 0}};
 	assert_int_not_equal(plant_set_floor(&pl, &f), 0);
+	f = (struct plant_floor){.R_error = {0, -0.5, 0, 0}};
+	assert_int_not_equal(plant_set_floor(&pl, &f), 0);
+	f = (struct plant_floor){.Kv_error = {0, 0, 0, NAN}};
+	assert_int_not_equal(plant_set_floor(&pl, &f), 0);
 	f = (struct plant_floor){.slip_noise = -1};
 	assert_int_not_equal(plant_set_floor(&pl, &f), 0);
 	f = floor_mu(0.5, 1e-4);
@@ -376,6 +446,7 @@ int main(void)
 	    cmocka_unit_test(test_slip_ends_when_the_rim_meets_the_ground),
 	    cmocka_unit_test(test_substeps_agree_with_the_exact_plant_when_nothing_slips),
 	    cmocka_unit_test(test_radius_error_scales_each_wheel_reading),
+	    cmocka_unit_test(test_motor_errors_settle_where_the_per_wheel_model_does),
 	    cmocka_unit_test(test_creep_has_its_std_dev_and_leaves_the_body_alone),
 	    cmocka_unit_test(test_external_force_and_blocked_body),
 	    cmocka_unit_test(test_set_floor_rejects_bad_values),

@@ -7,7 +7,10 @@
  * (fw_keys.def), the sim backend (sim_keys.def), SocketCAN (socketcan_keys.def), libgpiod
  * (gpiod_keys.def). This file puts them together; docs/ini-keys.md is generated from the table
  * (omni4-config-keys). Unknown sections or keys, duplicate keys, malformed or out-of-range
- * values are errors; [model] holds all 14 keys or none.
+ * values are errors; [model] holds all 14 keys or none, and may add a wheel's own r_j, Kv_j,
+ * Kt_j, R_j (docs/configuration.md: ctl.wheel_keys records which; config_write writes only
+ * those, config_key_set makes a wheel key the wheel's own, and a wheel without its own key
+ * follows its scalar).
  */
 #ifndef OMNI4_CONFIG_H
 #define OMNI4_CONFIG_H

@@ -96,7 +96,7 @@ struct ctl_counters {
  * at init and at every parameter change, never per tick. The fast path reads only these. */
 struct ctl_tuning {
 	float dt;          /* loop period [s] */
-	float r;           /* wheel radius [m] */
+	float r[4];        /* each wheel's radius (its own r_j, else r) [m] */
 	float u_max;       /* supply: output bound [V] */
 	float current_max; /* over-current level [A] */
 	float sensor_max;  /* a current reading at or beyond this is a saturated sensor [A] */
@@ -113,7 +113,8 @@ struct ctl_tuning {
 
 struct ctl {
 	struct ctl_settings set; /* the settings in force (read off the loop: reports, tests) */
-	struct ff_q16 ff;
+	/* the per-wheel feedforward of the wheels in force (ctl_settings_wheels) */
+	struct ff_q16_wheels ff;
 	q16_t inv_4d;
 	int64_t period_us; /* loop period [us] */
 	struct ctl_tuning t;
@@ -167,7 +168,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 
 /* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
  * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
-void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16 *ff,
+void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
                 q16_t inv_4d);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */

@@ -7,11 +7,17 @@
 #define OMNI4_CTL_SETTINGS_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "omni4/params.h"
 
 struct ctl_settings {
 	struct model_params model;
+	/* Each drive's own r, Kv, Kt, R ([model] r_0 .. R_3): wheels.X[j] counts where bit
+	 * CTL_WHEEL_KEY(q, j) of wheel_keys is set (the configuration gives that wheel its own
+	 * key); elsewhere the scalar model.X does (ctl_settings_wheels). */
+	struct model_wheels wheels;
+	uint16_t wheel_keys;
 	double rate_hz; /* loop rate [Hz] */
 	struct {
 		double kp; /* PI on wheel linear speed [V/(m/s)] */
@@ -38,8 +44,20 @@ struct ctl_settings {
 /* The defaults of ctl_keys.def: the paper's Table III robot at 1 kHz. */
 void ctl_settings_defaults(struct ctl_settings *s);
 
+/* Bit of wheel_keys for quantity q (0 r, 1 Kv, 2 Kt, 3 R: struct model_wheels' order), wheel j. */
+#define CTL_WHEEL_KEY(q, j) ((uint16_t)(1u << (4 * (q) + (j))))
+#define CTL_WHEEL_KEYS 16
+
+/* The drives in force: wheel j's own value where it has its own key, else the scalar. With no
+ * wheel keys, model_wheels_from_params(&s->model) bit for bit. */
+void ctl_settings_wheels(const struct ctl_settings *s, struct model_wheels *w);
+/* s->wheels = ctl_settings_wheels(s): a wheel without its own key takes the scalar (after the
+ * scalar or a wheel key changed), so every wheel key reads as the value in force. */
+void ctl_settings_wheels_follow(struct ctl_settings *s);
+
 /* 0 if s can run a controller: the model physically meaningful (*bad_key = its index in
- * model_params_names), rate_hz > 0 and supply_min_v < supply_v (*bad_key = -1). why: the rule. */
+ * model_params_names; a wheel's own value: MODEL_PARAMS_COUNT + 4 q + j), rate_hz > 0 and
+ * supply_min_v < supply_v (*bad_key = -1). why: the rule. */
 int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **why);
 
 #endif /* OMNI4_CTL_SETTINGS_H */

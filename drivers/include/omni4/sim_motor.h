@@ -7,7 +7,8 @@
  * current channel (also with the bridges off) and an eccentric encoder on each motor shaft
  * (motor angle = l x wheel angle, read as theta + e sin(theta - phi_j), phases from the seed:
  * a once-per-motor-turn speed ripple of relative amplitude e).
- * The floor ([sim] traction_mu, wheel_inertia, wheel_radius_error_0..3, slip_noise; plant.h)
+ * The floor ([sim] traction_mu, wheel_inertia, wheel_radius_error_0..3, motor_R_error_0..3,
+ * motor_Kv_error_0..3, slip_noise; plant.h)
  * is the plant's, with the wheel speed readings following the wheels' own speeds, and applies
  * with exact sensors too. The camera's latency ([sim] camera_latency_ms) likewise: a pose is
  * delivered that much after its capture, stamped with the capture time, through a fixed queue

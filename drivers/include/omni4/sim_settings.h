@@ -22,6 +22,8 @@ struct sim_settings {
 	double traction_mu;           /* wheel-floor friction; 0 = no traction limit */
 	double wheel_inertia;         /* reflected at the wheel [kg m^2] */
 	double wheel_radius_error[4]; /* relative effective-radius error per wheel */
+	double motor_R_error[4];      /* relative motor + bridge resistance error per motor */
+	double motor_Kv_error[4];     /* relative motor-constant (Kv, Kt) error per motor */
 	double slip_noise;            /* creep std dev [m/s] */
 	double camera_latency_ms;     /* capture -> delivery [ms] */
 	/* The lockstep simulator only (sil/) */

@@ -68,7 +68,9 @@ struct sc_limits {
  * voltage reversal moves the current by 2 supply / R at once); speed_step = a_max dt / r + 2 LSB
  * with a_max = f_max (2/M + 4 d^2/J), f_max = l Kt (2 supply / R) / r (all four wheels at the
  * largest force, worst-case signs: the largest linear acceleration of one wheel's rim); the
- * current limit is limits.current_max_a; N = 3. */
+ * current limit is limits.current_max_a; N = 3. With each drive's own R_j, Kt_j, r_j
+ * (ctl_settings_wheels) the worst wheel sets each: the largest 2 supply / R_j and l Kt_j i_j / r_j,
+ * the smallest r_j. */
 struct sc_limits sc_limits_for(const struct ctl_settings *s);
 /* sc_limits_for(the default settings): the Table III robot at 1 kHz. */
 struct sc_limits sc_limits_default(void);

@@ -27,7 +27,7 @@
 #include "omni4/config.h"
 #include "omni4/fw.h"
 
-#define PARAM_MAX_KEYS 96             /* keys in one request (the table has fewer: 66) */
+#define PARAM_MAX_KEYS 128            /* keys in one request or reply (the whole table fits) */
 #define PARAM_MAX_TEXT 65536          /* bytes of INI text in one LOAD */
 #define PARAM_QUEUE 8                 /* requests waiting for the service thread */
 #define PARAM_CACHE 16                /* replies kept for repeated request ids */

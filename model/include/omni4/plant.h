@@ -25,6 +25,9 @@
  * - Radius error: wheel j's effective radius is r (1 + radius_error[j]): its force and
  *   back-EMF use that radius, and its angular speed is its ground speed / r (1 + e_j), so
  *   odometry with the model's r reads the ground speed / (1 + e_j).
+ * - Motor errors: wheel j's motor + bridge resistance is R (1 + R_error[j]) and its motor
+ *   constant Kv (1 + Kv_error[j]) (back-EMF), Kt (1 + Kv_error[j]) (torque: one motor constant,
+ *   Kt = Kv in SI units): each wheel's force (eqs 12-13) and current (eq 21) use its own.
  * - Creep: a small continuous slip per wheel, a first-order Gauss-Markov process (time
  *   constant PLANT_CREEP_TAU_S, standard deviation slip_noise [m/s]) added to the rim speed
  *   only (the body dynamics and the currents do not see it).
@@ -50,6 +53,8 @@ struct plant_floor {
 	double traction_mu;     /* wheel-floor friction coefficient; 0 = no traction limit */
 	double wheel_inertia;   /* J_w: wheel + motor + gearbox reflected at the wheel [kg m^2] */
 	double radius_error[4]; /* relative effective-radius error per wheel, |e| < 0.5 */
+	double R_error[4];      /* relative resistance error per motor, |e| < 0.5 */
+	double Kv_error[4];     /* relative motor-constant error (Kv and Kt), |e| < 0.5 */
 	double slip_noise;      /* creep std dev [m/s]; 0 = none */
 	uint64_t seed;          /* of the creep */
 };
@@ -64,7 +69,8 @@ struct plant {
 	bool driven;         /* H-bridges on in the last step */
 	/* The floor (plant_set_floor) and its state. */
 	struct plant_floor floor;
-	double r_eff[4]; /* effective wheel radii [m] */
+	double r_eff[4];                       /* effective wheel radii [m] */
+	double R_eff[4], Kv_eff[4], Kt_eff[4]; /* each motor's own R, Kv, Kt (motor errors) */
 	double rim[4];   /* wheel rim speeds r_eff_j w_j [m/s] (ground speed when gripping) */
 	double creep[4]; /* creep part of rim[] [m/s] */
 	bool slipping[4];
@@ -81,7 +87,7 @@ int plant_init(struct plant *pl, const struct model_params *p);
  * settings stay. */
 void plant_reset(struct plant *pl);
 /* The floor's settings (then plant_reset). -EINVAL if mu < 0, J_w <= 0 with mu > 0, an |e_j|
- * >= 0.5, slip_noise < 0 or anything not finite. */
+ * (radius, R or Kv error) >= 0.5, slip_noise < 0 or anything not finite. */
 int plant_set_floor(struct plant *pl, const struct plant_floor *f);
 
 /*

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 from .. import ini
-from .._keys import MODEL_KEYS
+from .._keys import MODEL_KEYS, MODEL_WHEEL_KEYS
 
 _LIB = None
 PARAM_NAMES = MODEL_KEYS  # the 14 [model] keys, in model_params_names order
@@ -102,25 +102,32 @@ def table3():
 def read_model(path):
     """[model] of the robot INI at path -> dict of the 14 parameters (docs/design.md: d r l Kv
     Kt R M J Bv Bvn Bw Cv Cvn Cw, SI units, all or none; none = Table III, as in the firmware).
-    Other sections are the firmware's and are not looked at. Errors: omni4.ini.ConfigError,
-    one line FILE:LINE: ..."""
+    A drive's own r_j, Kv_j, Kt_j, R_j (docs/configuration.md) is checked (a number > 0, with
+    the 14) but not returned: the prediction is the paper's model, whose scalars hold the
+    wheels' mean. Other sections are the firmware's and are not looked at. Errors:
+    omni4.ini.ConfigError, one line FILE:LINE: ..."""
     f = ini.read(path)
     found = {}
     for key, val in f.section("model").items():
         where = f.where("model", key)
-        if key not in PARAM_NAMES:
+        if key not in PARAM_NAMES and key not in MODEL_WHEEL_KEYS:
             raise ini.ConfigError(f"{where}: unknown key '{key}' in [model] "
-                                  f"(expected {' '.join(PARAM_NAMES)})")
+                                  f"(expected {' '.join(PARAM_NAMES)}, and optionally "
+                                  "r_0..r_3 Kv_0..Kv_3 Kt_0..Kt_3 R_0..R_3)")
         try:
             found[key] = float(val)
         except ValueError:
             raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not a number") from None
         if not math.isfinite(found[key]):
             raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not finite")
+        if key in MODEL_WHEEL_KEYS and not found[key] > 0:
+            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' must be > 0")
     if not found:
         return table3()
     first = f"{path}:{min(f.line('model', k) or 0 for k in found)}"
     missing = [k for k in PARAM_NAMES if k not in found]
+    for k in MODEL_WHEEL_KEYS:
+        found.pop(k, None)
     if missing:
         raise ini.ConfigError(f"{first}: [model] lacks {' '.join(missing)} (all 14 keys or none)")
     try:
