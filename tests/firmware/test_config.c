@@ -456,14 +456,14 @@ static void test_wheel_key_errors(void **state)
 	char text[2048];
 
 	good_with(text, sizeof(text), "R_3 = 0\n");
-	expect_error(text, -EINVAL, 0, "invalid value for 'R_3' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 17, "invalid value for 'R_3' in [model]: must be > 0");
 	good_with(text, sizeof(text), "Kv_0 = -0.02\n");
-	expect_error(text, -EINVAL, 0, "invalid value for 'Kv_0' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 17, "invalid value for 'Kv_0' in [model]: must be > 0");
 	good_with(text, sizeof(text), "r_2 = abc\n");
 	expect_error(text, -EINVAL, 17, "bad value for 'r_2' in [model]");
 	good_with(text, sizeof(text), "R_1 = 3\nR_1 = 3\n");
 	expect_error(text, -EINVAL, 18, "duplicate key 'R_1' in [model]");
-	expect_error("[model]\nR_0 = 3\n", -EINVAL, 0, "missing key 'd' in [model]");
+	expect_error("[model]\nR_0 = 3\n", -EINVAL, 1, "missing key 'd' in [model]");
 	expect_error("[model]\nR_4 = 3\n", -EINVAL, 2, "unknown key 'R_4' in [model]");
 }
 

@@ -103,9 +103,11 @@ expect 1 "CAN interface 'can0'" -- "$BIN/omni4-fw" --config "$T/packaged.ini"
 # omni4-sim interrupted: status 130, one line, and a log whose every event is whole.
 "$BIN/omni4-sim" --experiments --speed 1 --out "$T/int.lcmlog" -q >"$T/int.out" 2>&1 &
 sim=$!
-# interrupted once it is writing its log (an event, not a time: a loaded machine starts it late)
+# interrupted once it is writing its log (an event, not a time: a loaded machine starts it late);
+# the log is written to int.lcmlog.tmpPID and renamed into place when the run ends
+writing() { for f in "$T"/int.lcmlog.tmp*; do [ -s "$f" ] && return 0; done; return 1; }
 n=0
-while [ ! -s "$T/int.lcmlog" ] && [ "$n" -lt 600 ] && kill -0 "$sim" 2>/dev/null; do
+while ! writing && [ "$n" -lt 600 ] && kill -0 "$sim" 2>/dev/null; do
   sleep 0.1; n=$((n + 1))
 done
 sleep 0.5
