@@ -325,39 +325,54 @@ static float plan_translation(struct traj *tr, const struct row *r, int n, struc
 
 /* ---- the instance -------------------------------------------------------------------------- */
 
-static bool limits_ok(const struct traj_limits *l)
+/* The limits in single precision; 0 if each is in its range (NaN fails every comparison). */
+struct limits_f {
+	float supply, margin, mu, tmargin, wmax, vcap, wcap, share;
+};
+
+static bool limits_ok(const struct traj_limits *l, struct limits_f *f)
 {
 	if (model_params_check(&l->p, NULL) || model_wheels_check(&l->w, NULL))
 		return false;
-	return l->supply_v - l->margin_v > 0.0 && l->margin_v >= 0.0 && l->mu > 0.0 &&
-	       isfinite(l->mu) && isfinite(l->supply_v) && l->traction_margin >= 0.0 &&
-	       l->traction_margin < 1.0 && l->motor_speed_max_rad_s > 0.0 &&
-	       isfinite(l->motor_speed_max_rad_s) && l->speed_cap_m_s > 0.0 &&
-	       l->omega_cap_rad_s > 0.0 && l->rot_share > 0.0 && l->rot_share < 1.0;
+	*f = (struct limits_f){(float)l->supply_v,
+	                       (float)l->margin_v,
+	                       (float)l->mu,
+	                       (float)l->traction_margin,
+	                       (float)l->motor_speed_max_rad_s,
+	                       (float)l->speed_cap_m_s,
+	                       (float)l->omega_cap_rad_s,
+	                       (float)l->rot_share};
+	return f->supply - f->margin > 0.0f && f->margin >= 0.0f && isfinite(f->supply) &&
+	       f->mu > 0.0f && isfinite(f->mu) && f->tmargin >= 0.0f && f->tmargin < 1.0f &&
+	       f->wmax > 0.0f && isfinite(f->wmax) && f->vcap > 0.0f && f->wcap > 0.0f &&
+	       f->share > 0.0f && f->share < 1.0f;
 }
 
 int traj_init(struct traj *tr, const struct traj_limits *l)
 {
-	if (!limits_ok(l))
+	struct limits_f f;
+
+	if (!limits_ok(l, &f))
 		return -EINVAL;
+	const float gear = (float)l->p.l, M = (float)l->p.M;
 	struct traj_coef c = {
 	    .d = (float)l->p.d,
-	    .M = (float)l->p.M,
+	    .M = M,
 	    .J = (float)l->p.J,
 	    .B = {(float)l->p.Bv, (float)l->p.Bvn, (float)l->p.Bw},
 	    .C = {(float)l->p.Cv, (float)l->p.Cvn, (float)l->p.Cw},
-	    .u_max_v = (float)(l->supply_v - l->margin_v),
-	    .f_max_n = (float)(l->mu * l->p.M * TRAJ_G_M_S2 / 4.0 * (1.0 - l->traction_margin)),
-	    .speed_cap_m_s = (float)l->speed_cap_m_s,
-	    .omega_cap_rad_s = (float)l->omega_cap_rad_s,
-	    .rot_share = (float)l->rot_share,
+	    .u_max_v = f.supply - f.margin,
+	    .f_max_n = f.mu * M * TRAJ_G_M_S2 / 4.0f * (1.0f - f.tmargin),
+	    .speed_cap_m_s = f.vcap,
+	    .omega_cap_rad_s = f.wcap,
+	    .rot_share = f.share,
 	};
 	for (int j = 0; j < 4; j++) {
-		const struct model_wheels *w = &l->w;
-		c.b[j] = (float)(l->p.l * w->Kt[j] / (w->R[j] * w->r[j]));
-		c.e[j] =
-		    (float)(l->p.l * l->p.l * w->Kt[j] * w->Kv[j] / (w->R[j] * w->r[j] * w->r[j]));
-		c.rim_max[j] = (float)(l->motor_speed_max_rad_s * w->r[j] / l->p.l);
+		const float r = (float)l->w.r[j], Kv = (float)l->w.Kv[j], Kt = (float)l->w.Kt[j];
+		const float R = (float)l->w.R[j];
+		c.b[j] = gear * Kt / (R * r);
+		c.e[j] = gear * gear * Kt * Kv / (R * r * r);
+		c.rim_max[j] = f.wmax * r / gear;
 	}
 	/* at rest, each axis and the heading alone must have room to accelerate */
 	struct row r[12];
