@@ -32,6 +32,7 @@ static const float speed_frac[TRAJ_SPEED_STEPS] = {0.3f,  0.5f,  0.65f, 0.75f,
  */
 struct row {
 	float ka[2], kv[2], c;
+	float c0; /* room for the acceleration alone (no velocity, no Coulomb): stopping */
 };
 
 static bool finite3(const float v[3])
@@ -61,43 +62,45 @@ static bool bb_idle(float p0, float v0, float goal)
 
 /* Mirrored so that the move is positive: s is the side the goal lies on from where braking
  * now would stop. */
-float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a, float vmax)
+float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up, float a_dn,
+                   float vmax)
 {
 	if (bb_idle(p0, v0, goal)) {
 		bb_hold(o, goal);
 		return 0.0f;
 	}
-	if (!(a > 0.0f) || !(vmax > 0.0f))
+	if (!(a_up > 0.0f) || !(a_dn > 0.0f) || !(vmax > 0.0f))
 		return INFINITY;
-	const float stop = v0 * fabsf(v0) / (2.0f * a);
+	const float stop = v0 * fabsf(v0) / (2.0f * a_dn);
 	const float s = goal - p0 - stop >= 0.0f ? 1.0f : -1.0f;
 	const float dist = s * (goal - p0), u = s * v0;
-	float t0, tc, vc, a0;
+	float t0, vc, a0;
 
 	if (u > vmax) { /* too fast: brake to vmax, cruise, stop */
 		vc = vmax;
-		a0 = -a;
-		t0 = (u - vmax) / a;
-	} else { /* accelerate (through 0 if moving away) to the peak or to vmax */
-		const float vp = sqrtf(fmaxf(a * dist + 0.5f * u * u, 0.0f));
-		vc = fminf(vp, vmax);
-		a0 = a;
-		t0 = fmaxf((vc - u) / a, 0.0f);
+		a0 = -a_dn;
+		t0 = (u - vmax) / a_dn;
+	} else { /* speed up (through 0 if moving away) to the peak or to vmax, then stop:
+	          * (vp^2 - u^2) / (2 a_up) + vp^2 / (2 a_dn) = dist */
+		const float vp2 = (2.0f * dist * a_up * a_dn + u * u * a_dn) / (a_up + a_dn);
+		vc = fminf(sqrtf(fmaxf(vp2, 0.0f)), vmax);
+		a0 = a_up;
+		t0 = fmaxf((vc - u) / a_up, 0.0f);
 	}
-	const float d0 = (vc * vc - u * u) / (2.0f * a0 == 0.0f ? 1.0f : 2.0f * a0);
-	const float dc = fmaxf(dist - d0 - vc * vc / (2.0f * a), 0.0f);
-	tc = vc > 0.0f ? dc / vc : 0.0f;
+	const float d0 = (vc * vc - u * u) / (2.0f * a0);
+	const float dc = fmaxf(dist - d0 - vc * vc / (2.0f * a_dn), 0.0f);
+	const float tc = vc > 0.0f ? dc / vc : 0.0f;
 	o->p0 = p0;
 	o->v0 = v0;
 	o->acc[0] = s * a0;
 	o->p1 = p0 + v0 * t0 + 0.5f * o->acc[0] * t0 * t0;
 	o->v1 = s * vc;
 	o->acc[1] = 0.0f;
-	o->acc[2] = -s * a;
+	o->acc[2] = -s * a_dn;
 	o->goal = goal;
 	o->t_end_s[0] = t0;
 	o->t_end_s[1] = t0 + tc;
-	o->t_end_s[2] = t0 + tc + vc / a;
+	o->t_end_s[2] = t0 + tc + vc / a_dn;
 	return o->t_end_s[2];
 }
 
@@ -165,6 +168,23 @@ static float rows_acc(const struct row *r, int n, float ca, float sa, float wx, 
 	return best;
 }
 
+/*
+ * Largest stopping acceleration: while a wheel's acceleration term opposes its velocity terms
+ * (friction, back-EMF: both along the velocity), |a + v| <= max(|a|, |v|), so the acceleration
+ * alone must fit (c0) and the velocity alone (rows_acc >= 0 at that speed).
+ */
+static float rows_stop(const struct row *r, int n, float ca, float sa)
+{
+	float best = INFINITY;
+
+	for (int k = 0; k < n; k++) {
+		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
+		if (per > 0.0f)
+			best = fminf(best, r[k].c0 / per);
+	}
+	return best;
+}
+
 /* Largest V with a velocity box (V ca, V sa) meeting every row at zero acceleration. */
 static float rows_top(const struct row *r, int n, float ca, float sa)
 {
@@ -202,6 +222,8 @@ static int rows_translation(const struct traj_coef *c, float phi, float share, f
 		const float kscale[3] = {1.0f, 1.0f / c->b[j], 0.0f};
 		const float room[3] = {share * c->f_max_n - coul,
 		                       share * c->u_max_v - coul / c->b[j], share * c->rim_max[j]};
+		const float room0[3] = {share * c->f_max_n, share * c->u_max_v,
+		                        share * c->rim_max[j]};
 		for (int q = 0; q < 3; q++, n++) {
 			const float ax = ka[q] ? ka[q][0] * kscale[q] : 0.0f;
 			const float ay = ka[q] ? ka[q][1] * kscale[q] : 0.0f;
@@ -210,6 +232,7 @@ static int rows_translation(const struct traj_coef *c, float phi, float share, f
 			r[n].kv[0] = fabsf(cp * kv[q][0] - sp * kv[q][1]);
 			r[n].kv[1] = fabsf(sp * kv[q][0] + cp * kv[q][1]);
 			r[n].c = room[q] * cos_h;
+			r[n].c0 = room0[q] * cos_h;
 		}
 	}
 	return n;
@@ -222,12 +245,16 @@ static int rows_rotation(const struct traj_coef *c, float share, struct row *r)
 
 	for (int j = 0; j < 4; j++) {
 		const float ib = 1.0f / c->b[j];
-		r[3 * j] = (struct row){
-		    {c->J * q, 0.0f}, {c->B[2] * q, 0.0f}, share * c->f_max_n - c->C[2] * q};
+		r[3 * j] = (struct row){{c->J * q, 0.0f},
+		                        {c->B[2] * q, 0.0f},
+		                        share * c->f_max_n - c->C[2] * q,
+		                        share * c->f_max_n};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
 		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
-		                            share * c->u_max_v - c->C[2] * q * ib};
-		r[3 * j + 2] = (struct row){{0.0f, 0.0f}, {c->d, 0.0f}, share * c->rim_max[j]};
+		                            share * c->u_max_v - c->C[2] * q * ib,
+		                            share * c->u_max_v};
+		r[3 * j + 2] = (struct row){
+		    {0.0f, 0.0f}, {c->d, 0.0f}, share * c->rim_max[j], share * c->rim_max[j]};
 	}
 	return 12;
 }
@@ -235,20 +262,21 @@ static int rows_rotation(const struct traj_coef *c, float share, struct row *r)
 /* ---- choosing the limits ------------------------------------------------------------------- */
 
 struct axes {
-	int n; /* 1 (heading) or 2 (x, y) */
+	int n;     /* 1 (heading) or 2 (x, y) */
+	bool stop; /* stopping opposes the velocity in every wheel: rows_stop applies */
 	float p0[2], v0[2], goal[2];
 	float cap; /* on V */
 	struct traj_1d *out[2];
 };
 
-static float axes_time(const struct axes *ax, float ca, float sa, float acc, float v)
+static float axes_time(const struct axes *ax, float ca, float sa, float acc, float dec, float v)
 {
 	const float share[2] = {ca, sa};
 	float t = 0.0f;
 
 	for (int i = 0; i < ax->n; i++)
 		t = fmaxf(t, traj_1d_plan(ax->out[i], ax->p0[i], ax->v0[i], ax->goal[i],
-		                          acc * share[i], v * share[i]));
+		                          acc * share[i], dec * share[i], v * share[i]));
 	return t;
 }
 
@@ -261,7 +289,7 @@ static float choose_limits(const struct row *r, int n, const struct axes *ax, fl
                            uint32_t *flags)
 {
 	const float vtop = fminf(rows_top(r, n, ca, sa), ax->cap);
-	float best_t = INFINITY, best_a = 0.0f, best_v = 0.0f;
+	float best_t = INFINITY, best_a = 0.0f, best_d = 0.0f, best_v = 0.0f;
 
 	for (int k = 0; k < TRAJ_SPEED_STEPS; k++) {
 		const float v = vtop * speed_frac[k];
@@ -270,28 +298,45 @@ static float choose_limits(const struct row *r, int n, const struct axes *ax, fl
 		const float acc = rows_acc(r, n, ca, sa, wx, wy);
 		if (!(acc > 0.0f) || !(v > 0.0f))
 			continue;
-		const float t = axes_time(ax, ca, sa, acc, v);
+		const float dec = ax->stop ? fmaxf(rows_stop(r, n, ca, sa), acc) : acc;
+		const float t = axes_time(ax, ca, sa, acc, dec, v);
 		if (t < best_t) {
 			best_t = t;
 			best_a = acc;
+			best_d = dec;
 			best_v = v;
 		}
 	}
 	if (!(best_t < INFINITY)) { /* the start velocity leaves no room */
 		*flags |= TRAJ_F_BEYOND_ENVELOPE;
 		best_a = fmaxf(0.1f * rows_acc(r, n, ca, sa, 0.0f, 0.0f), ACC_FLOOR);
+		best_d = best_a;
 		best_v = fmaxf(0.5f * vtop, ACC_FLOOR);
 	}
-	return axes_time(ax, ca, sa, best_a, best_v);
+	return axes_time(ax, ca, sa, best_a, best_d, best_v);
 }
 
-/* x and y: alpha in (0, pi/2) by bisection until both arrive together (the earliest kept). */
+/*
+ * x and y. From rest: the share of the straight line, so both profiles are the same in time
+ * and the acceleration is along (speeding up) or against (stopping) the velocity throughout.
+ * Moving: alpha in (0, pi/2) by bisection until both arrive together (the earliest kept), with
+ * the stopping acceleration the same as the speeding-up one.
+ */
 static float plan_translation(struct traj *tr, const struct row *r, int n, struct axes *ax)
 {
 	struct traj_1d best[2], cur[2];
 	float lo = 0.0f, hi = 0.5f * PI_F, best_t = INFINITY, best_alpha = 0.0f;
 	uint32_t best_flags = 0;
 
+	if (ax->stop) {
+		const float dx = fabsf(ax->goal[0] - ax->p0[0]),
+		            dy = fabsf(ax->goal[1] - ax->p0[1]);
+		const float dist = sqrtf(dx * dx + dy * dy);
+		ax->out[0] = &tr->axis[0];
+		ax->out[1] = &tr->axis[1];
+		tr->alpha_rad = atan2f(dy, dx);
+		return choose_limits(r, n, ax, dx / dist, dy / dist, &tr->flags);
+	}
 	ax->out[0] = &cur[0];
 	ax->out[1] = &cur[1];
 	for (int it = 0; it < TRAJ_ALPHA_ITERS + 2; it++) {
@@ -405,6 +450,7 @@ static float plan_heading(struct traj *tr, const struct traj_ref *from, float go
 	struct row r[12];
 	const int n = rows_rotation(&tr->c, share, r);
 	struct axes ax = {.n = 1,
+	                  .stop = true,
 	                  .p0 = {from->pose[2]},
 	                  .v0 = {from->vel[2]},
 	                  .goal = {goal},
@@ -462,6 +508,8 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 		for (int k = 0; k < nh; k++)
 			n += rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, r + n);
 		struct axes ax = {.n = 2,
+		                  .stop = fabsf(from->vel[0]) < TRAJ_IDLE_VEL &&
+		                          fabsf(from->vel[1]) < TRAJ_IDLE_VEL,
 		                  .p0 = {from->pose[0], from->pose[1]},
 		                  .v0 = {from->vel[0], from->vel[1]},
 		                  .goal = {goal[0], goal[1]},

@@ -88,15 +88,23 @@ static void test_bang_bang_rest_to_rest_matches_closed_forms(void **state)
 	struct traj_1d o;
 	float p, v, a;
 
-	near(traj_1d_plan(&o, 0.0f, 0.0f, 0.5f, 2.0f, 10.0f), 2.0 * sqrt(0.5 / 2.0), 1e-6);
-	near(traj_1d_plan(&o, 1.0f, 0.0f, -2.0f, 2.0f, 1.0f), 3.0 / 1.0 + 1.0 / 2.0, 1e-6);
+	near(traj_1d_plan(&o, 0.0f, 0.0f, 0.5f, 2.0f, 2.0f, 10.0f), 2.0 * sqrt(0.5 / 2.0), 1e-6);
+	near(traj_1d_plan(&o, 1.0f, 0.0f, -2.0f, 2.0f, 2.0f, 1.0f), 3.0 / 1.0 + 1.0 / 2.0, 1e-6);
 	traj_1d_eval(&o, o.t_end_s[2], &p, &v, &a);
 	assert_true(p == -2.0f && v == 0.0f && a == 0.0f);
 	traj_1d_eval(&o, 1.75f, &p, &v, &a); /* half time: half way, at full speed */
 	near(p, -0.5, 1e-6);
 	near(v, -1.0, 1e-6);
-	assert_true(traj_1d_plan(&o, 0.3f, 0.0f, 0.3f, 2.0f, 1.0f) == 0.0f);
-	assert_true(isinf(traj_1d_plan(&o, 0.0f, 0.0f, 1.0f, 0.0f, 1.0f)));
+	/* speeding up at a1, slowing down at a2: t = sqrt(2 D (a1 + a2) / (a1 a2)) (triangle),
+	 * D / v + v / (2 a1) + v / (2 a2) (trapezoid) */
+	near(traj_1d_plan(&o, 0.0f, 0.0f, 0.5f, 1.0f, 3.0f, 10.0f), sqrt(2 * 0.5 * 4.0 / 3.0),
+	     1e-6);
+	near(traj_1d_plan(&o, 0.0f, 0.0f, -2.0f, 1.0f, 3.0f, 0.5f), 4.0 + 0.25 + 0.5 / 6.0, 1e-6);
+	traj_1d_eval(&o, o.t_end_s[2] - 0.1f, &p, &v, &a);
+	near(a, 3.0, 1e-6); /* stopping at a2, 0.015 m before the goal */
+	near(p, -2.0 + 0.5 * 3.0 * 0.01, 1e-6);
+	assert_true(traj_1d_plan(&o, 0.3f, 0.0f, 0.3f, 2.0f, 2.0f, 1.0f) == 0.0f);
+	assert_true(isinf(traj_1d_plan(&o, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 1.0f)));
 }
 
 /* Moving at the start: toward the goal below the limit, away from it, too fast to stop before
@@ -109,15 +117,15 @@ static void test_bang_bang_with_initial_velocity_matches_closed_forms(void **sta
 
 	/* toward, trapezoid: speed up to v, cruise, stop */
 	double t = (1.0 - 0.5) / a + (3.0 - (1.0 - 0.25) / (2 * a) - 1.0 / (2 * a)) / 1.0 + 1.0 / a;
-	near(traj_1d_plan(&o, 0.0f, 0.5f, 3.0f, 2.0f, 1.0f), t, 1e-5);
+	near(traj_1d_plan(&o, 0.0f, 0.5f, 3.0f, 2.0f, 2.0f, 1.0f), t, 1e-5);
 	/* away: stop (|v0|/a), then rest to rest over D + v0^2 / (2a) */
 	t = 0.5 / a + 2.0 * sqrt((0.5 + 0.25 / (2 * a)) / a);
-	near(traj_1d_plan(&o, 0.0f, -0.5f, 0.5f, 2.0f, 10.0f), t, 1e-5);
+	near(traj_1d_plan(&o, 0.0f, -0.5f, 0.5f, 2.0f, 2.0f, 10.0f), t, 1e-5);
 	/* too fast to stop: stop at v0^2/(2a) = 1 beyond, then back 0.9 rest to rest */
 	t = 2.0 / a + 2.0 * sqrt(0.9 / a);
-	near(traj_1d_plan(&o, 0.0f, 2.0f, 0.1f, 2.0f, 10.0f), t, 1e-5);
+	near(traj_1d_plan(&o, 0.0f, 2.0f, 0.1f, 2.0f, 2.0f, 10.0f), t, 1e-5);
 	/* over the limit: brake to v (1 s, 2 m), cruise, stop (0.25 m, 0.5 s) */
-	near(traj_1d_plan(&o, 0.0f, 3.0f, 10.0f, 2.0f, 1.0f), 1.0 + 7.75 + 0.5, 1e-5);
+	near(traj_1d_plan(&o, 0.0f, 3.0f, 10.0f, 2.0f, 2.0f, 1.0f), 1.0 + 7.75 + 0.5, 1e-5);
 }
 
 /* Continuity over every phase change, bounded acceleration, exact arrival. */
@@ -133,7 +141,7 @@ static void test_bang_bang_is_continuous_and_arrives(void **state)
 	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
 		const float *k = cases[c];
 		struct traj_1d o;
-		const float T = traj_1d_plan(&o, k[0], k[1], k[2], k[3], k[4]);
+		const float T = traj_1d_plan(&o, k[0], k[1], k[2], k[3], k[3], k[4]);
 		float p0, v0, a0, p, v, a;
 		traj_1d_eval(&o, 0.0f, &p0, &v0, &a0);
 		assert_true(p0 == k[0] && v0 == k[1]);
@@ -295,6 +303,8 @@ static double plan_worst_ratio(const struct traj *tr, const struct traj_limits *
 {
 	const double d = l->p.d, M = l->p.M, J = l->p.J;
 	double worst = 0;
+
+	assert_true(isfinite(tr->duration_s) && tr->duration_s < 60.0f);
 
 	for (double t = 0.0; t <= tr->duration_s + 0.01; t += 5e-4) {
 		struct traj_ref r;

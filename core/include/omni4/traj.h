@@ -5,7 +5,8 @@
  * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
  *
  * - Translation: two 1D bang-bang profiles (x, y) with the acceleration and speed of the move
- *   shared between them by an angle alpha, found by bisection so both arrive together.
+ *   shared between them by an angle alpha: from rest that of the straight line, moving found
+ *   by bisection so both arrive together. Stopping from rest uses the friction's help.
  * - Heading: its own 1D bang-bang the short way round (wrapped difference), not synchronised:
  *   it arrives when its own limits let it.
  * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
@@ -70,12 +71,14 @@ struct traj_ref {
 };
 
 /*
- * traj_1d_plan - one axis: the time-optimal profile with |acc| <= a and |v| <= vmax (a start
- * faster than vmax brakes to it at once), from p0 at v0 to rest at goal; returns its duration
- * [s] (0 if already there, INFINITY if a or vmax is not > 0). Through zero speed if the start
- * moves away or cannot stop before the goal. Fast loop: a few operations and one sqrtf.
+ * traj_1d_plan - one axis: the time-optimal profile speeding up at a_up and slowing down at
+ * a_dn (both > 0) with |v| <= vmax (a start faster than vmax slows to it at once), from p0 at
+ * v0 to rest at goal; returns its duration [s] (0 if already there, INFINITY if a limit is not
+ * > 0). Through zero speed if the start moves away or cannot stop before the goal (that part
+ * at a_up). Fast loop: a few operations and one sqrtf.
  */
-float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a, float vmax);
+float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up, float a_dn,
+                   float vmax);
 
 /* traj_1d_eval - position, velocity, acceleration at t [s] (before 0: the start; after the end:
  * the goal at rest). Fast loop. */
