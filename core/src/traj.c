@@ -478,15 +478,11 @@ static int heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], flo
 	return n;
 }
 
-int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
+/* One plan with the heading's share of every wheel's budget; returns its duration. */
+static float plan_share(struct traj *tr, const struct traj_ref *from, const float goal[3],
+                        float share, bool rot_idle, bool tr_idle)
 {
-	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
-		return -EINVAL;
 	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
-	const bool rot_idle = bb_idle(from->pose[2], from->vel[2], th_goal);
-	const bool tr_idle = bb_idle(from->pose[0], from->vel[0], goal[0]) &&
-	                     bb_idle(from->pose[1], from->vel[1], goal[1]);
-	const float share = tr_idle ? 1.0f : rot_idle ? 0.0f : tr->c.rot_share;
 	float t_rot = 0.0f, t_xy = 0.0f, lo = from->pose[2], hi = from->pose[2];
 
 	tr->flags = 0;
@@ -500,23 +496,48 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 	if (tr_idle) {
 		bb_hold(&tr->axis[0], goal[0]);
 		bb_hold(&tr->axis[1], goal[1]);
-	} else {
-		struct row r[ROWS_MAX];
-		float phi[TRAJ_HEADINGS_MAX], cos_h;
-		const int nh = heading_samples(lo, hi, phi, &cos_h);
-		int n = 0;
-		for (int k = 0; k < nh; k++)
-			n += rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, r + n);
-		struct axes ax = {.n = 2,
-		                  .stop = fabsf(from->vel[0]) < TRAJ_IDLE_VEL &&
-		                          fabsf(from->vel[1]) < TRAJ_IDLE_VEL,
-		                  .p0 = {from->pose[0], from->pose[1]},
-		                  .v0 = {from->vel[0], from->vel[1]},
-		                  .goal = {goal[0], goal[1]},
-		                  .cap = tr->c.speed_cap_m_s};
-		t_xy = plan_translation(tr, r, n, &ax);
+		return t_rot;
 	}
-	tr->duration_s = fmaxf(t_rot, t_xy);
+	struct row r[ROWS_MAX];
+	float phi[TRAJ_HEADINGS_MAX], cos_h;
+	const int nh = heading_samples(lo, hi, phi, &cos_h);
+	int n = 0;
+	for (int k = 0; k < nh; k++)
+		n += rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, r + n);
+	struct axes ax = {.n = 2,
+	                  .stop = fabsf(from->vel[0]) < TRAJ_IDLE_VEL &&
+	                          fabsf(from->vel[1]) < TRAJ_IDLE_VEL,
+	                  .p0 = {from->pose[0], from->pose[1]},
+	                  .v0 = {from->vel[0], from->vel[1]},
+	                  .goal = {goal[0], goal[1]},
+	                  .cap = tr->c.speed_cap_m_s};
+	t_xy = plan_translation(tr, r, n, &ax);
+	return fmaxf(t_rot, t_xy);
+}
+
+int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
+{
+	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
+		return -EINVAL;
+	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
+	const bool rot_idle = bb_idle(from->pose[2], from->vel[2], th_goal);
+	const bool tr_idle = bb_idle(from->pose[0], from->vel[0], goal[0]) &&
+	                     bb_idle(from->pose[1], from->vel[1], goal[1]);
+	const float s = tr->c.rot_share;
+
+	if (rot_idle || tr_idle) {
+		tr->duration_s =
+		    plan_share(tr, from, goal, tr_idle ? 1.0f : 0.0f, rot_idle, tr_idle);
+	} else { /* both move: the heading's share among three, the earliest arrival kept */
+		const float shares[TRAJ_SHARES] = {0.5f * s, s, 0.5f * (1.0f + s)};
+		struct traj cand = *tr;
+		tr->duration_s = INFINITY;
+		for (int k = 0; k < TRAJ_SHARES; k++) {
+			cand.duration_s = plan_share(&cand, from, goal, shares[k], false, false);
+			if (cand.duration_s < tr->duration_s)
+				*tr = cand;
+		}
+	}
 	tr->t_s = 0.0f;
 	return 0;
 }

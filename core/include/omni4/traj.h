@@ -27,6 +27,7 @@
 #define TRAJ_PHASES 3        /* a 1D bang-bang: speed change, cruise, stop */
 #define TRAJ_ALPHA_ITERS 16  /* bisection steps of the x/y share */
 #define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
+#define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
 #define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
 #define TRAJ_G_M_S2 9.80665f /* standard gravity */
 #define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
@@ -51,7 +52,8 @@ struct traj_limits {
 	double speed_cap_m_s;         /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
 	double omega_cap_rad_s;       /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
 	double rot_share;             /* share of each wheel's budget the heading gets when both */
-	                              /* the heading and the position move, 0 < . < 1 */
+	                              /* the heading and the position move, 0 < . < 1; the plan */
+	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
 };
 
 /* One axis: phase k runs until t_end_s[k]; the last one is anchored at its end (the goal). */
