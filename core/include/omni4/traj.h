@@ -1,0 +1,153 @@
+/*
+ * traj.h - trajectory generator: from the current reference (pose and velocity) to a goal pose,
+ * at rest there, in the world frame (x, y, theta), within the limits the per-wheel model puts on
+ * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
+ * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
+ *
+ * - Translation: two 1D bang-bang profiles (x, y) with the acceleration and speed of the move
+ *   shared between them by an angle alpha: from rest that of the straight line, moving found
+ *   by bisection so both arrive together. Stopping from rest uses the friction's help.
+ * - Heading: its own 1D bang-bang the short way round (wrapped difference), not synchronised:
+ *   it arrives when its own limits let it.
+ * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
+ *   per-wheel model (docs/model.md), for every acceleration and velocity the plan may take at
+ *   every heading the move spans, Coulomb friction with its worst sign. The plan is feasible
+ *   by construction (bound: docs/trajectory.md); it is not exactly time-optimal.
+ *
+ * Units: m, rad, s throughout; x, y, theta in the world frame. theta of the reference is
+ * continuous (not wrapped): a plan from 3.0 rad to -3.0 rad ends at 3.283 rad.
+ */
+#ifndef OMNI4_TRAJ_H
+#define OMNI4_TRAJ_H
+
+#include <stdint.h>
+
+#include "omni4/params.h"
+
+#define TRAJ_PHASES 3        /* a 1D bang-bang: speed change, cruise, stop */
+#define TRAJ_ALPHA_ITERS 16  /* bisection steps of the x/y share */
+#define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
+#define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
+#define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
+#define TRAJ_G_M_S2 9.80665f /* standard gravity */
+#define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
+#define TRAJ_IDLE_VEL 1e-6f  /* ... slower than this [m/s or rad/s] does not move */
+
+/* Flags of a plan (traj.flags). */
+#define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
+                                     /* planned with a floor, the envelope may be exceeded */
+
+/*
+ * The limits in force. The model is the per-wheel one (struct model_wheels for r, Kv, Kt, R;
+ * struct model_params for d, l, M, J and the body's friction). All values SI.
+ */
+struct traj_limits {
+	struct model_params p;
+	struct model_wheels w;
+	double supply_v;        /* bridge supply [V] */
+	double margin_v;        /* voltage kept for the feedback [V]; supply_v - margin_v > 0 */
+	double mu;              /* floor friction coefficient [-] (> 0) */
+	double traction_margin; /* share of mu M g / 4 kept in reserve, 0 <= . < 1 */
+	double motor_speed_max_rad_s; /* motor shaft speed limit [rad/s] (> 0) */
+	double speed_cap_m_s;         /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
+	double omega_cap_rad_s;       /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
+	double rot_share;             /* share of each wheel's budget the heading gets when both */
+	                              /* the heading and the position move, 0 < . < 1; the plan */
+	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
+};
+
+/* One axis: phase k runs until t_end_s[k]; the last one is anchored at its end (the goal). */
+struct traj_1d {
+	float t_end_s[TRAJ_PHASES];
+	float acc[TRAJ_PHASES]; /* [m/s^2] or [rad/s^2] */
+	float p0, v0;           /* start [m, m/s] or [rad, rad/s] */
+	float p1, v1;           /* at the start of phase 1 (cruise) */
+	float goal;             /* [m] or [rad] */
+};
+
+/* A point of the reference, world frame: [x, y, theta], their rates and accelerations. */
+struct traj_ref {
+	float pose[3]; /* [m, m, rad] */
+	float vel[3];  /* [m/s, m/s, rad/s] */
+	float acc[3];  /* [m/s^2, m/s^2, rad/s^2] */
+};
+
+/*
+ * traj_1d_plan - one axis: the time-optimal profile speeding up at a_up and slowing down at
+ * a_dn (both > 0) with |v| <= vmax (a start faster than vmax slows to it at once), from p0 at
+ * v0 to rest at goal; returns its duration [s] (0 if already there, INFINITY if a limit is not
+ * > 0). Through zero speed if the start moves away or cannot stop before the goal (that part
+ * at a_up). Fast loop: a few operations and one sqrtf.
+ */
+float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up, float a_dn,
+                   float vmax);
+
+/* traj_1d_eval - position, velocity, acceleration at t [s] (before 0: the start; after the end:
+ * the goal at rest). Fast loop. */
+void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a);
+
+/* Per-wheel coefficients, prepared by traj_init (no double after it). */
+struct traj_coef {
+	float b[4];       /* drive gain l Kt_j / (R_j r_j) [N/V] */
+	float e[4];       /* back-EMF braking l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
+	float rim_max[4]; /* rim speed limit motor_speed_max r_j / l [m/s] */
+	float d, M, J;    /* [m], [kg], [kg m^2] */
+	float B[3], C[3]; /* viscous [N/(m/s)], [N m/(rad/s)] and Coulomb [N], [N m] friction */
+	float u_max_v;    /* supply_v - margin_v */
+	float f_max_n;    /* mu M g / 4 (1 - traction_margin) */
+	float speed_cap_m_s, omega_cap_rad_s, rot_share;
+};
+
+struct traj {
+	struct traj_coef c;
+	struct traj_1d axis[3]; /* x, y, theta */
+	float t_s;              /* time since the plan started */
+	float duration_s;       /* the plan's end (at rest at the goal) */
+	float alpha_rad;        /* x/y share of the translation's limits */
+	uint32_t flags;         /* TRAJ_F_* of the last plan */
+};
+
+/*
+ * traj_init - checks the limits and prepares the coefficients; holds still at the origin.
+ * -EINVAL if the model fails its checks, a limit is NaN or out of its range above, or the
+ * limits leave no acceleration at rest (Coulomb friction beyond traction or voltage).
+ * Not for the fast loop (double arithmetic): at start-up or with new parameters.
+ */
+int traj_init(struct traj *tr, const struct traj_limits *lim);
+
+/* traj_reset - hold still at pose [m, m, rad]. Fast loop; -EINVAL (unchanged) if NaN. */
+int traj_reset(struct traj *tr, const float pose[3]);
+
+/*
+ * traj_plan - a new plan from the state `from` (pose and world velocity used; acc ignored) to
+ * goal [x m, y m, theta rad], at rest there; the plan's clock restarts at 0.
+ * Fast loop: bounded time (fixed iteration counts, no blocking). -EINVAL (plan unchanged) if
+ * any input is NaN or infinite.
+ */
+int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
+
+/*
+ * traj_replan - traj_plan from the reference at the plan's current time: the new plan starts
+ * where the reference is, with its velocity, so the reference does not jump. Fast loop.
+ */
+int traj_replan(struct traj *tr, const float goal[3]);
+
+/* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
+ * rest at the goal). Fast loop; pure. */
+void traj_eval(const struct traj *tr, float t_s, struct traj_ref *out);
+
+/* traj_step - advance the plan's clock by dt_s and give the reference there. Fast loop. */
+void traj_step(struct traj *tr, float dt_s, struct traj_ref *out);
+
+/*
+ * traj_envelope - the largest acceleration [m/s^2] along the unit direction dir (robot frame,
+ * [v, vn]) when moving along it at speed_m_s >= 0 without turning, and the largest speed
+ * [m/s] along dir (the speed where that acceleration reaches 0, the rim speed limit, the cap).
+ * Each wheel's voltage, traction and rim speed (the feedforward's force sharing; Coulomb
+ * friction with the signs of dir). acc may be negative beyond the top speed.
+ * -EINVAL for NaN, a negative speed or a direction far from unit length. Fast loop.
+ */
+int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, float *acc_m_s2,
+                  float *speed_max_m_s);
+
+#endif /* OMNI4_TRAJ_H */

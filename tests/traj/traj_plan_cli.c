@@ -1,0 +1,113 @@
+/*
+ * traj_plan - the trajectory generator (core/src/traj.c) from the command line, for the
+ * comparison with the time-optimal bound (bench/traj_optimal.py) and for a look at a plan.
+ * The robot: Table III, four equal drives; the limits from the options.
+ *
+ *   traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]
+ *             [--motor-max=600] [--rot-share=0.25] [--samples=DT]
+ *             X0 Y0 TH0 VX0 VY0 W0 X Y TH
+ *
+ * Prints "duration_s D alpha_rad A flags F"; with --samples=DT also one line per DT seconds:
+ * "t x y theta vx vy w ax ay aw" (world frame, SI). Exit 2 with one line on stderr for bad
+ * arguments or limits the generator refuses.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "omni4/traj.h"
+
+static const char usage[] =
+    "usage: traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]\n"
+    "                 [--motor-max=600] [--rot-share=0.25] [--samples=DT]\n"
+    "                 X0 Y0 TH0 VX0 VY0 W0 X Y TH\n"
+    "example: traj_plan --samples=0.1 0 0 0 0 0 0 1 0.5 1.57\n";
+
+static int number(const char *s, double *out)
+{
+	char *end;
+
+	errno = 0;
+	*out = strtod(s, &end);
+	return errno || end == s || *end || !isfinite(*out) ? -1 : 0;
+}
+
+static int option(const char *arg, struct traj_limits *l, double *samples)
+{
+	static const char *const names[] = {
+	    "--mu=",        "--supply=",    "--margin=", "--traction-margin=",
+	    "--motor-max=", "--rot-share=", "--samples="};
+	double *const fields[] = {&l->mu,
+	                          &l->supply_v,
+	                          &l->margin_v,
+	                          &l->traction_margin,
+	                          &l->motor_speed_max_rad_s,
+	                          &l->rot_share,
+	                          samples};
+
+	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
+		if (!strncmp(arg, names[i], strlen(names[i])))
+			return number(arg + strlen(names[i]), fields[i]);
+	return -1;
+}
+
+static void print_samples(const struct traj *tr, double dt)
+{
+	for (double t = 0.0; t < tr->duration_s + dt; t += dt) {
+		struct traj_ref r;
+		traj_eval(tr, (float)t, &r);
+		printf("%.6f %.7g %.7g %.7g %.7g %.7g %.7g %.7g %.7g %.7g\n", t, r.pose[0],
+		       r.pose[1], r.pose[2], r.vel[0], r.vel[1], r.vel[2], r.acc[0], r.acc[1],
+		       r.acc[2]);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	struct traj_limits l = {.p = model_params_table3,
+	                        .supply_v = 12.0,
+	                        .margin_v = 2.0,
+	                        .mu = 0.6,
+	                        .traction_margin = 0.1,
+	                        .motor_speed_max_rad_s = 600.0,
+	                        .speed_cap_m_s = INFINITY,
+	                        .omega_cap_rad_s = INFINITY,
+	                        .rot_share = 0.25};
+	double samples = 0.0, v[9];
+	int n = 0;
+
+	model_wheels_from_params(&l.p, &l.w);
+	for (int i = 1; i < argc; i++) {
+		if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+			fputs(usage, stdout);
+			return 0;
+		}
+		const int bad = !strncmp(argv[i], "--", 2) ? option(argv[i], &l, &samples)
+		                : n < 9                    ? number(argv[i], &v[n++])
+		                                           : -1;
+		if (bad) {
+			fprintf(stderr, "traj_plan: bad argument '%s' (--help)\n", argv[i]);
+			return 2;
+		}
+	}
+	if (n != 9 || samples < 0.0) {
+		fputs(usage, stderr);
+		return 2;
+	}
+	struct traj tr;
+	if (traj_init(&tr, &l)) {
+		fprintf(stderr, "traj_plan: the limits leave no plan (traj_init: -EINVAL)\n");
+		return 2;
+	}
+	const struct traj_ref from = {.pose = {(float)v[0], (float)v[1], (float)v[2]},
+	                              .vel = {(float)v[3], (float)v[4], (float)v[5]}};
+	const float goal[3] = {(float)v[6], (float)v[7], (float)v[8]};
+	traj_plan(&tr, &from, goal);
+	printf("duration_s %.6f alpha_rad %.5f flags %u\n", (double)tr.duration_s,
+	       (double)tr.alpha_rad, (unsigned)tr.flags);
+	if (samples > 0.0)
+		print_samples(&tr, samples);
+	return 0;
+}
