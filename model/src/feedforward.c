@@ -34,26 +34,37 @@ void ff_voltages(const struct model_params *p, const double vel[3], const double
 	}
 }
 
+/* The Q16.16 gains of one drive's constants (R, r, Kt, Kv): the scalar model's (ff_q16_init)
+ * and each wheel's (ff_q16_wheels_init) come from these expressions, so equal wheels give the
+ * scalar bits. */
+static void ff_q16_wheel_gains(const struct model_params *p, double R, double r, double Kt,
+                               double Kv, q16_t k_acc[3], q16_t k_vel[3], q16_t k_coul[3])
+{
+	const double kf = R * r / (p->l * Kt); /* [V/N] */
+	const double k4d = kf / (4.0 * p->d);
+	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
+	const double kemf = Kv * p->l / r; /* [V/(m/s)] at the wheel rim */
+	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
+	                       k4d * p->Bw + kemf * p->d};
+	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
+
+	for (int k = 0; k < 3; k++) {
+		k_acc[k] = q16_from_double(acc[k]);
+		k_vel[k] = q16_from_double(vel[k]);
+		k_coul[k] = q16_from_double(coul[k]);
+	}
+}
+
 int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max)
 {
 	if (model_params_check(p, NULL) || !(u_max > 0.0) || !isfinite(u_max))
 		return -EINVAL;
-	const double kf = p->R * p->r / (p->l * p->Kt); /* [V/N] */
-	const double k4d = kf / (4.0 * p->d);
-	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
-	const double kemf = p->Kv * p->l / p->r; /* [V/(m/s)] at the wheel rim */
-	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
-	                       k4d * p->Bw + kemf * p->d};
-	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
 	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
 
 	ff->d = q16_from_double(p->d);
-	for (int k = 0; k < 3; k++) {
-		ff->k_acc[k] = q16_from_double(acc[k]);
-		ff->k_vel[k] = q16_from_double(vel[k]);
-		ff->k_coul[k] = q16_from_double(coul[k]);
+	ff_q16_wheel_gains(p, p->R, p->r, p->Kt, p->Kv, ff->k_acc, ff->k_vel, ff->k_coul);
+	for (int k = 0; k < 3; k++)
 		ff->sgn_gain[k] = (int32_t)lround(1.0 / band[k]);
-	}
 	ff->u_max = q16_from_double(u_max);
 	return 0;
 }
@@ -76,25 +87,6 @@ void ff_voltages_wheels(const struct model_params *p, const struct model_wheels 
 		                  w->Kv[j] * p->l / w->r[j] * vw[j];
 
 		u[j] = uj > u_max ? u_max : (uj < -u_max ? -u_max : uj);
-	}
-}
-
-/* ff_q16_init's gains for one wheel's constants (the same expressions, so the same bits). */
-static void ff_q16_wheel_gains(const struct model_params *p, double R, double r, double Kt,
-                               double Kv, q16_t k_acc[3], q16_t k_vel[3], q16_t k_coul[3])
-{
-	const double kf = R * r / (p->l * Kt); /* [V/N] */
-	const double k4d = kf / (4.0 * p->d);
-	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
-	const double kemf = Kv * p->l / r; /* [V/(m/s)] at the wheel rim */
-	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
-	                       k4d * p->Bw + kemf * p->d};
-	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
-
-	for (int k = 0; k < 3; k++) {
-		k_acc[k] = q16_from_double(acc[k]);
-		k_vel[k] = q16_from_double(vel[k]);
-		k_coul[k] = q16_from_double(coul[k]);
 	}
 }
 
