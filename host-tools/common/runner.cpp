@@ -2,6 +2,7 @@
 #include "runner.hpp"
 #include "omni4/channels.h"
 #include "omni4/eventlog.h"
+#include "omni4/outfile.h"
 
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
@@ -81,12 +82,19 @@ class Recording
 			             opt.url.c_str());
 			return false;
 		}
-		log_ = lcm_eventlog_create(opt.out.c_str(), "w");
-		if (!log_) {
-			std::fprintf(stderr, "omni4-ident run: %s: %s\n", opt.out.c_str(),
-			             std::strerror(errno));
+		// As omni4-record: a new file written where it is (a crash keeps what was
+		// recorded), a FIFO or device in place, an existing file refused (a recorded run is
+		// never lost).
+		char why[PATH_MAX + 200];
+		if (omni4_out_open(&out_, opt.out.c_str(), 0666, OMNI4_OUT_STREAM, why,
+		                   sizeof(why))) {
+			std::fprintf(stderr, "omni4-ident run: %s\n", why);
 			return false;
 		}
+		ev_ = lcm_eventlog_t{};
+		ev_.f = out_.f;
+		log_ = &ev_;
+		created_ = !out_.existed; // a new file (an existing file is refused above)
 		sub_ = lcm_subscribe(lcm_, ".*", record, this);
 		lcm_subscription_set_queue_capacity(sub_, 100000);
 		std::signal(SIGINT, on_signal);
@@ -123,6 +131,15 @@ class Recording
 		return written_;
 	}
 
+	// After finish(): removes the log if this run created it as a new file (no robot answered,
+	// nothing worth keeping); a FIFO, a device or a file that was there stays.
+	void discard()
+	{
+		if (created_)
+			std::remove(out_.target);
+		created_ = false;
+	}
+
       private:
 	static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 	{
@@ -141,8 +158,13 @@ class Recording
 		if (sub_)
 			lcm_unsubscribe(lcm_, sub_);
 		sub_ = nullptr;
-		if (log_)
-			lcm_eventlog_destroy(log_);
+		if (log_) {
+			char why[PATH_MAX + 200];
+			if (omni4_out_commit(&out_, why, sizeof(why))) {
+				std::fprintf(stderr, "omni4-ident run: %s\n", why);
+				++errors_;
+			}
+		}
 		log_ = nullptr;
 		if (lcm_)
 			lcm_destroy(lcm_);
@@ -150,7 +172,10 @@ class Recording
 	}
 
 	lcm_t *lcm_ = nullptr;
-	lcm_eventlog_t *log_ = nullptr;
+	lcm_eventlog_t *log_ = nullptr; // &ev_ while the log is open
+	lcm_eventlog_t ev_{};           // liblcm's writer over out_.f
+	struct omni4_out out_{};
+	bool created_ = false;
 	lcm_subscription_t *sub_ = nullptr;
 	uint64_t written_ = 0, errors_ = 0;
 	Tap tap_;
@@ -324,7 +349,7 @@ int run_experiments(const RunOptions &opt)
 		rec.handle(20);
 	if (motors == 0) {
 		rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), nullptr);
-		std::remove(opt.out.c_str());
+		rec.discard();
 		if (g_interrupted)
 			return 130;
 		std::fprintf(stderr,
@@ -686,7 +711,7 @@ int HandRun::run()
 		return 1;
 	if (!wait_first_motors() && !g_interrupted) {
 		rec_.finish(encode_command(wall_us(), seq_++, command_t::MODE_IDLE), nullptr);
-		std::remove(opt_.out.c_str());
+		rec_.discard();
 		std::fprintf(stderr,
 		             "omni4-ident run: no OMNI4_MOTORS on %s within %g s: is omni4-fw "
 		             "running?\n",

@@ -10,7 +10,7 @@ BIN=$1
 . "$(dirname "$0")/../hil/bounded_wait.sh"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
-URL='udpm://239.255.76.67:7693?ttl=0'
+URL=$(test_lcm_url)  # a bus of its own: nothing here may meet a robot on the default URL
 fail=0
 pass=0
 
@@ -65,6 +65,16 @@ fi
 # omni4-motorsim opens the bus through the same adapter and says the same.
 expect 1 stderr 1 "^omni4-motorsim: CAN interface 'omni4none0': (No such device \(no network interface|Address family not supported by protocol \(this kernel has no CAN support)" -- \
   "$BIN/omni4-motorsim" --iface omni4none0
+
+# omni4-ident run records as omni4-record does: an existing log is refused and kept whole.
+echo "a recorded run" > "$T/old.lcmlog"
+expect 1 stderr 1 "^omni4-ident run: $T/old.lcmlog exists; not overwriting it$" -- \
+  "$BIN/omni4-ident" run --lcm "$URL" --out "$T/old.lcmlog" --only coast
+if [ "$(cat "$T/old.lcmlog")" != "a recorded run" ]; then
+  echo "FAIL: omni4-ident run changed an existing log"; fail=$((fail + 1))
+else
+  echo "ok: omni4-ident run left the existing log as it was"; pass=$((pass + 1))
+fi
 
 echo "cli_first_use: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
