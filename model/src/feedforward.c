@@ -17,21 +17,11 @@ double ff_sign(double x, double band)
 void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
                  double u_max, double u[4])
 {
-	const double Fv =
-	    p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN);
-	const double Fvn =
-	    p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN);
-	const double T = p->J * acc[2] + p->Bw * vel[2] + p->Cw * ff_sign(vel[2], FF_SIGN_BAND_ROT);
-	const double share[3] = {Fv / 2.0, Fvn / 2.0, T / (4.0 * p->d * p->d)};
-	double f[4], vw[4];
+	struct model_wheels w;
 
-	ik_wheel_speeds(p->d, share, f);
-	ik_wheel_speeds(p->d, vel, vw);
-	for (int j = 0; j < 4; j++) {
-		const double uj = p->R * p->r / (p->l * p->Kt) * f[j] + p->Kv * p->l / p->r * vw[j];
-
-		u[j] = uj > u_max ? u_max : (uj < -u_max ? -u_max : uj);
-	}
+	model_wheels_from_params(p,
+	                         &w); /* four equal drives: the same expressions, the same bits */
+	ff_voltages_wheels(p, &w, vel, acc, u_max, u);
 }
 
 /* The Q16.16 gains of one drive's constants (R, r, Kt, Kv): the scalar model's (ff_q16_init)
