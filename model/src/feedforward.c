@@ -17,10 +17,9 @@ double ff_sign(double x, double band)
 void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
                  double u_max, double u[4])
 {
-	struct model_wheels w;
+	struct model_wheels w; /* four equal drives: the same expressions, the same bits */
 
-	model_wheels_from_params(p,
-	                         &w); /* four equal drives: the same expressions, the same bits */
+	model_wheels_from_params(p, &w);
 	ff_voltages_wheels(p, &w, vel, acc, u_max, u);
 }
 
