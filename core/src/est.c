@@ -269,7 +269,6 @@ static void predict(struct est *e, const struct est_tick *t)
 	P[0][0] += e->qo[0] * dist;
 	P[1][1] += e->qo[0] * dist;
 	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2])) + e->qt;
-	symmetrise(e);
 }
 
 /* Scalar update of state component i with a reading of innovation nu and variance r. */
@@ -359,7 +358,6 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 
 	for (int k = 0; k < 3; k++)
 		scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
-	symmetrise(e);
 }
 
 /* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
@@ -381,9 +379,9 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 				nu = wrap(nu);
 			scalar_update(e, k, nu, e->rc[k]);
 		}
-		symmetrise(e);
 		e->s[2] = wrap(e->s[2]);
 	}
+	symmetrise(e); /* predict and the updates leave the lower triangle stale */
 }
 
 static void put_snap(struct est *e, uint32_t n)
