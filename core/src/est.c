@@ -199,6 +199,44 @@ static float axis(float phi, float gam, float b, float c, float x)
 	return xf > fr ? xf - fr : (xf < -fr ? xf + fr : 0.0f);
 }
 
+/* P <- T Fth P Fth^T T^T (upper triangle): Fth = I + u e_2^T (the pose's dependence on theta),
+ * T = [[I, G], [0, diag(phi)]], G = dt R(theta) (pose on velocity). P is symmetric on entry; the
+ * row operations take whole rows (they vectorise), the column operations only the elements that
+ * the upper triangle reads (the lower one is left stale for run_tick to mirror). */
+static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, float dt,
+                        const float phi_in[3])
+{
+	const float phi[3] = {phi_in[0], phi_in[1], phi_in[2]}; /* (P may alias phi_in) */
+
+	for (int j = 0; j < 6; j++) {
+		P[0][j] += u0 * P[2][j];
+		P[1][j] += u1 * P[2][j];
+	}
+	for (int i = 0; i < 5; i++) {
+		if (i == 2)
+			continue;
+		if (i != 1)
+			P[i][0] += u0 * P[i][2];
+		P[i][1] += u1 * P[i][2];
+	}
+	for (int j = 0; j < 6; j++) {
+		P[0][j] += gc * P[3][j] - gs * P[4][j];
+		P[1][j] += gs * P[3][j] + gc * P[4][j];
+		P[2][j] += dt * P[5][j];
+		P[3][j] *= phi[0];
+		P[4][j] *= phi[1];
+		P[5][j] *= phi[2];
+	}
+	P[0][0] += gc * P[0][3] - gs * P[0][4];
+	P[0][1] += gs * P[0][3] + gc * P[0][4];
+	P[1][1] += gs * P[1][3] + gc * P[1][4];
+	for (int i = 0; i < 3; i++)
+		P[i][2] += dt * P[i][5];
+	for (int i = 0; i < 6; i++)
+		for (int j = i > 3 ? i : 3; j < 6; j++)
+			P[i][j] *= phi[j - 3];
+}
+
 static void predict(struct est *e, const struct est_tick *t)
 {
 	float *s = e->s;
@@ -230,36 +268,7 @@ static void predict(struct est *e, const struct est_tick *t)
 	s[1] += dt * vy;
 	s[2] = wrap(s[2] + dt * xm[2]);
 
-	/* P <- Fth P Fth^T, Fth = I + u e_2^T (the pose's dependence on theta) */
-	const float u0 = -dt * vy, u1 = dt * vx;
-
-	for (int j = 0; j < 6; j++) {
-		P[0][j] += u0 * P[2][j];
-		P[1][j] += u1 * P[2][j];
-	}
-	for (int i = 0; i < 6; i++) {
-		P[i][0] += u0 * P[i][2];
-		P[i][1] += u1 * P[i][2];
-	}
-	/* P <- T P T^T, T = [[I, G], [0, diag(phi)]], G = dt R(theta) (pose on velocity) */
-	const float gc = dt * c, gs = dt * sn;
-
-	for (int j = 0; j < 6; j++) {
-		P[0][j] += gc * P[3][j] - gs * P[4][j];
-		P[1][j] += gs * P[3][j] + gc * P[4][j];
-		P[2][j] += dt * P[5][j];
-		P[3][j] *= phi[0];
-		P[4][j] *= phi[1];
-		P[5][j] *= phi[2];
-	}
-	for (int i = 0; i < 6; i++) {
-		P[i][0] += gc * P[i][3] - gs * P[i][4];
-		P[i][1] += gs * P[i][3] + gc * P[i][4];
-		P[i][2] += dt * P[i][5];
-		P[i][3] *= phi[0];
-		P[i][4] *= phi[1];
-		P[i][5] *= phi[2];
-	}
+	predict_cov(P, -dt * vy, dt * vx, dt * c, dt * sn, dt, phi);
 	P[3][3] += e->q[0];
 	P[4][4] += e->q[1];
 	P[5][5] += e->q[2];
@@ -269,7 +278,6 @@ static void predict(struct est *e, const struct est_tick *t)
 	P[0][0] += e->qo[0] * dist;
 	P[1][1] += e->qo[0] * dist;
 	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2])) + e->qt;
-	symmetrise(e);
 }
 
 /* Scalar update of state component i with a reading of innovation nu and variance r. */
@@ -359,7 +367,6 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 
 	for (int k = 0; k < 3; k++)
 		scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
-	symmetrise(e);
 }
 
 /* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
@@ -381,9 +388,9 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 				nu = wrap(nu);
 			scalar_update(e, k, nu, e->rc[k]);
 		}
-		symmetrise(e);
 		e->s[2] = wrap(e->s[2]);
 	}
+	symmetrise(e); /* predict and the updates leave the lower triangle stale */
 }
 
 static void put_snap(struct est *e, uint32_t n)

@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 static double sgn(double x)
 {
@@ -118,6 +119,32 @@ void plant_reset(struct plant *pl)
 }
 
 /* The paper's plant: every wheel grips (the whole step exact per axis). */
+/* What exact_step changes (kept to undo it: a copy of the whole plant costs more than the step). */
+struct exact_state {
+	double x[3], pose[3], current_a[4], voltage_v[4], rim[4];
+	bool driven;
+};
+
+static void exact_save(const struct plant *pl, struct exact_state *st)
+{
+	memcpy(st->x, pl->x, sizeof(st->x));
+	memcpy(st->pose, pl->pose, sizeof(st->pose));
+	memcpy(st->current_a, pl->current_a, sizeof(st->current_a));
+	memcpy(st->voltage_v, pl->voltage_v, sizeof(st->voltage_v));
+	memcpy(st->rim, pl->rim, sizeof(st->rim));
+	st->driven = pl->driven;
+}
+
+static void exact_restore(struct plant *pl, const struct exact_state *st)
+{
+	memcpy(pl->x, st->x, sizeof(st->x));
+	memcpy(pl->pose, st->pose, sizeof(st->pose));
+	memcpy(pl->current_a, st->current_a, sizeof(st->current_a));
+	memcpy(pl->voltage_v, st->voltage_v, sizeof(st->voltage_v));
+	memcpy(pl->rim, st->rim, sizeof(st->rim));
+	pl->driven = st->driven;
+}
+
 static void exact_step(struct plant *pl, const double u[4], bool driven, double dt)
 {
 	const struct model_ss *ss = &pl->ss;
@@ -363,11 +390,12 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 	if (!general && beyond_limit(pl, u, driven, pl->x))
 		general = true;
 	if (!general) {
-		struct plant before = *pl;
+		struct exact_state before;
 
+		exact_save(pl, &before);
 		exact_step(pl, u, driven, dt);
 		if (beyond_limit(pl, u, driven, pl->x)) { /* broke loose inside the step */
-			*pl = before;
+			exact_restore(pl, &before);
 			general = true;
 		}
 	}

@@ -31,6 +31,8 @@ struct simrun {
 	void *tap_ctx;
 	struct simrun_channel chan[SIMRUN_CHANNELS_MAX]; /* in the order first written */
 	size_t n_chan;
+	size_t wlen;                  /* bytes waiting in wbuf */
+	unsigned char wbuf[1u << 20]; /* the log's events, written 1 MiB at a time */
 };
 
 /* The field of simrun_stats a channel is counted in. */
@@ -104,21 +106,44 @@ static void put_be64(unsigned char *p, int64_t v)
 	put_be32(p + 4, (uint32_t)(uint64_t)v);
 }
 
+/* The events waiting in wbuf to the log's stream; 0 or -errno (they are dropped then). */
+static int put_pending(struct simrun *sr)
+{
+	const size_t n = sr->wlen;
+
+	sr->wlen = 0;
+	errno = 0;
+	if (n && fwrite_unlocked(sr->wbuf, 1, n, sr->log->f) != n) /* this thread only writes it */
+		return errno ? -errno : -EIO;
+	return 0;
+}
+
 /* One event, as omni4_eventlog_write (liblcm's lcm_eventlog_write_event) lays it out: sync word,
  * event number, time, channel length, data length, channel, data. The lockstep run writes
- * ~400000 events per simulated experiment sequence: one buffered fwrite each instead of liblcm's
- * seven. Larger than the buffer: liblcm's own writer. */
+ * ~400000 events per simulated experiment sequence: each is laid out in wbuf, which goes to the
+ * stream in one fwrite when full (instead of liblcm's seven fwrites, or one, per event). Larger
+ * than an event may be: liblcm's own writer, after the events before it. */
 static int put_event(struct simrun *sr, const char *channel, int64_t utime, const void *data,
                      size_t len)
 {
-	unsigned char buf[OMNI4_EVENT_HEADER_BYTES + SIMRUN_CHANNEL_NAME_MAX + LCMIO_MAX_MSG];
 	const size_t clen = strlen(channel);
 	const size_t n = OMNI4_EVENT_HEADER_BYTES + clen + len;
 
 	if (!sr->log)
 		return 0;
-	if (clen >= SIMRUN_CHANNEL_NAME_MAX || len > LCMIO_MAX_MSG)
-		return omni4_eventlog_write(sr->log, channel, utime, data, len);
+	if (clen >= SIMRUN_CHANNEL_NAME_MAX || len > LCMIO_MAX_MSG) {
+		const int rc = put_pending(sr);
+
+		return rc ? rc : omni4_eventlog_write(sr->log, channel, utime, data, len);
+	}
+	if (sr->wlen + n > sizeof(sr->wbuf)) {
+		const int rc = put_pending(sr);
+
+		if (rc)
+			return rc;
+	}
+	unsigned char *buf = sr->wbuf + sr->wlen;
+
 	put_be32(buf, 0xEDA1DA01u);
 	put_be64(buf + 4, sr->log->eventcount);
 	put_be64(buf + 12, utime);
@@ -126,9 +151,7 @@ static int put_event(struct simrun *sr, const char *channel, int64_t utime, cons
 	put_be32(buf + 24, (uint32_t)len);
 	memcpy(buf + OMNI4_EVENT_HEADER_BYTES, channel, clen);
 	memcpy(buf + OMNI4_EVENT_HEADER_BYTES + clen, data, len);
-	errno = 0;
-	if (fwrite_unlocked(buf, 1, n, sr->log->f) != n) /* this thread only writes it */
-		return errno ? -errno : -EIO;
+	sr->wlen += n;
 	sr->log->eventcount++;
 	return 0;
 }
@@ -192,8 +215,6 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
 			         strerror(errno));
 			goto err_free;
 		}
-		/* 1 MiB of stdio buffer: one write(2) per ~7000 events instead of per 4 kB */
-		setvbuf(sr->log->f, NULL, _IOFBF, 1 << 20);
 	}
 	return sr;
 
@@ -207,16 +228,22 @@ void simrun_destroy(struct simrun *sr)
 	if (!sr)
 		return;
 	robot_close(&sr->robot);
-	if (sr->log)
+	if (sr->log) {
+		put_pending(sr); /* (a caller that wants to know flushes first) */
 		lcm_eventlog_destroy(sr->log);
+	}
 	free(sr);
 }
 
 int simrun_flush_log(struct simrun *sr)
 {
-	if (!sr->log || !fflush(sr->log->f))
+	if (!sr->log)
 		return 0;
-	const int e = errno ? errno : EIO;
+	const int rc = put_pending(sr);
+
+	if (!rc && !fflush(sr->log->f))
+		return 0;
+	const int e = rc ? -rc : errno ? errno : EIO;
 
 	sr->st.log_errors++;
 	if (!sr->st.log_errno)
