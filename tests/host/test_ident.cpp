@@ -868,6 +868,35 @@ TEST(Windows, LostSamplesEndAFilterBlockAndNothingIsFilteredAcrossThem)
 	EXPECT_NEAR(t.x[979][0], 0.5, 4e-8); // 0.5 / r rounded to motors_t's float: 1.4e-8 off
 }
 
+// A second-order Savitzky-Golay filter reproduces a ramp exactly: its value and its slope at
+// every sample with a full window, up to motors_t's float rounding. Blocks of 41 to 64 samples
+// (one window up to a few more, between single lost samples) reach every sample of each
+// block's filtered part, its last ones included.
+TEST(Windows, EncoderFilterReproducesARampInEveryBlock)
+{
+	LogData log;
+	int64_t k = 0;
+	for (int len = 41; len <= 64; ++len, ++k) // k skips one seq: a lost sample
+		for (int i = 0; i < len; ++i, ++k)
+			log.motors.push_back(sample_at(k, 2, 6, 0.1 + 0.5 * (k * 1e-3)));
+	const EncoderTrack t = encoder_track(log, kD, kR);
+	ASSERT_EQ(t.half, 20);
+	size_t ok = 0;
+	for (size_t i = 0; i < log.motors.size(); ++i) {
+		if (!t.ok[i])
+			continue;
+		++ok;
+		const double v = 0.1 + 0.5 * (log.motors[i].seq * 1e-3);
+		EXPECT_NEAR(t.x[i][0], v, 1e-6) << i;
+		EXPECT_NEAR(t.dx[i][0], 0.5, 1e-3) << i;
+		EXPECT_NEAR(t.x[i][1], 0.0, 1e-6) << i;
+		EXPECT_NEAR(t.dx[i][1], 0.0, 1e-3) << i;
+		EXPECT_NEAR(t.x[i][2], 0.0, 1e-6) << i;
+		EXPECT_NEAR(t.dx[i][2], 0.0, 1e-3) << i;
+	}
+	EXPECT_EQ(ok, size_t{(1 + 24) * 24 / 2}); // len - 40 per block
+}
+
 // Validation with the true parameters on exact sensors: the measured and simulated velocities
 // differ only by the filter's own error where its window lies inside the drive. A window that
 // reaches past the drive's end (bridges off, decelerating) would add its lag to the last
