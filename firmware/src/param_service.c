@@ -1,8 +1,10 @@
-/* param_service.c - robot parameters over LCM (see param_service.h). */
+/* param_service.c - the parameter protocol: list, get, set, load and save requests answered, change
+ * notices sent (see param_service.h; its threads: param_thread.c; the wire guard: param_wire.c). */
 #include "omni4/param_service.h"
 
 #include "omni4/fw_param.h"
 #include "omni4/outfile.h"
+#include "omni4/param_wire.h"
 #include "omni4/rtloop.h"
 
 #include <errno.h>
@@ -16,24 +18,7 @@
 #include "omni4_param_reply_t.h"
 #include "omni4_param_request_t.h"
 
-#define VALUE_MAX CONFIG_VALUE_MAX
 #define WHY_MAX 320
-
-/* Scratch of one request (service thread only): the key names, values and reply entries. */
-struct scratch {
-	int n;
-	int key[PARAM_MAX_KEYS];
-	char value[PARAM_MAX_KEYS][VALUE_MAX];
-	char dotted[PARAM_MAX_KEYS][64];
-	char old_value[PARAM_MAX_KEYS][VALUE_MAX];
-	char new_value[PARAM_MAX_KEYS][VALUE_MAX];
-	omni4_param_value_t entries[PARAM_MAX_KEYS];
-	char *keys_p[PARAM_MAX_KEYS], *old_p[PARAM_MAX_KEYS], *new_p[PARAM_MAX_KEYS];
-	bool too_many;
-	bool duplicate;
-};
-
-static struct scratch g_scratch; /* one service per process */
 
 static const char *mode_name(int mode)
 {
@@ -67,16 +52,17 @@ static void dotted_name(int key, char *buf, size_t n)
 }
 
 /* One param_value_t of the running configuration. Strings point into the scratch slot i. */
-static void fill_entry(struct param_service *ps, struct scratch *s, int i, int key)
+static void fill_entry(struct param_service *ps, struct param_scratch *s, int i, int key)
 {
 	const struct config_key *k = config_key_at(key);
 	omni4_param_value_t *e = &s->entries[i];
 
 	dotted_name(key, s->dotted[i], sizeof(s->dotted[i]));
 	if (!strcmp(k->section, "params") && !strcmp(k->name, "secret"))
-		snprintf(s->new_value[i], VALUE_MAX, "%s", ps->running.fw.secret[0] ? "(set)" : "");
-	else if (config_key_format(&ps->running, key, s->new_value[i], VALUE_MAX))
-		snprintf(s->new_value[i], VALUE_MAX, "(unprintable)");
+		snprintf(s->new_value[i], CONFIG_VALUE_MAX, "%s",
+		         ps->running.fw.secret[0] ? "(set)" : "");
+	else if (config_key_format(&ps->running, key, s->new_value[i], CONFIG_VALUE_MAX))
+		snprintf(s->new_value[i], CONFIG_VALUE_MAX, "(unprintable)");
 	*e = (omni4_param_value_t){
 	    .key = s->dotted[i],
 	    .value = s->new_value[i],
@@ -150,8 +136,8 @@ static void simple_reply(struct param_service *ps, int64_t id, int8_t op, int8_t
 	reply(ps, &r, cache);
 }
 
-static void notice(struct param_service *ps, struct scratch *s, int64_t id, const char *source,
-                   const char *path, int64_t seq, int64_t utime)
+static void notice(struct param_service *ps, struct param_scratch *s, int64_t id,
+                   const char *source, const char *path, int64_t seq, int64_t utime)
 {
 	omni4_param_changed_t m = {.utime = utime,
 	                           .seq = seq,
@@ -172,7 +158,7 @@ static void notice(struct param_service *ps, struct scratch *s, int64_t id, cons
 
 void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime)
 {
-	struct scratch *s = &g_scratch;
+	struct param_scratch *s = &ps->scratch;
 	int n;
 
 	for (n = 0; n < config_key_count() && n < PARAM_MAX_KEYS; n++) {
@@ -188,7 +174,7 @@ void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime
 
 static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 {
-	struct scratch *s = &g_scratch;
+	struct param_scratch *s = &ps->scratch;
 	omni4_param_reply_t r = {.request_id = q->request_id,
 	                         .op = q->op,
 	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
@@ -230,7 +216,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 /* SET / LOAD: collect key indices and values into the scratch. */
 static int add_pair(void *ctx, int key, const char *value)
 {
-	struct scratch *s = ctx;
+	struct param_scratch *s = ctx;
 
 	if (s->n >= PARAM_MAX_KEYS) {
 		s->too_many = true;
@@ -240,7 +226,7 @@ static int add_pair(void *ctx, int key, const char *value)
 		if (s->key[i] == key)
 			s->duplicate = true;
 	s->key[s->n] = key;
-	snprintf(s->value[s->n], VALUE_MAX, "%s", value);
+	snprintf(s->value[s->n], CONFIG_VALUE_MAX, "%s", value);
 	s->n++;
 	return 0;
 }
@@ -254,10 +240,10 @@ static void refuse(struct param_service *ps, const omni4_param_request_t *q, con
 /* The keys that differ (by their INI text) between the running configuration and ps->next,
  * into s's change list; *first_idle = the first that may change only while the bridges are not
  * driven (-1: none). Their count, or -1 with why when one may change only at a restart. */
-static int collect_changes(struct param_service *ps, struct scratch *s, int *first_idle, char *why,
-                           size_t n_why)
+static int collect_changes(struct param_service *ps, struct param_scratch *s, int *first_idle,
+                           char *why, size_t n_why)
 {
-	char old_v[VALUE_MAX], new_v[VALUE_MAX];
+	char old_v[CONFIG_VALUE_MAX], new_v[CONFIG_VALUE_MAX];
 	int changed = 0;
 
 	*first_idle = -1;
@@ -278,8 +264,8 @@ static int collect_changes(struct param_service *ps, struct scratch *s, int *fir
 			*first_idle = key;
 		if (changed < PARAM_MAX_KEYS) {
 			dotted_name(key, s->dotted[changed], sizeof(s->dotted[changed]));
-			memcpy(s->old_value[changed], old_v, VALUE_MAX);
-			memcpy(s->new_value[changed], new_v, VALUE_MAX);
+			memcpy(s->old_value[changed], old_v, CONFIG_VALUE_MAX);
+			memcpy(s->new_value[changed], new_v, CONFIG_VALUE_MAX);
 			s->keys_p[changed] = s->dotted[changed];
 			s->old_p[changed] = s->old_value[changed];
 			s->new_p[changed] = s->new_value[changed];
@@ -315,7 +301,7 @@ static void reply_not_taken(struct param_service *ps, const omni4_param_request_
 
 /* The change is in force from tick res.seq: the notice, then the reply with the changed keys'
  * new values. */
-static void reply_changed(struct param_service *ps, struct scratch *s,
+static void reply_changed(struct param_service *ps, struct param_scratch *s,
                           const omni4_param_request_t *q, const char *source, int changed,
                           const struct fw_param_result *res)
 {
@@ -341,8 +327,8 @@ static void reply_changed(struct param_service *ps, struct scratch *s,
 }
 
 /* Validate s's pairs against the running configuration, have the loop take them, reply. */
-static void apply_pairs(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-                        const char *source)
+static void apply_pairs(struct param_service *ps, struct param_scratch *s,
+                        const omni4_param_request_t *q, const char *source)
 {
 	char why[WHY_MAX];
 	int first_idle;
@@ -383,7 +369,7 @@ static void apply_pairs(struct param_service *ps, struct scratch *s, const omni4
 
 static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 {
-	struct scratch *s = &g_scratch;
+	struct param_scratch *s = &ps->scratch;
 	char why[WHY_MAX], header[160];
 	const time_t now = time(NULL);
 	struct tm tm;
@@ -416,58 +402,8 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	reply(ps, &r, true);
 }
 
-/* The wire layout of param_request_t (lcm-gen's encoding, big-endian): fingerprint, utime,
- * request_id, op, secret, n, keys[n], values[n], name, text; a string is an int32 length that
- * counts its terminating NUL, then the bytes and the NUL. Walked before decoding, because
- * lcm-gen's decoder allocates keys and values from n as sent (a negative or huge n) and leaks
- * what it allocated when it stops half way. True if the message is complete, exact and
- * n is within 0..max_n (more than PARAM_MAX_KEYS is refused later with its own reason). */
-static bool take_string(const unsigned char *b, size_t len, size_t *pos)
-{
-	if (len - *pos < 4)
-		return false;
-	const uint32_t n = (uint32_t)b[*pos] << 24 | (uint32_t)b[*pos + 1] << 16 |
-	                   (uint32_t)b[*pos + 2] << 8 | b[*pos + 3];
-
-	*pos += 4;
-	if (n < 1 || n > len - *pos || b[*pos + n - 1] != 0)
-		return false;
-	*pos += n;
-	return true;
-}
-
-static bool request_wire_ok(const void *data, size_t len, int max_n, char *why, size_t n_why)
-{
-	const unsigned char *b = data;
-	size_t pos = 8 + 8 + 8 + 1; /* fingerprint, utime, request_id, op */
-
-	if (len < pos || !take_string(b, len, &pos) || len - pos < 4) {
-		snprintf(why, n_why, "incomplete before n");
-		return false;
-	}
-	const int32_t n = (int32_t)((uint32_t)b[pos] << 24 | (uint32_t)b[pos + 1] << 16 |
-	                            (uint32_t)b[pos + 2] << 8 | b[pos + 3]);
-
-	pos += 4;
-	if (n < 0 || n > max_n) {
-		snprintf(why, n_why, "n = %d outside 0..%d", (int)n, max_n);
-		return false;
-	}
-	for (int k = 0; k < 2 * n + 2; k++) { /* keys, values, name, text */
-		if (!take_string(b, len, &pos)) {
-			snprintf(why, n_why, "string %d of %d incomplete", k + 1, 2 * n + 2);
-			return false;
-		}
-	}
-	if (pos != len) {
-		snprintf(why, n_why, "%zu bytes after the message", len - pos);
-		return false;
-	}
-	return true;
-}
-
 /* SET: the keys by name into s, then applied. 0, or -1 with why (a bad request). */
-static int do_set(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
+static int do_set(struct param_service *ps, struct param_scratch *s, const omni4_param_request_t *q,
                   char *why, size_t n_why)
 {
 	if (q->n < 1 || q->n > PARAM_MAX_KEYS) {
@@ -492,8 +428,8 @@ static int do_set(struct param_service *ps, struct scratch *s, const omni4_param
 }
 
 /* LOAD: the INI text's keys into s, then applied. 0, or -1 with why (a bad request). */
-static int do_load(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-                   char *why, size_t n_why)
+static int do_load(struct param_service *ps, struct param_scratch *s,
+                   const omni4_param_request_t *q, char *why, size_t n_why)
 {
 	const char *name = q->name[0] ? q->name : "(load)";
 	struct config_error err;
@@ -516,8 +452,8 @@ static int do_load(struct param_service *ps, struct scratch *s, const omni4_para
 }
 
 /* One decoded request, its secret checked. 0, or -1 with why (a bad request). */
-static int dispatch(struct param_service *ps, struct scratch *s, const omni4_param_request_t *q,
-                    char *why, size_t n_why)
+static int dispatch(struct param_service *ps, struct param_scratch *s,
+                    const omni4_param_request_t *q, char *why, size_t n_why)
 {
 	switch (q->op) {
 	case OMNI4_PARAM_REQUEST_T_OP_LIST:
@@ -540,14 +476,14 @@ static int dispatch(struct param_service *ps, struct scratch *s, const omni4_par
 void param_service_handle(struct param_service *ps, const void *data, size_t len)
 {
 	omni4_param_request_t q;
-	struct scratch *s = &g_scratch;
+	struct param_scratch *s = &ps->scratch;
 	char why[WHY_MAX];
 
 	atomic_fetch_add(&ps->n.requests, 1);
 	char wire[96] = "";
 
 	if (len > INT32_MAX ||
-	    !request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) ||
+	    !param_request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) ||
 	    omni4_param_request_t_decode(data, 0, (int)len, &q) != (int)len) {
 		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)%s%s", len,
 		         wire[0] ? ": " : "", wire);
@@ -580,41 +516,17 @@ out:
 	omni4_param_request_t_decode_cleanup(&q);
 }
 
-/* ---- threads ------------------------------------------------------------------------------ */
-
-static int lcm_emit(void *ctx, const char *channel, const void *data, size_t len)
+void param_service_busy(struct param_service *ps, const void *data, size_t len)
 {
-	return lcm_publish(ctx, channel, data, (unsigned int)len);
-}
-
-/* Receive thread (LCM handler): queue a copy; a full queue is answered BUSY right here. */
-static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-{
-	struct param_service *ps = user;
-	void *copy = malloc(rbuf->data_size ? rbuf->data_size : 1);
-
-	(void)channel;
-	pthread_mutex_lock(&ps->mu);
-	if (copy && ps->q_len < PARAM_QUEUE) {
-		const int i = (ps->q_head + ps->q_len) % PARAM_QUEUE;
-
-		memcpy(copy, rbuf->data, rbuf->data_size);
-		ps->queue[i].data = copy;
-		ps->queue[i].len = rbuf->data_size;
-		ps->q_len++;
-		pthread_cond_signal(&ps->cv);
-		pthread_mutex_unlock(&ps->mu);
-		return;
-	}
-	pthread_mutex_unlock(&ps->mu);
-	free(copy);
 	atomic_fetch_add(&ps->n.busy, 1);
 
 	omni4_param_request_t q;
 
-	if (rbuf->data_size <= INT32_MAX &&
-	    omni4_param_request_t_decode(rbuf->data, 0, (int)rbuf->data_size, &q) ==
-	        (int)rbuf->data_size) {
+	char wire[96];
+
+	if (len <= INT32_MAX &&
+	    param_request_wire_ok(data, len, 16 * PARAM_MAX_KEYS, wire, sizeof(wire)) &&
+	    omni4_param_request_t_decode(data, 0, (int)len, &q) == (int)len) {
 		omni4_param_reply_t r = {.utime = rtloop_clock_us(),
 		                         .request_id = q.request_id,
 		                         .op = q.op,
@@ -628,86 +540,5 @@ static void on_request(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		if (n > 0)
 			emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)n);
 		omni4_param_request_t_decode_cleanup(&q);
-	}
-}
-
-static void *service_main(void *arg)
-{
-	struct param_service *ps = arg;
-
-	pthread_mutex_lock(&ps->mu);
-	while (!ps->stop) {
-		if (ps->q_len == 0) {
-			struct timespec until;
-
-			clock_gettime(CLOCK_REALTIME, &until);
-			until.tv_nsec += 100000000; /* wake up to look at stop */
-			if (until.tv_nsec >= 1000000000) {
-				until.tv_sec++;
-				until.tv_nsec -= 1000000000;
-			}
-			pthread_cond_timedwait(&ps->cv, &ps->mu, &until);
-			continue;
-		}
-		void *data = ps->queue[ps->q_head].data;
-		const size_t len = ps->queue[ps->q_head].len;
-
-		ps->q_head = (ps->q_head + 1) % PARAM_QUEUE;
-		ps->q_len--;
-		pthread_mutex_unlock(&ps->mu);
-		param_service_handle(ps, data, len);
-		free(data);
-		pthread_mutex_lock(&ps->mu);
-	}
-	pthread_mutex_unlock(&ps->mu);
-	return NULL;
-}
-
-int param_service_start(struct param_service *ps, lcm_t *lcm)
-{
-	ps->lcm = lcm;
-	if (!ps->out.emit)
-		ps->out = (struct param_out){.emit = lcm_emit, .ctx = lcm};
-	ps->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_PARAM_REQ, on_request, ps);
-	if (!ps->sub)
-		return -EIO;
-	/* Before the service thread exists and before the loop's first tick (fw->seq). */
-	param_service_announce(ps, ps->fw->seq, rtloop_clock_us());
-	pthread_attr_t attr;
-
-	pthread_attr_init(&attr);
-	pthread_attr_setstacksize(&attr, RTLOOP_STACK_BYTES);
-	const int rc = pthread_create(&ps->thread, &attr, service_main, ps);
-
-	pthread_attr_destroy(&attr);
-	if (rc) {
-		lcm_unsubscribe(lcm, ps->sub);
-		ps->sub = NULL;
-		return -rc;
-	}
-	ps->started = true;
-	return 0;
-}
-
-void param_service_stop(struct param_service *ps)
-{
-	if (ps->started) {
-		pthread_mutex_lock(&ps->mu);
-		ps->stop = true;
-		pthread_cond_signal(&ps->cv);
-		pthread_mutex_unlock(&ps->mu);
-		pthread_join(ps->thread, NULL);
-		ps->started = false;
-	}
-	if (ps->sub) {
-		lcm_unsubscribe(ps->lcm, ps->sub);
-		ps->sub = NULL;
-	}
-	for (int i = 0; i < ps->q_len; i++)
-		free(ps->queue[(ps->q_head + i) % PARAM_QUEUE].data);
-	ps->q_len = 0;
-	for (int i = 0; i < PARAM_CACHE; i++) {
-		free(ps->cache[i].data);
-		ps->cache[i].data = NULL;
 	}
 }

@@ -11,6 +11,9 @@
  * whole, with the reason. When each key may change: the table's rule (config_key.change).
  * SAVE writes the robot's INI atomically (config_save). With [params] secret set, SET, LOAD and
  * SAVE must carry it.
+ *
+ * The protocol is param_service.c; the threads (LCM's receive thread queues, the service thread
+ * handles) param_thread.c; the guard in front of lcm-gen's decoder param_wire.c.
  */
 #ifndef OMNI4_PARAM_SERVICE_H
 #define OMNI4_PARAM_SERVICE_H
@@ -26,6 +29,7 @@
 #include "omni4/channels.h"
 #include "omni4/config.h"
 #include "omni4/fw.h"
+#include "omni4_param_value_t.h"
 
 #define PARAM_MAX_KEYS 128            /* keys in one request or reply (the whole table fits) */
 #define PARAM_MAX_TEXT 65536          /* bytes of INI text in one LOAD */
@@ -49,6 +53,20 @@ struct param_counters {
 	_Atomic uint64_t saved;
 };
 
+/* Scratch of one request (service thread only): the key names, values and reply entries. */
+struct param_scratch {
+	int n;
+	int key[PARAM_MAX_KEYS];
+	char value[PARAM_MAX_KEYS][CONFIG_VALUE_MAX];
+	char dotted[PARAM_MAX_KEYS][64];
+	char old_value[PARAM_MAX_KEYS][CONFIG_VALUE_MAX];
+	char new_value[PARAM_MAX_KEYS][CONFIG_VALUE_MAX];
+	omni4_param_value_t entries[PARAM_MAX_KEYS];
+	char *keys_p[PARAM_MAX_KEYS], *old_p[PARAM_MAX_KEYS], *new_p[PARAM_MAX_KEYS];
+	bool too_many;
+	bool duplicate;
+};
+
 struct param_service {
 	struct fw *fw;
 	struct omni4_config running; /* the robot's INI as in force (service thread only) */
@@ -57,6 +75,7 @@ struct param_service {
 	struct param_out out;
 	int64_t apply_timeout_us;
 	struct fw_param_update update; /* handed to the loop */
+	struct param_scratch scratch;  /* service thread only (and announce, before it starts) */
 	struct {
 		int64_t id;
 		void *data;
@@ -85,6 +104,9 @@ int param_service_init(struct param_service *ps, struct fw *fw, const struct omn
 /* Handle one encoded param_request_t now, on the calling thread (the service thread; tests):
  * emits its reply and, for a change or a save, a param_changed_t. */
 void param_service_handle(struct param_service *ps, const void *data, size_t len);
+/* A request that found the queue full (receive thread): counted, and answered BUSY if it
+ * decodes. */
+void param_service_busy(struct param_service *ps, const void *data, size_t len);
 /* Publish every parameter in force as one param_changed_t with source "start" (request_id 0,
  * old values empty, path = the robot's INI, the secret only as "(set)"): seq is the first tick
  * that runs on them. Not while requests are being handled (it shares their scratch). */
