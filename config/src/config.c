@@ -693,6 +693,49 @@ static bool string_writable(const char *v)
 	return n == 0 || (v[0] != ' ' && v[0] != '\t' && v[n - 1] != ' ' && v[n - 1] != '\t');
 }
 
+/* A double key's value in force: a wheel key without a value of its own follows its scalar. */
+static double key_double(const struct omni4_config *cfg, const struct config_key *k)
+{
+	double v;
+
+	memcpy(&v, (const char *)cfg + k->offset, sizeof(v));
+	if (wheel_index(k) >= 0) {
+		struct model_wheels w;
+		double all[CTL_WHEEL_KEYS];
+
+		_Static_assert(sizeof(w) == sizeof(all), "struct model_wheels: 16 doubles");
+		ctl_settings_wheels(&cfg->ctl, &w);
+		memcpy(all, &w, sizeof(all));
+		v = all[wheel_index(k)];
+	}
+	return v;
+}
+
+bool config_key_equal(const struct omni4_config *a, const struct omni4_config *b, int i)
+{
+	const struct config_key *k = config_key_at(i);
+
+	if (!k)
+		return true;
+	const char *pa = (const char *)a + k->offset, *pb = (const char *)b + k->offset;
+
+	switch (k->type) {
+	case CONFIG_DOUBLE: {
+		const double va = key_double(a, k), vb = key_double(b, k);
+
+		return !memcmp(&va, &vb, sizeof(va)); /* bits: 0.0 and -0.0 are two values */
+	}
+	case CONFIG_STRING:
+		return !strncmp(pa, pb, k->size);
+	case CONFIG_BOOL:
+		return *(const bool *)pa == *(const bool *)pb;
+	case CONFIG_INT:
+	case CONFIG_ENUM:
+		return !memcmp(pa, pb, sizeof(int));
+	}
+	return false;
+}
+
 int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n)
 {
 	const struct config_key *k = config_key_at(i);
@@ -703,22 +746,9 @@ int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n
 	int len = -1;
 
 	switch (k->type) {
-	case CONFIG_DOUBLE: {
-		double v;
-
-		memcpy(&v, base, sizeof(v));
-		if (wheel_index(k) >= 0) { /* the value in force: the scalar without its own key */
-			struct model_wheels w;
-			double all[CTL_WHEEL_KEYS];
-
-			_Static_assert(sizeof(w) == sizeof(all), "struct model_wheels: 16 doubles");
-			ctl_settings_wheels(&cfg->ctl, &w);
-			memcpy(all, &w, sizeof(all));
-			v = all[wheel_index(k)];
-		}
-		len = config_format_double(buf, n, v);
+	case CONFIG_DOUBLE:
+		len = config_format_double(buf, n, key_double(cfg, k));
 		break;
-	}
 	case CONFIG_INT: {
 		int v;
 

@@ -237,7 +237,7 @@ static void refuse(struct param_service *ps, const omni4_param_request_t *q, con
 	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_REFUSED, why, true);
 }
 
-/* The keys that differ (by their INI text) between the running configuration and ps->next,
+/* The keys whose values differ between the running configuration and ps->next,
  * into s's change list; *first_idle = the first that may change only while the bridges are not
  * driven (-1: none). Their count, or -1 with why when one may change only at a restart. */
 static int collect_changes(struct param_service *ps, struct param_scratch *s, int *first_idle,
@@ -250,9 +250,9 @@ static int collect_changes(struct param_service *ps, struct param_scratch *s, in
 	for (int key = 0; key < config_key_count(); key++) {
 		const struct config_key *k = config_key_at(key);
 
-		if (config_key_format(&ps->running, key, old_v, sizeof(old_v)) ||
-		    config_key_format(&ps->next, key, new_v, sizeof(new_v)) ||
-		    !strcmp(old_v, new_v))
+		if (config_key_equal(&ps->running, &ps->next, key) ||
+		    config_key_format(&ps->running, key, old_v, sizeof(old_v)) ||
+		    config_key_format(&ps->next, key, new_v, sizeof(new_v)))
 			continue;
 		if (k->change == CONFIG_RESTART) {
 			snprintf(why, n_why,

@@ -467,10 +467,76 @@ static void test_wheel_key_errors(void **state)
 	expect_error("[model]\nR_4 = 3\n", -EINVAL, 2, "unknown key 'R_4' in [model]");
 }
 
+/* Key i of cfg set to a valid value other than its present one (the range's ends, a step, the
+ * other choice, a string longer by one): true if one was found. */
+static bool set_other_value(struct omni4_config *cfg, int i)
+{
+	const struct config_key *k = config_key_at(i);
+	char now[CONFIG_VALUE_MAX], try[CONFIG_VALUE_MAX], after[CONFIG_VALUE_MAX], why[160];
+	const char *fixed[] = {"true", "false", "x",    "0",     "1",
+	                       "7",    "sim",   "none", "gpiod", "socketcan"};
+
+	assert_int_equal(config_key_format(cfg, i, now, sizeof(now)), 0);
+	for (int c = 0; c < 4 + (int)(sizeof(fixed) / sizeof(fixed[0])); c++) {
+		const double v = atof(now);
+
+		if (c == 0 && k->type == CONFIG_STRING) { /* the same start, one longer */
+			snprintf(try, sizeof(try), "%.*sx", (int)(sizeof(try) - 2), now);
+		} else if (c < 4) {
+			const double cand[] = {k->min, k->max, v * 1.5, v + 1.0};
+
+			snprintf(try, sizeof(try), "%.17g", cand[c]);
+		} else {
+			snprintf(try, sizeof(try), "%s", fixed[c - 4]);
+		}
+		struct omni4_config other = *cfg;
+
+		if (config_key_set(&other, i, try, why, sizeof(why)) ||
+		    config_key_format(&other, i, after, sizeof(after)) || !strcmp(after, now))
+			continue;
+		*cfg = other;
+		return true;
+	}
+	return false;
+}
+
+/* config_key_equal against the keys' INI text (an independent comparison): one key changed at a
+ * time, every key compared; a wheel key that follows its scalar changes with it. */
+static void test_key_equal_agrees_with_the_text(void **state)
+{
+	(void)state;
+	struct omni4_config base, cfg;
+	char ta[CONFIG_VALUE_MAX], tb[CONFIG_VALUE_MAX];
+	int tried = 0;
+
+	config_defaults(&base);
+	for (int i = 0; i < config_key_count(); i++) {
+		cfg = base;
+		if (!set_other_value(&cfg, i))
+			continue;
+		tried++;
+		for (int j = 0; j < config_key_count(); j++) {
+			if (config_key_format(&base, j, ta, sizeof(ta)) ||
+			    config_key_format(&cfg, j, tb, sizeof(tb)))
+				continue;
+			if (config_key_equal(&base, &cfg, j) != !strcmp(ta, tb))
+				fail_msg("key %d changed: key %d '%s' -> '%s' but equal says %d", i,
+				         j, ta, tb, config_key_equal(&base, &cfg, j));
+		}
+		assert_false(config_key_equal(&base, &cfg, i));
+	}
+	assert_true(tried >= config_key_count() - 2); /* every key but a fixed one or two */
+	assert_int_equal(config_key_find("model.R_0") >= 0, 1);
+	cfg = base; /* the scalar moves the wheels that follow it */
+	assert_true(set_other_value(&cfg, config_key_find("model.R")));
+	assert_false(config_key_equal(&base, &cfg, config_key_find("model.R_2")));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_good_file_overrides_defaults),
+	    cmocka_unit_test(test_key_equal_agrees_with_the_text),
 	    cmocka_unit_test(test_defaults_are_table3_and_safe),
 	    cmocka_unit_test(test_defaults_are_the_documented_figures),
 	    cmocka_unit_test(test_resistance_boundary_zero_refused_positive_taken),

@@ -112,6 +112,8 @@ int config_key_find(const char *dotted);
 /* Key i of cfg as the INI holds it (doubles %.17g, bools true/false): 0, -EINVAL for a string
  * that an INI file cannot hold unchanged, -ENOSPC if buf is too small. */
 int config_key_format(const struct omni4_config *cfg, int i, char *buf, size_t n);
+/* True if key i has the same value in force in a and b (compared as values, not as text). */
+bool config_key_equal(const struct omni4_config *a, const struct omni4_config *b, int i);
 /* Parse and range-check value into key i of cfg, exactly as the INI parser does. 0, or -EINVAL
  * with why = "section.key: what: detail" (cfg untouched). */
 int config_key_set(struct omni4_config *cfg, int i, const char *value, char *why, size_t n);
