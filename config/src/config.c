@@ -933,5 +933,16 @@ int config_save(const char *path, const struct omni4_config *cfg, const char *he
 		omni4_out_abort(&o);
 		return rc;
 	}
-	return omni4_out_commit(&o, why, n);
+	const bool in_place = o.in_place, existed = o.existed;
+	char bak[PATH_MAX + 8];
+
+	snprintf(bak, sizeof(bak), "%s.bak", o.target);
+	rc = omni4_out_commit(&o, why, n);
+	if (!rc && in_place)
+		snprintf(why, n, "written in place (not a regular file): no .bak");
+	else if (!rc && existed)
+		snprintf(why, n, "previous kept as %s", bak);
+	else if (!rc)
+		snprintf(why, n, "a new file: no previous one to keep");
+	return rc;
 }

@@ -375,9 +375,7 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	struct tm tm;
 
 	gmtime_r(&now, &tm);
-	strftime(header, sizeof(header),
-	         "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ; the previous file is "
-	         "kept as .bak",
+	strftime(header, sizeof(header), "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ",
 	         &tm);
 	if (config_save(ps->path, &ps->running, header, why, sizeof(why))) {
 		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
@@ -388,14 +386,16 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	s->n = 0;
 	notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
 	/* the file written: a symbolic link's target (its .bak beside it), the link kept */
-	char written[PATH_MAX];
+	char written[PATH_MAX], message[WHY_MAX + 8];
+
+	snprintf(message, sizeof(message), "saved; %s", why);
 
 	if (omni4_out_resolve(ps->path, written, sizeof(written)))
 		snprintf(written, sizeof(written), "%s", ps->path);
 	omni4_param_reply_t r = {.request_id = q->request_id,
 	                         .op = q->op,
 	                         .result = OMNI4_PARAM_REPLY_T_RESULT_OK,
-	                         .message = "saved",
+	                         .message = message,
 	                         .seq = -1,
 	                         .path = written};
 

@@ -280,8 +280,8 @@ class ParamClient:
                        r.request_id)
 
     def save(self):
-        """Write the values in force to the robot's INI (atomically; the previous file is kept
-        as .bak). Returns the path written (on the robot): when the INI is a symbolic link, the
+        """Write the values in force to the robot's INI (atomically; a previous regular file is
+        kept as .bak, a FIFO or device is written in place). Returns the path written (on the robot): when the INI is a symbolic link, the
         file it points to (replaced, its .bak beside it; the link is kept)."""
         return self._request(param_request_t.OP_SAVE).path
 
@@ -431,8 +431,11 @@ def _main(argv=None):
                                    r.request_id), out)
         elif args.command == "save":
             t0 = time.monotonic()
-            path = client.save()
-            out.write(f"saved {path} (previous kept as {path}.bak) in "
+            r = client._request(param_request_t.OP_SAVE)
+            # "saved; previous kept as X.bak" (or in place, or a new file); "saved" from an
+            # older omni4-fw, which does not say
+            what = r.message.partition("; ")[2]
+            out.write(f"saved {r.path}{f' ({what})' if what else ''} in "
                       f"{(time.monotonic() - t0) * 1e3:.0f} ms\n")
         elif args.command == "dump":
             out.write(format_ini(client.list(), header=f"omni4 parameters in force, read from "

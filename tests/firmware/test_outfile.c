@@ -101,6 +101,8 @@ static void test_save_through_a_symlink_replaces_the_target_and_keeps_the_link(v
 	assert_int_equal(symlink("configs/robot.ini", link), 0); /* relative, as in a checkout */
 	config_with_kp(&c, 42.5);
 	assert_int_equal(config_save(link, &c, "saved", g_why, sizeof(g_why)), 0);
+	assert_non_null(strstr(g_why, "previous kept as "));
+	assert_non_null(strstr(g_why, "configs/robot.ini.bak"));
 	assert_int_equal(lstat(link, &st), 0);
 	assert_true(S_ISLNK(st.st_mode));
 	const ssize_t n = readlink(link, text, sizeof(text) - 1);
@@ -154,6 +156,7 @@ static void test_save_to_a_null_device_writes_in_place(void **state)
 	assert_int_equal(mknod(null, S_IFCHR | 0666, makedev(1, 3)), 0);
 	config_with_kp(&c, 7.0);
 	assert_int_equal(config_save(null, &c, NULL, g_why, sizeof(g_why)), 0);
+	assert_string_equal(g_why, "written in place (not a regular file): no .bak");
 	assert_int_equal(lstat(null, &st), 0);
 	assert_true(S_ISCHR(st.st_mode));
 	assert_int_equal(count_entries(), 1);
@@ -198,6 +201,7 @@ static void test_save_to_a_fifo_gives_the_reader_the_file(void **state)
 
 	config_with_kp(&c, 12.25);
 	assert_int_equal(config_save(fifo, &c, "to a reader", g_why, sizeof(g_why)), 0);
+	assert_string_equal(g_why, "written in place (not a regular file): no .bak");
 	assert_int_equal(waitpid(reader, &status, 0), reader);
 	assert_true(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 	assert_near(saved_kp(out), 12.25, 0);

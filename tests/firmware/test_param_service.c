@@ -973,6 +973,10 @@ static void test_save_writes_what_is_in_force(void **state)
 	last_reply(&r);
 	assert_int_equal(r.result, OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_string_equal(r.path, path);
+	char bak_said[600];
+
+	snprintf(bak_said, sizeof(bak_said), "saved; previous kept as %s.bak", path);
+	assert_string_equal(r.message, bak_said);
 	omni4_param_reply_t_decode_cleanup(&r);
 	teardown_fw(true);
 	config_defaults(&back);

@@ -137,7 +137,8 @@ int config_write(FILE *f, const struct omni4_config *cfg, const char *header);
  * previous file as path.bak (hard link, or a synced copy), rename the temporary over path, fsync
  * the directory (omni4/outfile.h). The file keeps its permissions. A symbolic link is kept and
  * the file it points to is replaced (its .bak beside it); a device or FIFO is written in place.
- * 0 or a negative errno with why.
+ * 0 with what became of the previous file in why ("previous kept as X.bak", "written in place
+ * ...: no .bak", "a new file ..."), or a negative errno with why.
  */
 int config_save(const char *path, const struct omni4_config *cfg, const char *header, char *why,
                 size_t n);
