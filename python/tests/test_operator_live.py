@@ -1,5 +1,5 @@
 """The operator's tools against omni4-fw (sim backend), each controller on its own random udpm
-port (7700-10999, ttl=0; never the default URL):
+port (conftest.lcm_test_url, ttl=0; never the default URL):
 
 - omni4-param clear-fault: refused while a latching fault's cause is present (a 0.3 A current
   offset: CURRENT_SENSOR), saying why, from the command and from omni4.Robot; FAULT_BUS from
@@ -12,18 +12,17 @@ port (7700-10999, ttl=0; never the default URL):
 - omni4-status --watch on a terminal (a pty) redraws in place; piped it writes line by line.
 """
 import os
-import pty
-import random
 import re
 import select
 import signal
 import subprocess
-import sys
 import threading
 import time
 
 import lcm
 import pytest
+from conftest import lcm_test_url
+from livefw import EXIT_TIMEOUT_S, SCALE, START_TIMEOUT_S, Firmware, Pty, tool
 
 import omni4
 from omni4.param_reply_t import param_reply_t
@@ -31,98 +30,9 @@ from omni4.params import ParamClient, ParamRefused
 
 pytestmark = pytest.mark.live
 
-SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
-START_TIMEOUT_S = 10 * SCALE
-EXIT_TIMEOUT_S = 10 * SCALE
-SAY_TIMEOUT_S = 15 * SCALE          # generous: "appears before it", never a timing figure
+SAY_TIMEOUT_S = 60 * SCALE          # "appears before it", never a timing figure: a hang bound
 REDRAW = b"\x1b[H\x1b[J"
 FAULT, IDLE = omni4.motors_t.MODE_FAULT, omni4.motors_t.MODE_IDLE
-
-
-def random_url():
-    return f"udpm://239.255.76.67:{random.randint(7700, 10999)}?ttl=0"
-
-
-def tool(name):
-    exe = os.path.join(os.path.dirname(sys.executable), name)
-    assert os.access(exe, os.X_OK), f"{exe}: not installed (scripts/setup.sh)"
-    return exe
-
-
-class Bus:
-    """The last motors_t of a URL (a subscriber in a thread); publishes foreign samples."""
-
-    def __init__(self, url):
-        self.lc = lcm.LCM(url)
-        self.last = None
-        self.cond = threading.Condition()
-        self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on)
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _on(self, _channel, data):
-        m = omni4.motors_t.decode(data)
-        if m.seq >= 10**9:                  # our own foreign samples
-            return
-        with self.cond:
-            self.last = m
-            self.cond.notify_all()
-
-    def _run(self):
-        while not self.done.is_set():
-            self.lc.handle_timeout(50)
-
-    def wait(self, predicate, timeout_s, each=None):
-        """The first sample with predicate(m) true (each() called every 10 ms), or None."""
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            with self.cond:
-                if self.last is not None and predicate(self.last):
-                    return self.last
-                self.cond.wait(0.01)
-            if each is not None:
-                each()
-        return None
-
-    def foreign(self, seq):
-        """A sample of another controller (seq >= 10**9, never the test controller's)."""
-        m = omni4.motors_t()
-        m.utime, m.seq, m.mode, m.faults = int(time.time() * 1e6), seq, IDLE, 0
-        m.voltage, m.current, m.wheel_speed = [0.0] * 4, [0.0] * 4, [0.0] * 4
-        self.lc.publish(omni4.CHANNEL_MOTORS, m.encode())
-
-    def close(self):
-        self.done.set()
-        self.thread.join(timeout=2)
-
-
-class Firmware:
-    """omni4-fw (sim backend) on url; stop() returns its stderr (the summary)."""
-
-    def __init__(self, fw_path, tmp_path, url, extra=""):
-        self.url = url
-        ini = tmp_path / f"robot{random.randint(0, 1 << 30)}.ini"
-        ini.write_text(f"[lcm]\nurl = {url}\n[hal]\nmotor = sim\n{extra}")
-        self.err = open(tmp_path / f"fw{random.randint(0, 1 << 30)}.stderr", "w+")
-        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "120"],
-                                     stdout=subprocess.DEVNULL, stderr=self.err)
-        self.bus = Bus(url)
-        if self.bus.wait(lambda m: True, START_TIMEOUT_S) is None:
-            self.stop()
-            pytest.fail(f"omni4-fw sent no OMNI4_MOTORS within {START_TIMEOUT_S} s")
-
-    def stop(self):
-        self.bus.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            self.proc.wait(timeout=EXIT_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait(timeout=EXIT_TIMEOUT_S)
-        self.err.seek(0)
-        return self.err.read()
 
 
 class Lines:
@@ -148,7 +58,7 @@ class Lines:
 
 
 def clear_fault(url, timeout_s=2.0):
-    return subprocess.run([tool("omni4-param"), "--lcm", url, "--timeout", str(timeout_s),
+    return subprocess.run([*tool("omni4-param"), "--lcm", url, "--timeout", str(timeout_s),
                            "clear-fault"], capture_output=True, text=True,
                           timeout=EXIT_TIMEOUT_S + 3 * timeout_s)
 
@@ -156,7 +66,7 @@ def clear_fault(url, timeout_s=2.0):
 # ---- omni4-param clear-fault ----------------------------------------------------------------
 
 def test_clear_fault_refused_while_a_current_sensor_fault_is_present(omni4_bin, tmp_path):
-    fw = Firmware(omni4_bin("omni4-fw"), tmp_path, random_url(), "[sim]\ncurrent_offset_a2 = 0.3\n")
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path, lcm_test_url(), "[sim]\ncurrent_offset_a2 = 0.3\n")
     try:
         m = fw.bus.wait(lambda m: m.mode == FAULT, START_TIMEOUT_S)
         assert m is not None and m.faults & omni4.motors_t.FAULT_CURRENT_SENSOR, fw.bus.last
@@ -182,7 +92,7 @@ def test_clear_fault_refused_while_a_current_sensor_fault_is_present(omni4_bin, 
 
 
 def test_clear_fault_taken_once_the_cause_is_gone(omni4_bin, tmp_path):
-    fw = Firmware(omni4_bin("omni4-fw"), tmp_path, random_url())
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path, lcm_test_url())
     try:
         r = clear_fault(fw.url)
         assert r.returncode == 0, r.stderr
@@ -242,7 +152,7 @@ class Replies:
 
 
 def test_the_bad_figure_counts_every_bad_request(omni4_bin, tmp_path):
-    url = random_url()
+    url = lcm_test_url()
     fw = Firmware(omni4_bin("omni4-fw"), tmp_path, url)
     replies = Replies(url)
     sent_bad = 0
@@ -282,38 +192,9 @@ def test_the_bad_figure_counts_every_bad_request(omni4_bin, tmp_path):
 
 # ---- no robot answers -------------------------------------------------------------------------
 
-class Pty:
-    """A command with stdin, stdout and stderr on a pseudo-terminal."""
-
-    def __init__(self, argv):
-        self.master, self.slave = pty.openpty()
-        self.proc = subprocess.Popen(argv, stdin=self.slave, stdout=self.slave,
-                                     stderr=self.slave, close_fds=True, start_new_session=True)
-        self.out = b""
-
-    def read_until(self, pattern, timeout_s):
-        end = time.monotonic() + timeout_s
-        while not re.search(pattern, self.out):
-            left = end - time.monotonic()
-            if left <= 0:
-                raise AssertionError(f"no {pattern!r} within {timeout_s} s: {self.out!r}")
-            if select.select([self.master], [], [], left)[0]:
-                try:
-                    self.out += os.read(self.master, 4096)
-                except OSError:
-                    pass
-
-    def close(self):
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait(timeout=EXIT_TIMEOUT_S)
-        os.close(self.master)
-        os.close(self.slave)
-
-
 def test_teleop_says_no_robot_answers_and_when_it_is_back(omni4_bin, tmp_path):
-    url = random_url()
-    t = Pty([tool("omni4-teleop"), "--lcm", url, "--no-joystick"])
+    url = lcm_test_url()
+    t = Pty([*tool("omni4-teleop"), "--lcm", url, "--no-joystick"])
     fw = None
     try:
         t.read_until(rb"w/s v", SAY_TIMEOUT_S)
@@ -333,8 +214,8 @@ def test_teleop_says_no_robot_answers_and_when_it_is_back(omni4_bin, tmp_path):
 
 
 def test_status_watch_says_no_robot_answers_and_when_it_is_back(omni4_bin, tmp_path):
-    url = random_url()
-    p = subprocess.Popen([tool("omni4-status"), "--lcm", url, "--watch", "--listen", "5"],
+    url = lcm_test_url()
+    p = subprocess.Popen([*tool("omni4-status"), "--lcm", url, "--watch", "--listen", "5"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     fw = None
     err = Lines(p.stderr)
@@ -360,13 +241,13 @@ def test_status_watch_says_no_robot_answers_and_when_it_is_back(omni4_bin, tmp_p
 
 @pytest.fixture(scope="module")
 def fw_status(omni4_bin, tmp_path_factory):
-    fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("status"), random_url())
+    fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("status"), lcm_test_url())
     yield fw
     fw.stop()
 
 
 def test_status_watch_redraws_in_place_on_a_terminal(fw_status):
-    t = Pty([tool("omni4-status"), "--lcm", fw_status.url, "--watch", "--listen", "0.3"])
+    t = Pty([*tool("omni4-status"), "--lcm", fw_status.url, "--watch", "--listen", "0.3"])
     try:
         t.read_until(rb"(?s)(\x1b\[H\x1b\[J[^\x1b]*mode: IDLE.*){3}", SAY_TIMEOUT_S)
         os.killpg(t.proc.pid, signal.SIGINT)
@@ -380,7 +261,7 @@ def test_status_watch_redraws_in_place_on_a_terminal(fw_status):
 
 
 def test_status_watch_piped_is_line_by_line(fw_status):
-    p = subprocess.Popen([tool("omni4-status"), "--lcm", fw_status.url, "--watch",
+    p = subprocess.Popen([*tool("omni4-status"), "--lcm", fw_status.url, "--watch",
                           "--listen", "0.3"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     lines = Lines(p.stdout)
     try:

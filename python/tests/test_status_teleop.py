@@ -9,27 +9,19 @@ on a loaded machine the whole replay can be due at once; the FIFO sends the stic
 the test has seen the effect of the last). Not live: the key and js_event mapping, the
 fault names."""
 import os
-import pty
 import re
-import select
 import signal
 import struct
 import subprocess
-import sys
-import termios
-import threading
 import time
 
-import lcm
 import pytest
 from conftest import lcm_test_url
+from livefw import EXIT_TIMEOUT_S, SCALE, Firmware, Pty, tool
 
 import omni4
 from omni4 import status, teleop
 
-SCALE = max(1.0, float(os.environ.get("OMNI4_TEST_TIME_SCALE", "1")))
-START_TIMEOUT_S = 10 * SCALE
-EXIT_TIMEOUT_S = 60 * SCALE     # a failure bound: omni4-teleop's exit took > 10 s beside stress-ng
 # Waits for an event (a speed reached, a mode): failure bounds only, generous so that a loaded
 # machine cannot reach them; a passing test never waits them out.
 MOVE_TIMEOUT_S = 20 * SCALE
@@ -47,76 +39,6 @@ RATE_HZ = 500                  # not the default 1000: the status must measure i
 R_M = 0.0325                   # wheel radius [m], Table III
 MODEL = dict(d=0.089, r=R_M, l=5, Kv=0.0259, Kt=0.0259, R=4.7, M=2.34, J=0.0228, Bv=0.4978,
              Bvn=0.6763, Bw=0.0141, Cv=1.8738, Cvn=2.2198, Cw=0.1385)   # Table III, R 4.7
-
-
-def tool(name):
-    exe = os.path.join(os.path.dirname(sys.executable), name)
-    module = {"omni4-status": "omni4.status", "omni4-teleop": "omni4.teleop"}[name]
-    return [exe] if os.access(exe, os.X_OK) else [sys.executable, "-m", module]
-
-
-class Firmware:
-    def __init__(self, fw_path, tmp_path, url, extra=""):
-        self.url = url
-        ini = tmp_path / "robot.ini"
-        ini.write_text(f"[lcm]\nurl = {url}\n[hal]\nmotor = sim\n{extra}")
-        self.log = open(tmp_path / "fw.stderr", "w+")
-        # --duration: a bound only (stop() ends it); 120 s ran out beside stress-ng
-        self.proc = subprocess.Popen([fw_path, "--config", str(ini), "--duration", "900", "-q"],
-                                     stdout=self.log, stderr=subprocess.STDOUT)
-        self.bus = Bus(url)
-        if self.bus.wait(lambda m: True, START_TIMEOUT_S) is None:
-            self.stop()
-            pytest.fail(f"omni4-fw sent no OMNI4_MOTORS within {START_TIMEOUT_S} s")
-
-    def stop(self):
-        self.bus.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            self.proc.wait(timeout=EXIT_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait(timeout=EXIT_TIMEOUT_S)
-
-
-class Bus:
-    """The last motors_t on a URL (a small subscriber in a thread)."""
-
-    def __init__(self, url):
-        self.lc = lcm.LCM(url)
-        self.last = None
-        self.cond = threading.Condition()
-        self.lc.subscribe(omni4.CHANNEL_MOTORS, self._on)
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _on(self, _channel, data):
-        with self.cond:
-            self.last = omni4.motors_t.decode(data)
-            self.cond.notify_all()
-
-    def _run(self):
-        while not self.done.is_set():
-            self.lc.handle_timeout(50)
-
-    def wait(self, predicate, timeout_s):
-        """The first sample from now on with predicate(m) true, or None after timeout_s."""
-        end = time.monotonic() + timeout_s
-        with self.cond:
-            while True:
-                m = self.last
-                if m is not None and predicate(m):
-                    return m
-                left = end - time.monotonic()
-                if left <= 0:
-                    return None
-                self.cond.wait(left)
-
-    def close(self):
-        self.done.set()
-        self.thread.join(timeout=2)
 
 
 def v_of(m):
@@ -219,44 +141,6 @@ def test_status_without_a_controller():
                         f"is omni4-fw running?\n")
 
 
-class Pty:
-    """omni4-teleop on a pseudo-terminal."""
-
-    def __init__(self, args):
-        self.master, self.slave = pty.openpty()
-        self.before = termios.tcgetattr(self.slave)
-        self.proc = subprocess.Popen(tool("omni4-teleop") + args, stdin=self.slave,
-                                     stdout=self.slave, stderr=self.slave, close_fds=True,
-                                     start_new_session=True)
-        self.out = b""
-
-    def read_until(self, pattern, timeout_s):
-        end = time.monotonic() + timeout_s
-        while not re.search(pattern, self.out):
-            left = end - time.monotonic()
-            if left <= 0:
-                raise AssertionError(f"no {pattern!r} in {timeout_s} s: {self.out!r}")
-            if select.select([self.master], [], [], left)[0]:
-                try:
-                    self.out += os.read(self.master, 4096)
-                except OSError:
-                    pass
-
-    def send(self, keys):
-        os.write(self.master, keys)
-
-    def finish(self):
-        try:
-            status = self.proc.wait(timeout=EXIT_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            raise
-        after = termios.tcgetattr(self.slave)
-        os.close(self.master)
-        os.close(self.slave)
-        return status, after
-
-
 @pytest.fixture(scope="module")
 def fw_teleop(omni4_bin, tmp_path_factory):
     fw = Firmware(omni4_bin("omni4-fw"), tmp_path_factory.mktemp("teleop"), URL_TELEOP,
@@ -272,7 +156,7 @@ def driving(m):
 @pytest.mark.live
 def test_teleop_keys_drive_and_stop(fw_teleop):
     bus = fw_teleop.bus
-    t = Pty(["--lcm", URL_TELEOP, "--no-joystick"])
+    t = Pty(tool("omni4-teleop") + ["--lcm", URL_TELEOP, "--no-joystick"])
     try:
         t.read_until(rb"limits \|v\|, \|vn\| <= 3 m/s, \|w\| <= 20 rad/s "
                      rb"\((controller's \[limits\]|defaults; the controller did not answer)\)",
@@ -324,7 +208,7 @@ def test_teleop_joystick_drives_and_stops(fw_teleop, tmp_path):
     js = tmp_path / "js.fifo"
     os.mkfifo(js)
     ev = struct.Struct("<IhBB")
-    t = Pty(["--lcm", URL_TELEOP, "--joystick", str(js)])
+    t = Pty(tool("omni4-teleop") + ["--lcm", URL_TELEOP, "--joystick", str(js)])
     w = None
     try:
         end = time.monotonic() + BANNER_TIMEOUT_S
