@@ -278,9 +278,10 @@ static void record_until_stopped(lcm_t *lcm, struct recorder *r, const struct re
 		if (r->log && fflush(r->log->f))
 			count_error(r, errno);
 		if (!a->quiet)
-			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s",
+			fprintf(stderr, "%somni4-record: %7.0f s  %10llu messages  %6llu msg/s%s%s",
 			        tty ? "\r" : "", next_report - t0, (unsigned long long)r->written,
-			        (unsigned long long)(r->written - last), tty ? "" : "\n");
+			        (unsigned long long)(r->written - last),
+			        r->errors ? "  (writes failing)" : "", tty ? "" : "\n");
 		last = r->written;
 		next_report += 1.0;
 	}

@@ -155,7 +155,9 @@ WROTE_BEFORE="wrote $T/c.json" run "validate --csv DIR with a full device CSV" 1
 
 # omni4-record: a FIFO (a reader streams the log) and a full device, with messages on the bus.
 # No timing: the messages are published once the recorder says it has subscribed, and it is
-# stopped (SIGTERM: it writes what LCM holds, then closes) once they are all sent.
+# stopped (SIGTERM) once its progress line says it has written all 30, or that its writes fail
+# (LCM's receive thread may not yet have taken from the socket what was sent: a SIGTERM right
+# after the publisher lost them on a loaded machine).
 # record_published OUT STATUS PATTERN
 record_published() {
   local out=$1 want=$2 pattern=$3 rec n=0 rc
@@ -170,6 +172,12 @@ import sys, lcm
 bus = lcm.LCM(sys.argv[1])
 for _ in range(30):
     bus.publish("OMNI4_TEST", b"x" * 4000)' "$URL"
+  n=0
+  while ! grep -Eq ' 30 messages|writes failing' "$T/rec.err" && kill -0 "$rec" 2>/dev/null &&
+    [ "$n" -lt 600 ]; do
+    sleep 0.1
+    n=$((n + 1))
+  done
   kill -TERM "$rec" 2>/dev/null
   bounded_wait "$rec" 30 "omni4-record --out $out"
   rc=$?

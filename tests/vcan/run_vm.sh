@@ -38,7 +38,7 @@ R="$WORK/root"
 rm -rf "$R"
 mkdir -p "$R"/{bin,sbin,proc,sys,dev,tmp,omni4,modules,etc}
 cp /bin/busybox "$R/bin/busybox"
-for a in sh mount insmod sleep cat grep sed kill date poweroff echo ps; do ln -sf busybox "$R/bin/$a"; done
+for a in sh mount insmod sleep cat grep sed kill date poweroff echo ps cut awk; do ln -sf busybox "$R/bin/$a"; done
 cp "$WORK"/modules/*.ko "$R/modules/"
 copy_with_libs() {
   cp "$1" "$2"
@@ -59,7 +59,7 @@ chmod +x "$R/init"
 # 3. Boot and run.
 echo "vcan tier: booting $(basename "$WORK/vmlinuz") under qemu (TCG)"
 set +e
-timeout 600 qemu-system-x86_64 -accel tcg -smp 2 -m 768 -nographic -no-reboot \
+timeout 1800 qemu-system-x86_64 -accel tcg -smp 2 -m 768 -nographic -no-reboot \
   -kernel "$WORK/vmlinuz" -initrd "$WORK/initrd.gz" \
   -append "console=ttyS0 quiet panic=-1 loglevel=3" > "$WORK/console.log" 2>&1
 qrc=$?
