@@ -376,9 +376,10 @@ static void test_plans_stay_within_the_envelope_with_odd_drives(void **state)
 	check_moves(&l);
 }
 
-/* A move along x from rest at heading 0 is planned with the envelope's acceleration at the
- * top speed it chose (the box of docs/trajectory.md is then the envelope along v). */
-static void test_straight_move_uses_the_envelope_at_its_top_speed(void **state)
+/* A move along x from rest at heading 0 speeds up in steps, each with the envelope's
+ * acceleration at the step's end speed (the rows along a line are then the envelope along v),
+ * and cruises below the top speed. */
+static void test_straight_move_uses_the_envelope_at_each_step_top_speed(void **state)
 {
 	(void)state;
 	const struct traj_limits ls[2] = {limits(), limits_odd()};
@@ -388,14 +389,20 @@ static void test_straight_move_uses_the_envelope_at_its_top_speed(void **state)
 		const struct traj_ref from = {.pose = {0, 0, 0}};
 		const float goal[3] = {3.0f, 0, 0}, dir[2] = {1, 0};
 		float acc, top;
+		int steps = 0;
 		assert_int_equal(traj_init(&tr, &ls[i]), 0);
 		assert_int_equal(traj_plan(&tr, &from, goal), 0);
-		const float v_plan = tr.axis[0].v1, a_plan = tr.axis[0].acc[0];
-		assert_int_equal(traj_envelope(&tr, dir, v_plan, &acc, &top), 0);
-		near(a_plan, acc, 1e-4 * acc);
-		assert_true(v_plan < top && v_plan > 0.5f * top);
-		print_message("along x: a %.3f m/s^2 at v %.3f m/s (top %.3f m/s)\n",
-		              (double)a_plan, (double)v_plan, (double)top);
+		const struct traj_1d *o = &tr.axis[0];
+		for (int k = 0; k + 1 < o->n && o->acc[k] > 0.0f; k++, steps++) {
+			assert_int_equal(traj_envelope(&tr, dir, o->vs[k + 1], &acc, &top), 0);
+			near(o->acc[k], acc, 1e-4 * acc);
+		}
+		assert_int_equal(steps, TRAJ_ACC_STEPS);
+		assert_int_equal(traj_envelope(&tr, dir, o->v1, &acc, &top), 0);
+		assert_true(o->v1 < top && o->v1 > 0.5f * top);
+		print_message(
+		    "along x: %d steps, a %.3f .. %.3f m/s^2, top %.3f m/s (largest %.3f)\n", steps,
+		    (double)o->acc[0], (double)o->acc[steps - 1], (double)o->v1, (double)top);
 	}
 }
 
@@ -558,7 +565,7 @@ int main(void)
 	    cmocka_unit_test(test_envelope_is_below_brute_force_with_odd_drives),
 	    cmocka_unit_test(test_plans_stay_within_the_envelope),
 	    cmocka_unit_test(test_plans_stay_within_the_envelope_with_odd_drives),
-	    cmocka_unit_test(test_straight_move_uses_the_envelope_at_its_top_speed),
+	    cmocka_unit_test(test_straight_move_uses_the_envelope_at_each_step_top_speed),
 	    cmocka_unit_test(test_plans_arrive_at_rest),
 	    cmocka_unit_test(test_heading_turns_the_short_way),
 	    cmocka_unit_test(test_replanning_while_moving_keeps_the_reference_continuous),

@@ -24,10 +24,12 @@
 
 #include "omni4/params.h"
 
-#define TRAJ_PHASES 3        /* a 1D bang-bang: speed change, cruise, stop */
-#define TRAJ_ALPHA_ITERS 16  /* bisection steps of the x/y share */
+#define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
+#define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
+#define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
 #define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
 #define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
+#define TRAJ_SHARE_ITERS 10  /* bisection steps of the heading's share on a straight move */
 #define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
 #define TRAJ_G_M_S2 9.80665f /* standard gravity */
 #define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
@@ -56,13 +58,17 @@ struct traj_limits {
 	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
 };
 
-/* One axis: phase k runs until t_end_s[k]; the last one is anchored at its end (the goal). */
+/* One axis: phase k (0 <= k < n) starts at ps[k], vs[k] and runs at acc[k] until t_end_s[k];
+ * the last one is anchored at its end (the goal, at rest). */
 struct traj_1d {
 	float t_end_s[TRAJ_PHASES];
 	float acc[TRAJ_PHASES]; /* [m/s^2] or [rad/s^2] */
+	float ps[TRAJ_PHASES];  /* [m] or [rad] */
+	float vs[TRAJ_PHASES];  /* [m/s] or [rad/s] */
 	float p0, v0;           /* start [m, m/s] or [rad, rad/s] */
-	float p1, v1;           /* at the start of phase 1 (cruise) */
+	float p1, v1;           /* where the top speed is reached, and that speed (cruise) */
 	float goal;             /* [m] or [rad] */
+	int n;                  /* phases in use (0: at rest at the goal) */
 };
 
 /* A point of the reference, world frame: [x, y, theta], their rates and accelerations. */

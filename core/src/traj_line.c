@@ -1,0 +1,193 @@
+/*
+ * traj_line.c - a straight profile in speed steps (docs/trajectory.md, "Straight moves"): along
+ * a line every wheel's acceleration and velocity terms have one sign, so each row is exact in
+ * (a, s) instead of over a box, the speed-up takes each step's acceleration at the step's top
+ * speed (the room only shrinks with speed) and stopping gets the velocity's help at the step's
+ * lowest speed (friction and back-EMF brake too). Single precision, fixed loops.
+ */
+#include <math.h>
+
+#include "traj_int.h"
+
+/* Top speeds tried, as fractions of the largest the rows allow (acceleration 0 there). */
+#define LINE_FRACS 8
+static const float line_frac[LINE_FRACS] = {0.3f, 0.5f, 0.65f, 0.75f, 0.84f, 0.9f, 0.95f, 0.98f};
+
+/* The rows along a line: |pa a + pv s| <= c (speeding up, pa, pv >= 0) and the braking room
+ * c0 + pv s (the velocity terms oppose the acceleration). */
+struct line_rows {
+	int n;
+	float pa[TRAJ_HEADINGS_MAX * 12], pv[TRAJ_HEADINGS_MAX * 12];
+	float c[TRAJ_HEADINGS_MAX * 12], c0[TRAJ_HEADINGS_MAX * 12];
+};
+
+struct steps {
+	float s[TRAJ_ACC_STEPS + 1];                  /* speed levels, s[0] = 0, s[K] = the top */
+	float up[TRAJ_ACC_STEPS], dn[TRAJ_ACC_STEPS]; /* accelerations between them */
+};
+
+static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
+{
+	l->n = n;
+	for (int k = 0; k < n; k++) {
+		const float pa = r[k].sa[0] * ex + r[k].sa[1] * ey;
+		const float pv = r[k].sv[0] * ex + r[k].sv[1] * ey;
+		l->pa[k] = fabsf(pa);
+		l->pv[k] = fabsf(pv);
+		l->c[k] = r[k].c;
+		l->c0[k] = r[k].c0;
+	}
+}
+
+static float line_top(const struct line_rows *l)
+{
+	float best = INFINITY;
+
+	for (int k = 0; k < l->n; k++) {
+		if (l->pv[k] > 0.0f)
+			best = fminf(best, l->c[k] / l->pv[k]);
+		else if (l->c[k] < 0.0f)
+			return 0.0f;
+	}
+	return fmaxf(best, 0.0f);
+}
+
+/* Speeding up at speed s (up) and braking at speed s (dn). */
+static void line_acc(const struct line_rows *l, float s, float *up, float *dn)
+{
+	*up = INFINITY;
+	*dn = INFINITY;
+	for (int k = 0; k < l->n; k++) {
+		if (l->pa[k] > 0.0f) {
+			*up = fminf(*up, (l->c[k] - l->pv[k] * s) / l->pa[k]);
+			*dn = fminf(*dn, (l->c0[k] + l->pv[k] * s) / l->pa[k]);
+		}
+	}
+}
+
+/* Braking from |w| to rest: each step's acceleration (the top one also above the top). */
+static float brake_dist(const struct steps *st, float w)
+{
+	float d = 0.0f;
+
+	for (int k = 0; k < TRAJ_ACC_STEPS && w > st->s[k]; k++) {
+		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : fminf(w, st->s[k + 1]);
+		d += (hi * hi - st->s[k] * st->s[k]) / (2.0f * st->dn[k]);
+	}
+	return d;
+}
+
+/* Phases braking from speed w (velocity sign sg) to rest. */
+static void brake_phases(struct traj_1d *o, const struct steps *st, float sg, float *t, float *p,
+                         float *v)
+{
+	const float w = fabsf(*v);
+
+	for (int k = TRAJ_ACC_STEPS - 1; k >= 0; k--) {
+		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : fminf(w, st->s[k + 1]);
+		if (hi > st->s[k])
+			traj_ph_add(o, t, p, v, -sg * st->dn[k], (hi - st->s[k]) / st->dn[k]);
+	}
+	*v = 0.0f;
+}
+
+/* From speed u (toward the goal, 0 <= u <= top, able to stop) to the goal D away. */
+static void go_phases(struct traj_1d *o, const struct steps *st, float sg, float u, float D,
+                      float *t, float *p, float *v)
+{
+	float tot = brake_dist(st, u), vp = st->s[TRAJ_ACC_STEPS], cruise = 0.0f;
+	int k = 0;
+
+	for (; k < TRAJ_ACC_STEPS; k++) {
+		if (st->s[k + 1] <= u)
+			continue;
+		const float lo = fmaxf(st->s[k], u), hi = st->s[k + 1];
+		const float per = 0.5f / st->up[k] + 0.5f / st->dn[k];
+		const float next = tot + (hi * hi - lo * lo) * per;
+		if (next >= D) {
+			vp = sqrtf(fmaxf(lo * lo + (D - tot) / per, lo * lo));
+			break;
+		}
+		tot = next;
+	}
+	if (k == TRAJ_ACC_STEPS)
+		cruise = fmaxf(D - tot, 0.0f);
+	for (int j = 0; j < TRAJ_ACC_STEPS; j++) {
+		const float lo = fmaxf(st->s[j], u), hi = fminf(st->s[j + 1], vp);
+		if (hi > lo)
+			traj_ph_add(o, t, p, v, sg * st->up[j], (hi - lo) / st->up[j]);
+	}
+	o->p1 = *p;
+	o->v1 = sg * vp;
+	*v = o->v1;
+	if (cruise > 0.0f && vp > 0.0f)
+		traj_ph_add(o, t, p, v, 0.0f, cruise / vp);
+	brake_phases(o, st, sg, t, p, v);
+}
+
+/* One profile with the steps st: stop first if moving away or too fast to stop in time. */
+static float steps_plan(const struct steps *st, float p0, float v0, float goal, struct traj_1d *o)
+{
+	float t = 0.0f, p = p0, v = v0;
+	const float d0 = goal - p0;
+
+	*o = (struct traj_1d){.p0 = p0, .v0 = v0, .p1 = p0, .goal = goal};
+	if (fabsf(v0) > st->s[TRAJ_ACC_STEPS])
+		return INFINITY;
+	if (v0 * d0 < 0.0f || brake_dist(st, fabsf(v0)) > fabsf(d0))
+		brake_phases(o, st, v0 > 0.0f ? 1.0f : -1.0f, &t, &p, &v);
+	const float D = fabsf(goal - p), sg = goal - p >= 0.0f ? 1.0f : -1.0f;
+	if (D > 0.0f || v != 0.0f)
+		go_phases(o, st, sg, fabsf(v), D, &t, &p, &v);
+	return t;
+}
+
+float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,
+                     float cap, struct traj_1d *o)
+{
+	struct line_rows l;
+	struct traj_1d cand;
+	float best = INFINITY;
+
+	line_rows(r, n, ex, ey, &l);
+	const float top = fminf(line_top(&l), cap);
+	for (int f = 0; f < LINE_FRACS; f++) {
+		const float vmax = fmaxf(top * line_frac[f], fabsf(v0));
+		struct steps st;
+		float up, dn;
+		st.s[0] = 0.0f;
+		for (int k = 0; k < TRAJ_ACC_STEPS; k++) {
+			st.s[k + 1] = vmax * (float)(k + 1) / (float)TRAJ_ACC_STEPS;
+			line_acc(&l, st.s[k + 1], &up, &dn);
+			st.up[k] = up;
+			line_acc(&l, st.s[k], &up, &dn);
+			st.dn[k] = dn;
+			if (!(st.up[k] > 0.0f) || !(st.dn[k] > 0.0f) || !(vmax <= top))
+				goto next;
+		}
+		const float t = steps_plan(&st, p0, v0, goal, &cand);
+		if (t < best) {
+			best = t;
+			*o = cand;
+		}
+	next:;
+	}
+	return best;
+}
+
+void traj_line_project(const struct traj_1d *line, float e, float p0, float goal,
+                       struct traj_1d *out)
+{
+	*out = (struct traj_1d){.p0 = p0,
+	                        .v0 = e * line->v0,
+	                        .p1 = p0 + e * line->p1,
+	                        .v1 = e * line->v1,
+	                        .goal = goal,
+	                        .n = line->n};
+	for (int k = 0; k < line->n; k++) {
+		out->t_end_s[k] = line->t_end_s[k];
+		out->acc[k] = e * line->acc[k];
+		out->ps[k] = p0 + e * line->ps[k];
+		out->vs[k] = e * line->vs[k];
+	}
+}
