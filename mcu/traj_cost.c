@@ -30,8 +30,8 @@ static void meter_add(struct meter_sum *s, uint32_t c)
 
 static const float course[][6] = {
     /* x0 y0 th0 vx0: goal x y th */
-    {0, 0, 0, 1.0f, 0, 0},     {0, 0, 0, 0.7f, 0.7f, 0}, {0, 0, 0, 2.0f, -1.0f, 0},
-    {0, 0, 0, 1.5f, 0.5f, 2.0f}, {0, 0, 0, 0, 0, 3.1f},   {0, 0, 0.7f, -0.5f, 3.0f, 0.7f},
+    {0, 0, 0, 1.0f, 0, 0},       {0, 0, 0, 0.7f, 0.7f, 0}, {0, 0, 0, 2.0f, -1.0f, 0},
+    {0, 0, 0, 1.5f, 0.5f, 2.0f}, {0, 0, 0, 0, 0, 3.1f},    {0, 0, 0.7f, -0.5f, 3.0f, 0.7f},
 };
 
 static struct traj g_tr; /* 1.2 kB: static, not on the image's small stack */

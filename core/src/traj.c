@@ -94,12 +94,12 @@ float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up
 	} else { /* speed up (through 0 if moving away) to the peak or to vmax, then stop:
 	          * (vp^2 - u^2) / (2 a_up) + vp^2 / (2 a_dn) = dist */
 		const float vp2 = (2.0f * dist * a_up * a_dn + u * u * a_dn) / (a_up + a_dn);
-		vc = fminf(sqrtf(fmaxf(vp2, 0.0f)), vmax);
+		vc = minf(sqrtf(maxf(vp2, 0.0f)), vmax);
 		a0 = a_up;
-		t0 = fmaxf((vc - u) / a_up, 0.0f);
+		t0 = maxf((vc - u) / a_up, 0.0f);
 	}
 	const float d0 = (vc * vc - u * u) / (2.0f * a0);
-	const float dc = fmaxf(dist - d0 - vc * vc / (2.0f * a_dn), 0.0f);
+	const float dc = maxf(dist - d0 - vc * vc / (2.0f * a_dn), 0.0f);
 	const float tc = vc > 0.0f ? dc / vc : 0.0f;
 	float t = 0.0f, p = p0, v = v0;
 
@@ -148,19 +148,19 @@ void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a
 /* Smallest and largest position the profile passes through (phase ends and turning points). */
 static void bb_range(const struct traj_1d *o, float *lo, float *hi)
 {
-	*lo = fminf(o->goal, o->p0);
-	*hi = fmaxf(o->goal, o->p0);
+	*lo = minf(o->goal, o->p0);
+	*hi = maxf(o->goal, o->p0);
 	for (int k = 0; k < o->n; k++) {
 		float q = o->ps[k];
-		*lo = fminf(*lo, q);
-		*hi = fmaxf(*hi, q);
+		*lo = minf(*lo, q);
+		*hi = maxf(*hi, q);
 		if (o->acc[k] != 0.0f) {
 			const float tz = -o->vs[k] / o->acc[k];
 			const float len = o->t_end_s[k] - (k ? o->t_end_s[k - 1] : 0.0f);
 			if (tz > 0.0f && tz < len) {
 				q = o->ps[k] - o->vs[k] * o->vs[k] / (2.0f * o->acc[k]);
-				*lo = fminf(*lo, q);
-				*hi = fmaxf(*hi, q);
+				*lo = minf(*lo, q);
+				*hi = maxf(*hi, q);
 			}
 		}
 	}
@@ -177,7 +177,7 @@ static float rows_acc(const struct row *r, int n, float ca, float sa, float wx, 
 		const float room = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy;
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, room / per);
+			best = minf(best, room / per);
 		else if (room < 0.0f)
 			return -1.0f;
 	}
@@ -196,7 +196,7 @@ static float rows_stop(const struct row *r, int n, float ca, float sa)
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, r[k].c0 / per);
+			best = minf(best, r[k].c0 / per);
 	}
 	return best;
 }
@@ -209,11 +209,11 @@ static float rows_top(const struct row *r, int n, float ca, float sa)
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].kv[0] * ca + r[k].kv[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, r[k].c / per);
+			best = minf(best, r[k].c / per);
 		else if (r[k].c < 0.0f)
 			return 0.0f;
 	}
-	return fmaxf(best, 0.0f);
+	return maxf(best, 0.0f);
 }
 
 /*
@@ -302,8 +302,8 @@ static float axes_time(const struct axes *ax, float ca, float sa, float acc, flo
 	float t = 0.0f;
 
 	for (int i = 0; i < ax->n; i++)
-		t = fmaxf(t, traj_1d_plan(ax->out[i], ax->p0[i], ax->v0[i], ax->goal[i],
-		                          acc * share[i], dec * share[i], v * share[i]));
+		t = maxf(t, traj_1d_plan(ax->out[i], ax->p0[i], ax->v0[i], ax->goal[i],
+		                         acc * share[i], dec * share[i], v * share[i]));
 	return t;
 }
 
@@ -315,17 +315,17 @@ static float axes_time(const struct axes *ax, float ca, float sa, float acc, flo
 static float choose_limits(const struct row *r, int n, const struct axes *ax, float ca, float sa,
                            uint32_t *flags)
 {
-	const float vtop = fminf(rows_top(r, n, ca, sa), ax->cap);
+	const float vtop = minf(rows_top(r, n, ca, sa), ax->cap);
 	float best_t = INFINITY, best_a = 0.0f, best_d = 0.0f, best_v = 0.0f;
 
 	for (int k = 0; k < TRAJ_SPEED_STEPS; k++) {
 		const float v = vtop * speed_frac[k];
-		const float wx = fmaxf(v * ca, fabsf(ax->v0[0]));
-		const float wy = ax->n > 1 ? fmaxf(v * sa, fabsf(ax->v0[1])) : 0.0f;
+		const float wx = maxf(v * ca, fabsf(ax->v0[0]));
+		const float wy = ax->n > 1 ? maxf(v * sa, fabsf(ax->v0[1])) : 0.0f;
 		const float acc = rows_acc(r, n, ca, sa, wx, wy);
 		if (!(acc > 0.0f) || !(v > 0.0f))
 			continue;
-		const float dec = ax->stop ? fmaxf(rows_stop(r, n, ca, sa), acc) : acc;
+		const float dec = ax->stop ? maxf(rows_stop(r, n, ca, sa), acc) : acc;
 		const float t = axes_time(ax, ca, sa, acc, dec, v);
 		if (t < best_t) {
 			best_t = t;
@@ -336,9 +336,9 @@ static float choose_limits(const struct row *r, int n, const struct axes *ax, fl
 	}
 	if (!(best_t < INFINITY)) { /* the start velocity leaves no room */
 		*flags |= TRAJ_F_BEYOND_ENVELOPE;
-		best_a = fmaxf(0.1f * rows_acc(r, n, ca, sa, 0.0f, 0.0f), ACC_FLOOR);
+		best_a = maxf(0.1f * rows_acc(r, n, ca, sa, 0.0f, 0.0f), ACC_FLOOR);
 		best_d = best_a;
-		best_v = fmaxf(0.5f * vtop, ACC_FLOOR);
+		best_v = maxf(0.5f * vtop, ACC_FLOOR);
 	}
 	return axes_time(ax, ca, sa, best_a, best_d, best_v);
 }
@@ -370,7 +370,7 @@ static float plan_translation(struct traj *tr, const struct row *r, int n, struc
 		/* first the two ends (an axis that does not move gets nothing), then bisection */
 		const float alpha = it == 0 ? 0.0f : it == 1 ? 0.5f * PI_F : 0.5f * (lo + hi);
 		const float ca = it == 1 ? 0.0f : cosf(alpha);
-		const float sa = it == 0 ? 0.0f : sqrtf(fmaxf(1.0f - ca * ca, 0.0f));
+		const float sa = it == 0 ? 0.0f : sqrtf(maxf(1.0f - ca * ca, 0.0f));
 		uint32_t flags = 0;
 		const float t = choose_limits(r, n, ax, ca, sa, &flags);
 		if (t < best_t) {
@@ -491,7 +491,7 @@ static float plan_heading(struct traj *tr, const struct traj_ref *from, float go
 /* Headings sampled over [lo, hi] (a whole turn at most) and cos of half their spacing. */
 static int heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h)
 {
-	const float span = fminf(hi - lo, 2.0f * PI_F);
+	const float span = minf(hi - lo, 2.0f * PI_F);
 	int n = 1;
 
 	*cos_h = 1.0f;
@@ -557,7 +557,7 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 				traj_line_project(&line, e[i], from->pose[i], goal[i],
 				                  &tr->axis[i]);
 			tr->alpha_rad = atan2f(fabsf(e[1]), fabsf(e[0]));
-			return fmaxf(t_rot, t_xy);
+			return maxf(t_rot, t_xy);
 		}
 	}
 	struct axes ax = {.n = 2,
@@ -568,7 +568,7 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	                  .goal = {goal[0], goal[1]},
 	                  .cap = tr->c.speed_cap_m_s};
 	t_xy = plan_translation(tr, r, n, &ax);
-	return fmaxf(t_rot, t_xy);
+	return maxf(t_rot, t_xy);
 }
 
 /* Both move: the heading's share among three, the earliest arrival kept. */
@@ -600,7 +600,7 @@ static void share_bisect(struct traj *tr, const struct traj_ref *from, const flo
 		if (cand.duration_s < tr->duration_s)
 			*tr = cand;
 		const float t_rot = traj_1d_duration(&cand.axis[2]);
-		if (t_rot > fmaxf(traj_1d_duration(&cand.axis[0]), traj_1d_duration(&cand.axis[1])))
+		if (t_rot > maxf(traj_1d_duration(&cand.axis[0]), traj_1d_duration(&cand.axis[1])))
 			lo = share;
 		else
 			hi = share;
@@ -686,19 +686,19 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 		const float q0 = 0.5f * (gx * c->C[0] * sg[0] + gy * c->C[1] * sg[1]);
 		const float q1 = 0.5f * (gx * c->B[0] * dir[0] + gy * c->B[1] * dir[1]);
 		const float s = speed_m_s;
-		acc = fminf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
-		acc = fminf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
+		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
+		acc = minf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */
 		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
 		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);
 		const float k_f = p >= 0.0f ? q1 : -q1, r_f = c->f_max_n - (p >= 0.0f ? q0 : -q0);
 		if (ge == 0.0f)
 			continue;
-		top = fminf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);
-		top = fminf(top, k_f > 0.0f ? r_f / k_f : r_f < 0.0f ? 0.0f : INFINITY);
-		top = fminf(top, c->rim_max[j] / fabsf(ge));
+		top = minf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, k_f > 0.0f ? r_f / k_f : r_f < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, c->rim_max[j] / fabsf(ge));
 	}
 	*acc_m_s2 = acc;
-	*speed_max_m_s = fmaxf(top, 0.0f);
+	*speed_max_m_s = maxf(top, 0.0f);
 	return 0;
 }

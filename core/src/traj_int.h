@@ -20,6 +20,18 @@ struct row {
 	float sa[2], sv[2]; /* ka and kv with their signs */
 };
 
+/* min and max of finite floats: a compare and a select (fminf and fmaxf are library calls
+ * on a Cortex-M4, which has no VMINNM). */
+static inline float minf(float a, float b)
+{
+	return a < b ? a : b;
+}
+
+static inline float maxf(float a, float b)
+{
+	return a > b ? a : b;
+}
+
 /* The duration of a profile [s] (0 when at rest at the goal). */
 float traj_1d_duration(const struct traj_1d *o);
 

@@ -6,19 +6,22 @@
  * lowest speed (friction and back-EMF brake too). Single precision, fixed loops.
  */
 #include <math.h>
+#include <stdbool.h>
 
 #include "traj_int.h"
 
 /* Top speeds tried, as fractions of the largest the rows allow (acceleration 0 there). */
-#define LINE_FRACS 8
-static const float line_frac[LINE_FRACS] = {0.3f, 0.5f, 0.65f, 0.75f, 0.84f, 0.9f, 0.95f, 0.98f};
+#define LINE_FRACS 6
+static const float line_frac[LINE_FRACS] = {0.5f, 0.7f, 0.82f, 0.9f, 0.95f, 0.98f};
 
-/* The rows along a line: |pa a + pv s| <= c (speeding up, pa, pv >= 0) and the braking room
- * c0 + pv s (the velocity terms oppose the acceleration). */
+/* The rows along a line, divided by their acceleration coefficient: speeding up at speed s
+ * a <= cu - k s, braking |a| <= cd + k s (the velocity terms oppose the acceleration); the
+ * rows without an acceleration term (rim speed) only bound the top speed. */
+#define LINE_ROWS_MAX (TRAJ_HEADINGS_MAX * 12)
 struct line_rows {
 	int n;
-	float pa[TRAJ_HEADINGS_MAX * 12], pv[TRAJ_HEADINGS_MAX * 12];
-	float c[TRAJ_HEADINGS_MAX * 12], c0[TRAJ_HEADINGS_MAX * 12];
+	float cu[LINE_ROWS_MAX], cd[LINE_ROWS_MAX], k[LINE_ROWS_MAX];
+	float top; /* largest speed with every row met at zero acceleration */
 };
 
 struct steps {
@@ -28,41 +31,36 @@ struct steps {
 
 static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
 {
-	l->n = n;
+	l->n = 0;
+	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
-		const float pa = r[k].sa[0] * ex + r[k].sa[1] * ey;
-		const float pv = r[k].sv[0] * ex + r[k].sv[1] * ey;
-		l->pa[k] = fabsf(pa);
-		l->pv[k] = fabsf(pv);
-		l->c[k] = r[k].c;
-		l->c0[k] = r[k].c0;
+		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey);
+		const float pv = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
+		if (pv > 0.0f)
+			l->top = minf(l->top, r[k].c / pv);
+		else if (r[k].c < 0.0f)
+			l->top = 0.0f;
+		if (pa > 0.0f) {
+			const float ia = 1.0f / pa;
+			l->cu[l->n] = r[k].c * ia;
+			l->cd[l->n] = r[k].c0 * ia;
+			l->k[l->n++] = pv * ia;
+		}
 	}
-}
-
-static float line_top(const struct line_rows *l)
-{
-	float best = INFINITY;
-
-	for (int k = 0; k < l->n; k++) {
-		if (l->pv[k] > 0.0f)
-			best = fminf(best, l->c[k] / l->pv[k]);
-		else if (l->c[k] < 0.0f)
-			return 0.0f;
-	}
-	return fmaxf(best, 0.0f);
+	l->top = maxf(l->top, 0.0f);
 }
 
 /* Speeding up at speed s (up) and braking at speed s (dn). */
 static void line_acc(const struct line_rows *l, float s, float *up, float *dn)
 {
-	*up = INFINITY;
-	*dn = INFINITY;
+	float u = INFINITY, d = INFINITY;
+
 	for (int k = 0; k < l->n; k++) {
-		if (l->pa[k] > 0.0f) {
-			*up = fminf(*up, (l->c[k] - l->pv[k] * s) / l->pa[k]);
-			*dn = fminf(*dn, (l->c0[k] + l->pv[k] * s) / l->pa[k]);
-		}
+		u = minf(u, l->cu[k] - l->k[k] * s);
+		d = minf(d, l->cd[k] + l->k[k] * s);
 	}
+	*up = u;
+	*dn = d;
 }
 
 /* Braking from |w| to rest: each step's acceleration (the top one also above the top). */
@@ -71,7 +69,7 @@ static float brake_dist(const struct steps *st, float w)
 	float d = 0.0f;
 
 	for (int k = 0; k < TRAJ_ACC_STEPS && w > st->s[k]; k++) {
-		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : fminf(w, st->s[k + 1]);
+		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : minf(w, st->s[k + 1]);
 		d += (hi * hi - st->s[k] * st->s[k]) / (2.0f * st->dn[k]);
 	}
 	return d;
@@ -84,7 +82,7 @@ static void brake_phases(struct traj_1d *o, const struct steps *st, float sg, fl
 	const float w = fabsf(*v);
 
 	for (int k = TRAJ_ACC_STEPS - 1; k >= 0; k--) {
-		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : fminf(w, st->s[k + 1]);
+		const float hi = k == TRAJ_ACC_STEPS - 1 ? w : minf(w, st->s[k + 1]);
 		if (hi > st->s[k])
 			traj_ph_add(o, t, p, v, -sg * st->dn[k], (hi - st->s[k]) / st->dn[k]);
 	}
@@ -101,19 +99,19 @@ static void go_phases(struct traj_1d *o, const struct steps *st, float sg, float
 	for (; k < TRAJ_ACC_STEPS; k++) {
 		if (st->s[k + 1] <= u)
 			continue;
-		const float lo = fmaxf(st->s[k], u), hi = st->s[k + 1];
+		const float lo = maxf(st->s[k], u), hi = st->s[k + 1];
 		const float per = 0.5f / st->up[k] + 0.5f / st->dn[k];
 		const float next = tot + (hi * hi - lo * lo) * per;
 		if (next >= D) {
-			vp = sqrtf(fmaxf(lo * lo + (D - tot) / per, lo * lo));
+			vp = sqrtf(maxf(lo * lo + (D - tot) / per, lo * lo));
 			break;
 		}
 		tot = next;
 	}
 	if (k == TRAJ_ACC_STEPS)
-		cruise = fmaxf(D - tot, 0.0f);
+		cruise = maxf(D - tot, 0.0f);
 	for (int j = 0; j < TRAJ_ACC_STEPS; j++) {
-		const float lo = fmaxf(st->s[j], u), hi = fminf(st->s[j + 1], vp);
+		const float lo = maxf(st->s[j], u), hi = minf(st->s[j + 1], vp);
 		if (hi > lo)
 			traj_ph_add(o, t, p, v, sg * st->up[j], (hi - lo) / st->up[j]);
 	}
@@ -142,6 +140,24 @@ static float steps_plan(const struct steps *st, float p0, float v0, float goal, 
 	return t;
 }
 
+/* The steps up to vmax: each level's accelerations from the rows; false if one is not > 0. */
+static bool line_steps(const struct line_rows *l, float vmax, struct steps *st)
+{
+	float up, dn;
+
+	for (int k = 0; k <= TRAJ_ACC_STEPS; k++) {
+		st->s[k] = vmax * (float)k / (float)TRAJ_ACC_STEPS;
+		line_acc(l, st->s[k], &up, &dn);
+		if (k > 0)
+			st->up[k - 1] = up;
+		if (k < TRAJ_ACC_STEPS)
+			st->dn[k] = dn;
+		if ((k > 0 && !(up > 0.0f)) || !(dn > 0.0f))
+			return false;
+	}
+	return true;
+}
+
 float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,
                      float cap, struct traj_1d *o)
 {
@@ -150,27 +166,17 @@ float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, f
 	float best = INFINITY;
 
 	line_rows(r, n, ex, ey, &l);
-	const float top = fminf(line_top(&l), cap);
+	const float top = minf(l.top, cap);
 	for (int f = 0; f < LINE_FRACS; f++) {
-		const float vmax = fmaxf(top * line_frac[f], fabsf(v0));
+		const float vmax = maxf(top * line_frac[f], fabsf(v0));
 		struct steps st;
-		float up, dn;
-		st.s[0] = 0.0f;
-		for (int k = 0; k < TRAJ_ACC_STEPS; k++) {
-			st.s[k + 1] = vmax * (float)(k + 1) / (float)TRAJ_ACC_STEPS;
-			line_acc(&l, st.s[k + 1], &up, &dn);
-			st.up[k] = up;
-			line_acc(&l, st.s[k], &up, &dn);
-			st.dn[k] = dn;
-			if (!(st.up[k] > 0.0f) || !(st.dn[k] > 0.0f) || !(vmax <= top))
-				goto next;
-		}
+		if (!(vmax <= top) || !line_steps(&l, vmax, &st))
+			continue;
 		const float t = steps_plan(&st, p0, v0, goal, &cand);
 		if (t < best) {
 			best = t;
 			*o = cand;
 		}
-	next:;
 	}
 	return best;
 }

@@ -29,7 +29,7 @@
 #define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
 #define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
 #define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
-#define TRAJ_SHARE_ITERS 10  /* bisection steps of the heading's share on a straight move */
+#define TRAJ_SHARE_ITERS 8   /* bisection steps of the heading's share on a straight move */
 #define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
 #define TRAJ_G_M_S2 9.80665f /* standard gravity */
 #define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
