@@ -702,3 +702,33 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 	*speed_max_m_s = maxf(top, 0.0f);
 	return 0;
 }
+
+int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], struct traj *next)
+{
+	struct traj_ref at;
+	struct traj cand = {.c = tr->c};
+	const float start_s = tr->t_s + lead_s;
+
+	if (!(lead_s >= 0.0f) || !isfinite(lead_s) || !finite3(goal))
+		return -EINVAL;
+	traj_eval(tr, start_s, &at);
+	const int rc = traj_plan(&cand, &at, goal);
+	if (rc)
+		return rc;
+	cand.handover_s = start_s;
+	*next = cand;
+	return 0;
+}
+
+int traj_take_over(struct traj *tr, const struct traj *next)
+{
+	const float at_s = next->handover_s;
+
+	if (tr->t_s < at_s && tr->t_s < tr->duration_s)
+		return 0;
+	const float past = tr->t_s >= at_s ? tr->t_s - at_s : 0.0f;
+	*tr = *next;
+	tr->t_s = past;
+	tr->handover_s = 0.0f;
+	return 1;
+}

@@ -111,6 +111,7 @@ struct traj {
 	float duration_s;       /* the plan's end (at rest at the goal) */
 	float alpha_rad;        /* x/y share of the translation's limits */
 	uint32_t flags;         /* TRAJ_F_* of the last plan */
+	float handover_s;       /* traj_plan_ahead: when (on the active plan's clock) it starts */
 };
 
 /*
@@ -137,6 +138,23 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
  * where the reference is, with its velocity, so the reference does not jump. Fast loop.
  */
 int traj_replan(struct traj *tr, const float goal[3]);
+
+/*
+ * traj_plan_ahead - a plan computed outside the tick (a re-plan costs more than a 1 ms tick on
+ * the Cortex-M4: docs/trajectory.md): next gets tr's limits and a plan from tr's reference
+ * lead_s [s] ahead of tr's clock now, to goal; traj_take_over hands it over when tr's clock
+ * gets there, so the reference does not jump. tr is only read. Not for the fast loop (the cost
+ * of a plan); -EINVAL (next unchanged) if lead_s < 0 or an input is NaN or infinite.
+ */
+int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], struct traj *next);
+
+/*
+ * traj_take_over - in the tick, before traj_step: if tr's clock has reached next's start (or tr
+ * is at rest at its end, where next starts too), tr becomes next, its clock the time past the
+ * start, and returns 1 (next is then spent: the caller drops it); else 0. Fast loop (a copy
+ * of struct traj).
+ */
+int traj_take_over(struct traj *tr, const struct traj *next);
 
 /* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
  * rest at the goal). Fast loop; pure. */
