@@ -560,6 +560,10 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 			return maxf(t_rot, t_xy);
 		}
 	}
+	struct traj_1d bg[2];
+	const float tb =
+	    traj_line_brake_go(r, n, from->pose, from->vel, goal, tr->c.speed_cap_m_s, bg);
+	const uint32_t flags = tr->flags;
 	struct axes ax = {.n = 2,
 	                  .stop = fabsf(from->vel[0]) < TRAJ_IDLE_VEL &&
 	                          fabsf(from->vel[1]) < TRAJ_IDLE_VEL,
@@ -568,6 +572,12 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	                  .goal = {goal[0], goal[1]},
 	                  .cap = tr->c.speed_cap_m_s};
 	t_xy = plan_translation(tr, r, n, &ax);
+	if (tb < t_xy) { /* stopping first is sooner */
+		tr->axis[0] = bg[0];
+		tr->axis[1] = bg[1];
+		tr->flags = flags;
+		t_xy = tb;
+	}
 	return maxf(t_rot, t_xy);
 }
 
@@ -724,7 +734,7 @@ int traj_take_over(struct traj *tr, const struct traj *next)
 {
 	const float at_s = next->handover_s;
 
-	if (tr->t_s < at_s && tr->t_s < tr->duration_s)
+	if (tr->t_s < at_s - TRAJ_HANDOVER_TOL_S && tr->t_s < tr->duration_s)
 		return 0;
 	const float past = tr->t_s >= at_s ? tr->t_s - at_s : 0.0f;
 	*tr = *next;

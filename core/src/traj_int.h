@@ -51,4 +51,12 @@ float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, f
 void traj_line_project(const struct traj_1d *line, float e, float p0, float goal,
                        struct traj_1d *out);
 
+/*
+ * traj_line_brake_go - a start moving off the line to the goal: stop along the velocity (the
+ * stopping credit, in steps), then a straight profile from rest to the goal; into out[0..1]
+ * (x, y). Returns the duration, or INFINITY if the start is beyond the rows' top speed.
+ */
+float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
+                         const float goal[2], float cap, struct traj_1d out[2]);
+
 #endif /* OMNI4_TRAJ_INT_H */

@@ -197,3 +197,51 @@ void traj_line_project(const struct traj_1d *line, float e, float p0, float goal
 		out->vs[k] = e * line->vs[k];
 	}
 }
+
+/* Appends line's phases projected on an axis (share e, from p0), shifted by t0 [s]. */
+static void append_projected(struct traj_1d *out, const struct traj_1d *line, float e, float p0,
+                             float t0)
+{
+	for (int k = 0; k < line->n && out->n < TRAJ_PHASES; k++, out->n++) {
+		out->t_end_s[out->n] = t0 + line->t_end_s[k];
+		out->acc[out->n] = e * line->acc[k];
+		out->ps[out->n] = p0 + e * line->ps[k];
+		out->vs[out->n] = e * line->vs[k];
+	}
+}
+
+float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
+                         const float goal[2], float cap, struct traj_1d out[2])
+{
+	const float sp = sqrtf(v0[0] * v0[0] + v0[1] * v0[1]);
+	struct line_rows l;
+	struct steps st;
+	struct traj_1d a = {.v0 = sp}, b = {.n = 0};
+	float t = 0.0f, p = 0.0f, v = sp, t2 = 0.0f;
+
+	if (!(sp > 0.0f))
+		return INFINITY;
+	const float ev[2] = {v0[0] / sp, v0[1] / sp};
+	line_rows(r, n, ev[0], ev[1], &l);
+	if (!(sp <= minf(l.top, cap)) || !line_steps(&l, sp, &st))
+		return INFINITY;
+	brake_phases(&a, &st, 1.0f, &t, &p, &v);
+	const float stop[2] = {p0[0] + ev[0] * p, p0[1] + ev[1] * p};
+	const float dx = goal[0] - stop[0], dy = goal[1] - stop[1];
+	const float D = sqrtf(dx * dx + dy * dy);
+	const float eg[2] = {D > 0.0f ? dx / D : 0.0f, D > 0.0f ? dy / D : 0.0f};
+	if (D >= TRAJ_IDLE_POS)
+		t2 = traj_line_plan(r, n, eg[0], eg[1], 0.0f, 0.0f, D, cap, &b);
+	if (!(t2 < INFINITY) || a.n + b.n > TRAJ_PHASES)
+		return INFINITY;
+	for (int i = 0; i < 2; i++) {
+		out[i] = (struct traj_1d){.p0 = p0[i],
+		                          .v0 = v0[i],
+		                          .p1 = stop[i] + eg[i] * b.p1,
+		                          .v1 = eg[i] * b.v1,
+		                          .goal = goal[i]};
+		append_projected(&out[i], &a, ev[i], p0[i], 0.0f);
+		append_projected(&out[i], &b, eg[i], stop[i], t);
+	}
+	return t + t2;
+}

@@ -27,13 +27,15 @@
 #define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
 #define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
 #define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
-#define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
-#define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
-#define TRAJ_SHARE_ITERS 8   /* bisection steps of the heading's share on a straight move */
-#define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
-#define TRAJ_G_M_S2 9.80665f /* standard gravity */
-#define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
-#define TRAJ_IDLE_VEL 1e-6f  /* ... slower than this [m/s or rad/s] does not move */
+#define TRAJ_SPEED_STEPS 8        /* top speeds tried per share (fractions of the largest) */
+#define TRAJ_SHARES 3             /* heading shares tried when both position and heading move */
+#define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share on a straight move */
+#define TRAJ_HEADINGS_MAX 9       /* headings at which the envelope is checked over a turn */
+#define TRAJ_G_M_S2 9.80665f      /* standard gravity */
+#define TRAJ_HANDOVER_TOL_S 1e-4f /* a clock this close to a hand-over has reached it (a */
+                                  /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
+#define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
+#define TRAJ_IDLE_VEL 1e-6f       /* ... slower than this [m/s or rad/s] does not move */
 
 /* Flags of a plan (traj.flags). */
 #define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
