@@ -4,11 +4,14 @@
  * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
  * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
  *
- * - Translation: two 1D bang-bang profiles (x, y) with the acceleration and speed of the move
- *   shared between them by an angle alpha: from rest that of the straight line, moving found
- *   by bisection so both arrive together. Stopping from rest uses the friction's help.
- * - Heading: its own 1D bang-bang the short way round (wrapped difference), not synchronised:
- *   it arrives when its own limits let it.
+ * - Straight moves (from rest, or moving along the line to the goal): one profile along the
+ *   line in TRAJ_ACC_STEPS speed steps, each with the acceleration the wheels allow at the
+ *   step's worst speed; stopping with the friction's and back-EMF's help (traj_line.c).
+ * - Otherwise: two 1D bang-bang profiles (x, y) with the acceleration and speed shared by an
+ *   angle alpha found by bisection so both arrive together, or stop first along the velocity
+ *   and then a straight move, whichever arrives sooner.
+ * - Heading: its own profile the short way round (wrapped difference), in steps; its share of
+ *   each wheel's budget by bisection on a straight move so both arrive together.
  * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
  *   per-wheel model (docs/model.md), for every acceleration and velocity the plan may take at
  *   every heading the move spans, Coulomb friction with its worst sign. The plan is feasible
