@@ -15,6 +15,7 @@
 #include <stdio.h>
 
 #include "scenarios.h"
+#include "traj_cost.h"
 
 #define SYST ((volatile uint32_t *)0xE000E010) /* CSR, RVR, CVR, CALIB */
 #define SYSCLK_HZ 25000000u                    /* MPS2 AN386 system clock */
@@ -188,6 +189,8 @@ int main(void)
 	printf("cortex-m4: SysTick 1 kHz, calibration %lu counts for %lu instructions\n",
 	       (unsigned long)cal, (unsigned long)KNOWN_LOOP_INSTR);
 	const int failed = scenarios_run(print_line, wait_tick);
+
+	traj_cost(instructions, meter.unit, print_line);
 
 	printf("cortex-m4: %lu SysTick interrupts; %lu ticks found their interrupt already fired "
 	       "(each scenario's set-up runs between two ticks)\n",

@@ -4,6 +4,7 @@
  * in. Single precision after traj_init; every loop has a fixed bound.
  */
 #include "omni4/traj.h"
+#include "traj_int.h"
 
 #include <errno.h>
 #include <math.h>
@@ -24,16 +25,6 @@ static const float g_xy[4][2] = {{0.0f, 1.0f}, {-1.0f, 0.0f}, {0.0f, -1.0f}, {1.
 /* Top speeds tried, as fractions of the largest the envelope allows (acceleration 0 there). */
 static const float speed_frac[TRAJ_SPEED_STEPS] = {0.3f,  0.5f,  0.65f, 0.75f,
                                                    0.82f, 0.88f, 0.93f, 0.97f};
-
-/*
- * One linear constraint on a symmetric box of accelerations (half widths A ca, A sa) and
- * velocities (half widths wx, wy): ka . (A ca, A sa) + kv . (wx, wy) <= c, every k >= 0 (the
- * largest value of |L z| over a box centred at 0 is the sum of |L_i| times the half widths).
- */
-struct row {
-	float ka[2], kv[2], c;
-	float c0; /* room for the acceleration alone (no velocity, no Coulomb): stopping */
-};
 
 static bool finite3(const float v[3])
 {
@@ -60,6 +51,26 @@ static bool bb_idle(float p0, float v0, float goal)
 	return fabsf(goal - p0) < TRAJ_IDLE_POS && fabsf(v0) < TRAJ_IDLE_VEL;
 }
 
+float traj_1d_duration(const struct traj_1d *o)
+{
+	return o->n > 0 ? o->t_end_s[o->n - 1] : 0.0f;
+}
+
+void traj_ph_add(struct traj_1d *o, float *t, float *p, float *v, float a, float dt)
+{
+	if (o->n >= TRAJ_PHASES)
+		return; /* not reached: every plan has at most TRAJ_PHASES phases */
+	const int k = o->n++;
+
+	o->ps[k] = *p;
+	o->vs[k] = *v;
+	o->acc[k] = a;
+	*t += dt;
+	o->t_end_s[k] = *t;
+	*p += *v * dt + 0.5f * a * dt * dt;
+	*v += a * dt;
+}
+
 /* Mirrored so that the move is positive: s is the side the goal lies on from where braking
  * now would stop. */
 float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up, float a_dn,
@@ -83,70 +94,75 @@ float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up
 	} else { /* speed up (through 0 if moving away) to the peak or to vmax, then stop:
 	          * (vp^2 - u^2) / (2 a_up) + vp^2 / (2 a_dn) = dist */
 		const float vp2 = (2.0f * dist * a_up * a_dn + u * u * a_dn) / (a_up + a_dn);
-		vc = fminf(sqrtf(fmaxf(vp2, 0.0f)), vmax);
+		vc = minf(sqrtf(maxf(vp2, 0.0f)), vmax);
 		a0 = a_up;
-		t0 = fmaxf((vc - u) / a_up, 0.0f);
+		t0 = maxf((vc - u) / a_up, 0.0f);
 	}
 	const float d0 = (vc * vc - u * u) / (2.0f * a0);
-	const float dc = fmaxf(dist - d0 - vc * vc / (2.0f * a_dn), 0.0f);
+	const float dc = maxf(dist - d0 - vc * vc / (2.0f * a_dn), 0.0f);
 	const float tc = vc > 0.0f ? dc / vc : 0.0f;
-	o->p0 = p0;
-	o->v0 = v0;
-	o->acc[0] = s * a0;
-	o->p1 = p0 + v0 * t0 + 0.5f * o->acc[0] * t0 * t0;
+	float t = 0.0f, p = p0, v = v0;
+
+	*o = (struct traj_1d){.p0 = p0, .v0 = v0, .goal = goal};
+	traj_ph_add(o, &t, &p, &v, s * a0, t0);
+	o->p1 = p;
 	o->v1 = s * vc;
-	o->acc[1] = 0.0f;
-	o->acc[2] = -s * a_dn;
-	o->goal = goal;
-	o->t_end_s[0] = t0;
-	o->t_end_s[1] = t0 + tc;
-	o->t_end_s[2] = t0 + tc + vc / a_dn;
-	return o->t_end_s[2];
+	v = o->v1;
+	traj_ph_add(o, &t, &p, &v, 0.0f, tc);
+	traj_ph_add(o, &t, &p, &v, -s * a_dn, vc / a_dn);
+	return t;
 }
 
 void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a)
 {
-	if (t <= 0.0f) {
-		*p = o->p0;
-		*v = o->v0;
-		*a = o->t_end_s[2] > 0.0f ? o->acc[0] : 0.0f;
-	} else if (t < o->t_end_s[0]) {
-		*p = o->p0 + o->v0 * t + 0.5f * o->acc[0] * t * t;
-		*v = o->v0 + o->acc[0] * t;
-		*a = o->acc[0];
-	} else if (t < o->t_end_s[1]) {
-		*p = o->p1 + o->v1 * (t - o->t_end_s[0]);
-		*v = o->v1;
-		*a = 0.0f;
-	} else if (t < o->t_end_s[2]) { /* anchored at the goal: arrives exactly */
-		const float tau = t - o->t_end_s[2];
-		*p = o->goal + 0.5f * o->acc[2] * tau * tau;
-		*v = o->acc[2] * tau;
-		*a = o->acc[2];
-	} else {
+	const int n = o->n;
+
+	if (t <= 0.0f || n == 0) {
+		*p = n ? o->p0 : o->goal;
+		*v = n ? o->v0 : 0.0f;
+		*a = n ? o->acc[0] : 0.0f;
+		return;
+	}
+	if (!(t < o->t_end_s[n - 1])) {
 		*p = o->goal;
 		*v = 0.0f;
 		*a = 0.0f;
+		return;
 	}
+	int k = 0;
+	while (k < n - 1 && !(t < o->t_end_s[k]))
+		k++;
+	if (k == n - 1) { /* anchored at the goal: arrives exactly */
+		const float tau = t - o->t_end_s[k];
+		*p = o->goal + 0.5f * o->acc[k] * tau * tau;
+		*v = o->acc[k] * tau;
+		*a = o->acc[k];
+		return;
+	}
+	const float tau = t - (k ? o->t_end_s[k - 1] : 0.0f);
+	*p = o->ps[k] + o->vs[k] * tau + 0.5f * o->acc[k] * tau * tau;
+	*v = o->vs[k] + o->acc[k] * tau;
+	*a = o->acc[k];
 }
 
-/* Smallest and largest position the profile passes through. */
+/* Smallest and largest position the profile passes through (phase ends and turning points). */
 static void bb_range(const struct traj_1d *o, float *lo, float *hi)
 {
-	const float t0 = o->t_end_s[0];
-	float pts[4] = {o->p0, o->p1, o->p1 + o->v1 * (o->t_end_s[1] - t0), o->goal};
-	int n = 4;
-
-	if (o->acc[0] != 0.0f) {
-		const float tz = -o->v0 / o->acc[0]; /* turning point inside phase 0 */
-		if (tz > 0.0f && tz < t0)
-			pts[n - 1] = o->p0 - o->v0 * o->v0 / (2.0f * o->acc[0]);
-	}
-	*lo = fminf(o->goal, pts[0]);
-	*hi = fmaxf(o->goal, pts[0]);
-	for (int k = 1; k < n; k++) {
-		*lo = fminf(*lo, pts[k]);
-		*hi = fmaxf(*hi, pts[k]);
+	*lo = minf(o->goal, o->p0);
+	*hi = maxf(o->goal, o->p0);
+	for (int k = 0; k < o->n; k++) {
+		float q = o->ps[k];
+		*lo = minf(*lo, q);
+		*hi = maxf(*hi, q);
+		if (o->acc[k] != 0.0f) {
+			const float tz = -o->vs[k] / o->acc[k];
+			const float len = o->t_end_s[k] - (k ? o->t_end_s[k - 1] : 0.0f);
+			if (tz > 0.0f && tz < len) {
+				q = o->ps[k] - o->vs[k] * o->vs[k] / (2.0f * o->acc[k]);
+				*lo = minf(*lo, q);
+				*hi = maxf(*hi, q);
+			}
+		}
 	}
 }
 
@@ -161,7 +177,7 @@ static float rows_acc(const struct row *r, int n, float ca, float sa, float wx, 
 		const float room = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy;
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, room / per);
+			best = minf(best, room / per);
 		else if (room < 0.0f)
 			return -1.0f;
 	}
@@ -180,7 +196,7 @@ static float rows_stop(const struct row *r, int n, float ca, float sa)
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, r[k].c0 / per);
+			best = minf(best, r[k].c0 / per);
 	}
 	return best;
 }
@@ -193,11 +209,11 @@ static float rows_top(const struct row *r, int n, float ca, float sa)
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].kv[0] * ca + r[k].kv[1] * sa;
 		if (per > 0.0f)
-			best = fminf(best, r[k].c / per);
+			best = minf(best, r[k].c / per);
 		else if (r[k].c < 0.0f)
 			return 0.0f;
 	}
-	return fmaxf(best, 0.0f);
+	return maxf(best, 0.0f);
 }
 
 /*
@@ -227,10 +243,14 @@ static int rows_translation(const struct traj_coef *c, float phi, float share, f
 		for (int q = 0; q < 3; q++, n++) {
 			const float ax = ka[q] ? ka[q][0] * kscale[q] : 0.0f;
 			const float ay = ka[q] ? ka[q][1] * kscale[q] : 0.0f;
-			r[n].ka[0] = fabsf(cp * ax - sp * ay);
-			r[n].ka[1] = fabsf(sp * ax + cp * ay);
-			r[n].kv[0] = fabsf(cp * kv[q][0] - sp * kv[q][1]);
-			r[n].kv[1] = fabsf(sp * kv[q][0] + cp * kv[q][1]);
+			r[n].sa[0] = cp * ax - sp * ay;
+			r[n].sa[1] = sp * ax + cp * ay;
+			r[n].sv[0] = cp * kv[q][0] - sp * kv[q][1];
+			r[n].sv[1] = sp * kv[q][0] + cp * kv[q][1];
+			for (int i = 0; i < 2; i++) {
+				r[n].ka[i] = fabsf(r[n].sa[i]);
+				r[n].kv[i] = fabsf(r[n].sv[i]);
+			}
 			r[n].c = room[q] * cos_h;
 			r[n].c0 = room0[q] * cos_h;
 		}
@@ -245,17 +265,24 @@ static int rows_rotation(const struct traj_coef *c, float share, struct row *r)
 
 	for (int j = 0; j < 4; j++) {
 		const float ib = 1.0f / c->b[j];
-		r[3 * j] = (struct row){{c->J * q, 0.0f},
-		                        {c->B[2] * q, 0.0f},
-		                        share * c->f_max_n - c->C[2] * q,
-		                        share * c->f_max_n};
+		r[3 * j] = (struct row){
+		    {c->J * q, 0.0f},   {c->B[2] * q, 0.0f}, share * c->f_max_n - c->C[2] * q,
+		    share * c->f_max_n, {0.0f, 0.0f},        {0.0f, 0.0f}};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
 		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
 		                            share * c->u_max_v - c->C[2] * q * ib,
-		                            share * c->u_max_v};
-		r[3 * j + 2] = (struct row){
-		    {0.0f, 0.0f}, {c->d, 0.0f}, share * c->rim_max[j], share * c->rim_max[j]};
+		                            share * c->u_max_v,
+		                            {0.0f, 0.0f},
+		                            {0.0f, 0.0f}};
+		r[3 * j + 2] =
+		    (struct row){{0.0f, 0.0f},          {c->d, 0.0f}, share * c->rim_max[j],
+		                 share * c->rim_max[j], {0.0f, 0.0f}, {0.0f, 0.0f}};
 	}
+	for (int k = 0; k < 12; k++) /* one axis, every coefficient >= 0: signed = box */
+		for (int i = 0; i < 2; i++) {
+			r[k].sa[i] = r[k].ka[i];
+			r[k].sv[i] = r[k].kv[i];
+		}
 	return 12;
 }
 
@@ -275,8 +302,8 @@ static float axes_time(const struct axes *ax, float ca, float sa, float acc, flo
 	float t = 0.0f;
 
 	for (int i = 0; i < ax->n; i++)
-		t = fmaxf(t, traj_1d_plan(ax->out[i], ax->p0[i], ax->v0[i], ax->goal[i],
-		                          acc * share[i], dec * share[i], v * share[i]));
+		t = maxf(t, traj_1d_plan(ax->out[i], ax->p0[i], ax->v0[i], ax->goal[i],
+		                         acc * share[i], dec * share[i], v * share[i]));
 	return t;
 }
 
@@ -288,17 +315,17 @@ static float axes_time(const struct axes *ax, float ca, float sa, float acc, flo
 static float choose_limits(const struct row *r, int n, const struct axes *ax, float ca, float sa,
                            uint32_t *flags)
 {
-	const float vtop = fminf(rows_top(r, n, ca, sa), ax->cap);
+	const float vtop = minf(rows_top(r, n, ca, sa), ax->cap);
 	float best_t = INFINITY, best_a = 0.0f, best_d = 0.0f, best_v = 0.0f;
 
 	for (int k = 0; k < TRAJ_SPEED_STEPS; k++) {
 		const float v = vtop * speed_frac[k];
-		const float wx = fmaxf(v * ca, fabsf(ax->v0[0]));
-		const float wy = ax->n > 1 ? fmaxf(v * sa, fabsf(ax->v0[1])) : 0.0f;
+		const float wx = maxf(v * ca, fabsf(ax->v0[0]));
+		const float wy = ax->n > 1 ? maxf(v * sa, fabsf(ax->v0[1])) : 0.0f;
 		const float acc = rows_acc(r, n, ca, sa, wx, wy);
 		if (!(acc > 0.0f) || !(v > 0.0f))
 			continue;
-		const float dec = ax->stop ? fmaxf(rows_stop(r, n, ca, sa), acc) : acc;
+		const float dec = ax->stop ? maxf(rows_stop(r, n, ca, sa), acc) : acc;
 		const float t = axes_time(ax, ca, sa, acc, dec, v);
 		if (t < best_t) {
 			best_t = t;
@@ -309,9 +336,9 @@ static float choose_limits(const struct row *r, int n, const struct axes *ax, fl
 	}
 	if (!(best_t < INFINITY)) { /* the start velocity leaves no room */
 		*flags |= TRAJ_F_BEYOND_ENVELOPE;
-		best_a = fmaxf(0.1f * rows_acc(r, n, ca, sa, 0.0f, 0.0f), ACC_FLOOR);
+		best_a = maxf(0.1f * rows_acc(r, n, ca, sa, 0.0f, 0.0f), ACC_FLOOR);
 		best_d = best_a;
-		best_v = fmaxf(0.5f * vtop, ACC_FLOOR);
+		best_v = maxf(0.5f * vtop, ACC_FLOOR);
 	}
 	return axes_time(ax, ca, sa, best_a, best_d, best_v);
 }
@@ -343,7 +370,7 @@ static float plan_translation(struct traj *tr, const struct row *r, int n, struc
 		/* first the two ends (an axis that does not move gets nothing), then bisection */
 		const float alpha = it == 0 ? 0.0f : it == 1 ? 0.5f * PI_F : 0.5f * (lo + hi);
 		const float ca = it == 1 ? 0.0f : cosf(alpha);
-		const float sa = it == 0 ? 0.0f : sqrtf(fmaxf(1.0f - ca * ca, 0.0f));
+		const float sa = it == 0 ? 0.0f : sqrtf(maxf(1.0f - ca * ca, 0.0f));
 		uint32_t flags = 0;
 		const float t = choose_limits(r, n, ax, ca, sa, &flags);
 		if (t < best_t) {
@@ -354,7 +381,7 @@ static float plan_translation(struct traj *tr, const struct row *r, int n, struc
 			best[1] = cur[1];
 		}
 		if (it >= 2) {
-			const float tx = cur[0].t_end_s[2], ty = cur[1].t_end_s[2];
+			const float tx = traj_1d_duration(&cur[0]), ty = traj_1d_duration(&cur[1]);
 			if (tx > ty)
 				hi = alpha; /* x needs a larger share */
 			else
@@ -456,13 +483,15 @@ static float plan_heading(struct traj *tr, const struct traj_ref *from, float go
 	                  .goal = {goal},
 	                  .cap = tr->c.omega_cap_rad_s,
 	                  .out = {&tr->axis[2]}};
-	return choose_limits(r, n, &ax, 1.0f, 0.0f, &tr->flags);
+	const float t = traj_line_plan(r, n, 1.0f, 0.0f, from->pose[2], from->vel[2], goal,
+	                               tr->c.omega_cap_rad_s, &tr->axis[2]);
+	return t < INFINITY ? t : choose_limits(r, n, &ax, 1.0f, 0.0f, &tr->flags);
 }
 
 /* Headings sampled over [lo, hi] (a whole turn at most) and cos of half their spacing. */
 static int heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h)
 {
-	const float span = fminf(hi - lo, 2.0f * PI_F);
+	const float span = minf(hi - lo, 2.0f * PI_F);
 	int n = 1;
 
 	*cos_h = 1.0f;
@@ -476,6 +505,20 @@ static int heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], flo
 		*cos_h = cosf(0.5f * step);
 	}
 	return n;
+}
+
+/* The translation is a straight line: the start velocity along the line to the goal (either
+ * way) or none. e: the unit direction, dist: the distance. */
+static bool on_line(const struct traj_ref *from, const float goal[3], float e[2], float *dist)
+{
+	const float dx = goal[0] - from->pose[0], dy = goal[1] - from->pose[1];
+
+	*dist = sqrtf(dx * dx + dy * dy);
+	if (!(*dist >= TRAJ_IDLE_POS))
+		return false;
+	e[0] = dx / *dist;
+	e[1] = dy / *dist;
+	return fabsf(from->vel[0] * e[1] - from->vel[1] * e[0]) < TRAJ_IDLE_VEL;
 }
 
 /* One plan with the heading's share of every wheel's budget; returns its duration. */
@@ -504,6 +547,23 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	int n = 0;
 	for (int k = 0; k < nh; k++)
 		n += rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, r + n);
+	float e[2], dist;
+	if (on_line(from, goal, e, &dist)) {
+		struct traj_1d line;
+		const float v0 = from->vel[0] * e[0] + from->vel[1] * e[1];
+		t_xy = traj_line_plan(r, n, e[0], e[1], 0.0f, v0, dist, tr->c.speed_cap_m_s, &line);
+		if (t_xy < INFINITY) {
+			for (int i = 0; i < 2; i++)
+				traj_line_project(&line, e[i], from->pose[i], goal[i],
+				                  &tr->axis[i]);
+			tr->alpha_rad = atan2f(fabsf(e[1]), fabsf(e[0]));
+			return maxf(t_rot, t_xy);
+		}
+	}
+	struct traj_1d bg[2];
+	const float tb =
+	    traj_line_brake_go(r, n, from->pose, from->vel, goal, tr->c.speed_cap_m_s, bg);
+	const uint32_t flags = tr->flags;
 	struct axes ax = {.n = 2,
 	                  .stop = fabsf(from->vel[0]) < TRAJ_IDLE_VEL &&
 	                          fabsf(from->vel[1]) < TRAJ_IDLE_VEL,
@@ -512,7 +572,49 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	                  .goal = {goal[0], goal[1]},
 	                  .cap = tr->c.speed_cap_m_s};
 	t_xy = plan_translation(tr, r, n, &ax);
-	return fmaxf(t_rot, t_xy);
+	if (tb < t_xy) { /* stopping first is sooner */
+		tr->axis[0] = bg[0];
+		tr->axis[1] = bg[1];
+		tr->flags = flags;
+		t_xy = tb;
+	}
+	return maxf(t_rot, t_xy);
+}
+
+/* Both move: the heading's share among three, the earliest arrival kept. */
+static void share_three(struct traj *tr, const struct traj_ref *from, const float goal[3], float s)
+{
+	const float shares[TRAJ_SHARES] = {0.5f * s, s, 0.5f * (1.0f + s)};
+	struct traj cand = *tr;
+
+	tr->duration_s = INFINITY;
+	for (int k = 0; k < TRAJ_SHARES; k++) {
+		cand.duration_s = plan_share(&cand, from, goal, shares[k], false, false);
+		if (cand.duration_s < tr->duration_s)
+			*tr = cand;
+	}
+}
+
+/* Both move on a straight line: the heading's share by bisection until the heading and the
+ * translation arrive together (the heading's time falls with its share, the translation's
+ * rises), the earliest arrival kept. */
+static void share_bisect(struct traj *tr, const struct traj_ref *from, const float goal[3])
+{
+	struct traj cand = *tr;
+	float lo = 0.0f, hi = 1.0f;
+
+	tr->duration_s = INFINITY;
+	for (int it = 0; it < TRAJ_SHARE_ITERS; it++) {
+		const float share = 0.5f * (lo + hi);
+		cand.duration_s = plan_share(&cand, from, goal, share, false, false);
+		if (cand.duration_s < tr->duration_s)
+			*tr = cand;
+		const float t_rot = traj_1d_duration(&cand.axis[2]);
+		if (t_rot > maxf(traj_1d_duration(&cand.axis[0]), traj_1d_duration(&cand.axis[1])))
+			lo = share;
+		else
+			hi = share;
+	}
 }
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
@@ -528,15 +630,12 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 	if (rot_idle || tr_idle) {
 		tr->duration_s =
 		    plan_share(tr, from, goal, tr_idle ? 1.0f : 0.0f, rot_idle, tr_idle);
-	} else { /* both move: the heading's share among three, the earliest arrival kept */
-		const float shares[TRAJ_SHARES] = {0.5f * s, s, 0.5f * (1.0f + s)};
-		struct traj cand = *tr;
-		tr->duration_s = INFINITY;
-		for (int k = 0; k < TRAJ_SHARES; k++) {
-			cand.duration_s = plan_share(&cand, from, goal, shares[k], false, false);
-			if (cand.duration_s < tr->duration_s)
-				*tr = cand;
-		}
+	} else {
+		float e[2], dist;
+		if (on_line(from, goal, e, &dist))
+			share_bisect(tr, from, goal);
+		else
+			share_three(tr, from, goal, s);
 	}
 	tr->t_s = 0.0f;
 	return 0;
@@ -597,19 +696,49 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 		const float q0 = 0.5f * (gx * c->C[0] * sg[0] + gy * c->C[1] * sg[1]);
 		const float q1 = 0.5f * (gx * c->B[0] * dir[0] + gy * c->B[1] * dir[1]);
 		const float s = speed_m_s;
-		acc = fminf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
-		acc = fminf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
+		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
+		acc = minf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */
 		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
 		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);
 		const float k_f = p >= 0.0f ? q1 : -q1, r_f = c->f_max_n - (p >= 0.0f ? q0 : -q0);
 		if (ge == 0.0f)
 			continue;
-		top = fminf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);
-		top = fminf(top, k_f > 0.0f ? r_f / k_f : r_f < 0.0f ? 0.0f : INFINITY);
-		top = fminf(top, c->rim_max[j] / fabsf(ge));
+		top = minf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, k_f > 0.0f ? r_f / k_f : r_f < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, c->rim_max[j] / fabsf(ge));
 	}
 	*acc_m_s2 = acc;
-	*speed_max_m_s = fmaxf(top, 0.0f);
+	*speed_max_m_s = maxf(top, 0.0f);
 	return 0;
+}
+
+int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], struct traj *next)
+{
+	struct traj_ref at;
+	struct traj cand = {.c = tr->c};
+	const float start_s = tr->t_s + lead_s;
+
+	if (!(lead_s >= 0.0f) || !isfinite(lead_s) || !finite3(goal))
+		return -EINVAL;
+	traj_eval(tr, start_s, &at);
+	const int rc = traj_plan(&cand, &at, goal);
+	if (rc)
+		return rc;
+	cand.handover_s = start_s;
+	*next = cand;
+	return 0;
+}
+
+int traj_take_over(struct traj *tr, const struct traj *next)
+{
+	const float at_s = next->handover_s;
+
+	if (tr->t_s < at_s - TRAJ_HANDOVER_TOL_S && tr->t_s < tr->duration_s)
+		return 0;
+	const float past = tr->t_s >= at_s ? tr->t_s - at_s : 0.0f;
+	*tr = *next;
+	tr->t_s = past;
+	tr->handover_s = 0.0f;
+	return 1;
 }

@@ -376,9 +376,10 @@ static void test_plans_stay_within_the_envelope_with_odd_drives(void **state)
 	check_moves(&l);
 }
 
-/* A move along x from rest at heading 0 is planned with the envelope's acceleration at the
- * top speed it chose (the box of docs/trajectory.md is then the envelope along v). */
-static void test_straight_move_uses_the_envelope_at_its_top_speed(void **state)
+/* A move along x from rest at heading 0 speeds up in steps, each with the envelope's
+ * acceleration at the step's end speed (the rows along a line are then the envelope along v),
+ * and cruises below the top speed. */
+static void test_straight_move_uses_the_envelope_at_each_step_top_speed(void **state)
 {
 	(void)state;
 	const struct traj_limits ls[2] = {limits(), limits_odd()};
@@ -388,14 +389,20 @@ static void test_straight_move_uses_the_envelope_at_its_top_speed(void **state)
 		const struct traj_ref from = {.pose = {0, 0, 0}};
 		const float goal[3] = {3.0f, 0, 0}, dir[2] = {1, 0};
 		float acc, top;
+		int steps = 0;
 		assert_int_equal(traj_init(&tr, &ls[i]), 0);
 		assert_int_equal(traj_plan(&tr, &from, goal), 0);
-		const float v_plan = tr.axis[0].v1, a_plan = tr.axis[0].acc[0];
-		assert_int_equal(traj_envelope(&tr, dir, v_plan, &acc, &top), 0);
-		near(a_plan, acc, 1e-4 * acc);
-		assert_true(v_plan < top && v_plan > 0.5f * top);
-		print_message("along x: a %.3f m/s^2 at v %.3f m/s (top %.3f m/s)\n",
-		              (double)a_plan, (double)v_plan, (double)top);
+		const struct traj_1d *o = &tr.axis[0];
+		for (int k = 0; k + 1 < o->n && o->acc[k] > 0.0f; k++, steps++) {
+			assert_int_equal(traj_envelope(&tr, dir, o->vs[k + 1], &acc, &top), 0);
+			near(o->acc[k], acc, 1e-4 * acc);
+		}
+		assert_int_equal(steps, TRAJ_ACC_STEPS);
+		assert_int_equal(traj_envelope(&tr, dir, o->v1, &acc, &top), 0);
+		assert_true(o->v1 < top && o->v1 > 0.5f * top);
+		print_message(
+		    "along x: %d steps, a %.3f .. %.3f m/s^2, top %.3f m/s (largest %.3f)\n", steps,
+		    (double)o->acc[0], (double)o->acc[steps - 1], (double)o->v1, (double)top);
 	}
 }
 
@@ -493,6 +500,57 @@ static void test_replanning_while_moving_keeps_the_reference_continuous(void **s
 	assert_true(r.vel[0] == 0.0f && r.vel[1] == 0.0f && r.vel[2] == 0.0f);
 }
 
+/* A plan made ahead (outside the tick) and handed over when the active plan's clock gets
+ * there: the new plan starts at the old reference at that time exactly, and the reference
+ * stepped through the hand-over moves by at most v dt and a dt per tick; also from rest at the
+ * end of a plan, and a bad lead or goal is refused. */
+static void test_plan_ahead_hands_over_without_a_jump(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	/* four wheels at traction: along x or y, and turning (torque 4 f_max d) */
+	const double a_bound[2] = {4.0 * f_max(&l) / l.p.M, 4.0 * f_max(&l) * l.p.d / l.p.J};
+	const double dt = 1e-3;
+	const float start[3] = {0, 0, 0}, goal[3] = {1.5f, 0.5f, 1.0f}, goal2[3] = {-0.5f, 1, 0};
+	struct traj tr, next;
+	struct traj_ref prev, r, at;
+	int handed = 0;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_reset(&tr, start), 0);
+	assert_int_equal(traj_replan(&tr, goal), 0);
+	for (int k = 0; k < 300; k++)
+		traj_step(&tr, (float)dt, &prev);
+	assert_int_equal(traj_plan_ahead(&tr, 0.02f, goal2, &next), 0);
+	traj_eval(&tr, tr.t_s + 0.02f, &at);
+	traj_eval(&next, 0.0f, &r);
+	for (int i = 0; i < 3; i++)
+		assert_true(r.pose[i] == at.pose[i] && r.vel[i] == at.vel[i]);
+	for (int k = 0; k < 4000; k++) {
+		if (!handed)
+			handed = traj_take_over(&tr, &next);
+		if (k == 15)
+			assert_int_equal(handed, 0); /* not before its time */
+		traj_step(&tr, (float)dt, &r);
+		for (int i = 0; i < 3; i++) {
+			near(r.vel[i], prev.vel[i], a_bound[i > 1] * dt + 1e-5);
+			near(r.pose[i], prev.pose[i],
+			     fmax(fabs(r.vel[i]), fabs(prev.vel[i])) * dt + 1e-5);
+		}
+		prev = r;
+	}
+	assert_int_equal(handed, 1);
+	near(r.pose[0], goal2[0], 1e-6);
+	/* at rest at the end: the next plan takes over at once, from there */
+	assert_int_equal(traj_plan_ahead(&tr, 0.5f, goal, &next), 0);
+	assert_int_equal(traj_take_over(&tr, &next), 1);
+	traj_eval(&tr, tr.t_s, &r);
+	near(r.pose[0], goal2[0], 1e-6);
+	assert_int_equal(traj_plan_ahead(&tr, -0.1f, goal, &next), -EINVAL);
+	const float bad[3] = {NAN, 0, 0};
+	assert_int_equal(traj_plan_ahead(&tr, 0.1f, bad, &next), -EINVAL);
+}
+
 /* NaN goal or start, and each limit out of its range: -EINVAL, the plan unchanged. */
 static void test_bad_input_is_refused(void **state)
 {
@@ -558,10 +616,11 @@ int main(void)
 	    cmocka_unit_test(test_envelope_is_below_brute_force_with_odd_drives),
 	    cmocka_unit_test(test_plans_stay_within_the_envelope),
 	    cmocka_unit_test(test_plans_stay_within_the_envelope_with_odd_drives),
-	    cmocka_unit_test(test_straight_move_uses_the_envelope_at_its_top_speed),
+	    cmocka_unit_test(test_straight_move_uses_the_envelope_at_each_step_top_speed),
 	    cmocka_unit_test(test_plans_arrive_at_rest),
 	    cmocka_unit_test(test_heading_turns_the_short_way),
 	    cmocka_unit_test(test_replanning_while_moving_keeps_the_reference_continuous),
+	    cmocka_unit_test(test_plan_ahead_hands_over_without_a_jump),
 	    cmocka_unit_test(test_bad_input_is_refused),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -4,11 +4,14 @@
  * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
  * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
  *
- * - Translation: two 1D bang-bang profiles (x, y) with the acceleration and speed of the move
- *   shared between them by an angle alpha: from rest that of the straight line, moving found
- *   by bisection so both arrive together. Stopping from rest uses the friction's help.
- * - Heading: its own 1D bang-bang the short way round (wrapped difference), not synchronised:
- *   it arrives when its own limits let it.
+ * - Straight moves (from rest, or moving along the line to the goal): one profile along the
+ *   line in TRAJ_ACC_STEPS speed steps, each with the acceleration the wheels allow at the
+ *   step's worst speed; stopping with the friction's and back-EMF's help (traj_line.c).
+ * - Otherwise: two 1D bang-bang profiles (x, y) with the acceleration and speed shared by an
+ *   angle alpha found by bisection so both arrive together, or stop first along the velocity
+ *   and then a straight move, whichever arrives sooner.
+ * - Heading: its own profile the short way round (wrapped difference), in steps; its share of
+ *   each wheel's budget by bisection on a straight move so both arrive together.
  * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
  *   per-wheel model (docs/model.md), for every acceleration and velocity the plan may take at
  *   every heading the move spans, Coulomb friction with its worst sign. The plan is feasible
@@ -24,14 +27,18 @@
 
 #include "omni4/params.h"
 
-#define TRAJ_PHASES 3        /* a 1D bang-bang: speed change, cruise, stop */
-#define TRAJ_ALPHA_ITERS 16  /* bisection steps of the x/y share */
-#define TRAJ_SPEED_STEPS 8   /* top speeds tried per share (fractions of the largest) */
-#define TRAJ_SHARES 3        /* heading shares tried when both position and heading move */
-#define TRAJ_HEADINGS_MAX 9  /* headings at which the envelope is checked over a turn */
-#define TRAJ_G_M_S2 9.80665f /* standard gravity */
-#define TRAJ_IDLE_POS 1e-6f  /* an axis closer than this [m or rad] and ... */
-#define TRAJ_IDLE_VEL 1e-6f  /* ... slower than this [m/s or rad/s] does not move */
+#define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
+#define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
+#define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
+#define TRAJ_SPEED_STEPS 8        /* top speeds tried per share (fractions of the largest) */
+#define TRAJ_SHARES 3             /* heading shares tried when both position and heading move */
+#define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share on a straight move */
+#define TRAJ_HEADINGS_MAX 9       /* headings at which the envelope is checked over a turn */
+#define TRAJ_G_M_S2 9.80665f      /* standard gravity */
+#define TRAJ_HANDOVER_TOL_S 1e-4f /* a clock this close to a hand-over has reached it (a */
+                                  /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
+#define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
+#define TRAJ_IDLE_VEL 1e-6f       /* ... slower than this [m/s or rad/s] does not move */
 
 /* Flags of a plan (traj.flags). */
 #define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
@@ -56,13 +63,17 @@ struct traj_limits {
 	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
 };
 
-/* One axis: phase k runs until t_end_s[k]; the last one is anchored at its end (the goal). */
+/* One axis: phase k (0 <= k < n) starts at ps[k], vs[k] and runs at acc[k] until t_end_s[k];
+ * the last one is anchored at its end (the goal, at rest). */
 struct traj_1d {
 	float t_end_s[TRAJ_PHASES];
 	float acc[TRAJ_PHASES]; /* [m/s^2] or [rad/s^2] */
+	float ps[TRAJ_PHASES];  /* [m] or [rad] */
+	float vs[TRAJ_PHASES];  /* [m/s] or [rad/s] */
 	float p0, v0;           /* start [m, m/s] or [rad, rad/s] */
-	float p1, v1;           /* at the start of phase 1 (cruise) */
+	float p1, v1;           /* where the top speed is reached, and that speed (cruise) */
 	float goal;             /* [m] or [rad] */
+	int n;                  /* phases in use (0: at rest at the goal) */
 };
 
 /* A point of the reference, world frame: [x, y, theta], their rates and accelerations. */
@@ -105,6 +116,7 @@ struct traj {
 	float duration_s;       /* the plan's end (at rest at the goal) */
 	float alpha_rad;        /* x/y share of the translation's limits */
 	uint32_t flags;         /* TRAJ_F_* of the last plan */
+	float handover_s;       /* traj_plan_ahead: when (on the active plan's clock) it starts */
 };
 
 /*
@@ -131,6 +143,23 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
  * where the reference is, with its velocity, so the reference does not jump. Fast loop.
  */
 int traj_replan(struct traj *tr, const float goal[3]);
+
+/*
+ * traj_plan_ahead - a plan computed outside the tick (a re-plan costs more than a 1 ms tick on
+ * the Cortex-M4: docs/trajectory.md): next gets tr's limits and a plan from tr's reference
+ * lead_s [s] ahead of tr's clock now, to goal; traj_take_over hands it over when tr's clock
+ * gets there, so the reference does not jump. tr is only read. Not for the fast loop (the cost
+ * of a plan); -EINVAL (next unchanged) if lead_s < 0 or an input is NaN or infinite.
+ */
+int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], struct traj *next);
+
+/*
+ * traj_take_over - in the tick, before traj_step: if tr's clock has reached next's start (or tr
+ * is at rest at its end, where next starts too), tr becomes next, its clock the time past the
+ * start, and returns 1 (next is then spent: the caller drops it); else 0. Fast loop (a copy
+ * of struct traj).
+ */
+int traj_take_over(struct traj *tr, const struct traj *next);
 
 /* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
  * rest at the goal). Fast loop; pure. */

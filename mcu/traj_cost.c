@@ -1,0 +1,107 @@
+/*
+ * traj_cost.c - the trajectory generator's cost on the Cortex-M4 (core/ traj.h), metered like
+ * the controller's tick (main.c's instruction meter): a course of goals (straight moves from
+ * rest, turns while translating, moving starts), each followed at 1 kHz with traj_step and a
+ * re-plan toward its goal every RE_PLAN_EVERY ticks, and a goal that moves (every re-plan from
+ * a velocity off the line to the goal: the bisection over the x/y share, the dearest case).
+ * Prints one line of figures: a cost, not a result (left out of the host comparison).
+ */
+#include "traj_cost.h"
+
+#include <math.h>
+#include <stdio.h>
+
+#include "omni4/traj.h"
+
+#define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
+#define MOVING_GOAL_PLANS 40
+
+struct meter_sum {
+	uint64_t sum;
+	uint32_t max, n;
+};
+
+static void meter_add(struct meter_sum *s, uint32_t c)
+{
+	s->sum += c;
+	s->max = c > s->max ? c : s->max;
+	s->n++;
+}
+
+static const float course[][6] = {
+    /* x0 y0 th0 vx0: goal x y th */
+    {0, 0, 0, 1.0f, 0, 0},       {0, 0, 0, 0.7f, 0.7f, 0}, {0, 0, 0, 2.0f, -1.0f, 0},
+    {0, 0, 0, 1.5f, 0.5f, 2.0f}, {0, 0, 0, 0, 0, 3.1f},    {0, 0, 0.7f, -0.5f, 3.0f, 0.7f},
+};
+
+static struct traj g_tr; /* 1.2 kB: static, not on the image's small stack */
+
+/* One goal of the course from rest: planned, then followed to the end with re-plans. */
+static void follow(const float *m, uint32_t (*read)(void), struct meter_sum *plan,
+                   struct meter_sum *replan, struct meter_sum *step)
+{
+	const float pose[3] = {m[0], m[1], m[2]}, goal[3] = {m[3], m[4], m[5]};
+	struct traj_ref r;
+
+	traj_reset(&g_tr, pose);
+	uint32_t t0 = read();
+	traj_replan(&g_tr, goal);
+	meter_add(plan, read() - t0);
+	for (int k = 1; g_tr.t_s < g_tr.duration_s && k < 20000; k++) {
+		if (k % RE_PLAN_EVERY == 0) {
+			t0 = read();
+			traj_replan(&g_tr, goal);
+			meter_add(replan, read() - t0);
+		}
+		t0 = read();
+		traj_step(&g_tr, 1e-3f, &r);
+		meter_add(step, read() - t0);
+	}
+}
+
+void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const char *line))
+{
+	struct traj_limits l = {.p = model_params_table3,
+	                        .supply_v = 12.0,
+	                        .margin_v = 2.0,
+	                        .mu = 0.6,
+	                        .traction_margin = 0.1,
+	                        .motor_speed_max_rad_s = 600.0,
+	                        .speed_cap_m_s = INFINITY,
+	                        .omega_cap_rad_s = INFINITY,
+	                        .rot_share = 0.25};
+	struct meter_sum plan = {0}, replan = {0}, step = {0}, moving = {0};
+	char line[320];
+
+	model_wheels_from_params(&l.p, &l.w);
+	if (traj_init(&g_tr, &l))
+		return;
+	for (unsigned i = 0; i < sizeof(course) / sizeof(course[0]); i++)
+		follow(course[i], read, &plan, &replan, &step);
+	const float start[3] = {0, 0, 0};
+	float goal[3] = {1.0f, 0.5f, 1.0f};
+	struct traj_ref r;
+	traj_reset(&g_tr, start);
+	for (int k = 0; k < MOVING_GOAL_PLANS * 20; k++) {
+		if (k % 20 == 0) {
+			goal[0] = 1.0f - 0.0008f * (float)k;
+			goal[1] = 0.5f + 0.0005f * (float)k;
+			goal[2] = 1.0f - 0.002f * (float)k;
+			const uint32_t t0 = read();
+			traj_replan(&g_tr, goal);
+			meter_add(&moving, read() - t0);
+		}
+		traj_step(&g_tr, 1e-3f, &r);
+	}
+	snprintf(line, sizeof(line),
+	         "planner cost: traj_plan from rest mean %lu max %lu over %lu goals; traj_replan "
+	         "on the way mean %lu max %lu over %lu; toward a moving goal mean %lu max %lu over "
+	         "%lu; traj_step mean %lu max %lu %s; sizeof(struct traj) %lu bytes",
+	         (unsigned long)(plan.sum / plan.n), (unsigned long)plan.max, (unsigned long)plan.n,
+	         (unsigned long)(replan.sum / replan.n), (unsigned long)replan.max,
+	         (unsigned long)replan.n, (unsigned long)(moving.sum / moving.n),
+	         (unsigned long)moving.max, (unsigned long)moving.n,
+	         (unsigned long)(step.sum / step.n), (unsigned long)step.max, unit,
+	         (unsigned long)sizeof(struct traj));
+	print(line);
+}
