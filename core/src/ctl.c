@@ -58,8 +58,8 @@ static void tune(struct ctl *c)
 	const struct ctl_shaper keep = c->shaper;
 
 	ctl_shaper_init(&c->shaper, acc_max, c->t.dt);
-	traction_set(&c->trac, &cfg->model, cfg->limits.traction_mu, cfg->limits.traction_margin,
-	             cfg->limits.com_height, c->t.dt);
+	traction_set(&c->trac, &cfg->model, &w, cfg->limits.traction_mu,
+	             cfg->limits.traction_margin, cfg->limits.com_height, c->t.dt);
 	memcpy(c->shaper.ref, keep.ref, sizeof(keep.ref));
 	memcpy(c->shaper.acc, keep.acc, sizeof(keep.acc));
 }
@@ -322,9 +322,12 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 	else
 		memset(ff_q, 0, sizeof(ff_q));
 
+	float integ[4]; /* the PI integrals before this tick (the traction limit's anti-windup) */
+
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
 
+		integ[j] = c->pi[j].integ;
 		if (c->t.feedback && s) {
 			const float e =
 			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
@@ -334,6 +337,16 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 			c->out[j] =
 			    ff > c->t.u_max ? c->t.u_max : (ff < -c->t.u_max ? -c->t.u_max : ff);
 		}
+	}
+	if (s) { /* the traction limit on each wheel's force: no integration on a tick it cut */
+		float rim[4], taken[4];
+
+		for (int j = 0; j < 4; j++)
+			rim[j] = s->wheel_rad_s[j] * c->t.r[j];
+		traction_clamp_volts(&c->trac, c->shaper.ref, c->shaper.acc, rim, c->out, taken);
+		for (int j = 0; j < 4; j++)
+			if (taken[j] != 0.0f)
+				c->pi[j].integ = integ[j];
 	}
 }
 

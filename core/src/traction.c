@@ -14,8 +14,8 @@ void traction_reset(struct traction *t)
 	t->scale = 1.0f;
 }
 
-void traction_set(struct traction *t, const struct model_params *p, double mu, double margin,
-                  double com_height, float dt)
+void traction_set(struct traction *t, const struct model_params *p, const struct model_wheels *w,
+                  double mu, double margin, double com_height, float dt)
 {
 	const float keep_backoff = t->backoff > 0.0f ? t->backoff : 1.0f;
 
@@ -35,6 +35,29 @@ void traction_set(struct traction *t, const struct model_params *p, double mu, d
 	t->recover = dt / TRACTION_RECOVER_S;
 	t->backoff = keep_backoff;
 	t->scale = 1.0f;
+	for (int j = 0; j < 4; j++) {
+		t->volt_per_n[j] = (float)(w->R[j] * w->r[j] / (p->l * w->Kt[j]));
+		t->emf[j] = (float)(w->Kv[j] * p->l / w->r[j]);
+	}
+}
+
+void traction_clamp_volts(const struct traction *t, const float ref[3], const float acc[3],
+                          const float rim_m_s[4], float volts[4], float taken[4])
+{
+	float hold[4];
+
+	for (int j = 0; j < 4; j++)
+		taken[j] = 0.0f;
+	if (!t->on)
+		return;
+	traction_wheel_holds(t, ref, acc, hold);
+	for (int j = 0; j < 4; j++) {
+		const float emf = t->emf[j] * rim_m_s[j], span = hold[j] * t->volt_per_n[j];
+		const float u = fminf(fmaxf(volts[j], emf - span), emf + span);
+
+		taken[j] = volts[j] - u;
+		volts[j] = u;
+	}
 }
 
 /* Robot forces [F_v N, F_vn N, T N m] onto the wheels (eqs 9-11, least norm). */

@@ -24,9 +24,12 @@ static const double MU = 0.6, MARGIN = 0.05, H = 0.04;
 
 static void set(struct traction *t, double h)
 {
+	struct model_wheels w;
+
+	model_wheels_from_params(P, &w);
 	memset(t, 0, sizeof(*t));
 	traction_reset(t);
-	traction_set(t, P, MU, MARGIN, h, 1e-3f);
+	traction_set(t, P, &w, MU, MARGIN, h, 1e-3f);
 }
 
 /* The step taken from rest toward a[] (a huge acceleration): the acceleration kept. */
@@ -134,6 +137,28 @@ static void test_a_slip_backs_the_limit_off_until_the_wheels_grip(void **state)
 	assert_float_equal(t.backoff, 1.0, 1e-6);
 }
 
+/* The voltage clamp: at rim speed s a wheel's motor pushes l Kt (u - Kv l s / r) / (R r)
+ * (eqs 12-13, 21): the clamp keeps that within the hold, (1 - margin) mu M g / 4 at rest. */
+static void test_the_voltage_clamp_keeps_each_motor_force_within_the_hold(void **state)
+{
+	(void)state;
+	struct traction t;
+	const float zero[3] = {0, 0, 0}, rim[4] = {0.0f, 0.5f, -1.0f, 0.1f};
+	float u[4] = {12, 12, -12, 0.5f}, taken[4];
+	const double hold = (1 - MARGIN) * MU * P->M * G / 4;
+
+	set(&t, 0.0);
+	traction_clamp_volts(&t, zero, zero, rim, u, taken);
+	for (int j = 0; j < 3; j++) {
+		const double f =
+		    P->l * P->Kt * (u[j] - P->Kv * P->l * rim[j] / P->r) / (P->R * P->r);
+
+		assert_float_equal(fabs(f), hold, 1e-4 * hold);
+		assert_true(taken[j] != 0.0f);
+	}
+	assert_true(u[3] == 0.5f && taken[3] == 0.0f); /* within: untouched */
+}
+
 /* The controller: a 1 m/s VELOCITY step along v ramps its reference at a* (traction_mu set),
  * or at acc_lin_max (traction_mu 0, the limit off). */
 static double reference_rate(double mu)
@@ -172,6 +197,7 @@ int main(void)
 	    cmocka_unit_test(test_along_v_the_largest_acceleration_is_the_hand_figure),
 	    cmocka_unit_test(test_every_direction_matches_a_brute_force_bisection),
 	    cmocka_unit_test(test_a_slip_backs_the_limit_off_until_the_wheels_grip),
+	    cmocka_unit_test(test_the_voltage_clamp_keeps_each_motor_force_within_the_hold),
 	    cmocka_unit_test(test_the_controller_ramps_at_the_limit_and_can_switch_it_off),
 	};
 

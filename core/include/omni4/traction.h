@@ -10,13 +10,14 @@
  * across), N_j = M g / 4 - M h (a . p_j) / (2 d^2) with the load transfer of the reference
  * acceleration a (h = com_height; p_0 = (d, 0), p_1 = (0, d), p_2 = -p_0, p_3 = -p_1).
  *
- * The rule: the shaper's step (its acceleration a) is scaled by the largest s in [0, 1] with
- * |f_j(s a)| <= b (1 - margin) mu N_j(s a) for every wheel (each bound linear in s: a closed
+ * The rule (two parts): the shaper's step (its acceleration a) is scaled by the largest s in [0, 1]
+ * with |f_j(s a)| <= b (1 - margin) mu N_j(s a) for every wheel (each bound linear in s: a closed
  * form, no iteration); s = 0 when friction alone needs more. b is the slip back-off: every
  * tick with a slip flagged it is multiplied by TRACTION_BACKOFF (down to TRACTION_BACKOFF_MIN),
  * every tick without, it grows back by dt / TRACTION_RECOVER_S (up to 1): a slip in progress
  * reduces the force until the wheels grip again, then the limit returns within
- * TRACTION_RECOVER_S. mu = 0 switches the limit off (the shaper's own acc_lin_max,
+ * TRACTION_RECOVER_S. Then the wheels' voltages, feedback included, are clamped to the hold
+ * (traction_clamp_volts). mu = 0 switches the limit off (the shaper's own acc_lin_max,
  * acc_rot_max only).
  *
  * Portable like the rest of the core: single precision, no allocation, no OS.
@@ -39,16 +40,19 @@ struct traction {
 	float keep;    /* 1 - margin */
 	float M, J, d; /* [kg], [kg m^2], [m] */
 	float B[3], C[3];
-	float transfer; /* M h / (2 d) [kg]: N_j = M g / 4 - transfer (a . p_j / d) */
-	float recover;  /* back-off regained per tick */
-	float backoff;  /* b, in [TRACTION_BACKOFF_MIN, 1] */
-	float scale;    /* s of the last step (1: not limited) */
+	float transfer;      /* M h / (2 d) [kg]: N_j = M g / 4 - transfer (a . p_j / d) */
+	float recover;       /* back-off regained per tick */
+	float volt_per_n[4]; /* R_j r_j / (l Kt_j): volts per newton of wheel force [V/N] */
+	float emf[4];        /* Kv_j l / r_j: back-EMF per m/s of rim speed [V/(m/s)] */
+	float backoff;       /* b, in [TRACTION_BACKOFF_MIN, 1] */
+	float scale;         /* s of the last step (1: not limited) */
 };
 
 /* mu [-] (0 = off), margin in [0, 1), com_height [m] >= 0, dt [s] > 0; the model's M, J, d,
- * B, C. Keeps the back-off (a retune between ticks does not forget a slip). */
-void traction_set(struct traction *t, const struct model_params *p, double mu, double margin,
-                  double com_height, float dt);
+ * B, C, l and each drive's r_j, Kv_j, Kt_j, R_j. Keeps the back-off (a retune between ticks
+ * does not forget a slip). */
+void traction_set(struct traction *t, const struct model_params *p, const struct model_wheels *w,
+                  double mu, double margin, double com_height, float dt);
 /* Back-off at 1, nothing limited. */
 void traction_reset(struct traction *t);
 
@@ -66,5 +70,15 @@ void traction_wheel_holds(const struct traction *t, const float x[3], const floa
  */
 void traction_step(struct traction *t, const float prev[3], float ref[3], float acc[3],
                    bool slipping);
+
+/*
+ * Fast loop, after the PI: each wheel's voltage kept where its motor's force (eqs 12-13, 21 at
+ * the wheel's measured rim speed rim_m_s[j], its own R_j, Kt_j, Kv_j, r_j) stays within its
+ * hold at the reference (ref, acc): the feedback cannot push a wheel past the floor either,
+ * and a wheel that slips (its rim fast, its back-EMF high) gets no more than the hold. Returns
+ * per wheel the volts taken off (for the PI's anti-windup); all 0 when off.
+ */
+void traction_clamp_volts(const struct traction *t, const float ref[3], const float acc[3],
+                          const float rim_m_s[4], float volts[4], float taken[4]);
 
 #endif /* OMNI4_TRACTION_H */
