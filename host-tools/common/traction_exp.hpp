@@ -1,0 +1,44 @@
+// traction_exp.hpp - the traction experiment as a timeline of phases (experiments.hpp): along v,
+// vn, w and the diagonal v + vn, voltage steps from rest with a short ramp, each a little
+// larger than the last (a geometric series of levels) up to a cap, each held briefly and
+// followed by coasting to rest (bridges off: the safe stop). The first level at which a wheel
+// slips brackets the floor's traction (ident_traction.hpp). Each coast ends with a clear-fault
+// command: a slip trips the controller's encoder plausibility check (FAULT_ENCODER, bridges
+// off), which the experiment provokes on purpose; once the robot is at rest it is cleared.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "experiments.hpp"
+
+namespace omni4
+{
+
+struct TractionSeqOptions {
+	std::vector<std::string> directions{"v", "vn", "w", "diag"};
+	double level0_v = 1.2; // first level [V]: above what Coulomb friction takes along v
+	double growth = 1.05;  // each level this much above the last
+	double cap_v = 12.0;   // the last level [V]: the supply
+	double ramp_s = 0.03;  // rise of each step (the paper's ramped steps)
+	double hold_s = 0.10;  // held after the ramp, then the bridges go off
+	double settle_s = 1.2; // coasting to rest
+};
+
+// Channel voltage pattern per volt along "v", "vn", "w" (drive_pattern) or "diag" (v + vn).
+std::array<double, 4> traction_pattern(const std::string &direction);
+
+// The levels of one direction, ascending [V].
+std::vector<double> traction_levels(const TractionSeqOptions &opt = {});
+
+// The phases: per direction and level a "traction" segment (the step) closed by "end" at the
+// start of the coast.
+std::vector<Phase> traction_sequence(const TractionSeqOptions &opt = {});
+
+// The phases of the kinds in `only` (steady_rotation, coast, motor, step, traction) in that
+// order, or the paper's whole sequence when `only` is empty; throws std::invalid_argument on an
+// unknown kind. hold_s, settle_s: the paper's runs'.
+std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,
+                                     double settle_s);
+
+} // namespace omni4
