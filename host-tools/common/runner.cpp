@@ -184,7 +184,9 @@ class Recording
 
 std::vector<Phase> filtered(const RunOptions &opt)
 {
-	return selected_sequence(opt.only, opt.hold_s, opt.settle_s);
+	std::vector<Phase> seq = selected_sequence(opt.only, opt.hold_s, opt.settle_s);
+	limit_ramps(seq, opt.model, opt.traction_hold_n);
+	return seq;
 }
 
 // Progress on stderr: on a terminal one status line rewritten in place, else only full lines.

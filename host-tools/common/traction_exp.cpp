@@ -1,10 +1,15 @@
 // traction_exp.cpp - the traction experiment's timeline (traction_exp.hpp).
 #include "traction_exp.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "omni4/command_t.hpp"
+
+extern "C" {
+#include "omni4/plant.h"
+}
 
 namespace omni4
 {
@@ -58,6 +63,60 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt)
 		}
 	}
 	return seq;
+}
+
+namespace
+{
+
+// Peak |wheel force| [N] of a voltage ramp from rest to u over ramp_s, held until run_s.
+double peak_force(const model_params &p, const std::array<double, 4> &u, double ramp_s,
+                  double run_s)
+{
+	struct plant pl;
+	if (plant_init(&pl, &p))
+		return 0;
+	const double dt = 1e-3;
+	double peak = 0;
+	for (double t = dt; t <= run_s + 1e-9; t += dt) {
+		const double k = std::min(1.0, t / ramp_s);
+		const double v[4] = {k * u[0], k * u[1], k * u[2], k * u[3]};
+		plant_step(&pl, v, true, dt);
+		for (int j = 0; j < 4; ++j)
+			peak = std::max(peak, std::fabs(p.l * p.Kt * pl.current_a[j] / p.r));
+	}
+	return peak;
+}
+
+} // namespace
+
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n)
+{
+	static const double ramps[] = {0.5, 0.75, 1, 1.5, 2, 3, 4, 6};
+	if (!(hold_n > 0))
+		return;
+	bool at_rest = true; // the sequence starts at rest; coasting to rest follows each run
+	for (Phase &ph : phases) {
+		const bool from_rest = at_rest;
+		at_rest = ph.mode != command_t::MODE_VOLTAGE && (at_rest || ph.duration_s >= 0.2);
+		if (ph.mode != command_t::MODE_VOLTAGE || !from_rest ||
+		    ph.mark_kind == "traction" || ph.ramp_s <= 0)
+			continue;
+		const double hold = ph.duration_s - ph.ramp_s;
+		for (double r : ramps) {
+			if (r < ph.ramp_s)
+				continue;
+			const double grown = r - ph.ramp_s;
+			ph.ramp_s = r;
+			ph.duration_s += grown;
+			if (peak_force(p, ph.voltage, r, r + std::min(hold, 1.0)) <= hold_n)
+				break;
+		}
+	}
+}
+
+double traction_hold_n(const model_params &p, double mu, double margin)
+{
+	return mu > 0 ? (1 - margin) * mu * p.M * 9.80665 / 4 : 0.0;
 }
 
 std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,

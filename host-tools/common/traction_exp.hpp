@@ -12,6 +12,10 @@
 
 #include "experiments.hpp"
 
+extern "C" {
+#include "omni4/params.h"
+}
+
 namespace omni4
 {
 
@@ -34,6 +38,16 @@ std::vector<double> traction_levels(const TractionSeqOptions &opt = {});
 // The phases: per direction and level a "traction" segment (the step) closed by "end" at the
 // start of the coast.
 std::vector<Phase> traction_sequence(const TractionSeqOptions &opt = {});
+
+// Every voltage phase that starts from rest (the paper's runs and push-offs) gets a ramp long
+// enough that no wheel needs more than hold_n [N] (the traction less the margin: the paper's
+// "this way wheel sleeping was avoided"): the shortest of 0.5, 0.75, 1, 1.5, 2, 3, 4, 6 s whose
+// peak wheel force, simulated on the model p (a gripping robot, eqs 12-13, 21, 23), stays
+// within it; the phase grows by what its ramp grew. Phases of the traction experiment are
+// left as they are. hold_n <= 0: nothing changes.
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n);
+// (1 - margin) mu M g / 4 [N] ([limits] traction_mu, traction_margin); 0 when mu is 0.
+double traction_hold_n(const model_params &p, double mu, double margin);
 
 // The phases of the kinds in `only` (steady_rotation, coast, motor, step, traction) in that
 // order, or the paper's whole sequence when `only` is empty; throws std::invalid_argument on an

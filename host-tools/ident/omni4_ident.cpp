@@ -25,6 +25,7 @@
 #include "offsets.hpp"
 #include "outfile.hpp"
 #include "runner.hpp"
+#include "traction_exp.hpp"
 #include "validate.hpp"
 
 extern "C" {
@@ -899,6 +900,7 @@ struct RunArgs {
 	RunOptions ropt;
 	HandRunOptions hopt;
 	std::string hand_robot;
+	std::string limits; // ROBOT.ini whose [model] and [limits] traction_mu ramp the runs
 	CLI::Option *hand = nullptr; // --hand given
 };
 
@@ -927,6 +929,10 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 	                           "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
 	        ->excludes(only, hold, settle);
 	r.hand = hand;
+	ru->add_option("--limits", r.limits,
+	               "ROBOT.ini: with its [limits] traction_mu, every run's ramp is long enough "
+	               "that no wheel of its [model] needs more than the traction")
+	    ->excludes(hand);
 	ru->add_option("--robot", r.hand_robot,
 	               "BASE.ini: d and r for the robot velocity (eqs 3-5); "
 	               "Table III otherwise")
@@ -988,6 +994,16 @@ int main(int argc, char **argv)
 		return cmd_validate(vargs);
 	if (ru->parsed() && *rargs.hand)
 		return cmd_run_hand(rargs.ropt, rargs.hopt, rargs.hand_robot);
+	if (ru->parsed() && !rargs.limits.empty()) {
+		omni4_config lc;
+		config_error err;
+		config_defaults(&lc);
+		if (config_load(rargs.limits.c_str(), &lc, &err))
+			die(err.msg, 2);
+		rargs.ropt.model = lc.ctl.model;
+		rargs.ropt.traction_hold_n = traction_hold_n(
+		    lc.ctl.model, lc.ctl.limits.traction_mu, lc.ctl.limits.traction_margin);
+	}
 	if (ru->parsed())
 		return run_experiments(rargs.ropt);
 	return 2;
