@@ -58,6 +58,8 @@ static void tune(struct ctl *c)
 	const struct ctl_shaper keep = c->shaper;
 
 	ctl_shaper_init(&c->shaper, acc_max, c->t.dt);
+	traction_set(&c->trac, &cfg->model, &w, cfg->limits.traction_mu,
+	             cfg->limits.traction_margin, cfg->limits.com_height, c->t.dt);
 	memcpy(c->shaper.ref, keep.ref, sizeof(keep.ref));
 	memcpy(c->shaper.acc, keep.acc, sizeof(keep.acc));
 }
@@ -68,6 +70,7 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 	const char *why;
 
 	memset(c, 0, sizeof(*c));
+	traction_reset(&c->trac);
 	if (ctl_settings_check(cfg, &bad, &why))
 		return -EINVAL;
 	struct model_wheels w;
@@ -101,6 +104,11 @@ void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q
 	c->ff = *ff;
 	c->inv_4d = inv_4d;
 	tune(c);
+}
+
+void ctl_set_slip(struct ctl *c, bool slipping)
+{
+	c->slipping = slipping;
 }
 
 void ctl_flag(struct ctl *c, int32_t bits)
@@ -294,8 +302,11 @@ static void voltage_mode(struct ctl *c, int64_t now_us)
 static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 {
 	q16_t ref_q[3], acc_q[3], ff_q[4], wheel_ref_q[4];
+	float prev[3];
 
+	memcpy(prev, c->shaper.ref, sizeof(prev));
 	ctl_shaper_step(&c->shaper, c->vel_target);
+	traction_step(&c->trac, prev, c->shaper.ref, c->shaper.acc, c->slipping);
 	for (int k = 0; k < 3; k++) {
 		ref_q[k] = q16_from_float(c->shaper.ref[k]);
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
@@ -311,9 +322,12 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 	else
 		memset(ff_q, 0, sizeof(ff_q));
 
+	float integ[4]; /* the PI integrals before this tick (the traction limit's anti-windup) */
+
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
 
+		integ[j] = c->pi[j].integ;
 		if (c->t.feedback && s) {
 			const float e =
 			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
@@ -323,6 +337,16 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 			c->out[j] =
 			    ff > c->t.u_max ? c->t.u_max : (ff < -c->t.u_max ? -c->t.u_max : ff);
 		}
+	}
+	if (s) { /* the traction limit on each wheel's force: no integration on a tick it cut */
+		float rim[4], taken[4];
+
+		for (int j = 0; j < 4; j++)
+			rim[j] = s->wheel_rad_s[j] * c->t.r[j];
+		traction_clamp_volts(&c->trac, c->shaper.ref, c->shaper.acc, rim, c->out, taken);
+		for (int j = 0; j < 4; j++)
+			if (taken[j] != 0.0f)
+				c->pi[j].integ = integ[j];
 	}
 }
 

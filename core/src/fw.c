@@ -318,6 +318,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	if (fw->ctl.cal.gen != fw->cal_gen) /* new offsets, subtracted from this tick on */
 		push_calibration(fw, now_us);
 	estimate(fw, &in);
+	ctl_set_slip(&fw->ctl, !fw->no_estimate && (est_get(&fw->est)->flags & EST_FLAG_SLIP));
 	push_sample(fw, now_us, &out);
 	fw->seq++;
 	fw->n.ticks++;

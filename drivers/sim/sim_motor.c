@@ -43,7 +43,8 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 	                          sim->motor_R_error[2], sim->motor_R_error[3]},
 	              .Kv_error = {sim->motor_Kv_error[0], sim->motor_Kv_error[1],
 	                           sim->motor_Kv_error[2], sim->motor_Kv_error[3]},
-	              .slip_noise = sim->slip_noise},
+	              .slip_noise = sim->slip_noise,
+	              .com_height = sim->com_height},
 	    .camera_latency_s = sim->camera_latency_ms * 1e-3,
 	};
 }

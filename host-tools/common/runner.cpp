@@ -25,6 +25,7 @@
 
 #include "experiments.hpp"
 #include "hand.hpp"
+#include "traction_exp.hpp"
 #include "omni4/command_t.hpp"
 #include "omni4/experiment_t.hpp"
 #include "omni4/motors_t.hpp"
@@ -183,30 +184,9 @@ class Recording
 
 std::vector<Phase> filtered(const RunOptions &opt)
 {
-	SequenceOptions full;
-	full.hold_s = opt.hold_s;
-	full.settle_s = opt.settle_s;
-	if (opt.only.empty())
-		return paper_sequence(full);
-	SequenceOptions none = full;
-	none.rotation_levels.clear();
-	none.coast_levels.clear();
-	none.motor_levels.clear();
-	none.step_levels.clear();
-	SequenceOptions pick = none;
-	for (const std::string &k : opt.only) {
-		if (k == "steady_rotation")
-			pick.rotation_levels = full.rotation_levels;
-		else if (k == "coast")
-			pick.coast_levels = full.coast_levels;
-		else if (k == "motor")
-			pick.motor_levels = full.motor_levels;
-		else if (k == "step")
-			pick.step_levels = full.step_levels;
-		else
-			throw std::invalid_argument("unknown experiment kind '" + k + "'");
-	}
-	return paper_sequence(pick);
+	std::vector<Phase> seq = selected_sequence(opt.only, opt.hold_s, opt.settle_s);
+	limit_ramps(seq, opt.model, opt.traction_hold_n);
+	return seq;
 }
 
 // Progress on stderr: on a terminal one status line rewritten in place, else only full lines.

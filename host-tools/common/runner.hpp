@@ -18,9 +18,11 @@ namespace omni4
 struct RunOptions {
 	std::string url = OMNI4_DEFAULT_LCM_URL;
 	std::string out;
-	std::vector<std::string> only; // experiment kinds to keep (empty = all)
-	double hold_s = 3.0;           // constant-voltage part of each run [s]
-	double settle_s = 3.0;         // coasting to rest between runs [s]
+	std::vector<std::string> only;            // experiment kinds to keep (empty = all)
+	double hold_s = 3.0;                      // constant-voltage part of each run [s]
+	double settle_s = 3.0;                    // coasting to rest between runs [s]
+	model_params model = model_params_table3; // for the ramps under the traction limit
+	double traction_hold_n = 0; // > 0: no run's ramp asks a wheel for more (limit_ramps)
 };
 
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close

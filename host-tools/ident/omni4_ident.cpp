@@ -19,11 +19,13 @@
 
 #include "bootstrap.hpp"
 #include "encoders.hpp"
+#include "ident_traction.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "offsets.hpp"
 #include "outfile.hpp"
 #include "runner.hpp"
+#include "traction_exp.hpp"
 #include "validate.hpp"
 
 extern "C" {
@@ -234,7 +236,7 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 // not identified is taken from BASE.ini if it gives one (said in a comment), else left out, so
 // that the firmware refuses the file ("missing key") instead of running on a guess.
 void write_params_to(FILE *f, const IdentResult &r, const model_params &base, uint32_t base_seen,
-                     const std::string &comment)
+                     const std::string &comment, const TractionResult *trac = nullptr)
 {
 	bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0;
 	if (r.complete()) {
@@ -266,16 +268,19 @@ void write_params_to(FILE *f, const IdentResult &r, const model_params &base, ui
 				     std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
 		}
 	}
+	if (trac)
+		ok = ok && write_traction_limits(f, *trac);
 	if (!ok && !std::ferror(f))
 		throw OutError("a value cannot be written");
 }
 
 void write_params(const std::string &path, const IdentResult &r, const model_params &base,
-                  uint32_t base_seen, const std::string &comment)
+                  uint32_t base_seen, const std::string &comment,
+                  const TractionResult *trac = nullptr)
 {
 	try {
 		OutFile out(path);
-		write_params_to(out.file(), r, base, base_seen, comment);
+		write_params_to(out.file(), r, base, base_seen, comment, trac);
 		out.commit();
 	} catch (const OutError &e) { // the temporary is gone (out destroyed), the target as it was
 		die(e.what());
@@ -659,19 +664,40 @@ int cmd_identify(const IdentifyArgs &a)
 	auto logs = load_logs(a.logs, base.l, true);
 	const auto segs = segments_of(logs);
 	IdentResult r;
-	try {
-		r = identify(segs, base, opt);
-	} catch (const IdentError &e) {
-		die(e.what());
+	const bool traction_only = std::all_of(segs.begin(), segs.end(), [](const Segment &s) {
+		return s.kind == "traction" || s.kind == OMNI4_MARK_END;
+	});
+	if (traction_only) { // the model from the robot file (traction needs M J d r l Kt B C)
+		for (int i : {3, 4, 7, 8, 9, 10, 11, 12, 13})
+			if (!(base_seen & (1u << i)))
+				die(a.robot +
+				        ": a log with only the traction experiment needs the model "
+				        "in "
+				        "the robot file; it lacks '" +
+				        std::string(model_params_names[i]) + "'",
+				    2);
+		r.final = base;
+		for (const char *q : kIdentParams)
+			r.identified[q] = false;
+		std::printf("traction experiment only: the model taken from %s\n", a.robot.c_str());
+	} else {
+		try {
+			r = identify(segs, base, opt);
+		} catch (const IdentError &e) {
+			die(e.what());
+		}
 	}
+	const TractionResult trac = identify_traction(segs, r.final);
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
 		std::printf(" %s %zu", k.c_str(), n);
 	std::printf("; robot velocities from the %s\n", a.source.c_str());
 	print_windows(r, segs, a.verbose);
-	print_table(r, a.truth.empty() ? nullptr : &truth);
+	if (!traction_only)
+		print_table(r, a.truth.empty() ? nullptr : &truth);
+	print_traction(trac);
 	BootstrapResult boot;
-	if (a.boot_n > 0) {
+	if (a.boot_n > 0 && !traction_only) {
 		const bool tty = isatty(STDERR_FILENO);
 		boot = bootstrap_runs(segs, base, opt, a.boot_n, 1, [&](int done, int total) {
 			if (tty || done == total)
@@ -682,14 +708,21 @@ int cmd_identify(const IdentifyArgs &a)
 		print_bootstrap(r, boot, segs.size());
 	}
 	write_params(a.out, r, base, base_seen,
-	             "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)");
-	if (!a.csv.empty()) {
+	             "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)",
+	             &trac);
+	export_traction_csv(a.csv, trac);
+	if (!a.csv.empty() && !traction_only) {
 		export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
 		export_offsets_csv(a.csv, logs);
 	}
 	if (!a.csv.empty() && a.boot_n > 0)
 		export_bootstrap_csv(a.csv, r, boot);
-	print_outcome(r, a.out);
+	if (traction_only)
+		std::printf("wrote %s: [model] from the robot file, [limits] from the traction "
+		            "experiment\n",
+		            a.out.c_str());
+	else
+		print_outcome(r, a.out);
 	return 0;
 }
 
@@ -867,6 +900,7 @@ struct RunArgs {
 	RunOptions ropt;
 	HandRunOptions hopt;
 	std::string hand_robot;
+	std::string limits; // ROBOT.ini whose [model] and [limits] traction_mu ramp the runs
 	CLI::Option *hand = nullptr; // --hand given
 };
 
@@ -879,8 +913,9 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 	HandRunOptions &hopt = r.hopt;
 	ru->add_option("--lcm", ropt.url, "LCM URL")->capture_default_str();
 	ru->add_option("--out", ropt.out, "event log to record")->required();
-	auto *only = ru->add_option("--only", ropt.only,
-	                            "run only these kinds (steady_rotation coast motor step)");
+	auto *only =
+	    ru->add_option("--only", ropt.only,
+	                   "run only these kinds (steady_rotation coast motor step traction)");
 	auto *hold = ru->add_option("--hold", ropt.hold_s, "constant-voltage part of each run [s]")
 	                 ->check(CLI::Range(0.2, 60.0))
 	                 ->capture_default_str();
@@ -894,6 +929,10 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 	                           "(e.g. run --hand --robot base.ini --out hand.lcmlog)")
 	        ->excludes(only, hold, settle);
 	r.hand = hand;
+	ru->add_option("--limits", r.limits,
+	               "ROBOT.ini: with its [limits] traction_mu, every run's ramp is long enough "
+	               "that no wheel of its [model] needs more than the traction")
+	    ->excludes(hand);
 	ru->add_option("--robot", r.hand_robot,
 	               "BASE.ini: d and r for the robot velocity (eqs 3-5); "
 	               "Table III otherwise")
@@ -955,6 +994,16 @@ int main(int argc, char **argv)
 		return cmd_validate(vargs);
 	if (ru->parsed() && *rargs.hand)
 		return cmd_run_hand(rargs.ropt, rargs.hopt, rargs.hand_robot);
+	if (ru->parsed() && !rargs.limits.empty()) {
+		omni4_config lc;
+		config_error err;
+		config_defaults(&lc);
+		if (config_load(rargs.limits.c_str(), &lc, &err))
+			die(err.msg, 2);
+		rargs.ropt.model = lc.ctl.model;
+		rargs.ropt.traction_hold_n = traction_hold_n(
+		    lc.ctl.model, lc.ctl.limits.traction_mu, lc.ctl.limits.traction_margin);
+	}
 	if (ru->parsed())
 		return run_experiments(rargs.ropt);
 	return 2;

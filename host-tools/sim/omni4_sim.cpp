@@ -1,6 +1,7 @@
 // omni4-sim: the firmware loop in lockstep with the simulated plant, driven through OMNI4_CMD by
 // the paper's experiment sequence, every message written to an LCM event log.
 #include "cli.hpp"
+#include "traction_exp.hpp"
 #include <unistd.h>
 
 #include <cerrno>
@@ -57,6 +58,7 @@ struct SimArgs {
 	std::string params_path, out_path, speed = "max";
 	bool experiments = false, no_noise = false, quiet = false;
 	bool no_truth = false, no_estimate = false;
+	std::vector<std::string> only; // experiment kinds (traction_exp.hpp); implies experiments
 	int seed = -1;
 	double duration_s = 0;
 	double rtf = 0; // real-time factor from speed; 0 = max
@@ -71,6 +73,9 @@ void add_options(CLI::App &app, SimArgs &a)
 	    "--experiments", a.experiments,
 	    "run the paper's experiment sequence (steady rotation, coast-downs, motor runs, "
 	    "ramped steps)");
+	app.add_option("--only", a.only,
+	               "run only these experiment kinds (steady_rotation coast motor step "
+	               "traction); traction needs a floor ([sim] traction_mu)");
 	app.add_option("--duration", a.duration_s, "without --experiments: idle run length [s]")
 	    ->check(CLI::Range(0.0, 36000.0));
 	app.add_option("--speed", a.speed,
@@ -106,7 +111,7 @@ int check_args(SimArgs &a)
 			return 2;
 		}
 	}
-	if (!a.experiments && !(a.duration_s > 0)) {
+	if (!a.experiments && a.only.empty() && !(a.duration_s > 0)) {
 		std::fprintf(stderr,
 		             "omni4-sim: nothing to do: give --experiments or --duration S\n");
 		return 2;
@@ -229,9 +234,15 @@ int main(int argc, char **argv)
 	}
 	omni4::SimRunResult r;
 	try {
-		r = omni4::run_simulation(cfg, cfg.ctl.model, !a.no_noise, out->write_path(),
-		                          a.experiments, a.duration_s, a.rtf, progress,
-		                          [] { return g_stop != 0; });
+		std::vector<omni4::Phase> phases = a.experiments || !a.only.empty()
+		                                       ? omni4::selected_sequence(a.only, 3.0, 3.0)
+		                                       : std::vector<omni4::Phase>{};
+		// The robot's own traction limit ([limits] traction_mu) ramps the runs under it.
+		omni4::limit_ramps(phases, cfg.ctl.model,
+		                   omni4::traction_hold_n(cfg.ctl.model, cfg.ctl.limits.traction_mu,
+		                                          cfg.ctl.limits.traction_margin));
+		r = omni4::run_phases(cfg, cfg.ctl.model, !a.no_noise, out->write_path(), phases,
+		                      a.duration_s, a.rtf, progress, [] { return g_stop != 0; });
 	} catch (const std::exception &e) {
 		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
 		return 1;

@@ -18,6 +18,18 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
                             double rtf, const std::function<void(double, size_t, size_t)> &progress,
                             const std::function<bool()> &stop)
 {
+	return run_phases(cfg, plant, noise, log_path,
+	                  experiments ? paper_sequence() : std::vector<Phase>{}, idle_s, rtf,
+	                  progress, stop);
+}
+
+SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool noise,
+                        const std::string &log_path, const std::vector<Phase> &phases,
+                        double idle_s, double rtf,
+                        const std::function<void(double, size_t, size_t)> &progress,
+                        const std::function<bool()> &stop)
+{
+	const bool experiments = !phases.empty();
 	char err[256];
 	std::unique_ptr<simrun, void (*)(simrun *)> sr(
 	    simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
@@ -26,9 +38,6 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
 	if (!sr)
 		throw std::runtime_error(err);
 
-	std::vector<Phase> phases;
-	if (experiments)
-		phases = paper_sequence();
 	const double total_s = experiments ? total_duration_s(phases) : idle_s;
 	SequencePlayer player(phases);
 	const double dt = simrun_period_s(sr.get());

@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "experiments.hpp"
+
 extern "C" {
 #include "omni4/config.h"
 #include "omni4/simrun.h"
@@ -34,5 +36,12 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
                             double rtf,
                             const std::function<void(double, size_t, size_t)> &progress = {},
                             const std::function<bool()> &stop = {});
+
+// The same with the phases to play given (experiments.hpp; empty: an idle run of idle_s).
+SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool noise,
+                        const std::string &log_path, const std::vector<Phase> &phases,
+                        double idle_s, double rtf,
+                        const std::function<void(double, size_t, size_t)> &progress = {},
+                        const std::function<bool()> &stop = {});
 
 } // namespace omni4

@@ -80,7 +80,8 @@ int plant_set_floor(struct plant *pl, const struct plant_floor *f)
 {
 	if (!(f->traction_mu >= 0.0 && isfinite(f->traction_mu)) || !isfinite(f->wheel_inertia) ||
 	    (f->traction_mu > 0.0 && !(f->wheel_inertia > 0.0)) ||
-	    !(f->slip_noise >= 0.0 && isfinite(f->slip_noise)))
+	    !(f->slip_noise >= 0.0 && isfinite(f->slip_noise)) ||
+	    !(f->com_height >= 0.0 && isfinite(f->com_height)))
 		return -EINVAL;
 	for (int j = 0; j < 4; j++)
 		if (!(fabs(f->radius_error[j]) < 0.5) || !(fabs(f->R_error[j]) < 0.5) ||
@@ -102,6 +103,7 @@ void plant_reset(struct plant *pl)
 	for (int k = 0; k < 3; k++) {
 		pl->x[k] = 0.0;
 		pl->pose[k] = 0.0;
+		pl->acc[k] = 0.0;
 	}
 	for (int j = 0; j < 4; j++) {
 		pl->current_a[j] = 0.0;
@@ -121,7 +123,7 @@ void plant_reset(struct plant *pl)
 /* The paper's plant: every wheel grips (the whole step exact per axis). */
 /* What exact_step changes (kept to undo it: a copy of the whole plant costs more than the step). */
 struct exact_state {
-	double x[3], pose[3], current_a[4], voltage_v[4], rim[4];
+	double x[3], pose[3], acc[3], current_a[4], voltage_v[4], rim[4];
 	bool driven;
 };
 
@@ -129,6 +131,7 @@ static void exact_save(const struct plant *pl, struct exact_state *st)
 {
 	memcpy(st->x, pl->x, sizeof(st->x));
 	memcpy(st->pose, pl->pose, sizeof(st->pose));
+	memcpy(st->acc, pl->acc, sizeof(st->acc));
 	memcpy(st->current_a, pl->current_a, sizeof(st->current_a));
 	memcpy(st->voltage_v, pl->voltage_v, sizeof(st->voltage_v));
 	memcpy(st->rim, pl->rim, sizeof(st->rim));
@@ -139,6 +142,7 @@ static void exact_restore(struct plant *pl, const struct exact_state *st)
 {
 	memcpy(pl->x, st->x, sizeof(st->x));
 	memcpy(pl->pose, st->pose, sizeof(st->pose));
+	memcpy(pl->acc, st->acc, sizeof(st->acc));
 	memcpy(pl->current_a, st->current_a, sizeof(st->current_a));
 	memcpy(pl->voltage_v, st->voltage_v, sizeof(st->voltage_v));
 	memcpy(pl->rim, st->rim, sizeof(st->rim));
@@ -169,8 +173,10 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 	double xw[3];
 
 	frame_robot_to_world(pl->pose[2] + 0.5 * dt * x_mid[2], x_mid, xw);
-	for (int k = 0; k < 3; k++)
+	for (int k = 0; k < 3; k++) {
 		pl->pose[k] += dt * xw[k];
+		pl->acc[k] = (pl->x[k] - x_old[k]) / dt;
+	}
 
 	double vw[4];
 
@@ -184,10 +190,32 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 	pl->driven = driven;
 }
 
-/* The traction limit per wheel, mu M g / 4 [N]. */
+/* The traction limit of a wheel carrying a quarter of the weight, mu M g / 4 [N]. */
 static double traction_limit(const struct plant *pl)
 {
 	return pl->floor.traction_mu * pl->p.M * PLANT_G / 4.0;
+}
+
+/* Normal loads N_j with the load transfer of acceleration acc at velocity x (plant.h), and the
+ * drive-direction force each holds, mu N_j. */
+static void wheel_loads(const struct plant *pl, const double x[3], const double acc[3],
+                        double normal[4], double hold[4])
+{
+	const struct model_params *p = &pl->p;
+	const double quarter = p->M * PLANT_G / 4.0;
+	const double av = acc[0] - x[2] * x[1], avn = acc[1] + x[2] * x[0]; /* centre of mass */
+	const double ap[4] = {av, avn, -av, -avn};                          /* a . p_j / d */
+	const double k = p->M * pl->floor.com_height / (2.0 * p->d);
+
+	for (int j = 0; j < 4; j++) {
+		normal[j] = fmax(0.0, quarter - k * ap[j]);
+		hold[j] = traction_limit(pl) * normal[j] / quarter;
+	}
+}
+
+void plant_wheel_loads(const struct plant *pl, double normal_n[4], double hold_n[4])
+{
+	wheel_loads(pl, pl->x, pl->acc, normal_n, hold_n);
 }
 
 /* Traction force [N] a gripping wheel j needs at ground speed v [m/s] (massless wheel,
@@ -202,17 +230,18 @@ static double grip_force(const struct plant *pl, int j, double u, bool driven, d
 	return p->l * pl->Kt_eff[j] * (u - pl->Kv_eff[j] * p->l * v / rj) / (pl->R_eff[j] * rj);
 }
 
-/* Does a gripping wheel need more than the traction limit at robot velocity x? */
-static bool beyond_limit(const struct plant *pl, const double u[4], bool driven, const double x[3])
+/* Does a gripping wheel need more than it holds at robot velocity x and acceleration acc? */
+static bool beyond_limit(const struct plant *pl, const double u[4], bool driven, const double x[3],
+                         const double acc[3])
 {
-	const double lim = traction_limit(pl);
-	double vg[4];
+	double vg[4], normal[4], lim[4];
 
 	if (!(pl->floor.traction_mu > 0.0))
 		return false;
+	wheel_loads(pl, x, acc, normal, lim);
 	ik_wheel_speeds(pl->p.d, x, vg);
 	for (int j = 0; j < 4; j++)
-		if (fabs(grip_force(pl, j, u[j], driven, vg[j])) > lim)
+		if (fabs(grip_force(pl, j, u[j], driven, vg[j])) > lim[j])
 			return true;
 	return false;
 }
@@ -237,11 +266,10 @@ static double ik_coef(const struct plant *pl, int j, int k)
  * force, each slipping wheel's kinetic force F dir_j (wheels breaking loose now start slipping
  * along their force), each gripping wheel's motor force with its own axis's back-EMF in a and
  * the other axes' held from the substep's start (eqs 9-13, 21). */
-static void substep_forces(struct plant *pl, const double u[4], bool driven, double a[3],
-                           double b[3], int dir[4])
+static void substep_forces(struct plant *pl, const double u[4], bool driven, const double lim[4],
+                           double a[3], double b[3], int dir[4])
 {
 	const struct model_params *p = &pl->p;
-	const double lim = traction_limit(pl);
 	const double inertia[3] = {p->M, p->M, p->J};
 	double vg[4];
 
@@ -254,7 +282,8 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, dou
 		if (!pl->slipping[j] && pl->floor.traction_mu > 0.0) {
 			const double fg = grip_force(pl, j, u[j], driven, vg[j]);
 
-			if (fabs(fg) > lim) { /* breaks loose: slip velocity 0, growing along fg */
+			if (fabs(fg) >
+			    lim[j]) { /* breaks loose: slip velocity 0, growing along fg */
 				pl->slipping[j] = true;
 				pl->slip_dir[j] = (int8_t)(fg > 0 ? 1 : -1);
 				pl->rim[j] = vg[j];
@@ -266,7 +295,7 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, dou
 
 			dir[j] = sig > 0 ? 1 : (sig < 0 ? -1 : pl->slip_dir[j]);
 			for (int k = 0; k < 3; k++)
-				b[k] += g_coef(pl, k, j) * lim * dir[j] / inertia[k];
+				b[k] += g_coef(pl, k, j) * lim[j] * dir[j] / inertia[k];
 		} else if (driven) {
 			/* f_j = c1 u_j - c2 v_j: the own axis's back-EMF exact, the others held. */
 			const double rj = pl->r_eff[j];
@@ -292,11 +321,10 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, dou
 
 /* The wheels after a substep: a slipping one on its own inertia, J_w w' = l Kt i - r F dir_j,
  * until its slip velocity returns to 0; a gripping one at its ground speed. */
-static void substep_wheels(struct plant *pl, const double u[4], bool driven, const int dir[4],
-                           double h)
+static void substep_wheels(struct plant *pl, const double u[4], bool driven, const double lim[4],
+                           const int dir[4], double h)
 {
 	const struct model_params *p = &pl->p;
-	const double lim = traction_limit(pl);
 	const double Jw = pl->floor.wheel_inertia;
 	double vg[4];
 
@@ -308,8 +336,8 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 		}
 		const double rj = pl->r_eff[j], Kt = pl->Kt_eff[j], R = pl->R_eff[j];
 		const double aw = driven ? -p->l * p->l * Kt * pl->Kv_eff[j] / (Jw * R) : 0.0;
-		const double bw =
-		    (driven ? rj * p->l * Kt * u[j] / (Jw * R) : 0.0) - rj * rj * lim * dir[j] / Jw;
+		const double bw = (driven ? rj * p->l * Kt * u[j] / (Jw * R) : 0.0) -
+		                  rj * rj * lim[j] * dir[j] / Jw;
 		const double rim = lin_solve(aw, bw, pl->rim[j], h);
 		const double sig = rim - vg[j];
 
@@ -327,13 +355,16 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 static void floor_substep(struct plant *pl, const double u[4], bool driven, double h)
 {
 	const double x_old[3] = {pl->x[0], pl->x[1], pl->x[2]};
-	double a[3], b[3];
+	double a[3], b[3], normal[4], lim[4];
 	int dir[4];
 
-	substep_forces(pl, u, driven, a, b, dir);
+	wheel_loads(pl, pl->x, pl->acc, normal, lim);
+	substep_forces(pl, u, driven, lim, a, b, dir);
 	if (pl->blocked) {
-		for (int k = 0; k < 3; k++)
+		for (int k = 0; k < 3; k++) {
 			pl->x[k] = 0.0;
+			pl->acc[k] = 0.0;
+		}
 	} else {
 		for (int k = 0; k < 3; k++)
 			pl->x[k] = axis_step(a[k], b[k], -pl->ss.K[k], pl->x[k], h);
@@ -342,10 +373,12 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 		double xw[3];
 
 		frame_robot_to_world(pl->pose[2] + 0.5 * h * x_mid[2], x_mid, xw);
-		for (int k = 0; k < 3; k++)
+		for (int k = 0; k < 3; k++) {
 			pl->pose[k] += h * xw[k];
+			pl->acc[k] = (pl->x[k] - x_old[k]) / h;
+		}
 	}
-	substep_wheels(pl, u, driven, dir, h);
+	substep_wheels(pl, u, driven, lim, dir, h);
 }
 
 static void floor_step(struct plant *pl, const double u[4], bool driven, double dt)
@@ -370,7 +403,7 @@ static void floor_step(struct plant *pl, const double u[4], bool driven, double 
 	pl->driven = driven;
 }
 
-/* The creep process over dt (Gauss-Markov, stationary std dev slip_noise). */
+/* The creep process over dt (Gauss-Markov, stationary std dev slip_noise, per m/s). */
 static void creep_step(struct plant *pl, double dt)
 {
 	const double phi = exp(-dt / PLANT_CREEP_TAU_S);
@@ -387,14 +420,14 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 	for (int j = 0; j < 4; j++)
 		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0 ||
 		          pl->floor.R_error[j] != 0.0 || pl->floor.Kv_error[j] != 0.0;
-	if (!general && beyond_limit(pl, u, driven, pl->x))
+	if (!general && beyond_limit(pl, u, driven, pl->x, pl->acc))
 		general = true;
 	if (!general) {
 		struct exact_state before;
 
 		exact_save(pl, &before);
 		exact_step(pl, u, driven, dt);
-		if (beyond_limit(pl, u, driven, pl->x)) { /* broke loose inside the step */
+		if (beyond_limit(pl, u, driven, pl->x, pl->acc)) { /* broke loose inside the step */
 			exact_restore(pl, &before);
 			general = true;
 		}
@@ -405,21 +438,36 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 		creep_step(pl, dt);
 }
 
-void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4])
+/* The creep's part of each rim speed [m/s]: the process times the ground speed. */
+static void creep_m_s(const struct plant *pl, const double vg[4], double c[4])
 {
 	for (int j = 0; j < 4; j++)
-		wheel_rad_s[j] =
-		    (pl->floor.slip_noise > 0.0 ? pl->rim[j] + pl->creep[j] : pl->rim[j]) /
-		    pl->r_eff[j];
+		c[j] = pl->creep[j] * fabs(vg[j]);
+}
+
+void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4])
+{
+	double vg[4], c[4];
+
+	if (!(pl->floor.slip_noise > 0.0)) {
+		for (int j = 0; j < 4; j++)
+			wheel_rad_s[j] = pl->rim[j] / pl->r_eff[j];
+		return;
+	}
+	ik_wheel_speeds(pl->p.d, pl->x, vg);
+	creep_m_s(pl, vg, c);
+	for (int j = 0; j < 4; j++)
+		wheel_rad_s[j] = (pl->rim[j] + c[j]) / pl->r_eff[j];
 }
 
 void plant_wheel_slip(const struct plant *pl, double slip_m_s[4])
 {
-	double vg[4];
+	double vg[4], c[4];
 
 	ik_wheel_speeds(pl->p.d, pl->x, vg);
+	creep_m_s(pl, vg, c);
 	for (int j = 0; j < 4; j++)
-		slip_m_s[j] = pl->rim[j] + pl->creep[j] - vg[j];
+		slip_m_s[j] = pl->rim[j] + c[j] - vg[j];
 }
 
 uint32_t plant_slip_flags(const struct plant *pl)

@@ -19,6 +19,7 @@
 #include "omni4/feedforward.h"
 #include "omni4/hal.h"
 #include "omni4/q16.h"
+#include "omni4/traction.h"
 
 enum ctl_mode {
 	CTL_IDLE = 0,
@@ -129,6 +130,8 @@ struct ctl {
 	float vel_target[3];
 	struct ctl_shaper shaper; /* shaped reference [m/s, m/s, rad/s] and its derivative */
 	struct ctl_pi pi[4];      /* PI on each wheel's linear speed */
+	struct traction trac;     /* the shaper's traction limit ([limits] traction_mu) */
+	bool slipping;            /* the estimator's slip flag of the last tick */
 	/* VOLTAGE ramp */
 	struct ctl_ramp ramp;
 	bool stopping; /* watchdog stop ramp in progress */
@@ -170,6 +173,9 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
  * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
                 q16_t inv_4d);
+
+/* Between two ticks: the estimator's slip flag (the traction limit backs off while it is set). */
+void ctl_set_slip(struct ctl *c, bool slipping);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
 void ctl_flag(struct ctl *c, int32_t bits);

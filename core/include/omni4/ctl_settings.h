@@ -38,6 +38,9 @@ struct ctl_settings {
 		double current_max_a; /* over-current fault level [A] */
 		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor
 		                                [A] */
+		double traction_mu;     /* floor's friction coefficient; 0 = no traction limit */
+		double traction_margin; /* share of mu N_j kept in reserve */
+		double com_height;      /* centre of mass above the floor [m] (load transfer) */
 	} limits;
 };
 

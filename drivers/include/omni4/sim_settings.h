@@ -24,7 +24,8 @@ struct sim_settings {
 	double wheel_radius_error[4]; /* relative effective-radius error per wheel */
 	double motor_R_error[4];      /* relative motor + bridge resistance error per motor */
 	double motor_Kv_error[4];     /* relative motor-constant (Kv, Kt) error per motor */
-	double slip_noise;            /* creep std dev [m/s] */
+	double slip_noise;            /* creep std dev, a share of the ground speed */
+	double com_height;            /* centre of mass above the floor [m] (load transfer) */
 	double camera_latency_ms;     /* capture -> delivery [ms] */
 	/* The lockstep simulator only (sil/) */
 	bool truth;    /* log the plant's true state (OMNI4_SIM_TRUTH) */

@@ -11,8 +11,17 @@
  * The floor (struct plant_floor, all off by default; off, the plant is the one above to the
  * last bit):
  * - Traction limit: with traction_mu > 0 a wheel grips while its traction force l Kt i / r
- *   (eqs 12-13, the massless wheel of the paper) stays within F = mu M g / 4. Beyond it the
- *   wheel slips: it pushes the body with the kinetic friction F opposing the slip velocity
+ *   (eqs 12-13, the massless wheel of the paper) stays within F_j = mu N_j. The coefficient
+ *   depends on the direction at the contact: an omni wheel grips along its drive direction
+ *   (mu) and its rollers roll freely across it (no lateral force, so none of mu N_j is spent
+ *   across): only the drive-direction force meets the limit. N_j is wheel j's normal load with
+ *   the load transfer of the body's acceleration (com_height > 0): a rigid body on four
+ *   wheels at p_j (wheel 0 at +d along v, 1 at +d along vn, 2 and 3 opposite, eq 2) carries
+ *   N_j = M g / 4 - M h (a . p_j) / (2 d^2), a the centre of mass's acceleration in the body
+ *   frame (v' - w vn, vn' + w v), h = com_height (N_j >= 0): the wheels ahead of the
+ *   acceleration unload, those behind it load (braking loads the front), and the sum stays
+ *   M g. The acceleration is that of the previous (sub)step. Beyond the limit the
+ *   wheel slips: it pushes the body with the kinetic friction F_j opposing the slip velocity
  *   (rim speed minus the ground speed at the wheel, eq 2), and wheel + motor spin on their own
  *   inertia J_w (reflected at the wheel): J_w w_j' = l Kt i_j - r F sgn(slip), with i_j from
  *   eq 21 at the wheel's own speed. Its rim speed s_j = r w_j then follows
@@ -28,9 +37,10 @@
  * - Motor errors: wheel j's motor + bridge resistance is R (1 + R_error[j]) and its motor
  *   constant Kv (1 + Kv_error[j]) (back-EMF), Kt (1 + Kv_error[j]) (torque: one motor constant,
  *   Kt = Kv in SI units): each wheel's force (eqs 12-13) and current (eq 21) use its own.
- * - Creep: a small continuous slip per wheel, a first-order Gauss-Markov process (time
- *   constant PLANT_CREEP_TAU_S, standard deviation slip_noise [m/s]) added to the rim speed
- *   only (the body dynamics and the currents do not see it).
+ * - Creep: a small continuous slip per wheel that scales with the wheel's ground speed v_j
+ *   (eq 2): c_j |v_j|, c_j a first-order Gauss-Markov process (time constant
+ *   PLANT_CREEP_TAU_S, standard deviation slip_noise, a share of the speed), added to the rim
+ *   speed only (the body dynamics and the currents do not see it). A robot at rest reads 0.
  * - An external body force ext_force [Fv N, Fvn N, T N m] and a blocked body (velocity held at
  *   0, the wheels' motors still pushing: they stall, or slip beyond the traction limit), set
  *   by the caller between steps.
@@ -55,7 +65,8 @@ struct plant_floor {
 	double radius_error[4]; /* relative effective-radius error per wheel, |e| < 0.5 */
 	double R_error[4];      /* relative resistance error per motor, |e| < 0.5 */
 	double Kv_error[4];     /* relative motor-constant error (Kv and Kt), |e| < 0.5 */
-	double slip_noise;      /* creep std dev [m/s]; 0 = none */
+	double slip_noise;      /* creep std dev, a share of the ground speed; 0 = none */
+	double com_height;      /* centre of mass above the floor [m]: load transfer; 0 = none */
 	uint64_t seed;          /* of the creep */
 };
 
@@ -72,7 +83,8 @@ struct plant {
 	double r_eff[4];                       /* effective wheel radii [m] */
 	double R_eff[4], Kv_eff[4], Kt_eff[4]; /* each motor's own R, Kv, Kt (motor errors) */
 	double rim[4];   /* wheel rim speeds r_eff_j w_j [m/s] (ground speed when gripping) */
-	double creep[4]; /* creep part of rim[] [m/s] */
+	double creep[4]; /* creep process per wheel (share of the ground speed) */
+	double acc[3];   /* body acceleration over the last (sub)step [m/s^2, m/s^2, rad/s^2] */
 	bool slipping[4];
 	int8_t slip_dir[4]; /* direction of a slip that has just started (slip velocity 0) */
 	struct rng rng;     /* creep */
@@ -87,7 +99,7 @@ int plant_init(struct plant *pl, const struct model_params *p);
  * settings stay. */
 void plant_reset(struct plant *pl);
 /* The floor's settings (then plant_reset). -EINVAL if mu < 0, J_w <= 0 with mu > 0, an |e_j|
- * (radius, R or Kv error) >= 0.5, slip_noise < 0 or anything not finite. */
+ * (radius, R or Kv error) >= 0.5, slip_noise < 0, com_height < 0 or anything not finite. */
 int plant_set_floor(struct plant *pl, const struct plant_floor *f);
 
 /*
@@ -99,6 +111,10 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt);
 /* Wheel angular speeds after the gearbox [rad/s]: the wheels' own, rim_j / r_eff_j (v_j / r
  * with the floor off). */
 void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4]);
+
+/* Normal load per wheel [N] with the load transfer of the last (sub)step's acceleration, and
+ * the drive-direction force each can hold, mu N_j [N] (0 without a traction limit). */
+void plant_wheel_loads(const struct plant *pl, double normal_n[4], double hold_n[4]);
 
 /* Slip velocity per wheel [m/s]: rim speed minus the ground speed at the wheel (eq 2). */
 void plant_wheel_slip(const struct plant *pl, double slip_m_s[4]);

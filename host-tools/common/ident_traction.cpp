@@ -1,0 +1,416 @@
+// ident_traction.cpp - the floor's traction from the traction experiment (ident_traction.hpp).
+#include "ident_traction.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <map>
+
+#include "traction_exp.hpp"
+
+namespace omni4
+{
+
+namespace
+{
+
+constexpr double kG = 9.80665;
+constexpr double kSlipAbs = 0.02; // [m/s]: beyond the encoders' resolution, averaged
+constexpr double kSlipRel = 0.03; // share of the speed: beyond the model's error
+constexpr int kSlipMean = 10;     // samples in the running mean of the difference
+constexpr int kSmooth = 5;        // samples in the current's running mean
+constexpr int kSlopeN = 25;       // samples in each acceleration fit
+constexpr int kEnd = 20;          // last driven samples of a run: its kinetic force
+const char *const kDirections[] = {"v", "vn", "w", "diag"};
+
+bool driven(int8_t mode)
+{
+	return mode == 1 || mode == 2; // VELOCITY, VOLTAGE: the logged voltages applied
+}
+
+// Robot velocity (v, vn, d w) [m/s] from the wheel speeds (eqs 3-5).
+std::array<double, 3> robot_velocity(const MotorsSample &s, const model_params &p)
+{
+	std::array<double, 4> g{};
+	for (int j = 0; j < 4; ++j)
+		g[j] = p.r * s.w[j];
+	return {0.5 * (g[3] - g[1]), 0.5 * (g[0] - g[2]), 0.25 * (g[0] + g[1] + g[2] + g[3])};
+}
+
+// Largest distance between the encoders' velocity and the one the currents can give a
+// gripping robot (eqs 9-13 and 23, Euler from the segment's first sample), as a running mean
+// of kSlipMean samples, beyond the tolerance (> 0: slipped) and that distance.
+double runaway(const Segment &s, const model_params &p, double *dist_out, bool *at_end)
+{
+	const auto &m = s.log->motors;
+	const double inertia[3] = {p.M, p.M, p.J / (p.d * p.d)}; // the third axis as d w
+	const double B[3] = {p.Bv, p.Bvn, p.Bw / (p.d * p.d)}, C[3] = {p.Cv, p.Cvn, p.Cw / p.d};
+	std::array<double, 3> x = robot_velocity(m[s.m0], p);
+	double worst = 0, excess = -1e300;
+	std::array<std::array<double, 3>, kSlipMean> diff{};
+	std::array<double, kSlipMean> spd{};
+	for (size_t k = s.m0; k + 1 < s.m1; ++k) {
+		const double dt = (m[k + 1].utime - m[k].utime) * 1e-6;
+		std::array<double, 4> f{};
+		for (int j = 0; j < 4; ++j)
+			f[j] = driven(m[k].mode) ? p.l * p.Kt * m[k].i[j] / p.r : 0.0;
+		const double F[3] = {f[3] - f[1], f[0] - f[2], f[0] + f[1] + f[2] + f[3]};
+		for (int a = 0; a < 3; ++a) {
+			const double sg = x[a] > 0 ? 1 : (x[a] < 0 ? -1 : 0);
+			if (sg == 0 && std::fabs(F[a]) <= C[a])
+				continue; // stiction
+			const double xn = x[a] + dt *
+			                             (F[a] - B[a] * x[a] -
+			                              C[a] * (sg != 0 ? sg : (F[a] > 0 ? 1 : -1))) /
+			                             inertia[a];
+			x[a] = (sg != 0 && xn * sg < 0) ? 0.0 : xn;
+		}
+		const auto e = robot_velocity(m[k + 1], p);
+		const size_t n = k - s.m0;
+		diff[n % kSlipMean] = {e[0] - x[0], e[1] - x[1], e[2] - x[2]};
+		spd[n % kSlipMean] = std::hypot(e[0], e[1], e[2]);
+		if (n + 1 < kSlipMean)
+			continue;
+		std::array<double, 3> mean{};
+		double speed = 0;
+		for (int q = 0; q < kSlipMean; ++q) {
+			for (int a = 0; a < 3; ++a)
+				mean[a] += diff[q][a] / kSlipMean;
+			speed += spd[q] / kSlipMean;
+		}
+		const double d = std::hypot(mean[0], mean[1], mean[2]);
+		worst = std::max(worst, d);
+		excess = std::max(excess, d - kSlipAbs - kSlipRel * speed);
+		if (driven(m[k].mode))
+			*at_end = d > kSlipAbs + kSlipRel * speed;
+	}
+	*dist_out = worst;
+	return excess;
+}
+
+// Peak wheel force [N]: the largest 5-sample mean of l Kt |i_j| / r per driven wheel, averaged
+// over the driven wheels.
+double peak_force(const Segment &s, const model_params &p, const std::array<double, 4> &pat)
+{
+	const auto &m = s.log->motors;
+	double sum = 0;
+	int n = 0;
+	for (int j = 0; j < 4; ++j) {
+		if (pat[j] == 0)
+			continue;
+		double best = 0;
+		for (size_t k = s.m0; k + kSmooth <= s.m1; ++k) {
+			double acc = 0;
+			for (int q = 0; q < kSmooth; ++q)
+				acc += driven(m[k + q].mode) ? m[k + q].i[j] : 0.0;
+			best = std::max(best, std::fabs(acc / kSmooth));
+		}
+		sum += p.l * p.Kt * best / p.r;
+		++n;
+	}
+	return n ? sum / n : 0.0;
+}
+
+// Each wheel's mean force over the last kEnd driven samples [N] (signed).
+// And each rim's acceleration over them (least-squares slope of r w_j) [m/s^2].
+std::array<double, 4> end_forces(const Segment &s, const model_params &p,
+                                 std::array<double, 4> &rim_acc)
+{
+	const auto &m = s.log->motors;
+	std::array<double, 4> f{}, sy{}, sty{};
+	double st = 0, stt = 0;
+	int n = 0;
+	for (size_t k = s.m1; k-- > s.m0 && n < kEnd;) {
+		if (!driven(m[k].mode))
+			continue;
+		const double t = (m[k].utime - m[s.m1 - 1].utime) * 1e-6;
+		for (int j = 0; j < 4; ++j) {
+			f[j] += p.l * p.Kt * m[k].i[j] / p.r;
+			sy[j] += p.r * m[k].w[j];
+			sty[j] += t * p.r * m[k].w[j];
+		}
+		st += t;
+		stt += t * t;
+		++n;
+	}
+	const double den = n * stt - st * st;
+	for (int j = 0; j < 4; ++j) {
+		f[j] = n ? f[j] / n : 0.0;
+		rim_acc[j] = den > 0 ? (n * sty[j] - st * sy[j]) / den : 0.0;
+	}
+	return f;
+}
+
+// The velocity along the direction (m/s; rad/s along w).
+double along(const std::string &dir, const std::array<double, 3> &x, const model_params &p)
+{
+	if (dir == "v")
+		return x[0];
+	if (dir == "vn")
+		return x[1];
+	if (dir == "w")
+		return x[2] / p.d;
+	return (x[0] + x[1]) / std::sqrt(2.0);
+}
+
+// Steepest kSlopeN-sample least-squares slope of the velocity along dir, and its SE.
+void steepest(const Segment &s, const model_params &p, double *acc, double *se)
+{
+	const auto &m = s.log->motors;
+	*acc = 0;
+	*se = 0;
+	for (size_t k = s.m0; k + kSlopeN <= s.m1; ++k) {
+		double st = 0, sy = 0, stt = 0, sty = 0;
+		const double t0 = m[k].utime * 1e-6;
+		for (int q = 0; q < kSlopeN; ++q) {
+			const double t = m[k + q].utime * 1e-6 - t0;
+			const double y = along(s.direction, robot_velocity(m[k + q], p), p);
+			st += t, sy += y, stt += t * t, sty += t * y;
+		}
+		const double n = kSlopeN, den = n * stt - st * st;
+		if (!(den > 0))
+			continue;
+		const double b = (n * sty - st * sy) / den, a = (sy - b * st) / n;
+		if (std::fabs(b) <= std::fabs(*acc))
+			continue;
+		double rss = 0;
+		for (int q = 0; q < kSlopeN; ++q) {
+			const double t = m[k + q].utime * 1e-6 - t0;
+			const double y = along(s.direction, robot_velocity(m[k + q], p), p);
+			rss += (y - a - b * t) * (y - a - b * t);
+		}
+		*acc = b;
+		*se = std::sqrt(rss / (n - 2) / (stt - st * st / n));
+	}
+	*acc = std::fabs(*acc);
+}
+
+// mu_run (M g / 4) = F + m_w s' over the runs (F = mu M g / 4, m_w = J_w / r^2, s' the rim's
+// acceleration): the intercept by least squares, with its SE; the mean without spread in s'.
+void kinetic_fit(const std::vector<const TractionRun *> &runs, TractionDirection *d)
+{
+	const double n = static_cast<double>(runs.size());
+	double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+	for (const TractionRun *r : runs) {
+		sx += r->end_rim_acc, sy += r->end_mu, sxx += r->end_rim_acc * r->end_rim_acc;
+		sxy += r->end_rim_acc * r->end_mu, syy += r->end_mu * r->end_mu;
+	}
+	const double den = n * sxx - sx * sx;
+	if (n < 4 || !(den > 1e-9 * n * n)) {
+		d->mu = sy / n;
+		d->mu_se =
+		    n > 1 ? std::sqrt(std::max(0.0, syy / n - d->mu * d->mu) / (n - 1)) : 0.0;
+		return;
+	}
+	const double b = (n * sxy - sx * sy) / den, a = (sy - b * sx) / n;
+	double rss = 0;
+	for (const TractionRun *r : runs)
+		rss += (r->end_mu - a - b * r->end_rim_acc) * (r->end_mu - a - b * r->end_rim_acc);
+	d->mu = a;
+	d->mu_se = std::sqrt(rss / (n - 2) * sxx / den);
+	d->wheel_share = b; // per m/s^2, in units of M g / 4
+}
+
+TractionDirection summarise(const std::string &dir, std::vector<const TractionRun *> runs)
+{
+	TractionDirection d;
+	d.direction = dir;
+	d.runs = static_cast<int>(runs.size());
+	std::sort(runs.begin(), runs.end(),
+	          [](const TractionRun *a, const TractionRun *b) { return a->level < b->level; });
+	double lower = 0;
+	std::vector<const TractionRun *> kinetic; // slipping at their end, by level
+	for (const TractionRun *r : runs) {
+		if (!d.reached && !r->slipped) {
+			++d.held;
+			lower = std::max(lower, r->mu);
+			d.level_held = r->level;
+		}
+		if (r->slipped && !d.reached) {
+			d.reached = true;
+			d.level_slip = r->level;
+		}
+		if (r->slip_at_end)
+			kinetic.push_back(r);
+	}
+	kinetic.erase(kinetic.begin(), kinetic.begin() + kinetic.size() / 2); // the top half
+	d.reached = !kinetic.empty();
+	if (!d.reached) {
+		d.mu = lower; // a lower bound
+	} else {
+		kinetic_fit(kinetic, &d);
+	}
+	for (const TractionRun *r : runs) // the highest run that held below mu
+		if (!r->slipped && r->mu <= d.mu && r->level <= d.level_held) {
+			d.acc = r->acc;
+			d.acc_se = r->acc_se;
+		}
+	return d;
+}
+
+// Centre of mass height from the diagonal's runs with all four wheels slipping.
+bool com_from_diagonal(const std::vector<TractionRun> &runs, double level_slip, double mu,
+                       double share, const model_params &p, double *h)
+{
+	double sum = 0;
+	int n = 0;
+	for (const TractionRun &r : runs) {
+		if (r.direction != "diag" || !r.slip_at_end || r.level < 2 * level_slip)
+			continue;
+		std::array<double, 4> f = r.end_f;
+		for (int j = 0; j < 4; ++j) // less the share that spins the rim up (kinetic_fit)
+			f[j] -= share * p.M * kG / 4 * r.end_acc[j];
+		const double a_v = (std::fabs(f[1]) + std::fabs(f[3]) - p.Cv) / p.M;
+		const double a_vn = (std::fabs(f[0]) + std::fabs(f[2]) - p.Cvn) / p.M;
+		if (!(a_v > 0.1 && a_vn > 0.1))
+			continue;
+		sum += (std::fabs(f[2]) - std::fabs(f[0])) * p.d / (mu * p.M * a_v);
+		sum += (std::fabs(f[3]) - std::fabs(f[1])) * p.d / (mu * p.M * a_vn);
+		n += 2;
+	}
+	if (!n)
+		return false;
+	*h = std::clamp(sum / n, 0.0, 1.0);
+	return true;
+}
+
+void combine(TractionResult &r, const model_params &p)
+{
+	double w = 0, wm = 0;
+	const TractionDirection *diag = nullptr;
+	for (const TractionDirection &d : r.directions) {
+		if (d.direction == "diag") {
+			diag = &d;
+			continue;
+		}
+		if (!d.reached || d.held == 0)
+			continue;
+		const double se = std::max(d.mu_se, 1e-3 * d.mu);
+		w += 1 / (se * se);
+		wm += d.mu / (se * se);
+	}
+	if (w > 0) {
+		r.ok = true;
+		r.mu = wm / w;
+		r.mu_se = 1 / std::sqrt(w);
+	}
+	if (r.ok && diag && diag->reached)
+		r.have_com = com_from_diagonal(r.runs, diag->level_slip, r.mu, diag->wheel_share, p,
+		                               &r.com_height);
+}
+
+} // namespace
+
+TractionResult identify_traction(const std::vector<Segment> &segs, const model_params &p)
+{
+	TractionResult r;
+	std::map<std::string, std::vector<const TractionRun *>> by_dir;
+	for (const Segment &s : segs) {
+		if (s.kind != "traction" || s.m1 < s.m0 + kSlopeN)
+			continue;
+		std::array<double, 4> pat;
+		try {
+			pat = traction_pattern(s.direction);
+		} catch (const std::invalid_argument &) {
+			continue; // not a direction of this experiment
+		}
+		TractionRun run;
+		run.direction = s.direction;
+		run.level = s.level;
+		run.slipped = runaway(s, p, &run.slip, &run.slip_at_end) > 0;
+		run.slip_at_end = run.slip_at_end && run.slipped;
+		run.force = peak_force(s, p, pat);
+		run.end_f = end_forces(s, p, run.end_acc);
+		double sum = 0, acc = 0;
+		int n = 0;
+		for (int j = 0; j < 4; ++j)
+			if (pat[j] != 0) {
+				sum += std::fabs(run.end_f[j]);
+				acc += run.end_acc[j] * (run.end_f[j] < 0 ? -1 : 1);
+				++n;
+			}
+		run.end_mu = sum / n / (p.M * kG / 4);
+		run.end_rim_acc = acc / n;
+		run.mu = run.force / (p.M * kG / 4);
+		steepest(s, p, &run.acc, &run.acc_se);
+		r.runs.push_back(run);
+	}
+	for (const TractionRun &run : r.runs)
+		by_dir[run.direction].push_back(&run);
+	for (const char *dir : kDirections)
+		if (by_dir.count(dir))
+			r.directions.push_back(summarise(dir, by_dir[dir]));
+	combine(r, p);
+	return r;
+}
+
+void print_traction(const TractionResult &r)
+{
+	if (r.runs.empty())
+		return;
+	std::printf("\ntraction (the floor): per direction, voltage steps from rest\n");
+	std::printf("  %-5s %5s %10s %10s %16s %28s\n", "dir", "runs", "held to", "slips at",
+	            "mu ± SE", "largest held acceleration");
+	for (const TractionDirection &d : r.directions) {
+		char mu[40], slip[24];
+		std::snprintf(mu, sizeof(mu), d.reached ? "%.4f ± %.4f" : ">= %.4f", d.mu, d.mu_se);
+		std::snprintf(slip, sizeof(slip), d.reached ? "%.2f V" : "none", d.level_slip);
+		std::printf("  %-5s %5d %8.2f V %10s %16s %14.3f ± %.3f %s\n", d.direction.c_str(),
+		            d.runs, d.level_held, slip, mu, d.acc, d.acc_se,
+		            d.direction == "w" ? "rad/s^2" : "m/s^2");
+	}
+	if (r.ok)
+		std::printf(
+		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
+		    "transfer)\n",
+		    r.mu, r.mu_se);
+	else
+		std::printf(
+		    "  traction_mu not measured: no slip along v, vn or w (raise the cap, or "
+		    "the floor holds more than the motors give)\n");
+	if (r.have_com)
+		std::printf("  com_height %.4f m (from the diagonal: the wheels ahead unload)\n",
+		            r.com_height);
+}
+
+void export_traction_csv(const std::string &dir, const TractionResult &r)
+{
+	if (dir.empty() || r.runs.empty())
+		return;
+	std::ofstream f(dir + "/traction_runs.csv");
+	f << "direction,level_v,slipped,slip_m_s,force_n,mu,acc,acc_se,slip_at_end,end_mu\n";
+	for (const TractionRun &x : r.runs)
+		f << x.direction << ',' << x.level << ',' << (x.slipped ? 1 : 0) << ',' << x.slip
+		  << ',' << x.force << ',' << x.mu << ',' << x.acc << ',' << x.acc_se << ','
+		  << (x.slip_at_end ? 1 : 0) << ',' << x.end_mu << '\n';
+	std::ofstream g(dir + "/traction.csv");
+	g << "direction,runs,held,reached,mu,mu_se,acc,acc_se,level_held_v,level_slip_v\n";
+	for (const TractionDirection &d : r.directions)
+		g << d.direction << ',' << d.runs << ',' << d.held << ',' << (d.reached ? 1 : 0)
+		  << ',' << d.mu << ',' << d.mu_se << ',' << d.acc << ',' << d.acc_se << ','
+		  << d.level_held << ',' << d.level_slip << '\n';
+}
+
+bool write_traction_limits(FILE *f, const TractionResult &r)
+{
+	if (r.runs.empty())
+		return true;
+	bool ok = std::fprintf(f, "\n[limits]\n; the traction experiment: the floor's friction "
+	                          "coefficient (mu +- SE, largest held acceleration +- SE)\n") > 0;
+	for (const TractionDirection &d : r.directions)
+		ok = ok &&
+		     std::fprintf(f, "; %s: mu %s%.4f +- %.4f, held %.4g +- %.2g %s\n",
+		                  d.direction.c_str(), d.reached ? "" : ">= ", d.mu, d.mu_se, d.acc,
+		                  d.acc_se, d.direction == "w" ? "rad/s^2" : "m/s^2") > 0;
+	if (r.ok)
+		ok = ok && std::fprintf(f, "traction_mu = %.4f ; +- %.4f\n", r.mu, r.mu_se) > 0;
+	else
+		ok = ok &&
+		     std::fprintf(f, "; traction_mu not measured (no slip along v, vn, w)\n") > 0;
+	if (r.have_com)
+		ok = ok && std::fprintf(f, "com_height = %.4f\n", r.com_height) > 0;
+	return ok;
+}
+
+} // namespace omni4

@@ -1,0 +1,158 @@
+// traction_exp.cpp - the traction experiment's timeline (traction_exp.hpp).
+#include "traction_exp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "omni4/command_t.hpp"
+
+extern "C" {
+#include "omni4/plant.h"
+}
+
+namespace omni4
+{
+
+std::array<double, 4> traction_pattern(const std::string &direction)
+{
+	if (direction == "diag") {
+		const auto v = drive_pattern("v"), vn = drive_pattern("vn");
+		return {v[0] + vn[0], v[1] + vn[1], v[2] + vn[2], v[3] + vn[3]};
+	}
+	return drive_pattern(direction);
+}
+
+std::vector<double> traction_levels(const TractionSeqOptions &opt)
+{
+	std::vector<double> levels;
+	if (!(opt.level0_v > 0) || !(opt.growth > 1) || !(opt.cap_v >= opt.level0_v))
+		throw std::invalid_argument(
+		    "traction levels: need 0 < first level <= cap, growth > 1");
+	for (double u = opt.level0_v; u <= opt.cap_v * (1 + 1e-9); u *= opt.growth)
+		levels.push_back(u);
+	return levels;
+}
+
+std::vector<Phase> traction_sequence(const TractionSeqOptions &opt)
+{
+	std::vector<Phase> seq;
+	const std::vector<double> levels = traction_levels(opt);
+	for (const std::string &dir : opt.directions) {
+		const auto pattern = traction_pattern(dir);
+		for (double level : levels) {
+			Phase p;
+			p.duration_s = opt.ramp_s + opt.hold_s;
+			p.mode = command_t::MODE_VOLTAGE;
+			for (int j = 0; j < 4; ++j)
+				p.voltage[j] = pattern[j] * level;
+			p.ramp_s = opt.ramp_s;
+			p.mark_kind = "traction";
+			p.mark_direction = dir;
+			p.mark_level = level;
+			seq.push_back(p);
+			Phase c;
+			c.duration_s = opt.settle_s;
+			c.mode = command_t::MODE_COAST;
+			c.end_mark = true;
+			seq.push_back(c);
+			Phase clear;
+			clear.duration_s = 0.05;
+			clear.mode = command_t::MODE_CLEAR_FAULT;
+			seq.push_back(clear);
+		}
+	}
+	return seq;
+}
+
+namespace
+{
+
+// Peak |wheel force| [N] of a voltage ramp from rest to u over ramp_s, held until run_s.
+double peak_force(const model_params &p, const std::array<double, 4> &u, double ramp_s,
+                  double run_s)
+{
+	struct plant pl;
+	if (plant_init(&pl, &p))
+		return 0;
+	const double dt = 1e-3;
+	double peak = 0;
+	for (double t = dt; t <= run_s + 1e-9; t += dt) {
+		const double k = std::min(1.0, t / ramp_s);
+		const double v[4] = {k * u[0], k * u[1], k * u[2], k * u[3]};
+		plant_step(&pl, v, true, dt);
+		for (int j = 0; j < 4; ++j)
+			peak = std::max(peak, std::fabs(p.l * p.Kt * pl.current_a[j] / p.r));
+	}
+	return peak;
+}
+
+} // namespace
+
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n)
+{
+	static const double ramps[] = {0.5, 0.75, 1, 1.5, 2, 3, 4, 6};
+	if (!(hold_n > 0))
+		return;
+	bool at_rest = true; // the sequence starts at rest; coasting to rest follows each run
+	for (Phase &ph : phases) {
+		const bool from_rest = at_rest;
+		at_rest = ph.mode != command_t::MODE_VOLTAGE && (at_rest || ph.duration_s >= 0.2);
+		if (ph.mode != command_t::MODE_VOLTAGE || !from_rest ||
+		    ph.mark_kind == "traction" || ph.ramp_s <= 0)
+			continue;
+		const double hold = ph.duration_s - ph.ramp_s;
+		for (double r : ramps) {
+			if (r < ph.ramp_s)
+				continue;
+			const double grown = r - ph.ramp_s;
+			ph.ramp_s = r;
+			ph.duration_s += grown;
+			if (peak_force(p, ph.voltage, r, r + std::min(hold, 1.0)) <= hold_n)
+				break;
+		}
+	}
+}
+
+double traction_hold_n(const model_params &p, double mu, double margin)
+{
+	return mu > 0 ? (1 - margin) * mu * p.M * 9.80665 / 4 : 0.0;
+}
+
+std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,
+                                     double settle_s)
+{
+	SequenceOptions full;
+	full.hold_s = hold_s;
+	full.settle_s = settle_s;
+	if (only.empty())
+		return paper_sequence(full);
+	SequenceOptions pick = full;
+	pick.rotation_levels.clear();
+	pick.coast_levels.clear();
+	pick.motor_levels.clear();
+	pick.step_levels.clear();
+	bool traction = false;
+	for (const std::string &k : only) {
+		if (k == "steady_rotation")
+			pick.rotation_levels = full.rotation_levels;
+		else if (k == "coast")
+			pick.coast_levels = full.coast_levels;
+		else if (k == "motor")
+			pick.motor_levels = full.motor_levels;
+		else if (k == "step")
+			pick.step_levels = full.step_levels;
+		else if (k == "traction")
+			traction = true;
+		else
+			throw std::invalid_argument("unknown experiment kind '" + k + "'");
+	}
+	std::vector<Phase> seq = paper_sequence(pick); // ends with a short IDLE
+	if (traction) {
+		const std::vector<Phase> t = traction_sequence();
+		seq.insert(seq.end() - 1, t.begin(), t.end());
+	}
+	return seq;
+}
+
+} // namespace omni4

@@ -1,0 +1,58 @@
+// traction_exp.hpp - the traction experiment as a timeline of phases (experiments.hpp): along v,
+// vn, w and the diagonal v + vn, voltage steps from rest with a short ramp, each a little
+// larger than the last (a geometric series of levels) up to a cap, each held briefly and
+// followed by coasting to rest (bridges off: the safe stop). The first level at which a wheel
+// slips brackets the floor's traction (ident_traction.hpp). Each coast ends with a clear-fault
+// command: a slip trips the controller's encoder plausibility check (FAULT_ENCODER, bridges
+// off), which the experiment provokes on purpose; once the robot is at rest it is cleared.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "experiments.hpp"
+
+extern "C" {
+#include "omni4/params.h"
+}
+
+namespace omni4
+{
+
+struct TractionSeqOptions {
+	std::vector<std::string> directions{"v", "vn", "w", "diag"};
+	double level0_v = 1.2; // first level [V]: above what Coulomb friction takes along v
+	double growth = 1.05;  // each level this much above the last
+	double cap_v = 12.0;   // the last level [V]: the supply
+	double ramp_s = 0.03;  // rise of each step (the paper's ramped steps)
+	double hold_s = 0.10;  // held after the ramp, then the bridges go off
+	double settle_s = 1.2; // coasting to rest
+};
+
+// Channel voltage pattern per volt along "v", "vn", "w" (drive_pattern) or "diag" (v + vn).
+std::array<double, 4> traction_pattern(const std::string &direction);
+
+// The levels of one direction, ascending [V].
+std::vector<double> traction_levels(const TractionSeqOptions &opt = {});
+
+// The phases: per direction and level a "traction" segment (the step) closed by "end" at the
+// start of the coast.
+std::vector<Phase> traction_sequence(const TractionSeqOptions &opt = {});
+
+// Every voltage phase that starts from rest (the paper's runs and push-offs) gets a ramp long
+// enough that no wheel needs more than hold_n [N] (the traction less the margin: the paper's
+// "this way wheel sleeping was avoided"): the shortest of 0.5, 0.75, 1, 1.5, 2, 3, 4, 6 s whose
+// peak wheel force, simulated on the model p (a gripping robot, eqs 12-13, 21, 23), stays
+// within it; the phase grows by what its ramp grew. Phases of the traction experiment are
+// left as they are. hold_n <= 0: nothing changes.
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n);
+// (1 - margin) mu M g / 4 [N] ([limits] traction_mu, traction_margin); 0 when mu is 0.
+double traction_hold_n(const model_params &p, double mu, double margin);
+
+// The phases of the kinds in `only` (steady_rotation, coast, motor, step, traction) in that
+// order, or the paper's whole sequence when `only` is empty; throws std::invalid_argument on an
+// unknown kind. hold_s, settle_s: the paper's runs'.
+std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,
+                                     double settle_s);
+
+} // namespace omni4
