@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "identify_context.hpp"
+#include "identify_wheels.hpp"
 
 namespace omni4
 {
@@ -62,8 +63,12 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
 		CameraTrack cam;
 		std::vector<std::pair<size_t, SegmentWindows>> windows; // by segment index
 	};
+	ident::estimate_radii(P);
+	std::array<double, 4> radii;
+	for (int j = 0; j < 4; ++j)
+		radii[j] = base.r * P.radii.shape.r[j];
 	auto work = [&](const LogData *log) {
-		Tracks t{encoder_track(*log, base.d, base.r), camera_track(*log), {}};
+		Tracks t{encoder_track(*log, base.d, radii), camera_track(*log), {}};
 		for (size_t i = 0; i < segments.size(); ++i)
 			if (segments[i].log == log)
 				t.windows.emplace_back(
@@ -88,6 +93,7 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
 				P.offset_epochs.emplace_back(logs[k], e);
 		}
 	}
+	ident::camera_radius_scale(P);
 	return P;
 }
 
@@ -113,6 +119,18 @@ void record_windows(const Prepared &P, IdentResult &res)
 			res.windows.push_back(
 			    {i, s.kind, s.direction, r.what, r.t0_s, r.t1_s, false, r.reason});
 	}
+}
+
+// Each wheel's drive: final's scalars with the shape the experiments used; r_j's SE is rho_j's
+// (the mean radius is the measured one).
+void finish_wheels(IdentResult &res)
+{
+	res.final_wheels = res.wheels.shape.wheels(res.final);
+	if (!res.wheels.radii_differ)
+		return;
+	for (int j = 0; j < 4; ++j)
+		res.wheels.r_wheel[j] = {res.final.r * res.wheels.rho[j].value,
+		                         res.final.r * res.wheels.rho[j].se};
 }
 
 // Each parameter's final value from the methods that give it (combine_methods), into
@@ -159,6 +177,7 @@ IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in)
 		++res.segments_used[P.segments[i].kind];
 	if (!use_in)
 		record_windows(P, res);
+	res.wheels = P.radii;
 	ident::Context c{P, use, res};
 	for (const ident::Experiment run : ident::kExperiments)
 		run(c);
@@ -168,6 +187,7 @@ IdentResult identify(const Prepared &P, const std::vector<size_t> *use_in)
 			why += "\n  " + m;
 		throw IdentError(why);
 	}
+	finish_wheels(res);
 	if (res.complete()) {
 		int bad = -1;
 		if (model_params_check(&res.final, &bad))

@@ -18,6 +18,17 @@ namespace ident
 namespace
 {
 
+// eqs 12-13 with each wheel's drive (the scalar twin where the shape is uniform).
+void wheel_forces(const model_params &p, const WheelShape &s, const double i[4], double f[4])
+{
+	if (s.uniform()) {
+		dyn_wheel_forces(&p, i, f);
+		return;
+	}
+	const model_wheels w = s.wheels(p);
+	dyn_wheel_forces_wheels(&p, &w, i, f);
+}
+
 // ---- experiment 1 (eq 16) ----------------------------------------------------------------
 
 double slope(const std::vector<double> &t, const std::vector<double> &y)
@@ -68,7 +79,7 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 	}
 	// The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
 	double f[4], robot_f[3];
-	dyn_wheel_forces(&p, imean, f);
+	wheel_forces(p, c.res.wheels.shape, imean, f);
 	dyn_robot_forces(p.d, f, robot_f);
 	const double torque = robot_f[2];
 	const double wcam =
@@ -86,8 +97,8 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 
 // T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
 // x = [Kt, delta (4 per offset epoch)] (none: as measured): what experiment 1 borrows.
-Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p, bool cam,
-                 const Eigen::VectorXd *x)
+Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p,
+                 const WheelShape &shape, bool cam, const Eigen::VectorXd *x)
 {
 	model_params q = p;
 	if (x)
@@ -100,7 +111,7 @@ Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p
 		for (int j = 0; j < 4; ++j)
 			i[j] =
 			    pt.imean[j] - (x && pt.epoch >= 0 ? (*x)[1 + 4 * pt.epoch + j] : 0.0);
-		dyn_wheel_forces(&q, i, f);
+		wheel_forces(q, shape, i, f);
 		dyn_robot_forces(q.d, f, robot_f);
 		X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
 		X(k, 1) = 1.0;
@@ -136,7 +147,7 @@ void experiment1(Context &c)
 		return;
 	}
 	try {
-		const Fit f = fit_rotation(res.rotation_points, p, cam, nullptr);
+		const Fit f = fit_rotation(res.rotation_points, p, res.wheels.shape, cam, nullptr);
 		const Eigen::VectorXd off_se = c.offset_se();
 		Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()),
 		                se(1 + off_se.size());
@@ -145,7 +156,8 @@ void experiment1(Context &c)
 		se.tail(off_se.size()) = off_se;
 		const Eigen::VectorXd b = propagate_independent(
 		    [&](const Eigen::VectorXd &x) -> Eigen::VectorXd {
-			    return fit_rotation(res.rotation_points, p, cam, &x).theta;
+			    return fit_rotation(res.rotation_points, p, res.wheels.shape, cam, &x)
+			        .theta;
 		    },
 		    x0, se);
 		res.table["exp1"]["Bw"] = with_borrowed(f.theta[0], std::sqrt(f.cov(0, 0)), b[0]);

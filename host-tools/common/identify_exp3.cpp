@@ -25,18 +25,31 @@ double axis_input(const double u_v[4], int axis)
 // Inverting dyn_state_space: with b = l Kt / (r R) (eq 26) and emf = Kt Kv l^2 / (r^2 R),
 //   along v, vn: theta2 = b / M,     theta1 = -(2 emf + B) / M,       theta3 = -C / M;
 //   along w:     theta2 = b d / J,   theta1 = -(4 d^2 emf + Bw) / J,  theta3 = -Cw / J.
-double R_from_theta2(const model_params &p, int /*axis*/, double theta2)
+// Per wheel (WheelShape): b and emf are the mean wheel's, theta2 carries axis_beta and theta1's
+// back-EMF term the axis's eps sum.
+double R_from_theta2(const model_params &p, int axis, double theta2, const WheelShape &s)
 {
-	return p.l * p.Kt / (p.r * p.M * theta2);
+	if (s.uniform())
+		return p.l * p.Kt / (p.r * p.M * theta2);
+	return p.l * p.Kt * axis_beta(s, axis) / (p.r * p.M * theta2);
 }
-double J_from_theta2(const model_params &p, double theta2)
+double J_from_theta2(const model_params &p, double theta2, const WheelShape &s)
 {
-	return p.l * p.Kt * p.d / (p.r * p.R * theta2);
+	if (s.uniform())
+		return p.l * p.Kt * p.d / (p.r * p.R * theta2);
+	return p.l * p.Kt * p.d * axis_beta(s, 2) / (p.r * p.R * theta2);
 }
-double B_from_theta1(const model_params &p, int axis, double theta1)
+double B_from_theta1(const model_params &p, int axis, double theta1, const WheelShape &s)
 {
 	const double emf = p.Kt * p.Kv * p.l * p.l / (p.r * p.r * p.R);
-	return axis < 2 ? -p.M * theta1 - 2 * emf : -p.J * theta1 - 4 * p.d * p.d * emf;
+	if (s.uniform())
+		return axis < 2 ? -p.M * theta1 - 2 * emf : -p.J * theta1 - 4 * p.d * p.d * emf;
+	const double e0 = s.eps(0), e1 = s.eps(1), e2 = s.eps(2), e3 = s.eps(3);
+	if (axis == 0)
+		return -p.M * theta1 - (e1 + e3) * emf;
+	if (axis == 1)
+		return -p.M * theta1 - (e0 + e2) * emf;
+	return -p.J * theta1 - p.d * p.d * (e0 + e1 + e2 + e3) * emf;
 }
 double C_from_theta3(const model_params &p, int axis, double theta3)
 {
@@ -51,10 +64,24 @@ namespace
 
 // ---- experiment 3 (eqs 31-35) ----------------------------------------------------------
 
-double input_of(const MotorsSample &m, int axis)
+// The axis input of one sample's voltages (per wheel: the voltage part of axis_input_wheels).
+double input_of(const MotorsSample &m, int axis, const model_params &p, const WheelShape &s)
 {
 	const double u[4] = {m.u[0], m.u[1], m.u[2], m.u[3]};
-	return axis_input(u, axis);
+	if (s.uniform())
+		return axis_input(u, axis);
+	const double x0[3] = {0, 0, 0};
+	return axis_input_wheels(p, s, u, x0, axis);
+}
+
+// Per wheel: the back-EMF coupling of the other axes at the filtered velocity x.
+double coupling_of(const std::array<double, 3> &x, int axis, const model_params &p,
+                   const WheelShape &s)
+{
+	if (s.uniform())
+		return 0.0;
+	const double u0[4] = {0, 0, 0, 0}, xv[3] = {x[0], x[1], x[2]};
+	return axis_input_wheels(p, s, u0, xv, axis);
 }
 
 // Rows of the driven step windows along `axis`: valid encoder samples moving faster than the
@@ -62,8 +89,10 @@ double input_of(const MotorsSample &m, int axis)
 // stopped (there x' = theta1 x + theta2 u + theta3 sign(x) does not hold: stiction), so the
 // first and last half-window of every moving stretch are dropped. A run of rows ends where
 // the speed falls below the threshold or data are missing.
-StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis)
+StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis,
+                         const model_params &p)
 {
+	const WheelShape &shape = c.res.wheels.shape;
 	const double thr = kStopSpeed[axis];
 	std::vector<std::array<double, 4>> rows; // x, input, sign, y
 	StateSpaceData d;
@@ -97,7 +126,9 @@ StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, i
 			for (size_t q = a0; q < b0; ++q) {
 				double in = 0;
 				for (int j = -h; j <= h; ++j)
-					in += f.smooth[j + h] * input_of(m[q + j - 1], axis);
+					in += f.smooth[j + h] *
+					      input_of(m[q + j - 1], axis, p, shape);
+				in += coupling_of(enc.x[q], axis, p, shape);
 				const double x = enc.x[q][axis];
 				rows.push_back({x, in, sgn(x), enc.dx[q][axis]});
 				d.t.push_back(m[q].utime * 1e-6);
@@ -125,7 +156,7 @@ struct Exp3Fits {
 	std::array<bool, 3> have{};
 };
 
-Exp3Fits fit_step_axes(Context &c)
+Exp3Fits fit_step_axes(Context &c, const model_params &p)
 {
 	Exp3Fits out;
 	std::array<std::future<AxisFit>, 3> pending;
@@ -135,10 +166,10 @@ Exp3Fits fit_step_axes(Context &c)
 		if (wins.empty())
 			continue;
 		pending[axis] =
-		    std::async(std::launch::async, [&c, axis, dir, w = std::move(wins)] {
+		    std::async(std::launch::async, [&c, &p, axis, dir, w = std::move(wins)] {
 			    AxisFit a;
 			    try {
-				    a.f = fit_state_space(axis_data(c, w, axis),
+				    a.f = fit_state_space(axis_data(c, w, axis, p),
 				                          std::string("experiment 3 along ") + dir);
 			    } catch (const IdentError &e) {
 				    a.error = e.what();
@@ -181,6 +212,7 @@ Exp3Fits fit_step_axes(Context &c)
 struct Derivation {
 	const IdentOptions &opt;
 	model_params &p; // geometry and M; Kt = Kv of the motor test; R as found
+	WheelShape s;    // the wheels' drives relative to the mean
 	Eigen::VectorXd x0 = Eigen::VectorXd::Zero(11);
 	Eigen::MatrixXd C = Eigen::MatrixXd::Zero(11, 11);
 	std::vector<int> r_axes; // the axes R comes from (none: the motor test's)
@@ -220,7 +252,7 @@ struct Derivation {
 			r_axes.push_back(axis);
 			Rs.push_back(propagate(
 			    [&](const Eigen::VectorXd &x) {
-				    return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1]);
+				    return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1], s);
 			    },
 			    x0, C, {3 * axis, 3 * axis + 1, 3 * axis + 2}));
 		}
@@ -245,7 +277,7 @@ struct Derivation {
 			return x[10];
 		double R = 0;
 		for (size_t k = 0; k < r_axes.size(); ++k)
-			R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1]);
+			R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1], s);
 		return R;
 	}
 	model_params params_of(const Eigen::VectorXd &x) const
@@ -280,12 +312,12 @@ struct Derivation {
 		const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
 		auto own_R = [&](const Eigen::VectorXd &x) {
 			model_params q = with_kv(x);
-			q.R = R_from_theta2(q, axis, x[3 * axis + 1]);
+			q.R = R_from_theta2(q, axis, x[3 * axis + 1], s);
 			return q;
 		};
 		t[axis == 0 ? "Bv" : "Bvn"] = prop(
 		    [&](const Eigen::VectorXd &x) {
-			    return B_from_theta1(own_R(x), axis, x[3 * axis]);
+			    return B_from_theta1(own_R(x), axis, x[3 * axis], s);
 		    },
 		    own);
 		t[axis == 0 ? "Cv" : "Cvn"] = prop(
@@ -300,13 +332,13 @@ struct Derivation {
 	{
 		auto with_J = [&](const Eigen::VectorXd &x) {
 			model_params q = params_of(x);
-			q.J = J_from_theta2(q, x[7]);
+			q.J = J_from_theta2(q, x[7], s);
 			return q;
 		};
 		const std::vector<Eigen::Index> own = {6, 7, 8};
 		t["J"] = prop([&](const Eigen::VectorXd &x) { return with_J(x).J; }, own);
 		t["Bw"] = prop(
-		    [&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6]); },
+		    [&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6], s); },
 		    own);
 		t["Cw"] = prop(
 		    [&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); },
@@ -352,13 +384,14 @@ void experiment3(Context &c)
 	}
 	model_params p = c.P.base; // geometry and M; Kt = Kv of the motor test; R and J as found
 	p.Kv = p.Kt = kv->second.value;
-	const Exp3Fits fits = fit_step_axes(c);
+	const Exp3Fits fits = fit_step_axes(c, p);
 	const Estimate Rm = find_estimate(res, "motor", "R");
 	for (const auto &[name, axis_fits] :
 	     {std::pair<std::string, const std::array<Fit, 3> *>{"exp3_ls", &fits.ls},
 	      {"exp3_iv", &fits.iv}}) {
 		auto &t = res.table[name];
 		Derivation d(c.P.opt, p, *axis_fits, fits.have, kv->second, Rm);
+		d.s = res.wheels.shape;
 		if (!d.r_weights(fits.have, Rm.ok()))
 			continue;
 		d.derive_R(t);

@@ -1,5 +1,6 @@
 // identify_motor.cpp - the motor test (eq 22): Kv and R of each motor and pooled.
 #include "identify_context.hpp"
+#include "identify_wheels.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -127,6 +128,48 @@ void fit_one_motor(Context &c, int j, const Eigen::VectorXd &off_se, RSum &rs)
 	}
 }
 
+// One Kv for all motors: the fit of every motor's points (the motors do not differ).
+void pooled_kv(Context &c, const Eigen::VectorXd &off_se)
+{
+	IdentResult &res = c.res;
+	try {
+		const Fit all = fit_motor(res.motor_points, -1, nullptr);
+		res.table["motor"]["Kv"] =
+		    with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)),
+		                  motor_borrowed(res.motor_points, -1, off_se)[0]);
+	} catch (const IdentError &e) {
+		c.missing(std::string("Kv: ") + e.what());
+	}
+}
+
+// The motors differ: Kv is their mean (as R is), and the shape of the four drives (each
+// motor's Kv and R over the mean) is what experiments 1 and 3 use. A motor without a fit of
+// its own leaves the shape uniform (its drive is unknown) and says so.
+void per_motor_kv(Context &c)
+{
+	IdentResult &res = c.res;
+	double kv = 0, var = 0, var_b = 0, r = 0;
+	for (int j = 0; j < 4; ++j) {
+		const Estimate &k = res.Kv_motor[j];
+		if (!k.ok() || !res.R_motor[j].ok()) {
+			c.missing("per-wheel drives: motor " + std::to_string(j) +
+			          " has no fit of its own; the robot keeps one Kv and R");
+			res.wheels.motors_differ = false;
+			pooled_kv(c, c.offset_se());
+			return;
+		}
+		kv += k.value / 4;
+		var += (k.se * k.se - k.se_borrowed * k.se_borrowed) / 16;
+		var_b += k.se_borrowed * k.se_borrowed / 16;
+		r += res.R_motor[j].value / 4;
+	}
+	res.table["motor"]["Kv"] = with_borrowed(kv, std::sqrt(var), std::sqrt(var_b));
+	for (int j = 0; j < 4; ++j) {
+		res.wheels.shape.kv[j] = res.Kv_motor[j].value / kv;
+		res.wheels.shape.R[j] = res.R_motor[j].value / r;
+	}
+}
+
 } // namespace
 
 void motor_test(Context &c)
@@ -142,14 +185,11 @@ void motor_test(Context &c)
 	RSum rs;
 	for (int j = 0; j < 4; ++j)
 		fit_one_motor(c, j, off_se, rs);
-	try {
-		const Fit all = fit_motor(res.motor_points, -1, nullptr);
-		res.table["motor"]["Kv"] =
-		    with_borrowed(all.theta[0], std::sqrt(all.cov(0, 0)),
-		                  motor_borrowed(res.motor_points, -1, off_se)[0]);
-	} catch (const IdentError &e) {
-		c.missing(std::string("Kv: ") + e.what());
-	}
+	motors_differ_test(res.motor_points, res.wheels, c.P.opt);
+	if (res.wheels.motors_differ)
+		per_motor_kv(c);
+	else
+		pooled_kv(c, off_se);
 	// The paper averages R over the motors (here: over those with a fit). The motors' borrowed
 	// parts are taken as independent (each motor has its own channel's offset).
 	if (rs.n > 0)
