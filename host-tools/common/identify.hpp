@@ -3,6 +3,10 @@
 //   experiment 1 (eq 16): Bw, Cw from steady rotation
 //   experiment 2 (eqs 17-20): Bv, Cv, Bvn, Cvn from null-traction coast-downs; J from eq 20
 //   experiment 3 (eqs 31-35): LS and IV on the ramped steps for the state-space model
+//   per wheel (identify_wheels.cpp): each motor's R_j, Kv_j and an F-test of whether the motors
+//   differ; each wheel's radius relative to the others from the rigid-body consistency of the
+//   four wheel speeds, their common scale from the camera. Where the wheels differ, experiments
+//   1 and 3 and every back-EMF term use each wheel's own values (WheelShape).
 // Every method works on windows found in the data (windows.hpp), not on positions inside a
 // segment. Missing data drops only what needs it. Final values: see combine_methods().
 #pragma once
@@ -37,6 +41,40 @@ struct IdentOptions {
 	double method_floor = 0.005;
 	// A method whose SE exceeds this fraction of its value is shown but not combined.
 	double max_rel_se = 0.1;
+};
+
+// The wheels' drives relative to their mean (each array's mean is 1): Kv_j = Kv kv[j] (and
+// Kt_j = Kt kv[j]), R_j = R R[j], r_j = r r[j], with Kv, R, r the scalar (mean) values. All ones:
+// the paper's robot, and every formula takes the scalar path (the same bits as without it).
+struct WheelShape {
+	std::array<double, 4> kv{1, 1, 1, 1}, R{1, 1, 1, 1}, r{1, 1, 1, 1};
+	bool uniform() const;
+	// b_j / mean b: beta_j = kv_j / (R_j r_j); e_j / mean e: eps_j = kv_j^2 / (R_j r_j^2) (b_j,
+	// e_j: dynamics.h, per-wheel drives; "mean": of the scalar model).
+	double beta(int j) const;
+	double eps(int j) const;
+	// The wheels of p's scalars with this shape.
+	model_wheels wheels(const model_params &p) const;
+};
+
+// The per-wheel part of the identification.
+struct WheelResult {
+	// Motors: F-test of one (Kv, R) for all motors against one per motor (eq 22).
+	bool motors_tested = false, motors_differ = false;
+	double motors_F = 0, motors_p = 1;
+	int motors_df1 = 0, motors_df2 = 0;
+	// Radii relative to their mean (ok() where estimated) from sum_j n_j r_j w_j = 0,
+	// n = (1, -1, 1, -1) (the left null space of eq 2): chi-square of rho - 1 (3 dof).
+	std::array<Estimate, 4> rho{};
+	bool radii_tested = false, radii_differ = false;
+	double radii_chi2 = 0, radii_p = 1;
+	size_t radii_rows = 0;
+	// The mean radius from the camera (not ok(): unobservable, see r_scale_note).
+	Estimate r_scale;
+	std::string r_scale_note;
+	WheelShape shape;                // what experiments 1 and 3 used
+	bool per_wheel() const;          // the motors or the radii differ
+	std::array<Estimate, 4> r_wheel; // r_j = r rho_j (the measured mean r: SE of rho only)
 };
 
 // Points kept for plots and CSV export.
@@ -91,6 +129,8 @@ struct IdentResult {
 	std::map<std::string, size_t> segments_used;                 // by kind
 	std::vector<WindowRecord> windows;                           // used and rejected
 	std::vector<std::string> missing; // one line per thing that could not be identified
+	WheelResult wheels;
+	model_wheels final_wheels{}; // each wheel's drive (final's scalars where uniform)
 };
 
 // The estimate of param by method (not ok() when the method gave none).
@@ -109,6 +149,9 @@ struct Prepared {
 	// calibrate_currents) whose offsets were estimated: their standard errors are borrowed by
 	// the motor test and experiment 1.
 	std::vector<std::pair<const LogData *, size_t>> offset_epochs;
+	// The wheels' radii relative to their mean (identify_wheels.cpp): the encoder tracks use
+	// base.r * rho_j when the radii differ.
+	WheelResult radii;
 };
 
 // Tasks to run at once when each log is one task: the cores, or up to twice as many when there
@@ -159,10 +202,24 @@ StateSpaceFits fit_state_space(const StateSpaceData &d, const std::string &what)
 double axis_input(const double u_v[4], int axis);
 // The inverses, given p's geometry (d, r, l), M, Kt and Kv; J_from_theta2 and B_from_theta1
 // also need p.R, and along w B_from_theta1 and C_from_theta3 need p.J.
-double R_from_theta2(const model_params &p, int axis, double theta2); // axis 0 or 1 [ohm]
-double J_from_theta2(const model_params &p, double theta2);           // [kg m^2]
-double B_from_theta1(const model_params &p, int axis, double theta1); // Bv, Bvn, Bw
+// With a shape s that is not uniform, the axis input is sum_j IK(d)^T[axis][j] beta_j u_j /
+// beta_axis (beta_axis: the mean beta of the axis's wheels; along v and vn less the back-EMF
+// coupling of the other axes, axis_input_wheels), so theta2 carries beta_axis and the back-EMF
+// term of theta1 the axis's eps sum (dynamics.h: e1 + e3 along v, e0 + e2 along vn, d^2 sum e).
+double R_from_theta2(const model_params &p, int axis, double theta2,
+                     const WheelShape &s = {}); // axis 0 or 1 [ohm], mean R
+double J_from_theta2(const model_params &p, double theta2, const WheelShape &s = {}); // [kg m^2]
+double B_from_theta1(const model_params &p, int axis, double theta1,
+                     const WheelShape &s = {});                       // Bv, Bvn, Bw
 double C_from_theta3(const model_params &p, int axis, double theta3); // Cv, Cvn, Cw
+// The input of axis with a non-uniform shape: sum_j IK^T[axis][j] beta_j u_j / beta_axis minus
+// the back-EMF that the other axes' velocities x (robot frame) put on this one, in volts of
+// that input: the coupling A[axis][other] x_other / theta2 (dynamics.h, per-wheel drives).
+double axis_input_wheels(const model_params &p, const WheelShape &s, const double u_v[4],
+                         const double x[3], int axis);
+double axis_beta(const WheelShape &s, int axis);
+// The F distribution's upper tail: P(F(df1, df2) > f).
+double f_sf(double f, int df1, int df2);
 
 // Upper tail of the chi-square distribution with dof degrees of freedom.
 double chi2_sf(double x, int dof);

@@ -67,8 +67,8 @@ namespace
 
 // The robot velocity of every sample (eqs 3-5), the filter's time step and half width, and
 // whether each sample joins the previous one (next seq, about one step later).
-void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, double half_s,
-                    EncoderTrack &out)
+void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::array<double, 4> &r,
+                    double half_s, EncoderTrack &out)
 {
 	const size_t n = m.size();
 	std::vector<int64_t> steps(n - 1);
@@ -81,7 +81,7 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, double r, doub
 	for (size_t k = 0; k < n; ++k) {
 		double vw[4], x[3];
 		for (int j = 0; j < 4; ++j)
-			vw[j] = m[k].w[j] * r;
+			vw[j] = m[k].w[j] * r[j];
 		fk_robot_velocity(d, vw, x);
 		out.raw[k] = {x[0], x[1], x[2]};
 		if (k > 0) {
@@ -157,6 +157,12 @@ void filter_block(const SgFilter &f, size_t a, size_t b, EncoderTrack &out)
 } // namespace
 
 EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s)
+{
+	return encoder_track(log, d, std::array<double, 4>{r, r, r, r}, half_s);
+}
+
+EncoderTrack encoder_track(const LogData &log, double d, const std::array<double, 4> &r,
+                           double half_s)
 {
 	EncoderTrack out;
 	const auto &m = log.motors;

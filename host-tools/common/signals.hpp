@@ -43,6 +43,10 @@ struct EncoderTrack {
 };
 
 EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s = 0.020);
+// The same with each wheel's own radius r[j] (rim speed r_j w_j): four equal radii r give the
+// bits of the scalar version.
+EncoderTrack encoder_track(const LogData &log, double d, const std::array<double, 4> &r,
+                           double half_s = 0.020);
 
 // Robot velocity from the camera poses of a whole log (index = index into log.pose).
 struct CameraTrack {

@@ -121,11 +121,47 @@ void compare_encoder(plant &pl, const Segment &s, size_t si, int axis, const Win
 	}
 }
 
+bool uniform_wheels(const model_params &p, const model_wheels &w)
+{
+	for (int j = 0; j < 4; ++j)
+		if (w.r[j] != p.r || w.R[j] != p.R || w.Kv[j] != p.Kv || w.Kt[j] != p.Kt)
+			return false;
+	return true;
+}
+
+// The plant of p with w's drives as its motor and radius errors (the floor otherwise off).
+void plant_of(plant &pl, const model_params &p, const model_wheels &w, bool uniform)
+{
+	if (plant_init(&pl, &p))
+		throw IdentError("validate: parameters are not physical");
+	if (uniform)
+		return;
+	plant_floor f{};
+	f.wheel_inertia = 1e-4;
+	for (int j = 0; j < 4; ++j) {
+		f.radius_error[j] = w.r[j] / p.r - 1;
+		f.R_error[j] = w.R[j] / p.R - 1;
+		f.Kv_error[j] = w.Kv[j] / p.Kv - 1;
+	}
+	if (plant_set_floor(&pl, &f))
+		throw IdentError("validate: a wheel's drive is more than 50 % off the mean");
+}
+
 } // namespace
 
 Validation validate(const std::vector<Segment> &segments, const model_params &p,
                     const IdentOptions &opt)
 {
+	model_wheels w;
+	model_wheels_from_params(&p, &w);
+	return validate(segments, p, w, opt);
+}
+
+Validation validate(const std::vector<Segment> &segments, const model_params &p,
+                    const model_wheels &wh, const IdentOptions &opt)
+{
+	const bool uniform = uniform_wheels(p, wh);
+	const std::array<double, 4> radii{wh.r[0], wh.r[1], wh.r[2], wh.r[3]};
 	Validation v;
 	Errors err{v};
 	std::map<const LogData *, EncoderTrack> encs;
@@ -135,7 +171,7 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
 		if (s.kind != "step")
 			continue;
 		if (!encs.count(s.log))
-			encs.emplace(s.log, encoder_track(*s.log, p.d, p.r));
+			encs.emplace(s.log, encoder_track(*s.log, p.d, radii));
 		const EncoderTrack &enc = encs.at(s.log);
 		const SegmentWindows wins = find_windows(s, enc, opt.windows);
 		for (const Rejection &r : wins.rejected)
@@ -157,8 +193,7 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
 			}
 			++v.runs;
 			plant pl;
-			if (plant_init(&pl, &p))
-				throw IdentError("validate: parameters are not physical");
+			plant_of(pl, p, wh, uniform);
 			for (int a = 0; a < 3; ++a)
 				pl.x[a] = enc.x[k0][a];
 			if (cam)

@@ -42,5 +42,10 @@ struct Validation {
 // SG-smoothed) or the camera (opt.source). Throws IdentError if no step window exists.
 Validation validate(const std::vector<Segment> &segments, const model_params &p,
                     const IdentOptions &opt = {});
+// The same with each wheel's own drive w (dynamics.h, per-wheel drives): the plant gets w's
+// R_j, Kv_j (= Kt_j) and r_j as its motor and radius errors against p's scalars, the encoder
+// velocities use r_j. With four wheels equal to p's scalars: the bits of the scalar version.
+Validation validate(const std::vector<Segment> &segments, const model_params &p,
+                    const model_wheels &w, const IdentOptions &opt = {});
 
 } // namespace omni4

@@ -20,6 +20,7 @@
 #include "bootstrap.hpp"
 #include "encoders.hpp"
 #include "ident_traction.hpp"
+#include "ident_wheels.hpp"
 #include "identify.hpp"
 #include "logdata.hpp"
 #include "offsets.hpp"
@@ -240,7 +241,8 @@ void write_params_to(FILE *f, const IdentResult &r, const model_params &base, ui
 {
 	bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0;
 	if (r.complete()) {
-		ok = ok && config_write_model(f, &r.final) == 0;
+		ok = ok && config_write_model(f, &r.final) == 0 &&
+		     std::fputs(wheel_keys_ini(r).c_str(), f) >= 0;
 	} else {
 		ok = ok && std::fprintf(
 		               f, "; partial identification: see the missing list of omni4-ident\n"
@@ -381,7 +383,7 @@ void print_warnings(const IdentResult &r)
 		    thin.c_str());
 }
 
-void print_table(const IdentResult &r, const model_params *truth)
+void print_table(const IdentResult &r, const model_params *truth, const model_wheels *truth_w)
 {
 	print_estimates(r, truth);
 	std::printf(
@@ -393,19 +395,7 @@ void print_table(const IdentResult &r, const model_params *truth)
 	std::printf(
 	    "units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
 	    "N, Cw N m\n");
-	std::printf("R per motor (eq 22):");
-	for (int j = 0; j < 4; ++j)
-		if (r.R_motor[j].ok())
-			std::printf("  R%d %.4f", j, r.R_motor[j].value);
-		else
-			std::printf("  R%d -", j);
-	std::printf("\nKv per motor:       ");
-	for (int j = 0; j < 4; ++j)
-		if (r.Kv_motor[j].ok())
-			std::printf("  K%d %.5f", j, r.Kv_motor[j].value);
-		else
-			std::printf("  K%d -", j);
-	std::printf("\n");
+	print_wheels(r, truth_w);
 	print_warnings(r);
 }
 
@@ -658,8 +648,11 @@ int cmd_identify(const IdentifyArgs &a)
 	uint32_t base_seen = 0;
 	const model_params base = load_params(a.robot, true, &base_seen);
 	model_params truth{};
-	if (!a.truth.empty())
+	model_wheels truth_w{};
+	if (!a.truth.empty()) {
 		truth = load_params(a.truth, false);
+		truth_w = load_wheels(a.truth, true);
+	}
 	const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
 	auto logs = load_logs(a.logs, base.l, true);
 	const auto segs = segments_of(logs);
@@ -694,7 +687,7 @@ int cmd_identify(const IdentifyArgs &a)
 	std::printf("; robot velocities from the %s\n", a.source.c_str());
 	print_windows(r, segs, a.verbose);
 	if (!traction_only)
-		print_table(r, a.truth.empty() ? nullptr : &truth);
+		print_table(r, a.truth.empty() ? nullptr : &truth, a.truth.empty() ? nullptr : &truth_w);
 	print_traction(trac);
 	BootstrapResult boot;
 	if (a.boot_n > 0 && !traction_only) {
@@ -714,6 +707,9 @@ int cmd_identify(const IdentifyArgs &a)
 	if (!a.csv.empty() && !traction_only) {
 		export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
 		export_offsets_csv(a.csv, logs);
+		auto wc = open_csv(a.csv, "wheels.csv");
+		wc << wheels_csv(r, a.truth.empty() ? nullptr : &truth_w);
+		wc.close();
 	}
 	if (!a.csv.empty() && a.boot_n > 0)
 		export_bootstrap_csv(a.csv, r, boot);
@@ -826,14 +822,17 @@ int cmd_validate(const ValidateArgs &va)
 	if (va.params.empty() || va.params.size() > 2)
 		die("give --params once or twice", 2);
 	std::vector<model_params> sets;
-	for (const auto &p : va.params)
+	std::vector<model_wheels> wheels;
+	for (const auto &p : va.params) {
 		sets.push_back(load_params(p, false));
+		wheels.push_back(load_wheels(p, false));
+	}
 	const auto logs = load_logs(va.logs, sets[0].l, false);
 	const auto segs = segments_of(logs);
 	std::vector<Validation> vals;
 	try {
-		for (const auto &p : sets)
-			vals.push_back(validate(segs, p, opt));
+		for (size_t k = 0; k < sets.size(); ++k)
+			vals.push_back(validate(segs, sets[k], wheels[k], opt));
 	} catch (const IdentError &e) {
 		die(e.what());
 	}

@@ -33,6 +33,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_wheels import wheels_section  # noqa: E402
 
 LOG_PLOT_POINTS = 4000  # min/max pairs per line in a log figure: extremes kept, size bounded
 SEGMENT_COLORS = {"steady_rotation": "C0", "coast": "C1", "motor": "C2", "step": "C3"}
@@ -506,6 +507,7 @@ def write_report(a):
     lines = ["# omni4 identification report", ""]
     if params:
         lines += params_section(params, agreement)
+    lines += wheels_section(a.csv_dir)
     if windows:
         lines += windows_section(windows)
     if boot:
