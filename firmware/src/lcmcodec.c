@@ -179,7 +179,7 @@ size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_
 		if (e.kind == LOG_CALIBRATION && sink->note)
 			sink->note(sink->note_ctx, &e);
 
-		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, buf, (size_t)len) < 0)
+		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, e.seq, buf, (size_t)len) < 0)
 			(*sink_errors)++;
 		n++;
 	}
