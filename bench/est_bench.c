@@ -394,56 +394,102 @@ static void report(const char *name, const struct score *s, const struct score *
 	       name, 1e3 * pos, th * 180.0 / PI, epos / pos, eth / th);
 }
 
-int main(int argc, char **argv)
+/* The command line; 0, or 2 after the usage line. */
+static int parse_args(int argc, char **argv, const char **ini, const char **csv, double *path_s)
 {
-	const char *ini = NULL, *csv = NULL;
-	double path_s = 60.0, steps_s = 20.0;
-	struct omni4_config cfg;
-	struct config_error err;
-	char why[256];
-
 	for (int i = 1; i < argc; i++) {
 		if (!strcmp(argv[i], "--ini") && i + 1 < argc)
-			ini = argv[++i];
+			*ini = argv[++i];
 		else if (!strcmp(argv[i], "--path-s") && i + 1 < argc)
-			path_s = atof(argv[++i]);
+			*path_s = atof(argv[++i]);
 		else if (!strcmp(argv[i], "--csv") && i + 1 < argc)
-			csv = argv[++i];
+			*csv = argv[++i];
 		else {
 			fprintf(stderr,
 			        "usage: est_bench [--ini ROBOT.ini] [--path-s S] [--csv FILE]\n");
 			return 2;
 		}
 	}
+	return 0;
+}
+
+/* The simulated robot, the truth record for the run's run_s (*ticks_run ticks) and the
+ * episodes after it, the estimator that takes frames at arrival; 0, or 1 with the reason on
+ * stderr. */
+static int bench_start(struct bench *b, const struct omni4_config *cfg, double run_s,
+                       long *ticks_run)
+{
+	struct est_settings es;
+	char why[256];
+
+	b->sr = simrun_create(cfg, &cfg->ctl.model, true, NULL, why, sizeof(why));
+	if (!b->sr) {
+		fprintf(stderr, "est_bench: %s\n", why);
+		return 1;
+	}
+	b->d = cfg->ctl.model.d;
+	b->r = cfg->ctl.model.r;
+	b->period_s = simrun_period_s(b->sr);
+	b->utime0 = simrun_now_us(b->sr);
+	*ticks_run = (long)(run_s / b->period_s) + 1;
+	b->ticks_max =
+	    *ticks_run + (long)(120.0 / b->period_s); /* and the episodes after the path */
+	for (int j = 0; j < 4; j++)
+		b->radius_error[j] = cfg->sim.wheel_radius_error[j];
+	b->truth = calloc((size_t)b->ticks_max, sizeof(*b->truth));
+	est_settings_defaults(&es);
+	es.replay = false;
+	if (!b->truth || est_init(&b->late, &es, &cfg->ctl.model, cfg->ctl.rate_hz)) {
+		fprintf(stderr, "est_bench: cannot start\n");
+		return 1;
+	}
+	return 0;
+}
+
+static void print_summary(const struct bench *b, double steps_s, double path_s, long ticks_run)
+{
+	printf("est_bench: %.0f s (validation steps %.0f s, path %.0f s at 1-2 m/s with turns), "
+	       "%ld ticks\n",
+	       steps_s + path_s, steps_s, path_s, ticks_run);
+	report("estimate (camera replayed)", &b->est, &b->est);
+	report("estimate, frames at arrival", &b->late_score, &b->est);
+	report("raw camera (at capture time)", &b->cam, &b->est);
+	report("wheel odometry alone", &b->odo_score, &b->est);
+	printf("normal driving: %ld SLIP and %ld COLLISION flag onsets in %.0f s; null-space "
+	       "residual RMS %.4f max %.4f m/s, velocity innovation (averaged) RMS %.4f max %.4f "
+	       "m/s\n",
+	       b->false_slip, b->false_collision, steps_s + path_s, sqrt(b->null_ss / b->n_flags),
+	       b->null_max, sqrt(b->innov_ss / b->n_flags), b->innov_max);
+	const struct est_output *o = simrun_estimate(b->sr);
+	const double *re = b->radius_error;
+	const double mean = 0.25 * (re[0] + re[1] + re[2] + re[3]);
+
+	printf("wheel scale errors learnt [%%]: %+.2f %+.2f %+.2f %+.2f; the plant's less their "
+	       "mean: %+.2f %+.2f %+.2f %+.2f\n",
+	       100 * o->wheel_scale[0], 100 * o->wheel_scale[1], 100 * o->wheel_scale[2],
+	       100 * o->wheel_scale[3], 100 * (re[0] - mean), 100 * (re[1] - mean),
+	       100 * (re[2] - mean), 100 * (re[3] - mean));
+}
+
+int main(int argc, char **argv)
+{
+	const char *ini = NULL, *csv = NULL;
+	double path_s = 60.0, steps_s = 20.0;
+	struct omni4_config cfg;
+	struct config_error err;
+
+	if (parse_args(argc, argv, &ini, &csv, &path_s))
+		return 2;
 	config_defaults(&cfg);
 	if (ini && config_load(ini, &cfg, &err)) {
 		fprintf(stderr, "est_bench: %s\n", err.msg);
 		return 2;
 	}
 	static struct bench b;
-	struct est_settings es;
+	long ticks_run;
 
-	b.sr = simrun_create(&cfg, &cfg.ctl.model, true, NULL, why, sizeof(why));
-	if (!b.sr) {
-		fprintf(stderr, "est_bench: %s\n", why);
+	if (bench_start(&b, &cfg, steps_s + path_s, &ticks_run))
 		return 1;
-	}
-	b.d = cfg.ctl.model.d;
-	b.r = cfg.ctl.model.r;
-	b.period_s = simrun_period_s(b.sr);
-	b.utime0 = simrun_now_us(b.sr);
-	const long ticks_run = (long)((steps_s + path_s) / b.period_s) + 1;
-
-	b.ticks_max = ticks_run + (long)(120.0 / b.period_s); /* and the episodes after the path */
-	for (int j = 0; j < 4; j++)
-		b.radius_error[j] = cfg.sim.wheel_radius_error[j];
-	b.truth = calloc((size_t)b.ticks_max, sizeof(*b.truth));
-	est_settings_defaults(&es);
-	es.replay = false;
-	if (!b.truth || est_init(&b.late, &es, &cfg.ctl.model, cfg.ctl.rate_hz)) {
-		fprintf(stderr, "est_bench: cannot start\n");
-		return 1;
-	}
 	b.csv = csv ? fopen(csv, "w") : NULL;
 	if (b.csv)
 		fprintf(b.csv, "t_s,true_x,true_y,est_x,est_y,odo_x,odo_y,late_x,late_y\n");
@@ -460,28 +506,7 @@ int main(int argc, char **argv)
 		}
 		simrun_tick(b.sr);
 	}
-	printf("est_bench: %.0f s (validation steps %.0f s, path %.0f s at 1-2 m/s with turns), "
-	       "%ld ticks\n",
-	       steps_s + path_s, steps_s, path_s, ticks_run);
-	report("estimate (camera replayed)", &b.est, &b.est);
-	report("estimate, frames at arrival", &b.late_score, &b.est);
-	report("raw camera (at capture time)", &b.cam, &b.est);
-	report("wheel odometry alone", &b.odo_score, &b.est);
-	printf("normal driving: %ld SLIP and %ld COLLISION flag onsets in %.0f s; null-space "
-	       "residual RMS %.4f max %.4f m/s, velocity innovation (averaged) RMS %.4f max %.4f "
-	       "m/s\n",
-	       b.false_slip, b.false_collision, steps_s + path_s, sqrt(b.null_ss / b.n_flags),
-	       b.null_max, sqrt(b.innov_ss / b.n_flags), b.innov_max);
-	const struct est_output *o = simrun_estimate(b.sr);
-	const double mean =
-	    0.25 * (b.radius_error[0] + b.radius_error[1] + b.radius_error[2] + b.radius_error[3]);
-
-	printf("wheel scale errors learnt [%%]: %+.2f %+.2f %+.2f %+.2f; the plant's less their "
-	       "mean: %+.2f %+.2f %+.2f %+.2f\n",
-	       100 * o->wheel_scale[0], 100 * o->wheel_scale[1], 100 * o->wheel_scale[2],
-	       100 * o->wheel_scale[3], 100 * (b.radius_error[0] - mean),
-	       100 * (b.radius_error[1] - mean), 100 * (b.radius_error[2] - mean),
-	       100 * (b.radius_error[3] - mean));
+	print_summary(&b, steps_s, path_s, ticks_run);
 	episodes(&b, &seq);
 	if (b.csv)
 		fclose(b.csv);

@@ -40,6 +40,30 @@ print(n[0], flush=True)
 '''
 
 
+def _count_messages(ws, counts, by_sub, stop):
+    """The bridge's client side until stop[0]: subscribes to every channel advertised, counts
+    the messages per topic."""
+    while not stop[0]:
+        try:
+            m = ws.recv(timeout=0.2)
+        except TimeoutError:
+            continue
+        except Exception:
+            return
+        if isinstance(m, str):
+            j = json.loads(m)
+            if j.get("op") == "advertise":
+                subs = []
+                for c in j["channels"]:
+                    sid = len(by_sub) + 1
+                    by_sub[sid] = c["topic"]
+                    subs.append({"id": sid, "channelId": c["id"]})
+                ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+        elif m[0] == 1:
+            t = by_sub[int.from_bytes(m[1:5], "little")]
+            counts[t] = counts.get(t, 0) + 1
+
+
 def bridge(bindir, seconds, decimate=10):
     from websockets.sync.client import connect
     url = f"udpm://239.255.76.67:{random.randint(7900, 8400)}?ttl=0"
@@ -62,27 +86,8 @@ def bridge(bindir, seconds, decimate=10):
         chans, counts, by_sub = {}, {}, {}
         stop = [False]
 
-        def rx():
-            while not stop[0]:
-                try:
-                    m = ws.recv(timeout=0.2)
-                except TimeoutError:
-                    continue
-                except Exception:
-                    return
-                if isinstance(m, str):
-                    j = json.loads(m)
-                    if j.get("op") == "advertise":
-                        subs = []
-                        for c in j["channels"]:
-                            sid = len(by_sub) + 1
-                            by_sub[sid] = c["topic"]
-                            subs.append({"id": sid, "channelId": c["id"]})
-                        ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
-                elif m[0] == 1:
-                    t = by_sub[int.from_bytes(m[1:5], "little")]
-                    counts[t] = counts.get(t, 0) + 1
-        th = threading.Thread(target=rx, daemon=True)
+        th = threading.Thread(target=_count_messages, args=(ws, counts, by_sub, stop),
+                              daemon=True)
         th.start()
         time.sleep(1.0)  # settle
         c0 = dict(counts)

@@ -68,12 +68,8 @@ def steady(seg, frac=0.4):
     return seg[last - int(frac * last):last]
 
 
-def main(paths):
-    segs = []
-    for p in paths:
-        motors, marks = read_log(p)
-        segs += segments(motors, marks)
-    # Motor test, eq 22 per motor, R averaged.
+def motor_test(segs):
+    """Kv and R (averaged over the motors) from the motor test, eq 22 per motor."""
     pts = [[] for _ in range(4)]
     for kind, _d, _l, s in segs:
         if kind != "motor":
@@ -91,8 +87,11 @@ def main(paths):
                                   rcond=None)[0][1])
     Kv = np.linalg.lstsq(np.c_[allp[:, 2] / allp[:, 1], np.ones(len(allp))],
                          allp[:, 0] / allp[:, 1], rcond=None)[0][0]
-    R = float(np.mean(Rs))
-    # Experiment 1, eq 16.
+    return Kv, float(np.mean(Rs))
+
+
+def experiment1(segs, Kv):
+    """Bw, Cw from the steady rotations, eq 16."""
     rows = []
     for kind, _d, _l, s in segs:
         if kind == "steady_rotation":
@@ -100,8 +99,11 @@ def main(paths):
             T = D * L * Kv / R_WHEEL * w[:, 6:10].sum(axis=1).mean()
             rows.append((robot_velocity(w)[:, 2].mean(), T))
     a = np.array(rows)
-    Bw, Cw = np.linalg.lstsq(np.c_[a[:, 0], np.ones(len(a))], a[:, 1], rcond=None)[0]
-    # Experiment 2: x = x0_s - b int x - c t, per direction.
+    return np.linalg.lstsq(np.c_[a[:, 0], np.ones(len(a))], a[:, 1], rcond=None)[0]
+
+
+def experiment2(segs):
+    """Per direction, (b, c, the speeds fitted) of the coast-downs: x = x0_s - b int x - c t."""
     res = {}
     for ax, name in enumerate(["v", "vn", "w"]):
         X, y = [], []
@@ -124,32 +126,38 @@ def main(paths):
             y.append(x)
         theta = np.linalg.lstsq(np.vstack(X), np.concatenate(y), rcond=None)[0]
         res[name] = (theta[-2], theta[-1], np.concatenate(y))
-    Bv, Cv = M * res["v"][0], M * res["v"][1]
-    Bvn, Cvn = M * res["vn"][0], M * res["vn"][1]
-    bw, cw, wv = res["w"]
-    J = np.sum((bw * wv + cw) * (Bw * wv + Cw)) / np.sum((bw * wv + cw) ** 2)
-    # Experiment 3, LS then IV (three iterations) per axis.
+    return res
+
+
+def step_rows(segs, ax, name):
+    """Experiment 3's regression rows of one axis: [x, input, sign x] -> dx, and where each
+    step starts."""
+    Xs, ys, starts = [], [], []
+    for kind, d, _l, s in segs:
+        if kind != "step" or d != name:
+            continue
+        x = robot_velocity(s)[:, ax]
+        dt = 1e-3
+        xs = savgol_filter(x, 41, 2)
+        dx = savgol_filter(x, 41, 2, deriv=1, delta=dt)
+        u = s[:, 2:6]
+        inp = [u[:, 3] - u[:, 1], u[:, 0] - u[:, 2], u.sum(axis=1)][ax]
+        inp = savgol_filter(np.concatenate([[inp[0]], inp[:-1]]), 41, 2)
+        thr = 0.5 if ax == 2 else 0.05
+        driven = s[:, 1] == 2
+        idx = np.nonzero((np.abs(xs) >= thr) & driven)[0]
+        idx = idx[(idx >= 20) & (idx < len(x) - 20)]
+        starts.append(sum(len(v) for v in ys))
+        Xs.append(np.c_[xs[idx], inp[idx], np.sign(xs[idx])])
+        ys.append(dx[idx])
+    return np.vstack(Xs), np.concatenate(ys), starts
+
+
+def experiment3(segs):
+    """Per axis, the steps' LS fit then three IV iterations."""
     th = {}
     for ax, name in enumerate(["v", "vn", "w"]):
-        Xs, ys, us, starts = [], [], [], []
-        for kind, d, _l, s in segs:
-            if kind != "step" or d != name:
-                continue
-            x = robot_velocity(s)[:, ax]
-            dt = 1e-3
-            xs = savgol_filter(x, 41, 2)
-            dx = savgol_filter(x, 41, 2, deriv=1, delta=dt)
-            u = s[:, 2:6]
-            inp = [u[:, 3] - u[:, 1], u[:, 0] - u[:, 2], u.sum(axis=1)][ax]
-            inp = savgol_filter(np.concatenate([[inp[0]], inp[:-1]]), 41, 2)
-            thr = 0.5 if ax == 2 else 0.05
-            driven = s[:, 1] == 2
-            idx = np.nonzero((np.abs(xs) >= thr) & driven)[0]
-            idx = idx[(idx >= 20) & (idx < len(x) - 20)]
-            starts.append(sum(len(v) for v in ys))
-            Xs.append(np.c_[xs[idx], inp[idx], np.sign(xs[idx])])
-            ys.append(dx[idx])
-        X, y = np.vstack(Xs), np.concatenate(ys)
+        X, y, starts = step_rows(segs, ax, name)
         theta = np.linalg.lstsq(X, y, rcond=None)[0]
         for _ in range(3):
             Z = X.copy()
@@ -161,6 +169,22 @@ def main(paths):
                     xb += 1e-3 * (theta[0] * xb + theta[1] * X[k, 1] + theta[2] * np.sign(xb))
             theta = np.linalg.solve(Z.T @ X, Z.T @ y)
         th[name] = theta
+    return th
+
+
+def main(paths):
+    segs = []
+    for p in paths:
+        motors, marks = read_log(p)
+        segs += segments(motors, marks)
+    Kv, R = motor_test(segs)
+    Bw, Cw = experiment1(segs, Kv)
+    res = experiment2(segs)
+    Bv, Cv = M * res["v"][0], M * res["v"][1]
+    Bvn, Cvn = M * res["vn"][0], M * res["vn"][1]
+    bw, cw, wv = res["w"]
+    J = np.sum((bw * wv + cw) * (Bw * wv + Cw)) / np.sum((bw * wv + cw) ** 2)
+    th = experiment3(segs)
     emf = Kv * Kv * L * L / R_WHEEL ** 2
     R3 = np.mean([L * Kv / (R_WHEEL * M * th[n][1]) for n in ("v", "vn")])
     J3 = L * Kv * D / (R_WHEEL * R3 * th["w"][1])
@@ -173,7 +197,6 @@ def main(paths):
         "Cw": (Cw - J3 * th["w"][2]) / 2,
     }
     return out
-
 
 if __name__ == "__main__":
     if len(sys.argv) < 2:

@@ -8,10 +8,10 @@ generator cannot read stops the build instead of going missing in Python."""
 import os
 import re
 
-# The key lists in the order config/src/config.c includes them (repository-relative).
-DEF_FILES = ("core/include/omni4/ctl_keys.def", "config/include/omni4/fw_keys.def",
-             "drivers/include/omni4/sim_keys.def", "drivers/include/omni4/socketcan_keys.def",
-             "drivers/include/omni4/gpiod_keys.def")
+import gen_vocab  # beside this file
+
+# The layers' key lists before the backends' (repository-relative).
+LAYER_FILES = ("core/include/omni4/ctl_keys.def", "config/include/omni4/fw_keys.def")
 KINDS = {"DBL": "double", "INT": "int", "BOOL": "bool", "STR": "string", "ENUM": "choice"}
 _ROW = re.compile(r'^OMNI4_KEY\(\s*([A-Z]+)\s*,\s*"([a-z_]+)"\s*,\s*"([A-Za-z0-9_]+)"\s*,')
 
@@ -34,10 +34,18 @@ def rows(text, path):
     return out
 
 
+def def_files(root):
+    """The key lists in the order config/src/config.c includes them: the layers', then each
+    backend's (backends.def's keys column, in its rows' order)."""
+    backends = gen_vocab.read(root)["OMNI4_BACKEND"]
+    return LAYER_FILES + tuple(f"drivers/include/omni4/{keys}" for _, _, _, keys, _ in backends
+                               if keys)
+
+
 def all_rows(root):
     """Every key of the table, in its order; duplicates are an error."""
     out, seen = [], set()
-    for rel in DEF_FILES:
+    for rel in def_files(root):
         path = os.path.join(root, rel)
         with open(path, encoding="utf-8") as f:
             for row in rows(f.read(), path):

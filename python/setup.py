@@ -2,7 +2,8 @@
 fact stays written once: the LCM message modules (omni4/command_t.py, ...) from
 ../lcmtypes/*.lcm with lcm-gen, and the channel names and default LCM URL (omni4/_channels.py)
 from ../lcmtypes/include/omni4/channels.h (gen_channels.py), and the INI key list (omni4/_keys.py)
-from the layers' *_keys.def (gen_keys.py).
+from the layers' *_keys.def (gen_keys.py), and the modes, fault bits, flags and backends
+(omni4/_vocab.py) from core/'s vocab.def and drivers/' backends.def (gen_vocab.py).
 
 lcm-gen is taken from $LCM_GEN, then beside the Python that builds (the lcm wheel of the
 environment the package goes into), then PATH (Debian's liblcm-bin). It must be 1.4 or newer:
@@ -22,10 +23,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 LCM_DIR = os.path.join(HERE, "..", "lcmtypes")
 CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
 MODEL_DIR = os.path.join(HERE, "..", "model")
+CORE_INCLUDE = os.path.join(HERE, "..", "core", "include")  # omni4/vocab.h (mode_drives)
 
 sys.path.insert(0, HERE)
 import gen_channels  # noqa: E402  (beside this file; not part of the package)
 import gen_keys  # noqa: E402
+import gen_vocab  # noqa: E402
 
 
 def find_lcm_gen():
@@ -62,12 +65,14 @@ class BuildWithLcmTypes(build_py):
                 raise SystemExit(f"omni4: {e}") from None
         with open(os.path.join(out, "_channels.py"), "w", encoding="utf-8") as f:
             f.write(source)
-        try:
-            source = gen_keys.python_module(os.path.join(HERE, ".."))
-        except (OSError, gen_keys.KeyListError) as e:
-            raise SystemExit(f"omni4: {e}") from None
-        with open(os.path.join(out, "_keys.py"), "w", encoding="utf-8") as f:
-            f.write(source)
+        for name, gen in (("_keys.py", gen_keys.python_module),
+                          ("_vocab.py", gen_vocab.python_module)):
+            try:
+                source = gen(os.path.join(HERE, ".."))
+            except (OSError, gen_keys.KeyListError, gen_vocab.VocabError) as e:
+                raise SystemExit(f"omni4: {e}") from None
+            with open(os.path.join(out, name), "w", encoding="utf-8") as f:
+                f.write(source)
 
 
 # The robot model (model/src/*.c, C11, no Python API) and the prediction shim of omni4.foxglove
@@ -78,7 +83,8 @@ MODEL_LIB = Extension(
     "omni4.foxglove._omni4model",
     sources=[os.path.relpath(f, HERE) for f in sorted(glob.glob(os.path.join(MODEL_DIR, "src", "*.c")))]
     + ["omni4/foxglove/_predict.c"],
-    include_dirs=[os.path.relpath(os.path.join(MODEL_DIR, "include"), HERE)],
+    include_dirs=[os.path.relpath(os.path.join(MODEL_DIR, "include"), HERE),
+                  os.path.relpath(CORE_INCLUDE, HERE)],
     extra_compile_args=["-std=c11", "-O2"],
     libraries=["m"],
 )

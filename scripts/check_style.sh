@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The style check: (a) every C and C++ file under FORMAT_DIRS is laid out as .clang-format says
 # (clang-format --dry-run --Werror: nothing is changed; fix with `.venv/bin/clang-format -i
-# FILE`), (b) no production function under LENGTH_DIRS is longer than MAX_LINES lines (lizard).
+# FILE`), (b) no production function under LENGTH_DIRS is longer than MAX_LINES lines (lizard),
+# (c) no C++ class or struct body under LENGTH_DIRS either (scripts/body_lengths.py).
 # One line per offender; exit 0 when clean, 1 otherwise, 2 when a tool is missing.
 # Both tools are pinned in the .venv (scripts/setup.sh).
 set -euo pipefail
@@ -11,10 +12,14 @@ cd "$(dirname "$0")/.."
 FORMAT_DIRS="core config drivers firmware sil mcu model tests lcmtypes host-tools bench"
 # Production folders whose functions must stay within MAX_LINES (tests/ and the model's and
 # mcu's test programs are not production).
-LENGTH_DIRS="host-tools core config drivers firmware sil mcu model/src python/omni4"
+LENGTH_DIRS="host-tools core config drivers firmware sil mcu model/src python/omni4 bench"
 # Test programs inside the production folders (lizard --exclude patterns).
 LENGTH_EXCLUDE=("*/tests/*" "*/test/*" "*/test_*")
-MAX_LINES=80
+MAX_LINES=60
+# Offenders waiting for the split of their file, reported as such but not failing (PATH:NAME as
+# the checks print them); the list may only shrink.
+PENDING=("core/src/est.c:est_camera" "host-tools/common/identify_exp3.cpp:Derivation"
+  "host-tools/common/runner.cpp:Recording")
 
 CLANG_FORMAT=.venv/bin/clang-format
 LIZARD=.venv/bin/lizard
@@ -44,13 +49,34 @@ fi
 excludes=()
 for pattern in "${LENGTH_EXCLUDE[@]}"; do excludes+=(-x "$pattern"); done
 # shellcheck disable=SC2086
-if ! out=$("$LIZARD" -L "$MAX_LINES" -C 1000 -w "${excludes[@]}" $LENGTH_DIRS 2>&1); then
-  printf '%s\n' "$out" | grep -E ': warning: ' \
-    | sed -E 's/^([^:]+:[0-9]+): warning: ([^ ]+) has .* ([0-9]+) length.*/length: \1: \2 is \3 lines (max '"$MAX_LINES"')/'
-  status=1
-fi
+long=$("$LIZARD" -L "$MAX_LINES" -C 1000 -w "${excludes[@]}" $LENGTH_DIRS 2>&1 \
+  | grep -E ': warning: ' \
+  | sed -E 's/^([^:]+:[0-9]+): warning: ([^ ]+) has .* ([0-9]+) length.*/length: \1: \2 is \3 lines (max '"$MAX_LINES"')/' \
+  || true)
+
+# (c) Class and struct bodies (C++), the same limit.
+# shellcheck disable=SC2086
+long+=$'\n'$(.venv/bin/python scripts/body_lengths.py "$MAX_LINES" $LENGTH_DIRS \
+  | sed -E 's/^/length: /' || true)
+
+while IFS= read -r line; do
+  [ -n "$line" ] || continue
+  file=$(printf '%s' "$line" | sed -E 's/^length: ([^:]+):.*/\1/')
+  name=$(printf '%s' "$line" | sed -E 's/^length: [^:]+:[0-9]+: (class |struct )?([^ ]+) is.*/\2/')
+  pending=0
+  for p in "${PENDING[@]}"; do
+    [ "$p" = "$file:${name##*::}" ] && pending=1
+  done
+  if [ "$pending" -eq 1 ]; then
+    echo "pending $line"
+  else
+    echo "$line"
+    status=1
+  fi
+done <<<"$long"
 
 if [ "$status" -eq 0 ]; then
-  echo "check_style: format ($FORMAT_DIRS) and function length <= $MAX_LINES ($LENGTH_DIRS): clean"
+  echo "check_style: format ($FORMAT_DIRS), function and class body length <= $MAX_LINES" \
+    "($LENGTH_DIRS): clean"
 fi
 exit "$status"

@@ -37,6 +37,19 @@
 	 change,                                                                                   \
 	 doc},
 
+/* The [hal] choices, "|sim|socketcan" and "|none|sim|gpiod": backends.def's INI words in the
+ * enums' order (the table takes each from its first word on). */
+static const char motor_words[] =
+#define OMNI4_BACKEND(hal, name, word, ...) BACKEND_MOTOR_##hal("|" word)
+#include "omni4/backends.def"
+    ;
+static const char lines_words[] =
+#define OMNI4_BACKEND(hal, name, word, ...) BACKEND_LINES_##hal("|" word)
+#include "omni4/backends.def"
+    ;
+#define OMNI4_MOTOR_CHOICES (motor_words + 1)
+#define OMNI4_LINES_CHOICES (lines_words + 1)
+
 /*
  * The one table of keys: the INI parser, the writer and the parameter service (over LCM) all
  * use it, and docs/ini-keys.md is generated from it. [model] keys come first, in

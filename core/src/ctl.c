@@ -151,11 +151,11 @@ static bool command_in_range(const struct ctl *c, const struct ctl_command *cmd)
 
 int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 {
-	if (cmd->mode < CTL_IDLE || cmd->mode > CTL_CLEAR_FAULT || !command_in_range(c, cmd))
+	if (!mode_commandable(cmd->mode) || !command_in_range(c, cmd))
 		return reject(c, -EINVAL);
 
 	if (cmd->mode == CTL_CLEAR_FAULT) {
-		if (c->mode == CTL_FAULT || c->mode == CTL_ESTOP) {
+		if (mode_faulted(c->mode)) {
 			/* ctl_step re-latches anything still present; clear only a gone cause. */
 			if (c->warnings & CTL_FAULT_ESTOP || c->present)
 				return reject(c, -EBUSY);
@@ -166,7 +166,7 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 		c->n.cmd_accepted++;
 		return 0;
 	}
-	if (c->mode == CTL_FAULT || c->mode == CTL_ESTOP)
+	if (mode_faulted(c->mode))
 		return reject(c, -EPERM);
 
 	switch (cmd->mode) {
@@ -271,8 +271,8 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 
 static void watchdog(struct ctl *c, int64_t now_us)
 {
-	const bool moving = c->mode == CTL_VELOCITY || c->mode == CTL_COAST ||
-	                    (c->mode == CTL_VOLTAGE && !c->stopping);
+	/* stopping: the watchdog's own stop ramp already runs */
+	const bool moving = mode_keep_alive(c->mode) && !c->stopping;
 
 	if (!moving || now_us - c->last_cmd_us <= c->t.cmd_timeout_us)
 		return;
@@ -411,7 +411,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 	else if (c->mode == CTL_VELOCITY)
 		velocity_mode(c, s);
 
-	const bool on = c->mode == CTL_VOLTAGE || c->mode == CTL_VELOCITY;
+	const bool on = mode_drives(c->mode);
 
 	if (!on) {
 		memset(c->out, 0, sizeof(c->out));

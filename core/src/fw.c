@@ -90,7 +90,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 
 	if (!u)
 		return;
-	const bool driving = fw->ctl.mode == CTL_VELOCITY || fw->ctl.mode == CTL_VOLTAGE;
+	const bool driving = mode_drives(fw->ctl.mode);
 	int rc = 0;
 
 	if (u->idle_only && driving) {
@@ -242,7 +242,7 @@ static void take_commands(struct fw *fw, int64_t now_us)
 	struct ctl_command cmd;
 
 	while (spsc_pop(&fw->cmd_ring, &cmd)) {
-		const bool was_fault = fw->ctl.mode == CTL_FAULT || fw->ctl.mode == CTL_ESTOP;
+		const bool was_fault = mode_faulted(fw->ctl.mode);
 
 		if (ctl_command(&fw->ctl, &cmd, now_us) == 0 && cmd.mode == CTL_CLEAR_FAULT &&
 		    was_fault)
@@ -264,7 +264,7 @@ static void drive(struct fw *fw, struct ctl_output *out)
 	}
 	if (hal_motor_write(&fw->motor, out->volts) < 0)
 		fw->n.write_errors++;
-	hal_line_set_led(&fw->lines, out->mode == CTL_FAULT || out->mode == CTL_ESTOP);
+	hal_line_set_led(&fw->lines, mode_faulted(out->mode));
 	fw->last_out = *out;
 }
 

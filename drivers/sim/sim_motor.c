@@ -194,6 +194,36 @@ static void camera(struct sim_motor *s, double t_s)
 	}
 }
 
+/* Wheel j's speed as its encoder reports it after the tick [rad/s]: the true speed w, or the
+ * difference of two quantised (and, with eccentricity, motor-shaft) readings over the period. */
+static double encoder_speed(struct sim_motor *s, int j, double w)
+{
+	const int cpr = s->cfg.encoder_cpr;
+	const double dt = s->cfg.period_s;
+	double speed = w;
+
+	if (s->cfg.encoder_eccentricity > 0.0) {
+		/* The motor-shaft encoder's reading, quantised (or exact with cpr 0). */
+		const double read = eccentric_reading(s, j, s->wheel_angle[j]);
+
+		if (cpr > 0) {
+			const int64_t c = encoder_counts(s, read);
+
+			speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
+			s->counts[j] = c;
+		} else {
+			speed = (read - s->ecc_read[j]) / dt;
+		}
+		s->ecc_read[j] = read;
+	} else if (cpr > 0) {
+		const int64_t c = encoder_counts(s, s->wheel_angle[j]);
+
+		speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
+		s->counts[j] = c;
+	}
+	return speed;
+}
+
 static int sim_read(void *ctx, struct motor_sample *out)
 {
 	struct sim_motor *s = ctx;
@@ -217,32 +247,11 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	if (s->inject.silent)
 		return -ETIMEDOUT;
 
-	const int cpr = s->cfg.encoder_cpr;
-
 	for (int j = 0; j < 4; j++) {
 		s->wheel_angle[j] +=
 		    0.5 * dt * (w_before[j] + w_after[j]) + s->inject.encoder_jump_rad;
-		double speed = w_after[j];
+		const double speed = encoder_speed(s, j, w_after[j]);
 
-		if (s->cfg.encoder_eccentricity > 0.0) {
-			/* The motor-shaft encoder's reading, quantised (or exact with cpr 0). */
-			const double read = eccentric_reading(s, j, s->wheel_angle[j]);
-
-			if (cpr > 0) {
-				const int64_t c = encoder_counts(s, read);
-
-				speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
-				s->counts[j] = c;
-			} else {
-				speed = (read - s->ecc_read[j]) / dt;
-			}
-			s->ecc_read[j] = read;
-		} else if (cpr > 0) {
-			const int64_t c = encoder_counts(s, s->wheel_angle[j]);
-
-			speed = (double)(c - s->counts[j]) * TWO_PI / cpr / dt;
-			s->counts[j] = c;
-		}
 		out->wheel_rad_s[j] = s->inject.encoder_stuck[j] ? s->last_speed[j] : (float)speed;
 		s->last_speed[j] = out->wheel_rad_s[j];
 

@@ -13,38 +13,21 @@
 #include "omni4_sim_truth_t.h"
 #include "omni4_state_t.h"
 
-/* The estimator's flags go out unchanged as state_t's. */
-_Static_assert(EST_FLAG_SLIP == OMNI4_STATE_T_FLAG_SLIP, "state_t flags");
-_Static_assert(EST_FLAG_COLLISION == OMNI4_STATE_T_FLAG_COLLISION, "state_t flags");
-_Static_assert(EST_FLAG_CAMERA_STALE == OMNI4_STATE_T_FLAG_CAMERA_STALE, "state_t flags");
-_Static_assert(EST_FLAG_NO_WHEELS == OMNI4_STATE_T_FLAG_NO_WHEELS, "state_t flags");
-
-/* The controller's modes and fault bits go out unchanged as motors_t's (lcmtypes/), and
- * command_t's modes come in unchanged: the two vocabularies must agree bit by bit. */
-#define SAME(a, b) _Static_assert((a) == (b), #a " != " #b)
-SAME(CTL_IDLE, OMNI4_MOTORS_T_MODE_IDLE);
-SAME(CTL_VELOCITY, OMNI4_MOTORS_T_MODE_VELOCITY);
-SAME(CTL_VOLTAGE, OMNI4_MOTORS_T_MODE_VOLTAGE);
-SAME(CTL_COAST, OMNI4_MOTORS_T_MODE_COAST);
-SAME(CTL_FAULT, OMNI4_MOTORS_T_MODE_FAULT);
-SAME(CTL_ESTOP, OMNI4_MOTORS_T_MODE_ESTOP);
-SAME(CTL_IDLE, OMNI4_COMMAND_T_MODE_IDLE);
-SAME(CTL_VELOCITY, OMNI4_COMMAND_T_MODE_VELOCITY);
-SAME(CTL_VOLTAGE, OMNI4_COMMAND_T_MODE_VOLTAGE);
-SAME(CTL_COAST, OMNI4_COMMAND_T_MODE_COAST);
-SAME(CTL_CLEAR_FAULT, OMNI4_COMMAND_T_MODE_CLEAR_FAULT);
-SAME(CTL_FAULT_OVERCURRENT, OMNI4_MOTORS_T_FAULT_OVERCURRENT);
-SAME(CTL_FAULT_DRIVER_TIMEOUT, OMNI4_MOTORS_T_FAULT_DRIVER_TIMEOUT);
-SAME(CTL_FAULT_DRIVER, OMNI4_MOTORS_T_FAULT_DRIVER);
-SAME(CTL_FAULT_BUS, OMNI4_MOTORS_T_FAULT_BUS);
-SAME(CTL_FAULT_ENCODER, OMNI4_MOTORS_T_FAULT_ENCODER);
-SAME(CTL_FAULT_CURRENT_SENSOR, OMNI4_MOTORS_T_FAULT_CURRENT_SENSOR);
-SAME(CTL_FAULT_SUPPLY, OMNI4_MOTORS_T_FAULT_SUPPLY);
-SAME(CTL_FAULT_ESTOP, OMNI4_MOTORS_T_FAULT_ESTOP);
-SAME(CTL_FAULT_CMD_TIMEOUT, OMNI4_MOTORS_T_FAULT_CMD_TIMEOUT);
-SAME(CTL_FAULT_CMD_REJECTED, OMNI4_MOTORS_T_FAULT_CMD_REJECTED);
-SAME(CTL_FAULT_LOG_OVERFLOW, OMNI4_MOTORS_T_FAULT_LOG_OVERFLOW);
-SAME(CTL_FAULT_OVERRUN, OMNI4_MOTORS_T_FAULT_OVERRUN);
+/* The controller's modes and fault bits go out unchanged as motors_t's (lcmtypes/), command_t's
+ * modes come in unchanged, the estimator's flags go out as state_t's: every row of vocab.def
+ * must agree with the LCM constant of its name (the Python package's tests check the other way:
+ * every LCM constant has its row). */
+#define SAME(a, b) _Static_assert((a) == (b), #a " != " #b);
+#define WIRE_CMD(name) SAME(CTL_##name, OMNI4_COMMAND_T_MODE_##name)
+#define WIRE_STATE(name) SAME(CTL_##name, OMNI4_MOTORS_T_MODE_##name)
+#define WIRE_BOTH(name) WIRE_CMD(name) WIRE_STATE(name)
+#define OMNI4_MODE(name, value, wire, ...) WIRE_##wire(name)
+#define OMNI4_FAULT(name, ...) SAME(CTL_FAULT_##name, OMNI4_MOTORS_T_FAULT_##name)
+#define OMNI4_FLAG(name, ...) SAME(EST_FLAG_##name, OMNI4_STATE_T_FLAG_##name)
+#include "omni4/vocab.def"
+#undef WIRE_CMD
+#undef WIRE_STATE
+#undef WIRE_BOTH
 #undef SAME
 
 int lcmio_decode_command(const void *data, size_t len, struct ctl_command *out)
@@ -196,7 +179,7 @@ size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_
 		if (e.kind == LOG_CALIBRATION && sink->note)
 			sink->note(sink->note_ctx, &e);
 
-		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, buf, (size_t)len) < 0)
+		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, e.seq, buf, (size_t)len) < 0)
 			(*sink_errors)++;
 		n++;
 	}

@@ -66,18 +66,15 @@ static uint64_t own_key(int64_t seq, int64_t utime)
 	return k ? k : 1;
 }
 
-static int publish(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
+static int publish(void *ctx, const char *channel, int64_t utime, int64_t seq, const void *data,
+                   size_t len)
 {
 	struct lcmio *io = ctx;
 
-	(void)utime;
 	/* Each motors_t sample is noted before it goes out, so the receive thread always finds
-	 * it (a motors_t decodes without allocating: fixed-size fields only). */
-	omni4_motors_t m;
-
-	if (io->motors_sub && !strcmp(channel, OMNI4_CHANNEL_MOTORS) && len <= INT32_MAX &&
-	    omni4_motors_t_decode(data, 0, (int)len, &m) == (int)len)
-		atomic_store(&io->own[(uint64_t)m.seq % LCMIO_OWN_SLOTS], own_key(m.seq, m.utime));
+	 * it. */
+	if (io->motors_sub && !strcmp(channel, OMNI4_CHANNEL_MOTORS))
+		atomic_store(&io->own[(uint64_t)seq % LCMIO_OWN_SLOTS], own_key(seq, utime));
 	return lcm_publish(io->lcm, channel, data, (unsigned int)len);
 }
 

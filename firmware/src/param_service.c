@@ -20,12 +20,16 @@
 
 #define WHY_MAX 320
 
-static const char *mode_name(int mode)
+/* "IDLE, COAST, FAULT, ESTOP": the modes a robot reports with its bridges not driven. */
+static void undriven_modes(char *buf, size_t n)
 {
-	static const char *const names[] = {"IDLE",  "VELOCITY", "VOLTAGE", "COAST",
-	                                    "CLEAR", "FAULT",    "ESTOP"};
+	size_t at = 0;
 
-	return mode >= 0 && mode <= 6 ? names[mode] : "?";
+	buf[0] = '\0';
+	for (int m = 0; m < 32 && at < n; m++)
+		if (mode_name(m) && vocab_mode_in(CTL_MODES_REPORTED, m) && !mode_drives(m))
+			at += (size_t)snprintf(buf + at, n - at, "%s%s", at ? ", " : "",
+			                       mode_name(m));
 }
 
 int param_service_init(struct param_service *ps, struct fw *fw, const struct omni4_config *cfg,
@@ -283,12 +287,14 @@ static void reply_not_taken(struct param_service *ps, const omni4_param_request_
 
 	if (res->rc == -EBUSY) {
 		const struct config_key *k = config_key_at(first_idle);
+		const char *mode = mode_name(res->mode);
+		char undriven[64];
 
-		snprintf(
-		    why, sizeof(why),
-		    "%s.%s: only while the bridges are not driven (IDLE, COAST, FAULT, ESTOP); "
-		    "the robot is in %s: nothing changed",
-		    k->section, k->name, mode_name(res->mode));
+		undriven_modes(undriven, sizeof(undriven));
+		snprintf(why, sizeof(why),
+		         "%s.%s: only while the bridges are not driven (%s); "
+		         "the robot is in %s: nothing changed",
+		         k->section, k->name, undriven, mode ? mode : "?");
 		refuse(ps, q, why);
 		return;
 	}

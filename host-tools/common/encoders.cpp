@@ -138,103 +138,117 @@ struct RippleWork {
 	std::vector<double> th, y, thd, ws, prefix;     // angle; group speed, angle, slow speed
 	std::array<std::vector<double>, 2> g, gb;       // regressors and their slow part
 
-	RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h)
-	    : m(m_), gear(gear_), dt(dt_)
-	{
-		q = std::max<size_t>(1, static_cast<size_t>(0.004 / dt + 1e-9));
-		hd = std::max(2, static_cast<int>(std::lround(static_cast<double>(h) / q)));
-		for (const auto &[a, b] : contiguous_blocks(m)) {
-			const size_t d0 = first.size();
-			for (size_t k = a; k + q <= b; k += q)
-				first.push_back(k);
-			if (first.size() > d0)
-				dblocks.emplace_back(d0, first.size());
-		}
-		const size_t nd = first.size();
-		th.resize(m.size());
-		y.resize(nd);
-		thd.resize(nd);
-		ws.assign(nd, NAN);
-		for (auto &v : g)
-			v.assign(nd, 0);
-		for (auto &v : gb)
-			v.assign(nd, NAN);
-	}
+	RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h);
 
 	// Wheel angle of motor j: the logged speed over the nominal period; across lost ticks, the
 	// mean of the speeds on either side. Then the group means of speed and angle.
-	void angle_and_groups(int j)
-	{
-		th[0] = 0;
-		for (size_t k = 1; k < m.size(); ++k) {
-			const int64_t gap = m[k].seq - m[k - 1].seq;
-			const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
-			th[k] = th[k - 1] +
-			        dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
-		}
-		for (size_t i = 0; i < first.size(); ++i) {
-			double sy = 0, st = 0;
-			for (size_t k = first[i]; k < first[i] + q; ++k) {
-				sy += m[k].w[j];
-				st += th[k];
-			}
-			y[i] = sy / static_cast<double>(q);
-			thd[i] = st / static_cast<double>(q);
-		}
-	}
+	void angle_and_groups(int j);
 
 	// The slow speed ws and the ripple's regressors g = ws (cos, sin)(gear angle), with their
 	// slow parts gb.
-	void regressors()
-	{
-		for (const auto &[a, b] : dblocks)
-			box(y, a, b, hd, prefix, ws); // the slow speed
-		for (size_t i = 0; i < first.size(); ++i) {
-			const double sp = std::isfinite(ws[i]) ? ws[i] : 0.0;
-			if (std::abs(sp) < 1e-3) { // at rest: no ripple to carry
-				g[0][i] = g[1][i] = 0;
-				continue;
-			}
-			double sn, cs;
-			::sincos(gear * thd[i], &sn, &cs); // glibc: one call for both
-			g[0][i] = sp * cs;
-			g[1][i] = sp * sn;
-		}
-		for (const auto &[a, b] : dblocks)
-			for (int c = 0; c < 2; ++c)
-				box(g[c], a, b, hd, prefix, gb[c]);
-	}
+	void regressors();
 
 	// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
 	// block; advances i0 past the stretch. Returns the groups used.
 	size_t normal_equations(const RippleFit &f, double min_speed, size_t &i0,
-	                        Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
-	{
-		const size_t nd = first.size();
-		A = Eigen::Matrix2d::Zero();
-		r = Eigen::Vector2d::Zero();
-		yy = 0;
-		size_t used = 0;
-		for (const auto &[a, b] : dblocks) {
-			const size_t h2 = 2 * static_cast<size_t>(hd);
-			for (size_t i = std::max(a + h2, i0); i + h2 < b && first[i] < f.m1; ++i) {
-				if (first[i] < f.m0 || !(std::abs(ws[i]) >= min_speed))
-					continue;
-				Eigen::Vector2d x;
-				for (int c = 0; c < 2; ++c)
-					x[c] = g[c][i] - gb[c][i];
-				const double e = y[i] - ws[i];
-				A += x * x.transpose();
-				r += x * e;
-				yy += e * e;
-				++used;
-			}
-		}
-		while (i0 < nd && first[i0] < f.m1)
-			++i0;
-		return used;
-	}
+	                        Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const;
 };
+
+RippleWork::RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h)
+    : m(m_), gear(gear_), dt(dt_)
+{
+	q = std::max<size_t>(1, static_cast<size_t>(0.004 / dt + 1e-9));
+	hd = std::max(2, static_cast<int>(std::lround(static_cast<double>(h) / q)));
+	for (const auto &[a, b] : contiguous_blocks(m)) {
+		const size_t d0 = first.size();
+		for (size_t k = a; k + q <= b; k += q)
+			first.push_back(k);
+		if (first.size() > d0)
+			dblocks.emplace_back(d0, first.size());
+	}
+	const size_t nd = first.size();
+	th.resize(m.size());
+	y.resize(nd);
+	thd.resize(nd);
+	ws.assign(nd, NAN);
+	for (auto &v : g)
+		v.assign(nd, 0);
+	for (auto &v : gb)
+		v.assign(nd, NAN);
+}
+
+// Wheel angle of motor j: the logged speed over the nominal period; across lost ticks, the
+// mean of the speeds on either side. Then the group means of speed and angle.
+void RippleWork::angle_and_groups(int j)
+{
+	th[0] = 0;
+	for (size_t k = 1; k < m.size(); ++k) {
+		const int64_t gap = m[k].seq - m[k - 1].seq;
+		const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
+		th[k] = th[k - 1] + dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
+	}
+	for (size_t i = 0; i < first.size(); ++i) {
+		double sy = 0, st = 0;
+		for (size_t k = first[i]; k < first[i] + q; ++k) {
+			sy += m[k].w[j];
+			st += th[k];
+		}
+		y[i] = sy / static_cast<double>(q);
+		thd[i] = st / static_cast<double>(q);
+	}
+}
+
+// The slow speed ws and the ripple's regressors g = ws (cos, sin)(gear angle), with their
+// slow parts gb.
+void RippleWork::regressors()
+{
+	for (const auto &[a, b] : dblocks)
+		box(y, a, b, hd, prefix, ws); // the slow speed
+	for (size_t i = 0; i < first.size(); ++i) {
+		const double sp = std::isfinite(ws[i]) ? ws[i] : 0.0;
+		if (std::abs(sp) < 1e-3) { // at rest: no ripple to carry
+			g[0][i] = g[1][i] = 0;
+			continue;
+		}
+		double sn, cs;
+		::sincos(gear * thd[i], &sn, &cs); // glibc: one call for both
+		g[0][i] = sp * cs;
+		g[1][i] = sp * sn;
+	}
+	for (const auto &[a, b] : dblocks)
+		for (int c = 0; c < 2; ++c)
+			box(g[c], a, b, hd, prefix, gb[c]);
+}
+
+// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
+// block; advances i0 past the stretch. Returns the groups used.
+size_t RippleWork::normal_equations(const RippleFit &f, double min_speed, size_t &i0,
+                                    Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
+{
+	const size_t nd = first.size();
+	A = Eigen::Matrix2d::Zero();
+	r = Eigen::Vector2d::Zero();
+	yy = 0;
+	size_t used = 0;
+	for (const auto &[a, b] : dblocks) {
+		const size_t h2 = 2 * static_cast<size_t>(hd);
+		for (size_t i = std::max(a + h2, i0); i + h2 < b && first[i] < f.m1; ++i) {
+			if (first[i] < f.m0 || !(std::abs(ws[i]) >= min_speed))
+				continue;
+			Eigen::Vector2d x;
+			for (int c = 0; c < 2; ++c)
+				x[c] = g[c][i] - gb[c][i];
+			const double e = y[i] - ws[i];
+			A += x * x.transpose();
+			r += x * e;
+			yy += e * e;
+			++used;
+		}
+	}
+	while (i0 < nd && first[i0] < f.m1)
+		++i0;
+	return used;
+}
 
 // Solves stretch f's normal equations for motor j and, if the ripple is significant, divides
 // it out of the stretch's speeds.

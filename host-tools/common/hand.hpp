@@ -30,38 +30,41 @@ struct HandOptions {
 	double smooth_s = 0.02;   // moving average of the velocities over this window [s]
 };
 
+enum class HandState { Unsettled, AtRest, Armed, Pushing, Coasting };
+enum class HandEvent {
+	None,
+	AtRest,
+	PushStarted,
+	WrongAxis,
+	NoPush,
+	Coasting,
+	Stopped,
+	NotStopped
+};
+
+// The present (or last) push. Times in the samples' clock [us].
+struct HandPush {
+	int axis = 0;           // expected axis: 0 v, 1 vn, 2 w
+	int moved_axis = 0;     // the axis the robot moved along most (WrongAxis: not `axis`)
+	double moved_speed = 0; // its smoothed speed when the push was seen [m/s or rad/s]
+	double peak = 0;        // signed peak speed along `axis` (smoothed) [m/s or rad/s]
+	int64_t armed_utime = 0, start_utime = 0, peak_utime = 0, still_utime = 0, stop_utime = 0;
+	double push_s() const
+	{
+		return (peak_utime - start_utime) * 1e-6;
+	} // detection to peak
+	double coast_s() const
+	{
+		return (still_utime - peak_utime) * 1e-6;
+	} // peak to below rest
+};
+
 class HandDetector
 {
       public:
-	enum class State { Unsettled, AtRest, Armed, Pushing, Coasting };
-	enum class Event {
-		None,
-		AtRest,
-		PushStarted,
-		WrongAxis,
-		NoPush,
-		Coasting,
-		Stopped,
-		NotStopped
-	};
-
-	// The present (or last) push. Times in the samples' clock [us].
-	struct Push {
-		int axis = 0;       // expected axis: 0 v, 1 vn, 2 w
-		int moved_axis = 0; // the axis the robot moved along most (WrongAxis: not `axis`)
-		double moved_speed = 0; // its smoothed speed when the push was seen [m/s or rad/s]
-		double peak = 0;        // signed peak speed along `axis` (smoothed) [m/s or rad/s]
-		int64_t armed_utime = 0, start_utime = 0, peak_utime = 0, still_utime = 0,
-		        stop_utime = 0;
-		double push_s() const
-		{
-			return (peak_utime - start_utime) * 1e-6;
-		} // detection to peak
-		double coast_s() const
-		{
-			return (still_utime - peak_utime) * 1e-6;
-		} // peak to below rest
-	};
+	using State = HandState;
+	using Event = HandEvent;
+	using Push = HandPush;
 
 	explicit HandDetector(const HandOptions &opt = {});
 

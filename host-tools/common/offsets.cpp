@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "omni4/vocab.h"
 #include "windows.hpp"
 
 namespace omni4
@@ -14,7 +15,8 @@ namespace
 {
 
 // motors_t latching faults under which a current reading says nothing about the offset.
-constexpr int32_t kReadingFaults = 0x0001 | 0x0002 | 0x0004 | 0x0008 | 0x0020;
+constexpr int32_t kReadingFaults = CTL_FAULT_OVERCURRENT | CTL_FAULT_DRIVER_TIMEOUT |
+                                   CTL_FAULT_DRIVER | CTL_FAULT_BUS | CTL_FAULT_CURRENT_SENSOR;
 
 struct Accumulator {
 	size_t n = 0;
@@ -24,22 +26,7 @@ struct Accumulator {
 	std::array<double, 4> bsum{};
 	size_t bn = 0;
 
-	void add(const std::array<float, 4> &i, size_t batch)
-	{
-		++n;
-		for (int j = 0; j < 4; ++j) {
-			sum[j] += i[j];
-			sum2[j] += i[j] * i[j];
-			bsum[j] += i[j];
-		}
-		if (++bn < batch)
-			return;
-		std::array<double, 4> m{};
-		for (int j = 0; j < 4; ++j)
-			m[j] = bsum[j] / static_cast<double>(bn);
-		batches.push_back(m);
-		drop_partial_batch();
-	}
+	void add(const std::array<float, 4> &i, size_t batch);
 	// The batch in progress is given up (a drive or lost samples interrupt it): a batch is made
 	// of consecutive usable samples only.
 	void drop_partial_batch()
@@ -47,41 +34,60 @@ struct Accumulator {
 		bsum.fill(0);
 		bn = 0;
 	}
-	void merge(const Accumulator &o)
-	{
-		n += o.n;
-		for (int j = 0; j < 4; ++j) {
-			sum[j] += o.sum[j];
-			sum2[j] += o.sum2[j];
-		}
-		batches.insert(batches.end(), o.batches.begin(), o.batches.end());
-	}
+	void merge(const Accumulator &o);
 	// Mean and its standard error: from the spread of the batch means when there are enough of
 	// them (honest for noise correlated over less than a batch), else white-noise.
-	void result(std::array<double, 4> &mean, std::array<double, 4> &se) const
-	{
-		const double nn = static_cast<double>(n);
-		for (int j = 0; j < 4; ++j) {
-			mean[j] = sum[j] / nn;
-			const double var =
-			    n > 1 ? std::max(0.0, (sum2[j] - nn * mean[j] * mean[j]) / (nn - 1))
-			          : 0;
-			double s = std::sqrt(var / nn);
-			if (batches.size() >= 8) {
-				double bm = 0, bv = 0;
-				for (const auto &b : batches)
-					bm += b[j];
-				bm /= static_cast<double>(batches.size());
-				for (const auto &b : batches)
-					bv += (b[j] - bm) * (b[j] - bm);
-				bv /= static_cast<double>(batches.size() - 1);
-				s = std::max(s,
-				             std::sqrt(bv / static_cast<double>(batches.size())));
-			}
-			se[j] = s;
-		}
-	}
+	void result(std::array<double, 4> &mean, std::array<double, 4> &se) const;
 };
+
+void Accumulator::add(const std::array<float, 4> &i, size_t batch)
+{
+	++n;
+	for (int j = 0; j < 4; ++j) {
+		sum[j] += i[j];
+		sum2[j] += i[j] * i[j];
+		bsum[j] += i[j];
+	}
+	if (++bn < batch)
+		return;
+	std::array<double, 4> m{};
+	for (int j = 0; j < 4; ++j)
+		m[j] = bsum[j] / static_cast<double>(bn);
+	batches.push_back(m);
+	drop_partial_batch();
+}
+
+void Accumulator::merge(const Accumulator &o)
+{
+	n += o.n;
+	for (int j = 0; j < 4; ++j) {
+		sum[j] += o.sum[j];
+		sum2[j] += o.sum2[j];
+	}
+	batches.insert(batches.end(), o.batches.begin(), o.batches.end());
+}
+
+void Accumulator::result(std::array<double, 4> &mean, std::array<double, 4> &se) const
+{
+	const double nn = static_cast<double>(n);
+	for (int j = 0; j < 4; ++j) {
+		mean[j] = sum[j] / nn;
+		const double var =
+		    n > 1 ? std::max(0.0, (sum2[j] - nn * mean[j] * mean[j]) / (nn - 1)) : 0;
+		double s = std::sqrt(var / nn);
+		if (batches.size() >= 8) {
+			double bm = 0, bv = 0;
+			for (const auto &b : batches)
+				bm += b[j];
+			bm /= static_cast<double>(batches.size());
+			for (const auto &b : batches)
+				bv += (b[j] - bm) * (b[j] - bm);
+			bv /= static_cast<double>(batches.size() - 1);
+			s = std::max(s, std::sqrt(bv / static_cast<double>(batches.size())));
+		}
+		se[j] = s;
+	}
+}
 
 std::string fmt_offsets(const std::array<double, 4> &a)
 {

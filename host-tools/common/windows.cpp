@@ -5,12 +5,14 @@
 #include <cmath>
 #include <cstdio>
 
+#include "omni4/vocab.h"
+
 namespace omni4
 {
 
 bool driven_mode(int8_t mode)
 {
-	return mode == 1 || mode == 2;
+	return mode_drives(mode);
 }
 
 double seg_time(const Segment &s, size_t k)

@@ -41,7 +41,7 @@ struct WindowOptions {
 // Below these speeds the Coulomb sign is unreliable and the robot is about to stick.
 constexpr double kStopSpeed[3] = {0.05, 0.05, 0.5}; // [m/s, m/s, rad/s]
 
-bool driven_mode(int8_t mode); // motors_t VOLTAGE or VELOCITY: bridges driven
+bool driven_mode(int8_t mode); // bridges driven in this motors_t mode (core's mode_drives)
 
 struct Window {
 	size_t m0 = 0, m1 = 0; // motors samples [m0, m1) of the segment's log

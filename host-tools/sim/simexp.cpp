@@ -13,6 +13,33 @@
 namespace omni4
 {
 
+namespace
+{
+
+// The phases' marks and command due at tick k, handed to the simulated bus.
+void play_tick(simrun *sr, SequencePlayer &player, long k, double dt)
+{
+	const auto out = player.due(k * dt, simrun_now_us(sr));
+	for (const auto &m : out.marks)
+		simrun_publish(sr, OMNI4_CHANNEL_EXPERIMENT, m.data(), m.size());
+	if (out.has_command)
+		simrun_command(sr, out.command.data(), out.command.size());
+}
+
+// The run's statistics and message counts per channel, after its log is flushed.
+void collect_stats(simrun *sr, SimRunResult &r)
+{
+	simrun_flush_log(sr); // a failure is in the stats (log_errors, log_errno)
+	simrun_get_stats(sr, &r.stats);
+	const char *names[SIMRUN_CHANNELS_MAX];
+	uint64_t counts[SIMRUN_CHANNELS_MAX];
+	const size_t n = simrun_channel_counts(sr, names, counts, SIMRUN_CHANNELS_MAX);
+	for (size_t c = 0; c < n && c < SIMRUN_CHANNELS_MAX; ++c)
+		r.channels.emplace_back(names[c], counts[c]);
+}
+
+} // namespace
+
 SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, bool noise,
                             const std::string &log_path, bool experiments, double idle_s,
                             double rtf, const std::function<void(double, size_t, size_t)> &progress,
@@ -51,14 +78,8 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 			interrupted = true;
 			break;
 		}
-		if (experiments) {
-			const auto out = player.due(k * dt, simrun_now_us(sr.get()));
-			for (const auto &m : out.marks)
-				simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, m.data(),
-				               m.size());
-			if (out.has_command)
-				simrun_command(sr.get(), out.command.data(), out.command.size());
-		}
+		if (experiments)
+			play_tick(sr.get(), player, k, dt);
 		simrun_tick(sr.get());
 		if (rtf > 0)
 			std::this_thread::sleep_until(
@@ -80,13 +101,7 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 	r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 	r.simulated_s = static_cast<double>(k) * dt;
 	r.interrupted = interrupted;
-	simrun_flush_log(sr.get()); // a failure is in the stats (log_errors, log_errno)
-	simrun_get_stats(sr.get(), &r.stats);
-	const char *names[SIMRUN_CHANNELS_MAX];
-	uint64_t counts[SIMRUN_CHANNELS_MAX];
-	const size_t n = simrun_channel_counts(sr.get(), names, counts, SIMRUN_CHANNELS_MAX);
-	for (size_t c = 0; c < n && c < SIMRUN_CHANNELS_MAX; ++c)
-		r.channels.emplace_back(names[c], counts[c]);
+	collect_stats(sr.get(), r);
 	return r;
 }
 

@@ -321,75 +321,102 @@ static int stuck_encoder(void)
 #define EST_CAM_LATENCY 40
 static struct est g_est;
 
+/* Cycle counts of one kind of call: sum, maximum, calls. */
+struct cost_meter {
+	uint64_t sum;
+	uint32_t max, n;
+};
+
+static void cost_add(struct cost_meter *m, uint32_t c)
+{
+	m->sum += c;
+	m->max = c > m->max ? c : m->max;
+	m->n++;
+}
+
+/* Tick i's input: the plant driven by four sines, its wheel speeds with 0.2 rad/s noise. */
+static void cost_input(struct plant *pl, struct rng *g, int i, struct est_input *in)
+{
+	const double t = i * 1e-3;
+	double u[4], w[4];
+
+	*in = (struct est_input){.utime = (int64_t)i * 1000, .driven = true, .have_wheels = true};
+	for (int j = 0; j < 4; j++)
+		u[j] = 7.0 * sin(6.283185307179586 * (0.2 + 0.1 * j) * t + j);
+	plant_step(pl, u, true, 1e-3);
+	plant_wheel_speeds(pl, w);
+	for (int j = 0; j < 4; j++) {
+		in->volts[j] = (float)u[j];
+		in->wheel_rad_s[j] = (float)(w[j] + rng_normal(g, 0.2));
+	}
+}
+
+/* The frame of tick ci arriving at tick i (now_us): est_step of tick i ran as sequence number
+ * i - 1, so the replay runs from the snapshot before the frame's tick to now. Returns the
+ * ticks replayed; *taken counts the frames the filter took. */
+static uint32_t cost_camera(int i, int ci, const double pose[3], int64_t now_us,
+                            struct cost_meter *cam, uint32_t *taken)
+{
+	const uint32_t k = (uint32_t)ci - 1u, n0 = k - k % EST_SNAP_EVERY;
+	const uint32_t t0 = g_meter->read();
+	const int rc = est_camera(&g_est, (int64_t)ci * 1000, pose, now_us);
+
+	cost_add(cam, g_meter->read() - t0);
+	*taken += rc == 0;
+	return (uint32_t)i - n0;
+}
+
+static void cost_report(const struct cost_meter *step, const struct cost_meter *cam,
+                        uint64_t replayed, uint32_t taken, const struct plant *pl)
+{
+	const struct est_output *o = est_get(&g_est);
+	char line[300];
+
+	snprintf(line, sizeof(line),
+	         "estimator cost: est_step mean %lu max %lu %s over %d ticks; est_camera (frame %d "
+	         "ms late) mean %lu max %lu, per replayed tick %lu, %lu of %lu frames taken; "
+	         "sizeof(struct est) %lu bytes; position error at the end %.1f mm",
+	         (unsigned long)(step->sum / EST_COST_TICKS), (unsigned long)step->max,
+	         g_meter->unit, EST_COST_TICKS, EST_CAM_LATENCY,
+	         (unsigned long)(cam->n ? cam->sum / cam->n : 0), (unsigned long)cam->max,
+	         (unsigned long)(replayed ? cam->sum / replayed : 0), (unsigned long)taken,
+	         (unsigned long)cam->n, (unsigned long)sizeof(struct est),
+	         1e3 * hypot(o->pose[0] - pl->pose[0], o->pose[1] - pl->pose[1]));
+	g_print(line);
+}
+
 static void estimator_cost(void)
 {
 	struct plant pl;
 	struct rng g;
 	double cam[EST_COST_TICKS / EST_CAM_PERIOD + 1][3];
-	uint64_t step_sum = 0, cam_sum = 0, replayed = 0;
-	uint32_t step_max = 0, cam_max = 0, frames = 0, taken = 0;
-	char line[300];
+	struct cost_meter step = {0}, cam_cost = {0};
+	uint64_t replayed = 0;
+	uint32_t taken = 0;
 
 	if (!g_meter || plant_init(&pl, &model_params_table3) ||
 	    est_init(&g_est, NULL, &model_params_table3, 1000.0))
 		return;
 	rng_seed(&g, 1);
 	for (int i = 1; i <= EST_COST_TICKS; i++) {
-		const double t = i * 1e-3;
-		double u[4], w[4];
-		struct est_input in = {
-		    .utime = (int64_t)i * 1000, .driven = true, .have_wheels = true};
+		struct est_input in;
 
-		for (int j = 0; j < 4; j++)
-			u[j] = 7.0 * sin(6.283185307179586 * (0.2 + 0.1 * j) * t + j);
-		plant_step(&pl, u, true, 1e-3);
-		plant_wheel_speeds(&pl, w);
-		for (int j = 0; j < 4; j++) {
-			in.volts[j] = (float)u[j];
-			in.wheel_rad_s[j] = (float)(w[j] + rng_normal(&g, 0.2));
-		}
-		uint32_t t0 = g_meter->read();
+		cost_input(&pl, &g, i, &in);
+		const uint32_t t0 = g_meter->read();
 
 		est_step(&g_est, &in);
-		const uint32_t c = g_meter->read() - t0;
-
-		step_sum += c;
-		step_max = c > step_max ? c : step_max;
+		cost_add(&step, g_meter->read() - t0);
 		if (i % EST_CAM_PERIOD == 0)
 			for (int k = 0; k < 3; k++)
 				cam[i / EST_CAM_PERIOD][k] =
 				    pl.pose[k] + rng_normal(&g, k < 2 ? 0.01 : 0.05);
 		const int ci = i - EST_CAM_LATENCY; /* the tick of the frame arriving now */
 
-		if (ci > 0 && ci % EST_CAM_PERIOD == 0) {
-			/* est_step of tick i ran as sequence number i - 1: the replay runs from the
-			 * snapshot before the frame's tick to now */
-			const uint32_t k = (uint32_t)ci - 1u, n0 = k - k % EST_SNAP_EVERY;
-
-			t0 = g_meter->read();
-			const int rc = est_camera(&g_est, (int64_t)ci * 1000,
-			                          cam[ci / EST_CAM_PERIOD], in.utime);
-			const uint32_t cc = g_meter->read() - t0;
-
-			frames++;
-			taken += rc == 0;
-			cam_sum += cc;
-			cam_max = cc > cam_max ? cc : cam_max;
-			replayed += (uint32_t)i - n0;
-		}
+		if (ci > 0 && ci % EST_CAM_PERIOD == 0)
+			replayed += cost_camera(i, ci, cam[ci / EST_CAM_PERIOD], in.utime,
+			                        &cam_cost, &taken);
 	}
-	const struct est_output *o = est_get(&g_est);
-
-	snprintf(line, sizeof(line),
-	         "estimator cost: est_step mean %lu max %lu %s over %d ticks; est_camera (frame %d "
-	         "ms late) mean %lu max %lu, per replayed tick %lu, %lu of %lu frames taken; "
-	         "sizeof(struct est) %lu bytes; position error at the end %.1f mm",
-	         (unsigned long)(step_sum / EST_COST_TICKS), (unsigned long)step_max, g_meter->unit,
-	         EST_COST_TICKS, EST_CAM_LATENCY, (unsigned long)(frames ? cam_sum / frames : 0),
-	         (unsigned long)cam_max, (unsigned long)(replayed ? cam_sum / replayed : 0),
-	         (unsigned long)taken, (unsigned long)frames, (unsigned long)sizeof(struct est),
-	         1e3 * hypot(o->pose[0] - pl.pose[0], o->pose[1] - pl.pose[1]));
-	g_print(line);
+	cost_report(&step, &cam_cost, replayed, taken, &pl);
 }
 
 int scenarios_run(scenario_print_fn print, scenario_wait_fn wait_tick)

@@ -455,9 +455,8 @@ def _clear_fault(url, timeout_s, out):
     """omni4-param clear-fault: what omni4.Robot.clear_fault() does, said in one line; sends
     nothing else (no IDLE: another client's drive outside FAULT goes on). 0 out of FAULT (or
     nothing to clear), 1 refused (why on stderr) or no controller, 2 a bad LCM URL."""
-    from . import motors_t
+    from ._vocab import FAULTED_MODES, fault_names, mode_name
     from .robot import CommandRejected, Robot
-    from .status import MODE_NAMES, fault_names
     try:
         robot = Robot(url, limits=False)
     except (RuntimeError, ValueError) as e:
@@ -477,8 +476,8 @@ def _clear_fault(url, timeout_s, out):
 
     def state(s):
         names = " ".join(fault_names(s.faults)) or "no faults"
-        return f"{MODE_NAMES.get(s.mode, s.mode)}, {names}"
-    if before.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP):
+        return f"{mode_name(s.mode)}, {names}"
+    if before.mode in FAULTED_MODES:
         out.write(f"cleared: {state(m)} (was {state(before)})\n")
     else:
         out.write(f"nothing to clear: {state(m)} (latched bits and warnings reset)\n")

@@ -44,6 +44,7 @@ import weakref
 
 import lcm
 
+from . import _vocab
 from . import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, DEFAULT_LCM_URL, command_t,
                motors_t, param_changed_t)
 
@@ -51,10 +52,7 @@ DEFAULT_KEEPALIVE_S = 0.05   # re-send period [s]; the controller's default watc
 RX_POLL_MS = 50              # receive thread's wait per LCM handle call [ms]
 RX_QUEUE_MESSAGES = 10000    # LCM's receive queue for OMNI4_MOTORS: 10 s at 1 kHz
 JOIN_TIMEOUT_S = 2.0         # bounded join of the client's threads on close [s]
-LATCHING_FAULTS = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT |
-                   motors_t.FAULT_DRIVER | motors_t.FAULT_BUS | motors_t.FAULT_ENCODER |
-                   motors_t.FAULT_CURRENT_SENSOR | motors_t.FAULT_SUPPLY)
-_KEPT_ALIVE = (command_t.MODE_VELOCITY, command_t.MODE_VOLTAGE, command_t.MODE_COAST)
+LATCHING_FAULTS = _vocab.LATCHING  # the latching FAULT_* bits (core's vocab.def)
 RAMP_MAX_S = 60.0            # the controller refuses ramp_s outside [0, 60] s (core/src/ctl.c)
 LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max", "limits.supply_v")
 CONFIRM_MIN_S = 0.01         # a verdict comes from samples at least this long after the send
@@ -62,7 +60,6 @@ CONFIRM_TICKS = 10           # ... and at least this many loop periods after it
 CONFIRM_TIMEOUT_S = 0.5      # wait=True: longest wait for the verdict [s]
 LIMITS_TIMEOUT_S = 0.25      # the GET of the limits: per try [s] (2 tries)
 LIMITS_RETRY_S = 5.0         # no answer: the check is skipped, and the GET tried again after
-_MODE_NAMES = {motors_t.MODE_FAULT: "FAULT", motors_t.MODE_ESTOP: "ESTOP"}
 
 
 class CommandRejected(ValueError):
@@ -111,12 +108,11 @@ CLEAR_HINTS = (
 def clear_refusal_reason(m):
     """One line: why the controller keeps sample m's FAULT / ESTOP after a CLEAR_FAULT (it takes
     the clear only when the e-stop line is released and no latching fault's cause is present)."""
-    from .status import MODE_NAMES, fault_names
-    mode = MODE_NAMES.get(m.mode, f"mode {m.mode}")
+    mode = _vocab.mode_name(m.mode)
     why = []
     if m.faults & motors_t.FAULT_ESTOP:
         why.append("the e-stop line is still asserted (ESTOP): release it, then clear")
-    latched = [f"{fault_names(bit)[0]} ({hint})" for bit, hint in CLEAR_HINTS if m.faults & bit]
+    latched = [f"{_vocab.fault_names(bit)[0]} ({hint})" for bit, hint in CLEAR_HINTS if m.faults & bit]
     if latched:
         why.append("the cause of a latching fault is still present: " + "; ".join(latched))
     if not why:
@@ -348,7 +344,7 @@ class Robot:
                 f"last: mode {last.mode}, faults 0x{last.faults:04x}"
             raise TimeoutError(f"omni4.Robot: a sample out of FAULT after CLEAR_FAULT did not "
                                f"arrive within {timeout_s} s on {self.url} ({state})")
-        if m.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or m.faults & LATCHING_FAULTS:
+        if m.mode in _vocab.FAULTED_MODES or m.faults & LATCHING_FAULTS:
             with self._lock:
                 self.rejected += 1
             raise CommandRejected(f"clear_fault() refused by the controller on {self.url}: "
@@ -368,7 +364,7 @@ class Robot:
             except queue.Empty:
                 return None
             n += 1
-            if m.mode not in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) and \
+            if m.mode not in _vocab.FAULTED_MODES and \
                     not m.faults & LATCHING_FAULTS:
                 return m
             since = time.monotonic() - sent_s
@@ -378,9 +374,9 @@ class Robot:
     def _command(self, msg, keep_alive, wait=False):
         if self._closed.is_set():
             raise RuntimeError("omni4.Robot: closed")
-        track = msg.mode in _KEPT_ALIVE
+        track = msg.mode in _vocab.KEPT_ALIVE_MODES
         with self._lock:
-            self._cmd = msg if keep_alive and msg.mode in _KEPT_ALIVE else None
+            self._cmd = msg if keep_alive and msg.mode in _vocab.KEPT_ALIVE_MODES else None
             self._send_locked(msg)
             last = self._latest
             self._pending = None if not track else {
@@ -416,11 +412,11 @@ class Robot:
             if not (settled or not p["prior"]):
                 return
             msg = p["msg"]
-            mode = _MODE_NAMES.get(m.mode)
-            if mode:
+            if m.mode in _vocab.FAULTED_MODES:
+                mode = _vocab.mode_name(m.mode)
                 why = (f"the robot is in {mode} (faults 0x{m.faults:04x}); clear_fault() "
                        "(omni4-param clear-fault) first"
-                       if mode == "FAULT" else f"the robot is in {mode}")
+                       if m.mode == _vocab.MODES["FAULT"] else f"the robot is in {mode}")
             else:
                 why = "out of the controller's limits, not finite, or not allowed now"
             self._rejected = CommandRejected(

@@ -26,21 +26,8 @@ RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at
 NO_ROBOT_S = 1.0                # no OMNI4_MOTORS this long [s]: "no robot answers"
 POLL_MS = 100                   # a listening window looks at the silence this often [ms]
 REDRAW = "\x1b[H\x1b[J"          # a terminal's cursor home + clear to the end of the screen
-MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
-FAULT_BITS = sorted((getattr(motors_t, n), n[6:]) for n in dir(motors_t)
-                    if n.startswith("FAULT_"))
-LATCHING = (motors_t.FAULT_OVERCURRENT | motors_t.FAULT_DRIVER_TIMEOUT | motors_t.FAULT_DRIVER |
-            motors_t.FAULT_BUS | motors_t.FAULT_ENCODER | motors_t.FAULT_CURRENT_SENSOR |
-            motors_t.FAULT_SUPPLY)
-
-
-def fault_names(bits):
-    """The FAULT_* names (without the prefix) of the set bits; unknown bits as 0x...."""
-    names = [name for bit, name in FAULT_BITS if bits & bit]
-    rest = bits & ~sum(bit for bit, _ in FAULT_BITS)
-    if rest:
-        names.append(f"0x{rest:x}")
-    return names
+# The names, bits and latching set of every tool: core's vocab.def (omni4/_vocab.py).
+from ._vocab import FAULT_BITS, LATCHING, MODE_NAMES, fault_names, mode_name  # noqa: E402,F401
 
 
 class Window:
@@ -172,7 +159,7 @@ def report(url, w, model):
     warnings = w.seen_bits & ~LATCHING & ~motors_t.FAULT_OVERRUN
     lines = [
         f"robot on {url} ({w.n} samples in {w.seconds:g} s)",
-        f"mode: {MODE_NAMES.get(m.mode, f'UNKNOWN({m.mode})')}",
+        f"mode: {mode_name(m.mode)}",
         "faults: " + (" ".join(fault_names(latched)) or "none"),
         "warnings: " + (" ".join(fault_names(warnings)) or "none") + " (seen in the window)",
         f"loop: {w.rate_hz:.1f} Hz, overruns {w.overruns}, lost samples {w.lost}",

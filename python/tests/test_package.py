@@ -114,7 +114,7 @@ def test_key_list_is_generated_from_the_layers_key_lists():
     with open(os.path.join(REPO, "config", "src", "config.c")) as fh:
         table = fh.read().split("const struct config_key config_keys[] = {", 1)[1]
     included = re.findall(r'#include "omni4/(\w+_keys\.def)"', table.split("\n};", 1)[0])
-    assert included == [os.path.basename(p) for p in g.DEF_FILES]
+    assert included == [os.path.basename(p) for p in g.def_files(REPO)]
     assert len(_keys.KEYS) == len(set(_keys.KEYS)) and ("hal", "motor", "choice") in _keys.KEYS
     assert _keys.MODEL_KEYS == ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw",
                                 "Cv", "Cvn", "Cw")

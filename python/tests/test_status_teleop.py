@@ -67,7 +67,7 @@ def test_keys_and_joystick_events_set_the_command():
 
 def test_fault_names():
     bits = omni4.motors_t.FAULT_OVERCURRENT | omni4.motors_t.FAULT_CMD_TIMEOUT | 0x10000
-    assert status.fault_names(bits) == ["OVERCURRENT", "CMD_TIMEOUT", "0x10000"]
+    assert status.fault_names(bits) == ["OVERCURRENT", "CMD_TIMEOUT", "UNKNOWN_0x10000"]
 
 
 # ---- live ----------------------------------------------------------------------------------------

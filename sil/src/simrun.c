@@ -166,11 +166,13 @@ static int write_event(struct simrun *sr, const char *channel, int64_t utime, co
 	return rc;
 }
 
-static int sink_emit(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
+static int sink_emit(void *ctx, const char *channel, int64_t utime, int64_t seq, const void *data,
+                     size_t len)
 {
 	struct simrun *sr = ctx;
 	const int rc = write_event(sr, channel, utime, data, len);
 
+	(void)seq;
 	if (sr->tap)
 		sr->tap(sr->tap_ctx, channel, utime, data, len);
 	if (rc == 0)

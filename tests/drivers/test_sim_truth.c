@@ -21,7 +21,8 @@ struct seen {
 	int64_t motors_utime, motors_seq;
 };
 
-static int emit(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
+static int emit(void *ctx, const char *channel, int64_t utime, int64_t seq, const void *data,
+                size_t len)
 {
 	struct seen *s = ctx;
 
@@ -33,6 +34,8 @@ static int emit(void *ctx, const char *channel, int64_t utime, const void *data,
 		omni4_motors_t m;
 
 		assert_int_equal(omni4_motors_t_decode(data, 0, (int)len, &m), (int)len);
+		assert_int_equal(seq, m.seq); /* the sink is told the sample's tick and time */
+		assert_int_equal(utime, m.utime);
 		s->motors_utime = m.utime;
 		s->motors_seq = m.seq;
 		s->motors++;

@@ -4,9 +4,7 @@
  * Pure logic: no time source, no I/O, no allocation. ctl_step runs once per loop tick, in
  * single precision and Q16.16 (a command is checked in double once, on arrival).
  *
- * Modes (motors_t numbering): IDLE 0 (outputs off), VELOCITY 1 (feedforward + PI),
- * VOLTAGE 2 (per-channel voltage reached through a ramp), COAST 3 (H-bridges off),
- * FAULT 5 and ESTOP 6 (outputs off; left only by MODE_CLEAR_FAULT once the cause is gone).
+ * Modes and fault bits: vocab.def (what each drives, keeps alive, latches).
  */
 #ifndef OMNI4_CTL_H
 #define OMNI4_CTL_H
@@ -20,36 +18,12 @@
 #include "omni4/hal.h"
 #include "omni4/q16.h"
 #include "omni4/traction.h"
+#include "omni4/vocab.h"
 
-enum ctl_mode {
-	CTL_IDLE = 0,
-	CTL_VELOCITY = 1,
-	CTL_VOLTAGE = 2,
-	CTL_COAST = 3,
-	CTL_CLEAR_FAULT = 4, /* command only */
-	CTL_FAULT = 5,
-	CTL_ESTOP = 6,
-};
-
-/* The controller's fault and state bits (ctl_output.faults). Latching faults force CTL_FAULT
- * and stay until a successful CTL_CLEAR_FAULT; the others are reported, not latching. The
- * numbering is the one of motors_t (the LCM adapter checks it bit by bit at compile time). */
-#define CTL_FAULT_OVERCURRENT 0x0001    /* |current| above limits.current_max_a */
-#define CTL_FAULT_DRIVER_TIMEOUT 0x0002 /* no reading from the motor drivers */
-#define CTL_FAULT_DRIVER 0x0004         /* a motor driver reported a fault */
-#define CTL_FAULT_BUS 0x0008            /* the bus to the drivers is down */
-#define CTL_FAULT_ENCODER 0x0010        /* wheel speed not finite, jumped, or stuck */
-/* CURRENT_SENSOR: a current reading not finite or at the rail, or a calibrated offset beyond
- * CTL_CAL_LIMIT_A. */
-#define CTL_FAULT_CURRENT_SENSOR 0x0020
-#define CTL_FAULT_SUPPLY 0x0040       /* supply below limits.supply_min_v */
-#define CTL_FAULT_ESTOP 0x0100        /* e-stop active (mode CTL_ESTOP) */
-#define CTL_FAULT_CMD_TIMEOUT 0x0200  /* watchdog fired */
-#define CTL_FAULT_CMD_REJECTED 0x0400 /* the last command was rejected */
-#define CTL_FAULT_LOG_OVERFLOW 0x0800 /* flagged by the loop: log samples were dropped */
-/* OVERRUN: set by the loop (fw.c) in the sample of a tick that started a whole period or more
- * late. */
-#define CTL_FAULT_OVERRUN 0x1000
+/* Modes (enum ctl_mode) and fault bits (CTL_FAULT_*): vocab.h, from vocab.def. Latching faults
+ * force CTL_FAULT and stay until a successful CTL_CLEAR_FAULT; the others are reported, not
+ * latching. CURRENT_SENSOR also covers a calibrated offset beyond CTL_CAL_LIMIT_A; OVERRUN and
+ * LOG_OVERFLOW are set by the loop (fw.c). */
 
 /*
  * Current-sense offsets (docs/faults.md): measured with the bridges off (true current 0) once

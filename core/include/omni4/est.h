@@ -34,15 +34,13 @@
 
 #include "omni4/dynamics.h"
 #include "omni4/params.h"
+#include "omni4/vocab.h"
 
 #ifndef EST_HISTORY
 #define EST_HISTORY 256 /* past ticks kept for the camera replay (256 ms at 1 kHz) */
 #endif
 
-#define EST_FLAG_SLIP 0x01u         /* a wheel slips (or spins free): its reading disagrees */
-#define EST_FLAG_COLLISION 0x02u    /* the robot moves unlike the voltages say (blocked, pushed) */
-#define EST_FLAG_CAMERA_STALE 0x04u /* no camera pose taken for EST_CAMERA_STALE_US */
-#define EST_FLAG_NO_WHEELS 0x08u    /* this tick had no (plausible) wheel reading: model only */
+/* The flags EST_FLAG_* (est_output.flags): vocab.h, from vocab.def. */
 
 #define EST_CAMERA_STALE_US 500000
 /* A wheel reading beyond this ground speed [m/s] (or not finite) is no reading: no omni-wheel

@@ -1,14 +1,35 @@
 /*
  * backends.h - which backend drives the motors and the lines: a robot's INI names one of each
- * ([hal] motor, [hal] lines); the INI key table holds these names in the enums' order and the
- * composition root (firmware/ robot.c) maps each value onto the backend's code.
+ * ([hal] motor, [hal] lines). Enums and choice strings ("sim|socketcan") from backends.def, in
+ * its rows' order; the INI key table takes the choices from here and the composition root
+ * (firmware/ robot.c) maps each value onto the backend's code.
+ *
+ * OMNI4_BACKENDS_DEF names another row file (a test adds a row with it); default backends.def.
  */
 #ifndef OMNI4_BACKENDS_H
 #define OMNI4_BACKENDS_H
 
-/* [hal] motor: "sim|socketcan". */
-enum omni4_motor_backend { OMNI4_MOTOR_SIM = 0, OMNI4_MOTOR_SOCKETCAN = 1 };
-/* [hal] lines: "none|sim|gpiod". */
-enum omni4_lines_backend { OMNI4_LINES_NONE = 0, OMNI4_LINES_SIM = 1, OMNI4_LINES_GPIOD = 2 };
+#ifndef OMNI4_BACKENDS_DEF
+#define OMNI4_BACKENDS_DEF "omni4/backends.def"
+#endif
+
+/* One HAL's rows only: BACKEND_<HAL>_<hal>(...) keeps its arguments for its own HAL. */
+#define BACKEND_MOTOR_MOTOR(...) __VA_ARGS__
+#define BACKEND_MOTOR_LINES(...)
+#define BACKEND_LINES_MOTOR(...)
+#define BACKEND_LINES_LINES(...) __VA_ARGS__
+
+/* [hal] motor */
+enum omni4_motor_backend {
+#define OMNI4_BACKEND(hal, name, ...) BACKEND_MOTOR_##hal(OMNI4_MOTOR_##name, )
+#include OMNI4_BACKENDS_DEF
+	OMNI4_MOTOR_COUNT
+};
+/* [hal] lines */
+enum omni4_lines_backend {
+#define OMNI4_BACKEND(hal, name, ...) BACKEND_LINES_##hal(OMNI4_LINES_##name, )
+#include OMNI4_BACKENDS_DEF
+	OMNI4_LINES_COUNT
+};
 
 #endif /* OMNI4_BACKENDS_H */

@@ -33,11 +33,12 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 /* Channels of a calibration entry beyond the limit as text ("2", "0,3"; "" for none). */
 void lcmio_fault_channels(uint32_t mask, char out[8]);
 
-/* Where encoded messages go: lcm_publish in the robot, an event log in the simulator. note
- * (may be NULL) also sees every LOG_CALIBRATION entry as it is drained (omni4-fw says it on
- * stderr). */
+/* Where encoded messages go: lcm_publish in the robot, an event log in the simulator. emit gets
+ * the entry's time and tick (seq: the motors_t's, without decoding it again). note (may be
+ * NULL) also sees every LOG_CALIBRATION entry as it is drained (omni4-fw says it on stderr). */
 struct lcmio_sink {
-	int (*emit)(void *ctx, const char *channel, int64_t utime, const void *data, size_t len);
+	int (*emit)(void *ctx, const char *channel, int64_t utime, int64_t seq, const void *data,
+	            size_t len);
 	void *ctx;
 	void (*note)(void *note_ctx, const struct log_entry *e);
 	void *note_ctx;

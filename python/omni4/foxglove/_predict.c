@@ -10,8 +10,8 @@
  *   - at the first sample,
  *   - after lost samples (a seq gap) or a jump in time (utime not increasing, or a step
  *     longer than OMNI4_PRED_MAX_GAP_US),
- *   - when the bridges switch on or off (a mode change between driven = VOLTAGE/VELOCITY and
- *     not driven = IDLE/COAST/FAULT/ESTOP): each drive and each coast-down is predicted from
+ *   - when the bridges switch on or off (a mode change between driven and not driven,
+ *     mode_drives of core's vocab.h): each drive and each coast-down is predicted from
  *     its start, so the difference shows the model's error over that run, not an old one.
  */
 #include <stdbool.h>
@@ -21,6 +21,7 @@
 #include "omni4/kinematics.h"
 #include "omni4/params.h"
 #include "omni4/plant.h"
+#include "omni4/vocab.h"
 
 #define OMNI4_PRED_MAX_GAP_US 50000 /* a step longer than 50 ms is a jump in time */
 
@@ -36,11 +37,6 @@ struct omni4_predictor {
 size_t omni4_predictor_size(void)
 {
 	return sizeof(struct omni4_predictor);
-}
-
-static int mode_driven(int mode)
-{
-	return mode == 1 || mode == 2; /* MODE_VELOCITY, MODE_VOLTAGE */
 }
 
 /* params: the 14 [model] values in model_params_names order. 0, or -EINVAL (not physical). */
@@ -69,7 +65,7 @@ int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, 
 			 double predicted[3])
 {
 	double vw[4];
-	const int driven = mode_driven(mode);
+	const int driven = mode_drives(mode);
 	int restart;
 
 	for (int j = 0; j < 4; j++)

@@ -33,31 +33,19 @@ WORLD_FRAME = "world"
 ROBOT_FRAME = "robot"
 ESTIMATE_FRAME = "robot_estimate"
 
-# Mode names: the MODE_* constants of motors_t and command_t (lcmtypes/), by value.
-MODE_NAMES = {getattr(t, n): n[len("MODE_"):] for t in (omni4.command_t, omni4.motors_t)
-              for n in dir(t) if n.startswith("MODE_")}
-# Fault bits: the FAULT_* constants of motors_t (lcmtypes/motors_t.lcm), by value.
-FAULT_BITS = sorted((getattr(omni4.motors_t, n), n[len("FAULT_"):])
-                    for n in dir(omni4.motors_t) if n.startswith("FAULT_"))
+# Mode names, fault bits, the modes that drive the bridges: core's vocab.def (omni4/_vocab.py).
+from .._vocab import DRIVEN_MODES, FAULT_BITS, MODE_NAMES, mode_name  # noqa: E402,F401
+from .._vocab import fault_names as _fault_names  # noqa: E402
 FAULT_OVERRUN = omni4.motors_t.FAULT_OVERRUN
 FAULT_CMD_REJECTED = omni4.motors_t.FAULT_CMD_REJECTED
-DRIVEN_MODES = (1, 2)  # VELOCITY, VOLTAGE: bridges driven
 
 _fault_cache = {}
-
-
-def mode_name(mode):
-    return MODE_NAMES.get(mode, f"UNKNOWN_{mode}")
 
 
 def fault_names(faults):
     names = _fault_cache.get(faults)
     if names is None:
-        names = [n for bit, n in FAULT_BITS if faults & bit]
-        rest = faults & ~sum(b for b, _ in FAULT_BITS)
-        if rest:
-            names.append(f"UNKNOWN_0x{rest:x}")
-        _fault_cache[faults] = names
+        names = _fault_cache[faults] = _fault_names(faults)
     return names
 
 

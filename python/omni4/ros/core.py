@@ -18,12 +18,12 @@ TABLE_III = {"model.d": 0.089, "model.r": 0.0325, "model.l": 5.0, "model.Kt": 0.
 GEOMETRY_KEYS = tuple(TABLE_III)
 LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max")
 
-MODE_NAMES = {getattr(motors_t, n): n[5:] for n in dir(motors_t) if n.startswith("MODE_")}
-# The fault names and latching bits: omni4-status's (one list for every tool).
-from ..status import FAULT_BITS, LATCHING, fault_names  # noqa: E402,F401
+# The mode and fault names, the latching bits, the fault states: core's vocab.def (every tool's).
+from .._vocab import (FAULT_BITS, FAULTED_MODES, FAULTS, LATCHING, MODE_NAMES,  # noqa: E402,F401
+                      fault_names, mode_name)
 
-WARNINGS = motors_t.FAULT_CMD_TIMEOUT | motors_t.FAULT_CMD_REJECTED | \
-    motors_t.FAULT_LOG_OVERFLOW | motors_t.FAULT_OVERRUN
+# The reported bits that are neither latching nor the e-stop's.
+WARNINGS = sum(FAULTS.values()) & ~LATCHING & ~motors_t.FAULT_ESTOP
 
 # Odometry noise model (docs/ros.md, "Covariances"): the sim's and the paper's encoders give
 # 0.13-0.16 rad/s of noise per 1 kHz wheel-speed sample; wheels slip ~1 % of the distance.
@@ -339,8 +339,8 @@ def diagnostic_statuses(window, gate, counters, model, odom_source, prefix="omni
             ("samples", "0"), ("lost samples (total)", str(window.lost_total))]))
     else:
         names = fault_names(window.bits)
-        mode = MODE_NAMES.get(last.mode, f"UNKNOWN({last.mode})")
-        if last.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or window.bits & LATCHING:
+        mode = mode_name(last.mode)
+        if last.mode in FAULTED_MODES or window.bits & LATCHING:
             level = 2
         elif window.bits & WARNINGS or window.lost:
             level = 1

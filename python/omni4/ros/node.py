@@ -373,9 +373,9 @@ class Omni4Ros:
         while time.monotonic() < end:
             with self._lock:
                 m = self.window.last
-            if m is not None and m.seq > seen + 5 and m.mode not in (
-                    motors_t.MODE_FAULT, motors_t.MODE_ESTOP) and not m.faults & core.LATCHING:
-                res.success, res.message = True, f"mode {core.MODE_NAMES.get(m.mode)}"
+            if m is not None and m.seq > seen + 5 and m.mode not in core.FAULTED_MODES \
+                    and not m.faults & core.LATCHING:
+                res.success, res.message = True, f"mode {core.mode_name(m.mode)}"
                 return res
             time.sleep(0.01)
         from ..robot import clear_refusal_reason
@@ -383,10 +383,10 @@ class Omni4Ros:
         res.success = False
         if m is None:
             res.message = "no OMNI4_MOTORS from omni4-fw"
-        elif m.mode in (motors_t.MODE_FAULT, motors_t.MODE_ESTOP) or m.faults & core.LATCHING:
+        elif m.mode in core.FAULTED_MODES or m.faults & core.LATCHING:
             res.message = f"refused after 1 s: {clear_refusal_reason(m)}"   # omni4-param's words
         else:
-            res.message = (f"still mode {core.MODE_NAMES.get(m.mode)}, faults "
+            res.message = (f"still mode {core.mode_name(m.mode)}, faults "
                            f"{' '.join(core.fault_names(m.faults)) or 'none'} after 1 s")
         return res
 
