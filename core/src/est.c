@@ -13,7 +13,8 @@
  * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
- * at the frame's tick, and the ticks since re-run from the ring.
+ * at the frame's tick, and the ticks since re-run from the ring (est_replay.c).
+ * The wheels' scale calibration: est_cal.c.
  */
 #include "omni4/est.h"
 
@@ -21,70 +22,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/kinematics.h"
-
-#define PI_F 3.14159265358979f
-#define TWO_PI_F 6.28318530717959f
-#define NSNAP (EST_HISTORY / EST_SNAP_EVERY)
-
-_Static_assert(EST_HISTORY % EST_SNAP_EVERY == 0, "EST_HISTORY: a multiple of EST_SNAP_EVERY");
-
-static float wrap(float a)
-{
-	if (a > PI_F || a <= -PI_F)
-		a -= TWO_PI_F * floorf((a + PI_F) / TWO_PI_F);
-	if (a <= -PI_F)
-		a += TWO_PI_F;
-	return a;
-}
-
-/* sin and cos of a (|a| <= pi + a little): a quadrant and Taylor polynomials on
- * [-pi/4, pi/4] (errors below 3e-7, float level), a tenth of libm's cost on the M4. */
-static void sin_cos(float a, float *s, float *c)
-{
-	const float q = floorf(a * 0.636619772f + 0.5f); /* nearest multiple of pi/2 */
-	const float r = (a - q * 1.57079625f) - q * 7.54978995e-8f;
-	const float r2 = r * r;
-	const float sr = r * (1.0f + r2 * (-1.0f / 6 + r2 * (1.0f / 120 + r2 * (-1.0f / 5040))));
-	const float cr =
-	    1.0f + r2 * (-0.5f + r2 * (1.0f / 24 + r2 * (-1.0f / 720 + r2 * (1.0f / 40320))));
-
-	switch ((int)q & 3) {
-	case 0:
-		*s = sr;
-		*c = cr;
-		break;
-	case 1:
-		*s = cr;
-		*c = -sr;
-		break;
-	case 2:
-		*s = -sr;
-		*c = -cr;
-		break;
-	default:
-		*s = -cr;
-		*c = sr;
-		break;
-	}
-}
-
-void est_settings_defaults(struct est_settings *s)
-{
-	/* docs/estimator.md, "Noise figures and thresholds" */
-	s->accel_noise_lin = 1.0f;
-	s->accel_noise_rot = 10.0f;
-	s->wheel_noise = 0.0065f; /* 10240 cpr at 1 kHz: 0.18 rad/s quantisation x r */
-	s->cam_pos_noise = 0.01f;
-	s->cam_theta_noise = 0.0524f; /* 3 deg */
-	s->gate_sigmas = 5.0f;
-	s->slip_threshold = 0.08f;
-	s->slip_ticks = 3;
-	s->collision_threshold = 0.02f;
-	s->collision_ticks = 5;
-	s->calibrate = true;
-	s->replay = true;
-}
+#include "est_priv.h"
+#include "omni4/est_replay.h"
+#include "omni4/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
 static void discretise(double a, double dt, float *phi, float *gam)
@@ -138,7 +78,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 		e->s[k] = isfinite(pose[k]) ? pose[k] : 0.0f;
 		e->P[k][k] = isfinite(pose_var[k]) && pose_var[k] > 0.0f ? pose_var[k] : 1.0f;
 	}
-	e->s[2] = wrap(e->s[2]);
+	e->s[2] = la_wrap_pi_f32(e->s[2]);
 	/* At rest, give or take a few mm/s. */
 	e->P[3][3] = e->P[4][4] = 1e-4f;
 	e->P[5][5] = 1e-4f / (e->d * e->d);
@@ -150,23 +90,11 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->have_cam = false;
 }
 
-static bool settings_ok(const struct est_settings *s)
-{
-	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot,    s->wheel_noise,
-	                     s->cam_pos_noise,   s->cam_theta_noise,    s->gate_sigmas,
-	                     s->slip_threshold,  s->collision_threshold};
-
-	for (unsigned k = 0; k < sizeof(pos) / sizeof(pos[0]); k++)
-		if (!(pos[k] > 0.0f && pos[k] < 1e6f))
-			return false;
-	return s->slip_ticks >= 1 && s->collision_ticks >= 1;
-}
-
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
              double rate_hz)
 {
 	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5) ||
-	    (s && !settings_ok(s)))
+	    (s && est_settings_check(s)))
 		return -EINVAL;
 	memset(e, 0, sizeof(*e));
 	if (s)
@@ -182,8 +110,7 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 	return 0;
 }
 
-/* Mirror the upper triangle into the lower. */
-static void symmetrise(struct est *e)
+void est_symmetrise(struct est *e)
 {
 	for (int i = 1; i < 6; i++)
 		for (int j = 0; j < i; j++)
@@ -261,12 +188,12 @@ static void predict(struct est *e, const struct est_tick *t)
 	const float th = s[2] + 0.5f * dt * xm[2];
 	float c, sn;
 
-	sin_cos(th, &sn, &c);
+	la_sin_cos_f32(th, &sn, &c);
 	const float vx = c * xm[0] - sn * xm[1], vy = sn * xm[0] + c * xm[1];
 
 	s[0] += dt * vx;
 	s[1] += dt * vy;
-	s[2] = wrap(s[2] + dt * xm[2]);
+	s[2] = la_wrap_pi_f32(s[2] + dt * xm[2]);
 
 	predict_cov(P, -dt * vy, dt * vx, dt * c, dt * sn, dt, phi);
 	P[3][3] += e->q[0];
@@ -369,9 +296,20 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
 }
 
-/* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
- * and outputs), not a replay. */
-static void run_tick(struct est *e, const struct est_tick *t, bool live)
+/* The camera pose z as three scalar updates (the upper triangle; the caller mirrors it). */
+static void pose_update(struct est *e, const float z[3])
+{
+	for (int k = 0; k < 3; k++) {
+		float nu = z[k] - e->s[k];
+
+		if (k == 2)
+			nu = la_wrap_pi_f32(nu);
+		scalar_update(e, k, nu, e->rc[k]);
+	}
+	e->s[2] = la_wrap_pi_f32(e->s[2]);
+}
+
+void est_run_tick(struct est *e, const struct est_tick *t, bool live)
 {
 	predict(e, t);
 	if (t->have_wheels) {
@@ -380,48 +318,9 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 		e->slip_run = 0;
 		e->collision_run = 0;
 	}
-	if (t->have_cam) {
-		for (int k = 0; k < 3; k++) {
-			float nu = t->cam[k] - e->s[k];
-
-			if (k == 2)
-				nu = wrap(nu);
-			scalar_update(e, k, nu, e->rc[k]);
-		}
-		e->s[2] = wrap(e->s[2]);
-	}
-	symmetrise(e); /* predict and the updates leave the lower triangle stale */
-}
-
-static void put_snap(struct est *e, uint32_t n)
-{
-	int m = 0;
-
-	memcpy(e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, e->s, sizeof(e->s));
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++)
-			e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++] = e->P[i][j];
-}
-
-static void get_snap(struct est *e, uint32_t n)
-{
-	int m = 0;
-
-	memcpy(e->s, e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, sizeof(e->s));
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++)
-			e->P[i][j] = e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++];
-	symmetrise(e);
-}
-
-/* Ticks n .. to-1 re-run from the ring (snapshots re-taken on the way). */
-static void rerun(struct est *e, uint32_t n, uint32_t to)
-{
-	for (; n < to; n++) {
-		if (n % EST_SNAP_EVERY == 0)
-			put_snap(e, n);
-		run_tick(e, &e->hist[n % EST_HISTORY], false);
-	}
+	if (t->late == EST_LATE_POSE)
+		pose_update(e, t->late_z);
+	est_symmetrise(e); /* predict and the updates leave the lower triangle stale */
 }
 
 static void publish(struct est *e, int64_t utime)
@@ -445,87 +344,6 @@ static bool all_finite(const float *v, int n)
 	return true;
 }
 
-/* The scale errors k = N a with N's columns (1,-1,1,-1)/2, (1,1,-1,-1)/2, (1,-1,-1,1)/2: the
- * three patterns orthogonal to the common scale (1,1,1,1), which no equation fixes (k_j = -1 for
- * all j, every wheel read as 0, satisfies them all). */
-static const float cal_N[4][3] = {
-    {0.5f, 0.5f, 0.5f}, {-0.5f, 0.5f, -0.5f}, {0.5f, -0.5f, -0.5f}, {-0.5f, -0.5f, 0.5f}};
-
-/* One reading's null-space equation sum_j s_j g_j k_j = -sum_j s_j g_j (g_j = r w_j, signs
- * s = +, -, +, -), in a, added to the forgotten normal equations. */
-static void cal_accumulate(struct est *e, const float g[4])
-{
-	const float phi[4] = {g[0], -g[1], g[2], -g[3]};
-	const float y = -(phi[0] + phi[1] + phi[2] + phi[3]);
-	const float lam = e->cal_forget;
-	float q[3];
-	int m = 0;
-
-	for (int i = 0; i < 3; i++)
-		q[i] = cal_N[0][i] * phi[0] + cal_N[1][i] * phi[1] + cal_N[2][i] * phi[2] +
-		       cal_N[3][i] * phi[3];
-	for (int i = 0; i < 3; i++) {
-		e->cal_b[i] = lam * e->cal_b[i] + q[i] * y;
-		for (int j = i; j < 3; j++, m++)
-			e->cal_A[m] = lam * e->cal_A[m] + q[i] * q[j];
-	}
-}
-
-/* a = (A + prior I)^-1 b by Cholesky (A + prior I is positive definite); k = N a, clamped. */
-static void cal_solve(struct est *e)
-{
-	float L[3][3] = {{0}}, y[3], a[3];
-	const float *A = e->cal_A;
-	const float ridge = EST_CAL_PRIOR;
-	static const int idx[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};
-
-	for (int i = 0; i < 3; i++) {
-		for (int j = 0; j <= i; j++) {
-			float sum = A[idx[i][j]] + (i == j ? ridge : 0.0f);
-
-			for (int l = 0; l < j; l++)
-				sum -= L[i][l] * L[j][l];
-			if (i == j) {
-				if (!(sum > 0.0f))
-					return;
-				L[i][i] = sqrtf(sum);
-			} else {
-				L[i][j] = sum / L[j][j];
-			}
-		}
-	}
-	for (int i = 0; i < 3; i++) {
-		float sum = e->cal_b[i];
-
-		for (int l = 0; l < i; l++)
-			sum -= L[i][l] * y[l];
-		y[i] = sum / L[i][i];
-	}
-	for (int i = 2; i >= 0; i--) {
-		float sum = y[i];
-
-		for (int l = i + 1; l < 3; l++)
-			sum -= L[l][i] * a[l];
-		a[i] = sum / L[i][i];
-	}
-	for (int j = 0; j < 4; j++) {
-		const float k = cal_N[j][0] * a[0] + cal_N[j][1] * a[1] + cal_N[j][2] * a[2];
-
-		e->cal[j] = fminf(fmaxf(k, -EST_CAL_MAX), EST_CAL_MAX);
-	}
-}
-
-/* A live reading that fits a rigid body (not flagged as slip) teaches the calibration. */
-static void calibrate(struct est *e, const struct est_tick *t, uint32_t n)
-{
-	if (!e->set.calibrate)
-		return;
-	if (t->have_wheels && e->slip_run == 0 && e->collision_run == 0)
-		cal_accumulate(e, t->wheel);
-	if (n % EST_CAL_EVERY == EST_CAL_EVERY - 1)
-		cal_solve(e);
-}
-
 /* A reading is finite and no wheel faster than EST_WHEEL_MAX_M_S. */
 static bool plausible_wheels(const float w[4], float r)
 {
@@ -533,6 +351,37 @@ static bool plausible_wheels(const float w[4], float r)
 		if (!(fabsf(w[j] * r) <= EST_WHEEL_MAX_M_S))
 			return false;
 	return true;
+}
+
+/* A NaN or inf anywhere reaches the diagonal. Cannot happen with finite settings; never let a
+ * NaN out: start again where the last output was. */
+static void guard_finite(struct est *e)
+{
+	const float sum = e->s[0] + e->s[1] + e->s[2] + e->s[3] + e->s[4] + e->s[5] + e->P[0][0] +
+	                  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];
+
+	if (!isfinite(sum)) {
+		static const float var[3] = {1.0f, 1.0f, 10.0f};
+		const struct est_output keep = e->out;
+
+		est_reset(e, keep.pose, var);
+		e->out = keep;
+	}
+}
+
+static uint32_t flags(const struct est *e, const struct est_tick *t, int64_t utime)
+{
+	uint32_t f = 0;
+
+	if (!t->have_wheels)
+		f |= EST_FLAG_NO_WHEELS;
+	if (e->set.slip_ticks > 0 && e->slip_run >= e->set.slip_ticks)
+		f |= EST_FLAG_SLIP;
+	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks)
+		f |= EST_FLAG_COLLISION;
+	if (!e->have_cam || utime - e->last_cam_us > EST_CAMERA_STALE_US)
+		f |= EST_FLAG_CAMERA_STALE;
+	return f;
 }
 
 void est_step(struct est *e, const struct est_input *in)
@@ -543,60 +392,30 @@ void est_step(struct est *e, const struct est_input *in)
 	t->utime = in->utime;
 	t->driven = in->driven && all_finite(in->volts, 4);
 	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
-	t->have_cam = 0;
+	t->late = EST_LATE_NONE;
 	for (int j = 0; j < 4; j++) {
 		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
 		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r : 0.0f;
 	}
-	if (n % EST_SNAP_EVERY == 0)
-		put_snap(e, n);
-	run_tick(e, t, true);
-	calibrate(e, t, n);
+	est_replay_snap(e, n);
+	est_run_tick(e, t, true);
+	est_cal_step(e, t, n);
 	e->seq = n + 1;
-	const float sum = e->s[0] + e->s[1] + e->s[2] + e->s[3] + e->s[4] + e->s[5] + e->P[0][0] +
-	                  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];
-
-	if (!isfinite(sum)) { /* a NaN or inf anywhere reaches the diagonal */
-		/* Cannot happen with finite settings; never let a NaN out: start again where the
-		 * last output was. */
-		static const float var[3] = {1.0f, 1.0f, 10.0f};
-		const struct est_output keep = e->out;
-
-		est_reset(e, keep.pose, var);
-		e->out = keep;
-	}
-
-	uint32_t f = 0;
-
-	if (!t->have_wheels)
-		f |= EST_FLAG_NO_WHEELS;
-	if (e->set.slip_ticks > 0 && e->slip_run >= e->set.slip_ticks)
-		f |= EST_FLAG_SLIP;
-	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks)
-		f |= EST_FLAG_COLLISION;
-	if (!e->have_cam || in->utime - e->last_cam_us > EST_CAMERA_STALE_US)
-		f |= EST_FLAG_CAMERA_STALE;
-	e->out.flags = f;
+	guard_finite(e);
+	e->out.flags = flags(e, t, in->utime);
 	publish(e, in->utime);
 }
 
 /* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
 static float mahalanobis2(const struct est *e, const float nu[3])
 {
-	const float a = e->P[0][0] + e->rc[0], b = e->P[0][1], c = e->P[0][2];
-	const float d = e->P[1][1] + e->rc[1], f = e->P[1][2], g = e->P[2][2] + e->rc[2];
-	/* adjugate of the symmetric [[a b c] [b d f] [c f g]] */
-	const float A = d * g - f * f, Bv = c * f - b * g, Cv = b * f - c * d;
-	const float D = a * g - c * c, F = b * c - a * f, G = a * d - b * b;
-	const float det = a * A + b * Bv + c * Cv;
+	const float S[6] = {e->P[0][0] + e->rc[0], e->P[0][1], e->P[0][2],
+	                    e->P[1][1] + e->rc[1], e->P[1][2], e->P[2][2] + e->rc[2]};
+	float L[6];
 
-	if (!(det > 0.0f))
+	if (la_chol3_f32(S, 0.0f, L))
 		return INFINITY;
-	const float q = nu[0] * (A * nu[0] + Bv * nu[1] + Cv * nu[2]) +
-	                nu[1] * (Bv * nu[0] + D * nu[1] + F * nu[2]) +
-	                nu[2] * (Cv * nu[0] + F * nu[1] + G * nu[2]);
-
-	return q / det;
+	return la_chol3_norm2_f32(L, nu);
 }
 
 /* Gate the pose z against the current state; apply it if it passes. The EST_CAM_RESYNC-th
@@ -604,7 +423,7 @@ static float mahalanobis2(const struct est *e, const float nu[3])
  * estimate, not the camera, is what went wrong). */
 static int gate_and_apply(struct est *e, const float z[3])
 {
-	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], wrap(z[2] - e->s[2])};
+	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], la_wrap_pi_f32(z[2] - e->s[2])};
 	const float g = e->set.gate_sigmas;
 
 	if (!(mahalanobis2(e, nu) <= g * g)) {
@@ -615,76 +434,34 @@ static int gate_and_apply(struct est *e, const float z[3])
 	}
 	for (int k = 0; k < 3; k++)
 		e->out.cam_innov[k] = nu[k];
-	for (int k = 0; k < 3; k++) {
-		float v = z[k] - e->s[k];
-
-		if (k == 2)
-			v = wrap(v);
-		scalar_update(e, k, v, e->rc[k]);
-	}
-	symmetrise(e);
-	e->s[2] = wrap(e->s[2]);
+	pose_update(e, z);
+	est_symmetrise(e);
 	return 0;
+}
+
+static int camera_refused(struct est *e)
+{
+	e->cam_gate_run++;
+	e->out.cam_gated++;
+	return -EINVAL;
 }
 
 int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us)
 {
-	const float z[3] = {(float)pose[0], (float)pose[1], (float)wrap((float)pose[2])};
+	const float z[3] = {(float)pose[0], (float)pose[1], la_wrap_pi_f32((float)pose[2])};
+	uint32_t k;
 
 	if (!all_finite(z, 3) || !isfinite(pose[2])) {
 		e->out.cam_gated++;
 		return -EINVAL;
 	}
-	const uint32_t n = e->seq;
-	const uint32_t oldest = n > EST_HISTORY ? n - EST_HISTORY : 0;
-
-	/* The frame's tick: the last one at or before the capture time. */
-	uint32_t k = n;
-
-	while (k > oldest && e->hist[(k - 1) % EST_HISTORY].utime > capture_us)
-		k--;
-	if (k == oldest) {
+	if (est_replay_find(e, capture_us, &k)) {
 		e->out.cam_too_old++;
 		return -ERANGE;
 	}
-	k--;
-	const uint32_t n0 = k - k % EST_SNAP_EVERY;
-
-	if (n0 < oldest) {
-		e->out.cam_too_old++;
-		return -ERANGE;
-	}
-	if (!e->set.replay) {
-		if (gate_and_apply(e, z)) {
-			e->cam_gate_run++;
-			e->out.cam_gated++;
-			return -EINVAL;
-		}
-	} else {
-		/* The state at tick k without its old camera pose (a newer frame replaces it) ...
-		 */
-		float s_now[6], P_now[6][6];
-		struct est_tick *tk = &e->hist[k % EST_HISTORY];
-		const uint8_t had = tk->have_cam;
-
-		memcpy(s_now, e->s, sizeof(s_now));
-		memcpy(P_now, e->P, sizeof(P_now));
-		get_snap(e, n0);
-		tk->have_cam = 0;
-		rerun(e, n0, k + 1);
-		if (gate_and_apply(e, z)) {
-			tk->have_cam = had;
-			memcpy(e->s, s_now, sizeof(s_now));
-			memcpy(e->P, P_now, sizeof(P_now));
-			e->cam_gate_run++;
-			e->out.cam_gated++;
-			return -EINVAL;
-		}
-		/* ... updated, kept for later replays, and the ticks since re-run. */
-		tk->have_cam = 1;
-		memcpy(tk->cam, z, sizeof(tk->cam));
-		rerun(e, k + 1, n);
-	}
+	if (e->set.replay ? est_replay_at(e, k, EST_LATE_POSE, z, gate_and_apply)
+	                  : gate_and_apply(e, z))
+		return camera_refused(e);
 	e->cam_gate_run = 0;
 	e->out.cam_taken++;
 	e->out.cam_latency_us = now_us - capture_us;

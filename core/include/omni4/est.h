@@ -10,10 +10,10 @@
  *   when the bridges are off; the pose integrates eq 1.
  * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model),
  *   each corrected by the wheel's scale error, learnt from the null space (EST_CAL_*).
- * - Update with a camera pose at its capture time (pose_t.utime): the filter keeps a ring of
- *   its past ticks (inputs, readings, camera poses; state and covariance before every
- *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
- *   history (EST_HISTORY ticks, less up to EST_SNAP_EVERY - 1) are counted and dropped.
+ * - Update with a camera pose at its capture time (pose_t.utime), by the replay of late
+ *   measurements (est_replay.h): the filter keeps a ring of its past ticks and re-runs from
+ *   the frame's tick to now; frames older than the history (EST_HISTORY ticks, less up to
+ *   EST_SNAP_EVERY - 1) are counted and dropped.
  * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
  *   frames in a row disagree; in a wheel reading whose null-space residual is beyond
  *   slip_threshold, the wheel farthest from the prediction (the other three give the
@@ -121,19 +121,23 @@ struct est_output {
 	float wheel_scale[4]; /* learnt scale error k_j per wheel (ground = r w_j (1 + k_j)) */
 };
 
-/* One past tick as the camera replay needs it (private). */
+/* The kinds of late measurement (est_replay.h) a past tick can hold. */
+#define EST_LATE_NONE 0
+#define EST_LATE_POSE 1 /* a camera pose x, y [m], theta [rad] */
+
+/* One past tick as the replay of late measurements needs it (private). */
 struct est_tick {
 	int64_t utime;
 	float volts[4];
-	float wheel[4]; /* wheel linear speeds [m/s] */
-	float cam[3];   /* a camera pose captured at this tick (have_cam) */
-	uint8_t driven, have_wheels, have_cam, pad;
+	float wheel[4];  /* wheel linear speeds [m/s] */
+	float late_z[3]; /* the late measurement taken at this tick (late: its EST_LATE_ kind) */
+	uint8_t driven, have_wheels, late, pad;
 };
 
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
 
 struct est {
-	/* private: see est.c */
+	/* private: see est.c, est_replay.c, est_cal.c */
 	struct est_settings set;
 	float phi[3], gam[3];   /* per-tick velocity transition and input gain, bridges on */
 	float phic[3], gamc[3]; /* the same with the bridges off (A_coast) */
@@ -145,11 +149,11 @@ struct est {
 	float qo[2];            /* odometry variance per tick per m/s: position, heading */
 	float d, r, dt;
 	float s[6], P[6][6];
-	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*) */
+	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*, est_cal.c) */
 	float cal_A[6], cal_b[3]; /* the calibration's normal equations (upper triangle) */
 	float cal_forget;         /* per tick */
 	struct est_output out;
-	struct est_tick hist[EST_HISTORY];
+	struct est_tick hist[EST_HISTORY]; /* est_replay.c */
 	struct {
 		float s[6], P[21]; /* upper triangle, row by row */
 	} snap[EST_HISTORY / EST_SNAP_EVERY];
@@ -162,6 +166,8 @@ struct est {
 
 /* The default noise and thresholds (the paper's camera, 1 kHz wheels). */
 void est_settings_defaults(struct est_settings *s);
+/* 0, or -EINVAL if a noise, gate or threshold is not > 0 (or not below 1e6) or ticks < 1. */
+int est_settings_check(const struct est_settings *s);
 /* Start at the origin, at rest, with a wide pose covariance. s NULL: the defaults. -EINVAL for a
  * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,

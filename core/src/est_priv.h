@@ -1,0 +1,27 @@
+/*
+ * est_priv.h - what the estimator's files share between themselves (not an interface): the
+ * filter's tick (est.c), the replay of late measurements (est_replay.c), the wheel calibration
+ * (est_cal.c).
+ */
+#ifndef OMNI4_EST_PRIV_H
+#define OMNI4_EST_PRIV_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/est.h"
+
+/* est.c: one tick (predict, wheel update, the late measurement stored at it); live: the real
+ * tick (flags and outputs), not a replay. */
+void est_run_tick(struct est *e, const struct est_tick *t, bool live);
+/* est.c: mirror P's upper triangle into the lower. */
+void est_symmetrise(struct est *e);
+
+/* est_replay.c: the snapshot before tick n, when n is one the ring keeps. */
+void est_replay_snap(struct est *e, uint32_t n);
+
+/* est_cal.c: after the live tick n: a reading that fits a rigid body teaches the calibration;
+ * every EST_CAL_EVERY ticks the scale errors in force are solved again. */
+void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n);
+
+#endif /* OMNI4_EST_PRIV_H */
