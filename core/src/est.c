@@ -51,23 +51,37 @@ static void set_noise(struct est *e)
 	e->qt = EST_DRIFT_THETA * EST_DRIFT_THETA * e->dt;
 }
 
-void est_set_model(struct est *e, const struct model_params *p)
+void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w)
 {
-	struct model_ss ss;
+	struct model_ss_wheels ss;
 
-	if (model_params_check(p, NULL))
+	if (model_params_check(p, NULL) || model_wheels_check(w, NULL))
 		return;
-	dyn_state_space(p, &ss);
+	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
-		discretise(ss.A[k], e->dt, &e->phi[k], &e->gam[k]);
+		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
 		discretise(ss.A_coast[k], e->dt, &e->phic[k], &e->gamc[k]);
 		for (int j = 0; j < 4; j++)
 			e->B[k][j] = (float)ss.B[k][j];
 		e->C[k] = (float)-ss.K[k];
 	}
+	e->Ax[0] = (float)ss.A[0][2];
+	e->Ax[1] = (float)ss.A[1][2];
+	e->Ax[2] = (float)ss.A[2][0];
+	e->Ax[3] = (float)ss.A[2][1];
+	e->coupled = e->Ax[0] != 0.0f || e->Ax[1] != 0.0f || e->Ax[2] != 0.0f || e->Ax[3] != 0.0f;
 	e->d = (float)p->d;
-	e->r = (float)p->r;
+	for (int j = 0; j < 4; j++)
+		e->r[j] = (float)w->r[j];
 	set_noise(e);
+}
+
+void est_set_model(struct est *e, const struct model_params *p)
+{
+	struct model_wheels w;
+
+	model_wheels_from_params(p, &w);
+	est_set_model_wheels(e, p, &w);
 }
 
 void est_reset(struct est *e, const float pose[3], const float pose_var[3])
@@ -164,6 +178,15 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 			P[i][j] *= phi[j - 3];
 }
 
+/* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w
+ * from v and vn. */
+static float coupling(const struct est *e, int k, const float x[3])
+{
+	if (k == 2)
+		return e->Ax[2] * x[0] + e->Ax[3] * x[1];
+	return e->Ax[k] * x[2];
+}
+
 static void predict(struct est *e, const struct est_tick *t)
 {
 	float *s = e->s;
@@ -171,6 +194,7 @@ static void predict(struct est *e, const struct est_tick *t)
 	const bool drv = t->driven;
 	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
 	const float dt = e->dt;
+	const float x0[3] = {s[3], s[4], s[5]};
 	float xm[3];
 
 	for (int k = 0; k < 3; k++) {
@@ -179,6 +203,8 @@ static void predict(struct est *e, const struct est_tick *t)
 		if (drv)
 			b = e->B[k][0] * t->volts[0] + e->B[k][1] * t->volts[1] +
 			    e->B[k][2] * t->volts[2] + e->B[k][3] * t->volts[3];
+		if (drv && e->coupled) /* the back-EMF of unequal wheels: held over the tick */
+			b += coupling(e, k, x0);
 		const float xn = axis(phi[k], gam[k], b, e->C[k], s[3 + k]);
 
 		xm[k] = 0.5f * (s[3 + k] + xn);
@@ -345,10 +371,10 @@ static bool all_finite(const float *v, int n)
 }
 
 /* A reading is finite and no wheel faster than EST_WHEEL_MAX_M_S. */
-static bool plausible_wheels(const float w[4], float r)
+static bool plausible_wheels(const float w[4], const float r[4])
 {
 	for (int j = 0; j < 4; j++)
-		if (!(fabsf(w[j] * r) <= EST_WHEEL_MAX_M_S))
+		if (!(fabsf(w[j] * r[j]) <= EST_WHEEL_MAX_M_S))
 			return false;
 	return true;
 }
@@ -395,7 +421,7 @@ void est_step(struct est *e, const struct est_input *in)
 	t->late = EST_LATE_NONE;
 	for (int j = 0; j < 4; j++) {
 		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
-		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r : 0.0f;
+		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r[j] : 0.0f;
 	}
 	est_replay_snap(e, n);
 	est_run_tick(e, t, true);

@@ -147,7 +147,11 @@ struct est {
 	float rc[3];            /* camera variance x, y, theta */
 	float qt;               /* heading variance per tick from EST_DRIFT_THETA */
 	float qo[2];            /* odometry variance per tick per m/s: position, heading */
-	float d, r, dt;
+	float
+	    Ax[4]; /* eq 23's off-diagonal A, unequal wheels: A[0][2], A[1][2], A[2][0], A[2][1] */
+	bool coupled; /* any Ax != 0 */
+	float d, dt;
+	float r[4]; /* each wheel's radius */
 	float s[6], P[6][6];
 	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*, est_cal.c) */
 	float cal_A[6], cal_b[3]; /* the calibration's normal equations (upper triangle) */
@@ -172,8 +176,13 @@ int est_settings_check(const struct est_settings *s);
  * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
              double rate_hz);
-/* Between two ticks: the model in force changed. */
+/* Between two ticks: the model in force changed (four equal wheels: p's r, Kv, Kt, R). */
 void est_set_model(struct est *e, const struct model_params *p);
+/* The same with each wheel's own r, Kv, Kt, R (w; dynamics.h): the prediction with each wheel's
+ * gain and the back-EMF coupling of unequal wheels, each reading with its wheel's radius. A bad
+ * model or wheel set is ignored (the one in force stays). */
+void est_set_model_wheels(struct est *e, const struct model_params *p,
+                          const struct model_wheels *w);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
 /* Fast loop, once per tick. */
