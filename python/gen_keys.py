@@ -9,7 +9,8 @@ import os
 import re
 
 # The key lists in the order config/src/config.c includes them (repository-relative).
-DEF_FILES = ("core/include/omni4/ctl_keys.def", "config/include/omni4/fw_keys.def",
+DEF_FILES = ("core/include/omni4/ctl_keys.def", "core/include/omni4/est_keys.def",
+             "config/include/omni4/fw_keys.def",
              "drivers/include/omni4/sim_keys.def", "drivers/include/omni4/socketcan_keys.def",
              "drivers/include/omni4/gpiod_keys.def")
 KINDS = {"DBL": "double", "INT": "int", "BOOL": "bool", "STR": "string", "ENUM": "choice"}

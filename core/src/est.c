@@ -51,6 +51,15 @@ static void set_noise(struct est *e)
 	e->qt = EST_DRIFT_THETA * EST_DRIFT_THETA * e->dt;
 }
 
+int est_set_settings(struct est *e, const struct est_settings *s)
+{
+	if (est_settings_check(s))
+		return -EINVAL;
+	e->set = *s;
+	set_noise(e);
+	return 0;
+}
+
 void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w)
 {
 	struct model_ss_wheels ss;

@@ -1,24 +1,36 @@
-/* est_settings.c - the estimator's noise figures and thresholds: the defaults and their check
- * (est.h; docs/estimator.md, "Noise figures and thresholds"). */
+/* est_settings.c - the estimator's noise figures and thresholds: the defaults (est_keys.def),
+ * the INI's doubles as the filter's floats, and their check (est.h; docs/estimator.md, "Noise
+ * figures and thresholds"). */
 #include <errno.h>
 
 #include "omni4/est.h"
+#include "omni4/est_keys.h"
+
+void est_keys_defaults(struct est_keys *k)
+{
+#define OMNI4_KEY(kind, section, key, field, def, ...) k->field = (def);
+#include "omni4/est_keys.def"
+#undef OMNI4_KEY
+}
+
+/* A key's value as the filter's member: doubles to float, the rest as they are. */
+#define EST_FROM_KEY_DBL(v) ((float)(v))
+#define EST_FROM_KEY_INT(v) (v)
+#define EST_FROM_KEY_BOOL(v) (v)
+
+void est_settings_from_keys(const struct est_keys *k, struct est_settings *s)
+{
+#define OMNI4_KEY(kind, section, key, field, ...) s->field = EST_FROM_KEY_##kind(k->field);
+#include "omni4/est_keys.def"
+#undef OMNI4_KEY
+}
 
 void est_settings_defaults(struct est_settings *s)
 {
-	/* docs/estimator.md, "Noise figures and thresholds" */
-	s->accel_noise_lin = 1.0f;
-	s->accel_noise_rot = 10.0f;
-	s->wheel_noise = 0.0065f; /* 10240 cpr at 1 kHz: 0.18 rad/s quantisation x r */
-	s->cam_pos_noise = 0.01f;
-	s->cam_theta_noise = 0.0524f; /* 3 deg */
-	s->gate_sigmas = 5.0f;
-	s->slip_threshold = 0.08f;
-	s->slip_ticks = 3;
-	s->collision_threshold = 0.02f;
-	s->collision_ticks = 5;
-	s->calibrate = true;
-	s->replay = true;
+	struct est_keys k;
+
+	est_keys_defaults(&k);
+	est_settings_from_keys(&k, s);
 }
 
 int est_settings_check(const struct est_settings *s)

@@ -18,7 +18,7 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	struct est_settings es;
 	struct model_wheels w;
 
-	est_settings_defaults(&es);
+	est_settings_from_keys(&cfg->est, &es);
 	if (est_init(&fw->est, &es, &cfg->model, cfg->rate_hz))
 		return -EINVAL;
 	ctl_settings_wheels(cfg, &w);
@@ -101,9 +101,12 @@ static void take_params(struct fw *fw, int64_t now_us)
 	} else {
 		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
 		struct model_wheels w;
+		struct est_settings es;
 
 		ctl_settings_wheels(&u->set, &w);
 		est_set_model_wheels(&fw->est, &u->set.model, &w);
+		est_settings_from_keys(&u->set.est, &es);
+		est_set_settings(&fw->est, &es);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}

@@ -9,6 +9,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "omni4/est_keys.h"
 #include "omni4/params.h"
 
 struct ctl_settings {
@@ -39,6 +40,7 @@ struct ctl_settings {
 		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor
 		                                [A] */
 	} limits;
+	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
 };
 
 /* The defaults of ctl_keys.def: the paper's Table III robot at 1 kHz. */

@@ -33,6 +33,7 @@
 #include <stdint.h>
 
 #include "omni4/dynamics.h"
+#include "omni4/est_keys.h"
 #include "omni4/params.h"
 
 #ifndef EST_HISTORY
@@ -76,24 +77,15 @@
  * variance widened by its innovation): a camera that keeps disagreeing is right. */
 #define EST_CAM_RESYNC 5
 
-/* Noise and thresholds of the filter (SI units, standard deviations). */
+/* Noise and thresholds of the filter (SI units, standard deviations): one member per row of
+ * est_keys.def (its unit, range and description), float where the key is a double. */
+#define EST_SETTING_TYPE_DBL float
+#define EST_SETTING_TYPE_INT int
+#define EST_SETTING_TYPE_BOOL bool
 struct est_settings {
-	float accel_noise_lin; /* process noise on v, vn [m/s^2]: an acceleration held over a
-	                        * tick, variance (accel_noise_lin dt)^2 per tick */
-	float accel_noise_rot; /* process noise on w [rad/s^2], likewise */
-	float wheel_noise;     /* wheel linear speed reading [m/s] */
-	float cam_pos_noise;   /* camera position [m] */
-	float cam_theta_noise; /* camera heading [rad] */
-	float gate_sigmas;     /* a camera innovation beyond this many sigmas is an outlier */
-	float slip_threshold;  /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
-	                        * in a reading beyond it one wheel is left out */
-	int slip_ticks;
-	float collision_threshold; /* model-vs-wheel velocity innovation, averaged (vel_innov),
-	                            * beyond it for collision_ticks ticks: COLLISION [m/s] */
-	int collision_ticks;
-	bool calibrate; /* the wheels' scale errors learnt from the null space (EST_CAL_*) */
-	bool replay;    /* camera frames replayed from their capture time (false: applied
-	                 * at arrival, as if they had no latency; for comparison) */
+#define OMNI4_KEY(kind, section, key, field, ...) EST_SETTING_TYPE_##kind field;
+#include "omni4/est_keys.def"
+#undef OMNI4_KEY
 };
 
 /* One tick's inputs. */
@@ -172,6 +164,11 @@ struct est {
 void est_settings_defaults(struct est_settings *s);
 /* 0, or -EINVAL if a noise, gate or threshold is not > 0 (or not below 1e6) or ticks < 1. */
 int est_settings_check(const struct est_settings *s);
+/* The INI's settings ([estimator], est_keys.def) as the filter's floats. */
+void est_settings_from_keys(const struct est_keys *k, struct est_settings *s);
+/* Between two ticks: new noise figures and thresholds (the covariance and state stay). 0, or
+ * -EINVAL (est_settings_check; the settings in force stay). */
+int est_set_settings(struct est *e, const struct est_settings *s);
 /* Start at the origin, at rest, with a wide pose covariance. s NULL: the defaults. -EINVAL for a
  * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
