@@ -13,7 +13,7 @@
  * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
- * at the frame's tick, and the ticks since re-run from the ring (est_replay.c).
+ * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
  */
 #include "omni4/est.h"
@@ -23,7 +23,6 @@
 #include <string.h>
 
 #include "est_priv.h"
-#include "omni4/est_replay.h"
 #include "omni4/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
@@ -332,7 +331,7 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 }
 
 /* The camera pose z as three scalar updates (the upper triangle; the caller mirrors it). */
-static void pose_update(struct est *e, const float z[3])
+void est_pose_update(struct est *e, const float z[3])
 {
 	for (int k = 0; k < 3; k++) {
 		float nu = z[k] - e->s[k];
@@ -354,11 +353,11 @@ void est_run_tick(struct est *e, const struct est_tick *t, bool live)
 		e->collision_run = 0;
 	}
 	if (t->late == EST_LATE_POSE)
-		pose_update(e, t->late_z);
+		est_pose_update(e, t->late_z);
 	est_symmetrise(e); /* predict and the updates leave the lower triangle stale */
 }
 
-static void publish(struct est *e, int64_t utime)
+void est_publish(struct est *e, int64_t utime)
 {
 	e->out.utime = utime;
 	for (int k = 0; k < 3; k++) {
@@ -371,7 +370,7 @@ static void publish(struct est *e, int64_t utime)
 		e->out.wheel_scale[j] = e->cal[j];
 }
 
-static bool all_finite(const float *v, int n)
+bool est_all_finite(const float *v, int n)
 {
 	for (int k = 0; k < n; k++)
 		if (!isfinite(v[k]))
@@ -425,7 +424,7 @@ void est_step(struct est *e, const struct est_input *in)
 	struct est_tick *t = &e->hist[n % EST_HISTORY];
 
 	t->utime = in->utime;
-	t->driven = in->driven && all_finite(in->volts, 4);
+	t->driven = in->driven && est_all_finite(in->volts, 4);
 	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
 	t->late = EST_LATE_NONE;
 	for (int j = 0; j < 4; j++) {
@@ -438,73 +437,5 @@ void est_step(struct est *e, const struct est_input *in)
 	e->seq = n + 1;
 	guard_finite(e);
 	e->out.flags = flags(e, t, in->utime);
-	publish(e, in->utime);
-}
-
-/* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
-static float mahalanobis2(const struct est *e, const float nu[3])
-{
-	const float S[6] = {e->P[0][0] + e->rc[0], e->P[0][1], e->P[0][2],
-	                    e->P[1][1] + e->rc[1], e->P[1][2], e->P[2][2] + e->rc[2]};
-	float L[6];
-
-	if (la_chol3_f32(S, 0.0f, L))
-		return INFINITY;
-	return la_chol3_norm2_f32(L, nu);
-}
-
-/* Gate the pose z against the current state; apply it if it passes. The EST_CAM_RESYNC-th
- * frame refused in a row is taken after all, the pose variance widened by its innovation (the
- * estimate, not the camera, is what went wrong). */
-static int gate_and_apply(struct est *e, const float z[3])
-{
-	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], la_wrap_pi_f32(z[2] - e->s[2])};
-	const float g = e->set.gate_sigmas;
-
-	if (!(mahalanobis2(e, nu) <= g * g)) {
-		if (e->cam_gate_run + 1 < EST_CAM_RESYNC)
-			return -EINVAL;
-		for (int k = 0; k < 3; k++)
-			e->P[k][k] += nu[k] * nu[k];
-	}
-	for (int k = 0; k < 3; k++)
-		e->out.cam_innov[k] = nu[k];
-	pose_update(e, z);
-	est_symmetrise(e);
-	return 0;
-}
-
-static int camera_refused(struct est *e)
-{
-	e->cam_gate_run++;
-	e->out.cam_gated++;
-	return -EINVAL;
-}
-
-int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us)
-{
-	const float z[3] = {(float)pose[0], (float)pose[1], la_wrap_pi_f32((float)pose[2])};
-	uint32_t k;
-
-	if (!all_finite(z, 3) || !isfinite(pose[2])) {
-		e->out.cam_gated++;
-		return -EINVAL;
-	}
-	if (est_replay_find(e, capture_us, &k)) {
-		e->out.cam_too_old++;
-		return -ERANGE;
-	}
-	if (e->set.replay ? est_replay_at(e, k, EST_LATE_POSE, z, gate_and_apply)
-	                  : gate_and_apply(e, z))
-		return camera_refused(e);
-	e->cam_gate_run = 0;
-	e->out.cam_taken++;
-	e->out.cam_latency_us = now_us - capture_us;
-	if (!e->have_cam || capture_us > e->last_cam_us)
-		e->last_cam_us = capture_us;
-	e->have_cam = true;
-	if (now_us - e->last_cam_us <= EST_CAMERA_STALE_US)
-		e->out.flags &= ~EST_FLAG_CAMERA_STALE;
-	publish(e, e->out.utime);
-	return 0;
+	est_publish(e, in->utime);
 }
