@@ -11,7 +11,8 @@ import re
 import gen_vocab  # beside this file
 
 # The layers' key lists before the backends' (repository-relative).
-LAYER_FILES = ("core/include/omni4/ctl_keys.def", "config/include/omni4/fw_keys.def")
+LAYER_FILES = ("core/include/omni4/ctl_keys.def", "core/include/omni4/est_keys.def",
+               "config/include/omni4/fw_keys.def")
 KINDS = {"DBL": "double", "INT": "int", "BOOL": "bool", "STR": "string", "ENUM": "choice"}
 _ROW = re.compile(r'^OMNI4_KEY\(\s*([A-Z]+)\s*,\s*"([a-z_]+)"\s*,\s*"([A-Za-z0-9_]+)"\s*,')
 

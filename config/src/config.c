@@ -60,6 +60,10 @@ const struct config_key config_keys[] = {
 #define OMNI4_KEY(...) ROW(ctl, __VA_ARGS__)
 #include "omni4/ctl_keys.def"
 #undef OMNI4_KEY
+#define OMNI4_KEY(kind, section, key, field, ...)                                                  \
+	ROW(ctl, kind, section, key, est.field, __VA_ARGS__)
+#include "omni4/est_keys.def"
+#undef OMNI4_KEY
 #define OMNI4_KEY(...) ROW(fw, __VA_ARGS__)
 #include "omni4/fw_keys.def"
 #undef OMNI4_KEY

@@ -12,6 +12,7 @@ void ctl_settings_defaults(struct ctl_settings *s)
 #define OMNI4_KEY(kind, section, key, field, def, ...) s->field = (def);
 #include "omni4/ctl_keys.def"
 #undef OMNI4_KEY
+	est_keys_defaults(&s->est);
 }
 
 void ctl_settings_wheels(const struct ctl_settings *s, struct model_wheels *w)

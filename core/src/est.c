@@ -13,7 +13,8 @@
  * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
- * at the frame's tick, and the ticks since re-run from the ring.
+ * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
+ * The wheels' scale calibration: est_cal.c.
  */
 #include "omni4/est.h"
 
@@ -21,70 +22,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/kinematics.h"
-
-#define PI_F 3.14159265358979f
-#define TWO_PI_F 6.28318530717959f
-#define NSNAP (EST_HISTORY / EST_SNAP_EVERY)
-
-_Static_assert(EST_HISTORY % EST_SNAP_EVERY == 0, "EST_HISTORY: a multiple of EST_SNAP_EVERY");
-
-static float wrap(float a)
-{
-	if (a > PI_F || a <= -PI_F)
-		a -= TWO_PI_F * floorf((a + PI_F) / TWO_PI_F);
-	if (a <= -PI_F)
-		a += TWO_PI_F;
-	return a;
-}
-
-/* sin and cos of a (|a| <= pi + a little): a quadrant and Taylor polynomials on
- * [-pi/4, pi/4] (errors below 3e-7, float level), a tenth of libm's cost on the M4. */
-static void sin_cos(float a, float *s, float *c)
-{
-	const float q = floorf(a * 0.636619772f + 0.5f); /* nearest multiple of pi/2 */
-	const float r = (a - q * 1.57079625f) - q * 7.54978995e-8f;
-	const float r2 = r * r;
-	const float sr = r * (1.0f + r2 * (-1.0f / 6 + r2 * (1.0f / 120 + r2 * (-1.0f / 5040))));
-	const float cr =
-	    1.0f + r2 * (-0.5f + r2 * (1.0f / 24 + r2 * (-1.0f / 720 + r2 * (1.0f / 40320))));
-
-	switch ((int)q & 3) {
-	case 0:
-		*s = sr;
-		*c = cr;
-		break;
-	case 1:
-		*s = cr;
-		*c = -sr;
-		break;
-	case 2:
-		*s = -sr;
-		*c = -cr;
-		break;
-	default:
-		*s = -cr;
-		*c = sr;
-		break;
-	}
-}
-
-void est_settings_defaults(struct est_settings *s)
-{
-	/* docs/estimator.md, "Noise figures and thresholds" */
-	s->accel_noise_lin = 1.0f;
-	s->accel_noise_rot = 10.0f;
-	s->wheel_noise = 0.0065f; /* 10240 cpr at 1 kHz: 0.18 rad/s quantisation x r */
-	s->cam_pos_noise = 0.01f;
-	s->cam_theta_noise = 0.0524f; /* 3 deg */
-	s->gate_sigmas = 5.0f;
-	s->slip_threshold = 0.08f;
-	s->slip_ticks = 3;
-	s->collision_threshold = 0.02f;
-	s->collision_ticks = 5;
-	s->calibrate = true;
-	s->replay = true;
-}
+#include "est_priv.h"
+#include "omni4/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
 static void discretise(double a, double dt, float *phi, float *gam)
@@ -111,23 +50,46 @@ static void set_noise(struct est *e)
 	e->qt = EST_DRIFT_THETA * EST_DRIFT_THETA * e->dt;
 }
 
-void est_set_model(struct est *e, const struct model_params *p)
+int est_set_settings(struct est *e, const struct est_settings *s)
 {
-	struct model_ss ss;
+	if (est_settings_check(s))
+		return -EINVAL;
+	e->set = *s;
+	set_noise(e);
+	return 0;
+}
 
-	if (model_params_check(p, NULL))
+void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w)
+{
+	struct model_ss_wheels ss;
+
+	if (model_params_check(p, NULL) || model_wheels_check(w, NULL))
 		return;
-	dyn_state_space(p, &ss);
+	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
-		discretise(ss.A[k], e->dt, &e->phi[k], &e->gam[k]);
+		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
 		discretise(ss.A_coast[k], e->dt, &e->phic[k], &e->gamc[k]);
 		for (int j = 0; j < 4; j++)
 			e->B[k][j] = (float)ss.B[k][j];
 		e->C[k] = (float)-ss.K[k];
 	}
+	e->Ax[0] = (float)ss.A[0][2];
+	e->Ax[1] = (float)ss.A[1][2];
+	e->Ax[2] = (float)ss.A[2][0];
+	e->Ax[3] = (float)ss.A[2][1];
+	e->coupled = e->Ax[0] != 0.0f || e->Ax[1] != 0.0f || e->Ax[2] != 0.0f || e->Ax[3] != 0.0f;
 	e->d = (float)p->d;
-	e->r = (float)p->r;
+	for (int j = 0; j < 4; j++)
+		e->r[j] = (float)w->r[j];
 	set_noise(e);
+}
+
+void est_set_model(struct est *e, const struct model_params *p)
+{
+	struct model_wheels w;
+
+	model_wheels_from_params(p, &w);
+	est_set_model_wheels(e, p, &w);
 }
 
 void est_reset(struct est *e, const float pose[3], const float pose_var[3])
@@ -138,7 +100,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 		e->s[k] = isfinite(pose[k]) ? pose[k] : 0.0f;
 		e->P[k][k] = isfinite(pose_var[k]) && pose_var[k] > 0.0f ? pose_var[k] : 1.0f;
 	}
-	e->s[2] = wrap(e->s[2]);
+	e->s[2] = la_wrap_pi_f32(e->s[2]);
 	/* At rest, give or take a few mm/s. */
 	e->P[3][3] = e->P[4][4] = 1e-4f;
 	e->P[5][5] = 1e-4f / (e->d * e->d);
@@ -150,23 +112,11 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->have_cam = false;
 }
 
-static bool settings_ok(const struct est_settings *s)
-{
-	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot,    s->wheel_noise,
-	                     s->cam_pos_noise,   s->cam_theta_noise,    s->gate_sigmas,
-	                     s->slip_threshold,  s->collision_threshold};
-
-	for (unsigned k = 0; k < sizeof(pos) / sizeof(pos[0]); k++)
-		if (!(pos[k] > 0.0f && pos[k] < 1e6f))
-			return false;
-	return s->slip_ticks >= 1 && s->collision_ticks >= 1;
-}
-
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
              double rate_hz)
 {
 	if (!e || !p || model_params_check(p, NULL) || !(rate_hz >= 1.0 && rate_hz <= 1e5) ||
-	    (s && !settings_ok(s)))
+	    (s && est_settings_check(s)))
 		return -EINVAL;
 	memset(e, 0, sizeof(*e));
 	if (s)
@@ -182,8 +132,7 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 	return 0;
 }
 
-/* Mirror the upper triangle into the lower. */
-static void symmetrise(struct est *e)
+void est_symmetrise(struct est *e)
 {
 	for (int i = 1; i < 6; i++)
 		for (int j = 0; j < i; j++)
@@ -237,6 +186,15 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 			P[i][j] *= phi[j - 3];
 }
 
+/* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w
+ * from v and vn. */
+static float coupling(const struct est *e, int k, const float x[3])
+{
+	if (k == 2)
+		return e->Ax[2] * x[0] + e->Ax[3] * x[1];
+	return e->Ax[k] * x[2];
+}
+
 static void predict(struct est *e, const struct est_tick *t)
 {
 	float *s = e->s;
@@ -244,6 +202,7 @@ static void predict(struct est *e, const struct est_tick *t)
 	const bool drv = t->driven;
 	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
 	const float dt = e->dt;
+	const float x0[3] = {s[3], s[4], s[5]};
 	float xm[3];
 
 	for (int k = 0; k < 3; k++) {
@@ -252,6 +211,8 @@ static void predict(struct est *e, const struct est_tick *t)
 		if (drv)
 			b = e->B[k][0] * t->volts[0] + e->B[k][1] * t->volts[1] +
 			    e->B[k][2] * t->volts[2] + e->B[k][3] * t->volts[3];
+		if (drv && e->coupled) /* the back-EMF of unequal wheels: held over the tick */
+			b += coupling(e, k, x0);
 		const float xn = axis(phi[k], gam[k], b, e->C[k], s[3 + k]);
 
 		xm[k] = 0.5f * (s[3 + k] + xn);
@@ -261,12 +222,12 @@ static void predict(struct est *e, const struct est_tick *t)
 	const float th = s[2] + 0.5f * dt * xm[2];
 	float c, sn;
 
-	sin_cos(th, &sn, &c);
+	la_sin_cos_f32(th, &sn, &c);
 	const float vx = c * xm[0] - sn * xm[1], vy = sn * xm[0] + c * xm[1];
 
 	s[0] += dt * vx;
 	s[1] += dt * vy;
-	s[2] = wrap(s[2] + dt * xm[2]);
+	s[2] = la_wrap_pi_f32(s[2] + dt * xm[2]);
 
 	predict_cov(P, -dt * vy, dt * vx, dt * c, dt * sn, dt, phi);
 	P[3][3] += e->q[0];
@@ -369,9 +330,20 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		scalar_update(e, 3 + k, z[k] - e->s[3 + k], scale * e->rw[k]);
 }
 
-/* One tick: predict, wheel update, the camera pose stored for it. live: the real tick (flags
- * and outputs), not a replay. */
-static void run_tick(struct est *e, const struct est_tick *t, bool live)
+/* The camera pose z as three scalar updates (the upper triangle; the caller mirrors it). */
+void est_pose_update(struct est *e, const float z[3])
+{
+	for (int k = 0; k < 3; k++) {
+		float nu = z[k] - e->s[k];
+
+		if (k == 2)
+			nu = la_wrap_pi_f32(nu);
+		scalar_update(e, k, nu, e->rc[k]);
+	}
+	e->s[2] = la_wrap_pi_f32(e->s[2]);
+}
+
+void est_run_tick(struct est *e, const struct est_tick *t, bool live)
 {
 	predict(e, t);
 	if (t->have_wheels) {
@@ -380,51 +352,12 @@ static void run_tick(struct est *e, const struct est_tick *t, bool live)
 		e->slip_run = 0;
 		e->collision_run = 0;
 	}
-	if (t->have_cam) {
-		for (int k = 0; k < 3; k++) {
-			float nu = t->cam[k] - e->s[k];
-
-			if (k == 2)
-				nu = wrap(nu);
-			scalar_update(e, k, nu, e->rc[k]);
-		}
-		e->s[2] = wrap(e->s[2]);
-	}
-	symmetrise(e); /* predict and the updates leave the lower triangle stale */
+	if (t->late == EST_LATE_POSE)
+		est_pose_update(e, t->late_z);
+	est_symmetrise(e); /* predict and the updates leave the lower triangle stale */
 }
 
-static void put_snap(struct est *e, uint32_t n)
-{
-	int m = 0;
-
-	memcpy(e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, e->s, sizeof(e->s));
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++)
-			e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++] = e->P[i][j];
-}
-
-static void get_snap(struct est *e, uint32_t n)
-{
-	int m = 0;
-
-	memcpy(e->s, e->snap[(n / EST_SNAP_EVERY) % NSNAP].s, sizeof(e->s));
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++)
-			e->P[i][j] = e->snap[(n / EST_SNAP_EVERY) % NSNAP].P[m++];
-	symmetrise(e);
-}
-
-/* Ticks n .. to-1 re-run from the ring (snapshots re-taken on the way). */
-static void rerun(struct est *e, uint32_t n, uint32_t to)
-{
-	for (; n < to; n++) {
-		if (n % EST_SNAP_EVERY == 0)
-			put_snap(e, n);
-		run_tick(e, &e->hist[n % EST_HISTORY], false);
-	}
-}
-
-static void publish(struct est *e, int64_t utime)
+void est_publish(struct est *e, int64_t utime)
 {
 	e->out.utime = utime;
 	for (int k = 0; k < 3; k++) {
@@ -437,7 +370,7 @@ static void publish(struct est *e, int64_t utime)
 		e->out.wheel_scale[j] = e->cal[j];
 }
 
-static bool all_finite(const float *v, int n)
+bool est_all_finite(const float *v, int n)
 {
 	for (int k = 0; k < n; k++)
 		if (!isfinite(v[k]))
@@ -445,127 +378,33 @@ static bool all_finite(const float *v, int n)
 	return true;
 }
 
-/* The scale errors k = N a with N's columns (1,-1,1,-1)/2, (1,1,-1,-1)/2, (1,-1,-1,1)/2: the
- * three patterns orthogonal to the common scale (1,1,1,1), which no equation fixes (k_j = -1 for
- * all j, every wheel read as 0, satisfies them all). */
-static const float cal_N[4][3] = {
-    {0.5f, 0.5f, 0.5f}, {-0.5f, 0.5f, -0.5f}, {0.5f, -0.5f, -0.5f}, {-0.5f, -0.5f, 0.5f}};
-
-/* One reading's null-space equation sum_j s_j g_j k_j = -sum_j s_j g_j (g_j = r w_j, signs
- * s = +, -, +, -), in a, added to the forgotten normal equations. */
-static void cal_accumulate(struct est *e, const float g[4])
-{
-	const float phi[4] = {g[0], -g[1], g[2], -g[3]};
-	const float y = -(phi[0] + phi[1] + phi[2] + phi[3]);
-	const float lam = e->cal_forget;
-	float q[3];
-	int m = 0;
-
-	for (int i = 0; i < 3; i++)
-		q[i] = cal_N[0][i] * phi[0] + cal_N[1][i] * phi[1] + cal_N[2][i] * phi[2] +
-		       cal_N[3][i] * phi[3];
-	for (int i = 0; i < 3; i++) {
-		e->cal_b[i] = lam * e->cal_b[i] + q[i] * y;
-		for (int j = i; j < 3; j++, m++)
-			e->cal_A[m] = lam * e->cal_A[m] + q[i] * q[j];
-	}
-}
-
-/* a = (A + prior I)^-1 b by Cholesky (A + prior I is positive definite); k = N a, clamped. */
-static void cal_solve(struct est *e)
-{
-	float L[3][3] = {{0}}, y[3], a[3];
-	const float *A = e->cal_A;
-	const float ridge = EST_CAL_PRIOR;
-	static const int idx[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};
-
-	for (int i = 0; i < 3; i++) {
-		for (int j = 0; j <= i; j++) {
-			float sum = A[idx[i][j]] + (i == j ? ridge : 0.0f);
-
-			for (int l = 0; l < j; l++)
-				sum -= L[i][l] * L[j][l];
-			if (i == j) {
-				if (!(sum > 0.0f))
-					return;
-				L[i][i] = sqrtf(sum);
-			} else {
-				L[i][j] = sum / L[j][j];
-			}
-		}
-	}
-	for (int i = 0; i < 3; i++) {
-		float sum = e->cal_b[i];
-
-		for (int l = 0; l < i; l++)
-			sum -= L[i][l] * y[l];
-		y[i] = sum / L[i][i];
-	}
-	for (int i = 2; i >= 0; i--) {
-		float sum = y[i];
-
-		for (int l = i + 1; l < 3; l++)
-			sum -= L[l][i] * a[l];
-		a[i] = sum / L[i][i];
-	}
-	for (int j = 0; j < 4; j++) {
-		const float k = cal_N[j][0] * a[0] + cal_N[j][1] * a[1] + cal_N[j][2] * a[2];
-
-		e->cal[j] = fminf(fmaxf(k, -EST_CAL_MAX), EST_CAL_MAX);
-	}
-}
-
-/* A live reading that fits a rigid body (not flagged as slip) teaches the calibration. */
-static void calibrate(struct est *e, const struct est_tick *t, uint32_t n)
-{
-	if (!e->set.calibrate)
-		return;
-	if (t->have_wheels && e->slip_run == 0 && e->collision_run == 0)
-		cal_accumulate(e, t->wheel);
-	if (n % EST_CAL_EVERY == EST_CAL_EVERY - 1)
-		cal_solve(e);
-}
-
 /* A reading is finite and no wheel faster than EST_WHEEL_MAX_M_S. */
-static bool plausible_wheels(const float w[4], float r)
+static bool plausible_wheels(const float w[4], const float r[4])
 {
 	for (int j = 0; j < 4; j++)
-		if (!(fabsf(w[j] * r) <= EST_WHEEL_MAX_M_S))
+		if (!(fabsf(w[j] * r[j]) <= EST_WHEEL_MAX_M_S))
 			return false;
 	return true;
 }
 
-void est_step(struct est *e, const struct est_input *in)
+/* A NaN or inf anywhere reaches the diagonal. Cannot happen with finite settings; never let a
+ * NaN out: start again where the last output was. */
+static void guard_finite(struct est *e)
 {
-	const uint32_t n = e->seq;
-	struct est_tick *t = &e->hist[n % EST_HISTORY];
-
-	t->utime = in->utime;
-	t->driven = in->driven && all_finite(in->volts, 4);
-	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
-	t->have_cam = 0;
-	for (int j = 0; j < 4; j++) {
-		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
-		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r : 0.0f;
-	}
-	if (n % EST_SNAP_EVERY == 0)
-		put_snap(e, n);
-	run_tick(e, t, true);
-	calibrate(e, t, n);
-	e->seq = n + 1;
 	const float sum = e->s[0] + e->s[1] + e->s[2] + e->s[3] + e->s[4] + e->s[5] + e->P[0][0] +
 	                  e->P[1][1] + e->P[2][2] + e->P[3][3] + e->P[4][4] + e->P[5][5];
 
-	if (!isfinite(sum)) { /* a NaN or inf anywhere reaches the diagonal */
-		/* Cannot happen with finite settings; never let a NaN out: start again where the
-		 * last output was. */
+	if (!isfinite(sum)) {
 		static const float var[3] = {1.0f, 1.0f, 10.0f};
 		const struct est_output keep = e->out;
 
 		est_reset(e, keep.pose, var);
 		e->out = keep;
 	}
+}
 
+static uint32_t flags(const struct est *e, const struct est_tick *t, int64_t utime)
+{
 	uint32_t f = 0;
 
 	if (!t->have_wheels)
@@ -574,125 +413,29 @@ void est_step(struct est *e, const struct est_input *in)
 		f |= EST_FLAG_SLIP;
 	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks)
 		f |= EST_FLAG_COLLISION;
-	if (!e->have_cam || in->utime - e->last_cam_us > EST_CAMERA_STALE_US)
+	if (!e->have_cam || utime - e->last_cam_us > EST_CAMERA_STALE_US)
 		f |= EST_FLAG_CAMERA_STALE;
-	e->out.flags = f;
-	publish(e, in->utime);
+	return f;
 }
 
-/* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
-static float mahalanobis2(const struct est *e, const float nu[3])
+void est_step(struct est *e, const struct est_input *in)
 {
-	const float a = e->P[0][0] + e->rc[0], b = e->P[0][1], c = e->P[0][2];
-	const float d = e->P[1][1] + e->rc[1], f = e->P[1][2], g = e->P[2][2] + e->rc[2];
-	/* adjugate of the symmetric [[a b c] [b d f] [c f g]] */
-	const float A = d * g - f * f, Bv = c * f - b * g, Cv = b * f - c * d;
-	const float D = a * g - c * c, F = b * c - a * f, G = a * d - b * b;
-	const float det = a * A + b * Bv + c * Cv;
-
-	if (!(det > 0.0f))
-		return INFINITY;
-	const float q = nu[0] * (A * nu[0] + Bv * nu[1] + Cv * nu[2]) +
-	                nu[1] * (Bv * nu[0] + D * nu[1] + F * nu[2]) +
-	                nu[2] * (Cv * nu[0] + F * nu[1] + G * nu[2]);
-
-	return q / det;
-}
-
-/* Gate the pose z against the current state; apply it if it passes. The EST_CAM_RESYNC-th
- * frame refused in a row is taken after all, the pose variance widened by its innovation (the
- * estimate, not the camera, is what went wrong). */
-static int gate_and_apply(struct est *e, const float z[3])
-{
-	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], wrap(z[2] - e->s[2])};
-	const float g = e->set.gate_sigmas;
-
-	if (!(mahalanobis2(e, nu) <= g * g)) {
-		if (e->cam_gate_run + 1 < EST_CAM_RESYNC)
-			return -EINVAL;
-		for (int k = 0; k < 3; k++)
-			e->P[k][k] += nu[k] * nu[k];
-	}
-	for (int k = 0; k < 3; k++)
-		e->out.cam_innov[k] = nu[k];
-	for (int k = 0; k < 3; k++) {
-		float v = z[k] - e->s[k];
-
-		if (k == 2)
-			v = wrap(v);
-		scalar_update(e, k, v, e->rc[k]);
-	}
-	symmetrise(e);
-	e->s[2] = wrap(e->s[2]);
-	return 0;
-}
-
-int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us)
-{
-	const float z[3] = {(float)pose[0], (float)pose[1], (float)wrap((float)pose[2])};
-
-	if (!all_finite(z, 3) || !isfinite(pose[2])) {
-		e->out.cam_gated++;
-		return -EINVAL;
-	}
 	const uint32_t n = e->seq;
-	const uint32_t oldest = n > EST_HISTORY ? n - EST_HISTORY : 0;
+	struct est_tick *t = &e->hist[n % EST_HISTORY];
 
-	/* The frame's tick: the last one at or before the capture time. */
-	uint32_t k = n;
-
-	while (k > oldest && e->hist[(k - 1) % EST_HISTORY].utime > capture_us)
-		k--;
-	if (k == oldest) {
-		e->out.cam_too_old++;
-		return -ERANGE;
+	t->utime = in->utime;
+	t->driven = in->driven && est_all_finite(in->volts, 4);
+	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
+	t->late = EST_LATE_NONE;
+	for (int j = 0; j < 4; j++) {
+		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
+		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r[j] : 0.0f;
 	}
-	k--;
-	const uint32_t n0 = k - k % EST_SNAP_EVERY;
-
-	if (n0 < oldest) {
-		e->out.cam_too_old++;
-		return -ERANGE;
-	}
-	if (!e->set.replay) {
-		if (gate_and_apply(e, z)) {
-			e->cam_gate_run++;
-			e->out.cam_gated++;
-			return -EINVAL;
-		}
-	} else {
-		/* The state at tick k without its old camera pose (a newer frame replaces it) ...
-		 */
-		float s_now[6], P_now[6][6];
-		struct est_tick *tk = &e->hist[k % EST_HISTORY];
-		const uint8_t had = tk->have_cam;
-
-		memcpy(s_now, e->s, sizeof(s_now));
-		memcpy(P_now, e->P, sizeof(P_now));
-		get_snap(e, n0);
-		tk->have_cam = 0;
-		rerun(e, n0, k + 1);
-		if (gate_and_apply(e, z)) {
-			tk->have_cam = had;
-			memcpy(e->s, s_now, sizeof(s_now));
-			memcpy(e->P, P_now, sizeof(P_now));
-			e->cam_gate_run++;
-			e->out.cam_gated++;
-			return -EINVAL;
-		}
-		/* ... updated, kept for later replays, and the ticks since re-run. */
-		tk->have_cam = 1;
-		memcpy(tk->cam, z, sizeof(tk->cam));
-		rerun(e, k + 1, n);
-	}
-	e->cam_gate_run = 0;
-	e->out.cam_taken++;
-	e->out.cam_latency_us = now_us - capture_us;
-	if (!e->have_cam || capture_us > e->last_cam_us)
-		e->last_cam_us = capture_us;
-	e->have_cam = true;
-	if (now_us - e->last_cam_us <= EST_CAMERA_STALE_US)
-		e->out.flags &= ~EST_FLAG_CAMERA_STALE;
-	publish(e, e->out.utime);
-	return 0;
+	est_replay_snap(e, n);
+	est_run_tick(e, t, true);
+	est_cal_step(e, t, n);
+	e->seq = n + 1;
+	guard_finite(e);
+	e->out.flags = flags(e, t, in->utime);
+	est_publish(e, in->utime);
 }

@@ -16,10 +16,13 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	fw->late_us = llround(2e6 / cfg->rate_hz); /* [loop] rate_hz: restart only */
 	fw->state_every = (int)ceil(cfg->rate_hz / FW_STATE_HZ - 1e-9);
 	struct est_settings es;
+	struct model_wheels w;
 
-	est_settings_defaults(&es);
+	est_settings_from_keys(&cfg->est, &es);
 	if (est_init(&fw->est, &es, &cfg->model, cfg->rate_hz))
 		return -EINVAL;
+	ctl_settings_wheels(cfg, &w);
+	est_set_model_wheels(&fw->est, &cfg->model, &w);
 	spsc_init(&fw->pose_ring, fw->pose_buf, FW_POSE_RING_SLOTS, sizeof(fw->pose_buf[0]));
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
@@ -97,7 +100,13 @@ static void take_params(struct fw *fw, int64_t now_us)
 		rc = -EBUSY;
 	} else {
 		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
-		est_set_model(&fw->est, &u->set.model);
+		struct model_wheels w;
+		struct est_settings es;
+
+		ctl_settings_wheels(&u->set, &w);
+		est_set_model_wheels(&fw->est, &u->set.model, &w);
+		est_settings_from_keys(&u->set.est, &es);
+		est_set_settings(&fw->est, &es);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}

@@ -145,9 +145,10 @@ def test_ini_model_section(tmp_path):
     p = write(tmp_path, "p.ini", "; identified\n[hal]\nmotor = sim\n[model]\n" + body)
     got = read_model(p)
     assert got == pytest.approx({k: v * 1.1 for k, v in T3.items()})
-    # a drive's own keys (docs/configuration.md) are taken; the prediction keeps the scalars
+    # a drive's own keys (docs/configuration.md) are taken beside the scalars
     p = write(tmp_path, "w.ini", "[model]\n" + body + "R_2 = 5.1\nr_0 = 0.033\n")
-    assert read_model(p) == pytest.approx({k: v * 1.1 for k, v in T3.items()})
+    assert read_model(p) == pytest.approx({**{k: v * 1.1 for k, v in T3.items()},
+                                           "R_2": 5.1, "r_0": 0.033})
 
 
 @pytest.mark.parametrize("text,msg", [
@@ -620,3 +621,31 @@ def test_state_estimate_beside_the_camera_pose():
     s, pose = by_topic[topics.TOPIC_ESTIMATE]
     assert s == "foxglove.PoseInFrame" and pose["frame_id"] == "world"
     assert pose["timestamp"] == {"sec": 5, "nsec": 0}
+
+
+def test_prediction_drives_each_wheel_with_its_own_motor_and_radius():
+    """One odd wheel (1: radius +4 %, Kv and Kt +5 %, R -5 %), u = (0, -6, 0, 6) along v: by
+    hand, wheel j's force is b_j u_j - e_j v_j (b_j = l Kt_j / (R_j r_j), e_j = l^2 Kt_j Kv_j /
+    (R_j r_j^2)); the torque d (f1 + f3) at rest in w stays below Cw (stiction), so w = 0 and
+    v settles where 6 (b1 + b3) - (e1 + e3) v = Bv v + Cv."""
+    own = {"r_1": 1.04 * T3["r"], "Kv_1": 1.05 * T3["Kv"], "Kt_1": 1.05 * T3["Kt"],
+           "R_1": 0.95 * T3["R"]}
+    p = {**T3, **own}
+    w = {j: {q: p.get(f"{q}_{j}", T3[q]) for q in ("r", "Kv", "Kt", "R")} for j in (1, 3)}
+    b = {j: T3["l"] * w[j]["Kt"] / (w[j]["R"] * w[j]["r"]) for j in (1, 3)}
+    e = {j: T3["l"] ** 2 * w[j]["Kt"] * w[j]["Kv"] / (w[j]["R"] * w[j]["r"] ** 2) for j in (1, 3)}
+    v = (6 * (b[1] + b[3]) - T3["Cv"]) / (e[1] + e[3] + T3["Bv"])
+    torque = T3["d"] * (6 * (b[3] - b[1]) + (e[1] - e[3]) * v)
+    assert abs(torque) < T3["Cw"]
+    u = [0.0, -6.0, 0.0, 6.0]
+    per_wheel, scalar = Predictor(p), Predictor(T3)
+    for k in range(3001):
+        _, pred, _ = per_wheel.step(k * 1000, k, 2, u, [0.0] * 4)
+        _, flat, _ = scalar.step(k * 1000, k, 2, u, [0.0] * 4)
+    print(f"odd wheel: steady v {pred[0]:.6f} per wheel, {flat[0]:.6f} scalar, by hand {v:.6f}")
+    assert pred[0] == pytest.approx(v, rel=1e-4) and pred[2] == pytest.approx(0.0, abs=1e-9)
+    assert abs(flat[0] - v) > 10 * 1e-4 * v  # the test tells the two models apart (measured 35x)
+    # The encoders: each wheel's angular speed times its own radius.
+    meas, _, _ = per_wheel.step(4_000_000, 0, 2, u, [0.0, -0.5 / own["r_1"], 0.0,
+                                                     0.5 / T3["r"]])
+    assert meas == pytest.approx([0.5, 0.0, 0.0], abs=1e-6)  # float32 speeds: 1.2e-8

@@ -57,6 +57,24 @@ def test_odometry_straight_line_and_circle():
                                                                  rel=0.05)
 
 
+def test_odometry_rolls_each_wheel_on_its_own_radius():
+    # One odd wheel (1, left) 4 % larger: a straight line along v at 0.3 m/s, each wheel's
+    # angular speed its rim speed (eq 2 by hand: wheel 1 -v, wheel 3 +v) over its own radius.
+    r1 = 1.04 * R
+    ws = (0.0, -0.3 / r1, 0.0, 0.3 / R)
+    assert core.forward_kinematics(ws, D, (R, r1, R, R)) == pytest.approx((0.3, 0, 0), abs=1e-12)
+    odo = core.WheelOdometry({"model.r_1": r1})
+    assert odo.radii() == (R, r1, R, R)
+    for k in range(2001):
+        odo.step(Sample(1_000_000_000 + k * 1000, k, ws))
+    assert (odo.x, odo.y, odo.theta) == pytest.approx((0.6, 0.0, 0.0), abs=1e-9)
+    # The same readings on four equal wheels: wheel 1 reads 4 % slow, the robot seems to turn.
+    flat = core.WheelOdometry()
+    for k in range(2001):
+        flat.step(Sample(1_000_000_000 + k * 1000, k, ws))
+    assert abs(flat.theta) > 0.05
+
+
 def test_odometry_effort_and_lost_samples():
     odo = core.WheelOdometry({"model.l": 5.0, "model.Kt": 0.0259})
     t, s = _run(odo, (0.3, 0, 0), 0.1, current=(1.0, -2.0, 0.5, 0.0))

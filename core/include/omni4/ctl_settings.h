@@ -9,6 +9,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "omni4/est_keys.h"
 #include "omni4/params.h"
 
 struct ctl_settings {
@@ -42,6 +43,7 @@ struct ctl_settings {
 		double traction_margin; /* share of mu N_j kept in reserve */
 		double com_height;      /* centre of mass above the floor [m] (load transfer) */
 	} limits;
+	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
 };
 
 /* The defaults of ctl_keys.def: the paper's Table III robot at 1 kHz. */

@@ -10,10 +10,10 @@
  *   when the bridges are off; the pose integrates eq 1.
  * - Update, every tick with a reading: the four wheel speeds (eq 2 as the measurement model),
  *   each corrected by the wheel's scale error, learnt from the null space (EST_CAL_*).
- * - Update with a camera pose at its capture time (pose_t.utime): the filter keeps a ring of
- *   its past ticks (inputs, readings, camera poses; state and covariance before every
- *   EST_SNAP_EVERY-th tick) and re-runs from the frame's tick to now; frames older than the
- *   history (EST_HISTORY ticks, less up to EST_SNAP_EVERY - 1) are counted and dropped.
+ * - Update with a camera pose at its capture time (pose_t.utime), by the replay of late
+ *   measurements (est_replay.h): the filter keeps a ring of its past ticks and re-runs from
+ *   the frame's tick to now; frames older than the history (EST_HISTORY ticks, less up to
+ *   EST_SNAP_EVERY - 1) are counted and dropped.
  * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
  *   frames in a row disagree; in a wheel reading whose null-space residual is beyond
  *   slip_threshold, the wheel farthest from the prediction (the other three give the
@@ -33,6 +33,7 @@
 #include <stdint.h>
 
 #include "omni4/dynamics.h"
+#include "omni4/est_keys.h"
 #include "omni4/params.h"
 #include "omni4/vocab.h"
 
@@ -74,24 +75,15 @@
  * variance widened by its innovation): a camera that keeps disagreeing is right. */
 #define EST_CAM_RESYNC 5
 
-/* Noise and thresholds of the filter (SI units, standard deviations). */
+/* Noise and thresholds of the filter (SI units, standard deviations): one member per row of
+ * est_keys.def (its unit, range and description), float where the key is a double. */
+#define EST_SETTING_TYPE_DBL float
+#define EST_SETTING_TYPE_INT int
+#define EST_SETTING_TYPE_BOOL bool
 struct est_settings {
-	float accel_noise_lin; /* process noise on v, vn [m/s^2]: an acceleration held over a
-	                        * tick, variance (accel_noise_lin dt)^2 per tick */
-	float accel_noise_rot; /* process noise on w [rad/s^2], likewise */
-	float wheel_noise;     /* wheel linear speed reading [m/s] */
-	float cam_pos_noise;   /* camera position [m] */
-	float cam_theta_noise; /* camera heading [rad] */
-	float gate_sigmas;     /* a camera innovation beyond this many sigmas is an outlier */
-	float slip_threshold;  /* |v0 - v1 + v2 - v3| beyond it for slip_ticks ticks: SLIP [m/s];
-	                        * in a reading beyond it one wheel is left out */
-	int slip_ticks;
-	float collision_threshold; /* model-vs-wheel velocity innovation, averaged (vel_innov),
-	                            * beyond it for collision_ticks ticks: COLLISION [m/s] */
-	int collision_ticks;
-	bool calibrate; /* the wheels' scale errors learnt from the null space (EST_CAL_*) */
-	bool replay;    /* camera frames replayed from their capture time (false: applied
-	                 * at arrival, as if they had no latency; for comparison) */
+#define OMNI4_KEY(kind, section, key, field, ...) EST_SETTING_TYPE_##kind field;
+#include "omni4/est_keys.def"
+#undef OMNI4_KEY
 };
 
 /* One tick's inputs. */
@@ -119,19 +111,23 @@ struct est_output {
 	float wheel_scale[4]; /* learnt scale error k_j per wheel (ground = r w_j (1 + k_j)) */
 };
 
-/* One past tick as the camera replay needs it (private). */
+/* The kinds of late measurement (est_replay.h) a past tick can hold. */
+#define EST_LATE_NONE 0
+#define EST_LATE_POSE 1 /* a camera pose x, y [m], theta [rad] */
+
+/* One past tick as the replay of late measurements needs it (private). */
 struct est_tick {
 	int64_t utime;
 	float volts[4];
-	float wheel[4]; /* wheel linear speeds [m/s] */
-	float cam[3];   /* a camera pose captured at this tick (have_cam) */
-	uint8_t driven, have_wheels, have_cam, pad;
+	float wheel[4];  /* wheel linear speeds [m/s] */
+	float late_z[3]; /* the late measurement taken at this tick (late: its EST_LATE_ kind) */
+	uint8_t driven, have_wheels, late, pad;
 };
 
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
 
 struct est {
-	/* private: see est.c */
+	/* private: see est.c, est_replay.c, est_cal.c */
 	struct est_settings set;
 	float phi[3], gam[3];   /* per-tick velocity transition and input gain, bridges on */
 	float phic[3], gamc[3]; /* the same with the bridges off (A_coast) */
@@ -141,13 +137,17 @@ struct est {
 	float rc[3];            /* camera variance x, y, theta */
 	float qt;               /* heading variance per tick from EST_DRIFT_THETA */
 	float qo[2];            /* odometry variance per tick per m/s: position, heading */
-	float d, r, dt;
+	float
+	    Ax[4]; /* eq 23's off-diagonal A, unequal wheels: A[0][2], A[1][2], A[2][0], A[2][1] */
+	bool coupled; /* any Ax != 0 */
+	float d, dt;
+	float r[4]; /* each wheel's radius */
 	float s[6], P[6][6];
-	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*) */
+	float cal[4];             /* the wheels' scale errors in force (EST_CAL_*, est_cal.c) */
 	float cal_A[6], cal_b[3]; /* the calibration's normal equations (upper triangle) */
 	float cal_forget;         /* per tick */
 	struct est_output out;
-	struct est_tick hist[EST_HISTORY];
+	struct est_tick hist[EST_HISTORY]; /* est_replay.c */
 	struct {
 		float s[6], P[21]; /* upper triangle, row by row */
 	} snap[EST_HISTORY / EST_SNAP_EVERY];
@@ -160,12 +160,24 @@ struct est {
 
 /* The default noise and thresholds (the paper's camera, 1 kHz wheels). */
 void est_settings_defaults(struct est_settings *s);
+/* 0, or -EINVAL if a noise, gate or threshold is not > 0 (or not below 1e6) or ticks < 1. */
+int est_settings_check(const struct est_settings *s);
+/* The INI's settings ([estimator], est_keys.def) as the filter's floats. */
+void est_settings_from_keys(const struct est_keys *k, struct est_settings *s);
+/* Between two ticks: new noise figures and thresholds (the covariance and state stay). 0, or
+ * -EINVAL (est_settings_check; the settings in force stay). */
+int est_set_settings(struct est *e, const struct est_settings *s);
 /* Start at the origin, at rest, with a wide pose covariance. s NULL: the defaults. -EINVAL for a
  * bad model or rate, or settings with a noise, gate or threshold not > 0 or ticks < 1. */
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
              double rate_hz);
-/* Between two ticks: the model in force changed. */
+/* Between two ticks: the model in force changed (four equal wheels: p's r, Kv, Kt, R). */
 void est_set_model(struct est *e, const struct model_params *p);
+/* The same with each wheel's own r, Kv, Kt, R (w; dynamics.h): the prediction with each wheel's
+ * gain and the back-EMF coupling of unequal wheels, each reading with its wheel's radius. A bad
+ * model or wheel set is ignored (the one in force stays). */
+void est_set_model_wheels(struct est *e, const struct model_params *p,
+                          const struct model_wheels *w);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
 /* Fast loop, once per tick. */

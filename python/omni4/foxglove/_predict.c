@@ -14,6 +14,7 @@
  *     mode_drives of core's vocab.h): each drive and each coast-down is predicted from
  *     its start, so the difference shows the model's error over that run, not an old one.
  */
+#include <errno.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -50,6 +51,38 @@ int omni4_predictor_init(struct omni4_predictor *p, const double params[MODEL_PA
 	return plant_init(&p->pl, &mp);
 }
 
+/*
+ * The same with each wheel's own drive: wheels[16] = r_0..r_3, Kv_0..Kv_3, Kt_0..Kt_3, R_0..R_3
+ * (struct model_wheels' order), given to the plant as its per-wheel radii and motors. 0, or
+ * -EINVAL (not physical, or a wheel 50 % or more off the scalar: the plant's range).
+ */
+int omni4_predictor_init_wheels(struct omni4_predictor *p, const double params[MODEL_PARAMS_COUNT],
+				const double wheels[16])
+{
+	struct model_wheels w;
+	struct plant_floor f = {0};
+	int rc = omni4_predictor_init(p, params);
+
+	for (int j = 0; j < 4; j++) {
+		w.r[j] = wheels[j];
+		w.Kv[j] = wheels[4 + j];
+		w.Kt[j] = wheels[8 + j];
+		w.R[j] = wheels[12 + j];
+	}
+	if (rc || model_wheels_check(&w, NULL))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++) {
+		f.radius_error[j] = w.r[j] / p->pl.p.r - 1.0;
+		f.R_error[j] = w.R[j] / p->pl.p.R - 1.0;
+		f.Kv_error[j] = w.Kv[j] / p->pl.p.Kv - 1.0;
+	}
+	if (plant_set_floor(&p->pl, &f))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++)
+		p->pl.Kt_eff[j] = w.Kt[j]; /* the plant's floor ties Kt's error to Kv's */
+	return 0;
+}
+
 const char *omni4_predictor_param_name(int i)
 {
 	return (i >= 0 && i < MODEL_PARAMS_COUNT) ? model_params_names[i] : NULL;
@@ -57,7 +90,7 @@ const char *omni4_predictor_param_name(int i)
 
 /*
  * One motors_t sample: measured[3] gets the encoder velocity (eqs 3-5, wheel speeds [rad/s]
- * times r), predicted[3] the model's velocity at this sample's time. Returns 1 if the model
+ * times each wheel's r_j), predicted[3] the model's velocity at this sample's time. Returns 1 if the model
  * restarted from the encoders at this sample, 0 otherwise.
  */
 int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, int mode,
@@ -69,7 +102,7 @@ int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, 
 	int restart;
 
 	for (int j = 0; j < 4; j++)
-		vw[j] = (double)wheel_speed[j] * p->pl.p.r;
+		vw[j] = (double)wheel_speed[j] * p->pl.r_eff[j]; /* each wheel's own radius */
 	fk_robot_velocity(p->pl.p.d, vw, measured);
 
 	restart = !p->have || seq != p->seq + 1 || utime <= p->utime ||

@@ -32,6 +32,9 @@ def lib():
         L.omni4_predictor_size.restype = ctypes.c_size_t
         L.omni4_predictor_init.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)]
         L.omni4_predictor_init.restype = ctypes.c_int
+        L.omni4_predictor_init_wheels.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double),
+                                                  ctypes.POINTER(ctypes.c_double)]
+        L.omni4_predictor_init_wheels.restype = ctypes.c_int
         L.omni4_predictor_param_name.argtypes = [ctypes.c_int]
         L.omni4_predictor_param_name.restype = ctypes.c_char_p
         f32p = ctypes.POINTER(ctypes.c_float)
@@ -54,14 +57,22 @@ def lib():
 class Predictor:
     """Encoder velocity and model prediction for a stream of motors_t samples.
 
-    params: dict with the 14 [model] keys (SI units)."""
+    params: dict with the 14 [model] keys (SI units), and optionally a drive's own r_j, Kv_j,
+    Kt_j, R_j (MODEL_WHEEL_KEYS; a wheel without its key takes the scalar): the plant then has
+    each wheel's radius and motor, and the encoder velocity each wheel's radius."""
 
     def __init__(self, params):
         L = lib()
         self._buf = ctypes.create_string_buffer(L.omni4_predictor_size())
         vals = (ctypes.c_double * len(PARAM_NAMES))(*[float(params[k]) for k in PARAM_NAMES])
-        if L.omni4_predictor_init(self._buf, vals) != 0:
-            raise ValueError("model parameters are not physical (model_params_check)")
+        if any(k in params for k in MODEL_WHEEL_KEYS):
+            own = [float(params.get(k, params[k.split("_")[0]])) for k in MODEL_WHEEL_KEYS]
+            rc = L.omni4_predictor_init_wheels(self._buf, vals, (ctypes.c_double * 16)(*own))
+        else:
+            rc = L.omni4_predictor_init(self._buf, vals)
+        if rc != 0:
+            raise ValueError("model parameters are not physical (model_params_check, or a "
+                             "wheel's own value 50 % or more off its scalar)")
         self._u = (ctypes.c_float * 4)()
         self._w = (ctypes.c_float * 4)()
         self._meas = (ctypes.c_double * 3)()
@@ -103,8 +114,7 @@ def read_model(path):
     """[model] of the robot INI at path -> dict of the 14 parameters (docs/design.md: d r l Kv
     Kt R M J Bv Bvn Bw Cv Cvn Cw, SI units, all or none; none = Table III, as in the firmware).
     A drive's own r_j, Kv_j, Kt_j, R_j (docs/configuration.md) is checked (a number > 0, with
-    the 14) but not returned: the prediction is the paper's model, whose scalars hold the
-    wheels' mean. Other sections are the firmware's and are not looked at. Errors:
+    the 14) and returned beside them: the prediction drives each wheel with its own. Other sections are the firmware's and are not looked at. Errors:
     omni4.ini.ConfigError, one line FILE:LINE: ..."""
     f = ini.read(path)
     found = {}
@@ -126,8 +136,6 @@ def read_model(path):
         return table3()
     first = f"{path}:{min(f.line('model', k) or 0 for k in found)}"
     missing = [k for k in PARAM_NAMES if k not in found]
-    for k in MODEL_WHEEL_KEYS:
-        found.pop(k, None)
     if missing:
         raise ini.ConfigError(f"{first}: [model] lacks {' '.join(missing)} (all 14 keys or none)")
     try:

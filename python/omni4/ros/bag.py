@@ -36,13 +36,13 @@ TOPICS = {
 
 
 def _geometry(paths, params_path):
-    """d, r, l, Kt: Table III, then --params, then the log's first OMNI4_PARAM_CHANGED (found
+    """d, r, l, Kt and each wheel's radius: Table III, then --params, then the log's first OMNI4_PARAM_CHANGED (found
     by reading the log up to it: the controller announces its parameters at start)."""
     geo = dict(core.TABLE_III)
     if params_path:
         from .. import ini
         cfg = ini.read(params_path)
-        for k in geo:
+        for k in core.GEOMETRY_KEYS:
             sec, key = k.split(".")
             try:
                 geo[k] = float(cfg.section(sec)[key])
@@ -57,7 +57,7 @@ def _geometry(paths, params_path):
             except Exception:
                 continue
             for k, v in zip(m.keys, m.values):
-                if k in geo:
+                if k in core.GEOMETRY_KEYS:
                     geo[k] = float(v)
             return geo
     return geo

@@ -15,7 +15,10 @@ JOINT_NAMES = ("wheel_0_front_joint", "wheel_1_left_joint", "wheel_2_rear_joint"
                "wheel_3_right_joint")
 # Table III of the paper (docs/ini-keys.md defaults): used until the robot's own are read.
 TABLE_III = {"model.d": 0.089, "model.r": 0.0325, "model.l": 5.0, "model.Kt": 0.0259}
-GEOMETRY_KEYS = tuple(TABLE_III)
+# Each wheel's own radius ([model] r_0 .. r_3, docs/configuration.md "Per-wheel drives"): a
+# wheel without its key rolls on model.r.
+WHEEL_RADIUS_KEYS = tuple(f"model.r_{j}" for j in range(4))
+GEOMETRY_KEYS = tuple(TABLE_III) + WHEEL_RADIUS_KEYS
 LIMIT_KEYS = ("limits.vel_lin_max", "limits.vel_rot_max")
 
 # The mode and fault names, the latching bits, the fault states: core's vocab.def (every tool's).
@@ -33,15 +36,22 @@ SLIP_ROT_FRACTION = 0.02      # heading std dev grows by this fraction of the an
                               # (plus the linear slip over d)
 
 
+def _radii(r):
+    """r: one radius for the four wheels, or each wheel's own (four)."""
+    return tuple(float(x) for x in r) if hasattr(r, "__len__") else (float(r),) * 4
+
+
 def forward_kinematics(wheel_rad_s, d, r):
-    """Eqs 3-5: (v, vn, w) [m/s, m/s, rad/s] from the four wheel angular speeds [rad/s]."""
-    v0, v1, v2, v3 = (r * w for w in wheel_rad_s)
+    """Eqs 3-5: (v, vn, w) [m/s, m/s, rad/s] from the four wheel angular speeds [rad/s], each
+    wheel's rim speed with its radius (r: one, or four)."""
+    v0, v1, v2, v3 = (rj * w for rj, w in zip(_radii(r), wheel_rad_s))
     return (v3 - v1) / 2.0, (v0 - v2) / 2.0, (v0 + v1 + v2 + v3) / (4.0 * d)
 
 
 def inverse_kinematics(v, vn, w, d, r):
-    """Eq 2: the four wheel angular speeds [rad/s] of a robot velocity."""
-    return ((vn + d * w) / r, (-v + d * w) / r, (-vn + d * w) / r, (v + d * w) / r)
+    """Eq 2: the four wheel angular speeds [rad/s] of a robot velocity (r: one, or four)."""
+    rims = (vn + d * w, -v + d * w, -vn + d * w, v + d * w)
+    return tuple(x / rj for x, rj in zip(rims, _radii(r)))
 
 
 def yaw_quaternion(theta):
@@ -83,9 +93,14 @@ class WheelOdometry:
         for k, v in kv.items():
             self.geometry[k] = float(v)
 
+    def radii(self):
+        """Each wheel's radius in force: its own key, else model.r."""
+        r = self.geometry["model.r"]
+        return tuple(self.geometry.get(k, r) for k in WHEEL_RADIUS_KEYS)
+
     def step(self, m):
         """One motors_t (or anything with utime, seq, wheel_speed, current)."""
-        d, r = self.geometry["model.d"], self.geometry["model.r"]
+        d, r = self.geometry["model.d"], self.radii()
         torque_per_a = self.geometry["model.l"] * self.geometry["model.Kt"]
         ws = [float(w) for w in m.wheel_speed]
         if not all(math.isfinite(w) for w in ws):
@@ -120,7 +135,7 @@ class WheelOdometry:
 
     def twist_sigmas(self):
         """Std devs of (v, vn, w) of one sample from the wheel-speed noise through eqs 3-5."""
-        d, r = self.geometry["model.d"], self.geometry["model.r"]
+        d, r = self.geometry["model.d"], sum(self.radii()) / 4.0
         s = r * WHEEL_SPEED_SIGMA
         return s / math.sqrt(2.0), s / math.sqrt(2.0), s / (2.0 * d)
 

@@ -1,0 +1,33 @@
+/*
+ * est_priv.h - what the estimator's files share between themselves (not an interface): the
+ * filter's tick (est.c), the camera (est_camera.c), the replay of late measurements
+ * (est_replay.c), the wheel calibration (est_cal.c).
+ */
+#ifndef OMNI4_EST_PRIV_H
+#define OMNI4_EST_PRIV_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/est.h"
+
+/* est.c: one tick (predict, wheel update, the late measurement stored at it); live: the real
+ * tick (flags and outputs), not a replay. */
+void est_run_tick(struct est *e, const struct est_tick *t, bool live);
+/* est.c: mirror P's upper triangle into the lower. */
+void est_symmetrise(struct est *e);
+/* est.c: the camera pose z as three scalar updates (the upper triangle: then est_symmetrise). */
+void est_pose_update(struct est *e, const float z[3]);
+/* est.c: the state, covariance diagonal and wheel scales into e->out at utime. */
+void est_publish(struct est *e, int64_t utime);
+/* est.c: all n values finite. */
+bool est_all_finite(const float *v, int n);
+
+/* est_replay.c: the snapshot before tick n, when n is one the ring keeps. */
+void est_replay_snap(struct est *e, uint32_t n);
+
+/* est_cal.c: after the live tick n: a reading that fits a rigid body teaches the calibration;
+ * every EST_CAL_EVERY ticks the scale errors in force are solved again. */
+void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n);
+
+#endif /* OMNI4_EST_PRIV_H */
