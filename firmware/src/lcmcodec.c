@@ -2,6 +2,8 @@
  * pose_t and calibration notices out, through the generated types. */
 #include "omni4/lcmcodec.h"
 
+#include "omni4/goalcodec.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
@@ -28,6 +30,7 @@ SAME(CTL_VOLTAGE, OMNI4_MOTORS_T_MODE_VOLTAGE);
 SAME(CTL_COAST, OMNI4_MOTORS_T_MODE_COAST);
 SAME(CTL_FAULT, OMNI4_MOTORS_T_MODE_FAULT);
 SAME(CTL_ESTOP, OMNI4_MOTORS_T_MODE_ESTOP);
+SAME(CTL_GOAL, OMNI4_MOTORS_T_MODE_GOAL);
 SAME(CTL_IDLE, OMNI4_COMMAND_T_MODE_IDLE);
 SAME(CTL_VELOCITY, OMNI4_COMMAND_T_MODE_VELOCITY);
 SAME(CTL_VOLTAGE, OMNI4_COMMAND_T_MODE_VOLTAGE);
@@ -153,6 +156,9 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	if (e->kind == LOG_STATE) {
 		*channel = OMNI4_CHANNEL_STATE;
 		n = encode_state(e, buf, cap);
+	} else if (e->kind == LOG_GOAL) {
+		*channel = OMNI4_CHANNEL_GOAL_STATUS;
+		n = lcmio_encode_goal_status(e, buf, cap);
 	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);

@@ -6,7 +6,9 @@
  *
  * Modes (motors_t numbering): IDLE 0 (outputs off), VELOCITY 1 (feedforward + PI),
  * VOLTAGE 2 (per-channel voltage reached through a ramp), COAST 3 (H-bridges off),
- * FAULT 5 and ESTOP 6 (outputs off; left only by MODE_CLEAR_FAULT once the cause is gone).
+ * FAULT 5 and ESTOP 6 (outputs off; left only by MODE_CLEAR_FAULT once the cause is gone),
+ * GOAL 7 (VELOCITY's feedforward + PI on a reference the goal module hands in every tick:
+ * goal.h; entered by ctl_goal, never by a command).
  */
 #ifndef OMNI4_CTL_H
 #define OMNI4_CTL_H
@@ -28,6 +30,7 @@ enum ctl_mode {
 	CTL_CLEAR_FAULT = 4, /* command only */
 	CTL_FAULT = 5,
 	CTL_ESTOP = 6,
+	CTL_GOAL = 7,
 };
 
 /* The controller's fault and state bits (ctl_output.faults). Latching faults force CTL_FAULT
@@ -129,6 +132,9 @@ struct ctl {
 	float vel_target[3];
 	struct ctl_shaper shaper; /* shaped reference [m/s, m/s, rad/s] and its derivative */
 	struct ctl_pi pi[4];      /* PI on each wheel's linear speed */
+	/* GOAL: the reference of this tick (ctl_goal_reference), robot frame */
+	float goal_vel[3]; /* [m/s, m/s, rad/s] */
+	float goal_acc[3]; /* [m/s^2, m/s^2, rad/s^2] */
 	/* VOLTAGE ramp */
 	struct ctl_ramp ramp;
 	bool stopping; /* watchdog stop ramp in progress */
@@ -170,6 +176,23 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
  * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
                 q16_t inv_4d);
+
+/*
+ * Fast loop. Enter (or stay in) GOAL, as an accepted command does: a keep-alive for the
+ * watchdog. Bumpless: from VELOCITY the PI integrals are kept; from any other mode the
+ * reference starts at the measured velocity and the integrals at 0. -EPERM in FAULT or ESTOP
+ * (nothing changes).
+ */
+int ctl_goal(struct ctl *c, int64_t now_us);
+
+/* Fast loop, before ctl_step: the reference GOAL tracks in this tick (robot frame): velocity
+ * [m/s, m/s, rad/s] and its rate [m/s^2, m/s^2, rad/s^2]; the caller keeps it finite and
+ * within the command limits. Leaving GOAL for VELOCITY starts from it (bumpless). */
+void ctl_goal_reference(struct ctl *c, const float vel[3], const float acc[3]);
+
+/* Fast loop. Stop as the watchdog does: the outputs ramp to 0 V over stop_ramp_s, then IDLE.
+ * Only from VELOCITY or GOAL (elsewhere nothing changes). */
+void ctl_stop(struct ctl *c, int64_t now_us);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
 void ctl_flag(struct ctl *c, int32_t bits);
