@@ -93,8 +93,8 @@ static void take_params(struct fw *fw, int64_t now_us)
 
 	if (!u)
 		return;
-	const bool driving = fw->ctl.mode == CTL_VELOCITY || fw->ctl.mode == CTL_VOLTAGE ||
-	                     fw->ctl.mode == CTL_GOAL;
+	const bool driving =
+	    fw->ctl.mode == CTL_VELOCITY || fw->ctl.mode == CTL_VOLTAGE || fw->ctl.mode == CTL_GOAL;
 	int rc = 0;
 
 	if (u->idle_only && driving) {

@@ -16,6 +16,18 @@ static float wrap(float a)
 	return a - PI_F;
 }
 
+static float norm2(float x, float y)
+{
+	return sqrtf(x * x + y * y);
+}
+
+/* cos and sin of a (sin as a shifted cos: no sincosf, which the core's objects may not call). */
+static void cos_sin(float a, float *c, float *s)
+{
+	*c = cosf(a);
+	*s = cosf(a - 0.5f * PI_F);
+}
+
 static float clampf(float x, float lim)
 {
 	return x > lim ? lim : (x < -lim ? -lim : x);
@@ -81,7 +93,8 @@ static enum goal_reason check_fields(const struct goal_cmd *cmd)
 			if (!isfinite(cmd->poses[i][k]))
 				return GOAL_R_NOT_FINITE;
 	for (int i = 0; i < cmd->n; i++)
-		if (fabs(cmd->poses[i][0]) > GOAL_RANGE_M || fabs(cmd->poses[i][1]) > GOAL_RANGE_M ||
+		if (fabs(cmd->poses[i][0]) > GOAL_RANGE_M ||
+		    fabs(cmd->poses[i][1]) > GOAL_RANGE_M ||
 		    fabs(cmd->poses[i][2]) > GOAL_THETA_MAX_RAD)
 			return GOAL_R_OUT_OF_RANGE;
 	if (cmd->blend_m != 0.0 &&
@@ -101,7 +114,10 @@ static void plan_start(const struct goal *g, const struct ctl *c, const struct e
 		traj_eval(&g->tr, g->tr.t_s, from);
 		return;
 	}
-	const float th = est->pose[2], cs = cosf(th), sn = sinf(th);
+	const float th = est->pose[2];
+	float cs, sn;
+
+	cos_sin(th, &cs, &sn);
 
 	memset(from, 0, sizeof(*from));
 	memcpy(from->pose, est->pose, sizeof(from->pose));
@@ -136,19 +152,18 @@ static int start(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 {
 	enum goal_reason why = check_fields(cmd);
 
-	if (!why && (c->mode == CTL_FAULT || c->mode == CTL_ESTOP))
-		why = GOAL_R_FAULT;
 	if (!why && (!est || (est->flags & EST_FLAG_CAMERA_STALE)))
 		why = GOAL_R_NO_ESTIMATE;
 	if (!why)
 		why = plan_first(g, c, cmd, est, &g->scratch);
-	if (why || ctl_goal(c, now_us)) {
-		g->refused = (struct goal_report){.id = cmd->id,
-		                                  .status = GOAL_REFUSED,
-		                                  .reason = (int8_t)(why ? why : GOAL_R_FAULT),
-		                                  .n = cmd->n};
+	if (!why && ctl_goal(c, now_us)) /* FAULT or ESTOP */
+		why = GOAL_R_FAULT;
+	if (why) {
+		g->refused = (struct goal_report){
+		    .id = cmd->id, .status = GOAL_REFUSED, .reason = (int8_t)why, .n = cmd->n};
 		g->refused_pending = true;
-		return why == GOAL_R_FAULT ? -EPERM : (why == GOAL_R_UNREACHABLE ? -ERANGE : -EINVAL);
+		return why == GOAL_R_FAULT ? -EPERM
+		                           : (why == GOAL_R_UNREACHABLE ? -ERANGE : -EINVAL);
 	}
 	g->tr = g->scratch;
 	g->n = cmd->n;
@@ -204,8 +219,7 @@ static void follow_controller(struct goal *g, const struct ctl *c)
 }
 
 /* false if the estimate says stop: a collision, or odometry alone for too long. */
-static bool estimate_ok(struct goal *g, struct ctl *c, const struct est_output *est,
-                        int64_t now_us)
+static bool estimate_ok(struct goal *g, struct ctl *c, const struct est_output *est, int64_t now_us)
 {
 	enum goal_reason why = GOAL_R_NONE;
 
@@ -236,7 +250,7 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 		return;
 	const float *p = g->poses[g->index];
 
-	if (hypotf(ref->pose[0] - p[0], ref->pose[1] - p[1]) >= g->blend_m)
+	if (norm2(ref->pose[0] - p[0], ref->pose[1] - p[1]) >= g->blend_m)
 		return;
 	g->index++;
 	g->changed = true;
@@ -250,13 +264,17 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 static void track(struct goal *g, struct ctl *c, const struct est_output *est,
                   const struct traj_ref *ref)
 {
-	const float th = est->pose[2], cs = cosf(th), sn = sinf(th);
+	const float th = est->pose[2];
+	float cs, sn;
+
+	cos_sin(th, &cs, &sn);
 	const float e[3] = {ref->pose[0] - est->pose[0], ref->pose[1] - est->pose[1],
 	                    wrap(ref->pose[2] - th)};
 	const float vx = ref->vel[0] + g->kp_pos * e[0], vy = ref->vel[1] + g->kp_pos * e[1];
 	const float lin = (float)c->t.vel_lin_max, rot = (float)c->t.vel_rot_max;
 	float vel[3] = {cs * vx + sn * vy, -sn * vx + cs * vy, ref->vel[2] + g->kp_theta * e[2]};
-	const float vr = cs * ref->vel[0] + sn * ref->vel[1], vnr = -sn * ref->vel[0] + cs * ref->vel[1];
+	const float vr = cs * ref->vel[0] + sn * ref->vel[1],
+	            vnr = -sn * ref->vel[0] + cs * ref->vel[1];
 	const float w = ref->vel[2];
 	const float acc[3] = {cs * ref->acc[0] + sn * ref->acc[1] + w * vnr,
 	                      -sn * ref->acc[0] + cs * ref->acc[1] - w * vr, ref->acc[2]};
@@ -273,18 +291,18 @@ static void track(struct goal *g, struct ctl *c, const struct est_output *est,
 static void progress(struct goal *g, const struct est_output *est, const struct traj_ref *ref)
 {
 	const float *p = g->poses[g->index];
-	float dist = hypotf(p[0] - est->pose[0], p[1] - est->pose[1]);
+	float dist = norm2(p[0] - est->pose[0], p[1] - est->pose[1]);
 
 	for (int i = g->index + 1; i < g->n; i++)
-		dist += hypotf(g->poses[i][0] - g->poses[i - 1][0],
-		               g->poses[i][1] - g->poses[i - 1][1]);
+		dist +=
+		    norm2(g->poses[i][0] - g->poses[i - 1][0], g->poses[i][1] - g->poses[i - 1][1]);
 	g->rep.index = g->index;
 	g->rep.distance_m = dist;
 	g->rep.angle_rad = wrap(g->poses[g->n - 1][2] - est->pose[2]);
 	g->rep.time_to_go_s = fmaxf(0.0f, g->tr.duration_s - g->tr.t_s);
 	memcpy(g->rep.ref, ref->pose, sizeof(g->rep.ref));
 	memcpy(g->rep.ref_vel, ref->vel, sizeof(g->rep.ref_vel));
-	const float speed = hypotf(est->vel[0], est->vel[1]);
+	const float speed = norm2(est->vel[0], est->vel[1]);
 
 	if (active(g) && g->index == g->n - 1 && g->tr.t_s >= g->tr.duration_s &&
 	    dist < GOAL_REACHED_POS_M && fabsf(g->rep.angle_rad) < GOAL_REACHED_THETA_RAD &&

@@ -39,14 +39,13 @@ struct simrun {
 /* The field of simrun_stats a channel is counted in. */
 static uint64_t *stats_part(struct simrun_stats *st, const char *channel)
 {
-	static const char *const names[] = {OMNI4_CHANNEL_MOTORS,       OMNI4_CHANNEL_POSE,
-	                                    OMNI4_CHANNEL_CMD,          OMNI4_CHANNEL_STATE,
-	                                    OMNI4_CHANNEL_SIM_TRUTH,    OMNI4_CHANNEL_EXPERIMENT,
-	                                    OMNI4_CHANNEL_PARAM_CHANGED, OMNI4_CHANNEL_GOAL,
-	                                    OMNI4_CHANNEL_GOAL_STATUS};
-	uint64_t *const parts[] = {&st->motors, &st->pose,         &st->cmd,  &st->state,
-	                           &st->truth,  &st->experiment,   &st->calibrations,
-	                           &st->goal,   &st->goal_status};
+	static const char *const names[] = {
+	    OMNI4_CHANNEL_MOTORS,        OMNI4_CHANNEL_POSE,      OMNI4_CHANNEL_CMD,
+	    OMNI4_CHANNEL_STATE,         OMNI4_CHANNEL_SIM_TRUTH, OMNI4_CHANNEL_EXPERIMENT,
+	    OMNI4_CHANNEL_PARAM_CHANGED, OMNI4_CHANNEL_GOAL,      OMNI4_CHANNEL_GOAL_STATUS};
+	uint64_t *const parts[] = {&st->motors,       &st->pose,  &st->cmd,
+	                           &st->state,        &st->truth, &st->experiment,
+	                           &st->calibrations, &st->goal,  &st->goal_status};
 
 	for (size_t k = 0; k < sizeof(names) / sizeof(names[0]); k++)
 		if (!strcmp(channel, names[k]))

@@ -24,7 +24,7 @@
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
 #endif
 #define FW_CMD_RING_SLOTS 64
-#define FW_GOAL_RING_SLOTS 4 /* goals from a receive thread (a few keep-alives) */
+#define FW_GOAL_RING_SLOTS 4  /* goals from a receive thread (a few keep-alives) */
 #define FW_POSE_RING_SLOTS 16 /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
 #define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
 #define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
@@ -80,8 +80,8 @@ struct fw_pose {
 
 struct fw_counters {
 	uint64_t ticks;
-	uint64_t log_dropped;         /* ring full: samples lost (never blocks the loop) */
-	_Atomic uint32_t cmd_dropped; /* command mailbox full (wraps after 2^32) */
+	uint64_t log_dropped;          /* ring full: samples lost (never blocks the loop) */
+	_Atomic uint32_t cmd_dropped;  /* command mailbox full (wraps after 2^32) */
 	_Atomic uint32_t goal_dropped; /* goal mailbox full (wraps after 2^32) */
 	uint64_t read_errors;
 	uint64_t write_errors;
@@ -123,7 +123,7 @@ struct fw_param_result {
 
 struct fw {
 	struct ctl ctl;
-	struct est est; /* the state estimate (est.h), stepped after the controller */
+	struct est est;   /* the state estimate (est.h), stepped after the controller */
 	struct goal goal; /* position control (goal.h), stepped before the controller */
 	struct motor_hal motor;
 	struct line_hal lines;

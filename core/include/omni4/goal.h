@@ -48,7 +48,7 @@
 /* The traction limit the planner assumes until the identified one is in the settings. */
 #define GOAL_MU_DEFAULT 0.6
 #define GOAL_TRACTION_MARGIN 0.1
-#define GOAL_MARGIN_V 2.0             /* supply voltage kept for the feedback [V] */
+#define GOAL_MARGIN_V 2.0 /* supply voltage kept for the feedback [V] */
 #define GOAL_MOTOR_SPEED_MAX_RAD_S 600.0
 #define GOAL_ROT_SHARE 0.25
 
@@ -102,18 +102,18 @@ struct goal_report {
 
 struct goal {
 	struct traj tr;
-	struct traj scratch;  /* a new goal's plan before it is taken */
-	bool traj_ok;         /* traj_init took the limits: goals can be planned */
-	float speed_cap_m_s;  /* the limits' own cap (traj's coefficient when no goal caps it) */
+	struct traj scratch;    /* a new goal's plan before it is taken */
+	bool traj_ok;           /* traj_init took the limits: goals can be planned */
+	float speed_cap_m_s;    /* the limits' own cap (traj's coefficient when no goal caps it) */
 	float kp_pos, kp_theta; /* GOAL_KP_POS, GOAL_KP_THETA */
 	float poses[GOAL_POSES_MAX][3];
 	int n, index;
 	float blend_m;
-	struct goal_report rep;      /* the goal in force (or the last one) */
-	bool changed;                /* rep.status, reason or index changed (goal_report) */
-	struct goal_report refused;  /* the last goal refused (goal_take_refused) */
+	struct goal_report rep;     /* the goal in force (or the last one) */
+	bool changed;               /* rep.status, reason or index changed (goal_report) */
+	struct goal_report refused; /* the last goal refused (goal_take_refused) */
 	bool refused_pending;
-	int64_t stale_since_us;      /* CAMERA_STALE seen since (0: not stale) */
+	int64_t stale_since_us; /* CAMERA_STALE seen since (0: not stale) */
 };
 
 /* Start-up or new parameters (double arithmetic: not the fast loop). The planner's limits
