@@ -44,7 +44,7 @@ REASONS = {
     S.REASON_REPLACED: "a command took over",
     S.REASON_CANCELLED: "cancelled",
 }
-STATUS_TIMEOUT_S = 1.0       # no goal_status_t about the goal for this long: TimeoutError
+STATUS_TIMEOUT_S = 5.0       # no goal_status_t about the goal for this long: TimeoutError
 _ids = itertools.count(1)
 
 
