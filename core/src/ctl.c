@@ -179,7 +179,7 @@ int ctl_command(struct ctl *c, const struct ctl_command *cmd, int64_t now_us)
 		c->stopping = false;
 		break;
 	case CTL_VELOCITY:
-		if (c->mode != CTL_VELOCITY) {
+		if (c->mode != CTL_VELOCITY && c->mode != CTL_GOAL) {
 			/* Bumpless start: the reference begins at the measured velocity. */
 			ctl_shaper_reset(&c->shaper, c->x_est);
 			for (int j = 0; j < 4; j++)
@@ -269,6 +269,16 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 	return f;
 }
 
+/* The stop ramp: from the present outputs to 0 V over stop_ramp_s, then IDLE. */
+static void stop_ramp(struct ctl *c, int64_t now_us)
+{
+	static const float zero[4] = {0, 0, 0, 0};
+
+	ctl_ramp_start(&c->ramp, c->out, zero, c->t.stop_ramp_s, now_us);
+	c->mode = CTL_VOLTAGE;
+	c->stopping = true;
+}
+
 static void watchdog(struct ctl *c, int64_t now_us)
 {
 	/* stopping: the watchdog's own stop ramp already runs */
@@ -282,11 +292,40 @@ static void watchdog(struct ctl *c, int64_t now_us)
 		c->mode = CTL_IDLE;
 		return;
 	}
-	static const float zero[4] = {0, 0, 0, 0};
+	stop_ramp(c, now_us);
+}
 
-	ctl_ramp_start(&c->ramp, c->out, zero, c->t.stop_ramp_s, now_us);
-	c->mode = CTL_VOLTAGE;
-	c->stopping = true;
+int ctl_goal(struct ctl *c, int64_t now_us)
+{
+	if (c->mode == CTL_FAULT || c->mode == CTL_ESTOP)
+		return -EPERM;
+	if (c->mode != CTL_GOAL && c->mode != CTL_VELOCITY) {
+		ctl_shaper_reset(&c->shaper, c->x_est);
+		for (int j = 0; j < 4; j++)
+			ctl_pi_reset(&c->pi[j]);
+	}
+	if (c->mode != CTL_GOAL) {
+		memcpy(c->goal_vel, c->shaper.ref, sizeof(c->goal_vel));
+		memset(c->goal_acc, 0, sizeof(c->goal_acc));
+	}
+	c->mode = CTL_GOAL;
+	c->stopping = false;
+	c->last_cmd_us = now_us;
+	c->warnings &= ~(CTL_FAULT_CMD_TIMEOUT | CTL_FAULT_CMD_REJECTED);
+	c->n.cmd_accepted++;
+	return 0;
+}
+
+void ctl_goal_reference(struct ctl *c, const float vel[3], const float acc[3])
+{
+	memcpy(c->goal_vel, vel, sizeof(c->goal_vel));
+	memcpy(c->goal_acc, acc, sizeof(c->goal_acc));
+}
+
+void ctl_stop(struct ctl *c, int64_t now_us)
+{
+	if (c->mode == CTL_VELOCITY || c->mode == CTL_GOAL)
+		stop_ramp(c, now_us);
 }
 
 static void voltage_mode(struct ctl *c, int64_t now_us)
@@ -299,14 +338,11 @@ static void voltage_mode(struct ctl *c, int64_t now_us)
 	}
 }
 
-static void velocity_mode(struct ctl *c, const struct motor_sample *s)
+/* VELOCITY and GOAL: feedforward + PI on the reference in c->shaper (ref, acc). */
+static void track(struct ctl *c, const struct motor_sample *s)
 {
 	q16_t ref_q[3], acc_q[3], ff_q[4], wheel_ref_q[4];
-	float prev[3];
 
-	memcpy(prev, c->shaper.ref, sizeof(prev));
-	ctl_shaper_step(&c->shaper, c->vel_target);
-	traction_step(&c->trac, prev, c->shaper.ref, c->shaper.acc, c->slipping);
 	for (int k = 0; k < 3; k++) {
 		ref_q[k] = q16_from_float(c->shaper.ref[k]);
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
@@ -348,6 +384,24 @@ static void velocity_mode(struct ctl *c, const struct motor_sample *s)
 			if (taken[j] != 0.0f)
 				c->pi[j].integ = integ[j];
 	}
+}
+
+static void velocity_mode(struct ctl *c, const struct motor_sample *s)
+{
+	float prev[3];
+
+	memcpy(prev, c->shaper.ref, sizeof(prev));
+	ctl_shaper_step(&c->shaper, c->vel_target);
+	traction_step(&c->trac, prev, c->shaper.ref, c->shaper.acc, c->slipping);
+	track(c, s);
+}
+
+/* GOAL: the goal's reference replaces the shaper's (so VELOCITY starts from it). */
+static void goal_mode(struct ctl *c, const struct motor_sample *s)
+{
+	memcpy(c->shaper.ref, c->goal_vel, sizeof(c->goal_vel));
+	memcpy(c->shaper.acc, c->goal_acc, sizeof(c->goal_acc));
+	track(c, s);
 }
 
 /* A reading the offset calibration may take: complete, finite, off the rail, no driver-side
@@ -410,6 +464,8 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 		voltage_mode(c, now_us);
 	else if (c->mode == CTL_VELOCITY)
 		velocity_mode(c, s);
+	else if (c->mode == CTL_GOAL)
+		goal_mode(c, s);
 
 	const bool on = mode_drives(c->mode);
 

@@ -25,6 +25,9 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	est_set_model_wheels(&fw->est, &cfg->model, &w);
 	spsc_init(&fw->pose_ring, fw->pose_buf, FW_POSE_RING_SLOTS, sizeof(fw->pose_buf[0]));
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
+	spsc_init(&fw->goal_ring, fw->goal_buf, FW_GOAL_RING_SLOTS, sizeof(fw->goal_buf[0]));
+	atomic_init(&fw->n.goal_dropped, 0);
+	goal_init(&fw->goal, cfg);
 	spsc_init(&fw->log_ring, fw->log_buf, FW_LOG_RING_SLOTS, sizeof(fw->log_buf[0]));
 	atomic_init(&fw->halted, false);
 	atomic_init(&fw->param_pending, NULL);
@@ -107,6 +110,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 		est_set_model_wheels(&fw->est, &u->set.model, &w);
 		est_settings_from_keys(&u->set.est, &es);
 		est_set_settings(&fw->est, &es);
+		goal_init(&fw->goal, &u->set);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
@@ -138,6 +142,14 @@ bool fw_post_command(struct fw *fw, const struct ctl_command *cmd)
 	if (spsc_push(&fw->cmd_ring, cmd))
 		return true;
 	atomic_fetch_add(&fw->n.cmd_dropped, 1);
+	return false;
+}
+
+bool fw_post_goal(struct fw *fw, const struct goal_cmd *goal)
+{
+	if (spsc_push(&fw->goal_ring, goal))
+		return true;
+	atomic_fetch_add(&fw->n.goal_dropped, 1);
 	return false;
 }
 
@@ -259,6 +271,35 @@ static void take_commands(struct fw *fw, int64_t now_us)
 	}
 }
 
+static void push_goal(struct fw *fw, int64_t now_us, const struct goal_report *r)
+{
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_GOAL};
+
+	e.goal = *r;
+	log_push(fw, &e);
+}
+
+/* Goals waiting in the mailbox, in order (each refusal reported), then the goal's tick: its
+ * reference for this tick's controller step. The estimate is the last tick's. */
+static void run_goal(struct fw *fw, int64_t now_us)
+{
+	const struct est_output *est = fw->no_estimate ? NULL : est_get(&fw->est);
+	const struct goal_report *r;
+	struct goal_cmd g;
+	bool changed;
+
+	while (spsc_pop(&fw->goal_ring, &g)) {
+		goal_command(&fw->goal, &fw->ctl, &g, est, now_us);
+		r = goal_take_refused(&fw->goal);
+		if (r)
+			push_goal(fw, now_us, r);
+	}
+	goal_step(&fw->goal, &fw->ctl, est, now_us);
+	r = goal_report(&fw->goal, &changed);
+	if (changed || (r->status == GOAL_ACTIVE && fw->seq % fw->state_every == 0))
+		push_goal(fw, now_us, r);
+}
+
 /* The controller's output to the HAL (nothing but 0 V, bridges off, once halted). */
 static void drive(struct fw *fw, struct ctl_output *out)
 {
@@ -306,6 +347,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 
 	take_params(fw, now_us); /* between ticks: the whole tick below runs on one set */
 	take_commands(fw, now_us);
+	run_goal(fw, now_us);
 	if (hal_line_read_estop(&fw->lines, &estop) < 0)
 		estop = true; /* an unreadable e-stop line is a pressed e-stop */
 

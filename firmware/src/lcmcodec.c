@@ -2,6 +2,8 @@
  * pose_t and calibration notices out, through the generated types. */
 #include "omni4/lcmcodec.h"
 
+#include "omni4/goalcodec.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
@@ -136,6 +138,9 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	if (e->kind == LOG_STATE) {
 		*channel = OMNI4_CHANNEL_STATE;
 		n = encode_state(e, buf, cap);
+	} else if (e->kind == LOG_GOAL) {
+		*channel = OMNI4_CHANNEL_GOAL_STATUS;
+		n = lcmio_encode_goal_status(e, buf, cap);
 	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);

@@ -2,6 +2,7 @@
  * controller (lcmio.h); the bytes are lcmcodec's. */
 #include "omni4/lcmio.h"
 
+#include "omni4/goalcodec.h"
 #include "omni4/rtloop.h"
 
 #include <errno.h>
@@ -47,6 +48,21 @@ static void on_command(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		return;
 	}
 	fw_post_command(io->fw, &cmd);
+}
+
+/* Receive thread: a goal for the loop (too many poses: passed on as a goal refused as out of
+ * range, so its sender hears why). */
+static void on_goal(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	struct lcmio *io = user;
+	struct goal_cmd g;
+
+	(void)channel;
+	if (lcmio_decode_goal(rbuf->data, rbuf->data_size, &g) == -EINVAL) {
+		atomic_fetch_add(&io->rx_bad, 1);
+		return;
+	}
+	fw_post_goal(io->fw, &g);
 }
 
 static void *rx_main(void *arg)
@@ -189,9 +205,15 @@ int lcmio_start_watching(struct lcmio *io, lcm_t *lcm, struct fw *fw,
 	io->sub = lcm_subscribe(lcm, OMNI4_CHANNEL_CMD, on_command, io);
 	if (!io->sub)
 		return -EIO;
+	io->goal_sub = lcm_subscribe(lcm, OMNI4_CHANNEL_GOAL, on_goal, io);
+	if (!io->goal_sub) {
+		lcm_unsubscribe(lcm, io->sub);
+		return -EIO;
+	}
 	if (foreign) {
 		io->motors_sub = lcm_subscribe(lcm, OMNI4_CHANNEL_MOTORS, on_motors, io);
 		if (!io->motors_sub) {
+			lcm_unsubscribe(lcm, io->goal_sub);
 			lcm_unsubscribe(lcm, io->sub);
 			return -EIO;
 		}
@@ -218,6 +240,7 @@ err_rx:
 err_unsub:
 	if (io->motors_sub)
 		lcm_unsubscribe(lcm, io->motors_sub);
+	lcm_unsubscribe(lcm, io->goal_sub);
 	lcm_unsubscribe(lcm, io->sub);
 	return -rc;
 }
@@ -233,6 +256,7 @@ void lcmio_stop(struct lcmio *io)
 		lcm_unsubscribe(io->lcm, io->motors_sub);
 	if (io->pose_sub)
 		lcm_unsubscribe(io->lcm, io->pose_sub);
+	lcm_unsubscribe(io->lcm, io->goal_sub);
 	lcm_unsubscribe(io->lcm, io->sub);
 	io->started = 0;
 }

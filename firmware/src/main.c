@@ -112,7 +112,10 @@ static void on_calibration(void *ctx, const struct log_entry *e)
 
 static void tick(void *ctx, int64_t now_us)
 {
-	fw_tick(ctx, now_us);
+	struct robot *r = ctx;
+
+	robot_sim_follow_clock(r, now_us);
+	fw_tick(&r->fw, now_us);
 }
 
 struct options {
@@ -317,7 +320,7 @@ static int run_loop(struct app *app, const struct omni4_config *cfg, const struc
 	const struct fw_settings *f = &cfg->fw;
 	const int rc =
 	    rtloop_start(loop, cfg->ctl.rate_hz, f->loop.sched_fifo ? f->loop.priority : 0, 0, tick,
-	                 &app->robot.fw);
+	                 &app->robot);
 	char what[256];
 
 	if (rc) {

@@ -189,6 +189,16 @@ static int start_controller(struct robot *r, const struct robot_spec *spec, char
 	return 0;
 }
 
+void robot_sim_follow_clock(struct robot *r, int64_t now_us)
+{
+	if (r->motor_kind != OMNI4_MOTOR_SIM)
+		return;
+	const int64_t base = now_us - r->sim.t_us - r->sim.period_us;
+
+	sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw, base);
+	sim_motor_set_truth_cb(&r->sim, on_sim_truth, &r->fw, base);
+}
+
 int robot_open(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	memset(r, 0, sizeof(*r));

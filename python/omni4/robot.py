@@ -47,6 +47,7 @@ import lcm
 from . import _vocab
 from . import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, DEFAULT_LCM_URL, command_t,
                motors_t, param_changed_t)
+from .goal import GoalMixin
 
 DEFAULT_KEEPALIVE_S = 0.05   # re-send period [s]; the controller's default watchdog is 200 ms
 RX_POLL_MS = 50              # receive thread's wait per LCM handle call [ms]
@@ -120,7 +121,7 @@ def clear_refusal_reason(m):
     return f"still {mode}: " + "; ".join(why)
 
 
-class Robot:
+class Robot(GoalMixin):
     """One robot on one LCM URL. Thread-safe; close() (or the with block) ends it.
 
     url: LCM URL of the robot's bus (DEFAULT_LCM_URL: udpm on this host, ttl=0).
@@ -181,6 +182,7 @@ class Robot:
                                     daemon=True)
         self._rx.start()
         self._ka.start()
+        self._goal_setup()                     # go_to / follow (goal.py)
         if self._limits is None:               # the first command need not wait a round trip
             threading.Thread(target=self._known_limits, name="omni4-robot-limits",
                              daemon=True).start()
@@ -371,9 +373,16 @@ class Robot:
             if n >= 3 and since >= max(CONFIRM_MIN_S, CONFIRM_TICKS * self._period_s):
                 return m
 
+    def _forget_command(self):
+        """A goal replaces the command kept alive (nothing sent)."""
+        with self._lock:
+            self._cmd = None
+            self._pending = None
+
     def _command(self, msg, keep_alive, wait=False):
         if self._closed.is_set():
             raise RuntimeError("omni4.Robot: closed")
+        self._forget_goal()                    # a command replaces the goal
         track = msg.mode in _vocab.KEPT_ALIVE_MODES
         with self._lock:
             self._cmd = msg if keep_alive and msg.mode in _vocab.KEPT_ALIVE_MODES else None
@@ -565,6 +574,7 @@ class Robot:
                     self._cmd = None
         finally:
             self._closed.set()
+            self._goal_close()
             self._wake.set()
             for t in (self._ka, self._rx):
                 if t is not threading.current_thread():

@@ -12,7 +12,7 @@ from omni4 import _cli
 BIN = os.path.dirname(sys.executable)     # the console scripts beside the venv's python
 PYPROJECT = os.path.join(os.path.dirname(__file__), "..", "pyproject.toml")
 TOOLS = ("omni4-param", "omni4-bridge", "omni4-mcap", "omni4-status", "omni4-teleop", "omni4-ros",
-         "omni4-rosbag")
+         "omni4-rosbag", "omni4-goto")
 
 
 def tool(name):

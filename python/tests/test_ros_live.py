@@ -438,6 +438,43 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
     assert j.position[3] > 0.9 * dist / 0.0325 and j.position[1] < -0.9 * dist / 0.0325
 
 
+def test_goal_pose_sent_once_is_reached(stack):
+    """RViz's 2D Goal Pose: one PoseStamped on /goal_pose; omni4-ros keeps the goal alive on
+    the bus until the controller says REACHED on /goal_status; /odom (the controller's
+    estimate) is then at the pose."""
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped
+    got = []
+    node = stack.ros.node
+    sub = node.create_subscription(DiagnosticStatus, "/goal_status", got.append, 10)
+    pub = node.create_publisher(PoseStamped, "/goal_pose", 10)
+    try:
+        end = time.monotonic() + 10 * WAIT
+        while pub.get_subscription_count() < 1 and time.monotonic() < end:
+            time.sleep(0.05)
+        x0, y0, _ = _odom_xy_th(stack.ros.latest("odom", 5))
+        goal = (x0 + 0.3, y0 - 0.2, 0.8)
+        m = PoseStamped()
+        m.header.frame_id = "odom"
+        m.pose.position.x, m.pose.position.y = goal[0], goal[1]
+        m.pose.orientation.z, m.pose.orientation.w = math.sin(goal[2] / 2), math.cos(goal[2] / 2)
+        pub.publish(m)
+        end = time.monotonic() + 20 * WAIT
+        final = None
+        while final is None and time.monotonic() < end:
+            done = [s for s in list(got) if _value(s, "status") != "ACTIVE"]
+            final = done[0] if done else None
+            time.sleep(0.05)
+        assert final is not None, f"no end of the goal on /goal_status ({len(got)} messages)"
+        assert _value(final, "status") == "REACHED", final.message
+        x, y, th = _odom_xy_th(stack.ros.latest("odom", 5, after=time.monotonic()))
+        assert math.hypot(x - goal[0], y - goal[1]) < 0.02
+        assert abs(math.remainder(th - goal[2], 2 * math.pi)) < math.radians(2)
+    finally:
+        node.destroy_subscription(sub)
+        node.destroy_publisher(pub)
+
+
 def test_cmd_vel_that_stops_coming_stops_the_robot(stack):
     ros, bus = stack.ros, stack.bus
     _, last_mono = ros.drive(1.0, v=V)
@@ -683,3 +720,4 @@ def test_odometry_from_the_controllers_state_when_it_comes(stack, tmp_path):
         assert _diag_status(a, "omni4: odometry").message.startswith("from wheels")
     finally:
         out.close()
+

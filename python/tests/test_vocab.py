@@ -67,15 +67,15 @@ def _with_rows(extra_vocab="", extra_backends=""):
     return g, out
 
 
-def test_a_goal_mode_is_one_row():
-    g, v = _with_rows('OMNI4_MODE(GOAL, 7, BOTH, 1, 1, 0, "drive to a pose")\n')
+def test_a_mode_is_one_row():
+    g, v = _with_rows('OMNI4_MODE(DOCK, 8, BOTH, 1, 1, 0, "drive onto the charger")\n')
     ns = {}
     exec(g.python_module(vocab=v), ns)  # noqa: S102 (the generator's own output)
-    assert ns["MODES"]["GOAL"] == 7 and ns["mode_name"](7) == "GOAL"
-    assert 7 in ns["DRIVEN_MODES"] and 7 in ns["KEPT_ALIVE_MODES"]
-    assert 7 in ns["COMMAND_MODES"] and 7 in ns["REPORTED_MODES"]
-    assert 7 not in ns["FAULTED_MODES"]
-    assert "| GOAL | 7 | command_t, motors_t | yes | yes |  | drive to a pose |" in \
+    assert ns["MODES"]["DOCK"] == 8 and ns["mode_name"](8) == "DOCK"
+    assert 8 in ns["DRIVEN_MODES"] and 8 in ns["KEPT_ALIVE_MODES"]
+    assert 8 in ns["COMMAND_MODES"] and 8 in ns["REPORTED_MODES"]
+    assert 8 not in ns["FAULTED_MODES"]
+    assert "| DOCK | 8 | command_t, motors_t | yes | yes |  | drive onto the charger |" in \
         g.markdown(vocab=v)
 
 

@@ -10,6 +10,7 @@
 #include <time.h>
 
 #include "omni4/eventlog.h"
+#include "omni4/goalcodec.h"
 #include "omni4/lcmcodec.h"
 #include "omni4/robot.h"
 #include "omni4_motors_t.h"
@@ -38,12 +39,13 @@ struct simrun {
 /* The field of simrun_stats a channel is counted in. */
 static uint64_t *stats_part(struct simrun_stats *st, const char *channel)
 {
-	static const char *const names[] = {OMNI4_CHANNEL_MOTORS,       OMNI4_CHANNEL_POSE,
-	                                    OMNI4_CHANNEL_CMD,          OMNI4_CHANNEL_STATE,
-	                                    OMNI4_CHANNEL_SIM_TRUTH,    OMNI4_CHANNEL_EXPERIMENT,
-	                                    OMNI4_CHANNEL_PARAM_CHANGED};
-	uint64_t *const parts[] = {&st->motors, &st->pose,       &st->cmd,         &st->state,
-	                           &st->truth,  &st->experiment, &st->calibrations};
+	static const char *const names[] = {
+	    OMNI4_CHANNEL_MOTORS,        OMNI4_CHANNEL_POSE,      OMNI4_CHANNEL_CMD,
+	    OMNI4_CHANNEL_STATE,         OMNI4_CHANNEL_SIM_TRUTH, OMNI4_CHANNEL_EXPERIMENT,
+	    OMNI4_CHANNEL_PARAM_CHANGED, OMNI4_CHANNEL_GOAL,      OMNI4_CHANNEL_GOAL_STATUS};
+	uint64_t *const parts[] = {&st->motors,       &st->pose,  &st->cmd,
+	                           &st->state,        &st->truth, &st->experiment,
+	                           &st->calibrations, &st->goal,  &st->goal_status};
 
 	for (size_t k = 0; k < sizeof(names) / sizeof(names[0]); k++)
 		if (!strcmp(channel, names[k]))
@@ -276,6 +278,21 @@ int simrun_command(struct simrun *sr, const void *data, size_t len)
 	if (rc)
 		return rc;
 	fw_post_command(&sr->robot.fw, &cmd);
+	return 0;
+}
+
+int simrun_goal(struct simrun *sr, const void *data, size_t len)
+{
+	struct goal_cmd g;
+	const int rc = lcmio_decode_goal(data, len, &g);
+
+	if (write_event(sr, OMNI4_CHANNEL_GOAL, simrun_now_us(sr), data, len) == 0)
+		count_channel(sr, OMNI4_CHANNEL_GOAL);
+	else
+		sr->st.log_errors++;
+	if (rc == -EINVAL)
+		return rc;
+	fw_post_goal(&sr->robot.fw, &g);
 	return 0;
 }
 

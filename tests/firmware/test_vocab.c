@@ -1,6 +1,6 @@
 /* Tests for core's vocab.h and drivers' backends.h: the predicates and enums the rows of
  * vocab.def and backends.def expand to, against the contract written out here (docs/design.md's
- * wire values), and a goal mode and a serial backend added as one row each (rows/). */
+ * wire values), and a docking mode and a serial backend added as one row each (rows/). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -9,7 +9,7 @@
 
 #include <cmocka.h>
 
-#define OMNI4_VOCAB_DEF "vocab_goal.def"
+#define OMNI4_VOCAB_DEF "vocab_dock.def"
 #define OMNI4_BACKENDS_DEF "backends_serial.def"
 #include "omni4/backends.h"
 #include "omni4/vocab.h"
@@ -28,7 +28,8 @@ static const struct mode_row contract[] = {
     {"CLEAR_FAULT", false, false, false, true, false},
     {"FAULT", false, false, true, false, true},
     {"ESTOP", false, false, true, false, true},
-    {"GOAL", true, true, false, true, true}, /* the row rows/vocab_goal.def adds */
+    {"GOAL", true, true, false, false, true},
+    {"DOCK", true, true, false, true, true}, /* the row rows/vocab_dock.def adds */
 };
 
 static void test_every_mode_answers_as_the_contract_says(void **state)
@@ -45,12 +46,13 @@ static void test_every_mode_answers_as_the_contract_says(void **state)
 		assert_int_equal(vocab_mode_in(CTL_MODES_REPORTED, m), r->reported);
 	}
 	assert_int_equal(CTL_GOAL, 7);
+	assert_int_equal(CTL_DOCK, 8);
 }
 
 static void test_values_without_a_row_are_no_mode(void **state)
 {
 	(void)state;
-	const int none[] = {-1, 8, 31, 32, 127, -128};
+	const int none[] = {-1, 9, 31, 32, 127, -128};
 
 	for (size_t i = 0; i < sizeof(none) / sizeof(none[0]); i++) {
 		assert_null(mode_name(none[i]));

@@ -106,6 +106,9 @@ struct ctl {
 	struct ctl_pi pi[4];      /* PI on each wheel's linear speed */
 	struct traction trac;     /* the shaper's traction limit ([limits] traction_mu) */
 	bool slipping;            /* the estimator's slip flag of the last tick */
+	/* GOAL: the reference of this tick (ctl_goal_reference), robot frame */
+	float goal_vel[3]; /* [m/s, m/s, rad/s] */
+	float goal_acc[3]; /* [m/s^2, m/s^2, rad/s^2] */
 	/* VOLTAGE ramp */
 	struct ctl_ramp ramp;
 	bool stopping; /* watchdog stop ramp in progress */
@@ -150,6 +153,23 @@ void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q
 
 /* Between two ticks: the estimator's slip flag (the traction limit backs off while it is set). */
 void ctl_set_slip(struct ctl *c, bool slipping);
+
+/*
+ * Fast loop. Enter (or stay in) GOAL, as an accepted command does: a keep-alive for the
+ * watchdog. Bumpless: from VELOCITY the PI integrals are kept; from any other mode the
+ * reference starts at the measured velocity and the integrals at 0. -EPERM in FAULT or ESTOP
+ * (nothing changes).
+ */
+int ctl_goal(struct ctl *c, int64_t now_us);
+
+/* Fast loop, before ctl_step: the reference GOAL tracks in this tick (robot frame): velocity
+ * [m/s, m/s, rad/s] and its rate [m/s^2, m/s^2, rad/s^2]; the caller keeps it finite and
+ * within the command limits. Leaving GOAL for VELOCITY starts from it (bumpless). */
+void ctl_goal_reference(struct ctl *c, const float vel[3], const float acc[3]);
+
+/* Fast loop. Stop as the watchdog does: the outputs ramp to 0 V over stop_ramp_s, then IDLE.
+ * Only from VELOCITY or GOAL (elsewhere nothing changes). */
+void ctl_stop(struct ctl *c, int64_t now_us);
 
 /* Flag bits raised outside the controller (log overflow, overrun): reported until cleared. */
 void ctl_flag(struct ctl *c, int32_t bits);

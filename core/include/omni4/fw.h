@@ -16,6 +16,7 @@
 #include "omni4/ctl.h"
 #include "omni4/ctl_settings.h"
 #include "omni4/est.h"
+#include "omni4/goal.h"
 #include "omni4/hal.h"
 #include "omni4/ring.h"
 
@@ -23,11 +24,19 @@
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
 #endif
 #define FW_CMD_RING_SLOTS 64
+#define FW_GOAL_RING_SLOTS 4  /* goals from a receive thread (a few keep-alives) */
 #define FW_POSE_RING_SLOTS 16 /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
 #define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
 #define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
 
-enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4, LOG_TRUTH = 5 };
+enum log_kind {
+	LOG_MOTORS = 1,
+	LOG_POSE = 2,
+	LOG_CALIBRATION = 3,
+	LOG_STATE = 4,
+	LOG_TRUTH = 5,
+	LOG_GOAL = 6,
+};
 
 /*
  * One log ring entry, not yet encoded: a motors_t sample (currents with the offsets in force
@@ -41,6 +50,8 @@ enum log_kind { LOG_MOTORS = 1, LOG_POSE = 2, LOG_CALIBRATION = 3, LOG_STATE = 4
  * LOG_TRUTH (simulators only: the plant's true state after the tick's step, sim_truth_t):
  * pose[] the world pose, voltage[0..2] the robot-frame velocity [v, vn, w], current[] the
  * wheel slip velocities [m/s], faults the truth flags; seq the tick.
+ * LOG_GOAL: the goal's progress (goal: a goal_status_t), at the rate of LOG_STATE while a goal
+ * is tracked, at every change of its status or pose aimed at, and for every goal refused.
  */
 struct log_entry {
 	int64_t utime;
@@ -57,6 +68,7 @@ struct log_entry {
 			double pose[3];
 		};
 		struct est_output state; /* LOG_STATE */
+		struct goal_report goal; /* LOG_GOAL */
 	};
 };
 
@@ -68,8 +80,9 @@ struct fw_pose {
 
 struct fw_counters {
 	uint64_t ticks;
-	uint64_t log_dropped;         /* ring full: samples lost (never blocks the loop) */
-	_Atomic uint32_t cmd_dropped; /* command mailbox full (wraps after 2^32) */
+	uint64_t log_dropped;          /* ring full: samples lost (never blocks the loop) */
+	_Atomic uint32_t cmd_dropped;  /* command mailbox full (wraps after 2^32) */
+	_Atomic uint32_t goal_dropped; /* goal mailbox full (wraps after 2^32) */
 	uint64_t read_errors;
 	uint64_t write_errors;
 	uint64_t overruns; /* ticks that started a whole period or more late (FAULT_OVERRUN) */
@@ -110,7 +123,8 @@ struct fw_param_result {
 
 struct fw {
 	struct ctl ctl;
-	struct est est; /* the state estimate (est.h), stepped after the controller */
+	struct est est;   /* the state estimate (est.h), stepped after the controller */
+	struct goal goal; /* position control (goal.h), stepped before the controller */
 	struct motor_hal motor;
 	struct line_hal lines;
 	struct spsc_ring cmd_ring;
@@ -141,6 +155,8 @@ struct fw {
 	struct spsc_ring pose_ring;
 	struct fw_pose pose_buf[FW_POSE_RING_SLOTS];
 	struct ctl_command cmd_buf[FW_CMD_RING_SLOTS];
+	struct spsc_ring goal_ring;
+	struct goal_cmd goal_buf[FW_GOAL_RING_SLOTS];
 	struct log_entry log_buf[FW_LOG_RING_SLOTS];
 };
 
@@ -153,6 +169,9 @@ void fw_tick(struct fw *fw, int64_t now_us);
 
 /* Receive thread. false if the mailbox is full (counted). */
 bool fw_post_command(struct fw *fw, const struct ctl_command *cmd);
+
+/* Receive thread. A goal (goal_t) for the loop; false if the mailbox is full (counted). */
+bool fw_post_goal(struct fw *fw, const struct goal_cmd *goal);
 
 /* Loop thread (a simulated camera called from the HAL read): the pose goes to the log (as
  * pose_t) and, after this tick's estimator step, to the estimator at its capture time utime. */

@@ -31,7 +31,7 @@ struct lcmio {
 	lcm_subscription_t *sub;
 	pthread_t rx_thread, log_thread;
 	atomic_bool stop;
-	_Atomic uint64_t rx_bad; /* undecodable command messages */
+	_Atomic uint64_t rx_bad; /* undecodable command and goal messages */
 	_Atomic uint64_t published;
 	_Atomic uint64_t publish_errors;
 	void (*note)(void *note_ctx, const struct log_entry *e);
@@ -39,6 +39,7 @@ struct lcmio {
 	/* OMNI4_MOTORS watch (lcmio_start_watching; NULL: not subscribed). */
 	lcm_subscription_t *motors_sub;
 	lcm_subscription_t *pose_sub; /* OMNI4_POSE -> the estimator (lcmio_take_camera) */
+	lcm_subscription_t *goal_sub; /* OMNI4_GOAL -> the goal mailbox */
 	_Atomic uint64_t pose_bad;    /* undecodable or non-finite pose_t */
 	lcmio_foreign_fn foreign_cb;
 	void *foreign_ctx;

@@ -66,4 +66,10 @@ int robot_open(struct robot *r, const struct robot_spec *spec, char *why, size_t
 /* Outputs off, backends closed. */
 void robot_close(struct robot *r);
 
+/* Loop thread, before fw_tick, in a loop paced by a clock (omni4-fw): the sim backend's camera
+ * and truth stamps follow the loop's clock now_us (the tick's time), so a late start or a
+ * late tick does not age its camera poses (the estimator takes them at their capture time).
+ * Nothing for other backends. The lockstep simulator's clock is the sim's own: not needed. */
+void robot_sim_follow_clock(struct robot *r, int64_t now_us);
+
 #endif /* OMNI4_ROBOT_H */

@@ -17,6 +17,8 @@
 #define OMNI4_CHANNEL_STATE "OMNI4_STATE"                 /* state_t: the controller's estimate */
 #define OMNI4_CHANNEL_PARAM_CHANGED "OMNI4_PARAM_CHANGED" /* param_changed_t: every change */
 #define OMNI4_CHANNEL_SIM_TRUTH "OMNI4_SIM_TRUTH" /* sim_truth_t: the simulated plant, per tick */
+#define OMNI4_CHANNEL_GOAL "OMNI4_GOAL"           /* goal_t: client -> controller */
+#define OMNI4_CHANNEL_GOAL_STATUS "OMNI4_GOAL_STATUS" /* goal_status_t: the goal's progress */
 
 /* The robot's LCM URL unless its INI says otherwise: multicast that stays on the host (ttl=0). */
 #define OMNI4_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"

@@ -13,6 +13,8 @@ schema encoding "jsonschema"). Topic list and fields: docs/design.md, "Foxglove 
   /omni4/scene (foxglove.SceneUpdate: the body and the four wheels in frame "robot").
 - The controller's state estimate (OMNI4_STATE, state_t) beside the camera's pose: /tf
   world -> robot_estimate and /omni4/estimate (foxglove.PoseInFrame).
+- A goal (OMNI4_GOAL) as /omni4/goal (foxglove.SceneUpdate: its poses joined by a line, in
+  "world") and the plan's reference pose (OMNI4_GOAL_STATUS) as /omni4/goal_reference.
   Their timestamps are the log (receive) time, the time Foxglove plays back in.
 """
 import base64
@@ -22,6 +24,8 @@ import numpy as np
 import orjson
 
 import omni4
+
+from . import goals
 
 TOPIC_VELOCITY = "/omni4/velocity"
 TOPIC_HEALTH = "/omni4/health"
@@ -138,7 +142,12 @@ SCHEMAS = {
                                                        "color": _COLOR})},
             "cylinders": {"type": "array", "items": _obj({
                 "pose": _POSE, "size": _VEC3, "bottom_scale": _num(""), "top_scale": _num(""),
-                "color": _COLOR})}})}}),
+                "color": _COLOR})},
+            "lines": {"type": "array", "items": _obj({
+                "type": _int("0 strip"), "pose": _POSE, "thickness": _num("[m]"),
+                "scale_invariant": {"type": "boolean"},
+                "points": {"type": "array", "items": _VEC3}, "color": _COLOR,
+                "colors": {"type": "array"}, "indices": {"type": "array"}})}})}}),
 }
 
 # Schema per LCM channel of omni4's own types.
@@ -147,7 +156,9 @@ CHANNEL_SCHEMA = {omni4.CHANNEL_MOTORS: "omni4.motors_t", omni4.CHANNEL_CMD: "om
                   omni4.CHANNEL_EXPERIMENT: "omni4.experiment_t"}
 DERIVED = {TOPIC_VELOCITY: "omni4.velocity", TOPIC_HEALTH: "omni4.health",
            TOPIC_TF: "foxglove.FrameTransform", TOPIC_POSE: "foxglove.PoseInFrame",
-           TOPIC_SCENE: "foxglove.SceneUpdate", TOPIC_ESTIMATE: "foxglove.PoseInFrame"}
+           TOPIC_SCENE: "foxglove.SceneUpdate", TOPIC_ESTIMATE: "foxglove.PoseInFrame",
+           goals.TOPIC_GOAL: "foxglove.SceneUpdate",
+           goals.TOPIC_GOAL_REFERENCE: "foxglove.PoseInFrame"}
 
 
 def schema_bytes(name):
@@ -243,6 +254,14 @@ def event_messages(chname, data, t_ns, classes):
         return [(chname, "omni4.lcm_fields", fields_json(msg)),
                 (TOPIC_TF, DERIVED[TOPIC_TF], tf),
                 (TOPIC_ESTIMATE, DERIVED[TOPIC_ESTIMATE], pose)]
+    if isinstance(msg, omni4.goal_t) and chname == omni4.CHANNEL_GOAL:
+        return [(chname, "omni4.lcm_fields", fields_json(msg)),
+                (goals.TOPIC_GOAL, DERIVED[goals.TOPIC_GOAL],
+                 goals.goal_scene_json(t_ns, msg, WORLD_FRAME))]
+    if isinstance(msg, omni4.goal_status_t) and chname == omni4.CHANNEL_GOAL_STATUS:
+        return [(chname, "omni4.lcm_fields", fields_json(msg)),
+                (goals.TOPIC_GOAL_REFERENCE, DERIVED[goals.TOPIC_GOAL_REFERENCE],
+                 goals.reference_json(t_ns, msg, WORLD_FRAME))]
     if isinstance(msg, omni4.command_t) and chname == omni4.CHANNEL_CMD:
         return [(chname, "omni4.command_t", command_json(msg))]
     if isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:

@@ -5,6 +5,8 @@ angular.z = w) and sends VELOCITY commands on OMNI4_CMD while the input is fresh
 /odom (nav_msgs/Odometry, odom -> base_link), /joint_states (the four wheels), /diagnostics at
 1 Hz, and /tf when the installation has tf2_msgs; mirrors the controller's parameters as ROS
 parameters (set through omni4.ParamClient); services ~/clear_fault and ~/save (std_srvs/Trigger).
+Goals: /goal_pose (RViz's 2D Goal Pose, once) and follow_path (nav_msgs/Path), kept alive on the
+bus while the controller works on them; progress on goal_status and in /diagnostics (goals.py).
 """
 import math
 import os
@@ -17,6 +19,7 @@ import lcm
 from .. import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, command_t, motors_t,
                 param_changed_t)
 from . import core
+from .goals import GoalBridge
 
 PROG = "omni4-ros"
 RX_QUEUE_MESSAGES = 10000      # LCM's receive queue for OMNI4_MOTORS: 10 s at 1 kHz
@@ -25,7 +28,8 @@ KEEPALIVE_S = 0.05             # re-send period of the command in force (watchdo
 STOP_HOLD_S = 0.5              # after going stale: zero velocity this long, then IDLE
 PARAM_RETRY_S = 2.0            # no answer from the parameter service: try again after
 EPILOG = """\
-topics: /cmd_vel (in), /odom, /joint_states, /diagnostics (1 Hz), /tf (with tf2_msgs)
+topics: /cmd_vel, /goal_pose, follow_path (in), /odom, /joint_states, goal_status,
+/diagnostics (1 Hz), /tf (with tf2_msgs)
 services: /omni4/clear_fault, /omni4/save (std_srvs/Trigger); parameters: the controller's keys
 ROS options go after --ros-args (e.g. --ros-args -r __ns:=/robot1). Discovery: ROS_DOMAIN_ID,
 ROS_AUTOMATIC_DISCOVERY_RANGE (docs/ros.md)."""
@@ -123,6 +127,7 @@ class Omni4Ros:
         self.pub_diag = self.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.pub_tf = self.node.create_publisher(self._TF[0], "/tf", 100) if self._TF else None
         self.node.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 10)
+        self.goals = GoalBridge(self, KEEPALIVE_S)   # /goal_pose, follow_path, goal_status
         group = ReentrantCallbackGroup()
         self.node.create_service(Trigger, "~/clear_fault", self._srv_clear_fault,
                                  callback_group=group)
@@ -294,6 +299,7 @@ class Omni4Ros:
             self.log.warn(line)
         if cmd is None:
             return
+        self.goals._forget_goal()                  # a /cmd_vel replaces the goal
         with self._lock:
             self._cmd = cmd
             self._cmd_at = time.monotonic()
@@ -362,6 +368,8 @@ class Omni4Ros:
                                  hardware_id="omni4")
             s.values = [KeyValue(key=k, value=v) for k, v in values]
             a.status.append(s)
+        if self.goals.last is not None:
+            a.status.append(self.goals.status_msg(self.goals.last))
         self.pub_diag.publish(a)
 
     def _srv_clear_fault(self, _req, res):
@@ -405,6 +413,7 @@ class Omni4Ros:
             moving = self._cmd is not None or self._stopping_since is not None
             self._cmd, self._stopping_since = None, None
         self._closed.set()
+        self.goals.close()                         # an active goal: CANCEL (the stop ramp)
         if moving:
             self._send(command_t.MODE_IDLE)
         for t in self._threads:

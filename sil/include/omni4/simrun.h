@@ -27,14 +27,15 @@ struct simrun_stats {
 	uint64_t ticks;
 	uint64_t messages; /* all channels */
 	uint64_t motors, pose, cmd;
-	uint64_t state;        /* the controller's estimate (OMNI4_STATE) */
-	uint64_t truth;        /* the plant's true state (OMNI4_SIM_TRUTH) */
-	uint64_t experiment;   /* marks (OMNI4_EXPERIMENT) */
-	uint64_t calibrations; /* current-offset notices (OMNI4_PARAM_CHANGED) */
-	uint64_t other;        /* any other channel (simrun_publish) */
-	uint64_t log_errors;   /* failed writes (never silently: the caller reports them) */
-	int log_errno;         /* the first failed write's errno (ENOSPC...), 0 if none */
-	uint64_t log_dropped;  /* ring overflow */
+	uint64_t goal, goal_status; /* OMNI4_GOAL (handed in), OMNI4_GOAL_STATUS */
+	uint64_t state;             /* the controller's estimate (OMNI4_STATE) */
+	uint64_t truth;             /* the plant's true state (OMNI4_SIM_TRUTH) */
+	uint64_t experiment;        /* marks (OMNI4_EXPERIMENT) */
+	uint64_t calibrations;      /* current-offset notices (OMNI4_PARAM_CHANGED) */
+	uint64_t other;             /* any other channel (simrun_publish) */
+	uint64_t log_errors;        /* failed writes (never silently: the caller reports them) */
+	int log_errno;              /* the first failed write's errno (ENOSPC...), 0 if none */
+	uint64_t log_dropped;       /* ring overflow */
 	uint64_t cmd_rejected;
 	int32_t faults; /* OR of every motors_t.faults written */
 	int8_t mode;    /* controller mode after the last tick */
@@ -61,6 +62,9 @@ double simrun_period_s(const struct simrun *sr);
 
 /* Hand in an encoded command_t (logged on OMNI4_CMD). -EINVAL if it does not decode. */
 int simrun_command(struct simrun *sr, const void *data, size_t len);
+/* Hand in an encoded goal_t (logged on OMNI4_GOAL), as omni4-fw's receive thread does.
+ * -EINVAL if it does not decode. */
+int simrun_goal(struct simrun *sr, const void *data, size_t len);
 /* Log any other message (e.g. OMNI4_EXPERIMENT marks) at the next tick's time. */
 int simrun_publish(struct simrun *sr, const char *channel, const void *data, size_t len);
 

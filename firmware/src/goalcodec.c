@@ -1,0 +1,79 @@
+/* goalcodec.c - goal_t in, goal_status_t out, through the generated types (goalcodec.h). */
+#include "omni4/goalcodec.h"
+
+#include <errno.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "omni4_goal_status_t.h"
+#include "omni4_goal_t.h"
+
+/* The core's goal vocabulary is goal_t's and goal_status_t's, value for value. */
+#define SAME(a, b) _Static_assert((a) == (b), #a " != " #b)
+SAME(GOAL_POSES_MAX, OMNI4_GOAL_T_MAX_POSES);
+SAME(GOAL_CANCEL, OMNI4_GOAL_T_ACTION_CANCEL);
+SAME(GOAL_GO, OMNI4_GOAL_T_ACTION_GO);
+SAME(GOAL_NONE, OMNI4_GOAL_STATUS_T_STATUS_NONE);
+SAME(GOAL_ACTIVE, OMNI4_GOAL_STATUS_T_STATUS_ACTIVE);
+SAME(GOAL_REACHED, OMNI4_GOAL_STATUS_T_STATUS_REACHED);
+SAME(GOAL_ABORTED, OMNI4_GOAL_STATUS_T_STATUS_ABORTED);
+SAME(GOAL_REFUSED, OMNI4_GOAL_STATUS_T_STATUS_REFUSED);
+SAME(GOAL_R_NONE, OMNI4_GOAL_STATUS_T_REASON_NONE);
+SAME(GOAL_R_NOT_FINITE, OMNI4_GOAL_STATUS_T_REASON_NOT_FINITE);
+SAME(GOAL_R_OUT_OF_RANGE, OMNI4_GOAL_STATUS_T_REASON_OUT_OF_RANGE);
+SAME(GOAL_R_UNREACHABLE, OMNI4_GOAL_STATUS_T_REASON_UNREACHABLE);
+SAME(GOAL_R_FAULT, OMNI4_GOAL_STATUS_T_REASON_FAULT);
+SAME(GOAL_R_NO_ESTIMATE, OMNI4_GOAL_STATUS_T_REASON_NO_ESTIMATE);
+SAME(GOAL_R_WATCHDOG, OMNI4_GOAL_STATUS_T_REASON_WATCHDOG);
+SAME(GOAL_R_COLLISION, OMNI4_GOAL_STATUS_T_REASON_COLLISION);
+SAME(GOAL_R_STALE_ESTIMATE, OMNI4_GOAL_STATUS_T_REASON_STALE_ESTIMATE);
+SAME(GOAL_R_REPLACED, OMNI4_GOAL_STATUS_T_REASON_REPLACED);
+SAME(GOAL_R_CANCELLED, OMNI4_GOAL_STATUS_T_REASON_CANCELLED);
+#undef SAME
+
+int lcmio_decode_goal(const void *data, size_t len, struct goal_cmd *out)
+{
+	omni4_goal_t m;
+	int rc = 0;
+
+	if (len > INT32_MAX || omni4_goal_t_decode(data, 0, (int)len, &m) != (int)len)
+		return -EINVAL;
+	memset(out, 0, sizeof(*out));
+	out->utime = m.utime;
+	out->id = m.goal_id;
+	out->action = m.action;
+	out->blend_m = m.blend_m;
+	out->speed_max = m.speed_max;
+	if (m.n < 0 || m.n > GOAL_POSES_MAX) {
+		out->n = -1; /* refused as out of range: the sender hears it */
+		rc = m.n < 0 ? -EDOM : -E2BIG;
+	} else {
+		out->n = m.n;
+		for (int i = 0; i < m.n; i++)
+			memcpy(out->poses[i], m.poses[i], sizeof(out->poses[i]));
+	}
+	omni4_goal_t_decode_cleanup(&m);
+	return rc;
+}
+
+int lcmio_encode_goal_status(const struct log_entry *e, void *buf, size_t cap)
+{
+	const struct goal_report *r = &e->goal;
+	omni4_goal_status_t m = {.utime = e->utime,
+	                         .seq = e->seq,
+	                         .goal_id = r->id,
+	                         .status = r->status,
+	                         .reason = r->reason,
+	                         .index = r->index,
+	                         .n = r->n,
+	                         .distance_m = r->distance_m,
+	                         .angle_rad = r->angle_rad,
+	                         .time_to_go_s = r->time_to_go_s};
+
+	memcpy(m.reference, r->ref, sizeof(m.reference));
+	memcpy(m.reference_velocity, r->ref_vel, sizeof(m.reference_velocity));
+	memcpy(m.error, r->error, sizeof(m.error));
+	const int n = omni4_goal_status_t_encode(buf, 0, (int)cap, &m);
+
+	return n > 0 ? n : -ENOSPC;
+}
