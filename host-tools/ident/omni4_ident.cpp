@@ -641,6 +641,51 @@ void print_outcome(const IdentResult &r, const std::string &out)
 	std::printf("wrote %s\n", out.c_str());
 }
 
+// A log with only the traction experiment: the model from the robot file (traction needs M J d r
+// l Kt B C), nothing identified.
+static IdentResult model_from_robot_file(const std::string &robot, const model_params &base,
+                                         uint32_t base_seen)
+{
+	IdentResult r;
+
+	for (int i : {3, 4, 7, 8, 9, 10, 11, 12, 13})
+		if (!(base_seen & (1u << i)))
+			die(robot +
+			        ": a log with only the traction experiment needs the model in the "
+			        "robot "
+			        "file; it lacks '" +
+			        std::string(model_params_names[i]) + "'",
+			    2);
+	r.final = base;
+	for (const char *q : kIdentParams)
+		r.identified[q] = false;
+	std::printf("traction experiment only: the model taken from %s\n", robot.c_str());
+	return r;
+}
+
+static IdentResult identify_or_die(const std::vector<Segment> &segs, const model_params &base,
+                                   const IdentOptions &opt)
+{
+	try {
+		return identify(segs, base, opt);
+	} catch (const IdentError &e) {
+		die(e.what());
+	}
+	return {};
+}
+
+// The model's CSVs: the identified parameters, the current offsets, each wheel's values.
+static void export_model_csvs(const std::string &dir, const IdentResult &r,
+                              const std::vector<LogData> &logs, const model_params *truth,
+                              const model_wheels *truth_w)
+{
+	export_ident_csv(dir, r, truth);
+	export_offsets_csv(dir, logs);
+	auto wc = open_csv(dir, "wheels.csv");
+	wc << wheels_csv(r, truth_w);
+	wc.close();
+}
+
 int cmd_identify(const IdentifyArgs &a)
 {
 	check_writable(a.out);
@@ -656,30 +701,11 @@ int cmd_identify(const IdentifyArgs &a)
 	const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
 	auto logs = load_logs(a.logs, base.l, true);
 	const auto segs = segments_of(logs);
-	IdentResult r;
 	const bool traction_only = std::all_of(segs.begin(), segs.end(), [](const Segment &s) {
 		return s.kind == "traction" || s.kind == OMNI4_MARK_END;
 	});
-	if (traction_only) { // the model from the robot file (traction needs M J d r l Kt B C)
-		for (int i : {3, 4, 7, 8, 9, 10, 11, 12, 13})
-			if (!(base_seen & (1u << i)))
-				die(a.robot +
-				        ": a log with only the traction experiment needs the model "
-				        "in "
-				        "the robot file; it lacks '" +
-				        std::string(model_params_names[i]) + "'",
-				    2);
-		r.final = base;
-		for (const char *q : kIdentParams)
-			r.identified[q] = false;
-		std::printf("traction experiment only: the model taken from %s\n", a.robot.c_str());
-	} else {
-		try {
-			r = identify(segs, base, opt);
-		} catch (const IdentError &e) {
-			die(e.what());
-		}
-	}
+	const IdentResult r = traction_only ? model_from_robot_file(a.robot, base, base_seen)
+	                                    : identify_or_die(segs, base, opt);
 	const TractionResult trac = identify_traction(segs, r.final);
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
@@ -687,7 +713,8 @@ int cmd_identify(const IdentifyArgs &a)
 	std::printf("; robot velocities from the %s\n", a.source.c_str());
 	print_windows(r, segs, a.verbose);
 	if (!traction_only)
-		print_table(r, a.truth.empty() ? nullptr : &truth, a.truth.empty() ? nullptr : &truth_w);
+		print_table(r, a.truth.empty() ? nullptr : &truth,
+		            a.truth.empty() ? nullptr : &truth_w);
 	print_traction(trac);
 	BootstrapResult boot;
 	if (a.boot_n > 0 && !traction_only) {
@@ -704,13 +731,9 @@ int cmd_identify(const IdentifyArgs &a)
 	             "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)",
 	             &trac);
 	export_traction_csv(a.csv, trac);
-	if (!a.csv.empty() && !traction_only) {
-		export_ident_csv(a.csv, r, a.truth.empty() ? nullptr : &truth);
-		export_offsets_csv(a.csv, logs);
-		auto wc = open_csv(a.csv, "wheels.csv");
-		wc << wheels_csv(r, a.truth.empty() ? nullptr : &truth_w);
-		wc.close();
-	}
+	if (!a.csv.empty() && !traction_only)
+		export_model_csvs(a.csv, r, logs, a.truth.empty() ? nullptr : &truth,
+		                  a.truth.empty() ? nullptr : &truth_w);
 	if (!a.csv.empty() && a.boot_n > 0)
 		export_bootstrap_csv(a.csv, r, boot);
 	if (traction_only)

@@ -10,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -185,6 +186,23 @@ int finish_out(OutFile &out, const SimArgs &a, const simrun_stats &st)
 	}
 	return 0;
 }
+// The progress line: on a terminal it updates in place; in a log, one line per 10 %. The
+// experiment phase only when there are phases (an idle run has none).
+std::function<void(double, size_t, size_t)> progress_printer(bool quiet, bool tty)
+{
+	return [quiet, tty, last_decile = -1](double frac, size_t phase, size_t phases) mutable {
+		const int pct = static_cast<int>(100 * frac);
+		if (quiet || (!tty && pct / 10 == last_decile))
+			return;
+		const std::string ph = phases ? "  phase " +
+		                                    std::to_string(std::min(phase + 1, phases)) +
+		                                    "/" + std::to_string(phases)
+		                              : "";
+		std::fprintf(stderr, "%somni4-sim: %3d%%%s%s", tty ? "\r" : "", pct, ph.c_str(),
+		             tty ? "" : "\n");
+		last_decile = pct / 10;
+	};
+}
 } // namespace
 
 int main(int argc, char **argv)
@@ -206,21 +224,7 @@ int main(int argc, char **argv)
 		return status;
 
 	const bool tty = isatty(STDERR_FILENO);
-	int last_decile = -1;
-	auto progress = [&](double frac, size_t phase, size_t phases) {
-		const int pct = static_cast<int>(100 * frac);
-		if (a.quiet || (!tty && pct / 10 == last_decile))
-			return;
-		// On a terminal the line updates in place; in a log, one line per 10 %.
-		// The experiment phase only when there are phases (an idle run has none).
-		const std::string ph = phases ? "  phase " +
-		                                    std::to_string(std::min(phase + 1, phases)) +
-		                                    "/" + std::to_string(phases)
-		                              : "";
-		std::fprintf(stderr, "%somni4-sim: %3d%%%s%s", tty ? "\r" : "", pct, ph.c_str(),
-		             tty ? "" : "\n");
-		last_decile = pct / 10;
-	};
+	auto progress = progress_printer(a.quiet, tty);
 	// Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log
 	// is written out whole (exit status 130).
 	std::signal(SIGINT, on_signal);

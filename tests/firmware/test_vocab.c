@@ -21,14 +21,10 @@ struct mode_row {
 };
 
 static const struct mode_row contract[] = {
-    {"IDLE", false, false, false, true, true},
-    {"VELOCITY", true, true, false, true, true},
-    {"VOLTAGE", true, true, false, true, true},
-    {"COAST", false, true, false, true, true},
-    {"CLEAR_FAULT", false, false, false, true, false},
-    {"FAULT", false, false, true, false, true},
-    {"ESTOP", false, false, true, false, true},
-    {"GOAL", true, true, false, false, true},
+    {"IDLE", false, false, false, true, true},         {"VELOCITY", true, true, false, true, true},
+    {"VOLTAGE", true, true, false, true, true},        {"COAST", false, true, false, true, true},
+    {"CLEAR_FAULT", false, false, false, true, false}, {"FAULT", false, false, true, false, true},
+    {"ESTOP", false, false, true, false, true},        {"GOAL", true, true, false, false, true},
     {"DOCK", true, true, false, true, true}, /* the row rows/vocab_dock.def adds */
 };
 
