@@ -43,8 +43,8 @@ def test_every_lcm_mode_fault_and_flag_is_a_row_and_every_row_an_lcm_constant():
 def test_the_wire_values_stay_as_the_contract_says():
     """docs/design.md's numbers, pinned on purpose: a row may be added, none renumbered."""
     assert _vocab.MODES == {"IDLE": 0, "VELOCITY": 1, "VOLTAGE": 2, "COAST": 3, "CLEAR_FAULT": 4,
-                            "FAULT": 5, "ESTOP": 6}
-    assert _vocab.DRIVEN_MODES == (1, 2) and _vocab.KEPT_ALIVE_MODES == (1, 2, 3)
+                            "FAULT": 5, "ESTOP": 6, "GOAL": 7}
+    assert _vocab.DRIVEN_MODES == (1, 2, 7) and _vocab.KEPT_ALIVE_MODES == (1, 2, 3, 7)
     assert _vocab.FAULTED_MODES == (5, 6) and _vocab.LATCHING == 0x7f
     assert _vocab.FAULTS["OVERRUN"] == 0x1000 and _vocab.FLAGS["NO_WHEELS"] == 0x08
     assert _vocab.backend_words("motor") == ("sim", "socketcan")
