@@ -5,6 +5,7 @@
 #include "identify_wheels.hpp"
 
 #include <cmath>
+#include <math.h> // lgamma_r (glibc, BSD)
 
 namespace omni4
 {
@@ -95,6 +96,14 @@ double beta_cf(double a, double b, double x)
 	return h;
 }
 
+// ln Γ(x) without std::lgamma's write to the global signgam (a data race when bootstrap
+// replicates run on several threads).
+double log_gamma(double x)
+{
+	int sign = 0;
+	return lgamma_r(x, &sign);
+}
+
 // I_x(a, b).
 double inc_beta(double a, double b, double x)
 {
@@ -102,7 +111,7 @@ double inc_beta(double a, double b, double x)
 		return 0;
 	if (x >= 1)
 		return 1;
-	const double front = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) +
+	const double front = std::exp(log_gamma(a + b) - log_gamma(a) - log_gamma(b) +
 	                              a * std::log(x) + b * std::log1p(-x));
 	if (x < (a + 1) / (a + b + 2))
 		return front * beta_cf(a, b, x) / a;

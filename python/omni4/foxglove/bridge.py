@@ -7,7 +7,8 @@ body and wheels (/omni4/scene). Topics: omni4/foxglove/topics.py, docs/design.md
 
 Every motors sample goes through the model (the prediction integrates tick by tick); what is
 sent to Foxglove for OMNI4_MOTORS and /omni4/velocity is every N-th sample (--decimate N,
-default 10: 100 Hz of a 1 kHz loop). Commands, pose and experiment marks are never decimated.
+default 10: 100 Hz of a 1 kHz loop), chosen by its sequence number (seq % N == 0), so a sample
+lost on the way leaves a gap of N and never shifts the ones after it. Commands, pose and experiment marks are never decimated.
 Exit status: 0 after SIGINT/SIGTERM or --duration; 1 run-time error (the WebSocket port is
 taken, LCM fails); 2 usage or configuration error (bad arguments, broken INI, bad LCM URL)."""
 import argparse
@@ -66,7 +67,6 @@ class Bridge:
         self.health = topics.Health()
         self.ch = topics.Channels(server_ctx)
         self.received = {}
-        self.n_motors = 0
         self.classes = topics.lcm_classes()
         # advertised from the start, so a client sees them before the first message
         for topic, schema in (*topics.CHANNEL_SCHEMA.items(), *topics.DERIVED.items()):
@@ -88,13 +88,12 @@ class Bridge:
     def on_motors(self, m, t_ns):
         meas, pred, restarted = self.pred.step(m.utime, m.seq, m.mode, m.voltage, m.wheel_speed)
         self.health.add(m.utime, m.seq, m.mode, m.faults)
-        if self.n_motors % self.decimate == 0:
+        if m.seq % self.decimate == 0:
             self.ch.log(omni4.CHANNEL_MOTORS, "omni4.motors_t",
                         topics.motors_json(m.utime, m.seq, m.mode, m.faults, list(m.voltage),
                                            list(m.current), list(m.wheel_speed)), t_ns)
             self.ch.log(topics.TOPIC_VELOCITY, "omni4.velocity",
                         topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
-        self.n_motors += 1
 
     def tick(self, t_ns, health_due, scene_due):
         if health_due and self.health.n:
