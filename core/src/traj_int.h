@@ -5,6 +5,9 @@
 #ifndef OMNI4_TRAJ_INT_H
 #define OMNI4_TRAJ_INT_H
 
+#include <stdbool.h>
+#include <stdint.h>
+
 #include "omni4/traj.h"
 
 /*
@@ -32,11 +35,66 @@ static inline float maxf(float a, float b)
 	return a > b ? a : b;
 }
 
+#define PI_F 3.14159265f
+
+/* Wheel j's direction in the robot frame (eq 2 without the d term): g_j = [gx, gy, d]. */
+extern const float traj_g_xy[4][2];
+
+/* ---- one axis (traj_1d.c) ---- */
+
 /* The duration of a profile [s] (0 when at rest at the goal). */
 float traj_1d_duration(const struct traj_1d *o);
 
 /* Appends a phase from (*p, *v) at a for dt; advances *t, *p, *v to its end. */
 void traj_ph_add(struct traj_1d *o, float *t, float *p, float *v, float a, float dt);
+
+/* At rest at p. */
+void traj_1d_hold(struct traj_1d *o, float p);
+
+/* Closer than TRAJ_IDLE_POS to goal and slower than TRAJ_IDLE_VEL: nothing to plan. */
+bool traj_1d_idle(float p0, float v0, float goal);
+
+/* Smallest and largest position the profile passes through. */
+void traj_1d_range(const struct traj_1d *o, float *lo, float *hi);
+
+/* ---- the envelope as rows (traj_rows.c) ---- */
+
+/* Largest A with every row met over the box (A ca, A sa) x (wx, wy); -1 if a velocity-only
+ * row fails. */
+float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy);
+
+/* Largest stopping acceleration (the rows without their velocity and Coulomb terms). */
+float traj_rows_stop(const struct row *r, int n, float ca, float sa);
+
+/* Largest V with the velocity box (V ca, V sa) meeting every row at zero acceleration. */
+float traj_rows_top(const struct row *r, int n, float ca, float sa);
+
+/* Translation rows at heading phi with a share of each budget, the room scaled by cos_h;
+ * 12 rows into r, returns 12. */
+int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
+                          struct row *r);
+
+/* Rotation rows with a share of each budget; 12 rows into r, returns 12. */
+int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);
+
+/* ---- the x/y box (traj_box.c) ---- */
+
+struct axes {
+	int n;     /* 1 (heading) or 2 (x, y) */
+	bool stop; /* stopping opposes the velocity in every wheel: traj_rows_stop applies */
+	float p0[2], v0[2], goal[2];
+	float cap; /* on V */
+	struct traj_1d *out[2];
+};
+
+/* For the share (ca, sa): the top speed with the earliest arrival, planned into ax->out;
+ * returns the arrival time. */
+float traj_box_limits(const struct row *r, int n, const struct axes *ax, float ca, float sa,
+                      uint32_t *flags);
+
+/* x and y: the straight line's share from rest, else alpha by bisection; into tr->axis[0..1]
+ * (tr->alpha_rad, tr->flags); returns the arrival time. */
+float traj_box_plan(struct traj *tr, const struct row *r, int n, struct axes *ax);
 
 /*
  * traj_line_plan - the fastest profile along the unit direction (ex, ey) (world frame; for the

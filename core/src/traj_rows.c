@@ -1,0 +1,183 @@
+/*
+ * traj_rows.c - the drive envelope of the trajectory generator (docs/trajectory.md): each wheel's
+ * voltage, traction and rim speed as linear rows in the world frame at a heading, the limits they
+ * put on a box of accelerations and velocities, and traj_envelope along a direction.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdbool.h>
+
+#include "traj_int.h"
+
+/* Wheel j's direction in the robot frame (eq 2 without the d term): g_j = [gx, gy, d]. */
+const float traj_g_xy[4][2] = {{0.0f, 1.0f}, {-1.0f, 0.0f}, {0.0f, -1.0f}, {1.0f, 0.0f}};
+
+/* Largest A with every row met (velocity half widths wx, wy); -1 if a velocity-only row fails. */
+float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy)
+{
+	float best = INFINITY;
+
+	for (int k = 0; k < n; k++) {
+		const float room = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy;
+		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
+		if (per > 0.0f)
+			best = minf(best, room / per);
+		else if (room < 0.0f)
+			return -1.0f;
+	}
+	return best;
+}
+
+/*
+ * Largest stopping acceleration: while a wheel's acceleration term opposes its velocity terms
+ * (friction, back-EMF: both along the velocity), |a + v| <= max(|a|, |v|), so the acceleration
+ * alone must fit (c0) and the velocity alone (traj_rows_acc >= 0 at that speed).
+ */
+float traj_rows_stop(const struct row *r, int n, float ca, float sa)
+{
+	float best = INFINITY;
+
+	for (int k = 0; k < n; k++) {
+		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
+		if (per > 0.0f)
+			best = minf(best, r[k].c0 / per);
+	}
+	return best;
+}
+
+/* Largest V with a velocity box (V ca, V sa) meeting every row at zero acceleration. */
+float traj_rows_top(const struct row *r, int n, float ca, float sa)
+{
+	float best = INFINITY;
+
+	for (int k = 0; k < n; k++) {
+		const float per = r[k].kv[0] * ca + r[k].kv[1] * sa;
+		if (per > 0.0f)
+			best = minf(best, r[k].c / per);
+		else if (r[k].c < 0.0f)
+			return 0.0f;
+	}
+	return maxf(best, 0.0f);
+}
+
+/*
+ * Translation rows at heading phi: wheel j's force, voltage and rim speed in the world frame
+ * (k_w = R(phi) k_robot), a share `share` of the budgets, Coulomb friction with its worst
+ * sign, the room scaled by cos_h (the headings between two samples: docs/trajectory.md).
+ */
+int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
+                          struct row *r)
+{
+	const float cp = cosf(phi), sp = cosf(phi - 0.5f * PI_F);
+	int n = 0;
+
+	for (int j = 0; j < 4; j++) {
+		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
+		const float fa[2] = {0.5f * c->M * gx, 0.5f * c->M * gy};
+		const float fv[2] = {0.5f * c->B[0] * gx, 0.5f * c->B[1] * gy};
+		const float coul = 0.5f * (fabsf(gx) * c->C[0] + fabsf(gy) * c->C[1]);
+		const float uv[2] = {(fv[0] + c->e[j] * gx) / c->b[j],
+		                     (fv[1] + c->e[j] * gy) / c->b[j]};
+		const float *ka[3] = {fa, fa, NULL}, *kv[3] = {fv, uv, traj_g_xy[j]};
+		const float kscale[3] = {1.0f, 1.0f / c->b[j], 0.0f};
+		const float room[3] = {share * c->f_max_n - coul,
+		                       share * c->u_max_v - coul / c->b[j], share * c->rim_max[j]};
+		const float room0[3] = {share * c->f_max_n, share * c->u_max_v,
+		                        share * c->rim_max[j]};
+		for (int q = 0; q < 3; q++, n++) {
+			const float ax = ka[q] ? ka[q][0] * kscale[q] : 0.0f;
+			const float ay = ka[q] ? ka[q][1] * kscale[q] : 0.0f;
+			r[n].sa[0] = cp * ax - sp * ay;
+			r[n].sa[1] = sp * ax + cp * ay;
+			r[n].sv[0] = cp * kv[q][0] - sp * kv[q][1];
+			r[n].sv[1] = sp * kv[q][0] + cp * kv[q][1];
+			for (int i = 0; i < 2; i++) {
+				r[n].ka[i] = fabsf(r[n].sa[i]);
+				r[n].kv[i] = fabsf(r[n].sv[i]);
+			}
+			r[n].c = room[q] * cos_h;
+			r[n].c0 = room0[q] * cos_h;
+		}
+	}
+	return n;
+}
+
+/* Rotation rows: T = J a + Bw w + Cw sgn w shared as T / (4 d) per wheel, plus back-EMF e_j d w. */
+int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
+{
+	const float q = 1.0f / (4.0f * c->d);
+
+	for (int j = 0; j < 4; j++) {
+		const float ib = 1.0f / c->b[j];
+		r[3 * j] = (struct row){
+		    {c->J * q, 0.0f},   {c->B[2] * q, 0.0f}, share * c->f_max_n - c->C[2] * q,
+		    share * c->f_max_n, {0.0f, 0.0f},        {0.0f, 0.0f}};
+		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
+		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
+		                            share * c->u_max_v - c->C[2] * q * ib,
+		                            share * c->u_max_v,
+		                            {0.0f, 0.0f},
+		                            {0.0f, 0.0f}};
+		r[3 * j + 2] =
+		    (struct row){{0.0f, 0.0f},          {c->d, 0.0f}, share * c->rim_max[j],
+		                 share * c->rim_max[j], {0.0f, 0.0f}, {0.0f, 0.0f}};
+	}
+	for (int k = 0; k < 12; k++) /* one axis, every coefficient >= 0: signed = box */
+		for (int i = 0; i < 2; i++) {
+			r[k].sa[i] = r[k].ka[i];
+			r[k].sv[i] = r[k].kv[i];
+		}
+	return 12;
+}
+
+/* Wheel j's limit on a along dir: value p a + q within +-bound (p > 0 or p < 0). */
+static float acc_room(float p, float q, float bound)
+{
+	if (p > 0.0f)
+		return (bound - q) / p;
+	if (p < 0.0f)
+		return (bound + q) / -p;
+	return fabsf(q) <= bound ? INFINITY : -INFINITY;
+}
+
+int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, float *acc_m_s2,
+                  float *speed_max_m_s)
+{
+	if (!isfinite(dir[0]) || !isfinite(dir[1]) || !isfinite(speed_m_s) || speed_m_s < 0.0f ||
+	    fabsf(dir[0] * dir[0] + dir[1] * dir[1] - 1.0f) > 1e-3f)
+		return -EINVAL;
+	const struct traj_coef *c = &tr->c;
+	const float sg[2] = {dir[0] > 0.0f   ? 1.0f
+	                     : dir[0] < 0.0f ? -1.0f
+	                                     : 0.0f,
+	                     dir[1] > 0.0f   ? 1.0f
+	                     : dir[1] < 0.0f ? -1.0f
+	                                     : 0.0f};
+	float acc = INFINITY, top = c->speed_cap_m_s;
+
+	for (int j = 0; j < 4; j++) {
+		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
+		const float ge = gx * dir[0] + gy * dir[1]; /* rim speed per unit speed */
+		/* f_j = p a + q0 + q1 s (the feedforward's shares Fv/2, Fvn/2), u_j = (f_j + e_j ge
+		 * s)/b_j */
+		const float p = 0.5f * c->M * ge;
+		const float q0 = 0.5f * (gx * c->C[0] * sg[0] + gy * c->C[1] * sg[1]);
+		const float q1 = 0.5f * (gx * c->B[0] * dir[0] + gy * c->B[1] * dir[1]);
+		const float s = speed_m_s;
+		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
+		acc = minf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
+		/* top speed: where the room reaches 0 (room falls linearly with s) */
+		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
+		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);
+		const float k_f = p >= 0.0f ? q1 : -q1, r_f = c->f_max_n - (p >= 0.0f ? q0 : -q0);
+		if (ge == 0.0f)
+			continue;
+		top = minf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, k_f > 0.0f ? r_f / k_f : r_f < 0.0f ? 0.0f : INFINITY);
+		top = minf(top, c->rim_max[j] / fabsf(ge));
+	}
+	*acc_m_s2 = acc;
+	*speed_max_m_s = maxf(top, 0.0f);
+	return 0;
+}
