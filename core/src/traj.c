@@ -102,6 +102,7 @@ int traj_reset(struct traj *tr, const float pose[3])
 	tr->duration_s = 0.0f;
 	tr->alpha_rad = 0.0f;
 	tr->flags = 0;
+	tr->on_path = 0;
 	return 0;
 }
 
@@ -251,6 +252,18 @@ static void share_bisect(struct traj *tr, const struct traj_ref *from, const flo
 	}
 }
 
+/* A straight move with the heading still at the start: the heading swing, if sooner. */
+static void swing(struct traj *tr, const struct traj_ref *from, const float goal[3], bool tr_idle)
+{
+	float e[2], dist;
+
+	if (tr_idle || fabsf(from->vel[2]) > TRAJ_IDLE_VEL || !on_line(from, goal, e, &dist))
+		return;
+	const float v0 = from->vel[0] * e[0] + from->vel[1] * e[1];
+	if (v0 >= 0.0f)
+		traj_swing_try(tr, from, goal, v0);
+}
+
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
@@ -261,6 +274,7 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 	                     traj_1d_idle(from->pose[1], from->vel[1], goal[1]);
 	const float s = tr->c.rot_share;
 
+	tr->on_path = 0;
 	if (rot_idle || tr_idle) {
 		tr->duration_s =
 		    plan_share(tr, from, goal, tr_idle ? 1.0f : 0.0f, rot_idle, tr_idle);
@@ -271,12 +285,17 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 		else
 			share_three(tr, from, goal, s);
 	}
+	swing(tr, from, goal, tr_idle);
 	tr->t_s = 0.0f;
 	return 0;
 }
 
 void traj_eval(const struct traj *tr, float t_s, struct traj_ref *out)
 {
+	if (tr->on_path) {
+		traj_path_eval(&tr->path, t_s, out);
+		return;
+	}
 	for (int i = 0; i < 3; i++)
 		traj_1d_eval(&tr->axis[i], t_s, &out->pose[i], &out->vel[i], &out->acc[i]);
 }
@@ -292,6 +311,11 @@ int traj_replan(struct traj *tr, const float goal[3])
 {
 	struct traj_ref now;
 
+	if (!finite3(goal))
+		return -EINVAL;
+	if (tr->on_path && goal[0] == tr->path.goal[0] && goal[1] == tr->path.goal[1] &&
+	    fabsf(wrap_pi(goal[2] - tr->path.goal[2])) < 1e-5f)
+		return traj_path_retime(tr); /* the same path from where the reference is */
 	traj_eval(tr, tr->t_s, &now);
 	return traj_plan(tr, &now, goal);
 }

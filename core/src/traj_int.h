@@ -117,4 +117,37 @@ void traj_line_project(const struct traj_1d *line, float e, float p0, float goal
 float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
                          const float goal[2], float cap, struct traj_1d out[2]);
 
+/* ---- paths (traj_path.c, traj_topp.c) ---- */
+
+/* The path's point, tangent, curvature vector and heading [theta, dtheta/ds, d2theta/ds2]
+ * at arc length s. */
+void traj_path_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],
+                  float th[3]);
+
+/* Lines and corner arcs from start through wp[0..n-1] (each intermediate passed within
+ * radius), headings as knots at the poses; via: a first corner (the start velocity's
+ * direction), or NULL. -EINVAL if two consecutive points coincide or n is out of range. */
+int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp)[3], int n,
+                    float radius, const float via[2]);
+
+/* A straight path's heading: to th_mid over the first fa of the length, held, to the end's
+ * over the last fb (fa = fb = 0: from the start's to the end's over the whole length). */
+void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb);
+
+/* Times pa from arc length s0 at speed v0 >= 0 along it to rest at its end, inside the
+ * envelope (checked); the duration, or INFINITY if none was found. */
+float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);
+
+/* The reference at time t of a timed path (after its end: at rest at the goal). */
+void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
+
+/* A straight move (from rest or moving toward the goal at v0 >= 0, heading still) with the
+ * heading swinging toward the robot's diagonal: taken into tr if sooner than tr's plan;
+ * returns the duration kept. */
+float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0);
+
+/* A path plan re-timed from its reference now (the same geometry: no jump); unchanged if the
+ * timing fails. 0. */
+int traj_path_retime(struct traj *tr);
+
 #endif /* OMNI4_TRAJ_INT_H */

@@ -39,6 +39,10 @@
                                   /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
 #define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
 #define TRAJ_IDLE_VEL 1e-6f       /* ... slower than this [m/s or rad/s] does not move */
+#define TRAJ_PATH_MAX 8           /* poses of a path (traj_plan_path), the last one included */
+#define TRAJ_PIECES (2 * TRAJ_PATH_MAX + 3) /* lines and arcs of a path */
+#define TRAJ_KNOTS (TRAJ_PATH_MAX + 4)      /* heading knots along a path */
+#define TRAJ_GRID 64                        /* segments of the progress grid a path is timed on */
 
 /* Flags of a plan (traj.flags). */
 #define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
@@ -109,8 +113,36 @@ struct traj_coef {
 	float speed_cap_m_s, omega_cap_rad_s, rot_share;
 };
 
+/* A piece of a path: an arc of constant curvature (0: a line), by arc length. */
+struct traj_piece {
+	float s0_m, len_m; /* where it starts on the path, its length */
+	float p0[2];       /* its start point [m] */
+	float dir0_rad;    /* tangent's angle at its start */
+	float curv;        /* signed curvature [1/m] (> 0: to the left) */
+};
+
+/*
+ * A plan along a path (traj_plan_path, and a straight move whose heading swings): the geometry
+ * by arc length s (lines and arcs), the heading as a function of s (smoothstep between knots),
+ * and its timing: on each grid segment s'' is constant (docs/trajectory.md, "Paths").
+ */
+struct traj_path {
+	struct traj_piece pc[TRAJ_PIECES];
+	float knot_s[TRAJ_KNOTS], knot_th[TRAJ_KNOTS]; /* [m], [rad] */
+	float pass_s[TRAJ_PATH_MAX]; /* where pose k is passed closest [m] (the last: len_m) */
+	float grid_s[TRAJ_GRID + 1]; /* [m] */
+	float grid_t[TRAJ_GRID + 1]; /* [s] */
+	float grid_v[TRAJ_GRID + 1]; /* s' [m/s] */
+	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
+	float goal[3];               /* the end, at rest */
+	float len_m;
+	int n_pieces, n_knots, n_grid, n_poses;
+};
+
 struct traj {
 	struct traj_coef c;
+	struct traj_path path;  /* in use when on_path */
+	int on_path;            /* 1: the reference follows path; 0: the three axes */
 	struct traj_1d axis[3]; /* x, y, theta */
 	float t_s;              /* time since the plan started */
 	float duration_s;       /* the plan's end (at rest at the goal) */
@@ -160,6 +192,20 @@ int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], st
  * of struct traj).
  */
 int traj_take_over(struct traj *tr, const struct traj *next);
+
+/*
+ * traj_plan_path - a plan from `from` through poses[0..n-1] (n <= TRAJ_PATH_MAX) without
+ * stopping: lines joined by arcs that pass each intermediate pose's position within radius_m
+ * (nearer if its legs are short), the heading smoothly from pose to pose, at rest at the last
+ * pose. A start velocity off the first leg turns onto it through a first arc. Timed inside
+ * the envelope (the grid of TRAJ_GRID segments, checked); traj_replan toward the last pose
+ * re-times the same path from the reference (no jump); tr->path.pass_s[k] is where pose k is
+ * passed. Not for the fast loop (a plan's cost: docs/trajectory.md). -EINVAL (plan
+ * unchanged) for NaN, n or radius_m out of range, two consecutive poses at one place;
+ * -ERANGE if the start turns (w != 0) or is too fast to stay on the path.
+ */
+int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3], int n,
+                   float radius_m);
 
 /* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
  * rest at the goal). Fast loop; pure. */

@@ -1,0 +1,138 @@
+/*
+ * traj_pathplan.c - plans on a path (docs/trajectory.md, "Paths" and "The heading swing"):
+ * traj_plan_path through intermediate poses without stopping, the straight move whose heading
+ * swings toward the robot's diagonal and back, and re-timing a path plan from its reference.
+ * Single precision, fixed sizes, no allocation.
+ */
+#include "omni4/traj.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "traj_int.h"
+
+/* Fractions of the length over which the heading swings to the best one and back. */
+#define SWING_FRACS 3
+static const float swing_frac[SWING_FRACS] = {0.15f, 0.3f, 0.45f};
+#define VIA_MIN_M 0.02f /* the start velocity's corner: at least this far ahead */
+
+/* The heading nearest th with the robot's diagonal along the direction dir (the envelope is
+ * widest there: all four wheels push). */
+static float diagonal_heading(float dir, float th)
+{
+	const float q = 0.5f * PI_F;
+
+	return dir - 0.25f * PI_F + q * floorf((th - dir + 0.25f * PI_F) / q + 0.5f);
+}
+
+static void take_path(struct traj *tr, const struct traj_path *pa, float t)
+{
+	tr->path = *pa;
+	tr->on_path = 1;
+	tr->duration_s = t;
+	tr->t_s = 0.0f;
+	tr->flags = 0;
+	tr->alpha_rad = 0.0f;
+	for (int i = 0; i < 3; i++)
+		traj_1d_hold(&tr->axis[i], pa->goal[i]);
+}
+
+float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0)
+{
+	struct traj_path base, cand, best;
+	const float wp[1][3] = {{goal[0], goal[1], goal[2]}};
+	float best_t = tr->duration_s;
+	bool found = false;
+
+	if (traj_path_build(&base, from->pose, wp, 1, 0.0f, NULL))
+		return best_t;
+	const float dir = base.pc[base.n_pieces - 1].dir0_rad;
+	const float th0 = base.knot_th[0], th1 = base.knot_th[base.n_knots - 1];
+	const float mids[2] = {diagonal_heading(dir, th0), diagonal_heading(dir, th1)};
+	for (int m = 0; m < 2 * SWING_FRACS + 1; m++) {
+		const int which = m == 0 ? 0 : (m - 1) / SWING_FRACS;
+		const float f = m == 0 ? 0.0f : swing_frac[(m - 1) % SWING_FRACS];
+		if (which == 1 && fabsf(mids[1] - mids[0]) < 1e-4f)
+			break;
+		cand = base;
+		traj_path_swing(&cand, mids[which], f, f);
+		const float t = traj_topp(&tr->c, &cand, 0.0f, v0);
+		if (t < best_t) {
+			best_t = t;
+			best = cand;
+			found = true;
+		}
+	}
+	if (found)
+		take_path(tr, &best, best_t);
+	return best_t;
+}
+
+int traj_path_retime(struct traj *tr)
+{
+	struct traj_path cand = tr->path;
+	struct traj_ref now;
+
+	traj_path_eval(&tr->path, tr->t_s, &now);
+	if (!(tr->t_s < tr->duration_s))
+		return 0;
+	int lo = 0;
+	while (lo < cand.n_grid - 1 && !(tr->t_s < cand.grid_t[lo + 1]))
+		lo++;
+	const float tau = tr->t_s - cand.grid_t[lo], a = cand.grid_a[lo];
+	const float s = cand.grid_s[lo] + (cand.grid_v[lo] + 0.5f * a * tau) * tau;
+	const float v = maxf(cand.grid_v[lo] + a * tau, 0.0f);
+	const float t = traj_topp(&tr->c, &cand, minf(s, cand.grid_s[lo + 1]), v);
+	if (t < INFINITY)
+		take_path(tr, &cand, t);
+	return 0;
+}
+
+/* The start velocity's corner: ahead along it, about its stopping distance at 1.5 m/s^2. */
+static bool via_point(const struct traj_ref *from, const float first[3], float via[2])
+{
+	const float vx = from->vel[0], vy = from->vel[1];
+	const float sp = sqrtf(vx * vx + vy * vy);
+	const float dx = first[0] - from->pose[0], dy = first[1] - from->pose[1];
+	const float len = sqrtf(dx * dx + dy * dy);
+
+	if (!(sp > TRAJ_IDLE_VEL) || !(len > 0.0f))
+		return false;
+	if (fabsf(vx * dy - vy * dx) < 1e-3f * sp * len && vx * dx + vy * dy > 0.0f)
+		return false; /* along the first leg already */
+	float k = sp * sp / 3.0f;
+	k = minf(maxf(k, VIA_MIN_M), 0.5f * len);
+	via[0] = from->pose[0] + vx / sp * k;
+	via[1] = from->pose[1] + vy / sp * k;
+	return true;
+}
+
+int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3], int n,
+                   float radius_m)
+{
+	struct traj_path pa;
+	float via[2];
+
+	if (n < 1 || n > TRAJ_PATH_MAX || !(radius_m > 0.0f) || !isfinite(radius_m))
+		return -EINVAL;
+	for (int i = 0; i < 3; i++)
+		if (!isfinite(from->pose[i]) || !isfinite(from->vel[i]))
+			return -EINVAL;
+	for (int k = 0; k < n; k++)
+		for (int i = 0; i < 3; i++)
+			if (!isfinite(poses[k][i]))
+				return -EINVAL;
+	if (fabsf(from->vel[2]) > TRAJ_IDLE_VEL)
+		return -ERANGE; /* the heading's rate at the start: a path starts with none */
+	const bool has_via = via_point(from, poses[0], via);
+	if (traj_path_build(&pa, from->pose, poses, n, radius_m, has_via ? via : NULL))
+		return -EINVAL;
+	const float v0 = sqrtf(from->vel[0] * from->vel[0] + from->vel[1] * from->vel[1]);
+	const float t = traj_topp(&tr->c, &pa, 0.0f, v0);
+	if (!(t < INFINITY))
+		return -ERANGE;
+	take_path(tr, &pa, t);
+	return 0;
+}

@@ -1,0 +1,386 @@
+/*
+ * traj_topp.c - timing a path plan (docs/trajectory.md, "Paths"): on a grid of the arc length
+ * s, every wheel's force, voltage and rim speed is affine in s'' and s'^2 plus the velocity
+ * terms in s' (Newton in the world frame, the feedforward's sharing, Coulomb friction with its
+ * sign where the motion fixes it, else the worse one). A forward pass at the largest s'' and a
+ * backward pass at the smallest (phase plane, as Bobrow's method), each step checked at both
+ * ends of its segment, then a checked pass over the grid points and the segments' midpoints
+ * against the unscaled limits: if a wheel is over, the limits are scaled down and the timing
+ * redone. Single precision, fixed sizes, no allocation.
+ */
+#include <math.h>
+#include <stdbool.h>
+
+#include "traj_int.h"
+
+#define TOPP_BISECT 16  /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 4    /* timings with limits scaled down until the check passes */
+#define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
+#define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
+
+struct geo {
+	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */
+};
+
+struct topp_rows {
+	float A[4], Q[4], L[4], K[4], dlo[4], dhi[4];
+};
+
+struct topp_work {
+	struct geo g[TRAJ_GRID + 1];
+	signed char sg[TRAJ_GRID + 1][3];
+	float xmax[TRAJ_GRID + 1], xf[TRAJ_GRID + 1], xb[TRAJ_GRID + 1];
+	int n;
+};
+
+static void geo_at(const struct traj_path *pa, float s, struct geo *g)
+{
+	float p[2], ps[2], pss[2], th[3];
+
+	traj_path_at(pa, s, p, ps, pss, th);
+	const float ct = cosf(th[0]), st = cosf(th[0] - 0.5f * PI_F);
+	g->q[0] = ct * ps[0] + st * ps[1];
+	g->q[1] = -st * ps[0] + ct * ps[1];
+	g->c[0] = ct * pss[0] + st * pss[1];
+	g->c[1] = -st * pss[0] + ct * pss[1];
+	g->ths = th[1];
+	g->thss = th[2];
+}
+
+/* The signs a velocity component may take, as a set: NEG | ZERO | POS. A component exactly 0
+ * (the heading held) has no Coulomb friction; one too small to trust may take any sign. */
+#define S_NEG 1
+#define S_ZERO 2
+#define S_POS 4
+
+static signed char sign_set(float v)
+{
+	if (v > SIGN_MIN)
+		return S_POS;
+	if (v < -SIGN_MIN)
+		return S_NEG;
+	return v == 0.0f ? S_ZERO : S_NEG | S_ZERO | S_POS;
+}
+
+/* The signs at point i: those of i and its neighbours (a segment takes the signs of its
+ * ends: a component changes sign only at a grid point or where it is small). */
+static void signs(struct topp_work *w)
+{
+	signed char raw[TRAJ_GRID + 1][3];
+
+	for (int i = 0; i <= w->n; i++) {
+		raw[i][0] = sign_set(w->g[i].q[0]);
+		raw[i][1] = sign_set(w->g[i].q[1]);
+		raw[i][2] = sign_set(w->g[i].ths);
+	}
+	for (int i = 0; i <= w->n; i++)
+		for (int k = 0; k < 3; k++)
+			w->sg[i][k] = (signed char)(raw[i][k] | (i > 0 ? raw[i - 1][k] : 0) |
+			                            (i < w->n ? raw[i + 1][k] : 0));
+}
+
+/* Smallest and largest of t sigma over the signs in set. */
+static void coulomb_range(float t, signed char set, float *lo, float *hi)
+{
+	float a = INFINITY, b = -INFINITY;
+
+	if (set & S_NEG) {
+		a = minf(a, -t);
+		b = maxf(b, -t);
+	}
+	if (set & S_ZERO) {
+		a = minf(a, 0.0f);
+		b = maxf(b, 0.0f);
+	}
+	if (set & S_POS) {
+		a = minf(a, t);
+		b = maxf(b, t);
+	}
+	*lo += a;
+	*hi += b;
+}
+
+static void rows_at(const struct traj_coef *c, const struct geo *g, const signed char sg[3],
+                    struct topp_rows *r)
+{
+	const float q4 = 1.0f / (4.0f * c->d);
+	const float cw = c->C[2] * q4;
+
+	for (int j = 0; j < 4; j++) {
+		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
+		const float t[3] = {0.5f * gx * c->C[0], 0.5f * gy * c->C[1], cw};
+		r->A[j] = 0.5f * c->M * (gx * g->q[0] + gy * g->q[1]) + c->J * g->ths * q4;
+		r->Q[j] = 0.5f * c->M * (gx * g->c[0] + gy * g->c[1]) + c->J * g->thss * q4;
+		r->L[j] = 0.5f * (gx * c->B[0] * g->q[0] + gy * c->B[1] * g->q[1]) +
+		          c->B[2] * g->ths * q4;
+		r->K[j] = gx * g->q[0] + gy * g->q[1] + c->d * g->ths;
+		r->dlo[j] = r->dhi[j] = 0.0f;
+		for (int k = 0; k < 3; k++)
+			coulomb_range(t[k], sg[k], &r->dlo[j], &r->dhi[j]);
+	}
+}
+
+/* The speed the caps and rims allow at a point, as s'. */
+static float speed_top(const struct traj_coef *c, const struct geo *g, const struct topp_rows *r)
+{
+	float v = minf(c->speed_cap_m_s, SPEED_BIG);
+
+	if (fabsf(g->ths) > 0.0f)
+		v = minf(v, c->omega_cap_rad_s / fabsf(g->ths));
+	for (int j = 0; j < 4; j++)
+		if (fabsf(r->K[j]) > 0.0f)
+			v = minf(v, c->rim_max[j] / fabsf(r->K[j]));
+	return v;
+}
+
+/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none. */
+static bool interval(const struct traj_coef *c, const struct topp_rows *r, float x, float k,
+                     float *lo, float *hi)
+{
+	const float sd = sqrtf(x);
+
+	*lo = -INFINITY;
+	*hi = INFINITY;
+	for (int j = 0; j < 4; j++) {
+		const float bound[2] = {k * c->f_max_n, k * c->u_max_v * c->b[j]};
+		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
+		for (int q = 0; q < 2; q++) {
+			const float P = r->Q[j] * x + lin[q] * sd;
+			const float up = bound[q] - P - r->dhi[j], dn = -bound[q] - P - r->dlo[j];
+			const float A = r->A[j];
+			if (A > 1e-6f) {
+				*hi = minf(*hi, up / A);
+				*lo = maxf(*lo, dn / A);
+			} else if (A < -1e-6f) {
+				*hi = minf(*hi, dn / A);
+				*lo = maxf(*lo, up / A);
+			} else if (up < 0.0f || dn > 0.0f) {
+				return false;
+			}
+		}
+	}
+	return *lo <= *hi;
+}
+
+/* The largest use of a limit (1: at it) at s'^2 = x, s'' = u. */
+static float usage(const struct traj_coef *c, const struct geo *g, const struct topp_rows *r,
+                   float x, float u)
+{
+	const float sd = sqrtf(x);
+	float w = sd / c->speed_cap_m_s;
+
+	w = maxf(w, fabsf(g->ths) * sd / c->omega_cap_rad_s);
+	for (int j = 0; j < 4; j++) {
+		const float bound[2] = {c->f_max_n, c->u_max_v * c->b[j]};
+		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
+		w = maxf(w, fabsf(r->K[j]) * sd / c->rim_max[j]);
+		for (int q = 0; q < 2; q++) {
+			const float v = r->A[j] * u + r->Q[j] * x + lin[q] * sd;
+			w = maxf(w, maxf(fabsf(v + r->dlo[j]), fabsf(v + r->dhi[j])) / bound[q]);
+		}
+	}
+	return w;
+}
+
+static void rows_i(const struct traj_coef *c, const struct topp_work *w, int i, struct topp_rows *r)
+{
+	rows_at(c, &w->g[i], w->sg[i], r);
+}
+
+/* The largest s'^2 with room for some s'' at point i (limits scaled by k); -1 if none at 0. */
+static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, float k)
+{
+	struct topp_rows r;
+	float lo, hi, a = 0.0f;
+
+	rows_i(c, w, i, &r);
+	if (!interval(c, &r, 0.0f, k, &lo, &hi))
+		return -1.0f;
+	float b = speed_top(c, &w->g[i], &r);
+	if (interval(c, &r, b * b, k, &lo, &hi))
+		return b * b;
+	for (int it = 0; it < TOPP_BISECT; it++) {
+		const float m = 0.5f * (a + b);
+		if (interval(c, &r, m * m, k, &lo, &hi))
+			a = m;
+		else
+			b = m;
+	}
+	return a * a;
+}
+
+/* Forward at the largest s'' (checked at the segment's end too), within the largest s'. */
+static void forward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
+                    float k)
+{
+	struct topp_rows r;
+	float lo, hi, hi1;
+
+	for (int i = 0; i < w->n; i++) {
+		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xf[i];
+		rows_i(c, w, i, &r);
+		if (!interval(c, &r, x, k, &lo, &hi))
+			hi = 0.0f;
+		float x1 = minf(x + 2.0f * ds * hi, w->xmax[i + 1]);
+		rows_i(c, w, i + 1, &r);
+		if (interval(c, &r, maxf(x1, 0.0f), k, &lo, &hi1) && hi1 < hi)
+			x1 = minf(x + 2.0f * ds * hi1, w->xmax[i + 1]);
+		w->xf[i + 1] = maxf(x1, 0.0f);
+	}
+}
+
+/* Backward from rest at the end at the smallest s'' (checked at both ends). */
+static void backward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
+                     float k)
+{
+	struct topp_rows r;
+	float lo, hi, lo0;
+
+	w->xb[w->n] = 0.0f;
+	for (int i = w->n - 1; i >= 0; i--) {
+		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xb[i + 1];
+		rows_i(c, w, i + 1, &r);
+		if (!interval(c, &r, x, k, &lo, &hi))
+			lo = 0.0f;
+		float x0 = minf(x - 2.0f * ds * lo, w->xmax[i]);
+		rows_i(c, w, i, &r);
+		if (interval(c, &r, maxf(x0, 0.0f), k, &lo0, &hi) && lo0 > lo)
+			x0 = minf(x - 2.0f * ds * maxf(lo0, lo), w->xmax[i]);
+		w->xb[i] = maxf(x0, 0.0f);
+	}
+}
+
+/* The largest use of a limit over the grid points and the segments' midpoints. */
+static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w)
+{
+	struct topp_rows r;
+	struct geo g;
+	float worst = 0.0f;
+
+	for (int i = 0; i <= w->n; i++) {
+		const float x = pa->grid_v[i] * pa->grid_v[i];
+		rows_i(c, w, i, &r);
+		if (i < w->n)
+			worst = maxf(worst, usage(c, &w->g[i], &r, x, pa->grid_a[i]));
+		if (i > 0)
+			worst = maxf(worst, usage(c, &w->g[i], &r, x, pa->grid_a[i - 1]));
+		if (i == w->n)
+			break;
+		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
+		signed char sg[3];
+		for (int q = 0; q < 3; q++)
+			sg[q] = (signed char)(w->sg[i][q] | w->sg[i + 1][q]);
+		geo_at(pa, pa->grid_s[i] + 0.5f * ds, &g);
+		rows_at(c, &g, sg, &r);
+		worst = maxf(worst, usage(c, &g, &r, x + ds * pa->grid_a[i], pa->grid_a[i]));
+	}
+	return worst;
+}
+
+/* One timing with the limits scaled by k into pa's grid; its duration or INFINITY. */
+static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp_work *w, float v0,
+                    float k)
+{
+	for (int i = 0; i <= w->n; i++) {
+		w->xmax[i] = max_x(c, w, i, k);
+		if (w->xmax[i] < 0.0f)
+			return INFINITY;
+	}
+	w->xf[0] = v0 * v0;
+	forward(c, pa, w, k);
+	backward(c, pa, w, k);
+	if (w->xb[0] < v0 * v0 * (1.0f - 1e-3f) - 1e-6f)
+		return INFINITY; /* too fast to stay on the path */
+	float t = 0.0f;
+	pa->grid_t[0] = 0.0f;
+	pa->grid_v[0] = v0;
+	for (int i = 0; i < w->n; i++) {
+		const float x1 = i + 1 == w->n ? 0.0f : minf(w->xf[i + 1], w->xb[i + 1]);
+		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
+		const float x0 = pa->grid_v[i] * pa->grid_v[i];
+		pa->grid_v[i + 1] = sqrtf(x1);
+		pa->grid_a[i] = (x1 - x0) / (2.0f * ds);
+		const float sum = pa->grid_v[i] + pa->grid_v[i + 1];
+		if (!(sum > 0.0f))
+			return INFINITY;
+		t += 2.0f * ds / sum;
+		pa->grid_t[i + 1] = t;
+	}
+	return t;
+}
+
+/* The grid over [s0, len]: every piece that is left at least 2 segments, the rest by length. */
+static int make_grid(struct traj_path *pa, float s0)
+{
+	const float total = pa->len_m - s0;
+	int np = 0, n = 0;
+
+	for (int k = 0; k < pa->n_pieces; k++)
+		np += pa->pc[k].s0_m + pa->pc[k].len_m > s0 && pa->pc[k].len_m > 0.0f;
+	const int spare = TRAJ_GRID - 2 * np;
+	pa->grid_s[0] = s0;
+	for (int k = 0; k < pa->n_pieces; k++) {
+		const float a = maxf(pa->pc[k].s0_m, s0), b = pa->pc[k].s0_m + pa->pc[k].len_m;
+		if (!(b > a) || !(pa->pc[k].len_m > 0.0f))
+			continue;
+		const int m = 2 + (int)((float)spare * (b - a) / total);
+		for (int q = 1; q <= m && n < TRAJ_GRID; q++)
+			pa->grid_s[++n] = q == m ? b : a + (b - a) * (float)q / (float)m;
+	}
+	pa->grid_s[n] = pa->len_m;
+	return n;
+}
+
+float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0)
+{
+	struct topp_work w;
+	float k = 1.0f;
+
+	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
+		return INFINITY;
+	w.n = pa->n_grid = make_grid(pa, s0);
+	for (int i = 0; i <= w.n; i++)
+		geo_at(pa, pa->grid_s[i], &w.g[i]);
+	signs(&w);
+	for (int tr = 0; tr < TOPP_TRIES; tr++) {
+		const float t = timing(c, pa, &w, v0, k);
+		if (!(t < INFINITY))
+			return INFINITY;
+		const float worst = check(c, pa, &w);
+		if (worst <= 1.0f + 1e-5f)
+			return t;
+		k *= 0.999f / worst;
+	}
+	return INFINITY;
+}
+
+void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out)
+{
+	const int n = pa->n_grid;
+
+	if (!(t < pa->grid_t[n])) {
+		*out = (struct traj_ref){.pose = {pa->goal[0], pa->goal[1], pa->goal[2]}};
+		return;
+	}
+	t = maxf(t, 0.0f);
+	int lo = 0, hi = n;
+	while (hi - lo > 1) {
+		const int m = (lo + hi) / 2;
+		if (t < pa->grid_t[m])
+			hi = m;
+		else
+			lo = m;
+	}
+	const float tau = t - pa->grid_t[lo], a = pa->grid_a[lo];
+	const float sd = maxf(pa->grid_v[lo] + a * tau, 0.0f);
+	const float s =
+	    minf(pa->grid_s[lo] + (pa->grid_v[lo] + 0.5f * a * tau) * tau, pa->grid_s[lo + 1]);
+	float p[2], ps[2], pss[2], th[3];
+	traj_path_at(pa, s, p, ps, pss, th);
+	*out = (struct traj_ref){
+	    .pose = {p[0], p[1], th[0]},
+	    .vel = {ps[0] * sd, ps[1] * sd, th[1] * sd},
+	    .acc = {pss[0] * sd * sd + ps[0] * a, pss[1] * sd * sd + ps[1] * a,
+	            th[2] * sd * sd + th[1] * a},
+	};
+}
