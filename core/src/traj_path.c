@@ -126,7 +126,12 @@ static float corner(struct traj_path *pa, const float w[2], float a_in, float a_
 	R = R > CURV_RADIUS_MIN_M ? R : CURV_RADIUS_MIN_M;
 	const float a[2] = {w[0] - cosf(a_in) * T, w[1] - sin_f(a_in) * T};
 	add_piece(pa, p, a_in, 0.0f, dist2(p, a));
-	add_piece(pa, a, a_in, phi > 0.0f ? 1.0f / R : -1.0f / R, R * 2.0f * h);
+	const float k = phi > 0.0f ? 1.0f / R : -1.0f / R;
+	float ps[2], pss[2], m[2];
+	/* the arc in two halves: its middle (the heading's knot) is a grid point */
+	add_piece(pa, a, a_in, k, R * h);
+	piece_at(&pa->pc[pa->n_pieces - 1], R * h, m, ps, pss);
+	add_piece(pa, m, a_in + 0.5f * phi, k, R * h);
 	return pa->len_m - R * h;
 }
 

@@ -14,9 +14,10 @@
 #include "traj_int.h"
 
 #define TOPP_BISECT 16  /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 4    /* timings with limits scaled down until the check passes */
+#define TOPP_TRIES 6    /* timings with limits scaled down until the check passes */
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
+#define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
 
 struct geo {
 	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */
@@ -27,7 +28,7 @@ struct topp_rows {
 };
 
 struct topp_work {
-	struct geo g[TRAJ_GRID + 1];
+	struct geo g[2][TRAJ_GRID + 1]; /* [0]: the segment after point i, [1]: before it */
 	signed char sg[TRAJ_GRID + 1][3];
 	float xmax[TRAJ_GRID + 1], xf[TRAJ_GRID + 1], xb[TRAJ_GRID + 1];
 	int n;
@@ -53,6 +54,13 @@ static void geo_at(const struct traj_path *pa, float s, struct geo *g)
 #define S_ZERO 2
 #define S_POS 4
 
+/* The geometry at s on both sides: [0][i] after s, [1][i] before it (just short of s). */
+static void geo_both(const struct traj_path *pa, float s, struct geo g[2][TRAJ_GRID + 1], int i)
+{
+	geo_at(pa, s, &g[0][i]);
+	geo_at(pa, s - SIDE_M, &g[1][i]);
+}
+
 static signed char sign_set(float v)
 {
 	if (v > SIGN_MIN)
@@ -69,9 +77,9 @@ static void signs(struct topp_work *w)
 	signed char raw[TRAJ_GRID + 1][3];
 
 	for (int i = 0; i <= w->n; i++) {
-		raw[i][0] = sign_set(w->g[i].q[0]);
-		raw[i][1] = sign_set(w->g[i].q[1]);
-		raw[i][2] = sign_set(w->g[i].ths);
+		raw[i][0] = sign_set(w->g[0][i].q[0]) | sign_set(w->g[1][i].q[0]);
+		raw[i][1] = sign_set(w->g[0][i].q[1]) | sign_set(w->g[1][i].q[1]);
+		raw[i][2] = sign_set(w->g[0][i].ths) | sign_set(w->g[1][i].ths);
 	}
 	for (int i = 0; i <= w->n; i++)
 		for (int k = 0; k < 3; k++)
@@ -182,21 +190,26 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 	return w;
 }
 
-static void rows_i(const struct traj_coef *c, const struct topp_work *w, int i, struct topp_rows *r)
+/* Rows at point i on the side of segment i (side 0) or of segment i - 1 (side 1): the
+ * curvature and the heading's second slope jump at a piece's or knot's end. */
+static void rows_i(const struct traj_coef *c, const struct topp_work *w, int i, int side,
+                   struct topp_rows *r)
 {
-	rows_at(c, &w->g[i], w->sg[i], r);
+	rows_at(c, &w->g[side][i], w->sg[i], r);
 }
 
-/* The largest s'^2 with room for some s'' at point i (limits scaled by k); -1 if none at 0. */
-static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, float k)
+/* The largest s'^2 with room for some s'' at point i on one side (limits scaled by k); -1 if
+ * none at 0. */
+static float max_x_side(const struct traj_coef *c, const struct topp_work *w, int i, int side,
+                        float k)
 {
 	struct topp_rows r;
 	float lo, hi, a = 0.0f;
 
-	rows_i(c, w, i, &r);
+	rows_i(c, w, i, side, &r);
 	if (!interval(c, &r, 0.0f, k, &lo, &hi))
 		return -1.0f;
-	float b = speed_top(c, &w->g[i], &r);
+	float b = speed_top(c, &w->g[side][i], &r);
 	if (interval(c, &r, b * b, k, &lo, &hi))
 		return b * b;
 	for (int it = 0; it < TOPP_BISECT; it++) {
@@ -209,6 +222,14 @@ static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, 
 	return a * a;
 }
 
+static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, float k)
+{
+	const float x0 = i < w->n ? max_x_side(c, w, i, 0, k) : INFINITY;
+	const float x1 = i > 0 ? max_x_side(c, w, i, 1, k) : INFINITY;
+
+	return minf(x0, x1);
+}
+
 /* Forward at the largest s'' (checked at the segment's end too), within the largest s'. */
 static void forward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
                     float k)
@@ -218,11 +239,11 @@ static void forward(const struct traj_coef *c, const struct traj_path *pa, struc
 
 	for (int i = 0; i < w->n; i++) {
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xf[i];
-		rows_i(c, w, i, &r);
+		rows_i(c, w, i, 0, &r);
 		if (!interval(c, &r, x, k, &lo, &hi))
 			hi = 0.0f;
 		float x1 = minf(x + 2.0f * ds * hi, w->xmax[i + 1]);
-		rows_i(c, w, i + 1, &r);
+		rows_i(c, w, i + 1, 1, &r);
 		if (interval(c, &r, maxf(x1, 0.0f), k, &lo, &hi1) && hi1 < hi)
 			x1 = minf(x + 2.0f * ds * hi1, w->xmax[i + 1]);
 		w->xf[i + 1] = maxf(x1, 0.0f);
@@ -239,11 +260,11 @@ static void backward(const struct traj_coef *c, const struct traj_path *pa, stru
 	w->xb[w->n] = 0.0f;
 	for (int i = w->n - 1; i >= 0; i--) {
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xb[i + 1];
-		rows_i(c, w, i + 1, &r);
+		rows_i(c, w, i + 1, 1, &r);
 		if (!interval(c, &r, x, k, &lo, &hi))
 			lo = 0.0f;
 		float x0 = minf(x - 2.0f * ds * lo, w->xmax[i]);
-		rows_i(c, w, i, &r);
+		rows_i(c, w, i, 0, &r);
 		if (interval(c, &r, maxf(x0, 0.0f), k, &lo0, &hi) && lo0 > lo)
 			x0 = minf(x - 2.0f * ds * maxf(lo0, lo), w->xmax[i]);
 		w->xb[i] = maxf(x0, 0.0f);
@@ -259,11 +280,14 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, const 
 
 	for (int i = 0; i <= w->n; i++) {
 		const float x = pa->grid_v[i] * pa->grid_v[i];
-		rows_i(c, w, i, &r);
-		if (i < w->n)
-			worst = maxf(worst, usage(c, &w->g[i], &r, x, pa->grid_a[i]));
-		if (i > 0)
-			worst = maxf(worst, usage(c, &w->g[i], &r, x, pa->grid_a[i - 1]));
+		if (i < w->n) {
+			rows_i(c, w, i, 0, &r);
+			worst = maxf(worst, usage(c, &w->g[0][i], &r, x, pa->grid_a[i]));
+		}
+		if (i > 0) {
+			rows_i(c, w, i, 1, &r);
+			worst = maxf(worst, usage(c, &w->g[1][i], &r, x, pa->grid_a[i - 1]));
+		}
 		if (i == w->n)
 			break;
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
@@ -309,23 +333,48 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 	return t;
 }
 
-/* The grid over [s0, len]: every piece that is left at least 2 segments, the rest by length. */
+#define BREAKS_MAX (TRAJ_PIECES + TRAJ_KNOTS + 1)
+
+/* Where a piece or a heading knot ends after s0, sorted, each once; returns how many. */
+static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX])
+{
+	int n = 0;
+
+	for (int k = 0; k < pa->n_pieces + pa->n_knots && n < BREAKS_MAX; k++) {
+		float v = k < pa->n_pieces ? pa->pc[k].s0_m + pa->pc[k].len_m
+		                           : pa->knot_s[k - pa->n_pieces];
+		if (!(v > s0 + SIDE_M) || !(v < pa->len_m - SIDE_M))
+			continue;
+		int q = n++;
+		for (; q > 0 && b[q - 1] > v; q--) /* insertion */
+			b[q] = b[q - 1];
+		b[q] = v;
+	}
+	int m = 0;
+	for (int k = 0; k < n; k++)
+		if (m == 0 || b[k] - b[m - 1] > SIDE_M)
+			b[m++] = b[k];
+	b[m++] = pa->len_m;
+	return m;
+}
+
+/* The grid over [s0, len]: every piece's and knot's end a point, each interval between them
+ * at least one segment, the rest by length. */
 static int make_grid(struct traj_path *pa, float s0)
 {
+	float b[BREAKS_MAX];
+	const int nb = breaks(pa, s0, b);
+	const int spare = TRAJ_GRID - nb;
 	const float total = pa->len_m - s0;
-	int np = 0, n = 0;
+	float a = s0;
+	int n = 0;
 
-	for (int k = 0; k < pa->n_pieces; k++)
-		np += pa->pc[k].s0_m + pa->pc[k].len_m > s0 && pa->pc[k].len_m > 0.0f;
-	const int spare = TRAJ_GRID - 2 * np;
 	pa->grid_s[0] = s0;
-	for (int k = 0; k < pa->n_pieces; k++) {
-		const float a = maxf(pa->pc[k].s0_m, s0), b = pa->pc[k].s0_m + pa->pc[k].len_m;
-		if (!(b > a) || !(pa->pc[k].len_m > 0.0f))
-			continue;
-		const int m = 2 + (int)((float)spare * (b - a) / total);
+	for (int k = 0; k < nb; k++) {
+		const int m = 1 + (spare > 0 ? (int)((float)spare * (b[k] - a) / total) : 0);
 		for (int q = 1; q <= m && n < TRAJ_GRID; q++)
-			pa->grid_s[++n] = q == m ? b : a + (b - a) * (float)q / (float)m;
+			pa->grid_s[++n] = q == m ? b[k] : a + (b[k] - a) * (float)q / (float)m;
+		a = b[k];
 	}
 	pa->grid_s[n] = pa->len_m;
 	return n;
@@ -340,7 +389,7 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 		return INFINITY;
 	w.n = pa->n_grid = make_grid(pa, s0);
 	for (int i = 0; i <= w.n; i++)
-		geo_at(pa, pa->grid_s[i], &w.g[i]);
+		geo_both(pa, pa->grid_s[i], w.g, i);
 	signs(&w);
 	for (int tr = 0; tr < TOPP_TRIES; tr++) {
 		const float t = timing(c, pa, &w, v0, k);
@@ -349,7 +398,7 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 		const float worst = check(c, pa, &w);
 		if (worst <= 1.0f + 1e-5f)
 			return t;
-		k *= 0.999f / worst;
+		k *= 0.997f / worst;
 	}
 	return INFINITY;
 }

@@ -40,7 +40,7 @@
 #define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
 #define TRAJ_IDLE_VEL 1e-6f       /* ... slower than this [m/s or rad/s] does not move */
 #define TRAJ_PATH_MAX 8           /* poses of a path (traj_plan_path), the last one included */
-#define TRAJ_PIECES (2 * TRAJ_PATH_MAX + 3) /* lines and arcs of a path */
+#define TRAJ_PIECES (3 * TRAJ_PATH_MAX + 3) /* lines and half arcs of a path */
 #define TRAJ_KNOTS (TRAJ_PATH_MAX + 4)      /* heading knots along a path */
 #define TRAJ_GRID 64                        /* segments of the progress grid a path is timed on */
 

@@ -1,0 +1,234 @@
+/* Tests for traj_plan_path (core/src/traj_pathplan.c, traj_path.c, traj_topp.c;
+ * docs/trajectory.md "Paths"): a path sampled every 0.5 ms against each wheel's voltage,
+ * traction and rim speed (the per-wheel model written out here, in double), continuity,
+ * every intermediate pose passed within the radius without stopping, arrival at rest,
+ * re-planning on the way without a jump, a moving start, bad input. */
+#include <errno.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <cmocka.h>
+
+#include "omni4/traj.h"
+
+#define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
+#define DT 5e-4
+
+/* eq 2: wheel j's rim speed is g_j . [v, vn, w] */
+static const double gw[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
+
+static struct traj_limits limits(void)
+{
+	struct traj_limits l = {
+	    .p = model_params_table3,
+	    .supply_v = 12.0,
+	    .margin_v = 2.0,
+	    .mu = 0.6,
+	    .traction_margin = 0.1,
+	    .motor_speed_max_rad_s = 600.0,
+	    .speed_cap_m_s = INFINITY,
+	    .omega_cap_rad_s = INFINITY,
+	    .rot_share = 0.25,
+	};
+	model_wheels_from_params(&l.p, &l.w);
+	return l;
+}
+
+static double sgn(double x)
+{
+	return (x > 0) - (x < 0);
+}
+
+/* The largest use of a wheel's voltage, traction or rim speed by the reference r: Newton in
+ * the world frame, the feedforward's sharing f = IK [Fv/2, Fvn/2, T/(4 d^2)]. */
+static double use_of_limits(const struct traj_ref *r, const struct traj_limits *l)
+{
+	const double d = l->p.d, M = l->p.M, J = l->p.J;
+	const double U = l->supply_v - l->margin_v;
+	const double F_max = l->mu * M * 9.80665 / 4.0 * (1.0 - l->traction_margin);
+	const double c = cos(r->pose[2]), s = sin(r->pose[2]);
+	const double x[3] = {c * r->vel[0] + s * r->vel[1], -s * r->vel[0] + c * r->vel[1],
+	                     r->vel[2]};
+	const double ab[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
+	const double F[3] = {M * ab[0] + l->p.Bv * x[0] + l->p.Cv * sgn(x[0]),
+	                     M * ab[1] + l->p.Bvn * x[1] + l->p.Cvn * sgn(x[1]),
+	                     J * r->acc[2] + l->p.Bw * x[2] + l->p.Cw * sgn(x[2])};
+	double worst = 0;
+
+	for (int j = 0; j < 4; j++) {
+		const double b = l->p.l * l->w.Kt[j] / (l->w.R[j] * l->w.r[j]);
+		const double e =
+		    l->p.l * l->p.l * l->w.Kt[j] * l->w.Kv[j] / (l->w.R[j] * l->w.r[j] * l->w.r[j]);
+		const double f = gw[j][0] * F[0] / 2 + gw[j][1] * F[1] / 2 + F[2] / (4 * d);
+		const double v = gw[j][0] * x[0] + gw[j][1] * x[1] + d * x[2];
+		const double rim = l->motor_speed_max_rad_s * l->w.r[j] / l->p.l;
+		worst = fmax(worst, fabs((f + e * v) / b) / U);
+		worst = fmax(worst, fabs(f) / F_max);
+		worst = fmax(worst, fabs(v) / rim);
+	}
+	return worst;
+}
+
+static const float course[3][3] = {{1.0f, 0.0f, 0.0f}, {1.0f, 1.0f, 1.0f}, {-0.5f, 1.2f, 0.5f}};
+#define RADIUS_M 0.1f
+
+struct walk {
+	double worst;          /* largest use of a limit */
+	double closest[3];     /* closest approach to each pose [m] */
+	double speed_there[3]; /* speed at that closest approach [m/s] */
+	double max_dv, max_dp; /* largest velocity step less a dt, position step less v dt */
+	struct traj_ref last;
+};
+
+/* Samples tr from its clock now to its end every DT; a re-plan toward the last pose every
+ * replan_every samples (0: none). */
+static void walk(struct traj *tr, const struct traj_limits *l, int replan_every, struct walk *w)
+{
+	struct traj_ref prev, r;
+
+	*w = (struct walk){.closest = {1e9, 1e9, 1e9}};
+	traj_eval(tr, tr->t_s, &prev);
+	for (int k = 1; tr->t_s < tr->duration_s && k < 100000; k++) {
+		if (replan_every && k % replan_every == 0) {
+			assert_int_equal(traj_replan(tr, course[2]), 0);
+			traj_eval(tr, tr->t_s, &r);
+			for (int i = 0; i < 3; i++) { /* the new plan starts at the old reference */
+				near(r.pose[i], prev.pose[i], 1e-4);
+				near(r.vel[i], prev.vel[i], 2e-3);
+			}
+		}
+		traj_step(tr, (float)DT, &r);
+		w->worst = fmax(w->worst, use_of_limits(&r, l));
+		for (int i = 0; i < 3; i++) {
+			const double dv = fabs(r.vel[i] - prev.vel[i]);
+			const double dp = fabs(r.pose[i] - prev.pose[i]) -
+			                  fmax(fabs(r.vel[i]), fabs(prev.vel[i])) * DT;
+			w->max_dv = fmax(w->max_dv, dv);
+			w->max_dp = fmax(w->max_dp, dp);
+		}
+		for (int p = 0; p < 3; p++) {
+			const double dist =
+			    hypot(r.pose[0] - course[p][0], r.pose[1] - course[p][1]);
+			if (dist < w->closest[p]) {
+				w->closest[p] = dist;
+				w->speed_there[p] = hypot(r.vel[0], r.vel[1]);
+			}
+		}
+		prev = r;
+	}
+	w->last = prev;
+}
+
+static void check_walk(const struct walk *w, const struct traj_limits *l)
+{
+	const double a_bound = 4.0 * l->mu * 9.80665; /* far above any acceleration it plans */
+
+	print_message("worst use %.4f, closest %.4f %.4f m at %.2f %.2f m/s, dv %.2e dp %.2e\n",
+	              w->worst, w->closest[0], w->closest[1], w->speed_there[0], w->speed_there[1],
+	              w->max_dv, w->max_dp);
+	assert_true(w->worst <= 1.0 + 1e-4);
+	assert_true(w->worst >= 0.7); /* it does use the drives (a limit over at one place scales */
+	                              /* all down: docs/trajectory.md) */
+	assert_true(w->max_dv <= a_bound * DT);
+	assert_true(w->max_dp <= 1e-5);
+	for (int p = 0; p < 2; p++) {
+		assert_true(w->closest[p] <= RADIUS_M + 1e-4);
+		assert_true(w->speed_there[p] > 0.2); /* passed, not stopped at */
+	}
+	for (int i = 0; i < 2; i++)
+		assert_true(w->last.pose[i] == course[2][i] && w->last.vel[i] == 0.0f);
+	near(remainder(w->last.pose[2] - course[2][2], 2 * M_PI), 0, 1e-6);
+}
+
+/* From rest through two poses to the third: inside the envelope, continuous, each pose
+ * passed within the radius at speed, at rest at the last. */
+static void test_path_passes_its_poses_inside_the_envelope(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const struct traj_ref from = {.pose = {0, 0, 0}};
+	struct traj tr;
+	struct walk w;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, RADIUS_M), 0);
+	print_message("path: %.3f s\n", (double)tr.duration_s);
+	walk(&tr, &l, 0, &w);
+	check_walk(&w, &l);
+}
+
+/* Re-planned toward its last pose every 20 ms: no jump at any re-plan, the same figures. */
+static void test_path_replans_without_a_jump(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const struct traj_ref from = {.pose = {0, 0, 0}};
+	struct traj tr;
+	struct walk w;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, RADIUS_M), 0);
+	walk(&tr, &l, 40, &w);
+	check_walk(&w, &l);
+}
+
+/* Moving across the first leg at the start: the path turns onto it from the start velocity
+ * (the reference starts there), then the same figures. */
+static void test_path_from_a_moving_start(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const struct traj_ref from = {.pose = {0, 0, 0}, .vel = {0.3f, -0.5f, 0}};
+	struct traj tr;
+	struct traj_ref r;
+	struct walk w;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, RADIUS_M), 0);
+	traj_eval(&tr, 0.0f, &r);
+	for (int i = 0; i < 3; i++) {
+		near(r.pose[i], from.pose[i], 1e-6);
+		near(r.vel[i], from.vel[i], 1e-5);
+	}
+	walk(&tr, &l, 0, &w);
+	check_walk(&w, &l);
+}
+
+/* NaN, n or radius out of range, two poses at one place: -EINVAL, the plan unchanged; a
+ * start that turns: -ERANGE. */
+static void test_path_bad_input_is_refused(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const struct traj_ref from = {.pose = {0, 0, 0}}, turning = {.vel = {0, 0, 1}};
+	float bad[3][3] = {{1, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+	struct traj tr;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, RADIUS_M), 0);
+	const float d = tr.duration_s;
+	assert_int_equal(traj_plan_path(&tr, &from, bad, 3, RADIUS_M), -EINVAL);
+	bad[1][0] = NAN;
+	assert_int_equal(traj_plan_path(&tr, &from, bad, 3, RADIUS_M), -EINVAL);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 0, RADIUS_M), -EINVAL);
+	assert_int_equal(traj_plan_path(&tr, &from, course, TRAJ_PATH_MAX + 1, RADIUS_M), -EINVAL);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, 0.0f), -EINVAL);
+	assert_int_equal(traj_plan_path(&tr, &from, course, 3, NAN), -EINVAL);
+	assert_int_equal(traj_plan_path(&tr, &turning, course, 3, RADIUS_M), -ERANGE);
+	assert_true(tr.duration_s == d && tr.on_path == 1);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+	    cmocka_unit_test(test_path_passes_its_poses_inside_the_envelope),
+	    cmocka_unit_test(test_path_replans_without_a_jump),
+	    cmocka_unit_test(test_path_from_a_moving_start),
+	    cmocka_unit_test(test_path_bad_input_is_refused),
+	};
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
