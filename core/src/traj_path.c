@@ -11,6 +11,7 @@
 
 #define TURN_MIN_RAD 1e-4f /* a corner turning less than this is no corner */
 #define CURV_RADIUS_MIN_M 1e-3f
+#define PASS_SHARE 0.999f /* an arc passes its pose at this share of the radius: within it */
 
 /* sin as a shifted cos: sinf and cosf of one argument become sincosf, which the core may not
  * call. */
@@ -116,7 +117,7 @@ static float corner(struct traj_path *pa, const float w[2], float a_in, float a_
 		return pa->len_m;
 	}
 	const float ch = cosf(h), th = sin_f(h) / ch;
-	float R = radius * ch / (1.0f - ch);
+	float R = PASS_SHARE * radius * ch / (1.0f - ch);
 	float T = R * th;
 	const float t_max = 0.5f * (l_in < l_out ? l_in : l_out);
 	if (T > t_max) {
