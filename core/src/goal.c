@@ -126,6 +126,22 @@ static void plan_start(const struct goal *g, const struct ctl *c, const struct e
 	from->vel[2] = est->vel[2];
 }
 
+/* A path of up to TRAJ_PATH_MAX poses: one plan through them all (no stop at the
+ * intermediate ones, each passed within the blend radius); false if it cannot be planned. */
+static bool plan_path(const struct goal_cmd *cmd, const struct traj_ref *from, struct traj *tr)
+{
+	float poses[TRAJ_PATH_MAX][3];
+	const float blend = cmd->blend_m > 0.0 ? (float)cmd->blend_m : GOAL_BLEND_DEFAULT_M;
+
+	if (cmd->n < 2 || cmd->n > TRAJ_PATH_MAX)
+		return false;
+	for (int i = 0; i < cmd->n; i++)
+		for (int k = 0; k < 3; k++)
+			poses[i][k] = (float)cmd->poses[i][k];
+	return traj_plan_path(tr, from, (const float (*)[3])poses, cmd->n, blend) == 0 &&
+	       tr->duration_s <= GOAL_PLAN_MAX_S;
+}
+
 /* Plans cmd's first segment into tr (a copy: the goal in force keeps its plan if refused). */
 static enum goal_reason plan_first(const struct goal *g, const struct ctl *c,
                                    const struct goal_cmd *cmd, const struct est_output *est,
@@ -141,6 +157,8 @@ static enum goal_reason plan_first(const struct goal *g, const struct ctl *c,
 	tr->c.speed_cap_m_s = cmd->speed_max > 0.0 ? fminf((float)cmd->speed_max, g->speed_cap_m_s)
 	                                           : g->speed_cap_m_s;
 	plan_start(g, c, est, &from);
+	if (plan_path(cmd, &from, tr))
+		return GOAL_R_NONE;
 	if (traj_plan(tr, &from, to) || !(tr->duration_s <= GOAL_PLAN_MAX_S))
 		return GOAL_R_UNREACHABLE;
 	return GOAL_R_NONE;
@@ -254,6 +272,8 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 		return;
 	g->index++;
 	g->changed = true;
+	if (g->tr.on_path)
+		return; /* the path plan goes on through the next pose */
 	traj_replan(&g->tr, g->poses[g->index]);
 	traj_eval(&g->tr, g->tr.t_s, ref);
 }
