@@ -169,7 +169,10 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
 	pa->n_knots = 1;
 	for (int k = 1; k + 1 < m; k++) {
 		const float r = k == first && via ? len[0] : radius;
-		const float s = corner(pa, pts[k], ang[k - 1], ang[k], len[k - 1], len[k], r);
+		/* the first and the last leg have one corner only: it may use all of them */
+		const float l_in = k == 1 ? 2.0f * len[0] : len[k - 1];
+		const float l_out = k + 2 == m ? 2.0f * len[k] : len[k];
+		const float s = corner(pa, pts[k], ang[k - 1], ang[k], l_in, l_out, r);
 		if (k > first) {
 			th += wrap_rad(wp[k - 1 - first][2] - th);
 			pa->pass_s[k - 1 - first] = s;
