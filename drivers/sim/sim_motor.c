@@ -270,6 +270,14 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	return 0;
 }
 
+void sim_motor_advance(struct sim_motor *s, int n)
+{
+	struct motor_sample discarded;
+
+	for (int k = 0; k < n; k++)
+		(void)sim_read(s, &discarded);
+}
+
 static int sim_clear_faults(void *ctx)
 {
 	struct sim_motor *s = ctx;

@@ -193,6 +193,11 @@ void robot_sim_follow_clock(struct robot *r, int64_t now_us)
 {
 	if (r->motor_kind != OMNI4_MOTOR_SIM)
 		return;
+	/* the periods the plant lags the clock: this tick's read makes one more */
+	const int64_t lag = (now_us - r->sim.utime0 - r->sim.t_us) / r->sim.period_us - 1;
+
+	if (lag > 0 && lag <= ROBOT_SIM_CATCH_UP_MAX)
+		sim_motor_advance(&r->sim, (int)lag);
 	const int64_t base = now_us - r->sim.t_us - r->sim.period_us;
 
 	sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw, base);

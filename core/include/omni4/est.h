@@ -37,6 +37,9 @@
 #include "omni4/params.h"
 #include "omni4/vocab.h"
 
+#ifndef EST_CATCH_UP
+#define EST_CATCH_UP 32 /* periods a late tick may have missed that are predicted first */
+#endif
 #ifndef EST_HISTORY
 #define EST_HISTORY 256 /* past ticks kept for the camera replay (256 ms at 1 kHz) */
 #endif
@@ -180,7 +183,8 @@ void est_set_model_wheels(struct est *e, const struct model_params *p,
                           const struct model_wheels *w);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
-/* Fast loop, once per tick. */
+/* Fast loop, once per tick. A tick that comes two or more periods after the last (in->utime)
+ * first predicts the periods missed, without a reading (up to EST_CATCH_UP). */
 void est_step(struct est *e, const struct est_input *in);
 /* Fast loop, between ticks: a camera pose captured at capture_us, now_us = the current tick's
  * time. 0 taken; -ERANGE older than the history (counted); -EINVAL gated or not finite

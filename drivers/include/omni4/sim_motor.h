@@ -138,6 +138,10 @@ void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int6
 void sim_motor_set_truth_cb(struct sim_motor *s, sim_truth_cb cb, void *user, int64_t utime0);
 /* The true state now. */
 void sim_motor_truth(const struct sim_motor *s, struct sim_truth *t);
+/* n more periods of the plant (n >= 0) under the voltages and enable of the last write, as
+ * the loop's reads would make them (encoders, camera, truth and noise follow), the samples
+ * discarded: a real robot moves on while its loop is late. In the loop's context. */
+void sim_motor_advance(struct sim_motor *s, int n);
 
 /* The sim line backend: an e-stop a test can press. */
 struct sim_lines {
