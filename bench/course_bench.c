@@ -12,10 +12,11 @@
  * against the planned reference (samples at reference speeds up to 1.5 m/s, and all), the ticks
  * the plant's wheels slip and the estimator's SLIP onsets, the longest run of any wheel voltage
  * at the supply (ms), the arrival time of each goal (sent to REACHED).
- * usage: course_bench [--ini ROBOT.ini] [--quick] [--times FILE]
+ * usage: course_bench [--ini ROBOT.ini] [--quick] [--check] [--times FILE]
  *   --quick  the first QUICK_GOALS goals only; --times: one CSV row per single-pose goal
- *   (start, goal, arrival of each peer) for bench/course_bound.py.
- * Exit 0; 2 on a setup error (one line).
+ *   (start, goal, arrival of each peer) for bench/course_bound.py; --check: exit 1 (a line
+ *   each) unless the goal mode holds the CHECK_* bounds and beats its peers (the ctest).
+ * Exit 0; 1 on a failed check; 2 on a setup error (one line).
  */
 #include <math.h>
 #include <stdio.h>
@@ -37,6 +38,13 @@
 #define RMS_SPEED_MAX 1.5 /* [m/s] tracking RMS over reference speeds up to this */
 #define QUICK_GOALS 4
 #define PEERS 3
+/* --check on the quick course with bench/course.ini: 2-3x the figures measured there (final
+ * pose mean 0.26 cm, 0.16 deg; tracking RMS 0.34 cm), the rest the specification's. */
+#define CHECK_POS_CM 0.6
+#define CHECK_DEG 0.4
+#define CHECK_RMS_CM 0.8
+#define CHECK_SAT_MS 20.0
+#define CHECK_KIN_RATIO 2.0 /* kinematic-only tracking at least this much worse in RMS */
 
 /* A goal of the course: n poses (x, y, theta), speed_max (0: the model's). */
 struct leg {
@@ -80,6 +88,9 @@ struct run {
 	long n_slow, n_all;
 	double pos_sum, pos_max, th_sum, th_max; /* final pose [m], [rad] */
 	double arrival[N_LEGS];                  /* [s]; INFINITY: not reached */
+	long leg_slip[N_LEGS];                   /* the plant's slip ticks per goal */
+	double leg_err[N_LEGS];                  /* the largest tracking error per goal [m] */
+	int leg;                                 /* the goal driven now */
 	int reached;
 };
 
@@ -107,7 +118,7 @@ static void tap(void *ctx, const char *channel, int64_t utime, const void *data,
 		omni4_sim_truth_t t;
 
 		if (omni4_sim_truth_t_decode(data, 0, (int)len, &t) == (int)len && (t.flags & 0x0f))
-			r->truth_slip++;
+			r->truth_slip++, r->leg_slip[r->leg]++;
 	}
 }
 
@@ -156,6 +167,7 @@ static void tick(struct run *r, int64_t id)
 	r->ss_all += err * err;
 	r->n_all++;
 	r->err_max = fmax(r->err_max, err);
+	r->leg_err[r->leg] = fmax(r->leg_err[r->leg], err);
 	if (hypot(r->last.reference_velocity[0], r->last.reference_velocity[1]) <= RMS_SPEED_MAX) {
 		r->ss_slow += err * err;
 		r->n_slow++;
@@ -170,6 +182,7 @@ static void drive_leg(struct run *r, int k)
 	const long per_keep = lround(KEEP_S / r->period_s);
 	long t = 0;
 
+	r->leg = k;
 	for (; t * r->period_s < GOAL_S; t++) {
 		if (t % per_keep == 0)
 			send(r, id, OMNI4_GOAL_T_ACTION_GO, g);
@@ -221,21 +234,64 @@ static int run_peer(const struct omni4_config *base, int peer, int legs, struct 
 	return 0;
 }
 
-static void print_peer(const struct run *r, int peer, int legs)
+static double rms_cm(const struct run *r)
 {
-	double total = 0.0;
+	return 100 * sqrt(r->ss_slow / fmax((double)r->n_slow, 1));
+}
+
+static double total_s(const struct run *r, int legs)
+{
+	double t = 0.0;
 
 	for (int k = 0; k < legs; k++)
-		total += r->arrival[k];
+		t += r->arrival[k];
+	return t;
+}
+
+/* The ctest's bounds; one line per miss; returns the misses. */
+static int check(const struct run runs[PEERS], int legs)
+{
+	const struct run *m = &runs[0];
+	const double sat_ms = m->sat_longest * m->period_s * 1e3;
+	int bad = 0;
+
+#define MISS(cond, ...)                                                                            \
+	do {                                                                                       \
+		if (cond) {                                                                        \
+			printf("check failed: " __VA_ARGS__);                                      \
+			bad++;                                                                     \
+		}                                                                                  \
+	} while (0)
+	MISS(m->reached != legs, "model reached %d of %d goals\n", m->reached, legs);
+	MISS(!(100 * m->pos_sum / legs <= CHECK_POS_CM), "final position mean > %g cm\n",
+	     CHECK_POS_CM);
+	MISS(!(m->th_sum / legs * 180 / PI <= CHECK_DEG), "final heading mean > %g deg\n",
+	     CHECK_DEG);
+	MISS(!(rms_cm(m) <= CHECK_RMS_CM), "tracking RMS %.3f cm > %g cm\n", rms_cm(m),
+	     CHECK_RMS_CM);
+	MISS(m->truth_slip || m->est_slip, "slip: plant %ld ticks, estimator %ld\n", m->truth_slip,
+	     m->est_slip);
+	MISS(sat_ms > CHECK_SAT_MS, "a wheel at the supply for %.0f ms\n", sat_ms);
+	MISS(!(rms_cm(&runs[1]) >= CHECK_KIN_RATIO * rms_cm(m)),
+	     "kinematic-only RMS %.3f cm < %g x the model's %.3f cm\n", rms_cm(&runs[1]),
+	     CHECK_KIN_RATIO, rms_cm(m));
+	MISS(!(total_s(&runs[2], legs) > total_s(m, legs)), "fixed limits not later (%.3f s)\n",
+	     total_s(&runs[2], legs));
+#undef MISS
+	return bad;
+}
+
+static void print_peer(const struct run *r, int peer, int legs)
+{
 	printf("%-9s final pose mean %.3f cm max %.3f cm, mean %.3f deg max %.3f deg; "
 	       "tracking RMS %.3f cm (<= 1.5 m/s) %.3f cm (all) max %.3f cm; slip: plant %ld "
 	       "ticks, estimator %ld onsets; saturation longest %.0f ms; reached %d of %d; "
 	       "arrival total %.3f s\n",
 	       peer_names[peer], 100 * r->pos_sum / legs, 100 * r->pos_max,
 	       r->th_sum / legs * 180 / PI, r->th_max * 180 / PI,
-	       100 * sqrt(r->ss_slow / fmax((double)r->n_slow, 1)),
-	       100 * sqrt(r->ss_all / fmax((double)r->n_all, 1)), 100 * r->err_max, r->truth_slip,
-	       r->est_slip, r->sat_longest * r->period_s * 1e3, r->reached, legs, total);
+	       rms_cm(r), 100 * sqrt(r->ss_all / fmax((double)r->n_all, 1)), 100 * r->err_max,
+	       r->truth_slip, r->est_slip, r->sat_longest * r->period_s * 1e3, r->reached, legs,
+	       total_s(r, legs));
 }
 
 /* One CSV row per single-pose goal: start pose (the previous goal), goal, each peer's time. */
@@ -262,7 +318,8 @@ static int write_times(const char *path, const struct run runs[PEERS], int legs)
 	return fclose(f) ? -1 : 0;
 }
 
-static int parse_args(int argc, char **argv, const char **ini, const char **times, bool *quick)
+static int parse_args(int argc, char **argv, const char **ini, const char **times, bool *quick,
+                      bool *checks)
 {
 	for (int i = 1; i < argc; i++) {
 		if (!strcmp(argv[i], "--ini") && i + 1 < argc) {
@@ -271,8 +328,10 @@ static int parse_args(int argc, char **argv, const char **ini, const char **time
 			*times = argv[++i];
 		} else if (!strcmp(argv[i], "--quick")) {
 			*quick = true;
+		} else if (!strcmp(argv[i], "--check")) {
+			*checks = true;
 		} else {
-			fprintf(stderr, "usage: course_bench [--ini ROBOT.ini] [--quick] "
+			fprintf(stderr, "usage: course_bench [--ini ROBOT.ini] [--quick] [--check] "
 			                "[--times FILE]\n");
 			return -1;
 		}
@@ -283,12 +342,12 @@ static int parse_args(int argc, char **argv, const char **ini, const char **time
 int main(int argc, char **argv)
 {
 	const char *ini = NULL, *times = NULL;
-	bool quick = false;
+	bool quick = false, checks = false;
 	struct omni4_config cfg;
 	struct config_error err;
 	static struct run runs[PEERS];
 
-	if (parse_args(argc, argv, &ini, &times, &quick))
+	if (parse_args(argc, argv, &ini, &times, &quick, &checks))
 		return 2;
 	config_defaults(&cfg);
 	if (ini && config_load(ini, &cfg, &err)) {
@@ -301,11 +360,14 @@ int main(int argc, char **argv)
 		if (run_peer(&cfg, p, legs, &runs[p]))
 			return 2;
 	for (int k = 0; k < legs; k++)
-		printf("goal %d (%s): arrival model %.3f s, kinematic %.3f s, fixed %.3f s\n", k,
-		       course[k].what, runs[0].arrival[k], runs[1].arrival[k], runs[2].arrival[k]);
+		printf("goal %d (%s): arrival model %.3f s, kinematic %.3f s, fixed %.3f s; largest "
+		       "tracking error %.2f / %.2f / %.2f cm; plant slip %ld / %ld / %ld ticks\n",
+		       k, course[k].what, runs[0].arrival[k], runs[1].arrival[k], runs[2].arrival[k],
+		       100 * runs[0].leg_err[k], 100 * runs[1].leg_err[k], 100 * runs[2].leg_err[k],
+		       runs[0].leg_slip[k], runs[1].leg_slip[k], runs[2].leg_slip[k]);
 	for (int p = 0; p < PEERS; p++)
 		print_peer(&runs[p], p, legs);
 	if (times && write_times(times, runs, legs))
 		return 2;
-	return 0;
+	return checks && check(runs, legs) ? 1 : 0;
 }

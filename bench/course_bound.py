@@ -9,7 +9,8 @@ margin (GOAL_MARGIN_V), the floor's traction ([limits] traction_mu and traction_
 goal mode's floor, 0.6 less 10 %), the motor speed limit. Prints one line per goal, the arrival
 of the goal mode and of the fixed-limits peer over the bound, and the worst ratio.
 
-    python bench/course_bound.py build/bench/course_times.csv bench/course.ini
+    python bench/course_bound.py build/bench/course_times.csv bench/course.ini \
+        --traj-plan build/bin/traj_plan
 """
 import argparse
 import configparser
@@ -52,7 +53,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("times", help="course_bench --times CSV")
     ap.add_argument("ini", help="the robot INI course_bench ran with")
-    ap.add_argument("--nodes", type=int, default=24, help="collocation intervals")
+    ap.add_argument("--nodes", type=int, default=20, help="collocation intervals")
+    ap.add_argument("--restarts", type=int, default=2,
+                    help="solves resumed after the iteration limit (default 2)")
+    ap.add_argument("--traj-plan", help="the planner's CLI (build/bin/traj_plan): its "
+                    "reference warm-starts the solver (the optimum is the solver's)")
     args = ap.parse_args()
     b, e, rim, limits = robot(args.ini)
     topt.LIMITS.update(limits)
@@ -64,7 +69,16 @@ def main():
         start = [float(row[k]) for k in ("x0", "y0", "th0")] + [0.0, 0.0, 0.0]
         goal = [float(row[k]) for k in ("x", "y", "th")]
         t_m, t_f = float(row["model_s"]), float(row["fixed_s"])
-        t_o, viol, res = topt.Problem(start, goal, args.nodes).solve(min(t_m, 30.0))
+        t0, guess = min(t_m, 30.0), None
+        if args.traj_plan:
+            t0, guess = topt.planner(args.traj_plan, start, goal, args.nodes)
+        prob = topt.Problem(start, goal, args.nodes)
+        t_o, viol, res = prob.solve(t0, guess)
+        for _ in range(args.restarts):  # the solver's iteration limit: on from where it got
+            if res.success:
+                break
+            z, _, t_end = prob.unpack(res.x)
+            t_o, viol, res = prob.solve(t_end, z)
         ok = res.success and viol < 1e-4
         r_m, r_f = t_m / t_o, t_f / t_o
         if ok:
