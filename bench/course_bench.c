@@ -26,6 +26,7 @@
 #include "omni4/channels.h"
 #include "omni4/config.h"
 #include "omni4/est.h"
+#include "omni4/goal.h"
 #include "omni4/simrun.h"
 #include "omni4_goal_status_t.h"
 #include "omni4_goal_t.h"
@@ -58,15 +59,21 @@ static const struct leg course[] = {
     {"short move, 0.3 m", 1, 0, {{0.3, 0.0, 0.0}}},
     {"long diagonal, 2.2 m, turning 1.57", 1, 0, {{1.85, 1.2, 1.57}}},
     {"short move with a turn", 1, 0, {{1.75, 1.05, 0.8}}},
-    {"path of 4 corners at 0.5 m/s", 4, 0.5, {{2.3, 1.05, 0}, {2.3, 1.6, 0}, {1.8, 1.6, 0},
-                                               {1.8, 1.05, 0}}},
+    {"path of 4 corners at 0.5 m/s",
+     4,
+     0.5,
+     {{2.3, 1.05, 0}, {2.3, 1.6, 0}, {1.8, 1.6, 0}, {1.8, 1.05, 0}}},
     {"long move along vn, 2 m", 1, 0, {{1.8, -0.95, 0.0}}},
     {"turn while translating, 3 rad", 1, 0, {{0.6, -0.2, 3.0}}},
-    {"path of 4 corners at 1 m/s", 4, 1.0, {{1.6, -0.2, 3.0}, {1.6, 0.8, 3.0}, {0.6, 0.8, 3.0},
-                                             {0.6, -0.2, 3.0}}},
+    {"path of 4 corners at 1 m/s",
+     4,
+     1.0,
+     {{1.6, -0.2, 3.0}, {1.6, 0.8, 3.0}, {0.6, 0.8, 3.0}, {0.6, -0.2, 3.0}}},
     {"long move, 2.5 m, turning back", 1, 0, {{-1.6, 0.8, 0.2}}},
-    {"path of 4 corners at 2 m/s", 4, 2.0, {{0.4, 0.8, 0.2}, {0.4, -0.7, 0.2}, {-1.6, -0.7, 0.2},
-                                             {-1.6, 0.8, 0.2}}},
+    {"path of 4 corners at 2 m/s",
+     4,
+     2.0,
+     {{0.4, 0.8, 0.2}, {0.4, -0.7, 0.2}, {-1.6, -0.7, 0.2}, {-1.6, 0.8, 0.2}}},
     {"short move with a half turn", 1, 0, {{-1.5, 0.7, -2.9}}},
 };
 #define N_LEGS ((int)(sizeof(course) / sizeof(course[0])))
@@ -190,8 +197,8 @@ static void drive_leg(struct run *r, int k)
 		if (r->last.goal_id == id && r->last.status != OMNI4_GOAL_STATUS_T_STATUS_ACTIVE)
 			break;
 	}
-	const bool ok = r->last.goal_id == id &&
-	                r->last.status == OMNI4_GOAL_STATUS_T_STATUS_REACHED;
+	const bool ok =
+	    r->last.goal_id == id && r->last.status == OMNI4_GOAL_STATUS_T_STATUS_REACHED;
 	double x[3], pose[3];
 
 	simrun_truth(r->sr, x, pose);
@@ -288,10 +295,22 @@ static void print_peer(const struct run *r, int peer, int legs)
 	       "ticks, estimator %ld onsets; saturation longest %.0f ms; reached %d of %d; "
 	       "arrival total %.3f s\n",
 	       peer_names[peer], 100 * r->pos_sum / legs, 100 * r->pos_max,
-	       r->th_sum / legs * 180 / PI, r->th_max * 180 / PI,
-	       rms_cm(r), 100 * sqrt(r->ss_all / fmax((double)r->n_all, 1)), 100 * r->err_max,
-	       r->truth_slip, r->est_slip, r->sat_longest * r->period_s * 1e3, r->reached, legs,
-	       total_s(r, legs));
+	       r->th_sum / legs * 180 / PI, r->th_max * 180 / PI, rms_cm(r),
+	       100 * sqrt(r->ss_all / fmax((double)r->n_all, 1)), 100 * r->err_max, r->truth_slip,
+	       r->est_slip, r->sat_longest * r->period_s * 1e3, r->reached, legs, total_s(r, legs));
+}
+
+/* The fixed-limits peer's box, from the same settings. */
+static void print_box(const struct omni4_config *cfg)
+{
+	static struct goal g;
+	struct ctl_settings s = cfg->ctl;
+
+	s.goal.limits = CTL_GOAL_LIMITS_FIXED;
+	goal_init(&g, &s);
+	printf("fixed box: %.3f m/s^2 up to %.3f m/s in every direction; heading %.2f rad/s^2 up "
+	       "to %.2f rad/s\n",
+	       g.fx.acc_m_s2, g.fx.speed_m_s, g.fx.acc_rad_s2, g.fx.rate_rad_s);
 }
 
 /* One CSV row per single-pose goal: start pose (the previous goal), goal, each peer's time. */
@@ -360,13 +379,15 @@ int main(int argc, char **argv)
 		if (run_peer(&cfg, p, legs, &runs[p]))
 			return 2;
 	for (int k = 0; k < legs; k++)
-		printf("goal %d (%s): arrival model %.3f s, kinematic %.3f s, fixed %.3f s; largest "
-		       "tracking error %.2f / %.2f / %.2f cm; plant slip %ld / %ld / %ld ticks\n",
-		       k, course[k].what, runs[0].arrival[k], runs[1].arrival[k], runs[2].arrival[k],
-		       100 * runs[0].leg_err[k], 100 * runs[1].leg_err[k], 100 * runs[2].leg_err[k],
-		       runs[0].leg_slip[k], runs[1].leg_slip[k], runs[2].leg_slip[k]);
+		printf(
+		    "goal %d (%s): arrival model %.3f s, kinematic %.3f s, fixed %.3f s; largest "
+		    "tracking error %.2f / %.2f / %.2f cm; plant slip %ld / %ld / %ld ticks\n",
+		    k, course[k].what, runs[0].arrival[k], runs[1].arrival[k], runs[2].arrival[k],
+		    100 * runs[0].leg_err[k], 100 * runs[1].leg_err[k], 100 * runs[2].leg_err[k],
+		    runs[0].leg_slip[k], runs[1].leg_slip[k], runs[2].leg_slip[k]);
 	for (int p = 0; p < PEERS; p++)
 		print_peer(&runs[p], p, legs);
+	print_box(&cfg);
 	if (times && write_times(times, runs, legs))
 		return 2;
 	return checks && check(runs, legs) ? 1 : 0;

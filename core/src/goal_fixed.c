@@ -131,8 +131,9 @@ int goal_fixed_plan(const struct goal_fixed *fx, struct traj *tr, const struct t
 	                 !idle(from->pose[1], from->vel[1], goal[1]);
 	const float kr = rot && lin ? fx->rot_share : 1.0f, kt = rot && lin ? 1.0f - kr : 1.0f;
 	const float t_xy = plan_xy(tr, from, goal, fx->acc_m_s2 * kt, fx->speed_m_s * kt);
-	const float t_w = traj_1d_plan(&tr->axis[2], from->pose[2], from->vel[2], th,
-	                               fx->acc_rad_s2 * kr, fx->acc_rad_s2 * kr, fx->rate_rad_s * kr);
+	const float t_w =
+	    traj_1d_plan(&tr->axis[2], from->pose[2], from->vel[2], th, fx->acc_rad_s2 * kr,
+	                 fx->acc_rad_s2 * kr, fx->rate_rad_s * kr);
 
 	tr->duration_s = fmaxf(t_xy, t_w);
 	tr->t_s = 0.0f;

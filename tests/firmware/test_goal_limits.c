@@ -131,7 +131,8 @@ static void test_traction_off_plans_on_the_default_floor(void **state)
 
 	rig_init(&r, 0.0, 0.5);
 	go(&r, 1, 1.5, 1.5, 0.0);
-	const double hold = GOAL_MU_DEFAULT * r.cfg.model.M * G / 4.0 * (1.0 - GOAL_TRACTION_MARGIN);
+	const double hold =
+	    GOAL_MU_DEFAULT * r.cfg.model.M * G / 4.0 * (1.0 - GOAL_TRACTION_MARGIN);
 	const double top = largest_force(&r);
 
 	assert_true(top <= hold * 1.01);

@@ -11,14 +11,14 @@
 
 #include "omni4/traj.h"
 
-#define GOAL_FIXED_DIRS 72      /* directions the envelope is searched over (5 deg apart) */
-#define GOAL_FIXED_SPEEDS 64    /* top speeds tried for the box */
+#define GOAL_FIXED_DIRS 72   /* directions the envelope is searched over (5 deg apart) */
+#define GOAL_FIXED_SPEEDS 64 /* top speeds tried for the box */
 #define GOAL_FIXED_ALPHA_ITERS 20
 
 struct goal_fixed {
-	float acc_m_s2, speed_m_s;     /* the box: every direction of travel */
-	float acc_rad_s2, rate_rad_s;  /* the heading's */
-	float rot_share;               /* both move: the heading gets this share, x/y the rest */
+	float acc_m_s2, speed_m_s;    /* the box: every direction of travel */
+	float acc_rad_s2, rate_rad_s; /* the heading's */
+	float rot_share;              /* both move: the heading gets this share, x/y the rest */
 };
 
 /*
