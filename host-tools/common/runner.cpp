@@ -29,6 +29,7 @@
 #include "omni4/command_t.hpp"
 #include "omni4/experiment_t.hpp"
 #include "omni4/motors_t.hpp"
+#include "omni4/state_t.hpp"
 
 extern "C" {
 #include "omni4/kinematics.h"
@@ -300,12 +301,43 @@ constexpr double kMotorsWaitS = 2.0;
 namespace
 {
 
+// The estimator's flags of an OMNI4_STATE message (the traction experiment's watch).
+void take_state_flags(const char *channel, const lcm_recv_buf_t *rbuf, int32_t *flags)
+{
+	state_t st;
+	if (std::strcmp(channel, OMNI4_CHANNEL_STATE) == 0 &&
+	    st.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0)
+		*flags = st.flags;
+}
+
 // Safe stop: IDLE (outputs off), close any open segment, collect the last messages. Returns
 // false on log write errors.
 bool stop_run(Recording &rec)
 {
 	const auto end = encode_mark(wall_us(), OMNI4_MARK_END);
 	return rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
+}
+
+// Plays the phases in real time: what is due published, the bus handled, the traction
+// experiment's watch told the estimator's flags. true: the robot stopped answering.
+bool play_sequence(Recording &rec, const std::vector<Phase> &phases, const double &last_motors_s,
+                   const int32_t &est_flags)
+{
+	SequencePlayer player(phases);
+	TractionWatch watch;
+	PercentLine progress(total_duration_s(phases));
+	const auto t0 = std::chrono::steady_clock::now();
+	while (!player.done() && !g_interrupted) {
+		const double t =
+		    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+		play_due(player, rec, t);
+		rec.handle(5);
+		watch.step(player, est_flags); // a direction stops at its first slip
+		progress.update(t, player, rec.written());
+		if (steady_s() - last_motors_s > kMotorsWaitS)
+			return true;
+	}
+	return false;
 }
 
 } // namespace
@@ -318,9 +350,11 @@ int run_experiments(const RunOptions &opt)
 	Recording rec;
 	uint64_t motors = 0;
 	double last_motors_s = 0;
-	if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *) {
+	int32_t est_flags = 0; // the last OMNI4_STATE's
+	if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *rbuf) {
 		    if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) == 0)
 			    ++motors, last_motors_s = steady_s();
+		    take_state_flags(channel, rbuf, &est_flags);
 	    }))
 		return 1;
 	// Nothing is driven before a controller answers: no robot, no run and no log.
@@ -338,21 +372,7 @@ int run_experiments(const RunOptions &opt)
 		             opt.url.c_str(), kFirstMotorsS);
 		return 1;
 	}
-	SequencePlayer player(phases);
-	PercentLine progress(total_duration_s(phases));
-	const auto t0 = std::chrono::steady_clock::now();
-	bool lost = false;
-	while (!player.done() && !g_interrupted) {
-		const double t =
-		    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-		play_due(player, rec, t);
-		rec.handle(5);
-		progress.update(t, player, rec.written());
-		if (steady_s() - last_motors_s > kMotorsWaitS) {
-			lost = true;
-			break;
-		}
-	}
+	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags);
 	const bool ok = stop_run(rec);
 	std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
 	             g_interrupted ? "interrupted, robot stopped;"
