@@ -48,7 +48,27 @@ static int metered_write(void *ctx, const float volts[4])
 	return rc;
 }
 
-/* robot_spec.wrap: the sim backend with its read and write metered. */
+static int metered_read_pose(void *ctx, struct hal_pose *out)
+{
+	const uint32_t t0 = g_meter ? g_meter->read() : 0;
+	const int rc = sim_motor_ops.read_pose(ctx, out);
+
+	if (g_meter)
+		g_cost.hal += g_meter->read() - t0;
+	return rc;
+}
+
+static int metered_read_truth(void *ctx, struct hal_truth *out)
+{
+	const uint32_t t0 = g_meter ? g_meter->read() : 0;
+	const int rc = sim_motor_ops.read_truth(ctx, out);
+
+	if (g_meter)
+		g_cost.hal += g_meter->read() - t0;
+	return rc;
+}
+
+/* robot_spec.wrap: the sim backend with its read, write, camera and truth metered. */
 static struct motor_hal metered(void *ctx, struct motor_hal backend)
 {
 	static struct motor_hal_ops ops;
@@ -57,6 +77,8 @@ static struct motor_hal metered(void *ctx, struct motor_hal backend)
 	ops = *backend.ops;
 	ops.read = metered_read;
 	ops.write = metered_write;
+	ops.read_pose = metered_read_pose;
+	ops.read_truth = metered_read_truth;
 	return (struct motor_hal){.ops = &ops, .ctx = backend.ctx};
 }
 

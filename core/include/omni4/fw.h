@@ -24,10 +24,11 @@
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
 #endif
 #define FW_CMD_RING_SLOTS 64
-#define FW_GOAL_RING_SLOTS 4  /* goals from a receive thread (a few keep-alives) */
-#define FW_POSE_RING_SLOTS 16 /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
-#define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
-#define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
+#define FW_GOAL_RING_SLOTS 4      /* goals from a receive thread (a few keep-alives) */
+#define FW_POSE_RING_SLOTS 16     /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
+#define FW_POSES_PER_TICK 4       /* backend camera poses the estimator takes in one tick */
+#define FW_POSE_POLLS_PER_TICK 16 /* backend camera poses read (and logged) in one tick */
+#define FW_STATE_HZ 100.0         /* OMNI4_STATE rate (and on every change of its flags) */
 
 enum log_kind {
 	LOG_MOTORS = 1,
@@ -173,16 +174,12 @@ bool fw_post_command(struct fw *fw, const struct ctl_command *cmd);
 /* Receive thread. A goal (goal_t) for the loop; false if the mailbox is full (counted). */
 bool fw_post_goal(struct fw *fw, const struct goal_cmd *goal);
 
-/* Loop thread (a simulated camera called from the HAL read): the pose goes to the log (as
- * pose_t) and, after this tick's estimator step, to the estimator at its capture time utime. */
-void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
 /* Receive thread (a camera on the bus): the pose goes to the estimator at the next tick, at its
  * capture time utime (not to the log: it is on the bus already). false if the mailbox is full
- * (counted). */
+ * (counted). A camera behind the motor backend (the simulator's) is the HAL's read_pose op
+ * instead, which fw_tick polls: its poses also go to the log (pose_t); the backend's
+ * read_truth op likewise gives LOG_TRUTH entries. */
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3]);
-/* Loop thread (a simulated plant's true state, from the HAL read): a LOG_TRUTH entry. */
-void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
-                   const double wheel_slip[4], uint32_t flags);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);
