@@ -167,7 +167,7 @@ static void take_pose(struct fw *fw, const struct hal_pose *p)
 {
 	struct log_entry e = {.utime = p->utime, .kind = LOG_POSE};
 
-	memcpy(e.pose, p->pose, sizeof(e.pose));
+	memcpy(e.camera.pose, p->pose, sizeof(e.camera.pose));
 	log_push(fw, &e);
 	if (fw->n_tick_poses < FW_POSES_PER_TICK) {
 		struct fw_pose *q = &fw->tick_poses[fw->n_tick_poses++];
@@ -181,14 +181,14 @@ static void take_pose(struct fw *fw, const struct hal_pose *p)
 /* A simulated plant's true state after this tick's read: a LOG_TRUTH entry. */
 static void take_truth(struct fw *fw, const struct hal_truth *t)
 {
-	struct log_entry e = {
-	    .utime = t->utime, .seq = fw->seq, .kind = LOG_TRUTH, .faults = (int32_t)t->flags};
+	struct log_entry e = {.utime = t->utime, .seq = fw->seq, .kind = LOG_TRUTH};
 
-	memcpy(e.pose, t->pose, sizeof(e.pose));
+	e.truth.flags = t->flags;
+	memcpy(e.truth.pose, t->pose, sizeof(e.truth.pose));
 	for (int k = 0; k < 3; k++)
-		e.voltage[k] = (float)t->vel[k];
+		e.truth.vel[k] = (float)t->vel[k];
 	for (int j = 0; j < 4; j++)
-		e.current[j] = (float)t->wheel_slip[j];
+		e.truth.wheel_slip[j] = (float)t->wheel_slip[j];
 	log_push(fw, &e);
 }
 
@@ -259,15 +259,13 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e)
 static void push_calibration(struct fw *fw, int64_t now_us)
 {
 	const struct ctl_cal *cal = &fw->ctl.cal;
-	struct log_entry e = {.utime = now_us,
-	                      .seq = fw->seq,
-	                      .kind = LOG_CALIBRATION,
-	                      .mode = cal->gen == 1 ? -1 : (int8_t)cal->prev_fault_mask,
-	                      .cal_samples = (uint16_t)cal->cfg.samples,
-	                      .faults = (int32_t)cal->fault_mask};
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_CALIBRATION};
 
-	memcpy(e.current, cal->offset, sizeof(e.current));
-	memcpy(e.voltage, cal->prev, sizeof(e.voltage));
+	e.cal.prev_over_limit = cal->gen == 1 ? -1 : (int32_t)cal->prev_fault_mask;
+	e.cal.samples = (uint16_t)cal->cfg.samples;
+	e.cal.over_limit = cal->fault_mask;
+	memcpy(e.cal.offset, cal->offset, sizeof(e.cal.offset));
+	memcpy(e.cal.prev_offset, cal->prev, sizeof(e.cal.prev_offset));
 	fw->cal_gen = cal->gen;
 	log_push(fw, &e);
 }
@@ -338,20 +336,18 @@ static void drive(struct fw *fw, struct ctl_output *out)
  * starved; it re-aligns) is flagged in its own sample only, so a log shows which were late. */
 static void push_sample(struct fw *fw, int64_t now_us, const struct ctl_output *out)
 {
-	struct log_entry e = {.utime = now_us,
-	                      .seq = fw->seq,
-	                      .kind = LOG_MOTORS,
-	                      .mode = out->mode,
-	                      .faults = out->faults};
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS};
 
+	e.sample.mode = out->mode;
+	e.sample.faults = out->faults;
 	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
-		e.faults |= CTL_FAULT_OVERRUN;
+		e.sample.faults |= CTL_FAULT_OVERRUN;
 		fw->n.overruns++;
 	}
 	fw->last_tick_us = now_us;
-	memcpy(e.voltage, out->volts, sizeof(e.voltage));
-	memcpy(e.current, out->current, sizeof(e.current));
-	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
+	memcpy(e.sample.voltage, out->volts, sizeof(e.sample.voltage));
+	memcpy(e.sample.current, out->current, sizeof(e.sample.current));
+	memcpy(e.sample.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.sample.wheel_speed));
 	log_push(fw, &e);
 }
 

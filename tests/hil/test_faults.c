@@ -318,7 +318,7 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 	while (fw_pop_log(&fw, &e)) {
 		if (e.kind != LOG_MOTORS)
 			continue;
-		if (!!(e.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
+		if (!!(e.sample.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
 			fail_msg("tick %zu at %lld us: OVERRUN %s", k, (long long)start_us[k],
 			         late[k] ? "missing" : "set on a tick on time");
 		k++;
