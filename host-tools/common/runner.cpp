@@ -75,34 +75,7 @@ class Recording
 
 	// Opens the bus and the log, installs the SIGINT/SIGTERM handlers. Prints a one-line error
 	// and returns false on failure.
-	bool open(const RunOptions &opt, Tap tap = nullptr)
-	{
-		tap_ = std::move(tap);
-		lcm_ = lcm_create(opt.url.c_str());
-		if (!lcm_) {
-			std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n",
-			             opt.url.c_str());
-			return false;
-		}
-		// As omni4-record: a new file written where it is (a crash keeps what was
-		// recorded), a FIFO or device in place, an existing file refused (a recorded run is
-		// never lost).
-		char why[PATH_MAX + 200];
-		if (omni4_out_open(&out_, opt.out.c_str(), 0666, OMNI4_OUT_STREAM, why,
-		                   sizeof(why))) {
-			std::fprintf(stderr, "omni4-ident run: %s\n", why);
-			return false;
-		}
-		ev_ = lcm_eventlog_t{};
-		ev_.f = out_.f;
-		log_ = &ev_;
-		created_ = !out_.existed; // a new file (an existing file is refused above)
-		sub_ = lcm_subscribe(lcm_, ".*", record, this);
-		lcm_subscription_set_queue_capacity(sub_, 100000);
-		std::signal(SIGINT, on_signal);
-		std::signal(SIGTERM, on_signal);
-		return true;
-	}
+	bool open(const RunOptions &opt, Tap tap = nullptr);
 
 	void publish(const char *channel, const std::vector<uint8_t> &msg)
 	{
@@ -116,17 +89,7 @@ class Recording
 
 	// Safe stop: the IDLE command (outputs off), the "end" of an open segment (if given), the
 	// last messages collected for 300 ms, the log closed. Returns false on log write errors.
-	bool finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark)
-	{
-		publish(OMNI4_CHANNEL_CMD, idle);
-		if (end_mark)
-			publish(OMNI4_CHANNEL_EXPERIMENT, *end_mark);
-		const double until = steady_s() + 0.3;
-		while (steady_s() < until)
-			handle(20);
-		close();
-		return errors_ == 0;
-	}
+	bool finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark);
 
 	uint64_t written() const
 	{
@@ -135,43 +98,12 @@ class Recording
 
 	// After finish(): removes the log if this run created it as a new file (no robot answered,
 	// nothing worth keeping); a FIFO, a device or a file that was there stays.
-	void discard()
-	{
-		if (created_)
-			std::remove(out_.target);
-		created_ = false;
-	}
+	void discard();
 
       private:
-	static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-	{
-		auto *self = static_cast<Recording *>(user);
-		if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
-		                         rbuf->data_size) == 0)
-			++self->written_;
-		else
-			++self->errors_;
-		if (self->tap_)
-			self->tap_(channel, rbuf);
-	}
+	static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user);
 
-	void close()
-	{
-		if (sub_)
-			lcm_unsubscribe(lcm_, sub_);
-		sub_ = nullptr;
-		if (log_) {
-			char why[PATH_MAX + 200];
-			if (omni4_out_commit(&out_, why, sizeof(why))) {
-				std::fprintf(stderr, "omni4-ident run: %s\n", why);
-				++errors_;
-			}
-		}
-		log_ = nullptr;
-		if (lcm_)
-			lcm_destroy(lcm_);
-		lcm_ = nullptr;
-	}
+	void close();
 
 	lcm_t *lcm_ = nullptr;
 	lcm_eventlog_t *log_ = nullptr; // &ev_ while the log is open
@@ -182,6 +114,82 @@ class Recording
 	uint64_t written_ = 0, errors_ = 0;
 	Tap tap_;
 };
+
+bool Recording::open(const RunOptions &opt, Tap tap)
+{
+	tap_ = std::move(tap);
+	lcm_ = lcm_create(opt.url.c_str());
+	if (!lcm_) {
+		std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n", opt.url.c_str());
+		return false;
+	}
+	// As omni4-record: a new file written where it is (a crash keeps what was
+	// recorded), a FIFO or device in place, an existing file refused (a recorded run is
+	// never lost).
+	char why[PATH_MAX + 200];
+	if (omni4_out_open(&out_, opt.out.c_str(), 0666, OMNI4_OUT_STREAM, why, sizeof(why))) {
+		std::fprintf(stderr, "omni4-ident run: %s\n", why);
+		return false;
+	}
+	ev_ = lcm_eventlog_t{};
+	ev_.f = out_.f;
+	log_ = &ev_;
+	created_ = !out_.existed; // a new file (an existing file is refused above)
+	sub_ = lcm_subscribe(lcm_, ".*", record, this);
+	lcm_subscription_set_queue_capacity(sub_, 100000);
+	std::signal(SIGINT, on_signal);
+	std::signal(SIGTERM, on_signal);
+	return true;
+}
+
+bool Recording::finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark)
+{
+	publish(OMNI4_CHANNEL_CMD, idle);
+	if (end_mark)
+		publish(OMNI4_CHANNEL_EXPERIMENT, *end_mark);
+	const double until = steady_s() + 0.3;
+	while (steady_s() < until)
+		handle(20);
+	close();
+	return errors_ == 0;
+}
+
+void Recording::discard()
+{
+	if (created_)
+		std::remove(out_.target);
+	created_ = false;
+}
+
+void Recording::record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	auto *self = static_cast<Recording *>(user);
+	if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
+	                         rbuf->data_size) == 0)
+		++self->written_;
+	else
+		++self->errors_;
+	if (self->tap_)
+		self->tap_(channel, rbuf);
+}
+
+void Recording::close()
+{
+	if (sub_)
+		lcm_unsubscribe(lcm_, sub_);
+	sub_ = nullptr;
+	if (log_) {
+		char why[PATH_MAX + 200];
+		if (omni4_out_commit(&out_, why, sizeof(why))) {
+			std::fprintf(stderr, "omni4-ident run: %s\n", why);
+			++errors_;
+		}
+	}
+	log_ = nullptr;
+	if (lcm_)
+		lcm_destroy(lcm_);
+	lcm_ = nullptr;
+}
 
 std::vector<Phase> filtered(const RunOptions &opt)
 {
