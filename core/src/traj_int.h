@@ -146,8 +146,8 @@ void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
  * returns the duration kept. */
 float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0);
 
-/* A path plan re-timed from its reference now (the same geometry: no jump); unchanged if the
- * timing fails. 0. */
+/* A path plan re-timed from its reference now (the same geometry: no jump): 0; -ERANGE
+ * (unchanged) if the timing fails. */
 int traj_path_retime(struct traj *tr);
 
 #endif /* OMNI4_TRAJ_INT_H */

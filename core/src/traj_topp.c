@@ -46,6 +46,10 @@ static void geo_at(const struct traj_path *pa, float s, struct geo *g)
 	g->c[1] = -st * pss[0] + ct * pss[1];
 	g->ths = th[1];
 	g->thss = th[2];
+	/* the body-frame velocity q s' turns at w = ths s': the model's axes (eq 23) need
+	 * M w x v more, quadratic in s' as the curvature is (the feedforward's w vn, -w v) */
+	g->c[0] += g->ths * g->q[1];
+	g->c[1] -= g->ths * g->q[0];
 }
 
 /* The signs a velocity component may take, as a set: NEG | ZERO | POS. A component exactly 0

@@ -172,7 +172,9 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 
 /*
  * traj_replan - traj_plan from the reference at the plan's current time: the new plan starts
- * where the reference is, with its velocity, so the reference does not jump. Fast loop.
+ * where the reference is, with its velocity, so the reference does not jump. Fast loop. On a
+ * path toward its end: the same path re-timed from the reference; -ERANGE (plan unchanged) if
+ * the limits in force cannot hold the path from there.
  */
 int traj_replan(struct traj *tr, const float goal[3]);
 
