@@ -15,6 +15,8 @@
  * TRAJ_HEADINGS_MAX at most (a turn of 2 pi: cos(pi/8) = 0.92). */
 #define HEADING_STEP_RAD (PI_F / 8.0f)
 #define ROWS_MAX (TRAJ_HEADINGS_MAX * 4 * 3)
+#define TURN_CAPS 3       /* heading rate caps tried when turning leaves the translation no room */
+#define TURN_CAP_CUT 0.3f /* each a share of the rate the one before reached */
 
 static bool finite3(const float v[3])
 {
@@ -82,7 +84,7 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 	}
 	/* at rest, each axis and the heading alone must have room to accelerate */
 	struct row r[12];
-	const int nt = traj_rows_translation(&c, 0.0f, 1.0f, 1.0f, r);
+	const int nt = traj_rows_translation(&c, 0.0f, 1.0f, 1.0f, 0.0f, r);
 	if (!(traj_rows_acc(r, nt, 1.0f, 0.0f, 0.0f, 0.0f) > 0.0f) ||
 	    !(traj_rows_acc(r, nt, 0.0f, 1.0f, 0.0f, 0.0f) > 0.0f) ||
 	    !(traj_rows_acc(r, traj_rows_rotation(&c, 1.0f, r), 1.0f, 0.0f, 0.0f, 0.0f) > 0.0f))
@@ -107,7 +109,8 @@ int traj_reset(struct traj *tr, const float pose[3])
 }
 
 /* The heading's profile with its share; returns its duration. */
-static float plan_heading(struct traj *tr, const struct traj_ref *from, float goal, float share)
+static float plan_heading(struct traj *tr, const struct traj_ref *from, float goal, float share,
+                          float cap)
 {
 	struct row r[12];
 	const int n = traj_rows_rotation(&tr->c, share, r);
@@ -116,10 +119,10 @@ static float plan_heading(struct traj *tr, const struct traj_ref *from, float go
 	                  .p0 = {from->pose[2]},
 	                  .v0 = {from->vel[2]},
 	                  .goal = {goal},
-	                  .cap = tr->c.omega_cap_rad_s,
+	                  .cap = cap,
 	                  .out = {&tr->axis[2]}};
-	const float t = traj_line_plan(r, n, 1.0f, 0.0f, from->pose[2], from->vel[2], goal,
-	                               tr->c.omega_cap_rad_s, &tr->axis[2]);
+	const float t =
+	    traj_line_plan(r, n, 1.0f, 0.0f, from->pose[2], from->vel[2], goal, cap, &tr->axis[2]);
 	return t < INFINITY ? t : traj_box_limits(r, n, &ax, 1.0f, 0.0f, &tr->flags);
 }
 
@@ -156,9 +159,10 @@ static bool on_line(const struct traj_ref *from, const float goal[3], float e[2]
 	return fabsf(from->vel[0] * e[1] - from->vel[1] * e[0]) < TRAJ_IDLE_VEL;
 }
 
-/* One plan with the heading's share of every wheel's budget; returns its duration. */
-static float plan_share(struct traj *tr, const struct traj_ref *from, const float goal[3],
-                        float share, bool rot_idle, bool tr_idle)
+/* One plan with the heading's share of every wheel's budget, its rate within cap; returns its
+ * duration. */
+static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const float goal[3],
+                            float share, bool rot_idle, bool tr_idle, float cap)
 {
 	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
 	float t_rot = 0.0f, t_xy = 0.0f, lo = from->pose[2], hi = from->pose[2];
@@ -168,7 +172,7 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	if (rot_idle) {
 		traj_1d_hold(&tr->axis[2], th_goal);
 	} else {
-		t_rot = plan_heading(tr, from, th_goal, share);
+		t_rot = plan_heading(tr, from, th_goal, share, cap);
 		traj_1d_range(&tr->axis[2], &lo, &hi);
 	}
 	if (tr_idle) {
@@ -178,10 +182,11 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	}
 	struct row r[ROWS_MAX];
 	float phi[TRAJ_HEADINGS_MAX], cos_h;
+	const float w_max = rot_idle ? 0.0f : traj_1d_speed_max(&tr->axis[2]);
 	const int nh = heading_samples(lo, hi, phi, &cos_h);
 	int n = 0;
 	for (int k = 0; k < nh; k++)
-		n += traj_rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, r + n);
+		n += traj_rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, w_max, r + n);
 	float e[2], dist;
 	if (on_line(from, goal, e, &dist)) {
 		struct traj_1d line;
@@ -214,6 +219,22 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 		t_xy = tb;
 	}
 	return maxf(t_rot, t_xy);
+}
+
+/* plan_share_cap at the heading's cap, then, while the turning body's M w x v leaves the
+ * translation no room (beyond the envelope), at a lower one (never below the start's rate). */
+static float plan_share(struct traj *tr, const struct traj_ref *from, const float goal[3],
+                        float share, bool rot_idle, bool tr_idle)
+{
+	float cap = tr->c.omega_cap_rad_s, t = INFINITY;
+
+	for (int k = 0; k < TURN_CAPS; k++) {
+		t = plan_share_cap(tr, from, goal, share, rot_idle, tr_idle, cap);
+		if (rot_idle || tr_idle || !(tr->flags & TRAJ_F_BEYOND_ENVELOPE))
+			break;
+		cap = maxf(TURN_CAP_CUT * traj_1d_speed_max(&tr->axis[2]), fabsf(from->vel[2]));
+	}
+	return t;
 }
 
 /* Both move: the heading's share among three, the earliest arrival kept. */

@@ -131,3 +131,16 @@ void traj_1d_range(const struct traj_1d *o, float *lo, float *hi)
 		}
 	}
 }
+
+/* Largest |v| the profile reaches (at a phase's ends: v is linear in each phase). */
+float traj_1d_speed_max(const struct traj_1d *o)
+{
+	float w = maxf(fabsf(o->v0), fabsf(o->v1));
+
+	for (int k = 0; k < o->n; k++) {
+		const float len = o->t_end_s[k] - (k ? o->t_end_s[k - 1] : 0.0f);
+		w = maxf(w, fabsf(o->vs[k]));
+		w = maxf(w, fabsf(o->vs[k] + o->acc[k] * len));
+	}
+	return w;
+}

@@ -45,7 +45,7 @@ float traj_box_limits(const struct row *r, int n, const struct axes *ax, float c
 		const float acc = traj_rows_acc(r, n, ca, sa, wx, wy);
 		if (!(acc > 0.0f) || !(v > 0.0f))
 			continue;
-		const float dec = ax->stop ? maxf(traj_rows_stop(r, n, ca, sa), acc) : acc;
+		const float dec = ax->stop ? maxf(traj_rows_stop(r, n, ca, sa, wx, wy), acc) : acc;
 		const float t = axes_time(ax, ca, sa, acc, dec, v);
 		if (t < best_t) {
 			best_t = t;

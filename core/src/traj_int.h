@@ -21,6 +21,7 @@ struct row {
 	float ka[2], kv[2], c;
 	float c0; /* room for the acceleration alone (no velocity, no Coulomb): stopping */
 	float sa[2], sv[2]; /* ka and kv with their signs */
+	float kc; /* M w x v of a turning body (eq 23's axes turn), per unit speed, either sign */
 };
 
 /* min and max of finite floats: a compare and a select (fminf and fmaxf are library calls
@@ -57,22 +58,26 @@ bool traj_1d_idle(float p0, float v0, float goal);
 /* Smallest and largest position the profile passes through. */
 void traj_1d_range(const struct traj_1d *o, float *lo, float *hi);
 
+/* Largest speed the profile reaches [m/s or rad/s]. */
+float traj_1d_speed_max(const struct traj_1d *o);
+
 /* ---- the envelope as rows (traj_rows.c) ---- */
 
 /* Largest A with every row met over the box (A ca, A sa) x (wx, wy); -1 if a velocity-only
  * row fails. */
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy);
 
-/* Largest stopping acceleration (the rows without their velocity and Coulomb terms). */
-float traj_rows_stop(const struct row *r, int n, float ca, float sa);
+/* Largest stopping acceleration over the velocity box (wx, wy) (the rows without their
+ * velocity and Coulomb terms, less the turning body's term). */
+float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, float wy);
 
 /* Largest V with the velocity box (V ca, V sa) meeting every row at zero acceleration. */
 float traj_rows_top(const struct row *r, int n, float ca, float sa);
 
-/* Translation rows at heading phi with a share of each budget, the room scaled by cos_h;
- * 12 rows into r, returns 12. */
+/* Translation rows at heading phi with a share of each budget, the room scaled by cos_h,
+ * the heading turning at w_max [rad/s] at most; 12 rows into r, returns 12. */
 int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
-                          struct row *r);
+                          float w_max, struct row *r);
 
 /* Rotation rows with a share of each budget; 12 rows into r, returns 12. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);

@@ -21,7 +21,8 @@ static const float line_frac[LINE_FRACS] = {0.5f, 0.7f, 0.82f, 0.9f, 0.95f, 0.98
 struct line_rows {
 	int n;
 	float cu[LINE_ROWS_MAX], cd[LINE_ROWS_MAX], k[LINE_ROWS_MAX];
-	float top; /* largest speed with every row met at zero acceleration */
+	float kd[LINE_ROWS_MAX]; /* braking: k less the turning body's term (either sign) */
+	float top;               /* largest speed with every row met at zero acceleration */
 };
 
 struct steps {
@@ -35,7 +36,8 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
 		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey);
-		const float pv = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
+		const float pv0 = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
+		const float pv = pv0 + r[k].kc;
 		if (pv > 0.0f)
 			l->top = minf(l->top, r[k].c / pv);
 		else if (r[k].c < 0.0f)
@@ -44,6 +46,7 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 			const float ia = 1.0f / pa;
 			l->cu[l->n] = r[k].c * ia;
 			l->cd[l->n] = r[k].c0 * ia;
+			l->kd[l->n] = (pv0 - r[k].kc) * ia;
 			l->k[l->n++] = pv * ia;
 		}
 	}
@@ -57,7 +60,7 @@ static void line_acc(const struct line_rows *l, float s, float *up, float *dn)
 
 	for (int k = 0; k < l->n; k++) {
 		u = minf(u, l->cu[k] - l->k[k] * s);
-		d = minf(d, l->cd[k] + l->k[k] * s);
+		d = minf(d, l->cd[k] + l->kd[k] * s);
 	}
 	*up = u;
 	*dn = d;
@@ -150,6 +153,8 @@ static bool line_steps(const struct line_rows *l, float vmax, struct steps *st)
 		line_acc(l, st->s[k], &up, &dn);
 		if (k > 0)
 			st->up[k - 1] = up;
+		if (k > 0) /* braking may be weakest at either end of a step (kd of either sign) */
+			st->dn[k - 1] = minf(st->dn[k - 1], dn);
 		if (k < TRAJ_ACC_STEPS)
 			st->dn[k] = dn;
 		if ((k > 0 && !(up > 0.0f)) || !(dn > 0.0f))

@@ -16,10 +16,11 @@ const float traj_g_xy[4][2] = {{0.0f, 1.0f}, {-1.0f, 0.0f}, {0.0f, -1.0f}, {1.0f
 /* Largest A with every row met (velocity half widths wx, wy); -1 if a velocity-only row fails. */
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy)
 {
+	const float speed = sqrtf(wx * wx + wy * wy); /* |v| over the box */
 	float best = INFINITY;
 
 	for (int k = 0; k < n; k++) {
-		const float room = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy;
+		const float room = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy - r[k].kc * speed;
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
 			best = minf(best, room / per);
@@ -32,16 +33,18 @@ float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, fl
 /*
  * Largest stopping acceleration: while a wheel's acceleration term opposes its velocity terms
  * (friction, back-EMF: both along the velocity), |a + v| <= max(|a|, |v|), so the acceleration
- * alone must fit (c0) and the velocity alone (traj_rows_acc >= 0 at that speed).
+ * alone must fit (c0, less the turning body's term of either sign over the box (wx, wy)) and
+ * the velocity alone (traj_rows_acc >= 0 at that speed).
  */
-float traj_rows_stop(const struct row *r, int n, float ca, float sa)
+float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, float wy)
 {
+	const float speed = sqrtf(wx * wx + wy * wy);
 	float best = INFINITY;
 
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
-			best = minf(best, r[k].c0 / per);
+			best = minf(best, (r[k].c0 - r[k].kc * speed) / per);
 	}
 	return best;
 }
@@ -52,7 +55,8 @@ float traj_rows_top(const struct row *r, int n, float ca, float sa)
 	float best = INFINITY;
 
 	for (int k = 0; k < n; k++) {
-		const float per = r[k].kv[0] * ca + r[k].kv[1] * sa;
+		const float per =
+		    r[k].kv[0] * ca + r[k].kv[1] * sa + r[k].kc * sqrtf(ca * ca + sa * sa);
 		if (per > 0.0f)
 			best = minf(best, r[k].c / per);
 		else if (r[k].c < 0.0f)
@@ -67,7 +71,7 @@ float traj_rows_top(const struct row *r, int n, float ca, float sa)
  * sign, the room scaled by cos_h (the headings between two samples: docs/trajectory.md).
  */
 int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
-                          struct row *r)
+                          float w_max, struct row *r)
 {
 	const float cp = cosf(phi), sp = cosf(phi - 0.5f * PI_F);
 	int n = 0;
@@ -81,6 +85,8 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 		                     (fv[1] + c->e[j] * gy) / c->b[j]};
 		const float *ka[3] = {fa, fa, NULL}, *kv[3] = {fv, uv, traj_g_xy[j]};
 		const float kscale[3] = {1.0f, 1.0f / c->b[j], 0.0f};
+		/* wheel j's share of M w x v: 0.5 M w |g_j x v| <= 0.5 M w_max |v| */
+		const float turn = 0.5f * c->M * w_max;
 		const float room[3] = {share * c->f_max_n - coul,
 		                       share * c->u_max_v - coul / c->b[j], share * c->rim_max[j]};
 		const float room0[3] = {share * c->f_max_n, share * c->u_max_v,
@@ -96,6 +102,7 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 				r[n].ka[i] = fabsf(r[n].sa[i]);
 				r[n].kv[i] = fabsf(r[n].sv[i]);
 			}
+			r[n].kc = turn * kscale[q];
 			r[n].c = room[q] * cos_h;
 			r[n].c0 = room0[q] * cos_h;
 		}
@@ -110,18 +117,27 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 
 	for (int j = 0; j < 4; j++) {
 		const float ib = 1.0f / c->b[j];
-		r[3 * j] = (struct row){
-		    {c->J * q, 0.0f},   {c->B[2] * q, 0.0f}, share * c->f_max_n - c->C[2] * q,
-		    share * c->f_max_n, {0.0f, 0.0f},        {0.0f, 0.0f}};
+		r[3 * j] = (struct row){{c->J * q, 0.0f},
+		                        {c->B[2] * q, 0.0f},
+		                        share * c->f_max_n - c->C[2] * q,
+		                        share * c->f_max_n,
+		                        {0.0f, 0.0f},
+		                        {0.0f, 0.0f},
+		                        0.0f};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
 		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
 		                            share * c->u_max_v - c->C[2] * q * ib,
 		                            share * c->u_max_v,
 		                            {0.0f, 0.0f},
-		                            {0.0f, 0.0f}};
-		r[3 * j + 2] =
-		    (struct row){{0.0f, 0.0f},          {c->d, 0.0f}, share * c->rim_max[j],
-		                 share * c->rim_max[j], {0.0f, 0.0f}, {0.0f, 0.0f}};
+		                            {0.0f, 0.0f},
+		                            0.0f};
+		r[3 * j + 2] = (struct row){{0.0f, 0.0f},
+		                            {c->d, 0.0f},
+		                            share * c->rim_max[j],
+		                            share * c->rim_max[j],
+		                            {0.0f, 0.0f},
+		                            {0.0f, 0.0f},
+		                            0.0f};
 	}
 	for (int k = 0; k < 12; k++) /* one axis, every coefficient >= 0: signed = box */
 		for (int i = 0; i < 2; i++) {

@@ -395,6 +395,8 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 	for (int i = 0; i <= w.n; i++)
 		geo_both(pa, pa->grid_s[i], w.g, i);
 	signs(&w);
+	for (int q = 0; q < 3; q++) /* at rest at the end: stiction, friction of either sign */
+		w.sg[w.n][q] = S_NEG | S_ZERO | S_POS;
 	for (int tr = 0; tr < TOPP_TRIES; tr++) {
 		const float t = timing(c, pa, &w, v0, k);
 		if (!(t < INFINITY))

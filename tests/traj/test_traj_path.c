@@ -53,7 +53,9 @@ static double use_of_limits(const struct traj_ref *r, const struct traj_limits *
 	const double c = cos(r->pose[2]), s = sin(r->pose[2]);
 	const double x[3] = {c * r->vel[0] + s * r->vel[1], -s * r->vel[0] + c * r->vel[1],
 	                     r->vel[2]};
-	const double ab[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
+	/* eq 23's axes turn with the body: d/dt of the body velocity is R^T a - w x v */
+	const double ab[2] = {c * r->acc[0] + s * r->acc[1] + x[2] * x[1],
+	                      -s * r->acc[0] + c * r->acc[1] - x[2] * x[0]};
 	const double F[3] = {M * ab[0] + l->p.Bv * x[0] + l->p.Cv * sgn(x[0]),
 	                     M * ab[1] + l->p.Bvn * x[1] + l->p.Cvn * sgn(x[1]),
 	                     J * r->acc[2] + l->p.Bw * x[2] + l->p.Cw * sgn(x[2])};
