@@ -8,7 +8,8 @@ trapezoidal collocation of
     body velocity  xb = R(-theta) [vx, vy],  rim speeds v_j = g_j . [xb, w]     (eq 2)
     wheel forces   f_j = b u_j - e v_j                                          (eqs 21, 12-13)
     body forces    [Fv, Fvn, T] = sum_j g_j f_j - B x - C sgn(x)                (eqs 9-11)
-    world accel    R(theta) [Fv, Fvn] / M,  w' = T / J                          (Newton)
+    body accel     xb' = [Fv, Fvn] / M (eq 23: the body's axes carry the velocity as they
+                   turn), so the world's  R(theta) [Fv, Fvn] / M + w [-vy, vx],  w' = T / J
 
 with |u_j| <= supply - margin, |f_j| <= mu M g / 4 (1 - traction margin), |v_j| <= the motor's
 speed limit at the rim; minimise the duration T (SLSQP, Jacobian by coloured finite
@@ -82,8 +83,8 @@ def wheel_terms(z, u):
 def rates(z, u):
     v, f, xb, c, s = wheel_terms(z, u)
     F = f @ G_WHEEL - B_FRIC * xb - C_FRIC * np.tanh(xb / BAND)
-    ax = (c * F[:, 0] - s * F[:, 1]) / M
-    ay = (s * F[:, 0] + c * F[:, 1]) / M
+    ax = (c * F[:, 0] - s * F[:, 1]) / M - z[:, 5] * z[:, 4]
+    ay = (s * F[:, 0] + c * F[:, 1]) / M + z[:, 5] * z[:, 3]
     return np.stack([z[:, 3], z[:, 4], z[:, 5], ax, ay, F[:, 2] / J], axis=1)
 
 

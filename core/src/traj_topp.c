@@ -13,7 +13,7 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 16  /* bisection steps of the largest s' at a point */
+#define TOPP_BISECT 10  /* bisection steps of the largest s' at a point */
 #define TOPP_TRIES 6    /* timings with limits scaled down until the check passes */
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
@@ -395,8 +395,8 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 	for (int i = 0; i <= w.n; i++)
 		geo_both(pa, pa->grid_s[i], w.g, i);
 	signs(&w);
-	for (int q = 0; q < 3; q++) /* at rest at the end: stiction, friction of either sign */
-		w.sg[w.n][q] = S_NEG | S_ZERO | S_POS;
+	for (int q = 0; q < 3; q++) /* at rest at the end: the brake without friction's help */
+		w.sg[w.n][q] |= S_ZERO;
 	for (int tr = 0; tr < TOPP_TRIES; tr++) {
 		const float t = timing(c, pa, &w, v0, k);
 		if (!(t < INFINITY))
