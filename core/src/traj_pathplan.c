@@ -14,8 +14,8 @@
 #include "traj_int.h"
 
 /* Fractions of the length over which the heading swings to the best one and back. */
-#define SWING_FRACS 3
-static const float swing_frac[SWING_FRACS] = {0.15f, 0.3f, 0.45f};
+#define SWING_FRACS 2
+static const float swing_frac[SWING_FRACS] = {0.25f, 0.45f};
 #define VIA_MIN_M 0.02f /* the start velocity's corner: at least this far ahead */
 
 /* The heading nearest th with the robot's diagonal along the direction dir (the envelope is
