@@ -1,0 +1,26 @@
+/* scenario_goal.h - the goal mode's scenario (scenario_goal.c) and what it takes from the
+ * scenarios' robot (scenarios.c): the same robot, ticks and lines as the others. */
+#ifndef OMNI4_SCENARIO_GOAL_H
+#define OMNI4_SCENARIO_GOAL_H
+
+#include <stdbool.h>
+
+#include "omni4/robot.h"
+#include "scenarios.h"
+
+/* From scenarios.c: a fresh robot (0, or -1), one tick at the scenarios' clock, the clock
+ * [us], one result line, the meter (NULL: none). */
+int scenario_start(void);
+void scenario_tick(void);
+struct robot *scenario_robot(void);
+int64_t scenario_now_us(void);
+void scenario_say(const char *name, bool ok, const char *figures);
+const struct scenario_meter *scenario_meter(void);
+void scenario_print(const char *line);
+
+/* A goal from rest (a move with a turn) kept alive until REACHED: the line "goal ok|FAILED"
+ * with the ticks it took and the final pose's error, then (metered) one cost line with the
+ * goal's ticks' instructions, mean and max (the plan's tick is the max). 0 if it passed. */
+int scenario_goal(void);
+
+#endif /* OMNI4_SCENARIO_GOAL_H */
