@@ -26,17 +26,13 @@ static void post(int64_t id)
 	fw_post_goal(&scenario_robot()->fw, &g);
 }
 
-/* One metered tick. */
+/* One metered tick (fw_tick: the goal's plan runs in it). */
 static void tick_cost(struct goal_cost *c)
 {
-	const struct scenario_meter *m = scenario_meter();
-	const uint32_t t0 = m ? m->read() : 0;
+	const uint32_t d = scenario_tick();
 
-	scenario_tick();
-	if (!m)
+	if (!scenario_meter())
 		return;
-	const uint32_t d = m->read() - t0;
-
 	c->sum += d;
 	c->max = d > c->max ? d : c->max;
 	c->n++;

@@ -8,10 +8,11 @@
 #include "omni4/robot.h"
 #include "scenarios.h"
 
-/* From scenarios.c: a fresh robot (0, or -1), one tick at the scenarios' clock, the clock
- * [us], one result line, the meter (NULL: none). */
+/* From scenarios.c: a fresh robot (0, or -1), one tick at the scenarios' clock (its metered
+ * cost: fw_tick alone, not the wait for the tick; 0 without a meter), the clock [us], one
+ * result line, the meter (NULL: none). */
 int scenario_start(void);
-void scenario_tick(void);
+uint32_t scenario_tick(void);
 struct robot *scenario_robot(void);
 int64_t scenario_now_us(void);
 void scenario_say(const char *name, bool ok, const char *figures);

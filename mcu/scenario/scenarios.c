@@ -25,7 +25,7 @@ static const struct scenario_meter *g_meter;
 /* Per-tick cost: the whole fw_tick, and the part spent in the HAL (the plant's step, which a
  * real board does not run), measured by wrapping the sim backend's ops. */
 static struct {
-	uint32_t hal, n, tick_max, ctl_max;
+	uint32_t hal, n, tick_max, ctl_max, last; /* last: the latest tick's whole cost */
 	uint64_t tick_sum, ctl_sum;
 } g_cost;
 
@@ -142,6 +142,7 @@ static struct log_entry tick(void)
 		const uint32_t all = g_meter->read() - t0, ctl = all - g_cost.hal;
 
 		g_cost.n++;
+		g_cost.last = all;
 		g_cost.tick_sum += all;
 		g_cost.ctl_sum += ctl;
 		g_cost.tick_max = all > g_cost.tick_max ? all : g_cost.tick_max;
@@ -450,9 +451,10 @@ int scenario_start(void)
 	return start();
 }
 
-void scenario_tick(void)
+uint32_t scenario_tick(void)
 {
 	tick();
+	return g_cost.last;
 }
 
 struct robot *scenario_robot(void)
