@@ -10,7 +10,7 @@ trap 'rm -rf "$t"' EXIT
 results() { grep -E ' (ok|FAILED) |^[0-9]+ passed' "$1"; }
 timeout 60 "$host" --no-cost > "$t/host.txt" 2>&1
 hrc=$?
-timeout 100 "$@" > "$t/mcu.txt" 2>&1
+timeout 300 "$@" > "$t/mcu.txt" 2>&1
 mrc=$?
 echo "host (exit $hrc):"
 results "$t/host.txt"

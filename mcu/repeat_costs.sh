@@ -10,7 +10,7 @@ t=$(mktemp -d)
 trap 'rm -rf "$t"' EXIT
 figures() { grep -E '^(cost|estimator cost):' "$1" | sed -E 's/sizeof.*//' | grep -oE '[0-9]+'; }
 for run in 1 2 3; do
-	if ! timeout 60 "$@" > "$t/run$run.txt" 2>&1; then
+	if ! timeout 300 "$@" > "$t/run$run.txt" 2>&1; then
 		echo "FAIL: run $run exited non-zero:"
 		cat "$t/run$run.txt"
 		exit 1
