@@ -128,7 +128,8 @@ struct est_tick {
 	float volts[4];
 	float wheel[4];  /* wheel linear speeds [m/s] */
 	float late_z[3]; /* the late measurement taken at this tick (late: its EST_LATE_ kind) */
-	uint8_t driven, have_wheels, late, pad;
+	uint8_t driven, have_wheels, late;
+	uint8_t untrusted; /* wheels flagged SLIP at the tick before (bit j: wheel j): left out */
 };
 
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
