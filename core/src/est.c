@@ -205,9 +205,13 @@ static void predict(struct est *e, const struct est_tick *t)
 	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
 	const float dt = e->dt;
 	const float x0[3] = {s[3], s[4], s[5]};
-	float xm[3], u[4];
+	float xm[3], ue[4];
+	const float *u = t->volts;
 
-	est_slip_volts(e, t, x0, u);
+	if (t->untrusted) { /* a slipping wheel's force at its rim's speed */
+		est_slip_volts(e, t, x0, ue);
+		u = ue;
+	}
 	for (int k = 0; k < 3; k++) {
 		float b = 0.0f;
 
