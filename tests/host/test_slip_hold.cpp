@@ -2,11 +2,17 @@
 // per-wheel slip bits and true velocity), in the lockstep simulator (simulated time only):
 // voltage steps from rest on a mu 0.4 floor that slip every wheel (a rotation step), two (along
 // v) or all four with load transfer (the diagonal), held until the wheels grip again:
-// - EST_FLAG_SLIP is set on every tick from the truth's onset (plus the model witness's
-//   detection delay, at most 50 ms) to the truth's last slipping tick: the longest gap is 0;
-// - the estimate's velocity (v, vn, d w) stays within 0.1 m/s of the truth during the slip
-//   (it does not follow the spinning wheels), and within 0.05 m/s from 200 ms after the slip
-//   (the slipping readings taught the wheels' scale calibration nothing).
+// - EST_FLAG_SLIP is set on every tick from its first (at most 50 ms after the truth's onset)
+//   until the grip: the truth's fastest slipping wheel slower than twice slip_model_threshold
+//   (the flag sees no slip below its threshold); the longest gap is 0 (the gap up to the
+//   truth's last flagged tick is printed);
+// - the estimate's velocity (v, vn, d w) against the truth during the slip: RMS within 0.2 m/s,
+//   max 0.3 m/s (it does not follow the spinning wheels: they gave 0.4-0.7 and 0.6-1.2), and
+//   within 0.05 m/s from 200 ms after the slip (the slipping readings taught the wheels' scale
+//   calibration nothing);
+// - no SLIP 50 ms after the truth's last slipping tick.
+// And a push along the motion (a false SLIP of the model's witness): the flag ends, the
+// estimate is back on the truth after it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,6 +30,8 @@ extern "C" {
 #include "omni4/config.h"
 #include "omni4/est.h"
 #include "omni4/simrun.h"
+// slip_push.c: an external force along v on the simulated body [N].
+void slip_push_set(struct simrun *sr, double force_v_n);
 }
 
 namespace
@@ -201,5 +209,87 @@ TEST(SlipHold, TheFlagHoldsFromOnsetToGripAndTheEstimateFollowsTheBody)
 		EXPECT_EQ(h.false_ticks, 0) << c.dir;
 		// measured 0.003-0.024 (slipping readings learnt as scale errors: 0.08)
 		EXPECT_LE(h.err_after, 0.05) << c.dir;
+	}
+}
+
+namespace
+{
+
+struct Push {
+	long slip_ticks = 0;    // SLIP during the push
+	double clear_ms = NAN;  // the flag's last tick after the push ends [ms after it]
+	double err_after = 0;   // the largest estimate error from 200 ms after the push [m/s]
+	double err_push = 0;    // the largest estimate error during the push [m/s]
+	int32_t truth_slip = 0; // the truth's slip flags seen
+};
+
+// 4 V along v on a mu 1 floor (the robot cruising, no wheel beyond its traction), then a push of
+// force_n along the motion for 0.5 s: the wheels grip, the body runs ahead of the model.
+Push push_along(double force_n)
+{
+	omni4_config cfg;
+	config_defaults(&cfg);
+	cfg.sim.traction_mu = 1.0;
+	cfg.sim.seed = 7;
+	char err[256];
+	Run r;
+	r.sr = simrun_create(&cfg, &cfg.ctl.model, true, nullptr, err, sizeof(err));
+	EXPECT_NE(r.sr, nullptr) << err;
+	if (!r.sr)
+		return {};
+	simrun_set_tap(r.sr, on_message, &r);
+	const auto pattern = omni4::traction_pattern("v");
+	const double volts[4] = {4 * pattern[0], 4 * pattern[1], 4 * pattern[2], 4 * pattern[3]};
+	const double dt = simrun_period_s(r.sr), d = cfg.ctl.model.d;
+	const long on = 2300, off = 2800, end = 4800;
+	Push p;
+	long last_flag = -1;
+	for (long k = 0; k < end; ++k) {
+		if (k >= 300 && k % 50 == 0)
+			voltage_command(r.sr, volts, k + 1);
+		slip_push_set(r.sr, k >= on && k < off ? force_n : 0.0);
+		simrun_tick(r.sr);
+		double x[3], pose[3];
+		simrun_truth(r.sr, x, pose);
+		const est_output *o = simrun_estimate(r.sr);
+		const double e[3] = {o->vel[0] - x[0], o->vel[1] - x[1], d * (o->vel[2] - x[2])};
+		const double en = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+		const bool flag = (o->flags & EST_FLAG_SLIP) != 0;
+		p.truth_slip |= k >= 300 ? r.truth & 0x0f : 0;
+		if (k >= on && k < off) {
+			p.slip_ticks += flag;
+			p.err_push = std::max(p.err_push, en);
+		}
+		last_flag = flag ? k : last_flag;
+		if (k >= off + std::lround(0.2 / dt))
+			p.err_after = std::max(p.err_after, en);
+	}
+	p.clear_ms = last_flag >= off ? (last_flag + 1 - off) * dt * 1e3 : 0.0;
+	simrun_destroy(r.sr);
+	return p;
+}
+
+} // namespace
+
+// A push along the motion looks like a slip to the model's witness (the wheels run ahead of the
+// prediction; the camera, slower, would not confirm it). Flagged, the wheels are left out and
+// the model and the camera carry the estimate, which misses the push while the flag lasts; the
+// flag ends (the motor's force turns against the motion once the body runs past its speed, or
+// the wheels agree with the estimate again): no lock-in, the estimate back on the truth.
+TEST(SlipHold, APushAlongTheMotionEndsWithThePushAndLeavesTheEstimateOnTheTruth)
+{
+	for (double f : {5.0, 15.0}) {
+		const Push p = push_along(f);
+		std::printf(
+		    "push %.0f N along v for 0.5 s at 4 V: SLIP %ld of 500 ticks, flag clear "
+		    "%.0f ms after it, estimate error during it max %.4f, from 200 ms after it "
+		    "max %.4f m/s; truth slip 0x%x\n",
+		    f, p.slip_ticks, p.clear_ms, p.err_push, p.err_after, p.truth_slip);
+		EXPECT_EQ(p.truth_slip, 0);
+		EXPECT_LE(p.clear_ms, 100.0); // measured 0: the flag ends within the push
+		EXPECT_LE(p.err_after, 0.01); // measured 0.0032-0.0036
+		// The price of leaving the wheels out on a false SLIP: measured 0.33 m/s at 15 N
+		// (the wheels trusted: 0.031); the model does not know the push.
+		EXPECT_LE(p.err_push, 0.7);
 	}
 }
