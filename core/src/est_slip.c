@@ -11,8 +11,7 @@
  *   own inertia, ahead of the body along the force that drives it (braking: behind it, and the
  *   force is reversed). Beyond slip_model_threshold for slip_ticks ticks: that wheel slips. A
  *   blocked or pushed-back body leaves the wheels behind the prediction: COLLISION, not this.
- *   It sees the onset (the rim running away); once the rim has settled at its slipping speed
- *   the filter has followed the wheels and the innovation fades.
+ *   A push along the motion looks the same to it (the camera does not confirm it).
  * - the camera: the wheels' distance between two frames (the ring of past ticks, from each
  *   frame's capture tick: its latency replayed; eqs 3-5) against the body's displacement the
  *   two poses give (in the robot frame at the mid heading), over the longest baseline still in
@@ -22,6 +21,14 @@
  *   (v: 1 and 3, vn: 0 and 2, w: all four) and whose rims are off the ground's (eq 2) by half
  *   the most of them or more slip, until a comparison says otherwise or the camera goes
  *   stale. Every finite frame counts, gated or not: the camera is the witness.
+ * A flagged wheel is not trusted until it grips again (est_tick.untrusted, from the flags of
+ * the tick before): its reading leaves the wheel update (the others one scalar update each;
+ * none when all four slip: the model and the camera carry the state), its force in the
+ * prediction is its motor's at the speed its rim spins (the voltage less the back-EMF of the
+ * rim's lead over the ground), and when it is first flagged the ticks since the witnesses'
+ * onset are re-run without it (the estimate keeps nothing the spinning wheel gave it). So the
+ * estimate follows the body, the wheel stays ahead of the prediction and the flag holds until
+ * the wheel grips.
  * Fast loop: no allocation, a few dozen operations per wheel.
  */
 #include <math.h>

@@ -17,8 +17,9 @@
  * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
  *   frames in a row disagree; in a wheel reading whose null-space residual is beyond
  *   slip_threshold, the wheel farthest from the prediction (the other three give the
- *   velocity). A camera that stops leaves odometry and the model carrying on with a growing
- *   covariance.
+ *   velocity); a wheel flagged SLIP (any witness, EST_FLAG_SLIP_j) is left out until it
+ *   grips again (est_slip.c). A camera that stops leaves odometry and the model carrying on
+ *   with a growing covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
  *   v0 - v1 + v2 - v3 (0 for a rigid body); EST_FLAG_COLLISION from the model-vs-wheels
  *   innovation averaged over EST_INNOV_AVG_TICKS (the robot slowed or was pushed although the
