@@ -205,14 +205,19 @@ static void predict(struct est *e, const struct est_tick *t)
 	const float *phi = drv ? e->phi : e->phic, *gam = drv ? e->gam : e->gamc;
 	const float dt = e->dt;
 	const float x0[3] = {s[3], s[4], s[5]};
-	float xm[3];
+	float xm[3], ue[4];
+	const float *u = t->volts;
 
+	if (t->untrusted) { /* a slipping wheel's force at its rim's speed */
+		est_slip_volts(e, t, x0, ue);
+		u = ue;
+	}
 	for (int k = 0; k < 3; k++) {
 		float b = 0.0f;
 
 		if (drv)
-			b = e->B[k][0] * t->volts[0] + e->B[k][1] * t->volts[1] +
-			    e->B[k][2] * t->volts[2] + e->B[k][3] * t->volts[3];
+			b = e->B[k][0] * u[0] + e->B[k][1] * u[1] + e->B[k][2] * u[2] +
+			    e->B[k][3] * u[3];
 		if (drv && e->coupled) /* the back-EMF of unequal wheels: held over the tick */
 			b += coupling(e, k, x0);
 		const float xn = axis(phi[k], gam[k], b, e->C[k], s[3 + k]);
@@ -327,6 +332,10 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		e->slip_run = slip_now ? e->slip_run + 1 : 0;
 		e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
 	}
+	if (t->untrusted) { /* wheels flagged at the tick before: the others only */
+		est_slip_update(e, t, wh);
+		return;
+	}
 	/* three wheels: twice the variance */
 	const float scale = slip_now ? 2.0f : 1.0f;
 
@@ -436,6 +445,9 @@ static void step_one(struct est *e, const struct est_input *in)
 	t->driven = in->driven && est_all_finite(in->volts, 4);
 	t->have_wheels = in->have_wheels && plausible_wheels(in->wheel_rad_s, e->r);
 	t->late = EST_LATE_NONE;
+	t->untrusted = (uint8_t)((e->out.flags & (EST_FLAG_SLIP_0 | EST_FLAG_SLIP_1 |
+	                                          EST_FLAG_SLIP_2 | EST_FLAG_SLIP_3)) /
+	                         EST_FLAG_SLIP_0);
 	for (int j = 0; j < 4; j++) {
 		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
 		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r[j] : 0.0f;
@@ -446,6 +458,10 @@ static void step_one(struct est *e, const struct est_input *in)
 	e->seq = n + 1;
 	guard_finite(e);
 	e->out.flags = flags(e, t, in->utime);
+	const uint8_t fresh = (uint8_t)(e->out.flags / EST_FLAG_SLIP_0 & 0x0fu & ~t->untrusted);
+
+	if (fresh)
+		est_slip_rewind(e, fresh);
 	est_publish(e, in->utime);
 }
 

@@ -53,7 +53,10 @@ void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n)
 {
 	if (!e->set.calibrate)
 		return;
-	if (t->have_wheels && e->slip_run == 0 && e->collision_run == 0)
+	/* a wheel flagged (the model's or the camera's witness) teaches nothing either (a slip
+	 * that the null space sees only in part, the diagonal's, would be learnt as a scale
+	 * error) */
+	if (t->have_wheels && e->slip_run == 0 && e->collision_run == 0 && !t->untrusted)
 		cal_accumulate(e, t->wheel);
 	if (n % EST_CAL_EVERY == EST_CAL_EVERY - 1)
 		cal_solve(e);

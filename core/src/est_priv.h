@@ -25,6 +25,9 @@ bool est_all_finite(const float *v, int n);
 
 /* est_replay.c: the snapshot before tick n, when n is one the ring keeps. */
 void est_replay_snap(struct est *e, uint32_t n);
+/* est_replay.c: ticks n0 .. seq - 1 re-run from the snapshot before n0 (n0 a multiple of
+ * EST_SNAP_EVERY whose snapshot the ring keeps). */
+void est_replay_from(struct est *e, uint32_t n0);
 
 /* est_cal.c: after the live tick n: a reading that fits a rigid body teaches the calibration;
  * every EST_CAL_EVERY ticks the scale errors in force are solved again. */
@@ -42,5 +45,19 @@ void est_slip_camera(struct est *e, uint32_t k, const float z[3], int64_t captur
 uint32_t est_slip_flags(const struct est *e, int64_t utime);
 /* The model says some wheel runs ahead: the innovation is a slip's, not a collision's. */
 bool est_slip_common(const struct est *e);
+/* Predict: the voltages of tick t with each untrusted wheel's (t->untrusted) less the back-EMF
+ * its rim (scale-corrected reading) runs ahead of the ground speed x (v, vn, w) gives it: the
+ * force its motor gives at the speed it spins (a slipping wheel's, not a gripping one's). */
+void est_slip_volts(const struct est *e, const struct est_tick *t, const float x[3],
+                    float volts[4]);
+/* The wheel update with only the trusted wheels (t->untrusted set): one scalar update per
+ * wheel (eq 2's row, wheel_noise^2), none when all four slip (the model and the camera carry
+ * the state). wh: the scale-corrected readings [m/s]. */
+void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4]);
+/* After the live tick, the wheels fresh (bit j: wheel j) newly flagged: the ticks since the
+ * witnesses' onset (their averaging and run, EST_INNOV_AVG_TICKS and slip_ticks, twice over)
+ * re-run with those wheels untrusted, so the estimate does not keep what the spinning wheels
+ * gave it before the flag. */
+void est_slip_rewind(struct est *e, uint8_t fresh);
 
 #endif /* OMNI4_EST_PRIV_H */

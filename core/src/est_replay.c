@@ -90,3 +90,9 @@ int est_replay_at(struct est *e, uint32_t tick, uint8_t kind, const float z[3], 
 	rerun(e, tick + 1, n);
 	return 0;
 }
+
+void est_replay_from(struct est *e, uint32_t n0)
+{
+	get_snap(e, n0);
+	rerun(e, n0, e->seq);
+}

@@ -11,8 +11,7 @@
  *   own inertia, ahead of the body along the force that drives it (braking: behind it, and the
  *   force is reversed). Beyond slip_model_threshold for slip_ticks ticks: that wheel slips. A
  *   blocked or pushed-back body leaves the wheels behind the prediction: COLLISION, not this.
- *   It sees the onset (the rim running away); once the rim has settled at its slipping speed
- *   the filter has followed the wheels and the innovation fades.
+ *   A push along the motion looks the same to it (the camera does not confirm it).
  * - the camera: the wheels' distance between two frames (the ring of past ticks, from each
  *   frame's capture tick: its latency replayed; eqs 3-5) against the body's displacement the
  *   two poses give (in the robot frame at the mid heading), over the longest baseline still in
@@ -22,6 +21,14 @@
  *   (v: 1 and 3, vn: 0 and 2, w: all four) and whose rims are off the ground's (eq 2) by half
  *   the most of them or more slip, until a comparison says otherwise or the camera goes
  *   stale. Every finite frame counts, gated or not: the camera is the witness.
+ * A flagged wheel is not trusted until it grips again (est_tick.untrusted, from the flags of
+ * the tick before): its reading leaves the wheel update (the others one scalar update each;
+ * none when all four slip: the model and the camera carry the state), its force in the
+ * prediction is its motor's at the speed its rim spins (the voltage less the back-EMF of the
+ * rim's lead over the ground), and when it is first flagged the ticks since the witnesses'
+ * onset are re-run without it (the estimate keeps nothing the spinning wheel gave it). So the
+ * estimate follows the body, the wheel stays ahead of the prediction and the flag holds until
+ * the wheel grips.
  * Fast loop: no allocation, a few dozen operations per wheel.
  */
 #include <math.h>
@@ -198,4 +205,86 @@ bool est_slip_common(const struct est *e)
 		if (e->slip.model_run[j] >= e->set.slip_ticks)
 			return true;
 	return false;
+}
+
+/* Eq 2's row of wheel j over (v, vn, w). */
+static void wheel_row(float d, int j, float h[3])
+{
+	static const float hv[4] = {0.0f, -1.0f, 0.0f, 1.0f}, hn[4] = {1.0f, 0.0f, -1.0f, 0.0f};
+
+	h[0] = hv[j];
+	h[1] = hn[j];
+	h[2] = d;
+}
+
+void est_slip_volts(const struct est *e, const struct est_tick *t, const float x[3], float volts[4])
+{
+	for (int j = 0; j < 4; j++) {
+		float h[3];
+
+		volts[j] = t->volts[j];
+		if (!(t->untrusted >> j & 1) || !t->have_wheels)
+			continue;
+		wheel_row(e->d, j, h);
+		const float ground = h[0] * x[0] + h[1] * x[1] + h[2] * x[2];
+
+		volts[j] -= e->slip.kemf[j] * (t->wheel[j] * (1.0f + e->cal[j]) - ground);
+	}
+}
+
+/* P's element (i, l) from the upper triangle. */
+static float upper(const struct est *e, int i, int l)
+{
+	return i <= l ? e->P[i][l] : e->P[l][i];
+}
+
+/* One reading h . (v, vn, w) of innovation nu and variance r (the upper triangle). */
+static void row_update(struct est *e, const float h[3], float nu, float r)
+{
+	float ph[6];
+
+	for (int i = 0; i < 6; i++)
+		ph[i] = upper(e, i, 3) * h[0] + upper(e, i, 4) * h[1] + upper(e, i, 5) * h[2];
+	const float S = h[0] * ph[3] + h[1] * ph[4] + h[2] * ph[5] + r;
+
+	if (!(S > 0.0f))
+		return;
+	const float inv = 1.0f / S;
+
+	for (int i = 0; i < 6; i++) {
+		e->s[i] += ph[i] * inv * nu;
+		for (int l = i; l < 6; l++)
+			e->P[i][l] -= ph[i] * inv * ph[l];
+	}
+}
+
+void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4])
+{
+	const float r = e->set.wheel_noise * e->set.wheel_noise;
+
+	for (int j = 0; j < 4; j++) {
+		float h[3];
+
+		if (t->untrusted >> j & 1)
+			continue;
+		wheel_row(e->d, j, h);
+		row_update(e, h, wh[j] - (h[0] * e->s[3] + h[1] * e->s[4] + h[2] * e->s[5]), r);
+	}
+}
+
+void est_slip_rewind(struct est *e, uint8_t fresh)
+{
+	const uint32_t now = e->seq,
+	               back = 2u * (EST_INNOV_AVG_TICKS + (uint32_t)e->set.slip_ticks);
+	const uint32_t oldest = now > EST_HISTORY ? now - EST_HISTORY : 0;
+	uint32_t from = now > back ? now - back : 0;
+
+	from -= from % EST_SNAP_EVERY;
+	if (from < oldest)
+		from += EST_SNAP_EVERY;
+	if (from >= now)
+		return;
+	for (uint32_t n = from; n < now; n++)
+		e->hist[n % EST_HISTORY].untrusted |= fresh;
+	est_replay_from(e, from);
 }

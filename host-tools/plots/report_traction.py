@@ -4,24 +4,58 @@ give a gripping robot: `traction_runs.csv` of `omni4-ident identify --csv`), wit
 acceleration held and the slip tolerance marked, and the floor's coefficient per direction
 (`traction.csv`)."""
 import csv
+import math
 import os
 
 SLIP_TOLERANCE = 0.02  # m/s: ident_traction's runaway test (at rest; + 3 % of the speed)
 UNITS = {"w": "rad/s^2"}
+# The columns the section reads: numbers (finite), flags ("0" or "1") and names.
+RUNS_COLUMNS = {"direction": "name", "level_v": "number", "slipped": "flag",
+                "slip_m_s": "number", "acc": "number"}
+DIRS_COLUMNS = {"direction": "name", "runs": "number", "reached": "flag", "mu": "number",
+                "mu_se": "number", "acc": "number", "acc_se": "number",
+                "level_held_v": "number", "level_slip_v": "number"}
 
 
-def read_rows(csv_dir, name):
+def bad_value(kind, text):
+    """What is wrong with one field (None: nothing)."""
+    if text is None or text == "":
+        return "missing"
+    if kind == "flag" and text not in ("0", "1"):
+        return f"'{text}' is not 0 or 1"
+    if kind == "number":
+        try:
+            if not math.isfinite(float(text)):
+                return f"'{text}' is not a finite number"
+        except ValueError:
+            return f"'{text}' is not a number"
+    return None
+
+
+def read_rows(csv_dir, name, columns):
+    """The rows of csv_dir/name (none when the file is absent); a file the section cannot read
+    ends the report with one line naming the file, the line and the column."""
     path = os.path.join(csv_dir, name)
     if not os.path.exists(path):
         return []
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise SystemExit(f"omni4_report: {path}: cannot be read ({e})")
+    for n, row in enumerate(rows, start=2):
+        for col, kind in columns.items():
+            what = bad_value(kind, row.get(col))
+            if what:
+                raise SystemExit(f"omni4_report: {path}: line {n}: column '{col}' {what} "
+                                 "(write it again with omni4-ident identify --csv)")
+    return rows
 
 
 def traction_figure(plt, save, csv_dir, out_dir):
     """The figure's file name (None without traction runs) and the section's Markdown lines."""
-    runs = read_rows(csv_dir, "traction_runs.csv")
-    dirs = read_rows(csv_dir, "traction.csv")
+    runs = read_rows(csv_dir, "traction_runs.csv", RUNS_COLUMNS)
+    dirs = read_rows(csv_dir, "traction.csv", DIRS_COLUMNS)
     if not runs:
         return None, []
     order = [d["direction"] for d in dirs] or sorted({r["direction"] for r in runs})

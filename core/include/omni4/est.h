@@ -17,8 +17,9 @@
  * - Outliers are gated: a camera pose beyond gate_sigmas (Mahalanobis), unless EST_CAM_RESYNC
  *   frames in a row disagree; in a wheel reading whose null-space residual is beyond
  *   slip_threshold, the wheel farthest from the prediction (the other three give the
- *   velocity). A camera that stops leaves odometry and the model carrying on with a growing
- *   covariance.
+ *   velocity); a wheel flagged SLIP (any witness, EST_FLAG_SLIP_j) is left out until it
+ *   grips again (est_slip.c). A camera that stops leaves odometry and the model carrying on
+ *   with a growing covariance.
  * - Flags, per tick (not faults): EST_FLAG_SLIP from the wheel null-space residual
  *   v0 - v1 + v2 - v3 (0 for a rigid body); EST_FLAG_COLLISION from the model-vs-wheels
  *   innovation averaged over EST_INNOV_AVG_TICKS (the robot slowed or was pushed although the
@@ -128,7 +129,8 @@ struct est_tick {
 	float volts[4];
 	float wheel[4];  /* wheel linear speeds [m/s] */
 	float late_z[3]; /* the late measurement taken at this tick (late: its EST_LATE_ kind) */
-	uint8_t driven, have_wheels, late, pad;
+	uint8_t driven, have_wheels, late;
+	uint8_t untrusted; /* wheels flagged SLIP at the tick before (bit j: wheel j): left out */
 };
 
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
