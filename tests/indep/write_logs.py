@@ -212,15 +212,15 @@ def simulate_timelines(tls, plist, dt, jitter=None):
             "tick_us": tick_us}
 
 
-def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=()):
+def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=(), wheels=None):
     """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
 
     The robots must share one loop rate (generate() groups the `sensors` layout's robots by
-    rate). Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
+    rate). wheels: the per-wheel spread (R, Kv, r) fractions of plant.robot_params, None = equal. Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
     and cpr (encoder counts per wheel revolution per robot).
     Raises LogError if a layout's "robot at rest here" check fails.
     """
-    plist = [plant.robot_params(seed, k) for k in robots]
+    plist = [plant.robot_params(seed, k, wheels) for k in robots]
     model = plant.axis_model(plant.stack_params(plist))
     tls, dts, cprs, bases = [], set(), [], []
     for i, k in enumerate(robots):
@@ -398,10 +398,11 @@ def rate_groups(layout, robots):
 
 
 def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print, speed_noise=None, sensors=None):
+             progress=print, speed_noise=None, sensors=None, wheels=None):
     """Simulate `robots` in `layout` and write their logs, INI files and sensor sidecars.
 
     sensors: tuple of real-sensor effects (parse_sensors), None = the layout's default.
+    wheels: per-wheel spread (R, Kv, r) fractions (parse_wheels), None = four equal drives.
     Returns a list of dicts (robot, log, base, truth, sensors (sidecar path), effects,
     base_layout, seconds, counts) in robot order.
     """
@@ -412,7 +413,7 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
     t_sim, out, rates, cprs = 0.0, [], set(), set()
     for group in rate_groups(layout, robots):
         t = time.time()
-        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects)
+        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects, wheels)
         t_sim += time.time() - t
         rates.add(1.0 / sim["dt"])
         cprs.update(sim["cpr"])
@@ -424,7 +425,7 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
             truth = os.path.join(out_dir, f"robot{k}_truth.ini")
             side = os.path.join(out_dir, f"robot{k}_{layout}.sensors.json")
             write_ini(base, sim["params"][i], ("d", "r", "l", "M"))
-            write_ini(truth, sim["params"][i], plant.MODEL_KEYS)
+            write_ini(truth, sim["params"][i], plant.ini_keys(sim["params"][i]))
             write_sidecar(side, data["sensors"])
             out.append({"robot": k, "log": log, "base": base, "truth": truth, "sensors": side,
                         "effects": effects, "base_layout": sim["bases"][i],
@@ -440,6 +441,19 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
                  f"{','.join(effects) or 'ideal'}; simulated in {t_sim:.1f} s, written in "
                  f"{time.time() - t_start - t_sim:.1f} s")
     return out
+
+
+def parse_wheels(text):
+    """'5,5,1' (per cent: motors' R, motors' Kv, wheel radii) -> (0.05, 0.05, 0.01) or None for
+    '0,0,0'; raises ValueError."""
+    try:
+        v = tuple(float(x) / 100.0 for x in str(text).split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 3 or not all(0.0 <= x <= 0.2 for x in v):
+        raise ValueError(f"--wheel-spread {text!r}: expected R,KV,RADIUS in per cent, each "
+                         "0-20, e.g. 5,5,1")
+    return v if any(v) else None
 
 
 def parse_subset(text):
@@ -490,6 +504,10 @@ def main(argv=None):
     ap.add_argument("--sensors", metavar="EFFECT[,EFFECT]",
                     help="real-sensor effects for every layout: " + ", ".join(plant.SENSOR_EFFECTS)
                     + ", all or none (default: all for the sensors layout, none otherwise)")
+    ap.add_argument("--wheel-spread", metavar="R,KV,RADIUS", default="0,0,0",
+                    help="per-wheel drives: each motor's R and Kv off by up to +-R %%, +-KV %%, "
+                         "each wheel's radius by up to +-RADIUS %% (mean unchanged); the truth "
+                         "INI gets R_j Kv_j Kt_j r_j (default 0,0,0: four equal drives)")
     ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
                     help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
                          "correlation time TAU [s], e.g. 0.3,0.02")
@@ -501,6 +519,7 @@ def main(argv=None):
         if a.robots < 1:
             raise ValueError("--robots must be at least 1")
         sensors = None if a.sensors is None else parse_sensors(a.sensors)
+        wheels = parse_wheels(a.wheel_spread)
         noise = None
         if a.speed_noise:
             try:
@@ -512,7 +531,7 @@ def main(argv=None):
                                  "SIGMA >= 0 [rad/s] and TAU > 0 [s]")
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
-                           a.lcm_python, None if a.quiet else print, noise, sensors)
+                           a.lcm_python, None if a.quiet else print, noise, sensors, wheels)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
