@@ -89,7 +89,7 @@ static int steady_error(bool per_wheel, bool pi, int axis, double target, double
 		const int64_t now = (i + 1) * (int64_t)llround(dt * 1e6);
 		struct motor_sample s;
 		struct ctl_output out;
-		struct sim_truth t;
+		struct hal_truth t;
 
 		if (i % 50 == 0) { /* the watchdog wants a command within 200 ms */
 			cmd.seq = i;

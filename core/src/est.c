@@ -81,6 +81,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 	e->d = (float)p->d;
 	for (int j = 0; j < 4; j++)
 		e->r[j] = (float)w->r[j];
+	est_slip_set_model(e, p, w);
 	set_noise(e);
 }
 
@@ -110,6 +111,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->slip_run = e->collision_run = e->cam_gate_run = 0;
 	e->last_cam_us = 0;
 	e->have_cam = false;
+	est_slip_reset(e);
 }
 
 int est_init(struct est *e, const struct est_settings *s, const struct model_params *p,
@@ -276,7 +278,7 @@ static void wheel_velocity(const struct est *e, const float v[4], float z[3], fl
 /* A reading that does not fit a rigid body: the wheel that disagrees most with the prediction
  * is left out (its reading replaced by the one the other three imply, which zeroes the
  * residual nr), z the velocity from the other three. */
-static void leave_out_worst(const struct est *e, const float wh[4], float nr, float z[3])
+static int leave_out_worst(const struct est *e, const float wh[4], float nr, float z[3])
 {
 	const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
 	const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
@@ -294,6 +296,7 @@ static void leave_out_worst(const struct est *e, const float wh[4], float nr, fl
 	}
 	v[jw] -= (jw & 1) ? -nr : nr;
 	wheel_velocity(e, v, z, &nr2);
+	return jw;
 }
 
 /* The wheel update (scale-corrected readings); live: the flags' counters too. The collision
@@ -307,10 +310,11 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		wh[j] = t->wheel[j] * (1.0f + e->cal[j]);
 	wheel_velocity(e, wh, z, &nr);
 	const bool slip_now = !(fabsf(nr) <= e->set.slip_threshold);
+	const int jw = slip_now ? leave_out_worst(e, wh, nr, z) : -1;
 
-	if (slip_now)
-		leave_out_worst(e, wh, nr, z);
 	if (live) {
+		e->slip.null_wheel = (int8_t)jw;
+		est_slip_model(e, t, wh);
 		const float nu[3] = {z[0] - e->s[3], z[1] - e->s[4], e->d * (z[2] - e->s[5])};
 		float *m = e->innov_avg;
 
@@ -351,6 +355,7 @@ void est_run_tick(struct est *e, const struct est_tick *t, bool live)
 	} else if (live) {
 		e->slip_run = 0;
 		e->collision_run = 0;
+		e->slip.null_wheel = -1;
 	}
 	if (t->late == EST_LATE_POSE)
 		est_pose_update(e, t->late_z);
@@ -410,15 +415,19 @@ static uint32_t flags(const struct est *e, const struct est_tick *t, int64_t uti
 	if (!t->have_wheels)
 		f |= EST_FLAG_NO_WHEELS;
 	if (e->set.slip_ticks > 0 && e->slip_run >= e->set.slip_ticks)
-		f |= EST_FLAG_SLIP;
-	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks)
+		f |= EST_FLAG_SLIP |
+		     (e->slip.null_wheel >= 0 ? EST_FLAG_SLIP_0 << e->slip.null_wheel : 0);
+	if (t->have_wheels)
+		f |= est_slip_flags(e, utime);
+	if (e->set.collision_ticks > 0 && e->collision_run >= e->set.collision_ticks &&
+	    !est_slip_common(e)) /* the wheels ran ahead: a slip's innovation */
 		f |= EST_FLAG_COLLISION;
 	if (!e->have_cam || utime - e->last_cam_us > EST_CAMERA_STALE_US)
 		f |= EST_FLAG_CAMERA_STALE;
 	return f;
 }
 
-void est_step(struct est *e, const struct est_input *in)
+static void step_one(struct est *e, const struct est_input *in)
 {
 	const uint32_t n = e->seq;
 	struct est_tick *t = &e->hist[n % EST_HISTORY];
@@ -438,4 +447,32 @@ void est_step(struct est *e, const struct est_input *in)
 	guard_finite(e);
 	e->out.flags = flags(e, t, in->utime);
 	est_publish(e, in->utime);
+}
+
+/* The periods a late tick missed (a loop late on a loaded host; never on the MCU, whose ticks
+ * are the timer's): predicted one by one without a reading, under the voltages applied through
+ * them, as the robot moved on through them; at most EST_CATCH_UP. */
+static void catch_up(struct est *e, const struct est_input *in)
+{
+	if (e->seq == 0)
+		return;
+	const int64_t period_us = (int64_t)(e->dt * 1e6f + 0.5f);
+	const int64_t last_us = e->hist[(e->seq - 1) % EST_HISTORY].utime;
+	int64_t missed = (in->utime - last_us + period_us / 2) / period_us - 1;
+
+	if (missed > EST_CATCH_UP)
+		missed = EST_CATCH_UP;
+	struct est_input gap = *in;
+
+	gap.have_wheels = false;
+	for (int64_t i = missed; i >= 1; i--) {
+		gap.utime = in->utime - i * period_us;
+		step_one(e, &gap);
+	}
+}
+
+void est_step(struct est *e, const struct est_input *in)
+{
+	catch_up(e, in);
+	step_one(e, in);
 }

@@ -63,6 +63,7 @@ int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t 
 		e->out.cam_too_old++;
 		return -ERANGE;
 	}
+	est_slip_camera(e, k, z, capture_us);
 	if (e->set.replay ? est_replay_at(e, k, EST_LATE_POSE, z, gate_and_apply)
 	                  : gate_and_apply(e, z))
 		return camera_refused(e);

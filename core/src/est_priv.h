@@ -30,4 +30,17 @@ void est_replay_snap(struct est *e, uint32_t n);
  * every EST_CAL_EVERY ticks the scale errors in force are solved again. */
 void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n);
 
+/* est_slip.c: slip on every wheel, the wheels named. The model's wheel constants (at every
+ * model change), the slip state cleared (est_reset). */
+void est_slip_set_model(struct est *e, const struct model_params *p, const struct model_wheels *w);
+void est_slip_reset(struct est *e);
+/* Live tick with a reading: the readings wh (scale-corrected) against the prediction in e->s. */
+void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4]);
+/* A finite camera pose z captured at tick k (capture_us), gated or not. */
+void est_slip_camera(struct est *e, uint32_t k, const float z[3], int64_t capture_us);
+/* EST_FLAG_SLIP_j of the wheels the model or the camera say slip (and EST_FLAG_SLIP). */
+uint32_t est_slip_flags(const struct est *e, int64_t utime);
+/* The model says some wheel runs ahead: the innovation is a slip's, not a collision's. */
+bool est_slip_common(const struct est *e);
+
 #endif /* OMNI4_EST_PRIV_H */

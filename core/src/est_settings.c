@@ -35,9 +35,10 @@ void est_settings_defaults(struct est_settings *s)
 
 int est_settings_check(const struct est_settings *s)
 {
-	const float pos[] = {s->accel_noise_lin, s->accel_noise_rot,    s->wheel_noise,
-	                     s->cam_pos_noise,   s->cam_theta_noise,    s->gate_sigmas,
-	                     s->slip_threshold,  s->collision_threshold};
+	const float pos[] = {s->accel_noise_lin,   s->accel_noise_rot,     s->wheel_noise,
+	                     s->cam_pos_noise,     s->cam_theta_noise,     s->gate_sigmas,
+	                     s->slip_threshold,    s->collision_threshold, s->slip_model_threshold,
+	                     s->slip_camera_sigmas};
 
 	for (unsigned k = 0; k < sizeof(pos) / sizeof(pos[0]); k++)
 		if (!(pos[k] > 0.0f && pos[k] < 1e6f))

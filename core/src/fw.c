@@ -161,19 +161,49 @@ static void log_push(struct fw *fw, const struct log_entry *e)
 	}
 }
 
-void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3])
+/* A camera pose the motor backend handed in at this tick's read: to the log (pose_t) and, after
+ * this tick's estimator step, to the estimator at its capture time. */
+static void take_pose(struct fw *fw, const struct hal_pose *p)
 {
-	struct log_entry e = {.utime = utime, .kind = LOG_POSE};
+	struct log_entry e = {.utime = p->utime, .kind = LOG_POSE};
 
-	memcpy(e.pose, pose, sizeof(e.pose));
+	memcpy(e.camera.pose, p->pose, sizeof(e.camera.pose));
 	log_push(fw, &e);
 	if (fw->n_tick_poses < FW_POSES_PER_TICK) {
-		struct fw_pose *p = &fw->tick_poses[fw->n_tick_poses++];
+		struct fw_pose *q = &fw->tick_poses[fw->n_tick_poses++];
 
-		p->utime = utime;
-		memcpy(p->pose, pose, sizeof(p->pose));
+		q->utime = p->utime;
+		memcpy(q->pose, p->pose, sizeof(q->pose));
 	} else
 		atomic_fetch_add(&fw->n.pose_dropped, 1); /* more than a tick can take: counted */
+}
+
+/* A simulated plant's true state after this tick's read: a LOG_TRUTH entry. */
+static void take_truth(struct fw *fw, const struct hal_truth *t)
+{
+	struct log_entry e = {.utime = t->utime, .seq = fw->seq, .kind = LOG_TRUTH};
+
+	e.truth.flags = t->flags;
+	memcpy(e.truth.pose, t->pose, sizeof(e.truth.pose));
+	for (int k = 0; k < 3; k++)
+		e.truth.vel[k] = (float)t->vel[k];
+	for (int j = 0; j < 4; j++)
+		e.truth.wheel_slip[j] = (float)t->wheel_slip[j];
+	log_push(fw, &e);
+}
+
+/* Fast loop, right after the motor read: what the backend measured besides the motors (its
+ * plant's truth, the camera poses that fell due), polled through the HAL's optional ops. At
+ * most FW_POSE_POLLS_PER_TICK poses: a backend that never says -EAGAIN cannot hold the loop. */
+static void take_backend_sensors(struct fw *fw)
+{
+	struct hal_truth t;
+	struct hal_pose p;
+
+	if (hal_motor_read_truth(&fw->motor, &t) == 0)
+		take_truth(fw, &t);
+	for (int k = 0; k < FW_POSE_POLLS_PER_TICK && hal_motor_read_pose(&fw->motor, &p) == 0; k++)
+		take_pose(fw, &p);
 }
 
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3])
@@ -219,20 +249,6 @@ static void estimate(struct fw *fw, struct est_input *in)
 	}
 }
 
-void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
-                   const double wheel_slip[4], uint32_t flags)
-{
-	struct log_entry e = {
-	    .utime = utime, .seq = fw->seq, .kind = LOG_TRUTH, .faults = (int32_t)flags};
-
-	memcpy(e.pose, pose, sizeof(e.pose));
-	for (int k = 0; k < 3; k++)
-		e.voltage[k] = (float)vel[k];
-	for (int j = 0; j < 4; j++)
-		e.current[j] = (float)wheel_slip[j];
-	log_push(fw, &e);
-}
-
 bool fw_pop_log(struct fw *fw, struct log_entry *e)
 {
 	return spsc_pop(&fw->log_ring, e);
@@ -243,15 +259,13 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e)
 static void push_calibration(struct fw *fw, int64_t now_us)
 {
 	const struct ctl_cal *cal = &fw->ctl.cal;
-	struct log_entry e = {.utime = now_us,
-	                      .seq = fw->seq,
-	                      .kind = LOG_CALIBRATION,
-	                      .mode = cal->gen == 1 ? -1 : (int8_t)cal->prev_fault_mask,
-	                      .cal_samples = (uint16_t)cal->cfg.samples,
-	                      .faults = (int32_t)cal->fault_mask};
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_CALIBRATION};
 
-	memcpy(e.current, cal->offset, sizeof(e.current));
-	memcpy(e.voltage, cal->prev, sizeof(e.voltage));
+	e.cal.prev_over_limit = cal->gen == 1 ? -1 : (int32_t)cal->prev_fault_mask;
+	e.cal.samples = (uint16_t)cal->cfg.samples;
+	e.cal.over_limit = cal->fault_mask;
+	memcpy(e.cal.offset, cal->offset, sizeof(e.cal.offset));
+	memcpy(e.cal.prev_offset, cal->prev, sizeof(e.cal.prev_offset));
 	fw->cal_gen = cal->gen;
 	log_push(fw, &e);
 }
@@ -322,20 +336,18 @@ static void drive(struct fw *fw, struct ctl_output *out)
  * starved; it re-aligns) is flagged in its own sample only, so a log shows which were late. */
 static void push_sample(struct fw *fw, int64_t now_us, const struct ctl_output *out)
 {
-	struct log_entry e = {.utime = now_us,
-	                      .seq = fw->seq,
-	                      .kind = LOG_MOTORS,
-	                      .mode = out->mode,
-	                      .faults = out->faults};
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_MOTORS};
 
+	e.sample.mode = out->mode;
+	e.sample.faults = out->faults;
 	if (fw->n.ticks && now_us - fw->last_tick_us >= fw->late_us) {
-		e.faults |= CTL_FAULT_OVERRUN;
+		e.sample.faults |= CTL_FAULT_OVERRUN;
 		fw->n.overruns++;
 	}
 	fw->last_tick_us = now_us;
-	memcpy(e.voltage, out->volts, sizeof(e.voltage));
-	memcpy(e.current, out->current, sizeof(e.current));
-	memcpy(e.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.wheel_speed));
+	memcpy(e.sample.voltage, out->volts, sizeof(e.sample.voltage));
+	memcpy(e.sample.current, out->current, sizeof(e.sample.current));
+	memcpy(e.sample.wheel_speed, fw->last_sample.wheel_rad_s, sizeof(e.sample.wheel_speed));
 	log_push(fw, &e);
 }
 
@@ -353,6 +365,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 
 	const int rc = hal_motor_read(&fw->motor, &s);
 
+	take_backend_sensors(fw);
 	if (rc == 0)
 		fw->last_sample = s;
 	else if (rc != -EAGAIN)

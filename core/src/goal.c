@@ -52,33 +52,77 @@ static void set_status(struct goal *g, enum goal_status st, enum goal_reason why
 	g->rep.reason = (int8_t)why;
 }
 
+void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin)
+{
+	const bool floor = cfg->limits.traction_mu > 0.0;
+
+	*mu = floor ? cfg->limits.traction_mu : GOAL_MU_DEFAULT;
+	*margin = floor ? cfg->limits.traction_margin : GOAL_TRACTION_MARGIN;
+}
+
+/* A plan from `from` to `to` in tr under the limits in force: the envelope's (traj_plan) or the
+ * fixed box's, its speed within tr's cap (a goal's speed_max). */
+static int plan(const struct goal *g, struct traj *tr, const struct traj_ref *from,
+                const float to[3])
+{
+	if (!g->fixed)
+		return traj_plan(tr, from, to);
+	struct goal_fixed fx = g->fx;
+
+	fx.speed_m_s = fminf(fx.speed_m_s, tr->c.speed_cap_m_s);
+	return goal_fixed_plan(&fx, tr, from, to);
+}
+
+/* plan from the reference at tr's clock now (no jump). */
+static int replan(const struct goal *g, struct traj *tr, const float to[3])
+{
+	struct traj_ref now;
+
+	traj_eval(tr, tr->t_s, &now);
+	return plan(g, tr, &now, to);
+}
+
 void goal_init(struct goal *g, const struct ctl_settings *cfg)
 {
-	const bool replan = active(g) && g->traj_ok;
+	const bool again = active(g) && g->traj_ok;
 	struct traj_ref ref;
 
-	if (replan)
+	if (again)
 		traj_eval(&g->tr, g->tr.t_s, &ref);
 	struct traj_limits lim = {
 	    .p = cfg->model,
 	    .supply_v = cfg->limits.supply_v,
 	    .margin_v = fmin(GOAL_MARGIN_V, 0.25 * cfg->limits.supply_v),
-	    .mu = GOAL_MU_DEFAULT,
-	    .traction_margin = GOAL_TRACTION_MARGIN,
 	    .motor_speed_max_rad_s = GOAL_MOTOR_SPEED_MAX_RAD_S,
 	    .speed_cap_m_s = cfg->limits.vel_lin_max,
 	    .omega_cap_rad_s = cfg->limits.vel_rot_max,
 	    .rot_share = GOAL_ROT_SHARE,
 	};
 
+	goal_traction(cfg, &lim.mu, &lim.traction_margin);
 	ctl_settings_wheels(cfg, &lim.w);
-	g->traj_ok = traj_init(&g->tr, &lim) == 0;
-	g->speed_cap_m_s = g->tr.c.speed_cap_m_s;
+	/* Into the scratch first: limits it refuses leave the goal in force its plan, to be
+	 * aborted at the next step (goal_step), never a reference at the origin. */
+	g->traj_ok = traj_init(&g->scratch, &lim) == 0;
 	g->kp_pos = GOAL_KP_POS;
 	g->kp_theta = GOAL_KP_THETA;
+	g->kinematic = cfg->goal.feedforward == CTL_GOAL_FF_KINEMATIC;
+	g->fixed = cfg->goal.limits == CTL_GOAL_LIMITS_FIXED;
+	if (g->traj_ok && g->fixed)
+		g->traj_ok = goal_fixed_limits(&g->scratch, &g->fx) == 0;
+	if (!g->traj_ok)
+		return;
+	const float cap = g->tr.c.speed_cap_m_s; /* a goal's own speed_max stays */
+
+	g->tr.c = g->scratch.c;
+	if (again)
+		g->tr.c.speed_cap_m_s = fminf(cap, g->scratch.c.speed_cap_m_s);
+	if (g->rep.status != GOAL_ACTIVE && g->rep.status != GOAL_REACHED)
+		g->tr = g->scratch; /* nothing in force: hold still at the origin */
+	g->speed_cap_m_s = g->scratch.c.speed_cap_m_s;
 	/* New limits while a goal runs: a new plan from where the reference is (no jump). */
-	if (replan && g->traj_ok)
-		traj_plan(&g->tr, &ref, g->poses[g->index]);
+	if (again)
+		plan(g, &g->tr, &ref, g->poses[g->index]);
 }
 
 /* 0 if the goal's fields are usable, else the reason. */
@@ -141,7 +185,7 @@ static enum goal_reason plan_first(const struct goal *g, const struct ctl *c,
 	tr->c.speed_cap_m_s = cmd->speed_max > 0.0 ? fminf((float)cmd->speed_max, g->speed_cap_m_s)
 	                                           : g->speed_cap_m_s;
 	plan_start(g, c, est, &from);
-	if (traj_plan(tr, &from, to) || !(tr->duration_s <= GOAL_PLAN_MAX_S))
+	if (plan(g, tr, &from, to) || !(tr->duration_s <= GOAL_PLAN_MAX_S))
 		return GOAL_R_UNREACHABLE;
 	return GOAL_R_NONE;
 }
@@ -254,7 +298,7 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 		return;
 	g->index++;
 	g->changed = true;
-	traj_replan(&g->tr, g->poses[g->index]);
+	replan(g, &g->tr, g->poses[g->index]);
 	traj_eval(&g->tr, g->tr.t_s, ref);
 }
 
@@ -276,8 +320,11 @@ static void track(struct goal *g, struct ctl *c, const struct est_output *est,
 	const float vr = cs * ref->vel[0] + sn * ref->vel[1],
 	            vnr = -sn * ref->vel[0] + cs * ref->vel[1];
 	const float w = ref->vel[2];
-	const float acc[3] = {cs * ref->acc[0] + sn * ref->acc[1] + w * vnr,
-	                      -sn * ref->acc[0] + cs * ref->acc[1] - w * vr, ref->acc[2]};
+	float acc[3] = {cs * ref->acc[0] + sn * ref->acc[1] + w * vnr,
+	                -sn * ref->acc[0] + cs * ref->acc[1] - w * vr, ref->acc[2]};
+
+	if (g->kinematic) /* the peer: velocity reference + PI, no acceleration fed forward */
+		memset(acc, 0, sizeof(acc));
 
 	vel[0] = clampf(vel[0], lin);
 	vel[1] = clampf(vel[1], lin);
@@ -315,6 +362,12 @@ void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int6
 	struct traj_ref ref;
 
 	follow_controller(g, c);
+	if (holding(g, c) && !g->traj_ok) { /* new limits left no acceleration */
+		if (active(g))
+			set_status(g, GOAL_ABORTED, GOAL_R_UNREACHABLE);
+		ctl_stop(c, now_us);
+		return;
+	}
 	if (!holding(g, c) || !est || !estimate_ok(g, c, est, now_us))
 		return;
 	advance(g, c->t.dt, &ref);

@@ -46,6 +46,8 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 	              .slip_noise = sim->slip_noise,
 	              .com_height = sim->com_height},
 	    .camera_latency_s = sim->camera_latency_ms * 1e-3,
+	    .camera = true,
+	    .truth = sim->truth,
 	};
 }
 
@@ -107,22 +109,14 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	return 0;
 }
 
-void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int64_t utime0)
+void sim_motor_set_clock(struct sim_motor *s, int64_t utime0)
 {
-	s->on_pose = cb;
-	s->on_pose_user = user;
 	s->utime0 = utime0;
 }
 
-void sim_motor_set_truth_cb(struct sim_motor *s, sim_truth_cb cb, void *user, int64_t utime0)
+void sim_motor_truth(const struct sim_motor *s, struct hal_truth *t)
 {
-	s->on_truth = cb;
-	s->on_truth_user = user;
-	s->truth_utime0 = utime0;
-}
-
-void sim_motor_truth(const struct sim_motor *s, struct sim_truth *t)
-{
+	t->utime = s->utime0 + s->t_us;
 	memcpy(t->pose, s->plant.pose, sizeof(t->pose));
 	memcpy(t->vel, s->plant.x, sizeof(t->vel));
 	plant_wheel_slip(&s->plant, t->wheel_slip);
@@ -159,14 +153,29 @@ static int sim_write(void *ctx, const float volts[4])
 	return 0;
 }
 
-/* The camera: a frame captured every camera period (the plant's pose plus noise), queued,
- * and every queued frame whose latency has passed handed to the pose callback with its
- * capture time. While camera_off nothing is captured and what falls due is lost. */
+/* A queued frame whose latency has passed by simulated time t_us. */
+static bool frame_due(const struct sim_motor *s, int64_t t_us)
+{
+	return s->cam_count && s->cam_q[s->cam_head].capture_us + s->cam_latency_us <= t_us;
+}
+
+static void drop_frame(struct sim_motor *s)
+{
+	s->cam_head = (s->cam_head + 1) % SIM_CAM_QUEUE;
+	s->cam_count--;
+}
+
+/* The camera: a frame captured every camera period (the plant's pose plus noise) and queued
+ * until its latency has passed (read_pose then hands it out with its capture time). A frame
+ * due at the previous read and not taken is lost; while camera_off nothing is captured and
+ * what falls due is lost. */
 static void camera(struct sim_motor *s, double t_s)
 {
+	while (frame_due(s, s->t_us - s->period_us))
+		drop_frame(s);
 	if (t_s + 1e-9 >= s->next_cam_s) {
 		s->next_cam_s += s->cam_period_s;
-		if (s->on_pose && !s->inject.camera_off) {
+		if (s->cfg.camera && !s->inject.camera_off) {
 			if (s->cam_count == SIM_CAM_QUEUE) {
 				s->cam_lost++;
 			} else {
@@ -184,14 +193,33 @@ static void camera(struct sim_motor *s, double t_s)
 			}
 		}
 	}
-	while (s->cam_count && s->cam_q[s->cam_head].capture_us + s->cam_latency_us <= s->t_us) {
-		const struct sim_cam_frame *f = &s->cam_q[s->cam_head];
+	while (s->inject.camera_off && frame_due(s, s->t_us))
+		drop_frame(s);
+}
 
-		if (s->on_pose && !s->inject.camera_off)
-			s->on_pose(s->on_pose_user, s->utime0 + f->capture_us, f->pose);
-		s->cam_head = (s->cam_head + 1) % SIM_CAM_QUEUE;
-		s->cam_count--;
-	}
+static int sim_read_pose(void *ctx, struct hal_pose *out)
+{
+	struct sim_motor *s = ctx;
+
+	if (!frame_due(s, s->t_us))
+		return -EAGAIN;
+	const struct sim_cam_frame *f = &s->cam_q[s->cam_head];
+
+	out->utime = s->utime0 + f->capture_us;
+	memcpy(out->pose, f->pose, sizeof(out->pose));
+	drop_frame(s);
+	return 0;
+}
+
+static int sim_read_truth(void *ctx, struct hal_truth *out)
+{
+	struct sim_motor *s = ctx;
+
+	if (!s->truth_due)
+		return -EAGAIN;
+	s->truth_due = false;
+	sim_motor_truth(s, out);
+	return 0;
 }
 
 /* Wheel j's speed as its encoder reports it after the tick [rad/s]: the true speed w, or the
@@ -236,12 +264,7 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	plant_step(&s->plant, s->volts, s->enabled, dt);
 	plant_wheel_speeds(&s->plant, w_after);
 	s->t_us += s->period_us;
-	if (s->on_truth) {
-		struct sim_truth t;
-
-		sim_motor_truth(s, &t);
-		s->on_truth(s->on_truth_user, s->truth_utime0 + s->t_us, &t);
-	}
+	s->truth_due = s->cfg.truth;
 	camera(s, (double)s->t_us * 1e-6);
 
 	if (s->inject.silent)
@@ -270,6 +293,14 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	return 0;
 }
 
+void sim_motor_advance(struct sim_motor *s, int n)
+{
+	struct motor_sample discarded;
+
+	for (int k = 0; k < n; k++)
+		(void)sim_read(s, &discarded);
+}
+
 static int sim_clear_faults(void *ctx)
 {
 	struct sim_motor *s = ctx;
@@ -291,6 +322,8 @@ const struct motor_hal_ops sim_motor_ops = {
     .write = sim_write,
     .read = sim_read,
     .clear_faults = sim_clear_faults,
+    .read_pose = sim_read_pose,
+    .read_truth = sim_read_truth,
     .close = sim_close,
 };
 

@@ -10,21 +10,24 @@
 #include "omni4/clock.h"
 #include "omni4/sc_os.h"
 
-int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms)
+static bool limits_valid(const struct sc_limits *lim);
+
+int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms,
+                         const struct sc_limits *lim)
 {
 	const uint32_t ids[] = {CAN_ID_STATUS(0), CAN_ID_STATUS(1), CAN_ID_HEALTH(0),
 	                        CAN_ID_HEALTH(1)};
 
 	memset(m, 0, sizeof(*m));
 	m->fd = -1;
-	if (status_timeout_ms <= 0)
+	if (status_timeout_ms <= 0 || !limits_valid(lim))
 		return -EINVAL;
 	const int rc = sc_os_open(iface, ids, 4, &m->fd);
 
 	if (rc)
 		return rc;
 	m->timeout_us = (int64_t)status_timeout_ms * 1000;
-	m->lim = sc_limits_default();
+	m->lim = *lim;
 	atomic_init(&m->halted, false);
 	atomic_init(&m->in_flight, 0);
 	for (int n = 0; n < CAN_NODES; n++)
@@ -33,42 +36,16 @@ int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int statu
 	return 0;
 }
 
-struct sc_limits sc_limits_for(const struct ctl_settings *s)
+/* Plausible limits: positive steps, 1..8 confirming frames. */
+static bool limits_valid(const struct sc_limits *lim)
 {
-	const struct model_params *p = &s->model;
-	struct model_wheels w; /* each drive's own R, Kt, r: the worst wheel sets each limit */
-	double i_step = 0.0, f_max = 0.0, r_min = INFINITY;
-
-	ctl_settings_wheels(s, &w);
-	for (int j = 0; j < 4; j++) {
-		const double i_j = 2.0 * s->limits.supply_v / w.R[j];
-
-		i_step = fmax(i_step, i_j);
-		f_max = fmax(f_max, p->l * w.Kt[j] * i_j / w.r[j]);
-		r_min = fmin(r_min, w.r[j]);
-	}
-	const double a_max = f_max * (2.0 / p->M + 4.0 * p->d * p->d / p->J);
-
-	return (struct sc_limits){
-	    .current_step_a = (float)(i_step + SC_CURRENT_NOISE_MARGIN_A + CAN_CURR_LSB),
-	    .speed_step_rad_s = (float)(a_max / s->rate_hz / r_min + 2.0 * CAN_SPEED_LSB),
-	    .current_limit_a = (float)s->limits.current_max_a,
-	    .confirm_frames = 3,
-	};
-}
-
-struct sc_limits sc_limits_default(void)
-{
-	struct ctl_settings s;
-
-	ctl_settings_defaults(&s);
-	return sc_limits_for(&s);
+	return lim->current_step_a > 0.0f && lim->speed_step_rad_s > 0.0f &&
+	       lim->current_limit_a > 0.0f && lim->confirm_frames >= 1 && lim->confirm_frames <= 8;
 }
 
 int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits *lim)
 {
-	if (!(lim->current_step_a > 0.0f) || !(lim->speed_step_rad_s > 0.0f) ||
-	    !(lim->current_limit_a > 0.0f) || lim->confirm_frames < 1 || lim->confirm_frames > 8)
+	if (!limits_valid(lim))
 		return -EINVAL;
 	m->lim = *lim;
 	return 0;

@@ -31,11 +31,46 @@ SAME(GOAL_R_REPLACED, OMNI4_GOAL_STATUS_T_REASON_REPLACED);
 SAME(GOAL_R_CANCELLED, OMNI4_GOAL_STATUS_T_REASON_CANCELLED);
 #undef SAME
 
+/* goal_t's wire: fingerprint, utime, seq, goal_id (8 bytes each), action (1), n (4), n poses
+ * (24 each), blend_m, speed_max (8 each); big-endian. */
+#define WIRE_N_AT 33
+#define WIRE_SIZE(n) (53 + 24 * (int64_t)(n))
+
+static int64_t be(const uint8_t *p, int bytes)
+{
+	uint64_t v = 0;
+
+	for (int i = 0; i < bytes; i++)
+		v = v << 8 | p[i];
+	return bytes == 4 ? (int64_t)(int32_t)(uint32_t)v : (int64_t)v;
+}
+
+/* A datagram's own length must hold the poses it announces before the generated decoder
+ * allocates them (a short datagram that announces 2^31 poses would ask for gigabytes); an
+ * announced count out of range is refused from the header, the poses unread. */
+static int precheck(const uint8_t *b, size_t len, struct goal_cmd *out)
+{
+	if (len < WIRE_N_AT + 4 || be(b, 8) != __omni4_goal_t_get_hash())
+		return -EINVAL;
+	const int64_t n = be(b + WIRE_N_AT, 4);
+
+	if (n >= 0 && n <= GOAL_POSES_MAX)
+		return (int64_t)len == WIRE_SIZE(n) ? 0 : -EINVAL;
+	memset(out, 0, sizeof(*out));
+	out->utime = be(b + 8, 8);
+	out->id = be(b + 24, 8);
+	out->action = (int8_t)b[32];
+	out->n = -1; /* refused as out of range: the sender hears it */
+	return n < 0 ? -EDOM : -E2BIG;
+}
+
 int lcmio_decode_goal(const void *data, size_t len, struct goal_cmd *out)
 {
 	omni4_goal_t m;
-	int rc = 0;
+	int rc = precheck(data, len, out);
 
+	if (rc)
+		return rc;
 	if (len > INT32_MAX || omni4_goal_t_decode(data, 0, (int)len, &m) != (int)len)
 		return -EINVAL;
 	memset(out, 0, sizeof(*out));
@@ -44,14 +79,9 @@ int lcmio_decode_goal(const void *data, size_t len, struct goal_cmd *out)
 	out->action = m.action;
 	out->blend_m = m.blend_m;
 	out->speed_max = m.speed_max;
-	if (m.n < 0 || m.n > GOAL_POSES_MAX) {
-		out->n = -1; /* refused as out of range: the sender hears it */
-		rc = m.n < 0 ? -EDOM : -E2BIG;
-	} else {
-		out->n = m.n;
-		for (int i = 0; i < m.n; i++)
-			memcpy(out->poses[i], m.poses[i], sizeof(out->poses[i]));
-	}
+	out->n = m.n; /* 0 .. GOAL_POSES_MAX (precheck) */
+	for (int i = 0; i < m.n; i++)
+		memcpy(out->poses[i], m.poses[i], sizeof(out->poses[i]));
 	omni4_goal_t_decode_cleanup(&m);
 	return rc;
 }

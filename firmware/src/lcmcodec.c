@@ -72,19 +72,20 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 	};
 	char now[KEYS][VAL], before[KEYS][VAL];
 	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
-	const bool first = e->mode < 0;
-	const uint32_t prev_faults = first ? 0 : (uint32_t)e->mode;
+	const struct log_calibration *c = &e->cal;
+	const bool first = c->prev_over_limit < 0;
+	const uint32_t prev_faults = first ? 0 : (uint32_t)c->prev_over_limit;
 	int n = 5;
 
 	for (int j = 0; j < 4; j++) {
-		snprintf(now[j], VAL, "%.6f", (double)e->current[j]);
-		snprintf(before[j], VAL, "%.6f", (double)e->voltage[j]);
+		snprintf(now[j], VAL, "%.6f", (double)c->offset[j]);
+		snprintf(before[j], VAL, "%.6f", (double)c->prev_offset[j]);
 	}
-	snprintf(now[4], VAL, "%u", (unsigned)e->cal_samples);
+	snprintf(now[4], VAL, "%u", (unsigned)c->samples);
 	/* Before the first set nothing was measured; every set has the same count. */
-	snprintf(before[4], VAL, "%u", first ? 0u : (unsigned)e->cal_samples);
-	if (e->faults) {
-		lcmio_fault_channels((uint32_t)e->faults, now[5]);
+	snprintf(before[4], VAL, "%u", first ? 0u : (unsigned)c->samples);
+	if (c->over_limit) {
+		lcmio_fault_channels(c->over_limit, now[5]);
 		lcmio_fault_channels(prev_faults, before[5]);
 		n = 6;
 	}
@@ -144,27 +145,29 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);
-	} else if (e->kind == LOG_TRUTH) { /* fw.h: velocity in voltage[], slip in current[] */
-		omni4_sim_truth_t t = {.utime = e->utime, .seq = e->seq, .flags = e->faults};
+	} else if (e->kind == LOG_TRUTH) {
+		omni4_sim_truth_t t = {
+		    .utime = e->utime, .seq = e->seq, .flags = (int32_t)e->truth.flags};
 
-		memcpy(t.pose, e->pose, sizeof(t.pose));
-		memcpy(t.vel, e->voltage, sizeof(t.vel));
-		memcpy(t.wheel_slip, e->current, sizeof(t.wheel_slip));
+		memcpy(t.pose, e->truth.pose, sizeof(t.pose));
+		memcpy(t.vel, e->truth.vel, sizeof(t.vel));
+		memcpy(t.wheel_slip, e->truth.wheel_slip, sizeof(t.wheel_slip));
 		*channel = OMNI4_CHANNEL_SIM_TRUTH;
 		n = omni4_sim_truth_t_encode(buf, 0, (int)cap, &t);
 	} else if (e->kind == LOG_POSE) {
-		const omni4_pose_t p = {
-		    .utime = e->utime, .x = e->pose[0], .y = e->pose[1], .theta = e->pose[2]};
+		const double *q = e->camera.pose;
+		const omni4_pose_t p = {.utime = e->utime, .x = q[0], .y = q[1], .theta = q[2]};
 
 		*channel = OMNI4_CHANNEL_POSE;
 		n = omni4_pose_t_encode(buf, 0, (int)cap, &p);
 	} else {
+		const struct log_sample *s = &e->sample;
 		omni4_motors_t m = {
-		    .utime = e->utime, .seq = e->seq, .mode = e->mode, .faults = e->faults};
+		    .utime = e->utime, .seq = e->seq, .mode = s->mode, .faults = s->faults};
 
-		memcpy(m.voltage, e->voltage, sizeof(m.voltage));
-		memcpy(m.current, e->current, sizeof(m.current));
-		memcpy(m.wheel_speed, e->wheel_speed, sizeof(m.wheel_speed));
+		memcpy(m.voltage, s->voltage, sizeof(m.voltage));
+		memcpy(m.current, s->current, sizeof(m.current));
+		memcpy(m.wheel_speed, s->wheel_speed, sizeof(m.wheel_speed));
 		*channel = OMNI4_CHANNEL_MOTORS;
 		n = omni4_motors_t_encode(buf, 0, (int)cap, &m);
 	}

@@ -81,21 +81,22 @@ static void install_crash_handler(void)
 static void on_calibration(void *ctx, const struct log_entry *e)
 {
 	const bool quiet = *(const int *)ctx;
-	const float *a = e->current;
+	const struct log_calibration *c = &e->cal;
+	const float *a = c->offset;
 
-	if (e->faults) {
+	if (c->over_limit) {
 		char ch[8];
 
-		lcmio_fault_channels((uint32_t)e->faults, ch);
+		lcmio_fault_channels(c->over_limit, ch);
 		for (int j = 0; j < 4; j++)
-			if (e->faults & (1 << j))
+			if (c->over_limit & (1u << j))
 				fprintf(
 				    stderr,
 				    "omni4-fw: FAULT_CURRENT_SENSOR: channel %d: current offset "
 				    "%.6f A beyond the %.2f A limit (bridges off, mean of %u "
 				    "readings, tick %lld)\n",
-				    j, (double)a[j], (double)CTL_CAL_LIMIT_A,
-				    (unsigned)e->cal_samples, (long long)e->seq);
+				    j, (double)a[j], (double)CTL_CAL_LIMIT_A, (unsigned)c->samples,
+				    (long long)e->seq);
 		fprintf(stderr,
 		        "omni4-fw: current sensor fault on channel%s %s: the controller stays "
 		        "in FAULT until a calibration within the limit and MODE_CLEAR_FAULT\n",
@@ -107,7 +108,7 @@ static void on_calibration(void *ctx, const struct log_entry *e)
 		        "omni4-fw: current offsets %.6f %.6f %.6f %.6f A subtracted from tick %lld "
 		        "on (bridges off, mean of %u readings)\n",
 		        (double)a[0], (double)a[1], (double)a[2], (double)a[3], (long long)e->seq,
-		        (unsigned)e->cal_samples);
+		        (unsigned)c->samples);
 }
 
 static void tick(void *ctx, int64_t now_us)

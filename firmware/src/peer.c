@@ -64,10 +64,23 @@ static void guard_halt(void *ctx)
 	hal_motor_halt(&((struct peer_guard *)ctx)->backend);
 }
 
+/* The backend's other sensors (a simulated camera and truth) pass through. */
+static int guard_read_pose(void *ctx, struct hal_pose *out)
+{
+	return hal_motor_read_pose(&((struct peer_guard *)ctx)->backend, out);
+}
+
+static int guard_read_truth(void *ctx, struct hal_truth *out)
+{
+	return hal_motor_read_truth(&((struct peer_guard *)ctx)->backend, out);
+}
+
 static const struct motor_hal_ops peer_guard_ops = {
     .enable = guard_enable,
     .write = guard_write,
     .read = guard_read,
+    .read_pose = guard_read_pose,
+    .read_truth = guard_read_truth,
     .clear_faults = guard_clear_faults,
     .halt = guard_halt,
     .close = NULL, /* the robot closes the backend */

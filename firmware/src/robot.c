@@ -24,11 +24,13 @@ static int open_sim_motor(struct robot *r, const struct robot_spec *spec, char *
 }
 
 #ifdef OMNI4_ROBOT_LINUX
+#include "omni4/can_limits.h"
+
 /* Parameter thread: the CAN plausibility limits that new settings would give must be valid. */
 static int can_limits_check(void *ctx, const struct ctl_settings *s, char *why, size_t n)
 {
 	struct socketcan_motor probe; /* set_limits only validates and copies the limits */
-	const struct sc_limits lim = sc_limits_for(s);
+	const struct sc_limits lim = can_limits_for(s);
 
 	(void)ctx;
 	if (socketcan_motor_set_limits(&probe, &lim)) {
@@ -41,7 +43,7 @@ static int can_limits_check(void *ctx, const struct ctl_settings *s, char *why, 
 /* Loop thread, between two ticks: the limits follow the settings now in force. */
 static void can_limits_apply(void *ctx, const struct ctl_settings *s)
 {
-	const struct sc_limits lim = sc_limits_for(s);
+	const struct sc_limits lim = can_limits_for(s);
 
 	socketcan_motor_set_limits(ctx, &lim); /* checked by can_limits_check */
 }
@@ -61,7 +63,10 @@ static int open_socketcan(struct robot *r, const struct robot_spec *spec, char *
 		    cs->bitrate, spec->ctl->rate_hz, 100.0 * load);
 		return -1;
 	}
-	const int rc = socketcan_motor_open(&r->can, cs->iface, cs->status_timeout_ms);
+	if (can_limits_check(NULL, spec->ctl, why, n))
+		return -1;
+	const struct sc_limits lim = can_limits_for(spec->ctl);
+	const int rc = socketcan_motor_open(&r->can, cs->iface, cs->status_timeout_ms, &lim);
 
 	if (rc) {
 		char text[256];
@@ -71,11 +76,6 @@ static int open_socketcan(struct robot *r, const struct robot_spec *spec, char *
 		return -1;
 	}
 	r->motor = socketcan_motor_hal(&r->can);
-	if (can_limits_check(NULL, spec->ctl, why, n)) {
-		hal_motor_close(&r->motor);
-		return -1;
-	}
-	can_limits_apply(&r->can, spec->ctl);
 	return 0;
 }
 #endif
@@ -151,19 +151,8 @@ static int open_lines(struct robot *r, const struct robot_spec *spec, char *why,
 
 /* ---- the robot ---------------------------------------------------------------------------- */
 
-/* The sim backend's camera, called from inside its read (the loop's context). */
-static void on_sim_pose(void *user, int64_t utime, const double pose[3])
-{
-	fw_push_pose(user, utime, pose);
-}
-
-/* The sim backend's true plant state, once per read (the simulators log it). */
-static void on_sim_truth(void *user, int64_t utime, const struct sim_truth *t)
-{
-	fw_push_truth(user, utime, t->pose, t->vel, t->wheel_slip, t->flags);
-}
-
-/* The controller on the opened backends, with the backend's hooks and pose source. */
+/* The controller on the opened backends, with the backend's hooks; the sim backend's clock
+ * (its camera poses and truth, which the loop polls) on the controller's. */
 static int start_controller(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct motor_hal motor = spec->wrap ? spec->wrap(spec->wrap_ctx, r->motor) : r->motor;
@@ -180,12 +169,8 @@ static int start_controller(struct robot *r, const struct robot_spec *spec, char
 		fw_set_param_hooks(&r->fw, &hooks);
 	}
 #endif
-	if (spec->motor == OMNI4_MOTOR_SIM) {
-		sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw,
-		                      spec->utime0 - r->sim.period_us);
-		sim_motor_set_truth_cb(&r->sim, on_sim_truth, &r->fw,
-		                       spec->utime0 - r->sim.period_us);
-	}
+	if (spec->motor == OMNI4_MOTOR_SIM)
+		sim_motor_set_clock(&r->sim, spec->utime0 - r->sim.period_us);
 	return 0;
 }
 
@@ -193,10 +178,12 @@ void robot_sim_follow_clock(struct robot *r, int64_t now_us)
 {
 	if (r->motor_kind != OMNI4_MOTOR_SIM)
 		return;
-	const int64_t base = now_us - r->sim.t_us - r->sim.period_us;
+	/* the periods the plant lags the clock: this tick's read makes one more */
+	const int64_t lag = (now_us - r->sim.utime0 - r->sim.t_us) / r->sim.period_us - 1;
 
-	sim_motor_set_pose_cb(&r->sim, on_sim_pose, &r->fw, base);
-	sim_motor_set_truth_cb(&r->sim, on_sim_truth, &r->fw, base);
+	if (lag > 0 && lag <= ROBOT_SIM_CATCH_UP_MAX)
+		sim_motor_advance(&r->sim, (int)lag);
+	sim_motor_set_clock(&r->sim, now_us - r->sim.t_us - r->sim.period_us);
 }
 
 int robot_open(struct robot *r, const struct robot_spec *spec, char *why, size_t n)

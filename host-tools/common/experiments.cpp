@@ -156,6 +156,18 @@ std::vector<uint8_t> SequencePlayer::stop_command(int64_t utime, int64_t seq)
 	return encode_command(utime, seq, command_t::MODE_IDLE);
 }
 
+void SequencePlayer::skip_rest()
+{
+	if (!current() || phases_[index_].group.empty())
+		return;
+	const std::string g = phases_[index_].group;
+	size_t j = index_ + 1;
+	while (j < phases_.size() && phases_[j].group == g && phases_[j].mark_kind.empty())
+		++j; // the present run's coast and the rest of it
+	for (; j < phases_.size() && phases_[j].group == g; ++j)
+		phases_[j].duration_s = 0;
+}
+
 SequencePlayer::Output SequencePlayer::due(double t_s, int64_t utime)
 {
 	Output out;

@@ -20,6 +20,7 @@ struct Phase {
 	std::string mark_direction;
 	double mark_level = 0; // [V]
 	bool end_mark = false; // OMNI4_EXPERIMENT "end" at the phase start
+	std::string group;     // phases a runner may skip together (SequencePlayer::skip_rest)
 };
 
 // Encoded OMNI4_EXPERIMENT mark and a bare OMNI4_CMD of one mode (no velocity, no voltage).
@@ -71,6 +72,14 @@ class SequencePlayer
 	{
 		return phases_.size();
 	}
+	// The phase playing now (nullptr before the start and after the end).
+	const Phase *current() const
+	{
+		return started_ && index_ < phases_.size() ? &phases_[index_] : nullptr;
+	}
+	// The later runs of the present phase's group are skipped (their phases take no time and
+	// send nothing); the present run (up to the next phase with a mark) plays to its end.
+	void skip_rest();
 	// A zero-voltage IDLE command (safe stop).
 	static std::vector<uint8_t> stop_command(int64_t utime, int64_t seq);
 

@@ -234,117 +234,134 @@ struct Derivation {
 		C(10, 10) = Rm.ok() && std::isfinite(Rm.se) ? Rm.se * Rm.se : 0.0;
 	}
 
-	model_params with_kv(const Eigen::VectorXd &x) const
-	{
-		model_params q = p;
-		q.Kv = q.Kt = x[9];
-		return q;
-	}
+	model_params with_kv(const Eigen::VectorXd &x) const;
 	// theta2 along v and vn gives R (eq 26): from each, combined. The axes are compared and
 	// weighted on their own data only (Kv is common to both and cancels in the comparison).
 	// False when there is nothing to derive (along w alone without a motor test R).
-	bool r_weights(const std::array<bool, 3> &have, bool motor_R)
-	{
-		std::vector<Estimate> Rs;
-		for (int axis = 0; axis < 2; ++axis) {
-			if (!have[axis])
-				continue;
-			r_axes.push_back(axis);
-			Rs.push_back(propagate(
-			    [&](const Eigen::VectorXd &x) {
-				    return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1], s);
-			    },
-			    x0, C, {3 * axis, 3 * axis + 1, 3 * axis + 2}));
-		}
-		if (Rs.empty())
-			return motor_R;
-		Agreement rag;
-		combine_methods(Rs, opt, &rag);
-		double wsum = 0;
-		for (const Estimate &e : Rs) {
-			const double se =
-			    std::max(std::hypot(e.se, opt.method_floor * e.value), 1e-300);
-			rw.push_back(rag.agree ? 1 / (se * se) : 1.0);
-			wsum += rw.back();
-		}
-		for (double &w : rw)
-			w /= wsum;
-		return true;
-	}
-	double R_of(const Eigen::VectorXd &x) const
-	{
-		if (r_axes.empty())
-			return x[10];
-		double R = 0;
-		for (size_t k = 0; k < r_axes.size(); ++k)
-			R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1], s);
-		return R;
-	}
-	model_params params_of(const Eigen::VectorXd &x) const
-	{
-		model_params q = with_kv(x);
-		q.R = R_of(x);
-		return q;
-	}
+	bool r_weights(const std::array<bool, 3> &have, bool motor_R);
+	double R_of(const Eigen::VectorXd &x) const;
+	model_params params_of(const Eigen::VectorXd &x) const;
 	Estimate prop(const std::function<double(const Eigen::VectorXd &)> &f,
-	              const std::vector<Eigen::Index> &own) const
-	{
-		return propagate(f, x0, C, own);
-	}
-
+	              const std::vector<Eigen::Index> &own) const;
 	// R from the driven axes' theta2.
-	void derive_R(std::map<std::string, Estimate> &t)
-	{
-		std::vector<Eigen::Index> own_r;
-		for (int axis : r_axes)
-			for (int k = 0; k < 3; ++k)
-				own_r.push_back(3 * axis + k);
-		if (!r_axes.empty())
-			t["R"] = prop([&](const Eigen::VectorXd &x) { return R_of(x); }, own_r);
-		p.R = R_of(x0);
-	}
-
+	void derive_R(std::map<std::string, Estimate> &t);
 	// Along v or vn: B with the R of this axis's own theta2: theta1 and theta2 come from one
 	// fit and their errors are correlated, so B = -M (theta1 + 2 Kv l theta2 / r) is far more
 	// precise than with an R that mixes in the other axis's noise. C with the combined R.
-	void derive_linear(std::map<std::string, Estimate> &t, int axis) const
-	{
-		const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
-		auto own_R = [&](const Eigen::VectorXd &x) {
-			model_params q = with_kv(x);
-			q.R = R_from_theta2(q, axis, x[3 * axis + 1], s);
-			return q;
-		};
-		t[axis == 0 ? "Bv" : "Bvn"] = prop(
-		    [&](const Eigen::VectorXd &x) {
-			    return B_from_theta1(own_R(x), axis, x[3 * axis], s);
-		    },
-		    own);
-		t[axis == 0 ? "Cv" : "Cvn"] = prop(
-		    [&](const Eigen::VectorXd &x) {
-			    return C_from_theta3(params_of(x), axis, x[3 * axis + 2]);
-		    },
-		    own);
-	}
-
+	void derive_linear(std::map<std::string, Estimate> &t, int axis) const;
 	// Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
-	void derive_rotation(std::map<std::string, Estimate> &t) const
-	{
-		auto with_J = [&](const Eigen::VectorXd &x) {
-			model_params q = params_of(x);
-			q.J = J_from_theta2(q, x[7], s);
-			return q;
-		};
-		const std::vector<Eigen::Index> own = {6, 7, 8};
-		t["J"] = prop([&](const Eigen::VectorXd &x) { return with_J(x).J; }, own);
-		t["Bw"] = prop(
-		    [&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6], s); },
-		    own);
-		t["Cw"] = prop(
-		    [&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); },
-		    own);
-	}
+	void derive_rotation(std::map<std::string, Estimate> &t) const;
 };
+
+model_params Derivation::with_kv(const Eigen::VectorXd &x) const
+{
+	model_params q = p;
+	q.Kv = q.Kt = x[9];
+	return q;
+}
+
+// theta2 along v and vn gives R (eq 26): from each, combined. The axes are compared and
+// weighted on their own data only (Kv is common to both and cancels in the comparison).
+// False when there is nothing to derive (along w alone without a motor test R).
+bool Derivation::r_weights(const std::array<bool, 3> &have, bool motor_R)
+{
+	std::vector<Estimate> Rs;
+	for (int axis = 0; axis < 2; ++axis) {
+		if (!have[axis])
+			continue;
+		r_axes.push_back(axis);
+		Rs.push_back(propagate(
+		    [&](const Eigen::VectorXd &x) {
+			    return R_from_theta2(with_kv(x0), axis, x[3 * axis + 1], s);
+		    },
+		    x0, C, {3 * axis, 3 * axis + 1, 3 * axis + 2}));
+	}
+	if (Rs.empty())
+		return motor_R;
+	Agreement rag;
+	combine_methods(Rs, opt, &rag);
+	double wsum = 0;
+	for (const Estimate &e : Rs) {
+		const double se = std::max(std::hypot(e.se, opt.method_floor * e.value), 1e-300);
+		rw.push_back(rag.agree ? 1 / (se * se) : 1.0);
+		wsum += rw.back();
+	}
+	for (double &w : rw)
+		w /= wsum;
+	return true;
+}
+
+double Derivation::R_of(const Eigen::VectorXd &x) const
+{
+	if (r_axes.empty())
+		return x[10];
+	double R = 0;
+	for (size_t k = 0; k < r_axes.size(); ++k)
+		R += rw[k] * R_from_theta2(with_kv(x), r_axes[k], x[3 * r_axes[k] + 1], s);
+	return R;
+}
+
+model_params Derivation::params_of(const Eigen::VectorXd &x) const
+{
+	model_params q = with_kv(x);
+	q.R = R_of(x);
+	return q;
+}
+
+Estimate Derivation::prop(const std::function<double(const Eigen::VectorXd &)> &f,
+                          const std::vector<Eigen::Index> &own) const
+{
+	return propagate(f, x0, C, own);
+}
+
+// R from the driven axes' theta2.
+void Derivation::derive_R(std::map<std::string, Estimate> &t)
+{
+	std::vector<Eigen::Index> own_r;
+	for (int axis : r_axes)
+		for (int k = 0; k < 3; ++k)
+			own_r.push_back(3 * axis + k);
+	if (!r_axes.empty())
+		t["R"] = prop([&](const Eigen::VectorXd &x) { return R_of(x); }, own_r);
+	p.R = R_of(x0);
+}
+
+// Along v or vn: B with the R of this axis's own theta2: theta1 and theta2 come from one
+// fit and their errors are correlated, so B = -M (theta1 + 2 Kv l theta2 / r) is far more
+// precise than with an R that mixes in the other axis's noise. C with the combined R.
+void Derivation::derive_linear(std::map<std::string, Estimate> &t, int axis) const
+{
+	const std::vector<Eigen::Index> own = {3 * axis, 3 * axis + 1, 3 * axis + 2};
+	auto own_R = [&](const Eigen::VectorXd &x) {
+		model_params q = with_kv(x);
+		q.R = R_from_theta2(q, axis, x[3 * axis + 1], s);
+		return q;
+	};
+	t[axis == 0 ? "Bv" : "Bvn"] = prop(
+	    [&](const Eigen::VectorXd &x) { return B_from_theta1(own_R(x), axis, x[3 * axis], s); },
+	    own);
+	t[axis == 0 ? "Cv" : "Cvn"] = prop(
+	    [&](const Eigen::VectorXd &x) {
+		    return C_from_theta3(params_of(x), axis, x[3 * axis + 2]);
+	    },
+	    own);
+}
+
+// Along w, J from theta2 first; Bw and Cw with that J (their SEs include J's).
+void Derivation::derive_rotation(std::map<std::string, Estimate> &t) const
+{
+	auto with_J = [&](const Eigen::VectorXd &x) {
+		model_params q = params_of(x);
+		q.J = J_from_theta2(q, x[7], s);
+		return q;
+	};
+	const std::vector<Eigen::Index> own = {6, 7, 8};
+	t["J"] = prop([&](const Eigen::VectorXd &x) { return with_J(x).J; }, own);
+	t["Bw"] = prop(
+	    [&](const Eigen::VectorXd &x) { return B_from_theta1(with_J(x), 2, x[6], s); }, own);
+	t["Cw"] =
+	    prop([&](const Eigen::VectorXd &x) { return C_from_theta3(with_J(x), 2, x[8]); }, own);
+}
 
 // Instruments: the noise-free response of the current model to the logged input (Euler over
 // the row times, from the first measured value of each run).

@@ -29,6 +29,7 @@
 #include "omni4/command_t.hpp"
 #include "omni4/experiment_t.hpp"
 #include "omni4/motors_t.hpp"
+#include "omni4/state_t.hpp"
 
 extern "C" {
 #include "omni4/kinematics.h"
@@ -74,34 +75,7 @@ class Recording
 
 	// Opens the bus and the log, installs the SIGINT/SIGTERM handlers. Prints a one-line error
 	// and returns false on failure.
-	bool open(const RunOptions &opt, Tap tap = nullptr)
-	{
-		tap_ = std::move(tap);
-		lcm_ = lcm_create(opt.url.c_str());
-		if (!lcm_) {
-			std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n",
-			             opt.url.c_str());
-			return false;
-		}
-		// As omni4-record: a new file written where it is (a crash keeps what was
-		// recorded), a FIFO or device in place, an existing file refused (a recorded run is
-		// never lost).
-		char why[PATH_MAX + 200];
-		if (omni4_out_open(&out_, opt.out.c_str(), 0666, OMNI4_OUT_STREAM, why,
-		                   sizeof(why))) {
-			std::fprintf(stderr, "omni4-ident run: %s\n", why);
-			return false;
-		}
-		ev_ = lcm_eventlog_t{};
-		ev_.f = out_.f;
-		log_ = &ev_;
-		created_ = !out_.existed; // a new file (an existing file is refused above)
-		sub_ = lcm_subscribe(lcm_, ".*", record, this);
-		lcm_subscription_set_queue_capacity(sub_, 100000);
-		std::signal(SIGINT, on_signal);
-		std::signal(SIGTERM, on_signal);
-		return true;
-	}
+	bool open(const RunOptions &opt, Tap tap = nullptr);
 
 	void publish(const char *channel, const std::vector<uint8_t> &msg)
 	{
@@ -115,17 +89,7 @@ class Recording
 
 	// Safe stop: the IDLE command (outputs off), the "end" of an open segment (if given), the
 	// last messages collected for 300 ms, the log closed. Returns false on log write errors.
-	bool finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark)
-	{
-		publish(OMNI4_CHANNEL_CMD, idle);
-		if (end_mark)
-			publish(OMNI4_CHANNEL_EXPERIMENT, *end_mark);
-		const double until = steady_s() + 0.3;
-		while (steady_s() < until)
-			handle(20);
-		close();
-		return errors_ == 0;
-	}
+	bool finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark);
 
 	uint64_t written() const
 	{
@@ -134,43 +98,12 @@ class Recording
 
 	// After finish(): removes the log if this run created it as a new file (no robot answered,
 	// nothing worth keeping); a FIFO, a device or a file that was there stays.
-	void discard()
-	{
-		if (created_)
-			std::remove(out_.target);
-		created_ = false;
-	}
+	void discard();
 
       private:
-	static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
-	{
-		auto *self = static_cast<Recording *>(user);
-		if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
-		                         rbuf->data_size) == 0)
-			++self->written_;
-		else
-			++self->errors_;
-		if (self->tap_)
-			self->tap_(channel, rbuf);
-	}
+	static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user);
 
-	void close()
-	{
-		if (sub_)
-			lcm_unsubscribe(lcm_, sub_);
-		sub_ = nullptr;
-		if (log_) {
-			char why[PATH_MAX + 200];
-			if (omni4_out_commit(&out_, why, sizeof(why))) {
-				std::fprintf(stderr, "omni4-ident run: %s\n", why);
-				++errors_;
-			}
-		}
-		log_ = nullptr;
-		if (lcm_)
-			lcm_destroy(lcm_);
-		lcm_ = nullptr;
-	}
+	void close();
 
 	lcm_t *lcm_ = nullptr;
 	lcm_eventlog_t *log_ = nullptr; // &ev_ while the log is open
@@ -181,6 +114,82 @@ class Recording
 	uint64_t written_ = 0, errors_ = 0;
 	Tap tap_;
 };
+
+bool Recording::open(const RunOptions &opt, Tap tap)
+{
+	tap_ = std::move(tap);
+	lcm_ = lcm_create(opt.url.c_str());
+	if (!lcm_) {
+		std::fprintf(stderr, "omni4-ident run: cannot open LCM at '%s'\n", opt.url.c_str());
+		return false;
+	}
+	// As omni4-record: a new file written where it is (a crash keeps what was
+	// recorded), a FIFO or device in place, an existing file refused (a recorded run is
+	// never lost).
+	char why[PATH_MAX + 200];
+	if (omni4_out_open(&out_, opt.out.c_str(), 0666, OMNI4_OUT_STREAM, why, sizeof(why))) {
+		std::fprintf(stderr, "omni4-ident run: %s\n", why);
+		return false;
+	}
+	ev_ = lcm_eventlog_t{};
+	ev_.f = out_.f;
+	log_ = &ev_;
+	created_ = !out_.existed; // a new file (an existing file is refused above)
+	sub_ = lcm_subscribe(lcm_, ".*", record, this);
+	lcm_subscription_set_queue_capacity(sub_, 100000);
+	std::signal(SIGINT, on_signal);
+	std::signal(SIGTERM, on_signal);
+	return true;
+}
+
+bool Recording::finish(const std::vector<uint8_t> &idle, const std::vector<uint8_t> *end_mark)
+{
+	publish(OMNI4_CHANNEL_CMD, idle);
+	if (end_mark)
+		publish(OMNI4_CHANNEL_EXPERIMENT, *end_mark);
+	const double until = steady_s() + 0.3;
+	while (steady_s() < until)
+		handle(20);
+	close();
+	return errors_ == 0;
+}
+
+void Recording::discard()
+{
+	if (created_)
+		std::remove(out_.target);
+	created_ = false;
+}
+
+void Recording::record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+	auto *self = static_cast<Recording *>(user);
+	if (omni4_eventlog_write(self->log_, channel, rbuf->recv_utime, rbuf->data,
+	                         rbuf->data_size) == 0)
+		++self->written_;
+	else
+		++self->errors_;
+	if (self->tap_)
+		self->tap_(channel, rbuf);
+}
+
+void Recording::close()
+{
+	if (sub_)
+		lcm_unsubscribe(lcm_, sub_);
+	sub_ = nullptr;
+	if (log_) {
+		char why[PATH_MAX + 200];
+		if (omni4_out_commit(&out_, why, sizeof(why))) {
+			std::fprintf(stderr, "omni4-ident run: %s\n", why);
+			++errors_;
+		}
+	}
+	log_ = nullptr;
+	if (lcm_)
+		lcm_destroy(lcm_);
+	lcm_ = nullptr;
+}
 
 std::vector<Phase> filtered(const RunOptions &opt)
 {
@@ -300,12 +309,43 @@ constexpr double kMotorsWaitS = 2.0;
 namespace
 {
 
+// The estimator's flags of an OMNI4_STATE message (the traction experiment's watch).
+void take_state_flags(const char *channel, const lcm_recv_buf_t *rbuf, int32_t *flags)
+{
+	state_t st;
+	if (std::strcmp(channel, OMNI4_CHANNEL_STATE) == 0 &&
+	    st.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) > 0)
+		*flags = st.flags;
+}
+
 // Safe stop: IDLE (outputs off), close any open segment, collect the last messages. Returns
 // false on log write errors.
 bool stop_run(Recording &rec)
 {
 	const auto end = encode_mark(wall_us(), OMNI4_MARK_END);
 	return rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), &end);
+}
+
+// Plays the phases in real time: what is due published, the bus handled, the traction
+// experiment's watch told the estimator's flags. true: the robot stopped answering.
+bool play_sequence(Recording &rec, const std::vector<Phase> &phases, const double &last_motors_s,
+                   const int32_t &est_flags)
+{
+	SequencePlayer player(phases);
+	TractionWatch watch;
+	PercentLine progress(total_duration_s(phases));
+	const auto t0 = std::chrono::steady_clock::now();
+	while (!player.done() && !g_interrupted) {
+		const double t =
+		    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+		play_due(player, rec, t);
+		rec.handle(5);
+		watch.step(player, est_flags); // a direction stops at its first slip
+		progress.update(t, player, rec.written());
+		if (steady_s() - last_motors_s > kMotorsWaitS)
+			return true;
+	}
+	return false;
 }
 
 } // namespace
@@ -318,9 +358,11 @@ int run_experiments(const RunOptions &opt)
 	Recording rec;
 	uint64_t motors = 0;
 	double last_motors_s = 0;
-	if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *) {
+	int32_t est_flags = 0; // the last OMNI4_STATE's
+	if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *rbuf) {
 		    if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) == 0)
 			    ++motors, last_motors_s = steady_s();
+		    take_state_flags(channel, rbuf, &est_flags);
 	    }))
 		return 1;
 	// Nothing is driven before a controller answers: no robot, no run and no log.
@@ -338,21 +380,7 @@ int run_experiments(const RunOptions &opt)
 		             opt.url.c_str(), kFirstMotorsS);
 		return 1;
 	}
-	SequencePlayer player(phases);
-	PercentLine progress(total_duration_s(phases));
-	const auto t0 = std::chrono::steady_clock::now();
-	bool lost = false;
-	while (!player.done() && !g_interrupted) {
-		const double t =
-		    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-		play_due(player, rec, t);
-		rec.handle(5);
-		progress.update(t, player, rec.written());
-		if (steady_s() - last_motors_s > kMotorsWaitS) {
-			lost = true;
-			break;
-		}
-	}
+	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags);
 	const bool ok = stop_run(rec);
 	std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
 	             g_interrupted ? "interrupted, robot stopped;"

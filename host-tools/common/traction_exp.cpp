@@ -9,6 +9,7 @@
 
 extern "C" {
 #include "omni4/plant.h"
+#include "omni4/vocab.h"
 }
 
 namespace omni4
@@ -21,6 +22,25 @@ std::array<double, 4> traction_pattern(const std::string &direction)
 		return {v[0] + vn[0], v[1] + vn[1], v[2] + vn[2], v[3] + vn[3]};
 	}
 	return drive_pattern(direction);
+}
+
+bool TractionWatch::step(SequencePlayer &player, int32_t est_flags)
+{
+	const Phase *p = player.current();
+	if (!p || p->group.rfind("traction/", 0) != 0 || p->mode == command_t::MODE_CLEAR_FAULT)
+		return false;
+	if (p->mark_kind == "traction")
+		level_ = p->mark_level;
+	if ((est_flags & EST_FLAG_SLIP) && !first_slip_.count(p->group))
+		first_slip_[p->group] = level_;
+	const auto f = first_slip_.find(p->group);
+	if (f == first_slip_.end())
+		return false;
+	const double factor = p->group == "traction/diag" ? kDiagonalFactor : 1.0;
+	if (level_ < factor * f->second * (1 - 1e-9))
+		return false;
+	player.skip_rest();
+	return true;
 }
 
 std::vector<double> traction_levels(const TractionSeqOptions &opt)
@@ -50,15 +70,18 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt)
 			p.mark_kind = "traction";
 			p.mark_direction = dir;
 			p.mark_level = level;
+			p.group = "traction/" + dir;
 			seq.push_back(p);
 			Phase c;
 			c.duration_s = opt.settle_s;
 			c.mode = command_t::MODE_COAST;
 			c.end_mark = true;
+			c.group = p.group;
 			seq.push_back(c);
 			Phase clear;
 			clear.duration_s = 0.05;
 			clear.mode = command_t::MODE_CLEAR_FAULT;
+			clear.group = p.group;
 			seq.push_back(clear);
 		}
 	}

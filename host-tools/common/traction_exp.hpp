@@ -1,12 +1,15 @@
 // traction_exp.hpp - the traction experiment as a timeline of phases (experiments.hpp): along v,
 // vn, w and the diagonal v + vn, voltage steps from rest with a short ramp, each a little
 // larger than the last (a geometric series of levels) up to a cap, each held briefly and
-// followed by coasting to rest (bridges off: the safe stop). The first level at which a wheel
-// slips brackets the floor's traction (ident_traction.hpp). Each coast ends with a clear-fault
-// command: a slip trips the controller's encoder plausibility check (FAULT_ENCODER, bridges
-// off), which the experiment provokes on purpose; once the robot is at rest it is cleared.
+// followed by coasting to rest (bridges off: the safe stop). The runner watches the
+// estimator's SLIP flag (traction_watch) and stops a direction at its first slipped level; the
+// cap (12 V, the supply) ends a direction whose wheels never slip. The first level at which a
+// wheel slips brackets the floor's traction (ident_traction.hpp). Each coast ends with a
+// clear-fault command: a slip trips the controller's encoder plausibility check (FAULT_ENCODER,
+// bridges off), which the experiment provokes on purpose; once the robot is at rest it is cleared.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,6 +34,24 @@ struct TractionSeqOptions {
 
 // Channel voltage pattern per volt along "v", "vn", "w" (drive_pattern) or "diag" (v + vn).
 std::array<double, 4> traction_pattern(const std::string &direction);
+
+// The runner's live watch on the estimator's flags (state_t.flags) while the sequence plays:
+// the first SLIP in a traction run (its step or the coast after it) notes that run's level,
+// and once the run at kDiagonalFactor times that level has played along the diagonal (the
+// load transfer needs all four wheels slipping: ident_traction.hpp), at once along v, vn and
+// w, the direction's remaining levels are skipped (SequencePlayer::skip_rest): the run that
+// slipped plays to its end (the bridges go off after its hold), the next direction follows.
+class TractionWatch
+{
+      public:
+	static constexpr double kDiagonalFactor = 2.0;
+	// Call once per tick (or per state message); true when it skipped.
+	bool step(SequencePlayer &player, int32_t est_flags);
+
+      private:
+	std::map<std::string, double> first_slip_; // group -> level [V]
+	double level_ = 0;                         // of the run playing
+};
 
 // The levels of one direction, ascending [V].
 std::vector<double> traction_levels(const TractionSeqOptions &opt = {});

@@ -280,13 +280,24 @@ void step_windows(const Segment &s, const EncoderTrack &enc, int axis, const Win
 	for (const auto &[a, b] : runs) {
 		const double dur = span_s(m, a, b);
 		double top = 0;
+		size_t n_ok = 0;
 		for (size_t k = a; k < b; ++k)
-			if (enc.ok[k])
+			if (enc.ok[k]) {
 				top = std::max(top, std::abs(enc.x[k][axis]));
+				++n_ok;
+			}
 		if (dur < opt.step_min_s)
 			out.rejected.push_back(
 			    {"step", seg_time(s, a), seg_time(s, b - 1),
 			     fmt("drive of %.2f s too short, need %.2f s", dur, opt.step_min_s)});
+		else if (top < 2 * kStopSpeed[axis] && 2 * n_ok < b - a)
+			// (the smoothing runs only over evenly timed ticks: a loop late again and
+			// again, or lost samples, leave too few to see the motion)
+			out.rejected.push_back(
+			    {"step", seg_time(s, a), seg_time(s, b - 1),
+			     fmt("only %.0f of %.0f samples evenly timed (late ticks or lost "
+			         "samples): the motion is not seen",
+			         static_cast<double>(n_ok), static_cast<double>(b - a))});
 		else if (top < 2 * kStopSpeed[axis])
 			out.rejected.push_back(
 			    {"step", seg_time(s, a), seg_time(s, b - 1),

@@ -33,6 +33,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_traction import traction_figure  # noqa: E402
 from report_wheels import wheels_section  # noqa: E402
 
 LOG_PLOT_POINTS = 4000  # min/max pairs per line in a log figure: extremes kept, size bounded
@@ -508,6 +509,9 @@ def write_report(a):
     if params:
         lines += params_section(params, agreement)
     lines += wheels_section(a.csv_dir)
+    traction_fig, traction_lines = traction_figure(plt, save, a.csv_dir, a.out_dir)
+    lines += traction_lines
+    figs += [traction_fig] if traction_fig else []
     if windows:
         lines += windows_section(windows)
     if boot:

@@ -304,9 +304,24 @@ static int report(const struct recorder *r, const struct record_args *a)
 	return r->errors ? 1 : 0;
 }
 
+/* A udpm URL without a receive buffer of its own asks for RECORD_RCVBUF bytes (the kernel
+ * caps it at net.core.rmem_max): a recorder must not lose samples because its process was not
+ * scheduled for a moment (the default ~200 kB holds about 0.2 s of the robot's traffic). */
+#define RECORD_RCVBUF 4194304
+static const char *with_receive_buffer(const char *url, char *buf, size_t n)
+{
+	if (strncmp(url, "udpm://", 7) != 0 || strstr(url, "recv_buf_size="))
+		return url;
+	const int k = snprintf(buf, n, "%s%crecv_buf_size=%d", url, strchr(url, '?') ? '&' : '?',
+	                       RECORD_RCVBUF);
+
+	return k > 0 && (size_t)k < n ? buf : url;
+}
+
 int main(int argc, char **argv)
 {
 	static struct recorder r;
+	char url_buf[512];
 	struct record_args a = {.channel = "OMNI4_.*"};
 	const int status = parse_args(argc, argv, &a);
 
@@ -317,7 +332,7 @@ int main(int argc, char **argv)
 	if (!a.url) /* LCM's own convention first, then the robot's default */
 		a.url =
 		    getenv("LCM_DEFAULT_URL") ? getenv("LCM_DEFAULT_URL") : OMNI4_DEFAULT_LCM_URL;
-	lcm_t *lcm = lcm_create(a.url);
+	lcm_t *lcm = lcm_create(with_receive_buffer(a.url, url_buf, sizeof(url_buf)));
 
 	if (!lcm) {
 		fprintf(stderr, "omni4-record: cannot open LCM at '%s'\n", a.url);

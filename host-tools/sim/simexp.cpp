@@ -9,6 +9,11 @@
 #include <thread>
 
 #include "experiments.hpp"
+#include "traction_exp.hpp"
+
+extern "C" {
+#include "omni4/est.h"
+}
 
 namespace omni4
 {
@@ -67,6 +72,7 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 
 	const double total_s = experiments ? total_duration_s(phases) : idle_s;
 	SequencePlayer player(phases);
+	TractionWatch watch;
 	const double dt = simrun_period_s(sr.get());
 	const long ticks = std::lround(total_s / dt);
 	const auto wall0 = std::chrono::steady_clock::now();
@@ -78,9 +84,13 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 			interrupted = true;
 			break;
 		}
+		if (experiments && player.done())
+			break; // the watch skipped runs: the sequence ended early
 		if (experiments)
 			play_tick(sr.get(), player, k, dt);
 		simrun_tick(sr.get());
+		if (experiments) // a traction direction stops at its first slip
+			watch.step(player, static_cast<int32_t>(simrun_estimate(sr.get())->flags));
 		if (rtf > 0)
 			std::this_thread::sleep_until(
 			    wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));

@@ -48,7 +48,27 @@ static int metered_write(void *ctx, const float volts[4])
 	return rc;
 }
 
-/* robot_spec.wrap: the sim backend with its read and write metered. */
+static int metered_read_pose(void *ctx, struct hal_pose *out)
+{
+	const uint32_t t0 = g_meter ? g_meter->read() : 0;
+	const int rc = sim_motor_ops.read_pose(ctx, out);
+
+	if (g_meter)
+		g_cost.hal += g_meter->read() - t0;
+	return rc;
+}
+
+static int metered_read_truth(void *ctx, struct hal_truth *out)
+{
+	const uint32_t t0 = g_meter ? g_meter->read() : 0;
+	const int rc = sim_motor_ops.read_truth(ctx, out);
+
+	if (g_meter)
+		g_cost.hal += g_meter->read() - t0;
+	return rc;
+}
+
+/* robot_spec.wrap: the sim backend with its read, write, camera and truth metered. */
 static struct motor_hal metered(void *ctx, struct motor_hal backend)
 {
 	static struct motor_hal_ops ops;
@@ -57,6 +77,8 @@ static struct motor_hal metered(void *ctx, struct motor_hal backend)
 	ops = *backend.ops;
 	ops.read = metered_read;
 	ops.write = metered_write;
+	ops.read_pose = metered_read_pose;
+	ops.read_truth = metered_read_truth;
 	return (struct motor_hal){.ops = &ops, .ctx = backend.ctx};
 }
 
@@ -134,7 +156,7 @@ static struct log_entry tick(void)
 static bool outputs_off(const struct log_entry *e)
 {
 	for (int j = 0; j < 4; j++)
-		if (e->voltage[j] != 0.0f)
+		if (e->sample.voltage[j] != 0.0f)
 			return false;
 	return !g_robot.sim.enabled && !g_robot.sim_lines.enable;
 }
@@ -203,9 +225,9 @@ static int watchdog(void)
 	for (long i = 0; i < 1000 && ok; i++) {
 		const struct log_entry e = tick();
 
-		if (trip < 0 && (e.faults & CTL_FAULT_CMD_TIMEOUT))
+		if (trip < 0 && (e.sample.faults & CTL_FAULT_CMD_TIMEOUT))
 			trip = i;
-		if (trip >= 0 && idle < 0 && e.mode == CTL_IDLE)
+		if (trip >= 0 && idle < 0 && e.sample.mode == CTL_IDLE)
 			idle = i;
 	}
 	/* docs/faults.md: [control] cmd_timeout_ms 200 and stop_ramp_s 0.2 at 1 kHz. The command
@@ -230,7 +252,7 @@ static int estop(void)
 	atomic_store(&g_robot.sim_lines.estop, true);
 	const struct log_entry on = tick();
 	const bool off_at_once =
-	    on.mode == CTL_ESTOP && outputs_off(&on) && (on.faults & CTL_FAULT_ESTOP);
+	    on.sample.mode == CTL_ESTOP && outputs_off(&on) && (on.sample.faults & CTL_FAULT_ESTOP);
 
 	send(CTL_CLEAR_FAULT, NULL); /* refused while pressed */
 	const struct log_entry held = tick();
@@ -241,12 +263,12 @@ static int estop(void)
 	send(CTL_CLEAR_FAULT, NULL);
 	const struct log_entry cleared = tick();
 
-	ok &= off_at_once && held.mode == CTL_ESTOP && released.mode == CTL_ESTOP &&
-	      cleared.mode == CTL_IDLE && outputs_off(&cleared);
+	ok &= off_at_once && held.sample.mode == CTL_ESTOP && released.sample.mode == CTL_ESTOP &&
+	      cleared.sample.mode == CTL_IDLE && outputs_off(&cleared);
 	char fig[128];
 
-	snprintf(fig, sizeof(fig), "mode_pressed=%d mode_released=%d mode_cleared=%d", (int)on.mode,
-	         (int)released.mode, (int)cleared.mode);
+	snprintf(fig, sizeof(fig), "mode_pressed=%d mode_released=%d mode_cleared=%d",
+	         (int)on.sample.mode, (int)released.sample.mode, (int)cleared.sample.mode);
 	say("estop", ok, fig);
 	return ok ? 0 : 1;
 }
@@ -263,20 +285,21 @@ static int overcurrent(void)
 
 	/* 0.1 A above the 5 A limit of the defaults, whatever the wheel currents are. */
 	g_robot.sim.inject.current_offset_a =
-	    g_ctl.limits.current_max_a + 0.1 + fabs((double)before.current[0]) +
-	    fabs((double)before.current[1]) + fabs((double)before.current[2]) +
-	    fabs((double)before.current[3]);
+	    g_ctl.limits.current_max_a + 0.1 + fabs((double)before.sample.current[0]) +
+	    fabs((double)before.sample.current[1]) + fabs((double)before.sample.current[2]) +
+	    fabs((double)before.sample.current[3]);
 	const struct log_entry at = tick();
 
 	g_robot.sim.inject.current_offset_a = 0;
 	const struct log_entry after = tick();
 
-	ok &= before.mode == CTL_VELOCITY && at.mode == CTL_FAULT &&
-	      (at.faults & CTL_FAULT_OVERCURRENT) && outputs_off(&at) && after.mode == CTL_FAULT;
+	ok &= before.sample.mode == CTL_VELOCITY && at.sample.mode == CTL_FAULT &&
+	      (at.sample.faults & CTL_FAULT_OVERCURRENT) && outputs_off(&at) &&
+	      after.sample.mode == CTL_FAULT;
 	char fig[96];
 
-	snprintf(fig, sizeof(fig), "mode_at=%d faults_at=0x%04x", (int)at.mode,
-	         (unsigned)at.faults);
+	snprintf(fig, sizeof(fig), "mode_at=%d faults_at=0x%04x", (int)at.sample.mode,
+	         (unsigned)at.sample.faults);
 	say("overcurrent", ok, fig);
 	return ok ? 0 : 1;
 }

@@ -36,6 +36,14 @@ class Listener:
         while not self.done.is_set():
             self.lc.handle_timeout(20)
 
+    def wait_for(self, pred, timeout_s=30.0):
+        """Until a received command satisfies pred (counted, not timed: a loaded machine only
+        makes it later; timeout_s is the failure bound)."""
+        end = time.monotonic() + timeout_s
+        while not any(pred(c) for _, c in list(self.cmds)):
+            assert time.monotonic() < end, f"no such command within {timeout_s} s"
+            time.sleep(0.01)
+
     def close(self):
         self.done.set()
         self.t.join(2)
@@ -53,22 +61,23 @@ def bus():
 def test_keepalive_resends_the_last_command_with_increasing_seq(bus):
     url, listener = bus
     with omni4.Robot(url, keepalive_s=KEEPALIVE_S) as robot:
-        t0 = time.monotonic()
+        t0_us = time.time() * 1e6
         robot.velocity(0.25, -0.1, 1.5)
         time.sleep(1.0)
+        t_stop_us = time.time() * 1e6
         robot.stop()
-        t_stop = time.monotonic()
         time.sleep(0.3)
-    cmds = [(t, c) for t, c in listener.cmds if t >= t0]
+    # (split by the sender's stamps: on a loaded machine this listener may handle them late)
+    listener.wait_for(lambda c: c.mode == omni4.command_t.MODE_IDLE and c.utime >= t_stop_us)
+    cmds = [(t, c) for t, c in listener.cmds if c.utime >= t0_us]
     vel = [(t, c) for t, c in cmds if c.mode == omni4.command_t.MODE_VELOCITY]
     # 1 s at 50 ms: 20 messages (measured 20-21). How many a loaded machine lets out in a
     # second of wall time is not asserted (the period is: the sender's own stamps below).
     assert len(vel) >= 3, f"{len(vel)} VELOCITY messages in 1 s: no keep-alive"
     assert all(list(c.velocity) == [0.25, -0.1, 1.5] for _, c in vel)
-    gaps = [b[0] - a[0] for a, b in zip(vel, vel[1:])]
     stamped = sorted(b[1].utime - a[1].utime for a, b in zip(vel, vel[1:]))
-    print(f"keep-alive gaps: received max {max(gaps) * 1e3:.0f} ms, stamped median "
-          f"{stamped[len(stamped) // 2] / 1e3:.1f} ms")
+    print(f"keep-alive gaps (stamped): median {stamped[len(stamped) // 2] / 1e3:.1f} ms, "
+          f"max {stamped[-1] / 1e3:.0f} ms")
     # Each re-send waits keepalive_s after the previous one (never sooner: a send before its
     # time would be a busy loop); a loaded machine only makes some later.
     assert stamped[0] >= 0.9 * KEEPALIVE_S * 1e6, f"keep-alives {stamped[0]} us apart"
@@ -77,7 +86,7 @@ def test_keepalive_resends_the_last_command_with_increasing_seq(bus):
     now_us = time.time() * 1e6
     assert all(abs(c.utime - now_us) < 5e6 for _, c in cmds), "utime: the host clock [us]"
     # After stop(): one IDLE, then nothing moving.
-    after = [c for t, c in cmds if t > t_stop]
+    after = [c for t, c in cmds if c.utime > t_stop_us]
     assert all(c.mode == omni4.command_t.MODE_IDLE for c in after)
     assert any(c.mode == omni4.command_t.MODE_IDLE for _, c in cmds)
 
@@ -90,6 +99,7 @@ def test_voltage_and_coast_are_kept_alive_and_close_sends_idle(bus):
     robot.coast()
     time.sleep(0.3)
     robot.close()
+    listener.wait_for(lambda c: c.mode == omni4.command_t.MODE_IDLE)
     time.sleep(0.2)
     modes = [c.mode for _, c in listener.cmds]
     volt = [c for _, c in listener.cmds if c.mode == omni4.command_t.MODE_VOLTAGE]

@@ -98,8 +98,12 @@ def test_velocity_moves_the_wheels_with_the_ik_signs(fw):
             got = w[-len(w) // 3:].mean(axis=0)     # the last 0.5 s, settled
             want = ik_wheel_speeds(*cmd)
             print(f"velocity {cmd}: wheels {np.round(got, 4)} rad/s, IK {np.round(want, 4)}")
-            # Measured |got - want| <= 0.0013 rad/s (encoder noise 0.13-0.16 rad/s per sample).
-            assert np.abs(got - want).max() < 0.004, f"{cmd}: wheels {got}, IK {want}"
+            # Measured |got - want| <= 0.0013 rad/s on a quiet machine (encoder noise 0.13-0.16
+            # rad/s per sample); 0.027 rad/s of 9.23 (0.3 %) at a load average of 20, where
+            # the loop is late again and again and the simulated robot moves on in between, as
+            # a real one would. Bound: 1 % of the wheel speed and 0.004 rad/s.
+            assert (np.abs(got - want) < 0.004 + 0.01 * np.abs(want)).all(), \
+                f"{cmd}: wheels {got}, IK {want}"
 
 
 def test_default_keepalive_is_a_quarter_of_the_default_watchdog():

@@ -209,8 +209,6 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
 	if (robot_open(&sr->robot, &spec, err, errlen))
 		goto err_free;
 	sr->period_us = sr->robot.sim.period_us;
-	if (!cfg->sim.truth) /* [sim] truth = false: no OMNI4_SIM_TRUTH */
-		sim_motor_set_truth_cb(&sr->robot.sim, NULL, NULL, 0);
 	sr->robot.fw.no_estimate = !cfg->sim.estimate; /* no OMNI4_STATE */
 	if (log_path) {
 		sr->log = lcm_eventlog_create(log_path, "w");

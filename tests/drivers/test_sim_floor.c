@@ -3,7 +3,7 @@
  * wheel_radius_error_0..3, slip_noise, camera_latency_ms; docs/ini-keys.md) and the
  * world faults (sim_motor_faults.ext_force, blocked, camera_off): the keys, the camera's
  * latency and dropout, wheel odometry with a radius error, the readings of slipping wheels and
- * the truth callback, against the plant and closed forms.
+ * the truth (read_pose, read_truth: the HAL's optional ops), against the plant and closed forms.
  */
 #include "omni4_test.h"
 
@@ -74,15 +74,18 @@ struct frames {
 	const struct sim_motor *s;
 };
 
-static void on_pose(void *user, int64_t utime, const double pose[3])
+/* The poses that fell due at the last read, as the loop polls them. */
+static void take_poses(struct frames *f)
 {
-	struct frames *f = user;
+	struct hal_pose p;
 
-	assert_true(f->n < MAX_FRAMES);
-	f->capture[f->n] = utime;
-	f->arrival[f->n] = f->s->t_us;
-	memcpy(f->pose[f->n], pose, sizeof(f->pose[0]));
-	f->n++;
+	while (sim_motor_ops.read_pose((void *)f->s, &p) == 0) {
+		assert_true(f->n < MAX_FRAMES);
+		f->capture[f->n] = p.utime;
+		f->arrival[f->n] = f->s->t_us;
+		memcpy(f->pose[f->n], p.pose, sizeof(f->pose[0]));
+		f->n++;
+	}
 }
 
 /* The robot driven (it turns and translates) for 3 s; the plant's pose at every tick kept. */
@@ -95,7 +98,6 @@ static void drive(struct sim_motor *s, struct frames *f, double plant_pose[TICKS
 
 	memset(f, 0, sizeof(*f));
 	f->s = s;
-	sim_motor_set_pose_cb(s, on_pose, f, 0);
 	ops->enable(s, true);
 	ops->write(s, u);
 	for (int k = 1; k <= TICKS; k++) {
@@ -103,6 +105,7 @@ static void drive(struct sim_motor *s, struct frames *f, double plant_pose[TICKS
 		const int before = f->n;
 
 		assert_int_equal(ops->read(s, &m), 0);
+		take_poses(f);
 		if (s->inject.camera_off)
 			assert_int_equal(f->n, before); /* nothing while the camera is off */
 		memcpy(plant_pose[k], s->plant.pose, sizeof(plant_pose[k]));
@@ -191,6 +194,38 @@ static void test_camera_dropout(void **state)
 	assert_int_equal(f.n, before + after);
 }
 
+/* No latency, 25 Hz: the frame captured at a read is offered after that read only; one not
+ * taken then is gone at the next read (a pose on a bus nobody reads), the next capture 40 ms
+ * later comes as usual. A backend without a camera offers none. */
+static void test_a_pose_not_taken_before_the_next_read_is_lost(void **state)
+{
+	(void)state;
+	static struct sim_motor s;
+	struct motor_sample m;
+	struct hal_pose p;
+	const struct omni4_config cfg = config_ini("[sim]\ncamera_latency_ms = 0\n");
+
+	start(&s, &cfg, false);
+	assert_int_equal(sim_motor_ops.read(&s, &m), 0); /* captures at 1 ms */
+	assert_int_equal(sim_motor_ops.read(&s, &m), 0); /* the frame not taken: lost */
+	assert_int_equal(sim_motor_ops.read_pose(&s, &p), -EAGAIN);
+	for (int k = 3; k <= 40; k++) {
+		assert_int_equal(sim_motor_ops.read(&s, &m), 0);
+		assert_int_equal(sim_motor_ops.read_pose(&s, &p), k == 40 ? 0 : -EAGAIN);
+	}
+	assert_int_equal(p.utime, 40000);
+	assert_int_equal(sim_motor_ops.read_pose(&s, &p), -EAGAIN); /* once */
+
+	struct sim_motor_config sc = s.cfg;
+
+	sc.camera = false;
+	assert_int_equal(sim_motor_init(&s, &sc), 0);
+	for (int k = 1; k <= 100; k++) {
+		assert_int_equal(sim_motor_ops.read(&s, &m), 0);
+		assert_int_equal(sim_motor_ops.read_pose(&s, &p), -EAGAIN);
+	}
+}
+
 /* ---- the floor ----------------------------------------------------------------------------- */
 
 /* Straight along v (u3 = +6, u1 = -6 V) for 1.5 s, then coasting to rest: the odometry from
@@ -243,18 +278,23 @@ static void test_radius_error_makes_odometry_drift_by_it(void **state)
 struct truths {
 	int n;
 	int64_t utime[8];
-	struct sim_truth t[8];
+	struct hal_truth t[8];
 };
 
-static void on_truth(void *user, int64_t utime, const struct sim_truth *t)
+/* One read, then the truths it offers, as the loop polls them. */
+static int read_and_take_truth(struct sim_motor *s, struct motor_sample *m, struct truths *tr)
 {
-	struct truths *tr = user;
+	const int rc = sim_motor_ops.read(s, m);
+	struct hal_truth t;
 
-	if (tr->n < 8) {
-		tr->utime[tr->n] = utime;
-		tr->t[tr->n] = *t;
+	while (sim_motor_ops.read_truth(s, &t) == 0) {
+		if (tr->n < 8) {
+			tr->utime[tr->n] = t.utime;
+			tr->t[tr->n] = t;
+		}
+		tr->n++;
 	}
-	tr->n++;
+	return rc;
 }
 
 /* Blocked with a traction limit, 6 V on every wheel: the body stays, the wheels break loose
@@ -276,12 +316,12 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 	    p->r * 6 / (p->l * p->Kv) - p->r * p->r * p->R * F / (p->l * p->l * p->Kt * p->Kv);
 
 	start(&s, &cfg, false);
-	sim_motor_set_truth_cb(&s, on_truth, &tr, 1000000);
+	sim_motor_set_clock(&s, 1000000);
 	s.inject.blocked = true;
 	ops->enable(&s, true);
 	ops->write(&s, u);
 	for (int k = 0; k < 500; k++)
-		assert_int_equal(ops->read(&s, &m), 0);
+		assert_int_equal(read_and_take_truth(&s, &m, &tr), 0);
 	assert_int_equal(tr.n, 500);
 	assert_int_equal(tr.utime[0], 1000000 + 1000);
 	for (int j = 0; j < 4; j++) {
@@ -290,7 +330,7 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 		assert_near(m.wheel_rad_s[j], s_ss / p->r, 1e-4 * s_ss / p->r); /* 19 tau_w */
 		assert_near(m.current_a[j], (6 - p->Kv * p->l * m.wheel_rad_s[j]) / p->R, 1e-5);
 	}
-	struct sim_truth t;
+	struct hal_truth t;
 
 	sim_motor_truth(&s, &t);
 	assert_int_equal(t.flags, 0xf | SIM_TRUTH_BLOCKED);
@@ -313,9 +353,9 @@ static void test_blocked_wheels_spin_and_the_readings_follow_them(void **state)
 	assert_true(t.flags == SIM_TRUTH_PUSHED && t.vel[1] > 0.3 && t.pose[1] > 0.05);
 }
 
-/* The truth callback: once per read (also when the driver is silent), the plant's state;
- * nothing once it is taken away. */
-static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
+/* The truth op: once per read (also when the driver is silent), the plant's state; nothing
+ * from a backend set up without it ([sim] truth = false). */
+static void test_truth_once_per_read_equal_to_the_plant(void **state)
 {
 	(void)state;
 	static struct sim_motor s;
@@ -326,18 +366,18 @@ static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 	const struct omni4_config on = config_ini("[sim]\nslip_noise = 0.01\n");
 
 	start(&s, &on, true);
-	sim_motor_set_truth_cb(&s, on_truth, &tr, 0);
 	ops->enable(&s, true);
 	ops->write(&s, u);
 	for (int k = 0; k < 300; k++) {
 		s.inject.silent = k == 299;
 		const int n = tr.n;
 
-		ops->read(&s, &m);
+		read_and_take_truth(&s, &m, &tr);
 		assert_int_equal(tr.n, n + 1);
+		assert_int_equal(tr.utime[n < 8 ? n : 7], n < 8 ? 1000 * (n + 1) : tr.utime[7]);
 	}
 	assert_int_equal(tr.n, 300);
-	struct sim_truth t;
+	struct hal_truth t;
 	double vg[4];
 
 	sim_motor_truth(&s, &t);
@@ -352,9 +392,11 @@ static void test_truth_callback_once_per_read_equal_to_the_plant(void **state)
 	assert_int_equal(t.flags, 0);
 
 	tr.n = 0;
-	sim_motor_set_truth_cb(&s, NULL, NULL, 0);
+	const struct omni4_config off = config_ini("[sim]\ntruth = false\n");
+
+	start(&s, &off, true);
 	for (int k = 0; k < 10; k++)
-		ops->read(&s, &m);
+		read_and_take_truth(&s, &m, &tr);
 	assert_int_equal(tr.n, 0);
 }
 
@@ -367,7 +409,8 @@ int main(void)
 	    cmocka_unit_test(test_camera_dropout),
 	    cmocka_unit_test(test_radius_error_makes_odometry_drift_by_it),
 	    cmocka_unit_test(test_blocked_wheels_spin_and_the_readings_follow_them),
-	    cmocka_unit_test(test_truth_callback_once_per_read_equal_to_the_plant),
+	    cmocka_unit_test(test_truth_once_per_read_equal_to_the_plant),
+	    cmocka_unit_test(test_a_pose_not_taken_before_the_next_read_is_lost),
 	};
 
 	return cmocka_run_group_tests_name("sim_floor", tests, NULL, NULL);

@@ -101,7 +101,7 @@ static void test_one_truth_per_tick_equal_to_the_plant(void **state)
 		assert_int_equal(s.motors, k + 1);
 		assert_true(s.last.utime == now && s.last.seq == k);
 		assert_true(s.motors_utime == now && s.motors_seq == k);
-		struct sim_truth t;
+		struct hal_truth t;
 
 		sim_motor_truth(&R.sim, &t);
 		assert_memory_equal(s.last.pose, t.pose, sizeof(t.pose));
@@ -121,7 +121,7 @@ static void test_one_truth_per_tick_equal_to_the_plant(void **state)
 }
 
 /* The camera's poses still come (the truth takes no frame's place); a backend without a truth
- * callback (as a real robot's) logs none. */
+ * op (as a real robot's) logs none. */
 static void test_poses_beside_the_truth_and_none_without_a_source(void **state)
 {
 	(void)state;
@@ -140,7 +140,7 @@ static void test_poses_beside_the_truth_and_none_without_a_source(void **state)
 
 	memset(&s, 0, sizeof(s));
 	open_robot("[sim]\n");
-	sim_motor_set_truth_cb(&R.sim, NULL, NULL, 0);
+	R.sim.cfg.truth = false;
 	for (int k = 0; k < 500; k++) {
 		fw_tick(&R.fw, 5000000 + k * R.sim.period_us);
 		lcmio_drain(&R.fw, &sink, &errors);
@@ -159,8 +159,7 @@ static int ticks_until_the_ring_overflows(bool truth)
 	int k;
 
 	open_robot("[sim]\n");
-	if (!truth)
-		sim_motor_set_truth_cb(&R.sim, NULL, NULL, 0);
+	R.sim.cfg.truth = truth;
 	for (k = 0; k < 20000 && R.fw.n.log_dropped == 0; k++)
 		fw_tick(&R.fw, 5000000 + k * R.sim.period_us);
 	robot_close(&R);

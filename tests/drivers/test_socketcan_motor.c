@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "omni4/can_limits.h"
 #include "omni4/sc_os.h"
 #include "omni4/socketcan_motor.h"
 
@@ -106,9 +107,13 @@ static void push_both(float i0, float w0, uint8_t counter)
 	push_status(1, i0, w0, counter);
 }
 
+/* The Table III robot's plausibility limits at 1 kHz, as the adapter computes them. */
+static struct sc_limits table3;
+
 static int reset(void **state)
 {
 	(void)state;
+	table3 = can_limits_default();
 	rx_head = rx_tail = 0;
 	clock_us = 1000000;
 	sent = 0;
@@ -125,7 +130,7 @@ static void test_status_frames_become_a_motor_sample(void **state)
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	assert_int_equal(hal_motor_read(&h, &s), -EAGAIN); /* nothing yet, within the timeout */
@@ -161,7 +166,7 @@ static void test_replayed_and_corrupt_frames_are_rejected_and_counted(void **sta
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, 3);
@@ -193,7 +198,7 @@ static void test_silent_node_times_out_and_bus_off_faults(void **state)
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(0.5f, 5.0f, 0);
@@ -222,7 +227,7 @@ static void test_a_flood_is_cut_at_the_per_tick_bound(void **state)
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	for (int k = 0; k < 64; k++)
@@ -249,7 +254,7 @@ static struct gap_result counter_step(int step)
 	struct gap_result r;
 
 	reset(NULL);
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, 5);
@@ -286,7 +291,7 @@ static void test_a_late_read_catches_up_with_the_queue(void **state)
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(0.5f, 5.0f, 0);
@@ -350,7 +355,7 @@ static void test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, 5);
@@ -368,48 +373,23 @@ static void test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame
 	hal_motor_close(&h);
 }
 
-/* The plausibility limits of the default robot (Table III, 12 V, 1 kHz), from the motor
- * physics of docs/faults.md: 2 x 12 V / 4.3111 ohm = 5.567 A per frame (+ noise), and a wheel
- * acceleration of at most 1532 rad/s^2 (1.53 rad/s per ms, + 2 LSB). */
-static void test_default_limits_follow_the_motor_physics(void **state)
+/* Limits that are no limits are refused at open, before any socket is opened. */
+static void test_open_refuses_invalid_limits(void **state)
 {
 	(void)state;
-	const struct sc_limits l = sc_limits_default();
+	struct socketcan_motor m;
+	struct sc_limits bad = table3;
 
-	print_message("plausibility: |di| <= %.3f A, |dw| <= %.3f rad/s per frame, over %.1f A "
-	              "needs %d consecutive frames\n",
-	              l.current_step_a, l.speed_step_rad_s, l.current_limit_a, l.confirm_frames);
-	assert_near(l.current_step_a, 5.567 + 0.2 + 0.02, 0.01);
-	assert_near(l.speed_step_rad_s, 1.532 + 0.25, 0.01);
-	assert_int_equal(l.confirm_frames, 3);
-	/* No plausible single step can trip the controller's encoder-jump fault (5 rad/s). */
-	assert_true(l.speed_step_rad_s < 5.0f);
-}
+	bad.confirm_frames = 9;
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &bad), -EINVAL);
+	bad = table3;
+	bad.speed_step_rad_s = 0.0f;
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &bad), -EINVAL);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 5, &table3), 0);
+	assert_int_equal(socketcan_motor_set_limits(&m, &bad), -EINVAL);
+	const struct motor_hal h = socketcan_motor_hal(&m);
 
-/* Drives that differ: the worst wheel sets each limit (R_2 10 % low: its current steps by
- * 2 x 12 V / (0.9 x 4.3111 ohm); r_1 5 % small: its rate steps the most). Equal wheel keys
- * give the default limits exactly. */
-static void test_limits_follow_the_worst_wheel(void **state)
-{
-	(void)state;
-	struct ctl_settings s;
-	const struct sc_limits d = sc_limits_default();
-
-	ctl_settings_defaults(&s);
-	model_wheels_from_params(&s.model, &s.wheels);
-	s.wheel_keys = 0xffff;
-	struct sc_limits l = sc_limits_for(&s);
-
-	assert_memory_equal(&l, &d, sizeof(l));
-	s.wheels.R[2] = 0.9 * s.model.R;
-	s.wheels.r[1] = 0.95 * s.model.r;
-	l = sc_limits_for(&s);
-	const double i2 = 2.0 * 12.0 / (0.9 * 4.3111);
-	/* wheel 2's force l Kt i2 / r over the default's l Kt i / r, the rate over r_1 */
-	const double w_step = (d.speed_step_rad_s - 2.0 * CAN_SPEED_LSB) / 0.9 / 0.95;
-
-	assert_near(l.current_step_a, i2 + 0.2 + CAN_CURR_LSB, 1e-4);
-	assert_near(l.speed_step_rad_s, w_step + 2.0 * CAN_SPEED_LSB, 1e-4);
+	hal_motor_close(&h);
 }
 
 static void test_an_implausible_jump_is_held_not_acted_on(void **state)
@@ -418,7 +398,7 @@ static void test_an_implausible_jump_is_held_not_acted_on(void **state)
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, 0);
@@ -450,7 +430,7 @@ static void test_an_over_limit_current_needs_three_consecutive_frames(void **sta
 	struct socketcan_motor m;
 	struct motor_sample s;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(4.8f, 10.0f, 0);
@@ -496,7 +476,7 @@ static void test_a_fault_report_in_health_needs_three_consecutive_frames(void **
 
 	bad.faults = CAN_DRV_OVERCURRENT;
 	bad.state = CAN_STATE_FAULT;
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, 0);
@@ -534,7 +514,7 @@ static void test_a_million_junk_status_frames_latch_nothing(void **state)
 	float prev_w[4] = {10, 10, 10, 10};
 	uint8_t ctr = 0;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	struct motor_hal h = socketcan_motor_hal(&m);
 
 	push_both(1.0f, 10.0f, ctr++);
@@ -614,7 +594,7 @@ static void crash_race(long stall_ms, int want_sent)
 	struct race r = {.m = &m};
 	pthread_t t;
 
-	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50), 0);
+	assert_int_equal(socketcan_motor_open(&m, "vcan0", 50, &table3), 0);
 	assert_int_equal(pthread_create(&t, NULL, loop_thread, &r), 0);
 	while (!atomic_load(&stalled)) {
 		const struct timespec us50 = {0, 50000};
@@ -680,7 +660,9 @@ static void crash_race(long stall_ms, int want_sent)
 	print_message("crash race, send preempted %ld ms: %d loop writes, halt frames last (%d "
 	              "frames on the bus)\n",
 	              stall_ms, r.writes, sent_n);
-	hal_motor_close(&(struct motor_hal){.ops = &socketcan_motor_ops, .ctx = &m});
+	const struct motor_hal h = socketcan_motor_hal(&m);
+
+	hal_motor_close(&h);
 }
 
 static void test_crash_halt_frames_are_the_last_on_the_bus(void **state)
@@ -710,8 +692,7 @@ int main(void)
 	    cmocka_unit_test_setup(test_counter_gap_boundaries_from_the_specification, reset),
 	    cmocka_unit_test_setup(
 	        test_a_rejected_counter_resynchronises_on_the_next_consecutive_frame, reset),
-	    cmocka_unit_test_setup(test_default_limits_follow_the_motor_physics, reset),
-	    cmocka_unit_test_setup(test_limits_follow_the_worst_wheel, reset),
+	    cmocka_unit_test_setup(test_open_refuses_invalid_limits, reset),
 	    cmocka_unit_test_setup(test_an_implausible_jump_is_held_not_acted_on, reset),
 	    cmocka_unit_test_setup(test_an_over_limit_current_needs_three_consecutive_frames,
 	                           reset),

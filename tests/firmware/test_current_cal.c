@@ -514,7 +514,7 @@ static struct ring_view run_loop(int from, int n)
 				continue;
 			omni4_motors_t m = {.utime = e.utime, .seq = e.seq};
 
-			memcpy(m.current, e.current, sizeof(m.current));
+			memcpy(m.current, e.sample.current, sizeof(m.current));
 			if (v.notices == 0)
 				v.before = m;
 			else if (e.seq == v.notice_seq)

@@ -99,6 +99,43 @@ static void test_drive_then_coast_closed_form(void **state)
 	assert_near(o->pose[0] - x0, dist, 3e-5);
 }
 
+/* A loop late on a loaded host: a tick k periods after the last first predicts the k - 1
+ * periods missed, under the voltages applied through them. Ticks every 7th period only give the
+ * state of ticks every period (the same predictions at the same times: to the bit), and the
+ * constant drive's closed form; a gap beyond EST_CATCH_UP predicts EST_CATCH_UP periods. */
+static void test_late_ticks_predict_what_they_missed(void **state)
+{
+	(void)state;
+	const double u[4] = {0.0, -6.0, 0.0, 6.0};
+	struct model_ss ss;
+	double xss[3];
+
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	assert_int_equal(est_init(&E2, NULL, P3, 1000.0), 0);
+	for (int n = 0; n <= 2800; n++) {
+		model_tick(&E, (int64_t)n * TICK_US, u, true);
+		if (n % 7 == 0)
+			model_tick(&E2, (int64_t)n * TICK_US, u, true);
+	}
+	dyn_state_space(P3, &ss);
+	dyn_steady_velocity(&ss, u, xss);
+	printf("late ticks: every 7th tick v %.6f x %.6f; every tick v %.6f x %.6f; steady %.6f\n",
+	       est_get(&E2)->vel[0], est_get(&E2)->pose[0], est_get(&E)->vel[0],
+	       est_get(&E)->pose[0], xss[0]);
+	assert_memory_equal(est_get(&E2)->vel, est_get(&E)->vel, sizeof(est_get(&E)->vel));
+	assert_memory_equal(est_get(&E2)->pose, est_get(&E)->pose, sizeof(est_get(&E)->pose));
+	assert_near(est_get(&E2)->vel[0], xss[0], 1e-4 * xss[0] + 1e-5);
+
+	/* the cap: ticks at 0 and 100 periods = ticks at 0 .. EST_CATCH_UP + 1 */
+	assert_int_equal(est_init(&E, NULL, P3, 1000.0), 0);
+	assert_int_equal(est_init(&E2, NULL, P3, 1000.0), 0);
+	model_tick(&E2, 0, u, true);
+	model_tick(&E2, 100 * TICK_US, u, true);
+	for (int n = 0; n <= EST_CATCH_UP + 1; n++)
+		model_tick(&E, (int64_t)n * TICK_US, u, true);
+	assert_memory_equal(est_get(&E2)->vel, est_get(&E)->vel, sizeof(est_get(&E)->vel));
+}
+
 /* Equal voltages on all four wheels: pure rotation, w' = A w + b - Cw/J from rest, so
  * w(t) = wss (1 - e^{A t}) and theta(t) = wss (t - (e^{A t} - 1)/A), wrapped; x, y stay 0. */
 static void test_pure_rotation_closed_form(void **state)
@@ -837,6 +874,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_drive_then_coast_closed_form),
 	    cmocka_unit_test(test_pure_rotation_closed_form),
+	    cmocka_unit_test(test_late_ticks_predict_what_they_missed),
 	    cmocka_unit_test(test_set_model),
 	    cmocka_unit_test(test_plant_camera_40ms),
 	    cmocka_unit_test(test_replay_equals_on_time),

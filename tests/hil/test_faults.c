@@ -318,7 +318,7 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 	while (fw_pop_log(&fw, &e)) {
 		if (e.kind != LOG_MOTORS)
 			continue;
-		if (!!(e.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
+		if (!!(e.sample.faults & OMNI4_MOTORS_T_FAULT_OVERRUN) != late[k])
 			fail_msg("tick %zu at %lld us: OVERRUN %s", k, (long long)start_us[k],
 			         late[k] ? "missing" : "set on a tick on time");
 		k++;
@@ -328,22 +328,61 @@ static void test_a_late_tick_carries_overrun_in_its_own_sample(void **state)
 	row("loop tick a whole period late", "OVERRUN in that tick's sample only", -1);
 }
 
-/* A simulated camera that hands in more poses in one tick than FW_POSES_PER_TICK: the estimator
- * takes FW_POSES_PER_TICK of them, the rest are counted, and all go to the log. */
+/* The sim backend's ops, with a camera that offers `poses_left` poses at the next read (and
+ * says -EAGAIN after them, or never with poses_left < 0). */
+static int poses_left;
+
+static int burst_read_pose(void *ctx, struct hal_pose *out)
+{
+	(void)ctx;
+	if (poses_left == 0)
+		return -EAGAIN;
+	poses_left -= poses_left > 0;
+	*out = (struct hal_pose){.utime = 0};
+	return 0;
+}
+
+static struct motor_hal burst_camera(struct fw *fw)
+{
+	static struct motor_hal_ops ops;
+
+	ops = *fw->motor.ops;
+	ops.read_pose = burst_read_pose;
+	return (struct motor_hal){.ops = &ops, .ctx = fw->motor.ctx};
+}
+
+static int logged_poses(struct fw *fw)
+{
+	struct log_entry e;
+	int n = 0;
+
+	while (fw_pop_log(fw, &e))
+		n += e.kind == LOG_POSE;
+	return n;
+}
+
+/* A camera behind the backend that offers more poses in one tick than FW_POSES_PER_TICK: the
+ * estimator takes FW_POSES_PER_TICK of them, the rest are counted, and all go to the log; one
+ * that never says -EAGAIN is read FW_POSE_POLLS_PER_TICK times a tick, no more. */
 static void test_poses_beyond_a_tick_are_counted(void **state)
 {
 	(void)state;
 	static struct fw fw;
-	const double pose[3] = {0, 0, 0};
 
 	fw_on_sim_plant(&fw);
-	for (int k = 0; k < FW_POSES_PER_TICK + 2; k++)
-		fw_push_pose(&fw, 0, pose);
+	fw.motor = burst_camera(&fw);
+	poses_left = FW_POSES_PER_TICK + 2;
 	fw_tick(&fw, 1000);
 	assert_int_equal(atomic_load(&fw.n.pose_dropped), 2);
 	assert_int_equal(est_get(&fw.est)->cam_taken + est_get(&fw.est)->cam_gated +
 	                     est_get(&fw.est)->cam_too_old,
 	                 FW_POSES_PER_TICK);
+	assert_int_equal(logged_poses(&fw), FW_POSES_PER_TICK + 2);
+	poses_left = -1;
+	fw_tick(&fw, 2000);
+	assert_int_equal(logged_poses(&fw), FW_POSE_POLLS_PER_TICK);
+	assert_int_equal(atomic_load(&fw.n.pose_dropped),
+	                 2 + FW_POSE_POLLS_PER_TICK - FW_POSES_PER_TICK);
 }
 
 int main(void)

@@ -52,11 +52,6 @@ static void tick(void *ctx, int64_t now_us)
 	fw_tick(ctx, now_us);
 }
 
-static void sim_pose(void *user, int64_t utime, const double pose[3])
-{
-	fw_push_pose(user, utime, pose);
-}
-
 static void sleep_ms(int ms)
 {
 	const struct timespec t = {.tv_sec = ms / 1000, .tv_nsec = (ms % 1000) * 1000000L};
@@ -84,12 +79,12 @@ static void test_loop_thread_logs_every_tick_through_lcm(void **state)
 	    .camera_pos_noise_m = 0.01,
 	    .camera_theta_noise_rad = 0.05,
 	    .seed = 3,
+	    .camera = true,
 	};
 	assert_int_equal(sim_motor_init(&sim, &sc), 0);
 	assert_int_equal(
 	    fw_init(&fw, &cfg.ctl, sim_motor_hal(&sim), (struct line_hal){.ops = &line_none_ops}),
 	    0);
-	sim_motor_set_pose_cb(&sim, sim_pose, &fw, 0);
 
 	lcm_t *lcm = lcm_create("memq://");
 

@@ -44,7 +44,17 @@ struct ctl_settings {
 		double com_height;      /* centre of mass above the floor [m] (load transfer) */
 	} limits;
 	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
+	struct {
+		int feedforward; /* enum ctl_goal_ff: the tracker's feedforward */
+		int limits;      /* enum ctl_goal_limits: the planner's limits */
+	} goal;
 };
+
+/* [goal] feedforward: the reference's velocity and acceleration through the model, or its
+ * velocity only (kinematic: velocity reference + PI, a peer). */
+enum ctl_goal_ff { CTL_GOAL_FF_MODEL = 0, CTL_GOAL_FF_KINEMATIC = 1 };
+/* [goal] limits: the model's envelope per direction and speed, or one fixed box (a peer). */
+enum ctl_goal_limits { CTL_GOAL_LIMITS_MODEL = 0, CTL_GOAL_LIMITS_FIXED = 1 };
 
 /* The defaults of ctl_keys.def: the paper's Table III robot at 1 kHz. */
 void ctl_settings_defaults(struct ctl_settings *s);

@@ -37,6 +37,9 @@
 #include "omni4/params.h"
 #include "omni4/vocab.h"
 
+#ifndef EST_CATCH_UP
+#define EST_CATCH_UP 32 /* periods a late tick may have missed that are predicted first */
+#endif
 #ifndef EST_HISTORY
 #define EST_HISTORY 256 /* past ticks kept for the camera replay (256 ms at 1 kHz) */
 #endif
@@ -109,6 +112,10 @@ struct est_output {
 	int64_t cam_latency_us; /* arrival minus capture of the last camera pose taken */
 	uint32_t cam_taken, cam_gated, cam_too_old;
 	float wheel_scale[4]; /* learnt scale error k_j per wheel (ground = r w_j (1 + k_j)) */
+	float slip_model[4];  /* each wheel's reading minus the model's prediction, averaged,
+	                       * signed along its force (> 0: running ahead) [m/s] */
+	float slip_camera[3]; /* the wheels' velocity minus the camera's over the last baseline,
+	                       * v, vn, d w, in the camera's sigmas over that baseline */
 };
 
 /* The kinds of late measurement (est_replay.h) a past tick can hold. */
@@ -125,6 +132,24 @@ struct est_tick {
 };
 
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
+
+/* Slip on every wheel (est_slip.c): the camera frames kept to compare the wheels' distance
+ * with the body's, the oldest still in the ring of ticks taken as the baseline. */
+#define EST_SLIP_FRAMES 6
+
+struct est_slip {
+	/* private: see est_slip.c */
+	float kemf[4];   /* back-EMF per rim speed, Kv_j l / r_j [V s/m] (the force's sign) */
+	float nu_avg[4]; /* each wheel's reading minus the model's prediction, averaged [m/s] */
+	int model_run[4];
+	uint32_t frame_tick[EST_SLIP_FRAMES];
+	float frame_z[EST_SLIP_FRAMES][3];
+	int frames;         /* frames kept (at most EST_SLIP_FRAMES), the newest last */
+	uint8_t cam_run[3]; /* camera comparisons in a row beyond the threshold, per axis */
+	uint8_t cam_bits;   /* the wheels the last comparison named (bit j: wheel j) */
+	int64_t cam_us;     /* capture time of the last comparison */
+	int8_t null_wheel;  /* the wheel the null space left out this tick, or -1 */
+};
 
 struct est {
 	/* private: see est.c, est_replay.c, est_cal.c */
@@ -154,7 +179,8 @@ struct est {
 	uint32_t seq;       /* ticks since init/reset: the next tick's number */
 	float innov_avg[3]; /* the velocity innovation averaged (EST_INNOV_AVG_TICKS) */
 	int slip_run, collision_run, cam_gate_run;
-	int64_t last_cam_us; /* capture time of the last camera pose taken */
+	struct est_slip slip; /* est_slip.c */
+	int64_t last_cam_us;  /* capture time of the last camera pose taken */
 	bool have_cam;
 };
 
@@ -180,7 +206,8 @@ void est_set_model_wheels(struct est *e, const struct model_params *p,
                           const struct model_wheels *w);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
-/* Fast loop, once per tick. */
+/* Fast loop, once per tick. A tick that comes two or more periods after the last (in->utime)
+ * first predicts the periods missed, without a reading (up to EST_CATCH_UP). */
 void est_step(struct est *e, const struct est_input *in);
 /* Fast loop, between ticks: a camera pose captured at capture_us, now_us = the current tick's
  * time. 0 taken; -ERANGE older than the history (counted); -EINVAL gated or not finite

@@ -24,10 +24,11 @@
 #define FW_LOG_RING_SLOTS 8192 /* 8 s of samples at 1 kHz; a power of two */
 #endif
 #define FW_CMD_RING_SLOTS 64
-#define FW_GOAL_RING_SLOTS 4  /* goals from a receive thread (a few keep-alives) */
-#define FW_POSE_RING_SLOTS 16 /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
-#define FW_POSES_PER_TICK 4   /* simulated camera poses handed in during one tick */
-#define FW_STATE_HZ 100.0     /* OMNI4_STATE rate (and on every change of its flags) */
+#define FW_GOAL_RING_SLOTS 4      /* goals from a receive thread (a few keep-alives) */
+#define FW_POSE_RING_SLOTS 16     /* camera poses from a receive thread (about 0.6 s at 25 Hz) */
+#define FW_POSES_PER_TICK 4       /* backend camera poses the estimator takes in one tick */
+#define FW_POSE_POLLS_PER_TICK 16 /* backend camera poses read (and logged) in one tick */
+#define FW_STATE_HZ 100.0         /* OMNI4_STATE rate (and on every change of its flags) */
 
 enum log_kind {
 	LOG_MOTORS = 1,
@@ -38,37 +39,56 @@ enum log_kind {
 	LOG_GOAL = 6,
 };
 
+/* LOG_MOTORS: the tick's motors_t sample. */
+struct log_sample {
+	int8_t mode;          /* controller mode (vocab.def) */
+	int32_t faults;       /* fault bits (vocab.def) */
+	float voltage[4];     /* commanded [V] */
+	float current[4];     /* measured, the offsets in force subtracted [A] */
+	float wheel_speed[4]; /* [rad/s] */
+};
+
+/* LOG_POSE: a camera pose that came through the motor backend (pose_t). */
+struct log_pose {
+	double pose[3]; /* world x, y [m], theta [rad] */
+};
+
+/* LOG_TRUTH (simulators only): the plant's true state after the tick's step (sim_truth_t). */
+struct log_truth {
+	double pose[3];      /* world x, y [m], theta [rad] */
+	float vel[3];        /* robot frame v, vn [m/s], w [rad/s] */
+	float wheel_slip[4]; /* rim speed minus ground speed at the wheel [m/s] */
+	uint32_t flags;      /* sim_truth_t flags */
+};
+
+/* LOG_CALIBRATION: a new set of current-sense offsets (announced as a param_changed_t with
+ * source "calibration"); the entry's seq is the first tick whose currents have them subtracted
+ * (pushed before that tick's sample). */
+struct log_calibration {
+	float offset[4];         /* the new offsets [A] */
+	float prev_offset[4];    /* the previous ones [A] */
+	uint32_t over_limit;     /* channels beyond the limit (bit j = channel j) */
+	int32_t prev_over_limit; /* the previous set's such bits; -1: this is the first set */
+	uint16_t samples;        /* readings per channel the new offsets are the mean of */
+};
+
 /*
- * One log ring entry, not yet encoded: a motors_t sample (currents with the offsets in force
- * subtracted), a pose_t sample, the state estimate (state: a state_t), or a new set of
- * current-sense offsets (announced as a
- * param_changed_t with source "calibration"): then seq is the first tick whose currents have
- * them subtracted (pushed before that tick's sample), current[] the new offsets [A], voltage[]
- * the previous ones [A], faults the channels beyond the limit (bit j = channel j), mode the
- * previous set's such bits (-1: this is the first set), and cal_samples the readings per
- * channel the new ones are the mean of.
- * LOG_TRUTH (simulators only: the plant's true state after the tick's step, sim_truth_t):
- * pose[] the world pose, voltage[0..2] the robot-frame velocity [v, vn, w], current[] the
- * wheel slip velocities [m/s], faults the truth flags; seq the tick.
- * LOG_GOAL: the goal's progress (goal: a goal_status_t), at the rate of LOG_STATE while a goal
- * is tracked, at every change of its status or pose aimed at, and for every goal refused.
+ * One log ring entry, not yet encoded: kind says which member of the union holds it.
+ * LOG_STATE: the state estimate (a state_t). LOG_GOAL: the goal's progress (a goal_status_t),
+ * at the rate of LOG_STATE while a goal is tracked, at every change of its status or pose aimed
+ * at, and for every goal refused.
  */
 struct log_entry {
 	int64_t utime;
 	int64_t seq;
-	uint8_t kind;
-	int8_t mode;
-	uint16_t cal_samples;
-	int32_t faults;
+	uint8_t kind; /* enum log_kind */
 	union {
-		struct {
-			float voltage[4];
-			float current[4];
-			float wheel_speed[4];
-			double pose[3];
-		};
-		struct est_output state; /* LOG_STATE */
-		struct goal_report goal; /* LOG_GOAL */
+		struct log_sample sample;   /* LOG_MOTORS */
+		struct log_pose camera;     /* LOG_POSE */
+		struct log_truth truth;     /* LOG_TRUTH */
+		struct log_calibration cal; /* LOG_CALIBRATION */
+		struct est_output state;    /* LOG_STATE */
+		struct goal_report goal;    /* LOG_GOAL */
 	};
 };
 
@@ -173,16 +193,12 @@ bool fw_post_command(struct fw *fw, const struct ctl_command *cmd);
 /* Receive thread. A goal (goal_t) for the loop; false if the mailbox is full (counted). */
 bool fw_post_goal(struct fw *fw, const struct goal_cmd *goal);
 
-/* Loop thread (a simulated camera called from the HAL read): the pose goes to the log (as
- * pose_t) and, after this tick's estimator step, to the estimator at its capture time utime. */
-void fw_push_pose(struct fw *fw, int64_t utime, const double pose[3]);
 /* Receive thread (a camera on the bus): the pose goes to the estimator at the next tick, at its
  * capture time utime (not to the log: it is on the bus already). false if the mailbox is full
- * (counted). */
+ * (counted). A camera behind the motor backend (the simulator's) is the HAL's read_pose op
+ * instead, which fw_tick polls: its poses also go to the log (pose_t); the backend's
+ * read_truth op likewise gives LOG_TRUTH entries. */
 bool fw_post_pose(struct fw *fw, int64_t utime, const double pose[3]);
-/* Loop thread (a simulated plant's true state, from the HAL read): a LOG_TRUTH entry. */
-void fw_push_truth(struct fw *fw, int64_t utime, const double pose[3], const double vel[3],
-                   const double wheel_slip[4], uint32_t flags);
 
 /* Logger thread. */
 bool fw_pop_log(struct fw *fw, struct log_entry *e);

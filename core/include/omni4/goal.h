@@ -24,6 +24,7 @@
 
 #include "omni4/ctl.h"
 #include "omni4/est.h"
+#include "omni4/goal_fixed.h"
 #include "omni4/traj.h"
 
 #define GOAL_POSES_MAX 32         /* goal_t.MAX_POSES */
@@ -45,7 +46,9 @@
 #define GOAL_REACHED_THETA_RAD 0.0087f /* 0.5 deg */
 #define GOAL_REACHED_SPEED_M_S 0.02f
 
-/* The traction limit the planner assumes until the identified one is in the settings. */
+/* The planner's traction: [limits] traction_mu and traction_margin when traction_mu > 0 (the
+ * floor identified); with traction_mu = 0 (the controller's limit off) a conservative floor, mu
+ * 0.6 less 10 %, which a dry lab floor holds (goal_traction). */
 #define GOAL_MU_DEFAULT 0.6
 #define GOAL_TRACTION_MARGIN 0.1
 #define GOAL_MARGIN_V 2.0 /* supply voltage kept for the feedback [V] */
@@ -106,6 +109,9 @@ struct goal {
 	bool traj_ok;           /* traj_init took the limits: goals can be planned */
 	float speed_cap_m_s;    /* the limits' own cap (traj's coefficient when no goal caps it) */
 	float kp_pos, kp_theta; /* GOAL_KP_POS, GOAL_KP_THETA */
+	bool kinematic;         /* [goal] feedforward = kinematic: no acceleration fed forward */
+	bool fixed;             /* [goal] limits = fixed: planned under fx, not the envelope */
+	struct goal_fixed fx;
 	float poses[GOAL_POSES_MAX][3];
 	int n, index;
 	float blend_m;
@@ -117,9 +123,14 @@ struct goal {
 };
 
 /* Start-up or new parameters (double arithmetic: not the fast loop). The planner's limits
- * from the controller's settings (model, per-wheel drives, supply) and the GOAL_* defaults;
- * if they leave no acceleration every goal is refused as unreachable. Keeps the report. */
+ * from the controller's settings (model, per-wheel drives, supply, the floor's traction) and
+ * the GOAL_* defaults; if they leave no acceleration every goal is refused as unreachable, and
+ * a goal in force is aborted (UNREACHABLE) at the next step. A goal in force is re-planned
+ * from its reference under the new limits (no jump). Keeps the report. */
 void goal_init(struct goal *g, const struct ctl_settings *cfg);
+
+/* The floor's friction coefficient and traction margin the planner takes from cfg (above). */
+void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin);
 
 /*
  * Fast loop, on arrival (bounded: one plan). A new goal (action GO, a goal id other than the

@@ -9,6 +9,7 @@
 #ifndef OMNI4_HAL_H
 #define OMNI4_HAL_H
 
+#include <errno.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -26,6 +27,21 @@ struct motor_sample {
 	uint32_t faults;      /* driver-side fault bits (HAL_FAULT_*), 0 if healthy */
 };
 
+/* A camera's pose as a backend hands it to the loop (pose_t). */
+struct hal_pose {
+	int64_t utime;  /* capture time [us] */
+	double pose[3]; /* world x, y [m], theta [rad] */
+};
+
+/* A simulated plant's true state after a read's step (sim_truth_t). */
+struct hal_truth {
+	int64_t utime;        /* the step's end [us] */
+	double pose[3];       /* world x, y [m], theta [rad] */
+	double vel[3];        /* robot frame v, vn [m/s], w [rad/s] */
+	double wheel_slip[4]; /* rim speed minus ground speed at the wheel [m/s] */
+	uint32_t flags;       /* the simulator's truth flags (sim_truth_t) */
+};
+
 struct motor_hal_ops {
 	/* Mandatory. Fast loop. Turn the H-bridges on (driving) or off (free-wheeling, no
 	 * braking). */
@@ -38,6 +54,13 @@ struct motor_hal_ops {
 	 * MODE_CLEAR_FAULT command only: ask the drivers to clear their latched faults, without
 	 * waiting for their answer (the next readings show it). */
 	int (*clear_faults)(void *ctx);
+	/* Optional (NULL: no camera behind this backend, -EAGAIN). Fast loop, right after read:
+	 * the loop polls it until -EAGAIN. The next camera pose that fell due by that read, oldest
+	 * first; one not taken before the next read is lost. */
+	int (*read_pose)(void *ctx, struct hal_pose *out);
+	/* Optional (NULL: no truth, -EAGAIN). Fast loop, right after read (whatever read
+	 * returned): a simulated plant's true state after that read's step, once per read. */
+	int (*read_truth)(void *ctx, struct hal_truth *out);
 	/* Optional (NULL: the caller's 0 V / disable writes are the last word). Any thread, also a
 	 * crash handler: async-signal-safe. Outputs off for good: every later enable / write is
 	 * dropped, and the backend makes sure its own off command is the last one to reach the
@@ -71,6 +94,16 @@ static inline int hal_motor_read(const struct motor_hal *h, struct motor_sample 
 static inline int hal_motor_clear_faults(const struct motor_hal *h)
 {
 	return h->ops->clear_faults ? h->ops->clear_faults(h->ctx) : 0;
+}
+
+static inline int hal_motor_read_pose(const struct motor_hal *h, struct hal_pose *out)
+{
+	return h->ops->read_pose ? h->ops->read_pose(h->ctx, out) : -EAGAIN;
+}
+
+static inline int hal_motor_read_truth(const struct motor_hal *h, struct hal_truth *out)
+{
+	return h->ops->read_truth ? h->ops->read_truth(h->ctx, out) : -EAGAIN;
 }
 
 static inline void hal_motor_halt(const struct motor_hal *h)

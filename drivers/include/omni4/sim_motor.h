@@ -13,8 +13,8 @@
  * with exact sensors too. The camera's latency ([sim] camera_latency_ms) likewise: a pose is
  * delivered that much after its capture, stamped with the capture time, through a fixed queue
  * of SIM_CAM_QUEUE frames (latency x rate must stay below SIM_CAM_QUEUE - 1).
- * The plant's true state goes, once per read, to the truth callback if one is set (the
- * simulators log it).
+ * The camera's poses and the plant's true state after each read are the HAL's optional
+ * read_pose / read_truth ops (hal.h), which the loop polls: the backend calls nothing above it.
  */
 #ifndef OMNI4_SIM_MOTOR_H
 #define OMNI4_SIM_MOTOR_H
@@ -43,6 +43,8 @@ struct sim_motor_config {
 	double encoder_eccentricity; /* e of the motor-shaft encoders, in [0, 0.1]; 0 = none */
 	struct plant_floor floor;    /* traction limit, radius errors, creep (seed: ignored) */
 	double camera_latency_s;     /* capture -> delivery [s] */
+	bool camera;                 /* a camera (read_pose); false: none, no frame captured */
+	bool truth;                  /* the true state after each read (read_truth) */
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */
@@ -63,22 +65,11 @@ struct sim_motor_faults {
 	bool camera_off;     /* no frames captured nor delivered (a dropout) */
 };
 
-typedef void (*sim_pose_cb)(void *user, int64_t utime, const double pose[3]);
-
-/* The plant's true state after a step (sim_truth_t). */
-struct sim_truth {
-	double pose[3];       /* world x, y [m], theta [rad] */
-	double vel[3];        /* robot frame v, vn [m/s], w [rad/s] */
-	double wheel_slip[4]; /* rim speed minus ground speed at the wheel [m/s] */
-	uint32_t flags;       /* SIM_TRUTH_* */
-};
-
+/* hal_truth.flags of the sim backend (sim_truth_t). */
 #define SIM_TRUTH_SLIP_MASK 0x0fu /* bit j: wheel j slips (beyond the traction limit) */
 #define SIM_TRUTH_BLOCKED 0x10u   /* the body is held (sim_motor_faults.blocked) */
 #define SIM_TRUTH_PUSHED 0x20u    /* an external force acts (sim_motor_faults.ext_force) */
 #define SIM_TRUTH_CAMERA_OFF 0x40u
-
-typedef void (*sim_truth_cb)(void *user, int64_t utime, const struct sim_truth *t);
 
 struct sim_cam_frame {
 	int64_t capture_us; /* t_us at capture */
@@ -101,16 +92,12 @@ struct sim_motor {
 	int64_t period_us;
 	double cam_period_s;
 	double next_cam_s;
-	sim_pose_cb on_pose;
-	void *on_pose_user;
-	int64_t utime0; /* added to t_us in pose timestamps */
+	int64_t utime0; /* added to t_us in pose and truth timestamps */
 	int64_t cam_latency_us;
 	struct sim_cam_frame cam_q[SIM_CAM_QUEUE]; /* captured, not yet delivered (FIFO) */
 	unsigned cam_head, cam_count;
 	uint64_t cam_lost; /* frames that found the queue full (never with a valid config) */
-	sim_truth_cb on_truth;
-	void *on_truth_user;
-	int64_t truth_utime0; /* added to t_us in truth timestamps */
+	bool truth_due;    /* a read stepped the plant; its truth not yet taken */
 };
 
 extern const struct motor_hal_ops sim_motor_ops;
@@ -131,13 +118,15 @@ static inline struct motor_hal sim_motor_hal(struct sim_motor *s)
 	return (struct motor_hal){.ops = &sim_motor_ops, .ctx = s};
 }
 
-/* Camera samples are handed to cb (from inside read(), i.e. in the loop's context). */
-void sim_motor_set_pose_cb(struct sim_motor *s, sim_pose_cb cb, void *user, int64_t utime0);
-/* The plant's true state after every step, to cb (inside read(), before its faults), stamped
- * utime0 + the simulated time. */
-void sim_motor_set_truth_cb(struct sim_motor *s, sim_truth_cb cb, void *user, int64_t utime0);
-/* The true state now. */
-void sim_motor_truth(const struct sim_motor *s, struct sim_truth *t);
+/* Poses and truth are stamped utime0 + the simulated time (0 after init). */
+void sim_motor_set_clock(struct sim_motor *s, int64_t utime0);
+/* The true state now (t->utime: utime0 + the simulated time). */
+void sim_motor_truth(const struct sim_motor *s, struct hal_truth *t);
+/* n more periods of the plant (n >= 0) under the voltages and enable of the last write, as
+ * the loop's reads would make them (encoders, camera, truth and noise follow; a frame or truth
+ * the loop does not take before the next read is lost, as ever), the samples discarded: a real
+ * robot moves on while its loop is late. In the loop's context. */
+void sim_motor_advance(struct sim_motor *s, int n);
 
 /* The sim line backend: an e-stop a test can press. */
 struct sim_lines {

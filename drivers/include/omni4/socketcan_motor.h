@@ -28,7 +28,6 @@
 #include <stdint.h>
 
 #include "omni4/can_proto.h"
-#include "omni4/ctl_settings.h"
 #include "omni4/hal.h"
 #include "omni4/sc_os.h"
 
@@ -51,7 +50,8 @@ struct sc_counters {
 	uint64_t confirmed;   /* held values taken after confirm_frames consecutive frames */
 };
 
-/* Plausibility limits of STATUS frames (per frame period, i.e. per counter step). */
+/* Plausibility limits of STATUS frames (per frame period, i.e. per counter step): numbers the
+ * adapter computes from the robot's settings (firmware's can_limits.h). */
 struct sc_limits {
 	float current_step_a;   /* largest |current change| between two frames [A] */
 	float speed_step_rad_s; /* largest |wheel speed change| between two frames [rad/s] */
@@ -62,18 +62,6 @@ struct sc_limits {
 /* The driver boards' current-sense noise allowance in a STATUS step [A]: 10 sigma of their
  * 0.02 A sense noise (a property of the boards, not of the robot's settings). */
 #define SC_CURRENT_NOISE_MARGIN_A 0.2
-
-/* The limits of a robot's controller settings (its STATUS period is the loop period):
- * current_step = 2 supply / R + SC_CURRENT_NOISE_MARGIN_A + 1 LSB (L neglected: a full-scale
- * voltage reversal moves the current by 2 supply / R at once); speed_step = a_max dt / r + 2 LSB
- * with a_max = f_max (2/M + 4 d^2/J), f_max = l Kt (2 supply / R) / r (all four wheels at the
- * largest force, worst-case signs: the largest linear acceleration of one wheel's rim); the
- * current limit is limits.current_max_a; N = 3. With each drive's own R_j, Kt_j, r_j
- * (ctl_settings_wheels) the worst wheel sets each: the largest 2 supply / R_j and l Kt_j i_j / r_j,
- * the smallest r_j. */
-struct sc_limits sc_limits_for(const struct ctl_settings *s);
-/* sc_limits_for(the default settings): the Table III robot at 1 kHz. */
-struct sc_limits sc_limits_default(void);
 
 /* A run of held (implausible) frames of one kind from one node: confirmed as the
  * confirm_frames-th consecutive one that agrees with its predecessor. */
@@ -112,11 +100,14 @@ struct socketcan_motor {
 
 extern const struct motor_hal_ops socketcan_motor_ops;
 
-/* Start-up. -ENODEV etc. from the socket layer; the message helper is sc_os_strerror(). */
-int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms);
+/* Start-up, with the plausibility limits lim. -EINVAL for a non-positive timeout or invalid
+ * limits (as socketcan_motor_set_limits); -ENODEV etc. from the socket layer; the message
+ * helper is sc_os_strerror(). */
+int socketcan_motor_open(struct socketcan_motor *m, const char *iface, int status_timeout_ms,
+                         const struct sc_limits *lim);
 
-/* Replace the plausibility limits (after open; the default is sc_limits_default()). -EINVAL
- * for non-positive steps or confirm_frames outside 1..8. */
+/* Replace the plausibility limits (after open). -EINVAL for non-positive steps or
+ * confirm_frames outside 1..8. */
 int socketcan_motor_set_limits(struct socketcan_motor *m, const struct sc_limits *lim);
 
 /* Crash path, async-signal-safe: close the write gate, wait (at most 20 ms) for a write of

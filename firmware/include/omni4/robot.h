@@ -66,10 +66,14 @@ int robot_open(struct robot *r, const struct robot_spec *spec, char *why, size_t
 /* Outputs off, backends closed. */
 void robot_close(struct robot *r);
 
-/* Loop thread, before fw_tick, in a loop paced by a clock (omni4-fw): the sim backend's camera
- * and truth stamps follow the loop's clock now_us (the tick's time), so a late start or a
- * late tick does not age its camera poses (the estimator takes them at their capture time).
- * Nothing for other backends. The lockstep simulator's clock is the sim's own: not needed. */
+/* Loop thread, before fw_tick, in a loop paced by a clock (omni4-fw): the sim backend's plant
+ * keeps up with the loop's clock now_us (the tick's time) as a real robot's physics does: a
+ * late or skipped tick advances it the periods it missed under the last voltages (up to
+ * ROBOT_SIM_CATCH_UP_MAX; a longer stall, e.g. a stopped process, is skipped over), and its
+ * camera and truth stamps follow the clock, so the log's times and the plant agree on a loaded
+ * machine too. Nothing for other backends. The lockstep simulator's clock is the sim's own:
+ * not needed. */
+#define ROBOT_SIM_CATCH_UP_MAX 500 /* periods (0.5 s at 1 kHz) */
 void robot_sim_follow_clock(struct robot *r, int64_t now_us);
 
 #endif /* OMNI4_ROBOT_H */

@@ -1,0 +1,201 @@
+/*
+ * est_slip.c - slip seen on every wheel, and the wheels named (est.h, EST_FLAG_SLIP_0..3;
+ * docs/estimator.md, "Slip on every wheel").
+ *
+ * The null space (est.c) sees one wheel disagreeing with the rest; all four wheels slipping
+ * alike (a rotation step that spins them all) leave it at 0. Two witnesses that do not need
+ * the wheels to disagree:
+ * - the model: each wheel's reading minus the model's prediction from the last estimate under
+ *   the applied voltages (IK_j of the predicted velocity), averaged over EST_INNOV_AVG_TICKS,
+ *   signed along the wheel's force (u_j - Kv_j l / r_j rim_j): a slipping wheel spins up on its
+ *   own inertia, ahead of the body along the force that drives it (braking: behind it, and the
+ *   force is reversed). Beyond slip_model_threshold for slip_ticks ticks: that wheel slips. A
+ *   blocked or pushed-back body leaves the wheels behind the prediction: COLLISION, not this.
+ *   It sees the onset (the rim running away); once the rim has settled at its slipping speed
+ *   the filter has followed the wheels and the innovation fades.
+ * - the camera: the wheels' distance between two frames (the ring of past ticks, from each
+ *   frame's capture tick: its latency replayed; eqs 3-5) against the body's displacement the
+ *   two poses give (in the robot frame at the mid heading), over the longest baseline still in
+ *   the ring (up to EST_SLIP_FRAMES frames back), per axis v, vn, w in units of the camera's
+ *   noise over that baseline. Beyond slip_camera_sigmas for two comparisons in a row (a single
+ *   outlier frame spoils two that are never consecutive): the wheels that carry that axis
+ *   (v: 1 and 3, vn: 0 and 2, w: all four) and whose rims are off the ground's (eq 2) by half
+ *   the most of them or more slip, until a comparison says otherwise or the camera goes
+ *   stale. Every finite frame counts, gated or not: the camera is the witness.
+ * Fast loop: no allocation, a few dozen operations per wheel.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "est_priv.h"
+#include "omni4/la_f32.h"
+
+#define SLIP_CAM_RUN 2 /* comparisons in a row beyond the threshold */
+
+void est_slip_set_model(struct est *e, const struct model_params *p, const struct model_wheels *w)
+{
+	for (int j = 0; j < 4; j++)
+		e->slip.kemf[j] = (float)(w->Kv[j] * p->l / w->r[j]);
+}
+
+void est_slip_reset(struct est *e)
+{
+	struct est_slip *s = &e->slip;
+	float kemf[4];
+
+	memcpy(kemf, s->kemf, sizeof(kemf));
+	memset(s, 0, sizeof(*s));
+	memcpy(s->kemf, kemf, sizeof(kemf));
+	s->null_wheel = -1;
+}
+
+void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
+{
+	struct est_slip *s = &e->slip;
+	const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
+	const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
+
+	for (int j = 0; j < 4; j++) {
+		const float f = t->volts[j] - s->kemf[j] * wh[j];
+		const float sg = f > 0.0f ? 1.0f : (f < 0.0f ? -1.0f : 0.0f);
+
+		s->nu_avg[j] += (wh[j] - pred[j] - s->nu_avg[j]) * (1.0f / EST_INNOV_AVG_TICKS);
+		e->out.slip_model[j] = t->driven ? sg * s->nu_avg[j] : 0.0f;
+		if (e->out.slip_model[j] > e->set.slip_model_threshold)
+			s->model_run[j]++;
+		else
+			s->model_run[j] = 0;
+	}
+}
+
+/* Each rim's distance over ticks k0+1 .. k1 [m] (scale-corrected); false if a tick had no
+ * reading. */
+static bool rim_distance(const struct est *e, uint32_t k0, uint32_t k1, float dist[4])
+{
+	memset(dist, 0, 4 * sizeof(float));
+	for (uint32_t n = k0 + 1; n <= k1; n++) {
+		const struct est_tick *t = &e->hist[n % EST_HISTORY];
+
+		if (!t->have_wheels)
+			return false;
+		for (int j = 0; j < 4; j++)
+			dist[j] += t->wheel[j] * (1.0f + e->cal[j]) * e->dt;
+	}
+	return true;
+}
+
+/* The wheels' velocity minus the camera's over ticks k0 .. k1 (poses z0, z1), per axis v, vn,
+ * d w [m/s], in units of the camera's noise over that baseline (sqrt 2 cam_pos_noise / T along
+ * v and vn, sqrt 2 d cam_theta_noise / T for d w); rim: each rim's distance off the ground's
+ * that the poses give it (eq 2) [m]. */
+static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_t k1,
+                    const float z1[3], float res[3], float rim[4])
+{
+	float g[4], sn, c;
+
+	if (!rim_distance(e, k0, k1, g))
+		return false;
+	const float T = (float)(k1 - k0) * e->dt, wh_rot = 0.25f * (g[0] + g[1] + g[2] + g[3]);
+	/* the heading's change, unwrapped near the wheels' (a turn beyond pi between frames) */
+	const float dth = wh_rot / e->d + la_wrap_pi_f32(z1[2] - z0[2] - wh_rot / e->d);
+	const float dx = z1[0] - z0[0], dy = z1[1] - z0[1];
+
+	la_sin_cos_f32(la_wrap_pi_f32(z0[2] + 0.5f * dth), &sn, &c);
+	const float sl = 1.41421356f * e->set.cam_pos_noise / T;
+	const float sr = 1.41421356f * e->set.cam_theta_noise * e->d / T;
+
+	const float dv = c * dx + sn * dy, dvn = -sn * dx + c * dy, rot = e->d * dth;
+	const float ground[4] = {dvn + rot, -dv + rot, -dvn + rot, dv + rot};
+
+	res[0] = (0.5f * (g[3] - g[1]) - dv) / T / sl;
+	res[1] = (0.5f * (g[0] - g[2]) - dvn) / T / sl;
+	res[2] = (wh_rot - rot) / T / sr;
+	for (int j = 0; j < 4; j++)
+		rim[j] = fabsf(g[j] - ground[j]);
+	return true;
+}
+
+/* The wheels the camera names: of each axis beyond the threshold, the wheels carrying it
+ * (v: 1 and 3, vn: 0 and 2, w: all four; eq 2) whose rim is off by at least half the most
+ * any of them is (one wheel of a pair slipping names that wheel). */
+static uint8_t camera_wheels(const struct est_slip *s, const float rim[4])
+{
+	static const uint8_t carry[3] = {0x0a, 0x05, 0x0f};
+	uint8_t bits = 0;
+
+	for (int a = 0; a < 3; a++) {
+		float most = 0.0f;
+
+		if (s->cam_run[a] < SLIP_CAM_RUN)
+			continue;
+		for (int j = 0; j < 4; j++)
+			if ((carry[a] >> j & 1) && rim[j] > most)
+				most = rim[j];
+		for (int j = 0; j < 4; j++)
+			if ((carry[a] >> j & 1) && rim[j] >= 0.5f * most)
+				bits |= (uint8_t)(1u << j);
+	}
+	return bits;
+}
+
+/* The frame z of tick k into the kept ones (the oldest dropped when full). */
+static void keep_frame(struct est_slip *s, uint32_t k, const float z[3])
+{
+	if (s->frames == EST_SLIP_FRAMES) {
+		memmove(s->frame_tick, s->frame_tick + 1,
+		        sizeof(s->frame_tick[0]) * (EST_SLIP_FRAMES - 1));
+		memmove(s->frame_z, s->frame_z + 1, sizeof(s->frame_z[0]) * (EST_SLIP_FRAMES - 1));
+		s->frames--;
+	}
+	s->frame_tick[s->frames] = k;
+	memcpy(s->frame_z[s->frames], z, sizeof(s->frame_z[0]));
+	s->frames++;
+}
+
+void est_slip_camera(struct est *e, uint32_t k, const float z[3], int64_t capture_us)
+{
+	struct est_slip *s = &e->slip;
+	const uint32_t oldest = e->seq > EST_HISTORY ? e->seq - EST_HISTORY : 0;
+	float res[3], rim[4];
+
+	if (s->frames > 0 && k <= s->frame_tick[s->frames - 1])
+		return; /* out of order or the same tick: nothing new to compare */
+	for (int i = 0; i < s->frames; i++) {
+		if (s->frame_tick[i] < oldest ||
+		    !compare(e, s->frame_tick[i], s->frame_z[i], k, z, res, rim))
+			continue;
+		for (int a = 0; a < 3; a++) {
+			e->out.slip_camera[a] = res[a];
+			s->cam_run[a] =
+			    !(fabsf(res[a]) <= e->set.slip_camera_sigmas)
+			        ? (uint8_t)(s->cam_run[a] < 255 ? s->cam_run[a] + 1 : 255)
+			        : 0;
+		}
+		s->cam_bits = camera_wheels(s, rim);
+		s->cam_us = capture_us;
+		break;
+	}
+	keep_frame(s, k, z);
+}
+
+uint32_t est_slip_flags(const struct est *e, int64_t utime)
+{
+	const struct est_slip *s = &e->slip;
+	const bool cam_fresh = utime - s->cam_us <= EST_CAMERA_STALE_US;
+	uint32_t f = 0;
+
+	if (cam_fresh)
+		f |= (uint32_t)s->cam_bits * EST_FLAG_SLIP_0;
+	for (int j = 0; j < 4; j++)
+		if (s->model_run[j] >= e->set.slip_ticks)
+			f |= (uint32_t)EST_FLAG_SLIP_0 << j;
+	return f ? f | EST_FLAG_SLIP : 0;
+}
+
+bool est_slip_common(const struct est *e)
+{
+	for (int j = 0; j < 4; j++)
+		if (e->slip.model_run[j] >= e->set.slip_ticks)
+			return true;
+	return false;
+}
