@@ -150,6 +150,11 @@ size_t combine_final(const Prepared &P, IdentResult &res)
 			est.push_back(find_estimate(res, m, p));
 		Agreement ag;
 		const Estimate e = combine_methods(est, P.opt, &ag);
+		if (ag.kept >= 0) {
+			ag.kept_method = sources.at(p)[static_cast<size_t>(ag.kept)];
+			ag.rule =
+			    "methods disagree: kept " + ag.kept_method + " (better-determined)";
+		}
 		res.agreement[p] = ag;
 		res.identified[p] = e.ok();
 		if (!e.ok())

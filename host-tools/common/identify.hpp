@@ -111,6 +111,11 @@ struct Agreement {
 	int dof = 0;
 	double p = 1;
 	bool agree = true;
+	// When they disagree: the estimate kept (index into the estimates given, the method's name
+	// in identify()'s agreement) and the Birge ratio sqrt(chi2 / dof) its SE was scaled by.
+	int kept = -1;
+	std::string kept_method;
+	double birge = 1;
 	std::string rule; // how the final value was formed
 };
 
@@ -171,9 +176,10 @@ IdentResult identify(const std::vector<Segment> &segments, const model_params &b
 // Final value of one parameter from the methods' estimates. An estimate with an SE above
 // opt.max_rel_se of its value is left out (shown in the table only). Each SE is first raised to the
 // floor (opt.method_floor * |value|). If the estimates agree (chi-square p >= opt.agree_p):
-// inverse-variance weighted mean. If they do not: the plain mean of the methods (the paper's
-// own rule, "averaged with results from all 3 experimental methods"), so that no method with a
-// small but biased residual SE overrides the others; the disagreement is reported.
+// inverse-variance weighted mean. If they do not, at least one is biased beyond its SE: the
+// better-determined estimate (smallest raised SE) is kept, its SE scaled by the Birge ratio
+// sqrt(chi2 / dof) to cover the disagreement; agreement->kept says which, and the disagreement
+// is reported. (A plain mean would carry a poorly determined method's bias halfway in.)
 Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOptions &opt,
                          Agreement *agreement = nullptr);
 

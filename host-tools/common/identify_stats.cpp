@@ -34,8 +34,11 @@ double chi2_sf(double x, int dof)
 namespace
 {
 
-// Two or more estimates: their inverse-variance weighted mean (each SE raised to at least
-// method_floor of its value) when their chi-square agrees, else their plain mean.
+// Two or more estimates, each SE raised to at least method_floor of its value: their
+// inverse-variance weighted mean when their chi-square agrees. When it does not, one of them is
+// biased beyond its SE and a mean of the two would carry that bias halfway: the better-determined
+// estimate (smallest SE) is kept, its SE scaled by the Birge ratio sqrt(chi2 / dof) so that it
+// also covers the disagreement.
 Estimate combine_several(const std::vector<Estimate> &ok, const IdentOptions &opt, Agreement &ag)
 {
 	double wsum = 0, vsum = 0;
@@ -60,18 +63,13 @@ Estimate combine_several(const std::vector<Estimate> &ok, const IdentOptions &op
 		ag.rule = "weighted mean";
 		return {mean, std::sqrt(1 / wsum), std::sqrt(vb)};
 	}
-	double m = 0, ss = 0;
-	for (const Estimate &e : ok)
-		m += e.value / static_cast<double>(ok.size());
-	double vb = 0;
-	for (const Estimate &e : ok) {
-		ss += (e.value - m) * (e.value - m);
-		vb += std::pow(e.se_borrowed / static_cast<double>(ok.size()), 2);
-	}
-	const double se_m =
-	    std::sqrt(ss / static_cast<double>(ok.size() - 1) / static_cast<double>(ok.size()));
-	ag.rule = "methods disagree: plain mean";
-	return {m, se_m, std::min(se_m, std::sqrt(vb))};
+	const size_t best =
+	    static_cast<size_t>(std::min_element(se.begin(), se.end()) - se.begin());
+	const double birge = std::sqrt(ag.chi2 / ag.dof);
+	ag.kept = static_cast<int>(best);
+	ag.birge = birge;
+	ag.rule = "methods disagree: the better-determined one";
+	return {ok[best].value, se[best] * birge, ok[best].se_borrowed};
 }
 
 } // namespace
@@ -81,12 +79,17 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
 {
 	Agreement ag;
 	std::vector<Estimate> ok, weak;
-	for (const Estimate &e : estimates) {
+	std::vector<int> ok_index; // of each ok estimate in estimates
+	for (size_t k = 0; k < estimates.size(); ++k) {
+		const Estimate &e = estimates[k];
 		if (!e.ok())
 			continue;
 		// An estimate whose SE exceeds max_rel_se of its value neither informs nor checks
 		// the others: it is reported, not combined (unless it is the only one).
-		(std::abs(e.se) > opt.max_rel_se * std::abs(e.value) ? weak : ok).push_back(e);
+		const bool too_uncertain = std::abs(e.se) > opt.max_rel_se * std::abs(e.value);
+		(too_uncertain ? weak : ok).push_back(e);
+		if (!too_uncertain)
+			ok_index.push_back(static_cast<int>(k));
 	}
 	ag.methods = static_cast<int>(ok.size());
 	ag.too_uncertain = static_cast<int>(weak.size());
@@ -103,6 +106,8 @@ Estimate combine_methods(const std::vector<Estimate> &estimates, const IdentOpti
 		ag.rule = weak.empty() ? "one method" : "one method (the other too uncertain)";
 	} else {
 		out = combine_several(ok, opt, ag);
+		if (ag.kept >= 0)
+			ag.kept = ok_index[static_cast<size_t>(ag.kept)];
 	}
 	if (agreement)
 		*agreement = ag;

@@ -361,9 +361,9 @@ void print_warnings(const IdentResult &r)
 		if (ag.methods >= 2 && !ag.agree)
 			std::printf(
 			    "warning: the methods disagree on %s (chi-square %.1f, p = %.2g); "
-			    "final = "
-			    "their plain mean. Look at the rejected windows and the plots.\n",
-			    p, ag.chi2, ag.p);
+			    "final = %s, the better-determined, its SE x%.1f for the "
+			    "disagreement. Look at the rejected windows and the plots.\n",
+			    p, ag.chi2, ag.p, ag.kept_method.c_str(), ag.birge);
 	}
 	// Thin data: a final SE over 1 % of the value cannot support 2 % (two SE).
 	std::string thin;
@@ -391,7 +391,9 @@ void print_table(const IdentResult &r, const model_params *truth, const model_wh
 	    "offsets) included; bNN: NN %% of its variance is borrowed. final: the methods' "
 	    "estimates, each SE raised to at least 0.5 %% of its value, agree when their "
 	    "chi-square p >= 0.01: inverse-variance "
-	    "weighted mean; when they disagree: plain mean of the methods. Kt = Kv)\n");
+	    "weighted mean; when they disagree: the better-determined one, its SE x "
+	    "sqrt(chi2/dof). "
+	    "Kt = Kv)\n");
 	std::printf(
 	    "units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
 	    "N, Cw N m\n");

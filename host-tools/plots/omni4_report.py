@@ -406,10 +406,13 @@ def params_section(params, agreement):
         if ag and int(ag["methods"]) >= 2:
             note = ("agree" if ag["agree"] == "1" else "**DISAGREE**") + \
                 f" (p = {float(ag['p']):.2g})"
+            if ag["agree"] != "1":
+                note += f", {ag['rule']}"
         lines.append(f"| {p} | " + " | ".join(cells) + f" | {note} |")
     return lines + ["", "Final: each method's SE raised to at least 0.5 % of its value; if the "
                     "methods agree (chi-square p >= 0.01) their inverse-variance weighted mean, "
-                    "otherwise their plain mean.", ""]
+                    "otherwise the better-determined one (smallest SE), its SE scaled by "
+                    "sqrt(chi2 / dof).", ""]
 
 
 def windows_section(windows):

@@ -196,16 +196,29 @@ TEST(Regression, AgreeingMethodsAreWeightedByInverseVariance)
 	EXPECT_TRUE(ag.agree);
 }
 
-TEST(Regression, DisagreeingMethodsFallBackToThePlainMean)
+TEST(Regression, DisagreeingMethodsKeepTheBetterDeterminedOneWithItsSeScaled)
 {
-	// A biased method with a tiny SE must not override the other (exp 1's Bw on a ramp-down).
-	IdentOptions opt;
+	// A camera coast-down's Cv 14 % off (3.6 SE) beside experiment 3's (0.14 % off): a mean of
+	// the two would carry half the coast-down's bias. Two estimates: chi2 about the weighted
+	// mean is (a - b)^2 / (sa^2 + sb^2); each SE is first raised to 0.5 % of its value.
+	const double a = 1.14, b = 1.0014;
+	const double sa = std::hypot(0.039, 0.005 * a), sb = std::hypot(0.002, 0.005 * b);
+	const double chi2 = (a - b) * (a - b) / (sa * sa + sb * sb);
 	Agreement ag;
-	const Estimate e = combine_methods({{0.005, 1e-6}, {0.0141, 2e-4}}, opt, &ag);
+	const Estimate e = combine_methods({{a, 0.039}, {b, 0.002, 0.001}}, IdentOptions{}, &ag);
 	EXPECT_FALSE(ag.agree);
-	EXPECT_LT(ag.p, 1e-6);
-	EXPECT_NEAR(e.value, 0.5 * (0.005 + 0.0141), 1e-15);
-	EXPECT_NEAR(e.se, 0.5 * (0.0141 - 0.005), 1e-15);
+	EXPECT_NEAR(ag.chi2, chi2, 1e-12);
+	EXPECT_NEAR(ag.p, std::erfc(std::sqrt(chi2 / 2)), 1e-12); // chi-square(1) tail
+	EXPECT_EQ(ag.kept, 1);
+	EXPECT_EQ(e.value, b);
+	EXPECT_NEAR(e.se, sb * std::sqrt(chi2), 1e-15); // Birge ratio sqrt(chi2 / 1)
+	EXPECT_NEAR(ag.birge, std::sqrt(chi2), 1e-12);
+	EXPECT_EQ(e.se_borrowed, 0.001);
+	// The order does not matter; a third estimate that is not ok() is skipped, not counted.
+	const Estimate f =
+	    combine_methods({{}, {b, 0.002, 0.001}, {a, 0.039}}, IdentOptions{}, &ag);
+	EXPECT_EQ(f.value, b);
+	EXPECT_EQ(ag.kept, 1);
 }
 
 TEST(Regression, AnEstimateWithASeAboveTenPercentIsShownButNotCombined)

@@ -50,20 +50,70 @@ CAMERA_THETA_NOISE_RAD = 0.052
 CAMERA_RATE_HZ = 25.0
 
 
-def robot_params(seed, k):
-    """Parameters of robot k for a seed: dict of floats (SI units), deterministic per (seed, k)."""
+#: Each drive's own constants (INI keys R_0..R_3 etc.); absent = the scalar for every wheel.
+WHEEL_QUANTITIES = ("R", "Kv", "Kt", "r")
+
+
+def wheel_key(q, j):
+    """INI key of wheel j's value of quantity q ('R_2')."""
+    return f"{q}_{j}"
+
+
+def robot_params(seed, k, spread=None):
+    """Parameters of robot k for a seed: dict of floats (SI units), deterministic per (seed, k).
+
+    spread (R, Kv, r) fractions, e.g. (0.05, 0.05, 0.01): each motor's R_j and Kv_j (= Kt_j)
+    is the robot's value times its own U(1 - s, 1 + s) factor, each wheel's radius r_j the
+    measured r times 1 + e_j with e_j ~ U(-s, s) made zero-mean (then scaled back inside +-s),
+    so the mean radius is r. The scalars R, Kv, Kt then hold the wheels' mean (as the INI
+    contract says). Drawn on a stream of their own: the body and the scalars' draws do not move.
+    """
     rng = np.random.default_rng([int(seed), int(k), 7001])
     factors = rng.uniform(0.7, 1.3, size=len(SCALED))
     p = dict(TABLE_III)
     for name, f in zip(SCALED, factors):
         p[name] = TABLE_III[name] * float(f)
     p["Kt"] = p["Kv"]
+    if spread is None or not any(spread):
+        return p
+    sR, sK, sr = (float(s) for s in spread)
+    wr = np.random.default_rng([int(seed), int(k), 7003])
+    eR, eK, er = wr.uniform(-1.0, 1.0, 4) * sR, wr.uniform(-1.0, 1.0, 4) * sK, wr.uniform(-1, 1, 4)
+    er -= er.mean()
+    er *= sr / max(1.0, np.max(np.abs(er)))
+    for j in range(4):
+        p[wheel_key("R", j)] = p["R"] * (1.0 + float(eR[j]))
+        p[wheel_key("Kv", j)] = p["Kv"] * (1.0 + float(eK[j]))
+        p[wheel_key("Kt", j)] = p[wheel_key("Kv", j)]
+        p[wheel_key("r", j)] = p["r"] * (1.0 + float(er[j]))
+    for q in WHEEL_QUANTITIES:
+        p[q] = float(np.mean([p[wheel_key(q, j)] for j in range(4)]))
     return p
 
 
+def wheel_values(p, q):
+    """Wheel values (4,) of quantity q of one robot's parameter dict: its keys, else the scalar."""
+    return np.array([p.get(wheel_key(q, j), p[q]) for j in range(4)], dtype=float)
+
+
+def has_wheels(p):
+    """True if a parameter dict carries per-wheel keys."""
+    return any(wheel_key(q, 0) in p for q in WHEEL_QUANTITIES)
+
+
+def ini_keys(p):
+    """The [model] keys of a robot's truth INI: the 14 scalars, then the wheel keys it has."""
+    return MODEL_KEYS + tuple(wheel_key(q, j) for q in WHEEL_QUANTITIES for j in range(4)
+                              if wheel_key(q, j) in p)
+
+
 def stack_params(plist):
-    """List of parameter dicts -> dict of arrays with a leading robot axis."""
-    return {key: np.array([p[key] for p in plist], dtype=float) for key in MODEL_KEYS}
+    """List of parameter dicts -> dict of arrays with a leading robot axis; the per-wheel values
+    as (n,4) arrays under 'R_w', 'Kv_w', 'Kt_w', 'r_w' (the scalar where a robot has none)."""
+    out = {key: np.array([p[key] for p in plist], dtype=float) for key in MODEL_KEYS}
+    for q in WHEEL_QUANTITIES:
+        out[q + "_w"] = np.array([wheel_values(p, q) for p in plist])
+    return out
 
 
 def ik_matrix(d):
@@ -81,27 +131,36 @@ def axis_model(p):
 
     Returns dict: m (n,3) mass / inertia [kg, kg, kg m^2]; B (n,3) viscous friction; C (n,3)
     Coulomb friction [N, N, N m]; K (n,3) back-EMF damping added while driven (same units as B);
-    G (n,3,4) drive gain [N/V, N/V, N m/V]. Driven: F = G u - K x; the motor and wheel
-    equations give these once IK and FM are combined; the check below confirms that the three
-    axes decouple (FM IK is diagonal), which is what lets each axis be solved on its own.
+    Kc (n,3,3) the back-EMF coupling between axes while driven (zero diagonal); G (n,3,4) drive
+    gain [N/V, N/V, N m/V]; coupled (bool) any robot has a non-zero Kc.
+    Driven: F = G u - (diag(K) + Kc) x. Wheel j gives the force f_j = gain_j u_j - emf_j v_j
+    (eq 21 in eqs 12-13, v_j = IK_j x), and FM sums them: the back-EMF matrix is
+    FM diag(emf) IK. With four equal wheels it is FM IK emf, diagonal (checked), and each axis
+    is solved on its own; with unequal wheels the off-diagonal part couples w with v and vn.
     """
     n = len(p["d"])
     m = np.stack([p["M"], p["M"], p["J"]], axis=1)
     B = np.stack([p["Bv"], p["Bvn"], p["Bw"]], axis=1)
     C = np.stack([p["Cv"], p["Cvn"], p["Cw"]], axis=1)
     K = np.empty((n, 3))
+    Kc = np.zeros((n, 3, 3))
     G = np.empty((n, 3, 4))
     for i in range(n):
-        d, r, l = p["d"][i], p["r"][i], p["l"][i]
+        d, l = p["d"][i], p["l"][i]
+        r, R, Kt, Kv = p["r_w"][i], p["R_w"][i], p["Kt_w"][i], p["Kv_w"][i]
         FM, IK = force_matrix(d), ik_matrix(d)
-        gain = l * p["Kt"][i] / (r * p["R"][i])          # wheel force per volt [N/V]
-        emf = gain * p["Kv"][i] * l / r                   # wheel force per wheel speed [N s/m]
-        D = FM @ IK * emf
-        if np.max(np.abs(D - np.diag(np.diag(D)))) > 1e-12 * np.max(np.abs(D)):
-            raise ValueError("robot-frame dynamics do not decouple")
+        gain = l * Kt / (r * R)                 # wheel force per volt [N/V], per wheel
+        emf = gain * Kv * l / r                 # wheel force per wheel speed [N s/m], per wheel
+        if np.all(emf == emf[0]) and np.all(gain == gain[0]):
+            D = FM @ IK * emf[0]
+            if np.max(np.abs(D - np.diag(np.diag(D)))) > 1e-12 * np.max(np.abs(D)):
+                raise ValueError("robot-frame dynamics do not decouple")
+        else:
+            D = (FM * emf[None, :]) @ IK
+            Kc[i] = D - np.diag(np.diag(D))
         K[i] = np.diag(D)
-        G[i] = FM * gain
-    return {"m": m, "B": B, "C": C, "K": K, "G": G}
+        G[i] = FM * gain[None, :]
+    return {"m": m, "B": B, "C": C, "K": K, "Kc": Kc, "G": G, "coupled": bool(np.any(Kc))}
 
 
 # ---- closed forms (planning the experiments and the self-test) ------------------------------
@@ -146,6 +205,33 @@ def _cross_tick(x, F, C, m, Beff, dt):
     return 0.0, integ
 
 
+def _tick(x, Fk, Bk, C, m, Ek, Qk, dtk, dt_each):
+    """All robots and axes, one tick: each axis's linear ODE under the force Fk (n,3) solved
+    exactly, stiction and zero crossings handled. Ek = exp(-Bk dt / m), Qk = (1 - Ek) m / Bk;
+    dtk the tick's length (a float or (n,1)), dt_each(i) that of robot i.
+    Returns (velocity at the tick's end (n,3), its integral over the tick (n,3))."""
+    s = np.sign(x)
+    s_eff = np.where(s == 0.0, np.where(np.abs(Fk) > C, np.sign(Fk), 0.0), s)
+    xss = (Fk - C * s_eff) / Bk
+    dx = x - xss
+    xn = xss + dx * Ek
+    Xk = xss * dtk + dx * Qk
+    still = s_eff == 0.0
+    if still.any():
+        xn[still] = 0.0
+        Xk[still] = 0.0
+    cross = xn * s < 0.0
+    if cross.any():
+        for i, ax in zip(*np.nonzero(cross)):
+            xn[i, ax], Xk[i, ax] = _cross_tick(x[i, ax], Fk[i, ax], C[i, ax], m[i, ax],
+                                               Bk[i, ax], dt_each(i))
+    return xn, Xk
+
+
+#: Passes per tick over the back-EMF coupling of unequal wheels (see integrate).
+COUPLING_PASSES = 2
+
+
 def integrate(model, u, driven, fext, dt, x0=None):
     """Advance n robots through T ticks; dt [s] is the length of every tick (a float) or of
     each tick of each robot ((T,n) array: the true, jittered intervals between loop ticks).
@@ -153,6 +239,11 @@ def integrate(model, u, driven, fext, dt, x0=None):
     u (T,n,4) [V] applied during each tick (held from one tick to the next, already clamped);
     driven (T,n) bool bridges on; fext (T,n,3) external [N, N, N m] at each tick's midpoint;
     x0 (n,3) initial velocity.
+    Unequal wheels (model["coupled"]): while driven, axis a also feels -sum_b Kc[a,b] x_b. That
+    force is held over the tick at the other axes' velocity: first at the tick's start, then at
+    their mean over the tick (displacement / dt) from the previous pass, COUPLING_PASSES in all
+    (a fixed point; each pass shrinks the error by about Kc dt / m, 1.5e-3 or less at 1 kHz).
+    Equal wheels: one pass, exact.
     Returns x (T+1,n,3) velocity at the tick boundaries and X (T,n,3) its integral over each tick
     (displacement [m, m, rad] in the robot frame).
     """
@@ -176,24 +267,20 @@ def integrate(model, u, driven, fext, dt, x0=None):
     X_all = np.empty((T, n, 3))
     x = np.zeros((n, 3)) if x0 is None else np.array(x0, float)
     x_all[0] = x
+    Kc = model.get("Kc") if model.get("coupled") else None
     for k in range(T):
-        Fk, Bk = F[k], Beff[k]
-        s = np.sign(x)
-        s_eff = np.where(s == 0.0, np.where(np.abs(Fk) > C, np.sign(Fk), 0.0), s)
-        xss = (Fk - C * s_eff) / Bk
-        dx = x - xss
         dtk = dt3[k] if per_tick else dt
-        xn = xss + dx * E[k]
-        Xk = xss * dtk + dx * Q[k]
-        still = s_eff == 0.0
-        if still.any():
-            xn[still] = 0.0
-            Xk[still] = 0.0
-        cross = xn * s < 0.0
-        if cross.any():
-            for i, ax in zip(*np.nonzero(cross)):
-                xn[i, ax], Xk[i, ax] = _cross_tick(x[i, ax], Fk[i, ax], C[i, ax], m[i, ax],
-                                                   Bk[i, ax], dt[k, i] if per_tick else dt)
+
+        def dt_each(i, k=k):
+            return dt[k, i] if per_tick else dt
+        if Kc is None or not driven[k].any():
+            xn, Xk = _tick(x, F[k], Beff[k], C, m, E[k], Q[k], dtk, dt_each)
+        else:
+            on, xbar = driven[k][:, None], x
+            for _ in range(COUPLING_PASSES):
+                Fc = F[k] - on * np.einsum("nab,nb->na", Kc, xbar)
+                xn, Xk = _tick(x, Fc, Beff[k], C, m, E[k], Q[k], dtk, dt_each)
+                xbar = Xk / dtk
         x = xn
         x_all[k + 1] = x
         X_all[k] = Xk
@@ -202,8 +289,16 @@ def integrate(model, u, driven, fext, dt, x0=None):
 
 # ---- sensors ----------------------------------------------------------------------------------
 
+def _wheels(p, q, i):
+    """Robot i's four wheel values (4,) of quantity q from stacked arrays (the scalar if the
+    arrays carry no per-wheel values)."""
+    w = p.get(q + "_w")
+    return np.full(4, p[q][i]) if w is None else w[i]
+
+
 def motor_currents(p, u, driven, x, rng, offset_a=None):
-    """Measured currents (T,n,4) [A]: eq 21 while driven, 0 otherwise, + N(0, 0.02 A) noise.
+    """Measured currents (T,n,4) [A]: eq 21 with each motor's own R_j, Kv_j and wheel radius
+    r_j while driven, 0 otherwise, + N(0, 0.02 A) noise.
 
     u (T,n,4) [V], driven (T,n), x (T,n,3) robot velocity at the tick start (when sampled).
     offset_a (n,4) [A]: the current sense's constant offset per motor channel, added to every
@@ -212,9 +307,9 @@ def motor_currents(p, u, driven, x, rng, offset_a=None):
     T, n = driven.shape
     i_true = np.empty((T, n, 4))
     for i in range(n):
-        d, r, l = p["d"][i], p["r"][i], p["l"][i]
-        wm = l * (x[:, i, :] @ ik_matrix(d).T) / r            # motor speed [rad/s]
-        i_true[:, i, :] = (u[:, i, :] - p["Kv"][i] * wm) / p["R"][i]
+        d, l = p["d"][i], p["l"][i]
+        wm = l * (x[:, i, :] @ ik_matrix(d).T) / _wheels(p, "r", i)      # motor speed [rad/s]
+        i_true[:, i, :] = (u[:, i, :] - _wheels(p, "Kv", i) * wm) / _wheels(p, "R", i)
     i_true *= driven[:, :, None]
     reading = i_true + rng.normal(0.0, CURRENT_NOISE_A, size=i_true.shape)
     if offset_a is not None:
@@ -223,11 +318,12 @@ def motor_currents(p, u, driven, x, rng, offset_a=None):
 
 
 def wheel_angles(p, X):
-    """Wheel angles (T+1,n,4) [rad] at the tick boundaries from robot displacements X (T,n,3)."""
+    """Wheel angles (T+1,n,4) [rad] at the tick boundaries from robot displacements X (T,n,3):
+    each wheel's rim travel (eq 2) over its own radius r_j."""
     T, n, _ = X.shape
     ang = np.zeros((T + 1, n, 4))
     for i in range(n):
-        dang = X[:, i, :] @ ik_matrix(p["d"][i]).T / p["r"][i]
+        dang = X[:, i, :] @ ik_matrix(p["d"][i]).T / _wheels(p, "r", i)
         ang[1:, i, :] = np.cumsum(dang, axis=0)
     return ang
 

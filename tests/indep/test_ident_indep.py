@@ -18,6 +18,10 @@ motor's estimate must be within 3 SE + 1 mA of the offset in the log's sidecar
 (robotK_LAYOUT.sensors.json); if omni4-ident does not write that file, the comparison is skipped
 and the summary says so.
 
+Per-wheel drives (--wheel-spread R,KV,RADIUS in per cent, e.g. 5,5,1): the robots' motors and
+wheels differ (plant.robot_params); then also each motor's R_j, Kv_j and Kt_j within 1 % and each
+wheel's radius relative to the mean within 0.3 % of the truth (wheel_checks.py).
+
 Stricter bounds for real sensors (--validation-fraction ENC,CAM, e.g. 0.25,0.5): the validation
 e_max and sigma must be within that fraction of Table IV. With the camera, the bound is never
 below what the TRUE parameters give on the same log times 1.1: validate runs with the truth too,
@@ -40,6 +44,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import layouts      # noqa: E402
+import wheel_checks  # noqa: E402
 import write_logs   # noqa: E402
 
 PARAMS = ("Kv", "R", "J", "Bv", "Bvn", "Bw", "Cv", "Cvn", "Cw")
@@ -57,12 +62,13 @@ OFFSET_TOL_SE, OFFSET_TOL_A = 3.0, 0.001
 OFFSETS_CSV = "current_offsets.csv"
 
 
-def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None):
+def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None, wheels=None):
     """Worker: write the logs of some robots of one layout; returns (layout, list of log
     dicts, seconds)."""
     t = time.time()
     res = write_logs.generate(layout, seed, robots, os.path.join(out_dir, layout),
-                              lcm_python=lcm_python, progress=None, sensors=sensors)
+                              lcm_python=lcm_python, progress=None, sensors=sensors,
+                              wheels=wheels)
     return layout, res, time.time() - t
 
 
@@ -157,7 +163,8 @@ def validation_of(tool, params, vjson, log, vel):
         return None, f"validation JSON unreadable: {e}"
 
 
-def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=1.0):
+def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=1.0,
+               wheel_tol=None):
     """Worker: identify + validate one log with one velocity source; returns a result dict.
 
     assert_params True: 2 % bound; "se": 2 % or 3 reported SE; False: the parameter errors are
@@ -201,6 +208,9 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
             out["fail"].append(f"{k} off by {e:+.2f} % ({z:.1f} reported SE)")
         else:
             out["fail"].append(f"{k} off by {e:+.2f} %")
+    werr, wfail = wheel_checks.wheel_errors(est, truth, wheel_tol)
+    out["errors"].update(werr)
+    out["fail"] += wfail
     out["validation"], msg = validation_of(tool, params, vjson, entry["log"], vel)
     if msg:
         out["fail"].append(msg)
@@ -234,7 +244,8 @@ def run_all(a, work):
         futs = {}
         for n, group in gen_chunks(order, robots, a.jobs):
             gen_left[n] += 1
-            futs[pool.submit(gen_task, n, a.seed, group, work, a.pythonpath, a.sensors)] = "gen"
+            futs[pool.submit(gen_task, n, a.seed, group, work, a.pythonpath, a.sensors,
+                             a.wheels)] = "gen"
         while futs:
             done, _ = cf.wait(futs, return_when=cf.FIRST_COMPLETED)
             for fut in done:
@@ -255,7 +266,7 @@ def run_all(a, work):
                                 "assert": True, "report": False, "se": "se"}[a.camera_params]
                             frac = a.val_fraction[SOURCES.index(src)]
                             futs[pool.submit(ident_task, a.bin_dir, layout, entry, src, check,
-                                             frac)] = entry
+                                             frac, a.wheel_tol)] = entry
                 else:
                     r = fut.result()
                     results.append(r)
@@ -291,21 +302,24 @@ def table_rows(results, names):
     return rows
 
 
-def print_tables(results, names):
+def print_tables(results, names, wheel_tol=None):
     """Worst |error| % per parameter / layout / source; worst validation beside Table IV."""
     rows = table_rows(results, names)
     w = max([11] + [len(label) for label, _ in rows])
     print(f"\nworst |error| % of the identified parameters (bound {PARAM_TOL_PCT:.0f} %, "
           "* = over; refused = identify refused the log)")
-    head = f"{'velocity':8} {'layout':{w}}" + "".join(f"{k:>8}" for k in PARAMS) + "  refused"
+    cols = dict.fromkeys(PARAMS, PARAM_TOL_PCT)
+    if any(k in r["errors"] for r in results for k in wheel_checks.WHEEL_TOL_PCT):
+        cols.update(wheel_tol or wheel_checks.WHEEL_TOL_PCT)
+    head = f"{'velocity':8} {'layout':{w}}" + "".join(f"{k:>8}" for k in cols) + "  refused"
     for src in SOURCES:
         print(head)
         for label, lrs in rows:
             rs = [r for r in lrs if r["source"] == src]
             cells = []
-            for k in PARAMS:
+            for k, bound in cols.items():
                 vals = [abs(r["errors"][k]) for r in rs if k in r["errors"]]
-                cells.append(fmt(max(vals) if vals else None, PARAM_TOL_PCT, 8))
+                cells.append(fmt(max(vals) if vals else None, bound, 8))
             refused = sum(1 for r in rs if any("identify refused" in f for f in r["fail"]))
             print(f"{src:8} {label:{w}}" + "".join(cells) + f"  {refused}/{len(rs)}")
     print("\nworst validation e_max / sigma per axis (paper's Table IV final in the header; "
@@ -355,7 +369,9 @@ def print_failures(results, quiet):
     groups = collections.defaultdict(list)
     for r in results:
         for f in r["fail"]:
-            if " off by " in f:
+            if " off by " in f and "(bound " in f:
+                key = f.split(" off by ")[0] + " over its bound"
+            elif " off by " in f:
                 key = f.split(" off by ")[0] + f" more than {PARAM_TOL_PCT:.0f} % off"
             elif f.startswith("validate ") and (" e_max " in f or " sigma " in f):
                 key = f.split(":")[0] + f":{f.split(':')[1].split()[0]} over Table IV"
@@ -398,6 +414,13 @@ def main(argv=None):
                     help="real-sensor effects for every layout: offsets, eccentricity, jitter, "
                          "latency, losses, all or none (default: all for the sensors layout, "
                          "none otherwise)")
+    ap.add_argument("--wheel-spread", metavar="R,KV,RADIUS", default="0,0,0",
+                    help="per-wheel drives (write_logs.py --wheel-spread, per cent), e.g. 5,5,1;"
+                         " then each R_j, Kv_j, Kt_j within 1 %% and r_j / mean r within 0.3 %% "
+                         "(default 0,0,0: four equal drives)")
+    ap.add_argument("--wheel-tol", metavar="R,KV,RADIUS",
+                    help="bounds [%%] of each R_j, Kv_j (= Kt_j) and r_j / mean r (default "
+                         "1,1,0.3)")
     ap.add_argument("--camera-params", choices=("assert", "se", "report"), default="assert",
                     help="with --velocity camera, assert the 2 %% parameter bound (default), "
                          "2 %% or 3 reported SE (se), or only report the errors (validation "
@@ -410,6 +433,9 @@ def main(argv=None):
     try:
         a.layouts = write_logs.parse_layouts(a.layouts.split(","))
         a.sensors = None if a.sensors is None else write_logs.parse_sensors(a.sensors)
+        a.wheels = write_logs.parse_wheels(a.wheel_spread)
+        a.wheel_tol = (wheel_checks.parse_tol(a.wheel_tol) if a.wheel_tol
+                       else dict(wheel_checks.WHEEL_TOL_PCT))
         a.val_fraction = [float(x) for x in a.validation_fraction.split(",")]
         if len(a.val_fraction) != 2 or not all(0 < x <= 1 for x in a.val_fraction):
             raise ValueError("--validation-fraction takes two fractions in (0, 1]: ENC,CAM")
@@ -431,7 +457,10 @@ def main(argv=None):
             results = run_all(a, work)
     print("\nsensors: " + "; ".join(
         f"{n} {','.join(write_logs.effects_for(n, a.sensors)) or 'ideal'}" for n in a.layouts))
-    print_tables(results, a.layouts)
+    if a.wheels:
+        print("drives: each motor's R, Kv off by up to +-{:g} %, +-{:g} %, radii +-{:g} % (mean "
+              "unchanged)".format(*(100 * v for v in a.wheels)))
+    print_tables(results, a.layouts, a.wheel_tol)
     print_offsets(results)
     print_failures(results, a.quiet)
     failed = sum(1 for r in results if r["fail"])

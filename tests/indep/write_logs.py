@@ -16,7 +16,6 @@ Needs the PyPI `lcm` package (lcm.EventLog) and the lcm-gen Python types of lcmt
 omni4, generated at build time into build/lcmtypes/gen/python).
 """
 import argparse
-import json
 import os
 import sys
 import time
@@ -27,10 +26,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import layouts  # noqa: E402
 import plant    # noqa: E402
+from logio import (CH_EXP, CH_MOTORS, CH_POSE, RECEIVE_DELAY_US, encode_mark,  # noqa: E402,F401
+                   encode_motors, encode_poses, motors_dtype, pose_dtype, read_ini, write_ini,
+                   write_log, write_sidecar)
 
 DEFAULT_LCM_PYTHON = os.path.join(HERE, "..", "..", "build", "lcmtypes", "gen", "python")
-CH_MOTORS, CH_POSE, CH_EXP = "OMNI4_MOTORS", "OMNI4_POSE", "OMNI4_EXPERIMENT"
-RECEIVE_DELAY_US = 300
 
 
 class LogError(RuntimeError):
@@ -54,75 +54,6 @@ def import_types(pythonpath=None):
         raise LogError(f"lcm-gen types 'omni4' not found under {path} (build the project "
                        "or give --lcm-python)") from None
     return lcm, omni4
-
-
-# ---- encoding (vectorised; the self-test compares it with the generated types) ----------------
-
-def motors_dtype():
-    """Packed big-endian layout of an encoded omni4.motors_t (fingerprint first), 77 bytes."""
-    return np.dtype([("fp", "S8"), ("utime", ">i8"), ("seq", ">i8"), ("mode", "i1"),
-                     ("faults", ">i4"), ("voltage", ">f4", (4,)), ("current", ">f4", (4,)),
-                     ("wheel_speed", ">f4", (4,))])
-
-
-def pose_dtype():
-    """Packed big-endian layout of an encoded omni4.pose_t (fingerprint first), 40 bytes."""
-    return np.dtype([("fp", "S8"), ("utime", ">i8"), ("x", ">f8"), ("y", ">f8"),
-                     ("theta", ">f8")])
-
-
-def encode_motors(omni4, utime, seq, mode, voltage, current, wheel_speed):
-    """List of encoded motors_t messages (bytes) from per-message arrays."""
-    a = np.zeros(len(utime), motors_dtype())
-    a["fp"] = omni4.motors_t._get_packed_fingerprint()
-    a["utime"], a["seq"], a["mode"] = utime, seq, mode
-    a["voltage"], a["current"], a["wheel_speed"] = voltage, current, wheel_speed
-    buf, w = a.tobytes(), a.dtype.itemsize
-    return [buf[j * w:(j + 1) * w] for j in range(len(a))]
-
-
-def encode_poses(omni4, utime, pose):
-    """List of encoded pose_t messages (bytes); pose (n,3) [m, m, rad]."""
-    a = np.zeros(len(utime), pose_dtype())
-    a["fp"] = omni4.pose_t._get_packed_fingerprint()
-    a["utime"], a["x"], a["y"], a["theta"] = utime, pose[:, 0], pose[:, 1], pose[:, 2]
-    buf, w = a.tobytes(), a.dtype.itemsize
-    return [buf[j * w:(j + 1) * w] for j in range(len(a))]
-
-
-def encode_mark(omni4, utime, kind, direction, level):
-    """Encoded experiment_t (bytes)."""
-    e = omni4.experiment_t()
-    e.utime, e.kind, e.direction, e.level = int(utime), kind, direction, float(level)
-    return e.encode()
-
-
-# ---- files ----------------------------------------------------------------------------------
-
-def write_ini(path, params, keys):
-    """Write a [model] INI with `key = value` lines (atomically: temp file + rename)."""
-    tmp = f"{path}.{os.getpid()}.tmp"
-    with open(tmp, "w") as f:
-        f.write("[model]\n")
-        for k in keys:
-            f.write(f"{k} = {params[k]!r}\n")
-    os.replace(tmp, path)
-
-
-def read_ini(path, section="model"):
-    """Read `key = value` lines of one INI section into a dict of floats (';'/'#' comments)."""
-    out, cur = {}, None
-    with open(path) as f:
-        for line in f:
-            line = line.split(";")[0].split("#")[0].strip()
-            if not line:
-                continue
-            if line.startswith("["):
-                cur = line.strip("[]").strip()
-            elif cur == section and "=" in line:
-                k, v = line.split("=", 1)
-                out[k.strip()] = float(v)
-    return out
 
 
 # ---- one layout, many robots ------------------------------------------------------------------
@@ -212,15 +143,15 @@ def simulate_timelines(tls, plist, dt, jitter=None):
             "tick_us": tick_us}
 
 
-def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=()):
+def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=(), wheels=None):
     """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
 
     The robots must share one loop rate (generate() groups the `sensors` layout's robots by
-    rate). Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
+    rate). wheels: the per-wheel spread (R, Kv, r) fractions of plant.robot_params, None = equal. Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
     and cpr (encoder counts per wheel revolution per robot).
     Raises LogError if a layout's "robot at rest here" check fails.
     """
-    plist = [plant.robot_params(seed, k) for k in robots]
+    plist = [plant.robot_params(seed, k, wheels) for k in robots]
     model = plant.axis_model(plant.stack_params(plist))
     tls, dts, cprs, bases = [], set(), [], []
     for i, k in enumerate(robots):
@@ -350,45 +281,6 @@ def sensor_data(sim, i, robot, seed, layout, speed_noise=None, effects=()):
             "marks": marks, "rng": rng, "sensors": sensors}
 
 
-def write_log(lcm, omni4, path, data):
-    """Write one robot's messages, ordered by receive time (utime + 0-300 us; a pose with camera
-    latency: its arrival time) to `path`; the receive time is the event's timestamp."""
-    rng = data["rng"]
-    m, ps = data["motors"], data["poses"]
-    msgs = [encode_motors(omni4, m["utime"], m["seq"], m["mode"], m["voltage"], m["current"],
-                          m["wheel_speed"]),
-            encode_poses(omni4, ps["utime"], ps["pose"]),
-            [encode_mark(omni4, *mk) for mk in data["marks"]]]
-    utimes = [m["utime"], ps["utime"], np.array([mk[0] for mk in data["marks"]], np.int64)]
-    chans = (CH_MOTORS, CH_POSE, CH_EXP)
-    recvs = [ut + rng.integers(0, RECEIVE_DELAY_US + 1, len(ut)) for ut in utimes]
-    if ps.get("recv_us") is not None:
-        recvs[1] = np.asarray(ps["recv_us"], np.int64)
-    recv = np.concatenate(recvs)
-    src = np.concatenate([np.full(len(ut), c) for c, ut in enumerate(utimes)])
-    idx = np.concatenate([np.arange(len(ut)) for ut in utimes])
-    order = np.argsort(recv, kind="stable")
-    recv = np.maximum.accumulate(recv[order])
-    if os.path.exists(path):
-        os.remove(path)
-    log = lcm.EventLog(path, "w")
-    try:
-        for ts, c, j in zip(recv.tolist(), src[order].tolist(), idx[order].tolist()):
-            log.write_event(ts, chans[c], msgs[c][j])
-    finally:
-        log.close()
-    return {"motors": len(msgs[0]), "poses": len(msgs[1]), "marks": len(msgs[2])}
-
-
-def write_sidecar(path, sensors):
-    """Write the real-sensor truth of one log as JSON (atomically: temp file + rename)."""
-    tmp = f"{path}.{os.getpid()}.tmp"
-    with open(tmp, "w") as f:
-        json.dump(sensors, f, indent=1)
-        f.write("\n")
-    os.replace(tmp, path)
-
-
 def rate_groups(layout, robots):
     """Robots of a layout grouped by loop rate (one simulation pass each): list of lists."""
     groups = {}
@@ -398,10 +290,11 @@ def rate_groups(layout, robots):
 
 
 def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print, speed_noise=None, sensors=None):
+             progress=print, speed_noise=None, sensors=None, wheels=None):
     """Simulate `robots` in `layout` and write their logs, INI files and sensor sidecars.
 
     sensors: tuple of real-sensor effects (parse_sensors), None = the layout's default.
+    wheels: per-wheel spread (R, Kv, r) fractions (parse_wheels), None = four equal drives.
     Returns a list of dicts (robot, log, base, truth, sensors (sidecar path), effects,
     base_layout, seconds, counts) in robot order.
     """
@@ -412,7 +305,7 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
     t_sim, out, rates, cprs = 0.0, [], set(), set()
     for group in rate_groups(layout, robots):
         t = time.time()
-        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects)
+        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects, wheels)
         t_sim += time.time() - t
         rates.add(1.0 / sim["dt"])
         cprs.update(sim["cpr"])
@@ -424,7 +317,7 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
             truth = os.path.join(out_dir, f"robot{k}_truth.ini")
             side = os.path.join(out_dir, f"robot{k}_{layout}.sensors.json")
             write_ini(base, sim["params"][i], ("d", "r", "l", "M"))
-            write_ini(truth, sim["params"][i], plant.MODEL_KEYS)
+            write_ini(truth, sim["params"][i], plant.ini_keys(sim["params"][i]))
             write_sidecar(side, data["sensors"])
             out.append({"robot": k, "log": log, "base": base, "truth": truth, "sensors": side,
                         "effects": effects, "base_layout": sim["bases"][i],
@@ -440,6 +333,19 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
                  f"{','.join(effects) or 'ideal'}; simulated in {t_sim:.1f} s, written in "
                  f"{time.time() - t_start - t_sim:.1f} s")
     return out
+
+
+def parse_wheels(text):
+    """'5,5,1' (per cent: motors' R, motors' Kv, wheel radii) -> (0.05, 0.05, 0.01) or None for
+    '0,0,0'; raises ValueError."""
+    try:
+        v = tuple(float(x) / 100.0 for x in str(text).split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 3 or not all(0.0 <= x <= 0.2 for x in v):
+        raise ValueError(f"--wheel-spread {text!r}: expected R,KV,RADIUS in per cent, each "
+                         "0-20, e.g. 5,5,1")
+    return v if any(v) else None
 
 
 def parse_subset(text):
@@ -490,6 +396,10 @@ def main(argv=None):
     ap.add_argument("--sensors", metavar="EFFECT[,EFFECT]",
                     help="real-sensor effects for every layout: " + ", ".join(plant.SENSOR_EFFECTS)
                     + ", all or none (default: all for the sensors layout, none otherwise)")
+    ap.add_argument("--wheel-spread", metavar="R,KV,RADIUS", default="0,0,0",
+                    help="per-wheel drives: each motor's R and Kv off by up to +-R %%, +-KV %%, "
+                         "each wheel's radius by up to +-RADIUS %% (mean unchanged); the truth "
+                         "INI gets R_j Kv_j Kt_j r_j (default 0,0,0: four equal drives)")
     ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
                     help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
                          "correlation time TAU [s], e.g. 0.3,0.02")
@@ -501,6 +411,7 @@ def main(argv=None):
         if a.robots < 1:
             raise ValueError("--robots must be at least 1")
         sensors = None if a.sensors is None else parse_sensors(a.sensors)
+        wheels = parse_wheels(a.wheel_spread)
         noise = None
         if a.speed_noise:
             try:
@@ -512,7 +423,7 @@ def main(argv=None):
                                  "SIGMA >= 0 [rad/s] and TAU > 0 [s]")
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
-                           a.lcm_python, None if a.quiet else print, noise, sensors)
+                           a.lcm_python, None if a.quiet else print, noise, sensors, wheels)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
