@@ -52,30 +52,30 @@ TickRescale rescale_to_tick_intervals(LogData &log)
 	r.period_s = median_period_s(m);
 	if (n < 16 || !(r.period_s > 0))
 		return r;
-	// Sample k's factor (nominal period / true interval), computed where it is used instead
-	// of kept in an array of n: 1 after a lost sample or a clock step.
+	// Sample k's factor (nominal period / true interval; 1 after a lost sample or a clock step)
 	auto f = [&m, period = r.period_s](size_t k) {
 		if (k == 0 || m[k].seq != m[k - 1].seq + 1)
 			return 1.0;
 		const double dt = (m[k].utime - m[k - 1].utime) * 1e-6;
 		return dt > 0.25 * period ? period / dt : 1.0;
 	};
-	double jit2 = 0;
-	size_t nj = 0;
-	for (size_t k = 1; k < n; ++k) {
+	// One pass: the jitter of interval k (k = 1 .. n - 1 in order) and the second differences
+	// around sample k, logged and rescaled.
+	double jit2 = 0, s0 = 0, s1 = 0;
+	size_t nj = 0, ns = 0;
+	auto jitter = [&](size_t k) {
 		if (m[k].seq != m[k - 1].seq + 1)
-			continue;
+			return;
 		const double dt = (m[k].utime - m[k - 1].utime) * 1e-6;
 		if (!(dt > 0.25 * r.period_s))
-			continue; // a clock step: leave it
+			return; // a clock step: leave it
 		jit2 += (dt - r.period_s) * (dt - r.period_s);
 		++nj;
-	}
-	r.jitter_s = nj ? std::sqrt(jit2 / static_cast<double>(nj)) : 0;
-	double s0 = 0, s1 = 0;
-	size_t ns = 0;
+	};
+	jitter(1);
 	double fa = f(0), fb = f(1);
 	for (size_t k = 1; k + 1 < n; ++k) {
+		jitter(k + 1);
 		const double fc = f(k + 1);
 		if (m[k].seq == m[k - 1].seq + 1 && m[k + 1].seq == m[k].seq + 1) {
 			for (int j = 0; j < 4; ++j) {
@@ -89,6 +89,7 @@ TickRescale rescale_to_tick_intervals(LogData &log)
 		fa = fb;
 		fb = fc;
 	}
+	r.jitter_s = nj ? std::sqrt(jit2 / static_cast<double>(nj)) : 0;
 	if (ns == 0)
 		return r;
 	r.roughness_logged = s0 / static_cast<double>(4 * ns);
