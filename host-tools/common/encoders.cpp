@@ -1,5 +1,6 @@
 // encoders.cpp - tick intervals and once-per-revolution ripple of wheel speeds (encoders.hpp).
 #include "encoders.hpp"
+#include "median.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -27,17 +28,18 @@ void box(const std::vector<double> &y, size_t a, size_t b, int h, std::vector<do
 		out[a + i] = (prefix[i + h + 1] - prefix[i - h]) / static_cast<double>(w);
 }
 
+// The median interval between consecutive samples (next seq).
 double median_period_s(const std::vector<MotorsSample> &m)
 {
-	std::vector<int64_t> steps;
-	steps.reserve(m.size());
-	for (size_t k = 1; k < m.size(); ++k)
-		if (m[k].seq == m[k - 1].seq + 1)
-			steps.push_back(m[k].utime - m[k - 1].utime);
-	if (steps.empty())
-		return 0;
-	std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-	return std::max<int64_t>(1, steps[steps.size() / 2]) * 1e-6;
+	int64_t step = 0;
+	const bool any = median_int64(
+	    [&](auto visit) {
+		    for (size_t k = 1; k < m.size(); ++k)
+			    if (m[k].seq == m[k - 1].seq + 1)
+				    visit(m[k].utime - m[k - 1].utime);
+	    },
+	    step);
+	return any ? std::max<int64_t>(1, step) * 1e-6 : 0;
 }
 
 } // namespace
@@ -50,42 +52,55 @@ TickRescale rescale_to_tick_intervals(LogData &log)
 	r.period_s = median_period_s(m);
 	if (n < 16 || !(r.period_s > 0))
 		return r;
-	std::vector<double> f(n, 1.0);
-	double jit2 = 0;
-	size_t nj = 0;
-	for (size_t k = 1; k < n; ++k) {
+	// Sample k's factor (nominal period / true interval; 1 after a lost sample or a clock step)
+	auto f = [&m, period = r.period_s](size_t k) {
+		if (k == 0 || m[k].seq != m[k - 1].seq + 1)
+			return 1.0;
+		const double dt = (m[k].utime - m[k - 1].utime) * 1e-6;
+		return dt > 0.25 * period ? period / dt : 1.0;
+	};
+	// One pass: the jitter of interval k (k = 1 .. n - 1 in order) and the second differences
+	// around sample k, logged and rescaled.
+	double jit2 = 0, s0 = 0, s1 = 0;
+	size_t nj = 0, ns = 0;
+	auto jitter = [&](size_t k) {
 		if (m[k].seq != m[k - 1].seq + 1)
-			continue;
+			return;
 		const double dt = (m[k].utime - m[k - 1].utime) * 1e-6;
 		if (!(dt > 0.25 * r.period_s))
-			continue; // a clock step: leave it
-		f[k] = r.period_s / dt;
+			return; // a clock step: leave it
 		jit2 += (dt - r.period_s) * (dt - r.period_s);
 		++nj;
+	};
+	jitter(1);
+	double fa = f(0), fb = f(1);
+	for (size_t k = 1; k + 1 < n; ++k) {
+		jitter(k + 1);
+		const double fc = f(k + 1);
+		if (m[k].seq == m[k - 1].seq + 1 && m[k + 1].seq == m[k].seq + 1) {
+			for (int j = 0; j < 4; ++j) {
+				const double a = m[k - 1].w[j], b = m[k].w[j], c = m[k + 1].w[j];
+				s0 += (c - 2 * b + a) * (c - 2 * b + a);
+				const double d2 = c * fc - 2 * b * fb + a * fa;
+				s1 += d2 * d2;
+			}
+			++ns;
+		}
+		fa = fb;
+		fb = fc;
 	}
 	r.jitter_s = nj ? std::sqrt(jit2 / static_cast<double>(nj)) : 0;
-	double s0 = 0, s1 = 0;
-	size_t ns = 0;
-	for (size_t k = 1; k + 1 < n; ++k) {
-		if (m[k].seq != m[k - 1].seq + 1 || m[k + 1].seq != m[k].seq + 1)
-			continue;
-		for (int j = 0; j < 4; ++j) {
-			const double a = m[k - 1].w[j], b = m[k].w[j], c = m[k + 1].w[j];
-			s0 += (c - 2 * b + a) * (c - 2 * b + a);
-			const double d2 = c * f[k + 1] - 2 * b * f[k] + a * f[k - 1];
-			s1 += d2 * d2;
-		}
-		++ns;
-	}
 	if (ns == 0)
 		return r;
 	r.roughness_logged = s0 / static_cast<double>(4 * ns);
 	r.roughness_rescaled = s1 / static_cast<double>(4 * ns);
 	if (!(r.roughness_rescaled < 0.95 * r.roughness_logged))
 		return r;
-	for (size_t k = 0; k < n; ++k)
+	for (size_t k = 0; k < n; ++k) {
+		const double fk = f(k);
 		for (int j = 0; j < 4; ++j)
-			m[k].w[j] = static_cast<float>(m[k].w[j] * f[k]);
+			m[k].w[j] = static_cast<float>(m[k].w[j] * fk);
+	}
 	r.applied = true;
 	return r;
 }
@@ -127,7 +142,8 @@ std::vector<RippleFit> stretches(const std::vector<MotorsSample> &m, double chun
 
 // The fit runs on means of q consecutive samples (at least 4 ms: the ripple, at most a few
 // tens of Hz, loses under 1 % of its amplitude in such a mean), inside contiguous blocks; the
-// correction is applied to every sample. The work arrays of one motor at a time.
+// correction is applied to every sample. The group means of the four motors come from one
+// pass over the samples; the other work arrays serve one motor at a time.
 struct RippleWork {
 	const std::vector<MotorsSample> &m;
 	double gear, dt;
@@ -135,22 +151,34 @@ struct RippleWork {
 	int hd = 2;                                     // half box width in groups
 	std::vector<size_t> first;                      // first sample of each group
 	std::vector<std::pair<size_t, size_t>> dblocks; // blocks of groups
-	std::vector<double> th, y, thd, ws, prefix;     // angle; group speed, angle, slow speed
+	std::array<std::vector<double>, 4> y, thd;      // per motor: group speed and angle
+	std::vector<std::array<double, 4>> th0;         // per stretch: angles at its first sample
+	std::vector<double> ws, prefix;                 // slow speed
 	std::array<std::vector<double>, 2> g, gb;       // regressors and their slow part
 
 	RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h);
 
-	// Wheel angle of motor j: the logged speed over the nominal period; across lost ticks, the
-	// mean of the speeds on either side. Then the group means of speed and angle.
-	void angle_and_groups(int j);
+	// Angle step into sample k (k >= 1) of a wheel whose speed is w there and wp before: the
+	// logged speed over the nominal period; across lost ticks, the mean of the speeds on
+	// either side.
+	double angle_step(size_t k, float w, float wp) const
+	{
+		const int64_t gap = m[k].seq - m[k - 1].seq;
+		const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
+		return dt * (w + missed * 0.5 * (w + wp));
+	}
 
-	// The slow speed ws and the ripple's regressors g = ws (cos, sin)(gear angle), with their
-	// slow parts gb.
-	void regressors();
+	// The wheel angles of the four motors in one pass (angle 0 at the first sample): the group
+	// means of speed and angle, and the angles where each stretch of fits starts.
+	void angles_and_groups(const std::vector<RippleFit> &fits);
+
+	// The slow speed ws and motor j's ripple regressors g = ws (cos, sin)(gear angle), with
+	// their slow parts gb.
+	void regressors(int j);
 
 	// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
 	// block; advances i0 past the stretch. Returns the groups used.
-	size_t normal_equations(const RippleFit &f, double min_speed, size_t &i0,
+	size_t normal_equations(const RippleFit &f, int j, double min_speed, size_t &i0,
 	                        Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const;
 };
 
@@ -167,9 +195,10 @@ RippleWork::RippleWork(const std::vector<MotorsSample> &m_, double gear_, double
 			dblocks.emplace_back(d0, first.size());
 	}
 	const size_t nd = first.size();
-	th.resize(m.size());
-	y.resize(nd);
-	thd.resize(nd);
+	for (int j = 0; j < 4; ++j) {
+		y[j].resize(nd);
+		thd[j].resize(nd);
+	}
 	ws.assign(nd, NAN);
 	for (auto &v : g)
 		v.assign(nd, 0);
@@ -177,33 +206,41 @@ RippleWork::RippleWork(const std::vector<MotorsSample> &m_, double gear_, double
 		v.assign(nd, NAN);
 }
 
-// Wheel angle of motor j: the logged speed over the nominal period; across lost ticks, the
-// mean of the speeds on either side. Then the group means of speed and angle.
-void RippleWork::angle_and_groups(int j)
+void RippleWork::angles_and_groups(const std::vector<RippleFit> &fits)
 {
-	th[0] = 0;
-	for (size_t k = 1; k < m.size(); ++k) {
-		const int64_t gap = m[k].seq - m[k - 1].seq;
-		const double missed = gap > 1 ? static_cast<double>(gap - 1) : 0.0;
-		th[k] = th[k - 1] + dt * (m[k].w[j] + missed * 0.5 * (m[k].w[j] + m[k - 1].w[j]));
-	}
-	for (size_t i = 0; i < first.size(); ++i) {
-		double sy = 0, st = 0;
-		for (size_t k = first[i]; k < first[i] + q; ++k) {
-			sy += m[k].w[j];
-			st += th[k];
+	std::array<double, 4> th{}, sy{}, st{};
+	th0.assign(fits.size(), {});
+	const double qd = static_cast<double>(q);
+	size_t gi = 0, fi = 0;
+	for (size_t k = 0; k < m.size(); ++k) {
+		if (k > 0)
+			for (int j = 0; j < 4; ++j)
+				th[j] += angle_step(k, m[k].w[j], m[k - 1].w[j]);
+		for (; fi < fits.size() && fits[fi].m0 == k; ++fi)
+			th0[fi] = th;
+		if (gi == first.size() || k < first[gi])
+			continue;
+		for (int j = 0; j < 4; ++j) {
+			sy[j] += m[k].w[j];
+			st[j] += th[j];
 		}
-		y[i] = sy / static_cast<double>(q);
-		thd[i] = st / static_cast<double>(q);
+		if (k + 1 < first[gi] + q)
+			continue;
+		for (int j = 0; j < 4; ++j) {
+			y[j][gi] = sy[j] / qd;
+			thd[j][gi] = st[j] / qd;
+			sy[j] = st[j] = 0;
+		}
+		++gi;
 	}
 }
 
-// The slow speed ws and the ripple's regressors g = ws (cos, sin)(gear angle), with their
-// slow parts gb.
-void RippleWork::regressors()
+// The slow speed ws and motor j's ripple regressors g = ws (cos, sin)(gear angle), with
+// their slow parts gb.
+void RippleWork::regressors(int j)
 {
 	for (const auto &[a, b] : dblocks)
-		box(y, a, b, hd, prefix, ws); // the slow speed
+		box(y[j], a, b, hd, prefix, ws); // the slow speed
 	for (size_t i = 0; i < first.size(); ++i) {
 		const double sp = std::isfinite(ws[i]) ? ws[i] : 0.0;
 		if (std::abs(sp) < 1e-3) { // at rest: no ripple to carry
@@ -211,7 +248,7 @@ void RippleWork::regressors()
 			continue;
 		}
 		double sn, cs;
-		::sincos(gear * thd[i], &sn, &cs); // glibc: one call for both
+		::sincos(gear * thd[j][i], &sn, &cs); // glibc: one call for both
 		g[0][i] = sp * cs;
 		g[1][i] = sp * sn;
 	}
@@ -222,7 +259,7 @@ void RippleWork::regressors()
 
 // Normal equations of stretch f, on centres from i0 whose whole double window lies in one
 // block; advances i0 past the stretch. Returns the groups used.
-size_t RippleWork::normal_equations(const RippleFit &f, double min_speed, size_t &i0,
+size_t RippleWork::normal_equations(const RippleFit &f, int j, double min_speed, size_t &i0,
                                     Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
 {
 	const size_t nd = first.size();
@@ -238,7 +275,7 @@ size_t RippleWork::normal_equations(const RippleFit &f, double min_speed, size_t
 			Eigen::Vector2d x;
 			for (int c = 0; c < 2; ++c)
 				x[c] = g[c][i] - gb[c][i];
-			const double e = y[i] - ws[i];
+			const double e = y[j][i] - ws[i];
 			A += x * x.transpose();
 			r += x * e;
 			yy += e * e;
@@ -252,7 +289,7 @@ size_t RippleWork::normal_equations(const RippleFit &f, double min_speed, size_t
 
 // Solves stretch f's normal equations for motor j and, if the ripple is significant, divides
 // it out of the stretch's speeds.
-void fit_and_remove(RippleWork &rw, RippleFit &f, int j, const Eigen::Matrix2d &A,
+void fit_and_remove(RippleWork &rw, RippleFit &f, size_t fi, int j, const Eigen::Matrix2d &A,
                     const Eigen::Vector2d &r, double yy, size_t used,
                     const EccentricityOptions &opt, std::vector<MotorsSample> &m)
 {
@@ -274,10 +311,18 @@ void fit_and_remove(RippleWork &rw, RippleFit &f, int j, const Eigen::Matrix2d &
 	f.motor_removed[j] = f.motor_eps[j] > opt.significance * f.motor_se[j];
 	if (!f.motor_removed[j])
 		return;
+	// The angles again from the stretch's first (as in angles_and_groups, on the speeds as
+	// logged: wp keeps the previous sample's before its correction).
+	double th = rw.th0[fi][j];
+	float wp = 0;
 	for (size_t k = f.m0; k < f.m1; ++k) {
+		const float w = m[k].w[j];
+		if (k > f.m0)
+			th += rw.angle_step(k, w, wp);
+		wp = w;
 		double sn, cs;
-		::sincos(rw.gear * rw.th[k], &sn, &cs);
-		m[k].w[j] = static_cast<float>(m[k].w[j] / (1 + coef[0] * cs + coef[1] * sn));
+		::sincos(rw.gear * th, &sn, &cs);
+		m[k].w[j] = static_cast<float>(w / (1 + coef[0] * cs + coef[1] * sn));
 	}
 }
 
@@ -297,18 +342,19 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
 	const int h = std::max(2, static_cast<int>(std::lround(0.5 * opt.box_s / dt)));
 	fits = stretches(m, opt.chunk_s);
 	RippleWork rw(m, gear, dt, h);
+	rw.angles_and_groups(fits);
 	for (int j = 0; j < 4; ++j) {
-		rw.angle_and_groups(j);
-		rw.regressors();
+		rw.regressors(j);
 		size_t i0 = 0;
-		for (RippleFit &f : fits) {
+		for (size_t fi = 0; fi < fits.size(); ++fi) {
+			RippleFit &f = fits[fi];
 			Eigen::Matrix2d A;
 			Eigen::Vector2d r;
 			double yy;
-			const size_t used = rw.normal_equations(f, opt.min_speed, i0, A, r, yy);
+			const size_t used = rw.normal_equations(f, j, opt.min_speed, i0, A, r, yy);
 			if (j == 0)
 				f.samples = used * rw.q;
-			fit_and_remove(rw, f, j, A, r, yy, used, opt, m);
+			fit_and_remove(rw, f, fi, j, A, r, yy, used, opt, m);
 		}
 	}
 	return fits;

@@ -52,6 +52,35 @@ uint32_t be32(const uint8_t *p)
 	return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | p[3];
 }
 
+uint64_t be64(const uint8_t *p)
+{
+	return uint64_t{be32(p)} << 32 | be32(p + 4);
+}
+
+// motors_t is fixed size: lcm-gen's decoder (fingerprint, then each field big-endian, floats
+// by their bit patterns) read in place, without the decoder's call per field. The same
+// values bit for bit, and false exactly where motors_t::decode would not consume len bytes.
+bool decode_motors(motors_t &m, const uint8_t *data, int32_t len)
+{
+	static const int32_t kLen = motors_t{}.getEncodedSize();
+	if (len != kLen || be64(data) != static_cast<uint64_t>(motors_t::getHash()))
+		return false;
+	m.utime = static_cast<int64_t>(be64(data + 8));
+	m.seq = static_cast<int64_t>(be64(data + 16));
+	m.mode = static_cast<int8_t>(data[24]);
+	m.faults = static_cast<int32_t>(be32(data + 25));
+	auto floats = [](const uint8_t *p, float (&out)[4]) {
+		for (int j = 0; j < 4; ++j) {
+			const uint32_t bits = be32(p + 4 * j);
+			std::memcpy(&out[j], &bits, sizeof bits);
+		}
+	};
+	floats(data + 29, m.voltage);
+	floats(data + 45, m.current);
+	floats(data + 61, m.wheel_speed);
+	return true;
+}
+
 // lcm-gen's decoders compute `length - 1` on a string's raw int32 length (signed overflow for
 // INT32_MIN) and throw for lengths <= 0; an array count is allocated before it is checked. So
 // messages with strings are walked first. Skips the LCM string at pos (an int32 length with
@@ -172,8 +201,8 @@ size_t event_at(const uint8_t *p, size_t n, size_t pos, Event &ev)
 
 void take_motors(const Event &ev, LogData &d)
 {
-	motors_t m{};
-	if (!decode(m, ev.data, ev.len)) {
+	motors_t m;
+	if (!decode_motors(m, ev.data, ev.len)) {
 		++d.undecodable;
 		return;
 	}

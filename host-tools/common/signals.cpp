@@ -1,5 +1,6 @@
 // signals.cpp - Savitzky-Golay filters and velocity series.
 #include "signals.hpp"
+#include "median.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -65,17 +66,21 @@ int find_axis(const std::string &direction)
 namespace
 {
 
-// The robot velocity of every sample (eqs 3-5), the filter's time step and half width, and
-// whether each sample joins the previous one (next seq, about one step later).
+// The robot velocity of every sample (eqs 3-5), appended to out.raw (reserved), the filter's
+// time step and half width, and whether each sample joins the previous one (next seq, about
+// one step later).
 void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::array<double, 4> &r,
                     double half_s, EncoderTrack &out)
 {
 	const size_t n = m.size();
-	std::vector<int64_t> steps(n - 1);
-	for (size_t k = 1; k < n; ++k)
-		steps[k - 1] = m[k].utime - m[k - 1].utime;
-	std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-	const int64_t step_us = std::max<int64_t>(1, steps[steps.size() / 2]);
+	int64_t step_us = 1;
+	median_int64(
+	    [&](auto visit) {
+		    for (size_t k = 1; k < n; ++k)
+			    visit(m[k].utime - m[k - 1].utime);
+	    },
+	    step_us);
+	step_us = std::max<int64_t>(1, step_us);
 	out.dt = step_us * 1e-6;
 	out.half = std::max(2, static_cast<int>(std::lround(half_s / out.dt)));
 	for (size_t k = 0; k < n; ++k) {
@@ -83,7 +88,7 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::arr
 		for (int j = 0; j < 4; ++j)
 			vw[j] = m[k].w[j] * r[j];
 		fk_robot_velocity(d, vw, x);
-		out.raw[k] = {x[0], x[1], x[2]};
+		out.raw.push_back({x[0], x[1], x[2]});
 		if (k > 0) {
 			const int64_t gap = m[k].utime - m[k - 1].utime;
 			out.joined[k] = m[k].seq == m[k - 1].seq + 1 && 2 * gap > step_us &&
@@ -94,9 +99,9 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::arr
 
 // The samples' three axes as one flat array: element 3 k + axis.
 static_assert(sizeof(std::array<double, 3>) == 3 * sizeof(double), "no padding");
-double *flat(std::vector<std::array<double, 3>> &v)
+const double *flat(const std::vector<std::array<double, 3>> &v)
 {
-	return reinterpret_cast<double *>(v.data());
+	return reinterpret_cast<const double *>(v.data());
 }
 
 // Two doubles as one value (GCC and Clang vector extensions): + and * per element, exactly as
@@ -109,49 +114,79 @@ Pair load_pair(const double *p)
 	return v;
 }
 
-// The filter over the contiguous block [a, b) (at least one whole window long). In the flat
-// arrays the three axes are one series whose taps are 3 elements apart, so 8 neighbouring
-// outputs (of any axes) are summed at once in registers, tap by tap in the filter's order: the
-// same sums as one output at a time, without work arrays.
+// Appends `count` samples (3 count doubles from p) to v, whose capacity holds them.
+void append(std::vector<std::array<double, 3>> &v, const double *p, size_t count)
+{
+	const auto *s = reinterpret_cast<const std::array<double, 3> *>(p);
+	v.insert(v.end(), s, s + count);
+}
+
+void append_nan(EncoderTrack &out, size_t count)
+{
+	out.x.insert(out.x.end(), count, {NAN, NAN, NAN});
+	out.dx.insert(out.dx.end(), count, {NAN, NAN, NAN});
+}
+
+// 8 neighbouring outputs (of any axes) of the filter from the flat input at src (its first
+// tap), summed at once in registers, tap by tap in the filter's order: the same sums as one
+// output at a time. Values to x, derivatives to dx.
+void filter8(const SgFilter &f, size_t taps, const double *src, double dt, double *x, double *dx)
+{
+	constexpr size_t kPairs = 4;
+	const double *cs = f.smooth.data(), *cd = f.deriv.data();
+	Pair s[kPairs] = {}, ds[kPairs] = {};
+	for (size_t q = 0; q < taps; ++q, src += 3) {
+		const Pair c = {cs[q], cs[q]}, e = {cd[q], cd[q]};
+		for (size_t j = 0; j < kPairs; ++j) {
+			const Pair y = load_pair(src + 2 * j);
+			s[j] += c * y;
+			ds[j] += e * y;
+		}
+	}
+	const Pair dtp = {dt, dt};
+	for (size_t j = 0; j < kPairs; ++j) {
+		const Pair d = ds[j] / dtp;
+		std::memcpy(x + 2 * j, &s[j], sizeof(Pair));
+		std::memcpy(dx + 2 * j, &d, sizeof(Pair));
+	}
+}
+
+// The filter over the contiguous block [a, b) (at least one whole window long), appended to
+// out.x and out.dx: NaN for the half windows at its ends. In the flat arrays the three axes
+// are one series whose taps are 3 elements apart; the outputs go through a small buffer of 8
+// samples, so the arrays are written once (no fill that the filter then overwrites).
 void filter_block(const SgFilter &f, size_t a, size_t b, EncoderTrack &out)
 {
-	constexpr size_t kPairs = 4; // 8 outputs
+	constexpr size_t kChunk = 8; // samples: 24 outputs, 3 passes of filter8
 	const size_t h = static_cast<size_t>(out.half), taps = 2 * h + 1;
-	const double *cs = f.smooth.data(), *cd = f.deriv.data();
 	const double *raw = flat(out.raw);
-	double *x = flat(out.x), *dx = flat(out.dx);
-	const size_t i1 = 3 * (b - h); // outputs [3 (a + h), 3 (b - h))
-	size_t i = 3 * (a + h);
-	const Pair dt = {out.dt, out.dt};
-	for (; i + 2 * kPairs <= i1; i += 2 * kPairs) {
-		Pair s[kPairs] = {}, ds[kPairs] = {};
-		const double *src = raw + (i - 3 * h);
-		for (size_t q = 0; q < taps; ++q, src += 3) {
-			const Pair c = {cs[q], cs[q]}, e = {cd[q], cd[q]};
-			for (size_t j = 0; j < kPairs; ++j) {
-				const Pair y = load_pair(src + 2 * j);
-				s[j] += c * y;
-				ds[j] += e * y;
+	append_nan(out, h);
+	size_t k = a + h;
+	for (; k + kChunk + h <= b; k += kChunk) {
+		double x[3 * kChunk], dx[3 * kChunk];
+		for (size_t o = 0; o < 3 * kChunk; o += 8)
+			filter8(f, taps, raw + 3 * (k - h) + o, out.dt, x + o, dx + o);
+		append(out.x, x, kChunk);
+		append(out.dx, dx, kChunk);
+	}
+	for (; k + h < b; ++k) {
+		double x[3], dx[3];
+		for (size_t ax = 0; ax < 3; ++ax) {
+			double s = 0, ds = 0;
+			const double *src = raw + 3 * (k - h) + ax;
+			for (size_t q = 0; q < taps; ++q, src += 3) {
+				s += f.smooth[q] * *src;
+				ds += f.deriv[q] * *src;
 			}
+			x[ax] = s;
+			dx[ax] = ds / out.dt;
 		}
-		for (size_t j = 0; j < kPairs; ++j) {
-			const Pair d = ds[j] / dt;
-			std::memcpy(x + i + 2 * j, &s[j], sizeof(Pair));
-			std::memcpy(dx + i + 2 * j, &d, sizeof(Pair));
-		}
+		append(out.x, x, 1);
+		append(out.dx, dx, 1);
 	}
-	for (; i < i1; ++i) {
-		double s = 0, ds = 0;
-		const double *src = raw + (i - 3 * h);
-		for (size_t q = 0; q < taps; ++q, src += 3) {
-			s += cs[q] * *src;
-			ds += cd[q] * *src;
-		}
-		x[i] = s;
-		dx[i] = ds / out.dt;
-	}
-	for (size_t k = a + h; k + h < b; ++k)
-		out.ok[k] = 1;
+	append_nan(out, h);
+	for (size_t i = a + h; i + h < b; ++i)
+		out.ok[i] = 1;
 }
 
 } // namespace
@@ -167,19 +202,21 @@ EncoderTrack encoder_track(const LogData &log, double d, const std::array<double
 	EncoderTrack out;
 	const auto &m = log.motors;
 	const size_t n = m.size();
+	// Reserved, then written once in sample order (no value-initialised arrays that are then
+	// overwritten: the pages are first touched by their final values).
 	reserve_huge(out.raw, n);
 	reserve_huge(out.x, n);
 	reserve_huge(out.dx, n);
-	out.raw.resize(n);
-	out.x.assign(n, {NAN, NAN, NAN});
-	out.dx.assign(n, {NAN, NAN, NAN});
 	out.ok.assign(n, 0);
 	out.joined.assign(n, 0);
-	if (n < 3)
+	if (n < 3) {
+		out.raw.resize(n);
+		append_nan(out, n);
 		return out;
+	}
 	raw_velocities(m, d, r, half_s, out);
-	const int h = out.half;
-	const SgFilter f = savitzky_golay(h, 2);
+	const size_t h = static_cast<size_t>(out.half);
+	const SgFilter f = savitzky_golay(out.half, 2);
 	// Contiguous blocks [a, b): the filter runs inside each, never across a gap.
 	size_t a = 0;
 	for (size_t b = 1; b <= n; ++b) {
@@ -187,6 +224,8 @@ EncoderTrack encoder_track(const LogData &log, double d, const std::array<double
 			continue;
 		if (b >= a + 2 * h + 1)
 			filter_block(f, a, b, out);
+		else
+			append_nan(out, b - a);
 		a = b;
 	}
 	return out;

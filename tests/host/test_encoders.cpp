@@ -4,12 +4,15 @@
 // th_m + eps sin(th_m - phi) on the motor shaft (th_m = l th_wheel), counted and differenced.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "encoders.hpp"
 #include "logdata.hpp"
+#include "median.hpp"
 
 using namespace omni4;
 
@@ -163,4 +166,32 @@ TEST(Ripple, ARoundDiscIsLeftAlone)
 		}
 	for (size_t k = 0; k < d.motors.size(); k += 101)
 		EXPECT_EQ(d.motors[k].w[1], raw.motors[k].w[1]);
+}
+
+// The histogram median against a sorted copy (an independent computation): narrow series
+// (the histogram), series wider than it and with outliers (the fallback), even and odd sizes.
+TEST(Median, MatchesTheSortedCopyOnNarrowWideAndOutlyingSeries)
+{
+	std::mt19937_64 rng(7);
+	for (int trial = 0; trial < 300; ++trial) {
+		const size_t n = 1 + rng() % 400;
+		const int64_t spread = trial % 3 == 0 ? 40 : trial % 3 == 1 ? 3000 : 5000000;
+		std::vector<int64_t> v(n);
+		for (auto &x : v)
+			x = 1000 + static_cast<int64_t>(rng() % (2 * spread + 1)) - spread;
+		if (trial % 7 == 0)
+			v[rng() % n] = -(int64_t{1} << 50); // one far outlier
+		int64_t got = 0;
+		ASSERT_TRUE(median_int64(
+		    [&](auto visit) {
+			    for (int64_t x : v)
+				    visit(x);
+		    },
+		    got));
+		std::vector<int64_t> sorted = v;
+		std::sort(sorted.begin(), sorted.end());
+		EXPECT_EQ(got, sorted[n / 2]) << "trial " << trial << ", n " << n;
+	}
+	int64_t none = 0;
+	EXPECT_FALSE(median_int64([](auto) {}, none));
 }
