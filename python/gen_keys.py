@@ -39,7 +39,7 @@ def def_files(root):
     """The key lists in the order config/src/config.c includes them: the layers', then each
     backend's (backends.def's keys column, in its rows' order)."""
     backends = gen_vocab.read(root)["OMNI4_BACKEND"]
-    return LAYER_FILES + tuple(f"drivers/include/omni4/{keys}" for _, _, _, keys, _ in backends
+    return LAYER_FILES + tuple(f"drivers/include/omni4/{keys}" for _, _, _, keys, *_ in backends
                                if keys)
 
 

@@ -5,7 +5,7 @@ tests/host/check_vocab_doc.py compares docs/vocabulary.md with markdown().
 
 Rows are one line each: `OMNI4_MODE(NAME, value, wire, drives, keep_alive, faulted, "doc")`,
 `OMNI4_FAULT(NAME, bit, latching, "doc")`, `OMNI4_FLAG(NAME, bit, "doc")`,
-`OMNI4_BACKEND(HAL, NAME, "word", "keys file", "provides")`. A row the generator cannot read stops the
+`OMNI4_BACKEND(HAL, NAME, "word", "keys file", member, settings, state, "header", os, "provides")`. A row the generator cannot read stops the
 build instead of going missing in Python."""
 import os
 import re
@@ -15,7 +15,7 @@ BACKENDS_DEF = "drivers/include/omni4/backends.def"
 WIRES = ("CMD", "STATE", "BOTH")
 _ROW = re.compile(r"^(OMNI4_[A-Z]+)\((.*)\)\s*$")
 _ARG = re.compile(r'\s*("(?:[^"\\]|\\.)*"|[^,]+?)\s*(?:,|$)')
-_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 5}
+_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 10}
 
 
 class VocabError(ValueError):
@@ -139,7 +139,7 @@ __all__ = ["MODES", "MODE_DOCS", "MODE_NAMES", "COMMAND_MODES", "REPORTED_MODES"
 
 def _backend(row):
     """(hal, INI word, keys file, provides) of a backend row: the hal as its INI key."""
-    return (row[0].lower(), *row[2:])
+    return (row[0].lower(), row[2], row[3], row[-1])
 
 
 def _yes(flag):

@@ -67,14 +67,8 @@ const struct config_key config_keys[] = {
 #define OMNI4_KEY(...) ROW(fw, __VA_ARGS__)
 #include "omni4/fw_keys.def"
 #undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(sim, __VA_ARGS__)
-#include "omni4/sim_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(can, __VA_ARGS__)
-#include "omni4/socketcan_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(gpio, __VA_ARGS__)
-#include "omni4/gpiod_keys.def"
+#define OMNI4_KEY(...) ROW(OMNI4_BACKEND_MEMBER, __VA_ARGS__)
+#include "omni4/backend_keys.inc"
 #undef OMNI4_KEY
 };
 
@@ -93,15 +87,12 @@ void config_defaults(struct omni4_config *cfg)
 {
 	memset(cfg, 0, sizeof(*cfg));
 	ctl_settings_defaults(&cfg->ctl);
-	sim_settings_defaults(&cfg->sim);
 #define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->fw.field, def);
 #include "omni4/fw_keys.def"
 #undef OMNI4_KEY
-#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->can.field, def);
-#include "omni4/socketcan_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->gpio.field, def);
-#include "omni4/gpiod_keys.def"
+#define OMNI4_KEY(kind, section, key, field, def, ...)                                             \
+	DEFAULT_##kind(cfg->OMNI4_BACKEND_MEMBER.field, def);
+#include "omni4/backend_keys.inc"
 #undef OMNI4_KEY
 }
 

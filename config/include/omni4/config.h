@@ -4,11 +4,11 @@
  *
  * The layers own their settings and the rows of the table that fill them (key, default, range,
  * unit, when it may change, one line of doc): the controller (core: ctl_keys.def), omni4-fw
- * (fw_keys.def), the sim backend (sim_keys.def), SocketCAN (socketcan_keys.def), libgpiod
- * (gpiod_keys.def). This file puts them together; docs/ini-keys.md is generated from the table
- * (omni4-config-keys). Unknown sections or keys, duplicate keys, malformed or out-of-range
- * values are errors; [model] holds all 14 keys or none, and may add a wheel's own r_j, Kv_j,
- * Kt_j, R_j (docs/configuration.md: ctl.wheel_keys records which; config_write writes only
+ * (fw_keys.def), each backend its own (backends.def's keys column: sim_keys.def,
+ * socketcan_keys.def, gpiod_keys.def). This file puts them together; docs/ini-keys.md is generated
+ * from the table (omni4-config-keys). Unknown sections or keys, duplicate keys, malformed or
+ * out-of-range values are errors; [model] holds all 14 keys or none, and may add a wheel's own r_j,
+ * Kv_j, Kt_j, R_j (docs/configuration.md: ctl.wheel_keys records which; config_write writes only
  * those, config_key_set makes a wheel key the wheel's own, and a wheel without its own key
  * follows its scalar).
  */
@@ -20,20 +20,20 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "omni4/backend_settings.h"
 #include "omni4/ctl_settings.h"
 #include "omni4/fw_settings.h"
-#include "omni4/gpiod_settings.h"
 #include "omni4/params.h"
-#include "omni4/sim_settings.h"
-#include "omni4/socketcan_settings.h"
 
 /* A robot's whole INI. */
 struct omni4_config {
-	struct ctl_settings ctl;       /* [model] [loop] rate_hz [control] [limits] */
-	struct fw_settings fw;         /* [loop] real-time, [lcm] [hal] [params] */
-	struct sim_settings sim;       /* [sim] */
-	struct socketcan_settings can; /* [can] */
-	struct gpiod_settings gpio;    /* [gpio] */
+	struct ctl_settings ctl; /* [model] [loop] rate_hz [control] [limits] */
+	struct fw_settings fw;   /* [loop] real-time, [lcm] [hal] [params] */
+	/* each backend's settings by its member (backends.def): sim [sim], can [can], gpio [gpio]
+	 */
+#define OMNI4_CONFIG_PART(member, settings) struct settings member;
+	OMNI4_BACKEND_SETTINGS(OMNI4_CONFIG_PART)
+#undef OMNI4_CONFIG_PART
 };
 
 /* Every key's default (the tables' default column): the paper's Table III robot at 1 kHz on the

@@ -19,6 +19,20 @@
 #define BACKEND_LINES_MOTOR(...)
 #define BACKEND_LINES_LINES(...) __VA_ARGS__
 
+/* Rows built here only: BACKEND_OS_<os>(...) keeps its arguments where the row's os column
+ * (ANY, LINUX) is built. */
+#define BACKEND_OS_ANY(...) __VA_ARGS__
+#ifdef OMNI4_ROBOT_LINUX
+#define BACKEND_OS_LINUX(...) __VA_ARGS__
+#else
+#define BACKEND_OS_LINUX(...)
+#endif
+
+/* The state column of a backend that needs none (no lines). */
+struct backend_stateless {
+	char unused;
+};
+
 /* [hal] motor */
 enum omni4_motor_backend {
 #define OMNI4_BACKEND(hal, name, ...) BACKEND_MOTOR_##hal(OMNI4_MOTOR_##name, )

@@ -5,8 +5,9 @@
  * camera as the pose source of a sim robot. omni4-fw, the lockstep simulator (sil/), the
  * latency benchmark and the microcontroller image all build their robot here.
  *
- * Portable: on a microcontroller (no OMNI4_ROBOT_LINUX) only the sim backends exist; a value
- * naming another backend is refused with the reason.
+ * Generic over backends.def: its rows give the robot's storage, the settings in robot_spec and
+ * the openers (struct robot_backend). Portable: on a microcontroller (no OMNI4_ROBOT_LINUX) only
+ * the rows with os ANY exist; a value naming another backend is refused with the reason.
  */
 #ifndef OMNI4_ROBOT_H
 #define OMNI4_ROBOT_H
@@ -15,49 +16,71 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "omni4/backends.h"
+#include "omni4/backend_states.h"
 #include "omni4/ctl_settings.h"
 #include "omni4/fw.h"
-#include "omni4/sim_motor.h"
-#ifdef OMNI4_ROBOT_LINUX
-#include "omni4/gpiod_lines.h"
-#include "omni4/socketcan_motor.h"
-#include "omni4/socketcan_settings.h"
-#endif
 
 /* What a robot is built from. The settings are read while robot_open runs, not kept. */
 struct robot_spec {
 	const struct ctl_settings *ctl;
 	enum omni4_motor_backend motor;
 	enum omni4_lines_backend lines;
-	/* motor = SIM: the sensors; sim_exact: ideal sensors instead of the settings' noise and
-	 * faults; plant: the simulated robot (NULL: the controller's own model); utime0:
-	 * controller time [us] of the first tick (camera timestamps). */
-	const struct sim_settings *sim;
+	/* Each backend's settings by its member (backends.def: .sim, .can, .gpio); the chosen
+	 * backends' must be set. */
+#define ROBOT_SPEC_SETTINGS(member, settings) const struct settings *member;
+	OMNI4_BACKEND_SETTINGS(ROBOT_SPEC_SETTINGS)
+#undef ROBOT_SPEC_SETTINGS
+	/* motor = SIM: sim_exact: ideal sensors instead of the settings' noise and faults; plant:
+	 * the simulated robot (NULL: the controller's own model); utime0: controller time [us] of
+	 * the first tick (camera timestamps). */
 	bool sim_exact;
 	const struct model_params *plant;
 	int64_t utime0;
-#ifdef OMNI4_ROBOT_LINUX
-	const struct socketcan_settings *can; /* motor = SOCKETCAN */
-	const struct gpiod_settings *gpio;    /* lines = GPIOD */
-#endif
 	/* Optional: the motor backend as the controller sees it, e.g. a guard around it; NULL =
 	 * the backend itself. Called once, with the opened backend. */
 	struct motor_hal (*wrap)(void *ctx, struct motor_hal backend);
 	void *wrap_ctx;
 };
 
+struct robot;
+
+/* A backend's code as the robot uses it: robot_backend_<member> for each row of backends.def
+ * (in its own file, firmware/src/robot_<...>.c). */
+struct robot_backend {
+	/* Open the backend in r's storage and set r->motor or r->lines. 0, or -1 with the reason
+	 * in why (nothing left open). */
+	int (*open)(struct robot *r, const struct robot_spec *spec, char *why, size_t n);
+	/* Optional: once the controller runs on it (parameter hooks, the clock). */
+	void (*started)(struct robot *r, const struct robot_spec *spec);
+	/* Optional: robot_sim_follow_clock's work (loop thread, before fw_tick). */
+	void (*follow_clock)(struct robot *r, int64_t now_us);
+	/* Optional: its counters for a person, after the loop has stopped (Linux: stderr). */
+	void (*summary)(const struct robot *r);
+};
+
+#define ROBOT_BACKEND_DECLARE(hal, name, word, keys, member, settings, state, header, os, ...)     \
+	BACKEND_OS_##os(extern const struct robot_backend robot_backend_##member;)
+#define OMNI4_BACKEND ROBOT_BACKEND_DECLARE
+#include OMNI4_BACKENDS_DEF
+
+/* The state of each HAL's backend, one member per row (backends.def), e.g. sim, can, sim_lines. */
+#define ROBOT_STATE(hal, name, word, keys, member, settings, state, header, os, ...)               \
+	BACKEND_OS_##os(struct state member;)
+
 struct robot {
 	struct fw fw;
 	struct motor_hal motor; /* the backend as opened (fw.motor may wrap it) */
 	struct line_hal lines;
 	enum omni4_motor_backend motor_kind;
-	struct sim_motor sim;
-	struct sim_lines sim_lines;
-#ifdef OMNI4_ROBOT_LINUX
-	struct socketcan_motor can;
-	struct gpiod_lines gpio;
-#endif
+	const struct robot_backend *motor_backend, *lines_backend; /* as opened */
+	union {
+#define OMNI4_BACKEND(hal, ...) BACKEND_MOTOR_##hal(ROBOT_STATE(hal, __VA_ARGS__))
+#include OMNI4_BACKENDS_DEF
+	};
+	union {
+#define OMNI4_BACKEND(hal, ...) BACKEND_LINES_##hal(ROBOT_STATE(hal, __VA_ARGS__))
+#include OMNI4_BACKENDS_DEF
+	};
 };
 
 /* Open the backends of spec and start the controller on them (outputs off). 0, or -1 with the
@@ -65,6 +88,9 @@ struct robot {
 int robot_open(struct robot *r, const struct robot_spec *spec, char *why, size_t n);
 /* Outputs off, backends closed. */
 void robot_close(struct robot *r);
+
+/* The motor and lines backends' summaries (their counters), if they have one. */
+void robot_summary(const struct robot *r);
 
 /* Loop thread, before fw_tick, in a loop paced by a clock (omni4-fw): the sim backend's plant
  * keeps up with the loop's clock now_us (the tick's time) as a real robot's physics does: a
