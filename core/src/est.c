@@ -63,8 +63,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 {
 	struct model_ss_wheels ss;
 
-	if (model_params_check(p, NULL) || model_wheels_check(w, NULL))
-		return;
+	MODEL_ASSERT_CHECKED(p, w);
 	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
 		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
@@ -90,6 +89,8 @@ void est_set_model(struct est *e, const struct model_params *p)
 	struct model_wheels w;
 
 	model_wheels_from_params(p, &w);
+	if (model_params_check(p, NULL) || model_wheels_check(&w, NULL))
+		return; /* a bad model is ignored: the one in force stays */
 	est_set_model_wheels(e, p, &w);
 }
 

@@ -126,8 +126,12 @@ struct ctl {
 	struct ctl_counters n;
 };
 
-/* -EINVAL if the configuration is unusable (bad model, non-positive rate). */
+/* -EINVAL if the configuration is unusable (bad model, non-positive rate): ctl_settings_check,
+ * the door a model comes in by. */
 int ctl_init(struct ctl *c, const struct ctl_settings *cfg);
+/* The same for cfg that passed ctl_settings_check (asserted in debug builds, not checked again):
+ * a parameter change checked at its door. -EINVAL only for a supply_v <= 0. */
+int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg);
 
 /*
  * Fast loop. Validate and apply a command received at now_us. Returns 0 if accepted; a

@@ -200,8 +200,8 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 /* Between two ticks: the model in force changed (four equal wheels: p's r, Kv, Kt, R). */
 void est_set_model(struct est *e, const struct model_params *p);
 /* The same with each wheel's own r, Kv, Kt, R (w; dynamics.h): the prediction with each wheel's
- * gain and the back-EMF coupling of unequal wheels, each reading with its wheel's radius. A bad
- * model or wheel set is ignored (the one in force stays). */
+ * gain and the back-EMF coupling of unequal wheels, each reading with its wheel's radius. p and w
+ * are checked (MODEL_ASSERT_CHECKED: the caller's door, ctl_settings_check). */
 void est_set_model_wheels(struct est *e, const struct model_params *p,
                           const struct model_wheels *w);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */

@@ -206,8 +206,9 @@ bool fw_pop_log(struct fw *fw, struct log_entry *e);
 /* Start-up, before the loop runs. */
 void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks);
 
-/* Parameter side. Validate cfg as start-up does (controller and HAL) and precompute what the
- * loop needs into u. 0, or -EINVAL and why. */
+/* Parameter side. cfg passed ctl_settings_check (the door: config_check; asserted in debug
+ * builds, not checked again). Validate what start-up adds (the loop rate, the HAL's hook) and
+ * precompute what the loop needs into u. 0, or -EINVAL and why. */
 int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
                      struct fw_param_update *u, char *why, size_t n);
 

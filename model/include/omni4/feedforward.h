@@ -74,6 +74,9 @@ struct ff_q16_wheels {
 /* -EINVAL if p fails model_params_check, w fails model_wheels_check or u_max <= 0. */
 int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
                        const struct model_wheels *w, double u_max);
+/* The same for a model already checked (MODEL_ASSERT_CHECKED): -EINVAL only if u_max <= 0. */
+int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
+                          const struct model_wheels *w, double u_max);
 
 /*
  * ff_voltages_q16_wheels - the per-wheel feedforward in Q16.16 (integer only; fast loop).

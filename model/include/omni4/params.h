@@ -66,4 +66,17 @@ void model_wheels_from_params(const struct model_params *p, struct model_wheels 
  */
 int model_wheels_check(const struct model_wheels *w, int *bad);
 
+/*
+ * A model is checked once, where it comes in (ctl_settings_check: the INI, a parameter change,
+ * the controller's start); the functions behind that door take it as checked. Their
+ * precondition, asserted in debug builds only (no NDEBUG: a trap, no libc), free in release.
+ */
+#ifdef NDEBUG
+#define MODEL_ASSERT_CHECKED(p, w) ((void)0)
+#else
+#define MODEL_ASSERT_CHECKED(p, w)                                                                 \
+	((model_params_check((p), NULL) || model_wheels_check((w), NULL)) ? __builtin_trap()       \
+	                                                                  : (void)0)
+#endif
+
 #endif /* OMNI4_PARAMS_H */
