@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "est_priv.h"
+#include "omni4/kinematics.h"
 #include "omni4/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
@@ -270,9 +271,7 @@ static void scalar_update(struct est *e, int i, float nu, float r)
 /* The tick's wheel readings as a velocity (eqs 3-5) and the null-space residual. */
 static void wheel_velocity(const struct est *e, const float v[4], float z[3], float *null_res)
 {
-	z[0] = 0.5f * (v[3] - v[1]);
-	z[1] = 0.5f * (v[0] - v[2]);
-	z[2] = (v[0] + v[1] + v[2] + v[3]) / (4.0f * e->d);
+	fk_robot_velocity_f32(e->d, v, z);
 	*null_res = v[0] - v[1] + v[2] - v[3];
 }
 

@@ -14,6 +14,25 @@ void ik_wheel_speeds(double d, const double x[3], double v_wheel[4]);
 /* eqs 3-5: the least-squares inverse of eq 2. */
 void fk_robot_velocity(double d, const double v_wheel[4], double x[3]);
 
+/* Single-precision twins (the estimator's arithmetic on a Cortex-M4F), inline: a fast-loop
+ * call costs no more than the expressions. */
+static inline void ik_wheel_speeds_f32(float d, const float x[3], float v_wheel[4])
+{
+	const float dw = d * x[2];
+
+	v_wheel[0] = x[1] + dw;
+	v_wheel[1] = -x[0] + dw;
+	v_wheel[2] = -x[1] + dw;
+	v_wheel[3] = x[0] + dw;
+}
+
+static inline void fk_robot_velocity_f32(float d, const float v_wheel[4], float x[3])
+{
+	x[0] = 0.5f * (v_wheel[3] - v_wheel[1]);
+	x[1] = 0.5f * (v_wheel[0] - v_wheel[2]);
+	x[2] = (v_wheel[0] + v_wheel[1] + v_wheel[2] + v_wheel[3]) / (4.0f * d);
+}
+
 /* eq 1: world velocity [vx, vy, w] -> robot velocity [v, vn, w] at heading theta [rad]. */
 void frame_world_to_robot(double theta, const double x_world[3], double x_robot[3]);
 /* Inverse of eq 1. */
