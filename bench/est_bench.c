@@ -19,12 +19,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/channels.h"
-#include "omni4/config.h"
-#include "omni4/est.h"
-#include "omni4/kinematics.h"
-#include "omni4/sim_motor.h"
-#include "omni4/simrun.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/drivers/sim_motor.h"
+#include "omni4/sil/simrun.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_pose_t.h"

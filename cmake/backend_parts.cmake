@@ -48,31 +48,31 @@ function(omni4_backend_parts OUT_DIR)
     endif()
   endforeach()
   set(from "generated from backends.def by cmake/backend_parts.cmake")
-  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/backend_settings.h @ONLY CONTENT
+  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/drivers/backend_settings.h @ONLY CONTENT
 "/* backend_settings.h - ${from}:
  * X(member, settings) for each backend with settings, and their headers. */
 #ifndef OMNI4_BACKEND_SETTINGS_H
 #define OMNI4_BACKEND_SETTINGS_H
 
-#include \"omni4/backends.h\"
+#include \"omni4/drivers/backends.h\"
 ${headers}
 #define OMNI4_BACKEND_SETTINGS(X)${settings}
 
 #endif /* OMNI4_BACKEND_SETTINGS_H */
 ")
-  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/backend_states.h @ONLY CONTENT
+  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/drivers/backend_states.h @ONLY CONTENT
 "/* backend_states.h - ${from}:
  * the headers of the backends' states (the Linux ones on Linux only). */
 #ifndef OMNI4_BACKEND_STATES_H
 #define OMNI4_BACKEND_STATES_H
 
-#include \"omni4/backend_settings.h\"
+#include \"omni4/drivers/backend_settings.h\"
 ${any}#ifdef OMNI4_ROBOT_LINUX
 ${linux}#endif
 
 #endif /* OMNI4_BACKEND_STATES_H */
 ")
-  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/backend_keys.inc @ONLY CONTENT
+  file(CONFIGURE OUTPUT ${OUT_DIR}/omni4/drivers/backend_keys.inc @ONLY CONTENT
 "/* backend_keys.inc - ${from}:
  * each backend's key list, OMNI4_BACKEND_MEMBER its member; the includer defines OMNI4_KEY. */
 ${keys}")

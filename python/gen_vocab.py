@@ -1,5 +1,5 @@
-"""The robot's vocabulary for the Python package and the docs, from core/include/omni4/vocab.def
-(modes, fault bits, state flags) and drivers/include/omni4/backends.def (the backends): setup.py
+"""The robot's vocabulary for the Python package and the docs, from core/include/omni4/core/vocab.def
+(modes, fault bits, state flags) and drivers/include/omni4/drivers/backends.def (the backends): setup.py
 writes omni4/_vocab.py with python_module() when the package is built, and
 tests/host/check_vocab_doc.py compares docs/vocabulary.md with markdown().
 
@@ -10,8 +10,8 @@ build instead of going missing in Python."""
 import os
 import re
 
-VOCAB_DEF = "core/include/omni4/vocab.def"
-BACKENDS_DEF = "drivers/include/omni4/backends.def"
+VOCAB_DEF = "core/include/omni4/core/vocab.def"
+BACKENDS_DEF = "drivers/include/omni4/drivers/backends.def"
 WIRES = ("CMD", "STATE", "BOTH")
 _ROW = re.compile(r"^(OMNI4_[A-Z]+)\((.*)\)\s*$")
 _ARG = re.compile(r'\s*("(?:[^"\\]|\\.)*"|[^,]+?)\s*(?:,|$)')
@@ -82,7 +82,7 @@ def python_module(root=None, vocab=None):
     """The source of omni4/_vocab.py for the repository at root (or an already read vocab)."""
     v = vocab if vocab is not None else read(root)
     modes, faults, flags = v["OMNI4_MODE"], v["OMNI4_FAULT"], v["OMNI4_FLAG"]
-    lines = ['"""Generated from core/include/omni4/vocab.def and drivers/include/omni4/backends.def '
+    lines = ['"""Generated from core/include/omni4/core/vocab.def and drivers/include/omni4/drivers/backends.def '
              'by\npython/setup.py when the package is built: edit those, not this file."""',
              "# name -> value of every mode; which ones command_t / motors_t carry, drive the "
              "bridges,\n# need keep-alive, are fault states.",

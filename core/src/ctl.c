@@ -1,8 +1,8 @@
 /* ctl.c - modes, watchdog, faults, reference shaping, IK + feedforward (Q16.16) and PI; the
  * tick in single precision and Q16.16 (ctl.h). */
-#include "omni4/ctl.h"
+#include "omni4/core/ctl.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>

@@ -16,15 +16,15 @@
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
  */
-#include "omni4/est.h"
+#include "omni4/core/est.h"
 
 #include <errno.h>
 #include <math.h>
 #include <string.h>
 
 #include "est_priv.h"
-#include "omni4/kinematics.h"
-#include "omni4/la_f32.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/core/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
 static void discretise(double a, double dt, float *phi, float *gam)

@@ -1,5 +1,5 @@
 /* fw.c - the loop body: commands -> HAL read -> controller -> HAL write -> log ring. */
-#include "omni4/fw.h"
+#include "omni4/core/fw.h"
 
 #include <errno.h>
 #include <math.h>

@@ -3,7 +3,7 @@
  * share found by bisection, the heading's own profile, and the drive envelope they are planned
  * in. Single precision after traj_init; every loop has a fixed bound.
  */
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 #include "traj_int.h"
 
 #include <errno.h>

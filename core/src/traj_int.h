@@ -5,7 +5,7 @@
 #ifndef OMNI4_TRAJ_INT_H
 #define OMNI4_TRAJ_INT_H
 
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 /*
  * One wheel constraint in the world frame at one heading. On a symmetric box of accelerations

@@ -13,13 +13,13 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/config.h"
-#include "omni4/getopt_exact.h"
-#include "omni4/lcmio.h"
-#include "omni4/param_service.h"
-#include "omni4/peer.h"
-#include "omni4/robot.h"
-#include "omni4/rtloop.h"
+#include "omni4/config/config.h"
+#include "omni4/base/getopt_exact.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/firmware/param_service.h"
+#include "omni4/firmware/peer.h"
+#include "omni4/firmware/robot.h"
+#include "omni4/firmware/rtloop.h"
 #include "omni4/version.h"
 
 static volatile sig_atomic_t g_stop;

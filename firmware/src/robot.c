@@ -1,6 +1,6 @@
 /* robot.c - a robot built from its settings (robot.h): the rows of backends.def as one table
  * per HAL from the backend enums onto their code (struct robot_backend, each in its own file). */
-#include "omni4/robot.h"
+#include "omni4/firmware/robot.h"
 
 #include <stdio.h>
 #include <string.h>

@@ -1,5 +1,5 @@
 /* robot_gpiod.c - the libgpiod line backend as the robot opens it (robot.h). Linux only. */
-#include "omni4/robot.h"
+#include "omni4/firmware/robot.h"
 
 #include <stdio.h>
 #include <string.h>

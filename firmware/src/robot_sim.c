@@ -1,6 +1,6 @@
 /* robot_sim.c - the portable backends as the robot opens them (robot.h): the simulated plant,
  * the simulated lines, no lines. */
-#include "omni4/robot.h"
+#include "omni4/firmware/robot.h"
 
 #include <stdio.h>
 

@@ -1,7 +1,7 @@
 /* robot_socketcan.c - the SocketCAN motor backend as the robot opens it (robot.h): the bus's
  * load, the plausibility limits that follow the settings, its counters. Linux only. */
-#include "omni4/can_limits.h"
-#include "omni4/robot.h"
+#include "omni4/firmware/can_limits.h"
+#include "omni4/firmware/robot.h"
 
 #include <errno.h>
 #include <stdio.h>

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <map>
 
-#include "omni4/vocab.h"
+#include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 
 namespace omni4

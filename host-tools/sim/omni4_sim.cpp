@@ -1,7 +1,7 @@
 // omni4-sim: the firmware loop in lockstep with the simulated plant, driven through OMNI4_CMD by
 // the paper's experiment sequence, every message written to an LCM event log.
 #include "cli.hpp"
-#include "omni4/vocab.h"
+#include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 #include <unistd.h>
 

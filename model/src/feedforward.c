@@ -1,7 +1,7 @@
 /* feedforward.c - double feedforward and the set-up of its Q16.16 coefficients. */
-#include "omni4/feedforward.h"
+#include "omni4/model/feedforward.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>

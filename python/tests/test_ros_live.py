@@ -654,7 +654,7 @@ def _check_bag(logs, out):
 
 
 STATE_STANDIN = '''\
-# A stand-in for the controller's state_t (core/include/omni4/est.h's est_output), put into
+# A stand-in for the controller's state_t (core/include/omni4/core/est.h's est_output), put into
 # the omni4 package of this omni4-ros process only: JSON on the wire.
 import json
 import omni4

@@ -1,4 +1,4 @@
-"""The vocabulary (core/include/omni4/vocab.def, drivers/include/omni4/backends.def) as the
+"""The vocabulary (core/include/omni4/core/vocab.def, drivers/include/omni4/drivers/backends.def) as the
 package sees it: generated from the rows as they are now, in agreement with every constant of
 the LCM types both ways, and a new mode or backend is one row."""
 import os

@@ -11,7 +11,7 @@
 
 #include <cmocka.h>
 
-#include "omni4/robot.h"
+#include "omni4/firmware/robot.h"
 
 /* ---- the echo backend's code: what adding a real backend would write ---------------------- */
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "identify.hpp"
-#include "omni4/vocab.h"
+#include "omni4/core/vocab.h"
 #include "logdata.hpp"
 #include "offsets.hpp"
 #include "omni4/motors_t.hpp"

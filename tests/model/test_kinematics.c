@@ -4,9 +4,9 @@
 #include <float.h>
 #include <math.h>
 
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/rng.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/rng.h"
 
 static const double d = 0.089;
 
