@@ -13,11 +13,11 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/channels.h"
-#include "omni4/clock.h"
-#include "omni4/lcmio.h"
-#include "omni4/robot.h"
-#include "omni4/rtloop.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/base/clock.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/firmware/robot.h"
+#include "omni4/firmware/rtloop.h"
 #include "omni4_command_t.h"
 
 static _Atomic int64_t seen_ns; /* when the awaited value was first written */

@@ -23,11 +23,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/channels.h"
-#include "omni4/config.h"
-#include "omni4/est.h"
-#include "omni4/goal.h"
-#include "omni4/simrun.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
+#include "omni4/core/goal.h"
+#include "omni4/sil/simrun.h"
 #include "omni4_goal_status_t.h"
 #include "omni4_goal_t.h"
 #include "omni4_motors_t.h"

@@ -24,7 +24,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import traj_optimal as topt  # noqa: E402
 
-MARGIN_V = 2.0        # GOAL_MARGIN_V (core/include/omni4/goal.h)
+MARGIN_V = 2.0        # GOAL_MARGIN_V (core/include/omni4/core/goal.h)
 MU_OFF = (0.6, 0.1)   # GOAL_MU_DEFAULT, GOAL_TRACTION_MARGIN: traction_mu = 0
 MOTOR_MAX = 600.0     # GOAL_MOTOR_SPEED_MAX_RAD_S
 

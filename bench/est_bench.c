@@ -19,11 +19,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/channels.h"
-#include "omni4/config.h"
-#include "omni4/est.h"
-#include "omni4/sim_motor.h"
-#include "omni4/simrun.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/drivers/sim_motor.h"
+#include "omni4/sil/simrun.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_pose_t.h"
@@ -103,8 +104,10 @@ static void odometry(const struct bench *b, const omni4_motors_t *m, const doubl
 
 	for (int j = 0; j < 4; j++)
 		vw[j] = m->wheel_speed[j] * b->r * (1.0 + err[j]);
-	const double v = 0.5 * (vw[3] - vw[1]), vn = 0.5 * (vw[0] - vw[2]);
-	const double w = (vw[0] + vw[1] + vw[2] + vw[3]) / (4.0 * b->d);
+	double x[3];
+
+	fk_robot_velocity(b->d, vw, x);
+	const double v = x[0], vn = x[1], w = x[2];
 	const double dt = *last ? (double)(m->utime - *last) * 1e-6 : 0.0;
 	const double th = pose[2] + 0.5 * w * dt;
 

@@ -6,9 +6,9 @@
 #include <vector>
 
 extern "C" {
-#include "omni4/feedforward.h"
-#include "omni4/kinematics.h"
-#include "omni4/rng.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/rng.h"
 }
 
 namespace

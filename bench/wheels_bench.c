@@ -16,9 +16,9 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/ctl.h"
-#include "omni4/sim_motor.h"
+#include "omni4/config/config.h"
+#include "omni4/core/ctl.h"
+#include "omni4/drivers/sim_motor.h"
 
 #define RUN_S 3.0
 #define MEAN_S 1.0

@@ -1,5 +1,5 @@
 /* hal_none.c - the line backend for a robot with no e-stop / enable / LED lines wired. */
-#include "omni4/hal.h"
+#include "omni4/core/hal.h"
 
 #include <stddef.h>
 

@@ -11,7 +11,7 @@
 #include <math.h>
 #include <stdio.h>
 
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 #define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
 #define MOVING_GOAL_PLANS 40

@@ -1,4 +1,4 @@
-"""The Python constants of lcmtypes/include/omni4/channels.h (the only place the channel names,
+"""The Python constants of lcmtypes/include/omni4/lcmtypes/channels.h (the only place the channel names,
 the end mark and the default LCM URL are written): setup.py writes omni4/_channels.py with
 python_module() when the package is built, and the tests check the generator itself.
 
@@ -44,7 +44,7 @@ def constants(text, path="channels.h"):
 
 def python_module(text, path="channels.h"):
     """The source of omni4/_channels.py for the header text (path names it in errors)."""
-    lines = [f'"""Generated from lcmtypes/include/omni4/channels.h by python/setup.py when the '
+    lines = [f'"""Generated from lcmtypes/include/omni4/lcmtypes/channels.h by python/setup.py when the '
              'package is built:\nedit the header, not this file."""']
     consts = constants(text, path)
     for name, value, comment in consts:

@@ -11,8 +11,8 @@ import re
 import gen_vocab  # beside this file
 
 # The layers' key lists before the backends' (repository-relative).
-LAYER_FILES = ("core/include/omni4/ctl_keys.def", "core/include/omni4/est_keys.def",
-               "config/include/omni4/fw_keys.def")
+LAYER_FILES = ("core/include/omni4/core/ctl_keys.def", "core/include/omni4/core/est_keys.def",
+               "config/include/omni4/config/fw_keys.def")
 KINDS = {"DBL": "double", "INT": "int", "BOOL": "bool", "STR": "string", "ENUM": "choice"}
 _ROW = re.compile(r'^OMNI4_KEY\(\s*([A-Z]+)\s*,\s*"([a-z_]+)"\s*,\s*"([A-Za-z0-9_]+)"\s*,')
 
@@ -39,7 +39,7 @@ def def_files(root):
     """The key lists in the order config/src/config.c includes them: the layers', then each
     backend's (backends.def's keys column, in its rows' order)."""
     backends = gen_vocab.read(root)["OMNI4_BACKEND"]
-    return LAYER_FILES + tuple(f"drivers/include/omni4/{keys}" for _, _, _, keys, _ in backends
+    return LAYER_FILES + tuple(f"drivers/include/omni4/drivers/{keys}" for _, _, _, keys, *_ in backends
                                if keys)
 
 

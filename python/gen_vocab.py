@@ -1,21 +1,21 @@
-"""The robot's vocabulary for the Python package and the docs, from core/include/omni4/vocab.def
-(modes, fault bits, state flags) and drivers/include/omni4/backends.def (the backends): setup.py
+"""The robot's vocabulary for the Python package and the docs, from core/include/omni4/core/vocab.def
+(modes, fault bits, state flags) and drivers/include/omni4/drivers/backends.def (the backends): setup.py
 writes omni4/_vocab.py with python_module() when the package is built, and
 tests/host/check_vocab_doc.py compares docs/vocabulary.md with markdown().
 
 Rows are one line each: `OMNI4_MODE(NAME, value, wire, drives, keep_alive, faulted, "doc")`,
 `OMNI4_FAULT(NAME, bit, latching, "doc")`, `OMNI4_FLAG(NAME, bit, "doc")`,
-`OMNI4_BACKEND(HAL, NAME, "word", "keys file", "provides")`. A row the generator cannot read stops the
+`OMNI4_BACKEND(HAL, NAME, "word", "keys file", member, settings, state, "header", os, "provides")`. A row the generator cannot read stops the
 build instead of going missing in Python."""
 import os
 import re
 
-VOCAB_DEF = "core/include/omni4/vocab.def"
-BACKENDS_DEF = "drivers/include/omni4/backends.def"
+VOCAB_DEF = "core/include/omni4/core/vocab.def"
+BACKENDS_DEF = "drivers/include/omni4/drivers/backends.def"
 WIRES = ("CMD", "STATE", "BOTH")
 _ROW = re.compile(r"^(OMNI4_[A-Z]+)\((.*)\)\s*$")
 _ARG = re.compile(r'\s*("(?:[^"\\]|\\.)*"|[^,]+?)\s*(?:,|$)')
-_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 5}
+_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 10}
 
 
 class VocabError(ValueError):
@@ -82,7 +82,7 @@ def python_module(root=None, vocab=None):
     """The source of omni4/_vocab.py for the repository at root (or an already read vocab)."""
     v = vocab if vocab is not None else read(root)
     modes, faults, flags = v["OMNI4_MODE"], v["OMNI4_FAULT"], v["OMNI4_FLAG"]
-    lines = ['"""Generated from core/include/omni4/vocab.def and drivers/include/omni4/backends.def '
+    lines = ['"""Generated from core/include/omni4/core/vocab.def and drivers/include/omni4/drivers/backends.def '
              'by\npython/setup.py when the package is built: edit those, not this file."""',
              "# name -> value of every mode; which ones command_t / motors_t carry, drive the "
              "bridges,\n# need keep-alive, are fault states.",
@@ -139,7 +139,7 @@ __all__ = ["MODES", "MODE_DOCS", "MODE_NAMES", "COMMAND_MODES", "REPORTED_MODES"
 
 def _backend(row):
     """(hal, INI word, keys file, provides) of a backend row: the hal as its INI key."""
-    return (row[0].lower(), *row[2:])
+    return (row[0].lower(), row[2], row[3], row[-1])
 
 
 def _yes(flag):

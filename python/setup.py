@@ -1,7 +1,7 @@
 """Generates, at build time, what the package takes from the rest of the repository so that each
 fact stays written once: the LCM message modules (omni4/command_t.py, ...) from
 ../lcmtypes/*.lcm with lcm-gen, and the channel names and default LCM URL (omni4/_channels.py)
-from ../lcmtypes/include/omni4/channels.h (gen_channels.py), and the INI key list (omni4/_keys.py)
+from ../lcmtypes/include/omni4/lcmtypes/channels.h (gen_channels.py), and the INI key list (omni4/_keys.py)
 from the layers' *_keys.def (gen_keys.py), and the modes, fault bits, flags and backends
 (omni4/_vocab.py) from core/'s vocab.def and drivers/' backends.def (gen_vocab.py).
 

@@ -2,10 +2,10 @@
  * change, doc) built from each layer's key list, the defaults, and each key's value: parsed and
  * range-checked, formatted as the INI holds it, compared; the checks across keys. The reader is
  * config_read.c, the writer and the file save config_save.c. */
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 #include "config_table.h"
 
-#include "omni4/channels.h"
+#include "omni4/lcmtypes/channels.h"
 
 #include <errno.h>
 #include <math.h>
@@ -41,11 +41,11 @@
  * enums' order (the table takes each from its first word on). */
 static const char motor_words[] =
 #define OMNI4_BACKEND(hal, name, word, ...) BACKEND_MOTOR_##hal("|" word)
-#include "omni4/backends.def"
+#include "omni4/drivers/backends.def"
     ;
 static const char lines_words[] =
 #define OMNI4_BACKEND(hal, name, word, ...) BACKEND_LINES_##hal("|" word)
-#include "omni4/backends.def"
+#include "omni4/drivers/backends.def"
     ;
 #define OMNI4_MOTOR_CHOICES (motor_words + 1)
 #define OMNI4_LINES_CHOICES (lines_words + 1)
@@ -58,23 +58,17 @@ static const char lines_words[] =
  */
 const struct config_key config_keys[] = {
 #define OMNI4_KEY(...) ROW(ctl, __VA_ARGS__)
-#include "omni4/ctl_keys.def"
+#include "omni4/core/ctl_keys.def"
 #undef OMNI4_KEY
 #define OMNI4_KEY(kind, section, key, field, ...)                                                  \
 	ROW(ctl, kind, section, key, est.field, __VA_ARGS__)
-#include "omni4/est_keys.def"
+#include "omni4/core/est_keys.def"
 #undef OMNI4_KEY
 #define OMNI4_KEY(...) ROW(fw, __VA_ARGS__)
-#include "omni4/fw_keys.def"
+#include "omni4/config/fw_keys.def"
 #undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(sim, __VA_ARGS__)
-#include "omni4/sim_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(can, __VA_ARGS__)
-#include "omni4/socketcan_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(...) ROW(gpio, __VA_ARGS__)
-#include "omni4/gpiod_keys.def"
+#define OMNI4_KEY(...) ROW(OMNI4_BACKEND_MEMBER, __VA_ARGS__)
+#include "omni4/drivers/backend_keys.inc"
 #undef OMNI4_KEY
 };
 
@@ -93,15 +87,12 @@ void config_defaults(struct omni4_config *cfg)
 {
 	memset(cfg, 0, sizeof(*cfg));
 	ctl_settings_defaults(&cfg->ctl);
-	sim_settings_defaults(&cfg->sim);
 #define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->fw.field, def);
-#include "omni4/fw_keys.def"
+#include "omni4/config/fw_keys.def"
 #undef OMNI4_KEY
-#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->can.field, def);
-#include "omni4/socketcan_keys.def"
-#undef OMNI4_KEY
-#define OMNI4_KEY(kind, section, key, field, def, ...) DEFAULT_##kind(cfg->gpio.field, def);
-#include "omni4/gpiod_keys.def"
+#define OMNI4_KEY(kind, section, key, field, def, ...)                                             \
+	DEFAULT_##kind(cfg->OMNI4_BACKEND_MEMBER.field, def);
+#include "omni4/drivers/backend_keys.inc"
 #undef OMNI4_KEY
 }
 

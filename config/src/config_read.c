@@ -1,7 +1,7 @@
 /* config_read.c - the INI reader: inih with a line-counting reader around it (inih's default
  * build gives its handler no line numbers), every key through the table (config.c), the checks
  * across keys after the whole file is in. */
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 #include "config_table.h"
 
 #include <errno.h>

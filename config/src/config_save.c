@@ -1,9 +1,9 @@
 /* config_save.c - the INI writer (every key of the table, with its doc and unit) and the
  * crash-safe replacement of a robot's INI file (omni4/outfile.h), the previous file kept. */
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 #include "config_table.h"
 
-#include "omni4/outfile.h"
+#include "omni4/config/outfile.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -6,7 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 
 #define CONFIG_KEYS_MAX 256 /* room in the reader's per-key arrays (checked against the table) */
 

@@ -1,6 +1,6 @@
 /* outfile.c - a file the user named, written by what is there: replaced through a temporary,
  * through a symbolic link, or in place (a device or FIFO); see omni4/outfile.h. */
-#include "omni4/outfile.h"
+#include "omni4/config/outfile.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -1,8 +1,8 @@
 /* ctl.c - modes, watchdog, faults, reference shaping, IK + feedforward (Q16.16) and PI; the
  * tick in single precision and Q16.16 (ctl.h). */
-#include "omni4/ctl.h"
+#include "omni4/core/ctl.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>
@@ -73,10 +73,17 @@ int ctl_init(struct ctl *c, const struct ctl_settings *cfg)
 	traction_reset(&c->trac);
 	if (ctl_settings_check(cfg, &bad, &why))
 		return -EINVAL;
+	return ctl_init_checked(c, cfg);
+}
+
+int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
+{
 	struct model_wheels w;
 
+	memset(c, 0, sizeof(*c));
+	traction_reset(&c->trac);
 	ctl_settings_wheels(cfg, &w);
-	if (ff_q16_wheels_init(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
+	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
 		return -EINVAL;
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);

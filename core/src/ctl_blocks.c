@@ -1,5 +1,5 @@
 /* ctl_blocks.c - PI, ramp, reference shaper and offset calibration (see ctl_blocks.h). */
-#include "omni4/ctl_blocks.h"
+#include "omni4/core/ctl_blocks.h"
 
 #include <math.h>
 #include <string.h>

@@ -1,6 +1,6 @@
 /* ctl_settings.c - the controller's default settings (expanded from ctl_keys.def) and the checks
  * across them. No I/O: on a microcontroller these defaults are the whole configuration. */
-#include "omni4/ctl_settings.h"
+#include "omni4/core/ctl_settings.h"
 
 #include <errno.h>
 #include <math.h>
@@ -10,7 +10,7 @@ void ctl_settings_defaults(struct ctl_settings *s)
 {
 	*s = (struct ctl_settings){0};
 #define OMNI4_KEY(kind, section, key, field, def, ...) s->field = (def);
-#include "omni4/ctl_keys.def"
+#include "omni4/core/ctl_keys.def"
 #undef OMNI4_KEY
 	est_keys_defaults(&s->est);
 }

@@ -16,14 +16,15 @@
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
  */
-#include "omni4/est.h"
+#include "omni4/core/est.h"
 
 #include <errno.h>
 #include <math.h>
 #include <string.h>
 
 #include "est_priv.h"
-#include "omni4/la_f32.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/core/la_f32.h"
 
 /* Per-tick exact solution of x' = a x + f: x+ = phi x + gam f. */
 static void discretise(double a, double dt, float *phi, float *gam)
@@ -63,8 +64,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 {
 	struct model_ss_wheels ss;
 
-	if (model_params_check(p, NULL) || model_wheels_check(w, NULL))
-		return;
+	MODEL_ASSERT_CHECKED(p, w);
 	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
 		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
@@ -90,6 +90,8 @@ void est_set_model(struct est *e, const struct model_params *p)
 	struct model_wheels w;
 
 	model_wheels_from_params(p, &w);
+	if (model_params_check(p, NULL) || model_wheels_check(&w, NULL))
+		return; /* a bad model is ignored: the one in force stays */
 	est_set_model_wheels(e, p, &w);
 }
 
@@ -274,9 +276,7 @@ static void scalar_update(struct est *e, int i, float nu, float r)
 /* The tick's wheel readings as a velocity (eqs 3-5) and the null-space residual. */
 static void wheel_velocity(const struct est *e, const float v[4], float z[3], float *null_res)
 {
-	z[0] = 0.5f * (v[3] - v[1]);
-	z[1] = 0.5f * (v[0] - v[2]);
-	z[2] = (v[0] + v[1] + v[2] + v[3]) / (4.0f * e->d);
+	fk_robot_velocity_f32(e->d, v, z);
 	*null_res = v[0] - v[1] + v[2] - v[3];
 }
 

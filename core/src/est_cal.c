@@ -6,7 +6,7 @@
 #include <math.h>
 
 #include "est_priv.h"
-#include "omni4/la_f32.h"
+#include "omni4/core/la_f32.h"
 
 /* The scale errors k = N a with N's columns (1,-1,1,-1)/2, (1,1,-1,-1)/2, (1,-1,-1,1)/2: the
  * three patterns orthogonal to the common scale (1,1,1,1), which no equation fixes (k_j = -1 for

@@ -7,8 +7,8 @@
 #include <math.h>
 
 #include "est_priv.h"
-#include "omni4/est_replay.h"
-#include "omni4/la_f32.h"
+#include "omni4/core/est_replay.h"
+#include "omni4/core/la_f32.h"
 
 /* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
 static float mahalanobis2(const struct est *e, const float nu[3])

@@ -9,7 +9,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/est.h"
+#include "omni4/core/est.h"
 
 /* est.c: one tick (predict, wheel update, the late measurement stored at it); live: the real
  * tick (flags and outputs), not a replay. */

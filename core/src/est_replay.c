@@ -1,5 +1,5 @@
 /* est_replay.c - late measurements replayed from their tick (est_replay.h). */
-#include "omni4/est_replay.h"
+#include "omni4/core/est_replay.h"
 
 #include <errno.h>
 #include <string.h>

@@ -3,13 +3,13 @@
  * figures and thresholds"). */
 #include <errno.h>
 
-#include "omni4/est.h"
-#include "omni4/est_keys.h"
+#include "omni4/core/est.h"
+#include "omni4/core/est_keys.h"
 
 void est_keys_defaults(struct est_keys *k)
 {
 #define OMNI4_KEY(kind, section, key, field, def, ...) k->field = (def);
-#include "omni4/est_keys.def"
+#include "omni4/core/est_keys.def"
 #undef OMNI4_KEY
 }
 
@@ -21,7 +21,7 @@ void est_keys_defaults(struct est_keys *k)
 void est_settings_from_keys(const struct est_keys *k, struct est_settings *s)
 {
 #define OMNI4_KEY(kind, section, key, field, ...) s->field = EST_FROM_KEY_##kind(k->field);
-#include "omni4/est_keys.def"
+#include "omni4/core/est_keys.def"
 #undef OMNI4_KEY
 }
 

@@ -35,7 +35,7 @@
 #include <string.h>
 
 #include "est_priv.h"
-#include "omni4/la_f32.h"
+#include "omni4/core/la_f32.h"
 
 #define SLIP_CAM_RUN 2 /* comparisons in a row beyond the threshold */
 

@@ -1,5 +1,5 @@
 /* fw.c - the loop body: commands -> HAL read -> controller -> HAL write -> log ring. */
-#include "omni4/fw.h"
+#include "omni4/core/fw.h"
 
 #include <errno.h>
 #include <math.h>
@@ -45,9 +45,10 @@ void fw_set_param_hooks(struct fw *fw, const struct fw_param_hooks *hooks)
 int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_only,
                      struct fw_param_update *u, char *why, size_t n)
 {
-	struct ctl scratch; /* ctl_init checks and precomputes exactly as at start-up */
+	struct ctl
+	    scratch; /* precomputed exactly as at start-up, on the model checked at the door */
 
-	if (ctl_init(&scratch, cfg) || scratch.period_us != fw->ctl.period_us) {
+	if (ctl_init_checked(&scratch, cfg) || scratch.period_us != fw->ctl.period_us) {
 		static const char msg[] = "the controller refuses these values";
 
 		if (n) {

@@ -1,6 +1,6 @@
 /* goal.c - position control on the trajectory generator: checks, plan, path, tracking law,
  * progress (goal.h, docs/goal.md). */
-#include "omni4/goal.h"
+#include "omni4/core/goal.h"
 
 #include <errno.h>
 #include <math.h>

@@ -1,6 +1,6 @@
 /* goal_fixed.c - the fixed-limits peer of the goal mode's planner: a box inside the model's
  * envelope and a TIGERs-style plan under it (goal_fixed.h, docs/goal.md). */
-#include "omni4/goal_fixed.h"
+#include "omni4/core/goal_fixed.h"
 
 #include <errno.h>
 #include <math.h>

@@ -1,5 +1,5 @@
 /* la_f32.c - the core's small single-precision mathematics (la_f32.h). */
-#include "omni4/la_f32.h"
+#include "omni4/core/la_f32.h"
 
 #include <errno.h>
 #include <math.h>

@@ -1,5 +1,5 @@
 /* ring.c - SPSC ring (see ring.h). */
-#include "omni4/ring.h"
+#include "omni4/core/ring.h"
 
 #include <errno.h>
 #include <string.h>

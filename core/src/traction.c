@@ -1,5 +1,5 @@
 /* traction.c - the traction limit of the reference shaping and its slip back-off (traction.h). */
-#include "omni4/traction.h"
+#include "omni4/core/traction.h"
 
 #include <math.h>
 

@@ -3,7 +3,7 @@
  * the plans (a straight line, the x/y box, stop first), the heading's share, re-planning and the
  * hand-over. Single precision after traj_init; every loop has a fixed bound.
  */
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 #include "traj_int.h"
 
 #include <errno.h>

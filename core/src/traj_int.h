@@ -8,7 +8,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 /*
  * One wheel constraint in the world frame at one heading. On a symmetric box of accelerations

@@ -4,7 +4,7 @@
  * swings toward the robot's diagonal and back, and re-timing a path plan from its reference.
  * Single precision, fixed sizes, no allocation.
  */
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 #include <errno.h>
 #include <math.h>

@@ -1,5 +1,5 @@
 /* can_proto.c - pack/unpack of the omni4 CAN frames (see can_proto.h and omni4.dbc). */
-#include "omni4/can_proto.h"
+#include "omni4/drivers/can_proto.h"
 
 #include <errno.h>
 #include <math.h>

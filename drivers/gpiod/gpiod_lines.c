@@ -1,5 +1,5 @@
 /* gpiod_lines.c - line HAL on libgpiod 1.6 (the only file that calls libgpiod). */
-#include "omni4/gpiod_lines.h"
+#include "omni4/drivers/gpiod_lines.h"
 
 #include <errno.h>
 #include <gpiod.h>

@@ -1,5 +1,5 @@
 /* sim_motor.c - the model/ plant behind the motor HAL, with the paper's sensor noise. */
-#include "omni4/sim_motor.h"
+#include "omni4/drivers/sim_motor.h"
 
 #include <errno.h>
 #include <math.h>
@@ -11,7 +11,7 @@ void sim_settings_defaults(struct sim_settings *s)
 {
 	*s = (struct sim_settings){0};
 #define OMNI4_KEY(kind, section, key, field, def, ...) s->field = (def);
-#include "omni4/sim_keys.def"
+#include "omni4/drivers/sim_keys.def"
 #undef OMNI4_KEY
 }
 

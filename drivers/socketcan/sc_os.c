@@ -1,7 +1,7 @@
 /* sc_os.c - raw SocketCAN calls (the OS boundary of the socketcan backend). */
-#include "omni4/sc_os.h"
+#include "omni4/drivers/sc_os.h"
 
-#include "omni4/clock.h"
+#include "omni4/base/clock.h"
 
 #include <errno.h>
 #include <fcntl.h>

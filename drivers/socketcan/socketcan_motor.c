@@ -1,5 +1,5 @@
 /* socketcan_motor.c - motor HAL over the omni4 CAN protocol (OS calls only via sc_os.h). */
-#include "omni4/socketcan_motor.h"
+#include "omni4/drivers/socketcan_motor.h"
 
 #include <errno.h>
 #include <math.h>
@@ -7,8 +7,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/clock.h"
-#include "omni4/sc_os.h"
+#include "omni4/base/clock.h"
+#include "omni4/drivers/sc_os.h"
 
 static bool limits_valid(const struct sc_limits *lim);
 

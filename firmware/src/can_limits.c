@@ -1,5 +1,5 @@
 /* can_limits.c - the CAN plausibility limits from the controller's settings (can_limits.h). */
-#include "omni4/can_limits.h"
+#include "omni4/firmware/can_limits.h"
 
 #include <math.h>
 

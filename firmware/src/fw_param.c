@@ -1,10 +1,10 @@
 /* fw_param.c - a parameter update handed to the loop, with a bounded wait (see fw_param.h). */
-#include "omni4/fw_param.h"
+#include "omni4/firmware/fw_param.h"
 
 #include <errno.h>
 #include <time.h>
 
-#include "omni4/clock.h"
+#include "omni4/base/clock.h"
 
 struct fw_param_result fw_param_apply(struct fw *fw, struct fw_param_update *u, int64_t timeout_us)
 {

@@ -1,5 +1,5 @@
 /* goalcodec.c - goal_t in, goal_status_t out, through the generated types (goalcodec.h). */
-#include "omni4/goalcodec.h"
+#include "omni4/firmware/goalcodec.h"
 
 #include <errno.h>
 #include <stdint.h>

@@ -1,8 +1,8 @@
 /* lcmcodec.c - the controller's messages as LCM bytes (lcmcodec.h): command_t in, motors_t,
  * pose_t and calibration notices out, through the generated types. */
-#include "omni4/lcmcodec.h"
+#include "omni4/firmware/lcmcodec.h"
 
-#include "omni4/goalcodec.h"
+#include "omni4/firmware/goalcodec.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -26,7 +26,7 @@
 #define OMNI4_MODE(name, value, wire, ...) WIRE_##wire(name)
 #define OMNI4_FAULT(name, ...) SAME(CTL_FAULT_##name, OMNI4_MOTORS_T_FAULT_##name)
 #define OMNI4_FLAG(name, ...) SAME(EST_FLAG_##name, OMNI4_STATE_T_FLAG_##name)
-#include "omni4/vocab.def"
+#include "omni4/core/vocab.def"
 #undef WIRE_CMD
 #undef WIRE_STATE
 #undef WIRE_BOTH

@@ -1,9 +1,9 @@
 /* lcmio.c - the LCM threads of omni4-fw: command receive, log publishing, the watch for another
  * controller (lcmio.h); the bytes are lcmcodec's. */
-#include "omni4/lcmio.h"
+#include "omni4/firmware/lcmio.h"
 
-#include "omni4/goalcodec.h"
-#include "omni4/rtloop.h"
+#include "omni4/firmware/goalcodec.h"
+#include "omni4/firmware/rtloop.h"
 
 #include <errno.h>
 #include <math.h>

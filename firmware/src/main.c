@@ -13,13 +13,13 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/config.h"
-#include "omni4/getopt_exact.h"
-#include "omni4/lcmio.h"
-#include "omni4/param_service.h"
-#include "omni4/peer.h"
-#include "omni4/robot.h"
-#include "omni4/rtloop.h"
+#include "omni4/config/config.h"
+#include "omni4/base/getopt_exact.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/firmware/param_service.h"
+#include "omni4/firmware/peer.h"
+#include "omni4/firmware/robot.h"
+#include "omni4/firmware/rtloop.h"
 #include "omni4/version.h"
 
 static volatile sig_atomic_t g_stop;
@@ -179,10 +179,10 @@ static int build(struct app *app, const struct omni4_config *cfg, const char *pa
 	    .ctl = &cfg->ctl,
 	    .motor = (enum omni4_motor_backend)cfg->fw.motor,
 	    .lines = (enum omni4_lines_backend)cfg->fw.lines,
-	    .sim = &cfg->sim,
-	    .utime0 = rtloop_clock_us(),
-	    .can = &cfg->can,
-	    .gpio = &cfg->gpio,
+#define SPEC_SETTINGS(member, settings) .member = &cfg->member,
+	    OMNI4_BACKEND_SETTINGS(SPEC_SETTINGS)
+#undef SPEC_SETTINGS
+	        .utime0 = rtloop_clock_us(),
 	    .wrap = peer_guard_wrap,
 	    .wrap_ctx = &app->guard,
 	};
@@ -263,20 +263,6 @@ static void wait_for_stop(const struct options *o)
 	}
 }
 
-static void print_can_counters(const struct sc_counters *n)
-{
-	fprintf(stderr,
-	        "omni4-fw: can: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-	        "lost %llu error_frames %llu bus_off %llu flood_cut %llu implausible %llu "
-	        "confirmed %llu\n",
-	        (unsigned long long)n->rx_frames, (unsigned long long)n->tx_frames,
-	        (unsigned long long)n->tx_dropped, (unsigned long long)n->crc_errors,
-	        (unsigned long long)n->replayed, (unsigned long long)n->lost,
-	        (unsigned long long)n->error_frames, (unsigned long long)n->bus_off,
-	        (unsigned long long)n->flood_cut, (unsigned long long)n->implausible,
-	        (unsigned long long)n->confirmed);
-}
-
 static void print_summary(const struct app *app, struct lcmio *io, const struct rtloop *loop)
 {
 	const struct fw *fw = &app->robot.fw;
@@ -300,8 +286,7 @@ static void print_summary(const struct app *app, struct lcmio *io, const struct 
 	        (unsigned long long)atomic_load(&p->denied),
 	        (unsigned long long)atomic_load(&p->bad), (unsigned long long)atomic_load(&p->busy),
 	        (unsigned long long)atomic_load(&p->saved));
-	if (app->robot.motor_kind == OMNI4_MOTOR_SOCKETCAN)
-		print_can_counters(&app->robot.can.n);
+	robot_summary(&app->robot);
 }
 
 /* "motor=sim lines=sim lcm=URL": the backends by their INI names. */
@@ -361,7 +346,8 @@ static int run(struct app *app, const struct omni4_config *cfg, const struct opt
 		param_service_stop(&app->params);
 		return 1;
 	}
-	if (app->robot.motor_kind != OMNI4_MOTOR_SIM && lcmio_take_camera(&io))
+	/* a backend without a camera of its own: the poses come over the bus */
+	if (!app->robot.motor.ops->read_pose && lcmio_take_camera(&io))
 		fprintf(stderr, "omni4-fw: warning: cannot subscribe to OMNI4_POSE: the estimate "
 		                "runs on the wheels and the model alone\n");
 	rc = run_loop(app, cfg, o, &loop);

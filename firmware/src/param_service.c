@@ -1,11 +1,11 @@
 /* param_service.c - the parameter protocol: list, get, set, load and save requests answered, change
  * notices sent (see param_service.h; its threads: param_thread.c; the wire guard: param_wire.c). */
-#include "omni4/param_service.h"
+#include "omni4/firmware/param_service.h"
 
-#include "omni4/fw_param.h"
-#include "omni4/outfile.h"
-#include "omni4/param_wire.h"
-#include "omni4/rtloop.h"
+#include "omni4/firmware/fw_param.h"
+#include "omni4/config/outfile.h"
+#include "omni4/firmware/param_wire.h"
+#include "omni4/firmware/rtloop.h"
 
 #include <errno.h>
 #include <limits.h>

@@ -1,8 +1,8 @@
 /* param_thread.c - the parameter service's threads (see param_service.h): LCM's receive thread
  * queues each request, the service thread handles them one by one, away from the loop. */
-#include "omni4/param_service.h"
+#include "omni4/firmware/param_service.h"
 
-#include "omni4/rtloop.h"
+#include "omni4/firmware/rtloop.h"
 
 #include <errno.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
 /* param_wire.c - the guard in front of lcm-gen's param_request_t decoder (see param_wire.h). */
-#include "omni4/param_wire.h"
+#include "omni4/firmware/param_wire.h"
 
 #include <stdint.h>
 #include <stdio.h>

@@ -1,10 +1,10 @@
 /* peer.c - one controller per bus (peer.h). */
-#include "omni4/peer.h"
+#include "omni4/firmware/peer.h"
 
 #include <stdio.h>
 
-#include "omni4/lcmio.h"
-#include "omni4/rtloop.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/firmware/rtloop.h"
 
 lcm_t *peer_open_lcm_alone(const char *url)
 {

@@ -1,5 +1,5 @@
 /* rtloop.c - fixed-rate loop thread with latency statistics. */
-#include "omni4/rtloop.h"
+#include "omni4/firmware/rtloop.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -10,7 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "omni4/clock.h"
+#include "omni4/base/clock.h"
 
 static int64_t ts_ns(const struct timespec *t)
 {

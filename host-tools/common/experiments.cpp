@@ -1,6 +1,6 @@
 // experiments.cpp - the paper's experiment sequence (see experiments.hpp).
 #include "experiments.hpp"
-#include "omni4/channels.h"
+#include "omni4/lcmtypes/channels.h"
 
 #include <stdexcept>
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 
+#include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 
 namespace omni4
@@ -26,7 +27,7 @@ const char *const kDirections[] = {"v", "vn", "w", "diag"};
 
 bool driven(int8_t mode)
 {
-	return mode == 1 || mode == 2; // VELOCITY, VOLTAGE: the logged voltages applied
+	return mode_drives(mode); // the logged voltages applied
 }
 
 // Robot velocity (v, vn, d w) [m/s] from the wheel speeds (eqs 3-5).

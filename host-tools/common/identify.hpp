@@ -22,7 +22,7 @@
 #include "windows.hpp"
 
 extern "C" {
-#include "omni4/params.h"
+#include "omni4/model/params.h"
 }
 
 namespace omni4

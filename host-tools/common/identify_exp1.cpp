@@ -6,7 +6,7 @@
 #include <numeric>
 
 extern "C" {
-#include "omni4/dynamics.h"
+#include "omni4/model/dynamics.h"
 }
 
 namespace omni4

@@ -1,6 +1,6 @@
 // logdata.cpp - event log reading (LCM C API) and segmentation.
 #include "logdata.hpp"
-#include "omni4/channels.h"
+#include "omni4/lcmtypes/channels.h"
 
 #include <fcntl.h>
 #include <sys/mman.h>

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "omni4/outfile.h"
+#include "omni4/config/outfile.h"
 
 // One line naming the path: "PATH: No space left on device".
 struct OutError : std::runtime_error {

@@ -1,8 +1,8 @@
 // runner.cpp - experiment runner over LCM: the paper's sequence, or experiment 2 by hand.
 #include "runner.hpp"
-#include "omni4/channels.h"
-#include "omni4/eventlog.h"
-#include "omni4/outfile.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/lcmtypes/eventlog.h"
+#include "omni4/config/outfile.h"
 
 #include <lcm/eventlog.h>
 #include <lcm/lcm.h>
@@ -32,7 +32,7 @@
 #include "omni4/state_t.hpp"
 
 extern "C" {
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 }
 
 namespace omni4

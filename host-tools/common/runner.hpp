@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "omni4/channels.h"
+#include "omni4/lcmtypes/channels.h"
 
 extern "C" {
-#include "omni4/params.h"
+#include "omni4/model/params.h"
 }
 
 namespace omni4

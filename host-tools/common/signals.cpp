@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 extern "C" {
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 }
 
 namespace omni4

@@ -8,8 +8,8 @@
 #include "omni4/command_t.hpp"
 
 extern "C" {
-#include "omni4/plant.h"
-#include "omni4/vocab.h"
+#include "omni4/model/plant.h"
+#include "omni4/core/vocab.h"
 }
 
 namespace omni4

@@ -16,7 +16,7 @@
 #include "experiments.hpp"
 
 extern "C" {
-#include "omni4/params.h"
+#include "omni4/model/params.h"
 }
 
 namespace omni4

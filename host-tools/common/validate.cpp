@@ -9,7 +9,7 @@
 #include "windows.hpp"
 
 extern "C" {
-#include "omni4/plant.h"
+#include "omni4/model/plant.h"
 }
 
 namespace omni4

@@ -9,7 +9,7 @@
 #include "logdata.hpp"
 
 extern "C" {
-#include "omni4/params.h"
+#include "omni4/model/params.h"
 }
 
 namespace omni4

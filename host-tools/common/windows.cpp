@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "omni4/vocab.h"
+#include "omni4/core/vocab.h"
 
 namespace omni4
 {

@@ -8,8 +8,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/getopt_exact.h"
+#include "omni4/config/config.h"
+#include "omni4/base/getopt_exact.h"
 #include "omni4/version.h"
 
 static const char *type_name(enum config_key_type t)

@@ -6,7 +6,7 @@
 #include <sstream>
 
 extern "C" {
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 }
 
 namespace omni4

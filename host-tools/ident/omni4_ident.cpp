@@ -30,7 +30,7 @@
 #include "validate.hpp"
 
 extern "C" {
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 }
 
 namespace

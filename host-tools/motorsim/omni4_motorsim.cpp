@@ -15,12 +15,12 @@
 #include "cli.hpp"
 
 extern "C" {
-#include "omni4/can_proto.h"
-#include "omni4/clock.h"
-#include "omni4/config.h"
-#include "omni4/plant.h"
-#include "omni4/rng.h"
-#include "omni4/sc_os.h"
+#include "omni4/drivers/can_proto.h"
+#include "omni4/base/clock.h"
+#include "omni4/config/config.h"
+#include "omni4/model/plant.h"
+#include "omni4/model/rng.h"
+#include "omni4/drivers/sc_os.h"
 }
 
 namespace

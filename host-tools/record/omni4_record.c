@@ -28,11 +28,11 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "omni4/channels.h"
-#include "omni4/clock.h"
-#include "omni4/eventlog.h"
-#include "omni4/getopt_exact.h"
-#include "omni4/outfile.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/base/clock.h"
+#include "omni4/lcmtypes/eventlog.h"
+#include "omni4/base/getopt_exact.h"
+#include "omni4/config/outfile.h"
 #include "omni4/version.h"
 
 #define RECORD_QUEUE_MESSAGES 100000

@@ -1,6 +1,7 @@
 // omni4-sim: the firmware loop in lockstep with the simulated plant, driven through OMNI4_CMD by
 // the paper's experiment sequence, every message written to an LCM event log.
 #include "cli.hpp"
+#include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 #include <unistd.h>
 
@@ -24,24 +25,12 @@ namespace
 
 std::string fault_names(int32_t f)
 {
-	using m = omni4::motors_t; // the bits of lcmtypes/motors_t.lcm
-	static const std::pair<int32_t, const char *> names[] = {
-	    {m::FAULT_OVERCURRENT, "OVERCURRENT"},
-	    {m::FAULT_DRIVER_TIMEOUT, "DRIVER_TIMEOUT"},
-	    {m::FAULT_DRIVER, "DRIVER"},
-	    {m::FAULT_BUS, "BUS"},
-	    {m::FAULT_ENCODER, "ENCODER"},
-	    {m::FAULT_CURRENT_SENSOR, "CURRENT_SENSOR"},
-	    {m::FAULT_SUPPLY, "SUPPLY"},
-	    {m::FAULT_ESTOP, "ESTOP"},
-	    {m::FAULT_CMD_TIMEOUT, "CMD_TIMEOUT"},
-	    {m::FAULT_CMD_REJECTED, "CMD_REJECTED"},
-	    {m::FAULT_LOG_OVERFLOW, "LOG_OVERFLOW"},
-	    {m::FAULT_OVERRUN, "OVERRUN"}};
 	std::string s;
-	for (const auto &[bit, name] : names)
-		if (f & bit)
+	for (int k = 0; k < 32; ++k) {
+		const char *name = fault_name(static_cast<int32_t>(1u << k)); // vocab.def's rows
+		if ((f >> k & 1) && name)
 			s += (s.empty() ? "" : "|") + std::string(name);
+	}
 	return s.empty() ? "none" : s;
 }
 

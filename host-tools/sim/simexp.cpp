@@ -1,6 +1,6 @@
 // simexp.cpp - lockstep simulation driven by the experiment sequence (see simexp.hpp).
 #include "simexp.hpp"
-#include "omni4/channels.h"
+#include "omni4/lcmtypes/channels.h"
 
 #include <chrono>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "traction_exp.hpp"
 
 extern "C" {
-#include "omni4/est.h"
+#include "omni4/core/est.h"
 }
 
 namespace omni4

@@ -9,8 +9,8 @@
 #include "experiments.hpp"
 
 extern "C" {
-#include "omni4/config.h"
-#include "omni4/simrun.h"
+#include "omni4/config/config.h"
+#include "omni4/sil/simrun.h"
 }
 
 namespace omni4

@@ -5,7 +5,7 @@
 
 #include <stdbool.h>
 
-#include "omni4/robot.h"
+#include "omni4/firmware/robot.h"
 #include "scenarios.h"
 
 /* From scenarios.c: a fresh robot (0, or -1), one tick at the scenarios' clock (its metered

@@ -7,10 +7,10 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/est.h"
-#include "omni4/plant.h"
-#include "omni4/rng.h"
-#include "omni4/robot.h"
+#include "omni4/core/est.h"
+#include "omni4/model/plant.h"
+#include "omni4/model/rng.h"
+#include "omni4/firmware/robot.h"
 
 /* One robot (the controller on the sim backends): static (an MCU has no heap, and struct fw
  * holds rings). */

@@ -7,11 +7,11 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/feedforward.h"
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/rng.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/rng.h"
 
 /* The per-wheel model (docs/model.md) on this core: equal wheels give the scalar bits (soft
  * double over 200 parameter sets, and Q16.16), and the per-wheel fixed-point feedforward and

@@ -1,7 +1,7 @@
 /* dynamics.c - forces, motor equation, state-space matrices (derived signs), steady state. */
-#include "omni4/dynamics.h"
+#include "omni4/model/dynamics.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <math.h>
 

@@ -1,7 +1,7 @@
 /* feedforward.c - double feedforward and the set-up of its Q16.16 coefficients. */
-#include "omni4/feedforward.h"
+#include "omni4/model/feedforward.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>
@@ -82,8 +82,16 @@ void ff_voltages_wheels(const struct model_params *p, const struct model_wheels 
 int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
                        const struct model_wheels *w, double u_max)
 {
-	if (model_params_check(p, NULL) || model_wheels_check(w, NULL) || !(u_max > 0.0) ||
-	    !isfinite(u_max))
+	if (model_params_check(p, NULL) || model_wheels_check(w, NULL))
+		return -EINVAL;
+	return ff_q16_wheels_prepare(ff, p, w, u_max);
+}
+
+int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
+                          const struct model_wheels *w, double u_max)
+{
+	MODEL_ASSERT_CHECKED(p, w);
+	if (!(u_max > 0.0) || !isfinite(u_max))
 		return -EINVAL;
 	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
 

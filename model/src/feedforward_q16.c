@@ -1,5 +1,5 @@
 /* feedforward_q16.c - the feedforward in Q16.16 (integer only: the fixed-point path). */
-#include "omni4/feedforward.h"
+#include "omni4/model/feedforward.h"
 
 /*
  * Per axis k, in volts (Q16.16 held in int64_t, never saturated on the way):

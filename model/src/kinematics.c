@@ -1,5 +1,5 @@
 /* kinematics.c - eqs 1-5, double. The Q16.16 twins live in kinematics_q16.c. */
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>

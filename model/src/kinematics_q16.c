@@ -1,5 +1,5 @@
 /* kinematics_q16.c - eqs 2-5 in Q16.16 (integer only: this file is the fixed-point path). */
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4])
 {

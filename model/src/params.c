@@ -1,5 +1,5 @@
 /* params.c - Table III defaults, field access by name index, and the sanity check. */
-#include "omni4/params.h"
+#include "omni4/model/params.h"
 
 #include <errno.h>
 #include <math.h>

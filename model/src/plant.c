@@ -1,8 +1,8 @@
 /* plant.c - exact per-axis integration of eq 23 with Coulomb friction and stiction, and the
  * floor: traction limit, wheel inertia, radius errors, creep (plant.h). */
-#include "omni4/plant.h"
+#include "omni4/model/plant.h"
 
-#include "omni4/kinematics.h"
+#include "omni4/model/kinematics.h"
 
 #include <errno.h>
 #include <math.h>

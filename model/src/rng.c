@@ -1,5 +1,5 @@
 /* rng.c - splitmix64 generator and Box-Muller normals. */
-#include "omni4/rng.h"
+#include "omni4/model/rng.h"
 
 #include <math.h>
 

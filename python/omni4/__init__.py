@@ -18,7 +18,7 @@ from .goal_status_t import goal_status_t
 __version__ = "0.1.0"
 
 # The channel names (CHANNEL_*), MARK_END and DEFAULT_LCM_URL, generated from
-# lcmtypes/include/omni4/channels.h when the package is built.
+# lcmtypes/include/omni4/lcmtypes/channels.h when the package is built.
 from ._channels import *  # noqa: E402,F401,F403
 from ._channels import __all__ as _CHANNEL_NAMES  # noqa: E402
 from ._channels import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS,  # noqa: E402

@@ -1,5 +1,5 @@
 """A file the user named (--out, a report's files), written by what is there, as the C and C++
-tools do (config/include/omni4/outfile.h):
+tools do (config/include/omni4/config/outfile.h):
 
 - nothing, or a regular file: written to PATH.tmpPID beside it, fsync'd, renamed over it, the
   directory fsync'd; a crash leaves the old or the new complete file; an existing file's

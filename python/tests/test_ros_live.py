@@ -20,6 +20,7 @@ import time
 
 import pytest
 from conftest import lcm_test_url
+from omni4 import _vocab
 
 pytestmark = pytest.mark.live
 
@@ -485,7 +486,7 @@ def test_cmd_vel_that_stops_coming_stops_the_robot(stack):
     _, m = bus.wait_motors(lambda m: m.utime > last and _at_rest(m), 3 * SCALE,
                            "wheels at rest after /cmd_vel stopped")
     took = (m.utime - last) * 1e-6
-    _, m_idle = bus.wait_motors(lambda m: m.mode == 0, 3 * SCALE, "IDLE after the stale stop")
+    _, m_idle = bus.wait_motors(lambda m: m.mode == _vocab.MODES["IDLE"], 3 * SCALE, "IDLE after the stale stop")
     print(f"/cmd_vel stopped: at rest {took:.3f} s after the last message "
           f"(fresh {FRESH_S} s + stop ramp {STOP_RAMP_S} s), then IDLE")
     # Held while fresh (0.5 s), then stopped by the ramp: measured 0.60-0.63 s. Never sooner
@@ -497,7 +498,7 @@ def test_cmd_vel_that_stops_coming_stops_the_robot(stack):
 
 def test_nan_cmd_vel_is_refused_and_never_a_command(stack):
     ros, bus = stack.ros, stack.bus
-    bus.wait_motors(lambda m: m.mode == 0, 3 * SCALE, "IDLE")
+    bus.wait_motors(lambda m: m.mode == _vocab.MODES["IDLE"], 3 * SCALE, "IDLE")
     time.sleep(0.2)
     with bus.lock:
         n_cmds = len(bus.cmds)
@@ -568,7 +569,7 @@ def test_cmd_vel_beyond_the_limits_is_clamped(stack):
         assert int(_value(_diag_status(a, "omni4: commands"), "clamped")) >= 1
     finally:
         assert ros.set_param("limits.vel_lin_max", 3.0).successful
-    bus.wait_motors(lambda m: m.mode == 0, 3 * SCALE, "IDLE")
+    bus.wait_motors(lambda m: m.mode == _vocab.MODES["IDLE"], 3 * SCALE, "IDLE")
 
 
 def test_a_rejected_command_shows_in_diagnostics_by_name(stack):
@@ -653,7 +654,7 @@ def _check_bag(logs, out):
 
 
 STATE_STANDIN = '''\
-# A stand-in for the controller's state_t (core/include/omni4/est.h's est_output), put into
+# A stand-in for the controller's state_t (core/include/omni4/core/est.h's est_output), put into
 # the omni4 package of this omni4-ros process only: JSON on the wire.
 import json
 import omni4

@@ -1,4 +1,4 @@
-"""The vocabulary (core/include/omni4/vocab.def, drivers/include/omni4/backends.def) as the
+"""The vocabulary (core/include/omni4/core/vocab.def, drivers/include/omni4/drivers/backends.def) as the
 package sees it: generated from the rows as they are now, in agreement with every constant of
 the LCM types both ways, and a new mode or backend is one row."""
 import os
@@ -81,7 +81,8 @@ def test_a_mode_is_one_row():
 
 def test_a_backend_is_one_row():
     g, v = _with_rows(extra_backends='OMNI4_BACKEND(MOTOR, SERIAL, "serial", "serial_keys.def", '
-                                     '"drivers on a serial line")\n')
+                                     'serial, serial_settings, serial_motor, "omni4/serial_motor.h", '
+                                     'LINUX, "drivers on a serial line")\n')
     ns = {}
     exec(g.python_module(vocab=v), ns)  # noqa: S102
     assert ns["backend_words"]("motor") == ("sim", "socketcan", "serial")

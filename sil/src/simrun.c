@@ -1,5 +1,5 @@
 /* simrun.c - lockstep firmware + plant, logging to an LCM event log (see simrun.h). */
-#include "omni4/simrun.h"
+#include "omni4/sil/simrun.h"
 
 #include <errno.h>
 #include <lcm/eventlog.h>
@@ -9,10 +9,10 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/eventlog.h"
-#include "omni4/goalcodec.h"
-#include "omni4/lcmcodec.h"
-#include "omni4/robot.h"
+#include "omni4/lcmtypes/eventlog.h"
+#include "omni4/firmware/goalcodec.h"
+#include "omni4/firmware/lcmcodec.h"
+#include "omni4/firmware/robot.h"
 #include "omni4_motors_t.h"
 
 struct simrun_channel {

@@ -2,7 +2,7 @@
  * line: "ID DATA(hex) signal=value ...", for the DBC cross-check (check_dbc.py). */
 #include <stdio.h>
 
-#include "omni4/can_proto.h"
+#include "omni4/drivers/can_proto.h"
 
 static void print(const struct omni4_can_frame *f, const char *signals)
 {

@@ -4,7 +4,7 @@
 #include <errno.h>
 #include <string.h>
 
-#include "omni4/can_proto.h"
+#include "omni4/drivers/can_proto.h"
 
 static void test_crc16_matches_the_ccitt_false_check_value(void **state)
 {

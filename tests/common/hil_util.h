@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/simrun.h"
+#include "omni4/sil/simrun.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 

@@ -6,7 +6,7 @@
 #include <gpiod.h>
 #include <string.h>
 
-#include "omni4/gpiod_lines.h"
+#include "omni4/drivers/gpiod_lines.h"
 
 /* Fake objects: the wrapped functions hand out these addresses. */
 static int fake_chip;

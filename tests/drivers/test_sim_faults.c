@@ -6,8 +6,8 @@
 
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/sim_motor.h"
+#include "omni4/config/config.h"
+#include "omni4/drivers/sim_motor.h"
 
 #define TWO_PI 6.283185307179586477
 

@@ -10,9 +10,9 @@
 #include <errno.h>
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/kinematics.h"
-#include "omni4/sim_motor.h"
+#include "omni4/config/config.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/drivers/sim_motor.h"
 
 static struct omni4_config config_ini(const char *ini)
 {

@@ -9,9 +9,9 @@
 
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/lcmcodec.h"
-#include "omni4/robot.h"
+#include "omni4/config/config.h"
+#include "omni4/firmware/lcmcodec.h"
+#include "omni4/firmware/robot.h"
 #include "omni4_motors_t.h"
 #include "omni4_sim_truth_t.h"
 

@@ -10,9 +10,9 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/can_limits.h"
-#include "omni4/sc_os.h"
-#include "omni4/socketcan_motor.h"
+#include "omni4/firmware/can_limits.h"
+#include "omni4/drivers/sc_os.h"
+#include "omni4/drivers/socketcan_motor.h"
 
 int __wrap_sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd);
 void __wrap_sc_os_close(int fd);

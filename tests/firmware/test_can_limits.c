@@ -5,7 +5,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/can_limits.h"
+#include "omni4/firmware/can_limits.h"
 
 /* The plausibility limits of the default robot (Table III, 12 V, 1 kHz), from the motor
  * physics of docs/faults.md: 2 x 12 V / 4.3111 ohm = 5.567 A per frame (+ noise), and a wheel

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 
 static const char *good =
     "; a robot\n"

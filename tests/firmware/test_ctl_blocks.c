@@ -8,7 +8,7 @@
 
 #include <cmocka.h>
 
-#include "omni4/ctl_blocks.h"
+#include "omni4/core/ctl_blocks.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 

@@ -10,8 +10,8 @@
 #include <string.h>
 
 #include "hil_util.h"
-#include "omni4/ctl.h"
-#include "omni4/sim_motor.h"
+#include "omni4/core/ctl.h"
+#include "omni4/drivers/sim_motor.h"
 #include "omni4_motors_t.h"
 
 /* docs/faults.md */

@@ -10,9 +10,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/feedforward.h"
-#include "omni4/params.h"
+#include "omni4/core/ctl.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/params.h"
 
 #define TICK_US 1000
 #define SIGN_BAND_LIN 0.01 /* [m/s], feedforward.h's dead band */

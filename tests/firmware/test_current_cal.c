@@ -9,11 +9,11 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/ctl_blocks.h"
-#include "omni4/fw.h"
-#include "omni4/lcmio.h"
-#include "omni4/rng.h"
+#include "omni4/core/ctl.h"
+#include "omni4/core/ctl_blocks.h"
+#include "omni4/core/fw.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/model/rng.h"
 #include "omni4_motors_t.h"
 #include "omni4_param_changed_t.h"
 

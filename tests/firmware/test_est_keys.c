@@ -6,8 +6,8 @@
 #include <errno.h>
 #include <string.h>
 
-#include "omni4/config.h"
-#include "omni4/est.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
 
 static struct est E;
 

@@ -6,8 +6,8 @@
 #include <errno.h>
 #include <stdio.h>
 
-#include "omni4/la_f32.h"
-#include "omni4/rng.h"
+#include "omni4/core/la_f32.h"
+#include "omni4/model/rng.h"
 
 #define PI 3.14159265358979323846
 #define SINCOS_TOL 1e-6 /* measured 3.7e-7 */

@@ -7,8 +7,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/est.h"
-#include "omni4/params.h"
+#include "omni4/core/est.h"
+#include "omni4/model/params.h"
 
 #define TICK_US 1000
 #define VEL_TOL 2.5e-4 /* model-only prediction vs RK4 over 0.5 s [m/s]: measured 8.7e-5 */

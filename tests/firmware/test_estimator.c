@@ -10,12 +10,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/est.h"
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/plant.h"
-#include "omni4/rng.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/core/est.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/plant.h"
+#include "omni4/model/rng.h"
 
 #define DT 1e-3
 #define TICK_US 1000

@@ -13,8 +13,8 @@
 
 #include <cmocka.h>
 
-#include "omni4/ctl.h"
-#include "omni4/goal.h"
+#include "omni4/core/ctl.h"
+#include "omni4/core/goal.h"
 
 static const double G = 9.80665;
 

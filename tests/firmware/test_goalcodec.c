@@ -9,8 +9,8 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "omni4/goal.h"
-#include "omni4/goalcodec.h"
+#include "omni4/core/goal.h"
+#include "omni4/firmware/goalcodec.h"
 #include "omni4_goal_t.h"
 
 #define N_AT 33

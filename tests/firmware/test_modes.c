@@ -14,9 +14,9 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/feedforward.h"
-#include "omni4/params.h"
+#include "omni4/core/ctl.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/params.h"
 
 /* docs/ini-keys.md defaults, docs/design.md (Table III robot), docs/faults.md */
 #define SPEC_DT_S 1e-3

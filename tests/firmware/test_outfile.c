@@ -19,8 +19,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "omni4/config.h"
-#include "omni4/outfile.h"
+#include "omni4/config/config.h"
+#include "omni4/config/outfile.h"
 
 static char g_dir[64];
 static char g_path[160], g_why[600];

@@ -14,12 +14,12 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "omni4/config.h"
-#include "omni4/feedforward.h"
-#include "omni4/fw.h"
-#include "omni4/param_service.h"
-#include "omni4/rtloop.h"
-#include "omni4/sim_motor.h"
+#include "omni4/config/config.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/core/fw.h"
+#include "omni4/firmware/param_service.h"
+#include "omni4/firmware/rtloop.h"
+#include "omni4/drivers/sim_motor.h"
 #include "omni4_param_changed_t.h"
 #include "omni4_param_reply_t.h"
 #include "omni4_param_request_t.h"

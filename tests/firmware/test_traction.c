@@ -15,8 +15,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/traction.h"
+#include "omni4/core/ctl.h"
+#include "omni4/core/traction.h"
 
 static const struct model_params *P = &model_params_table3;
 static const double G = 9.80665;

@@ -12,7 +12,7 @@
 
 #include <cmocka.h>
 
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 

@@ -11,8 +11,8 @@
 
 #define OMNI4_VOCAB_DEF "vocab_dock.def"
 #define OMNI4_BACKENDS_DEF "backends_serial.def"
-#include "omni4/backends.h"
-#include "omni4/vocab.h"
+#include "omni4/drivers/backends.h"
+#include "omni4/core/vocab.h"
 
 /* One mode as docs/design.md and docs/modes.md state it. */
 struct mode_row {

@@ -6,7 +6,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "omni4/can_proto.h"
+#include "omni4/drivers/can_proto.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -6,8 +6,8 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/lcmcodec.h"
+#include "omni4/core/ctl.h"
+#include "omni4/firmware/lcmcodec.h"
 #include "omni4_command_t.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/config.h"
+#include "omni4/config/config.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

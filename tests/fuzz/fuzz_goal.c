@@ -11,9 +11,9 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "omni4/ctl.h"
-#include "omni4/goal.h"
-#include "omni4/goalcodec.h"
+#include "omni4/core/ctl.h"
+#include "omni4/core/goal.h"
+#include "omni4/firmware/goalcodec.h"
 #include "omni4_goal_t.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

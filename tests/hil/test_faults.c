@@ -6,8 +6,8 @@
 #include <errno.h>
 
 #include "hil_util.h"
-#include "omni4/fw.h"
-#include "omni4/sim_motor.h"
+#include "omni4/core/fw.h"
+#include "omni4/drivers/sim_motor.h"
 
 enum { IDLE = 0, VELOCITY = 1, VOLTAGE = 2, COAST = 3, CLEAR = 4, FAULT = 5, ESTOP = 6 };
 

@@ -8,11 +8,11 @@
 #include <lcm/lcm.h>
 #include <time.h>
 
-#include "omni4/config.h"
-#include "omni4/fw.h"
-#include "omni4/lcmio.h"
-#include "omni4/rtloop.h"
-#include "omni4/sim_motor.h"
+#include "omni4/config/config.h"
+#include "omni4/core/fw.h"
+#include "omni4/firmware/lcmio.h"
+#include "omni4/firmware/rtloop.h"
+#include "omni4/drivers/sim_motor.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_pose_t.h"

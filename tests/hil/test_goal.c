@@ -7,9 +7,9 @@
 #include <stdio.h>
 
 #include "hil_util.h"
-#include "omni4/ctl.h"
-#include "omni4/goal.h"
-#include "omni4/sim_motor.h"
+#include "omni4/core/ctl.h"
+#include "omni4/core/goal.h"
+#include "omni4/drivers/sim_motor.h"
 #include "omni4_goal_status_t.h"
 #include "omni4_goal_t.h"
 

@@ -7,9 +7,9 @@
 #include <unistd.h>
 
 #include "hil_util.h"
-#include "omni4/feedforward.h"
-#include "omni4/plant.h"
-#include "omni4/sim_motor.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/plant.h"
+#include "omni4/drivers/sim_motor.h"
 
 enum { IDLE = 0, VELOCITY = 1, VOLTAGE = 2, COAST = 3, CLEAR = 4, FAULT = 5, ESTOP = 6 };
 

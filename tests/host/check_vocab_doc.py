@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compares the tables of docs/vocabulary.md with the vocabulary's own rendering of them
 (python/gen_vocab.py markdown(): modes, fault bits, estimator flags and backends, taken from
-core/include/omni4/vocab.def and drivers/include/omni4/backends.def).
+core/include/omni4/core/vocab.def and drivers/include/omni4/drivers/backends.def).
 
 usage: check_vocab_doc.py REPO_ROOT [--write]
   --write  replace the doc's tables (between its markers) by the generated ones

@@ -29,7 +29,7 @@
 #include "validate.hpp"
 
 extern "C" {
-#include "omni4/dynamics.h"
+#include "omni4/model/dynamics.h"
 }
 
 using namespace omni4;

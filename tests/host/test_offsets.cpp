@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "identify.hpp"
+#include "omni4/core/vocab.h"
 #include "logdata.hpp"
 #include "offsets.hpp"
 #include "omni4/motors_t.hpp"
@@ -45,7 +46,7 @@ LogData synthetic(const std::array<double, 4> &offset, unsigned seed, int blocks
 			s.utime = t;
 			s.seq = seq;
 			const bool driven = k < 300;
-			s.mode = driven ? 2 : 0;
+			s.mode = driven ? CTL_VOLTAGE : CTL_IDLE;
 			if (driven)
 				last_drive = t;
 			const double tail =
@@ -99,7 +100,7 @@ TEST(Offsets, CorrelatedNoiseWidensTheStandardErrorThroughTheBatchMeans)
 		if (s.seq % 16 == 0)
 			for (double &h : held)
 				h = n(g);
-		if (s.mode == 0)
+		if (s.mode == CTL_IDLE)
 			for (int j = 0; j < 4; ++j)
 				s.i[j] = static_cast<float>(held[j]);
 	}
@@ -142,9 +143,10 @@ TEST(Offsets, FaultSamplesAreNotUsed)
 {
 	LogData d = synthetic({0.01, 0.01, 0.01, 0.01}, 7);
 	for (MotorsSample &s : d.motors)
-		if (s.mode == 0 && s.seq % 1000 > 600) { // a saturated sensor in FAULT reads 10 A
-			s.mode = 5;
-			s.faults = 0x0020;
+		if (s.mode == CTL_IDLE &&
+		    s.seq % 1000 > 600) { // a saturated sensor in FAULT reads 10 A
+			s.mode = CTL_FAULT;
+			s.faults = CTL_FAULT_CURRENT_SENSOR;
 			s.i = {10, 10, 10, 10};
 		}
 	calibrate_currents(d);
@@ -185,7 +187,7 @@ TEST(Offsets, ALogWithoutBridgeOffSamplesIsUsedAsLoggedWithAWarning)
 {
 	LogData d = synthetic({0.05, 0.05, 0.05, 0.05}, 11);
 	for (MotorsSample &s : d.motors)
-		s.mode = 2;
+		s.mode = CTL_VOLTAGE;
 	const auto raw = d.motors;
 	const auto w = calibrate_currents(d);
 	ASSERT_EQ(w.size(), 1u);
@@ -291,7 +293,7 @@ LogData sim_log(unsigned seed, const std::array<double, 4> &offset)
 	for (MotorsSample &s : d.motors)
 		for (int j = 0; j < 4; ++j)
 			s.i[j] = static_cast<float>(s.i[j] + offset[j] +
-			                            (s.mode == 1 || s.mode == 2 ? 0 : n(g)));
+			                            (mode_drives(s.mode) ? 0 : n(g)));
 	return d;
 }
 

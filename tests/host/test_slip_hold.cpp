@@ -26,10 +26,10 @@
 #include "traction_exp.hpp"
 
 extern "C" {
-#include "omni4/channels.h"
-#include "omni4/config.h"
-#include "omni4/est.h"
-#include "omni4/simrun.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
+#include "omni4/sil/simrun.h"
 // slip_push.c: an external force along v on the simulated body [N].
 void slip_push_set(struct simrun *sr, double force_v_n);
 }

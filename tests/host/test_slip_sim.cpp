@@ -23,10 +23,10 @@
 #include "traction_exp.hpp"
 
 extern "C" {
-#include "omni4/channels.h"
-#include "omni4/config.h"
-#include "omni4/est.h"
-#include "omni4/simrun.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/config/config.h"
+#include "omni4/core/est.h"
+#include "omni4/sil/simrun.h"
 }
 
 namespace

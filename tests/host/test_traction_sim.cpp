@@ -26,8 +26,8 @@
 #include "traction_exp.hpp"
 
 extern "C" {
-#include "omni4/channels.h"
-#include "omni4/est.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4/core/est.h"
 }
 
 using namespace omni4;

@@ -4,9 +4,9 @@
 #include <errno.h>
 #include <math.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
 
 static void assert_rel(double got, double want, double rel)
 {

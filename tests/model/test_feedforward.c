@@ -4,10 +4,10 @@
 #include <errno.h>
 #include <math.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/feedforward.h"
-#include "omni4/plant.h"
-#include "omni4/rng.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/plant.h"
+#include "omni4/model/rng.h"
 
 static const struct model_params *P = &model_params_table3;
 

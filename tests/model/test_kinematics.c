@@ -1,11 +1,12 @@
 /* Tests for model/src/kinematics.c and kinematics_q16.c: eqs 1-5, fixed vs double. */
 #include "omni4_test.h"
 
+#include <float.h>
 #include <math.h>
 
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/rng.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/rng.h"
 
 static const double d = 0.089;
 
@@ -174,6 +175,30 @@ static void test_q16_saturates_instead_of_wrapping(void **state)
 	assert_int_equal(v[3], Q16_MAX);           /* 32767.99998 + 1 */
 }
 
+/* The single-precision twins against the double ones (an independent computation in double):
+ * within a few float ulps of the result's size (measured: 1 ulp). */
+static void test_f32_twins_match_double_within_4_ulp(void **state)
+{
+	(void)state;
+	for (int k = 0; k < 200; k++) {
+		const double x[3] = {sin(0.37 * k) * 2.0, cos(0.23 * k) * 1.5,
+		                     sin(0.11 * k + 1) * 9.0};
+		const float xf[3] = {(float)x[0], (float)x[1], (float)x[2]};
+		double v[4], back[3];
+		float vf[4], backf[3];
+
+		ik_wheel_speeds(d, (const double[3]){xf[0], xf[1], xf[2]}, v);
+		ik_wheel_speeds_f32((float)d, xf, vf);
+		for (int j = 0; j < 4; j++)
+			assert_near(vf[j], v[j], 4 * FLT_EPSILON * (fabs(v[j]) + 2.0));
+		fk_robot_velocity(d, (const double[4]){vf[0], vf[1], vf[2], vf[3]}, back);
+		fk_robot_velocity_f32((float)d, vf, backf);
+		for (int c = 0; c < 3; c++)
+			assert_near(backf[c], back[c],
+			            4 * FLT_EPSILON * (fabs(back[c]) + 2.0) / (c == 2 ? d : 1.0));
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -184,6 +209,7 @@ int main(void)
 	    cmocka_unit_test(test_ik_q16_matches_double_within_12_lsb),
 	    cmocka_unit_test(test_fk_q16_matches_double),
 	    cmocka_unit_test(test_q16_saturates_instead_of_wrapping),
+	    cmocka_unit_test(test_f32_twins_match_double_within_4_ulp),
 	};
 
 	return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);

@@ -3,8 +3,8 @@
 
 #include <math.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/plant.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/plant.h"
 
 static const struct model_params *P = &model_params_table3;
 

@@ -17,9 +17,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/kinematics.h"
-#include "omni4/plant.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/plant.h"
 
 static const struct model_params *P = &model_params_table3;
 static const double G = 9.80665;

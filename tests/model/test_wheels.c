@@ -9,11 +9,11 @@
 #include <errno.h>
 #include <string.h>
 
-#include "omni4/dynamics.h"
-#include "omni4/feedforward.h"
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/rng.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/feedforward.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/rng.h"
 
 #define N_RANDOM 3000
 #define LSB_HALF (1.0 / 131072.0) /* half a Q16.16 LSB, 2^-17 */

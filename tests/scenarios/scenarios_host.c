@@ -2,7 +2,7 @@
  * mcu/). */
 #include <stdio.h>
 
-#include "omni4/clock.h"
+#include "omni4/base/clock.h"
 #include "scenarios.h"
 
 static void print_line(const char *line)

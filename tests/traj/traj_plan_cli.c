@@ -17,7 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "omni4/traj.h"
+#include "omni4/core/traj.h"
 
 static const char usage[] =
     "usage: traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]\n"

@@ -45,7 +45,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "omni4/can_proto.h"
+#include "omni4/drivers/can_proto.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 

@@ -19,10 +19,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "omni4/kinematics.h"
-#include "omni4/params.h"
-#include "omni4/plant.h"
-#include "omni4/vocab.h"
+#include "omni4/model/kinematics.h"
+#include "omni4/model/params.h"
+#include "omni4/model/plant.h"
+#include "omni4/core/vocab.h"
 
 #define OMNI4_PRED_MAX_GAP_US 50000 /* a step longer than 50 ms is a jump in time */
 

@@ -157,7 +157,7 @@ class WheelOdometry:
 
 class StateEstimate:
     """The controller's state estimate (omni4.state_t on OMNI4_STATE, when the package has the
-    type) as the same fields WheelOdometry offers. state_t follows core/include/omni4/est.h's
+    type) as the same fields WheelOdometry offers. state_t follows core/include/omni4/core/est.h's
     est_output: pose[3] (x, y [m], theta [rad], world frame), vel[3] (v, vn [m/s], w [rad/s],
     robot frame), cov[6] (the diagonal of the covariance in state order x, y, theta, v, vn, w).
     Field names differing from these are looked up under the alternatives below."""

@@ -1,0 +1,78 @@
+/*
+ * ctl_settings.h - the controller's settings: the model, the loop rate, control and limits, in
+ * SI units. Nothing else: the adapters' settings (LCM, backends, lines) are theirs. Defaults and
+ * the INI keys that hold these settings are listed once, in ctl_keys.def.
+ */
+#ifndef OMNI4_CTL_SETTINGS_H
+#define OMNI4_CTL_SETTINGS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/core/est_keys.h"
+#include "omni4/model/params.h"
+
+struct ctl_settings {
+	struct model_params model;
+	/* Each drive's own r, Kv, Kt, R ([model] r_0 .. R_3): wheels.X[j] counts where bit
+	 * CTL_WHEEL_KEY(q, j) of wheel_keys is set (the configuration gives that wheel its own
+	 * key); elsewhere the scalar model.X does (ctl_settings_wheels). */
+	struct model_wheels wheels;
+	uint16_t wheel_keys;
+	double rate_hz; /* loop rate [Hz] */
+	struct {
+		double kp; /* PI on wheel linear speed [V/(m/s)] */
+		double ki; /* [V/m] */
+		bool feedforward;
+		bool feedback;
+		int cmd_timeout_ms; /* watchdog: no valid command for this long -> ramp to 0 -> IDLE
+		                     */
+		double stop_ramp_s; /* ramp length of that stop [s] */
+	} control;
+	struct {
+		double supply_v;      /* H-bridge supply; voltages are clamped to +-supply_v [V] */
+		double supply_min_v;  /* below this: FAULT_SUPPLY [V] */
+		double vel_lin_max;   /* [m/s] */
+		double vel_rot_max;   /* [rad/s] */
+		double acc_lin_max;   /* reference shaping [m/s^2] */
+		double acc_rot_max;   /* [rad/s^2] */
+		double current_max_a; /* over-current fault level [A] */
+		double current_sensor_max_a; /* a reading at or beyond this is a saturated sensor
+		                                [A] */
+		double traction_mu;     /* floor's friction coefficient; 0 = no traction limit */
+		double traction_margin; /* share of mu N_j kept in reserve */
+		double com_height;      /* centre of mass above the floor [m] (load transfer) */
+	} limits;
+	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
+	struct {
+		int feedforward; /* enum ctl_goal_ff: the tracker's feedforward */
+		int limits;      /* enum ctl_goal_limits: the planner's limits */
+	} goal;
+};
+
+/* [goal] feedforward: the reference's velocity and acceleration through the model, or its
+ * velocity only (kinematic: velocity reference + PI, a peer). */
+enum ctl_goal_ff { CTL_GOAL_FF_MODEL = 0, CTL_GOAL_FF_KINEMATIC = 1 };
+/* [goal] limits: the model's envelope per direction and speed, or one fixed box (a peer). */
+enum ctl_goal_limits { CTL_GOAL_LIMITS_MODEL = 0, CTL_GOAL_LIMITS_FIXED = 1 };
+
+/* The defaults of ctl_keys.def: the paper's Table III robot at 1 kHz. */
+void ctl_settings_defaults(struct ctl_settings *s);
+
+/* Bit of wheel_keys for quantity q (0 r, 1 Kv, 2 Kt, 3 R: struct model_wheels' order), wheel j. */
+#define CTL_WHEEL_KEY(q, j) ((uint16_t)(1u << (4 * (q) + (j))))
+#define CTL_WHEEL_KEYS 16
+
+/* The drives in force: wheel j's own value where it has its own key, else the scalar. With no
+ * wheel keys, model_wheels_from_params(&s->model) bit for bit. */
+void ctl_settings_wheels(const struct ctl_settings *s, struct model_wheels *w);
+/* s->wheels = ctl_settings_wheels(s): a wheel without its own key takes the scalar (after the
+ * scalar or a wheel key changed), so every wheel key reads as the value in force. */
+void ctl_settings_wheels_follow(struct ctl_settings *s);
+
+/* 0 if s can run a controller: the model physically meaningful (*bad_key = its index in
+ * model_params_names; a wheel's own value: MODEL_PARAMS_COUNT + 4 q + j), rate_hz > 0 and
+ * supply_min_v < supply_v (*bad_key = -1). why: the rule. */
+int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **why);
+
+#endif /* OMNI4_CTL_SETTINGS_H */

@@ -1,0 +1,161 @@
+/*
+ * goal.h - position control: go to a world pose, or follow a path of poses without stopping at
+ * the intermediate ones (docs/goal.md). The trajectory generator (traj.h) plans the reference
+ * from the state estimate (est.h); each tick the reference's velocity and acceleration, turned
+ * into the robot frame, plus a P correction on the pose error, become the controller's
+ * VELOCITY-style reference (ctl_goal_reference), which the model feedforward and the wheel PI
+ * track. Portable like the rest of the core: C11, single precision in the tick, fixed sizes, no
+ * allocation, no OS; an instance with init / start / step.
+ *
+ * Safety, as for velocity commands (docs/goal.md):
+ * - kept alive by its sender: the controller's watchdog (cmd_timeout_ms) stops a goal whose
+ *   sender stops repeating it (REASON_WATCHDOG);
+ * - refused with a reason, never applied: a NaN or infinite field, a pose or option out of
+ *   range, a plan longer than GOAL_PLAN_MAX_S or none at all (unreachable), a goal while the
+ *   controller is in FAULT or ESTOP, a goal without an estimate or a recent camera pose;
+ * - aborted with the stop ramp (ctl_stop): the estimator's COLLISION flag, or a stale estimate:
+ *   odometry alone may carry a goal GOAL_ODOM_ONLY_US after the last camera pose.
+ */
+#ifndef OMNI4_GOAL_H
+#define OMNI4_GOAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/core/ctl.h"
+#include "omni4/core/est.h"
+#include "omni4/core/goal_fixed.h"
+#include "omni4/core/traj.h"
+
+#define GOAL_POSES_MAX 32         /* goal_t.MAX_POSES */
+#define GOAL_RANGE_M 100.0        /* |x|, |y| of a pose [m] */
+#define GOAL_THETA_MAX_RAD 1000.0 /* |theta| of a pose [rad] (wrapped before use) */
+#define GOAL_PLAN_MAX_S 120.0f    /* a longer plan is unreachable [s] */
+#define GOAL_BLEND_DEFAULT_M 0.15f
+#define GOAL_BLEND_MIN_M 0.01
+#define GOAL_BLEND_MAX_M 2.0
+#define GOAL_KP_POS 5.0f   /* pose error -> velocity correction, x and y [1/s] */
+#define GOAL_KP_THETA 5.0f /* heading error -> turn-rate correction [1/s] */
+/* Odometry alone may carry a goal this long after the last camera pose: the estimator flags
+ * CAMERA_STALE 0.5 s after it (EST_CAMERA_STALE_US), the goal stops GOAL_STALE_GRACE_US later.
+ * At 2 m/s odometry drifts ~1 cm in that second (EST_ODOM_POS 5 mm per metre, 1 sigma). */
+#define GOAL_STALE_GRACE_US 500000
+#define GOAL_ODOM_ONLY_US (EST_CAMERA_STALE_US + GOAL_STALE_GRACE_US)
+/* REACHED: the plan has ended and the estimate is within these of the last pose. */
+#define GOAL_REACHED_POS_M 0.005f
+#define GOAL_REACHED_THETA_RAD 0.0087f /* 0.5 deg */
+#define GOAL_REACHED_SPEED_M_S 0.02f
+
+/* The planner's traction: [limits] traction_mu and traction_margin when traction_mu > 0 (the
+ * floor identified); with traction_mu = 0 (the controller's limit off) a conservative floor, mu
+ * 0.6 less 10 %, which a dry lab floor holds (goal_traction). */
+#define GOAL_MU_DEFAULT 0.6
+#define GOAL_TRACTION_MARGIN 0.1
+#define GOAL_MARGIN_V 2.0 /* supply voltage kept for the feedback [V] */
+#define GOAL_MOTOR_SPEED_MAX_RAD_S 600.0
+#define GOAL_ROT_SHARE 0.25
+
+enum goal_action { GOAL_CANCEL = 0, GOAL_GO = 1 };
+
+/* goal_status_t.STATUS_* and REASON_* (lcmcodec checks them at compile time). */
+enum goal_status {
+	GOAL_NONE = 0,
+	GOAL_ACTIVE = 1,
+	GOAL_REACHED = 2,
+	GOAL_ABORTED = 3,
+	GOAL_REFUSED = 4,
+};
+
+enum goal_reason {
+	GOAL_R_NONE = 0,
+	GOAL_R_NOT_FINITE = 1,
+	GOAL_R_OUT_OF_RANGE = 2,
+	GOAL_R_UNREACHABLE = 3,
+	GOAL_R_FAULT = 4,
+	GOAL_R_NO_ESTIMATE = 5,
+	GOAL_R_WATCHDOG = 6,
+	GOAL_R_COLLISION = 7,
+	GOAL_R_STALE_ESTIMATE = 8,
+	GOAL_R_REPLACED = 9,
+	GOAL_R_CANCELLED = 10,
+};
+
+/* A goal as received (goal_t; doubles, checked once on arrival). */
+struct goal_cmd {
+	int64_t utime;
+	int64_t id;
+	int8_t action; /* enum goal_action */
+	int32_t n;
+	double poses[GOAL_POSES_MAX][3]; /* world x [m], y [m], theta [rad] */
+	double blend_m;                  /* 0: GOAL_BLEND_DEFAULT_M */
+	double speed_max;                /* [m/s]; 0: the model's limits */
+};
+
+/* The progress (goal_status_t). */
+struct goal_report {
+	int64_t id;
+	int8_t status; /* enum goal_status */
+	int8_t reason; /* enum goal_reason */
+	int32_t index, n;
+	float distance_m, angle_rad, time_to_go_s;
+	float ref[3];     /* world pose of the reference */
+	float ref_vel[3]; /* world velocity of the reference */
+	float error[3];   /* reference - estimate (theta wrapped) */
+};
+
+struct goal {
+	struct traj tr;
+	struct traj scratch;    /* a new goal's plan before it is taken */
+	bool traj_ok;           /* traj_init took the limits: goals can be planned */
+	float speed_cap_m_s;    /* the limits' own cap (traj's coefficient when no goal caps it) */
+	float kp_pos, kp_theta; /* GOAL_KP_POS, GOAL_KP_THETA */
+	bool kinematic;         /* [goal] feedforward = kinematic: no acceleration fed forward */
+	bool fixed;             /* [goal] limits = fixed: planned under fx, not the envelope */
+	struct goal_fixed fx;
+	float poses[GOAL_POSES_MAX][3];
+	int n, index;
+	float blend_m;
+	struct goal_report rep;     /* the goal in force (or the last one) */
+	bool changed;               /* rep.status, reason or index changed (goal_report) */
+	struct goal_report refused; /* the last goal refused (goal_take_refused) */
+	bool refused_pending;
+	int64_t stale_since_us; /* CAMERA_STALE seen since (0: not stale) */
+};
+
+/* Start-up or new parameters (double arithmetic: not the fast loop). The planner's limits
+ * from the controller's settings (model, per-wheel drives, supply, the floor's traction) and
+ * the GOAL_* defaults; if they leave no acceleration every goal is refused as unreachable, and
+ * a goal in force is aborted (UNREACHABLE) at the next step. A goal in force is re-planned
+ * from its reference under the new limits (no jump). Keeps the report. */
+void goal_init(struct goal *g, const struct ctl_settings *cfg);
+
+/* The floor's friction coefficient and traction margin the planner takes from cfg (above). */
+void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin);
+
+/*
+ * Fast loop, on arrival (bounded: one plan). A new goal (action GO, a goal id other than the
+ * active one) is checked and planned from the estimate est (NULL: none); accepted, the
+ * controller enters GOAL (ctl_goal). A repeat of the active goal's id keeps it alive. CANCEL
+ * ends the active goal (the controller stops with the ramp). Returns 0 accepted, else the
+ * negative errno and the report says REFUSED with the reason.
+ */
+int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
+                 const struct est_output *est, int64_t now_us);
+
+/*
+ * Fast loop, every tick before ctl_step: follows the controller (a goal ends as ABORTED when
+ * the controller left GOAL: watchdog, fault, another command), checks the estimate (collision,
+ * stale), steps the plan, passes the intermediate poses, and hands the robot-frame reference
+ * to the controller.
+ */
+void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int64_t now_us);
+
+/* The progress; *changed (may be NULL) whether status, reason or index changed since the last
+ * call. */
+const struct goal_report *goal_report(struct goal *g, bool *changed);
+
+/* The report of a goal refused since the last call (REFUSED with its reason), or NULL. The goal
+ * in force, if any, goes on. */
+const struct goal_report *goal_take_refused(struct goal *g);
+
+#endif /* OMNI4_GOAL_H */

@@ -1,0 +1,230 @@
+/*
+ * traj.h - trajectory generator: from the current reference (pose and velocity) to a goal pose,
+ * at rest there, in the world frame (x, y, theta), within the limits the per-wheel model puts on
+ * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
+ * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
+ *
+ * - Straight moves (from rest, or moving along the line to the goal): one profile along the
+ *   line in TRAJ_ACC_STEPS speed steps, each with the acceleration the wheels allow at the
+ *   step's worst speed; stopping with the friction's and back-EMF's help (traj_line.c).
+ * - Otherwise: two 1D bang-bang profiles (x, y) with the acceleration and speed shared by an
+ *   angle alpha found by bisection so both arrive together, or stop first along the velocity
+ *   and then a straight move, whichever arrives sooner.
+ * - Heading: its own profile the short way round (wrapped difference), in steps; its share of
+ *   each wheel's budget by bisection on a straight move so both arrive together.
+ * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
+ *   per-wheel model (docs/model.md), for every acceleration and velocity the plan may take at
+ *   every heading the move spans, Coulomb friction with its worst sign. The plan is feasible
+ *   by construction (bound: docs/trajectory.md); it is not exactly time-optimal.
+ *
+ * Units: m, rad, s throughout; x, y, theta in the world frame. theta of the reference is
+ * continuous (not wrapped): a plan from 3.0 rad to -3.0 rad ends at 3.283 rad.
+ */
+#ifndef OMNI4_TRAJ_H
+#define OMNI4_TRAJ_H
+
+#include <stdint.h>
+
+#include "omni4/model/params.h"
+
+#define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
+#define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
+#define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
+#define TRAJ_SPEED_STEPS 8        /* top speeds tried per share (fractions of the largest) */
+#define TRAJ_SHARES 3             /* heading shares tried when both position and heading move */
+#define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share on a straight move */
+#define TRAJ_HEADINGS_MAX 9       /* headings at which the envelope is checked over a turn */
+#define TRAJ_G_M_S2 9.80665f      /* standard gravity */
+#define TRAJ_HANDOVER_TOL_S 1e-4f /* a clock this close to a hand-over has reached it (a */
+                                  /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
+#define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
+#define TRAJ_IDLE_VEL 1e-6f       /* ... slower than this [m/s or rad/s] does not move */
+#define TRAJ_PATH_MAX 8           /* poses of a path (traj_plan_path), the last one included */
+#define TRAJ_PIECES (3 * TRAJ_PATH_MAX + 3) /* lines and half arcs of a path */
+#define TRAJ_KNOTS (TRAJ_PATH_MAX + 4)      /* heading knots along a path */
+#define TRAJ_GRID 64                        /* segments of the progress grid a path is timed on */
+
+/* Flags of a plan (traj.flags). */
+#define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
+                                     /* planned with a floor, the envelope may be exceeded */
+
+/*
+ * The limits in force. The model is the per-wheel one (struct model_wheels for r, Kv, Kt, R;
+ * struct model_params for d, l, M, J and the body's friction). All values SI.
+ */
+struct traj_limits {
+	struct model_params p;
+	struct model_wheels w;
+	double supply_v;        /* bridge supply [V] */
+	double margin_v;        /* voltage kept for the feedback [V]; supply_v - margin_v > 0 */
+	double mu;              /* floor friction coefficient [-] (> 0) */
+	double traction_margin; /* share of mu M g / 4 kept in reserve, 0 <= . < 1 */
+	double motor_speed_max_rad_s; /* motor shaft speed limit [rad/s] (> 0) */
+	double speed_cap_m_s;         /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
+	double omega_cap_rad_s;       /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
+	double rot_share;             /* share of each wheel's budget the heading gets when both */
+	                              /* the heading and the position move, 0 < . < 1; the plan */
+	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
+};
+
+/* One axis: phase k (0 <= k < n) starts at ps[k], vs[k] and runs at acc[k] until t_end_s[k];
+ * the last one is anchored at its end (the goal, at rest). */
+struct traj_1d {
+	float t_end_s[TRAJ_PHASES];
+	float acc[TRAJ_PHASES]; /* [m/s^2] or [rad/s^2] */
+	float ps[TRAJ_PHASES];  /* [m] or [rad] */
+	float vs[TRAJ_PHASES];  /* [m/s] or [rad/s] */
+	float p0, v0;           /* start [m, m/s] or [rad, rad/s] */
+	float p1, v1;           /* where the top speed is reached, and that speed (cruise) */
+	float goal;             /* [m] or [rad] */
+	int n;                  /* phases in use (0: at rest at the goal) */
+};
+
+/* A point of the reference, world frame: [x, y, theta], their rates and accelerations. */
+struct traj_ref {
+	float pose[3]; /* [m, m, rad] */
+	float vel[3];  /* [m/s, m/s, rad/s] */
+	float acc[3];  /* [m/s^2, m/s^2, rad/s^2] */
+};
+
+/*
+ * traj_1d_plan - one axis: the time-optimal profile speeding up at a_up and slowing down at
+ * a_dn (both > 0) with |v| <= vmax (a start faster than vmax slows to it at once), from p0 at
+ * v0 to rest at goal; returns its duration [s] (0 if already there, INFINITY if a limit is not
+ * > 0). Through zero speed if the start moves away or cannot stop before the goal (that part
+ * at a_up). Fast loop: a few operations and one sqrtf.
+ */
+float traj_1d_plan(struct traj_1d *o, float p0, float v0, float goal, float a_up, float a_dn,
+                   float vmax);
+
+/* traj_1d_eval - position, velocity, acceleration at t [s] (before 0: the start; after the end:
+ * the goal at rest). Fast loop. */
+void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a);
+
+/* Per-wheel coefficients, prepared by traj_init (no double after it). */
+struct traj_coef {
+	float b[4];       /* drive gain l Kt_j / (R_j r_j) [N/V] */
+	float e[4];       /* back-EMF braking l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
+	float rim_max[4]; /* rim speed limit motor_speed_max r_j / l [m/s] */
+	float d, M, J;    /* [m], [kg], [kg m^2] */
+	float B[3], C[3]; /* viscous [N/(m/s)], [N m/(rad/s)] and Coulomb [N], [N m] friction */
+	float u_max_v;    /* supply_v - margin_v */
+	float f_max_n;    /* mu M g / 4 (1 - traction_margin) */
+	float speed_cap_m_s, omega_cap_rad_s, rot_share;
+};
+
+/* A piece of a path: an arc of constant curvature (0: a line), by arc length. */
+struct traj_piece {
+	float s0_m, len_m; /* where it starts on the path, its length */
+	float p0[2];       /* its start point [m] */
+	float dir0_rad;    /* tangent's angle at its start */
+	float curv;        /* signed curvature [1/m] (> 0: to the left) */
+};
+
+/*
+ * A plan along a path (traj_plan_path, and a straight move whose heading swings): the geometry
+ * by arc length s (lines and arcs), the heading as a function of s (smoothstep between knots),
+ * and its timing: on each grid segment s'' is constant (docs/trajectory.md, "Paths").
+ */
+struct traj_path {
+	struct traj_piece pc[TRAJ_PIECES];
+	float knot_s[TRAJ_KNOTS], knot_th[TRAJ_KNOTS]; /* [m], [rad] */
+	float pass_s[TRAJ_PATH_MAX]; /* where pose k is passed closest [m] (the last: len_m) */
+	float grid_s[TRAJ_GRID + 1]; /* [m] */
+	float grid_t[TRAJ_GRID + 1]; /* [s] */
+	float grid_v[TRAJ_GRID + 1]; /* s' [m/s] */
+	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
+	float goal[3];               /* the end, at rest */
+	float len_m;
+	int n_pieces, n_knots, n_grid, n_poses;
+};
+
+struct traj {
+	struct traj_coef c;
+	struct traj_path path;  /* in use when on_path */
+	int on_path;            /* 1: the reference follows path; 0: the three axes */
+	struct traj_1d axis[3]; /* x, y, theta */
+	float t_s;              /* time since the plan started */
+	float duration_s;       /* the plan's end (at rest at the goal) */
+	float alpha_rad;        /* x/y share of the translation's limits */
+	uint32_t flags;         /* TRAJ_F_* of the last plan */
+	float handover_s;       /* traj_plan_ahead: when (on the active plan's clock) it starts */
+};
+
+/*
+ * traj_init - checks the limits and prepares the coefficients; holds still at the origin.
+ * -EINVAL if the model fails its checks, a limit is NaN or out of its range above, or the
+ * limits leave no acceleration at rest (Coulomb friction beyond traction or voltage).
+ * Not for the fast loop (double arithmetic): at start-up or with new parameters.
+ */
+int traj_init(struct traj *tr, const struct traj_limits *lim);
+
+/* traj_reset - hold still at pose [m, m, rad]. Fast loop; -EINVAL (unchanged) if NaN. */
+int traj_reset(struct traj *tr, const float pose[3]);
+
+/*
+ * traj_plan - a new plan from the state `from` (pose and world velocity used; acc ignored) to
+ * goal [x m, y m, theta rad], at rest there; the plan's clock restarts at 0.
+ * Fast loop: bounded time (fixed iteration counts, no blocking). -EINVAL (plan unchanged) if
+ * any input is NaN or infinite.
+ */
+int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
+
+/*
+ * traj_replan - traj_plan from the reference at the plan's current time: the new plan starts
+ * where the reference is, with its velocity, so the reference does not jump. Fast loop. On a
+ * path toward its end: the same path re-timed from the reference; -ERANGE (plan unchanged) if
+ * the limits in force cannot hold the path from there.
+ */
+int traj_replan(struct traj *tr, const float goal[3]);
+
+/*
+ * traj_plan_ahead - a plan computed outside the tick (a re-plan costs more than a 1 ms tick on
+ * the Cortex-M4: docs/trajectory.md): next gets tr's limits and a plan from tr's reference
+ * lead_s [s] ahead of tr's clock now, to goal; traj_take_over hands it over when tr's clock
+ * gets there, so the reference does not jump. tr is only read. Not for the fast loop (the cost
+ * of a plan); -EINVAL (next unchanged) if lead_s < 0 or an input is NaN or infinite.
+ */
+int traj_plan_ahead(const struct traj *tr, float lead_s, const float goal[3], struct traj *next);
+
+/*
+ * traj_take_over - in the tick, before traj_step: if tr's clock has reached next's start (or tr
+ * is at rest at its end, where next starts too), tr becomes next, its clock the time past the
+ * start, and returns 1 (next is then spent: the caller drops it); else 0. Fast loop (a copy
+ * of struct traj).
+ */
+int traj_take_over(struct traj *tr, const struct traj *next);
+
+/*
+ * traj_plan_path - a plan from `from` through poses[0..n-1] (n <= TRAJ_PATH_MAX) without
+ * stopping: lines joined by arcs that pass each intermediate pose's position within radius_m
+ * (nearer if its legs are short), the heading smoothly from pose to pose, at rest at the last
+ * pose. A start velocity off the first leg turns onto it through a first arc. Timed inside
+ * the envelope (the grid of TRAJ_GRID segments, checked); traj_replan toward the last pose
+ * re-times the same path from the reference (no jump); tr->path.pass_s[k] is where pose k is
+ * passed. Not for the fast loop (a plan's cost: docs/trajectory.md). -EINVAL (plan
+ * unchanged) for NaN, n or radius_m out of range, two consecutive poses at one place;
+ * -ERANGE if the start turns (w != 0) or is too fast to stay on the path.
+ */
+int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3], int n,
+                   float radius_m);
+
+/* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
+ * rest at the goal). Fast loop; pure. */
+void traj_eval(const struct traj *tr, float t_s, struct traj_ref *out);
+
+/* traj_step - advance the plan's clock by dt_s and give the reference there. Fast loop. */
+void traj_step(struct traj *tr, float dt_s, struct traj_ref *out);
+
+/*
+ * traj_envelope - the largest acceleration [m/s^2] along the unit direction dir (robot frame,
+ * [v, vn]) when moving along it at speed_m_s >= 0 without turning, and the largest speed
+ * [m/s] along dir (the speed where that acceleration reaches 0, the rim speed limit, the cap).
+ * Each wheel's voltage, traction and rim speed (the feedforward's force sharing; Coulomb
+ * friction with the signs of dir). acc may be negative beyond the top speed.
+ * -EINVAL for NaN, a negative speed or a direction far from unit length. Fast loop.
+ */
+int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, float *acc_m_s2,
+                  float *speed_max_m_s);
+
+#endif /* OMNI4_TRAJ_H */

@@ -1,0 +1,90 @@
+/*
+ * feedforward.h - model-based feedforward: desired velocity and acceleration -> four channel
+ * voltages (docs/design.md):
+ *   Fv = M a_v + Bv v + Cv sgn(v), Fvn = M a_vn + Bvn vn + Cvn sgn(vn), T = J a_w + Bw w + Cw
+ * sgn(w) f  = IK(d) [Fv/2, Fvn/2, T/(4 d^2)] u_j = (R r / (l Kt)) f_j + (Kv l / r) v_j, clamped to
+ * +-u_max.
+ *
+ * sgn is a dead-banded sign: a saturated linear ramp, sgn(x) = clamp(x / band, -1, 1), with
+ * band FF_SIGN_BAND_LIN (v, vn) and FF_SIGN_BAND_ROT (w). It is exactly 0 at rest (no
+ * chattering voltage around zero) and exactly +-1 outside the band.
+ */
+#ifndef OMNI4_FEEDFORWARD_H
+#define OMNI4_FEEDFORWARD_H
+
+#include "omni4/model/params.h"
+#include "omni4/model/q16.h"
+
+#define FF_SIGN_BAND_LIN 0.01 /* [m/s] */
+#define FF_SIGN_BAND_ROT 0.1  /* [rad/s] */
+
+/* The dead-banded sign used above. */
+double ff_sign(double x, double band);
+
+/* Double feedforward. vel = [v, vn, w], acc = [a_v, a_vn, a_w]; u_max [V] > 0. */
+void ff_voltages(const struct model_params *p, const double vel[3], const double acc[3],
+                 double u_max, double u[4]);
+
+/*
+ * Fixed-point coefficients, all Q16.16, prepared once by ff_q16_init from the double
+ * parameters. Composite gains keep every product well scaled (volts per unit of input).
+ */
+struct ff_q16 {
+	q16_t d;             /* [m] */
+	q16_t k_acc[3];      /* R r/(l Kt) * [M/2, M/2, J/(4d)]   [V/(m/s^2)], [V/(rad/s^2)] */
+	q16_t k_vel[3];      /* R r/(l Kt) * [Bv/2, Bvn/2, Bw/(4d)] + Kv l/r * [1, 1, d]: viscous
+	                      * friction and back-EMF, both linear in the velocity, in one gain */
+	q16_t k_coul[3];     /* R r/(l Kt) * [Cv/2, Cvn/2, Cw/(4d)] [V] */
+	int32_t sgn_gain[3]; /* 1/band per axis (integer) */
+	q16_t u_max;         /* [V] */
+};
+
+/* Returns -EINVAL for parameters that fail model_params_check or u_max <= 0. */
+int ff_q16_init(struct ff_q16 *ff, const struct model_params *p, double u_max);
+
+/*
+ * ff_voltages_q16 - the feedforward in Q16.16 (integer only; runs in the fast loop).
+ * Scaling and overflow: vel, acc in Q16.16 (|v| <= 32767 m/s by format); each term is one
+ * q16_mul_wide (Q32.32 product rounded to Q16.16, kept in int64_t); the sums cannot overflow
+ * int64_t for any input, and the one saturation is the final clamp to +-u_max.
+ */
+void ff_voltages_q16(const struct ff_q16 *ff, const q16_t vel[3], const q16_t acc[3], q16_t u[4]);
+
+/*
+ * Per-wheel drives (struct model_wheels; docs/model.md). The body's forces are shared out as
+ * above (the least-squares f, which does not depend on the motors), and each wheel gets the
+ * voltage that makes its own motor give f_j at its rim speed v_j:
+ *   u_j = (R_j r_j / (l Kt_j)) f_j + (Kv_j l / r_j) v_j, clamped to +-u_max.
+ * With four equal wheels, the bits of ff_voltages / ff_voltages_q16.
+ */
+void ff_voltages_wheels(const struct model_params *p, const struct model_wheels *w,
+                        const double vel[3], const double acc[3], double u_max, double u[4]);
+
+/* ff_q16 with one set of axis gains per wheel: k_*[j] are ff_q16's k_* with wheel j's
+ * R_j r_j / (l Kt_j) and Kv_j l / r_j (only the two axes that move wheel j are used). */
+struct ff_q16_wheels {
+	q16_t d;             /* [m] */
+	q16_t k_acc[4][3];   /* [V/(m/s^2)], [V/(rad/s^2)] */
+	q16_t k_vel[4][3];   /* [V/(m/s)], [V/(rad/s)] */
+	q16_t k_coul[4][3];  /* [V] */
+	int32_t sgn_gain[3]; /* 1/band per axis (integer) */
+	q16_t u_max;         /* [V] */
+};
+
+/* -EINVAL if p fails model_params_check, w fails model_wheels_check or u_max <= 0. */
+int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
+                       const struct model_wheels *w, double u_max);
+/* The same for a model already checked (MODEL_ASSERT_CHECKED): -EINVAL only if u_max <= 0. */
+int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
+                          const struct model_wheels *w, double u_max);
+
+/*
+ * ff_voltages_q16_wheels - the per-wheel feedforward in Q16.16 (integer only; fast loop).
+ * Scaling and overflow: as ff_voltages_q16, with wheel j's gains: each wheel sums two axis
+ * terms of three rounded Q16.16 products each (all below 2^48 in int64_t, no overflow for any
+ * input); the one saturation is the final clamp to +-u_max.
+ */
+void ff_voltages_q16_wheels(const struct ff_q16_wheels *ff, const q16_t vel[3], const q16_t acc[3],
+                            q16_t u[4]);
+
+#endif /* OMNI4_FEEDFORWARD_H */
