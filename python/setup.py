@@ -21,9 +21,9 @@ from setuptools.command.build_py import build_py
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LCM_DIR = os.path.join(HERE, "..", "lcmtypes")
-CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
+CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "lcmtypes", "channels.h")
 MODEL_DIR = os.path.join(HERE, "..", "model")
-CORE_INCLUDE = os.path.join(HERE, "..", "core", "include")  # omni4/vocab.h (mode_drives)
+CORE_INCLUDE = os.path.join(HERE, "..", "core", "include")  # omni4/core/vocab.h (mode_drives)
 
 sys.path.insert(0, HERE)
 import gen_channels  # noqa: E402  (beside this file; not part of the package)

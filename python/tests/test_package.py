@@ -55,7 +55,7 @@ def _gen_channels():
     return _generator("gen_channels")
 
 
-CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "channels.h")
+CHANNELS_H = os.path.join(LCM_DIR, "include", "omni4", "lcmtypes", "channels.h")
 
 
 def test_channel_constants_are_generated_from_the_c_header():

@@ -20,7 +20,7 @@ sys.path.append(os.path.join(ROOT, "python"))  # after the generated omni4
 import gen_channels  # noqa: E402  (the channel names of channels.h, as the package gets them)
 from omni4 import experiment_t, motors_t, pose_t  # noqa: E402  (generated at build time)
 
-with open(os.path.join(ROOT, "lcmtypes", "include", "omni4", "channels.h")) as _h:
+with open(os.path.join(ROOT, "lcmtypes", "include", "omni4", "lcmtypes", "channels.h")) as _h:
     CHANNELS = {name: value for name, value, _ in gen_channels.constants(_h.read())}
 MOTORS = CHANNELS["CHANNEL_MOTORS"]
 TYPES = {MOTORS: motors_t, CHANNELS["CHANNEL_POSE"]: pose_t,
