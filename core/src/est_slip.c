@@ -36,6 +36,7 @@
 
 #include "est_priv.h"
 #include "omni4/core/la_f32.h"
+#include "omni4/model/kinematics.h"
 
 #define SLIP_CAM_RUN 2 /* comparisons in a row beyond the threshold */
 
@@ -111,12 +112,14 @@ static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_
 	const float sl = 1.41421356f * e->set.cam_pos_noise / T;
 	const float sr = 1.41421356f * e->set.cam_theta_noise * e->d / T;
 
-	const float dv = c * dx + sn * dy, dvn = -sn * dx + c * dy, rot = e->d * dth;
-	const float ground[4] = {dvn + rot, -dv + rot, -dvn + rot, dv + rot};
+	const float body[3] = {c * dx + sn * dy, -sn * dx + c * dy, dth}; /* eq 1 */
+	float ground[4], wheels[3];
 
-	res[0] = (0.5f * (g[3] - g[1]) - dv) / T / sl;
-	res[1] = (0.5f * (g[0] - g[2]) - dvn) / T / sl;
-	res[2] = (wh_rot - rot) / T / sr;
+	ik_wheel_speeds_f32(e->d, body, ground); /* eq 2 */
+	fk_robot_velocity_f32(e->d, g, wheels);  /* eqs 3-4 (the rotation from wh_rot) */
+	res[0] = (wheels[0] - body[0]) / T / sl;
+	res[1] = (wheels[1] - body[1]) / T / sl;
+	res[2] = (wh_rot - e->d * dth) / T / sr;
 	for (int j = 0; j < 4; j++)
 		rim[j] = fabsf(g[j] - ground[j]);
 	return true;

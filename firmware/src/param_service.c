@@ -1,10 +1,12 @@
 /* param_service.c - the parameter protocol: list, get, set, load and save requests answered, change
- * notices sent (see param_service.h; its threads: param_thread.c; the wire guard: param_wire.c). */
+ * notices sent (see param_service.h; its threads: param_thread.c; the wire guard: param_wire.c;
+ * the replies, their cache and the notices: param_reply.c). */
 #include "omni4/firmware/param_service.h"
 
 #include "omni4/firmware/fw_param.h"
 #include "omni4/config/outfile.h"
 #include "omni4/firmware/param_wire.h"
+#include "param_reply.h"
 #include "omni4/firmware/rtloop.h"
 
 #include <errno.h>
@@ -80,86 +82,6 @@ static void fill_entry(struct param_service *ps, struct param_scratch *s, int i,
 	};
 }
 
-static void emit(struct param_service *ps, const char *channel, const void *data, size_t len)
-{
-	if (ps->out.emit)
-		ps->out.emit(ps->out.ctx, channel, data, len);
-}
-
-static void cache_put(struct param_service *ps, int64_t id, void *data, size_t len)
-{
-	const int i = ps->cache_next;
-
-	free(ps->cache[i].data);
-	ps->cache[i].id = id;
-	ps->cache[i].data = data;
-	ps->cache[i].len = len;
-	ps->cache_next = (i + 1) % PARAM_CACHE;
-}
-
-static bool cache_replay(struct param_service *ps, int64_t id)
-{
-	for (int i = 0; id && i < PARAM_CACHE; i++)
-		if (ps->cache[i].data && ps->cache[i].id == id) {
-			emit(ps, OMNI4_CHANNEL_PARAM_REPLY, ps->cache[i].data, ps->cache[i].len);
-			return true;
-		}
-	return false;
-}
-
-/* Encode and emit a reply; keep it for a repeated id if cache. */
-static void reply(struct param_service *ps, omni4_param_reply_t *r, bool cache)
-{
-	r->utime = rtloop_clock_us();
-	if (!r->message)
-		r->message = "";
-	if (!r->path)
-		r->path = "";
-	const int size = omni4_param_reply_t_encoded_size(r);
-	void *buf = size > 0 ? malloc((size_t)size) : NULL;
-
-	if (!buf)
-		return;
-	if (omni4_param_reply_t_encode(buf, 0, size, r) != size) {
-		free(buf);
-		return;
-	}
-	emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)size);
-	if (cache && r->request_id)
-		cache_put(ps, r->request_id, buf, (size_t)size);
-	else
-		free(buf);
-}
-
-static void simple_reply(struct param_service *ps, int64_t id, int8_t op, int8_t result,
-                         const char *message, bool cache)
-{
-	omni4_param_reply_t r = {
-	    .request_id = id, .op = op, .result = result, .message = (char *)message, .seq = -1};
-
-	reply(ps, &r, cache);
-}
-
-static void notice(struct param_service *ps, struct param_scratch *s, int64_t id,
-                   const char *source, const char *path, int64_t seq, int64_t utime)
-{
-	omni4_param_changed_t m = {.utime = utime,
-	                           .seq = seq,
-	                           .request_id = id,
-	                           .source = (char *)source,
-	                           .path = (char *)path,
-	                           .n = s->n,
-	                           .keys = s->keys_p,
-	                           .old_values = s->old_p,
-	                           .values = s->new_p};
-	const int size = omni4_param_changed_t_encoded_size(&m);
-	void *buf = size > 0 ? malloc((size_t)size) : NULL;
-
-	if (buf && omni4_param_changed_t_encode(buf, 0, size, &m) == size)
-		emit(ps, OMNI4_CHANNEL_PARAM_CHANGED, buf, (size_t)size);
-	free(buf);
-}
-
 void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime)
 {
 	struct param_scratch *s = &ps->scratch;
@@ -173,7 +95,7 @@ void param_service_announce(struct param_service *ps, int64_t seq, int64_t utime
 		s->new_p[n] = s->new_value[n];
 	}
 	s->n = n;
-	notice(ps, s, 0, "start", ps->path, seq, utime);
+	param_notice(ps, s, 0, "start", ps->path, seq, utime);
 }
 
 static void do_list(struct param_service *ps, const omni4_param_request_t *q)
@@ -191,8 +113,8 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 			snprintf(why, sizeof(why), "%d keys in one request: at most %d", q->n,
 			         PARAM_MAX_KEYS);
 			atomic_fetch_add(&ps->n.bad, 1);
-			simple_reply(ps, q->request_id, q->op,
-			             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+			param_simple_reply(ps, q->request_id, q->op,
+			                   OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 			return;
 		}
 		for (int i = 0; i < q->n; i++) {
@@ -202,8 +124,9 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 				snprintf(why, sizeof(why), "unknown key '%.80s' (want section.key)",
 				         q->keys[i]);
 				atomic_fetch_add(&ps->n.bad, 1);
-				simple_reply(ps, q->request_id, q->op,
-				             OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+				param_simple_reply(ps, q->request_id, q->op,
+				                   OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why,
+				                   false);
 				return;
 			}
 			fill_entry(ps, s, n++, key);
@@ -214,7 +137,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 	}
 	r.n = n;
 	r.params = s->entries;
-	reply(ps, &r, false);
+	param_reply(ps, &r, false);
 }
 
 /* SET / LOAD: collect key indices and values into the scratch. */
@@ -238,7 +161,7 @@ static int add_pair(void *ctx, int key, const char *value)
 static void refuse(struct param_service *ps, const omni4_param_request_t *q, const char *why)
 {
 	atomic_fetch_add(&ps->n.refused, 1);
-	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_REFUSED, why, true);
+	param_simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_REFUSED, why, true);
 }
 
 /* The keys whose values differ between the running configuration and ps->next,
@@ -302,7 +225,7 @@ static void reply_not_taken(struct param_service *ps, const omni4_param_request_
 	    why, sizeof(why),
 	    "the loop did not take the change within %lld ms (is it running?): nothing changed",
 	    (long long)(ps->apply_timeout_us / 1000));
-	simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, false);
+	param_simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why, false);
 }
 
 /* The change is in force from tick res.seq: the notice, then the reply with the changed keys'
@@ -316,7 +239,7 @@ static void reply_changed(struct param_service *ps, struct param_scratch *s,
 
 	memcpy(dotted, s->dotted, sizeof(dotted));
 	s->n = changed;
-	notice(ps, s, q->request_id, source, q->name ? q->name : "", res->seq, res->utime);
+	param_notice(ps, s, q->request_id, source, q->name ? q->name : "", res->seq, res->utime);
 	for (int i = 0; i < changed; i++)
 		fill_entry(ps, s, i, config_key_find(dotted[i]));
 	snprintf(why, sizeof(why), "%d key%s changed, in force from tick %lld", changed,
@@ -329,7 +252,7 @@ static void reply_changed(struct param_service *ps, struct param_scratch *s,
 	                         .n = changed,
 	                         .params = s->entries};
 
-	reply(ps, &r, true);
+	param_reply(ps, &r, true);
 }
 
 /* Validate s's pairs against the running configuration, have the loop take them, reply. */
@@ -357,8 +280,8 @@ static void apply_pairs(struct param_service *ps, struct param_scratch *s,
 		/* a wheel key set to the value it follows: no number changes, but it is that
 		 * wheel's own from now on (saved, and no longer following its scalar) */
 		ps->running.ctl.wheel_keys = ps->next.ctl.wheel_keys;
-		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_OK,
-		             "no change: the values are already in force", true);
+		param_simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_OK,
+		                   "no change: the values are already in force", true);
 		return;
 	}
 	const struct fw_param_result res =
@@ -384,13 +307,13 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	strftime(header, sizeof(header), "written by omni4-fw (parameter save) %Y-%m-%dT%H:%M:%SZ",
 	         &tm);
 	if (config_save(ps->path, &ps->running, header, why, sizeof(why))) {
-		simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
-		             true);
+		param_simple_reply(ps, q->request_id, q->op, OMNI4_PARAM_REPLY_T_RESULT_FAILED, why,
+		                   true);
 		return;
 	}
 	atomic_fetch_add(&ps->n.saved, 1);
 	s->n = 0;
-	notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
+	param_notice(ps, s, q->request_id, "save", ps->path, -1, rtloop_clock_us());
 	/* the file written: a symbolic link's target (its .bak beside it), the link kept */
 	char written[PATH_MAX], message[WHY_MAX + 8];
 
@@ -405,7 +328,7 @@ static void do_save(struct param_service *ps, const omni4_param_request_t *q)
 	                         .seq = -1,
 	                         .path = written};
 
-	reply(ps, &r, true);
+	param_reply(ps, &r, true);
 }
 
 /* SET: the keys by name into s, then applied. 0, or -1 with why (a bad request). */
@@ -494,10 +417,10 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 		snprintf(why, sizeof(why), "undecodable param_request_t (%zu bytes)%s%s", len,
 		         wire[0] ? ": " : "", wire);
 		atomic_fetch_add(&ps->n.bad, 1);
-		simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+		param_simple_reply(ps, 0, 0, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
 		return;
 	}
-	if (cache_replay(ps, q.request_id))
+	if (param_cache_replay(ps, q.request_id))
 		goto out;
 	const bool writes = q.op == OMNI4_PARAM_REQUEST_T_OP_SET ||
 	                    q.op == OMNI4_PARAM_REQUEST_T_OP_LOAD ||
@@ -505,9 +428,9 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 
 	if (writes && ps->running.fw.secret[0] && strcmp(q.secret, ps->running.fw.secret)) {
 		atomic_fetch_add(&ps->n.denied, 1);
-		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_DENIED,
-		             "wrong or missing secret (the robot's INI sets [params] secret)",
-		             false);
+		param_simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_DENIED,
+		                   "wrong or missing secret (the robot's INI sets [params] secret)",
+		                   false);
 		goto out;
 	}
 	memset(s->key, 0, sizeof(s->key));
@@ -515,8 +438,8 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	s->too_many = s->duplicate = false;
 	if (dispatch(ps, s, &q, why, sizeof(why))) {
 		atomic_fetch_add(&ps->n.bad, 1);
-		simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why,
-		             false);
+		param_simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST,
+		                   why, false);
 	}
 out:
 	omni4_param_request_t_decode_cleanup(&q);
@@ -544,7 +467,7 @@ void param_service_busy(struct param_service *ps, const void *data, size_t len)
 		const int n = omni4_param_reply_t_encode(buf, 0, sizeof(buf), &r);
 
 		if (n > 0)
-			emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)n);
+			param_emit(ps, OMNI4_CHANNEL_PARAM_REPLY, buf, (size_t)n);
 		omni4_param_request_t_decode_cleanup(&q);
 	}
 }

@@ -73,6 +73,19 @@ class CommandRejected(ValueError):
         self.command = command
 
 
+# A udpm URL without a receive buffer of its own asks for this many bytes (the kernel caps it at
+# net.core.rmem_max), as omni4-record does: the default ~200 kB holds about 0.2 s of the robot's
+# 1 kHz samples, so a client that is not scheduled for a moment would lose some.
+RECEIVE_BUFFER_BYTES = 4194304
+
+
+def with_receive_buffer(url):
+    """url with recv_buf_size=RECEIVE_BUFFER_BYTES appended when it is udpm:// and names none."""
+    if not url.startswith("udpm://") or "recv_buf_size=" in url:
+        return url
+    return f"{url}{'&' if '?' in url else '?'}recv_buf_size={RECEIVE_BUFFER_BYTES}"
+
+
 def _describe(msg):
     if msg.mode == command_t.MODE_VELOCITY:
         return "velocity({:g}, {:g}, {:g})".format(*msg.velocity)
@@ -145,7 +158,7 @@ class Robot(GoalMixin):
         self._queue_len = int(queue_len)
         self._secret = secret
         try:
-            self._lc = lcm.LCM(url)
+            self._lc = lcm.LCM(with_receive_buffer(url))
         except (RuntimeError, OSError) as e:
             raise RuntimeError(f"omni4.Robot: cannot open LCM URL {url}: {e}") from None
         self._lock = threading.Lock()          # seq, command, queues

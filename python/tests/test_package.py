@@ -113,8 +113,12 @@ def test_key_list_is_generated_from_the_layers_key_lists():
         assert fh.read() == g.python_module(REPO)
     with open(os.path.join(REPO, "config", "src", "config.c")) as fh:
         table = fh.read().split("const struct config_key config_keys[] = {", 1)[1]
-    included = re.findall(r'#include "omni4/(\w+_keys\.def)"', table.split("\n};", 1)[0])
-    assert included == [os.path.basename(p) for p in g.def_files(REPO)]
+    # The layers' lists by name, then the backends' through the file generated from
+    # backends.def's keys column (cmake/backend_parts.cmake), which def_files reads in row order.
+    included = re.findall(r'#include "omni4/\w+/(\w+_keys\.(?:def|inc))"',
+                          table.split("\n};", 1)[0])
+    assert included == [os.path.basename(p) for p in g.LAYER_FILES] + ["backend_keys.inc"]
+    assert g.def_files(REPO)[:len(g.LAYER_FILES)] == g.LAYER_FILES
     assert len(_keys.KEYS) == len(set(_keys.KEYS)) and ("hal", "motor", "choice") in _keys.KEYS
     assert _keys.MODEL_KEYS == ("d", "r", "l", "Kv", "Kt", "R", "M", "J", "Bv", "Bvn", "Bw",
                                 "Cv", "Cvn", "Cw")

@@ -189,3 +189,17 @@ def test_commands_beyond_the_limits_raise_naming_the_limit_and_send_nothing(bus)
     assert {tuple(c.velocity) for c in sent if c.mode == omni4.command_t.MODE_VELOCITY} == \
         {(0.5, 0.0, 0.0), (1.5, -1.5, 20.0)}
     assert not any(c.mode == omni4.command_t.MODE_VOLTAGE for c in sent)
+
+
+def test_udpm_urls_ask_for_a_large_receive_buffer():
+    """A udpm URL gets recv_buf_size appended (after ? or &), a URL that names one or is not
+    udpm is left as it is."""
+    n = omni4.robot.RECEIVE_BUFFER_BYTES
+    assert n >= 1 << 20
+    w = omni4.robot.with_receive_buffer
+    assert w("udpm://239.255.76.67:7667") == f"udpm://239.255.76.67:7667?recv_buf_size={n}"
+    assert w("udpm://239.255.76.67:7667?ttl=0") == \
+        f"udpm://239.255.76.67:7667?ttl=0&recv_buf_size={n}"
+    assert w("udpm://239.255.76.67:7667?recv_buf_size=1000") == \
+        "udpm://239.255.76.67:7667?recv_buf_size=1000"
+    assert w("memq://") == "memq://"

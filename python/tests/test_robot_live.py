@@ -131,7 +131,11 @@ def test_keepalive_holds_the_robot_beyond_the_watchdog(fw):
         mode, faults, w = hold(robot, 3 * CMD_TIMEOUT_MS / 1000)
         assert (mode == omni4.motors_t.MODE_VELOCITY).all(), set(mode.tolist())
         assert not (faults & omni4.motors_t.FAULT_CMD_TIMEOUT).any()
-        assert (w[:, 3] > 8.5).all() and (w[:, 1] < -8.5).all()
+        # Driven all along: the wheels' median at the command (9.23 rad/s) and never near the
+        # watchdog's stop. Single samples dip on a loaded host (6.7 rad/s measured under TSan at
+        # load average 8: late ticks), so the bound on each sample is half the command.
+        assert np.median(w[:, 3]) > 8.5 and np.median(w[:, 1]) < -8.5, np.median(w, axis=0)
+        assert (w[:, 3] > 4.6).all() and (w[:, 1] < -4.6).all(), (w[:, 3].min(), w[:, 1].max())
         robot.stop()
         robot.wait_motors(lambda m: m.mode == omni4.motors_t.MODE_IDLE, WAIT_S)
         # The control: the same command sent once, without keep-alive, is stopped by the
