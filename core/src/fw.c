@@ -294,8 +294,9 @@ static void push_goal(struct fw *fw, int64_t now_us, const struct goal_report *r
 	log_push(fw, &e);
 }
 
-/* Goals waiting in the mailbox, in order (each refusal reported), then the goal's tick: its
- * reference for this tick's controller step. The estimate is the last tick's. */
+/* Goals waiting in the mailbox, in order (each refusal reported), then the goal's tick (a plan
+ * made beside the loop handed over or refused; the reference for this tick's controller
+ * step). The estimate is the last tick's. */
 static void run_goal(struct fw *fw, int64_t now_us)
 {
 	const struct est_output *est = fw->no_estimate ? NULL : est_get(&fw->est);
@@ -310,6 +311,9 @@ static void run_goal(struct fw *fw, int64_t now_us)
 			push_goal(fw, now_us, r);
 	}
 	goal_step(&fw->goal, &fw->ctl, est, now_us);
+	r = goal_take_refused(&fw->goal); /* a plan made beside the loop: none, or FAULT */
+	if (r)
+		push_goal(fw, now_us, r);
 	r = goal_report(&fw->goal, &changed);
 	if (changed || (r->status == GOAL_ACTIVE && fw->seq % fw->state_every == 0))
 		push_goal(fw, now_us, r);
@@ -387,4 +391,9 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	push_sample(fw, now_us, &out);
 	fw->seq++;
 	fw->n.ticks++;
+}
+
+bool fw_background(struct fw *fw)
+{
+	return goal_work(&fw->goal);
 }

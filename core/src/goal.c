@@ -1,6 +1,7 @@
-/* goal.c - position control on the trajectory generator: checks, plan, path, tracking law,
- * progress (goal.h, docs/goal.md). */
-#include "omni4/core/goal.h"
+/* goal.c - position control on the trajectory generator, the tick's side: checks, the plans
+ * asked for and handed over (made by goal_plan.c beside the loop), tracking law, progress
+ * (goal.h, docs/goal.md). */
+#include "goal_int.h"
 
 #include <errno.h>
 #include <math.h>
@@ -60,28 +61,6 @@ void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin)
 	*margin = floor ? cfg->limits.traction_margin : GOAL_TRACTION_MARGIN;
 }
 
-/* A plan from `from` to `to` in tr under the limits in force: the envelope's (traj_plan) or the
- * fixed box's, its speed within tr's cap (a goal's speed_max). */
-static int plan(const struct goal *g, struct traj *tr, const struct traj_ref *from,
-                const float to[3])
-{
-	if (!g->fixed)
-		return traj_plan(tr, from, to);
-	struct goal_fixed fx = g->fx;
-
-	fx.speed_m_s = fminf(fx.speed_m_s, tr->c.speed_cap_m_s);
-	return goal_fixed_plan(&fx, tr, from, to);
-}
-
-/* plan from the reference at tr's clock now (no jump). */
-static int replan(const struct goal *g, struct traj *tr, const float to[3])
-{
-	struct traj_ref now;
-
-	traj_eval(tr, tr->t_s, &now);
-	return plan(g, tr, &now, to);
-}
-
 void goal_init(struct goal *g, const struct ctl_settings *cfg)
 {
 	const bool again = active(g) && g->traj_ok;
@@ -104,6 +83,8 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 	/* Into the scratch first: limits it refuses leave the goal in force its plan, to be
 	 * aborted at the next step (goal_step), never a reference at the origin. */
 	g->traj_ok = traj_init(&g->scratch, &lim) == 0;
+	g->gen++; /* a plan asked for under the old limits is asked again */
+	g->lead_s = GOAL_PLAN_LEAD_S;
 	g->kp_pos = GOAL_KP_POS;
 	g->kp_theta = GOAL_KP_THETA;
 	g->kinematic = cfg->goal.feedforward == CTL_GOAL_FF_KINEMATIC;
@@ -125,7 +106,7 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 		return;
 	if (g->tr.on_path && !g->fixed && traj_replan(&g->tr, g->poses[g->n - 1]) == 0)
 		return; /* the same path, re-timed */
-	plan(g, &g->tr, &ref, g->poses[g->index]);
+	goal_plan_to(g->fixed, &g->fx, &g->tr, &ref, g->poses[g->index]);
 }
 
 /* 0 if the goal's fields are usable, else the reason. */
@@ -152,66 +133,185 @@ static enum goal_reason check_fields(const struct goal_cmd *cmd)
 	return GOAL_R_NONE;
 }
 
-/* Where a new plan starts: the reference while a goal is tracked (bumpless from goal to
- * goal), else the estimate with its velocity turned into the world frame (eq 1). */
-static void plan_start(const struct goal *g, const struct ctl *c, const struct est_output *est,
-                       struct traj_ref *from)
+static void refuse(struct goal *g, const struct goal_cmd *cmd, enum goal_status st,
+                   enum goal_reason why)
 {
-	if (holding(g, c)) {
-		traj_eval(&g->tr, g->tr.t_s, from);
+	g->refused =
+	    (struct goal_report){.id = cmd->id, .status = st, .reason = (int8_t)why, .n = cmd->n};
+	g->refused_pending = true;
+}
+
+/* Where an asked-for plan starts. While a goal is tracked: its reference a lead ahead on its
+ * clock (bumpless from goal to goal). Else the estimate, its velocity turned into the world
+ * frame (eq 1), carried a lead ahead at that velocity and handed over then; from rest, as it
+ * is and handed over as soon as made. */
+static void plan_start(const struct goal *g, const struct ctl *c, const struct est_output *est,
+                       int64_t now_us, struct goal_job *j)
+{
+	j->on_clock = holding(g, c);
+	j->asap = false;
+	if (j->on_clock) {
+		j->tr.handover_s = g->tr.t_s + j->lead_s;
+		traj_eval(&g->tr, j->tr.handover_s, &j->from);
 		return;
 	}
 	const float th = est->pose[2];
 	float cs, sn;
 
 	cos_sin(th, &cs, &sn);
-
-	memset(from, 0, sizeof(*from));
-	memcpy(from->pose, est->pose, sizeof(from->pose));
-	from->vel[0] = cs * est->vel[0] - sn * est->vel[1];
-	from->vel[1] = sn * est->vel[0] + cs * est->vel[1];
-	from->vel[2] = est->vel[2];
+	memset(&j->from, 0, sizeof(j->from));
+	memcpy(j->from.pose, est->pose, sizeof(j->from.pose));
+	j->from.vel[0] = cs * est->vel[0] - sn * est->vel[1];
+	j->from.vel[1] = sn * est->vel[0] + cs * est->vel[1];
+	j->from.vel[2] = est->vel[2];
+	j->asap = norm2(est->vel[0], est->vel[1]) < GOAL_REST_SPEED_M_S &&
+	          fabsf(est->vel[2]) < GOAL_REST_RATE_RAD_S;
+	if (j->asap)
+		return;
+	for (int k = 0; k < 3; k++)
+		j->from.pose[k] += j->lead_s * j->from.vel[k];
+	j->handover_us = now_us + (int64_t)(j->lead_s * 1e6f);
 }
 
-/* A path of up to TRAJ_PATH_MAX poses: one plan through them all (no stop at the
- * intermediate ones, each passed within the blend radius); false if it cannot be planned. */
-static bool plan_path(const struct goal_cmd *cmd, const struct traj_ref *from, struct traj *tr)
+/* Asks for the waiting goal's plan (or else the stepped goal's next pose) if the job is free. */
+static void post(struct goal *g, const struct ctl *c, const struct est_output *est, int64_t now_us)
 {
-	float poses[TRAJ_PATH_MAX][3];
-	const float blend = cmd->blend_m > 0.0 ? (float)cmd->blend_m : GOAL_BLEND_DEFAULT_M;
+	struct goal_job *j = &g->job;
+	const bool first = g->want_set && !g->want_posted;
 
-	if (cmd->n < 2 || cmd->n > TRAJ_PATH_MAX)
-		return false;
-	for (int i = 0; i < cmd->n; i++)
-		for (int k = 0; k < 3; k++)
-			poses[i][k] = (float)cmd->poses[i][k];
-	return traj_plan_path(tr, from, (const float (*)[3])poses, cmd->n, blend) == 0 &&
-	       tr->duration_s <= GOAL_PLAN_MAX_S;
+	if ((!first && !g->next_want) ||
+	    atomic_load_explicit(&j->state, memory_order_acquire) != GOAL_JOB_IDLE ||
+	    (!est && !holding(g, c)))
+		return;
+	j->tr = g->tr; /* the limits in force */
+	j->gen = g->gen;
+	j->fixed = g->fixed;
+	j->fx = g->fx;
+	j->lead_s = g->lead_s;
+	if (first) {
+		const struct goal_cmd *cmd = &g->want;
+
+		j->kind = GOAL_JOB_FIRST;
+		j->id = cmd->id;
+		j->n = cmd->n;
+		j->index = 0;
+		j->blend_m = cmd->blend_m > 0.0 ? (float)cmd->blend_m : GOAL_BLEND_DEFAULT_M;
+		j->tr.c.speed_cap_m_s = cmd->speed_max > 0.0
+		                            ? fminf((float)cmd->speed_max, g->speed_cap_m_s)
+		                            : g->speed_cap_m_s;
+		for (int i = 0; i < cmd->n; i++)
+			for (int k = 0; k < 3; k++)
+				j->poses[i][k] = (float)cmd->poses[i][k];
+		g->want_posted = true;
+	} else {
+		j->kind = GOAL_JOB_NEXT;
+		j->id = g->rep.id;
+		j->n = g->n;
+		j->index = g->index;
+		j->blend_m = g->blend_m;
+		memcpy(j->poses, g->poses, sizeof(j->poses));
+		g->next_want = false;
+	}
+	plan_start(g, c, est, now_us, j);
+	atomic_store_explicit(&j->state, GOAL_JOB_POSTED, memory_order_release);
 }
 
-/* Plans cmd's first segment into tr (a copy: the goal in force keeps its plan if refused). */
-static enum goal_reason plan_first(const struct goal *g, const struct ctl *c,
-                                   const struct goal_cmd *cmd, const struct est_output *est,
-                                   struct traj *tr)
+/* The job back to the tick's side, its plan asked again (first: the waiting goal's). */
+static void job_free(struct goal_job *j)
 {
-	struct traj_ref from;
-	const float to[3] = {(float)cmd->poses[0][0], (float)cmd->poses[0][1],
-	                     (float)cmd->poses[0][2]};
-
-	if (!g->traj_ok)
-		return GOAL_R_UNREACHABLE;
-	*tr = g->tr;
-	tr->c.speed_cap_m_s = cmd->speed_max > 0.0 ? fminf((float)cmd->speed_max, g->speed_cap_m_s)
-	                                           : g->speed_cap_m_s;
-	plan_start(g, c, est, &from);
-	if (!g->fixed && plan_path(cmd, &from, tr))
-		return GOAL_R_NONE;
-	if (plan(g, tr, &from, to) || !(tr->duration_s <= GOAL_PLAN_MAX_S))
-		return GOAL_R_UNREACHABLE;
-	return GOAL_R_NONE;
+	atomic_store_explicit(&j->state, GOAL_JOB_IDLE, memory_order_release);
 }
 
-/* A new goal: checked, planned and taken, or refused (the goal in force, if any, goes on). */
+static void ask_again(struct goal *g, bool first)
+{
+	if (first)
+		g->want_posted = false;
+	else
+		g->next_want = true;
+	job_free(&g->job);
+}
+
+/* The waiting goal's plan handed over: the goal in force from now on, or refused (FAULT). */
+static void take_first(struct goal *g, struct ctl *c, float past_s)
+{
+	const struct goal_cmd *cmd = &g->want;
+	const struct goal_job *j = &g->job;
+
+	g->want_set = false;
+	if (ctl_goal(c, g->want_alive_us)) { /* FAULT or ESTOP meanwhile */
+		refuse(g, cmd, GOAL_REFUSED, GOAL_R_FAULT);
+		return;
+	}
+	g->tr = j->tr;
+	g->tr.t_s = fmaxf(past_s, 0.0f);
+	g->tr.handover_s = 0.0f;
+	g->n = j->n;
+	g->index = 0;
+	memcpy(g->poses, j->poses, sizeof(g->poses));
+	g->blend_m = j->blend_m;
+	g->next_want = false;
+	g->stale_since_us = 0;
+	g->rep = (struct goal_report){.id = cmd->id, .n = cmd->n};
+	g->rep.status = GOAL_NONE;
+	set_status(g, GOAL_ACTIVE, GOAL_R_NONE);
+}
+
+/* A plan made: dropped if no longer wanted, asked again if its basis changed or it came late,
+ * refused if there is none, else handed over when the clock gets to its start. */
+static void take(struct goal *g, struct ctl *c, int64_t now_us)
+{
+	struct goal_job *j = &g->job;
+
+	if (atomic_load_explicit(&j->state, memory_order_acquire) != GOAL_JOB_DONE)
+		return;
+	const bool first = j->kind == GOAL_JOB_FIRST;
+	const bool wanted =
+	    first ? g->want_set && g->want.id == j->id
+	          : active(g) && holding(g, c) && g->rep.id == j->id && g->index == j->index;
+	if (!wanted) {
+		job_free(j);
+		return;
+	}
+	if (j->gen != g->gen || j->on_clock != holding(g, c)) {
+		ask_again(g, first);
+		return;
+	}
+	if (j->reason != GOAL_R_NONE) {
+		if (first) {
+			g->want_set = false;
+			refuse(g, &g->want, GOAL_REFUSED, (enum goal_reason)j->reason);
+		} else {
+			set_status(g, GOAL_ABORTED, (enum goal_reason)j->reason);
+			ctl_stop(c, now_us);
+		}
+		job_free(j);
+		return;
+	}
+	float past_s = 0.0f;
+
+	if (j->on_clock) {
+		if (g->tr.t_s < j->tr.handover_s - TRAJ_HANDOVER_TOL_S &&
+		    g->tr.t_s < g->tr.duration_s)
+			return; /* not yet */
+		past_s = g->tr.t_s - j->tr.handover_s;
+	} else if (!j->asap) {
+		if (now_us < j->handover_us)
+			return;
+		past_s = 1e-6f * (float)(now_us - j->handover_us);
+	}
+	if (past_s > GOAL_PLAN_LATE_S) { /* late: its start has gone by */
+		g->lead_s = fminf(2.0f * g->lead_s, GOAL_PLAN_LEAD_MAX_S);
+		ask_again(g, first);
+		return;
+	}
+	if (first)
+		take_first(g, c, past_s);
+	else
+		traj_take_over(&g->tr, &j->tr);
+	job_free(j);
+}
+
+/* A new goal: checked, then waits for its plan (goal_work; taken or refused in goal_step). */
 static int start(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
                  const struct est_output *est, int64_t now_us)
 {
@@ -219,28 +319,22 @@ static int start(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 
 	if (!why && (!est || (est->flags & EST_FLAG_CAMERA_STALE)))
 		why = GOAL_R_NO_ESTIMATE;
-	if (!why)
-		why = plan_first(g, c, cmd, est, &g->scratch);
-	if (!why && ctl_goal(c, now_us)) /* FAULT or ESTOP */
+	if (!why && !g->traj_ok)
+		why = GOAL_R_UNREACHABLE;
+	if (!why && (c->mode == CTL_FAULT || c->mode == CTL_ESTOP))
 		why = GOAL_R_FAULT;
 	if (why) {
-		g->refused = (struct goal_report){
-		    .id = cmd->id, .status = GOAL_REFUSED, .reason = (int8_t)why, .n = cmd->n};
-		g->refused_pending = true;
+		refuse(g, cmd, GOAL_REFUSED, why);
 		return why == GOAL_R_FAULT ? -EPERM
 		                           : (why == GOAL_R_UNREACHABLE ? -ERANGE : -EINVAL);
 	}
-	g->tr = g->scratch;
-	g->n = cmd->n;
-	g->index = 0;
-	for (int i = 0; i < cmd->n; i++)
-		for (int k = 0; k < 3; k++)
-			g->poses[i][k] = (float)cmd->poses[i][k];
-	g->blend_m = cmd->blend_m > 0.0 ? (float)cmd->blend_m : GOAL_BLEND_DEFAULT_M;
-	g->stale_since_us = 0;
-	g->rep = (struct goal_report){.id = cmd->id, .n = cmd->n};
-	g->rep.status = GOAL_NONE;
-	set_status(g, GOAL_ACTIVE, GOAL_R_NONE);
+	if (g->want_set) /* the one waiting before it is never taken */
+		refuse(g, &g->want, GOAL_REFUSED, GOAL_R_REPLACED);
+	g->want = *cmd;
+	g->want_set = true;
+	g->want_posted = false;
+	g->want_alive_us = now_us;
+	post(g, c, est, now_us);
 	return 0;
 }
 
@@ -250,6 +344,10 @@ int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 	const bool mine = cmd->id == g->rep.id;
 
 	if (cmd->action == GOAL_CANCEL) {
+		if (g->want_set && (cmd->id == g->want.id || cmd->id == 0)) {
+			g->want_set = false; /* its plan, if made, is dropped */
+			refuse(g, &g->want, GOAL_ABORTED, GOAL_R_CANCELLED);
+		}
 		if ((mine || cmd->id == 0) && holding(g, c)) {
 			if (active(g))
 				set_status(g, GOAL_ABORTED, GOAL_R_CANCELLED);
@@ -264,7 +362,12 @@ int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 		return -EINVAL;
 	}
 	if (mine && holding(g, c))
-		return ctl_goal(c, now_us); /* keep-alive */
+		return ctl_goal(c, now_us);         /* keep-alive */
+	if (g->want_set && cmd->id == g->want.id) { /* the waiting goal's keep-alive */
+		g->want_alive_us = now_us;
+		return holding(g, c) ? ctl_goal(c, now_us)
+		                     : 0; /* its sender left the one in force */
+	}
 	if (mine && g->rep.status != GOAL_NONE)
 		return -ECANCELED; /* an ended goal never starts again under its id */
 	return start(g, c, cmd, est, now_us);
@@ -307,7 +410,8 @@ static bool estimate_ok(struct goal *g, struct ctl *c, const struct est_output *
 }
 
 /* The reference's next pose: the pose aimed at changes when the reference comes within the
- * blend radius of an intermediate one (re-planned from the reference: no jump). */
+ * blend radius of an intermediate one; off a path, its plan is asked for (from the reference a
+ * lead ahead: no jump) and the reference goes on toward the one passed meanwhile. */
 static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 {
 	traj_step(&g->tr, dt_s, ref);
@@ -319,10 +423,8 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 		return;
 	g->index++;
 	g->changed = true;
-	if (g->tr.on_path)
-		return; /* the path plan goes on through the next pose */
-	replan(g, &g->tr, g->poses[g->index]);
-	traj_eval(&g->tr, g->tr.t_s, ref);
+	if (!g->tr.on_path)
+		g->next_want = true; /* planned beside the loop; the reference goes on meanwhile */
 }
 
 /* The tracking law: world velocity of the reference plus P on the pose error, turned into the
@@ -385,6 +487,8 @@ void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int6
 	struct traj_ref ref;
 
 	follow_controller(g, c);
+	take(g, c, now_us);
+	post(g, c, est, now_us);
 	if (holding(g, c) && !g->traj_ok) { /* new limits left no acceleration */
 		if (active(g))
 			set_status(g, GOAL_ABORTED, GOAL_R_UNREACHABLE);

@@ -160,9 +160,11 @@ static bool on_line(const struct traj_ref *from, const float goal[3], float e[2]
 }
 
 /* One plan with the heading's share of every wheel's budget, its rate within cap; returns its
- * duration. */
+ * duration. settle: a start turning faster than cap slows to it first at the heading's full
+ * deceleration, and the translation's rows carry the turning body's force at cap, not at the
+ * start's rate (docs/trajectory.md, "A turning body"). */
 static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const float goal[3],
-                            float share, bool rot_idle, bool tr_idle, float cap)
+                            float share, bool rot_idle, bool tr_idle, float cap, bool settle)
 {
 	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
 	float t_rot = 0.0f, t_xy = 0.0f, lo = from->pose[2], hi = from->pose[2];
@@ -182,7 +184,8 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 	}
 	struct row r[ROWS_MAX];
 	float phi[TRAJ_HEADINGS_MAX], cos_h;
-	const float w_max = rot_idle ? 0.0f : traj_1d_speed_max(&tr->axis[2]);
+	const float w_top = rot_idle ? 0.0f : traj_1d_speed_max(&tr->axis[2]);
+	const float w_max = settle ? minf(w_top, cap) : w_top;
 	const int nh = heading_samples(lo, hi, phi, &cos_h);
 	int n = 0;
 	for (int k = 0; k < nh; k++)
@@ -222,17 +225,18 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 }
 
 /* plan_share_cap at the heading's cap, then, while the turning body's M w x v leaves the
- * translation no room (beyond the envelope), at a lower one (never below the start's rate). */
+ * translation no room (beyond the envelope), at a lower one (below the start's rate: the
+ * heading slows to it first). */
 static float plan_share(struct traj *tr, const struct traj_ref *from, const float goal[3],
                         float share, bool rot_idle, bool tr_idle)
 {
 	float cap = tr->c.omega_cap_rad_s, t = INFINITY;
 
 	for (int k = 0; k < TURN_CAPS; k++) {
-		t = plan_share_cap(tr, from, goal, share, rot_idle, tr_idle, cap);
+		t = plan_share_cap(tr, from, goal, share, rot_idle, tr_idle, cap, k > 0);
 		if (rot_idle || tr_idle || !(tr->flags & TRAJ_F_BEYOND_ENVELOPE))
 			break;
-		cap = maxf(TURN_CAP_CUT * traj_1d_speed_max(&tr->axis[2]), fabsf(from->vel[2]));
+		cap = TURN_CAP_CUT * minf(cap, traj_1d_speed_max(&tr->axis[2]));
 	}
 	return t;
 }

@@ -250,16 +250,18 @@ static void prepare_process(const struct omni4_config *cfg)
 	sigaction(SIGTERM, &sa, NULL);
 }
 
-/* Until SIGINT / SIGTERM or --duration. */
-static void wait_for_stop(const struct options *o)
+/* Until SIGINT / SIGTERM or --duration, doing the work beside the loop (a goal's plan,
+ * fw_background) within a millisecond of the tick asking for it. */
+static void wait_for_stop(struct fw *fw, const struct options *o)
 {
 	const int64_t t0 = rtloop_clock_us();
 
 	while (!g_stop &&
 	       !(o->duration_s > 0 && (rtloop_clock_us() - t0) * 1e-6 >= o->duration_s)) {
-		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 20000000};
+		const struct timespec nap = {.tv_sec = 0, .tv_nsec = 1000000};
 
-		nanosleep(&nap, NULL);
+		if (!fw_background(fw))
+			nanosleep(&nap, NULL);
 	}
 }
 
@@ -318,7 +320,7 @@ static int run_loop(struct app *app, const struct omni4_config *cfg, const struc
 	describe(cfg, what, sizeof(what));
 	if (!o->quiet)
 		fprintf(stderr, "omni4-fw: running at %.0f Hz, %s\n", cfg->ctl.rate_hz, what);
-	wait_for_stop(o);
+	wait_for_stop(&app->robot.fw, o);
 	rtloop_request_stop(loop);
 	rtloop_join(loop);
 	return 0;

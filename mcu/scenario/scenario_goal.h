@@ -19,9 +19,11 @@ void scenario_say(const char *name, bool ok, const char *figures);
 const struct scenario_meter *scenario_meter(void);
 void scenario_print(const char *line);
 
-/* A goal from rest (a move with a turn) kept alive until REACHED: the line "goal ok|FAILED"
- * with the ticks it took and the final pose's error, then (metered) one cost line with the
- * goal's ticks' instructions, mean and max (the plan's tick is the max). 0 if it passed. */
+/* A goal from rest (a move with a turn), replaced on the way by a second one, kept alive until
+ * REACHED: the line "goal ok|FAILED" with the tick the second was handed over at, the
+ * reference's step there, the tick it was reached at and the final pose's error; then
+ * (metered) one cost line: the ticks' instructions and the plans' beside the loop (mean, max).
+ * 0 if it passed. */
 int scenario_goal(void);
 
 #endif /* OMNI4_SCENARIO_GOAL_H */

@@ -311,6 +311,8 @@ void simrun_tick(struct simrun *sr)
 	const struct lcmio_sink sink = {.emit = sink_emit, .ctx = sr};
 
 	fw_tick(&sr->robot.fw, simrun_now_us(sr));
+	/* In lockstep: a plan asked for is made before the next tick. */
+	fw_background(&sr->robot.fw);
 	sr->st.faults |= sr->robot.fw.last_out.faults;
 	lcmio_drain(&sr->robot.fw, &sink, &sr->st.log_errors);
 	sr->st.ticks++;

@@ -69,6 +69,9 @@ static void go(struct rig *r, int64_t id, double x, double y, double th)
 	cmd.poses[0][1] = y;
 	cmd.poses[0][2] = th;
 	assert_int_equal(goal_command(&r->g, &r->c, &cmd, &r->est, 0), 0);
+	assert_true(goal_work(&r->g));       /* its plan, beside the loop */
+	goal_step(&r->g, &r->c, &r->est, 0); /* handed over: from rest, at once */
+	assert_int_equal(r->g.rep.status, GOAL_ACTIVE);
 }
 
 /* The largest |f_j| over the plan sampled every 1 ms [N]. */

@@ -299,14 +299,14 @@ static void test_envelope_is_below_brute_force_with_odd_drives(void **state)
  * feedforward's sharing f = IK [Fv/2, Fvn/2, T/(4 d^2)], u_j = (f_j + e_j v_j) / b_j. Returns
  * the largest ratio to its limit (<= 1: within the envelope).
  */
-static double plan_worst_ratio(const struct traj *tr, const struct traj_limits *l)
+static double plan_worst_ratio_after(const struct traj *tr, const struct traj_limits *l, double t0)
 {
 	const double d = l->p.d, M = l->p.M, J = l->p.J;
 	double worst = 0;
 
 	assert_true(isfinite(tr->duration_s) && tr->duration_s < 60.0f);
 
-	for (double t = 0.0; t <= tr->duration_s + 0.01; t += 5e-4) {
+	for (double t = t0; t <= tr->duration_s + 0.01; t += 5e-4) {
 		struct traj_ref r;
 		traj_eval(tr, (float)t, &r);
 		const double c = cos(r.pose[2]), s = sin(r.pose[2]);
@@ -329,6 +329,11 @@ static double plan_worst_ratio(const struct traj *tr, const struct traj_limits *
 		}
 	}
 	return worst;
+}
+
+static double plan_worst_ratio(const struct traj *tr, const struct traj_limits *l)
+{
+	return plan_worst_ratio_after(tr, l, 0.0);
 }
 
 struct move {
@@ -566,6 +571,47 @@ static void test_plan_ahead_hands_over_without_a_jump(void **state)
 	assert_int_equal(traj_plan_ahead(&tr, 0.1f, bad, &next), -EINVAL);
 }
 
+/* A new goal while the reference turns fast (1.5 rad/s at 0.74 m/s, from the plan of a move
+ * with a turn): the heading slows first and the new plan is as quick as from the same start
+ * not turning, plus at most the time the heading takes to slow (a start turning at w needs w
+ * over the heading's deceleration: < 0.2 s here), within the envelope. Before,
+ * every such plan crawled (~17 s, flagged beyond the envelope: the turning body's force at
+ * the start's rate over the whole plan). */
+static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const float start[3] = {0, 0, 0}, first[3] = {0.6f, 0.3f, 1.0f};
+	const float goals[][3] = {{0.1f, 0.5f, -0.5f}, {0.1f, 0.5f, 1.5f}, {1.0f, 0.0f, 1.0f}};
+	struct traj tr, still;
+	struct traj_ref at;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_reset(&tr, start), 0);
+	assert_int_equal(traj_replan(&tr, first), 0);
+	traj_eval(&tr, 0.6f, &at);
+	assert_true(at.vel[2] > 1.2f && hypotf(at.vel[0], at.vel[1]) > 0.6f);
+	still = tr;
+	for (size_t g = 0; g < sizeof(goals) / sizeof(goals[0]); g++) {
+		struct traj_ref calm = at;
+
+		calm.vel[2] = 0.0f;
+		assert_int_equal(traj_plan(&tr, &at, goals[g]), 0);
+		assert_int_equal(traj_plan(&still, &calm, goals[g]), 0);
+		const double w_all = plan_worst_ratio(&tr, &l),
+		             w_tail = plan_worst_ratio_after(&tr, &l, 0.2);
+
+		print_message(
+		    "goal %zu: %.3f s turning at the start, %.3f s not, flags %u; worst use "
+		    "of a limit %.3f, after 0.2 s %.4f\n",
+		    g, (double)tr.duration_s, (double)still.duration_s, (unsigned)tr.flags, w_all,
+		    w_tail);
+		assert_true(tr.flags == 0);
+		assert_true(tr.duration_s <= still.duration_s + 0.3f);
+		assert_true(w_all <= 1.0 + 1e-4);
+	}
+}
+
 /* NaN goal or start, and each limit out of its range: -EINVAL, the plan unchanged. */
 static void test_bad_input_is_refused(void **state)
 {
@@ -636,6 +682,7 @@ int main(void)
 	    cmocka_unit_test(test_heading_turns_the_short_way),
 	    cmocka_unit_test(test_replanning_while_moving_keeps_the_reference_continuous),
 	    cmocka_unit_test(test_plan_ahead_hands_over_without_a_jump),
+	    cmocka_unit_test(test_new_goal_from_a_fast_turn_does_not_crawl),
 	    cmocka_unit_test(test_bad_input_is_refused),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -29,10 +29,15 @@ static void check(const struct ctl *c, const struct ctl_output *o, const struct 
 	if (g->rep.status < GOAL_NONE || g->rep.status > GOAL_REFUSED ||
 	    g->rep.reason < GOAL_R_NONE || g->rep.reason > GOAL_R_CANCELLED)
 		__builtin_trap();
-	if (g->rep.status == GOAL_ACTIVE)
+	if (g->rep.status == GOAL_ACTIVE) {
 		for (int k = 0; k < 3; k++)
 			if (!isfinite(g->rep.ref[k]) || !isfinite(g->rep.ref_vel[k]))
 				__builtin_trap();
+		for (int i = 0; i < g->n; i++) /* the goal in force: every pose taken is finite */
+			for (int k = 0; k < 3; k++)
+				if (!isfinite(g->poses[i][k]))
+					__builtin_trap();
+	}
 }
 
 /* A goal_t built from n >= 8 bytes, then decoded as the loop would. */
@@ -109,11 +114,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			structured(data + 1, n, now, &cmd);
 		}
 		/* (a repeat of the goal in force is a keep-alive: its poses are not read) */
-		if (goal_command(&g, &c, &cmd, &est, now) == 0 && cmd.action == GOAL_GO)
-			for (int i = 0; i < g.n; i++)
-				for (int k = 0; k < 3; k++)
-					if (!isfinite(g.poses[i][k]))
-						__builtin_trap();
+		goal_command(&g, &c, &cmd, &est, now);
 		est.flags = data[n] == 0xEE ? EST_FLAG_CAMERA_STALE
 		                            : (data[n] == 0xCC ? EST_FLAG_COLLISION : 0);
 		for (int t = 0; t < 20; t++) {
@@ -121,6 +122,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			goal_step(&g, &c, &est, now);
 			ctl_step(&c, now, &s, 0, false, &out);
 			check(&c, &out, &g);
+			goal_work(&g); /* a plan asked for, beside the loop */
 			memcpy(est.pose, g.rep.ref, sizeof(est.pose));
 		}
 		data += n + 1;

@@ -187,6 +187,14 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 /* Fast loop. One tick at controller time now_us. */
 void fw_tick(struct fw *fw, int64_t now_us);
 
+/*
+ * fw_background - the work beside the loop, never in the tick: a goal's plan the tick asked for
+ * (goal_work). A thread of the adapter calls it (the robot binary), or the microcontroller's
+ * main loop, or a simulator after each tick; returns true if it did some work. One caller at a
+ * time; safe beside fw_tick in another thread.
+ */
+bool fw_background(struct fw *fw);
+
 /* Receive thread. false if the mailbox is full (counted). */
 bool fw_post_command(struct fw *fw, const struct ctl_command *cmd);
 

@@ -7,6 +7,13 @@
  * track. Portable like the rest of the core: C11, single precision in the tick, fixed sizes, no
  * allocation, no OS; an instance with init / start / step.
  *
+ * Plans are made outside the tick (docs/goal.md, "Where plans are made"): a plan costs far more
+ * than a tick on the Cortex-M4 (up to ~15 M instructions). The tick asks for one (goal_command,
+ * a stepped goal's next pose) from where the reference will be a lead ahead; goal_work, called
+ * by whatever runs beside the loop (a thread, the microcontroller's main loop, a simulator
+ * after each tick), makes it; the tick hands it over when its clock gets there (traj_take_over:
+ * no jump), or at once from rest. The tick's own cost stays that of a traj_step.
+ *
  * Safety, as for velocity commands (docs/goal.md):
  * - kept alive by its sender: the controller's watchdog (cmd_timeout_ms) stops a goal whose
  *   sender stops repeating it (REASON_WATCHDOG);
@@ -19,6 +26,7 @@
 #ifndef OMNI4_GOAL_H
 #define OMNI4_GOAL_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -54,6 +62,21 @@
 #define GOAL_MARGIN_V 2.0 /* supply voltage kept for the feedback [V] */
 #define GOAL_MOTOR_SPEED_MAX_RAD_S 600.0
 #define GOAL_ROT_SHARE 0.25
+
+/* The lead of a plan asked for while the reference moves [s]: goal_work must finish it within
+ * that time, or it is asked again with twice the lead (up to GOAL_PLAN_LEAD_MAX_S). A PC makes
+ * the dearest plan in a few ms; the Cortex-M4 build sets 0.2 s (mcu/: ~15 M instructions at
+ * 168 MHz beside the loop). */
+#ifndef GOAL_PLAN_LEAD_S
+#define GOAL_PLAN_LEAD_S 0.02f
+#endif
+#define GOAL_PLAN_LEAD_MAX_S 1.0f
+#define GOAL_PLAN_LATE_S 0.0025f /* a plan handed over later than this past its start: asked */
+                                 /* again (the reference would jump) */
+/* A robot not under a goal slower than these is at rest: its plan starts from the estimate
+ * and is handed over as soon as it is made. */
+#define GOAL_REST_SPEED_M_S 0.02f
+#define GOAL_REST_RATE_RAD_S 0.05f
 
 enum goal_action { GOAL_CANCEL = 0, GOAL_GO = 1 };
 
@@ -103,6 +126,34 @@ struct goal_report {
 	float error[3];   /* reference - estimate (theta wrapped) */
 };
 
+/* A plan the tick asks for (goal_command, a stepped goal's next pose) and goal_work makes. The
+ * tick writes it only while IDLE and reads it only once DONE; goal_work touches it only while
+ * POSTED. */
+enum goal_job_state { GOAL_JOB_IDLE = 0, GOAL_JOB_POSTED = 1, GOAL_JOB_DONE = 2 };
+enum goal_job_kind { GOAL_JOB_FIRST = 0, GOAL_JOB_NEXT = 1 };
+
+struct goal_job {
+	atomic_int state; /* enum goal_job_state */
+	/* asked for */
+	int64_t id;    /* the goal's */
+	uint32_t gen;  /* goal.gen when asked (new limits make it stale) */
+	int8_t kind;   /* enum goal_job_kind */
+	bool on_clock; /* handed over on the plan clock of the goal in force, at tr.handover_s */
+	bool asap;     /* !on_clock: handed over as soon as made (from rest) */
+	bool fixed;    /* under fx ([goal] limits = fixed), else the envelope */
+	int64_t handover_us; /* !on_clock && !asap: the tick time it starts at */
+	float lead_s;
+	int n, index; /* the poses, the one aimed at */
+	float blend_m;
+	struct goal_fixed fx;
+	struct traj_ref
+	    from; /* where it starts: the reference (or the estimate) at the hand-over */
+	float poses[GOAL_POSES_MAX][3];
+	/* made */
+	int8_t reason;  /* GOAL_R_NONE, or why there is no plan */
+	struct traj tr; /* its limits when asked; the plan when made */
+};
+
 struct goal {
 	struct traj tr;
 	struct traj scratch;    /* a new goal's plan before it is taken */
@@ -120,6 +171,14 @@ struct goal {
 	struct goal_report refused; /* the last goal refused (goal_take_refused) */
 	bool refused_pending;
 	int64_t stale_since_us; /* CAMERA_STALE seen since (0: not stale) */
+	/* a new goal accepted for planning, not yet in force */
+	struct goal_cmd want;
+	bool want_set, want_posted;
+	int64_t want_alive_us; /* its sender's last keep-alive */
+	bool next_want;        /* a stepped goal's next pose needs its plan */
+	float lead_s;          /* the next request's lead */
+	uint32_t gen;          /* new limits (goal_init) */
+	struct goal_job job;
 };
 
 /* Start-up or new parameters (double arithmetic: not the fast loop). The planner's limits
@@ -133,11 +192,13 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg);
 void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin);
 
 /*
- * Fast loop, on arrival (bounded: one plan). A new goal (action GO, a goal id other than the
- * active one) is checked and planned from the estimate est (NULL: none); accepted, the
- * controller enters GOAL (ctl_goal). A repeat of the active goal's id keeps it alive. CANCEL
- * ends the active goal (the controller stops with the ramp). Returns 0 accepted, else the
- * negative errno and the report says REFUSED with the reason.
+ * Fast loop, on arrival. A new goal (action GO, a goal id other than the active one) is checked
+ * (fields, estimate est (NULL: none), the controller's mode) and its plan asked for (goal_work);
+ * once planned, goal_step hands it over and the controller enters GOAL (ctl_goal), or refuses
+ * it (unreachable, FAULT meanwhile) and the goal in force goes on. A repeat of the active (or
+ * waiting) goal's id keeps it alive. CANCEL ends the active goal (the controller stops with the
+ * ramp) or drops the waiting one. Returns 0 taken, else the negative errno and the report says
+ * REFUSED with the reason.
  */
 int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
                  const struct est_output *est, int64_t now_us);
@@ -149,6 +210,13 @@ int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
  * to the controller.
  */
 void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int64_t now_us);
+
+/*
+ * Beside the loop, never in the tick: makes the plan the tick asked for, if any (up to ~15 M
+ * instructions on the Cortex-M4); returns true if it made one. Safe to call from another
+ * thread than the tick's (one caller at a time).
+ */
+bool goal_work(struct goal *g);
 
 /* The progress; *changed (may be NULL) whether status, reason or index changed since the last
  * call. */
