@@ -159,6 +159,23 @@ static bool on_line(const struct traj_ref *from, const float goal[3], float e[2]
 	return fabsf(from->vel[0] * e[1] - from->vel[1] * e[0]) < TRAJ_IDLE_VEL;
 }
 
+/* The heading rate the translation's rows carry: the heading profile's largest, or with
+ * settle (a start turning faster than cap slows to it first) cap. */
+static float rows_turn_rate(const struct traj_1d *heading, bool rot_idle, float cap, bool settle)
+{
+	const float w_top = rot_idle ? 0.0f : traj_1d_speed_max(heading);
+
+	return settle ? minf(w_top, cap) : w_top;
+}
+
+/* Stopping first (t_stop, its flags) is sooner than the box (t_box, its flags), or inside the
+ * envelope where the box is not. */
+static bool stop_first_better(float t_stop, uint32_t f_stop, float t_box, uint32_t f_box)
+{
+	return t_stop < t_box || (t_stop < INFINITY && (f_box & TRAJ_F_BEYOND_ENVELOPE) &&
+	                          !(f_stop & TRAJ_F_BEYOND_ENVELOPE));
+}
+
 /* One plan with the heading's share of every wheel's budget, its rate within cap; returns its
  * duration. settle: a start turning faster than cap slows to it first at the heading's full
  * deceleration, and the translation's rows carry the turning body's force at cap, not at the
@@ -184,8 +201,7 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 	}
 	struct row r[ROWS_MAX];
 	float phi[TRAJ_HEADINGS_MAX], cos_h;
-	const float w_top = rot_idle ? 0.0f : traj_1d_speed_max(&tr->axis[2]);
-	const float w_max = settle ? minf(w_top, cap) : w_top;
+	const float w_max = rows_turn_rate(&tr->axis[2], rot_idle, cap, settle);
 	const int nh = heading_samples(lo, hi, phi, &cos_h);
 	int n = 0;
 	for (int k = 0; k < nh; k++)
@@ -215,7 +231,7 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 	                  .goal = {goal[0], goal[1]},
 	                  .cap = tr->c.speed_cap_m_s};
 	t_xy = traj_box_plan(tr, r, n, &ax);
-	if (tb < t_xy) { /* stopping first is sooner */
+	if (stop_first_better(tb, flags, t_xy, tr->flags)) {
 		tr->axis[0] = bg[0];
 		tr->axis[1] = bg[1];
 		tr->flags = flags;
@@ -241,33 +257,45 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	return t;
 }
 
-/* Both move: the heading's share among three, the earliest arrival kept. */
+/* cand arrives sooner than best, or is inside the envelope where best is not. */
+static bool better(const struct traj *cand, const struct traj *best)
+{
+	const bool out_c = cand->flags & TRAJ_F_BEYOND_ENVELOPE;
+	const bool out_b = best->flags & TRAJ_F_BEYOND_ENVELOPE;
+
+	return out_c == out_b ? cand->duration_s < best->duration_s : out_b;
+}
+
+/* Both move: the heading's share among three, the earliest arrival kept (inside the envelope
+ * first). */
 static void share_three(struct traj *tr, const struct traj_ref *from, const float goal[3], float s)
 {
 	const float shares[TRAJ_SHARES] = {0.5f * s, s, 0.5f * (1.0f + s)};
 	struct traj cand = *tr;
 
 	tr->duration_s = INFINITY;
+	tr->flags = TRAJ_F_BEYOND_ENVELOPE;
 	for (int k = 0; k < TRAJ_SHARES; k++) {
 		cand.duration_s = plan_share(&cand, from, goal, shares[k], false, false);
-		if (cand.duration_s < tr->duration_s)
+		if (better(&cand, tr))
 			*tr = cand;
 	}
 }
 
 /* Both move on a straight line: the heading's share by bisection until the heading and the
  * translation arrive together (the heading's time falls with its share, the translation's
- * rises), the earliest arrival kept. */
+ * rises), the earliest arrival kept (inside the envelope first). */
 static void share_bisect(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	struct traj cand = *tr;
 	float lo = 0.0f, hi = 1.0f;
 
 	tr->duration_s = INFINITY;
+	tr->flags = TRAJ_F_BEYOND_ENVELOPE;
 	for (int it = 0; it < TRAJ_SHARE_ITERS; it++) {
 		const float share = 0.5f * (lo + hi);
 		cand.duration_s = plan_share(&cand, from, goal, share, false, false);
-		if (cand.duration_s < tr->duration_s)
+		if (better(&cand, tr))
 			*tr = cand;
 		const float t_rot = traj_1d_duration(&cand.axis[2]);
 		if (t_rot > maxf(traj_1d_duration(&cand.axis[0]), traj_1d_duration(&cand.axis[1])))

@@ -612,6 +612,49 @@ static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
 	}
 }
 
+/* A goal whose speed cap is below the start's speed (a goal_t's speed_max), the heading moving
+ * too: the plan slows to the cap and stays inside the envelope, never past the goal. Before, a
+ * cap of 5 cm/s or less from 0.67 m/s chose a plan flagged beyond the envelope that overshot
+ * the goal by 1.4 m (it arrived sooner than stopping first, which was inside it). */
+static void test_cap_below_the_start_speed_slows_to_it_inside_the_envelope(void **state)
+{
+	(void)state;
+	const float caps[] = {0.01f, 0.05f, 0.3f}, w0[] = {0.0f, 1.0f};
+	const float goal[3] = {3.0f, 2.0f, 0.0f};
+	const double dist = hypot(3.0 - 0.4, 2.0 - 0.2);
+
+	for (size_t i = 0; i < sizeof(caps) / sizeof(caps[0]); i++)
+		for (size_t k = 0; k < 2; k++) {
+			struct traj_limits l = limits();
+			struct traj tr;
+
+			l.speed_cap_m_s = caps[i];
+			assert_int_equal(traj_init(&tr, &l), 0);
+			const struct traj_ref from = {.pose = {0.4f, 0.2f, 0.3f},
+			                              .vel = {0.6f, 0.3f, w0[k]}};
+			assert_int_equal(traj_plan(&tr, &from, goal), 0);
+			double past = 0.0, fast = 0.0;
+			for (double t = 2.0; t < tr.duration_s; t += 0.01) {
+				struct traj_ref r;
+				traj_eval(&tr, (float)t, &r);
+				const double ex = r.pose[0] - 0.4, ey = r.pose[1] - 0.2;
+				past = fmax(past, (ex * 2.6 + ey * 1.8) / dist - dist);
+				fast = fmax(fast, hypot(r.vel[0], r.vel[1]));
+			}
+			print_message("cap %.2f m/s, w0 %.1f: %.2f s, flags %u, past the goal %.4f "
+			              "m, fastest after 2 s %.4f m/s\n",
+			              caps[i], w0[k], (double)tr.duration_s, (unsigned)tr.flags,
+			              past, fast);
+			assert_true(tr.flags == 0);
+			assert_true(past <= 1e-4);
+			assert_true(fast <= caps[i] * 1.001);
+			struct traj_ref two; /* the rest of the way at the cap at most */
+			traj_eval(&tr, 2.0f, &two);
+			const double rest = hypot(goal[0] - two.pose[0], goal[1] - two.pose[1]);
+			assert_true(tr.duration_s >= 2.0 + 0.999 * rest / caps[i]);
+		}
+}
+
 /* NaN goal or start, and each limit out of its range: -EINVAL, the plan unchanged. */
 static void test_bad_input_is_refused(void **state)
 {
@@ -683,6 +726,7 @@ int main(void)
 	    cmocka_unit_test(test_replanning_while_moving_keeps_the_reference_continuous),
 	    cmocka_unit_test(test_plan_ahead_hands_over_without_a_jump),
 	    cmocka_unit_test(test_new_goal_from_a_fast_turn_does_not_crawl),
+	    cmocka_unit_test(test_cap_below_the_start_speed_slows_to_it_inside_the_envelope),
 	    cmocka_unit_test(test_bad_input_is_refused),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
