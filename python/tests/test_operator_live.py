@@ -96,7 +96,10 @@ def test_clear_fault_taken_once_the_cause_is_gone(omni4_bin, tmp_path):
     try:
         r = clear_fault(fw.url)
         assert r.returncode == 0, r.stderr
-        assert r.stdout == "nothing to clear: IDLE, no faults (latched bits and warnings reset)\n"
+        # OVERRUN (a tick that started a period late) is a warning a loaded machine raises at
+        # any time: it may show beside IDLE; a latching fault may not.
+        assert re.fullmatch(r"nothing to clear: IDLE, (no faults|OVERRUN) \(latched bits and "
+                            r"warnings reset\)\n", r.stdout), r.stdout
         k = [10**9]
 
         def inject():
@@ -118,8 +121,8 @@ def test_clear_fault_taken_once_the_cause_is_gone(omni4_bin, tmp_path):
                             r.stderr), r.stderr
             time.sleep(0.3)
         assert r.returncode == 0 and r.stderr == "", r.stderr
-        assert re.fullmatch(r"cleared: IDLE, no faults \(was FAULT, [A-Z_ ]*\bBUS\b[A-Z_ ]*\)\n",
-                            r.stdout), r.stdout
+        assert re.fullmatch(r"cleared: IDLE, (no faults|OVERRUN) "
+                            r"\(was FAULT, [A-Z_ ]*\bBUS\b[A-Z_ ]*\)\n", r.stdout), r.stdout
         assert fw.bus.wait(lambda m: m.mode == IDLE, 1.0) is not None
     finally:
         fw.stop()
