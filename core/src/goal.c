@@ -321,7 +321,7 @@ static int start(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 		why = GOAL_R_NO_ESTIMATE;
 	if (!why && !g->traj_ok)
 		why = GOAL_R_UNREACHABLE;
-	if (!why && (c->mode == CTL_FAULT || c->mode == CTL_ESTOP))
+	if (!why && mode_faulted(c->mode))
 		why = GOAL_R_FAULT;
 	if (why) {
 		refuse(g, cmd, GOAL_REFUSED, why);
@@ -380,7 +380,7 @@ static void follow_controller(struct goal *g, const struct ctl *c)
 		return;
 	if (c->warnings & CTL_FAULT_CMD_TIMEOUT)
 		set_status(g, GOAL_ABORTED, GOAL_R_WATCHDOG);
-	else if (c->mode == CTL_FAULT || c->mode == CTL_ESTOP)
+	else if (mode_faulted(c->mode))
 		set_status(g, GOAL_ABORTED, GOAL_R_FAULT);
 	else
 		set_status(g, GOAL_ABORTED, GOAL_R_REPLACED);
