@@ -139,6 +139,12 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
  * over the last fb (fa = fb = 0: from the start's to the end's over the whole length). */
 void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb);
 
+/* One arc from start to goal (goal[2] unwrapped from start[2]) whose tangent turns k times the
+ * heading's change, the heading turning with it (that share linear in s, the rest a
+ * smoothstep): on eq 23's axes the body's velocity keeps its direction for that share.
+ * -EINVAL if the move has no length or no turn. */
+int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k);
+
 /* Times pa from arc length s0 at speed v0 >= 0 along it to rest at its end, inside the
  * envelope (checked); the duration, or INFINITY if none was found. */
 float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);

@@ -1,8 +1,9 @@
 /*
  * traj_path.c - the geometry of a path plan (traj.h struct traj_path, docs/trajectory.md
- * "Paths"): lines joined by arcs that pass each intermediate pose within a radius, by arc
- * length s, and the heading as a function of s (smoothstep between knots, so its slope is 0 at
- * each knot and its rate continuous). Single precision, fixed sizes.
+ * "Paths"): lines joined by arcs that pass each intermediate pose within a radius, or one arc
+ * for a turning move, by arc length s, and the heading as a function of s (smoothstep between
+ * knots, so its slope is 0 at each knot and its rate continuous, plus an arc's part linear in
+ * s). Single precision, fixed sizes.
  */
 #include <errno.h>
 #include <math.h>
@@ -60,15 +61,17 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 		k++;
 	const float len = pa->knot_s[k + 1] - pa->knot_s[k];
 	const float dth = pa->knot_th[k + 1] - pa->knot_th[k];
+	const float sc = s < 0.0f ? 0.0f : (s > pa->len_m ? pa->len_m : s);
 	if (!(len > 0.0f)) {
-		th[0] = pa->knot_th[k + 1];
-		th[1] = th[2] = 0.0f;
+		th[0] = pa->knot_th[k + 1] + pa->th_slope * sc;
+		th[1] = pa->th_slope;
+		th[2] = 0.0f;
 		return;
 	}
 	float x = (s - pa->knot_s[k]) / len;
 	x = x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
-	th[0] = pa->knot_th[k] + dth * x * x * (3.0f - 2.0f * x);
-	th[1] = dth * 6.0f * x * (1.0f - x) / len;
+	th[0] = pa->knot_th[k] + dth * x * x * (3.0f - 2.0f * x) + pa->th_slope * sc;
+	th[1] = dth * 6.0f * x * (1.0f - x) / len + pa->th_slope;
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
@@ -206,4 +209,29 @@ void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb)
 	pa->knot_th[0] = th0;
 	pa->knot_s[pa->n_knots] = L;
 	pa->knot_th[pa->n_knots++] = th1;
+}
+
+int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k)
+{
+	const float c = dist2(start, goal), dth = goal[2] - start[2], phi = k * dth;
+
+	if (!(c >= TRAJ_IDLE_POS) || !(fabsf(phi) >= TURN_MIN_RAD) || !(fabsf(phi) < 1.9f * PI_F))
+		return -EINVAL;
+	const float a = atan2f(goal[1] - start[1], goal[0] - start[0]);
+	const float len = c * 0.5f * phi / sin_f(0.5f * phi);
+	const float curv = phi / len;
+	float m[2], ps[2], pss[2];
+
+	*pa = (struct traj_path){.n_poses = 1, .goal = {goal[0], goal[1], goal[2]}};
+	add_piece(pa, start, a - 0.5f * phi, curv, 0.5f * len);
+	piece_at(&pa->pc[0], 0.5f * len, m, ps, pss);
+	add_piece(pa, m, a, curv, 0.5f * len);
+	pa->th_slope = curv;
+	pa->knot_s[0] = 0.0f;
+	pa->knot_th[0] = start[2];
+	pa->knot_s[1] = pa->len_m;
+	pa->knot_th[1] = goal[2] - phi;
+	pa->n_knots = 2;
+	pa->pass_s[0] = pa->len_m;
+	return 0;
 }

@@ -1,7 +1,8 @@
 /*
  * traj_pathplan.c - plans on a path (docs/trajectory.md, "Paths" and "The heading swing"):
  * traj_plan_path through intermediate poses without stopping, the straight move whose heading
- * swings toward the robot's diagonal and back, and re-timing a path plan from its reference.
+ * swings toward the robot's diagonal and back, the arc for a move that turns (docs/trajectory.md
+ * "An arc for a turning move"), and re-timing a path plan from its reference.
  * Single precision, fixed sizes, no allocation.
  */
 #include "omni4/core/traj.h"
@@ -17,6 +18,9 @@
 #define SWING_FRACS 2
 static const float swing_frac[SWING_FRACS] = {0.25f, 0.45f};
 #define VIA_MIN_M 0.02f /* the start velocity's corner: at least this far ahead */
+/* Shares of a move's turn its arc's tangent takes (from rest; 0.25 to 1.5 scanned). */
+#define ARC_FRACS 2
+static const float arc_frac[ARC_FRACS] = {0.5f, 0.75f};
 
 /* The heading nearest th with the robot's diagonal along the direction dir (the envelope is
  * widest there: all four wheels push). */
@@ -59,6 +63,17 @@ float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float g
 		cand = base;
 		traj_path_swing(&cand, mids[which], f, f);
 		const float t = traj_topp(&tr->c, &cand, 0.0f, v0);
+		if (t < best_t) {
+			best_t = t;
+			best = cand;
+			found = true;
+		}
+	}
+	const float g3[3] = {goal[0], goal[1], th1};
+	for (int m = 0; m < ARC_FRACS && !(v0 > TRAJ_IDLE_VEL); m++) {
+		if (traj_path_arc(&cand, from->pose, g3, arc_frac[m]))
+			break;
+		const float t = traj_topp(&tr->c, &cand, 0.0f, 0.0f);
 		if (t < best_t) {
 			best_t = t;
 			best = cand;

@@ -2,7 +2,7 @@
  * docs/trajectory.md "Paths"): a path sampled every 0.5 ms against each wheel's voltage,
  * traction and rim speed (the per-wheel model written out here, in double), continuity,
  * every intermediate pose passed within the radius without stopping, arrival at rest,
- * re-planning on the way without a jump, a moving start, bad input. */
+ * re-planning on the way without a jump, a moving start, bad input; a turning move's arc. */
 #include <errno.h>
 #include <math.h>
 #include <setjmp.h>
@@ -210,6 +210,85 @@ static void test_path_from_a_moving_start(void **state)
 	check_walk(&w, &l);
 }
 
+/* The circle through three points: centre c, radius (INFINITY on a line). */
+static double circle3(const double a[2], const double b[2], const double e[2], double c[2])
+{
+	const double bx = b[0] - a[0], by = b[1] - a[1], ex = e[0] - a[0], ey = e[1] - a[1];
+	const double den = 2.0 * (bx * ey - by * ex);
+
+	if (fabs(den) < 1e-12)
+		return INFINITY;
+	c[0] = a[0] + (ey * (bx * bx + by * by) - by * (ex * ex + ey * ey)) / den;
+	c[1] = a[1] + (bx * (ex * ex + ey * ey) - ex * (bx * bx + by * by)) / den;
+	return hypot(a[0] - c[0], a[1] - c[1]);
+}
+
+/* A move from rest that turns 3 rad on the way (docs/trajectory.md "An arc for a turning
+ * move"): on eq 23's axes a body turning along a straight line owes M w x v, one whose path
+ * turns with it does not, so the plan is an arc whose tangent turns the way the heading does
+ * (the circle through its start, middle and end holds every sample), inside every wheel's
+ * limits, continuous, at rest at the goal; re-planned toward the same goal on the way it keeps
+ * its end. */
+static void test_turning_move_from_rest_curves_inside_the_envelope(void **state)
+{
+	(void)state;
+	const struct traj_limits l = limits();
+	const struct traj_ref from = {.pose = {0, 0, 0}};
+	const float goal[3] = {-1.2f, 0.75f, 3.0f};
+	static double xy[20000][2];
+	struct traj tr;
+	struct traj_ref r, prev;
+	double worst = 0, dv = 0, dp = 0;
+	int n = 0;
+
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_plan(&tr, &from, goal), 0);
+	const float end = tr.duration_s;
+	traj_eval(&tr, 0.0f, &prev);
+	xy[n][0] = prev.pose[0];
+	xy[n++][1] = prev.pose[1];
+	for (; tr.t_s < tr.duration_s && n < 20000; n++) {
+		if (n == 1000) { /* 0.5 s in: toward the same goal, from the reference */
+			const float t_was = tr.t_s;
+			assert_int_equal(traj_replan(&tr, goal), 0);
+			/* the same arc re-timed from mid-segment: 2.2 ms later measured */
+			near(t_was + tr.duration_s - tr.t_s, end, 5e-3);
+		}
+		traj_step(&tr, (float)DT, &r);
+		worst = fmax(worst, use_of_limits(&r, &l));
+		for (int i = 0; i < 3; i++) {
+			dv = fmax(dv, fabs(r.vel[i] - prev.vel[i]));
+			dp = fmax(dp, fabs(r.pose[i] - prev.pose[i]) -
+			                  fmax(fabs(r.vel[i]), fabs(prev.vel[i])) * DT);
+		}
+		xy[n][0] = r.pose[0];
+		xy[n][1] = r.pose[1];
+		prev = r;
+	}
+	double c[2] = {0, 0}, off = 0, chord_side = 0;
+	const double rad = circle3(xy[0], xy[n / 2], xy[n - 1], c);
+	const double ch[2] = {goal[0], goal[1]}, L = hypot(ch[0], ch[1]);
+
+	for (int k = 0; k < n; k++) {
+		off = fmax(off, fabs(hypot(xy[k][0] - c[0], xy[k][1] - c[1]) - rad));
+		const double side = (ch[0] * xy[k][1] - ch[1] * xy[k][0]) / L;
+		chord_side = fabs(side) > fabs(chord_side) ? side : chord_side;
+	}
+	print_message("arc: %.3f s, radius %.3f m, off the circle %.2e m, off the chord %.3f m, "
+	              "worst use %.4f, dv %.2e, dp %.2e\n",
+	              (double)end, rad, off, chord_side, worst, dv, dp);
+	assert_true(worst <= 1.0 + 1e-4 && worst >= 0.7);
+	assert_true(dv <= 4.0 * l.mu * 9.80665 * DT && dp <= 1e-5);
+	assert_true(off <= 1e-3);
+	/* the heading turns counter-clockwise: the tangent starts right of the chord and turns
+	 * left, so the path bulges to the chord's right (negative side) */
+	assert_true(chord_side < -0.05);
+	assert_true(prev.pose[0] == goal[0] && prev.pose[1] == goal[1]);
+	near(prev.pose[2], goal[2], 1e-5);
+	for (int i = 0; i < 3; i++)
+		assert_true(prev.vel[i] == 0.0f);
+}
+
 /* NaN, n or radius out of range, two poses at one place: -EINVAL, the plan unchanged; a
  * start that turns: -ERANGE. */
 static void test_path_bad_input_is_refused(void **state)
@@ -241,6 +320,7 @@ int main(void)
 	    cmocka_unit_test(test_path_replans_without_a_jump),
 	    cmocka_unit_test(test_path_from_a_moving_start),
 	    cmocka_unit_test(test_path_bad_input_is_refused),
+	    cmocka_unit_test(test_turning_move_from_rest_curves_inside_the_envelope),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -136,6 +136,7 @@ struct traj_path {
 	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
 	float goal[3];               /* the end, at rest */
 	float len_m;
+	float th_slope; /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
 	int n_pieces, n_knots, n_grid, n_poses;
 };
 
