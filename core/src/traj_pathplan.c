@@ -21,6 +21,10 @@ static const float swing_frac[SWING_FRACS] = {0.25f, 0.45f};
 /* Shares of a move's turn its arc's tangent takes (from rest; 0.25 to 1.5 scanned). */
 #define ARC_FRACS 2
 static const float arc_frac[ARC_FRACS] = {0.5f, 0.75f};
+/* A turn smaller than this is made over the first or the last SMALL_TURN_FRAC of a straight
+ * move alone (no arc: one would hardly bend). */
+#define SMALL_TURN_RAD 0.2f
+#define SMALL_TURN_FRAC 0.1f
 
 /* The heading nearest th with the robot's diagonal along the direction dir (the envelope is
  * widest there: all four wheels push). */
@@ -43,6 +47,19 @@ static void take_path(struct traj *tr, const struct traj_path *pa, float t)
 		traj_1d_hold(&tr->axis[i], pa->goal[i]);
 }
 
+/* Times cand (its grid) from the start at speed v0 along it; kept in best if sooner. */
+static void try_path(const struct traj *tr, struct traj_path *cand, float v0,
+                     struct traj_path *best, float *best_t, bool *found)
+{
+	const float t = traj_topp(&tr->c, cand, 0.0f, v0);
+
+	if (t < *best_t) {
+		*best_t = t;
+		*best = *cand;
+		*found = true;
+	}
+}
+
 float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0)
 {
 	struct traj_path base, cand, best;
@@ -62,23 +79,22 @@ float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float g
 			break;
 		cand = base;
 		traj_path_swing(&cand, mids[which], f, f);
-		const float t = traj_topp(&tr->c, &cand, 0.0f, v0);
-		if (t < best_t) {
-			best_t = t;
-			best = cand;
-			found = true;
-		}
+		try_path(tr, &cand, v0, &best, &best_t, &found);
 	}
 	const float g3[3] = {goal[0], goal[1], th1};
-	for (int m = 0; m < ARC_FRACS && !(v0 > TRAJ_IDLE_VEL); m++) {
+	const bool small = fabsf(th1 - th0) < SMALL_TURN_RAD;
+	for (int m = 0; small && th1 != th0 && m < 2; m++) {
+		/* a small turn (often the estimate's few mrad): at the end, or the start, alone; */
+		/* over the whole length it would pay the turn's Coulomb friction all the way */
+		cand = base;
+		traj_path_swing(&cand, m ? th1 : th0, m ? SMALL_TURN_FRAC : 0.0f,
+		                m ? 0.0f : SMALL_TURN_FRAC);
+		try_path(tr, &cand, v0, &best, &best_t, &found);
+	}
+	for (int m = 0; !small && m < ARC_FRACS && !(v0 > TRAJ_IDLE_VEL); m++) {
 		if (traj_path_arc(&cand, from->pose, g3, arc_frac[m]))
 			break;
-		const float t = traj_topp(&tr->c, &cand, 0.0f, 0.0f);
-		if (t < best_t) {
-			best_t = t;
-			best = cand;
-			found = true;
-		}
+		try_path(tr, &cand, 0.0f, &best, &best_t, &found);
 	}
 	if (found)
 		take_path(tr, &best, best_t);
