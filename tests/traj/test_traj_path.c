@@ -290,6 +290,19 @@ static void test_turning_move_from_rest_curves_inside_the_envelope(void **state)
 		assert_true(prev.vel[i] == 0.0f);
 }
 
+/* Steps tr every DT to its end; the largest use of a limit on the way, the last reference in
+ * last. */
+static double run_out(struct traj *tr, const struct traj_limits *l, struct traj_ref *last)
+{
+	double worst = 0;
+
+	while (tr->t_s < tr->duration_s) {
+		traj_step(tr, (float)DT, last);
+		worst = fmax(worst, use_of_limits(last, l));
+	}
+	return worst;
+}
+
 /* A straight move whose start heading is a few mrad off the goal's (as an estimate leaves it):
  * the turn is made where it costs least (over the first or last tenth), not over the whole
  * length, where the heading's Coulomb friction would take its share of every wheel's force
@@ -302,17 +315,13 @@ static void test_small_turn_costs_little(void **state)
 	const float goal[3] = {0.0f, -2.0f, 0.0f};
 	struct traj tr;
 	struct traj_ref r;
-	double worst = 0;
 
 	assert_int_equal(traj_init(&tr, &l), 0);
 	assert_int_equal(traj_plan(&tr, &straight, goal), 0);
 	const double t0 = tr.duration_s;
 	assert_int_equal(traj_plan(&tr, &off, goal), 0);
 	const double t1 = tr.duration_s;
-	while (tr.t_s < tr.duration_s) {
-		traj_step(&tr, (float)DT, &r);
-		worst = fmax(worst, use_of_limits(&r, &l));
-	}
+	double worst = run_out(&tr, &l, &r);
 	print_message("no turn %.4f s, 2 mrad %.4f s (%.2f %%), worst use %.4f\n", t0, t1,
 	              100.0 * (t1 / t0 - 1.0), worst);
 	assert_true(t1 <= 1.03 * t0);
@@ -321,12 +330,8 @@ static void test_small_turn_costs_little(void **state)
 	near(r.pose[2], goal[2], 1e-6);
 	/* a short move with a turn just under the small ones' limit: its turn over 3 cm */
 	const float short_goal[3] = {0.3f, 0.0f, 0.19f};
-	worst = 0;
 	assert_int_equal(traj_plan(&tr, &straight, short_goal), 0);
-	while (tr.t_s < tr.duration_s) {
-		traj_step(&tr, (float)DT, &r);
-		worst = fmax(worst, use_of_limits(&r, &l));
-	}
+	worst = run_out(&tr, &l, &r);
 	print_message("0.3 m turning 0.19 rad: %.4f s, worst use %.4f\n", (double)tr.duration_s,
 	              worst);
 	assert_true(worst <= 1.0 + 1e-4);
