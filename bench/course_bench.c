@@ -41,10 +41,10 @@
 #define QUICK_GOALS 6
 #define PEERS 3
 /* --check on the quick course (up to the turn while translating) with bench/course.ini: about
- * 2-3x the figures measured there (final pose mean 0.22 cm, 0.22 deg; tracking RMS 0.32 cm),
+ * 2-3x the figures measured there (final pose mean 0.35 cm, 0.33 deg; tracking RMS 0.34 cm),
  * the rest the specification's. */
-#define CHECK_POS_CM 0.6
-#define CHECK_DEG 0.4
+#define CHECK_POS_CM 0.9
+#define CHECK_DEG 0.8
 #define CHECK_RMS_CM 0.8
 #define CHECK_SAT_MS 20.0
 #define CHECK_KIN_RATIO 2.0 /* kinematic-only tracking at least this much worse in RMS */

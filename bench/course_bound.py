@@ -5,8 +5,8 @@ For each single-pose goal of course_bench's run (its --times CSV: start, goal, e
 arrival), the direct method of bench/traj_optimal.py (imported, unchanged) computes the
 shortest time from rest to rest for the robot INI's model and limits: each drive's own r, Kv,
 Kt, R ([model] r_j ...; a drive without them takes the scalar), the supply less the feedback's
-margin (GOAL_MARGIN_V), the floor's traction ([limits] traction_mu and traction_margin; 0: the
-goal mode's floor, 0.6 less 10 %), the motor speed limit. Prints one line per goal, the arrival
+margin (GOAL_MARGIN_V), the floor's traction ([limits] traction_mu and traction_margin, 0: the
+goal mode's floor, 0.6 less 10 %; com_height's load transfer), the motor speed limit. Prints one line per goal, the arrival
 of the goal mode and of the fixed-limits peer over the bound, and the worst ratio.
 
     python bench/course_bound.py build/bench/course_times.csv bench/course.ini \
@@ -46,7 +46,8 @@ def robot(path):
     e = topt.L ** 2 * w["Kt"] * w["Kv"] / (w["R"] * w["r"] ** 2)
     return b, e, MOTOR_MAX * w["r"] / topt.L, dict(supply=get(limits, "supply_v", 12.0),
                                                    margin=MARGIN_V, mu=mu,
-                                                   traction_margin=tm, motor_max=MOTOR_MAX)
+                                                   traction_margin=tm, motor_max=MOTOR_MAX,
+                                                   com_height=get(limits, "com_height", 0.0))
 
 
 def main():

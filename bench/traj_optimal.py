@@ -11,7 +11,10 @@ trapezoidal collocation of
     body accel     xb' = [Fv, Fvn] / M (eq 23: the body's axes carry the velocity as they
                    turn), so the world's  R(theta) [Fv, Fvn] / M + w [-vy, vx],  w' = T / J
 
-with |u_j| <= supply - margin, |f_j| <= mu M g / 4 (1 - traction margin), |v_j| <= the motor's
+with |u_j| <= supply - margin, |f_j| <= mu (1 - traction margin) N_j, the wheel's load
+N_j = M g / 4 - M h (a . p_j) / (2 d^2) with the centre of mass's acceleration a (world
+accel in the body frame; h the com height, p_j the wheel's position: the load transfer of
+core/include/omni4/core/traction.h; h = 0: M g / 4), |v_j| <= the motor's
 speed limit at the rim; minimise the duration T (SLSQP, Jacobian by coloured finite
 differences: a defect touches two neighbouring nodes). sgn is smoothed over 0.02 m/s and
 0.2 rad/s (tanh), which lets the optimum start a little cheaper than the real friction: the
@@ -39,7 +42,9 @@ C_FRIC = np.array([1.8738, 2.2198, 0.1385])
 G_WHEEL = np.array([[0.0, 1.0, D], [-1.0, 0.0, D], [0.0, -1.0, D], [1.0, 0.0, D]])  # eq 2
 BAND = np.array([0.02, 0.02, 0.2])
 
-LIMITS = dict(supply=12.0, margin=2.0, mu=0.6, traction_margin=0.1, motor_max=600.0)
+LIMITS = dict(supply=12.0, margin=2.0, mu=0.6, traction_margin=0.1, motor_max=600.0,
+              com_height=0.0)
+P_WHEEL = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])  # p_j / d
 
 # x0 y0 th0 vx0 vy0 w0 -> x y th
 COURSE = [
@@ -112,9 +117,14 @@ class Problem:
 
     def ineq(self, w):
         z, u, _ = self.unpack(w)
-        v, f, _, _, _ = wheel_terms(z, u)
+        v, f, _, c, s = wheel_terms(z, u)
         _, _, _, f_max, rim_max = drive()
-        return np.concatenate([(f_max - f).ravel(), (f_max + f).ravel(), (rim_max - v).ravel(),
+        acc = rates(z, u)[:, 3:5]  # world
+        a_body = np.stack([c * acc[:, 0] + s * acc[:, 1], -s * acc[:, 0] + c * acc[:, 1]], 1)
+        lever = (LIMITS["mu"] * (1.0 - LIMITS["traction_margin"]) * M * LIMITS["com_height"]
+                 / (2.0 * D))
+        hold = f_max - lever * (a_body @ P_WHEEL.T)
+        return np.concatenate([(hold - f).ravel(), (hold + f).ravel(), (rim_max - v).ravel(),
                                (rim_max + v).ravel()])
 
     def jac(self, fun, w, eps=1e-7):
@@ -176,7 +186,7 @@ def planner(tool, start, goal, n):
     """The planner's duration and its reference at n + 1 evenly spaced times."""
     opts = [f"--mu={LIMITS['mu']}", f"--supply={LIMITS['supply']}",
             f"--margin={LIMITS['margin']}", f"--traction-margin={LIMITS['traction_margin']}",
-            f"--motor-max={LIMITS['motor_max']}"]
+            f"--motor-max={LIMITS['motor_max']}", f"--com-height={LIMITS['com_height']}"]
     run = lambda extra: subprocess.run([tool, *opts, *extra, *map(str, start), *map(str, goal)],
                                        check=True, capture_output=True, text=True,
                                        timeout=10).stdout.splitlines()

@@ -76,6 +76,7 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 	    .speed_cap_m_s = cfg->limits.vel_lin_max,
 	    .omega_cap_rad_s = cfg->limits.vel_rot_max,
 	    .rot_share = GOAL_ROT_SHARE,
+	    .com_height_m = cfg->limits.com_height,
 	};
 
 	goal_traction(cfg, &lim.mu, &lim.traction_margin);

@@ -35,7 +35,7 @@ static float wrap_pi(float a)
 
 /* The limits in single precision; 0 if each is in its range (NaN fails every comparison). */
 struct limits_f {
-	float supply, margin, mu, tmargin, wmax, vcap, wcap, share;
+	float supply, margin, mu, tmargin, wmax, vcap, wcap, share, height;
 };
 
 static bool limits_ok(const struct traj_limits *l, struct limits_f *f)
@@ -49,11 +49,12 @@ static bool limits_ok(const struct traj_limits *l, struct limits_f *f)
 	                       (float)l->motor_speed_max_rad_s,
 	                       (float)l->speed_cap_m_s,
 	                       (float)l->omega_cap_rad_s,
-	                       (float)l->rot_share};
+	                       (float)l->rot_share,
+	                       (float)l->com_height_m};
 	return f->supply - f->margin > 0.0f && f->margin >= 0.0f && isfinite(f->supply) &&
 	       f->mu > 0.0f && isfinite(f->mu) && f->tmargin >= 0.0f && f->tmargin < 1.0f &&
 	       f->wmax > 0.0f && isfinite(f->wmax) && f->vcap > 0.0f && f->wcap > 0.0f &&
-	       f->share > 0.0f && f->share < 1.0f;
+	       f->share > 0.0f && f->share < 1.0f && f->height >= 0.0f && isfinite(f->height);
 }
 
 int traj_init(struct traj *tr, const struct traj_limits *l)
@@ -71,6 +72,7 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 	    .C = {(float)l->p.Cv, (float)l->p.Cvn, (float)l->p.Cw},
 	    .u_max_v = f.supply - f.margin,
 	    .f_max_n = f.mu * M * TRAJ_G_M_S2 / 4.0f * (1.0f - f.tmargin),
+	    .f_lever = f.mu * (1.0f - f.tmargin) * M * f.height / (2.0f * (float)l->p.d),
 	    .speed_cap_m_s = f.vcap,
 	    .omega_cap_rad_s = f.wcap,
 	    .rot_share = f.share,

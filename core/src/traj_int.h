@@ -22,6 +22,8 @@ struct row {
 	float c0; /* room for the acceleration alone (no velocity, no Coulomb): stopping */
 	float sa[2], sv[2]; /* ka and kv with their signs */
 	float kc; /* M w x v of a turning body (eq 23's axes turn), per unit speed, either sign */
+	float sl[2]; /* traction rows: the bound an acceleration toward the wheel takes off it */
+	             /* (load transfer), signed; ka holds |sa| + |sl| (the worse sign) */
 };
 
 /* min and max of finite floats: a compare and a select (fminf and fmaxf are library calls

@@ -35,7 +35,8 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 	l->n = 0;
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
-		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey);
+		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey) +
+		                 fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
 		const float pv0 = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
 		const float pv = pv0 + r[k].kc;
 		if (pv > 0.0f)

@@ -98,8 +98,14 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].sa[1] = sp * ax + cp * ay;
 			r[n].sv[0] = cp * kv[q][0] - sp * kv[q][1];
 			r[n].sv[1] = sp * kv[q][0] + cp * kv[q][1];
+			/* traction: the load an acceleration toward wheel j (p_j / d = (gy, -gx))
+			 * takes off it */
+			const float lx = q ? 0.0f : c->f_lever * gy,
+			            ly = q ? 0.0f : -c->f_lever * gx;
+			r[n].sl[0] = cp * lx - sp * ly;
+			r[n].sl[1] = sp * lx + cp * ly;
 			for (int i = 0; i < 2; i++) {
-				r[n].ka[i] = fabsf(r[n].sa[i]);
+				r[n].ka[i] = fabsf(r[n].sa[i]) + fabsf(r[n].sl[i]);
 				r[n].kv[i] = fabsf(r[n].sv[i]);
 			}
 			r[n].kc = turn * kscale[q];
@@ -123,21 +129,24 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                        share * c->f_max_n,
 		                        {0.0f, 0.0f},
 		                        {0.0f, 0.0f},
-		                        0.0f};
+		                        0.0f,
+		                        {0.0f, 0.0f}};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
 		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
 		                            share * c->u_max_v - c->C[2] * q * ib,
 		                            share * c->u_max_v,
 		                            {0.0f, 0.0f},
 		                            {0.0f, 0.0f},
-		                            0.0f};
+		                            0.0f,
+		                            {0.0f, 0.0f}};
 		r[3 * j + 2] = (struct row){{0.0f, 0.0f},
 		                            {c->d, 0.0f},
 		                            share * c->rim_max[j],
 		                            share * c->rim_max[j],
 		                            {0.0f, 0.0f},
 		                            {0.0f, 0.0f},
-		                            0.0f};
+		                            0.0f,
+		                            {0.0f, 0.0f}};
 	}
 	for (int k = 0; k < 12; k++) /* one axis, every coefficient >= 0: signed = box */
 		for (int i = 0; i < 2; i++) {
@@ -147,14 +156,18 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 	return 12;
 }
 
-/* Wheel j's limit on a along dir: value p a + q within +-bound (p > 0 or p < 0). */
-static float acc_room(float p, float q, float bound)
+/* Largest a >= 0 with k a <= b. */
+static float room_up(float k, float b)
 {
-	if (p > 0.0f)
-		return (bound - q) / p;
-	if (p < 0.0f)
-		return (bound + q) / -p;
-	return fabsf(q) <= bound ? INFINITY : -INFINITY;
+	if (k > 0.0f)
+		return b / k;
+	return b >= 0.0f ? INFINITY : -INFINITY;
+}
+
+/* Wheel j's limit on a >= 0 along dir: p a + q within +-(bound - lift a). */
+static float acc_room(float p, float q, float bound, float lift)
+{
+	return minf(room_up(p + lift, bound - q), room_up(lift - p, bound + q));
 }
 
 int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, float *acc_m_s2,
@@ -181,8 +194,10 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 		const float q0 = 0.5f * (gx * c->C[0] * sg[0] + gy * c->C[1] * sg[1]);
 		const float q1 = 0.5f * (gx * c->B[0] * dir[0] + gy * c->B[1] * dir[1]);
 		const float s = speed_m_s;
-		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n));
-		acc = minf(acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j]));
+		const float lift = c->f_lever * (gy * dir[0] - gx * dir[1]); /* toward wheel j */
+		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n, lift));
+		acc = minf(acc,
+		           acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j], 0.0f));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */
 		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
 		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);

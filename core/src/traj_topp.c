@@ -18,13 +18,17 @@
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
 #define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
+#define USAGE_LIFT 1e6f /* a wheel the acceleration lifts off the floor: no scaling saves it */
 
 struct geo {
 	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */
+	float a[2];                  /* the centre of mass's acceleration per s'^2, body frame */
 };
 
+/* Wheel j's force A s'' + Q s'^2 + L s' + Coulomb (dlo..dhi), rim speed K s'; its traction
+ * bound f_max_n - NA s'' - NQ s'^2 (the load the acceleration takes off it). */
 struct topp_rows {
-	float A[4], Q[4], L[4], K[4], dlo[4], dhi[4];
+	float A[4], Q[4], L[4], K[4], dlo[4], dhi[4], NA[4], NQ[4];
 };
 
 struct topp_work {
@@ -46,6 +50,8 @@ static void geo_at(const struct traj_path *pa, float s, struct geo *g)
 	g->c[1] = -st * pss[0] + ct * pss[1];
 	g->ths = th[1];
 	g->thss = th[2];
+	g->a[0] = g->c[0];
+	g->a[1] = g->c[1];
 	/* the body-frame velocity q s' turns at w = ths s': the model's axes (eq 23) need
 	 * M w x v more, quadratic in s' as the curvature is (the feedforward's w vn, -w v) */
 	g->c[0] += g->ths * g->q[1];
@@ -126,6 +132,10 @@ static void rows_at(const struct traj_coef *c, const struct geo *g, const signed
 		r->L[j] = 0.5f * (gx * c->B[0] * g->q[0] + gy * c->B[1] * g->q[1]) +
 		          c->B[2] * g->ths * q4;
 		r->K[j] = gx * g->q[0] + gy * g->q[1] + c->d * g->ths;
+		/* toward wheel j (p_j / d = (gy, -gx)): the centre of mass's acceleration q s'' +
+		 * a s'^2 unloads it (traction.h) */
+		r->NA[j] = c->f_lever * (gy * g->q[0] - gx * g->q[1]);
+		r->NQ[j] = c->f_lever * (gy * g->a[0] - gx * g->a[1]);
 		r->dlo[j] = r->dhi[j] = 0.0f;
 		for (int k = 0; k < 3; k++)
 			coulomb_range(t[k], sg[k], &r->dlo[j], &r->dhi[j]);
@@ -145,7 +155,20 @@ static float speed_top(const struct traj_coef *c, const struct geo *g, const str
 	return v;
 }
 
-/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none. */
+/* a s'' <= b into [lo, hi]; false if no s'' meets it. */
+static bool one_side(float a, float b, float *lo, float *hi)
+{
+	if (a > 1e-6f)
+		*hi = minf(*hi, b / a);
+	else if (a < -1e-6f)
+		*lo = maxf(*lo, b / a);
+	else
+		return b >= 0.0f;
+	return true;
+}
+
+/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none. Row q = 0
+ * is the traction: -k hold <= f <= k hold, hold = f_max_n - NA s'' - NQ s'^2. */
 static bool interval(const struct traj_coef *c, const struct topp_rows *r, float x, float k,
                      float *lo, float *hi)
 {
@@ -158,17 +181,10 @@ static bool interval(const struct traj_coef *c, const struct topp_rows *r, float
 		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
 		for (int q = 0; q < 2; q++) {
 			const float P = r->Q[j] * x + lin[q] * sd;
-			const float up = bound[q] - P - r->dhi[j], dn = -bound[q] - P - r->dlo[j];
-			const float A = r->A[j];
-			if (A > 1e-6f) {
-				*hi = minf(*hi, up / A);
-				*lo = maxf(*lo, dn / A);
-			} else if (A < -1e-6f) {
-				*hi = minf(*hi, dn / A);
-				*lo = maxf(*lo, up / A);
-			} else if (up < 0.0f || dn > 0.0f) {
+			const float na = q ? 0.0f : k * r->NA[j], nq = q ? 0.0f : k * r->NQ[j] * x;
+			if (!one_side(r->A[j] + na, bound[q] - nq - P - r->dhi[j], lo, hi) ||
+			    !one_side(na - r->A[j], bound[q] - nq + P + r->dlo[j], lo, hi))
 				return false;
-			}
 		}
 	}
 	return *lo <= *hi;
@@ -188,7 +204,9 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 		w = maxf(w, fabsf(r->K[j]) * sd / c->rim_max[j]);
 		for (int q = 0; q < 2; q++) {
 			const float v = r->A[j] * u + r->Q[j] * x + lin[q] * sd;
-			w = maxf(w, maxf(fabsf(v + r->dlo[j]), fabsf(v + r->dhi[j])) / bound[q]);
+			const float hold = bound[q] - (q ? 0.0f : r->NA[j] * u + r->NQ[j] * x);
+			const float f = maxf(fabsf(v + r->dlo[j]), fabsf(v + r->dhi[j]));
+			w = maxf(w, hold > 1e-6f ? f / hold : USAGE_LIFT);
 		}
 	}
 	return w;

@@ -45,13 +45,16 @@ static double sgn(double x)
 }
 
 /* The largest use of a wheel's voltage, traction or rim speed by the reference r: Newton in
- * the world frame, the feedforward's sharing f = IK [Fv/2, Fvn/2, T/(4 d^2)]. */
+ * the world frame, the feedforward's sharing f = IK [Fv/2, Fvn/2, T/(4 d^2)]; wheel j's
+ * traction mu (1 - margin) N_j on its load N_j = M g / 4 - M h (a . p_j) / (2 d^2), a the
+ * centre of mass's acceleration (the world's, in the body frame), p_j the wheel's place. */
 static double use_of_limits(const struct traj_ref *r, const struct traj_limits *l)
 {
 	const double d = l->p.d, M = l->p.M, J = l->p.J;
 	const double U = l->supply_v - l->margin_v;
-	const double F_max = l->mu * M * 9.80665 / 4.0 * (1.0 - l->traction_margin);
 	const double c = cos(r->pose[2]), s = sin(r->pose[2]);
+	const double a_com[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
+	const double p[4][2] = {{d, 0}, {0, d}, {-d, 0}, {0, -d}};
 	const double x[3] = {c * r->vel[0] + s * r->vel[1], -s * r->vel[0] + c * r->vel[1],
 	                     r->vel[2]};
 	/* eq 23's axes turn with the body: d/dt of the body velocity is R^T a - w x v */
@@ -69,8 +72,12 @@ static double use_of_limits(const struct traj_ref *r, const struct traj_limits *
 		const double f = gw[j][0] * F[0] / 2 + gw[j][1] * F[1] / 2 + F[2] / (4 * d);
 		const double v = gw[j][0] * x[0] + gw[j][1] * x[1] + d * x[2];
 		const double rim = l->motor_speed_max_rad_s * l->w.r[j] / l->p.l;
+		const double N = M * 9.80665 / 4.0 - M * l->com_height_m *
+		                                         (a_com[0] * p[j][0] + a_com[1] * p[j][1]) /
+		                                         (2.0 * d * d);
+		const double F_max = l->mu * (1.0 - l->traction_margin) * N;
 		worst = fmax(worst, fabs((f + e * v) / b) / U);
-		worst = fmax(worst, fabs(f) / F_max);
+		worst = fmax(worst, F_max > 0 ? fabs(f) / F_max : INFINITY);
 		worst = fmax(worst, fabs(v) / rim);
 	}
 	return worst;
@@ -338,6 +345,64 @@ static void test_small_turn_costs_little(void **state)
 	near(r.pose[2], short_goal[2], 1e-6);
 }
 
+/* A floor whose wheels unload as the body accelerates toward them (the course's: mu 0.8 less
+ * 15 %, centre of mass 4 cm up): moves that turn (arcs, paths timed along their length), a
+ * diagonal line (both axes' bang-bang) and a path keep every wheel's force within its own
+ * load's traction. The turning moves planned as if the load stayed M g / 4 are over it by
+ * 13-123 % (the line by 69 %), so the check sees what it checks. */
+/* Move k of the load transfer's test: (start pose, start velocity x, goal); k = 7: the path. */
+static const float transfer_moves[7][7] = {{0, 0, 0, 0, 1.55f, 1.2f, 1.57f},
+                                           {0, 0, 0, 0, -1.2f, 0.75f, 3.0f},
+                                           {0, 0, 3.0f, 0, -2.2f, 1.0f, 0.2f},
+                                           {0, 0, 0.2f, 0, 0.1f, -0.1f, -2.9f},
+                                           {0, 0, 0, 0, 1.0f, 1.0f, 0.0f},
+                                           {0, 0, 0, 1.0f, 0.3f, 1.2f, 0.0f},
+                                           {0, 0, 0, 0, 0, 0, 0}};
+
+/* Plans move k under l and steps it to its end; the largest use of lim's limits. */
+static double transfer_move(int k, const struct traj_limits *l, const struct traj_limits *lim)
+{
+	const float *m = transfer_moves[k];
+	const struct traj_ref from = {.pose = {m[0], m[1], m[2]}, .vel = {m[3], 0, 0}};
+	struct traj tr;
+	struct traj_ref r;
+
+	assert_int_equal(traj_init(&tr, l), 0);
+	if (k < 6)
+		assert_int_equal(traj_plan(&tr, &from, &m[4]), 0);
+	else
+		assert_int_equal(traj_plan_path(&tr, &from, course, 3, RADIUS_M), 0);
+	return run_out(&tr, lim, &r);
+}
+
+/* A floor whose wheels unload as the body accelerates toward them (the course's: mu 0.8 less
+ * 15 %, centre of mass 4 cm up): moves that turn (arcs, paths timed along their length), a
+ * diagonal line (both axes' bang-bang), a start moving across the way (x and y in one box)
+ * and a path keep every wheel's force within its own load's traction. The turning moves
+ * planned as if the load stayed M g / 4 are over it by 13-123 % (the line by 69 %), so the
+ * check sees what it checks. */
+static void test_load_transfer_is_planned_for(void **state)
+{
+	(void)state;
+	struct traj_limits l = limits(), flat;
+	double worst_flat = INFINITY;
+
+	l.mu = 0.8;
+	l.traction_margin = 0.15;
+	l.com_height_m = 0.04;
+	flat = l;
+	flat.com_height_m = 0.0;
+	for (int k = 0; k < 7; k++) {
+		const double use = transfer_move(k, &l, &l), use_flat = transfer_move(k, &flat, &l);
+		print_message("move %d: worst use %.4f; planned without the transfer %.4f\n", k,
+		              use, use_flat);
+		assert_true(use <= 1.0 + 1e-4 && use >= 0.7);
+		if (k < 4) /* the turning moves */
+			worst_flat = fmin(worst_flat, use_flat);
+	}
+	assert_true(worst_flat > 1.05);
+}
+
 /* NaN, n or radius out of range, two poses at one place: -EINVAL, the plan unchanged; a
  * start that turns: -ERANGE. */
 static void test_path_bad_input_is_refused(void **state)
@@ -371,6 +436,7 @@ int main(void)
 	    cmocka_unit_test(test_path_bad_input_is_refused),
 	    cmocka_unit_test(test_turning_move_from_rest_curves_inside_the_envelope),
 	    cmocka_unit_test(test_small_turn_costs_little),
+	    cmocka_unit_test(test_load_transfer_is_planned_for),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -4,7 +4,7 @@
  * The robot: Table III, four equal drives; the limits from the options.
  *
  *   traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]
- *             [--motor-max=600] [--rot-share=0.25] [--samples=DT]
+ *             [--motor-max=600] [--rot-share=0.25] [--com-height=0] [--samples=DT]
  *             X0 Y0 TH0 VX0 VY0 W0 X Y TH
  *
  * Prints "duration_s D alpha_rad A flags F"; with --samples=DT also one line per DT seconds:
@@ -21,7 +21,8 @@
 
 static const char usage[] =
     "usage: traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]\n"
-    "                 [--motor-max=600] [--rot-share=0.25] [--samples=DT]\n"
+    "                 [--motor-max=600] [--rot-share=0.25] [--com-height=0]\n"
+    "                 [--samples=DT]\n"
     "                 X0 Y0 TH0 VX0 VY0 W0 X Y TH\n"
     "example: traj_plan --samples=0.1 0 0 0 0 0 0 1 0.5 1.57\n";
 
@@ -37,14 +38,15 @@ static int number(const char *s, double *out)
 static int option(const char *arg, struct traj_limits *l, double *samples)
 {
 	static const char *const names[] = {
-	    "--mu=",        "--supply=",    "--margin=", "--traction-margin=",
-	    "--motor-max=", "--rot-share=", "--samples="};
+	    "--mu=",        "--supply=",    "--margin=",     "--traction-margin=",
+	    "--motor-max=", "--rot-share=", "--com-height=", "--samples="};
 	double *const fields[] = {&l->mu,
 	                          &l->supply_v,
 	                          &l->margin_v,
 	                          &l->traction_margin,
 	                          &l->motor_speed_max_rad_s,
 	                          &l->rot_share,
+	                          &l->com_height_m,
 	                          samples};
 
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)

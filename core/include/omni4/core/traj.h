@@ -59,6 +59,8 @@ struct traj_limits {
 	double margin_v;        /* voltage kept for the feedback [V]; supply_v - margin_v > 0 */
 	double mu;              /* floor friction coefficient [-] (> 0) */
 	double traction_margin; /* share of mu M g / 4 kept in reserve, 0 <= . < 1 */
+	double com_height_m;    /* centre of mass above the floor [m] (>= 0; 0: no load */
+	                        /* transfer): the traction controller's (traction.h) */
 	double motor_speed_max_rad_s; /* motor shaft speed limit [rad/s] (> 0) */
 	double speed_cap_m_s;         /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
 	double omega_cap_rad_s;       /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
@@ -110,6 +112,8 @@ struct traj_coef {
 	float B[3], C[3]; /* viscous [N/(m/s)], [N m/(rad/s)] and Coulomb [N], [N m] friction */
 	float u_max_v;    /* supply_v - margin_v */
 	float f_max_n;    /* mu M g / 4 (1 - traction_margin) */
+	float f_lever;    /* mu (1 - traction_margin) M h / (2 d): wheel j's bound falls by this */
+	                  /* per m/s^2 of the centre of mass's acceleration toward it [kg] */
 	float speed_cap_m_s, omega_cap_rad_s, rot_share;
 };
 
