@@ -156,7 +156,7 @@ static float speed_top(const struct traj_coef *c, const struct geo *g, const str
 }
 
 /* a s'' <= b into [lo, hi]; false if no s'' meets it. */
-static bool one_side(float a, float b, float *lo, float *hi)
+static inline bool one_side(float a, float b, float *lo, float *hi)
 {
 	if (a > 1e-6f)
 		*hi = minf(*hi, b / a);
@@ -167,8 +167,9 @@ static bool one_side(float a, float b, float *lo, float *hi)
 	return true;
 }
 
-/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none. Row q = 0
- * is the traction: -k hold <= f <= k hold, hold = f_max_n - NA s'' - NQ s'^2. */
+/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none: the
+ * traction -k hold <= f <= k hold, hold = f_max_n - NA s'' - NQ s'^2 (two one-sided rows),
+ * the voltage |f + e K s'| <= k u_max b. */
 static bool interval(const struct traj_coef *c, const struct topp_rows *r, float x, float k,
                      float *lo, float *hi)
 {
@@ -177,15 +178,15 @@ static bool interval(const struct traj_coef *c, const struct topp_rows *r, float
 	*lo = -INFINITY;
 	*hi = INFINITY;
 	for (int j = 0; j < 4; j++) {
-		const float bound[2] = {k * c->f_max_n, k * c->u_max_v * c->b[j]};
-		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
-		for (int q = 0; q < 2; q++) {
-			const float P = r->Q[j] * x + lin[q] * sd;
-			const float na = q ? 0.0f : k * r->NA[j], nq = q ? 0.0f : k * r->NQ[j] * x;
-			if (!one_side(r->A[j] + na, bound[q] - nq - P - r->dhi[j], lo, hi) ||
-			    !one_side(na - r->A[j], bound[q] - nq + P + r->dlo[j], lo, hi))
-				return false;
-		}
+		const float P = r->Q[j] * x + r->L[j] * sd, A = r->A[j];
+		const float na = k * r->NA[j], hold = k * (c->f_max_n - r->NQ[j] * x);
+		if (!one_side(A + na, hold - P - r->dhi[j], lo, hi) ||
+		    !one_side(na - A, hold + P + r->dlo[j], lo, hi))
+			return false;
+		const float bound = k * c->u_max_v * c->b[j], Pu = P + c->e[j] * r->K[j] * sd;
+		if (!one_side(A, bound - Pu - r->dhi[j], lo, hi) ||
+		    !one_side(-A, bound + Pu + r->dlo[j], lo, hi))
+			return false;
 	}
 	return *lo <= *hi;
 }
