@@ -22,7 +22,10 @@ struct line_rows {
 	int n;
 	float cu[LINE_ROWS_MAX], cd[LINE_ROWS_MAX], k[LINE_ROWS_MAX];
 	float kd[LINE_ROWS_MAX]; /* braking: k less the turning body's term (either sign) */
-	float top;               /* largest speed with every row met at zero acceleration */
+	/* braking, traction rows: the velocity terms within what the load transfer leaves */
+	float cl[LINE_ROWS_MAX], kl[LINE_ROWS_MAX];
+	int nl;
+	float top; /* largest speed with every row met at zero acceleration */
 };
 
 struct steps {
@@ -32,11 +35,11 @@ struct steps {
 
 static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
 {
-	l->n = 0;
+	l->n = l->nl = 0;
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
-		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey) +
-		                 fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
+		const float pl = fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
+		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey) + pl;
 		const float pv0 = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
 		const float pv = pv0 + r[k].kc;
 		if (pv > 0.0f)
@@ -49,6 +52,10 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 			l->cd[l->n] = r[k].c0 * ia;
 			l->kd[l->n] = (pv0 - r[k].kc) * ia;
 			l->k[l->n++] = pv * ia;
+		}
+		if (pl > 0.0f) {
+			l->cl[l->nl] = r[k].c / pl;
+			l->kl[l->nl++] = pv / pl;
 		}
 	}
 	l->top = maxf(l->top, 0.0f);
@@ -63,6 +70,8 @@ static void line_acc(const struct line_rows *l, float s, float *up, float *dn)
 		u = minf(u, l->cu[k] - l->k[k] * s);
 		d = minf(d, l->cd[k] + l->kd[k] * s);
 	}
+	for (int k = 0; k < l->nl; k++)
+		d = minf(d, l->cl[k] - l->kl[k] * s);
 	*up = u;
 	*dn = d;
 }

@@ -34,7 +34,8 @@ float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, fl
  * Largest stopping acceleration: while a wheel's acceleration term opposes its velocity terms
  * (friction, back-EMF: both along the velocity), |a + v| <= max(|a|, |v|), so the acceleration
  * alone must fit (c0, less the turning body's term of either sign over the box (wx, wy)) and
- * the velocity alone (traj_rows_acc >= 0 at that speed).
+ * the velocity alone (traj_rows_acc >= 0 at that speed), the velocity alone within what the
+ * braking's load transfer leaves of the traction (sl: the bound the acceleration takes off).
  */
 float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, float wy)
 {
@@ -45,6 +46,11 @@ float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, f
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
 		if (per > 0.0f)
 			best = minf(best, (r[k].c0 - r[k].kc * speed) / per);
+		const float lift = fabsf(r[k].sl[0]) * ca + fabsf(r[k].sl[1]) * sa;
+		if (lift > 0.0f)
+			best = minf(best,
+			            (r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy - r[k].kc * speed) /
+			                lift);
 	}
 	return best;
 }

@@ -207,7 +207,8 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 			const float v = r->A[j] * u + r->Q[j] * x + lin[q] * sd;
 			const float hold = bound[q] - (q ? 0.0f : r->NA[j] * u + r->NQ[j] * x);
 			const float f = maxf(fabsf(v + r->dlo[j]), fabsf(v + r->dhi[j]));
-			w = maxf(w, hold > 1e-6f ? f / hold : USAGE_LIFT);
+			/* no load: only a wheel that pushes is over */
+			w = maxf(w, hold > 1e-6f ? f / hold : (f > 1e-6f ? USAGE_LIFT : 0.0f));
 		}
 	}
 	return w;
