@@ -407,9 +407,19 @@ def test_cmd_vel_moves_the_odometry_and_the_camera_agrees(stack):
         # stress-ng); the odometry's precision is checked against the camera, below, which
         # saw the same motion.
         assert 0.5 * V * DRIVE_S < dist < 1.5 * V * DRIVE_S, f"{topic} moved {dist:.4f} m"
-        # The estimate takes the camera (3 deg noise per frame): its heading and sideways
-        # position wander more than the wheels' (measured <= 6.5 mrad, 2.1 mm).
-        drift, heading = (DRIFT_TOL_M, HEADING_TOL_RAD) if key == "wodom" else (0.006, 0.02)
+        # The estimate takes the camera (1 cm, 3 deg noise per frame): its heading and sideways
+        # position wander more than the wheels' (measured <= 6.5 mrad, 2.1 mm on a calm
+        # machine, 6.1 mm once under the asan build with 95 ms of late ticks, whose frames the
+        # simulator's catch-up drops). Bounded by what the estimate itself states: the wheels'
+        # tolerance plus 3 standard deviations of the difference of the two estimates (the
+        # covariance /odom carries from state_t).
+        drift, heading = DRIFT_TOL_M, HEADING_TOL_RAD
+        if key == "odom":
+            v0, v1 = o0[key].pose.covariance, o1[key].pose.covariance
+            drift += 3.0 * math.sqrt(v0[7] + v1[7])
+            heading += 3.0 * math.sqrt(v0[35] + v1[35])
+            print(f"{topic}: sideways bound {drift:.4f} m, heading bound {heading:.4f} rad "
+                  f"(the estimate's sd {math.sqrt(v1[7]):.4f} m, {math.sqrt(v1[35]):.4f} rad)")
         assert abs(dy) < drift and abs(p1[2] - p0[2]) < heading, (topic, dy, p1[2] - p0[2])
         assert dx > 0, "v > 0 must move the odometry along +x (REP 103)"
         assert abs(dist - cam) < CAMERA_TOL_M + V * late_s, \
