@@ -178,8 +178,35 @@ static int choice_name(const char *choices, int i, char *buf, size_t n)
 	return snprintf(buf, n, "%.*s", (int)(bar ? bar - c : (long)strlen(c)), c);
 }
 
-/* A number of key k (double, or int when integer): parsed whole, finite, within the key's
- * range. 0, or -EINVAL with what and detail. */
+/* A decimal number as the INI and every reader of it write one (the Python package takes the
+ * same): [+-] digits [. digits] [e [+-] digits], with digits before or after the point; no
+ * blanks, no hexadecimal, no inf or nan, no digit separators. */
+static bool decimal_syntax(const char *s)
+{
+	size_t i = (*s == '+' || *s == '-') ? 1 : 0, lead = 0, frac = 0;
+
+	for (; s[i] >= '0' && s[i] <= '9'; i++)
+		lead++;
+	if (s[i] == '.')
+		for (i++; s[i] >= '0' && s[i] <= '9'; i++)
+			frac++;
+	if (lead + frac == 0)
+		return false;
+	if (s[i] == 'e' || s[i] == 'E') {
+		size_t exp = 0;
+
+		i += (s[i + 1] == '+' || s[i + 1] == '-') ? 2 : 1;
+		for (; s[i] >= '0' && s[i] <= '9'; i++)
+			exp++;
+		if (exp == 0)
+			return false;
+	}
+	return s[i] == '\0';
+}
+
+/* A number of key k (double, or int when integer): a decimal number, finite, within the key's
+ * range (a value too small for a double, such as 4e-320, is out of range, not malformed).
+ * 0, or -EINVAL with what and detail. */
 static int parse_number(const struct config_key *k, const char *value, bool integer, double *v,
                         const char **what, char *detail, size_t n)
 {
@@ -187,7 +214,10 @@ static int parse_number(const struct config_key *k, const char *value, bool inte
 
 	errno = 0;
 	*v = integer ? (double)strtol(value, &end, 10) : strtod(value, &end);
-	if (end == value || *end || errno == ERANGE || !isfinite(*v)) {
+	if (!integer && errno == ERANGE && fabs(*v) < 1.0)
+		errno = 0; /* underflow: a tiny but readable number, judged by the range below */
+	if (!decimal_syntax(value) || end == value || *end || errno == ERANGE || !isfinite(*v) ||
+	    (integer && strpbrk(value, ".eE"))) {
 		snprintf(detail, n, "'%.60s' is not %s", value,
 		         integer ? "an integer" : "a finite number");
 		*what = "bad value";

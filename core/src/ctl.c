@@ -441,6 +441,25 @@ static void calibrate(struct ctl *c, int64_t now_us, const struct motor_sample *
 		cur[j] = sample ? sample->current_a[j] - c->cal.offset[j] : NAN;
 }
 
+/* The last check before the motor HAL: a driven output that is not finite, or beyond the
+ * supply the clamps hold it to, latches OUTPUT (FAULT, 0 V, bridges off) instead of being
+ * written. Whatever produced it (a model the door let through, a bug), no NaN reaches a motor. */
+static void output_guard(struct ctl *c)
+{
+	if (!mode_drives(c->mode))
+		return;
+	for (int j = 0; j < 4; j++) {
+		if (isfinite(c->out[j]) && fabsf(c->out[j]) <= c->t.u_max)
+			continue;
+		if (!(c->latched & CTL_FAULT_OUTPUT))
+			c->n.faults_latched++;
+		c->latched |= CTL_FAULT_OUTPUT;
+		c->mode = CTL_FAULT;
+		c->stopping = false;
+		return;
+	}
+}
+
 void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, int read_rc,
               bool estop, struct ctl_output *out)
 {
@@ -474,6 +493,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 	else if (c->mode == CTL_GOAL)
 		goal_mode(c, s);
 
+	output_guard(c);
 	const bool on = mode_drives(c->mode);
 
 	if (!on) {

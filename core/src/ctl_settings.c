@@ -44,7 +44,7 @@ int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **
 
 	if (model_params_check(&s->model, &bad)) {
 		*bad_key = bad;
-		*why = bad < MODEL_PARAMS_POSITIVE ? "must be > 0" : "must be >= 0";
+		*why = "not finite or outside its physical range (docs/ini-keys.md)";
 		return -EINVAL;
 	}
 	struct model_wheels w;
@@ -52,7 +52,7 @@ int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **
 	ctl_settings_wheels(s, &w);
 	if (model_wheels_check(&w, &bad)) {
 		*bad_key = MODEL_PARAMS_COUNT + bad;
-		*why = "must be > 0";
+		*why = "not finite or outside its scalar's physical range (docs/ini-keys.md)";
 		return -EINVAL;
 	}
 	*bad_key = -1;

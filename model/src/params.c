@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stddef.h>
 
 const struct model_params model_params_table3 = {
@@ -45,11 +46,33 @@ double model_params_get(const struct model_params *p, int i)
 	return f ? *f : NAN;
 }
 
+#define LO_HI(x) {MODEL_LO_##x, MODEL_HI_##x}
+static const double range[MODEL_PARAMS_COUNT][2] = {
+    LO_HI(d), LO_HI(r),  LO_HI(l),   LO_HI(Kv), LO_HI(Kt), LO_HI(R),   LO_HI(M),
+    LO_HI(J), LO_HI(Bv), LO_HI(Bvn), LO_HI(Bw), LO_HI(Cv), LO_HI(Cvn), LO_HI(Cw),
+};
+
+int model_params_range(int i, double *lo, double *hi)
+{
+	if (i < 0 || i >= MODEL_PARAMS_COUNT)
+		return -EINVAL;
+	*lo = range[i][0];
+	*hi = range[i][1];
+	return 0;
+}
+
+/* v within parameter i's range (NaN is not). */
+static bool in_range(int i, double v)
+{
+	return v >= range[i][0] && v <= range[i][1];
+}
+
 int model_params_check(const struct model_params *p, int *bad)
 {
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++) {
-		double v = model_params_get(p, i);
-		int ok = isfinite(v) && (i < MODEL_PARAMS_POSITIVE ? v > 0.0 : v >= 0.0);
+		const double v = model_params_get(p, i);
+		const bool ok = isfinite(v) && in_range(i, v) &&
+		                (i < MODEL_PARAMS_POSITIVE ? v > 0.0 : v >= 0.0);
 
 		if (!ok) {
 			if (bad)
@@ -73,11 +96,12 @@ void model_wheels_from_params(const struct model_params *p, struct model_wheels 
 int model_wheels_check(const struct model_wheels *w, int *bad)
 {
 	const double *const f[4] = {w->r, w->Kv, w->Kt, w->R};
+	static const int scalar[4] = {1, 3, 4, 5}; /* r, Kv, Kt, R in model_params_names */
 
 	for (int i = 0; i < 16; i++) {
 		const double v = f[i / 4][i % 4];
 
-		if (!(isfinite(v) && v > 0.0)) {
+		if (!(isfinite(v) && v > 0.0 && in_range(scalar[i / 4], v))) {
 			if (bad)
 				*bad = i;
 			return -EINVAL;

@@ -160,13 +160,14 @@ def test_ini_model_section(tmp_path):
     ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "d = 1\n",
      ":16: duplicate key 'd'"),
     ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()).replace("M = 2.34", "M = -2"),
-     "not physical"),
+     ":8: [model] M = -2 outside its physical range [0.01, 10000]"),
     ("[model\nd = 1\n", ":1: malformed section header"),
     ("[hal]\nmotor = sim\n[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items())
      + "[hal]\nlines = none\n", ":18: duplicate section [hal]"),
-    ("[model]\nd = nan\n", "is not finite"),
+    ("[model]\nd = nan\n", ":2: [model] d = 'nan' is not a number"),
+    ("[model]\nd = 0x4\n", ":2: [model] d = '0x4' is not a number"),
     ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "Kv_3 = 0\n",
-     ":16: [model] Kv_3 = '0' must be > 0"),
+     ":16: [model] Kv_3 = 0 outside its physical range [0.0001, 5]"),
     ("[model]\nR_1 = 4\n", ":2: [model] lacks d r l"),
     ("[model]\n" + "".join(f"{k} = {v}\n" for k, v in T3.items()) + "R_4 = 1\n",
      ":16: unknown key 'R_4'"),
@@ -176,6 +177,35 @@ def test_ini_errors_name_file_and_line(tmp_path, text, msg):
     with pytest.raises(ConfigError) as e:
         read_model(p)
     assert str(e.value).startswith(p + ":") and msg in str(e.value), str(e.value)
+
+
+def _range_rows():
+    """tests/config/model_ranges.txt: the one table of [model] values the controller's reader
+    (tests/firmware/test_model_ranges.c) is tested against too."""
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "tests", "config",
+                        "model_ranges.txt")
+    rows = []
+    with open(path) as fh:
+        for no, line in enumerate(fh, 1):
+            if line.strip() and not line.startswith("#"):
+                key, value, verdict = line.split()[:3]
+                rows.append(pytest.param(key, value, verdict == "accept", id=f"{no}-{key}={value}"))
+    assert len(rows) >= 40  # the table is whole
+    return rows
+
+
+@pytest.mark.parametrize("key,value,accept", _range_rows())
+def test_model_values_have_the_controllers_verdict(tmp_path, key, value, accept):
+    body = "".join(f"{k} = {value if k == key else v}\n" for k, v in T3.items())
+    if key not in T3:
+        body += f"{key} = {value}\n"
+    p = write(tmp_path, "robot.ini", "[model]\n" + body)
+    if accept:
+        assert read_model(p)[key] == float(value)
+    else:
+        with pytest.raises(ConfigError) as e:
+            read_model(p)
+        assert str(e.value).startswith(p + ":") and key in str(e.value), str(e.value)
 
 
 def test_ini_missing_file(tmp_path):

@@ -45,8 +45,8 @@ def test_the_wire_values_stay_as_the_contract_says():
     assert _vocab.MODES == {"IDLE": 0, "VELOCITY": 1, "VOLTAGE": 2, "COAST": 3, "CLEAR_FAULT": 4,
                             "FAULT": 5, "ESTOP": 6, "GOAL": 7}
     assert _vocab.DRIVEN_MODES == (1, 2, 7) and _vocab.KEPT_ALIVE_MODES == (1, 2, 3, 7)
-    assert _vocab.FAULTED_MODES == (5, 6) and _vocab.LATCHING == 0x7f
-    assert _vocab.FAULTS["OVERRUN"] == 0x1000 and _vocab.FLAGS["NO_WHEELS"] == 0x08
+    assert _vocab.FAULTED_MODES == (5, 6) and _vocab.LATCHING == 0xff
+    assert _vocab.FAULTS["OVERRUN"] == 0x1000 and _vocab.FAULTS["OUTPUT"] == 0x80 and _vocab.FLAGS["NO_WHEELS"] == 0x08
     assert _vocab.backend_words("motor") == ("sim", "socketcan")
     assert _vocab.backend_words("lines") == ("none", "sim", "gpiod")
 

@@ -102,7 +102,7 @@ static void test_defaults_are_the_documented_figures(void **state)
 	assert_near(cfg.ctl.rate_hz, 1000.0, 0);
 }
 
-/* R must be > 0: 0 is refused, the smallest positive value in the file is taken. */
+/* R lies in [0.001, 1000] ohm (docs/ini-keys.md): 0 is refused, the range's low end taken. */
 static void test_resistance_boundary_zero_refused_positive_taken(void **state)
 {
 	(void)state;
@@ -114,15 +114,16 @@ static void test_resistance_boundary_zero_refused_positive_taken(void **state)
 	char *p = strstr(text, "R = 3.5");
 
 	memcpy(p, "R = 0  ", 7);
-	expect_error(text, -EINVAL, 8, "invalid value for 'R' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 8,
+	             "out of range value for 'R' in [model]: 0 outside [0.001, 1000]");
 	char small[1100];
 	const char *rest = strstr(good, "R = 3.5") + strlen("R = 3.5");
 
-	snprintf(small, sizeof(small), "%.*sR = 1e-9%s", (int)(strstr(good, "R = 3.5") - good),
+	snprintf(small, sizeof(small), "%.*sR = 1e-3%s", (int)(strstr(good, "R = 3.5") - good),
 	         good, rest);
 	config_defaults(&cfg);
 	assert_int_equal(config_load_string(small, "robot.ini", &cfg, &err), 0);
-	assert_near(cfg.ctl.model.R, 1e-9, 0);
+	assert_near(cfg.ctl.model.R, 1e-3, 0);
 }
 
 static void test_unknown_key_is_reported_with_its_line(void **state)
@@ -168,7 +169,7 @@ static void test_negative_resistance_is_rejected(void **state)
 	char *p = strstr(text, "R = 3.5");
 
 	memcpy(p, "R =-3.5", 7);
-	expect_error(text, -EINVAL, 8, "invalid value for 'R' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 8, "out of range value for 'R' in [model]: -3.5 outside");
 }
 
 /* The one rule across two keys (supply_min_v < supply_v) blames supply_min_v's line, or
@@ -449,16 +450,17 @@ static void test_no_wheel_keys_are_the_scalar_model(void **state)
 	assert_int_equal(cfg.ctl.wheel_keys, 0);
 }
 
-/* A wheel key is checked like its scalar (> 0), named in the error; it needs the scalars. */
+/* A wheel key is checked like its scalar (its range), named in the error; it needs the
+ * scalars. */
 static void test_wheel_key_errors(void **state)
 {
 	(void)state;
 	char text[2048];
 
 	good_with(text, sizeof(text), "R_3 = 0\n");
-	expect_error(text, -EINVAL, 17, "invalid value for 'R_3' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 17, "out of range value for 'R_3' in [model]: 0 outside");
 	good_with(text, sizeof(text), "Kv_0 = -0.02\n");
-	expect_error(text, -EINVAL, 17, "invalid value for 'Kv_0' in [model]: must be > 0");
+	expect_error(text, -EINVAL, 17, "out of range value for 'Kv_0' in [model]: -0.02 outside");
 	good_with(text, sizeof(text), "r_2 = abc\n");
 	expect_error(text, -EINVAL, 17, "bad value for 'r_2' in [model]");
 	good_with(text, sizeof(text), "R_1 = 3\nR_1 = 3\n");

@@ -113,9 +113,9 @@ static void test_a_bad_model_is_refused_once_with_one_line_and_nothing_behind_ru
 	memcpy(&before, &g_fw, sizeof(before));
 	set1("model.R", "-1");
 	assert_int_equal(g_result, OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
-	assert_string_equal(g_reply, "model.R: invalid value: must be > 0");
-	assert_int_equal(n_params_check, 1);
-	assert_int_equal(n_wheels_check, 0); /* the scalars fail first */
+	assert_string_equal(g_reply, "model.R: out of range value: -1 outside [0.001, 1000]");
+	assert_int_equal(n_params_check, 0); /* the key's own range refuses it first */
+	assert_int_equal(n_wheels_check, 0);
 	assert_int_equal(n_ff_prepare, 0);
 	assert_memory_equal(&g_fw.ctl, &before.ctl, sizeof(before.ctl));
 	assert_memory_equal(&g_fw.est, &before.est, sizeof(before.est));
@@ -130,9 +130,9 @@ static void test_a_bad_wheel_is_refused_at_the_same_door(void **state)
 	set1("model.Kt_2", "0");
 	assert_int_equal(g_result, OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_null(strchr(g_reply, '\n'));
-	assert_non_null(strstr(g_reply, "must be > 0"));
-	assert_int_equal(n_params_check, 1);
-	assert_int_equal(n_wheels_check, 1);
+	assert_non_null(strstr(g_reply, "model.Kt_2: out of range value: 0 outside"));
+	assert_int_equal(n_params_check, 0);
+	assert_int_equal(n_wheels_check, 0);
 	assert_int_equal(n_ff_prepare, 0);
 	param_service_stop(&g_ps);
 }

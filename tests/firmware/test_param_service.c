@@ -355,7 +355,9 @@ static void test_wheel_keys_validate_like_the_ini_parser(void **state)
 		}
 	}
 	assert_int_equal(wheel_keys, 16);
-	assert_int_equal(refused, 16 * 7); /* 0 -1 nan inf abc "" 1e400 */
+	/* 0 -1 nan inf abc "" 1e400, 1e-9 (below every range) and 0x10 (not decimal) on every
+	 * wheel key; 4.3111 m beyond a wheel radius's 1 m (docs/ini-keys.md) */
+	assert_int_equal(refused, 16 * 9 + 4);
 }
 
 /* ---- the INI writer and the atomic save ------------------------------------------------------ */
@@ -682,10 +684,10 @@ static void test_refusals_say_why_and_change_nothing(void **state)
 	assert_non_null(strstr(msg, "control.kp: out of range value: 1e+09 outside [0, 10000]"));
 	assert_int_equal(set1("model.R", "-1", msg, sizeof(msg)),
 	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
-	assert_non_null(strstr(msg, "model.R: invalid value: must be > 0"));
+	assert_non_null(strstr(msg, "model.R: out of range value: -1 outside [0.001, 1000]"));
 	assert_int_equal(set1("model.Bv", "-0.1", msg, sizeof(msg)),
 	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
-	assert_non_null(strstr(msg, "must be >= 0"));
+	assert_non_null(strstr(msg, "model.Bv: out of range value: -0.1 outside [0, 10000]"));
 	assert_int_equal(set1("limits.supply_min_v", "13", msg, sizeof(msg)),
 	                 OMNI4_PARAM_REPLY_T_RESULT_REFUSED);
 	assert_non_null(strstr(msg, "must be below supply_v"));

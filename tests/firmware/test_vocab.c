@@ -64,10 +64,12 @@ static void test_fault_bits_and_the_latching_set(void **state)
 	assert_int_equal(CTL_FAULT_SUPPLY, 0x0040);
 	assert_int_equal(CTL_FAULT_ESTOP, 0x0100);
 	assert_int_equal(CTL_FAULT_OVERRUN, 0x1000);
-	assert_int_equal(CTL_FAULTS_LATCHING, 0x007f); /* OVERCURRENT .. SUPPLY */
-	assert_int_equal(CTL_FAULTS_ALL, 0x1f7f);
+	assert_int_equal(CTL_FAULT_OUTPUT, 0x0080);
+	assert_int_equal(CTL_FAULTS_LATCHING, 0x00ff); /* OVERCURRENT .. OUTPUT */
+	assert_int_equal(CTL_FAULTS_ALL, 0x1fff);
 	assert_string_equal(fault_name(CTL_FAULT_CMD_REJECTED), "CMD_REJECTED");
-	assert_null(fault_name(0x0080));
+	assert_string_equal(fault_name(CTL_FAULT_OUTPUT), "OUTPUT");
+	assert_null(fault_name(0x2000));
 	assert_null(fault_name(0x0003));
 	assert_int_equal(EST_FLAG_NO_WHEELS, 0x08);
 }

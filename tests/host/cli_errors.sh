@@ -43,14 +43,14 @@ expect 2 "out is required" -- "$BIN/omni4-sim" --experiments
 expect 2 "nothing to do" -- "$BIN/omni4-sim" --out "$T/x.lcmlog"
 expect 2 "speed must be" -- "$BIN/omni4-sim" --experiments --speed fast --out "$T/x.lcmlog"
 expect 2 "bogus.ini:3: unknown key 'bogus' in \[model\]" -- "$BIN/omni4-sim" --params "$T/bogus.ini" --experiments --out "$T/x.lcmlog"
-expect 2 "invalid value for 'R' in \[model\]: must be > 0" -- "$BIN/omni4-sim" --params "$T/negR.ini" --experiments --out "$T/x.lcmlog"
+expect 2 "out of range value for 'R' in \[model\]: -.* outside \[0.001, 1000\]" -- "$BIN/omni4-sim" --params "$T/negR.ini" --experiments --out "$T/x.lcmlog"
 expect 1 "cannot create log" -- "$BIN/omni4-sim" --experiments --out /nonexistent/dir/x.lcmlog
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/nomarks.lcmlog"
 expect 1 "no 'motor' segments" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p2.ini" "$T/short.lcmlog"
 expect 2 "must give the measured 'r'" -- "$BIN/omni4-ident" identify --robot "$T/nomass.ini" --out "$T/p3.ini" "$T/full.lcmlog"
 expect 1 "No such file" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" "$T/missing.lcmlog"
 expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" --bootstrap -3 "$T/full.lcmlog"
-expect 2 "invalid value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
+expect 2 "out of range value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
 # Thin data are said: with the camera, Bv and Bvn rest on experiment 3 through Kv (SE 1.2-1.5 %

@@ -44,7 +44,7 @@ expect 2 stderr 1 "^omni4-fw: /proc/self/mem: cannot read: Input/output error$" 
   "$BIN/omni4-fw" --config /proc/self/mem --duration 1
 expect 2 stderr 1 "^omni4-fw: $T/twice.ini:4: duplicate section \[model\]$" -- \
   "$BIN/omni4-fw" --config "$T/twice.ini" --duration 1
-expect 2 stderr 1 "^omni4-ident: $T/negd.ini:2: invalid value for 'd' in \[model\]: must be > 0$" -- \
+expect 2 stderr 1 "^omni4-ident: $T/negd.ini:2: out of range value for 'd' in \[model\]: -0.089 outside \[0.01, 10\]$" -- \
   "$BIN/omni4-ident" validate --params "$T/negd.ini" --json "$T/v.json" "$T/none.lcmlog"
 
 expect 0 stdout 9 "^usage: omni4-config-keys --markdown \| --json$" -- "$BIN/omni4-config-keys" --help

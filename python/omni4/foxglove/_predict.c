@@ -83,6 +83,38 @@ int omni4_predictor_init_wheels(struct omni4_predictor *p, const double params[M
 	return 0;
 }
 
+/*
+ * The controller's door for a model (model_params_check, model_wheels_check): params the 14
+ * values, wheels NULL or r_0..r_3, Kv_0..Kv_3, Kt_0..Kt_3, R_0..R_3. -1 if the model is
+ * physical, else the offending value's index: i < 14 a scalar, 14 + 4 q + j a wheel's own.
+ */
+int omni4_model_check(const double params[MODEL_PARAMS_COUNT], const double *wheels)
+{
+	struct model_params mp;
+	struct model_wheels w;
+	int bad = -1;
+
+	for (int i = 0; i < MODEL_PARAMS_COUNT; i++)
+		*model_params_field(&mp, i) = params[i];
+	if (model_params_check(&mp, &bad))
+		return bad;
+	if (!wheels)
+		return -1;
+	for (int j = 0; j < 4; j++) {
+		w.r[j] = wheels[j];
+		w.Kv[j] = wheels[4 + j];
+		w.Kt[j] = wheels[8 + j];
+		w.R[j] = wheels[12 + j];
+	}
+	return model_wheels_check(&w, &bad) ? MODEL_PARAMS_COUNT + bad : -1;
+}
+
+/* Parameter i's physical range (model_params_range). 0, or -EINVAL. */
+int omni4_model_range(int i, double *lo, double *hi)
+{
+	return model_params_range(i, lo, hi);
+}
+
 const char *omni4_predictor_param_name(int i)
 {
 	return (i >= 0 && i < MODEL_PARAMS_COUNT) ? model_params_names[i] : NULL;

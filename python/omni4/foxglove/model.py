@@ -8,6 +8,7 @@ import ctypes
 import glob
 import math
 import os
+import re
 import sys
 
 import numpy as np
@@ -35,6 +36,12 @@ def lib():
         L.omni4_predictor_init_wheels.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double),
                                                   ctypes.POINTER(ctypes.c_double)]
         L.omni4_predictor_init_wheels.restype = ctypes.c_int
+        L.omni4_model_check.argtypes = [ctypes.POINTER(ctypes.c_double),
+                                        ctypes.POINTER(ctypes.c_double)]
+        L.omni4_model_check.restype = ctypes.c_int
+        L.omni4_model_range.argtypes = [ctypes.c_int, ctypes.POINTER(ctypes.c_double),
+                                        ctypes.POINTER(ctypes.c_double)]
+        L.omni4_model_range.restype = ctypes.c_int
         L.omni4_predictor_param_name.argtypes = [ctypes.c_int]
         L.omni4_predictor_param_name.restype = ctypes.c_char_p
         f32p = ctypes.POINTER(ctypes.c_float)
@@ -110,6 +117,35 @@ def table3():
     return dict(zip(PARAM_NAMES, list(arr)))
 
 
+# A decimal number as the INI's readers take one (config/src/config.c decimal_syntax): no
+# blanks, hexadecimal, inf, nan or digit separators, which Python's float() would accept.
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def model_range(key):
+    """(lo, hi): the physical range of a [model] key, inclusive, as the controller checks it
+    (model_params_range; a wheel's own r_j, Kv_j, Kt_j, R_j has its scalar's)."""
+    L = lib()
+    lo, hi = ctypes.c_double(), ctypes.c_double()
+    if L.omni4_model_range(PARAM_NAMES.index(key.split("_")[0]), lo, hi):
+        raise KeyError(key)
+    return lo.value, hi.value
+
+
+def check_model(params):
+    """None if params (the 14 keys, and any r_j Kv_j Kt_j R_j) pass the controller's door for a
+    model (model_params_check, model_wheels_check), else the name of the first that does not."""
+    vals = (ctypes.c_double * len(PARAM_NAMES))(*[float(params[k]) for k in PARAM_NAMES])
+    own = None
+    if any(k in params for k in MODEL_WHEEL_KEYS):
+        own = (ctypes.c_double * 16)(
+            *[float(params.get(k, params[k.split("_")[0]])) for k in MODEL_WHEEL_KEYS])
+    bad = lib().omni4_model_check(vals, own)
+    if bad < 0:
+        return None
+    return PARAM_NAMES[bad] if bad < len(PARAM_NAMES) else MODEL_WHEEL_KEYS[bad - len(PARAM_NAMES)]
+
+
 def read_model(path):
     """[model] of the robot INI at path -> dict of the 14 parameters (docs/design.md: d r l Kv
     Kt R M J Bv Bvn Bw Cv Cvn Cw, SI units, all or none; none = Table III, as in the firmware).
@@ -124,25 +160,32 @@ def read_model(path):
             raise ini.ConfigError(f"{where}: unknown key '{key}' in [model] "
                                   f"(expected {' '.join(PARAM_NAMES)}, and optionally "
                                   "r_0..r_3 Kv_0..Kv_3 Kt_0..Kt_3 R_0..R_3)")
-        try:
-            found[key] = float(val)
-        except ValueError:
-            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not a number") from None
+        if not _DECIMAL.fullmatch(val):
+            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not a number")
+        found[key] = float(val)
+        lo, hi = model_range(key)
         if not math.isfinite(found[key]):
             raise ini.ConfigError(f"{where}: [model] {key} = '{val}' is not finite")
-        if key in MODEL_WHEEL_KEYS and not found[key] > 0:
-            raise ini.ConfigError(f"{where}: [model] {key} = '{val}' must be > 0")
+        if not lo <= found[key] <= hi:
+            raise ini.ConfigError(f"{where}: [model] {key} = {val} outside its physical range "
+                                  f"[{lo:g}, {hi:g}]")
     if not found:
         return table3()
     first = f"{path}:{min(f.line('model', k) or 0 for k in found)}"
     missing = [k for k in PARAM_NAMES if k not in found]
     if missing:
         raise ini.ConfigError(f"{first}: [model] lacks {' '.join(missing)} (all 14 keys or none)")
+    bad = check_model(found)
+    if bad is not None:
+        raise ini.ConfigError(f"{first}: [model] parameters are not physical ({bad} = "
+                              f"{found.get(bad, found.get(bad.split('_')[0]))}: the controller "
+                              "refuses it)")
     try:
         Predictor(found)
     except ValueError:
-        raise ini.ConfigError(f"{first}: [model] parameters are not physical (a non-positive "
-                              "d r l Kv Kt R M J or a negative friction)") from None
+        raise ini.ConfigError(f"{first}: [model] a wheel's own r_j, Kv_j or R_j is 50 % or more "
+                              "off its scalar: the controller takes it, the prediction's plant "
+                              "does not model it") from None
     return found
 
 

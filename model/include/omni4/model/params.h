@@ -32,14 +32,54 @@ extern const struct model_params model_params_table3;
 #define MODEL_PARAMS_POSITIVE 8
 extern const char *const model_params_names[MODEL_PARAMS_COUNT];
 
+/*
+ * The physical range of each parameter, inclusive [MODEL_LO_x, MODEL_HI_x]: from a palm-sized
+ * robot to a vehicle of a tonne, a decade or more beyond either on every side. A value outside
+ * is a typo or a unit slip (1e300, 1e-300, Kv in rpm/V), never a robot; inside it every gain the
+ * controller derives is finite in single precision. The INI key table (ctl_keys.def) and every
+ * reader (the controller, the parameter service, the Python package) check these; a wheel's
+ * own r_j, Kv_j, Kt_j, R_j has its scalar's range.
+ */
+#define MODEL_LO_d 0.01 /* m */
+#define MODEL_HI_d 10.0
+#define MODEL_LO_r 0.001 /* m */
+#define MODEL_HI_r 1.0
+#define MODEL_LO_l 0.01 /* gear ratio */
+#define MODEL_HI_l 1000.0
+#define MODEL_LO_Kv 1e-4 /* V/(rad/s) */
+#define MODEL_HI_Kv 5.0
+#define MODEL_LO_Kt 1e-4 /* N m/A */
+#define MODEL_HI_Kt 5.0
+#define MODEL_LO_R 1e-3 /* ohm */
+#define MODEL_HI_R 1000.0
+#define MODEL_LO_M 0.01 /* kg */
+#define MODEL_HI_M 10000.0
+#define MODEL_LO_J 1e-6 /* kg m^2 */
+#define MODEL_HI_J 10000.0
+#define MODEL_LO_Bv 0.0 /* N/(m/s) */
+#define MODEL_HI_Bv 10000.0
+#define MODEL_LO_Bvn 0.0 /* N/(m/s) */
+#define MODEL_HI_Bvn 10000.0
+#define MODEL_LO_Bw 0.0 /* N m/(rad/s) */
+#define MODEL_HI_Bw 1000.0
+#define MODEL_LO_Cv 0.0 /* N */
+#define MODEL_HI_Cv 100000.0
+#define MODEL_LO_Cvn 0.0 /* N */
+#define MODEL_HI_Cvn 100000.0
+#define MODEL_LO_Cw 0.0 /* N m */
+#define MODEL_HI_Cw 10000.0
+
+/* Parameter i's range (model_params_names order) into *lo, *hi. -EINVAL if i is not one. */
+int model_params_range(int i, double *lo, double *hi);
+
 /* Field i (0 .. MODEL_PARAMS_COUNT-1) of p, in the order of model_params_names. */
 double *model_params_field(struct model_params *p, int i);
 double model_params_get(const struct model_params *p, int i);
 
 /*
- * 0 if p describes a physical robot; -EINVAL if any value is NaN/inf, d, r, l, Kv, Kt, R, M or J
- * is not positive, or a friction coefficient is negative. *bad (may be NULL) gets the index of
- * the first offending field.
+ * 0 if p describes a physical robot: every value finite and within its range (MODEL_LO_x ..
+ * MODEL_HI_x: d, r, l, Kv, Kt, R, M and J > 0, frictions >= 0); -EINVAL otherwise. *bad (may be
+ * NULL) gets the index of the first offending field.
  */
 int model_params_check(const struct model_params *p, int *bad);
 
@@ -61,8 +101,9 @@ struct model_wheels {
 void model_wheels_from_params(const struct model_params *p, struct model_wheels *w);
 
 /*
- * 0 if every r, Kv, Kt and R of w is finite and > 0; -EINVAL otherwise, and *bad (may be NULL)
- * gets 4 * field + wheel of the first offending value (field 0 r, 1 Kv, 2 Kt, 3 R).
+ * 0 if every r, Kv, Kt and R of w is finite and within its scalar's range (MODEL_LO_r ..
+ * MODEL_HI_r, ...); -EINVAL otherwise, and *bad (may be NULL) gets 4 * field + wheel of the
+ * first offending value (field 0 r, 1 Kv, 2 Kt, 3 R).
  */
 int model_wheels_check(const struct model_wheels *w, int *bad);
 
