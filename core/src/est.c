@@ -247,7 +247,9 @@ static void predict(struct est *e, const struct est_tick *t)
 
 	P[0][0] += e->qo[0] * dist;
 	P[1][1] += e->qo[0] * dist;
-	P[2][2] += e->qo[1] * (dist + e->d * fabsf(xm[2])) + e->qt;
+	const float wheels_m_s = dist + e->d * fabsf(xm[2]);
+
+	P[2][2] += e->qo[1] * wheels_m_s + e->qt * fminf(1.0f, wheels_m_s / EST_DRIFT_SPEED_M_S);
 }
 
 /* Scalar update of state component i with a reading of innovation nu and variance r. */

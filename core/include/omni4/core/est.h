@@ -62,6 +62,10 @@
 #define EST_ODOM_POS 0.005f
 #define EST_ODOM_THETA 0.005f
 #define EST_DRIFT_THETA 0.01f
+/* The heading's creep needs turning wheels: it grows to EST_DRIFT_THETA^2 per second as the
+ * wheels' ground speeds (|v| + |vn| + d |w|) rise to this [m/s], and stops at rest, where the
+ * camera's frames then average the heading down (a goal's arrival waits for that). */
+#define EST_DRIFT_SPEED_M_S 0.05f
 /* Wheel scale calibration: a rigid body's wheel ground speeds satisfy g0 - g1 + g2 - g3 = 0
  * (eq 2), so every reading r w_j (1 + k_j) gives one linear equation in the wheels' scale errors
  * k_j (effective radius / nominal - 1). The equations of the last EST_CAL_TAU_S (exponential
