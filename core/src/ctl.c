@@ -323,6 +323,12 @@ int ctl_goal(struct ctl *c, int64_t now_us)
 	return 0;
 }
 
+void ctl_goal_keep(struct ctl *c, int64_t now_us)
+{
+	if (c->mode == CTL_GOAL)
+		c->last_cmd_us = now_us;
+}
+
 void ctl_goal_reference(struct ctl *c, const float vel[3], const float acc[3])
 {
 	memcpy(c->goal_vel, vel, sizeof(c->goal_vel));

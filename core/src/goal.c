@@ -41,16 +41,36 @@ static bool active(const struct goal *g)
 
 static bool holding(const struct goal *g, const struct ctl *c)
 {
-	return (g->rep.status == GOAL_ACTIVE || g->rep.status == GOAL_REACHED) &&
+	return (g->rep.status == GOAL_ACTIVE || g->rep.status == GOAL_REACHED || g->brake) &&
 	       c->mode == CTL_GOAL;
+}
+
+/* A goal that ended (REACHED, ABORTED, REFUSED), remembered as it ended. */
+static void remember(struct goal *g, const struct goal_report *r)
+{
+	g->ended[g->n_ended % GOAL_ENDED_IDS] = *r;
+	g->n_ended = (g->n_ended + 1) % (2 * GOAL_ENDED_IDS);
+}
+
+/* How goal id ended, or NULL if it is not among the last GOAL_ENDED_IDS that did. */
+static const struct goal_report *ended(const struct goal *g, int64_t id)
+{
+	for (int i = 0; i < GOAL_ENDED_IDS; i++)
+		if (g->ended[i].id == id && g->ended[i].status != GOAL_NONE)
+			return &g->ended[i];
+	return NULL;
 }
 
 static void set_status(struct goal *g, enum goal_status st, enum goal_reason why)
 {
-	if (g->rep.status != (int8_t)st || g->rep.reason != (int8_t)why)
+	const bool change = g->rep.status != (int8_t)st || g->rep.reason != (int8_t)why;
+
+	if (change)
 		g->changed = true;
 	g->rep.status = (int8_t)st;
 	g->rep.reason = (int8_t)why;
+	if (change && (st == GOAL_REACHED || st == GOAL_ABORTED))
+		remember(g, &g->rep);
 }
 
 void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin)
@@ -105,7 +125,7 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 	/* New limits while a goal runs: a new plan from where the reference is (no jump). */
 	if (!again)
 		return;
-	if (g->tr.on_path && !g->fixed && traj_replan(&g->tr, g->poses[g->n - 1]) == 0)
+	if (g->whole && !g->fixed && traj_replan(&g->tr, g->poses[g->n - 1]) == 0)
 		return; /* the same path, re-timed */
 	goal_plan_to(g->fixed, &g->fx, &g->tr, &ref, g->poses[g->index]);
 }
@@ -134,12 +154,18 @@ static enum goal_reason check_fields(const struct goal_cmd *cmd)
 	return GOAL_R_NONE;
 }
 
+/* Goal id's end, told to its sender now (goal_take_refused) and remembered. */
+static void tell(struct goal *g, int64_t id, int32_t n, enum goal_status st, enum goal_reason why)
+{
+	g->refused = (struct goal_report){.id = id, .status = st, .reason = (int8_t)why, .n = n};
+	g->refused_pending = true;
+	remember(g, &g->refused);
+}
+
 static void refuse(struct goal *g, const struct goal_cmd *cmd, enum goal_status st,
                    enum goal_reason why)
 {
-	g->refused =
-	    (struct goal_report){.id = cmd->id, .status = st, .reason = (int8_t)why, .n = cmd->n};
-	g->refused_pending = true;
+	tell(g, cmd->id, cmd->n, st, why);
 }
 
 /* Where an asked-for plan starts. While a goal is tracked: its reference a lead ahead on its
@@ -179,8 +205,9 @@ static void post(struct goal *g, const struct ctl *c, const struct est_output *e
 {
 	struct goal_job *j = &g->job;
 	const bool first = g->want_set && !g->want_posted;
+	const bool brake = !first && g->brake && g->brake_want;
 
-	if ((!first && !g->next_want) ||
+	if ((!first && !brake && !g->next_want) ||
 	    atomic_load_explicit(&j->state, memory_order_acquire) != GOAL_JOB_IDLE ||
 	    (!est && !holding(g, c)))
 		return;
@@ -204,6 +231,13 @@ static void post(struct goal *g, const struct ctl *c, const struct est_output *e
 			for (int k = 0; k < 3; k++)
 				j->poses[i][k] = (float)cmd->poses[i][k];
 		g->want_posted = true;
+	} else if (brake) {
+		j->kind = GOAL_JOB_BRAKE;
+		j->id = g->rep.id;
+		j->n = 1;
+		j->index = 0;
+		j->blend_m = g->blend_m;
+		g->brake_want = false;
 	} else {
 		j->kind = GOAL_JOB_NEXT;
 		j->id = g->rep.id;
@@ -223,10 +257,12 @@ static void job_free(struct goal_job *j)
 	atomic_store_explicit(&j->state, GOAL_JOB_IDLE, memory_order_release);
 }
 
-static void ask_again(struct goal *g, bool first)
+static void ask_again(struct goal *g, enum goal_job_kind kind)
 {
-	if (first)
+	if (kind == GOAL_JOB_FIRST)
 		g->want_posted = false;
+	else if (kind == GOAL_JOB_BRAKE)
+		g->brake_want = true;
 	else
 		g->next_want = true;
 	job_free(&g->job);
@@ -243,18 +279,47 @@ static void take_first(struct goal *g, struct ctl *c, float past_s)
 		refuse(g, cmd, GOAL_REFUSED, GOAL_R_FAULT);
 		return;
 	}
+	if (active(g) && g->rep.id != cmd->id) /* the goal in force: its sender is told */
+		tell(g, g->rep.id, g->rep.n, GOAL_ABORTED, GOAL_R_REPLACED);
+	g->brake = 0;
 	g->tr = j->tr;
 	g->tr.t_s = fmaxf(past_s, 0.0f);
 	g->tr.handover_s = 0.0f;
 	g->n = j->n;
 	g->index = 0;
+	g->whole = j->whole;
 	memcpy(g->poses, j->poses, sizeof(g->poses));
 	g->blend_m = j->blend_m;
 	g->next_want = false;
 	g->stale_since_us = 0;
+	g->ended_us = 0;
 	g->rep = (struct goal_report){.id = cmd->id, .n = cmd->n};
 	g->rep.status = GOAL_NONE;
 	set_status(g, GOAL_ACTIVE, GOAL_R_NONE);
+}
+
+/* The made plan is still the one wanted: the waiting goal's, the brake's, the next pose's. */
+static bool job_wanted(const struct goal *g, const struct ctl *c, const struct goal_job *j)
+{
+	if (j->kind == GOAL_JOB_FIRST)
+		return g->want_set && g->want.id == j->id;
+	if (j->kind == GOAL_JOB_BRAKE)
+		return g->brake == 1 && holding(g, c) && g->rep.id == j->id;
+	return active(g) && holding(g, c) && g->rep.id == j->id && g->index == j->index;
+}
+
+/* No plan: a new goal refused; a next pose's plan aborts the goal; a brake stops at once. */
+static void job_failed(struct goal *g, struct ctl *c, const struct goal_job *j, int64_t now_us)
+{
+	if (j->kind == GOAL_JOB_FIRST) {
+		g->want_set = false;
+		refuse(g, &g->want, GOAL_REFUSED, (enum goal_reason)j->reason);
+		return;
+	}
+	if (j->kind == GOAL_JOB_NEXT)
+		set_status(g, GOAL_ABORTED, (enum goal_reason)j->reason);
+	g->brake = 0;
+	ctl_stop(c, now_us);
 }
 
 /* A plan made: dropped if no longer wanted, asked again if its basis changed or it came late,
@@ -265,26 +330,18 @@ static void take(struct goal *g, struct ctl *c, int64_t now_us)
 
 	if (atomic_load_explicit(&j->state, memory_order_acquire) != GOAL_JOB_DONE)
 		return;
-	const bool first = j->kind == GOAL_JOB_FIRST;
-	const bool wanted =
-	    first ? g->want_set && g->want.id == j->id
-	          : active(g) && holding(g, c) && g->rep.id == j->id && g->index == j->index;
-	if (!wanted) {
+	const enum goal_job_kind kind = (enum goal_job_kind)j->kind;
+
+	if (!job_wanted(g, c, j)) {
 		job_free(j);
 		return;
 	}
 	if (j->gen != g->gen || j->on_clock != holding(g, c)) {
-		ask_again(g, first);
+		ask_again(g, kind);
 		return;
 	}
 	if (j->reason != GOAL_R_NONE) {
-		if (first) {
-			g->want_set = false;
-			refuse(g, &g->want, GOAL_REFUSED, (enum goal_reason)j->reason);
-		} else {
-			set_status(g, GOAL_ABORTED, (enum goal_reason)j->reason);
-			ctl_stop(c, now_us);
-		}
+		job_failed(g, c, j, now_us);
 		job_free(j);
 		return;
 	}
@@ -302,13 +359,16 @@ static void take(struct goal *g, struct ctl *c, int64_t now_us)
 	}
 	if (past_s > GOAL_PLAN_LATE_S) { /* late: its start has gone by */
 		g->lead_s = fminf(2.0f * g->lead_s, GOAL_PLAN_LEAD_MAX_S);
-		ask_again(g, first);
+		ask_again(g, kind);
 		return;
 	}
-	if (first)
+	if (kind == GOAL_JOB_FIRST) {
 		take_first(g, c, past_s);
-	else
+	} else {
 		traj_take_over(&g->tr, &j->tr);
+		if (kind == GOAL_JOB_BRAKE)
+			g->brake = 2;
+	}
 	job_free(j);
 }
 
@@ -339,6 +399,32 @@ static int start(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 	return 0;
 }
 
+/* A cancelled goal in force: braked to rest on a plan of its own if the reference or the
+ * estimate moves (goal_work; the stop ramp once at rest), else the stop ramp now. */
+static void brake_or_stop(struct goal *g, struct ctl *c, const struct est_output *est,
+                          int64_t now_us)
+{
+	struct traj_ref ref;
+
+	traj_eval(&g->tr, g->tr.t_s, &ref);
+	const bool moving = norm2(ref.vel[0], ref.vel[1]) >= GOAL_REST_SPEED_M_S ||
+	                    fabsf(ref.vel[2]) >= GOAL_REST_RATE_RAD_S ||
+	                    (est && (norm2(est->vel[0], est->vel[1]) >= GOAL_REST_SPEED_M_S ||
+	                             fabsf(est->vel[2]) >= GOAL_REST_RATE_RAD_S));
+
+	if (!moving || g->brake) {
+		if (!moving) {
+			g->brake = 0;
+			ctl_stop(c, now_us);
+		}
+		return;
+	}
+	g->brake = 1;
+	g->brake_want = true;
+	g->brake_since_us = now_us;
+	g->next_want = false;
+}
+
 int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
                  const struct est_output *est, int64_t now_us)
 {
@@ -352,7 +438,7 @@ int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 		if ((mine || cmd->id == 0) && holding(g, c)) {
 			if (active(g))
 				set_status(g, GOAL_ABORTED, GOAL_R_CANCELLED);
-			ctl_stop(c, now_us);
+			brake_or_stop(g, c, est, now_us);
 		}
 		return 0;
 	}
@@ -368,6 +454,13 @@ int goal_command(struct goal *g, struct ctl *c, const struct goal_cmd *cmd,
 		g->want_alive_us = now_us;
 		return holding(g, c) ? ctl_goal(c, now_us)
 		                     : 0; /* its sender left the one in force */
+	}
+	const struct goal_report *was = ended(g, cmd->id);
+
+	if (was && !mine) { /* an ended goal never starts again: its sender hears how it ended */
+		tell(g, was->id, was->n, (enum goal_status)was->status,
+		     (enum goal_reason)was->reason);
+		return -ECANCELED;
 	}
 	if (mine && g->rep.status != GOAL_NONE)
 		return -ECANCELED; /* an ended goal never starts again under its id */
@@ -416,7 +509,7 @@ static bool estimate_ok(struct goal *g, struct ctl *c, const struct est_output *
 static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 {
 	traj_step(&g->tr, dt_s, ref);
-	if (g->index >= g->n - 1)
+	if (g->index >= g->n - 1 || g->brake)
 		return;
 	const float *p = g->poses[g->index];
 
@@ -424,8 +517,8 @@ static void advance(struct goal *g, float dt_s, struct traj_ref *ref)
 		return;
 	g->index++;
 	g->changed = true;
-	if (!g->tr.on_path)
-		g->next_want = true; /* planned beside the loop; the reference goes on meanwhile */
+	if (!g->whole) /* a stepped goal: the next pose's plan, beside the loop; the reference */
+		g->next_want = true; /* goes on meanwhile */
 }
 
 /* The tracking law: world velocity of the reference plus P on the pose error, turned into the
@@ -459,9 +552,45 @@ static void track(struct goal *g, struct ctl *c, const struct est_output *est,
 	memcpy(g->rep.error, e, sizeof(e));
 }
 
-/* Distance, heading and time still to go; REACHED once the plan has ended and the estimate is
- * at the last pose, at rest. */
-static void progress(struct goal *g, const struct est_output *est, const struct traj_ref *ref)
+/* At the last pose, at rest, and sure of it (goal.h: GOAL_REACHED_*, GOAL_TOL_*). */
+static bool arrived(const struct goal *g, const struct est_output *est, float dist, bool *at)
+{
+	const float angle = fabsf(g->rep.angle_rad);
+	const float sd_pos = sqrtf(fmaxf(est->cov[0], 0.0f) + fmaxf(est->cov[1], 0.0f));
+	const float sd_th = sqrtf(fmaxf(est->cov[2], 0.0f));
+
+	*at = g->index == g->n - 1 && dist < GOAL_REACHED_POS_M && angle < GOAL_REACHED_THETA_RAD &&
+	      norm2(est->vel[0], est->vel[1]) < GOAL_REACHED_SPEED_M_S;
+	return *at && dist + 2.0f * sd_pos <= GOAL_TOL_POS_M &&
+	       angle + 2.0f * sd_th <= GOAL_TOL_THETA_RAD;
+}
+
+/* Once the plan has ended: REACHED when arrived, else ACTIVE (SETTLING while at the pose), and
+ * ABORTED (NO_PROGRESS, the robot stopped) GOAL_SETTLE_MAX_US after the plan ended. */
+static void settle(struct goal *g, struct ctl *c, const struct est_output *est, float dist,
+                   int64_t now_us)
+{
+	bool at;
+
+	if (g->tr.t_s < g->tr.duration_s) {
+		g->ended_us = 0;
+		return;
+	}
+	if (!g->ended_us)
+		g->ended_us = now_us;
+	if (arrived(g, est, dist, &at)) {
+		set_status(g, GOAL_REACHED, GOAL_R_NONE);
+	} else if (now_us - g->ended_us >= GOAL_SETTLE_MAX_US) {
+		set_status(g, GOAL_ABORTED, GOAL_R_NO_PROGRESS);
+		ctl_stop(c, now_us);
+	} else {
+		set_status(g, GOAL_ACTIVE, at ? GOAL_R_SETTLING : GOAL_R_NONE);
+	}
+}
+
+/* Distance, heading and time still to go; the arrival (settle) while the goal is active. */
+static void progress(struct goal *g, struct ctl *c, const struct est_output *est,
+                     const struct traj_ref *ref, int64_t now_us)
 {
 	const float *p = g->poses[g->index];
 	float dist = norm2(p[0] - est->pose[0], p[1] - est->pose[1]);
@@ -475,18 +604,34 @@ static void progress(struct goal *g, const struct est_output *est, const struct 
 	g->rep.time_to_go_s = fmaxf(0.0f, g->tr.duration_s - g->tr.t_s);
 	memcpy(g->rep.ref, ref->pose, sizeof(g->rep.ref));
 	memcpy(g->rep.ref_vel, ref->vel, sizeof(g->rep.ref_vel));
-	const float speed = norm2(est->vel[0], est->vel[1]);
+	if (active(g))
+		settle(g, c, est, dist, now_us);
+}
 
-	if (active(g) && g->index == g->n - 1 && g->tr.t_s >= g->tr.duration_s &&
-	    dist < GOAL_REACHED_POS_M && fabsf(g->rep.angle_rad) < GOAL_REACHED_THETA_RAD &&
-	    speed < GOAL_REACHED_SPEED_M_S)
-		set_status(g, GOAL_REACHED, GOAL_R_NONE);
+/* A cancelled goal braking: kept alive by the goal mode itself (its sender is gone), ended
+ * with the stop ramp once its plan has brought the reference to rest, or GOAL_BRAKE_MAX_US
+ * after the cancel. */
+static void brake_step(struct goal *g, struct ctl *c, int64_t now_us)
+{
+	if (!g->brake)
+		return;
+	if (c->mode != CTL_GOAL) {
+		g->brake = 0;
+		return;
+	}
+	ctl_goal_keep(c, now_us);
+	if ((g->brake == 2 && g->tr.t_s >= g->tr.duration_s) ||
+	    now_us - g->brake_since_us >= GOAL_BRAKE_MAX_US) {
+		g->brake = 0;
+		ctl_stop(c, now_us);
+	}
 }
 
 void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int64_t now_us)
 {
 	struct traj_ref ref;
 
+	brake_step(g, c, now_us);
 	follow_controller(g, c);
 	take(g, c, now_us);
 	post(g, c, est, now_us);
@@ -500,7 +645,7 @@ void goal_step(struct goal *g, struct ctl *c, const struct est_output *est, int6
 		return;
 	advance(g, c->t.dt, &ref);
 	track(g, c, est, &ref);
-	progress(g, est, &ref);
+	progress(g, c, est, &ref, now_us);
 }
 
 const struct goal_report *goal_report(struct goal *g, bool *changed)

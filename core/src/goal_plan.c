@@ -2,6 +2,7 @@
  * "Where plans are made"): a path through the poses, else the first (or next) pose alone. */
 #include "goal_int.h"
 
+#include <errno.h>
 #include <math.h>
 
 int goal_plan_to(bool fixed, const struct goal_fixed *fx, struct traj *tr,
@@ -16,7 +17,8 @@ int goal_plan_to(bool fixed, const struct goal_fixed *fx, struct traj *tr,
 }
 
 /* A path of 2 to TRAJ_PATH_MAX poses: one plan through them all (no stop at the intermediate
- * ones, each passed within the blend radius); false if it cannot be planned. */
+ * ones, each passed within the blend radius); false if it cannot be planned (more poses, two
+ * at one place, a turn in place): then each pose is planned in turn (stepped). */
 static bool plan_path(struct goal_job *j)
 {
 	if (j->fixed || j->n < 2 || j->n > TRAJ_PATH_MAX)
@@ -24,6 +26,37 @@ static bool plan_path(struct goal_job *j)
 	return traj_plan_path(&j->tr, &j->from, (const float (*)[3])j->poses, j->n, j->blend_m) ==
 	           0 &&
 	       j->tr.duration_s <= GOAL_PLAN_MAX_S;
+}
+
+/* A cancelled goal's brake: a plan from the reference to where it can stop, ahead along its
+ * velocity by v^2 / (2 a), a the acceleration the envelope gives from rest against the motion
+ * plus twice the Coulomb friction's share along it (from rest it opposes that acceleration,
+ * braking it helps; the back-EMF and the viscous friction help besides), the heading turning
+ * on at half its rate meanwhile. -EINVAL if there is none. */
+static int plan_brake(struct goal_job *j)
+{
+	const struct traj_ref *f = &j->from;
+	const float speed = sqrtf(f->vel[0] * f->vel[0] + f->vel[1] * f->vel[1]);
+	float to[3] = {f->pose[0], f->pose[1], f->pose[2]};
+
+	if (speed > 1e-3f) {
+		/* sin as a shifted cos: no sincosf, which the core's objects may not call */
+		const float c = cosf(f->pose[2]), s = cosf(f->pose[2] - 1.57079632679f);
+		const float ux = f->vel[0] / speed, uy = f->vel[1] / speed;
+		const float back[2] = {-(c * ux + s * uy), -(-s * ux + c * uy)}; /* robot frame */
+		float acc = 0.0f, vmax;
+
+		if (traj_envelope(&j->tr, back, 0.0f, &acc, &vmax) || !(acc > 0.0f))
+			return -EINVAL;
+		acc += 2.0f * (j->tr.c.C[0] * fabsf(back[0]) + j->tr.c.C[1] * fabsf(back[1])) /
+		       j->tr.c.M;
+		const float d = speed * speed / (2.0f * acc);
+
+		to[0] += ux * d;
+		to[1] += uy * d;
+		to[2] += 0.5f * f->vel[2] * speed / acc;
+	}
+	return traj_plan(&j->tr, f, to);
 }
 
 bool goal_work(struct goal *g)
@@ -35,9 +68,13 @@ bool goal_work(struct goal *g)
 	const float handover_s = j->tr.handover_s;
 
 	j->reason = GOAL_R_NONE;
-	if (!(j->kind == GOAL_JOB_FIRST && plan_path(j)) &&
-	    (goal_plan_to(j->fixed, &j->fx, &j->tr, &j->from, j->poses[j->index]) ||
-	     !(j->tr.duration_s <= GOAL_PLAN_MAX_S)))
+	j->whole = j->kind == GOAL_JOB_FIRST && plan_path(j);
+	if (j->kind == GOAL_JOB_BRAKE) {
+		if (plan_brake(j))
+			j->reason = GOAL_R_UNREACHABLE;
+	} else if (!j->whole &&
+	           (goal_plan_to(j->fixed, &j->fx, &j->tr, &j->from, j->poses[j->index]) ||
+	            !(j->tr.duration_s <= GOAL_PLAN_MAX_S)))
 		j->reason = GOAL_R_UNREACHABLE;
 	j->tr.handover_s = handover_s;
 	atomic_store_explicit(&j->state, GOAL_JOB_DONE, memory_order_release);

@@ -166,6 +166,10 @@ void ctl_set_slip(struct ctl *c, bool slipping);
  */
 int ctl_goal(struct ctl *c, int64_t now_us);
 
+/* Fast loop. The goal mode's own keep-alive while it brakes a cancelled goal to rest (a
+ * bounded plan of its own, its sender gone): the watchdog's clock only, in GOAL alone. */
+void ctl_goal_keep(struct ctl *c, int64_t now_us);
+
 /* Fast loop, before ctl_step: the reference GOAL tracks in this tick (robot frame): velocity
  * [m/s, m/s, rad/s] and its rate [m/s^2, m/s^2, rad/s^2]; the caller keeps it finite and
  * within the command limits. Leaving GOAL for VELOCITY starts from it (bumpless). */

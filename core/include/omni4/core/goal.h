@@ -49,10 +49,23 @@
  * At 2 m/s odometry drifts ~1 cm in that second (EST_ODOM_POS 5 mm per metre, 1 sigma). */
 #define GOAL_STALE_GRACE_US 500000
 #define GOAL_ODOM_ONLY_US (EST_CAMERA_STALE_US + GOAL_STALE_GRACE_US)
-/* REACHED: the plan has ended and the estimate is within these of the last pose. */
+/* REACHED: the plan has ended and the estimate is within these of the last pose, at rest, */
 #define GOAL_REACHED_POS_M 0.005f
 #define GOAL_REACHED_THETA_RAD 0.0087f /* 0.5 deg */
 #define GOAL_REACHED_SPEED_M_S 0.02f
+/* and the estimate is sure of it: its error plus two of its own standard deviations (the
+ * covariance: sqrt(var x + var y), sqrt(var theta)) within the arrival tolerance, 1 cm and 1 deg.
+ * Until then the goal stays ACTIVE with REASON_SETTLING, holding the pose while the camera's
+ * frames average the estimate down (docs/goal.md "Arrival"). */
+#define GOAL_TOL_POS_M 0.01f
+#define GOAL_TOL_THETA_RAD 0.01745f /* 1 deg */
+/* No progress: a goal whose plan has ended (or whose next pose's plan never came) and that is
+ * not REACHED this long after is ABORTED with REASON_NO_PROGRESS, and the robot stops. */
+#define GOAL_SETTLE_MAX_US 10000000
+/* A cancelled goal brakes to rest under the planner's limits (a plan to where it can stop,
+ * made beside the loop), then the stop ramp; a brake whose plan has not brought the robot to
+ * rest this long after the cancel ends with the ramp at once. */
+#define GOAL_BRAKE_MAX_US 5000000
 
 /* The planner's traction: [limits] traction_mu and traction_margin when traction_mu > 0 (the
  * floor identified); with traction_mu = 0 (the controller's limit off) a conservative floor, mu
@@ -101,6 +114,8 @@ enum goal_reason {
 	GOAL_R_STALE_ESTIMATE = 8,
 	GOAL_R_REPLACED = 9,
 	GOAL_R_CANCELLED = 10,
+	GOAL_R_NO_PROGRESS = 11, /* ABORTED: not reached GOAL_SETTLE_MAX_US after the plan ended */
+	GOAL_R_SETTLING = 12,    /* ACTIVE: at the pose, waiting for the estimate to be sure */
 };
 
 /* A goal as received (goal_t; doubles, checked once on arrival). */
@@ -130,7 +145,11 @@ struct goal_report {
  * tick writes it only while IDLE and reads it only once DONE; goal_work touches it only while
  * POSTED. */
 enum goal_job_state { GOAL_JOB_IDLE = 0, GOAL_JOB_POSTED = 1, GOAL_JOB_DONE = 2 };
-enum goal_job_kind { GOAL_JOB_FIRST = 0, GOAL_JOB_NEXT = 1 };
+enum goal_job_kind { GOAL_JOB_FIRST = 0, GOAL_JOB_NEXT = 1, GOAL_JOB_BRAKE = 2 };
+
+/* Goal ids that ended, remembered so that a repeat never starts one again: its sender is told
+ * how it ended instead (a second client's goal replaced it: ABORTED, REASON_REPLACED). */
+#define GOAL_ENDED_IDS 16
 
 struct goal_job {
 	atomic_int state; /* enum goal_job_state */
@@ -150,7 +169,9 @@ struct goal_job {
 	    from; /* where it starts: the reference (or the estimate) at the hand-over */
 	float poses[GOAL_POSES_MAX][3];
 	/* made */
-	int8_t reason;  /* GOAL_R_NONE, or why there is no plan */
+	int8_t reason; /* GOAL_R_NONE, or why there is no plan */
+	bool
+	    whole; /* the plan goes through every pose to the last (a path), else to poses[index] */
 	struct traj tr; /* its limits when asked; the plan when made */
 };
 
@@ -165,12 +186,21 @@ struct goal {
 	struct goal_fixed fx;
 	float poses[GOAL_POSES_MAX][3];
 	int n, index;
+	bool whole; /* the plan in force goes through every pose (a path); else it ends at
+	             * poses[index] and the next pose is planned when the reference nears it */
 	float blend_m;
 	struct goal_report rep;     /* the goal in force (or the last one) */
 	bool changed;               /* rep.status, reason or index changed (goal_report) */
 	struct goal_report refused; /* the last goal refused (goal_take_refused) */
 	bool refused_pending;
 	int64_t stale_since_us; /* CAMERA_STALE seen since (0: not stale) */
+	int64_t ended_us;       /* the plan in force ended at (0: it runs) */
+	/* a cancelled goal braking to rest on a plan of its own (GOAL_JOB_BRAKE), then stopped: */
+	int8_t brake;           /* 0 no, 1 its plan asked for, 2 on its plan */
+	bool brake_want;        /* its plan still to be posted */
+	int64_t brake_since_us; /* braking since (stopped with the ramp GOAL_BRAKE_MAX_US on) */
+	struct goal_report ended[GOAL_ENDED_IDS]; /* the last goals that ended, as they ended */
+	int n_ended;                              /* written so far (the ring's next: % size) */
 	/* a new goal accepted for planning, not yet in force */
 	struct goal_cmd want;
 	bool want_set, want_posted;
