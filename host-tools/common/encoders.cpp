@@ -140,6 +140,21 @@ std::vector<RippleFit> stretches(const std::vector<MotorsSample> &m, double chun
 	return fits;
 }
 
+// One stretch's regression rows for a motor: the detrended regressors x, the detrended speed e,
+// and each row's group index and block (its cluster in the standard error).
+struct RippleRows {
+	std::vector<Eigen::Vector2d> x;
+	std::vector<double> e;
+	std::vector<size_t> group, block;
+	void clear()
+	{
+		x.clear();
+		e.clear();
+		group.clear();
+		block.clear();
+	}
+};
+
 // The fit runs on means of q consecutive samples (at least 4 ms: the ripple, at most a few
 // tens of Hz, loses under 1 % of its amplitude in such a mean), inside contiguous blocks; the
 // correction is applied to every sample. The group means of the four motors come from one
@@ -176,10 +191,9 @@ struct RippleWork {
 	// their slow parts gb.
 	void regressors(int j);
 
-	// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
-	// block; advances i0 past the stretch. Returns the groups used.
-	size_t normal_equations(const RippleFit &f, int j, double min_speed, size_t &i0,
-	                        Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const;
+	// The rows of stretch f's regression (centres from i0 whose whole double window lies in
+	// one block; advances i0 past the stretch).
+	void rows(const RippleFit &f, int j, double min_speed, size_t &i0, RippleRows &out) const;
 };
 
 RippleWork::RippleWork(const std::vector<MotorsSample> &m_, double gear_, double dt_, int h)
@@ -257,58 +271,107 @@ void RippleWork::regressors(int j)
 			box(g[c], a, b, hd, prefix, gb[c]);
 }
 
-// Normal equations of stretch f, on centres from i0 whose whole double window lies in one
-// block; advances i0 past the stretch. Returns the groups used.
-size_t RippleWork::normal_equations(const RippleFit &f, int j, double min_speed, size_t &i0,
-                                    Eigen::Matrix2d &A, Eigen::Vector2d &r, double &yy) const
+// The rows of stretch f's regression, on centres from i0 whose whole double window lies in one
+// block; advances i0 past the stretch.
+void RippleWork::rows(const RippleFit &f, int j, double min_speed, size_t &i0,
+                      RippleRows &out) const
 {
 	const size_t nd = first.size();
-	A = Eigen::Matrix2d::Zero();
-	r = Eigen::Vector2d::Zero();
-	yy = 0;
-	size_t used = 0;
-	for (const auto &[a, b] : dblocks) {
+	out.clear();
+	for (size_t bi = 0; bi < dblocks.size(); ++bi) {
+		const auto [a, b] = dblocks[bi];
 		const size_t h2 = 2 * static_cast<size_t>(hd);
 		for (size_t i = std::max(a + h2, i0); i + h2 < b && first[i] < f.m1; ++i) {
 			if (first[i] < f.m0 || !(std::abs(ws[i]) >= min_speed))
 				continue;
-			Eigen::Vector2d x;
-			for (int c = 0; c < 2; ++c)
-				x[c] = g[c][i] - gb[c][i];
-			const double e = y[j][i] - ws[i];
-			A += x * x.transpose();
-			r += x * e;
-			yy += e * e;
-			++used;
+			out.x.emplace_back(g[0][i] - gb[0][i], g[1][i] - gb[1][i]);
+			out.e.push_back(y[j][i] - ws[i]);
+			out.group.push_back(i);
+			out.block.push_back(bi);
 		}
 	}
 	while (i0 < nd && first[i0] < f.m1)
 		++i0;
-	return used;
 }
 
-// Solves stretch f's normal equations for motor j and, if the ripple is significant, divides
-// it out of the stretch's speeds.
-void fit_and_remove(RippleWork &rw, RippleFit &f, size_t fi, int j, const Eigen::Matrix2d &A,
-                    const Eigen::Vector2d &r, double yy, size_t used,
+// The clusters of a stretch's rows: runs of consecutive groups in one block, each at most
+// `len` groups long. Returns each row's cluster and their count.
+size_t ripple_clusters(const RippleRows &rw, size_t len, std::vector<size_t> &cluster)
+{
+	const size_t n = rw.e.size();
+	cluster.resize(n);
+	size_t c = 0, start = 0;
+	for (size_t i = 0; i < n; ++i) {
+		if (i > 0 && (rw.block[i] != rw.block[i - 1] || rw.group[i] != rw.group[i - 1] + 1 ||
+		              rw.group[i] - rw.group[start] >= len)) {
+			++c;
+			start = i;
+		}
+		cluster[i] = c;
+	}
+	return n ? c + 1 : 0;
+}
+
+// Covariance of the least-squares coefficients from the scores x_i u_i summed per cluster
+// (cluster-robust: the residuals may correlate within a cluster, not across), with the small-
+// sample factor G / (G - 1). The residual is not white: besides the encoder's quantisation noise
+// it carries what the moving average does not follow of the speed (a step's corners, a wheel
+// breaking loose and gripping again), tenths of a second long; counted as independent samples
+// it made a round disc's ripple significant in a quarter of a traction run's stretches.
+Eigen::Matrix2d ripple_covariance(const RippleRows &rw, const Eigen::Vector2d &coef,
+                                  const Eigen::LDLT<Eigen::Matrix2d> &ldlt,
+                                  const std::vector<size_t> &cluster, size_t nclusters)
+{
+	std::vector<Eigen::Vector2d> score(nclusters, Eigen::Vector2d::Zero());
+	for (size_t i = 0; i < rw.e.size(); ++i)
+		score[cluster[i]] += rw.x[i] * (rw.e[i] - rw.x[i].dot(coef));
+	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
+	for (const Eigen::Vector2d &sc : score)
+		omega += sc * sc.transpose();
+	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
+	const double g = static_cast<double>(nclusters);
+	return g / (g - 1) * ainv * omega * ainv;
+}
+
+// Solves stretch f's regression for motor j and, if the ripple is significant, divides it out of
+// the stretch's speeds.
+void fit_and_remove(RippleWork &rw, RippleFit &f, size_t fi, int j, const RippleRows &rows,
                     const EccentricityOptions &opt, std::vector<MotorsSample> &m)
 {
+	const size_t used = rows.e.size();
 	if (used < 50)
 		return;
+	Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+	Eigen::Vector2d r = Eigen::Vector2d::Zero();
+	for (size_t i = 0; i < used; ++i) {
+		A += rows.x[i] * rows.x[i].transpose();
+		r += rows.x[i] * rows.e[i];
+	}
 	Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
 	if (ldlt.info() != Eigen::Success)
 		return;
 	const Eigen::Vector2d coef = ldlt.solve(r);
-	const double rss = std::max(0.0, yy - coef.dot(r));
-	// The residual is mostly the encoder's quantisation noise, a difference of counts:
-	// neighbours correlate negatively, so the white-noise variance does not understate it.
-	const double sigma2 = rss / static_cast<double>(used - 2);
-	const Eigen::Matrix2d cov = sigma2 * ldlt.solve(Eigen::Matrix2d::Identity());
+	const size_t len = std::max<size_t>(
+	    1, static_cast<size_t>(std::lround(opt.cluster_s / (static_cast<double>(rw.q) * rw.dt))));
+	std::vector<size_t> cluster;
+	const size_t nc = ripple_clusters(rows, len, cluster);
+	f.motor_clusters[j] = static_cast<int>(nc);
+	if (nc < 4)
+		return; // too few independent stretches to tell a ripple from the speed's corners
+	const Eigen::Matrix2d cov = ripple_covariance(rows, coef, ldlt, cluster, nc);
 	if (!cov.allFinite())
 		return;
 	f.motor_eps[j] = std::hypot(coef[0], coef[1]);
 	f.motor_se[j] = std::sqrt(0.5 * (cov(0, 0) + cov(1, 1)));
-	f.motor_removed[j] = f.motor_eps[j] > opt.significance * f.motor_se[j];
+	// Hotelling: (G - 2) T^2 / (2 (G - 1)) is F(2, G - 2) with G clusters, whose upper tail is
+	// (1 + 2 F / (G - 2))^(-(G - 2) / 2); it is set beside a normal pair's amplitude of z SE,
+	// exp(-z^2 / 2), and given as that z.
+	const Eigen::LDLT<Eigen::Matrix2d> cl(cov);
+	const double t2 = cl.info() == Eigen::Success ? std::max(0.0, coef.dot(cl.solve(coef))) : 0.0;
+	const double g = static_cast<double>(nc), fstat = (g - 2) * t2 / (2 * (g - 1));
+	const double log_p = -0.5 * (g - 2) * std::log1p(2 * fstat / (g - 2));
+	f.motor_z[j] = std::sqrt(-2 * log_p);
+	f.motor_removed[j] = f.motor_z[j] > opt.significance;
 	if (!f.motor_removed[j])
 		return;
 	// The angles again from the stretch's first (as in angles_and_groups, on the speeds as
@@ -343,18 +406,21 @@ std::vector<RippleFit> remove_encoder_ripple(LogData &log, double gear,
 	fits = stretches(m, opt.chunk_s);
 	RippleWork rw(m, gear, dt, h);
 	rw.angles_and_groups(fits);
+	RippleRows rows;
+	// Below this speed the ripple's period is longer than box_s / min_cycles: the moving
+	// average takes most of it out with the slow speed, from the data and the regressors
+	// alike, and what is left cannot be told from the speed's own bends.
+	const double min_speed =
+	    std::max(opt.min_speed, opt.min_cycles * 2 * M_PI / (gear * opt.box_s));
 	for (int j = 0; j < 4; ++j) {
 		rw.regressors(j);
 		size_t i0 = 0;
 		for (size_t fi = 0; fi < fits.size(); ++fi) {
 			RippleFit &f = fits[fi];
-			Eigen::Matrix2d A;
-			Eigen::Vector2d r;
-			double yy;
-			const size_t used = rw.normal_equations(f, j, opt.min_speed, i0, A, r, yy);
+			rw.rows(f, j, min_speed, i0, rows);
 			if (j == 0)
-				f.samples = used * rw.q;
-			fit_and_remove(rw, f, fi, j, A, r, yy, used, opt, m);
+				f.samples = rows.e.size() * rw.q;
+			fit_and_remove(rw, f, fi, j, rows, opt, m);
 		}
 	}
 	return fits;

@@ -18,11 +18,13 @@
 // (once per motor revolution, l the gear ratio: the encoder on the motor shaft). The slowly
 // varying w is removed by a centred moving average (box of 0.1 s) applied to the data and to
 // the regressors alike, so (a, b) come from a linear least-squares fit that a drive profile
-// does not bias. The ripple is removed only where its amplitude is over 4 standard errors; the
-// log is fitted in stretches of `chunk_s` so that a phase that drifts (lost samples) is
-// followed. An encoder on the wheel shaft ripples once per wheel turn, as slowly as the
-// robot's own speed changes (a spin's turn takes about as long as its ramp): that ripple
-// cannot be told from the speed and is left alone.
+// does not bias, on samples fast enough that the box leaves the ripple in (min_cycles periods
+// in it). The ripple is removed only where its amplitude is over 4 standard errors, cluster-
+// robust (the residual carries the speed's bends the box does not follow: runs of cluster_s
+// count as one observation each); the log is fitted in stretches of `chunk_s` so that a phase
+// that drifts (lost samples) is followed. An encoder on the wheel shaft ripples once per wheel
+// turn, as slowly as the robot's own speed changes (a spin's turn takes about as long as its
+// ramp): that ripple cannot be told from the speed and is left alone.
 #pragma once
 
 #include <array>
@@ -50,14 +52,20 @@ struct EccentricityOptions {
 	double box_s = 0.1;        // moving average that takes the slow speed out [s]
 	double chunk_s = 20.0;     // stretch fitted with its own coefficients [s]
 	double min_speed = 2.0;    // wheel speed below which a sample carries no ripple [rad/s]
+	double min_cycles = 0.75;  // ... or fewer ripple periods than this in box_s
 	double significance = 4.0; // a harmonic is removed when its amplitude is over this many SE
+	                           // (Hotelling's F over the clusters, as a normal pair's z)
+	double cluster_s = 0.5;    // longest run of samples taken as one cluster in the SE [s]
 };
 
 struct RippleFit {
 	size_t m0 = 0, m1 = 0; // motors index range of the stretch
 	// Per wheel: relative amplitude of the once-per-motor-revolution ripple, its standard
 	// error, and whether it was removed.
-	std::array<double, 4> motor_eps{}, motor_se{};
+	// motor_z: the amplitude in standard errors (both components, as significance); clusters:
+	// the fit's clusters (under 4: no test, nothing removed).
+	std::array<double, 4> motor_eps{}, motor_se{}, motor_z{};
+	std::array<int, 4> motor_clusters{};
 	std::array<bool, 4> motor_removed{};
 	size_t samples = 0; // samples used (wheel turning, filter window complete)
 };

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <map>
 
+#include <Eigen/Dense>
+
 #include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 
@@ -113,17 +115,18 @@ double peak_force(const Segment &s, const model_params &p, const std::array<doub
 	return n ? sum / n : 0.0;
 }
 
-// Each wheel's mean force over the last kEnd driven samples [N] (signed).
-// And each rim's acceleration over them (least-squares slope of r w_j) [m/s^2].
-std::array<double, 4> end_forces(const Segment &s, const model_params &p,
-                                 std::array<double, 4> &rim_acc)
+// Each wheel's mean force over kEnd driven samples [N] (signed), the last `skip` driven samples
+// of the run left out; and each rim's acceleration over them (least-squares slope of r w_j)
+// [m/s^2].
+std::array<double, 4> window_forces(const Segment &s, const model_params &p, int skip,
+                                    std::array<double, 4> &rim_acc)
 {
 	const auto &m = s.log->motors;
 	std::array<double, 4> f{}, sy{}, sty{};
 	double st = 0, stt = 0;
-	int n = 0;
+	int n = 0, seen = 0;
 	for (size_t k = s.m1; k-- > s.m0 && n < kEnd;) {
-		if (!driven(m[k].mode))
+		if (!driven(m[k].mode) || seen++ < skip)
 			continue;
 		const double t = (m[k].utime - m[s.m1 - 1].utime) * 1e-6;
 		for (int j = 0; j < 4; ++j) {
@@ -141,6 +144,23 @@ std::array<double, 4> end_forces(const Segment &s, const model_params &p,
 		rim_acc[j] = den > 0 ? (n * sty[j] - st * sy[j]) / den : 0.0;
 	}
 	return f;
+}
+
+// The driven wheels' mean |force| / (M g / 4) and their rims' mean acceleration along it.
+void window_mu(const std::array<double, 4> &f, const std::array<double, 4> &acc,
+               const std::array<double, 4> &pat, const model_params &p, double *mu,
+               double *rim_acc)
+{
+	double sum = 0, a = 0;
+	int n = 0;
+	for (int j = 0; j < 4; ++j)
+		if (pat[j] != 0) {
+			sum += std::fabs(f[j]);
+			a += acc[j] * (f[j] < 0 ? -1 : 1);
+			++n;
+		}
+	*mu = sum / n / (p.M * kG / 4);
+	*rim_acc = a / n;
 }
 
 // The velocity along the direction (m/s; rad/s along w).
@@ -187,30 +207,70 @@ void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 	*acc = std::fabs(*acc);
 }
 
-// mu_run (M g / 4) = F + m_w s' over the runs (F = mu M g / 4, m_w = J_w / r^2, s' the rim's
-// acceleration): the intercept by least squares, with its SE; the mean without spread in s'.
-void kinetic_fit(const std::vector<const TractionRun *> &runs, TractionDirection *d)
+// Runs past their break-away: the rim's acceleration fading from the earlier window to the end
+// one (a run whose wheels break away late has its end window at the break-away, its force
+// still below the kinetic friction and its rim speeding up).
+std::vector<const TractionRun *> settled(const std::vector<const TractionRun *> &runs)
 {
-	const double n = static_cast<double>(runs.size());
-	double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-	for (const TractionRun *r : runs) {
-		sx += r->end_rim_acc, sy += r->end_mu, sxx += r->end_rim_acc * r->end_rim_acc;
-		sxy += r->end_rim_acc * r->end_mu, syy += r->end_mu * r->end_mu;
-	}
-	const double den = n * sxx - sx * sx;
-	if (n < 4 || !(den > 1e-9 * n * n)) {
-		d->mu = sy / n;
-		d->mu_se =
-		    n > 1 ? std::sqrt(std::max(0.0, syy / n - d->mu * d->mu) / (n - 1)) : 0.0;
-		return;
-	}
-	const double b = (n * sxy - sx * sy) / den, a = (sy - b * sx) / n;
-	double rss = 0;
+	std::vector<const TractionRun *> out;
 	for (const TractionRun *r : runs)
-		rss += (r->end_mu - a - b * r->end_rim_acc) * (r->end_mu - a - b * r->end_rim_acc);
-	d->mu = a;
-	d->mu_se = std::sqrt(rss / (n - 2) * sxx / den);
-	d->wheel_share = b; // per m/s^2, in units of M g / 4
+		if (r->end_rim_acc < r->early_rim_acc)
+			out.push_back(r);
+	return out;
+}
+
+// mu_run (M g / 4) = F + m_w s' (F = mu M g / 4, m_w = J_w / r^2, s' the rim's acceleration):
+// intercept and slope by least squares on both windows of every run (s' fades within a run,
+// so the slope is fitted from each run's own contrast), with the SE cluster-robust over the
+// runs (a run's two windows share its noise: the run is the observation; G / (G - 1)). With
+// the end windows alone taken as mu (the m_w s' term left in: +1-2 % on the simulated floors)
+// and their samples as independent, the SE was 5-13 times too small. false: fewer than two
+// runs.
+bool kinetic_fit(const std::vector<const TractionRun *> &runs, double *mu, double *mu_se,
+                 double *share)
+{
+	const size_t g = runs.size();
+	if (g < 2)
+		return false;
+	Eigen::MatrixXd X(2 * g, 2);
+	Eigen::VectorXd y(2 * g);
+	for (size_t k = 0; k < g; ++k) {
+		X.row(2 * k) << 1.0, runs[k]->end_rim_acc;
+		X.row(2 * k + 1) << 1.0, runs[k]->early_rim_acc;
+		y[2 * k] = runs[k]->end_mu;
+		y[2 * k + 1] = runs[k]->early_mu;
+	}
+	const Eigen::Matrix2d A = X.transpose() * X;
+	const Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
+	if (ldlt.info() != Eigen::Success || !(std::abs(ldlt.rcond()) > 1e-9))
+		return false;
+	const Eigen::Vector2d coef = ldlt.solve(X.transpose() * y);
+	const Eigen::VectorXd u = y - X * coef;
+	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
+	for (size_t k = 0; k < g; ++k) {
+		const Eigen::Vector2d sc = X.middleRows(2 * k, 2).transpose() * u.segment(2 * k, 2);
+		omega += sc * sc.transpose();
+	}
+	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
+	const Eigen::Matrix2d cov =
+	    static_cast<double>(g) / static_cast<double>(g - 1) * ainv * omega * ainv;
+	*mu = coef[0];
+	*mu_se = std::sqrt(std::max(0.0, cov(0, 0)));
+	*share = coef[1];
+	return std::isfinite(*mu) && std::isfinite(*mu_se);
+}
+
+// The top half by level of the runs slipping at their end (lower levels may grip again).
+std::vector<const TractionRun *> kinetic_runs(std::vector<const TractionRun *> runs)
+{
+	std::sort(runs.begin(), runs.end(),
+	          [](const TractionRun *a, const TractionRun *b) { return a->level < b->level; });
+	std::vector<const TractionRun *> kinetic;
+	for (const TractionRun *r : runs)
+		if (r->slip_at_end)
+			kinetic.push_back(r);
+	kinetic.erase(kinetic.begin(), kinetic.begin() + kinetic.size() / 2);
+	return kinetic;
 }
 
 TractionDirection summarise(const std::string &dir, std::vector<const TractionRun *> runs)
@@ -221,7 +281,6 @@ TractionDirection summarise(const std::string &dir, std::vector<const TractionRu
 	std::sort(runs.begin(), runs.end(),
 	          [](const TractionRun *a, const TractionRun *b) { return a->level < b->level; });
 	double lower = 0;
-	std::vector<const TractionRun *> kinetic; // slipping at their end, by level
 	for (const TractionRun *r : runs) {
 		if (!d.reached && !r->slipped) {
 			++d.held;
@@ -232,15 +291,22 @@ TractionDirection summarise(const std::string &dir, std::vector<const TractionRu
 			d.reached = true;
 			d.level_slip = r->level;
 		}
-		if (r->slip_at_end)
-			kinetic.push_back(r);
 	}
-	kinetic.erase(kinetic.begin(), kinetic.begin() + kinetic.size() / 2); // the top half
+	const std::vector<const TractionRun *> kinetic = kinetic_runs(runs);
 	d.reached = !kinetic.empty();
 	if (!d.reached) {
 		d.mu = lower; // a lower bound
-	} else {
-		kinetic_fit(kinetic, &d);
+	} else if (!kinetic_fit(settled(kinetic), &d.mu, &d.mu_se, &d.wheel_share)) {
+		// too few settled runs: the end windows' mean, m_w s' left in, SE their spread
+		double sum = 0, sum2 = 0;
+		for (const TractionRun *r : kinetic) {
+			sum += r->end_mu;
+			sum2 += r->end_mu * r->end_mu;
+		}
+		const double n = static_cast<double>(kinetic.size());
+		d.mu = sum / n;
+		d.mu_se = n > 1 ? std::sqrt(std::max(0.0, sum2 / n - d.mu * d.mu) / (n - 1))
+		              : 0.0; // one run: no spread to tell (printed so)
 	}
 	for (const TractionRun *r : runs) // the highest run that held below mu
 		if (!r->slipped && r->mu <= d.mu && r->level <= d.level_held) {
@@ -276,8 +342,22 @@ bool com_from_diagonal(const std::vector<TractionRun> &runs, double level_slip, 
 	return true;
 }
 
-void combine(TractionResult &r, const model_params &p)
+void combine(TractionResult &r, const model_params &p,
+             const std::map<std::string, std::vector<const TractionRun *>> &by_dir)
 {
+	// One fit over the settled kinetic runs of v, vn and w: one floor, one wheel inertia.
+	std::vector<const TractionRun *> pooled;
+	for (const TractionDirection &d : r.directions) {
+		if (d.direction == "diag" || !d.reached || d.held == 0)
+			continue;
+		const auto k = settled(kinetic_runs(by_dir.at(d.direction)));
+		pooled.insert(pooled.end(), k.begin(), k.end());
+	}
+	double share = NAN;
+	if (kinetic_fit(pooled, &r.mu, &r.mu_se, &share)) {
+		r.ok = true;
+		r.runs_fitted = static_cast<int>(pooled.size());
+	}
 	double w = 0, wm = 0;
 	const TractionDirection *diag = nullptr;
 	for (const TractionDirection &d : r.directions) {
@@ -285,19 +365,20 @@ void combine(TractionResult &r, const model_params &p)
 			diag = &d;
 			continue;
 		}
-		if (!d.reached || d.held == 0)
+		if (!d.reached || d.held == 0 || !(d.mu_se > 0))
 			continue;
 		const double se = std::max(d.mu_se, 1e-3 * d.mu);
 		w += 1 / (se * se);
 		wm += d.mu / (se * se);
 	}
-	if (w > 0) {
+	if (!r.ok && w > 0) { // too few settled runs to pool: the directions' weighted mean
 		r.ok = true;
 		r.mu = wm / w;
 		r.mu_se = 1 / std::sqrt(w);
 	}
 	if (r.ok && diag && diag->reached)
-		r.have_com = com_from_diagonal(r.runs, diag->level_slip, r.mu, diag->wheel_share, p,
+		r.have_com = com_from_diagonal(r.runs, diag->level_slip, r.mu,
+		                               std::isfinite(share) ? share : diag->wheel_share, p,
 		                               &r.com_height);
 }
 
@@ -322,17 +403,11 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 		run.slipped = runaway(s, p, &run.slip, &run.slip_at_end) > 0;
 		run.slip_at_end = run.slip_at_end && run.slipped;
 		run.force = peak_force(s, p, pat);
-		run.end_f = end_forces(s, p, run.end_acc);
-		double sum = 0, acc = 0;
-		int n = 0;
-		for (int j = 0; j < 4; ++j)
-			if (pat[j] != 0) {
-				sum += std::fabs(run.end_f[j]);
-				acc += run.end_acc[j] * (run.end_f[j] < 0 ? -1 : 1);
-				++n;
-			}
-		run.end_mu = sum / n / (p.M * kG / 4);
-		run.end_rim_acc = acc / n;
+		run.end_f = window_forces(s, p, 0, run.end_acc);
+		window_mu(run.end_f, run.end_acc, pat, p, &run.end_mu, &run.end_rim_acc);
+		std::array<double, 4> ef, ea;
+		ef = window_forces(s, p, kEnd, ea);
+		window_mu(ef, ea, pat, p, &run.early_mu, &run.early_rim_acc);
 		run.mu = run.force / (p.M * kG / 4);
 		steepest(s, p, &run.acc, &run.acc_se);
 		r.runs.push_back(run);
@@ -342,7 +417,7 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 	for (const char *dir : kDirections)
 		if (by_dir.count(dir))
 			r.directions.push_back(summarise(dir, by_dir[dir]));
-	combine(r, p);
+	combine(r, p, by_dir);
 	return r;
 }
 
@@ -355,16 +430,24 @@ void print_traction(const TractionResult &r)
 	            "mu ± SE", "largest held acceleration");
 	for (const TractionDirection &d : r.directions) {
 		char mu[40], slip[24];
-		std::snprintf(mu, sizeof(mu), d.reached ? "%.4f ± %.4f" : ">= %.4f", d.mu, d.mu_se);
+		if (d.reached && d.mu_se > 0)
+			std::snprintf(mu, sizeof(mu), "%.4f ± %.4f", d.mu, d.mu_se);
+		else
+			std::snprintf(mu, sizeof(mu), d.reached ? "%.4f (1 run)" : ">= %.4f", d.mu);
 		std::snprintf(slip, sizeof(slip), d.reached ? "%.2f V" : "none", d.level_slip);
 		std::printf("  %-5s %5d %8.2f V %10s %16s %14.3f ± %.3f %s\n", d.direction.c_str(),
 		            d.runs, d.level_held, slip, mu, d.acc, d.acc_se,
 		            d.direction == "w" ? "rad/s^2" : "m/s^2");
 	}
-	if (r.ok)
+	if (r.ok && r.runs_fitted > 0)
+		std::printf("  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
+		            "transfer; %d runs past their break-away, force against rim "
+		            "acceleration)\n",
+		            r.mu, r.mu_se, r.runs_fitted);
+	else if (r.ok)
 		std::printf(
 		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
-		    "transfer)\n",
+		    "transfer; too few runs past their break-away: the directions' mean)\n",
 		    r.mu, r.mu_se);
 	else
 		std::printf(
@@ -380,11 +463,13 @@ void export_traction_csv(const std::string &dir, const TractionResult &r)
 	if (dir.empty() || r.runs.empty())
 		return;
 	std::ofstream f(dir + "/traction_runs.csv");
-	f << "direction,level_v,slipped,slip_m_s,force_n,mu,acc,acc_se,slip_at_end,end_mu\n";
+	f << "direction,level_v,slipped,slip_m_s,force_n,mu,acc,acc_se,slip_at_end,end_mu,"
+	     "end_rim_acc,early_mu,early_rim_acc\n";
 	for (const TractionRun &x : r.runs)
 		f << x.direction << ',' << x.level << ',' << (x.slipped ? 1 : 0) << ',' << x.slip
 		  << ',' << x.force << ',' << x.mu << ',' << x.acc << ',' << x.acc_se << ','
-		  << (x.slip_at_end ? 1 : 0) << ',' << x.end_mu << '\n';
+		  << (x.slip_at_end ? 1 : 0) << ',' << x.end_mu << ',' << x.end_rim_acc << ','
+		  << x.early_mu << ',' << x.early_rim_acc << '\n';
 	std::ofstream g(dir + "/traction.csv");
 	g << "direction,runs,held,reached,mu,mu_se,acc,acc_se,level_held_v,level_slip_v\n";
 	for (const TractionDirection &d : r.directions)

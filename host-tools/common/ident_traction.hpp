@@ -9,19 +9,25 @@
 // currents (5-sample mean, the largest), as a share of a quarter of the weight (mu_run).
 // A wheel that slips on, its rim near the speed where its motor's force meets the kinetic
 // friction (it gets there within a few J_w R / (l^2 Kt Kv), tens of ms), pushes with
-// l Kt i / r = mu N_j + (J_w / r^2) s', the last term fading: the mean force over the last
-// 20 driven samples of each run still slipping at its end, over M g / 4, is that run's mu;
-// the direction's mu is the mean of the top third of them by level (the rim far ahead of the
-// body: lower levels may grip again before the end), its SE their spread / sqrt(n). Without such a
-// run, mu is a lower bound: the largest peak of the runs that held. The first slipped level and the
+// l Kt i / r = mu N_j + (J_w / r^2) s', the last term fading but still 1-2 % of mu at the end
+// of a 0.1 s step on the simulated floors. Each run still slipping at its end gives two
+// windows, its last 20 driven samples and the 20 before: the driven wheels' mean force over
+// M g / 4 and their rims' acceleration. Of the top half of those runs by level (lower levels
+// may grip again before the end), those past their break-away (the rim's acceleration fading
+// from the first window to the last) give mu as the intercept of force against rim
+// acceleration over both windows of every run, the slope (J_w / r^2) fitted from each run's
+// own fading; the SE is cluster-robust with the run as the observation. Too few such runs:
+// the end windows' mean, SE their spread. Without a run slipping at its end, mu is a lower
+// bound: the largest peak of the runs that held. The first slipped level and the
 // last held one are reported; the largest held acceleration is the steepest 25-sample
 // least-squares slope of the velocity along the direction (with that fit's SE) of the
 // highest run that held and whose peak stayed below mu M g / 4.
 //
 // Along v, vn and w the driving wheels carry no load transfer (they sit across the
-// acceleration, or it is a rotation): those give the floor's traction_mu (the inverse-variance
-// mean). Along the diagonal all four push and the two ahead of the acceleration unload: with
-// all four slipping (the runs at twice the first slipped level or more), the pair on the v
+// acceleration, or it is a rotation): one fit over their runs gives the floor's traction_mu
+// (one floor, one wheel inertia; too few runs: the directions' inverse-variance mean). Along
+// the diagonal all four push and the two ahead of the acceleration unload: with all four
+// slipping (the runs at twice the first slipped level or more), the pair on the v
 // axis (wheels 0 ahead, 2 behind) differ by M h a_v / d in load, a_v = (|f_1| + |f_3| - Cv) / M,
 // so h = (|f_2| - |f_0|) d / (mu M a_v); the vn pair likewise; com_height is their mean.
 #pragma once
@@ -54,6 +60,8 @@ struct TractionRun {
 	double end_mu = 0;               // mean |end_f| of the driven wheels / (M g / 4)
 	std::array<double, 4> end_acc{}; // each rim's acceleration over those samples [m/s^2]
 	double end_rim_acc = 0;          // the driven rims', along their force, mean [m/s^2]
+	// The same over the 20 driven samples before those (the rim nearer its break-away).
+	double early_mu = 0, early_rim_acc = 0;
 };
 
 struct TractionDirection {
@@ -71,6 +79,7 @@ struct TractionResult {
 	std::vector<TractionDirection> directions;
 	bool ok = false;          // traction_mu measured
 	double mu = 0, mu_se = 0; // the floor's (v, vn, w)
+	int runs_fitted = 0;      // the settled kinetic runs it was fitted on (0: directions' mean)
 	bool have_com = false;
 	double com_height = 0; // [m], from the diagonal
 };

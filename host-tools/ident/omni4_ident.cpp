@@ -211,7 +211,15 @@ std::vector<Segment> segments_of(const std::vector<LogData> &logs)
 	return all;
 }
 
-model_params load_params(const std::string &path, bool partial, uint32_t *seen_out = nullptr)
+// The per-wheel [model] keys a robot file gives (r_j Kv_j Kt_j R_j): their bits
+// (CTL_WHEEL_KEY) and values.
+struct WheelKeys {
+	uint16_t keys = 0;
+	model_wheels values{};
+};
+
+model_params load_params(const std::string &path, bool partial, uint32_t *seen_out = nullptr,
+                         WheelKeys *wheels_out = nullptr)
 {
 	omni4_config cfg;
 	config_error err;
@@ -230,14 +238,58 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 	}
 	if (seen_out)
 		*seen_out = partial ? seen : ~0u;
+	if (wheels_out) {
+		wheels_out->keys = cfg.ctl.wheel_keys;
+		wheels_out->values = cfg.ctl.wheels;
+	}
 	return cfg.ctl.model;
 }
 
 // Written as every output (outfile.hpp): never a half-written PARAMS file. A parameter that was
 // not identified is taken from BASE.ini if it gives one (said in a comment), else left out, so
 // that the firmware refuses the file ("missing key") instead of running on a guess.
+// The robot file's per-wheel keys that wheel_keys_ini did not write: each identified one
+// (identification measured that wheel: its drive in final_wheels, the scalar where the wheels
+// do not differ) with the identified value, the others as the robot file gives them, each
+// marked; for the keys wheel_keys_ini wrote, the robot file's value in a comment.
+std::string robot_wheel_keys_ini(const IdentResult &r, const WheelKeys &base)
+{
+	static const char *const names[4] = {"r", "Kv", "Kt", "R"};
+	const double *fin[4] = {r.final_wheels.r, r.final_wheels.Kv, r.final_wheels.Kt,
+	                        r.final_wheels.R};
+	const double *was[4] = {base.values.r, base.values.Kv, base.values.Kt, base.values.R};
+	std::ostringstream out;
+	char v[40], b[40];
+	for (int q = 0; q < 4; ++q)
+		for (int j = 0; j < 4; ++j) {
+			if (!(base.keys & CTL_WHEEL_KEY(q, j)))
+				continue;
+			const bool motor = q > 0;
+			const bool written = motor ? r.wheels.motors_differ : r.wheels.radii_differ;
+			const bool measured = motor ? (q == 3 ? r.R_motor[j].ok() : r.Kv_motor[j].ok())
+			                            : r.wheels.rho[j].ok();
+			config_format_double(b, sizeof(b), was[q][j]);
+			if (written) {
+				out << "; " << names[q] << '_' << j << " identified above (the robot file "
+				    << "gave " << b << ")\n";
+				continue;
+			}
+			if (measured) {
+				config_format_double(v, sizeof(v), fin[q][j]);
+				out << names[q] << '_' << j << " = " << v << " ; identified: the "
+				    << (motor ? "motors" : "radii") << " do not differ (the robot file "
+				    << "gave " << b << ")\n";
+			} else {
+				out << names[q] << '_' << j << " = " << b
+				    << " ; not identified: from the robot file\n";
+			}
+		}
+	return out.str();
+}
+
 void write_params_to(FILE *f, const IdentResult &r, const model_params &base, uint32_t base_seen,
-                     const std::string &comment, const TractionResult *trac = nullptr)
+                     const WheelKeys &base_wheels, const std::string &comment,
+                     const TractionResult *trac = nullptr)
 {
 	bool ok = std::fprintf(f, "; %s\n", comment.c_str()) > 0;
 	if (r.complete()) {
@@ -270,6 +322,7 @@ void write_params_to(FILE *f, const IdentResult &r, const model_params &base, ui
 				     std::fprintf(f, "; %s not identified\n", name.c_str()) > 0;
 		}
 	}
+	ok = ok && std::fputs(robot_wheel_keys_ini(r, base_wheels).c_str(), f) >= 0;
 	if (trac)
 		ok = ok && write_traction_limits(f, *trac);
 	if (!ok && !std::ferror(f))
@@ -277,12 +330,12 @@ void write_params_to(FILE *f, const IdentResult &r, const model_params &base, ui
 }
 
 void write_params(const std::string &path, const IdentResult &r, const model_params &base,
-                  uint32_t base_seen, const std::string &comment,
+                  uint32_t base_seen, const WheelKeys &base_wheels, const std::string &comment,
                   const TractionResult *trac = nullptr)
 {
 	try {
 		OutFile out(path);
-		write_params_to(out.file(), r, base, base_seen, comment, trac);
+		write_params_to(out.file(), r, base, base_seen, base_wheels, comment, trac);
 		out.commit();
 	} catch (const OutError &e) { // the temporary is gone (out destroyed), the target as it was
 		die(e.what());
@@ -693,7 +746,8 @@ int cmd_identify(const IdentifyArgs &a)
 	check_writable(a.out);
 	ensure_dir(a.csv);
 	uint32_t base_seen = 0;
-	const model_params base = load_params(a.robot, true, &base_seen);
+	WheelKeys base_wheels;
+	const model_params base = load_params(a.robot, true, &base_seen, &base_wheels);
 	model_params truth{};
 	model_wheels truth_w{};
 	if (!a.truth.empty()) {
@@ -729,7 +783,7 @@ int cmd_identify(const IdentifyArgs &a)
 		});
 		print_bootstrap(r, boot, segs.size());
 	}
-	write_params(a.out, r, base, base_seen,
+	write_params(a.out, r, base, base_seen, base_wheels,
 	             "omni4-ident identify from " + std::to_string(a.logs.size()) + " log(s)",
 	             &trac);
 	export_traction_csv(a.csv, trac);
