@@ -4,7 +4,7 @@
 # validates it (Table IV) and draws the plots. Everything lands in out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh --main
 cmake --preset default >/dev/null
 cmake --build --preset default
 OUT=${OMNI4_OUT:-out}

@@ -1,18 +1,36 @@
 #!/usr/bin/env bash
-# Installs what omni4 needs to build, test and plot on a fresh Debian 12 machine.
-# Idempotent: packages already present are left alone. Needs root (or sudo).
+# Installs what omni4 needs on a fresh Debian 12 machine. Idempotent: packages already present
+# are left alone. Needs root (or sudo).
+#   setup.sh          everything: build, the main job, and every test (cross compilers, qemu,
+#                     clang's sanitizers, the CAN VM's tools, the ROS 2 wheels, the style tools)
+#   setup.sh --main   what the main job needs (scripts/main.sh): the host build, the Python
+#                     package with its Foxglove extra, numpy/scipy/matplotlib for the report
 set -euo pipefail
 
-PKGS=(
+MODE=all
+case "${1:-}" in
+  --main) MODE=main ;;
+  "") ;;
+  *) echo "usage: setup.sh [--main]" >&2; exit 2 ;;
+esac
+
+# The host build (its tests are compiled with it: cmocka, GoogleTest) and the main job.
+MAIN_PKGS=(
   build-essential cmake ninja-build pkg-config
   liblcm-dev liblcm-bin libglib2.0-dev
   libeigen3-dev libinih-dev libcli11-dev libcmocka-dev libgpiod-dev libgtest-dev
   python3 python3-numpy python3-scipy python3-matplotlib python3-venv
+)
+# The tests alone: the CAN VM, the cross builds under qemu-user, the Cortex-M4 images under
+# qemu-system-arm, the sanitizer and fuzzing builds.
+TEST_PKGS=(
   qemu-system-x86 busybox-static can-utils cpio iproute2
   gcc-aarch64-linux-gnu g++-aarch64-linux-gnu gcc-arm-linux-gnueabihf g++-arm-linux-gnueabihf
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi qemu-user qemu-system-arm
   clang libclang-rt-14-dev
 )
+PKGS=("${MAIN_PKGS[@]}")
+if [ "$MODE" = all ]; then PKGS+=("${TEST_PKGS[@]}"); fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -36,6 +54,7 @@ cd "$(dirname "$0")/.."
 if [ ! -x .venv/bin/python ]; then
   /usr/bin/python3 -m venv --system-site-packages .venv
 fi
+if [ "$MODE" = all ]; then
 if ! .venv/bin/python -c "import cantools" 2>/dev/null; then
   echo "setup: pip install cantools (into .venv)"
   .venv/bin/pip install --quiet cantools
@@ -81,6 +100,8 @@ if ! cmp -s tests/foxglove/package-lock.json tests/foxglove/node_modules/.omni4-
   (cd tests/foxglove && npm ci --no-audit --no-fund --loglevel=error >/dev/null \
     && cp package-lock.json node_modules/.omni4-installed-lock)
 fi
+fi # the tests' Python and npm tools
+
 # The project's own Python package (python/: LCM types generated from lcmtypes/, log reader,
 # client), reinstalled whenever its sources change so it follows the .lcm files (about 7 s).
 # A plain install, as a user runs it (isolated build, dependencies checked): a fresh machine
@@ -95,7 +116,19 @@ pkg_hash=$({ find python lcmtypes -type f ! -path '*/__pycache__/*' ! -path '*.e
   ! -path 'python/build/*' -print0
   find core config drivers -name '*_keys.def' -print0; } |
   LC_ALL=C sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)
-if [ "$(cat .venv/omni4-package.sha256 2>/dev/null)" != "$pkg_hash" ] ||
+# The main job needs the Foxglove extra only (omni4-mcap); the tests the ros extra too. The stamp
+# says which install it was: a full one serves the main job as well.
+stamp=$(cat .venv/omni4-package.sha256 2>/dev/null || true)
+if [ "$MODE" = main ]; then
+  if [ "$stamp" != "$pkg_hash" ] && [ "$stamp" != "$pkg_hash main" ] ||
+    ! .venv/bin/python -c "import omni4, omni4.foxglove" 2>/dev/null; then
+    rm -f .venv/omni4-package.sha256
+    .venv/bin/pip install --quiet './python[foxglove]'
+    echo "$pkg_hash main" > .venv/omni4-package.sha256
+  fi
+  exit 0
+fi
+if [ "$stamp" != "$pkg_hash" ] ||
   ! .venv/bin/python -c "import omni4, omni4.ros" 2>/dev/null; then
   rm -f .venv/omni4-package.sha256
   .venv/bin/pip install --quiet './python[foxglove,ros]'
