@@ -302,8 +302,9 @@ size_t ripple_clusters(const RippleRows &rw, size_t len, std::vector<size_t> &cl
 	cluster.resize(n);
 	size_t c = 0, start = 0;
 	for (size_t i = 0; i < n; ++i) {
-		if (i > 0 && (rw.block[i] != rw.block[i - 1] || rw.group[i] != rw.group[i - 1] + 1 ||
-		              rw.group[i] - rw.group[start] >= len)) {
+		if (i > 0 &&
+		    (rw.block[i] != rw.block[i - 1] || rw.group[i] != rw.group[i - 1] + 1 ||
+		     rw.group[i] - rw.group[start] >= len)) {
 			++c;
 			start = i;
 		}
@@ -352,7 +353,8 @@ void fit_and_remove(RippleWork &rw, RippleFit &f, size_t fi, int j, const Ripple
 		return;
 	const Eigen::Vector2d coef = ldlt.solve(r);
 	const size_t len = std::max<size_t>(
-	    1, static_cast<size_t>(std::lround(opt.cluster_s / (static_cast<double>(rw.q) * rw.dt))));
+	    1,
+	    static_cast<size_t>(std::lround(opt.cluster_s / (static_cast<double>(rw.q) * rw.dt))));
 	std::vector<size_t> cluster;
 	const size_t nc = ripple_clusters(rows, len, cluster);
 	f.motor_clusters[j] = static_cast<int>(nc);
@@ -367,7 +369,8 @@ void fit_and_remove(RippleWork &rw, RippleFit &f, size_t fi, int j, const Ripple
 	// (1 + 2 F / (G - 2))^(-(G - 2) / 2); it is set beside a normal pair's amplitude of z SE,
 	// exp(-z^2 / 2), and given as that z.
 	const Eigen::LDLT<Eigen::Matrix2d> cl(cov);
-	const double t2 = cl.info() == Eigen::Success ? std::max(0.0, coef.dot(cl.solve(coef))) : 0.0;
+	const double t2 =
+	    cl.info() == Eigen::Success ? std::max(0.0, coef.dot(cl.solve(coef))) : 0.0;
 	const double g = static_cast<double>(nc), fstat = (g - 2) * t2 / (2 * (g - 1));
 	const double log_p = -0.5 * (g - 2) * std::log1p(2 * fstat / (g - 2));
 	f.motor_z[j] = std::sqrt(-2 * log_p);

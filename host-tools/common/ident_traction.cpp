@@ -148,8 +148,7 @@ std::array<double, 4> window_forces(const Segment &s, const model_params &p, int
 
 // The driven wheels' mean |force| / (M g / 4) and their rims' mean acceleration along it.
 void window_mu(const std::array<double, 4> &f, const std::array<double, 4> &acc,
-               const std::array<double, 4> &pat, const model_params &p, double *mu,
-               double *rim_acc)
+               const std::array<double, 4> &pat, const model_params &p, double *mu, double *rim_acc)
 {
 	double sum = 0, a = 0;
 	int n = 0;
@@ -306,7 +305,7 @@ TractionDirection summarise(const std::string &dir, std::vector<const TractionRu
 		const double n = static_cast<double>(kinetic.size());
 		d.mu = sum / n;
 		d.mu_se = n > 1 ? std::sqrt(std::max(0.0, sum2 / n - d.mu * d.mu) / (n - 1))
-		              : 0.0; // one run: no spread to tell (printed so)
+		                : 0.0; // one run: no spread to tell (printed so)
 	}
 	for (const TractionRun *r : runs) // the highest run that held below mu
 		if (!r->slipped && r->mu <= d.mu && r->level <= d.level_held) {
@@ -440,10 +439,11 @@ void print_traction(const TractionResult &r)
 		            d.direction == "w" ? "rad/s^2" : "m/s^2");
 	}
 	if (r.ok && r.runs_fitted > 0)
-		std::printf("  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
-		            "transfer; %d runs past their break-away, force against rim "
-		            "acceleration)\n",
-		            r.mu, r.mu_se, r.runs_fitted);
+		std::printf(
+		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
+		    "transfer; %d runs past their break-away, force against rim "
+		    "acceleration)\n",
+		    r.mu, r.mu_se, r.runs_fitted);
 	else if (r.ok)
 		std::printf(
 		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "

@@ -266,18 +266,21 @@ std::string robot_wheel_keys_ini(const IdentResult &r, const WheelKeys &base)
 				continue;
 			const bool motor = q > 0;
 			const bool written = motor ? r.wheels.motors_differ : r.wheels.radii_differ;
-			const bool measured = motor ? (q == 3 ? r.R_motor[j].ok() : r.Kv_motor[j].ok())
-			                            : r.wheels.rho[j].ok();
+			const bool measured =
+			    motor ? (q == 3 ? r.R_motor[j].ok() : r.Kv_motor[j].ok())
+			          : r.wheels.rho[j].ok();
 			config_format_double(b, sizeof(b), was[q][j]);
 			if (written) {
-				out << "; " << names[q] << '_' << j << " identified above (the robot file "
+				out << "; " << names[q] << '_' << j
+				    << " identified above (the robot file "
 				    << "gave " << b << ")\n";
 				continue;
 			}
 			if (measured) {
 				config_format_double(v, sizeof(v), fin[q][j]);
 				out << names[q] << '_' << j << " = " << v << " ; identified: the "
-				    << (motor ? "motors" : "radii") << " do not differ (the robot file "
+				    << (motor ? "motors" : "radii")
+				    << " do not differ (the robot file "
 				    << "gave " << b << ")\n";
 			} else {
 				out << names[q] << '_' << j << " = " << b

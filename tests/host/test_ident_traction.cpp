@@ -51,8 +51,8 @@ LogData simulate(const omni4_config &cfg, const std::vector<Phase> &phases)
 }
 
 struct RippleCount {
-	int stretches = 0;           // wheel-stretches of the log (4 per stretch)
-	int fitted = 0, removed = 0; // ... with a fit, with the ripple removed
+	int stretches = 0;                      // wheel-stretches of the log (4 per stretch)
+	int fitted = 0, removed = 0;            // ... with a fit, with the ripple removed
 	double eps_min = INFINITY, eps_max = 0; // amplitudes of the removed ones
 };
 
@@ -135,17 +135,18 @@ TEST(TractionSe, TheFloorsMuIsWithinThreeOfItsStandardErrorsInMostRuns)
 			const TractionResult r = identify_traction(split_segments(d), P);
 			ASSERT_TRUE(r.ok) << "mu " << mu << " seed " << seed;
 			const double z = (r.mu - mu) / r.mu_se;
-			std::printf("floor mu %.1f seed %u: traction_mu %.4f ± %.4f (%+.2f %%, %+.2f "
-			            "SE)\n",
-			            mu, seed, r.mu, r.mu_se, 100 * (r.mu / mu - 1), z);
+			std::printf(
+			    "floor mu %.1f seed %u: traction_mu %.4f ± %.4f (%+.2f %%, %+.2f "
+			    "SE)\n",
+			    mu, seed, r.mu, r.mu_se, 100 * (r.mu / mu - 1), z);
 			++runs;
 			within3 += std::fabs(z) <= 3;
 			z2 += z * z;
 			worst_rel_se = std::max(worst_rel_se, r.mu_se / mu);
 		}
 	const double rms_z = std::sqrt(z2 / runs);
-	std::printf("within 3 SE: %d of %d; RMS error / SE %.2f; largest SE %.2f %% of mu\n", within3,
-	            runs, rms_z, 100 * worst_rel_se);
+	std::printf("within 3 SE: %d of %d; RMS error / SE %.2f; largest SE %.2f %% of mu\n",
+	            within3, runs, rms_z, 100 * worst_rel_se);
 	EXPECT_GE(within3, 0.8 * runs);
 	// Neither too small (RMS of the errors in SE far above 1) nor absurdly large (far below).
 	EXPECT_LT(rms_z, 3.5);
