@@ -25,6 +25,7 @@ static const float arc_frac[ARC_FRACS] = {0.5f, 0.75f};
  * move alone (no arc: one would hardly bend). */
 #define SMALL_TURN_RAD 0.2f
 #define SMALL_TURN_FRAC 0.1f
+#define TURN_RUN_M 8.0f /* a long move's turns onto and off the diagonal: over this [m] */
 
 /* The heading nearest th with the robot's diagonal along the direction dir (the envelope is
  * widest there: all four wheels push). */
@@ -79,6 +80,22 @@ float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float g
 			break;
 		cand = base;
 		traj_path_swing(&cand, mids[which], f, f);
+		try_path(tr, &cand, v0, &best, &best_t, &found);
+	}
+	/* A long move turns onto the diagonal over its first TURN_RUN_M and off it over its last:
+	 * swung over a quarter of the length, the heading would hold the robot off its fastest
+	 * heading for tens of metres. */
+	const float f_run = TURN_RUN_M / maxf(base.len_m, 1e-3f);
+	/* the diagonal nearest the start's heading, the goal's, and halfway: a large turn shared
+	 * between the speed-up and the brake */
+	const float runs[3] = {mids[0], mids[1], diagonal_heading(dir, 0.5f * (th0 + th1))};
+	for (int q = 0; f_run < swing_frac[0] && q < 3; q++) {
+		if ((q == 1 && fabsf(runs[1] - runs[0]) < 1e-4f) ||
+		    (q == 2 &&
+		     (fabsf(runs[2] - runs[0]) < 1e-4f || fabsf(runs[2] - runs[1]) < 1e-4f)))
+			continue;
+		cand = base;
+		traj_path_swing(&cand, runs[q], f_run, f_run);
 		try_path(tr, &cand, v0, &best, &best_t, &found);
 	}
 	const float g3[3] = {goal[0], goal[1], th1};

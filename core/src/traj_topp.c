@@ -254,6 +254,32 @@ static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, 
 	return minf(x0, x1);
 }
 
+/* Steps of the bisection for a segment's end speed when its end cannot take the acceleration
+ * its start can (a long segment speeding up toward the top speed): the largest s'^2 there
+ * whose constant s'' both ends allow, within 2^-SOLVE_STEPS of the first guess. */
+#define SOLVE_STEPS 10
+
+/* Forward: the largest x1 in [x, x1_hi] with x1 <= x + 2 ds min(hi, hi(x1)), hi(x1) the end's
+ * largest s'' at s'^2 = x1 (r: the end's rows). x itself holds (hi >= 0, and the end's rows
+ * allow x with hi(x) >= 0), else the single correction of before. */
+static float forward_end(const struct traj_coef *c, const struct topp_rows *r, float k, float x,
+                         float ds, float hi, float x1_hi, float hi1)
+{
+	float lo, h, a = x, b = x1_hi;
+
+	if (!(hi >= 0.0f) || !interval(c, r, x, k, &lo, &h) || !(h >= 0.0f))
+		return x + 2.0f * ds * hi1;
+	for (int it = 0; it < SOLVE_STEPS; it++) {
+		const float m = 0.5f * (a + b);
+
+		if (interval(c, r, m, k, &lo, &h) && m <= x + 2.0f * ds * minf(hi, h))
+			a = m;
+		else
+			b = m;
+	}
+	return a;
+}
+
 /* Forward at the largest s'' (checked at the segment's end too), within the largest s'. */
 static void forward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
                     float k)
@@ -269,9 +295,30 @@ static void forward(const struct traj_coef *c, const struct traj_path *pa, struc
 		float x1 = minf(x + 2.0f * ds * hi, w->xmax[i + 1]);
 		rows_i(c, w, i + 1, 1, &r);
 		if (interval(c, &r, maxf(x1, 0.0f), k, &lo, &hi1) && hi1 < hi)
-			x1 = minf(x + 2.0f * ds * hi1, w->xmax[i + 1]);
+			x1 = minf(forward_end(c, &r, k, x, ds, hi, maxf(x1, 0.0f), hi1),
+			          w->xmax[i + 1]);
 		w->xf[i + 1] = maxf(x1, 0.0f);
 	}
+}
+
+/* Backward, the mirror of forward_end: the largest x0 in [x, x0_hi] with x0 <= x - 2 ds
+ * max(lo, lo(x0)), lo(x0) the start's smallest s'' at s'^2 = x0. */
+static float backward_start(const struct traj_coef *c, const struct topp_rows *r, float k, float x,
+                            float ds, float lo, float x0_hi, float lo0)
+{
+	float l, h, a = x, b = x0_hi;
+
+	if (!(lo <= 0.0f) || !interval(c, r, x, k, &l, &h) || !(l <= 0.0f))
+		return x - 2.0f * ds * maxf(lo0, lo);
+	for (int it = 0; it < SOLVE_STEPS; it++) {
+		const float m = 0.5f * (a + b);
+
+		if (interval(c, r, m, k, &l, &h) && m <= x - 2.0f * ds * maxf(lo, l))
+			a = m;
+		else
+			b = m;
+	}
+	return a;
 }
 
 /* Backward from rest at the end at the smallest s'' (checked at both ends). */
@@ -290,7 +337,8 @@ static void backward(const struct traj_coef *c, const struct traj_path *pa, stru
 		float x0 = minf(x - 2.0f * ds * lo, w->xmax[i]);
 		rows_i(c, w, i, 0, &r);
 		if (interval(c, &r, maxf(x0, 0.0f), k, &lo0, &hi) && lo0 > lo)
-			x0 = minf(x - 2.0f * ds * maxf(lo0, lo), w->xmax[i]);
+			x0 = minf(backward_start(c, &r, k, x, ds, lo, maxf(x0, 0.0f), lo0),
+			          w->xmax[i]);
 		w->xb[i] = maxf(x0, 0.0f);
 	}
 }
@@ -357,16 +405,23 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 	return t;
 }
 
-#define BREAKS_MAX (TRAJ_PIECES + TRAJ_KNOTS + 1)
+/* Grid points at these distances from the start and from the end [m]: a long path's speed-up
+ * and brake (a metre or two) on segments short enough to hold them, whatever the length. */
+#define RAMP_BREAKS 5
+static const float ramp_m[RAMP_BREAKS] = {0.25f, 0.5f, 1.0f, 2.0f, 4.0f};
+#define BREAKS_MAX (TRAJ_PIECES + TRAJ_KNOTS + 2 * RAMP_BREAKS + 1)
 
 /* Where a piece or a heading knot ends after s0, sorted, each once; returns how many. */
 static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX])
 {
 	int n = 0;
 
-	for (int k = 0; k < pa->n_pieces + pa->n_knots && n < BREAKS_MAX; k++) {
-		float v = k < pa->n_pieces ? pa->pc[k].s0_m + pa->pc[k].len_m
-		                           : pa->knot_s[k - pa->n_pieces];
+	for (int k = 0; k < pa->n_pieces + pa->n_knots + 2 * RAMP_BREAKS && n < BREAKS_MAX; k++) {
+		const int e = k - pa->n_pieces - pa->n_knots; /* the ramps' points, then */
+		float v = k < pa->n_pieces  ? pa->pc[k].s0_m + pa->pc[k].len_m
+		          : e < 0           ? pa->knot_s[k - pa->n_pieces]
+		          : e < RAMP_BREAKS ? s0 + ramp_m[e]
+		                            : pa->len_m - ramp_m[e - RAMP_BREAKS];
 		if (!(v > s0 + SIDE_M) || !(v < pa->len_m - SIDE_M))
 			continue;
 		int q = n++;
