@@ -9,6 +9,8 @@
   the intermediate ones, likewise.
 - goal_status (diagnostic_msgs/DiagnosticStatus): the feedback, one per goal_status_t (status,
   reason, pose aimed at, distance, heading and time to go); the last one also in /diagnostics.
+  A goal the node refuses itself (a pose not finite, more poses than goal_t holds, a frame not
+  its odom frame) is published there too, REFUSED with its reason (goal_id 0: nothing sent).
 - A /cmd_vel replaces the goal (the node stops keeping it alive; the controller ends it).
 """
 import math
@@ -48,9 +50,20 @@ class GoalBridge(GoalMixin):
     def _frame_ok(self, frame):
         if frame in FRAMES_SAME_AS_ODOM or frame == self._owner.frame_odom:
             return True
-        self._owner.log.warn(f"goal in frame '{frame}' refused: give it in "
-                             f"'{self._owner.frame_odom}' (or map / world, taken as the same)")
+        why = (f"goal in frame '{frame}' refused: give it in '{self._owner.frame_odom}' (or "
+               "map / world, taken as the same)")
+        self._owner.log.warn(why)
+        self._refused(goal_status_t.REASON_OUT_OF_RANGE, why)
         return False
+
+    def _refused(self, reason, why):
+        """A goal this node refuses before sending anything: on goal_status as REFUSED with
+        its reason (goal_id 0: no goal_t went out), as the controller's refusals are."""
+        st = goal_status_t()
+        st.status, st.reason = goal_status_t.STATUS_REFUSED, reason
+        self.counters["goals failed"] += 1
+        self.last = st
+        self.pub.publish(self.status_msg(st, why))
 
     def _on_goal_pose(self, msg):
         if self._frame_ok(msg.header.frame_id):
@@ -68,6 +81,9 @@ class GoalBridge(GoalMixin):
             self.follow(poses, wait=False)
         except ValueError as e:
             self._owner.log.warn(f"goal refused before sending: {e}")
+            finite = all(math.isfinite(float(v)) for p in poses for v in p)
+            self._refused(goal_status_t.REASON_OUT_OF_RANGE if finite else
+                          goal_status_t.REASON_NOT_FINITE, f"goal refused before sending: {e}")
             return
         self.counters["goals sent"] += 1
         self._owner.log.info(f"goal: {len(poses)} pose(s), the last {poses[-1]}")
@@ -95,15 +111,20 @@ class GoalBridge(GoalMixin):
             self._owner.log.info(describe(st))
         self.pub.publish(self.status_msg(st))
 
-    def status_msg(self, st):
-        """A goal_status_t as a DiagnosticStatus (level OK / WARN for refused or aborted)."""
+    def status_msg(self, st, why=None):
+        """A goal_status_t as a DiagnosticStatus (level OK / WARN for refused or aborted);
+        why: the node's own words for a refusal (else the reason's)."""
         from diagnostic_msgs.msg import KeyValue
         bad = st.status in (goal_status_t.STATUS_ABORTED, goal_status_t.STATUS_REFUSED)
+        reason = REASONS.get(st.reason, str(st.reason))
+        if why is not None:
+            reason = f"{reason}: {why}" if st.reason == goal_status_t.REASON_NOT_FINITE else why
         s = self._Status(level=bytes([1 if bad else 0]), name=f"{self._owner._diag_prefix}: goal",
-                         message=describe(st), hardware_id="omni4")
+                         message=describe(st) if why is None else f"goal REFUSED: {why}",
+                         hardware_id="omni4")
         s.values = [KeyValue(key=k, value=v) for k, v in (
             ("goal_id", str(st.goal_id)), ("status", STATUS_NAMES.get(st.status, "?")),
-            ("reason", REASONS.get(st.reason, str(st.reason))),
+            ("reason", reason),
             ("pose aimed at", f"{st.index + 1} of {st.n}"),
             ("distance to go [m]", f"{st.distance_m:.4f}"),
             ("heading to go [rad]", f"{st.angle_rad:.4f}"),
