@@ -253,10 +253,10 @@ echo keep >"$B/full/mine"
 run "omni4-rosbag, a missing log" 1 "^omni4-rosbag: cannot read $B/none.lcmlog: No such file or directory$" -- \
   "$VENV/omni4-rosbag" "$B/none.lcmlog" --out "$B/new"
 check "omni4-rosbag, a missing log: no bag" test ! -e "$B/new"
-run "omni4-rosbag --out FILE" 2 "file: exists and is not a folder" -- \
+run "omni4-rosbag --out FILE" 1 "file: exists and is not a folder" -- \
   "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/file"
 check "omni4-rosbag --out FILE: untouched" grep -qx keep "$B/file"
-run "omni4-rosbag --out non-empty folder" 2 "full: exists and is not empty" -- \
+run "omni4-rosbag --out non-empty folder" 1 "full: exists and is not empty" -- \
   "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/full"
 check "omni4-rosbag --out non-empty folder: untouched" test "$(ls -A "$B/full")" = mine
 run "omni4-rosbag --out empty folder" 0 "" -- "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/empty" -q
