@@ -431,7 +431,8 @@ def _run(robot_type, a, poses):
     (an IDLE would cut either short: the robot would coast)."""
     main = threading.current_thread() is threading.main_thread()
     old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)} if main else {}
-    if main:
+    if main:                             # Ctrl-C and SIGTERM cancel the goal (below)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         signal.signal(signal.SIGTERM, _on_sigterm)
     robot = None
     try:

@@ -190,13 +190,22 @@ def _interrupt_after(f, n):
     threading.Thread(target=run, daemon=True).start()
 
 
+@pytest.fixture
+def sigint_raises():
+    """SIGINT raises KeyboardInterrupt in this process for the test (what Python sets up in a
+    program; another test's library may have put its own handler in place)."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
+
+
 def test_ctrl_c_cancels_the_goal_never_idle(capsys, fake):
     def script(n, g):
         if n == 1:
             _interrupt_after(made[0], 3)
         return FakeController.status(made[0], g.goal_id, S.STATUS_ACTIVE, distance=10.0 - n)
     made = fake(script)
-    status, err = goto(["5", "0", "0"], capsys)
+    status, err = goto(["5", "0", "0", "--timeout", str(BOUND_S)], capsys)
     f = made[0]
     assert status == 130, err
     assert err == ["omni4-goto: cancelled: the robot brakes to rest"], err
@@ -204,7 +213,7 @@ def test_ctrl_c_cancels_the_goal_never_idle(capsys, fake):
     assert not f.commands, "a command_t (IDLE) was sent"
 
 
-def test_go_to_interrupted_cancels_its_goal_before_raising(fake):
+def test_go_to_interrupted_cancels_its_goal_before_raising(fake, sigint_raises):
     def script(n, g):
         if n == 1:
             _interrupt_after(made[0], 2)

@@ -294,6 +294,7 @@ def bridge():
     owner = FakeOwner()
     b = GoalBridge(owner, 0.05)
     yield owner, b
+    owner._closed.set()                          # as the node closes: its threads end first
     b.close()
     owner.close()
 
