@@ -353,3 +353,23 @@ def test_goal_refused_by_the_controller_is_published_refused(bridge):
     got = published(owner)
     assert len(got) == 1 and values(got[0])["status"] == "REFUSED"
     assert "unreachable" in values(got[0])["reason"]
+
+
+def test_goal_replaced_by_another_clients_goal_is_published_and_no_longer_kept_alive(bridge):
+    """Once the node's goal is ACTIVE, statuses of another goal id in force (a second client's
+    goal took over): goal_status says ABORTED, replaced, naming it, and the node stops keeping
+    its goal alive (a keep-alive would start it again)."""
+    owner, b = bridge
+    owner.node.subs["goal_pose"](pose_stamped(0.5, 0.0))
+    ours = b._goal_id
+    for seq, gid in ((1, ours), (2, 77), (3, 77)):
+        st = omni4.goal_status_t()
+        st.seq, st.goal_id, st.distance_m = seq, gid, 1.0
+        st.status = omni4.goal_status_t.STATUS_ACTIVE
+        owner.lc.publish(omni4.CHANNEL_GOAL_STATUS, st.encode())
+    got = published(owner, 2)
+    assert len(got) == 2, [g.message for g in got]
+    v = values(got[1])
+    assert v["status"] == "ABORTED" and v["goal_id"] == str(ours), v
+    assert "goal 77" in got[1].message and "replaced" in got[1].message, got[1].message
+    assert b._goal_msg is None

@@ -12,6 +12,8 @@
   A goal the node refuses itself (a pose not finite, more poses than goal_t holds, a frame not
   its odom frame) is published there too, REFUSED with its reason (goal_id 0: nothing sent).
 - A /cmd_vel replaces the goal (the node stops keeping it alive; the controller ends it).
+- Another client's goal in force once ours had started: ours was replaced; goal_status says
+  ABORTED, replaced, naming the other goal, and the node stops keeping ours alive.
 """
 import math
 
@@ -96,9 +98,17 @@ class GoalBridge(GoalMixin):
 
     def _on_goal_status(self, channel, data):
         super()._on_goal_status(channel, data)
+        why = None
         with self._goal_cv:
-            st, msg = self._goal_status, self._goal_msg
+            st, msg, other = self._goal_status, self._goal_msg, self._goal_other
             if st is None or msg is None or st.goal_id != msg.goal_id:
+                return
+            if other is not None:       # a second client's goal took over once ours had started
+                self._goal_msg = None   # no keep-alive: it would start ours again
+                why = f"replaced: goal {other.goal_id} (another client's) is in force now"
+                st = goal_status_t.decode(st.encode())
+                st.status, st.reason = goal_status_t.STATUS_ABORTED, goal_status_t.REASON_REPLACED
+            elif st is self.last:       # a status about another goal: nothing new about ours
                 return
             self.last = st
             if st.status == goal_status_t.STATUS_REACHED:
@@ -108,8 +118,8 @@ class GoalBridge(GoalMixin):
                 self.counters["goals failed"] += 1
                 self._goal_msg = None
         if st.status != goal_status_t.STATUS_ACTIVE:
-            self._owner.log.info(describe(st))
-        self.pub.publish(self.status_msg(st))
+            self._owner.log.info(describe(st) if why is None else f"goal {st.goal_id}: {why}")
+        self.pub.publish(self.status_msg(st, why))
 
     def status_msg(self, st, why=None):
         """A goal_status_t as a DiagnosticStatus (level OK / WARN for refused or aborted);
@@ -119,9 +129,10 @@ class GoalBridge(GoalMixin):
         reason = REASONS.get(st.reason, str(st.reason))
         if why is not None:
             reason = f"{reason}: {why}" if st.reason == goal_status_t.REASON_NOT_FINITE else why
+        text = describe(st) if why is None else \
+            f"goal {st.goal_id} {STATUS_NAMES.get(st.status, '?')}: {why}"
         s = self._Status(level=bytes([1 if bad else 0]), name=f"{self._owner._diag_prefix}: goal",
-                         message=describe(st) if why is None else f"goal REFUSED: {why}",
-                         hardware_id="omni4")
+                         message=text, hardware_id="omni4")
         s.values = [KeyValue(key=k, value=v) for k, v in (
             ("goal_id", str(st.goal_id)), ("status", STATUS_NAMES.get(st.status, "?")),
             ("reason", reason),
