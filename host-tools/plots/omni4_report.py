@@ -520,7 +520,11 @@ def write_report(a):
     if boot:
         lines += bootstrap_section(boot)
     if a.json and os.path.exists(a.json):
-        lines += validation_section(a.json)
+        try:
+            lines += validation_section(a.json)
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            sys.exit(f"omni4_report: {a.json}: {getattr(e, 'strerror', None) or e} (--json is "
+                     "omni4-ident validate's JSON)")
     if log_lines:
         lines += ["## Logs", ""] + log_lines
     lines += ["## Figures", ""]

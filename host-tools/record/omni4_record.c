@@ -9,7 +9,8 @@
  * With --split-mb the log is a series FILE.00, FILE.01, ..., each closed once it holds the size
  * given. A FIFO or a device is written in place (a reader streams the log), a symbolic link to a
  * new file is followed, an existing file is never overwritten (omni4/outfile.h, streaming);
- * every write, the flushes and the close are checked. Parameter requests (OMNI4_PARAM_REQ) are
+ * every write, the flushes and the close are checked, and the first that fails stops the
+ * recording (one line, status 1). Parameter requests (OMNI4_PARAM_REQ) are
  * never written: they may carry the robot's [params] secret in plain text; what they changed is on
  * OMNI4_PARAM_CHANGED, which is.
  */
@@ -84,11 +85,14 @@ static void usage(FILE *f)
 	    "example: omni4-record --out /var/log/omni4/omni4-%%Y%%m%%d-%%H%%M%%S.lcmlog\n");
 }
 
+/* A failed write stops the recording: what follows it in the log could not be trusted, and a
+ * full disk does not empty itself (README, "Outputs are written carefully"). */
 static void count_error(struct recorder *r, int err)
 {
 	if (!r->errors)
 		r->first_errno = err;
 	r->errors++;
+	g_stop = 1;
 }
 
 /* Opens the one file, or the next one of the series; never over an existing file. */
@@ -129,7 +133,7 @@ static void close_log(struct recorder *r)
 static void record(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	struct recorder *r = user;
-	if (!r->log)
+	if (!r->log || r->errors) /* stopped at the first failed write */
 		return;
 	if (!strcmp(channel, OMNI4_CHANNEL_PARAM_REQ)) { /* may carry the secret */
 		r->requests_skipped++;
@@ -293,9 +297,8 @@ static int report(const struct recorder *r, const struct record_args *a)
 	const bool tty = isatty(STDERR_FILENO);
 
 	if (r->errors)
-		fprintf(stderr, "%somni4-record: %s: %llu messages written, %llu failed (%s)\n",
-		        tty && !a->quiet ? "\n" : "", r->path, (unsigned long long)r->written,
-		        (unsigned long long)r->errors, strerror(r->first_errno));
+		fprintf(stderr, "%somni4-record: %s: %s (stopped at the first failed write)\n",
+		        tty && !a->quiet ? "\n" : "", r->path, strerror(r->first_errno));
 	else if (!a->quiet)
 		fprintf(stderr,
 		        "%somni4-record: %s%s: %llu messages (%llu parameter requests left out)\n",

@@ -11,12 +11,17 @@ this client wants it: the controller's watchdog stops a goal whose sender stops,
 velocity commands. The controller answers on OMNI4_GOAL_STATUS (goal_status_t): ACTIVE with the
 distance and time to go, then REACHED, or ABORTED / REFUSED with a reason (REASONS). Once
 REACHED, the waiting call sends ACTION_CANCEL: the robot ramps its hold voltages down to IDLE.
-Any command (velocity(), stop(), ...) replaces the goal.
+Any command (velocity(), stop(), ...) replaces the goal. The waiting call judges progress from
+the statuses' content (Progress), cancels a goal that makes none for no_progress_s, says when
+another client's goal replaced ours, and cancels the goal when interrupted (KeyboardInterrupt).
 """
-import csv
+import argparse
 import itertools
 import math
+import re
+import signal
 import sys
+import textwrap
 import threading
 import time
 
@@ -41,10 +46,17 @@ REASONS = {
     S.REASON_WATCHDOG: "the goal was not kept alive (the watchdog stopped it)",
     S.REASON_COLLISION: "the estimator flagged a collision: stopped with the ramp",
     S.REASON_STALE_ESTIMATE: "no camera pose for 1 s: odometry alone may not carry a goal longer",
-    S.REASON_REPLACED: "a command took over",
+    S.REASON_REPLACED: "replaced: another goal or a command took over",
     S.REASON_CANCELLED: "cancelled",
 }
-STATUS_TIMEOUT_S = 5.0       # no goal_status_t about the goal for this long: TimeoutError
+NO_PROGRESS_S = 5.0          # no progress of the goal for this long: cancelled, TimeoutError
+STATUS_TIMEOUT_S = NO_PROGRESS_S   # the name before progress was judged (kept for callers)
+CANCEL_WAIT_S = 1.0          # after a cancel, the longest wait for the controller's ABORTED [s]
+# What counts as progress (wait_goal): the distance or the angle below its least so far by this
+# much, the pose aimed at or the status changing, or the time to go falling.
+PROGRESS_M = 0.001
+PROGRESS_RAD = 0.001
+PROGRESS_S = 0.001
 _ids = itertools.count(1)
 
 
@@ -59,6 +71,8 @@ class GoalFailed(RuntimeError):
 def describe(st):
     """One line for a goal_status_t."""
     name = STATUS_NAMES.get(st.status, f"status {st.status}")
+    if st.status == S.STATUS_REFUSED and st.reason == S.REASON_REPLACED:
+        return f"goal {st.goal_id} {name}: a newer goal replaced it while it waited for its plan"
     if st.status in (S.STATUS_REFUSED, S.STATUS_ABORTED):
         why = REASONS.get(st.reason, f"reason {st.reason}")
         return f"goal {st.goal_id} {name}: {why}"
@@ -79,6 +93,31 @@ def _poses(path):
     return poses
 
 
+class Progress:
+    """Judges a goal's progress from its goal_status_t stream (not from messages arriving): the
+    status or the pose aimed at changing, the distance or the angle to go below its least so far
+    by PROGRESS_M / PROGRESS_RAD, or the planned time to go falling by PROGRESS_S. A status
+    repeated unchanged (a robot held against an obstacle, a plan run out) is no progress."""
+
+    def __init__(self):
+        self.key = None
+        self.best = None
+
+    def update(self, st):
+        """True if st is progress over what was seen before (the first status is)."""
+        key = (st.status, st.index)
+        now = (st.distance_m, abs(st.angle_rad), st.time_to_go_s)
+        if key != self.key or self.best is None:
+            self.key, self.best = key, list(now)
+            return True
+        moved = False
+        for i, step in enumerate((PROGRESS_M, PROGRESS_RAD, PROGRESS_S)):
+            if now[i] < self.best[i] - step:
+                self.best[i] = now[i]
+                moved = True
+        return moved
+
+
 class GoalMixin:
     """go_to / follow / wait_goal / cancel_goal for omni4.Robot (which provides _lc, url,
     keepalive_s, _closed)."""
@@ -86,25 +125,33 @@ class GoalMixin:
     def _goal_setup(self):
         self._goal_cv = threading.Condition()
         self._goal_msg = None          # the goal_t kept alive (None: none)
-        self._goal_status = None       # the last goal_status_t about the current goal
+        self._goal_id = None           # the id of the last goal sent (kept after it ends)
+        self._goal_status = None       # the last goal_status_t about that goal
         self._goal_status_s = 0.0      # monotonic [s] of its arrival
+        self._goal_other = None        # a later goal_status_t of another goal in force
         self._goal_seq = 0
         self._goal_sub = self._lc.subscribe(CHANNEL_GOAL_STATUS, self._on_goal_status)
         self._goal_ka = threading.Thread(target=self._goal_keepalive, daemon=True,
                                          name="omni4-robot-goal")
         self._goal_ka.start()
 
-    def go_to(self, x, y, theta, wait=True, timeout_s=None, speed_max=0.0):
+    def go_to(self, x, y, theta, wait=True, timeout_s=None, speed_max=0.0,
+              no_progress_s=NO_PROGRESS_S):
         """Go to the world pose (x [m], y [m], theta [rad]) and, with wait, wait for the
-        verdict: returns the goal_status_t REACHED; GoalFailed (one line) if refused or
-        aborted; TimeoutError after timeout_s [s] (None: as long as progress comes) or when
-        the progress stops. wait=False returns the goal id at once (wait_goal() later)."""
-        return self.follow([(x, y, theta)], wait=wait, timeout_s=timeout_s, speed_max=speed_max)
+        verdict: returns the goal_status_t REACHED; GoalFailed (one line) if refused, aborted
+        or replaced by another goal; TimeoutError (the goal cancelled) after timeout_s [s]
+        (None: as long as progress comes) or after no_progress_s [s] without progress
+        (Progress). wait=False returns the goal id at once (wait_goal() later). A
+        KeyboardInterrupt while it waits cancels the goal (the robot brakes to rest), then
+        propagates."""
+        return self.follow([(x, y, theta)], wait=wait, timeout_s=timeout_s, speed_max=speed_max,
+                           no_progress_s=no_progress_s)
 
-    def follow(self, path, wait=True, timeout_s=None, blend_m=0.0, speed_max=0.0):
+    def follow(self, path, wait=True, timeout_s=None, blend_m=0.0, speed_max=0.0,
+               no_progress_s=NO_PROGRESS_S):
         """Follow a path of world poses [(x, y, theta), ...] without stopping at the
         intermediate ones (passed within blend_m, 0: the controller's default), at rest at
-        the last; wait, timeout_s and the result as go_to()."""
+        the last; wait, timeout_s, no_progress_s and the result as go_to()."""
         msg = goal_t()
         msg.poses = _poses(path)
         msg.n = len(msg.poses)
@@ -115,35 +162,58 @@ class GoalMixin:
         with self._goal_cv:
             self._forget_command()
             self._goal_msg = msg
+            self._goal_id = msg.goal_id
             self._goal_status = None
+            self._goal_other = None
             self._goal_status_s = time.monotonic()
             self._send_goal_locked(msg)
         if not wait:
             return msg.goal_id
-        return self.wait_goal(timeout_s)
+        return self.wait_goal(timeout_s, no_progress_s)
 
-    def wait_goal(self, timeout_s=None):
+    def wait_goal(self, timeout_s=None, no_progress_s=NO_PROGRESS_S):
         """Waits for the current goal's end; REACHED: returns its goal_status_t (and sends the
-        cancel that lets the robot go IDLE). See go_to()."""
-        end = None if timeout_s is None else time.monotonic() + timeout_s
+        cancel that lets the robot go IDLE). Another goal in force once ours had started (a
+        second client's goal replaced it): GoalFailed. See go_to()."""
+        start = time.monotonic()
+        end = None if timeout_s is None else start + timeout_s
         with self._goal_cv:
             msg = self._goal_msg
             if msg is None:
                 raise RuntimeError("omni4.Robot: no goal to wait for")
-            while True:
-                st = self._goal_status
-                if st is not None and st.status != S.STATUS_ACTIVE:
-                    break
-                now = time.monotonic()
-                if now - self._goal_status_s > STATUS_TIMEOUT_S:
-                    self._goal_msg = None
-                    raise TimeoutError(f"omni4.Robot: no {CHANNEL_GOAL_STATUS} about goal "
-                                       f"{msg.goal_id} for {STATUS_TIMEOUT_S} s on {self.url}")
-                if end is not None and now >= end:
-                    self.cancel_goal_locked()
-                    raise TimeoutError(f"omni4.Robot: goal {msg.goal_id} not reached within "
-                                       f"{timeout_s} s ({describe(st) if st else 'no progress'})")
-                self._goal_cv.wait(0.05)
+            progress = Progress()
+            seen = None                   # the last status judged
+            last_progress_s = start
+            try:
+                while True:
+                    st = self._goal_status
+                    if st is not None and st.status != S.STATUS_ACTIVE:
+                        break
+                    if self._goal_other is not None:
+                        other = self._goal_other
+                        self._goal_msg = None   # no keep-alive: it would start ours again
+                        raise GoalFailed(f"goal {msg.goal_id} replaced: goal {other.goal_id} "
+                                         f"(another client's) is in force now", other)
+                    now = time.monotonic()
+                    if st is not None and st is not seen:
+                        seen = st
+                        if progress.update(st):
+                            last_progress_s = now
+                    if now - last_progress_s > no_progress_s:
+                        self.cancel_goal_locked()
+                        what = f"last: {describe(st)}" if st else \
+                            f"no {CHANNEL_GOAL_STATUS} about it on {self.url}"
+                        raise TimeoutError(f"omni4.Robot: goal {msg.goal_id} made no progress "
+                                           f"for {no_progress_s:g} s ({what}); cancelled")
+                    if end is not None and now >= end:
+                        self.cancel_goal_locked()
+                        last = describe(st) if st else "no progress"
+                        raise TimeoutError(f"omni4.Robot: goal {msg.goal_id} not reached within "
+                                           f"{timeout_s} s ({last}); cancelled")
+                    self._goal_cv.wait(0.05)
+            except KeyboardInterrupt:
+                self.cancel_goal_locked()       # the controller brakes the robot to rest
+                raise
             if st.status == S.STATUS_REACHED:
                 self.cancel_goal_locked()
                 return st
@@ -155,11 +225,19 @@ class GoalMixin:
         """The last goal_status_t about the current goal (None: none yet)."""
         return self._goal_status
 
-    def cancel_goal(self):
+    def cancel_goal(self, wait_s=0.0):
         """Stops keeping the goal alive and sends ACTION_CANCEL: an active goal ends ABORTED
-        (CANCELLED) and the robot stops with the ramp."""
+        (CANCELLED) and the robot stops with the ramp. wait_s > 0: waits up to that long for
+        the controller's word on it; returns the goal's last goal_status_t (None: none)."""
+        end = time.monotonic() + wait_s
         with self._goal_cv:
             self.cancel_goal_locked()
+            while True:
+                st = self._goal_status
+                left = end - time.monotonic()
+                if left <= 0 or st is not None and st.status != S.STATUS_ACTIVE:
+                    return st
+                self._goal_cv.wait(min(left, 0.05))
 
     def cancel_goal_locked(self):
         msg = self._goal_msg
@@ -193,11 +271,21 @@ class GoalMixin:
         except Exception:  # another type on the channel
             return
         with self._goal_cv:
-            msg = self._goal_msg
-            if msg is not None and st.goal_id == msg.goal_id or \
-                    self._goal_status is not None and st.goal_id == self._goal_status.goal_id:
+            if self._goal_id is None:
+                return
+            if st.goal_id == self._goal_id:
                 self._goal_status = st
                 self._goal_status_s = time.monotonic()
+                self._goal_cv.notify_all()
+                return
+            # Another goal in force (ACTIVE, or REACHED and held) after ours had started: ours
+            # was replaced. Before ours starts, the goal in force goes on until ours is handed
+            # over (docs/goal.md), which is no replacement.
+            mine = self._goal_status
+            if self._goal_msg is not None and mine is not None and \
+                    mine.status == S.STATUS_ACTIVE and st.seq > mine.seq and \
+                    st.status in (S.STATUS_ACTIVE, S.STATUS_REACHED):
+                self._goal_other = st
                 self._goal_cv.notify_all()
 
     def _goal_close(self):
@@ -210,19 +298,34 @@ class GoalMixin:
             pass
 
 
+PATH_SEPARATORS = "commas, semicolons, tabs or spaces"
+_FIELD_SPLIT = re.compile(r"[,;\s]+")
+
+
 def read_path(path):
-    """x, y, theta rows of a CSV file (a first row that is not numbers is a header)."""
+    """The x, y, theta rows of a CSV file: values separated by PATH_SEPARATORS; blank lines and
+    lines starting with # are skipped; the first row is a header (skipped) only when none of its
+    fields is a number. Any other row that is not numbers: ValueError naming FILE:LINE."""
     rows = []
-    with open(path, newline="") as f:
-        for i, row in enumerate(csv.reader(f)):
-            if not row or row[0].lstrip().startswith("#"):
+    first = True
+    with open(path, newline="", encoding="utf-8", errors="replace") as f:
+        for i, line in enumerate(f, 1):
+            text = line.strip()
+            if not text or text.startswith("#"):
                 continue
-            try:
-                rows.append([float(v) for v in row])
-            except ValueError:
-                if i == 0:
-                    continue
-                raise ValueError(f"{path}:{i + 1}: x, y, theta expected: {','.join(row)}")
+            fields = [v for v in _FIELD_SPLIT.split(text) if v]
+            values = []
+            for v in fields:
+                try:
+                    values.append(float(v))
+                except ValueError:
+                    values.append(None)
+            was_first, first = first, False
+            if None not in values:
+                rows.append(values)
+            elif not (was_first and all(v is None for v in values)):
+                raise ValueError(f"{path}:{i}: x, y, theta expected (numbers separated by "
+                                 f"{PATH_SEPARATORS}): {text}")
     return rows
 
 
@@ -236,22 +339,71 @@ def main(argv=None):
     return run(PROG, _main, sys.argv[1:] if argv is None else list(argv))
 
 
+# argparse takes "-1e-3" for an option (its test for a negative number knows no exponent):
+# every number float() reads, signed, is a positional here (no option of the tool looks like one).
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$",
+                              re.IGNORECASE)
+SPEED_RANGE = "a finite number >= 0 m/s, 0: the model's limits alone (goal_t.lcm)"
+BLEND_RANGE = "0 (the controller's default, 0.15 m) or 0.01 .. 2 m (goal_t.lcm)"
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: not a number") from None
+
+
+def _checked(rule, ok):
+    def parse(text):
+        x = _number(text)
+        if not (math.isfinite(x) and ok(x)):
+            raise argparse.ArgumentTypeError(f"{text}: must be {rule}")
+        return x
+    return parse
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C is (the goal cancelled), with its own exit status."""
+
+
+def _on_sigterm(_signum, _frame):
+    raise _Terminated
+
+
 def _main(argv):
     from ._cli import bus_tool_parser, usage
     from .robot import Robot
     p = bus_tool_parser(
-        PROG, "Go to a world pose [m, m, rad], or follow a path of poses, and wait: exit 0 "
-        "when reached, 1 with one line when refused or aborted, 2 on bad input. The goal is "
-        "kept alive on the bus while it waits (docs/goal.md).",
+        PROG, textwrap.fill(
+            "Go to a world pose [m, m, rad], or follow a path of poses, and wait: exit 0 "
+        "when reached; 1 with one line when refused, aborted, replaced by another client's "
+        f"goal, or without progress for --no-progress seconds (default {NO_PROGRESS_S:g}; the "
+        "goal is then cancelled); 2 on bad input; 130 on Ctrl-C (143 on SIGTERM), which "
+        "cancels the goal: the controller brakes the robot to rest. The goal is kept alive on "
+        "the bus while it waits (docs/goal.md); no IDLE is ever sent.", 79),
         "example: omni4-goto 1.0 0.5 1.57 --lcm 'udpm://239.255.76.67:7667?ttl=0'\n"
-        "         omni4-goto --path corners.csv      (rows x,y,theta; a header row is skipped)")
-    p.add_argument("pose", nargs="*", type=float, metavar="X Y THETA")
+        "         omni4-goto 0 0 -1e-3          (negative numbers are poses; or -- 0 0 -1)\n"
+        f"         omni4-goto --path corners.csv  (rows x,y,theta separated by {PATH_SEPARATORS};\n"
+        "                                        a first row of names is a header)")
+    p._negative_number_matcher = _NEGATIVE_NUMBER
+    p.add_argument("pose", nargs="*", type=_number, metavar="X Y THETA")
     p.add_argument("--path", metavar="FILE.csv",
                    help="poses x,y,theta to follow without stopping (the last is the goal)")
-    p.add_argument("--speed", type=float, default=0.0, help="speed cap [m/s] (0: the model's)")
-    p.add_argument("--blend", type=float, default=0.0,
-                   help="intermediate poses passed within this [m] (0: the controller's)")
-    p.add_argument("--timeout", type=float, default=None, help="give up after this [s]")
+    p.add_argument("--speed", type=_checked(SPEED_RANGE, lambda x: x >= 0), default=0.0,
+                   metavar="M_S", help=f"speed cap [m/s]: {SPEED_RANGE}")
+    p.add_argument("--blend", type=_checked(BLEND_RANGE, lambda x: x == 0 or 0.01 <= x <= 2),
+                   default=0.0, metavar="M",
+                   help=f"intermediate poses passed within this [m]: {BLEND_RANGE}")
+    p.add_argument("--timeout", type=_checked("a finite number > 0 s", lambda x: x > 0),
+                   default=None, metavar="S",
+                   help="give up (cancel the goal) after this [s]; default: wait as long as "
+                        "the goal progresses")
+    p.add_argument("--no-progress", type=_checked("a finite number > 0 s", lambda x: x > 0),
+                   default=NO_PROGRESS_S, metavar="S",
+                   help="cancel the goal when it has made no progress (distance, heading, pose "
+                        "aimed at or time to go falling, or its status changing) for this "
+                        f"long [s] (default {NO_PROGRESS_S:g})")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     a = p.parse_args(argv)
     try:
@@ -269,25 +421,54 @@ def _main(argv):
     return _run(Robot, a, poses)
 
 
+def _say(text):
+    print(f"{PROG}: {text.removeprefix('omni4.Robot: ')}", file=sys.stderr)
+
+
 def _run(robot_type, a, poses):
+    """The goal sent and waited for; the exit status. The Robot is closed without IDLE: after
+    REACHED the cancel ramps the robot to IDLE, after a cancel the controller brakes it to rest
+    (an IDLE would cut either short: the robot would coast)."""
+    main = threading.current_thread() is threading.main_thread()
+    old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)} if main else {}
+    if main:                             # Ctrl-C and SIGTERM cancel the goal (below)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    robot = None
     try:
-        with robot_type(a.lcm, limits=False) as robot:
-            robot.follow(poses, wait=False, blend_m=a.blend, speed_max=a.speed)
-            stop = threading.Event()
-            if not a.quiet:
-                threading.Thread(target=_progress, args=(robot, stop), daemon=True).start()
-            try:
-                st = robot.wait_goal(a.timeout)
-            finally:
-                stop.set()
-            print(f"omni4-goto: reached ({describe(st)})", file=sys.stderr)
-            return 0
+        robot = robot_type(a.lcm, limits=False)
+        robot.follow(poses, wait=False, blend_m=a.blend, speed_max=a.speed)
+        stop = threading.Event()
+        if not a.quiet:
+            threading.Thread(target=_progress, args=(robot, stop), daemon=True).start()
+        try:
+            st = robot.wait_goal(a.timeout, a.no_progress)
+        finally:
+            stop.set()
+        _say(f"reached ({describe(st)})")
+        return 0
     except (GoalFailed, TimeoutError, RuntimeError) as e:
-        print(f"omni4-goto: {e}", file=sys.stderr)
+        _say(str(e))
         return 1
-    except KeyboardInterrupt:
-        print("omni4-goto: interrupted (the goal is no longer kept alive)", file=sys.stderr)
-        return 1
+    except KeyboardInterrupt as e:       # wait_goal has sent ACTION_CANCEL
+        status = 143 if isinstance(e, _Terminated) else 130
+        for sig in old:                  # the bounded wait below is short: no second signal
+            signal.signal(sig, signal.SIG_IGN)
+        if robot is None:
+            _say("interrupted before the goal was sent")
+            return status
+        st = robot.cancel_goal(wait_s=CANCEL_WAIT_S)
+        if st is not None and st.status != S.STATUS_ACTIVE:
+            _say("cancelled: the robot brakes to rest")
+        else:
+            _say(f"cancel sent, no word from the controller within {CANCEL_WAIT_S:g} s (if it "
+                 "is still driving, its watchdog stops it)")
+        return status
+    finally:
+        if robot is not None:
+            robot.close(stop=False)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
 
 def _progress(robot, stop):

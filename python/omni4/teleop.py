@@ -217,10 +217,25 @@ def build_parser():
     return p
 
 
-def _say(text):
-    """One status line, drawn over the previous one (\\r\\n-safe in any terminal mode)."""
+def _on_terminal():
+    """stdout is a terminal: status lines are drawn over each other; else (a pipe, a file)
+    every line is written plain, without escape sequences or carriage returns."""
     try:
-        sys.stdout.write("\r\x1b[K" + text)
+        return sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _say(text):
+    """One status line: on a terminal drawn over the previous one (\\r\\n-safe in any
+    terminal mode); elsewhere a plain line ending in a newline."""
+    if _on_terminal():
+        out = "\r\x1b[K" + text
+    else:
+        out = text.replace("\r", "")
+        out += "" if out.endswith("\n") else "\n"
+    try:
+        sys.stdout.write(out)
         sys.stdout.flush()
     except (BrokenPipeError, OSError):
         pass
@@ -351,11 +366,10 @@ def _main(argv):
         lin_max, rot_max, source = _limits(robot)
         t = Teleop(lin_max, rot_max, args.step_lin, args.step_rot, args.joy_lin, args.joy_rot,
                    axes)
-        sys.stdout.write(f"{PROG} on {args.lcm}: limits |v|, |vn| <= {lin_max:g} m/s, "
-                         f"|w| <= {rot_max:g} rad/s ({source})\r\n"
-                         "w/s v  a/d vn  q/e w  space stop  +/- step  x quit"
-                         + (f"  joystick {js_path}" if joystick else "") + "\r\n")
-        sys.stdout.flush()
+        _say(f"{PROG} on {args.lcm}: limits |v|, |vn| <= {lin_max:g} m/s, "
+             f"|w| <= {rot_max:g} rad/s ({source})\r\n")
+        _say("w/s v  a/d vn  q/e w  space stop  +/- step  x quit"
+             + (f"  joystick {js_path}" if joystick else "") + "\r\n")
         term = Terminal(sys.stdin.fileno())
         robot.velocity(0.0, 0.0, 0.0)
         _say(t.line())

@@ -2,11 +2,15 @@
 the estimator) over udpm on a URL of its own. Robot.go_to() and follow() arrive (the robot's
 own estimate within the controller's REACHED tolerance), a refused goal raises GoalFailed with
 the reason, a goal no longer kept alive is stopped by the watchdog, velocity commands still
-work after a goal, and omni4-goto exits 0 when reached and 1 with one line when refused."""
+work after a goal, and omni4-goto exits 0 when reached and 1 with one line when refused or
+when a second client's goal replaced its own; Ctrl-C (130) and SIGTERM (143) cancel its goal
+(ABORTED / CANCELLED, the robot braked) and send no command (no IDLE)."""
 import math
 import os
+import signal
 import subprocess
 import sys
+import threading
 
 import pytest
 from test_robot_live import Firmware
@@ -99,3 +103,92 @@ def test_omni4_goto_exit_codes(fw, omni4_bin, tmp_path):
     assert bad.stderr.count("\n") == 1 and "REFUSED" in bad.stderr, bad.stderr
     usage = subprocess.run(goto + ["1", "2"], capture_output=True, text=True, timeout=20)
     assert usage.returncode == 2 and "X Y THETA" in usage.stderr
+
+
+class Watch:
+    """What the bus carries (a thread): goal_t, goal_status_t and command_t messages."""
+
+    def __init__(self, url):
+        import lcm
+        self.lc = lcm.LCM(url)
+        self.goals, self.statuses, self.commands = [], [], []
+        self.lc.subscribe(omni4.CHANNEL_GOAL,
+                          lambda c, d: self.goals.append(omni4.goal_t.decode(d)))
+        self.lc.subscribe(omni4.CHANNEL_GOAL_STATUS,
+                          lambda c, d: self.statuses.append(omni4.goal_status_t.decode(d)))
+        self.lc.subscribe(omni4.CHANNEL_CMD,
+                          lambda c, d: self.commands.append(omni4.command_t.decode(d)))
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while not self.done.is_set():
+            self.lc.handle_timeout(20)
+
+    def wait(self, predicate, what):
+        """Bounded (GOAL_TIMEOUT_S) wait for predicate() to be true."""
+        for _ in range(GOAL_TIMEOUT_S * 50):
+            if predicate():
+                return
+            self.done.wait(0.02)
+        pytest.fail(f"{what}: not within {GOAL_TIMEOUT_S} s")
+
+    def status_of(self, goal_id, status):
+        return [s for s in list(self.statuses) if s.goal_id == goal_id and s.status == status]
+
+    def close(self):
+        self.done.set()
+        self.thread.join(timeout=2)
+
+
+def goto_started(fw, watch, pose):
+    """omni4-goto to pose, once its goal is ACTIVE: (process, goal id)."""
+    goto = [os.path.join(os.path.dirname(sys.executable), "omni4-goto")]
+    p = subprocess.Popen(goto + [str(v) for v in pose] + ["--lcm", fw.url, "-q"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    watch.wait(lambda: watch.goals or p.poll() is not None, "omni4-goto's goal_t")
+    assert p.poll() is None, p.communicate()
+    gid = watch.goals[0].goal_id
+    watch.wait(lambda: watch.status_of(gid, omni4.goal_status_t.STATUS_ACTIVE) or
+               p.poll() is not None, "omni4-goto's goal ACTIVE")
+    assert p.poll() is None, p.communicate()
+    return p, gid
+
+
+@pytest.mark.parametrize("sig, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_omni4_goto_interrupted_cancels_its_goal(fw, sig, status):
+    """Ctrl-C (SIGINT) or SIGTERM: ACTION_CANCEL for its goal id, the controller ends it
+    ABORTED / CANCELLED and brakes; one line; no command_t (no IDLE) at all."""
+    watch = Watch(fw.url)
+    p, gid = goto_started(fw, watch, (2.0, -1.0, 0.5))
+    try:
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=GOAL_TIMEOUT_S)
+    finally:
+        if p.poll() is None:
+            p.kill()
+        watch.close()
+    assert p.returncode == status, err
+    assert err == "omni4-goto: cancelled: the robot brakes to rest\n", err
+    assert [g.goal_id for g in watch.goals if g.action == omni4.goal_t.ACTION_CANCEL] == [gid]
+    st = watch.status_of(gid, omni4.goal_status_t.STATUS_ABORTED)
+    assert st and st[0].reason == omni4.goal_status_t.REASON_CANCELLED, describe(st[0])
+    assert not watch.commands, [c.mode for c in watch.commands]
+
+
+def test_omni4_goto_replaced_by_another_clients_goal(fw):
+    """A second client's goal replaces omni4-goto's: it says so in one line, exit 1."""
+    watch = Watch(fw.url)
+    p, gid = goto_started(fw, watch, (0.0, 1.0, 0.0))
+    try:
+        with omni4.Robot(fw.url) as other:
+            other.go_to(1.0, 0.0, 0.0, wait=False)
+            _, err = p.communicate(timeout=GOAL_TIMEOUT_S)
+            other.cancel_goal()
+    finally:
+        if p.poll() is None:
+            p.kill()
+        watch.close()
+    assert p.returncode == 1, err
+    assert err.count("\n") == 1 and "replaced" in err, err

@@ -86,3 +86,21 @@ def test_bad_log_is_one_line_and_status_1(tmp_path):
     r = report(csv, tmp_path / "out", "--log", bad)
     assert r.returncode == 1
     assert r.stderr.strip().count("\n") == 0 and "bad.lcmlog: no intact LCM event" in r.stderr
+
+
+@pytest.mark.parametrize("kind", ["a folder", "not JSON"])
+def test_validation_json_that_cannot_be_read_is_one_line(tmp_path, kind):
+    """--json (omni4-ident validate's output, read by the report) a folder or not JSON: one
+    line naming it, status 1, no traceback."""
+    csv = tmp_path / "csv"
+    csv.mkdir()
+    bad = tmp_path / "v.json"
+    if kind == "a folder":
+        bad.mkdir()
+    else:
+        bad.write_text("{not json\n")
+    r = report(csv, tmp_path / "out", "--json", bad)
+    assert r.returncode == 1, r.stderr
+    assert "Traceback" not in r.stderr, r.stderr
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"omni4_report: {bad}: "), r.stderr

@@ -2,7 +2,9 @@
 line, a circle, torques l Kt i, lost samples), the /cmd_vel gate (NaN and inf refused, limits
 clamped, nothing before the limits are known), the state_t fallback (no omni4.state_t in the
 package: odometry from the wheels; a state_t-like message: its fields), the diagnostics'
-fault names, and the URDF's geometry against Table III and docs/kinematics.md."""
+fault names, the URDF's geometry against Table III and docs/kinematics.md, and the goal
+statuses on goal_status (a fake node on memq://: refusals, the node's own and the
+controller's, published as REFUSED with their reason)."""
 import math
 import xml.etree.ElementTree as ET
 
@@ -243,3 +245,131 @@ def test_errors_are_one_line(argv, status, words):
     assert r.returncode == status, r
     assert r.stderr.count("\n") == 1 and words in r.stderr and "Traceback" not in r.stderr, \
         r.stderr
+
+
+# ---- goal statuses (omni4.ros.goals.GoalBridge, with a fake node on memq://) -------------------
+class FakeNode:
+    """What GoalBridge asks of its node: publishers that keep what they get, subscriptions
+    whose callbacks a test calls."""
+
+    def __init__(self):
+        self.published, self.subs = {}, {}
+
+    def create_publisher(self, _type, topic, _depth):
+        got = self.published.setdefault(topic, [])
+        return type("Pub", (), {"publish": lambda self, m: got.append(m)})()
+
+    def create_subscription(self, _type, topic, callback, _depth):
+        self.subs[topic] = callback
+
+
+class FakeOwner:
+    """An Omni4Ros as GoalBridge sees it, on memq:// with its receive thread."""
+
+    def __init__(self):
+        import threading
+        import lcm
+        self.lc, self.url = lcm.LCM("memq://"), "memq://"
+        self._closed, self._lock = threading.Event(), threading.Lock()
+        self.node, self.frame_odom, self._diag_prefix = FakeNode(), "odom", "omni4_ros"
+        self._cmd = self._stopping_since = None
+        self.warnings = []
+        self.log = type("Log", (), {"warn": lambda s, t: self.warnings.append(t),
+                                    "info": lambda s, t: None})()
+        self.rx = threading.Thread(target=self._rx, daemon=True)
+        self.rx.start()
+
+    def _rx(self):
+        while not self._closed.is_set():
+            self.lc.handle_timeout(20)
+
+    def close(self):
+        self._closed.set()
+        self.rx.join(2)
+
+
+@pytest.fixture
+def bridge():
+    from omni4.ros.goals import GoalBridge       # the ros extra (scripts/setup.sh installs it)
+    owner = FakeOwner()
+    b = GoalBridge(owner, 0.05)
+    yield owner, b
+    owner._closed.set()                          # as the node closes: its threads end first
+    b.close()
+    owner.close()
+
+
+def pose_stamped(x, y, frame="odom"):
+    from geometry_msgs.msg import PoseStamped
+    m = PoseStamped()
+    m.header.frame_id = frame
+    m.pose.position.x, m.pose.position.y, m.pose.orientation.w = x, y, 1.0
+    return m
+
+
+def values(st):
+    return {kv.key: kv.value for kv in st.values}
+
+
+def published(owner, n=1):
+    """The goal_status messages, once n have come (bounded wait)."""
+    import time
+    got = owner.node.published["goal_status"]
+    end = time.monotonic() + 10
+    while len(got) < n and time.monotonic() < end:
+        time.sleep(0.01)
+    return got
+
+
+@pytest.mark.parametrize("msg, reason, words", [
+    (lambda: pose_stamped(math.nan, 0.0), omni4.goal_status_t.REASON_NOT_FINITE, "finite"),
+    (lambda: pose_stamped(0.5, 0.0, "base_link"), None, "frame 'base_link'"),
+])
+def test_goal_pose_refused_before_sending_is_published_refused(bridge, msg, reason, words):
+    """A /goal_pose the node refuses itself (not finite, a frame not its odom frame) is on
+    goal_status as REFUSED with its reason, as the controller's refusals are; nothing sent."""
+    from omni4.goal import REASONS
+    owner, b = bridge
+    sent = []
+    owner.lc.subscribe(omni4.CHANNEL_GOAL, lambda c, d: sent.append(d))
+    owner.node.subs["goal_pose"](msg())
+    got = published(owner)
+    assert len(got) == 1
+    v = values(got[0])
+    assert v["status"] == "REFUSED" and got[0].level == bytes([1]), v
+    assert words in got[0].message and words in v["reason"], (got[0].message, v)
+    if reason is not None:
+        assert REASONS[reason] in v["reason"]
+    assert not sent
+
+
+def test_goal_refused_by_the_controller_is_published_refused(bridge):
+    owner, b = bridge
+    owner.node.subs["goal_pose"](pose_stamped(0.5, 0.0))
+    st = omni4.goal_status_t()
+    st.goal_id, st.status = b._goal_id, omni4.goal_status_t.STATUS_REFUSED
+    st.reason = omni4.goal_status_t.REASON_UNREACHABLE
+    owner.lc.publish(omni4.CHANNEL_GOAL_STATUS, st.encode())
+    got = published(owner)
+    assert len(got) == 1 and values(got[0])["status"] == "REFUSED"
+    assert "unreachable" in values(got[0])["reason"]
+
+
+def test_goal_replaced_by_another_clients_goal_is_published_and_no_longer_kept_alive(bridge):
+    """Once the node's goal is ACTIVE, statuses of another goal id in force (a second client's
+    goal took over): goal_status says ABORTED, replaced, naming it, and the node stops keeping
+    its goal alive (a keep-alive would start it again)."""
+    owner, b = bridge
+    owner.node.subs["goal_pose"](pose_stamped(0.5, 0.0))
+    ours = b._goal_id
+    for seq, gid in ((1, ours), (2, 77), (3, 77)):
+        st = omni4.goal_status_t()
+        st.seq, st.goal_id, st.distance_m = seq, gid, 1.0
+        st.status = omni4.goal_status_t.STATUS_ACTIVE
+        owner.lc.publish(omni4.CHANNEL_GOAL_STATUS, st.encode())
+    got = published(owner, 2)
+    assert len(got) == 2, [g.message for g in got]
+    v = values(got[1])
+    assert v["status"] == "ABORTED" and v["goal_id"] == str(ours), v
+    assert "goal 77" in got[1].message and "replaced" in got[1].message, got[1].message
+    assert b._goal_msg is None

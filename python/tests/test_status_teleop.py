@@ -7,7 +7,7 @@ stdin, and by joystick events fed through a FIFO as a device gives them (a recor
 replayed at times counted from its opening, before omni4-teleop has the controller's [limits]:
 on a loaded machine the whole replay can be due at once; the FIFO sends the stick's moves when
 the test has seen the effect of the last). Not live: the key and js_event mapping, the
-fault names."""
+fault names, teleop's plain lines into pipes."""
 import os
 import re
 import signal
@@ -63,6 +63,20 @@ def test_keys_and_joystick_events_set_the_command():
     for _ in range(100):
         t.key("e")
     assert t.v[2] == -20.0                                          # clamped to the limit
+
+
+def test_teleop_into_pipes_writes_plain_lines():
+    """stdout and stderr not a terminal (a pipe, a log file): no escape sequences, no carriage
+    returns; every line ends with a newline. No controller: the banner says the defaults."""
+    p = subprocess.run(tool("omni4-teleop") + ["--lcm", URL_NOBODY, "--no-joystick"],
+                       input=b"wwa x", stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       timeout=EXIT_TIMEOUT_S)
+    out = p.stdout + p.stderr
+    assert p.returncode == 0, out
+    assert b"\x1b" not in out and b"\r" not in out, out
+    lines = p.stdout.decode().split("\n")
+    assert lines[-1] == "" and lines[-2] == "stopped (IDLE sent)", out
+    assert any(ln.startswith("v ") or "v " in ln for ln in lines[2:-2]), out
 
 
 def test_fault_names():

@@ -195,7 +195,43 @@ reader_done "$R" omni4-record
 check "omni4-record: the FIFO's reader got the log" starts_lcm "$R/fifo.out"
 check "omni4-record: the reader got every message" test "$(stat -c %s "$R/fifo.out")" -ge \
   $((30 * (28 + 10 + 4000)))
-record_published "$R/full" 1 "full: .*No space left on device"
+# A full device: the first failed write stops the recorder by itself (no signal), one line
+# after its start line, "PATH: No space left on device", status 1. Messages are published until
+# it has exited (bounded).
+record_stops_on_full() {
+  local out=$1 rec n=0 rc
+  "$BIN/omni4-record" --lcm "$URL" --out "$out" >/dev/null 2>"$T/rec.err" &
+  rec=$!
+  while ! grep -q ' <- ' "$T/rec.err" && kill -0 "$rec" 2>/dev/null && [ "$n" -lt 600 ]; do
+    sleep 0.1
+    n=$((n + 1))
+  done
+  bounded_run 120 publisher -- "$VENV/python" -c '
+import os, sys, time, lcm
+bus = lcm.LCM(sys.argv[1])
+def running(pid):  # a recorder that has exited is a zombie until the shell waits for it
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+for _ in range(6000):
+    if not running(sys.argv[2]):
+        break
+    bus.publish("OMNI4_TEST", b"x" * 4000)
+    time.sleep(0.01)' "$URL" "$rec"
+  bounded_wait "$rec" 30 "omni4-record --out $out, stopping by itself"
+  rc=$?
+  local after
+  after=$(grep -v ' <- ' "$T/rec.err")
+  if [ "$rc" -eq 1 ] && [ "$(printf '%s\n' "$after" | wc -l)" -eq 1 ] &&
+    printf '%s\n' "$after" | grep -q "^omni4-record: $out: No space left on device"; then
+    ok "omni4-record to $(basename "$out") stops at the first failed write -> 1: $after"
+  else
+    bad "omni4-record to $(basename "$out") -> $rc (want 1, one line): $(tail -3 "$T/rec.err")"
+  fi
+}
+record_stops_on_full "$R/full"
 check "omni4-record: the full node kept" node_is "$R/full" "character special file 1,7"
 run "omni4-record to a link to a file" 1 "link exists; not overwriting it" -- \
   "$BIN/omni4-record" --lcm "$URL" --out "$R/link" --duration 1 -q
@@ -217,10 +253,10 @@ echo keep >"$B/full/mine"
 run "omni4-rosbag, a missing log" 1 "^omni4-rosbag: cannot read $B/none.lcmlog: No such file or directory$" -- \
   "$VENV/omni4-rosbag" "$B/none.lcmlog" --out "$B/new"
 check "omni4-rosbag, a missing log: no bag" test ! -e "$B/new"
-run "omni4-rosbag --out FILE" 2 "file: exists and is not a folder" -- \
+run "omni4-rosbag --out FILE" 1 "file: exists and is not a folder" -- \
   "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/file"
 check "omni4-rosbag --out FILE: untouched" grep -qx keep "$B/file"
-run "omni4-rosbag --out non-empty folder" 2 "full: exists and is not empty" -- \
+run "omni4-rosbag --out non-empty folder" 1 "full: exists and is not empty" -- \
   "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/full"
 check "omni4-rosbag --out non-empty folder: untouched" test "$(ls -A "$B/full")" = mine
 run "omni4-rosbag --out empty folder" 0 "" -- "$VENV/omni4-rosbag" "$T/short.lcmlog" --out "$B/empty" -q

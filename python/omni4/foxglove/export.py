@@ -225,7 +225,7 @@ def main(argv=None):
     out_dir = os.path.dirname(os.path.realpath(a.out))
     if not os.path.isdir(out_dir):
         print(f"{PROG}: {a.out}: directory {out_dir} does not exist", file=sys.stderr)
-        return 2
+        return 1                   # an output path that cannot be written: a run-time error
     try:
         w = write_mcap(a.out, events, params, a)
     except OutError as e:

@@ -13,8 +13,9 @@ every parameter at start), else from --params ROBOT.ini, else Table III.
 The logs are read a piece at a time and every message is written as its event is read, in log
 order: memory does not grow with the log. The share of the input read goes to stderr (in place
 on a terminal, else a line at most once a second; -q: none). The bag is written beside --out
-and renamed to it once complete; exit status 0 done, 1 unreadable or not an event log, 2 usage
-(an --out that exists and is not an empty folder is refused, untouched)."""
+and renamed to it once complete; exit status 0 done, 1 unreadable or not an event log, or an
+--out that cannot be written (one that exists and is not an empty folder is refused, untouched;
+a missing parent folder), 2 usage."""
 import os
 import shutil
 import sys
@@ -329,8 +330,9 @@ def main(argv=None):
 
 
 def _out_folder(out):
-    """The folder the bag goes to (a symbolic link followed), or a usage error: the bag is a
-    new folder, or goes into an existing empty one; anything else is refused, untouched."""
+    """The folder the bag goes to (a symbolic link followed), and None or why it is refused
+    (status 1): the bag is a new folder, or goes into an existing empty one; anything else is
+    refused, untouched."""
     real = os.path.realpath(out)
     if not os.path.exists(real):
         return real, None
@@ -367,7 +369,7 @@ def _write_bag(logs, real, params, quiet):
 def _main(argv=None):
     import argparse
 
-    from .._cli import ArgumentParser, usage
+    from .._cli import ArgumentParser
     p = ArgumentParser(prog=PROG, description="omni4 LCM event logs -> a ROS 2 bag (MCAP) with "
                        "standard types.", epilog=__doc__.split("\n", 2)[2],
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -384,8 +386,9 @@ def _main(argv=None):
                    "once a second)")
     args = p.parse_args(argv)
     real, refused = _out_folder(args.out)
-    if refused:
-        return usage(PROG, refused)
+    if refused:                    # an output path that cannot be written: a run-time error
+        sys.stderr.write(f"{PROG}: {refused}\n")
+        return 1
     try:
         import rosbags  # noqa: F401
     except ImportError as e:

@@ -9,7 +9,11 @@
   the intermediate ones, likewise.
 - goal_status (diagnostic_msgs/DiagnosticStatus): the feedback, one per goal_status_t (status,
   reason, pose aimed at, distance, heading and time to go); the last one also in /diagnostics.
+  A goal the node refuses itself (a pose not finite, more poses than goal_t holds, a frame not
+  its odom frame) is published there too, REFUSED with its reason (goal_id 0: nothing sent).
 - A /cmd_vel replaces the goal (the node stops keeping it alive; the controller ends it).
+- Another client's goal in force once ours had started: ours was replaced; goal_status says
+  ABORTED, replaced, naming the other goal, and the node stops keeping ours alive.
 """
 import math
 
@@ -48,9 +52,20 @@ class GoalBridge(GoalMixin):
     def _frame_ok(self, frame):
         if frame in FRAMES_SAME_AS_ODOM or frame == self._owner.frame_odom:
             return True
-        self._owner.log.warn(f"goal in frame '{frame}' refused: give it in "
-                             f"'{self._owner.frame_odom}' (or map / world, taken as the same)")
+        why = (f"goal in frame '{frame}' refused: give it in '{self._owner.frame_odom}' (or "
+               "map / world, taken as the same)")
+        self._owner.log.warn(why)
+        self._refused(goal_status_t.REASON_OUT_OF_RANGE, why)
         return False
+
+    def _refused(self, reason, why):
+        """A goal this node refuses before sending anything: on goal_status as REFUSED with
+        its reason (goal_id 0: no goal_t went out), as the controller's refusals are."""
+        st = goal_status_t()
+        st.status, st.reason = goal_status_t.STATUS_REFUSED, reason
+        self.counters["goals failed"] += 1
+        self.last = st
+        self.pub.publish(self.status_msg(st, why))
 
     def _on_goal_pose(self, msg):
         if self._frame_ok(msg.header.frame_id):
@@ -68,6 +83,9 @@ class GoalBridge(GoalMixin):
             self.follow(poses, wait=False)
         except ValueError as e:
             self._owner.log.warn(f"goal refused before sending: {e}")
+            finite = all(math.isfinite(float(v)) for p in poses for v in p)
+            self._refused(goal_status_t.REASON_OUT_OF_RANGE if finite else
+                          goal_status_t.REASON_NOT_FINITE, f"goal refused before sending: {e}")
             return
         self.counters["goals sent"] += 1
         self._owner.log.info(f"goal: {len(poses)} pose(s), the last {poses[-1]}")
@@ -80,9 +98,17 @@ class GoalBridge(GoalMixin):
 
     def _on_goal_status(self, channel, data):
         super()._on_goal_status(channel, data)
+        why = None
         with self._goal_cv:
-            st, msg = self._goal_status, self._goal_msg
+            st, msg, other = self._goal_status, self._goal_msg, self._goal_other
             if st is None or msg is None or st.goal_id != msg.goal_id:
+                return
+            if other is not None:       # a second client's goal took over once ours had started
+                self._goal_msg = None   # no keep-alive: it would start ours again
+                why = f"replaced: goal {other.goal_id} (another client's) is in force now"
+                st = goal_status_t.decode(st.encode())
+                st.status, st.reason = goal_status_t.STATUS_ABORTED, goal_status_t.REASON_REPLACED
+            elif st is self.last:       # a status about another goal: nothing new about ours
                 return
             self.last = st
             if st.status == goal_status_t.STATUS_REACHED:
@@ -92,18 +118,24 @@ class GoalBridge(GoalMixin):
                 self.counters["goals failed"] += 1
                 self._goal_msg = None
         if st.status != goal_status_t.STATUS_ACTIVE:
-            self._owner.log.info(describe(st))
-        self.pub.publish(self.status_msg(st))
+            self._owner.log.info(describe(st) if why is None else f"goal {st.goal_id}: {why}")
+        self.pub.publish(self.status_msg(st, why))
 
-    def status_msg(self, st):
-        """A goal_status_t as a DiagnosticStatus (level OK / WARN for refused or aborted)."""
+    def status_msg(self, st, why=None):
+        """A goal_status_t as a DiagnosticStatus (level OK / WARN for refused or aborted);
+        why: the node's own words for a refusal (else the reason's)."""
         from diagnostic_msgs.msg import KeyValue
         bad = st.status in (goal_status_t.STATUS_ABORTED, goal_status_t.STATUS_REFUSED)
+        reason = REASONS.get(st.reason, str(st.reason))
+        if why is not None:
+            reason = f"{reason}: {why}" if st.reason == goal_status_t.REASON_NOT_FINITE else why
+        text = describe(st) if why is None else \
+            f"goal {st.goal_id} {STATUS_NAMES.get(st.status, '?')}: {why}"
         s = self._Status(level=bytes([1 if bad else 0]), name=f"{self._owner._diag_prefix}: goal",
-                         message=describe(st), hardware_id="omni4")
+                         message=text, hardware_id="omni4")
         s.values = [KeyValue(key=k, value=v) for k, v in (
             ("goal_id", str(st.goal_id)), ("status", STATUS_NAMES.get(st.status, "?")),
-            ("reason", REASONS.get(st.reason, str(st.reason))),
+            ("reason", reason),
             ("pose aimed at", f"{st.index + 1} of {st.n}"),
             ("distance to go [m]", f"{st.distance_m:.4f}"),
             ("heading to go [rad]", f"{st.angle_rad:.4f}"),
