@@ -48,6 +48,10 @@ REASONS = {
     S.REASON_STALE_ESTIMATE: "no camera pose for 1 s: odometry alone may not carry a goal longer",
     S.REASON_REPLACED: "replaced: another goal or a command took over",
     S.REASON_CANCELLED: "cancelled",
+    S.REASON_NO_PROGRESS: "no progress: not reached 10 s after its plan ended (stopped with the "
+                          "ramp)",
+    S.REASON_SETTLING: "at the pose, holding it until the estimate is sure (2 sd within 1 cm "
+                       "and 1 deg)",
 }
 NO_PROGRESS_S = 5.0          # no progress of the goal for this long: cancelled, TimeoutError
 STATUS_TIMEOUT_S = NO_PROGRESS_S   # the name before progress was judged (kept for callers)
@@ -76,6 +80,9 @@ def describe(st):
     if st.status in (S.STATUS_REFUSED, S.STATUS_ABORTED):
         why = REASONS.get(st.reason, f"reason {st.reason}")
         return f"goal {st.goal_id} {name}: {why}"
+    if st.status == S.STATUS_ACTIVE and st.reason == S.REASON_SETTLING:
+        return (f"goal {st.goal_id} {name}: {REASONS[S.REASON_SETTLING]}, "
+                f"{st.distance_m * 1e3:.1f} mm and {math.degrees(st.angle_rad):.2f} deg off")
     return (f"goal {st.goal_id} {name}: pose {st.index + 1} of {st.n}, {st.distance_m:.3f} m "
             f"and {math.degrees(st.angle_rad):.1f} deg to go, {st.time_to_go_s:.2f} s planned")
 
@@ -105,7 +112,7 @@ class Progress:
 
     def update(self, st):
         """True if st is progress over what was seen before (the first status is)."""
-        key = (st.status, st.index)
+        key = (st.status, st.reason, st.index)  # entering SETTLING is progress too
         now = (st.distance_m, abs(st.angle_rad), st.time_to_go_s)
         if key != self.key or self.best is None:
             self.key, self.best = key, list(now)

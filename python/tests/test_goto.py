@@ -264,3 +264,15 @@ def test_another_goal_in_force_while_ours_waits_for_its_plan_is_no_replacement(f
     r = omni4.robot.Robot("memq://", limits=False)
     st = r.go_to(5, 0, 0, timeout_s=BOUND_S)
     assert st.status == S.STATUS_REACHED
+
+
+def test_every_reason_the_controller_sends_has_its_words():
+    """goal_status_t's REASON_* (the .lcm file) each have a line in REASONS, and an ACTIVE goal
+    settling at its pose says so."""
+    from omni4.goal import REASONS, describe
+    reasons = {v for k, v in vars(S).items() if k.startswith("REASON_")}
+    assert reasons and reasons <= set(REASONS), reasons - set(REASONS)
+    st = S()
+    st.goal_id, st.status, st.reason, st.distance_m, st.angle_rad = 7, S.STATUS_ACTIVE, \
+        S.REASON_SETTLING, 0.002, 0.001
+    assert "holding it until the estimate is sure" in describe(st)
