@@ -18,32 +18,16 @@ Exit status 0 when every check passes, 1 otherwise.
 import argparse
 import configparser
 import os
-import subprocess
 import sys
 import tempfile
+
+from script_checks import check, failures, run  # (this script's folder)
 
 WHEEL_KEYS = {"R_0": 4.4, "Kv_2": 0.026, "Kt_2": 0.026, "r_1": 0.0326}
 TABLE3 = ("[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 2.34\nKv = 0.0259\nKt = 0.0259\n"
           "R = 4.3111\nJ = 0.0228\nBv = 0.4978\nBvn = 0.6763\nBw = 0.0141\nCv = 1.8738\n"
           "Cvn = 2.2198\nCw = 0.1385\n")
 MEASURED = "[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 2.34\n"
-TIMEOUT_S = 120
-
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
-
-def run(cmd, cwd):
-    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)}: exit {p.returncode}: {p.stderr.strip()[-400:]}")
-    return p.stdout
-
 
 def model_of(path):
     """[model] as {key: (value, comment)}."""

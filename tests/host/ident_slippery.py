@@ -22,13 +22,13 @@ Prints both floors' tables; exit status 0 when every check passes, 1 otherwise.
 import argparse
 import configparser
 import os
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 
 import omni4
+from script_checks import check, failures, run  # (this script's folder)
 
 TABLE3 = {"Kv": 0.0259, "R": 4.3111, "J": 0.0228, "Bv": 0.4978, "Bvn": 0.6763, "Bw": 0.0141,
           "Cv": 1.8738, "Cvn": 2.2198, "Cw": 0.1385}
@@ -36,27 +36,10 @@ TOL = {"Kv": 0.01, "R": 0.01, "J": 0.02, "Bv": 0.02, "Bvn": 0.02, "Bw": 0.02, "C
        "Cvn": 0.02, "Cw": 0.02}
 BASE = "[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 2.34\n"
 SLIPPERY, HIGH = 0.4, 1.0
-TIMEOUT_S = 120
 TRUTH_SLIP = 0x0f                     # sim_truth_t FLAG_SLIP_0..3
 EST_SLIP = omni4.state_t.FLAG_SLIP
 
-failures = []
-
-
 DISAGREE = {}  # run name -> identify's "methods disagree" warnings
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
-
-def run(cmd, cwd):
-    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)}: exit {p.returncode}: {p.stderr.strip()[-400:]}")
-    return p.stdout
 
 
 def read_ini(path, section):

@@ -158,15 +158,21 @@ WROTE_BEFORE="wrote $T/c.json" run "validate --csv DIR with a full device CSV" 1
 # stopped (SIGTERM) once its progress line says it has written all 30, or that its writes fail
 # (LCM's receive thread may not yet have taken from the socket what was sent: a SIGTERM right
 # after the publisher lost them on a loaded machine).
-# record_published OUT STATUS PATTERN
-record_published() {
-  local out=$1 want=$2 pattern=$3 rec n=0 rc
-  "$BIN/omni4-record" --lcm "$URL" --out "$out" >/dev/null 2>"$T/rec.err" &
+# record_start OUT: omni4-record to OUT in the background (its pid in rec, its stderr in
+# $T/rec.err), waited for until it says it has subscribed (bounded: 60 s) or has exited.
+record_start() {
+  local n=0
+  "$BIN/omni4-record" --lcm "$URL" --out "$1" >/dev/null 2>"$T/rec.err" &
   rec=$!
   while ! grep -q ' <- ' "$T/rec.err" && kill -0 "$rec" 2>/dev/null && [ "$n" -lt 600 ]; do
     sleep 0.1
     n=$((n + 1))
   done
+}
+# record_published OUT STATUS PATTERN
+record_published() {
+  local out=$1 want=$2 pattern=$3 rec n=0 rc
+  record_start "$out"
   bounded_run 60 publisher -- "$VENV/python" -c '
 import sys, lcm
 bus = lcm.LCM(sys.argv[1])
@@ -200,12 +206,7 @@ check "omni4-record: the reader got every message" test "$(stat -c %s "$R/fifo.o
 # it has exited (bounded).
 record_stops_on_full() {
   local out=$1 rec n=0 rc
-  "$BIN/omni4-record" --lcm "$URL" --out "$out" >/dev/null 2>"$T/rec.err" &
-  rec=$!
-  while ! grep -q ' <- ' "$T/rec.err" && kill -0 "$rec" 2>/dev/null && [ "$n" -lt 600 ]; do
-    sleep 0.1
-    n=$((n + 1))
-  done
+  record_start "$out"
   bounded_run 120 publisher -- "$VENV/python" -c '
 import os, sys, time, lcm
 bus = lcm.LCM(sys.argv[1])

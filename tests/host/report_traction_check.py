@@ -31,6 +31,7 @@ import tempfile
 import numpy as np
 
 import omni4
+from script_checks import check, failures  # (this script's folder)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 REPORT = os.path.join(ROOT, "host-tools", "plots", "omni4_report.py")
@@ -40,15 +41,6 @@ BASE = ("[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 2.34\nKv = 0.0259\nKt = 0.02
         "Cvn = 2.2198\nCw = 0.1385\n")  # the paper's Table III, the simulated robot
 TIMEOUT_S = 120
 SLOPE_N = 25
-
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
 
 def run(cmd, cwd):
     return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S)
