@@ -64,6 +64,23 @@ def test_go_to_and_follow_arrive_and_velocity_still_works(fw):
         assert m.mode == omni4.motors_t.MODE_VELOCITY
 
 
+def test_paths_that_cannot_be_one_plan_are_reached(fw):
+    """A turn in place, a pose repeated, 9 and 32 poses (more than one plan takes: docs/goal.md
+    "Tracking"): each followed pose by pose to its last, REACHED (once stopped short for good,
+    ACTIVE, the motors holding voltage)."""
+    nine = [(0.2 + 0.1 * i, 0.1 * (i % 2), 0.1 * i) for i in range(9)]
+    spiral = [(0.5 + 0.2 * math.cos(0.2 * i), 0.2 * math.sin(0.2 * i), 0.1 * i) for i in range(32)]
+    paths = {"turn in place": [(0.3, 0.0, 0.0), (0.3, 0.0, 1.0), (0.3, 0.2, 1.0)],
+             "a pose repeated": [(0.2, 0.2, 0.0), (0.2, 0.2, 0.0), (0.4, 0.3, 0.0)],
+             "nine poses": nine, "32 poses": spiral}
+    with omni4.Robot(fw.url) as robot:
+        for name, path in paths.items():
+            st = robot.follow(path, timeout_s=GOAL_TIMEOUT_S)
+            assert st.status == omni4.goal_status_t.STATUS_REACHED, f"{name}: {describe(st)}"
+            assert st.index == len(path) - 1, f"{name}: {describe(st)}"
+            assert state_near(robot, path[-1], 0.02), name
+
+
 def test_refused_goal_raises_with_its_reason(fw):
     with omni4.Robot(fw.url) as robot:
         with pytest.raises(GoalFailed, match="REFUSED: unreachable"):

@@ -10,6 +10,7 @@
 #include "omni4_goal_status_t.h"
 #include "omni4_goal_t.h"
 #include "omni4_sim_truth_t.h"
+#include "omni4_state_t.h"
 #include "omni4_test.h"
 
 /* What the controller said about goals, from its messages. */
@@ -26,6 +27,10 @@ struct heard {
 	} change[HEARD_CHANGES];
 	int n_change;
 	long slip_ticks; /* OMNI4_SIM_TRUTH samples with a wheel beyond its traction */
+	float cov[6];    /* the last OMNI4_STATE's covariance diagonal (x y theta v vn w) */
+	/* at the last change to REACHED: distance and heading still to go, and the estimate's own
+	 * standard deviations then, sqrt(var x + var y) [m] and sqrt(var theta) [rad] */
+	float reached_dist, reached_angle, reached_sd_pos, reached_sd_th;
 };
 
 static inline void tap(void *ctx, const char *channel, int64_t utime, const void *data, size_t len)
@@ -34,6 +39,13 @@ static inline void tap(void *ctx, const char *channel, int64_t utime, const void
 	omni4_goal_status_t m;
 
 	(void)utime;
+	if (!strcmp(channel, "OMNI4_STATE")) {
+		omni4_state_t st;
+
+		if (omni4_state_t_decode(data, 0, (int)len, &st) == (int)len)
+			memcpy(h->cov, st.covariance, sizeof(h->cov));
+		return;
+	}
 	if (!strcmp(channel, "OMNI4_SIM_TRUTH")) {
 		omni4_sim_truth_t t;
 
@@ -51,6 +63,13 @@ static inline void tap(void *ctx, const char *channel, int64_t utime, const void
 	     was->reason != now.reason || was->index != now.index) &&
 	    h->n_change < HEARD_CHANGES)
 		h->change[h->n_change++] = now;
+	if (m.status == OMNI4_GOAL_STATUS_T_STATUS_REACHED &&
+	    (!was || was->status != m.status || was->goal_id != m.goal_id)) {
+		h->reached_dist = m.distance_m;
+		h->reached_angle = fabsf(m.angle_rad);
+		h->reached_sd_pos = sqrtf(h->cov[0] + h->cov[1]);
+		h->reached_sd_th = sqrtf(h->cov[2]);
+	}
 	h->last = m;
 	h->n++;
 	h->refused += m.status == OMNI4_GOAL_STATUS_T_STATUS_REFUSED;

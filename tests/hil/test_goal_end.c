@@ -284,6 +284,60 @@ static void test_reached_means_the_truth_is_there_with_radii_off_by_1pc(void **s
 	simrun_destroy(sr);
 }
 
+/* A camera three times as noisy in position (3 cm, the estimator told so): the position's own
+ * standard deviation, not the heading's, is what REACHED waits for. At every REACHED the
+ * estimate published then (OMNI4_STATE's covariance) is sure as docs/goal.md says: distance
+ * plus 2 sd within 1 cm, heading plus 2 sd within 1 deg (the state of at most 10 ms before the
+ * REACHED tick: 2 % slack); the truth is within 1 cm and 1 deg. */
+static void test_reached_waits_for_a_sure_position_with_a_noisy_camera(void **state)
+{
+	static const double goals[][3] = {{0.8, 0.3, 0.5},
+	                                  {0.0, 0.6, -1.0},
+	                                  {-0.4, -0.2, 2.0},
+	                                  {0.5, -0.5, 0.0},
+	                                  {0.0, 0.0, 1.0}};
+	struct omni4_config cfg;
+	char err[256];
+	struct heard h;
+	double worst_e = 0.0;
+
+	(void)state;
+	config_defaults(&cfg);
+	cfg.sim.camera_pos_noise_m = 0.03;
+	cfg.ctl.est.cam_pos_noise = 0.03;
+	struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, true, NULL, err, sizeof(err));
+
+	assert_non_null(sr);
+	memset(&h, 0, sizeof(h));
+	simrun_set_tap(sr, tap, &h);
+	hil_run(sr, 0.3);
+	for (int k = 0; k < 5; k++) {
+		h.n_change = 0;
+		const double t = drive_until_done(sr, &h, 60 + k, 1, &goals[k], 30.0);
+		double e, a;
+		int settling = 0;
+
+		for (int i = 0; i < h.n_change; i++)
+			settling += h.change[i].reason == OMNI4_GOAL_STATUS_T_REASON_SETTLING;
+		truth_off(sr, goals[k], &e, &a);
+		printf(
+		    "noisy camera: goal %d %s after %.2f s (settling seen %d), truth off by %.2f "
+		    "mm, %.3f deg; at REACHED %.2f + 2 x %.2f mm, %.3f + 2 x %.3f deg\n",
+		    k, h.last.status == S_REACHED ? "REACHED" : "not reached", t, settling, e * 1e3,
+		    a / DEG, h.reached_dist * 1e3, h.reached_sd_pos * 1e3, h.reached_angle / DEG,
+		    h.reached_sd_th / DEG);
+		assert_int_equal(h.last.status, S_REACHED);
+		assert_true(h.reached_dist + 2.0f * h.reached_sd_pos <= 1.02f * 0.01f);
+		assert_true(h.reached_angle + 2.0f * h.reached_sd_th <= 1.02f * 1.0f * (float)DEG);
+		assert_true(e < 0.01 && a < 1.0 * DEG);
+		worst_e = fmax(worst_e, e);
+		send_goal(sr, 60 + k, OMNI4_GOAL_T_ACTION_CANCEL, 0, NULL, 0.0);
+		hil_run(sr, 0.3);
+	}
+	printf("noisy camera: worst truth %.2f mm\n", worst_e * 1e3);
+	simrun_destroy(sr);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -292,6 +346,7 @@ int main(void)
 	    cmocka_unit_test(test_a_second_senders_goal_replaces_the_first_whose_sender_is_told),
 	    cmocka_unit_test(test_a_cancel_at_speed_brakes_to_rest),
 	    cmocka_unit_test(test_reached_means_the_truth_is_there_with_radii_off_by_1pc),
+	    cmocka_unit_test(test_reached_waits_for_a_sure_position_with_a_noisy_camera),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
