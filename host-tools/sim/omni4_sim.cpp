@@ -16,8 +16,10 @@
 #include <string>
 #include <thread>
 
+#include "omni4/goal_status_t.hpp"
 #include "omni4/motors_t.hpp"
 #include "outfile.hpp"
+#include "scenario.hpp"
 #include "simexp.hpp"
 
 namespace
@@ -46,6 +48,7 @@ void on_signal(int)
 
 struct SimArgs {
 	std::string params_path, out_path, speed = "max";
+	std::string goals_path, drive_path; // scenario files (scenario.hpp)
 	bool experiments = false, no_noise = false, quiet = false;
 	bool no_truth = false, no_estimate = false;
 	std::vector<std::string> only; // experiment kinds (traction_exp.hpp); implies experiments
@@ -66,6 +69,14 @@ void add_options(CLI::App &app, SimArgs &a)
 	app.add_option("--only", a.only,
 	               "run only these experiment kinds (steady_rotation coast motor step "
 	               "traction); traction needs a floor ([sim] traction_mu)");
+	app.add_option("--goals", a.goals_path,
+	               "FILE.csv: rows x,y,theta[,speed_max] [m, m, rad, m/s], each goal sent when "
+	               "the previous one ends (REACHED, ABORTED, REFUSED; at most 130 s), its "
+	               "outcome and the truth's distance from it printed");
+	app.add_option(
+	    "--drive", a.drive_path,
+	    "FILE.csv: rows t_s,v,vn,w [s, m/s, m/s, rad/s]: VELOCITY commands from time "
+	    "t_s of the run on (kept alive), the run ending 1 s after the last row");
 	app.add_option("--duration", a.duration_s, "without --experiments: idle run length [s]")
 	    ->check(CLI::Range(0.0, 36000.0));
 	app.add_option("--speed", a.speed,
@@ -101,9 +112,16 @@ int check_args(SimArgs &a)
 			return 2;
 		}
 	}
-	if (!a.experiments && a.only.empty() && !(a.duration_s > 0)) {
-		std::fprintf(stderr,
-		             "omni4-sim: nothing to do: give --experiments or --duration S\n");
+	const int modes = (a.experiments || !a.only.empty()) + !a.goals_path.empty() +
+	                  !a.drive_path.empty() + (a.duration_s > 0);
+	if (modes > 1) {
+		std::fprintf(stderr, "omni4-sim: give one of --experiments (--only), --goals, "
+		                     "--drive, --duration\n");
+		return 2;
+	}
+	if (modes == 0) {
+		std::fprintf(stderr, "omni4-sim: nothing to do: give --experiments, --goals FILE, "
+		                     "--drive FILE or --duration S\n");
 		return 2;
 	}
 	return 0;
@@ -177,13 +195,14 @@ int finish_out(OutFile &out, const SimArgs &a, const simrun_stats &st)
 }
 // The progress line: on a terminal it updates in place; in a log, one line per 10 %. The
 // experiment phase only when there are phases (an idle run has none).
-std::function<void(double, size_t, size_t)> progress_printer(bool quiet, bool tty)
+std::function<void(double, size_t, size_t)> progress_printer(bool quiet, bool tty, const char *part)
 {
-	return [quiet, tty, last_decile = -1](double frac, size_t phase, size_t phases) mutable {
+	return [quiet, tty, part, last_decile = -1](double frac, size_t phase,
+	                                            size_t phases) mutable {
 		const int pct = static_cast<int>(100 * frac);
 		if (quiet || (!tty && pct / 10 == last_decile))
 			return;
-		const std::string ph = phases ? "  phase " +
+		const std::string ph = phases ? std::string("  ") + part + " " +
 		                                    std::to_string(std::min(phase + 1, phases)) +
 		                                    "/" + std::to_string(phases)
 		                              : "";
@@ -191,6 +210,58 @@ std::function<void(double, size_t, size_t)> progress_printer(bool quiet, bool tt
 		             tty ? "" : "\n");
 		last_decile = pct / 10;
 	};
+}
+// The goals' outcomes, one line each; 1 if any was not REACHED.
+int report_goals(const omni4::ScenarioResult &res)
+{
+	int status = 0;
+	for (size_t i = 0; i < res.goals.size(); ++i) {
+		const omni4::GoalOutcome &g = res.goals[i];
+		std::printf(
+		    "omni4-sim: goal %zu of %zu: %s after %.2f s (sent at %.2f s), the truth "
+		    "%.1f mm and %.2f deg from it\n",
+		    i + 1, res.goals.size(), omni4::goal_outcome_text(g.status, g.reason).c_str(),
+		    g.ended_s - g.sent_s, g.sent_s, g.truth_off_m * 1e3,
+		    g.truth_off_rad * 180.0 / M_PI);
+		if (g.status != omni4::goal_status_t::STATUS_REACHED)
+			status = 1;
+	}
+	return status;
+}
+
+// --goals or --drive: the file read (one line FILE:LINE:COLUMN and status 2 if malformed), the
+// scenario played into the log; the exit status.
+int scenario(const SimArgs &a, const omni4_config &cfg, OutFile &out,
+             const std::function<void(double, size_t, size_t)> &progress)
+{
+	omni4::ScenarioResult res;
+	try {
+		if (!a.goals_path.empty()) {
+			const auto goals = omni4::read_goals(a.goals_path);
+			res = omni4::run_goals(cfg, cfg.ctl.model, !a.no_noise, out.write_path(),
+			                       goals, 130.0, a.rtf, progress,
+			                       [] { return g_stop != 0; });
+		} else {
+			const auto rows = omni4::read_drive(
+			    a.drive_path, cfg.ctl.limits.vel_lin_max, cfg.ctl.limits.vel_rot_max);
+			res = omni4::run_drive(cfg, cfg.ctl.model, !a.no_noise, out.write_path(),
+			                       rows, 1.0, a.rtf, progress,
+			                       [] { return g_stop != 0; });
+		}
+	} catch (const omni4::ScenarioError &e) {
+		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
+		return 2;
+	} catch (const std::exception &e) {
+		std::fprintf(stderr, "omni4-sim: %s\n", e.what());
+		return 1;
+	}
+	if (!a.quiet && isatty(STDERR_FILENO))
+		std::fprintf(stderr, "\n");
+	if (int status = finish_out(out, a, res.run.stats))
+		return status;
+	const int goals = report_goals(res);
+	const int run = report(a, res.run);
+	return run ? run : goals;
 }
 } // namespace
 
@@ -213,7 +284,10 @@ int main(int argc, char **argv)
 		return status;
 
 	const bool tty = isatty(STDERR_FILENO);
-	auto progress = progress_printer(a.quiet, tty);
+	auto progress = progress_printer(a.quiet, tty,
+	                                 !a.goals_path.empty()   ? "goal"
+	                                 : !a.drive_path.empty() ? "row"
+	                                                         : "phase");
 	// Ctrl-C or SIGTERM: the run ends at the next tick, the open segment is closed and the log
 	// is written out whole (exit status 130).
 	std::signal(SIGINT, on_signal);
@@ -225,6 +299,8 @@ int main(int argc, char **argv)
 		std::fprintf(stderr, "omni4-sim: cannot create log: %s\n", e.what());
 		return 1;
 	}
+	if (!a.goals_path.empty() || !a.drive_path.empty())
+		return scenario(a, cfg, *out, progress);
 	omni4::SimRunResult r;
 	try {
 		std::vector<omni4::Phase> phases = a.experiments || !a.only.empty()

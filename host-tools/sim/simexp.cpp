@@ -75,31 +75,27 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 	TractionWatch watch;
 	const double dt = simrun_period_s(sr.get());
 	const long ticks = std::lround(total_s / dt);
-	const auto wall0 = std::chrono::steady_clock::now();
-	long next_report = 0;
-	long k = 0;
-	bool interrupted = false;
-	for (; k < ticks; ++k) {
-		if (stop && stop()) {
-			interrupted = true;
-			break;
-		}
-		if (experiments && player.done())
-			break; // the watch skipped runs: the sequence ended early
-		if (experiments)
-			play_tick(sr.get(), player, k, dt);
-		simrun_tick(sr.get());
-		if (experiments) // a traction direction stops at its first slip
-			watch.step(player, static_cast<int32_t>(simrun_estimate(sr.get())->flags));
-		if (rtf > 0)
-			std::this_thread::sleep_until(
-			    wall0 + std::chrono::duration<double>((k + 1) * dt / rtf));
-		if (progress && k >= next_report) {
-			progress(static_cast<double>(k + 1) / ticks, player.phase_index(),
-			         phases.size());
-			next_report += std::max(1L, ticks / 100);
-		}
-	}
+	LockstepClock clock(dt, rtf);
+	const long k = lockstep(
+	    sr.get(), ticks, clock,
+	    [&](long tick) {
+		    if (experiments && player.done())
+			    return false; // the watch skipped runs: the sequence ended early
+		    if (experiments)
+			    play_tick(sr.get(), player, tick, dt);
+		    return true;
+	    },
+	    [&](long) { // a traction direction stops at its first slip
+		    if (experiments)
+			    watch.step(player,
+			               static_cast<int32_t>(simrun_estimate(sr.get())->flags));
+	    },
+	    [&](double frac) {
+		    if (progress)
+			    progress(frac, player.phase_index(), phases.size());
+	    },
+	    stop);
+	const bool interrupted = clock.interrupted;
 	if (experiments) { // close the last segment
 		const std::vector<uint8_t> end =
 		    encode_mark(simrun_now_us(sr.get()), OMNI4_MARK_END);
@@ -107,11 +103,46 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 	}
 	if (progress && !interrupted)
 		progress(1.0, phases.size(), phases.size());
+	return finish_run(sr.get(), clock, k);
+}
+
+long lockstep(simrun *sr, long ticks, LockstepClock &clock, const std::function<bool(long)> &before,
+              const std::function<void(long)> &after, const std::function<void(double)> &progress,
+              const std::function<bool()> &stop)
+{
+	long next_report = 0;
+	long k = 0;
+
+	for (; k < ticks; ++k) {
+		if (stop && stop()) {
+			clock.interrupted = true;
+			break;
+		}
+		if (before && !before(k))
+			break;
+		simrun_tick(sr);
+		if (after)
+			after(k);
+		if (clock.rtf > 0)
+			std::this_thread::sleep_until(
+			    clock.wall0 +
+			    std::chrono::duration<double>((k + 1) * clock.dt / clock.rtf));
+		if (progress && k >= next_report) {
+			progress(static_cast<double>(k + 1) / static_cast<double>(ticks));
+			next_report += std::max(1L, ticks / 100);
+		}
+	}
+	return k;
+}
+
+SimRunResult finish_run(simrun *sr, const LockstepClock &clock, long ticks_run)
+{
 	SimRunResult r;
-	r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-	r.simulated_s = static_cast<double>(k) * dt;
-	r.interrupted = interrupted;
-	collect_stats(sr.get(), r);
+	r.wall_s =
+	    std::chrono::duration<double>(std::chrono::steady_clock::now() - clock.wall0).count();
+	r.simulated_s = static_cast<double>(ticks_run) * clock.dt;
+	r.interrupted = clock.interrupted;
+	collect_stats(sr, r);
 	return r;
 }
 

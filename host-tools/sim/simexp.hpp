@@ -1,6 +1,7 @@
 // simexp.hpp - run the paper's experiment sequence on the simulated robot into an event log.
 #pragma once
 
+#include <chrono>
 #include <functional>
 #include <string>
 #include <utility>
@@ -43,5 +44,26 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
                         double idle_s, double rtf,
                         const std::function<void(double, size_t, size_t)> &progress = {},
                         const std::function<bool()> &stop = {});
+
+// The wall clock of a lockstep run: its start, the period and the pace (rtf <= 0: as fast as
+// possible), and whether stop() ended it.
+struct LockstepClock {
+	LockstepClock(double dt_s, double rtf_) : dt(dt_s), rtf(rtf_)
+	{
+	}
+	std::chrono::steady_clock::time_point wall0 = std::chrono::steady_clock::now();
+	double dt, rtf;
+	bool interrupted = false;
+};
+
+// Up to `ticks` ticks of sr: before(k) ahead of tick k (false: the run ends there), after(k)
+// behind it, paced by clock, progress(fraction) every 1 %, stop (may be empty) asked every
+// tick (true: clock.interrupted, the run ends). The ticks run.
+long lockstep(simrun *sr, long ticks, LockstepClock &clock, const std::function<bool(long)> &before,
+              const std::function<void(long)> &after, const std::function<void(double)> &progress,
+              const std::function<bool()> &stop);
+
+// The run's result after ticks_run ticks: its log flushed, its statistics and channel counts.
+SimRunResult finish_run(simrun *sr, const LockstepClock &clock, long ticks_run);
 
 } // namespace omni4
