@@ -84,10 +84,6 @@ void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin)
 void goal_init(struct goal *g, const struct ctl_settings *cfg)
 {
 	const bool again = active(g) && g->traj_ok;
-	struct traj_ref ref;
-
-	if (again)
-		traj_eval(&g->tr, g->tr.t_s, &ref);
 	struct traj_limits lim = {
 	    .p = cfg->model,
 	    .supply_v = cfg->limits.supply_v,
@@ -122,12 +118,9 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 	if (g->rep.status != GOAL_ACTIVE && g->rep.status != GOAL_REACHED)
 		g->tr = g->scratch; /* nothing in force: hold still at the origin */
 	g->speed_cap_m_s = g->scratch.c.speed_cap_m_s;
-	/* New limits while a goal runs: a new plan from where the reference is (no jump). */
-	if (!again)
-		return;
-	if (g->whole && !g->fixed && traj_replan(&g->tr, g->poses[g->n - 1]) == 0)
-		return; /* the same path, re-timed */
-	goal_plan_to(g->fixed, &g->fx, &g->tr, &ref, g->poses[g->index]);
+	/* New limits while a goal runs: its plan asked again beside the loop (GOAL_JOB_REPLAN),
+	 * from the reference a lead ahead (no jump); the plan in force goes on meanwhile. */
+	g->replan_want = g->replan_want || again;
 }
 
 /* 0 if the goal's fields are usable, else the reason. */
@@ -207,7 +200,9 @@ static void post(struct goal *g, const struct ctl *c, const struct est_output *e
 	const bool first = g->want_set && !g->want_posted;
 	const bool brake = !first && g->brake && g->brake_want;
 
-	if ((!first && !brake && !g->next_want) ||
+	if (g->next_want) /* the next pose's plan is made under the new limits anyway */
+		g->replan_want = false;
+	if ((!first && !brake && !g->next_want && !g->replan_want) ||
 	    atomic_load_explicit(&j->state, memory_order_acquire) != GOAL_JOB_IDLE ||
 	    (!est && !holding(g, c)))
 		return;
@@ -239,13 +234,15 @@ static void post(struct goal *g, const struct ctl *c, const struct est_output *e
 		j->blend_m = g->blend_m;
 		g->brake_want = false;
 	} else {
-		j->kind = GOAL_JOB_NEXT;
+		j->kind = g->next_want ? GOAL_JOB_NEXT : GOAL_JOB_REPLAN;
 		j->id = g->rep.id;
 		j->n = g->n;
 		j->index = g->index;
+		j->whole = g->whole;
 		j->blend_m = g->blend_m;
 		memcpy(j->poses, g->poses, sizeof(j->poses));
 		g->next_want = false;
+		g->replan_want = false;
 	}
 	plan_start(g, c, est, now_us, j);
 	atomic_store_explicit(&j->state, GOAL_JOB_POSTED, memory_order_release);
@@ -263,6 +260,8 @@ static void ask_again(struct goal *g, enum goal_job_kind kind)
 		g->want_posted = false;
 	else if (kind == GOAL_JOB_BRAKE)
 		g->brake_want = true;
+	else if (kind == GOAL_JOB_REPLAN)
+		g->replan_want = true;
 	else
 		g->next_want = true;
 	job_free(&g->job);
@@ -305,6 +304,8 @@ static bool job_wanted(const struct goal *g, const struct ctl *c, const struct g
 		return g->want_set && g->want.id == j->id;
 	if (j->kind == GOAL_JOB_BRAKE)
 		return g->brake == 1 && holding(g, c) && g->rep.id == j->id;
+	if (j->kind == GOAL_JOB_REPLAN && j->whole) /* a path's: whatever pose it aims at now */
+		return active(g) && holding(g, c) && g->rep.id == j->id;
 	return active(g) && holding(g, c) && g->rep.id == j->id && g->index == j->index;
 }
 
@@ -316,7 +317,7 @@ static void job_failed(struct goal *g, struct ctl *c, const struct goal_job *j, 
 		refuse(g, &g->want, GOAL_REFUSED, (enum goal_reason)j->reason);
 		return;
 	}
-	if (j->kind == GOAL_JOB_NEXT)
+	if (j->kind == GOAL_JOB_NEXT || j->kind == GOAL_JOB_REPLAN)
 		set_status(g, GOAL_ABORTED, (enum goal_reason)j->reason);
 	g->brake = 0;
 	ctl_stop(c, now_us);
@@ -368,6 +369,8 @@ static void take(struct goal *g, struct ctl *c, int64_t now_us)
 		traj_take_over(&g->tr, &j->tr);
 		if (kind == GOAL_JOB_BRAKE)
 			g->brake = 2;
+		if (kind == GOAL_JOB_REPLAN)
+			g->whole = j->whole;
 	}
 	job_free(j);
 }

@@ -28,6 +28,18 @@ static bool plan_path(struct goal_job *j)
 	       j->tr.duration_s <= GOAL_PLAN_MAX_S;
 }
 
+/* New limits under a path in force (j->tr: it, on the tick's clock): the same path re-timed
+ * from its reference at the hand-over; false if the new limits cannot hold it from there (then
+ * the pose aimed at alone is planned). */
+static bool replan_path(struct goal_job *j)
+{
+	if (j->fixed)
+		return false;
+	j->tr.t_s = j->tr.handover_s;
+	return traj_replan(&j->tr, j->poses[j->n - 1]) == 0 && j->tr.on_path &&
+	       j->tr.duration_s <= GOAL_PLAN_MAX_S;
+}
+
 /* A cancelled goal's brake: a plan from the reference to where it can stop, ahead along its
  * velocity by v^2 / (2 a), a the acceleration the envelope gives from rest against the motion
  * plus twice the Coulomb friction's share along it (from rest it opposes that acceleration,
@@ -68,7 +80,10 @@ bool goal_work(struct goal *g)
 	const float handover_s = j->tr.handover_s;
 
 	j->reason = GOAL_R_NONE;
-	j->whole = j->kind == GOAL_JOB_FIRST && plan_path(j);
+	if (j->kind == GOAL_JOB_REPLAN)
+		j->whole = j->whole && replan_path(j);
+	else
+		j->whole = j->kind == GOAL_JOB_FIRST && plan_path(j);
 	if (j->kind == GOAL_JOB_BRAKE) {
 		if (plan_brake(j))
 			j->reason = GOAL_R_UNREACHABLE;

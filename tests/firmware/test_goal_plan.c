@@ -42,6 +42,46 @@ struct rig {
 
 static struct rig R;
 
+/* Every plan the core makes passes one of these (linked with --wrap): counted when made in the
+ * tick (in_tick set around goal_command, goal_init and goal_step on the tick's thread). */
+static _Thread_local bool in_tick;
+static atomic_int planned_in_tick, planned_beside;
+
+static void count_plan(void)
+{
+	if (in_tick)
+		atomic_fetch_add(&planned_in_tick, 1);
+	else
+		atomic_fetch_add(&planned_beside, 1);
+}
+
+int __real_traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
+int __wrap_traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
+int __wrap_traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
+{
+	count_plan();
+	return __real_traj_plan(tr, from, goal);
+}
+
+int __real_traj_replan(struct traj *tr, const float goal[3]);
+int __wrap_traj_replan(struct traj *tr, const float goal[3]);
+int __wrap_traj_replan(struct traj *tr, const float goal[3])
+{
+	count_plan();
+	return __real_traj_replan(tr, goal);
+}
+
+int __real_traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3],
+                          int n, float radius_m);
+int __wrap_traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3],
+                          int n, float radius_m);
+int __wrap_traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3],
+                          int n, float radius_m)
+{
+	count_plan();
+	return __real_traj_plan_path(tr, from, poses, n, radius_m);
+}
+
 static void rig_init(struct rig *r)
 {
 	memset(r, 0, sizeof(*r));
@@ -328,6 +368,53 @@ static void test_plans_made_on_another_thread(void **state)
 	check_no_jump(&R);
 }
 
+/* A live parameter change during a goal (the controller takes it in its tick: goal_init), for
+ * a single pose and for a path: the tick plans nothing, the new plan is made beside the loop
+ * and handed over without a jump, and the goal is reached. */
+static void test_a_parameter_change_plans_nothing_in_the_tick(void **state)
+{
+	static const float path[3][3] = {
+	    {1.0f, 0.0f, 0.0f}, {1.0f, 1.0f, 0.0f}, {0.0f, 1.0f, 1.0f}};
+
+	(void)state;
+	for (int with_path = 0; with_path < 2; with_path++) {
+		rig_init(&R);
+		struct goal_cmd cmd = {.id = 9, .action = GOAL_GO, .n = with_path ? 3 : 1};
+
+		for (int i = 0; i < cmd.n; i++)
+			for (int k = 0; k < 3; k++)
+				cmd.poses[i][k] = with_path ? path[i][k] : A[k];
+		atomic_store(&planned_in_tick, 0);
+		int changes = 0, k = 0;
+
+		for (; k < 20000 && !(R.g.rep.id == 9 && R.g.rep.status == GOAL_REACHED); k++) {
+			in_tick = true;
+			if (k % KEEP_TICKS == 0)
+				goal_command(&R.g, &R.c, &cmd, &R.est, R.now_us);
+			if (k == 400 || k == 900) { /* a live change, as the tick takes it */
+				R.cfg.limits.traction_mu =
+				    k == 400 ? 0.4 : 0.55; /* within the jump check's floor */
+				goal_init(&R.g, &R.cfg);
+				atomic_store(&planned_beside, 0);
+				changes++;
+			}
+			tick(&R, false);
+			in_tick = false;
+			goal_work(&R.g);
+		}
+		print_message(
+		    "%s: reached after %d ticks, %d changes; plans in the tick %d, beside "
+		    "it after the last change %d\n",
+		    with_path ? "path" : "pose", k, changes, atomic_load(&planned_in_tick),
+		    atomic_load(&planned_beside));
+		assert_int_equal(R.g.rep.status, GOAL_REACHED);
+		assert_int_equal(changes, 2);
+		assert_int_equal(atomic_load(&planned_in_tick), 0);
+		assert_true(atomic_load(&planned_beside) >= 1); /* the change was planned for */
+		check_no_jump(&R);
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -338,6 +425,7 @@ int main(void)
 	        test_unreachable_goal_is_refused_after_its_plan_and_the_goal_in_force_stays),
 	    cmocka_unit_test(test_waiting_goal_replaced_or_cancelled_is_never_taken),
 	    cmocka_unit_test(test_plans_made_on_another_thread),
+	    cmocka_unit_test(test_a_parameter_change_plans_nothing_in_the_tick),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -145,7 +145,14 @@ struct goal_report {
  * tick writes it only while IDLE and reads it only once DONE; goal_work touches it only while
  * POSTED. */
 enum goal_job_state { GOAL_JOB_IDLE = 0, GOAL_JOB_POSTED = 1, GOAL_JOB_DONE = 2 };
-enum goal_job_kind { GOAL_JOB_FIRST = 0, GOAL_JOB_NEXT = 1, GOAL_JOB_BRAKE = 2 };
+/* FIRST: a new goal's plan; NEXT: a stepped goal's next pose; BRAKE: a cancelled goal's stop;
+ * REPLAN: the goal in force under new limits (goal_init), from its reference a lead ahead. */
+enum goal_job_kind {
+	GOAL_JOB_FIRST = 0,
+	GOAL_JOB_NEXT = 1,
+	GOAL_JOB_BRAKE = 2,
+	GOAL_JOB_REPLAN = 3,
+};
 
 /* Goal ids that ended, remembered so that a repeat never starts one again: its sender is told
  * how it ended instead (a second client's goal replaced it: ABORTED, REASON_REPLACED). */
@@ -170,8 +177,9 @@ struct goal_job {
 	float poses[GOAL_POSES_MAX][3];
 	/* made */
 	int8_t reason; /* GOAL_R_NONE, or why there is no plan */
-	bool
-	    whole; /* the plan goes through every pose to the last (a path), else to poses[index] */
+	/* in: REPLAN of a path in force; out: the plan goes through every pose to the last (a
+	 * path), else to poses[index] */
+	bool whole;
 	struct traj tr; /* its limits when asked; the plan when made */
 };
 
@@ -206,6 +214,7 @@ struct goal {
 	bool want_set, want_posted;
 	int64_t want_alive_us; /* its sender's last keep-alive */
 	bool next_want;        /* a stepped goal's next pose needs its plan */
+	bool replan_want;      /* new limits: the goal in force needs its plan again */
 	float lead_s;          /* the next request's lead */
 	uint32_t gen;          /* new limits (goal_init) */
 	struct goal_job job;
