@@ -7,7 +7,7 @@ usage: sim_scenarios.py BIN_DIR
 lockstep; each goal is REACHED (its goal_status_t in the log), the truth (OMNI4_SIM_TRUTH) is
 within 1 cm and 1 deg of it when REACHED comes, never faster than a goal's speed_max while that
 goal is in force (5 % over for the tracking), and the summary's line for each goal names REACHED;
-the same file run twice gives the same truth, sample for sample (a scenario is replayed the same
+each goal is sent within 0.1 s of the one before it ending; the same file run twice gives the same truth, sample for sample (a scenario is replayed the same
 on any machine). --drive: each row's velocity is the truth's (robot frame) over the last 0.3 s
 before the next row, within 2 % and 1 cm/s (0.02 rad/s), and the robot is at rest before the
 first row's time. Malformed files: one line "omni4-sim: FILE:LINE:COLUMN: ...", status 2, no log
@@ -90,6 +90,17 @@ def check_goals(bin_dir, d):
             check(fast <= 1.05 * g[3],
                   f"--goals: goal {k + 1}: the truth's top speed {fast:.3f} m/s within its "
                   f"speed_max {g[3]} (+5 %)")
+    # each goal sent as soon as the one before ended: its first goal_t within 0.1 s of that
+    sent = [m for _, m in events(logs[0], "OMNI4_GOAL", omni4.goal_t)
+            if m.action == omni4.goal_t.ACTION_GO]
+    ids = sorted({m.goal_id for m in sent})
+    for a, b in zip(ids, ids[1:]):
+        end = min((m.utime for m in status if m.goal_id == a and m.status != S.STATUS_ACTIVE),
+                  default=None)
+        first = min(m.utime for m in sent if m.goal_id == b)
+        check(end is not None and 0 <= first - end <= 100000,
+              f"--goals: goal {b} sent {(first - (end or 0)) / 1e3:.0f} ms after goal {a} "
+              "ended (<= 100 ms)")
     run([os.path.join(bin_dir, "omni4-sim"), "--goals", path, "--out", logs[1], "-q"], d)
     again = events(logs[1], "OMNI4_SIM_TRUTH", omni4.sim_truth_t)
     same = len(again) == len(truth) and all(
