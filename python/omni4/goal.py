@@ -133,6 +133,7 @@ class GoalMixin:
         self._goal_cv = threading.Condition()
         self._goal_msg = None          # the goal_t kept alive (None: none)
         self._goal_id = None           # the id of the last goal sent (kept after it ends)
+        self._goal_last = False        # the last thing sent was a goal (not a command)
         self._goal_status = None       # the last goal_status_t about that goal
         self._goal_status_s = 0.0      # monotonic [s] of its arrival
         self._goal_other = None        # a later goal_status_t of another goal in force
@@ -170,6 +171,7 @@ class GoalMixin:
             self._forget_command()
             self._goal_msg = msg
             self._goal_id = msg.goal_id
+            self._goal_last = True
             self._goal_status = None
             self._goal_other = None
             self._goal_status_s = time.monotonic()
@@ -259,6 +261,7 @@ class GoalMixin:
         """A command replaces the goal: no more keep-alive."""
         with self._goal_cv:
             self._goal_msg = None
+            self._goal_last = False
 
     def _send_goal_locked(self, msg):
         self._goal_seq += 1

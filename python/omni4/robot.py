@@ -4,7 +4,8 @@
         robot.velocity(0.2, 0.0, 0.0)             # v [m/s], vn [m/s], w [rad/s]
         for m in robot.motors(timeout_s=1.0, duration_s=2.0):
             print(m.utime, m.wheel_speed)
-    # leaving the block sends IDLE and ends the client's threads
+    # leaving the block sends IDLE (after a goal: its cancel, which brakes a moving robot to
+    # rest) and ends the client's threads
 
 Commands go out as command_t on OMNI4_CMD, seq increasing by one per message, utime from
 this host's clock [us]. The controller's watchdog (`[control] cmd_timeout_ms`, default 200 ms,
@@ -576,11 +577,13 @@ class Robot(GoalMixin):
     # ---- life cycle ----------------------------------------------------------------------
     def close(self, stop=True):
         """Sends IDLE (stop=False: sends nothing, e.g. after a clear that must not stop another
-        client's drive), ends the keep-alive and receive threads (bounded joins). Idempotent."""
+        client's drive; nor after a goal, whose cancel stops the robot, braking it to rest if it
+        moves: an IDLE would cut the brake), ends the keep-alive and receive threads (bounded
+        joins). Idempotent."""
         if self._closed.is_set():
             return
         try:
-            if stop:
+            if stop and not self._goal_last:
                 self.stop()
             else:
                 with self._lock:

@@ -225,6 +225,8 @@ def test_go_to_interrupted_cancels_its_goal_before_raising(fake, sigint_raises):
     f = made[0]
     assert [c.goal_id for c in f.cancels()] == [f.goals[0].goal_id]
     assert r._goal_msg is None                  # no longer kept alive
+    r.close()      # leaving the client: the cancel stops the robot (braking); an IDLE would
+    assert not f.commands, "a command_t (IDLE) was sent"   # cut the brake and let it coast
 
 
 def test_aborted_replaced_is_one_line_status_1(capsys, fake):
