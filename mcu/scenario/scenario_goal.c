@@ -1,7 +1,9 @@
 /* scenario_goal.c - the goal mode on the scenarios' robot (scenario_goal.h): a goal from rest,
  * kept alive as a client does, replaced on the way by a second one (handed over a lead ahead
- * of the reference: no jump), to REACHED; the cost per tick beside it, and the plans' cost
- * beside the loop (fw_background after each tick, as a main loop would run it). */
+ * of the reference: no jump), a live parameter change while the second one moves (taken by a
+ * tick that plans nothing: its plan is asked again beside the loop), to REACHED; the cost per
+ * tick beside it, and the plans' cost beside the loop (fw_background after each tick, as a main
+ * loop would run it). */
 #include "scenario_goal.h"
 
 #include <math.h>
@@ -10,6 +12,8 @@
 #define GOAL_TICKS_MAX 6000 /* 6 s at 1 kHz: far beyond the plans' duration */
 #define KEEP_TICKS 50       /* keep-alive every 50 ms, as omni4-goto */
 #define REPLACE_TICK 400    /* the second goal, while the first one moves */
+#define PARAM_TICK 900      /* a live change of the floor while the second one moves */
+#define PARAM_MU 0.5        /* [limits] traction_mu then (the planner's floor was 0.6) */
 #define POS_TOL_M 0.01      /* issue 37: 1 cm and 1 degree of the goal */
 #define TH_TOL_RAD (3.14159265358979 / 180.0)
 #define JUMP_TOL_M 0.002 /* the reference's step at the hand-over: at 1 m/s a tick is 1 mm */
@@ -73,8 +77,26 @@ static void print_costs(const struct cost *tick, const struct cost *plan)
 	scenario_print(fig);
 }
 
+/* The parameter side's change, prepared beside the loop (not metered as a tick) and offered
+ * to it; the loop takes it whole between two ticks. false if it could not be prepared. */
+static bool offer_params(struct fw_param_update *u)
+{
+	struct fw *fw = &scenario_robot()->fw;
+	struct ctl_settings set = fw->ctl.set;
+	char why[96];
+
+	set.limits.traction_mu = PARAM_MU;
+	if (fw_param_prepare(fw, &set, false, u, why, sizeof(why)))
+		return false;
+	fw_param_offer(fw, u);
+	return true;
+}
+
 int scenario_goal(void)
 {
+	static struct fw_param_update u;
+	struct fw_param_result pr = {0};
+	bool param_taken = false;
 	struct cost tick = {0}, plan = {0};
 	bool ok = scenario_start() == 0;
 	long reached = -1, taken = -1;
@@ -87,7 +109,11 @@ int scenario_goal(void)
 			id = 2;
 		if (i % KEEP_TICKS == 0 || i == REPLACE_TICK)
 			post(id);
+		if (i == PARAM_TICK)
+			ok &= offer_params(&u);
 		step(&tick, &plan);
+		if (i >= PARAM_TICK && !param_taken)
+			param_taken = fw_param_done(&scenario_robot()->fw, &u, &pr) && pr.rc == 0;
 		if (taken < 0 && g->rep.id == 2) {
 			taken = i;
 			jump = hypot(g->rep.ref[0] - last[0], g->rep.ref[1] - last[1]);
@@ -103,11 +129,12 @@ int scenario_goal(void)
 	char fig[200];
 
 	ok &= reached > 0 && taken > REPLACE_TICK && e < POS_TOL_M && a < TH_TOL_RAD &&
-	      jump < JUMP_TOL_M;
+	      jump < JUMP_TOL_M && param_taken && reached > PARAM_TICK;
 	snprintf(fig, sizeof(fig),
-	         "taken_tick=%ld ref_step_mm=%.2f reached_tick=%ld pos_err_mm=%.1f "
+	         "taken_tick=%ld ref_step_mm=%.2f param_taken=%d reached_tick=%ld pos_err_mm=%.1f "
 	         "th_err_mdeg=%.0f",
-	         taken, 1e3 * jump, reached, 1e3 * e, 1e3 * a * 180.0 / 3.14159265358979);
+	         taken, 1e3 * jump, param_taken, reached, 1e3 * e,
+	         1e3 * a * 180.0 / 3.14159265358979);
 	scenario_say("goal", ok, fig);
 	print_costs(&tick, &plan);
 	return ok ? 0 : 1;
