@@ -7,7 +7,7 @@
 #include <math.h>
 #include <string.h>
 
-#define PI_F 3.14159265358979f
+#define PI_F GOAL_PI_F
 
 static float wrap(float a)
 {
@@ -20,13 +20,6 @@ static float wrap(float a)
 static float norm2(float x, float y)
 {
 	return sqrtf(x * x + y * y);
-}
-
-/* cos and sin of a (sin as a shifted cos: no sincosf, which the core's objects may not call). */
-static void cos_sin(float a, float *c, float *s)
-{
-	*c = cosf(a);
-	*s = cosf(a - 0.5f * PI_F);
 }
 
 static float clampf(float x, float lim)
@@ -48,8 +41,8 @@ static bool holding(const struct goal *g, const struct ctl *c)
 /* A goal that ended (REACHED, ABORTED, REFUSED), remembered as it ended. */
 static void remember(struct goal *g, const struct goal_report *r)
 {
-	g->ended[g->n_ended % GOAL_ENDED_IDS] = *r;
-	g->n_ended = (g->n_ended + 1) % (2 * GOAL_ENDED_IDS);
+	g->ended[g->ended_next] = *r;
+	g->ended_next = (g->ended_next + 1) % GOAL_ENDED_IDS;
 }
 
 /* How goal id ended, or NULL if it is not among the last GOAL_ENDED_IDS that did. */
@@ -178,7 +171,7 @@ static void plan_start(const struct goal *g, const struct ctl *c, const struct e
 	const float th = est->pose[2];
 	float cs, sn;
 
-	cos_sin(th, &cs, &sn);
+	goal_cos_sin(th, &cs, &sn);
 	memset(&j->from, 0, sizeof(j->from));
 	memcpy(j->from.pose, est->pose, sizeof(j->from.pose));
 	j->from.vel[0] = cs * est->vel[0] - sn * est->vel[1];
@@ -415,13 +408,13 @@ static void brake_or_stop(struct goal *g, struct ctl *c, const struct est_output
 	                    (est && (norm2(est->vel[0], est->vel[1]) >= GOAL_REST_SPEED_M_S ||
 	                             fabsf(est->vel[2]) >= GOAL_REST_RATE_RAD_S));
 
-	if (!moving || g->brake) {
-		if (!moving) {
-			g->brake = 0;
-			ctl_stop(c, now_us);
-		}
+	if (!moving) {
+		g->brake = 0;
+		ctl_stop(c, now_us);
 		return;
 	}
+	if (g->brake) /* braking already: a repeated cancel changes nothing */
+		return;
 	g->brake = 1;
 	g->brake_want = true;
 	g->brake_since_us = now_us;
@@ -533,7 +526,7 @@ static void track(struct goal *g, struct ctl *c, const struct est_output *est,
 	const float th = est->pose[2];
 	float cs, sn;
 
-	cos_sin(th, &cs, &sn);
+	goal_cos_sin(th, &cs, &sn);
 	const float e[3] = {ref->pose[0] - est->pose[0], ref->pose[1] - est->pose[1],
 	                    wrap(ref->pose[2] - th)};
 	const float vx = ref->vel[0] + g->kp_pos * e[0], vy = ref->vel[1] + g->kp_pos * e[1];

@@ -2,7 +2,18 @@
 #ifndef OMNI4_GOAL_INT_H
 #define OMNI4_GOAL_INT_H
 
+#include <math.h>
+
 #include "omni4/core/goal.h"
+
+#define GOAL_PI_F 3.14159265358979f
+
+/* cos and sin of a (sin as a shifted cos: no sincosf, which the core's objects may not call). */
+static inline void goal_cos_sin(float a, float *c, float *s)
+{
+	*c = cosf(a);
+	*s = cosf(a - 0.5f * GOAL_PI_F);
+}
 
 /* A plan from `from` to `to` in tr under the limits in force: the envelope's (traj_plan) or,
  * if fixed, the box fx (its speed within tr's cap: a goal's speed_max). 0 or -EINVAL. */

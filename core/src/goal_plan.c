@@ -52,8 +52,9 @@ static int plan_brake(struct goal_job *j)
 	float to[3] = {f->pose[0], f->pose[1], f->pose[2]};
 
 	if (speed > 1e-3f) {
-		/* sin as a shifted cos: no sincosf, which the core's objects may not call */
-		const float c = cosf(f->pose[2]), s = cosf(f->pose[2] - 1.57079632679f);
+		float c, s;
+
+		goal_cos_sin(f->pose[2], &c, &s);
 		const float ux = f->vel[0] / speed, uy = f->vel[1] / speed;
 		const float back[2] = {-(c * ux + s * uy), -(-s * ux + c * uy)}; /* robot frame */
 		float acc = 0.0f, vmax;

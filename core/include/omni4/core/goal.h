@@ -208,7 +208,7 @@ struct goal {
 	bool brake_want;        /* its plan still to be posted */
 	int64_t brake_since_us; /* braking since (stopped with the ramp GOAL_BRAKE_MAX_US on) */
 	struct goal_report ended[GOAL_ENDED_IDS]; /* the last goals that ended, as they ended */
-	int n_ended;                              /* written so far (the ring's next: % size) */
+	int ended_next;                           /* where the next one is written */
 	/* a new goal accepted for planning, not yet in force */
 	struct goal_cmd want;
 	bool want_set, want_posted;
