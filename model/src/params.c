@@ -71,8 +71,7 @@ int model_params_check(const struct model_params *p, int *bad)
 {
 	for (int i = 0; i < MODEL_PARAMS_COUNT; i++) {
 		const double v = model_params_get(p, i);
-		const bool ok = isfinite(v) && in_range(i, v) &&
-		                (i < MODEL_PARAMS_POSITIVE ? v > 0.0 : v >= 0.0);
+		const bool ok = in_range(i, v); /* finite, and > 0 or >= 0 as its range says */
 
 		if (!ok) {
 			if (bad)
@@ -101,7 +100,7 @@ int model_wheels_check(const struct model_wheels *w, int *bad)
 	for (int i = 0; i < 16; i++) {
 		const double v = f[i / 4][i % 4];
 
-		if (!(isfinite(v) && v > 0.0 && in_range(scalar[i / 4], v))) {
+		if (!in_range(scalar[i / 4], v)) { /* finite, > 0: r, Kv, Kt, R's ranges */
 			if (bad)
 				*bad = i;
 			return -EINVAL;
