@@ -143,6 +143,18 @@ void est_symmetrise(struct est *e)
 			e->P[i][j] = e->P[j][i];
 }
 
+/* Cross-covariances that decay tick by tick (a coasting axis's factor phi < 1) would reach
+ * float's subnormal range; zeroed below EST_COV_TINY. */
+void est_flush_tiny(struct est *e)
+{
+	for (int i = 1; i < 6; i++)
+		for (int j = 0; j < i; j++)
+			if (fabsf(e->P[j][i]) < EST_COV_TINY) {
+				e->P[j][i] = 0.0f;
+				e->P[i][j] = 0.0f;
+			}
+}
+
 /* Velocity axis: x+ = phi x + gam (b - c sgn), the Coulomb term a dead zone around the
  * frictionless prediction (stops at zero rather than crossing it; stays while |b| <= c). */
 static float axis(float phi, float gam, float b, float c, float x)

@@ -16,6 +16,8 @@
 void est_run_tick(struct est *e, const struct est_tick *t, bool live);
 /* est.c: mirror P's upper triangle into the lower. */
 void est_symmetrise(struct est *e);
+/* est.c: P's cross-covariances below EST_COV_TINY zeroed (both triangles). */
+void est_flush_tiny(struct est *e);
 /* est.c: the camera pose z as three scalar updates (the upper triangle: then est_symmetrise). */
 void est_pose_update(struct est *e, const float z[3]);
 /* est.c: the state, covariance diagonal and wheel scales into e->out at utime. */

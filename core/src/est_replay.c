@@ -33,8 +33,10 @@ static void get_snap(struct est *e, uint32_t n)
 
 void est_replay_snap(struct est *e, uint32_t n)
 {
-	if (n % EST_SNAP_EVERY == 0)
+	if (n % EST_SNAP_EVERY == 0) {
+		est_flush_tiny(e); /* often enough: a term decays by phi, a little, per tick */
 		put_snap(e, n);
+	}
 }
 
 /* Ticks n .. to-1 re-run from the ring (snapshots re-taken on the way). */

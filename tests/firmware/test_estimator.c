@@ -6,6 +6,7 @@
 #include "omni4_test.h"
 
 #include <errno.h>
+#include <fenv.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -222,6 +223,7 @@ struct sim {
 	double cam_err2;       /* sum of the raw camera's squared position error */
 	double cam_th2;
 	int cam_n;
+	int underflows; /* estimator calls that computed a subnormal (FE_UNDERFLOW) */
 };
 
 static void sim_init(struct sim *S, struct est *e, const struct est_settings *set, uint64_t seed)
@@ -274,7 +276,9 @@ static void sim_tick(struct sim *S, const double u[4], bool driven)
 		in.wheel_rad_s[j] =
 		    (float)(w[j] + S->slip_rad_s[j] + rng_normal(&S->g, WHEEL_NOISE));
 	}
+	feclearexcept(FE_UNDERFLOW);
 	est_step(S->e, &in);
+	S->underflows += fetestexcept(FE_UNDERFLOW) != 0;
 	S->pre = *est_get(S->e);
 	if (S->camera && S->n % CAM_PERIOD == 0 && S->nq < 8) {
 		struct frame *f = &S->q[S->nq++];
@@ -291,7 +295,9 @@ static void sim_tick(struct sim *S, const double u[4], bool driven)
 		S->cam_n++;
 	}
 	while (S->nq > 0 && S->q[0].due <= S->n) {
+		feclearexcept(FE_UNDERFLOW);
 		S->rc_last = est_camera(S->e, S->q[0].capture_us, S->q[0].pose, now);
+		S->underflows += fetestexcept(FE_UNDERFLOW) != 0;
 		memmove(&S->q[0], &S->q[1], (size_t)(S->nq - 1) * sizeof(S->q[0]));
 		S->nq--;
 	}
@@ -869,6 +875,50 @@ static void test_nan_inputs(void **state)
 	assert_int_equal(est_init(&E, &set, P3, 1000.0), -EINVAL);
 }
 
+/* Pure-axis pushes as the experiments drive them (v alone: wheels 1 and 3; w alone: all four),
+ * each followed by a coast: the cross-covariances of the idle axes decay tick by tick. */
+static void pure_axis(int n, double u[4])
+{
+	const int phase = (n / 3000) % 4;
+	static const double pat[2][4] = {{0.0, -1.0, 0.0, 1.0}, {1.0, 1.0, 1.0, 1.0}};
+
+	for (int j = 0; j < 4; j++)
+		u[j] = phase == 1 || phase == 3 ? 0.0 : 8.0 * pat[phase / 2][j];
+}
+
+/* Normal driving, pure-axis pushes and coasts, a minute at rest with the bridges off: at most
+ * one estimator call in 50 computes a subnormal float (an operation on one costs about a
+ * hundred cycles on many FPUs: the estimator's speed must not depend on how long an axis has
+ * been idle; a stray one from a cancellation between the zeroings costs little on average),
+ * and its state stays finite. */
+static void test_no_subnormal_arithmetic(void **state)
+{
+	(void)state;
+	static struct sim S;
+	int n;
+	double u[4];
+
+	sim_init(&S, &E, NULL, 5);
+	for (n = 0; n < 30000; n++) {
+		const bool drv = profile(n, u);
+
+		sim_tick(&S, u, drv);
+	}
+	for (int k = 0; k < 48000; k++, n++) {
+		pure_axis(k, u);
+		sim_tick(&S, u, (k / 3000) % 2 == 0);
+	}
+	const double zero[4] = {0.0, 0.0, 0.0, 0.0};
+
+	for (int k = 0; k < 60000; k++, n++)
+		sim_tick(&S, zero, false);
+	printf("estimator calls with a subnormal result: %d in %d ticks\n", S.underflows, n);
+	/* measured: 1040 of 138000 (141369, more than one a call, before the covariance's tiny
+	 * terms were zeroed) */
+	assert_true(S.underflows <= n / 50);
+	assert_true(state_finite(est_get(&E)));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -888,6 +938,7 @@ int main(void)
 	    cmocka_unit_test(test_theta_wrap),
 	    cmocka_unit_test(test_gating_and_age),
 	    cmocka_unit_test(test_nan_inputs),
+	    cmocka_unit_test(test_no_subnormal_arithmetic),
 	};
 
 	printf("sizeof(struct est) %zu bytes on this host\n", sizeof(struct est));

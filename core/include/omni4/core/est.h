@@ -137,6 +137,11 @@ struct est_tick {
 	uint8_t untrusted; /* wheels flagged SLIP at the tick before (bit j: wheel j): left out */
 };
 
+/* A cross-covariance below this is zero [the state's units squared]: against the smallest
+ * variances the filter keeps (the velocities' per-tick process noise, about 1e-6) a correlation
+ * of 1e-9, below float's resolution; and the products of two kept terms stay far above float's
+ * subnormals (1.2e-38), whose arithmetic costs about a hundred cycles an operation on many FPUs. */
+#define EST_COV_TINY 1e-15f
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
 
 /* Slip on every wheel (est_slip.c): the camera frames kept to compare the wheels' distance
