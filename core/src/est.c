@@ -81,7 +81,12 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 	e->d = (float)p->d;
 	for (int j = 0; j < 4; j++)
 		e->r[j] = (float)w->r[j];
-	est_slip_set_model(e, p, w);
+	struct wheel_geom g;
+	struct wheel_phys ph;
+
+	wheel_geom_paper(p->d, &g);
+	if (wheel_phys_init(&ph, &g, p, w, 0.0) == 0) /* (checked above: always) */
+		wheel_phys_to_f32(&ph, &e->wh);
 	set_noise(e);
 }
 
@@ -299,11 +304,10 @@ static void wheel_velocity(const struct est *e, const float v[4], float z[3], fl
  * residual nr), z the velocity from the other three. */
 static int leave_out_worst(const struct est *e, const float wh[4], float nr, float z[3])
 {
-	const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
-	const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
-	float v[4], worst = -1.0f, nr2;
+	float pred[4], v[4], worst = -1.0f, nr2;
 	int jw = 0;
 
+	wheel_rims_f32(&e->wh, &e->s[3], pred); /* eq 2 */
 	for (int j = 0; j < 4; j++) {
 		const float dj = fabsf(wh[j] - pred[j]);
 

@@ -35,9 +35,7 @@ void est_replay_from(struct est *e, uint32_t n0);
  * every EST_CAL_EVERY ticks the scale errors in force are solved again. */
 void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n);
 
-/* est_slip.c: slip on every wheel, the wheels named. The model's wheel constants (at every
- * model change), the slip state cleared (est_reset). */
-void est_slip_set_model(struct est *e, const struct model_params *p, const struct model_wheels *w);
+/* est_slip.c: slip on every wheel, the wheels named. The slip state cleared (est_reset). */
 void est_slip_reset(struct est *e);
 /* Live tick with a reading: the readings wh (scale-corrected) against the prediction in e->s. */
 void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4]);

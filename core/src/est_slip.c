@@ -40,31 +40,20 @@
 
 #define SLIP_CAM_RUN 2 /* comparisons in a row beyond the threshold */
 
-void est_slip_set_model(struct est *e, const struct model_params *p, const struct model_wheels *w)
-{
-	for (int j = 0; j < 4; j++)
-		e->slip.kemf[j] = (float)(w->Kv[j] * p->l / w->r[j]);
-}
-
 void est_slip_reset(struct est *e)
 {
-	struct est_slip *s = &e->slip;
-	float kemf[4];
-
-	memcpy(kemf, s->kemf, sizeof(kemf));
-	memset(s, 0, sizeof(*s));
-	memcpy(s->kemf, kemf, sizeof(kemf));
-	s->null_wheel = -1;
+	memset(&e->slip, 0, sizeof(e->slip));
+	e->slip.null_wheel = -1;
 }
 
 void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
 {
 	struct est_slip *s = &e->slip;
-	const float x[3] = {e->s[3], e->s[4], e->d * e->s[5]};
-	const float pred[4] = {x[1] + x[2], -x[0] + x[2], -x[1] + x[2], x[0] + x[2]};
+	float pred[4];
 
+	wheel_rims_f32(&e->wh, &e->s[3], pred); /* eq 2 */
 	for (int j = 0; j < 4; j++) {
-		const float f = t->volts[j] - s->kemf[j] * wh[j];
+		const float f = t->volts[j] - e->wh.kemf[j] * wh[j];
 		const float sg = f > 0.0f ? 1.0f : (f < 0.0f ? -1.0f : 0.0f);
 
 		s->nu_avg[j] += (wh[j] - pred[j] - s->nu_avg[j]) * (1.0f / EST_INNOV_AVG_TICKS);
@@ -210,28 +199,16 @@ bool est_slip_common(const struct est *e)
 	return false;
 }
 
-/* Eq 2's row of wheel j over (v, vn, w). */
-static void wheel_row(float d, int j, float h[3])
-{
-	static const float hv[4] = {0.0f, -1.0f, 0.0f, 1.0f}, hn[4] = {1.0f, 0.0f, -1.0f, 0.0f};
-
-	h[0] = hv[j];
-	h[1] = hn[j];
-	h[2] = d;
-}
-
 void est_slip_volts(const struct est *e, const struct est_tick *t, const float x[3], float volts[4])
 {
-	for (int j = 0; j < 4; j++) {
-		float h[3];
+	float ground[4];
 
+	wheel_rims_f32(&e->wh, x, ground); /* eq 2 */
+	for (int j = 0; j < 4; j++) {
 		volts[j] = t->volts[j];
 		if (!(t->untrusted >> j & 1) || !t->have_wheels)
 			continue;
-		wheel_row(e->d, j, h);
-		const float ground = h[0] * x[0] + h[1] * x[1] + h[2] * x[2];
-
-		volts[j] -= e->slip.kemf[j] * (t->wheel[j] * (1.0f + e->cal[j]) - ground);
+		volts[j] -= e->wh.kemf[j] * (t->wheel[j] * (1.0f + e->cal[j]) - ground[j]);
 	}
 }
 
@@ -266,11 +243,10 @@ void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4])
 	const float r = e->set.wheel_noise * e->set.wheel_noise;
 
 	for (int j = 0; j < 4; j++) {
-		float h[3];
+		const float *h = e->wh.row[j]; /* eq 2 */
 
 		if (t->untrusted >> j & 1)
 			continue;
-		wheel_row(e->d, j, h);
 		row_update(e, h, wh[j] - (h[0] * e->s[3] + h[1] * e->s[4] + h[2] * e->s[5]), r);
 	}
 }

@@ -18,27 +18,26 @@ void traction_set(struct traction *t, const struct model_params *p, const struct
                   double mu, double margin, double com_height, float dt)
 {
 	const float keep_backoff = t->backoff > 0.0f ? t->backoff : 1.0f;
+	struct wheel_geom g;
+	struct wheel_phys ph;
 
-	t->on = mu > 0.0;
+	wheel_geom_paper(p->d, &g);
+	t->on = mu > 0.0 && wheel_phys_init(&ph, &g, p, w, com_height) == 0;
+	if (t->on)
+		wheel_phys_to_f32(&ph, &t->ph);
 	t->mu = (float)mu;
 	t->keep = (float)(1.0 - margin);
 	t->M = (float)p->M;
 	t->J = (float)p->J;
-	t->d = (float)p->d;
 	t->B[0] = (float)p->Bv;
 	t->B[1] = (float)p->Bvn;
 	t->B[2] = (float)p->Bw;
 	t->C[0] = (float)p->Cv;
 	t->C[1] = (float)p->Cvn;
 	t->C[2] = (float)p->Cw;
-	t->transfer = (float)(p->M * com_height / (2.0 * p->d));
 	t->recover = dt / TRACTION_RECOVER_S;
 	t->backoff = keep_backoff;
 	t->scale = 1.0f;
-	for (int j = 0; j < 4; j++) {
-		t->volt_per_n[j] = (float)(w->R[j] * w->r[j] / (p->l * w->Kt[j]));
-		t->emf[j] = (float)(w->Kv[j] * p->l / w->r[j]);
-	}
 }
 
 void traction_clamp_volts(const struct traction *t, const float ref[3], const float acc[3],
@@ -52,23 +51,12 @@ void traction_clamp_volts(const struct traction *t, const float ref[3], const fl
 		return;
 	traction_wheel_holds(t, ref, acc, hold);
 	for (int j = 0; j < 4; j++) {
-		const float emf = t->emf[j] * rim_m_s[j], span = hold[j] * t->volt_per_n[j];
+		const float emf = t->ph.kemf[j] * rim_m_s[j], span = hold[j] * t->ph.vpn[j];
 		const float u = fminf(fmaxf(volts[j], emf - span), emf + span);
 
 		taken[j] = volts[j] - u;
 		volts[j] = u;
 	}
-}
-
-/* Robot forces [F_v N, F_vn N, T N m] onto the wheels (eqs 9-11, least norm). */
-static void split(float d, const float F[3], float f[4])
-{
-	const float rot = F[2] / (4.0f * d);
-
-	f[0] = 0.5f * F[1] + rot;
-	f[1] = -0.5f * F[0] + rot;
-	f[2] = -0.5f * F[1] + rot;
-	f[3] = 0.5f * F[0] + rot;
 }
 
 /* The friction the reference must overcome at x (at rest: against the acceleration a). */
@@ -89,29 +77,19 @@ void traction_wheel_forces(const struct traction *t, const float x[3], const flo
 	F[0] += t->M * a[0];
 	F[1] += t->M * a[1];
 	F[2] += t->J * a[2];
-	split(t->d, F, f);
-}
-
-/* a . p_j / d per wheel for the centre of mass's acceleration (a_v - w vn, a_vn + w v). */
-static void lever(const float x[3], const float a[3], float ap[4])
-{
-	const float av = a[0] - x[2] * x[1], avn = a[1] + x[2] * x[0];
-
-	ap[0] = av;
-	ap[1] = avn;
-	ap[2] = -av;
-	ap[3] = -avn;
+	wheel_split_f32(&t->ph, F, f);
 }
 
 void traction_wheel_holds(const struct traction *t, const float x[3], const float a[3],
                           float hold[4])
 {
 	const float c = t->backoff * t->keep * t->mu;
-	float ap[4];
+	float ac[2];
 
-	lever(x, a, ap);
+	wheel_com_accel_f32(x, a, ac);
+	wheel_loads_f32(&t->ph, ac, hold);
 	for (int j = 0; j < 4; j++)
-		hold[j] = c * fmaxf(0.0f, 0.25f * t->M * TRACTION_G - t->transfer * ap[j]);
+		hold[j] *= c;
 }
 
 /* Largest s in [0, 1] with |fa s + ff| <= c (n0 - k s) for every wheel (two linear bounds
@@ -146,16 +124,16 @@ void traction_step(struct traction *t, const float prev[3], float ref[3], float 
 
 	const float zero[3] = {0.0f, 0.0f, 0.0f};
 	const float wa[3] = {t->M * acc[0], t->M * acc[1], t->J * acc[2]};
-	float fa[4], ff[4], Ff[3], n0[4], k[4];
+	float fa[4], ff[4], Ff[3], n0[4], k[4], ac0[2];
+	const struct wheel_phys_f32 *ph = &t->ph;
 
-	split(t->d, wa, fa);
+	wheel_split_f32(ph, wa, fa);
 	friction(t, prev, acc, Ff);
-	split(t->d, Ff, ff);
-	lever(prev, zero, n0); /* the centripetal part: not scaled */
-	lever(zero, acc, k);
-	for (int j = 0; j < 4; j++) {
-		n0[j] = 0.25f * t->M * TRACTION_G - t->transfer * n0[j];
-		k[j] *= t->transfer;
+	wheel_split_f32(ph, Ff, ff);
+	wheel_com_accel_f32(prev, zero, ac0); /* the centripetal part: not scaled */
+	for (int j = 0; j < 4; j++) {         /* the load, linear in s: n0 - k s */
+		n0[j] = ph->load0[j] + ph->load_a[j][0] * ac0[0] + ph->load_a[j][1] * ac0[1];
+		k[j] = -(ph->load_a[j][0] * acc[0] + ph->load_a[j][1] * acc[1]);
 	}
 	const float s = largest_scale(fa, ff, n0, k, t->backoff * t->keep * t->mu);
 

@@ -25,7 +25,7 @@ void wheel_geom_paper(double d, struct wheel_geom *g)
 /* sin and cos of a [deg], exact at the multiples of 90 deg. */
 static void sin_cos_deg(double a, double *s, double *c)
 {
-	const double k = nearbyint(a / 90.0), r = (a - 90.0 * k) * (MODEL_PI / 180.0);
+	const double k = round(a / 90.0), r = (a - 90.0 * k) * (MODEL_PI / 180.0);
 	const double sr = r == 0.0 ? 0.0 : sin(r), cr = r == 0.0 ? 1.0 : cos(r);
 	const long q = ((long)fmod(k, 4.0) + 4) % 4;
 
@@ -145,9 +145,9 @@ int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const str
 	struct wheel_phys t;
 
 	memset(&t, 0, sizeof(t));
-	if (!g || !p || !w || !geom_ok(g) || model_params_check(p, NULL) ||
-	    model_wheels_check(w, NULL) || !(com_height_m >= 0.0) || !isfinite(com_height_m))
+	if (!g || !p || !w || !geom_ok(g) || !(com_height_m >= 0.0) || !isfinite(com_height_m))
 		return -EINVAL;
+	MODEL_ASSERT_CHECKED(p, w); /* checked at the door (params.h) */
 	t.n = g->n;
 	memcpy(t.row, g->row, sizeof(t.row));
 	if (least_norm(g->n, g->row, t.split) || loads(g, p->M, com_height_m, &t))
@@ -156,6 +156,7 @@ int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const str
 		for (int k = 0; k < 3; k++)
 			t.fk[k][j] = t.split[j][k]; /* (G^T G)^-1 G^T: the split's transpose */
 		t.b[j] = p->l * w->Kt[j] / (w->R[j] * w->r[j]);
+		t.vpn[j] = w->R[j] * w->r[j] / (p->l * w->Kt[j]);
 		t.kemf[j] = w->Kv[j] * p->l / w->r[j];
 	}
 	*ph = t;
@@ -172,6 +173,7 @@ void wheel_phys_to_f32(const struct wheel_phys *ph, struct wheel_phys_f32 *out)
 			out->split[j][k] = (float)ph->split[j][k];
 		}
 		out->b[j] = (float)ph->b[j];
+		out->vpn[j] = (float)ph->vpn[j];
 		out->kemf[j] = (float)ph->kemf[j];
 		out->load0[j] = (float)ph->load0[j];
 		out->load_a[j][0] = (float)ph->load_a[j][0];

@@ -36,6 +36,7 @@
 #include "omni4/model/dynamics.h"
 #include "omni4/core/est_keys.h"
 #include "omni4/model/params.h"
+#include "omni4/model/wheels.h"
 #include "omni4/core/vocab.h"
 
 #ifndef EST_CATCH_UP
@@ -150,7 +151,6 @@ struct est_tick {
 
 struct est_slip {
 	/* private: see est_slip.c */
-	float kemf[4];   /* back-EMF per rim speed, Kv_j l / r_j [V s/m] (the force's sign) */
 	float nu_avg[4]; /* each wheel's reading minus the model's prediction, averaged [m/s] */
 	int model_run[4];
 	uint32_t frame_tick[EST_SLIP_FRAMES];
@@ -165,14 +165,15 @@ struct est_slip {
 struct est {
 	/* private: see est.c, est_replay.c, est_cal.c */
 	struct est_settings set;
-	float phi[3], gam[3];   /* per-tick velocity transition and input gain, bridges on */
-	float phic[3], gamc[3]; /* the same with the bridges off (A_coast) */
-	float B[3][4], C[3];    /* eq 26 B; Coulomb levels -K (>= 0) */
-	float q[3];             /* process variance per tick on v, vn, w */
-	float rw[3];            /* wheel reading variance mapped onto v, vn, w */
-	float rc[3];            /* camera variance x, y, theta */
-	float qt;               /* heading variance per tick from EST_DRIFT_THETA */
-	float qo[2];            /* odometry variance per tick per m/s: position, heading */
+	float phi[3], gam[3];     /* per-tick velocity transition and input gain, bridges on */
+	float phic[3], gamc[3];   /* the same with the bridges off (A_coast) */
+	float B[3][4], C[3];      /* eq 26 B; Coulomb levels -K (>= 0) */
+	struct wheel_phys_f32 wh; /* the wheels (wheels.h): eq 2's rows, back-EMF per rim speed */
+	float q[3];               /* process variance per tick on v, vn, w */
+	float rw[3];              /* wheel reading variance mapped onto v, vn, w */
+	float rc[3];              /* camera variance x, y, theta */
+	float qt;                 /* heading variance per tick from EST_DRIFT_THETA */
+	float qo[2];              /* odometry variance per tick per m/s: position, heading */
 	float
 	    Ax[4]; /* eq 23's off-diagonal A, unequal wheels: A[0][2], A[1][2], A[2][0], A[2][1] */
 	bool coupled; /* any Ax != 0 */

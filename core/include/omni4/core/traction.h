@@ -5,10 +5,11 @@
  *
  * The force the reference needs (eq 23 written as forces): F_v = M a_v + Bv v + Cv sgn(v),
  * F_vn likewise, T = J a_w + Bw w + Cw sgn(w), split onto the wheels as the feedforward does
- * (eqs 9-11, least norm): f_0 = F_vn / 2 + T / 4d, f_1 = -F_v / 2 + T / 4d, f_2 = -f_0 + T / 2d,
- * f_3 = -f_1 + T / 2d. Wheel j holds mu N_j along its drive direction (its rollers roll freely
- * across), N_j = M g / 4 - M h (a . p_j) / (2 d^2) with the load transfer of the reference
- * acceleration a (h = com_height; p_0 = (d, 0), p_1 = (0, d), p_2 = -p_0, p_3 = -p_1).
+ * (eqs 9-11, least norm; wheels.h): f_0 = F_vn / 2 + T / 4d, f_1 = -F_v / 2 + T / 4d,
+ * f_2 = -f_0 + T / 2d, f_3 = -f_1 + T / 2d. Wheel j holds mu N_j along its drive direction (its
+ * rollers roll freely across), N_j = M g / 4 - M h (a . p_j) / (2 d^2) with the load transfer of
+ * the reference acceleration a (h = com_height; p_0 = (d, 0), p_1 = (0, d), p_2 = -p_0,
+ * p_3 = -p_1): wheels.h's loads.
  *
  * The rule (two parts): the shaper's step (its acceleration a) is scaled by the largest s in [0, 1]
  * with |f_j(s a)| <= b (1 - margin) mu N_j(s a) for every wheel (each bound linear in s: a closed
@@ -28,24 +29,21 @@
 #include <stdbool.h>
 
 #include "omni4/model/params.h"
-
-#define TRACTION_G 9.80665f
+#include "omni4/model/wheels.h"
 #define TRACTION_BACKOFF 0.9f     /* per tick with a slip flagged */
 #define TRACTION_BACKOFF_MIN 0.2f /* never below this share of the limit */
 #define TRACTION_RECOVER_S 0.3f   /* from the floor back to the full limit */
 
 struct traction {
-	bool on;       /* mu > 0 */
-	float mu;      /* floor's friction coefficient ([limits] traction_mu) */
-	float keep;    /* 1 - margin */
-	float M, J, d; /* [kg], [kg m^2], [m] */
+	bool on;    /* mu > 0 */
+	float mu;   /* floor's friction coefficient ([limits] traction_mu) */
+	float keep; /* 1 - margin */
+	float M, J; /* [kg], [kg m^2] */
 	float B[3], C[3];
-	float transfer;      /* M h / (2 d) [kg]: N_j = M g / 4 - transfer (a . p_j / d) */
-	float recover;       /* back-off regained per tick */
-	float volt_per_n[4]; /* R_j r_j / (l Kt_j): volts per newton of wheel force [V/N] */
-	float emf[4];        /* Kv_j l / r_j: back-EMF per m/s of rim speed [V/(m/s)] */
-	float backoff;       /* b, in [TRACTION_BACKOFF_MIN, 1] */
-	float scale;         /* s of the last step (1: not limited) */
+	struct wheel_phys_f32 ph; /* the wheels: split, loads, drive gains, back-EMF (wheels.h) */
+	float recover;            /* back-off regained per tick */
+	float backoff;            /* b, in [TRACTION_BACKOFF_MIN, 1] */
+	float scale;              /* s of the last step (1: not limited) */
 };
 
 /* mu [-] (0 = off), margin in [0, 1), com_height [m] >= 0, dt [s] > 0; the model's M, J, d,

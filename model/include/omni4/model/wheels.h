@@ -50,6 +50,7 @@ struct wheel_phys {
 	double fk[3][4];     /* eqs 3-5: (v, vn, w) = fk . rims [m/s] */
 	double split[4][3];  /* least-norm force split: f_j = split[j] . (Fv, Fvn, T) */
 	double b[4];         /* drive gain l Kt_j / (R_j r_j) [N/V] */
+	double vpn[4];       /* 1 / b_j [V/N] */
 	double kemf[4];      /* back-EMF Kv_j l / r_j [V/(m/s)] at the rim */
 	double load0[4];     /* load at rest [N] */
 	double load_a[4][2]; /* load per centre-of-mass acceleration (a_v, a_vn) [N/(m/s^2)] */
@@ -62,14 +63,15 @@ struct wheel_phys_f32 {
 	float fk[3][4];
 	float split[4][3];
 	float b[4];
+	float vpn[4];
 	float kemf[4];
 	float load0[4];
 	float load_a[4][2];
 };
 
-/* From the layout, the model (M, l; w's per-wheel drives) and the centre of mass's height
- * com_height_m [m] (>= 0; 0: no load transfer). -EINVAL for an invalid layout or a model that
- * fails its check; ph untouched then. */
+/* From the layout, the model (M, l; w's per-wheel drives: both checked before, as everything
+ * behind the door takes them: params.h) and the centre of mass's height com_height_m [m] (>= 0;
+ * 0: no load transfer). -EINVAL for an invalid layout or height; ph untouched then. */
 int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const struct model_params *p,
                     const struct model_wheels *w, double com_height_m);
 void wheel_phys_to_f32(const struct wheel_phys *ph, struct wheel_phys_f32 *out);
