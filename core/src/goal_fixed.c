@@ -36,14 +36,19 @@ static void worst_direction(const struct traj *tr, float v, float *acc, float *t
 }
 
 /* Pure rotation at rate w: the largest angular acceleration every wheel allows (each pushes
- * T / 4d; its force within traction and within its voltage less the back-EMF of d w). */
+ * its share q_j T of the torque, 1 / 4d for the paper's layout (wheels.h); its force within
+ * traction and within its voltage less the back-EMF of d_j w). */
 static float rotation_acc(const struct traj_coef *c, float w)
 {
-	float f = c->f_max_n;
+	float T = INFINITY;
 
-	for (int j = 0; j < 4; j++)
-		f = fminf(f, c->b[j] * c->u_max_v - c->e[j] * c->d * w);
-	return (4.0f * c->d * f - c->B[2] * w - c->C[2]) / c->J;
+	for (int j = 0; j < c->wh.n; j++) {
+		const float f =
+		    fminf(c->f_max_n[j], c->b[j] * c->u_max_v - c->e[j] * c->wh.row[j][2] * w);
+
+		T = fminf(T, f / c->wh.split[j][2]);
+	}
+	return (T - c->B[2] * w - c->C[2]) / c->J;
 }
 
 /* The speed in (0, top] with the largest acc(v) v; its acceleration. */

@@ -71,18 +71,27 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 	    .B = {(float)l->p.Bv, (float)l->p.Bvn, (float)l->p.Bw},
 	    .C = {(float)l->p.Cv, (float)l->p.Cvn, (float)l->p.Cw},
 	    .u_max_v = f.supply - f.margin,
-	    .f_max_n = f.mu * M * TRAJ_G_M_S2 / 4.0f * (1.0f - f.tmargin),
-	    .f_lever = f.mu * (1.0f - f.tmargin) * M * f.height / (2.0f * (float)l->p.d),
 	    .speed_cap_m_s = f.vcap,
 	    .omega_cap_rad_s = f.wcap,
 	    .rot_share = f.share,
 	};
+	struct wheel_geom g;
+	struct wheel_phys ph;
+	const float hold = f.mu * (1.0f - f.tmargin);
+
+	wheel_geom_paper(l->p.d, &g);
+	if (wheel_phys_init(&ph, &g, &l->p, &l->w, (double)f.height))
+		return -EINVAL;
+	wheel_phys_to_f32(&ph, &c.wh);
 	for (int j = 0; j < 4; j++) {
-		const float r = (float)l->w.r[j], Kv = (float)l->w.Kv[j], Kt = (float)l->w.Kt[j];
-		const float R = (float)l->w.R[j];
-		c.b[j] = gear * Kt / (R * r);
-		c.e[j] = gear * gear * Kt * Kv / (R * r * r);
-		c.rim_max[j] = f.wmax * r / gear;
+		c.b[j] = c.wh.b[j];
+		c.e[j] = c.wh.b[j] * c.wh.kemf[j];
+		c.rim_max[j] = f.wmax * (float)l->w.r[j] / gear;
+		c.turn[j] = sqrtf(c.wh.split[j][0] * c.wh.split[j][0] +
+		                  c.wh.split[j][1] * c.wh.split[j][1]);
+		c.f_max_n[j] = hold * c.wh.load0[j];
+		c.f_load[j][0] = -hold * c.wh.load_a[j][0];
+		c.f_load[j][1] = -hold * c.wh.load_a[j][1];
 	}
 	/* at rest, each axis and the heading alone must have room to accelerate */
 	struct row r[12];

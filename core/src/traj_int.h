@@ -9,6 +9,7 @@
 #include <stdint.h>
 
 #include "omni4/core/traj.h"
+#include "omni4/model/consts.h"
 
 /*
  * One wheel constraint in the world frame at one heading. On a symmetric box of accelerations
@@ -38,10 +39,7 @@ static inline float maxf(float a, float b)
 	return a > b ? a : b;
 }
 
-#define PI_F 3.14159265f
-
-/* Wheel j's direction in the robot frame (eq 2 without the d term): g_j = [gx, gy, d]. */
-extern const float traj_g_xy[4][2];
+#define PI_F MODEL_PI_F
 
 /* ---- one axis (traj_1d.c) ---- */
 

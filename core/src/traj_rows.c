@@ -10,9 +10,6 @@
 
 #include "traj_int.h"
 
-/* Wheel j's direction in the robot frame (eq 2 without the d term): g_j = [gx, gy, d]. */
-const float traj_g_xy[4][2] = {{0.0f, 1.0f}, {-1.0f, 0.0f}, {0.0f, -1.0f}, {1.0f, 0.0f}};
-
 /* Largest A with every row met (velocity half widths wx, wy); -1 if a velocity-only row fails. */
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy)
 {
@@ -83,19 +80,20 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 	int n = 0;
 
 	for (int j = 0; j < 4; j++) {
-		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
-		const float fa[2] = {0.5f * c->M * gx, 0.5f * c->M * gy};
-		const float fv[2] = {0.5f * c->B[0] * gx, 0.5f * c->B[1] * gy};
-		const float coul = 0.5f * (fabsf(gx) * c->C[0] + fabsf(gy) * c->C[1]);
-		const float uv[2] = {(fv[0] + c->e[j] * gx) / c->b[j],
-		                     (fv[1] + c->e[j] * gy) / c->b[j]};
-		const float *ka[3] = {fa, fa, NULL}, *kv[3] = {fv, uv, traj_g_xy[j]};
+		/* wheel j's rim (eq 2) and its share of the body's force (wheels.h) */
+		const float *row = c->wh.row[j], *sh = c->wh.split[j];
+		const float fa[2] = {c->M * sh[0], c->M * sh[1]};
+		const float fv[2] = {sh[0] * c->B[0], sh[1] * c->B[1]};
+		const float coul = fabsf(sh[0]) * c->C[0] + fabsf(sh[1]) * c->C[1];
+		const float uv[2] = {(fv[0] + c->e[j] * row[0]) / c->b[j],
+		                     (fv[1] + c->e[j] * row[1]) / c->b[j]};
+		const float *ka[3] = {fa, fa, NULL}, *kv[3] = {fv, uv, row};
 		const float kscale[3] = {1.0f, 1.0f / c->b[j], 0.0f};
-		/* wheel j's share of M w x v: 0.5 M w |g_j x v| <= 0.5 M w_max |v| */
-		const float turn = 0.5f * c->M * w_max;
-		const float room[3] = {share * c->f_max_n - coul,
+		/* wheel j's share of M w x v: M w |sh_j x v| <= M w_max |sh_j| |v| */
+		const float turn = c->M * w_max * c->turn[j];
+		const float room[3] = {share * c->f_max_n[j] - coul,
 		                       share * c->u_max_v - coul / c->b[j], share * c->rim_max[j]};
-		const float room0[3] = {share * c->f_max_n, share * c->u_max_v,
+		const float room0[3] = {share * c->f_max_n[j], share * c->u_max_v,
 		                        share * c->rim_max[j]};
 		for (int q = 0; q < 3; q++, n++) {
 			const float ax = ka[q] ? ka[q][0] * kscale[q] : 0.0f;
@@ -104,10 +102,9 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].sa[1] = sp * ax + cp * ay;
 			r[n].sv[0] = cp * kv[q][0] - sp * kv[q][1];
 			r[n].sv[1] = sp * kv[q][0] + cp * kv[q][1];
-			/* traction: the load an acceleration toward wheel j (p_j / d = (gy, -gx))
-			 * takes off it */
-			const float lx = q ? 0.0f : c->f_lever * gy,
-			            ly = q ? 0.0f : -c->f_lever * gx;
+			/* traction: the load an acceleration takes off wheel j (wheels.h) */
+			const float lx = q ? 0.0f : c->f_load[j][0],
+			            ly = q ? 0.0f : c->f_load[j][1];
 			r[n].sl[0] = cp * lx - sp * ly;
 			r[n].sl[1] = sp * lx + cp * ly;
 			for (int i = 0; i < 2; i++) {
@@ -122,23 +119,22 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 	return n;
 }
 
-/* Rotation rows: T = J a + Bw w + Cw sgn w shared as T / (4 d) per wheel, plus back-EMF e_j d w. */
+/* Rotation rows: T = J a + Bw w + Cw sgn w, wheel j's share q_j T (wheels.h: 1 / (4 d) for the
+ * paper's layout), plus back-EMF e_j d_j w. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 {
-	const float q = 1.0f / (4.0f * c->d);
-
 	for (int j = 0; j < 4; j++) {
-		const float ib = 1.0f / c->b[j];
+		const float ib = 1.0f / c->b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
 		r[3 * j] = (struct row){{c->J * q, 0.0f},
 		                        {c->B[2] * q, 0.0f},
-		                        share * c->f_max_n - c->C[2] * q,
-		                        share * c->f_max_n,
+		                        share * c->f_max_n[j] - c->C[2] * q,
+		                        share * c->f_max_n[j],
 		                        {0.0f, 0.0f},
 		                        {0.0f, 0.0f},
 		                        0.0f,
 		                        {0.0f, 0.0f}};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
-		                            {(c->B[2] * q + c->e[j] * c->d) * ib, 0.0f},
+		                            {(c->B[2] * q + c->e[j] * dj) * ib, 0.0f},
 		                            share * c->u_max_v - c->C[2] * q * ib,
 		                            share * c->u_max_v,
 		                            {0.0f, 0.0f},
@@ -146,7 +142,7 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                            0.0f,
 		                            {0.0f, 0.0f}};
 		r[3 * j + 2] = (struct row){{0.0f, 0.0f},
-		                            {c->d, 0.0f},
+		                            {dj, 0.0f},
 		                            share * c->rim_max[j],
 		                            share * c->rim_max[j],
 		                            {0.0f, 0.0f},
@@ -192,22 +188,22 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 	float acc = INFINITY, top = c->speed_cap_m_s;
 
 	for (int j = 0; j < 4; j++) {
-		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
-		const float ge = gx * dir[0] + gy * dir[1]; /* rim speed per unit speed */
-		/* f_j = p a + q0 + q1 s (the feedforward's shares Fv/2, Fvn/2), u_j = (f_j + e_j ge
-		 * s)/b_j */
-		const float p = 0.5f * c->M * ge;
-		const float q0 = 0.5f * (gx * c->C[0] * sg[0] + gy * c->C[1] * sg[1]);
-		const float q1 = 0.5f * (gx * c->B[0] * dir[0] + gy * c->B[1] * dir[1]);
+		const float *row = c->wh.row[j], *sp = c->wh.split[j], *fl = c->f_load[j];
+		const float ge = row[0] * dir[0] + row[1] * dir[1]; /* rim speed per unit speed */
+		/* f_j = p a + q0 + q1 s (the force split, wheels.h), u_j = (f_j + e_j ge s)/b_j */
+		const float p = c->M * (sp[0] * dir[0] + sp[1] * dir[1]);
+		const float q0 = sp[0] * c->C[0] * sg[0] + sp[1] * c->C[1] * sg[1];
+		const float q1 = sp[0] * c->B[0] * dir[0] + sp[1] * c->B[1] * dir[1];
 		const float s = speed_m_s;
-		const float lift = c->f_lever * (gy * dir[0] - gx * dir[1]); /* toward wheel j */
-		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n, lift));
+		const float lift = fl[0] * dir[0] + fl[1] * dir[1]; /* the load it takes off */
+		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n[j], lift));
 		acc = minf(acc,
 		           acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j], 0.0f));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */
 		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
 		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);
-		const float k_f = p >= 0.0f ? q1 : -q1, r_f = c->f_max_n - (p >= 0.0f ? q0 : -q0);
+		const float k_f = p >= 0.0f ? q1 : -q1,
+		            r_f = c->f_max_n[j] - (p >= 0.0f ? q0 : -q0);
 		if (ge == 0.0f)
 			continue;
 		top = minf(top, k_u > 0.0f ? r_u / k_u : r_u < 0.0f ? 0.0f : INFINITY);

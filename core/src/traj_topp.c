@@ -121,21 +121,19 @@ static void coulomb_range(float t, signed char set, float *lo, float *hi)
 static void rows_at(const struct traj_coef *c, const struct geo *g, const signed char sg[3],
                     struct topp_rows *r)
 {
-	const float q4 = 1.0f / (4.0f * c->d);
-	const float cw = c->C[2] * q4;
-
 	for (int j = 0; j < 4; j++) {
-		const float gx = traj_g_xy[j][0], gy = traj_g_xy[j][1];
-		const float t[3] = {0.5f * gx * c->C[0], 0.5f * gy * c->C[1], cw};
-		r->A[j] = 0.5f * c->M * (gx * g->q[0] + gy * g->q[1]) + c->J * g->ths * q4;
-		r->Q[j] = 0.5f * c->M * (gx * g->c[0] + gy * g->c[1]) + c->J * g->thss * q4;
-		r->L[j] = 0.5f * (gx * c->B[0] * g->q[0] + gy * c->B[1] * g->q[1]) +
-		          c->B[2] * g->ths * q4;
-		r->K[j] = gx * g->q[0] + gy * g->q[1] + c->d * g->ths;
-		/* toward wheel j (p_j / d = (gy, -gx)): the centre of mass's acceleration q s'' +
-		 * a s'^2 unloads it (traction.h) */
-		r->NA[j] = c->f_lever * (gy * g->q[0] - gx * g->q[1]);
-		r->NQ[j] = c->f_lever * (gy * g->a[0] - gx * g->a[1]);
+		const float *sp = c->wh.split[j], *row = c->wh.row[j], *fl = c->f_load[j];
+		const float t[3] = {sp[0] * c->C[0], sp[1] * c->C[1], sp[2] * c->C[2]};
+		/* wheel j's force: the split of (M q, J theta') s'' + (M c, J theta'') s'^2 +
+		 * (B q, Bw theta') s' (wheels.h) */
+		r->A[j] = c->M * (sp[0] * g->q[0] + sp[1] * g->q[1]) + c->J * g->ths * sp[2];
+		r->Q[j] = c->M * (sp[0] * g->c[0] + sp[1] * g->c[1]) + c->J * g->thss * sp[2];
+		r->L[j] = sp[0] * c->B[0] * g->q[0] + sp[1] * c->B[1] * g->q[1] +
+		          c->B[2] * g->ths * sp[2];
+		r->K[j] = row[0] * g->q[0] + row[1] * g->q[1] + row[2] * g->ths; /* eq 2 */
+		/* the centre of mass's acceleration q s'' + a s'^2 unloads wheel j (wheels.h) */
+		r->NA[j] = fl[0] * g->q[0] + fl[1] * g->q[1];
+		r->NQ[j] = fl[0] * g->a[0] + fl[1] * g->a[1];
 		r->dlo[j] = r->dhi[j] = 0.0f;
 		for (int k = 0; k < 3; k++)
 			coulomb_range(t[k], sg[k], &r->dlo[j], &r->dhi[j]);
@@ -179,7 +177,7 @@ static bool interval(const struct traj_coef *c, const struct topp_rows *r, float
 	*hi = INFINITY;
 	for (int j = 0; j < 4; j++) {
 		const float P = r->Q[j] * x + r->L[j] * sd, A = r->A[j];
-		const float na = k * r->NA[j], hold = k * (c->f_max_n - r->NQ[j] * x);
+		const float na = k * r->NA[j], hold = k * (c->f_max_n[j] - r->NQ[j] * x);
 		if (!one_side(A + na, hold - P - r->dhi[j], lo, hi) ||
 		    !one_side(na - A, hold + P + r->dlo[j], lo, hi))
 			return false;
@@ -200,7 +198,7 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 
 	w = maxf(w, fabsf(g->ths) * sd / c->omega_cap_rad_s);
 	for (int j = 0; j < 4; j++) {
-		const float bound[2] = {c->f_max_n, c->u_max_v * c->b[j]};
+		const float bound[2] = {c->f_max_n[j], c->u_max_v * c->b[j]};
 		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
 		w = maxf(w, fabsf(r->K[j]) * sd / c->rim_max[j]);
 		for (int q = 0; q < 2; q++) {

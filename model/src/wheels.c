@@ -11,7 +11,9 @@
 void wheel_geom_paper(double d, struct wheel_geom *g)
 {
 	static const double gxy[4][2] = {{0.0, 1.0}, {-1.0, 0.0}, {0.0, -1.0}, {1.0, 0.0}};
+	const double q = 1.0 / (4.0 * d), k = 1.0 / (2.0 * d * d);
 
+	memset(g, 0, sizeof(*g));
 	g->n = 4;
 	for (int j = 0; j < 4; j++) {
 		g->row[j][0] = gxy[j][0];
@@ -19,6 +21,13 @@ void wheel_geom_paper(double d, struct wheel_geom *g)
 		g->row[j][2] = d;
 		g->pos[j][0] = d * gxy[j][1] + 0.0; /* the drive direction turned back 90 deg */
 		g->pos[j][1] = 0.0 - d * gxy[j][0];
+		/* G^T G = diag(2, 2, 4 d^2); A A^T = diag(4, 2 d^2, 2 d^2) (wheels.h) */
+		g->split[j][0] = 0.5 * gxy[j][0];
+		g->split[j][1] = 0.5 * gxy[j][1];
+		g->split[j][2] = q;
+		g->lmap[j][0] = 0.25;
+		g->lmap[j][1] = g->pos[j][0] * k;
+		g->lmap[j][2] = g->pos[j][1] * k;
 	}
 }
 
@@ -79,17 +88,22 @@ static int least_norm(int n, const double a[4][3], double map[4][3])
 	return 0;
 }
 
-static bool geom_ok(const struct wheel_geom *g)
+/* The rows valid and of full rank; their maps solved into g. */
+static bool prepare(struct wheel_geom *g)
 {
-	double map[4][3];
+	double a[4][3] = {{0}};
 
 	if (g->n != 3 && g->n != 4)
 		return false;
-	for (int j = 0; j < g->n; j++)
+	for (int j = 0; j < g->n; j++) {
 		if (!isfinite(g->row[j][0]) || !isfinite(g->row[j][1]) || !(g->row[j][2] > 0.0) ||
 		    !isfinite(g->row[j][2]) || !isfinite(g->pos[j][0]) || !isfinite(g->pos[j][1]))
 			return false;
-	return least_norm(g->n, g->row, map) == 0;
+		a[j][0] = 1.0;
+		a[j][1] = g->pos[j][0];
+		a[j][2] = g->pos[j][1];
+	}
+	return least_norm(g->n, g->row, g->split) == 0 && least_norm(g->n, a, g->lmap) == 0;
 }
 
 int wheel_geom_angles(int n, const double angle_deg[4], const double dist_m[4],
@@ -113,51 +127,45 @@ int wheel_geom_angles(int n, const double angle_deg[4], const double dist_m[4],
 		t.pos[j][0] = dist_m[j] * c + 0.0;
 		t.pos[j][1] = dist_m[j] * s + 0.0;
 	}
-	if (!geom_ok(&t))
+	if (!prepare(&t))
 		return -EINVAL;
 	*g = t;
 	return 0;
 }
 
-/* The loads: least norm N with [1; p_v; p_vn]^T N = (M g, -M h a_v, -M h a_vn). */
-static int loads(const struct wheel_geom *g, double M, double h, struct wheel_phys *ph)
+/* A layout's shape as wheel_geom_paper or wheel_geom_angles leave it (cheap: no solve). */
+static bool geom_ok(const struct wheel_geom *g)
 {
-	double a[4][3] = {{0}}, map[4][3];
-
-	for (int j = 0; j < g->n; j++) {
-		a[j][0] = 1.0;
-		a[j][1] = g->pos[j][0];
-		a[j][2] = g->pos[j][1];
-	}
-	if (least_norm(g->n, a, map))
-		return -EINVAL;
-	for (int j = 0; j < 4; j++) {
-		ph->load0[j] = map[j][0] * M * MODEL_G_M_S2;
-		ph->load_a[j][0] = -map[j][1] * M * h;
-		ph->load_a[j][1] = -map[j][2] * M * h;
-	}
-	return 0;
+	if (g->n != 3 && g->n != 4)
+		return false;
+	for (int j = 0; j < g->n; j++)
+		if (!(g->row[j][2] > 0.0) || !isfinite(g->row[j][2]) || !isfinite(g->split[j][2]))
+			return false;
+	return true;
 }
 
 int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const struct model_params *p,
                     const struct model_wheels *w, double com_height_m)
 {
 	struct wheel_phys t;
+	const double h = com_height_m;
 
 	memset(&t, 0, sizeof(t));
-	if (!g || !p || !w || !geom_ok(g) || !(com_height_m >= 0.0) || !isfinite(com_height_m))
+	if (!g || !p || !w || !geom_ok(g) || !(h >= 0.0) || !isfinite(h))
 		return -EINVAL;
 	MODEL_ASSERT_CHECKED(p, w); /* checked at the door (params.h) */
 	t.n = g->n;
 	memcpy(t.row, g->row, sizeof(t.row));
-	if (least_norm(g->n, g->row, t.split) || loads(g, p->M, com_height_m, &t))
-		return -EINVAL;
+	memcpy(t.split, g->split, sizeof(t.split));
 	for (int j = 0; j < g->n; j++) {
 		for (int k = 0; k < 3; k++)
-			t.fk[k][j] = t.split[j][k]; /* (G^T G)^-1 G^T: the split's transpose */
+			t.fk[k][j] = g->split[j][k]; /* (G^T G)^-1 G^T: the split's transpose */
 		t.b[j] = p->l * w->Kt[j] / (w->R[j] * w->r[j]);
 		t.vpn[j] = w->R[j] * w->r[j] / (p->l * w->Kt[j]);
 		t.kemf[j] = w->Kv[j] * p->l / w->r[j];
+		t.load0[j] = g->lmap[j][0] * p->M * MODEL_G_M_S2;
+		t.load_a[j][0] = -g->lmap[j][1] * p->M * h;
+		t.load_a[j][1] = -g->lmap[j][2] * p->M * h;
 	}
 	*ph = t;
 	return 0;

@@ -128,6 +128,13 @@ static void test_paper_angles_give_the_papers_rows(void **state)
 	assert_memory_equal(g.row, gp.row, sizeof(g.row));
 	assert_memory_equal(g.pos, gp.pos, sizeof(g.pos));
 	assert_memory_equal(g2.row, gp.row, sizeof(g.row));
+	/* the general least-squares / least-norm solve agrees with the paper's closed forms */
+	for (int j = 0; j < 4; j++)
+		for (int k = 0; k < 3; k++) {
+			near(g.split[j][k], gp.split[j][k], 1e-15, "split, solved and closed form");
+			near(g.lmap[j][k], gp.lmap[j][k], 1e-15,
+			     "load map, solved and closed form");
+		}
 }
 
 /* Three wheels at 0/120/240 deg, distance d: G^T G = diag(3/2, 3/2, 3 d^2), so

@@ -26,6 +26,7 @@
 #include <stdint.h>
 
 #include "omni4/model/params.h"
+#include "omni4/model/wheels.h"
 
 #define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
 #define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
@@ -34,7 +35,6 @@
 #define TRAJ_SHARES 3             /* heading shares tried when both position and heading move */
 #define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share on a straight move */
 #define TRAJ_HEADINGS_MAX 9       /* headings at which the envelope is checked over a turn */
-#define TRAJ_G_M_S2 9.80665f      /* standard gravity */
 #define TRAJ_HANDOVER_TOL_S 1e-4f /* a clock this close to a hand-over has reached it (a */
                                   /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
 #define TRAJ_IDLE_POS 1e-6f       /* an axis closer than this [m or rad] and ... */
@@ -105,15 +105,18 @@ void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a
 
 /* Per-wheel coefficients, prepared by traj_init (no double after it). */
 struct traj_coef {
-	float b[4];       /* drive gain l Kt_j / (R_j r_j) [N/V] */
-	float e[4];       /* back-EMF braking l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
+	struct wheel_phys_f32 wh; /* the wheels (wheels.h): eq 2's rows, force split, loads */
+	float b[4];               /* drive gain l Kt_j / (R_j r_j) [N/V] (wh.b) */
+	float e[4];       /* back-EMF braking b_j kemf_j = l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
 	float rim_max[4]; /* rim speed limit motor_speed_max r_j / l [m/s] */
+	float turn[4];    /* |wh.split[j][0..1]|: wheel j's most of a unit translation force */
 	float d, M, J;    /* [m], [kg], [kg m^2] */
 	float B[3], C[3]; /* viscous [N/(m/s)], [N m/(rad/s)] and Coulomb [N], [N m] friction */
 	float u_max_v;    /* supply_v - margin_v */
-	float f_max_n;    /* mu M g / 4 (1 - traction_margin) */
-	float f_lever;    /* mu (1 - traction_margin) M h / (2 d): wheel j's bound falls by this */
-	                  /* per m/s^2 of the centre of mass's acceleration toward it [kg] */
+	float f_max_n[4]; /* wheel j's traction at rest, mu N_j (1 - traction_margin) [N] */
+	float f_load[4]
+	            [2]; /* its fall per m/s^2 of the centre of mass's acceleration (a_v, a_vn) */
+	                 /* in the robot frame: -mu (1 - traction_margin) dN_j/da [kg] */
 	float speed_cap_m_s, omega_cap_rad_s, rot_share;
 };
 

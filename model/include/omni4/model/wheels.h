@@ -24,15 +24,19 @@
 
 #define WHEELS_MAX 4
 
-/* The layout: n wheels, eq 2's rows and the contact points. */
+/* The layout, prepared once (the least-squares and least-norm maps solved here, so a model
+ * change behind it costs a few products: wheel_phys_init). */
 struct wheel_geom {
-	int n;            /* 3 or 4 */
-	double row[4][3]; /* eq 2: wheel j's rim speed = row[j] . (v, vn, w) [m/s] */
-	double pos[4][2]; /* wheel j's contact point from the centre, (v, vn) axes [m] */
+	int n;              /* 3 or 4 */
+	double row[4][3];   /* eq 2: wheel j's rim speed = row[j] . (v, vn, w) [m/s] */
+	double pos[4][2];   /* wheel j's contact point from the centre, (v, vn) axes [m] */
+	double split[4][3]; /* least norm: f = split (Fv, Fvn, T); its transpose is eqs 3-5 */
+	double lmap[4][3];  /* least norm: N = lmap (sum N, sum N p_v, sum N p_vn) */
 };
 
 /* The paper's layout: wheel j at j 90 deg from the v axis, all at distance d [m]: rows [0 1 d],
- * [-1 0 d], [0 -1 d], [1 0 d] exactly. */
+ * [-1 0 d], [0 -1 d], [1 0 d] exactly, the maps in closed form (eqs 3-5; loads
+ * 1/4 + p_j . (., .) / (2 d^2)). d > 0 (checked at the door). */
 void wheel_geom_paper(double d, struct wheel_geom *g);
 
 /* n (3 or 4) wheels at angle_deg[j] from the v axis, counter-clockwise, at dist_m[j] [m], each
