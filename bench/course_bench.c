@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "omni4/lcmtypes/channels.h"
+#include "omni4/model/consts.h"
 #include "omni4/config/config.h"
 #include "omni4/core/est.h"
 #include "omni4/core/goal.h"
@@ -34,7 +35,7 @@
 #include "omni4_motors_t.h"
 #include "omni4_sim_truth_t.h"
 
-#define PI 3.14159265358979323846
+#define PI MODEL_PI
 #define GOAL_S 30.0       /* a goal not reached by then counts as not reached */
 #define KEEP_S 0.05       /* keep-alive period of the goal */
 #define RMS_SPEED_MAX 1.5 /* [m/s] tracking RMS over reference speeds up to this */

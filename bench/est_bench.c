@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "omni4/lcmtypes/channels.h"
+#include "omni4/model/consts.h"
 #include "omni4/config/config.h"
 #include "omni4/core/est.h"
 #include "omni4/model/kinematics.h"
@@ -30,7 +31,7 @@
 #include "omni4_pose_t.h"
 #include "omni4_sim_truth_t.h"
 
-#define PI 3.14159265358979323846
+#define PI MODEL_PI
 
 struct score {
 	double se_pos, se_th; /* sums of squared errors [m^2], [rad^2] */

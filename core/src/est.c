@@ -17,6 +17,7 @@
  * The wheels' scale calibration: est_cal.c.
  */
 #include "omni4/core/est.h"
+#include "omni4/model/consts.h"
 
 #include <errno.h>
 #include <math.h>
@@ -108,7 +109,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 		e->s[k] = isfinite(pose[k]) ? pose[k] : 0.0f;
 		e->P[k][k] = isfinite(pose_var[k]) && pose_var[k] > 0.0f ? pose_var[k] : 1.0f;
 	}
-	e->s[2] = la_wrap_pi_f32(e->s[2]);
+	e->s[2] = model_wrap_pi_f32(e->s[2]);
 	/* At rest, give or take a few mm/s. */
 	e->P[3][3] = e->P[4][4] = 1e-4f;
 	e->P[5][5] = 1e-4f / (e->d * e->d);
@@ -253,7 +254,7 @@ static void predict(struct est *e, const struct est_tick *t)
 
 	s[0] += dt * vx;
 	s[1] += dt * vy;
-	s[2] = la_wrap_pi_f32(s[2] + dt * xm[2]);
+	s[2] = model_wrap_pi_f32(s[2] + dt * xm[2]);
 
 	predict_cov(P, -dt * vy, dt * vx, dt * c, dt * sn, dt, phi);
 	P[3][3] += e->q[0];
@@ -368,10 +369,10 @@ void est_pose_update(struct est *e, const float z[3])
 		float nu = z[k] - e->s[k];
 
 		if (k == 2)
-			nu = la_wrap_pi_f32(nu);
+			nu = model_wrap_pi_f32(nu);
 		scalar_update(e, k, nu, e->rc[k]);
 	}
-	e->s[2] = la_wrap_pi_f32(e->s[2]);
+	e->s[2] = model_wrap_pi_f32(e->s[2]);
 }
 
 void est_run_tick(struct est *e, const struct est_tick *t, bool live)

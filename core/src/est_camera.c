@@ -8,6 +8,7 @@
 
 #include "est_priv.h"
 #include "omni4/core/est_replay.h"
+#include "omni4/model/consts.h"
 #include "omni4/core/la_f32.h"
 
 /* Mahalanobis distance^2 of the pose innovation nu against the pose block of P + R. */
@@ -27,7 +28,7 @@ static float mahalanobis2(const struct est *e, const float nu[3])
  * estimate, not the camera, is what went wrong). */
 static int gate_and_apply(struct est *e, const float z[3])
 {
-	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], la_wrap_pi_f32(z[2] - e->s[2])};
+	float nu[3] = {z[0] - e->s[0], z[1] - e->s[1], model_wrap_pi_f32(z[2] - e->s[2])};
 	const float g = e->set.gate_sigmas;
 
 	if (!(mahalanobis2(e, nu) <= g * g)) {
@@ -52,7 +53,7 @@ static int camera_refused(struct est *e)
 
 int est_camera(struct est *e, int64_t capture_us, const double pose[3], int64_t now_us)
 {
-	const float z[3] = {(float)pose[0], (float)pose[1], la_wrap_pi_f32((float)pose[2])};
+	const float z[3] = {(float)pose[0], (float)pose[1], model_wrap_pi_f32((float)pose[2])};
 	uint32_t k;
 
 	if (!est_all_finite(z, 3) || !isfinite(pose[2])) {

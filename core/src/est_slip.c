@@ -36,6 +36,7 @@
 
 #include "est_priv.h"
 #include "omni4/core/la_f32.h"
+#include "omni4/model/consts.h"
 #include "omni4/model/kinematics.h"
 
 #define SLIP_CAM_RUN 2 /* comparisons in a row beyond the threshold */
@@ -94,10 +95,10 @@ static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_
 		return false;
 	const float T = (float)(k1 - k0) * e->dt, wh_rot = 0.25f * (g[0] + g[1] + g[2] + g[3]);
 	/* the heading's change, unwrapped near the wheels' (a turn beyond pi between frames) */
-	const float dth = wh_rot / e->d + la_wrap_pi_f32(z1[2] - z0[2] - wh_rot / e->d);
+	const float dth = wh_rot / e->d + model_wrap_pi_f32(z1[2] - z0[2] - wh_rot / e->d);
 	const float dx = z1[0] - z0[0], dy = z1[1] - z0[1];
 
-	la_sin_cos_f32(la_wrap_pi_f32(z0[2] + 0.5f * dth), &sn, &c);
+	la_sin_cos_f32(model_wrap_pi_f32(z0[2] + 0.5f * dth), &sn, &c);
 	const float sl = 1.41421356f * e->set.cam_pos_noise / T;
 	const float sr = 1.41421356f * e->set.cam_theta_noise * e->d / T;
 

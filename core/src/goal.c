@@ -9,14 +9,6 @@
 
 #define PI_F GOAL_PI_F
 
-static float wrap(float a)
-{
-	a = fmodf(a + PI_F, 2.0f * PI_F);
-	if (a < 0.0f)
-		a += 2.0f * PI_F;
-	return a - PI_F;
-}
-
 static float norm2(float x, float y)
 {
 	return sqrtf(x * x + y * y);
@@ -528,7 +520,7 @@ static void track(struct goal *g, struct ctl *c, const struct est_output *est,
 
 	goal_cos_sin(th, &cs, &sn);
 	const float e[3] = {ref->pose[0] - est->pose[0], ref->pose[1] - est->pose[1],
-	                    wrap(ref->pose[2] - th)};
+	                    model_wrap_pi_f32(ref->pose[2] - th)};
 	const float vx = ref->vel[0] + g->kp_pos * e[0], vy = ref->vel[1] + g->kp_pos * e[1];
 	const float lin = (float)c->t.vel_lin_max, rot = (float)c->t.vel_rot_max;
 	float vel[3] = {cs * vx + sn * vy, -sn * vx + cs * vy, ref->vel[2] + g->kp_theta * e[2]};
@@ -596,7 +588,7 @@ static void progress(struct goal *g, struct ctl *c, const struct est_output *est
 		    norm2(g->poses[i][0] - g->poses[i - 1][0], g->poses[i][1] - g->poses[i - 1][1]);
 	g->rep.index = g->index;
 	g->rep.distance_m = dist;
-	g->rep.angle_rad = wrap(g->poses[g->n - 1][2] - est->pose[2]);
+	g->rep.angle_rad = model_wrap_pi_f32(g->poses[g->n - 1][2] - est->pose[2]);
 	g->rep.time_to_go_s = fmaxf(0.0f, g->tr.duration_s - g->tr.t_s);
 	memcpy(g->rep.ref, ref->pose, sizeof(g->rep.ref));
 	memcpy(g->rep.ref_vel, ref->vel, sizeof(g->rep.ref_vel));

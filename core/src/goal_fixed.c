@@ -1,22 +1,15 @@
 /* goal_fixed.c - the fixed-limits peer of the goal mode's planner: a box inside the model's
  * envelope and a TIGERs-style plan under it (goal_fixed.h, docs/goal.md). */
 #include "omni4/core/goal_fixed.h"
+#include "omni4/model/consts.h"
 
 #include <errno.h>
 #include <math.h>
 #include <stdbool.h>
 
-#define PI_F 3.14159265358979f
+#define PI_F MODEL_PI_F
 #define IDLE_POS 1e-6f /* as TRAJ_IDLE_POS, TRAJ_IDLE_VEL: an axis this close and slow holds */
 /* (sin as a shifted cos below: no sincosf, which the core's objects may not call) */
-
-static float wrap(float a)
-{
-	a = fmodf(a + PI_F, 2.0f * PI_F);
-	if (a < 0.0f)
-		a += 2.0f * PI_F;
-	return a - PI_F;
-}
 
 /* The lowest acceleration over every direction at speed v, and the lowest top speed. */
 static void worst_direction(const struct traj *tr, float v, float *acc, float *top)
@@ -130,7 +123,7 @@ int goal_fixed_plan(const struct goal_fixed *fx, struct traj *tr, const struct t
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
 		return -EINVAL;
-	const float th = from->pose[2] + wrap(goal[2] - from->pose[2]);
+	const float th = from->pose[2] + model_wrap_pi_f32(goal[2] - from->pose[2]);
 	const bool rot = !idle(from->pose[2], from->vel[2], th);
 	const bool lin = !idle(from->pose[0], from->vel[0], goal[0]) ||
 	                 !idle(from->pose[1], from->vel[1], goal[1]);

@@ -5,8 +5,9 @@
 #include <math.h>
 
 #include "omni4/core/goal.h"
+#include "omni4/model/consts.h"
 
-#define GOAL_PI_F 3.14159265358979f
+#define GOAL_PI_F MODEL_PI_F
 
 /* cos and sin of a (sin as a shifted cos: no sincosf, which the core's objects may not call). */
 static inline void goal_cos_sin(float a, float *c, float *s)

@@ -4,18 +4,6 @@
 #include <errno.h>
 #include <math.h>
 
-#define PI_F 3.14159265358979f
-#define TWO_PI_F 6.28318530717959f
-
-float la_wrap_pi_f32(float a)
-{
-	if (a > PI_F || a <= -PI_F)
-		a -= TWO_PI_F * floorf((a + PI_F) / TWO_PI_F);
-	if (a <= -PI_F)
-		a += TWO_PI_F;
-	return a;
-}
-
 void la_sin_cos_f32(float theta, float *sin_out, float *cos_out)
 {
 	const float q = floorf(theta * 0.636619772f + 0.5f); /* nearest multiple of pi/2 */

@@ -4,6 +4,7 @@
  * hand-over. Single precision after traj_init; every loop has a fixed bound.
  */
 #include "omni4/core/traj.h"
+#include "omni4/model/consts.h"
 #include "traj_int.h"
 
 #include <errno.h>
@@ -21,14 +22,6 @@
 static bool finite3(const float v[3])
 {
 	return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
-}
-
-static float wrap_pi(float a)
-{
-	a = fmodf(a + PI_F, 2.0f * PI_F);
-	if (a < 0.0f)
-		a += 2.0f * PI_F;
-	return a - PI_F;
 }
 
 /* ---- the instance -------------------------------------------------------------------------- */
@@ -194,7 +187,7 @@ static bool stop_first_better(float t_stop, uint32_t f_stop, float t_box, uint32
 static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const float goal[3],
                             float share, bool rot_idle, bool tr_idle, float cap, bool settle)
 {
-	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
+	const float th_goal = from->pose[2] + model_wrap_pi_f32(goal[2] - from->pose[2]);
 	float t_rot = 0.0f, t_xy = 0.0f, lo = from->pose[2], hi = from->pose[2];
 
 	tr->flags = 0;
@@ -332,7 +325,7 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
 		return -EINVAL;
-	const float th_goal = from->pose[2] + wrap_pi(goal[2] - from->pose[2]);
+	const float th_goal = from->pose[2] + model_wrap_pi_f32(goal[2] - from->pose[2]);
 	const bool rot_idle = traj_1d_idle(from->pose[2], from->vel[2], th_goal);
 	const bool tr_idle = traj_1d_idle(from->pose[0], from->vel[0], goal[0]) &&
 	                     traj_1d_idle(from->pose[1], from->vel[1], goal[1]);
@@ -378,7 +371,7 @@ int traj_replan(struct traj *tr, const float goal[3])
 	if (!finite3(goal))
 		return -EINVAL;
 	if (tr->on_path && goal[0] == tr->path.goal[0] && goal[1] == tr->path.goal[1] &&
-	    fabsf(wrap_pi(goal[2] - tr->path.goal[2])) < 1e-5f)
+	    fabsf(model_wrap_pi_f32(goal[2] - tr->path.goal[2])) < 1e-5f)
 		return traj_path_retime(tr); /* the same path from where the reference is */
 	traj_eval(tr, tr->t_s, &now);
 	return traj_plan(tr, &now, goal);

@@ -9,6 +9,7 @@
 #include <math.h>
 
 #include "traj_int.h"
+#include "omni4/model/consts.h"
 
 #define TURN_MIN_RAD 1e-4f /* a corner turning less than this is no corner */
 #define CURV_RADIUS_MIN_M 1e-3f
@@ -24,14 +25,6 @@ static float sin_f(float a)
 static float dist2(const float a[2], const float b[2])
 {
 	return sqrtf((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]));
-}
-
-static float wrap_rad(float a)
-{
-	a = fmodf(a + PI_F, 2.0f * PI_F);
-	if (a < 0.0f)
-		a += 2.0f * PI_F;
-	return a - PI_F;
 }
 
 /* Position, tangent and curvature vector on piece pc at sigma [m] from its start. */
@@ -111,7 +104,7 @@ static void last_end(const struct traj_path *pa, float p[2])
 static float corner(struct traj_path *pa, const float w[2], float a_in, float a_out, float l_in,
                     float l_out, float radius)
 {
-	const float phi = wrap_rad(a_out - a_in), h = 0.5f * fabsf(phi);
+	const float phi = model_wrap_pi_f32(a_out - a_in), h = 0.5f * fabsf(phi);
 	float p[2];
 
 	last_end(pa, p);
@@ -177,7 +170,7 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
 		const float l_out = k + 2 == m ? 2.0f * len[k] : len[k];
 		const float s = corner(pa, pts[k], ang[k - 1], ang[k], l_in, l_out, r);
 		if (k > first) {
-			th += wrap_rad(wp[k - 1 - first][2] - th);
+			th += model_wrap_pi_f32(wp[k - 1 - first][2] - th);
 			pa->pass_s[k - 1 - first] = s;
 			pa->knot_s[pa->n_knots] = s;
 			pa->knot_th[pa->n_knots++] = th;
@@ -185,7 +178,7 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
 	}
 	last_end(pa, p_end);
 	add_piece(pa, p_end, ang[m - 2], 0.0f, dist2(p_end, pts[m - 1]));
-	th += wrap_rad(wp[n - 1][2] - th);
+	th += model_wrap_pi_f32(wp[n - 1][2] - th);
 	pa->pass_s[n - 1] = pa->len_m;
 	pa->knot_s[pa->n_knots] = pa->len_m;
 	pa->knot_th[pa->n_knots++] = th;

@@ -12,13 +12,18 @@
 #include "omni4/core/vocab.h"
 #include "traction_exp.hpp"
 
+extern "C" {
+#include "omni4/model/consts.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/wheels.h"
+}
+
 namespace omni4
 {
 
 namespace
 {
 
-constexpr double kG = 9.80665;
 constexpr double kSlipAbs = 0.02; // [m/s]: beyond the encoders' resolution, averaged
 constexpr double kSlipRel = 0.03; // share of the speed: beyond the model's error
 constexpr int kSlipMean = 10;     // samples in the running mean of the difference
@@ -32,13 +37,38 @@ bool driven(int8_t mode)
 	return mode_drives(mode); // the logged voltages applied
 }
 
-// Robot velocity (v, vn, d w) [m/s] from the wheel speeds (eqs 3-5).
-std::array<double, 3> robot_velocity(const MotorsSample &s, const model_params &p)
+// The wheels' physics of the robot p (its layout and drives; model/wheels.h).
+wheel_phys phys_of(const model_params &p)
 {
-	std::array<double, 4> g{};
+	model_wheels w;
+	wheel_geom g;
+	wheel_phys ph{};
+	model_wheels_from_params(&p, &w);
+	wheel_geom_paper(p.d, &g);
+	wheel_phys_init(&ph, &g, &p, &w, 0.0);
+	return ph;
+}
+
+// Robot velocity (v, vn, d w) [m/s] from the wheel speeds (eqs 3-5).
+std::array<double, 3> robot_velocity(const MotorsSample &s, const model_params &p,
+                                     const wheel_phys &ph)
+{
+	double rim[4], x[3];
 	for (int j = 0; j < 4; ++j)
-		g[j] = p.r * s.w[j];
-	return {0.5 * (g[3] - g[1]), 0.5 * (g[0] - g[2]), 0.25 * (g[0] + g[1] + g[2] + g[3])};
+		rim[j] = p.r * s.w[j];
+	wheel_body(&ph, rim, x);
+	return {x[0], x[1], p.d * x[2]};
+}
+
+// Each wheel's force [N] from its current (eqs 12-13), 0 when the bridges are off.
+std::array<double, 4> forces(const MotorsSample &s, const model_params &p)
+{
+	std::array<double, 4> f{};
+	if (driven(s.mode)) {
+		const double i[4] = {s.i[0], s.i[1], s.i[2], s.i[3]};
+		dyn_wheel_forces(&p, i, f.data());
+	}
+	return f;
 }
 
 // Largest distance between the encoders' velocity and the one the currents can give a
@@ -49,16 +79,17 @@ double runaway(const Segment &s, const model_params &p, double *dist_out, bool *
 	const auto &m = s.log->motors;
 	const double inertia[3] = {p.M, p.M, p.J / (p.d * p.d)}; // the third axis as d w
 	const double B[3] = {p.Bv, p.Bvn, p.Bw / (p.d * p.d)}, C[3] = {p.Cv, p.Cvn, p.Cw / p.d};
-	std::array<double, 3> x = robot_velocity(m[s.m0], p);
+	const wheel_phys ph = phys_of(p);
+	std::array<double, 3> x = robot_velocity(m[s.m0], p, ph);
 	double worst = 0, excess = -1e300;
 	std::array<std::array<double, 3>, kSlipMean> diff{};
 	std::array<double, kSlipMean> spd{};
 	for (size_t k = s.m0; k + 1 < s.m1; ++k) {
 		const double dt = (m[k + 1].utime - m[k].utime) * 1e-6;
-		std::array<double, 4> f{};
-		for (int j = 0; j < 4; ++j)
-			f[j] = driven(m[k].mode) ? p.l * p.Kt * m[k].i[j] / p.r : 0.0;
-		const double F[3] = {f[3] - f[1], f[0] - f[2], f[0] + f[1] + f[2] + f[3]};
+		const std::array<double, 4> f = forces(m[k], p);
+		double F[3];
+		wheel_body_force(&ph, f.data(), F); // eqs 9-11
+		F[2] /= p.d;                        // the third axis as d w
 		for (int a = 0; a < 3; ++a) {
 			const double sg = x[a] > 0 ? 1 : (x[a] < 0 ? -1 : 0);
 			if (sg == 0 && std::fabs(F[a]) <= C[a])
@@ -69,7 +100,7 @@ double runaway(const Segment &s, const model_params &p, double *dist_out, bool *
 			                             inertia[a];
 			x[a] = (sg != 0 && xn * sg < 0) ? 0.0 : xn;
 		}
-		const auto e = robot_velocity(m[k + 1], p);
+		const auto e = robot_velocity(m[k + 1], p, ph);
 		const size_t n = k - s.m0;
 		diff[n % kSlipMean] = {e[0] - x[0], e[1] - x[1], e[2] - x[2]};
 		spd[n % kSlipMean] = std::hypot(e[0], e[1], e[2]);
@@ -109,7 +140,10 @@ double peak_force(const Segment &s, const model_params &p, const std::array<doub
 				acc += driven(m[k + q].mode) ? m[k + q].i[j] : 0.0;
 			best = std::max(best, std::fabs(acc / kSmooth));
 		}
-		sum += p.l * p.Kt * best / p.r;
+		double cur[4] = {0, 0, 0, 0}, fb[4];
+		cur[j] = best;
+		dyn_wheel_forces(&p, cur, fb); // eqs 12-13
+		sum += fb[j];
 		++n;
 	}
 	return n ? sum / n : 0.0;
@@ -129,8 +163,9 @@ std::array<double, 4> window_forces(const Segment &s, const model_params &p, int
 		if (!driven(m[k].mode) || seen++ < skip)
 			continue;
 		const double t = (m[k].utime - m[s.m1 - 1].utime) * 1e-6;
+		const std::array<double, 4> fk = forces(m[k], p);
 		for (int j = 0; j < 4; ++j) {
-			f[j] += p.l * p.Kt * m[k].i[j] / p.r;
+			f[j] += fk[j];
 			sy[j] += p.r * m[k].w[j];
 			sty[j] += t * p.r * m[k].w[j];
 		}
@@ -158,7 +193,7 @@ void window_mu(const std::array<double, 4> &f, const std::array<double, 4> &acc,
 			a += acc[j] * (f[j] < 0 ? -1 : 1);
 			++n;
 		}
-	*mu = sum / n / (p.M * kG / 4);
+	*mu = sum / n / (p.M * MODEL_G_M_S2 / 4);
 	*rim_acc = a / n;
 }
 
@@ -177,6 +212,7 @@ double along(const std::string &dir, const std::array<double, 3> &x, const model
 // Steepest kSlopeN-sample least-squares slope of the velocity along dir, and its SE.
 void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 {
+	const wheel_phys ph = phys_of(p);
 	const auto &m = s.log->motors;
 	*acc = 0;
 	*se = 0;
@@ -185,7 +221,7 @@ void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 		const double t0 = m[k].utime * 1e-6;
 		for (int q = 0; q < kSlopeN; ++q) {
 			const double t = m[k + q].utime * 1e-6 - t0;
-			const double y = along(s.direction, robot_velocity(m[k + q], p), p);
+			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), p);
 			st += t, sy += y, stt += t * t, sty += t * y;
 		}
 		const double n = kSlopeN, den = n * stt - st * st;
@@ -197,7 +233,7 @@ void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 		double rss = 0;
 		for (int q = 0; q < kSlopeN; ++q) {
 			const double t = m[k + q].utime * 1e-6 - t0;
-			const double y = along(s.direction, robot_velocity(m[k + q], p), p);
+			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), p);
 			rss += (y - a - b * t) * (y - a - b * t);
 		}
 		*acc = b;
@@ -326,7 +362,7 @@ bool com_from_diagonal(const std::vector<TractionRun> &runs, double level_slip, 
 			continue;
 		std::array<double, 4> f = r.end_f;
 		for (int j = 0; j < 4; ++j) // less the share that spins the rim up (kinetic_fit)
-			f[j] -= share * p.M * kG / 4 * r.end_acc[j];
+			f[j] -= share * p.M * MODEL_G_M_S2 / 4 * r.end_acc[j];
 		const double a_v = (std::fabs(f[1]) + std::fabs(f[3]) - p.Cv) / p.M;
 		const double a_vn = (std::fabs(f[0]) + std::fabs(f[2]) - p.Cvn) / p.M;
 		if (!(a_v > 0.1 && a_vn > 0.1))
@@ -407,7 +443,7 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 		std::array<double, 4> ef, ea;
 		ef = window_forces(s, p, kEnd, ea);
 		window_mu(ef, ea, pat, p, &run.early_mu, &run.early_rim_acc);
-		run.mu = run.force / (p.M * kG / 4);
+		run.mu = run.force / (p.M * MODEL_G_M_S2 / 4);
 		steepest(s, p, &run.acc, &run.acc_se);
 		r.runs.push_back(run);
 	}

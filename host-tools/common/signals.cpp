@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 extern "C" {
+#include "omni4/model/consts.h"
 #include "omni4/model/kinematics.h"
 }
 
@@ -44,10 +45,10 @@ void unwrap(std::vector<double> &a)
 	for (size_t k = 1; k < a.size(); ++k) {
 		const double raw = a[k] + offset;
 		const double jump = raw - a[k - 1];
-		if (jump > M_PI)
-			offset -= 2 * M_PI * std::round(jump / (2 * M_PI));
-		else if (jump < -M_PI)
-			offset += 2 * M_PI * std::round(-jump / (2 * M_PI));
+		if (jump > MODEL_PI)
+			offset -= 2 * MODEL_PI * std::round(jump / (2 * MODEL_PI));
+		else if (jump < -MODEL_PI)
+			offset += 2 * MODEL_PI * std::round(-jump / (2 * MODEL_PI));
 		a[k] += offset;
 	}
 }

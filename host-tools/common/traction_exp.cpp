@@ -8,6 +8,7 @@
 #include "omni4/command_t.hpp"
 
 extern "C" {
+#include "omni4/model/consts.h"
 #include "omni4/model/plant.h"
 #include "omni4/core/vocab.h"
 }
@@ -139,7 +140,7 @@ void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_
 
 double traction_hold_n(const model_params &p, double mu, double margin)
 {
-	return mu > 0 ? (1 - margin) * mu * p.M * 9.80665 / 4 : 0.0;
+	return mu > 0 ? (1 - margin) * mu * p.M * MODEL_G_M_S2 / 4 : 0.0;
 }
 
 std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,

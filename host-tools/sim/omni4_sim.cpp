@@ -20,6 +20,10 @@
 #include "omni4/motors_t.hpp"
 #include "outfile.hpp"
 #include "scenario.hpp"
+
+extern "C" {
+#include "omni4/model/consts.h"
+}
 #include "simexp.hpp"
 
 namespace
@@ -222,7 +226,7 @@ int report_goals(const omni4::ScenarioResult &res)
 		    "%.1f mm and %.2f deg from it\n",
 		    i + 1, res.goals.size(), omni4::goal_outcome_text(g.status, g.reason).c_str(),
 		    g.ended_s - g.sent_s, g.sent_s, g.truth_off_m * 1e3,
-		    g.truth_off_rad * 180.0 / M_PI);
+		    g.truth_off_rad * 180.0 / MODEL_PI);
 		if (g.status != omni4::goal_status_t::STATUS_REACHED)
 			status = 1;
 	}

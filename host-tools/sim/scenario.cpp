@@ -16,6 +16,7 @@
 #include "omni4/goal_t.hpp"
 
 extern "C" {
+#include "omni4/model/consts.h"
 #include "omni4/lcmtypes/channels.h"
 }
 
@@ -292,7 +293,7 @@ struct GoalsPlay {
 		o.sent_s = static_cast<double>(sent_at) * dt;
 		o.ended_s = static_cast<double>(k) * dt;
 		o.truth_off_m = std::hypot(pose[0] - g.x, pose[1] - g.y);
-		o.truth_off_rad = std::fabs(std::remainder(pose[2] - g.theta, 2.0 * M_PI));
+		o.truth_off_rad = std::fabs(std::remainder(pose[2] - g.theta, 2.0 * MODEL_PI));
 		out.push_back(o);
 		send(nullptr, goal_t::ACTION_CANCEL); // as a client does once it has ended
 		++next;

@@ -9,13 +9,15 @@
 #include <math.h>
 #include <stdio.h>
 
+#include "omni4/model/consts.h"
+
 #define GOAL_TICKS_MAX 6000 /* 6 s at 1 kHz: far beyond the plans' duration */
 #define KEEP_TICKS 50       /* keep-alive every 50 ms, as omni4-goto */
 #define REPLACE_TICK 400    /* the second goal, while the first one moves */
 #define PARAM_TICK 900      /* a live change of the floor while the second one moves */
 #define PARAM_MU 0.5        /* [limits] traction_mu then (the planner's floor was 0.6) */
 #define POS_TOL_M 0.01      /* issue 37: 1 cm and 1 degree of the goal */
-#define TH_TOL_RAD (3.14159265358979 / 180.0)
+#define TH_TOL_RAD (MODEL_PI / 180.0)
 #define JUMP_TOL_M 0.002 /* the reference's step at the hand-over: at 1 m/s a tick is 1 mm */
 
 static const double goals[2][3] = {{0.6, 0.3, 1.0}, {0.1, 0.5, -0.5}};
@@ -133,8 +135,7 @@ int scenario_goal(void)
 	snprintf(fig, sizeof(fig),
 	         "taken_tick=%ld ref_step_mm=%.2f param_taken=%d reached_tick=%ld pos_err_mm=%.1f "
 	         "th_err_mdeg=%.0f",
-	         taken, 1e3 * jump, param_taken, reached, 1e3 * e,
-	         1e3 * a * 180.0 / 3.14159265358979);
+	         taken, 1e3 * jump, param_taken, reached, 1e3 * e, 1e3 * a * 180.0 / MODEL_PI);
 	scenario_say("goal", ok, fig);
 	print_costs(&tick, &plan);
 	return ok ? 0 : 1;

@@ -1,6 +1,7 @@
 /* plant.c - exact per-axis integration of eq 23 with Coulomb friction and stiction, and the
  * floor: traction limit, wheel inertia, radius errors, creep (plant.h). */
 #include "omni4/model/plant.h"
+#include "omni4/model/consts.h"
 
 #include "omni4/model/kinematics.h"
 
@@ -193,7 +194,7 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 /* The traction limit of a wheel carrying a quarter of the weight, mu M g / 4 [N]. */
 static double traction_limit(const struct plant *pl)
 {
-	return pl->floor.traction_mu * pl->p.M * PLANT_G / 4.0;
+	return pl->floor.traction_mu * pl->p.M * MODEL_G_M_S2 / 4.0;
 }
 
 /* Normal loads N_j with the load transfer of acceleration acc at velocity x (plant.h), and the
@@ -202,7 +203,7 @@ static void wheel_loads(const struct plant *pl, const double x[3], const double 
                         double normal[4], double hold[4])
 {
 	const struct model_params *p = &pl->p;
-	const double quarter = p->M * PLANT_G / 4.0;
+	const double quarter = p->M * MODEL_G_M_S2 / 4.0;
 	const double av = acc[0] - x[2] * x[1], avn = acc[1] + x[2] * x[0]; /* centre of mass */
 	const double ap[4] = {av, avn, -av, -avn};                          /* a . p_j / d */
 	const double k = p->M * pl->floor.com_height / (2.0 * p->d);

@@ -7,6 +7,7 @@
 #include <stdio.h>
 
 #include "omni4/core/la_f32.h"
+#include "omni4/model/consts.h"
 #include "omni4/model/rng.h"
 
 #define PI 3.14159265358979323846
@@ -40,7 +41,7 @@ static void test_wrap_lands_in_minus_pi_to_pi(void **state)
 
 	for (int i = -2000; i <= 2000; i++) {
 		const float a = (float)(i * 0.0137);
-		const float w = la_wrap_pi_f32(a);
+		const float w = model_wrap_pi_f32(a);
 		double want = fmod((double)a + PI, 2.0 * PI);
 
 		want = (want < 0.0 ? want + 2.0 * PI : want) - PI;
@@ -52,9 +53,9 @@ static void test_wrap_lands_in_minus_pi_to_pi(void **state)
 		worst = fmax(worst, err);
 		assert_true(err <= WRAP_TOL);
 	}
-	assert_true(la_wrap_pi_f32((float)PI) == (float)PI);
-	assert_true(la_wrap_pi_f32(-(float)PI) == (float)PI); /* -pi is outside (-pi, pi] */
-	assert_true(isnan(la_wrap_pi_f32(NAN)));
+	assert_true(model_wrap_pi_f32((float)PI) == (float)PI);
+	assert_true(model_wrap_pi_f32(-(float)PI) == (float)PI); /* -pi is outside (-pi, pi] */
+	assert_true(isnan(model_wrap_pi_f32(NAN)));
 	printf("wrap: worst error %.2g against fmod (double)\n", worst);
 }
 

@@ -1,17 +1,14 @@
 /*
- * la_f32.h - the core's small single-precision mathematics, written once: an angle wrap, sin and
- * cos together (the shape of CMSIS-DSP's arm_sin_cos_f32, radians), and a 3 x 3 symmetric
- * positive definite solve by Cholesky (arm_mat_cholesky_f32 then the two triangular solves,
- * fixed size). Portable C11, no allocation, no OS; fast-loop safe (no loops beyond 3 x 3).
+ * la_f32.h - the core's small single-precision mathematics, written once (the angle wrap:
+ * model/consts.h): sin and cos together (the shape of CMSIS-DSP's arm_sin_cos_f32, radians), and a
+ * 3 x 3 symmetric positive definite solve by Cholesky (arm_mat_cholesky_f32 then the two triangular
+ * solves, fixed size). Portable C11, no allocation, no OS; fast-loop safe (no loops beyond 3 x 3).
  *
  * Packed symmetric 3 x 3: the upper triangle row by row, {a00, a01, a02, a11, a12, a22}.
  * Packed lower triangle (a Cholesky factor L): row by row, {l00, l10, l11, l20, l21, l22}.
  */
 #ifndef OMNI4_LA_F32_H
 #define OMNI4_LA_F32_H
-
-/* a wrapped to (-pi, pi]. NaN in, NaN out. */
-float la_wrap_pi_f32(float a);
 
 /* sin and cos of theta [rad], |theta| <= pi + a little: a quadrant and Taylor polynomials on
  * [-pi/4, pi/4] (errors below 4e-7 against libm, float level), a tenth of libm's cost on the M4. */

@@ -55,7 +55,6 @@
 #include "omni4/model/params.h"
 #include "omni4/model/rng.h"
 
-#define PLANT_G 9.80665       /* [m/s^2]: N = M g */
 #define PLANT_SUBSTEP_S 1e-4  /* longest substep while a wheel slips [s] */
 #define PLANT_CREEP_TAU_S 0.2 /* time constant of the creep process [s] */
 
