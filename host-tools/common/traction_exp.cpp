@@ -9,6 +9,7 @@
 
 extern "C" {
 #include "omni4/model/consts.h"
+#include "omni4/model/dynamics.h"
 #include "omni4/model/plant.h"
 #include "omni4/core/vocab.h"
 }
@@ -105,8 +106,10 @@ double peak_force(const model_params &p, const std::array<double, 4> &u, double 
 		const double k = std::min(1.0, t / ramp_s);
 		const double v[4] = {k * u[0], k * u[1], k * u[2], k * u[3]};
 		plant_step(&pl, v, true, dt);
+		double f[4];
+		dyn_wheel_forces(&p, pl.current_a, f); // eqs 12-13
 		for (int j = 0; j < 4; ++j)
-			peak = std::max(peak, std::fabs(p.l * p.Kt * pl.current_a[j] / p.r));
+			peak = std::max(peak, std::fabs(f[j]));
 	}
 	return peak;
 }
