@@ -200,6 +200,17 @@ static void null_vector(const double row[4][3], double z[4])
 	}
 }
 
+/* A RoboCup-style four: 60/135/225/300 deg, the front pair nearer, Table III's drives. */
+static void robocup_four(struct wheel_geom *g, struct wheel_phys *ph)
+{
+	const double a[4] = {60, 135, 225, 300}, dist[4] = {0.078, 0.081, 0.081, 0.078};
+	struct model_wheels w;
+
+	wheels_of(&model_params_table3, &w);
+	assert_int_equal(wheel_geom_angles(4, a, dist, g), 0);
+	assert_int_equal(wheel_phys_init(ph, g, &model_params_table3, &w, H_COM), 0);
+}
+
 /* A RoboCup-style four (60/135/225/300 deg, the front pair nearer): the split gives back the
  * body force with no share in the null space; the loads carry the weight and the tipping
  * moment with no share in their null space; eqs 3-5 invert eq 2. */
@@ -207,16 +218,12 @@ static void test_unequal_layout_properties(void **state)
 {
 	(void)state;
 	const struct model_params *p = &model_params_table3;
-	const double a[4] = {60, 135, 225, 300}, dist[4] = {0.078, 0.081, 0.081, 0.078};
-	struct model_wheels w;
 	struct wheel_geom g;
 	struct wheel_phys ph;
 	struct rng r;
 	double z[4], zl[4], arow[4][3];
 
-	wheels_of(p, &w);
-	assert_int_equal(wheel_geom_angles(4, a, dist, &g), 0);
-	assert_int_equal(wheel_phys_init(&ph, &g, p, &w, H_COM), 0);
+	robocup_four(&g, &ph);
 	null_vector(g.row, z);
 	for (int j = 0; j < 4; j++) {
 		arow[j][0] = 1.0;
@@ -261,17 +268,12 @@ static void test_unequal_layout_properties(void **state)
 static void test_float_twin(void **state)
 {
 	(void)state;
-	const struct model_params *p = &model_params_table3;
-	const double a[4] = {60, 135, 225, 300}, dist[4] = {0.078, 0.081, 0.081, 0.078};
-	struct model_wheels w;
 	struct wheel_geom g;
 	struct wheel_phys ph;
 	struct wheel_phys_f32 pf;
 	struct rng r;
 
-	wheels_of(p, &w);
-	assert_int_equal(wheel_geom_angles(4, a, dist, &g), 0);
-	assert_int_equal(wheel_phys_init(&ph, &g, p, &w, H_COM), 0);
+	robocup_four(&g, &ph);
 	wheel_phys_to_f32(&ph, &pf);
 	rng_seed(&r, 17);
 	for (int n = 0; n < 200; n++) {
