@@ -1,10 +1,11 @@
 """The robot's vocabulary for the Python package and the docs, from core/include/omni4/core/vocab.def
-(modes, fault bits, state flags) and drivers/include/omni4/drivers/backends.def (the backends): setup.py
+(modes, fault bits, state flags, goal statuses and reasons) and drivers/include/omni4/drivers/backends.def (the backends): setup.py
 writes omni4/_vocab.py with python_module() when the package is built, and
 tests/host/check_vocab_doc.py compares docs/vocabulary.md with markdown().
 
 Rows are one line each: `OMNI4_MODE(NAME, value, wire, drives, keep_alive, faulted, "doc")`,
 `OMNI4_FAULT(NAME, bit, latching, "doc")`, `OMNI4_FLAG(NAME, bit, "doc")`,
+`OMNI4_GOAL_STATUS(NAME, value, "doc")`, `OMNI4_GOAL_REASON(NAME, value, "doc")`,
 `OMNI4_BACKEND(HAL, NAME, "word", "keys file", member, settings, state, "header", os, "provides")`. A row the generator cannot read stops the
 build instead of going missing in Python."""
 import os
@@ -13,9 +14,10 @@ import re
 VOCAB_DEF = "core/include/omni4/core/vocab.def"
 BACKENDS_DEF = "drivers/include/omni4/drivers/backends.def"
 WIRES = ("CMD", "STATE", "BOTH")
-_ROW = re.compile(r"^(OMNI4_[A-Z]+)\((.*)\)\s*$")
+_ROW = re.compile(r"^(OMNI4_[A-Z_]+)\((.*)\)\s*$")
 _ARG = re.compile(r'\s*("(?:[^"\\]|\\.)*"|[^,]+?)\s*(?:,|$)')
-_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 10}
+_ARITY = {"OMNI4_MODE": 7, "OMNI4_FAULT": 4, "OMNI4_FLAG": 3, "OMNI4_BACKEND": 10,
+          "OMNI4_GOAL_STATUS": 3, "OMNI4_GOAL_REASON": 3}
 
 
 class VocabError(ValueError):
@@ -42,7 +44,8 @@ def rows(text, path):
         m = _ROW.match(line)
         where = f"{path}:{no}"
         if m is None or m.group(1) not in _ARITY:
-            raise VocabError(f"{where}: not a one-line OMNI4_MODE/FAULT/FLAG/BACKEND row: {line}")
+            raise VocabError(f"{where}: not a one-line OMNI4_MODE/FAULT/FLAG/GOAL_STATUS/GOAL_REASON/"
+                              f"BACKEND row: {line}")
         args = [_value(a, where) for a in _ARG.findall(m.group(2))]
         if len(args) != _ARITY[m.group(1)]:
             raise VocabError(f"{where}: {m.group(1)} takes {_ARITY[m.group(1)]} columns, "
@@ -55,11 +58,13 @@ def _check(vocab, path):
     modes, faults = vocab["OMNI4_MODE"], vocab["OMNI4_FAULT"]
     for what, items in (("mode", [(n, v) for n, v, *_ in modes]),
                         ("fault", [(n, b) for n, b, *_ in faults]),
-                        ("flag", [(n, b) for n, b, _ in vocab["OMNI4_FLAG"]])):
+                        ("flag", [(n, b) for n, b, _ in vocab["OMNI4_FLAG"]]),
+                        ("goal status", [(n, v) for n, v, _ in vocab["OMNI4_GOAL_STATUS"]]),
+                        ("goal reason", [(n, v) for n, v, _ in vocab["OMNI4_GOAL_REASON"]])):
         names, values = [n for n, _ in items], [v for _, v in items]
         if len(set(names)) != len(names) or len(set(values)) != len(values):
             raise VocabError(f"{path}: a {what} name or value listed twice")
-        if what != "mode" and any(v <= 0 or v & (v - 1) for v in values):
+        if what in ("fault", "flag") and any(v <= 0 or v & (v - 1) for v in values):
             raise VocabError(f"{path}: a {what} value is not a single bit")
     for name, value, wire, *flags, _ in modes:
         if wire not in WIRES or not 0 <= value < 32 or any(f not in (0, 1) for f in flags):
@@ -102,6 +107,11 @@ def python_module(root=None, vocab=None):
               f"LATCHING = 0x{sum(b for _, b, lat, _ in faults if lat):04x}",
               "# name -> bit of the estimator's state_t.flags.",
               "FLAGS = {" + ", ".join(f"{n!r}: 0x{b:02x}" for n, b, _ in flags) + "}",
+              "# value -> name of goal_status_t.status; value -> (name, meaning) of its reason.",
+              "GOAL_STATUSES = {" + ", ".join(f"{val}: {n!r}" for n, val, _ in v["OMNI4_GOAL_STATUS"])
+              + "}",
+              "GOAL_REASONS = {" + ", ".join(f"{val}: ({n!r}, {d!r})"
+                                             for n, val, d in v["OMNI4_GOAL_REASON"]) + "}",
               "# (hal, INI word, keys file, what it provides) of every backend, in the enums' order.",
               "BACKENDS = (" + "".join(f"{_backend(r)!r}, " for r in v["OMNI4_BACKEND"]) + ")",
               "",
@@ -133,7 +143,8 @@ def backend_words(hal):
 
 __all__ = ["MODES", "MODE_DOCS", "MODE_NAMES", "COMMAND_MODES", "REPORTED_MODES", "DRIVEN_MODES",
            "KEPT_ALIVE_MODES", "FAULTED_MODES", "FAULTS", "FAULT_DOCS", "FAULT_BITS", "LATCHING",
-           "FLAGS", "BACKENDS", "mode_name", "fault_names", "backend_words"]
+           "FLAGS", "GOAL_STATUSES", "GOAL_REASONS", "BACKENDS", "mode_name", "fault_names",
+           "backend_words"]
 '''
 
 
@@ -163,6 +174,13 @@ def markdown(root=None, vocab=None):
     out += ["", "### Estimator flags (`state_t.flags`)", "", "| bit | name | meaning |",
             "|---|---|---|"]
     out += [f"| 0x{b:02x} | {n} | {d} |" for n, b, d in v["OMNI4_FLAG"]]
+    out += ["", "### Goal statuses (`goal_status_t.status`)", "", "| value | name | meaning |",
+            "|---|---|---|"]
+    out += [f"| {val} | {n} | {d} |" for n, val, d in v["OMNI4_GOAL_STATUS"]]
+    out += ["", "### Goal reasons (`goal_status_t.reason`)", "", "| value | name | meaning |",
+            "|---|---|---|"]
+    out += [f"| {val} | {n} | {d.replace('|', chr(92) + '|') or '–'} |"
+            for n, val, d in v["OMNI4_GOAL_REASON"]]
     out += ["", "### Backends (`[hal] motor`, `[hal] lines`)", "",
             "| `[hal]` key | INI word | its keys | provides |", "|---|---|---|---|"]
     out += [f"| `{h}` | `{w}` | {f'`{k}`' if k else '–'} | {p} |"

@@ -199,18 +199,22 @@ bool ended(int status)
 
 std::string goal_outcome_text(int status, int reason)
 {
-	static const char *const statuses[] = {"NONE", "ACTIVE", "REACHED", "ABORTED", "REFUSED"};
-	static const char *const reasons[] = {
-	    "",         "NOT_FINITE", "OUT_OF_RANGE",   "UNREACHABLE", "FAULT",     "NO_ESTIMATE",
-	    "WATCHDOG", "COLLISION",  "STALE_ESTIMATE", "REPLACED",    "CANCELLED", "NO_PROGRESS",
-	    "SETTLING"};
-	static_assert(goal_status_t::STATUS_REFUSED == 4 && goal_status_t::REASON_SETTLING == 12,
-	              "goal_status_t's words: the tables above follow its constants");
-	std::string s = status >= 0 && status < 5 ? statuses[status] : std::to_string(status);
-	if (reason > 0)
-		s += std::string(" (") +
-		     (reason < 13 ? reasons[reason] : std::to_string(reason).c_str()) + ")";
-	return s;
+	std::string s = std::to_string(status), r = std::to_string(reason);
+	switch (status) { // the vocabulary's rows (core's vocab.def)
+#define OMNI4_GOAL_STATUS(name, value, ...)                                                        \
+	case value:                                                                                \
+		s = #name;                                                                         \
+		break;
+#include "omni4/core/vocab.def"
+	}
+	switch (reason) {
+#define OMNI4_GOAL_REASON(name, value, ...)                                                        \
+	case value:                                                                                \
+		r = #name;                                                                         \
+		break;
+#include "omni4/core/vocab.def"
+	}
+	return reason > 0 ? s + " (" + r + ")" : s;
 }
 
 std::vector<ScenarioGoal> read_goals(const std::string &path)

@@ -28,31 +28,12 @@ import time
 from . import CHANNEL_GOAL, CHANNEL_GOAL_STATUS
 from .goal_status_t import goal_status_t
 from .goal_t import goal_t
+from . import _vocab
 
 S = goal_status_t
-STATUS_NAMES = {S.STATUS_NONE: "NONE", S.STATUS_ACTIVE: "ACTIVE", S.STATUS_REACHED: "REACHED",
-                S.STATUS_ABORTED: "ABORTED", S.STATUS_REFUSED: "REFUSED"}
-REASONS = {
-    S.REASON_NONE: "",
-    S.REASON_NOT_FINITE: "a pose, blend_m or speed_max is NaN or infinite",
-    S.REASON_OUT_OF_RANGE: "a pose beyond 100 m (or |theta| beyond 1000 rad), more than "
-                           f"{goal_t.MAX_POSES} poses, blend_m outside 0.01 .. 2 m or a negative "
-                           "speed_max",
-    S.REASON_UNREACHABLE: "unreachable: no plan within the drives' limits gets there in 120 s",
-    S.REASON_FAULT: "the robot is in FAULT or ESTOP: clear_fault() (omni4-param clear-fault) "
-                    "first",
-    S.REASON_NO_ESTIMATE: "no state estimate, or no camera pose for 0.5 s: the robot does not "
-                          "know where it is",
-    S.REASON_WATCHDOG: "the goal was not kept alive (the watchdog stopped it)",
-    S.REASON_COLLISION: "the estimator flagged a collision: stopped with the ramp",
-    S.REASON_STALE_ESTIMATE: "no camera pose for 1 s: odometry alone may not carry a goal longer",
-    S.REASON_REPLACED: "replaced: another goal or a command took over",
-    S.REASON_CANCELLED: "cancelled",
-    S.REASON_NO_PROGRESS: "no progress: not reached 10 s after its plan ended (stopped with the "
-                          "ramp)",
-    S.REASON_SETTLING: "at the pose, holding it until the estimate is sure (2 sd within 1 cm "
-                       "and 1 deg)",
-}
+STATUS_NAMES = dict(_vocab.GOAL_STATUSES)  # the vocabulary's rows (core's vocab.def)
+REASONS = {value: meaning.replace("goal_t.MAX_POSES", str(goal_t.MAX_POSES))
+           for value, (_, meaning) in _vocab.GOAL_REASONS.items()}
 NO_PROGRESS_S = 5.0          # no progress of the goal for this long: cancelled, TimeoutError
 STATUS_TIMEOUT_S = NO_PROGRESS_S   # the name before progress was judged (kept for callers)
 CANCEL_WAIT_S = 1.0          # after a cancel, the longest wait for the controller's ABORTED [s]

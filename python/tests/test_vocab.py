@@ -38,6 +38,10 @@ def test_every_lcm_mode_fault_and_flag_is_a_row_and_every_row_an_lcm_constant():
     assert _lcm_constants(omni4.motors_t, "MODE_") == rep
     assert _lcm_constants(omni4.motors_t, "FAULT_") == _vocab.FAULTS
     assert _lcm_constants(omni4.state_t, "FLAG_") == _vocab.FLAGS
+    statuses = {n: v for v, n in _vocab.GOAL_STATUSES.items()}
+    reasons = {n: v for v, (n, _) in _vocab.GOAL_REASONS.items()}
+    assert _lcm_constants(omni4.goal_status_t, "STATUS_") == statuses
+    assert _lcm_constants(omni4.goal_status_t, "REASON_") == reasons
 
 
 def test_the_wire_values_stay_as_the_contract_says():
@@ -47,6 +51,9 @@ def test_the_wire_values_stay_as_the_contract_says():
     assert _vocab.DRIVEN_MODES == (1, 2, 7) and _vocab.KEPT_ALIVE_MODES == (1, 2, 3, 7)
     assert _vocab.FAULTED_MODES == (5, 6) and _vocab.LATCHING == 0xff
     assert _vocab.FAULTS["OVERRUN"] == 0x1000 and _vocab.FAULTS["OUTPUT"] == 0x80 and _vocab.FLAGS["NO_WHEELS"] == 0x08
+    assert _vocab.GOAL_STATUSES == {0: "NONE", 1: "ACTIVE", 2: "REACHED", 3: "ABORTED",
+                                    4: "REFUSED"}
+    assert _vocab.GOAL_REASONS[9][0] == "REPLACED" and _vocab.GOAL_REASONS[12][0] == "SETTLING"
     assert _vocab.backend_words("motor") == ("sim", "socketcan")
     assert _vocab.backend_words("lines") == ("none", "sim", "gpiod")
 

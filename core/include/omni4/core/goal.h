@@ -30,6 +30,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "omni4/core/vocab.h"
 #include "omni4/core/ctl.h"
 #include "omni4/core/est.h"
 #include "omni4/core/goal_fixed.h"
@@ -93,29 +94,16 @@
 
 enum goal_action { GOAL_CANCEL = 0, GOAL_GO = 1 };
 
-/* goal_status_t.STATUS_* and REASON_* (lcmcodec checks them at compile time). */
+/* goal_status_t.STATUS_* and REASON_*: vocab.def's rows (goalcodec checks them against the LCM
+ * constants at compile time). */
 enum goal_status {
-	GOAL_NONE = 0,
-	GOAL_ACTIVE = 1,
-	GOAL_REACHED = 2,
-	GOAL_ABORTED = 3,
-	GOAL_REFUSED = 4,
+#define OMNI4_GOAL_STATUS(name, value, ...) GOAL_##name = value,
+#include OMNI4_VOCAB_DEF
 };
 
 enum goal_reason {
-	GOAL_R_NONE = 0,
-	GOAL_R_NOT_FINITE = 1,
-	GOAL_R_OUT_OF_RANGE = 2,
-	GOAL_R_UNREACHABLE = 3,
-	GOAL_R_FAULT = 4,
-	GOAL_R_NO_ESTIMATE = 5,
-	GOAL_R_WATCHDOG = 6,
-	GOAL_R_COLLISION = 7,
-	GOAL_R_STALE_ESTIMATE = 8,
-	GOAL_R_REPLACED = 9,
-	GOAL_R_CANCELLED = 10,
-	GOAL_R_NO_PROGRESS = 11, /* ABORTED: not reached GOAL_SETTLE_MAX_US after the plan ended */
-	GOAL_R_SETTLING = 12,    /* ACTIVE: at the pose, waiting for the estimate to be sure */
+#define OMNI4_GOAL_REASON(name, value, ...) GOAL_R_##name = value,
+#include OMNI4_VOCAB_DEF
 };
 
 /* A goal as received (goal_t; doubles, checked once on arrival). */
