@@ -22,9 +22,11 @@ void traction_set(struct traction *t, const struct model_params *p, const struct
 	struct wheel_phys ph;
 
 	wheel_geom_paper(p->d, &g);
-	t->on = mu > 0.0 && wheel_phys_init(&ph, &g, p, w, com_height) == 0;
-	if (t->on)
+	const bool wheels_ok = wheel_phys_init(&ph, &g, p, w, com_height) == 0;
+
+	if (wheels_ok) /* (the forces and holds asked of a limit that is off too) */
 		wheel_phys_to_f32(&ph, &t->ph);
+	t->on = mu > 0.0 && wheels_ok;
 	t->mu = (float)mu;
 	t->keep = (float)(1.0 - margin);
 	t->M = (float)p->M;
