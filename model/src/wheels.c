@@ -144,22 +144,30 @@ static bool geom_ok(const struct wheel_geom *g)
 	return true;
 }
 
+int wheel_phys_layout(struct wheel_phys *ph, const struct wheel_geom *g)
+{
+	if (!ph || !g || !geom_ok(g))
+		return -EINVAL;
+	memset(ph, 0, sizeof(*ph));
+	ph->n = g->n;
+	memcpy(ph->row, g->row, sizeof(ph->row));
+	memcpy(ph->split, g->split, sizeof(ph->split));
+	for (int j = 0; j < g->n; j++)
+		for (int k = 0; k < 3; k++)
+			ph->fk[k][j] = g->split[j][k]; /* (G^T G)^-1 G^T: the split's transpose */
+	return 0;
+}
+
 int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const struct model_params *p,
                     const struct model_wheels *w, double com_height_m)
 {
 	struct wheel_phys t;
 	const double h = com_height_m;
 
-	memset(&t, 0, sizeof(t));
-	if (!g || !p || !w || !geom_ok(g) || !(h >= 0.0) || !isfinite(h))
+	if (!g || !p || !w || wheel_phys_layout(&t, g) || !(h >= 0.0) || !isfinite(h))
 		return -EINVAL;
 	MODEL_ASSERT_CHECKED(p, w); /* checked at the door (params.h) */
-	t.n = g->n;
-	memcpy(t.row, g->row, sizeof(t.row));
-	memcpy(t.split, g->split, sizeof(t.split));
 	for (int j = 0; j < g->n; j++) {
-		for (int k = 0; k < 3; k++)
-			t.fk[k][j] = g->split[j][k]; /* (G^T G)^-1 G^T: the split's transpose */
 		t.b[j] = p->l * w->Kt[j] / (w->R[j] * w->r[j]);
 		t.vpn[j] = w->R[j] * w->r[j] / (p->l * w->Kt[j]);
 		t.kemf[j] = w->Kv[j] * p->l / w->r[j];

@@ -264,6 +264,25 @@ static void test_unequal_layout_properties(void **state)
 	}
 }
 
+/* The layout's part alone is the full one's, with no drive and no load. */
+static void test_layout_part_alone(void **state)
+{
+	(void)state;
+	struct wheel_geom g;
+	struct wheel_phys full, part;
+
+	robocup_four(&g, &full);
+	assert_int_equal(wheel_phys_layout(&part, &g), 0);
+	assert_int_equal(part.n, full.n);
+	assert_memory_equal(part.row, full.row, sizeof(part.row));
+	assert_memory_equal(part.split, full.split, sizeof(part.split));
+	assert_memory_equal(part.fk, full.fk, sizeof(part.fk));
+	for (int j = 0; j < 4; j++)
+		assert_true(part.b[j] == 0.0 && part.kemf[j] == 0.0 && part.load0[j] == 0.0);
+	g.n = 2;
+	assert_int_equal(wheel_phys_layout(&part, &g), -EINVAL);
+}
+
 /* The float twin within float's rounding of the double. */
 static void test_float_twin(void **state)
 {
@@ -347,6 +366,7 @@ int main(void)
 	    cmocka_unit_test(test_paper_angles_give_the_papers_rows),
 	    cmocka_unit_test(test_three_wheels_closed_form),
 	    cmocka_unit_test(test_unequal_layout_properties),
+	    cmocka_unit_test(test_layout_part_alone),
 	    cmocka_unit_test(test_float_twin),
 	    cmocka_unit_test(test_bad_layouts_refused),
 	};

@@ -78,6 +78,10 @@ struct wheel_phys_f32 {
  * 0: no load transfer). -EINVAL for an invalid layout or height; ph untouched then. */
 int wheel_phys_init(struct wheel_phys *ph, const struct wheel_geom *g, const struct model_params *p,
                     const struct model_wheels *w, double com_height_m);
+/* The layout's part alone (n, rows, split, eqs 3-5; no drive, no load: those stay 0), for a
+ * caller with a model it has not checked (identification's fits). -EINVAL for an invalid
+ * layout. */
+int wheel_phys_layout(struct wheel_phys *ph, const struct wheel_geom *g);
 void wheel_phys_to_f32(const struct wheel_phys *ph, struct wheel_phys_f32 *out);
 
 /* Rim speeds [m/s] of a body velocity x (v, vn [m/s], w [rad/s]): eq 2. */
