@@ -744,6 +744,16 @@ static void export_model_csvs(const std::string &dir, const IdentResult &r,
 	wc.close();
 }
 
+// The traction experiment's fit (ident_traction.hpp); a model it cannot take: one line, exit 1.
+static TractionResult traction_or_die(const std::vector<Segment> &segs, const model_params &p)
+{
+	try {
+		return identify_traction(segs, p);
+	} catch (const IdentError &e) {
+		die(e.what());
+	}
+}
+
 int cmd_identify(const IdentifyArgs &a)
 {
 	check_writable(a.out);
@@ -765,12 +775,7 @@ int cmd_identify(const IdentifyArgs &a)
 	});
 	const IdentResult r = traction_only ? model_from_robot_file(a.robot, base, base_seen)
 	                                    : identify_or_die(segs, base, opt);
-	TractionResult trac;
-	try {
-		trac = identify_traction(segs, r.final);
-	} catch (const IdentError &e) {
-		die(e.what());
-	}
+	const TractionResult trac = traction_or_die(segs, r.final);
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
 		std::printf(" %s %zu", k.c_str(), n);
