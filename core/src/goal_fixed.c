@@ -37,7 +37,7 @@ static float rotation_acc(const struct traj_coef *c, float w)
 
 	for (int j = 0; j < c->wh.n; j++) {
 		const float f =
-		    fminf(c->f_max_n[j], c->b[j] * c->u_max_v - c->e[j] * c->wh.row[j][2] * w);
+		    fminf(c->f_max_n[j], c->wh.b[j] * c->u_max_v - c->e[j] * c->wh.row[j][2] * w);
 
 		T = fminf(T, f / c->wh.split[j][2]);
 	}

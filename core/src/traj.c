@@ -77,7 +77,6 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 		return -EINVAL;
 	wheel_phys_to_f32(&ph, &c.wh);
 	for (int j = 0; j < 4; j++) {
-		c.b[j] = c.wh.b[j];
 		c.e[j] = c.wh.b[j] * c.wh.kemf[j];
 		c.rim_max[j] = f.wmax * (float)l->w.r[j] / gear;
 		c.turn[j] = sqrtf(c.wh.split[j][0] * c.wh.split[j][0] +

@@ -85,14 +85,15 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 		const float fa[2] = {c->M * sh[0], c->M * sh[1]};
 		const float fv[2] = {sh[0] * c->B[0], sh[1] * c->B[1]};
 		const float coul = fabsf(sh[0]) * c->C[0] + fabsf(sh[1]) * c->C[1];
-		const float uv[2] = {(fv[0] + c->e[j] * row[0]) / c->b[j],
-		                     (fv[1] + c->e[j] * row[1]) / c->b[j]};
+		const float uv[2] = {(fv[0] + c->e[j] * row[0]) / c->wh.b[j],
+		                     (fv[1] + c->e[j] * row[1]) / c->wh.b[j]};
 		const float *ka[3] = {fa, fa, NULL}, *kv[3] = {fv, uv, row};
-		const float kscale[3] = {1.0f, 1.0f / c->b[j], 0.0f};
+		const float kscale[3] = {1.0f, 1.0f / c->wh.b[j], 0.0f};
 		/* wheel j's share of M w x v: M w |sh_j x v| <= M w_max |sh_j| |v| */
 		const float turn = c->M * w_max * c->turn[j];
 		const float room[3] = {share * c->f_max_n[j] - coul,
-		                       share * c->u_max_v - coul / c->b[j], share * c->rim_max[j]};
+		                       share * c->u_max_v - coul / c->wh.b[j],
+		                       share * c->rim_max[j]};
 		const float room0[3] = {share * c->f_max_n[j], share * c->u_max_v,
 		                        share * c->rim_max[j]};
 		for (int q = 0; q < 3; q++, n++) {
@@ -124,7 +125,7 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 {
 	for (int j = 0; j < 4; j++) {
-		const float ib = 1.0f / c->b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
+		const float ib = 1.0f / c->wh.b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
 		r[3 * j] = (struct row){{c->J * q, 0.0f},
 		                        {c->B[2] * q, 0.0f},
 		                        share * c->f_max_n[j] - c->C[2] * q,
@@ -197,11 +198,11 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 		const float s = speed_m_s;
 		const float lift = fl[0] * dir[0] + fl[1] * dir[1]; /* the load it takes off */
 		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n[j], lift));
-		acc = minf(acc,
-		           acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->b[j], 0.0f));
+		acc = minf(
+		    acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->wh.b[j], 0.0f));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */
 		const float k_u = p >= 0.0f ? q1 + c->e[j] * ge : -(q1 + c->e[j] * ge);
-		const float r_u = c->u_max_v * c->b[j] - (p >= 0.0f ? q0 : -q0);
+		const float r_u = c->u_max_v * c->wh.b[j] - (p >= 0.0f ? q0 : -q0);
 		const float k_f = p >= 0.0f ? q1 : -q1,
 		            r_f = c->f_max_n[j] - (p >= 0.0f ? q0 : -q0);
 		if (ge == 0.0f)

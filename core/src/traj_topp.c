@@ -181,7 +181,7 @@ static bool interval(const struct traj_coef *c, const struct topp_rows *r, float
 		if (!one_side(A + na, hold - P - r->dhi[j], lo, hi) ||
 		    !one_side(na - A, hold + P + r->dlo[j], lo, hi))
 			return false;
-		const float bound = k * c->u_max_v * c->b[j], Pu = P + c->e[j] * r->K[j] * sd;
+		const float bound = k * c->u_max_v * c->wh.b[j], Pu = P + c->e[j] * r->K[j] * sd;
 		if (!one_side(A, bound - Pu - r->dhi[j], lo, hi) ||
 		    !one_side(-A, bound + Pu + r->dlo[j], lo, hi))
 			return false;
@@ -198,7 +198,7 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 
 	w = maxf(w, fabsf(g->ths) * sd / c->omega_cap_rad_s);
 	for (int j = 0; j < 4; j++) {
-		const float bound[2] = {c->f_max_n[j], c->u_max_v * c->b[j]};
+		const float bound[2] = {c->f_max_n[j], c->u_max_v * c->wh.b[j]};
 		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
 		w = maxf(w, fabsf(r->K[j]) * sd / c->rim_max[j]);
 		for (int q = 0; q < 2; q++) {

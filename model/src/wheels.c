@@ -200,9 +200,8 @@ void wheel_phys_to_f32(const struct wheel_phys *ph, struct wheel_phys_f32 *out)
 void wheel_rims(const struct wheel_phys *ph, const double x[3], double rim_m_s[4])
 {
 	for (int j = 0; j < 4; j++)
-		rim_m_s[j] =
-		    j < ph->n ? ph->row[j][0] * x[0] + ph->row[j][1] * x[1] + ph->row[j][2] * x[2]
-		              : 0.0;
+		rim_m_s[j] = ph->row[j][0] * x[0] + ph->row[j][1] * x[1] +
+		             ph->row[j][2] * x[2]; /* (an absent wheel's row is 0) */
 }
 
 void wheel_body(const struct wheel_phys *ph, const double rim_m_s[4], double x[3])

@@ -106,7 +106,6 @@ void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a
 /* Per-wheel coefficients, prepared by traj_init (no double after it). */
 struct traj_coef {
 	struct wheel_phys_f32 wh; /* the wheels (wheels.h): eq 2's rows, force split, loads */
-	float b[4];               /* drive gain l Kt_j / (R_j r_j) [N/V] (wh.b) */
 	float e[4];       /* back-EMF braking b_j kemf_j = l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
 	float rim_max[4]; /* rim speed limit motor_speed_max r_j / l [m/s] */
 	float turn[4];    /* |wh.split[j][0..1]|: wheel j's most of a unit translation force */
