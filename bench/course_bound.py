@@ -5,18 +5,22 @@ For each single-pose goal of course_bench's run (its --times CSV: start, goal, e
 arrival), the direct method of bench/traj_optimal.py (imported, unchanged) computes the
 shortest time from rest to rest for the robot INI's model and limits: each drive's own r, Kv,
 Kt, R ([model] r_j ...; a drive without them takes the scalar), the supply less the feedback's
-margin (GOAL_MARGIN_V), the floor's traction ([limits] traction_mu and traction_margin, 0: the
-goal mode's floor, 0.6 less 10 %; com_height's load transfer), the motor speed limit. Prints one line per goal, the arrival
+margin ([goal] margin_v), the floor's traction ([limits] traction_mu, 0: [goal] floor_mu; less
+[limits] traction_margin; com_height's load transfer), the motor speed limit ([goal]
+motor_speed_max); a key the INI leaves out takes the key table's default (omni4-config-keys
+--json). Prints one line per goal, the arrival
 of the goal mode and of the fixed-limits peer over the bound, and the worst ratio.
 
     python bench/course_bound.py build/bench/course_times.csv bench/course.ini \
-        --traj-plan build/bin/traj_plan
+        --traj-plan build/bin/traj_plan --config-keys build/bin/omni4-config-keys
 """
 import argparse
 import configparser
 import csv
+import json
 import math
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -24,30 +28,34 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import traj_optimal as topt  # noqa: E402
 
-MARGIN_V = 2.0        # GOAL_MARGIN_V (core/include/omni4/core/goal.h)
-MU_OFF = (0.6, 0.1)   # GOAL_MU_DEFAULT, GOAL_TRACTION_MARGIN: traction_mu = 0
-MOTOR_MAX = 600.0     # GOAL_MOTOR_SPEED_MAX_RAD_S
+def key_defaults(tool):
+    """{(section, key): default} of the key table (omni4-config-keys --json)."""
+    out = subprocess.run([tool, "--json"], check=True, capture_output=True, text=True,
+                         timeout=30).stdout
+    return {(k["section"], k["key"]): k["default"] for k in map(json.loads, out.splitlines())}
 
 
-def robot(path):
+def robot(path, defaults):
     """The drives (b, e, rim_max per wheel) and the limits of the robot INI."""
     ini = configparser.ConfigParser(inline_comment_prefixes=(";", "#"))
     ini.optionxform = str
     ini.read_string("[top]\n" + open(path, encoding="utf-8").read())
     model = ini["model"] if ini.has_section("model") else {}
-    limits = ini["limits"] if ini.has_section("limits") else {}
+    key = lambda sec, k: float(ini[sec][k] if ini.has_section(sec) and k in ini[sec]
+                               else defaults[(sec, k)])
     get = lambda sec, k, d: float(sec.get(k, d)) if sec else d
     scal = dict(r=topt.RW, Kv=topt.KV, Kt=topt.KT, R=topt.R)
     w = {q: np.array([get(model, f"{q}_{j}", get(model, q, scal[q])) for j in range(4)])
          for q in scal}
-    mu = get(limits, "traction_mu", 0.0)
-    mu, tm = (mu, get(limits, "traction_margin", 0.02)) if mu > 0 else MU_OFF
+    mu = key("limits", "traction_mu")
+    mu = mu if mu > 0 else key("goal", "floor_mu")
+    supply, motor_max = key("limits", "supply_v"), key("goal", "motor_speed_max")
     b = topt.L * w["Kt"] / (w["R"] * w["r"])
     e = topt.L ** 2 * w["Kt"] * w["Kv"] / (w["R"] * w["r"] ** 2)
-    return b, e, MOTOR_MAX * w["r"] / topt.L, dict(supply=get(limits, "supply_v", 12.0),
-                                                   margin=MARGIN_V, mu=mu,
-                                                   traction_margin=tm, motor_max=MOTOR_MAX,
-                                                   com_height=get(limits, "com_height", 0.0))
+    return b, e, motor_max * w["r"] / topt.L, dict(
+        supply=supply, margin=min(key("goal", "margin_v"), 0.25 * supply), mu=mu,
+        traction_margin=key("limits", "traction_margin"), motor_max=motor_max,
+        com_height=key("limits", "com_height"))
 
 
 def main():
@@ -59,8 +67,10 @@ def main():
                     help="solves resumed after the iteration limit (default 2)")
     ap.add_argument("--traj-plan", help="the planner's CLI (build/bin/traj_plan): its "
                     "reference warm-starts the solver (the optimum is the solver's)")
+    ap.add_argument("--config-keys", default="build/bin/omni4-config-keys",
+                    help="omni4-config-keys: the defaults of the keys the INI leaves out")
     args = ap.parse_args()
-    b, e, rim, limits = robot(args.ini)
+    b, e, rim, limits = robot(args.ini, key_defaults(args.config_keys))
     topt.LIMITS.update(limits)
     u_max = limits["supply"] - limits["margin"]
     f_max = limits["mu"] * topt.M * 9.80665 / 4.0 * (1.0 - limits["traction_margin"])

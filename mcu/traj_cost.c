@@ -11,6 +11,8 @@
 #include <math.h>
 #include <stdio.h>
 
+#include "omni4/core/ctl_settings.h"
+#include "omni4/core/goal.h"
 #include "omni4/core/traj.h"
 
 #define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
@@ -61,19 +63,15 @@ static void follow(const float *m, uint32_t (*read)(void), struct meter_sum *pla
 
 void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const char *line))
 {
-	struct traj_limits l = {.p = model_params_table3,
-	                        .supply_v = 12.0,
-	                        .margin_v = 2.0,
-	                        .mu = 0.6,
-	                        .traction_margin = 0.1,
-	                        .motor_speed_max_rad_s = 600.0,
-	                        .speed_cap_m_s = INFINITY,
-	                        .omega_cap_rad_s = INFINITY,
-	                        .rot_share = 0.25};
+	struct ctl_settings s;
+	struct traj_limits l;
 	struct meter_sum plan = {0}, replan = {0}, step = {0}, moving = {0};
 	char line[320];
 
-	model_wheels_from_params(&l.p, &l.w);
+	ctl_settings_defaults(&s); /* the goal mode's limits, without its speed caps */
+	goal_limits(&s, &l);
+	l.speed_cap_m_s = INFINITY;
+	l.omega_cap_rad_s = INFINITY;
 	if (traj_init(&g_tr, &l))
 		return;
 	for (unsigned i = 0; i < sizeof(course) / sizeof(course[0]); i++)

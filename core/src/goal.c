@@ -58,30 +58,31 @@ static void set_status(struct goal *g, enum goal_status st, enum goal_reason why
 		remember(g, &g->rep);
 }
 
-void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin)
+void goal_limits(const struct ctl_settings *cfg, struct traj_limits *lim)
 {
 	const bool floor = cfg->limits.traction_mu > 0.0;
 
-	*mu = floor ? cfg->limits.traction_mu : GOAL_MU_DEFAULT;
-	*margin = floor ? cfg->limits.traction_margin : GOAL_TRACTION_MARGIN;
+	*lim = (struct traj_limits){
+	    .p = cfg->model,
+	    .supply_v = cfg->limits.supply_v,
+	    .margin_v = fmin(cfg->goal.margin_v, 0.25 * cfg->limits.supply_v),
+	    .mu = floor ? cfg->limits.traction_mu : cfg->goal.floor_mu,
+	    .traction_margin = cfg->limits.traction_margin,
+	    .motor_speed_max_rad_s = cfg->goal.motor_speed_max,
+	    .speed_cap_m_s = cfg->limits.vel_lin_max,
+	    .omega_cap_rad_s = cfg->limits.vel_rot_max,
+	    .rot_share = cfg->goal.rot_share,
+	    .com_height_m = cfg->limits.com_height,
+	};
+	ctl_settings_wheels(cfg, &lim->w);
 }
 
 void goal_init(struct goal *g, const struct ctl_settings *cfg)
 {
 	const bool again = active(g) && g->traj_ok;
-	struct traj_limits lim = {
-	    .p = cfg->model,
-	    .supply_v = cfg->limits.supply_v,
-	    .margin_v = fmin(GOAL_MARGIN_V, 0.25 * cfg->limits.supply_v),
-	    .motor_speed_max_rad_s = GOAL_MOTOR_SPEED_MAX_RAD_S,
-	    .speed_cap_m_s = cfg->limits.vel_lin_max,
-	    .omega_cap_rad_s = cfg->limits.vel_rot_max,
-	    .rot_share = GOAL_ROT_SHARE,
-	    .com_height_m = cfg->limits.com_height,
-	};
+	struct traj_limits lim;
 
-	goal_traction(cfg, &lim.mu, &lim.traction_margin);
-	ctl_settings_wheels(cfg, &lim.w);
+	goal_limits(cfg, &lim);
 	/* Into the scratch first: limits it refuses leave the goal in force its plan, to be
 	 * aborted at the next step (goal_step), never a reference at the origin. */
 	g->traj_ok = traj_init(&g->scratch, &lim) == 0;

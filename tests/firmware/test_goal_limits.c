@@ -125,21 +125,31 @@ static void test_lower_mu_gives_a_slower_plan_within_mu_times_load(void **state)
 	}
 }
 
-/* traction_mu = 0 (the controller's limit off): the planner keeps the conservative floor,
- * GOAL_MU_DEFAULT less GOAL_TRACTION_MARGIN, whatever traction_margin says. */
-static void test_traction_off_plans_on_the_default_floor(void **state)
+/* traction_mu = 0 (the controller's limit off, the floor not identified): the planner takes
+ * [goal] floor_mu for the floor, less the same [limits] traction_margin; a lower floor_mu plans
+ * within its own, lower, traction. */
+static void test_traction_off_plans_on_floor_mu_less_the_margin(void **state)
 {
 	(void)state;
-	struct rig r;
+	const double floor_mu[2] = {0.0, 0.35}; /* 0: the key table's default */
 
-	rig_init(&r, 0.0, 0.5);
-	go(&r, 1, 1.5, 1.5, 0.0);
-	const double hold =
-	    GOAL_MU_DEFAULT * r.cfg.model.M * G / 4.0 * (1.0 - GOAL_TRACTION_MARGIN);
-	const double top = largest_force(&r);
+	for (int i = 0; i < 2; i++) {
+		struct rig r;
 
-	assert_true(top <= hold * 1.01);
-	assert_true(top >= hold * 0.9);
+		rig_init(&r, 0.0, 0.2);
+		if (floor_mu[i] > 0.0) {
+			r.cfg.goal.floor_mu = floor_mu[i];
+			goal_init(&r.g, &r.cfg);
+		}
+		go(&r, 1, 1.5, 1.5, 0.0);
+		const double hold = r.cfg.goal.floor_mu * r.cfg.model.M * G / 4.0 * (1.0 - 0.2);
+		const double top = largest_force(&r);
+
+		printf("floor_mu %.2f: largest wheel force %.3f N of %.3f N\n", r.cfg.goal.floor_mu,
+		       top, hold);
+		assert_true(top <= hold * 1.01);
+		assert_true(top >= hold * 0.9);
+	}
 }
 
 /* A live change of mu while a goal runs: the tick that takes it plans nothing (the plan in
@@ -223,7 +233,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_lower_mu_gives_a_slower_plan_within_mu_times_load),
-	    cmocka_unit_test(test_traction_off_plans_on_the_default_floor),
+	    cmocka_unit_test(test_traction_off_plans_on_floor_mu_less_the_margin),
 	    cmocka_unit_test(test_parameter_change_replans_from_the_reference_without_a_jump),
 	    cmocka_unit_test(test_limits_without_acceleration_abort_the_goal_in_force),
 	};

@@ -116,7 +116,11 @@ static int send(struct rig *r, int64_t id, double x, double y, double th, double
 static void watch_reference(struct rig *r)
 {
 	const struct goal_report *a = &r->prev, *b = &r->g.rep;
-	const double acc = GOAL_MU_DEFAULT * G_M_S2 * (1.0 - GOAL_TRACTION_MARGIN);
+	const struct ctl_settings *cfg = &r->cfg;
+	/* the larger of the floors a plan in force may have been made on: the default (floor_mu)
+	 * and a live traction_mu (a plan made before a change goes on until the hand-over) */
+	const double mu = fmax(cfg->limits.traction_mu, cfg->goal.floor_mu);
+	const double acc = mu * G_M_S2 * (1.0 - cfg->limits.traction_margin);
 	const double rot = acc * r->cfg.model.M * r->cfg.model.d / r->cfg.model.J;
 
 	if (a->status == GOAL_ACTIVE && b->status == GOAL_ACTIVE) {
@@ -393,7 +397,7 @@ static void test_a_parameter_change_plans_nothing_in_the_tick(void **state)
 				goal_command(&R.g, &R.c, &cmd, &R.est, R.now_us);
 			if (k == 400 || k == 900) { /* a live change, as the tick takes it */
 				R.cfg.limits.traction_mu =
-				    k == 400 ? 0.4 : 0.55; /* within the jump check's floor */
+				    k == 400 ? 0.4 : 0.55; /* within the jump check's floors */
 				goal_init(&R.g, &R.cfg);
 				atomic_store(&planned_beside, 0);
 				changes++;

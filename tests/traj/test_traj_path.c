@@ -14,6 +14,8 @@
 
 #include <cmocka.h>
 
+#include "omni4/core/ctl_settings.h"
+#include "omni4/core/goal.h"
 #include "omni4/core/traj.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
@@ -22,20 +24,17 @@
 /* eq 2: wheel j's rim speed is g_j . [v, vn, w] */
 static const double gw[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
 
+/* The goal mode's limits from the key table's defaults (goal_limits: Table III, the floor
+ * not identified), without the speed caps. */
 static struct traj_limits limits(void)
 {
-	struct traj_limits l = {
-	    .p = model_params_table3,
-	    .supply_v = 12.0,
-	    .margin_v = 2.0,
-	    .mu = 0.6,
-	    .traction_margin = 0.1,
-	    .motor_speed_max_rad_s = 600.0,
-	    .speed_cap_m_s = INFINITY,
-	    .omega_cap_rad_s = INFINITY,
-	    .rot_share = 0.25,
-	};
-	model_wheels_from_params(&l.p, &l.w);
+	struct ctl_settings s;
+	struct traj_limits l;
+
+	ctl_settings_defaults(&s);
+	goal_limits(&s, &l);
+	l.speed_cap_m_s = INFINITY;
+	l.omega_cap_rad_s = INFINITY;
 	return l;
 }
 

@@ -1,10 +1,11 @@
 /*
  * traj_plan - the trajectory generator (core/src/traj.c) from the command line, for the
  * comparison with the time-optimal bound (bench/traj_optimal.py) and for a look at a plan.
- * The robot: Table III, four equal drives; the limits from the options.
+ * The robot: Table III, four equal drives; the limits the goal mode takes from the INI keys'
+ * defaults (goal_limits), without its speed caps, each changed by its option:
  *
- *   traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]
- *             [--motor-max=600] [--rot-share=0.25] [--com-height=0] [--samples=DT]
+ *   traj_plan [--mu=MU] [--supply=V] [--margin=V] [--traction-margin=K]
+ *             [--motor-max=RAD_S] [--rot-share=K] [--com-height=M] [--samples=DT]
  *             X0 Y0 TH0 VX0 VY0 W0 X Y TH
  *
  * Prints "duration_s D alpha_rad A flags F"; with --samples=DT also one line per DT seconds:
@@ -17,13 +18,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "omni4/core/ctl_settings.h"
+#include "omni4/core/goal.h"
 #include "omni4/core/traj.h"
 
 static const char usage[] =
-    "usage: traj_plan [--mu=0.6] [--supply=12] [--margin=2] [--traction-margin=0.1]\n"
-    "                 [--motor-max=600] [--rot-share=0.25] [--com-height=0]\n"
+    "usage: traj_plan [--mu=MU] [--supply=V] [--margin=V] [--traction-margin=K]\n"
+    "                 [--motor-max=RAD_S] [--rot-share=K] [--com-height=M]\n"
     "                 [--samples=DT]\n"
     "                 X0 Y0 TH0 VX0 VY0 W0 X Y TH\n"
+    "defaults: the goal mode's limits from the INI keys' defaults ([goal] floor_mu,\n"
+    "margin_v, motor_speed_max, rot_share; [limits] supply_v, traction_margin,\n"
+    "com_height), no speed caps\n"
     "example: traj_plan --samples=0.1 0 0 0 0 0 0 1 0.5 1.57\n";
 
 static int number(const char *s, double *out)
@@ -68,15 +74,13 @@ static void print_samples(const struct traj *tr, double dt)
 
 int main(int argc, char **argv)
 {
-	struct traj_limits l = {.p = model_params_table3,
-	                        .supply_v = 12.0,
-	                        .margin_v = 2.0,
-	                        .mu = 0.6,
-	                        .traction_margin = 0.1,
-	                        .motor_speed_max_rad_s = 600.0,
-	                        .speed_cap_m_s = INFINITY,
-	                        .omega_cap_rad_s = INFINITY,
-	                        .rot_share = 0.25};
+	struct ctl_settings s;
+	struct traj_limits l;
+
+	ctl_settings_defaults(&s); /* the goal mode's limits ([goal], [limits] defaults), */
+	goal_limits(&s, &l);       /* without its speed caps */
+	l.speed_cap_m_s = INFINITY;
+	l.omega_cap_rad_s = INFINITY;
 	double samples = 0.0, v[9];
 	int n = 0;
 

@@ -47,6 +47,10 @@ struct ctl_settings {
 	struct {
 		int feedforward; /* enum ctl_goal_ff: the tracker's feedforward */
 		int limits;      /* enum ctl_goal_limits: the planner's limits */
+		double floor_mu; /* the planner's mu while limits.traction_mu is 0 */
+		double margin_v; /* supply kept for the feedback [V] (<= supply_v / 4 in use) */
+		double motor_speed_max; /* motor shaft speed limit of the plans [rad/s] */
+		double rot_share;       /* the heading's share when the position moves too */
 	} goal;
 };
 

@@ -68,15 +68,6 @@
  * rest this long after the cancel ends with the ramp at once. */
 #define GOAL_BRAKE_MAX_US 5000000
 
-/* The planner's traction: [limits] traction_mu and traction_margin when traction_mu > 0 (the
- * floor identified); with traction_mu = 0 (the controller's limit off) a conservative floor, mu
- * 0.6 less 10 %, which a dry lab floor holds (goal_traction). */
-#define GOAL_MU_DEFAULT 0.6
-#define GOAL_TRACTION_MARGIN 0.1
-#define GOAL_MARGIN_V 2.0 /* supply voltage kept for the feedback [V] */
-#define GOAL_MOTOR_SPEED_MAX_RAD_S 600.0
-#define GOAL_ROT_SHARE 0.25
-
 /* The lead of a plan asked for while the reference moves [s]: goal_work must finish it within
  * that time, or it is asked again with twice the lead (up to GOAL_PLAN_LEAD_MAX_S). A PC makes
  * the dearest plan in a few ms; the Cortex-M4 build sets 0.2 s (mcu/: ~15 M instructions at
@@ -209,14 +200,17 @@ struct goal {
 };
 
 /* Start-up or new parameters (double arithmetic: not the fast loop). The planner's limits
- * from the controller's settings (model, per-wheel drives, supply, the floor's traction) and
- * the GOAL_* defaults; if they leave no acceleration every goal is refused as unreachable, and
- * a goal in force is aborted (UNREACHABLE) at the next step. A goal in force is re-planned
- * from its reference under the new limits (no jump). Keeps the report. */
+ * from the controller's settings (goal_limits); if they leave no acceleration every goal is refused
+ * as unreachable, and a goal in force is aborted (UNREACHABLE) at the next step. A goal in force is
+ * re-planned from its reference under the new limits (no jump). Keeps the report. */
 void goal_init(struct goal *g, const struct ctl_settings *cfg);
 
-/* The floor's friction coefficient and traction margin the planner takes from cfg (above). */
-void goal_traction(const struct ctl_settings *cfg, double *mu, double *margin);
+/* The planner's limits from the settings (not the fast loop): the model and each drive's
+ * constants, the supply less [goal] margin_v (at most a quarter of it) for the feedback, [goal]
+ * motor_speed_max and rot_share, [limits] vel_lin_max / vel_rot_max as caps, com_height, and the
+ * floor's traction: [limits] traction_mu, or [goal] floor_mu while it is 0, less [limits]
+ * traction_margin. Tests and tools build their limits here too. */
+void goal_limits(const struct ctl_settings *cfg, struct traj_limits *lim);
 
 /*
  * Fast loop, on arrival. A new goal (action GO, a goal id other than the active one) is checked
