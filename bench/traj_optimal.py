@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Time-optimal bound for the trajectory generator (docs/trajectory.md).
 
-A direct method written from the per-wheel model alone (docs/model.md), not from core/src/traj.c:
+A direct method written from the per-wheel model alone (docs/model.md), not from core/src/planner/traj.c:
 the state [x, y, theta, vx, vy, w] (world frame) and the four wheel voltages at N+1 nodes,
 trapezoidal collocation of
 

@@ -13,7 +13,7 @@
 
 #include "omni4/core/ctl_settings.h"
 #include "omni4/core/goal.h"
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
 #define MOVING_GOAL_PLANS 40

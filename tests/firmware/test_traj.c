@@ -1,5 +1,5 @@
-/* Tests for core/src/traj.c (docs/trajectory.md): the 1D bang-bang against closed forms, the
- * envelope against a hand derivation and a brute-force search over wheel voltages, every plan
+/* Tests for core/src/planner/traj.c (docs/trajectory.md): the 1D bang-bang against closed forms,
+ * the envelope against a hand derivation and a brute-force search over wheel voltages, every plan
  * sampled against each wheel's voltage, traction and rim speed (the per-wheel model written out
  * here, in double), arrival, the short way round, re-planning while moving, bad input. */
 #include <errno.h>
@@ -14,7 +14,7 @@
 
 #include "omni4/core/ctl_settings.h"
 #include "omni4/core/goal.h"
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 

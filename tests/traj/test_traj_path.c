@@ -1,4 +1,4 @@
-/* Tests for traj_plan_path (core/src/traj_pathplan.c, traj_path.c, traj_topp.c;
+/* Tests for traj_plan_path (core/src/planner/traj_pathplan.c, traj_path.c, traj_topp.c;
  * docs/trajectory.md "Paths"): a path sampled every 0.5 ms against each wheel's voltage,
  * traction and rim speed (the per-wheel model written out here, in double), continuity,
  * every intermediate pose passed within the radius without stopping, arrival at rest,
@@ -16,7 +16,7 @@
 
 #include "omni4/core/ctl_settings.h"
 #include "omni4/core/goal.h"
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define DT 5e-4

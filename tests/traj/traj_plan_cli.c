@@ -1,5 +1,5 @@
 /*
- * traj_plan - the trajectory generator (core/src/traj.c) from the command line, for the
+ * traj_plan - the trajectory generator (core/src/planner/traj.c) from the command line, for the
  * comparison with the time-optimal bound (bench/traj_optimal.py) and for a look at a plan.
  * The robot: Table III, four equal drives; the limits the goal mode takes from the INI keys'
  * defaults (goal_limits), without its speed caps, each changed by its option:
@@ -20,7 +20,7 @@
 
 #include "omni4/core/ctl_settings.h"
 #include "omni4/core/goal.h"
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 static const char usage[] =
     "usage: traj_plan [--mu=MU] [--supply=V] [--margin=V] [--traction-margin=K]\n"

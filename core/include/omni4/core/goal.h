@@ -34,7 +34,7 @@
 #include "omni4/core/ctl.h"
 #include "omni4/core/est.h"
 #include "omni4/core/goal_fixed.h"
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #define GOAL_POSES_MAX 32         /* goal_t.MAX_POSES */
 #define GOAL_RANGE_M 100.0        /* |x|, |y| of a pose [m] */

@@ -9,7 +9,7 @@
 #ifndef OMNI4_GOAL_FIXED_H
 #define OMNI4_GOAL_FIXED_H
 
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #define GOAL_FIXED_DIRS 72   /* directions the envelope is searched over (5 deg apart) */
 #define GOAL_FIXED_SPEEDS 64 /* top speeds tried for the box */

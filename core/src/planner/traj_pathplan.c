@@ -5,7 +5,7 @@
  * "An arc for a turning move"), and re-timing a path plan from its reference.
  * Single precision, fixed sizes, no allocation.
  */
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 
 #include <errno.h>
 #include <math.h>
@@ -61,7 +61,8 @@ static void try_path(const struct traj *tr, struct traj_path *cand, float v0,
 	}
 }
 
-float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0)
+float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const float goal[3],
+                          float v0)
 {
 	struct traj_path base, cand, best;
 	const float wp[1][3] = {{goal[0], goal[1], goal[2]}};

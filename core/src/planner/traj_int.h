@@ -8,7 +8,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 #include "omni4/model/consts.h"
 
 /*
@@ -152,10 +152,12 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 /* The reference at time t of a timed path (after its end: at rest at the goal). */
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
 
-/* A straight move (from rest or moving toward the goal at v0 >= 0, heading still) with the
- * heading swinging toward the robot's diagonal: taken into tr if sooner than tr's plan;
- * returns the duration kept. */
-float traj_swing_try(struct traj *tr, const struct traj_ref *from, const float goal[3], float v0);
+/* A straight move (from rest or moving toward the goal at v0 >= 0, heading still) timed on
+ * paths: the line with the heading swung toward the robot's diagonal and back, a small turn at
+ * one end alone, and (from rest) arcs whose tangent turns with the heading. The soonest is taken
+ * into tr if sooner than tr's plan; returns the duration kept. */
+float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const float goal[3],
+                          float v0);
 
 /* A path plan re-timed from its reference now (the same geometry: no jump): 0; -ERANGE
  * (unchanged) if the timing fails. */

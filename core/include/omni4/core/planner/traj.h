@@ -4,18 +4,22 @@
  * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
  * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
  *
- * - Straight moves (from rest, or moving along the line to the goal): one profile along the
- *   line in TRAJ_ACC_STEPS speed steps, each with the acceleration the wheels allow at the
- *   step's worst speed; stopping with the friction's and back-EMF's help (traj_line.c).
- * - Otherwise: two 1D bang-bang profiles (x, y) with the acceleration and speed shared by an
- *   angle alpha found by bisection so both arrive together, or stop first along the velocity
- *   and then a straight move, whichever arrives sooner.
- * - Heading: its own profile the short way round (wrapped difference), in steps; its share of
- *   each wheel's budget by bisection on a straight move so both arrive together.
- * - Limits: every wheel's voltage (back-EMF included), traction and rim speed, from the
- *   per-wheel model (docs/model.md), for every acceleration and velocity the plan may take at
- *   every heading the move spans, Coulomb friction with its worst sign. The plan is feasible
- *   by construction (bound: docs/trajectory.md); it is not exactly time-optimal.
+ * Candidates, the soonest kept (docs/trajectory.md, "How a plan is made"):
+ * - timed on a path (traj_topp.c: each wheel's rows linear in s'' at each grid point), the
+ *   plan most moves get: the line to the goal (from rest, or moving toward it) with the
+ *   heading swung toward the robot's diagonal and back, or a small turn at one end, or (from
+ *   rest) an arc whose tangent turns with the heading (traj_pathplan.c); paths through several
+ *   poses (traj_plan_path) likewise, their corners rounded;
+ * - stepped: along the line in TRAJ_ACC_STEPS speed steps, each with the acceleration the
+ *   wheels allow at the step's worst speed (traj_line.c); off the line, two 1D bang-bang
+ *   profiles (x, y) sharing the acceleration by an angle found by bisection (traj_box.c), or
+ *   a stop along the velocity and then a straight move (traj_line_brake_go); the heading its own
+ * profile the short way round with a share of each wheel's budget (TRAJ_SHARES, bisected on a
+ * straight move).
+ * - Limits: every wheel's voltage (back-EMF included), traction on its own load and rim speed,
+ *   from the wheels' physics (model/wheels.h), Coulomb friction with its worst sign. A plan is
+ *   feasible by construction or by its checked timing (bound: docs/trajectory.md); it is not
+ *   exactly time-optimal.
  *
  * Units: m, rad, s throughout; x, y, theta in the world frame. theta of the reference is
  * continuous (not wrapped): a plan from 3.0 rad to -3.0 rad ends at 3.283 rad.

@@ -3,7 +3,7 @@
  * the plans (a straight line, the x/y box, stop first), the heading's share, re-planning and the
  * hand-over. Single precision after traj_init; every loop has a fixed bound.
  */
-#include "omni4/core/traj.h"
+#include "omni4/core/planner/traj.h"
 #include "omni4/model/consts.h"
 #include "traj_int.h"
 
@@ -317,7 +317,7 @@ static void swing(struct traj *tr, const struct traj_ref *from, const float goal
 		return;
 	const float v0 = from->vel[0] * e[0] + from->vel[1] * e[1];
 	if (v0 >= 0.0f)
-		traj_swing_try(tr, from, goal, v0);
+		traj_line_paths_try(tr, from, goal, v0);
 }
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
