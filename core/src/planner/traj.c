@@ -171,14 +171,6 @@ static float rows_turn_rate(const struct traj_1d *heading, bool rot_idle, float 
 	return settle ? minf(w_top, cap) : w_top;
 }
 
-/* Stopping first (t_stop, its flags) is sooner than the box (t_box, its flags), or inside the
- * envelope where the box is not. */
-static bool stop_first_better(float t_stop, uint32_t f_stop, float t_box, uint32_t f_box)
-{
-	return t_stop < t_box || (t_stop < INFINITY && (f_box & TRAJ_F_BEYOND_ENVELOPE) &&
-	                          !(f_stop & TRAJ_F_BEYOND_ENVELOPE));
-}
-
 /* One plan with the heading's share of every wheel's budget, its rate within cap; returns its
  * duration. settle: a start turning faster than cap slows to it first at the heading's full
  * deceleration, and the translation's rows carry the turning body's force at cap, not at the
@@ -234,7 +226,7 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 	                  .goal = {goal[0], goal[1]},
 	                  .cap = tr->c.speed_cap_m_s};
 	t_xy = traj_box_plan(tr, r, n, &ax);
-	if (stop_first_better(tb, flags, t_xy, tr->flags)) {
+	if (traj_sooner(tb, flags, t_xy, tr->flags)) {
 		tr->axis[0] = bg[0];
 		tr->axis[1] = bg[1];
 		tr->flags = flags;
@@ -260,15 +252,6 @@ static float plan_share(struct traj *tr, const struct traj_ref *from, const floa
 	return t;
 }
 
-/* cand arrives sooner than best, or is inside the envelope where best is not. */
-static bool better(const struct traj *cand, const struct traj *best)
-{
-	const bool out_c = cand->flags & TRAJ_F_BEYOND_ENVELOPE;
-	const bool out_b = best->flags & TRAJ_F_BEYOND_ENVELOPE;
-
-	return out_c == out_b ? cand->duration_s < best->duration_s : out_b;
-}
-
 /* Both move: the heading's share among three, the earliest arrival kept (inside the envelope
  * first). */
 static void share_three(struct traj *tr, const struct traj_ref *from, const float goal[3], float s)
@@ -280,7 +263,7 @@ static void share_three(struct traj *tr, const struct traj_ref *from, const floa
 	tr->flags = TRAJ_F_BEYOND_ENVELOPE;
 	for (int k = 0; k < TRAJ_SHARES; k++) {
 		cand.duration_s = plan_share(&cand, from, goal, shares[k], false, false);
-		if (better(&cand, tr))
+		if (traj_sooner(cand.duration_s, cand.flags, tr->duration_s, tr->flags))
 			*tr = cand;
 	}
 }
@@ -298,7 +281,7 @@ static void share_bisect(struct traj *tr, const struct traj_ref *from, const flo
 	for (int it = 0; it < TRAJ_SHARE_ITERS; it++) {
 		const float share = 0.5f * (lo + hi);
 		cand.duration_s = plan_share(&cand, from, goal, share, false, false);
-		if (better(&cand, tr))
+		if (traj_sooner(cand.duration_s, cand.flags, tr->duration_s, tr->flags))
 			*tr = cand;
 		const float t_rot = traj_1d_duration(&cand.axis[2]);
 		if (t_rot > maxf(traj_1d_duration(&cand.axis[0]), traj_1d_duration(&cand.axis[1])))

@@ -5,6 +5,7 @@
 #ifndef OMNI4_TRAJ_INT_H
 #define OMNI4_TRAJ_INT_H
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -40,6 +41,19 @@ static inline float maxf(float a, float b)
 }
 
 #define PI_F MODEL_PI_F
+
+/* The one comparator of candidate plans (t [s] and TRAJ_F_* flags of each): a plan that keeps
+ * inside the envelope comes first, then the earliest arrival; a candidate that found no plan
+ * (t not finite) never wins. */
+static inline bool traj_sooner(float t_cand, uint32_t f_cand, float t_best, uint32_t f_best)
+{
+	const bool out_c = f_cand & TRAJ_F_BEYOND_ENVELOPE;
+	const bool out_b = f_best & TRAJ_F_BEYOND_ENVELOPE;
+
+	if (!(t_cand < INFINITY))
+		return false;
+	return out_c == out_b ? t_cand < t_best : out_b;
+}
 
 /* ---- one axis (traj_1d.c) ---- */
 

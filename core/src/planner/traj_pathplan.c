@@ -48,13 +48,15 @@ static void take_path(struct traj *tr, const struct traj_path *pa, float t)
 		traj_1d_hold(&tr->axis[i], pa->goal[i]);
 }
 
-/* Times cand (its grid) from the start at speed v0 along it; kept in best if sooner. */
+/* Times cand (its grid) from the start at speed v0 along it (a timed path keeps inside the
+ * envelope: flags 0); kept in best if it wins over the best so far (traj_sooner). */
 static void try_path(const struct traj *tr, struct traj_path *cand, float v0,
-                     struct traj_path *best, float *best_t, bool *found)
+                     struct traj_path *best, float *best_t, uint32_t *best_f, bool *found)
 {
 	const float t = traj_topp(&tr->c, cand, 0.0f, v0);
 
-	if (t < *best_t) {
+	if (traj_sooner(t, 0u, *best_t, *best_f)) {
+		*best_f = 0u;
 		*best_t = t;
 		*best = *cand;
 		*found = true;
@@ -67,6 +69,7 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 	struct traj_path base, cand, best;
 	const float wp[1][3] = {{goal[0], goal[1], goal[2]}};
 	float best_t = tr->duration_s;
+	uint32_t best_f = tr->flags;
 	bool found = false;
 
 	if (traj_path_build(&base, from->pose, wp, 1, 0.0f, NULL))
@@ -81,7 +84,7 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 			break;
 		cand = base;
 		traj_path_swing(&cand, mids[which], f, f);
-		try_path(tr, &cand, v0, &best, &best_t, &found);
+		try_path(tr, &cand, v0, &best, &best_t, &best_f, &found);
 	}
 	/* A long move turns onto the diagonal over its first TURN_RUN_M and off it over its last:
 	 * swung over a quarter of the length, the heading would hold the robot off its fastest
@@ -97,7 +100,7 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 			continue;
 		cand = base;
 		traj_path_swing(&cand, runs[q], f_run, f_run);
-		try_path(tr, &cand, v0, &best, &best_t, &found);
+		try_path(tr, &cand, v0, &best, &best_t, &best_f, &found);
 	}
 	const float g3[3] = {goal[0], goal[1], th1};
 	const bool small = fabsf(th1 - th0) < SMALL_TURN_RAD;
@@ -107,12 +110,12 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 		cand = base;
 		traj_path_swing(&cand, m ? th1 : th0, m ? SMALL_TURN_FRAC : 0.0f,
 		                m ? 0.0f : SMALL_TURN_FRAC);
-		try_path(tr, &cand, v0, &best, &best_t, &found);
+		try_path(tr, &cand, v0, &best, &best_t, &best_f, &found);
 	}
 	for (int m = 0; !small && m < ARC_FRACS && !(v0 > TRAJ_IDLE_VEL); m++) {
 		if (traj_path_arc(&cand, from->pose, g3, arc_frac[m]))
 			break;
-		try_path(tr, &cand, 0.0f, &best, &best_t, &found);
+		try_path(tr, &cand, 0.0f, &best, &best_t, &best_f, &found);
 	}
 	if (found)
 		take_path(tr, &best, best_t);
