@@ -75,9 +75,9 @@ int goal_fixed_limits(const struct traj *tr, struct goal_fixed *fx)
 	const float a_w0 = rotation_acc(c, 0.0f), a_w1 = rotation_acc(c, 1.0f);
 	float w_top = a_w1 < a_w0 ? a_w0 / (a_w0 - a_w1) : c->omega_cap_rad_s;
 
-	w_top = fminf(w_top, fminf(c->omega_cap_rad_s, c->rim_max[0] / c->d));
-	for (int j = 1; j < 4; j++)
-		w_top = fminf(w_top, c->rim_max[j] / c->d);
+	w_top = fminf(w_top, c->omega_cap_rad_s);
+	for (int j = 0; j < c->wh.n; j++) /* wheel j's rim turns d_j w (eq 2) */
+		w_top = fminf(w_top, c->rim_max[j] / fabsf(c->wh.row[j][2]));
 	best_box(tr, w_top, true, &fx->rate_rad_s, &fx->acc_rad_s2);
 	fx->rot_share = c->rot_share;
 	if (!(fx->acc_m_s2 > 0.0f && fx->speed_m_s > 0.0f && fx->acc_rad_s2 > 0.0f &&

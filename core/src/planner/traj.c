@@ -58,7 +58,6 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 		return -EINVAL;
 	const float gear = (float)l->p.l, M = (float)l->p.M;
 	struct traj_coef c = {
-	    .d = (float)l->p.d,
 	    .M = M,
 	    .J = (float)l->p.J,
 	    .B = {(float)l->p.Bv, (float)l->p.Bvn, (float)l->p.Bw},
@@ -72,11 +71,14 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 	struct wheel_phys ph;
 	const float hold = f.mu * (1.0f - f.tmargin);
 
-	wheel_geom_paper(l->p.d, &g);
+	if (l->geom)
+		g = *l->geom;
+	else
+		wheel_geom_paper(l->p.d, &g);
 	if (wheel_phys_init(&ph, &g, &l->p, &l->w, (double)f.height))
 		return -EINVAL;
 	wheel_phys_to_f32(&ph, &c.wh);
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c.wh.n; j++) {
 		c.e[j] = c.wh.b[j] * c.wh.kemf[j];
 		c.rim_max[j] = f.wmax * (float)l->w.r[j] / gear;
 		c.turn[j] = sqrtf(c.wh.split[j][0] * c.wh.split[j][0] +
@@ -86,7 +88,7 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 		c.f_load[j][1] = -hold * c.wh.load_a[j][1];
 	}
 	/* at rest, each axis and the heading alone must have room to accelerate */
-	struct row r[12];
+	struct row r[3 * 4];
 	const int nt = traj_rows_translation(&c, 0.0f, 1.0f, 1.0f, 0.0f, r);
 	if (!(traj_rows_acc(r, nt, 1.0f, 0.0f, 0.0f, 0.0f) > 0.0f) ||
 	    !(traj_rows_acc(r, nt, 0.0f, 1.0f, 0.0f, 0.0f) > 0.0f) ||

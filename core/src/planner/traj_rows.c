@@ -79,7 +79,7 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 	const float cp = cosf(phi), sp = cosf(phi - 0.5f * PI_F);
 	int n = 0;
 
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->wh.n; j++) {
 		/* wheel j's rim (eq 2) and its share of the body's force (wheels.h) */
 		const float *row = c->wh.row[j], *sh = c->wh.split[j];
 		const float fa[2] = {c->M * sh[0], c->M * sh[1]};
@@ -124,7 +124,9 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
  * paper's layout), plus back-EMF e_j d_j w. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 {
-	for (int j = 0; j < 4; j++) {
+	const int n = 3 * c->wh.n;
+
+	for (int j = 0; j < c->wh.n; j++) {
 		const float ib = 1.0f / c->wh.b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
 		r[3 * j] = (struct row){{c->J * q, 0.0f},
 		                        {c->B[2] * q, 0.0f},
@@ -151,12 +153,12 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                            0.0f,
 		                            {0.0f, 0.0f}};
 	}
-	for (int k = 0; k < 12; k++) /* one axis, every coefficient >= 0: signed = box */
+	for (int k = 0; k < n; k++) /* one axis, every coefficient >= 0: signed = box */
 		for (int i = 0; i < 2; i++) {
 			r[k].sa[i] = r[k].ka[i];
 			r[k].sv[i] = r[k].kv[i];
 		}
-	return 12;
+	return n;
 }
 
 /* Largest a >= 0 with k a <= b. */
@@ -188,7 +190,7 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 	                                     : 0.0f};
 	float acc = INFINITY, top = c->speed_cap_m_s;
 
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->wh.n; j++) {
 		const float *row = c->wh.row[j], *sp = c->wh.split[j], *fl = c->f_load[j];
 		const float ge = row[0] * dir[0] + row[1] * dir[1]; /* rim speed per unit speed */
 		/* f_j = p a + q0 + q1 s (the force split, wheels.h), u_j = (f_j + e_j ge s)/b_j */

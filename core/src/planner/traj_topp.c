@@ -121,7 +121,7 @@ static void coulomb_range(float t, signed char set, float *lo, float *hi)
 static void rows_at(const struct traj_coef *c, const struct geo *g, const signed char sg[3],
                     struct topp_rows *r)
 {
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->wh.n; j++) {
 		const float *sp = c->wh.split[j], *row = c->wh.row[j], *fl = c->f_load[j];
 		const float t[3] = {sp[0] * c->C[0], sp[1] * c->C[1], sp[2] * c->C[2]};
 		/* wheel j's force: the split of (M q, J theta') s'' + (M c, J theta'') s'^2 +
@@ -147,7 +147,7 @@ static float speed_top(const struct traj_coef *c, const struct geo *g, const str
 
 	if (fabsf(g->ths) > 0.0f)
 		v = minf(v, c->omega_cap_rad_s / fabsf(g->ths));
-	for (int j = 0; j < 4; j++)
+	for (int j = 0; j < c->wh.n; j++)
 		if (fabsf(r->K[j]) > 0.0f)
 			v = minf(v, c->rim_max[j] / fabsf(r->K[j]));
 	return v;
@@ -175,7 +175,7 @@ static bool interval(const struct traj_coef *c, const struct topp_rows *r, float
 
 	*lo = -INFINITY;
 	*hi = INFINITY;
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->wh.n; j++) {
 		const float P = r->Q[j] * x + r->L[j] * sd, A = r->A[j];
 		const float na = k * r->NA[j], hold = k * (c->f_max_n[j] - r->NQ[j] * x);
 		if (!one_side(A + na, hold - P - r->dhi[j], lo, hi) ||
@@ -197,7 +197,7 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 	float w = sd / c->speed_cap_m_s;
 
 	w = maxf(w, fabsf(g->ths) * sd / c->omega_cap_rad_s);
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->wh.n; j++) {
 		const float bound[2] = {c->f_max_n[j], c->u_max_v * c->wh.b[j]};
 		const float lin[2] = {r->L[j], r->L[j] + c->e[j] * r->K[j]};
 		w = maxf(w, fabsf(r->K[j]) * sd / c->rim_max[j]);

@@ -65,12 +65,14 @@ struct traj_limits {
 	double traction_margin; /* share of mu M g / 4 kept in reserve, 0 <= . < 1 */
 	double com_height_m;    /* centre of mass above the floor [m] (>= 0; 0: no load */
 	                        /* transfer): the traction controller's (traction.h) */
-	double motor_speed_max_rad_s; /* motor shaft speed limit [rad/s] (> 0) */
-	double speed_cap_m_s;         /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
-	double omega_cap_rad_s;       /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
-	double rot_share;             /* share of each wheel's budget the heading gets when both */
-	                              /* the heading and the position move, 0 < . < 1; the plan */
-	                              /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
+	double motor_speed_max_rad_s;  /* motor shaft speed limit [rad/s] (> 0) */
+	double speed_cap_m_s;          /* optional cap on the speed [m/s]; INFINITY: none (> 0) */
+	double omega_cap_rad_s;        /* optional cap on |w| [rad/s]; INFINITY: none (> 0) */
+	const struct wheel_geom *geom; /* the wheels' layout (model/wheels.h: 3 or 4 wheels at */
+	                               /* any angles); NULL: the paper's, at p.d */
+	double rot_share;              /* share of each wheel's budget the heading gets when both */
+	                               /* the heading and the position move, 0 < . < 1; the plan */
+	                               /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
 };
 
 /* One axis: phase k (0 <= k < n) starts at ps[k], vs[k] and runs at acc[k] until t_end_s[k];
@@ -113,7 +115,7 @@ struct traj_coef {
 	float e[4];       /* back-EMF braking b_j kemf_j = l^2 Kt_j Kv_j / (R_j r_j^2) [N/(m/s)] */
 	float rim_max[4]; /* rim speed limit motor_speed_max r_j / l [m/s] */
 	float turn[4];    /* |wh.split[j][0..1]|: wheel j's most of a unit translation force */
-	float d, M, J;    /* [m], [kg], [kg m^2] */
+	float M, J;       /* [kg], [kg m^2] */
 	float B[3], C[3]; /* viscous [N/(m/s)], [N m/(rad/s)] and Coulomb [N], [N m] friction */
 	float u_max_v;    /* supply_v - margin_v */
 	float f_max_n[4]; /* wheel j's traction at rest, mu N_j (1 - traction_margin) [N] */
