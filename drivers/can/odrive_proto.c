@@ -11,17 +11,20 @@
 _Static_assert(sizeof(float) == 4 && FLT_RADIX == 2 && FLT_MANT_DIG == 24 && FLT_MAX_EXP == 128,
                "float is not IEEE 754 binary32");
 
+/* 4 bytes, least significant first. */
 static void put_le32(uint8_t *p, uint32_t u)
 {
-	p[0] = (uint8_t)u;
-	p[1] = (uint8_t)(u >> 8);
-	p[2] = (uint8_t)(u >> 16);
-	p[3] = (uint8_t)(u >> 24);
+	for (unsigned i = 0; i < 4; i++)
+		p[i] = (uint8_t)(u >> (8 * i));
 }
 
 static uint32_t get_le32(const uint8_t *p)
 {
-	return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+	uint32_t u = 0;
+
+	for (unsigned i = 0; i < 4; i++)
+		u += (uint32_t)p[i] << (8 * i);
+	return u;
 }
 
 static void put_f32(uint8_t *p, float v)

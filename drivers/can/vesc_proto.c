@@ -27,35 +27,43 @@ static int16_t sat_i16(float x)
 	return (int16_t)sat_round(x, INT16_MIN, INT16_MAX);
 }
 
+/* n bytes, most significant first. */
+static void put_be(uint8_t *p, uint32_t u, unsigned n)
+{
+	for (unsigned i = 0; i < n; i++)
+		p[i] = (uint8_t)(u >> (8 * (n - 1 - i)));
+}
+
+static uint32_t get_be(const uint8_t *p, unsigned n)
+{
+	uint32_t u = 0;
+
+	for (unsigned i = 0; i < n; i++)
+		u = (u << 8) + p[i];
+	return u;
+}
+
 static void put_be32(uint8_t *p, int32_t v)
 {
-	const uint32_t u = (uint32_t)v;
-
-	p[0] = (uint8_t)(u >> 24);
-	p[1] = (uint8_t)(u >> 16);
-	p[2] = (uint8_t)(u >> 8);
-	p[3] = (uint8_t)u;
+	put_be(p, (uint32_t)v, 4);
 }
 
 static void put_be16(uint8_t *p, int16_t v)
 {
-	const uint16_t u = (uint16_t)v;
-
-	p[0] = (uint8_t)(u >> 8);
-	p[1] = (uint8_t)u;
+	put_be(p, (uint16_t)v, 2);
 }
 
+/* Two's complement without an implementation-defined conversion. */
 static int32_t get_be32(const uint8_t *p)
 {
-	const uint32_t u = (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+	const uint32_t u = get_be(p, 4);
 
-	/* two's complement without an implementation-defined conversion */
 	return u <= INT32_MAX ? (int32_t)u : (int32_t)(u - 0x80000000u) - INT32_MAX - 1;
 }
 
 static int16_t get_be16(const uint8_t *p)
 {
-	const int32_t u = (int32_t)p[0] << 8 | p[1];
+	const int32_t u = (int32_t)get_be(p, 2);
 
 	return (int16_t)(u <= INT16_MAX ? u : u - 65536);
 }
