@@ -16,6 +16,12 @@
 #include <time.h>
 #include <unistd.h>
 
+/* struct omni4_can_frame's id carries the kernel's flag bits and masks unchanged (can_proto.h). */
+_Static_assert(OMNI4_CAN_EFF_FLAG == CAN_EFF_FLAG && OMNI4_CAN_RTR_FLAG == CAN_RTR_FLAG,
+               "frame flags differ from SocketCAN's");
+_Static_assert(OMNI4_CAN_SFF_MASK == CAN_SFF_MASK && OMNI4_CAN_EFF_MASK == CAN_EFF_MASK,
+               "ID masks differ from SocketCAN's");
+
 int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
 {
 	struct sockaddr_can addr = {.can_family = AF_CAN};

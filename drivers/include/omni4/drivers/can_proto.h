@@ -65,12 +65,18 @@ enum can_control { CAN_CTL_ENABLE = 1, CAN_CTL_DISABLE = 2, CAN_CTL_CLEAR_FAULTS
 
 enum can_drv_state { CAN_STATE_DISABLED = 0, CAN_STATE_ENABLED = 1, CAN_STATE_FAULT = 2 };
 
-/* A classic CAN frame, independent of any OS header. */
+/* A classic CAN frame, independent of any OS header. id holds the 11-bit or 29-bit identifier
+ * and, as SocketCAN's can_id does, the frame-format flags below (same bit values). */
 struct omni4_can_frame {
 	uint32_t id;
 	uint8_t dlc;
 	uint8_t data[8];
 };
+
+#define OMNI4_CAN_EFF_FLAG 0x80000000u /* extended frame format (29-bit ID) */
+#define OMNI4_CAN_RTR_FLAG 0x40000000u /* remote transmission request */
+#define OMNI4_CAN_SFF_MASK 0x000007FFu /* standard frame ID bits */
+#define OMNI4_CAN_EFF_MASK 0x1FFFFFFFu /* extended frame ID bits */
 
 struct can_status {
 	float current_a[2];   /* [A] channels 2n, 2n+1 */
