@@ -48,6 +48,15 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 	    .camera_latency_s = sim->camera_latency_ms * 1e-3,
 	    .camera = true,
 	    .truth = sim->truth,
+	    .changes = {.thermal = sim->thermal,
+	                .thermal_resistance_k_w = sim->thermal_resistance,
+	                .thermal_capacity_j_k = sim->thermal_capacity,
+	                .ambient_c = sim->ambient,
+	                .battery = sim->battery,
+	                .battery_capacity_ah = sim->battery_capacity,
+	                .battery_resistance_ohm = sim->battery_resistance,
+	                .floor_change_s = sim->floor_change_s,
+	                .floor_friction_scale = sim->floor_friction_scale},
 	};
 }
 
@@ -64,6 +73,26 @@ static double eccentric_reading(const struct sim_motor *s, int j, double wheel_a
 static int64_t encoder_counts(const struct sim_motor *s, double angle)
 {
 	return (int64_t)floor(angle * s->cfg.encoder_cpr / TWO_PI);
+}
+
+/* The changing robot's state at start: windings at ambient, a full battery, the first floor;
+ * -EINVAL for settings out of range. */
+static int changes_init(struct sim_motor *s, const struct sim_changes *c)
+{
+	s->supply_v = s->cfg.supply_v;
+	s->floor_change_us = -1;
+	if (c->thermal && thermal_init(&s->thermal, c->thermal_resistance_k_w,
+	                               c->thermal_capacity_j_k, c->ambient_c, s->plant.R_eff))
+		return -EINVAL;
+	if (c->battery && battery_init(&s->battery, s->cfg.supply_v, c->battery_capacity_ah,
+	                               c->battery_resistance_ohm))
+		return -EINVAL;
+	if (!(c->floor_change_s >= 0.0 && c->floor_change_s <= 1e9) ||
+	    !(c->floor_friction_scale >= 0.0 && isfinite(c->floor_friction_scale)))
+		return -EINVAL;
+	if (c->floor_change_s > 0.0)
+		s->floor_change_us = (int64_t)llround(c->floor_change_s * 1e6);
+	return 0;
 }
 
 int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
@@ -88,6 +117,8 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	if (plant_init(&s->plant, &cfg->params) || plant_set_floor(&s->plant, &floor))
 		return -EINVAL;
 	s->cfg = *cfg;
+	if (changes_init(s, &cfg->changes))
+		return -EINVAL;
 	s->cam_latency_us = (int64_t)llround(cfg->camera_latency_s * 1e6);
 	rng_seed(&s->rng, cfg->seed);
 	s->period_us = (int64_t)llround(cfg->period_s * 1e6);
@@ -112,6 +143,21 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 void sim_motor_set_clock(struct sim_motor *s, int64_t utime0)
 {
 	s->utime0 = utime0;
+}
+
+void sim_motor_plant_state(const struct sim_motor *s, struct sim_plant_state *out)
+{
+	out->utime = s->utime0 + s->t_us;
+	/* With thermal: at the windings' temperature now (the next step's). */
+	if (s->cfg.changes.thermal)
+		thermal_resistance(&s->thermal, out->R_ohm);
+	else
+		memcpy(out->R_ohm, s->plant.R_eff, sizeof(out->R_ohm));
+	for (int j = 0; j < 4; j++)
+		out->winding_c[j] =
+		    s->cfg.changes.thermal ? s->thermal.temp_c[j] : s->cfg.changes.ambient_c;
+	out->supply_v = s->supply_v;
+	out->friction_scale = s->plant.friction_scale;
 }
 
 void sim_motor_truth(const struct sim_motor *s, struct hal_truth *t)
@@ -148,7 +194,7 @@ static int sim_write(void *ctx, const float volts[4])
 		/* The H-bridge cannot exceed its supply. */
 		const double v = volts[j];
 
-		s->volts[j] = fmax(-s->cfg.supply_v, fmin(s->cfg.supply_v, v));
+		s->volts[j] = fmax(-s->supply_v, fmin(s->supply_v, v));
 	}
 	return 0;
 }
@@ -252,6 +298,38 @@ static double encoder_speed(struct sim_motor *s, int j, double w)
 	return speed;
 }
 
+/* The robot as it is at the start of the step: the floor from its change on, each winding's
+ * resistance at its temperature. */
+static void changes_before_step(struct sim_motor *s)
+{
+	if (s->floor_change_us >= 0 && s->t_us >= s->floor_change_us) {
+		plant_set_friction_scale(&s->plant, s->cfg.changes.floor_friction_scale);
+		s->floor_change_us = -1;
+	}
+	if (s->cfg.changes.thermal) {
+		double R[4];
+
+		thermal_resistance(&s->thermal, R);
+		plant_set_resistance(&s->plant, R);
+	}
+}
+
+/* The windings' heating and the battery's discharge over the step just taken (its currents
+ * held). */
+static void changes_after_step(struct sim_motor *s, double dt)
+{
+	if (s->cfg.changes.thermal)
+		thermal_step(&s->thermal, s->plant.current_a, dt);
+	if (s->cfg.changes.battery) {
+		double p = 0.0;
+
+		for (int j = 0; j < 4; j++)
+			p += s->plant.voltage_v[j] * s->plant.current_a[j];
+		battery_step(&s->battery, p, dt);
+		s->supply_v = s->battery.v_supply;
+	}
+}
+
 static int sim_read(void *ctx, struct motor_sample *out)
 {
 	struct sim_motor *s = ctx;
@@ -261,7 +339,9 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	plant_wheel_speeds(&s->plant, w_before);
 	memcpy(s->plant.ext_force, s->inject.ext_force, sizeof(s->plant.ext_force));
 	s->plant.blocked = s->inject.blocked;
+	changes_before_step(s);
 	plant_step(&s->plant, s->volts, s->enabled, dt);
+	changes_after_step(s, dt);
 	plant_wheel_speeds(&s->plant, w_after);
 	s->t_us += s->period_us;
 	s->truth_due = s->cfg.truth;
@@ -288,7 +368,7 @@ static int sim_read(void *ctx, struct motor_sample *out)
 		out->current_a[j] = (float)i;
 	}
 	s->inject.encoder_jump_rad = 0.0;
-	out->supply_v = (float)(s->inject.supply_v > 0.0 ? s->inject.supply_v : s->cfg.supply_v);
+	out->supply_v = (float)(s->inject.supply_v > 0.0 ? s->inject.supply_v : s->supply_v);
 	out->faults = s->inject.driver_faults;
 	return 0;
 }

@@ -66,6 +66,7 @@ int plant_init(struct plant *pl, const struct model_params *p)
 		return -EINVAL;
 	pl->p = *p;
 	dyn_state_space(p, &pl->ss);
+	pl->friction_scale = 1.0;
 	pl->floor = (struct plant_floor){0};
 	for (int j = 0; j < 4; j++) {
 		pl->r_eff[j] = p->r;
@@ -119,6 +120,26 @@ void plant_reset(struct plant *pl)
 	pl->blocked = false;
 	pl->driven = false;
 	rng_seed(&pl->rng, pl->floor.seed);
+}
+
+void plant_set_resistance(struct plant *pl, const double R_ohm[4])
+{
+	for (int j = 0; j < 4; j++)
+		pl->R_eff[j] = R_ohm[j];
+}
+
+void plant_set_friction_scale(struct plant *pl, double scale)
+{
+	struct model_params p = pl->p;
+
+	p.Bv *= scale;
+	p.Bvn *= scale;
+	p.Bw *= scale;
+	p.Cv *= scale;
+	p.Cvn *= scale;
+	p.Cw *= scale;
+	pl->friction_scale = scale;
+	dyn_state_space(&p, &pl->ss);
 }
 
 /* The paper's plant: every wheel grips (the whole step exact per axis). */
@@ -420,7 +441,7 @@ void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
 
 	for (int j = 0; j < 4; j++)
 		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0 ||
-		          pl->floor.R_error[j] != 0.0 || pl->floor.Kv_error[j] != 0.0;
+		          pl->R_eff[j] != pl->p.R || pl->floor.Kv_error[j] != 0.0;
 	if (!general && beyond_limit(pl, u, driven, pl->x, pl->acc))
 		general = true;
 	if (!general) {

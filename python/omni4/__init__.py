@@ -12,6 +12,7 @@ from .param_value_t import param_value_t
 from .pose_t import pose_t
 from .state_t import state_t
 from .sim_truth_t import sim_truth_t
+from .sim_plant_t import sim_plant_t
 from .goal_t import goal_t
 from .goal_status_t import goal_status_t
 
@@ -23,7 +24,7 @@ from ._channels import *  # noqa: E402,F401,F403
 from ._channels import __all__ as _CHANNEL_NAMES  # noqa: E402
 from ._channels import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS,  # noqa: E402
                         CHANNEL_POSE, CHANNEL_STATE)
-from ._channels import CHANNEL_SIM_TRUTH  # noqa: E402
+from ._channels import CHANNEL_SIM_PLANT, CHANNEL_SIM_TRUTH  # noqa: E402
 from ._channels import CHANNEL_GOAL, CHANNEL_GOAL_STATUS  # noqa: E402
 
 # Message class per channel, for decoding logs.
@@ -34,6 +35,7 @@ TYPES = {
     CHANNEL_EXPERIMENT: experiment_t,
     CHANNEL_STATE: state_t,
     CHANNEL_SIM_TRUTH: sim_truth_t,  # the simulated plant's true state (simulators only)
+    CHANNEL_SIM_PLANT: sim_plant_t,  # the simulated plant's R, heat, supply (omni4-sim only)
     CHANNEL_GOAL_STATUS: goal_status_t,  # the goal's progress
 }
 # goal_t (OMNI4_GOAL) has a variable number of poses: goal_t.decode(...).
@@ -50,7 +52,8 @@ from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa:
 # The robot INI reader (omni4.ini.read).
 from . import ini  # noqa: E402
 
-__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "sim_truth_t", "TYPES",
+__all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "sim_truth_t",
+           "sim_plant_t", "TYPES",
            "goal_t", "goal_status_t", "GoalFailed",
            "read_log", "Log", "LogError", "Robot", "CommandRejected",
            "param_request_t", "param_reply_t", "param_value_t", "param_changed_t",

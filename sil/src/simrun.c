@@ -14,6 +14,7 @@
 #include "omni4/firmware/lcmcodec.h"
 #include "omni4/firmware/robot.h"
 #include "omni4_motors_t.h"
+#include "omni4_sim_plant_t.h"
 
 struct simrun_channel {
 	const char *id; /* the pointer last seen for it (channel names are constants) */
@@ -27,6 +28,7 @@ struct simrun {
 	lcm_eventlog_t *log;
 	int64_t utime0;
 	int64_t period_us;
+	int64_t next_plant_us; /* the tick time (since utime0) of the next OMNI4_SIM_PLANT */
 	struct simrun_stats st;
 	simrun_tap_fn tap;
 	void *tap_ctx;
@@ -39,13 +41,14 @@ struct simrun {
 /* The field of simrun_stats a channel is counted in. */
 static uint64_t *stats_part(struct simrun_stats *st, const char *channel)
 {
-	static const char *const names[] = {
-	    OMNI4_CHANNEL_MOTORS,        OMNI4_CHANNEL_POSE,      OMNI4_CHANNEL_CMD,
-	    OMNI4_CHANNEL_STATE,         OMNI4_CHANNEL_SIM_TRUTH, OMNI4_CHANNEL_EXPERIMENT,
-	    OMNI4_CHANNEL_PARAM_CHANGED, OMNI4_CHANNEL_GOAL,      OMNI4_CHANNEL_GOAL_STATUS};
-	uint64_t *const parts[] = {&st->motors,       &st->pose,  &st->cmd,
-	                           &st->state,        &st->truth, &st->experiment,
-	                           &st->calibrations, &st->goal,  &st->goal_status};
+	static const char *const names[] = {OMNI4_CHANNEL_MOTORS,        OMNI4_CHANNEL_POSE,
+	                                    OMNI4_CHANNEL_CMD,           OMNI4_CHANNEL_STATE,
+	                                    OMNI4_CHANNEL_SIM_TRUTH,     OMNI4_CHANNEL_EXPERIMENT,
+	                                    OMNI4_CHANNEL_PARAM_CHANGED, OMNI4_CHANNEL_GOAL,
+	                                    OMNI4_CHANNEL_GOAL_STATUS,   OMNI4_CHANNEL_SIM_PLANT};
+	uint64_t *const parts[] = {&st->motors,      &st->pose,       &st->cmd,          &st->state,
+	                           &st->truth,       &st->experiment, &st->calibrations, &st->goal,
+	                           &st->goal_status, &st->plant};
 
 	for (size_t k = 0; k < sizeof(names) / sizeof(names[0]); k++)
 		if (!strcmp(channel, names[k]))
@@ -306,6 +309,27 @@ int simrun_publish(struct simrun *sr, const char *channel, const void *data, siz
 	return rc;
 }
 
+/* The plant's changing parameters after the tick's step (sim_plant_t), logged at the tick's
+ * time. */
+static void log_plant(struct simrun *sr)
+{
+	struct sim_plant_state ps;
+	unsigned char buf[128];
+
+	sim_motor_plant_state(&sr->robot.sim, &ps);
+	omni4_sim_plant_t m = {
+	    .utime = ps.utime, .supply_v = ps.supply_v, .friction_scale = ps.friction_scale};
+
+	memcpy(m.R, ps.R_ohm, sizeof(m.R));
+	memcpy(m.winding_temp, ps.winding_c, sizeof(m.winding_temp));
+	const int n = omni4_sim_plant_t_encode(buf, 0, (int)sizeof(buf), &m);
+
+	if (n < 0 || write_event(sr, OMNI4_CHANNEL_SIM_PLANT, ps.utime, buf, (size_t)n))
+		sr->st.log_errors++;
+	else
+		count_channel(sr, OMNI4_CHANNEL_SIM_PLANT);
+}
+
 void simrun_tick(struct simrun *sr)
 {
 	const struct lcmio_sink sink = {.emit = sink_emit, .ctx = sr};
@@ -315,6 +339,10 @@ void simrun_tick(struct simrun *sr)
 	fw_background(&sr->robot.fw);
 	sr->st.faults |= sr->robot.fw.last_out.faults;
 	lcmio_drain(&sr->robot.fw, &sink, &sr->st.log_errors);
+	if ((int64_t)sr->st.ticks * sr->period_us >= sr->next_plant_us) {
+		log_plant(sr);
+		sr->next_plant_us += SIMRUN_PLANT_PERIOD_US;
+	}
 	sr->st.ticks++;
 }
 

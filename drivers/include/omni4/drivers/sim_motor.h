@@ -15,6 +15,11 @@
  * of SIM_CAM_QUEUE frames (latency x rate must stay below SIM_CAM_QUEUE - 1).
  * The camera's poses and the plant's true state after each read are the HAL's optional
  * read_pose / read_truth ops (hal.h), which the loop polls: the backend calls nothing above it.
+ * A robot that changes as it runs ([sim] thermal, battery, floor_change_s; struct sim_changes,
+ * all off by default and then without effect to the last bit): each winding's resistance
+ * follows its temperature (model/thermal.h), the bridges' supply is a battery's
+ * (model/battery.h: the write clamp and the supply reading follow it), and the body's friction
+ * changes at a set time (plant_set_friction_scale). sim_motor_plant_state reports them.
  */
 #ifndef OMNI4_SIM_MOTOR_H
 #define OMNI4_SIM_MOTOR_H
@@ -24,10 +29,25 @@
 #include <stdint.h>
 
 #include "omni4/core/hal.h"
+#include "omni4/model/battery.h"
 #include "omni4/model/params.h"
 #include "omni4/model/plant.h"
 #include "omni4/model/rng.h"
+#include "omni4/model/thermal.h"
 #include "omni4/drivers/sim_settings.h"
+
+/* A robot that changes as it runs ([sim] keys of the same names). */
+struct sim_changes {
+	bool thermal;                  /* windings heat: R_j(T_j) */
+	double thermal_resistance_k_w; /* winding to ambient [K/W] */
+	double thermal_capacity_j_k;   /* [J/K] */
+	double ambient_c;              /* [deg C] */
+	bool battery;                  /* the supply is a battery's, from supply_v when full */
+	double battery_capacity_ah;    /* [Ah] */
+	double battery_resistance_ohm; /* [ohm] */
+	double floor_change_s;         /* simulated time of the floor change [s]; 0 = never */
+	double floor_friction_scale;   /* the body's B and C times this from then on */
+};
 
 struct sim_motor_config {
 	struct model_params params;
@@ -45,6 +65,7 @@ struct sim_motor_config {
 	double camera_latency_s;     /* capture -> delivery [s] */
 	bool camera;                 /* a camera (read_pose); false: none, no frame captured */
 	bool truth;                  /* the true state after each read (read_truth) */
+	struct sim_changes changes;
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */
@@ -98,6 +119,20 @@ struct sim_motor {
 	unsigned cam_head, cam_count;
 	uint64_t cam_lost; /* frames that found the queue full (never with a valid config) */
 	bool truth_due;    /* a read stepped the plant; its truth not yet taken */
+	/* A robot that changes (cfg.changes) */
+	struct thermal thermal;  /* with changes.thermal */
+	struct battery battery;  /* with changes.battery */
+	double supply_v;         /* the bridges' supply now [V] (cfg.supply_v without a battery) */
+	int64_t floor_change_us; /* t_us of the floor change; < 0: never, or done */
+};
+
+/* The plant's slowly changing state (sim_plant_t): constant unless cfg.changes says. */
+struct sim_plant_state {
+	int64_t utime;         /* utime0 + the simulated time [us] */
+	double R_ohm[4];       /* each motor + bridge resistance now [ohm] */
+	double winding_c[4];   /* each winding's temperature [deg C] (ambient without thermal) */
+	double supply_v;       /* the bridges' supply [V] */
+	double friction_scale; /* of the body's B and C [-] */
 };
 
 extern const struct motor_hal_ops sim_motor_ops;
@@ -120,6 +155,8 @@ static inline struct motor_hal sim_motor_hal(struct sim_motor *s)
 
 /* Poses and truth are stamped utime0 + the simulated time (0 after init). */
 void sim_motor_set_clock(struct sim_motor *s, int64_t utime0);
+/* The plant's changing parameters now. */
+void sim_motor_plant_state(const struct sim_motor *s, struct sim_plant_state *out);
 /* The true state now (t->utime: utime0 + the simulated time). */
 void sim_motor_truth(const struct sim_motor *s, struct hal_truth *t);
 /* n more periods of the plant (n >= 0) under the voltages and enable of the last write, as

@@ -27,6 +27,16 @@ struct sim_settings {
 	double slip_noise;            /* creep std dev, a share of the ground speed */
 	double com_height;            /* centre of mass above the floor [m] (load transfer) */
 	double camera_latency_ms;     /* capture -> delivery [ms] */
+	/* A robot that changes as it runs (off: the plant above, to the last bit) */
+	bool thermal;                /* each winding's R follows its temperature */
+	double thermal_resistance;   /* winding to ambient [K/W] */
+	double thermal_capacity;     /* winding heat capacity [J/K] */
+	double ambient;              /* [deg C] */
+	bool battery;                /* the supply sags as a battery's */
+	double battery_capacity;     /* [Ah] */
+	double battery_resistance;   /* internal [ohm] */
+	double floor_change_s;       /* simulated time the floor changes [s]; 0 = never */
+	double floor_friction_scale; /* the body's B and C times this from then on */
 	/* The lockstep simulator only (sil/) */
 	bool truth;    /* log the plant's true state (OMNI4_SIM_TRUTH) */
 	bool estimate; /* run the state estimator (OMNI4_STATE) */

@@ -44,6 +44,9 @@
  * - An external body force ext_force [Fv N, Fvn N, T N m] and a blocked body (velocity held at
  *   0, the wheels' motors still pushing: they stall, or slip beyond the traction limit), set
  *   by the caller between steps.
+ * - A robot that changes as it runs, set by the caller between steps: each motor's resistance
+ *   (a warm winding: plant_set_resistance; then the per-wheel path) and the body's friction
+ *   (a new floor: plant_set_friction_scale).
  */
 #ifndef OMNI4_PLANT_H
 #define OMNI4_PLANT_H
@@ -88,8 +91,9 @@ struct plant {
 	int8_t slip_dir[4]; /* direction of a slip that has just started (slip velocity 0) */
 	struct rng rng;     /* creep */
 	/* Set by the caller, held until changed. */
-	double ext_force[3]; /* external force on the body [Fv N, Fvn N, T N m] */
-	bool blocked;        /* body held at rest (velocity 0, pose fixed) */
+	double ext_force[3];   /* external force on the body [Fv N, Fvn N, T N m] */
+	bool blocked;          /* body held at rest (velocity 0, pose fixed) */
+	double friction_scale; /* Bv..Cw of p scaled by it in ss (plant_set_friction_scale) */
 };
 
 /* -EINVAL if p fails model_params_check. Starts at rest at the origin, the floor off. */
@@ -100,6 +104,13 @@ void plant_reset(struct plant *pl);
 /* The floor's settings (then plant_reset). -EINVAL if mu < 0, J_w <= 0 with mu > 0, an |e_j|
  * (radius, R or Kv error) >= 0.5, slip_noise < 0, com_height < 0 or anything not finite. */
 int plant_set_floor(struct plant *pl, const struct plant_floor *f);
+
+/* Each motor + bridge resistance from now on [ohm] (R_eff; plant_set_floor sets them back to
+ * R (1 + R_error_j)). Every R_j must be > 0 and finite (unchecked: the caller's model is). */
+void plant_set_resistance(struct plant *pl, const double R_ohm[4]);
+/* The body's viscous and Coulomb friction (Bv, Bvn, Bw, Cv, Cvn, Cw) scaled by scale (>= 0,
+ * finite; unchecked) from now on; 1 after plant_init. */
+void plant_set_friction_scale(struct plant *pl, double scale);
 
 /*
  * Advance by dt [s] with voltages u [V] held (driven) or with the H-bridges off

@@ -4,7 +4,9 @@
  *
  * Per tick: commands handed in since the last tick go through the same decoding and mailbox as
  * the robot's LCM receive thread, then fw_tick runs (sim HAL read = one plant step), then the
- * log ring is drained into the event log. Plain C types only: usable from C++.
+ * log ring is drained into the event log; every SIMRUN_PLANT_PERIOD_US of simulated time the
+ * plant's changing parameters follow (OMNI4_SIM_PLANT, sim_plant_t). Plain C types only:
+ * usable from C++.
  */
 #ifndef OMNI4_SIMRUN_H
 #define OMNI4_SIMRUN_H
@@ -21,6 +23,8 @@ extern "C" {
 
 struct simrun;
 
+#define SIMRUN_PLANT_PERIOD_US 100000 /* OMNI4_SIM_PLANT at 10 Hz of simulated time */
+
 /* Events written to the log (or handed to the tap when there is none), counted per channel:
  * messages is their total, the named ones are parts of it and other the rest. */
 struct simrun_stats {
@@ -30,6 +34,7 @@ struct simrun_stats {
 	uint64_t goal, goal_status; /* OMNI4_GOAL (handed in), OMNI4_GOAL_STATUS */
 	uint64_t state;             /* the controller's estimate (OMNI4_STATE) */
 	uint64_t truth;             /* the plant's true state (OMNI4_SIM_TRUTH) */
+	uint64_t plant;             /* the plant's changing parameters (OMNI4_SIM_PLANT) */
 	uint64_t experiment;        /* marks (OMNI4_EXPERIMENT) */
 	uint64_t calibrations;      /* current-offset notices (OMNI4_PARAM_CHANGED) */
 	uint64_t other;             /* any other channel (simrun_publish) */
