@@ -12,9 +12,8 @@
 
 #include <cmocka.h>
 
-#include "omni4/core/ctl_settings.h"
-#include "omni4/core/goal.h"
 #include "omni4/core/planner/traj.h"
+#include "traj_limits.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 
@@ -22,18 +21,9 @@ static const double G = 9.80665;
 /* eq 2: wheel j's rim speed is g_j . [v, vn, w] */
 static const double gw[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
 
-/* The goal mode's limits from the key table's defaults (goal_limits: Table III, the floor
- * not identified), without the speed caps. */
 static struct traj_limits limits(void)
 {
-	struct ctl_settings s;
-	struct traj_limits l;
-
-	ctl_settings_defaults(&s);
-	goal_limits(&s, &l);
-	l.speed_cap_m_s = INFINITY;
-	l.omega_cap_rad_s = INFINITY;
-	return l;
+	return test_traj_limits();
 }
 
 /* Four drives up to 12 % apart (identified per wheel), on a grippy floor: the voltage, which

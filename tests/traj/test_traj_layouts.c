@@ -14,10 +14,9 @@
 
 #include <cmocka.h>
 
-#include "omni4/core/ctl_settings.h"
-#include "omni4/core/goal.h"
 #include "omni4/core/planner/traj.h"
 #include "omni4/model/wheels.h"
+#include "traj_limits.h"
 
 #define DT 1e-3
 #define G_M_S2 9.80665
@@ -39,13 +38,8 @@ static const struct layout robocup = {
 /* The goal mode's limits from the key table's defaults, no speed caps, the layout's geometry. */
 static struct traj_limits limits(const struct layout *lay, struct wheel_geom *g)
 {
-	struct ctl_settings s;
-	struct traj_limits l;
+	struct traj_limits l = test_traj_limits();
 
-	ctl_settings_defaults(&s);
-	goal_limits(&s, &l);
-	l.speed_cap_m_s = INFINITY;
-	l.omega_cap_rad_s = INFINITY;
 	l.com_height_m = lay->com_height;
 	assert_int_equal(wheel_geom_angles(lay->n, lay->deg, lay->dist, g), 0);
 	l.geom = g;

@@ -14,9 +14,8 @@
 
 #include <cmocka.h>
 
-#include "omni4/core/ctl_settings.h"
-#include "omni4/core/goal.h"
 #include "omni4/core/planner/traj.h"
+#include "traj_limits.h"
 
 #define near(a, b, tol) assert_true(fabs((double)(a) - (double)(b)) <= (tol))
 #define DT 5e-4
@@ -24,18 +23,9 @@
 /* eq 2: wheel j's rim speed is g_j . [v, vn, w] */
 static const double gw[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
 
-/* The goal mode's limits from the key table's defaults (goal_limits: Table III, the floor
- * not identified), without the speed caps. */
 static struct traj_limits limits(void)
 {
-	struct ctl_settings s;
-	struct traj_limits l;
-
-	ctl_settings_defaults(&s);
-	goal_limits(&s, &l);
-	l.speed_cap_m_s = INFINITY;
-	l.omega_cap_rad_s = INFINITY;
-	return l;
+	return test_traj_limits();
 }
 
 /* A velocity component below 1e-6 (m/s, rad/s) is a zero one's float noise: no Coulomb. */
