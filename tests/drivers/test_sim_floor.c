@@ -10,20 +10,10 @@
 #include <errno.h>
 #include <string.h>
 
+#include "config_ini.h"
 #include "omni4/config/config.h"
 #include "omni4/model/kinematics.h"
 #include "omni4/drivers/sim_motor.h"
-
-static struct omni4_config config_ini(const char *ini)
-{
-	struct omni4_config cfg;
-	struct config_error err;
-
-	config_defaults(&cfg);
-	if (config_load_string(ini, "test.ini", &cfg, &err))
-		fail_msg("%s", err.msg);
-	return cfg;
-}
 
 static void start(struct sim_motor *s, const struct omni4_config *cfg, bool noise)
 {

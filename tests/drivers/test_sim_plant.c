@@ -14,22 +14,12 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "config_ini.h"
 #include "omni4/config/config.h"
 #include "omni4/drivers/sim_motor.h"
 #include "omni4/lcmtypes/channels.h"
 #include "omni4/sil/simrun.h"
 #include "omni4_sim_plant_t.h"
-
-static struct omni4_config config_ini(const char *ini)
-{
-	struct omni4_config cfg;
-	struct config_error err;
-
-	config_defaults(&cfg);
-	if (config_load_string(ini, "test.ini", &cfg, &err))
-		fail_msg("%s", err.msg);
-	return cfg;
-}
 
 /* Exact sensors, the plant stepped every period_s. */
 static void start(struct sim_motor *s, const struct omni4_config *cfg, double period_s)
