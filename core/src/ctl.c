@@ -352,6 +352,14 @@ static void voltage_mode(struct ctl *c, int64_t now_us)
 }
 
 /* VELOCITY and GOAL: feedforward + PI on the reference in c->shaper (ref, acc). */
+/* The outputs' bound this tick [V]: [limits] supply_v, or the supply the drives measure when it
+ * is lower (a sagging battery: what the bridges can give), so the PI's anti-windup stops where
+ * the bridges saturate. A reading that is not a positive number is not taken. */
+static float output_bound(const struct ctl *c, const struct motor_sample *s)
+{
+	return s && s->supply_v > 0.0f && s->supply_v < c->t.u_max ? s->supply_v : c->t.u_max;
+}
+
 static void track(struct ctl *c, const struct motor_sample *s)
 {
 	q16_t ref_q[3], acc_q[3], ff_q[4], wheel_ref_q[4];
@@ -372,19 +380,20 @@ static void track(struct ctl *c, const struct motor_sample *s)
 		memset(ff_q, 0, sizeof(ff_q));
 
 	float integ[4]; /* the PI integrals before this tick (the traction limit's anti-windup) */
+	const float lim = output_bound(c, s);
 
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
 
 		integ[j] = c->pi[j].integ;
+		c->pi[j].limit = lim;
 		if (c->t.feedback && s) {
 			const float e =
 			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
 
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
 		} else {
-			c->out[j] =
-			    ff > c->t.u_max ? c->t.u_max : (ff < -c->t.u_max ? -c->t.u_max : ff);
+			c->out[j] = ff > lim ? lim : (ff < -lim ? -lim : ff);
 		}
 	}
 	if (s) { /* the traction limit on each wheel's force: no integration on a tick it cut */
