@@ -205,9 +205,13 @@ static void handle(struct odrive_motor *m, const struct omni4_can_frame *f, int6
 		a->last_estimate_us = now;
 		a->have_estimate = true;
 	} else if (odrive_decode_heartbeat(f, &node, &hb) == 0) {
+		const uint32_t fresh = hb.axis_error & ~a->reported_errors;
+
 		a->hb = hb;
 		a->have_hb = true;
 		a->seen_errors |= hb.axis_error;
+		a->reported_errors = hb.axis_error ? a->reported_errors | fresh : 0;
+		a->fault_pending |= fresh != 0;
 	} else if (odrive_decode_iq(f, &node, &q) == 0) {
 		a->iq_a = q.measured_a;
 	} else if (odrive_decode_bus(f, &node, &b) == 0) {
@@ -254,7 +258,7 @@ static bool fill_sample(const struct odrive_motor *m, struct motor_sample *out, 
 
 		if (now - since > m->timeout_us)
 			faults |= HAL_FAULT_DRIVER_TIMEOUT;
-		if (a->have_hb && a->hb.axis_error)
+		if (a->fault_pending)
 			faults |= HAL_FAULT_DRIVER;
 		all &= a->have_estimate && !isnan(a->iq_a);
 		if (!isnan(a->bus_v))
@@ -275,11 +279,12 @@ static int odrive_read(void *ctx, struct motor_sample *out)
 
 	if (rc)
 		return rc;
-	if (fill_sample(m, out, now))
-		return 0;
-	if (!(out->faults & HAL_FAULT_DRIVER_TIMEOUT))
+	const bool all = fill_sample(m, out, now);
+
+	if (!all && !(out->faults & HAL_FAULT_DRIVER_TIMEOUT))
 		return -EAGAIN; /* still waiting for the first reports */
 	for (int j = 0; j < 4; j++) {
+		m->a[j].fault_pending = false; /* this sample reports it */
 		if (isnan(out->wheel_rad_s[j]))
 			out->wheel_rad_s[j] = 0.0f;
 		if (isnan(out->current_a[j]))
@@ -288,14 +293,17 @@ static int odrive_read(void *ctx, struct motor_sample *out)
 	return 0;
 }
 
-/* Clear_Errors and the start again (an axis that faulted dropped to idle). */
+/* Clear_Errors and the start again (an axis that faulted dropped to idle). An error the drive
+ * still has after it is reported again by the next heartbeat. */
 static int odrive_clear_faults(void *ctx)
 {
 	struct odrive_motor *m = ctx;
 
 	m->bus_off = false;
-	for (int j = 0; j < 4; j++)
-		m->a[j].seen_errors = 0;
+	for (int j = 0; j < 4; j++) {
+		m->a[j].reported_errors = 0;
+		m->a[j].fault_pending = false;
+	}
 	if (!tx_gate_enter(&m->gate))
 		return 0;
 	const int rc = start_axes(m);

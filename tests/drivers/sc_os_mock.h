@@ -25,7 +25,7 @@ static struct sc_os_filter mock_filt[SC_OS_MAX_FILTERS];
 static int mock_n_filt;
 static char mock_iface[16];
 static bool mock_open, mock_closed;
-static struct omni4_can_frame mock_sent[256];
+static struct omni4_can_frame mock_sent[4096];
 static int mock_n_sent;
 static struct omni4_can_frame mock_rxq[256];
 static uint32_t mock_rxerr[256];
@@ -86,6 +86,8 @@ int64_t __wrap_sc_os_now_us(void)
 /* A frame the kernel will hand out. */
 static inline void mock_push(const struct omni4_can_frame *f)
 {
+	if (mock_rx_head == mock_rx_tail)
+		mock_rx_head = mock_rx_tail = 0; /* all taken: start over */
 	assert_true(mock_rx_tail < (int)(sizeof(mock_rxq) / sizeof(mock_rxq[0])));
 	mock_rxerr[mock_rx_tail] = 0;
 	mock_rxq[mock_rx_tail++] = *f;

@@ -185,7 +185,7 @@ static void test_torque_is_kt_times_eq21_current_and_one_request_a_tick(void **s
 	hal_motor_close(&h);
 }
 
-static void test_an_axis_error_is_a_driver_fault_named_in_the_summary(void **state)
+static void test_an_axis_error_is_a_driver_fault_once_and_again_after_a_clear(void **state)
 {
 	(void)state;
 	struct odrive_motor m;
@@ -204,16 +204,28 @@ static void test_an_axis_error_is_a_driver_fault_named_in_the_summary(void **sta
 	assert_non_null(strstr(text, "wheel 2 (node 17, error 0x00002200)"));
 	assert_non_null(strstr(text, "dc_bus_under_voltage"));
 	assert_non_null(strstr(text, "motor_over_temp"));
+
+	/* reported once (the controller latches it), so the controller's clear is not refused */
+	push_reports();
+	push_heartbeat(2, 0x00000200u | 0x00002000u, ODRIVE_AXIS_STATE_IDLE);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
 	const int from = mock_n_sent;
 
 	assert_int_equal(hal_motor_clear_faults(&h), 0); /* the start sequence again */
 	assert_int_equal(mock_n_sent - from, 12);
 	expect_start(from + 6, 2);
 	push_reports();
-	push_heartbeat(2, 0, ODRIVE_AXIS_STATE_CLOSED_LOOP);
+	push_heartbeat(2, 0x00000200u, ODRIVE_AXIS_STATE_IDLE); /* still there after the clear */
 	assert_int_equal(hal_motor_read(&h, &s), 0);
-	assert_int_equal(s.faults, 0);
-	assert_string_equal(odrive_motor_fault_text(&m, text, sizeof(text)), "none");
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER);
+	push_reports();
+	push_heartbeat(2, 0, ODRIVE_AXIS_STATE_CLOSED_LOOP);
+	push_heartbeat(2, 0x00000200u, ODRIVE_AXIS_STATE_IDLE); /* gone, then back: new again */
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER);
+	/* the summary keeps what was seen since start */
+	assert_non_null(strstr(odrive_motor_fault_text(&m, text, sizeof(text)), "motor_over_temp"));
 	hal_motor_close(&h);
 }
 
@@ -222,6 +234,7 @@ static void test_a_silent_axis_is_a_driver_timeout(void **state)
 	(void)state;
 	struct odrive_motor m;
 	struct motor_sample s;
+	char text[16];
 	const struct odrive_motor_config c = config();
 
 	assert_int_equal(odrive_motor_open(&m, &c), 0);
@@ -229,6 +242,7 @@ static void test_a_silent_axis_is_a_driver_timeout(void **state)
 
 	push_reports();
 	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_string_equal(odrive_motor_fault_text(&m, text, sizeof(text)), "none");
 	mock_clock_us += 19000;
 	assert_int_equal(hal_motor_read(&h, &s), 0);
 	assert_int_equal(s.faults, 0);
@@ -302,8 +316,8 @@ int main(void)
 	    cmocka_unit_test_setup(test_reports_become_the_sample, reset),
 	    cmocka_unit_test_setup(test_torque_is_kt_times_eq21_current_and_one_request_a_tick,
 	                           reset),
-	    cmocka_unit_test_setup(test_an_axis_error_is_a_driver_fault_named_in_the_summary,
-	                           reset),
+	    cmocka_unit_test_setup(
+	        test_an_axis_error_is_a_driver_fault_once_and_again_after_a_clear, reset),
 	    cmocka_unit_test_setup(test_a_silent_axis_is_a_driver_timeout, reset),
 	    cmocka_unit_test_setup(test_close_zeroes_the_torque_then_idles_every_axis, reset),
 	    cmocka_unit_test_setup(test_halt_stops_and_drops_later_writes, reset),

@@ -125,6 +125,81 @@ static void test_odrive_opener_starts_the_configured_nodes(void **state)
 	assert_true(mock_closed);
 }
 
+/* One tick of the controller on the ODrive robot: every axis reports (at rest, 24 V), axis
+ * `faulty` with error bits `error` in its heartbeat (-1: none). */
+static void odrive_tick(int64_t *now_us, int faulty, uint32_t error)
+{
+	for (int j = 0; j < 4; j++) {
+		const uint8_t node = (uint8_t)cfg.odrive.node[j];
+		const struct odrive_encoder_estimates e = {0};
+		const struct odrive_iq q = {0};
+		const struct odrive_bus b = {.voltage_v = 24.0f};
+		const struct odrive_heartbeat hb = {
+		    .axis_error = j == faulty ? error : 0,
+		    .axis_state =
+		        j == faulty ? ODRIVE_AXIS_STATE_IDLE : ODRIVE_AXIS_STATE_CLOSED_LOOP};
+		struct omni4_can_frame f;
+
+		assert_int_equal(odrive_encode_encoder_estimates(node, &e, &f), 0);
+		mock_push(&f);
+		assert_int_equal(odrive_encode_iq(node, &q, &f), 0);
+		mock_push(&f);
+		assert_int_equal(odrive_encode_bus(node, &b, &f), 0);
+		mock_push(&f);
+		assert_int_equal(odrive_encode_heartbeat(node, &hb, &f), 0);
+		mock_push(&f);
+	}
+	*now_us += 1000;
+	mock_clock_us = *now_us;
+	fw_tick(&robot.fw, *now_us);
+}
+
+/* Frames Clear_Errors to node sent from index from on. */
+static int clear_errors_to(int from, uint8_t node)
+{
+	int n = 0;
+
+	for (int k = from; k < mock_n_sent; k++) {
+		uint8_t to, cmd;
+
+		n += odrive_split_id(&mock_sent[k], &to, &cmd) == 0 && to == node &&
+		     cmd == ODRIVE_CMD_CLEAR_ERRORS;
+	}
+	return n;
+}
+
+/* The drive keeps its error until Clear_Errors, the controller refuses a clear while a fault is
+ * present: the error latches DRIVER, the clear is accepted and restarts the axes, an error
+ * still there latches again. */
+static void test_odrive_error_latches_driver_and_a_clear_restarts_the_axes(void **state)
+{
+	(void)state;
+	int64_t now = mock_clock_us;
+	char why[256];
+
+	cfg.fw.motor = OMNI4_MOTOR_ODRIVE;
+	const struct robot_spec spec = spec_of(OMNI4_MOTOR_ODRIVE);
+
+	assert_int_equal(robot_open(&robot, &spec, why, sizeof(why)), 0);
+	for (int t = 0; t < 20; t++)
+		odrive_tick(&now, -1, 0);
+	assert_false(robot.fw.ctl.latched & CTL_FAULT_DRIVER);
+	for (int t = 0; t < 5; t++)
+		odrive_tick(&now, 1, 0x00000020u); /* drv_fault, heartbeat after heartbeat */
+	assert_true(mode_faulted(robot.fw.ctl.mode));
+	assert_true(robot.fw.ctl.latched & CTL_FAULT_DRIVER);
+	const struct ctl_command clear = {.utime = now, .seq = 1, .mode = CTL_CLEAR_FAULT};
+	const int from = mock_n_sent;
+
+	assert_true(fw_post_command(&robot.fw, &clear));
+	odrive_tick(&now, -1, 0); /* the drive has not seen the clear yet when this frame left */
+	assert_false(mode_faulted(robot.fw.ctl.mode));
+	assert_int_equal(clear_errors_to(from, (uint8_t)cfg.odrive.node[1]), 1);
+	odrive_tick(&now, 1, 0x00000020u); /* still there after the clear */
+	assert_true(mode_faulted(robot.fw.ctl.mode));
+	robot_close(&robot);
+}
+
 static void test_duplicate_ids_are_refused_with_the_reason(void **state)
 {
 	(void)state;
@@ -144,6 +219,8 @@ int main(void)
 	    cmocka_unit_test_setup(test_vesc_opener_hands_the_settings_and_the_model_to_the_backend,
 	                           reset),
 	    cmocka_unit_test_setup(test_odrive_opener_starts_the_configured_nodes, reset),
+	    cmocka_unit_test_setup(test_odrive_error_latches_driver_and_a_clear_restarts_the_axes,
+	                           reset),
 	    cmocka_unit_test_setup(test_duplicate_ids_are_refused_with_the_reason, reset),
 	};
 

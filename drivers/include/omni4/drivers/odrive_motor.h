@@ -10,8 +10,11 @@
  * read: Get_Encoder_Estimates gives the wheel speed (turn/s x 2 pi / gear), Get_Iq the motor
  * current (measured), Get_Bus_Voltage_Current the supply (the lowest), the Heartbeat the axis
  * error. An axis without an encoder estimate for status_timeout_ms -> HAL_FAULT_DRIVER_TIMEOUT;
- * a heartbeat with axis_error != 0 -> HAL_FAULT_DRIVER (the error bits kept for the summary:
- * odrive_motor_fault_text); bus-off -> HAL_FAULT_BUS.
+ * a heartbeat with an axis_error bit not reported yet -> HAL_FAULT_DRIVER in the next sample
+ * (the controller latches it). The drive keeps its error until Clear_Errors, which clear_faults
+ * sends only once the controller has accepted a clear, i.e. once the fault is not present: so
+ * the fault is reported once, and again if the drive still has it after the clear (bits kept
+ * for the summary: odrive_motor_fault_text). Bus-off -> HAL_FAULT_BUS.
  * close and halt: Set_Input_Torque 0, then Set_Axis_State IDLE, to each axis.
  */
 #ifndef OMNI4_ODRIVE_MOTOR_H
@@ -41,10 +44,12 @@ struct odrive_counters {
 
 struct odrive_axis {
 	struct odrive_heartbeat hb;
-	float vel_turn_s;     /* encoder estimate [turn/s] */
-	float iq_a;           /* Iq measured [A], NaN before the first */
-	float bus_v;          /* bus voltage [V], NaN before the first */
-	uint32_t seen_errors; /* every axis_error bit a heartbeat carried since open / clear */
+	float vel_turn_s;         /* encoder estimate [turn/s] */
+	float iq_a;               /* Iq measured [A], NaN before the first */
+	float bus_v;              /* bus voltage [V], NaN before the first */
+	uint32_t seen_errors;     /* every axis_error bit a heartbeat carried since open */
+	uint32_t reported_errors; /* the bits already reported as HAL_FAULT_DRIVER */
+	bool fault_pending;       /* a new error bit: the next sample reports it */
 	int64_t last_estimate_us;
 	bool have_estimate, have_hb;
 };
