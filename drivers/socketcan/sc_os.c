@@ -1,4 +1,4 @@
-/* sc_os.c - raw SocketCAN calls (the OS boundary of the socketcan backend). */
+/* sc_os.c - raw SocketCAN calls (the OS boundary of the CAN motor backends). */
 #include "omni4/drivers/sc_os.h"
 
 #include "omni4/base/clock.h"
@@ -19,18 +19,21 @@
 /* struct omni4_can_frame's id carries the kernel's flag bits and masks unchanged (can_proto.h). */
 _Static_assert(OMNI4_CAN_EFF_FLAG == CAN_EFF_FLAG && OMNI4_CAN_RTR_FLAG == CAN_RTR_FLAG,
                "frame flags differ from SocketCAN's");
+_Static_assert(SC_OS_MASK_EXACT_SFF == (CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG) &&
+                   SC_OS_MASK_EXACT_EFF == (CAN_EFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG),
+               "filter masks differ from SocketCAN's");
 _Static_assert(OMNI4_CAN_SFF_MASK == CAN_SFF_MASK && OMNI4_CAN_EFF_MASK == CAN_EFF_MASK,
                "ID masks differ from SocketCAN's");
 
-int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
+int sc_os_open_filters(const char *iface, const struct sc_os_filter *filt, int n_filt, int *fd)
 {
 	struct sockaddr_can addr = {.can_family = AF_CAN};
-	struct can_filter filters[16];
+	struct can_filter filters[SC_OS_MAX_FILTERS];
 	const can_err_mask_t err_mask =
 	    CAN_ERR_BUSOFF | CAN_ERR_CRTL | CAN_ERR_PROT | CAN_ERR_TX_TIMEOUT | CAN_ERR_RESTARTED;
 	int s, rc;
 
-	if (n_ids < 0 || n_ids > 16 || strlen(iface) >= IFNAMSIZ)
+	if (n_filt < 0 || n_filt > SC_OS_MAX_FILTERS || strlen(iface) >= IFNAMSIZ)
 		return -EINVAL;
 	s = socket(PF_CAN, SOCK_RAW, CAN_RAW);
 	if (s < 0)
@@ -40,12 +43,12 @@ int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
 		rc = -ENODEV;
 		goto err_close;
 	}
-	for (int i = 0; i < n_ids; i++) {
-		filters[i].can_id = ids[i];
-		filters[i].can_mask = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+	for (int i = 0; i < n_filt; i++) {
+		filters[i].can_id = filt[i].id;
+		filters[i].can_mask = filt[i].mask;
 	}
-	if (n_ids && setsockopt(s, SOL_CAN_RAW, CAN_RAW_FILTER, filters,
-	                        (socklen_t)(n_ids * sizeof(filters[0])))) {
+	if (n_filt && setsockopt(s, SOL_CAN_RAW, CAN_RAW_FILTER, filters,
+	                         (socklen_t)(n_filt * sizeof(filters[0])))) {
 		rc = -errno;
 		goto err_close;
 	}
@@ -69,6 +72,17 @@ err_close:
 	return rc;
 }
 
+int sc_os_open(const char *iface, const uint32_t *ids, int n_ids, int *fd)
+{
+	struct sc_os_filter filt[SC_OS_MAX_FILTERS];
+
+	if (n_ids < 0 || n_ids > SC_OS_MAX_FILTERS)
+		return -EINVAL;
+	for (int i = 0; i < n_ids; i++)
+		filt[i] = (struct sc_os_filter){ids[i], SC_OS_MASK_EXACT_SFF};
+	return sc_os_open_filters(iface, filt, n_ids, fd);
+}
+
 void sc_os_close(int fd)
 {
 	if (fd >= 0)
@@ -77,7 +91,9 @@ void sc_os_close(int fd)
 
 int sc_os_send(int fd, const struct omni4_can_frame *f)
 {
-	struct can_frame cf = {.can_id = f->id & CAN_SFF_MASK, .can_dlc = f->dlc};
+	/* A standard ID keeps 11 bits, an extended one 29 and its flag; RTR either way. */
+	const uint32_t keep = (f->id & CAN_EFF_FLAG) ? CAN_EFF_FLAG | CAN_EFF_MASK : CAN_SFF_MASK;
+	struct can_frame cf = {.can_id = f->id & (keep | CAN_RTR_FLAG), .can_dlc = f->dlc};
 
 	memcpy(cf.data, f->data, sizeof(cf.data));
 	const ssize_t n = send(fd, &cf, sizeof(cf), MSG_DONTWAIT);
@@ -100,7 +116,9 @@ int sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
 		*err_class = (cf.can_id & CAN_ERR_BUSOFF) ? SC_ERR_BUSOFF : SC_ERR_OTHER;
 		return 2;
 	}
-	f->id = cf.can_id & (cf.can_id & CAN_EFF_FLAG ? CAN_EFF_MASK | CAN_EFF_FLAG : CAN_SFF_MASK);
+	f->id =
+	    cf.can_id & ((cf.can_id & CAN_EFF_FLAG ? CAN_EFF_MASK | CAN_EFF_FLAG : CAN_SFF_MASK) |
+	                 CAN_RTR_FLAG);
 	f->dlc = cf.can_dlc > 8 ? 8 : cf.can_dlc;
 	memcpy(f->data, cf.data, 8);
 	return 1;

@@ -54,7 +54,7 @@ def test_the_wire_values_stay_as_the_contract_says():
     assert _vocab.GOAL_STATUSES == {0: "NONE", 1: "ACTIVE", 2: "REACHED", 3: "ABORTED",
                                     4: "REFUSED"}
     assert _vocab.GOAL_REASONS[9][0] == "REPLACED" and _vocab.GOAL_REASONS[12][0] == "SETTLING"
-    assert _vocab.backend_words("motor") == ("sim", "socketcan")
+    assert _vocab.backend_words("motor") == ("sim", "socketcan", "vesc", "odrive")
     assert _vocab.backend_words("lines") == ("none", "sim", "gpiod")
 
 
@@ -92,7 +92,7 @@ def test_a_backend_is_one_row():
                                      'LINUX, "drivers on a serial line")\n')
     ns = {}
     exec(g.python_module(vocab=v), ns)  # noqa: S102
-    assert ns["backend_words"]("motor") == ("sim", "socketcan", "serial")
+    assert ns["backend_words"]("motor") == ("sim", "socketcan", "vesc", "odrive", "serial")
     assert "| `motor` | `serial` | `serial_keys.def` | drivers on a serial line |" in \
         g.markdown(vocab=v)
 

@@ -87,8 +87,9 @@ static int open_with(enum omni4_motor_backend motor, char *why, size_t n)
 static void test_the_row_adds_an_enum_value_after_the_others(void **state)
 {
 	(void)state;
-	assert_int_equal(OMNI4_MOTOR_ECHO, 2);
-	assert_int_equal(OMNI4_MOTOR_COUNT, 3);
+	assert_int_equal(OMNI4_MOTOR_ODRIVE, 3); /* the last row of backends.def */
+	assert_int_equal(OMNI4_MOTOR_ECHO, 4);
+	assert_int_equal(OMNI4_MOTOR_COUNT, 5);
 }
 
 static void test_the_added_backend_is_opened_run_and_closed_by_the_robot(void **state)
@@ -118,7 +119,7 @@ static void test_a_backend_this_build_lacks_is_refused_with_one_line(void **stat
 	assert_int_equal(open_with(OMNI4_MOTOR_SOCKETCAN, why, sizeof(why)), -1);
 	assert_string_equal(why, "[hal] motor backend 1 is not available in this build");
 	assert_int_equal(open_with(OMNI4_MOTOR_COUNT, why, sizeof(why)), -1);
-	assert_string_equal(why, "[hal] motor backend 3 is not available in this build");
+	assert_string_equal(why, "[hal] motor backend 5 is not available in this build");
 	assert_int_equal(open_with((enum omni4_motor_backend) - 1, why, sizeof(why)), -1);
 	assert_string_equal(why, "[hal] motor backend -1 is not available in this build");
 	assert_null(strchr(why, '\n'));

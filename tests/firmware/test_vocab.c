@@ -79,8 +79,10 @@ static void test_a_backend_row_is_the_next_enum_value(void **state)
 	(void)state;
 	assert_int_equal(OMNI4_MOTOR_SIM, 0);
 	assert_int_equal(OMNI4_MOTOR_SOCKETCAN, 1);
-	assert_int_equal(OMNI4_MOTOR_SERIAL, 2); /* rows/backends_serial.def */
-	assert_int_equal(OMNI4_MOTOR_COUNT, 3);
+	assert_int_equal(OMNI4_MOTOR_VESC, 2);
+	assert_int_equal(OMNI4_MOTOR_ODRIVE, 3);
+	assert_int_equal(OMNI4_MOTOR_SERIAL, 4); /* rows/backends_serial.def */
+	assert_int_equal(OMNI4_MOTOR_COUNT, 5);
 	assert_int_equal(OMNI4_LINES_NONE, 0);
 	assert_int_equal(OMNI4_LINES_GPIOD, 2);
 	assert_int_equal(OMNI4_LINES_COUNT, 3);

@@ -1,0 +1,86 @@
+/*
+ * vesc_motor.h - the "vesc" backend of the motor HAL: four VESC motor controllers on a raw CAN
+ * socket (vesc_proto.h's frames; docs/vesc.md). Never blocks.
+ * write: one command per controller per tick: SET_DUTY (mode duty: the wheel's voltage over
+ * its controller's measured input voltage, STATUS_5, clamped to +-VESC_DUTY_MAX) or SET_CURRENT
+ * (mode current: drive_currents() at the wheel's measured speed). Disabled, or nothing measured
+ * yet to compute it from: SET_CURRENT 0, which releases the motor (free-wheeling).
+ * read: STATUS_1 gives the wheel speed (ERPM / pole_pairs / gear) and the motor current,
+ * STATUS_5 the input voltage (the sample's supply: the lowest). A controller without a STATUS_1
+ * for status_timeout_ms -> HAL_FAULT_DRIVER_TIMEOUT; bus-off -> HAL_FAULT_BUS. The status
+ * frames carry no fault code (vesc_proto.h): a faulted VESC shows as a motor that does not
+ * follow. Nothing to start: the VESC's own command timeout (0.5 s by default) stops a motor
+ * whose commands stop. close and halt send the mode's zero (SET_DUTY 0 or SET_CURRENT 0) twice.
+ */
+#ifndef OMNI4_VESC_MOTOR_H
+#define OMNI4_VESC_MOTOR_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "omni4/core/hal.h"
+#include "omni4/drivers/drive_consts.h"
+#include "omni4/drivers/sc_os.h"
+#include "omni4/drivers/tx_gate.h"
+#include "omni4/drivers/vesc_proto.h"
+#include "omni4/drivers/vesc_settings.h"
+
+#define VESC_DUTY_MAX 0.95f
+/* A controller silent this long: DRIVER_TIMEOUT (STATUS_1 at the loop rate, docs/vesc.md). */
+#define VESC_STATUS_TIMEOUT_MS 20
+/* Frames drained per read (4 controllers x 3 status frames a tick, with room for a backlog). */
+#define VESC_MAX_FRAMES_PER_READ 64
+
+struct vesc_counters {
+	uint64_t rx_frames, tx_frames, tx_dropped;
+	uint64_t other_frames; /* frames of our controllers' ids that are no status of ours */
+	uint64_t error_frames, bus_off;
+};
+
+struct vesc_drive {
+	struct vesc_status1 s1;
+	float input_v; /* STATUS_5 [V], NaN before the first */
+	int64_t last_status1_us;
+	bool have_status1;
+};
+
+/* What the opener hands in (plain numbers). */
+struct vesc_motor_config {
+	const char *iface;
+	uint8_t id[4];  /* controller CAN id of wheel j */
+	int pole_pairs; /* >= 1 */
+	enum vesc_mode mode;
+	int status_timeout_ms; /* > 0 */
+	struct drive_consts consts;
+};
+
+struct vesc_motor {
+	int fd;
+	uint8_t id[4];
+	int pole_pairs;
+	enum vesc_mode mode;
+	int64_t timeout_us, opened_us;
+	struct drive_consts consts;
+	bool enabled, bus_off;
+	struct vesc_drive d[4];
+	struct vesc_counters n;
+	struct tx_gate gate; /* shut by vesc_motor_halt(): nothing more is sent */
+};
+
+extern const struct motor_hal_ops vesc_motor_ops;
+
+/* Start-up: the socket with one receive filter per controller id. -EINVAL for a bad config,
+ * else the socket layer's error (message: sc_os_strerror()). */
+int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg);
+/* Loop thread, between two ticks: the model's numbers in force (a parameter change). */
+void vesc_motor_set_consts(struct vesc_motor *m, const struct drive_consts *c);
+/* Crash path, async-signal-safe: every later write is dropped and the mode's zero is sent to
+ * each controller. Returns the frames sent. */
+int vesc_motor_halt(struct vesc_motor *m);
+
+static inline struct motor_hal vesc_motor_hal(struct vesc_motor *m)
+{
+	return (struct motor_hal){.ops = &vesc_motor_ops, .ctx = m};
+}
+
+#endif /* OMNI4_VESC_MOTOR_H */

@@ -1,0 +1,281 @@
+/* vesc_motor.c - motor HAL over four VESC controllers (vesc_motor.h; OS calls only via
+ * sc_os.h, frames via vesc_proto.h). */
+#include "omni4/drivers/vesc_motor.h"
+
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#define TWO_PI 6.28318530717958647692
+
+int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg)
+{
+	struct sc_os_filter filt[4];
+
+	memset(m, 0, sizeof(*m));
+	m->fd = -1;
+	tx_gate_init(&m->gate);
+	if (cfg->pole_pairs < 1 || cfg->status_timeout_ms <= 0 ||
+	    (cfg->mode != VESC_MODE_DUTY && cfg->mode != VESC_MODE_CURRENT))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++) {
+		if (cfg->id[j] == VESC_ID_BROADCAST)
+			return -EINVAL;
+		for (int k = 0; k < j; k++)
+			if (cfg->id[k] == cfg->id[j])
+				return -EINVAL;
+		/* every frame of controller id[j]: extended, bits 28-16 zero, low byte the id */
+		filt[j] = (struct sc_os_filter){.id = OMNI4_CAN_EFF_FLAG | cfg->id[j],
+		                                .mask = OMNI4_CAN_EFF_FLAG | OMNI4_CAN_RTR_FLAG |
+		                                        0x1FFF00FFu};
+		m->id[j] = cfg->id[j];
+		m->d[j].input_v = NAN;
+	}
+	const int rc = sc_os_open_filters(cfg->iface, filt, 4, &m->fd);
+
+	if (rc) {
+		m->fd = -1;
+		return rc;
+	}
+	m->pole_pairs = cfg->pole_pairs;
+	m->mode = cfg->mode;
+	m->timeout_us = (int64_t)cfg->status_timeout_ms * 1000;
+	m->consts = cfg->consts;
+	m->opened_us = sc_os_now_us();
+	return 0;
+}
+
+void vesc_motor_set_consts(struct vesc_motor *m, const struct drive_consts *c)
+{
+	m->consts = *c;
+}
+
+static int send_frame(struct vesc_motor *m, const struct omni4_can_frame *f)
+{
+	const int rc = sc_os_send(m->fd, f);
+
+	if (rc)
+		m->n.tx_dropped++;
+	else
+		m->n.tx_frames++;
+	return rc;
+}
+
+static int vesc_enable(void *ctx, bool on)
+{
+	struct vesc_motor *m = ctx;
+
+	m->enabled = on; /* nothing to send: the next write says it */
+	return 0;
+}
+
+/* Wheel speed after the gearbox [rad/s] from a STATUS_1's ERPM; NaN before the first. */
+static float wheel_speed(const struct vesc_motor *m, const struct vesc_drive *d)
+{
+	if (!d->have_status1)
+		return NAN;
+	const double motor_rpm = (double)d->s1.erpm / m->pole_pairs;
+
+	return (float)(motor_rpm * TWO_PI / 60.0 / m->consts.gear);
+}
+
+/* This tick's command to controller j for volts; SET_CURRENT 0 (release) when disabled or
+ * when what it is computed from is not measured yet. */
+static int encode_command(const struct vesc_motor *m, int j, float volts, float current_a,
+                          struct omni4_can_frame *f)
+{
+	const float supply = m->d[j].input_v;
+
+	if (!m->enabled)
+		return vesc_encode_set_current(m->id[j], 0.0f, f);
+	if (m->mode == VESC_MODE_CURRENT)
+		return vesc_encode_set_current(m->id[j], isfinite(current_a) ? current_a : 0.0f, f);
+	if (!(supply > 0.0f))
+		return vesc_encode_set_current(m->id[j], 0.0f, f);
+	const float duty = fmaxf(-VESC_DUTY_MAX, fminf(VESC_DUTY_MAX, volts / supply));
+
+	return vesc_encode_set_duty(m->id[j], duty, f);
+}
+
+static int vesc_write(void *ctx, const float volts[4])
+{
+	struct vesc_motor *m = ctx;
+	struct omni4_can_frame f;
+	float w[4], cur[4];
+	int rc = 0;
+
+	for (int j = 0; j < 4; j++)
+		w[j] = wheel_speed(m, &m->d[j]);
+	drive_currents(&m->consts, volts, w, cur);
+	if (!tx_gate_enter(&m->gate))
+		return 0; /* halted: the crash path sent the last frames */
+	for (int j = 0; j < 4; j++) {
+		if (encode_command(m, j, volts[j], cur[j], &f)) {
+			rc = -ERANGE;
+			continue;
+		}
+		const int s = send_frame(m, &f);
+
+		if (s && !rc)
+			rc = s;
+	}
+	tx_gate_leave(&m->gate);
+	return rc;
+}
+
+/* The stop command of the mode, twice to each controller; the frames sent. */
+static int send_stop(struct vesc_motor *m)
+{
+	struct omni4_can_frame f;
+	int sent = 0;
+
+	for (int k = 0; k < 2; k++)
+		for (int j = 0; j < 4; j++) {
+			if (m->mode == VESC_MODE_DUTY)
+				vesc_encode_set_duty(m->id[j], 0.0f, &f);
+			else
+				vesc_encode_set_current(m->id[j], 0.0f, &f);
+			sent += send_frame(m, &f) == 0;
+		}
+	return sent;
+}
+
+int vesc_motor_halt(struct vesc_motor *m)
+{
+	if (m->fd < 0 || !tx_gate_close(&m->gate, 20000))
+		return 0;
+	m->enabled = false;
+	return send_stop(m);
+}
+
+static int drive_index(const struct vesc_motor *m, uint8_t id)
+{
+	for (int j = 0; j < 4; j++)
+		if (m->id[j] == id)
+			return j;
+	return -1;
+}
+
+static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_t now)
+{
+	struct vesc_status1 s1;
+	struct vesc_status5 s5;
+	uint8_t id;
+	int j;
+
+	if (vesc_decode_status1(f, &id, &s1) == 0 && (j = drive_index(m, id)) >= 0) {
+		m->d[j].s1 = s1;
+		m->d[j].last_status1_us = now;
+		m->d[j].have_status1 = true;
+	} else if (vesc_decode_status5(f, &id, &s5) == 0 && (j = drive_index(m, id)) >= 0) {
+		m->d[j].input_v = s5.input_v;
+	} else {
+		m->n.other_frames++; /* STATUS_4 and the rest: not used */
+	}
+}
+
+static int drain_frames(struct vesc_motor *m, int64_t now)
+{
+	struct omni4_can_frame f;
+	uint32_t err;
+	int rc = 0;
+
+	for (int k = 0; k < VESC_MAX_FRAMES_PER_READ; k++) {
+		rc = sc_os_recv(m->fd, &f, &err);
+		if (rc < 0)
+			break;
+		if (rc == 2) {
+			m->n.error_frames++;
+			if (err & SC_ERR_BUSOFF) {
+				m->n.bus_off++;
+				m->bus_off = true;
+			}
+			continue;
+		}
+		m->n.rx_frames++;
+		handle(m, &f, now);
+	}
+	return rc < 0 && rc != -EAGAIN ? rc : 0;
+}
+
+/* The sample from the controllers' last frames; true if each has sent a STATUS_1. */
+static bool fill_sample(const struct vesc_motor *m, struct motor_sample *out, int64_t now)
+{
+	uint32_t faults = m->bus_off ? HAL_FAULT_BUS : 0;
+	float supply = NAN;
+	bool all = true;
+
+	for (int j = 0; j < 4; j++) {
+		const struct vesc_drive *d = &m->d[j];
+		const int64_t since = d->have_status1 ? d->last_status1_us : m->opened_us;
+
+		if (now - since > m->timeout_us)
+			faults |= HAL_FAULT_DRIVER_TIMEOUT;
+		all &= d->have_status1;
+		if (!isnan(d->input_v))
+			supply = isnan(supply) ? d->input_v : fminf(supply, d->input_v);
+		out->wheel_rad_s[j] = wheel_speed(m, d);
+		out->current_a[j] = d->have_status1 ? d->s1.current_a : NAN;
+	}
+	out->supply_v = supply;
+	out->faults = faults;
+	return all;
+}
+
+static int vesc_read(void *ctx, struct motor_sample *out)
+{
+	struct vesc_motor *m = ctx;
+	const int64_t now = sc_os_now_us();
+	const int rc = drain_frames(m, now);
+
+	if (rc)
+		return rc;
+	if (fill_sample(m, out, now))
+		return 0;
+	if (!(out->faults & HAL_FAULT_DRIVER_TIMEOUT))
+		return -EAGAIN; /* still waiting for the first reports */
+	for (int j = 0; j < 4; j++) {
+		if (isnan(out->wheel_rad_s[j]))
+			out->wheel_rad_s[j] = 0.0f;
+		if (isnan(out->current_a[j]))
+			out->current_a[j] = 0.0f;
+	}
+	return 0;
+}
+
+static int vesc_clear_faults(void *ctx)
+{
+	struct vesc_motor *m = ctx;
+
+	m->bus_off = false;
+	return 0;
+}
+
+static void vesc_close(void *ctx)
+{
+	struct vesc_motor *m = ctx;
+
+	if (m->fd < 0)
+		return;
+	if (tx_gate_enter(&m->gate)) {
+		m->enabled = false;
+		send_stop(m);
+		tx_gate_leave(&m->gate);
+	}
+	sc_os_close(m->fd);
+	m->fd = -1;
+}
+
+static void vesc_halt(void *ctx)
+{
+	vesc_motor_halt(ctx);
+}
+
+const struct motor_hal_ops vesc_motor_ops = {
+    .enable = vesc_enable,
+    .write = vesc_write,
+    .read = vesc_read,
+    .clear_faults = vesc_clear_faults,
+    .halt = vesc_halt,
+    .close = vesc_close,
+};

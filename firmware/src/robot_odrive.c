@@ -1,0 +1,67 @@
+/* robot_odrive.c - the ODrive motor backend as the robot opens it (robot.h): its [odrive]
+ * settings and the model's drive constants (which follow parameter changes), its counters and
+ * the axis errors it saw. Linux only. */
+#include "omni4/firmware/drive_consts_for.h"
+#include "omni4/firmware/robot.h"
+
+#include <stdio.h>
+
+static int open_odrive(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
+{
+	const struct odrive_settings *os = spec->odrive;
+	struct odrive_motor_config cfg = {.iface = os->iface,
+	                                  .mode = (enum odrive_mode)os->mode,
+	                                  .status_timeout_ms = ODRIVE_STATUS_TIMEOUT_MS,
+	                                  .consts = drive_consts_for(spec->ctl)};
+
+	for (int j = 0; j < 4; j++)
+		cfg.node[j] = (uint8_t)os->node[j];
+	const int rc = odrive_motor_open(&r->odrive, &cfg);
+
+	if (rc == -EINVAL) {
+		snprintf(why, n, "[odrive] node_0..node_3 must differ");
+		return -1;
+	}
+	if (rc) {
+		char text[256];
+
+		snprintf(why, n, "[odrive] CAN interface '%s': %s", os->iface,
+		         sc_os_strerror(rc, text, sizeof(text)));
+		return -1;
+	}
+	r->motor = odrive_motor_hal(&r->odrive);
+	return 0;
+}
+
+/* Loop thread, between two ticks: the drive constants in force. */
+static void odrive_consts_apply(void *ctx, const struct ctl_settings *s)
+{
+	const struct drive_consts c = drive_consts_for(s);
+
+	odrive_motor_set_consts(ctx, &c);
+}
+
+static void odrive_started(struct robot *r, const struct robot_spec *spec)
+{
+	const struct fw_param_hooks hooks = {.apply = odrive_consts_apply, .ctx = &r->odrive};
+
+	(void)spec;
+	fw_set_param_hooks(&r->fw, &hooks);
+}
+
+static void odrive_summary(const struct robot *r)
+{
+	const struct odrive_counters *c = &r->odrive.n;
+	char faults[512];
+
+	fprintf(stderr,
+	        "omni4-fw: odrive: rx %llu tx %llu tx_dropped %llu other_frames %llu "
+	        "error_frames %llu bus_off %llu; axis errors: %s\n",
+	        (unsigned long long)c->rx_frames, (unsigned long long)c->tx_frames,
+	        (unsigned long long)c->tx_dropped, (unsigned long long)c->other_frames,
+	        (unsigned long long)c->error_frames, (unsigned long long)c->bus_off,
+	        odrive_motor_fault_text(&r->odrive, faults, sizeof(faults)));
+}
+
+const struct robot_backend robot_backend_odrive = {
+    .open = open_odrive, .started = odrive_started, .summary = odrive_summary};

@@ -1,0 +1,317 @@
+/* Tests for drivers/vesc/vesc_motor.c with the OS adapter (sc_os) mocked at link time: the
+ * receive filters, a tick's commands decoded with the codec (duty = voltage / the controller's
+ * measured input voltage; current = (u - Kv l w) / R), status frames into the sample, silence,
+ * bus-off, stop on close and on halt. Expected numbers are computed here by hand. */
+#include "sc_os_mock.h"
+
+#include "omni4/drivers/vesc_motor.h"
+
+#define TWO_PI 6.28318530717958647692
+
+static const uint8_t ids[4] = {7, 3, 12, 200};
+
+/* Gear 5; wheel 2 has its own R (a per-wheel constant must be the wheel's). */
+static struct vesc_motor_config config(enum vesc_mode mode)
+{
+	struct vesc_motor_config c = {.iface = "vcan0",
+	                              .pole_pairs = 7,
+	                              .mode = mode,
+	                              .status_timeout_ms = 20,
+	                              .consts = {.gear = 5.0}};
+
+	for (int j = 0; j < 4; j++) {
+		c.id[j] = ids[j];
+		c.consts.w.r[j] = 0.03;
+		c.consts.w.Kv[j] = 0.02;
+		c.consts.w.Kt[j] = 0.025;
+		c.consts.w.R[j] = j == 2 ? 4.0 : 2.0;
+	}
+	return c;
+}
+
+static int reset(void **state)
+{
+	(void)state;
+	mock_reset();
+	return 0;
+}
+
+static void push_status(int j, int32_t erpm, float current_a, float input_v)
+{
+	const struct vesc_status1 s1 = {.erpm = erpm, .current_a = current_a, .duty = 0.1f};
+	const struct vesc_status5 s5 = {.tacho_steps = 0, .input_v = input_v};
+	struct omni4_can_frame f;
+
+	assert_int_equal(vesc_encode_status1(ids[j], &s1, &f), 0);
+	mock_push(&f);
+	assert_int_equal(vesc_encode_status5(ids[j], &s5, &f), 0);
+	mock_push(&f);
+}
+
+/* ERPM 7000 x (j + 1), current j + 0.5 A, input voltage 24 V (wheel 3: 23.5 V). */
+static void push_all_status(void)
+{
+	for (int j = 0; j < 4; j++)
+		push_status(j, 7000 * (j + 1), (float)j + 0.5f, j == 3 ? 23.5f : 24.0f);
+}
+
+/* The wheel speed [rad/s] of push_all_status's ERPM for wheel j: ERPM / 7 pole pairs / gear 5. */
+static double speed_of(int j)
+{
+	return 7000.0 * (j + 1) / 7.0 * TWO_PI / 60.0 / 5.0;
+}
+
+/* The command sent to controller ids[j] in the last n frames: its kind and value. */
+static float sent_value(int from, int j, enum vesc_cmd *kind)
+{
+	for (int k = from; k < mock_n_sent; k++) {
+		uint8_t id;
+		float v;
+
+		for (int c = VESC_CMD_SET_DUTY; c <= VESC_CMD_SET_CURRENT; c++)
+			if (vesc_decode_command(&mock_sent[k], (enum vesc_cmd)c, &id, &v) == 0 &&
+			    id == ids[j]) {
+				*kind = (enum vesc_cmd)c;
+				return v;
+			}
+	}
+	fail_msg("no command to controller %u", ids[j]);
+	return NAN;
+}
+
+static void test_open_filters_admit_each_controllers_frames_only(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	assert_string_equal(mock_iface, "vcan0");
+	assert_int_equal(mock_n_sent, 0); /* nothing to start */
+	for (int j = 0; j < 4; j++) {
+		assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, ids[j])));
+		assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_5, ids[j])));
+	}
+	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, 8)));
+	assert_false(mock_filter_passes(VESC_CMD_STATUS_1 << 8 | 7)); /* standard frame */
+	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, 7) | 0x10000u));
+	hal_motor_close(&(struct motor_hal){&vesc_motor_ops, &m});
+}
+
+static void test_status_frames_become_the_sample(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	assert_int_equal(hal_motor_read(&h, &s), -EAGAIN); /* nothing yet, within the timeout */
+	push_all_status();
+	mock_clock_us += 1000;
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	for (int j = 0; j < 4; j++) {
+		assert_near(s.wheel_rad_s[j], speed_of(j), 1e-4);
+		assert_near(s.current_a[j], j + 0.5, 1e-6);
+	}
+	assert_near(s.wheel_rad_s[0], 20.943951, 1e-5); /* 1000 motor rpm / 5 */
+	assert_near(s.supply_v, 23.5, 1e-6);            /* the lowest */
+	assert_int_equal(s.faults, 0);
+	hal_motor_close(&h);
+}
+
+static void test_duty_is_the_voltage_over_each_controllers_input_voltage(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+	const float volts[4] = {6.0f, -12.0f, 30.0f, 4.7f};
+	const double want[4] = {0.25, -0.5, 0.95, 0.2}; /* 30 / 24: clamped; 4.7 / 23.5 */
+	enum vesc_cmd kind;
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	assert_int_equal(hal_motor_enable(&h, true), 0);
+	assert_int_equal(hal_motor_write(&h, volts), 0); /* no input voltage yet: released */
+	for (int j = 0; j < 4; j++) {
+		assert_near(sent_value(0, j, &kind), 0.0, 0.0);
+		assert_int_equal(kind, VESC_CMD_SET_CURRENT);
+	}
+	push_all_status();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	int from = mock_n_sent;
+
+	assert_int_equal(hal_motor_write(&h, volts), 0);
+	assert_int_equal(mock_n_sent - from, 4);
+	for (int j = 0; j < 4; j++) {
+		assert_near(sent_value(from, j, &kind), want[j], 1e-5);
+		assert_int_equal(kind, VESC_CMD_SET_DUTY);
+	}
+	from = mock_n_sent;
+	assert_int_equal(hal_motor_enable(&h, false), 0);
+	assert_int_equal(hal_motor_write(&h, volts), 0); /* disabled: released */
+	for (int j = 0; j < 4; j++) {
+		assert_near(sent_value(from, j, &kind), 0.0, 0.0);
+		assert_int_equal(kind, VESC_CMD_SET_CURRENT);
+	}
+	hal_motor_close(&h);
+}
+
+static void test_current_is_eq21_at_the_measured_speed(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_CURRENT);
+	const float volts[4] = {6.0f, -3.0f, 12.0f, 0.0f};
+	enum vesc_cmd kind;
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	push_all_status();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(hal_motor_enable(&h, true), 0);
+	const int from = mock_n_sent;
+
+	assert_int_equal(hal_motor_write(&h, volts), 0);
+	for (int j = 0; j < 4; j++) {
+		/* motor speed l w = 1000 (j + 1) rpm; i = (u - Kv l w) / R */
+		const double wm = 1000.0 * (j + 1) * TWO_PI / 60.0;
+		const double want = (volts[j] - 0.02 * wm) / (j == 2 ? 4.0 : 2.0);
+
+		assert_near(sent_value(from, j, &kind), want, 1e-3);
+		assert_int_equal(kind, VESC_CMD_SET_CURRENT);
+	}
+	hal_motor_close(&h);
+}
+
+static void test_a_silent_controller_is_a_driver_timeout(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	push_all_status();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	mock_clock_us += 15000;
+	for (int j = 0; j < 3; j++) /* controller 3 falls silent */
+		push_status(j, 7000, 1.0f, 24.0f);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	mock_clock_us += 10000; /* 25 ms since its last STATUS_1 */
+	for (int j = 0; j < 3; j++)
+		push_status(j, 7000, 1.0f, 24.0f);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER_TIMEOUT);
+	hal_motor_close(&h);
+}
+
+static void test_never_reporting_times_out_with_a_full_sample(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	mock_clock_us += 21000;
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER_TIMEOUT);
+	for (int j = 0; j < 4; j++)
+		assert_true(isfinite(s.wheel_rad_s[j]) && isfinite(s.current_a[j]));
+	hal_motor_close(&h);
+}
+
+static void test_bus_off_is_a_bus_fault_until_cleared(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	push_all_status();
+	mock_push_error(SC_ERR_BUSOFF);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_BUS);
+	assert_int_equal(hal_motor_clear_faults(&h), 0);
+	push_all_status();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	hal_motor_close(&h);
+}
+
+/* Close: the mode's zero to every controller (twice), then the socket closed. */
+static void test_close_stops_every_controller(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+	enum vesc_cmd kind;
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	hal_motor_close(&h);
+	assert_true(mock_closed);
+	assert_int_equal(mock_n_sent, 8);
+	for (int j = 0; j < 4; j++) {
+		assert_near(sent_value(4, j, &kind), 0.0, 0.0);
+		assert_int_equal(kind, VESC_CMD_SET_DUTY);
+	}
+}
+
+/* Halt: the stop frames, and no write after it reaches the bus. */
+static void test_halt_stops_and_drops_later_writes(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	const struct vesc_motor_config c = config(VESC_MODE_CURRENT);
+	const float volts[4] = {6, 6, 6, 6};
+	enum vesc_cmd kind;
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	assert_int_equal(vesc_motor_halt(&m), 8);
+	for (int j = 0; j < 4; j++) {
+		assert_near(sent_value(0, j, &kind), 0.0, 0.0);
+		assert_int_equal(kind, VESC_CMD_SET_CURRENT);
+	}
+	assert_int_equal(hal_motor_enable(&h, true), 0);
+	assert_int_equal(hal_motor_write(&h, volts), 0);
+	hal_motor_close(&h);
+	assert_int_equal(mock_n_sent, 8);
+	assert_true(mock_closed);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+	    cmocka_unit_test_setup(test_open_filters_admit_each_controllers_frames_only, reset),
+	    cmocka_unit_test_setup(test_status_frames_become_the_sample, reset),
+	    cmocka_unit_test_setup(test_duty_is_the_voltage_over_each_controllers_input_voltage,
+	                           reset),
+	    cmocka_unit_test_setup(test_current_is_eq21_at_the_measured_speed, reset),
+	    cmocka_unit_test_setup(test_a_silent_controller_is_a_driver_timeout, reset),
+	    cmocka_unit_test_setup(test_never_reporting_times_out_with_a_full_sample, reset),
+	    cmocka_unit_test_setup(test_bus_off_is_a_bus_fault_until_cleared, reset),
+	    cmocka_unit_test_setup(test_close_stops_every_controller, reset),
+	    cmocka_unit_test_setup(test_halt_stops_and_drops_later_writes, reset),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
