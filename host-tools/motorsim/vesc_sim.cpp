@@ -73,11 +73,8 @@ double drive_voltage(const VescSim &s, int j, const DriveView &v)
 	case VescMode::current:
 		return current_loop_voltage(s.m, j, d.value, w, v.supply_v);
 	case VescMode::brake: // against the motion; none at rest
-		return current_loop_voltage(s.m, j,
-		                            w > 0   ? -d.value
-		                            : w < 0 ? d.value
-		                                    : 0.0,
-		                            w, v.supply_v);
+		return current_loop_voltage(s.m, j, -std::copysign(d.value, w) * (w != 0), w,
+		                            v.supply_v);
 	case VescMode::released:
 		break;
 	}
