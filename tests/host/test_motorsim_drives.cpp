@@ -248,6 +248,11 @@ TEST(OdriveSim, TorqueIsIgnoredWhileIdleAndDrivesTheCurrentInClosedLoop)
 	// i = torque / Kt = 0.25 / 0.05 = 5 A; u = 2 x 5 + 0.05 x 100 = 15 V
 	EXPECT_NEAR(u.u_v[1], 15.0, 1e-12);
 	EXPECT_NEAR(u.u_v[0], 0.05 * 100, 1e-12); // node 0 untouched
+	// IDLE (Set_Axis_State 1) and CLOSED_LOOP again: the torque starts from 0
+	odrive_sim_receive(s, frame(0x27, {1, 0, 0, 0, 0, 0, 0, 0}), 0.006);
+	EXPECT_FALSE(odrive_sim_step(s, 0.007, view(100, 24)).driven);
+	odrive_sim_receive(s, kClosedLoop, 0.008);
+	EXPECT_NEAR(odrive_sim_step(s, 0.009, view(100, 24)).u_v[1], 0.05 * 100, 1e-12);
 }
 
 TEST(OdriveSim, EstopSetsTheErrorAndIdlesUntilClearErrors)
