@@ -255,6 +255,19 @@ TEST(OdriveSim, TorqueIsIgnoredWhileIdleAndDrivesTheCurrentInClosedLoop)
 	EXPECT_NEAR(odrive_sim_step(s, 0.009, view(100, 24)).u_v[1], 0.05 * 100, 1e-12);
 }
 
+TEST(OdriveSim, VelocityControlIsProportionalWithTheTorqueFeedForward)
+{
+	OdriveSim s = odrive(); // velocity control: the drive's default
+	odrive_sim_receive(s, kClosedLoop, 0.0);
+	// Set_Input_Vel (0x0D) to node 1 (ID 0x2D): 3.0f = 0x40400000, 0.05f = 0x3D4CCCCD
+	odrive_sim_receive(s, frame(0x2D, {0, 0, 0x40, 0x40, 0xCD, 0xCC, 0x4C, 0x3D}), 0.0);
+	// motor at 2 pi rad/s = 1 turn/s: torque 1/6 x (3 - 1) + 0.05 = 0.3833 Nm, i = 7.667 A,
+	// u = 2 i + 0.05 x 2 pi
+	const double i = (2.0 / 6 + 0.05f) / 0.05;
+	EXPECT_NEAR(odrive_sim_step(s, 0.001, view(2 * M_PI, 24)).u_v[1], 2 * i + 0.05 * 2 * M_PI,
+	            1e-6);
+}
+
 TEST(OdriveSim, EstopSetsTheErrorAndIdlesUntilClearErrors)
 {
 	OdriveSim s = odrive();
