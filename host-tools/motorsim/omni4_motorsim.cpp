@@ -1,7 +1,8 @@
 // omni4-motorsim: the two motor-driver boards of the CAN protocol with the model plant behind
 // them. Receives CMD_VOLTAGE / CMD_CONTROL, steps the plant at 1 kHz, answers with STATUS
 // (every ms) and HEALTH (100 Hz), so the unmodified omni4-fw (socketcan backend) drives a
-// simulated robot. Works with candump / cansend by hand.
+// simulated robot. Works with candump / cansend by hand. With --protocol vesc or odrive, four
+// simulated VESCs or ODrives instead (drive_loop.hpp).
 #include <time.h>
 #include <unistd.h>
 
@@ -11,8 +12,10 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "cli.hpp"
+#include "drive_loop.hpp"
 
 extern "C" {
 #include "omni4/drivers/can_proto.h"
@@ -72,10 +75,57 @@ struct CounterWindow {
 };
 
 struct Options {
-	std::string iface = "vcan0", params_path;
+	std::string iface = "vcan0", params_path, protocol = "omni4";
 	double duration_s = 0, replay_at = -1, corrupt_at = -1;
 	bool no_noise = false, quiet = false;
+	std::vector<int> ids{0, 1, 2, 3}, nodes{0, 1, 2, 3};
+	int pole_pairs = 7, fault_node = 0;
+	double supply_v = 0, supply_ohm = 0, watchdog_s = 0.2, fault_at_s = -1;
 };
+
+// The options of the simulated VESCs and ODrives (--protocol vesc|odrive).
+void add_drive_options(CLI::App &app, Options &o)
+{
+	const char *g = "VESC / ODrive";
+	app.add_option("--protocol", o.protocol, "omni4 (the boards), vesc or odrive")
+	    ->check(CLI::IsMember({"omni4", "vesc", "odrive"}))
+	    ->capture_default_str();
+	app.add_option("--ids", o.ids, "VESC controller IDs of wheels 0-3 (default 0,1,2,3)")
+	    ->delimiter(',')
+	    ->expected(4)
+	    ->check(CLI::Range(0, 254))
+	    ->group(g);
+	app.add_option("--nodes", o.nodes, "ODrive node IDs of wheels 0-3 (default 0,1,2,3)")
+	    ->delimiter(',')
+	    ->expected(4)
+	    ->check(CLI::Range(0, 63))
+	    ->group(g);
+	app.add_option("--pole-pairs", o.pole_pairs, "VESC: motor pole pairs (ERPM, tachometer)")
+	    ->check(CLI::Range(1, 100))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--supply-v", o.supply_v,
+	               "open-circuit supply [V] (default [limits] supply_v)")
+	    ->check(CLI::PositiveNumber)
+	    ->group(g);
+	app.add_option("--supply-ohm", o.supply_ohm, "supply's internal resistance: V - R sum|i|")
+	    ->check(CLI::NonNegativeNumber)
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--watchdog-s", o.watchdog_s, "ODrive: watchdog timeout (0: off)")
+	    ->check(CLI::NonNegativeNumber)
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--fault-at-s", o.fault_at_s,
+	               "fault at S seconds on --fault-node's drive (ODrive: axis error DRV_FAULT, "
+	               "IDLE; VESC: the drive goes silent and releases its motor)")
+	    ->check(CLI::NonNegativeNumber)
+	    ->group(g);
+	app.add_option("--fault-node", o.fault_node, "wheel 0-3 whose drive --fault-at-s breaks")
+	    ->check(CLI::Range(0, 3))
+	    ->capture_default_str()
+	    ->group(g);
+}
 
 void add_options(CLI::App &app, Options &o)
 {
@@ -91,6 +141,7 @@ void add_options(CLI::App &app, Options &o)
 	               "test: at S seconds, send a STATUS_0 with a bad CRC")
 	    ->group("");
 	app.add_flag("-q,--quiet", o.quiet, "no summary");
+	add_drive_options(app, o);
 }
 
 // The robot INI (Table III without one) and the plant it describes. Returns 0 or the exit
@@ -297,6 +348,52 @@ void sleep_one_ms(int64_t &next_ns)
 	}
 }
 
+// The simulated drives of --protocol on the robot's plant; 2 after a one-line error.
+int setup_drives(const Options &o, Sim &sim, motorsim::DriveLoop &d)
+{
+	motorsim::VescOptions vo;
+	motorsim::OdriveOptions oo;
+	for (int j = 0; j < 4; ++j) {
+		vo.ids[j] = o.ids[static_cast<size_t>(j)];
+		oo.nodes[j] = o.nodes[static_cast<size_t>(j)];
+		for (int k = 0; k < j; ++k)
+			if (vo.ids[k] == vo.ids[j] || oo.nodes[k] == oo.nodes[j]) {
+				std::fprintf(stderr,
+				             "omni4-motorsim: --ids and --nodes must be four "
+				             "different numbers\n");
+				return 2;
+			}
+	}
+	vo.pole_pairs = o.pole_pairs;
+	oo.watchdog_s = o.watchdog_s;
+	vo.fault = oo.fault = motorsim::Fault{o.fault_at_s, o.fault_node};
+	const motorsim::Supply sup{o.supply_v > 0 ? o.supply_v : sim.cfg.ctl.limits.supply_v,
+	                           o.supply_ohm};
+	const auto proto =
+	    o.protocol == "vesc" ? motorsim::Protocol::vesc : motorsim::Protocol::odrive;
+	motorsim::drive_loop_init(d, proto, vo, oo, sup, &sim.pl);
+	return 0;
+}
+
+// One period of the simulated drives: the frames received, the drives and the plant stepped,
+// the drives' frames sent.
+void drives_tick(int fd, double t, motorsim::DriveLoop &d, motorsim::Frames &in, Stats &st)
+{
+	omni4_can_frame f;
+	uint32_t err;
+	int rc;
+	in.clear();
+	while ((rc = sc_os_recv(fd, &f, &err)) > 0 && in.size() < 256) {
+		if (rc != 1)
+			continue;
+		++st.rx;
+		in.push_back(f);
+	}
+	motorsim::drive_loop_advance(d, t, 1e-3, in);
+	for (const omni4_can_frame &g : d.out)
+		send_counted(fd, g, st);
+}
+
 void print_summary(const Stats &st, const plant &pl)
 {
 	std::fprintf(
@@ -312,8 +409,11 @@ void print_summary(const Stats &st, const plant &pl)
 int main(int argc, char **argv)
 {
 	CLI::App app{
-	    "Simulated omni4 motor-driver boards on a CAN interface (model plant behind).\n"
-	    "Example: omni4-motorsim --iface vcan0 --params robot.ini",
+	    "Simulated omni4 motor-driver boards, or four VESCs or ODrives (CANSimple), on a CAN "
+	    "interface with the model's plant behind them (docs/can-drives.md).\n"
+	    "Example: omni4-motorsim --iface vcan0 --params robot.ini\n"
+	    "         omni4-motorsim --iface vcan0 --protocol odrive --nodes 4,5,6,7 "
+	    "--supply-ohm 0.05 --fault-at-s 10 --fault-node 2",
 	    "omni4-motorsim"};
 	omni4_cli_setup(app);
 	Options o;
@@ -323,8 +423,16 @@ int main(int argc, char **argv)
 	Sim sim;
 	if (int status = load_robot(o.params_path, &sim.cfg, &sim.pl))
 		return status;
+	const bool drives = o.protocol != "omni4";
+	motorsim::DriveLoop dl;
+	motorsim::Frames in;
+	if (drives) {
+		if (int status = setup_drives(o, sim, dl))
+			return status;
+		in.reserve(256);
+	}
 	const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
-	if (int rc = sc_os_open(o.iface.c_str(), ids, 2, &sim.fd)) {
+	if (int rc = sc_os_open(o.iface.c_str(), ids, drives ? 0 : 2, &sim.fd)) {
 		char why[256];
 		std::fprintf(stderr, "omni4-motorsim: CAN interface '%s': %s\n", o.iface.c_str(),
 		             sc_os_strerror(rc, why, sizeof why));
@@ -340,8 +448,12 @@ int main(int argc, char **argv)
 		const double t = (now - t0) * 1e-6;
 		if (o.duration_s > 0 && t >= o.duration_s)
 			break;
-		simulate_tick(sim, tick, now, o.no_noise);
-		inject_test_frames(sim.fd, t, o, sim.b);
+		if (drives) {
+			drives_tick(sim.fd, t, dl, in, sim.st);
+		} else {
+			simulate_tick(sim, tick, now, o.no_noise);
+			inject_test_frames(sim.fd, t, o, sim.b);
+		}
 		sleep_one_ms(next);
 	}
 	sc_os_close(sim.fd);
