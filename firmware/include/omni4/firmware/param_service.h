@@ -31,7 +31,7 @@
 #include "omni4/core/fw.h"
 #include "omni4_param_value_t.h"
 
-#define PARAM_MAX_KEYS 128            /* keys in one request or reply (the whole table fits) */
+#define PARAM_MAX_KEYS 256            /* keys in one request or reply (the whole table fits) */
 #define PARAM_MAX_TEXT 65536          /* bytes of INI text in one LOAD */
 #define PARAM_QUEUE 8                 /* requests waiting for the service thread */
 #define PARAM_CACHE 16                /* replies kept for repeated request ids */
