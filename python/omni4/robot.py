@@ -61,6 +61,7 @@ CONFIRM_MIN_S = 0.01         # a verdict comes from samples at least this long a
 CONFIRM_TICKS = 10           # ... and at least this many loop periods after it
 CONFIRM_TIMEOUT_S = 0.5      # wait=True: longest wait for the verdict [s]
 LIMITS_TIMEOUT_S = 0.25      # the GET of the limits: per try [s] (2 tries)
+LIMITS_CLOSE_WAIT_S = 2.0    # close: longest wait for a GET in flight to return [s]
 LIMITS_RETRY_S = 5.0         # no answer: the check is skipped, and the GET tried again after
 
 
@@ -287,6 +288,8 @@ class Robot(GoalMixin):
             return self._fetch_limits_locked()
 
     def _fetch_limits_locked(self):
+        if self._closed.is_set():           # closing: its client is being released
+            return self._limits or None
         if self._limits is None and time.monotonic() >= self._limits_retry_s:
             try:
                 from .params import ParamClient, ParamError
@@ -600,8 +603,15 @@ class Robot(GoalMixin):
                     self._lc.unsubscribe(sub)
                 except Exception:  # already gone: nothing to release
                     pass
-            if self._limits_client is not None:
-                self._limits_client.close()
+            # A GET in flight (every GET holds _limits_lock) pumps the limits client's LCM on
+            # its own thread: unsubscribing under it frees the handler that LCM is about to
+            # call. Released once no GET runs; one still running after the wait keeps it.
+            if self._limits_client is not None and \
+                    self._limits_lock.acquire(timeout=LIMITS_CLOSE_WAIT_S):
+                try:
+                    self._limits_client.close()
+                finally:
+                    self._limits_lock.release()
             if self._params is not None and hasattr(self._params, "close"):
                 self._params.close()
             atexit.unregister(self._atexit)

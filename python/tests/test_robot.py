@@ -203,3 +203,41 @@ def test_udpm_urls_ask_for_a_large_receive_buffer():
     assert w("udpm://239.255.76.67:7667?recv_buf_size=1000") == \
         "udpm://239.255.76.67:7667?recv_buf_size=1000"
     assert w("memq://") == "memq://"
+
+
+class BlockingLimitsClient:
+    """Stands in for the limits' ParamClient: its GET blocks until released (a controller that
+    has not answered yet) and it records whether it was closed while a GET was in flight."""
+
+    def __init__(self):
+        self.entered = threading.Event()
+        self.release = threading.Event()
+        self.in_get = False
+        self.closed_during_get = None
+
+    def get_many(self, _keys):
+        self.in_get = True
+        self.entered.set()
+        self.release.wait(10)
+        self.in_get = False
+        raise omni4.params.ParamError("no answer")
+
+    def close(self):
+        self.closed_during_get = self.in_get
+
+
+def test_close_waits_for_the_limits_request_in_flight(monkeypatch):
+    """The limits' GET pumps its client's LCM on its own thread: close() must not release the
+    client under it (unsubscribing frees the handler LCM is about to call: a segfault), but wait
+    for it to return, then release it."""
+    fake = BlockingLimitsClient()
+    monkeypatch.setattr(omni4.Robot, "_open_limits_client", lambda self, _type: fake)
+    robot = omni4.Robot(random_url(), keepalive_s=KEEPALIVE_S)
+    assert fake.entered.wait(10), "the limits' GET never started"
+    closer = threading.Thread(target=robot.close)
+    closer.start()
+    time.sleep(0.2)                            # close() is waiting (or, wrongly, has released)
+    fake.release.set()
+    closer.join(10)
+    assert not closer.is_alive()
+    assert fake.closed_during_get is False
