@@ -15,7 +15,7 @@
 #define KEEP_TICKS 50       /* keep-alive every 50 ms, as omni4-goto */
 #define REPLACE_TICK 400    /* the second goal, while the first one moves */
 #define PARAM_TICK 900      /* a live change of the floor while the second one moves */
-#define PARAM_MU 0.5        /* [limits] traction_mu then (the planner's floor was 0.6) */
+#define PARAM_MU 0.5        /* [limits] traction_mu then (before: [goal] floor_mu, 0.55) */
 #define POS_TOL_M 0.01      /* issue 37: 1 cm and 1 degree of the goal */
 #define TH_TOL_RAD (MODEL_PI / 180.0)
 #define JUMP_TOL_M 0.002 /* the reference's step at the hand-over: at 1 m/s a tick is 1 mm */
