@@ -1,6 +1,7 @@
 /* odrive_motor.c - motor HAL over four ODrive axes, CANSimple (odrive_motor.h; OS calls only
  * via sc_os.h, frames via odrive_proto.h). */
 #include "omni4/drivers/odrive_motor.h"
+#include "omni4/drivers/sc_rx.h"
 
 #include <errno.h>
 #include <math.h>
@@ -185,8 +186,10 @@ static int axis_index(const struct odrive_motor *m, uint8_t node)
 }
 
 /* One data frame of one of our nodes. */
-static void handle(struct odrive_motor *m, const struct omni4_can_frame *f, int64_t now)
+static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
 {
+	struct odrive_motor *m = ctx;
+
 	struct odrive_heartbeat hb;
 	struct odrive_encoder_estimates e;
 	struct odrive_iq q;
@@ -223,26 +226,11 @@ static void handle(struct odrive_motor *m, const struct omni4_can_frame *f, int6
 
 static int drain_frames(struct odrive_motor *m, int64_t now)
 {
-	struct omni4_can_frame f;
-	uint32_t err;
-	int rc = 0;
+	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
+	                              &m->bus_off};
+	const int rc = sc_rx_drain(m->fd, ODRIVE_MAX_FRAMES_PER_READ, now, &t, handle, m);
 
-	for (int k = 0; k < ODRIVE_MAX_FRAMES_PER_READ; k++) {
-		rc = sc_os_recv(m->fd, &f, &err);
-		if (rc < 0)
-			break;
-		if (rc == 2) {
-			m->n.error_frames++;
-			if (err & SC_ERR_BUSOFF) {
-				m->n.bus_off++;
-				m->bus_off = true;
-			}
-			continue;
-		}
-		m->n.rx_frames++;
-		handle(m, &f, now);
-	}
-	return rc < 0 && rc != -EAGAIN ? rc : 0;
+	return rc < 0 ? rc : 0;
 }
 
 /* The sample from the axes' last frames; true if each has sent an estimate and an Iq. */

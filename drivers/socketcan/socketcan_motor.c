@@ -9,6 +9,7 @@
 
 #include "omni4/base/clock.h"
 #include "omni4/drivers/sc_os.h"
+#include "omni4/drivers/sc_rx.h"
 
 static bool limits_valid(const struct sc_limits *lim);
 
@@ -325,8 +326,10 @@ static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
 	return run_confirms(m, &n->health_run, counter, agrees);
 }
 
-static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, int64_t now)
+static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
 {
+	struct socketcan_motor *m = ctx;
+
 	struct can_status s;
 	struct can_health h;
 	uint8_t c;
@@ -383,39 +386,19 @@ static int read_budget(struct socketcan_motor *m, int64_t now)
 	return SC_MAX_FRAMES_PER_READ * (int)since_ms;
 }
 
-static void count_error_frame(struct socketcan_motor *m, uint32_t err)
-{
-	m->n.error_frames++;
-	if (err & SC_ERR_BUSOFF) {
-		m->n.bus_off++;
-		m->bus_off = true;
-	}
-}
-
 /* Takes what the kernel has queued, up to the read's frame budget. 0, or a receive error
  * other than -EAGAIN (an empty queue). */
 static int drain_frames(struct socketcan_motor *m, int64_t now)
 {
 	const int budget = read_budget(m, now);
-	struct omni4_can_frame f;
-	uint32_t err;
-	int k, rc = 0;
+	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
+	                              &m->bus_off};
+	const int rc = sc_rx_drain(m->fd, budget, now, &t, handle, m);
 
-	for (k = 0; k < budget; k++) {
-		rc = sc_os_recv(m->fd, &f, &err);
-		if (rc < 0)
-			break;
-		if (rc == 2) {
-			count_error_frame(m, err);
-			continue;
-		}
-		m->n.rx_frames++;
-		handle(m, &f, now);
-	}
-	if (k == budget)
-		m->n.flood_cut++;
-	else if (rc != -EAGAIN && rc < 0)
+	if (rc < 0)
 		return rc;
+	if (rc == budget)
+		m->n.flood_cut++;
 	return 0;
 }
 

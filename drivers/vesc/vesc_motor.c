@@ -1,6 +1,7 @@
 /* vesc_motor.c - motor HAL over four VESC controllers (vesc_motor.h; OS calls only via
  * sc_os.h, frames via vesc_proto.h). */
 #include "omni4/drivers/vesc_motor.h"
+#include "omni4/drivers/sc_rx.h"
 
 #include <errno.h>
 #include <math.h>
@@ -156,8 +157,10 @@ static int drive_index(const struct vesc_motor *m, uint8_t id)
 	return -1;
 }
 
-static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_t now)
+static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
 {
+	struct vesc_motor *m = ctx;
+
 	struct vesc_status1 s1;
 	struct vesc_status5 s5;
 	uint8_t id;
@@ -176,26 +179,11 @@ static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_
 
 static int drain_frames(struct vesc_motor *m, int64_t now)
 {
-	struct omni4_can_frame f;
-	uint32_t err;
-	int rc = 0;
+	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
+	                              &m->bus_off};
+	const int rc = sc_rx_drain(m->fd, VESC_MAX_FRAMES_PER_READ, now, &t, handle, m);
 
-	for (int k = 0; k < VESC_MAX_FRAMES_PER_READ; k++) {
-		rc = sc_os_recv(m->fd, &f, &err);
-		if (rc < 0)
-			break;
-		if (rc == 2) {
-			m->n.error_frames++;
-			if (err & SC_ERR_BUSOFF) {
-				m->n.bus_off++;
-				m->bus_off = true;
-			}
-			continue;
-		}
-		m->n.rx_frames++;
-		handle(m, &f, now);
-	}
-	return rc < 0 && rc != -EAGAIN ? rc : 0;
+	return rc < 0 ? rc : 0;
 }
 
 /* The sample from the controllers' last frames; true if each has sent a STATUS_1. */
