@@ -186,10 +186,8 @@ static int axis_index(const struct odrive_motor *m, uint8_t node)
 }
 
 /* One data frame of one of our nodes. */
-static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
+static void handle(struct odrive_motor *m, const struct omni4_can_frame *f, int64_t now)
 {
-	struct odrive_motor *m = ctx;
-
 	struct odrive_heartbeat hb;
 	struct odrive_encoder_estimates e;
 	struct odrive_iq q;
@@ -228,8 +226,12 @@ static int drain_frames(struct odrive_motor *m, int64_t now)
 {
 	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
 	                              &m->bus_off};
-	const int rc = sc_rx_drain(m->fd, ODRIVE_MAX_FRAMES_PER_READ, now, &t, handle, m);
+	struct omni4_can_frame f;
+	int rc = 0;
 
+	for (int k = 0; k < ODRIVE_MAX_FRAMES_PER_READ && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
+		if (rc == 1)
+			handle(m, &f, now);
 	return rc < 0 ? rc : 0;
 }
 

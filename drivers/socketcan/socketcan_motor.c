@@ -326,10 +326,8 @@ static bool health_plausible(struct socketcan_motor *m, struct sc_node *n,
 	return run_confirms(m, &n->health_run, counter, agrees);
 }
 
-static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
+static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, int64_t now)
 {
-	struct socketcan_motor *m = ctx;
-
 	struct can_status s;
 	struct can_health h;
 	uint8_t c;
@@ -393,11 +391,15 @@ static int drain_frames(struct socketcan_motor *m, int64_t now)
 	const int budget = read_budget(m, now);
 	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
 	                              &m->bus_off};
-	const int rc = sc_rx_drain(m->fd, budget, now, &t, handle, m);
+	struct omni4_can_frame f;
+	int k, rc = 0;
 
+	for (k = 0; k < budget && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
+		if (rc == 1)
+			handle(m, &f, now);
 	if (rc < 0)
 		return rc;
-	if (rc == budget)
+	if (k == budget)
 		m->n.flood_cut++;
 	return 0;
 }

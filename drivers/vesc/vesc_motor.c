@@ -157,10 +157,8 @@ static int drive_index(const struct vesc_motor *m, uint8_t id)
 	return -1;
 }
 
-static void handle(void *ctx, const struct omni4_can_frame *f, int64_t now)
+static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_t now)
 {
-	struct vesc_motor *m = ctx;
-
 	struct vesc_status1 s1;
 	struct vesc_status5 s5;
 	uint8_t id;
@@ -181,8 +179,12 @@ static int drain_frames(struct vesc_motor *m, int64_t now)
 {
 	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
 	                              &m->bus_off};
-	const int rc = sc_rx_drain(m->fd, VESC_MAX_FRAMES_PER_READ, now, &t, handle, m);
+	struct omni4_can_frame f;
+	int rc = 0;
 
+	for (int k = 0; k < VESC_MAX_FRAMES_PER_READ && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
+		if (rc == 1)
+			handle(m, &f, now);
 	return rc < 0 ? rc : 0;
 }
 

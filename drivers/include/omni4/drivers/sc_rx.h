@@ -1,7 +1,7 @@
 /*
- * sc_rx.h - one read of a CAN socket's queue, as every CAN backend of the motor HAL (socketcan,
- * vesc, odrive) takes it: up to a frame budget, data and remote frames handed to the backend,
- * error frames counted and bus-off latched. Part of can_socket, in a file of its own so that it
+ * sc_rx.h - a CAN socket's queue as every CAN backend of the motor HAL (socketcan, vesc,
+ * odrive) reads it: data and remote frames counted and handed to the backend, error frames
+ * counted and bus-off latched. Part of can_socket, in a file of its own so that it
  * reaches the socket only through sc_os.h (which the drivers' tests replace at link time).
  */
 #ifndef OMNI4_SC_RX_H
@@ -20,13 +20,9 @@ struct sc_rx_tally {
 	bool *bus_off;           /* set (never cleared here) by a bus-off error frame */
 };
 
-/* A frame received by a read that began at now_us [us, sc_os_now_us]. */
-typedef void (*sc_rx_frame_fn)(void *ctx, const struct omni4_can_frame *f, int64_t now_us);
-
-/* Takes up to max frames queued on fd: each data or remote frame to on_frame(ctx, frame,
- * now_us). The number of frames taken (max: the queue may hold more), or a receive error other
- * than -EAGAIN (an empty queue). */
-int sc_rx_drain(int fd, int max, int64_t now_us, const struct sc_rx_tally *t,
-                sc_rx_frame_fn on_frame, void *ctx);
+/* The next frame queued on fd: 1 = a data or remote frame in *f; 2 = an error frame (counted,
+ * bus-off latched; nothing in *f); 0 = the queue is empty; or a receive error. Every frame is
+ * counted, so a reader's frame budget bounds a flood of either kind. */
+int sc_rx_next(int fd, const struct sc_rx_tally *t, struct omni4_can_frame *f);
 
 #endif /* OMNI4_SC_RX_H */
