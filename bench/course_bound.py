@@ -69,7 +69,14 @@ def main():
                     "reference warm-starts the solver (the optimum is the solver's)")
     ap.add_argument("--config-keys", default="build/bin/omni4-config-keys",
                     help="omni4-config-keys: the defaults of the keys the INI leaves out")
+    ap.add_argument("--share", choices=("free", "feedforward"), default="free",
+                    help="the wheel forces: free (the robot's bound) or shared as the "
+                    "feedforward shares them (this controller's bound)")
+    ap.add_argument("--plans", action="store_true",
+                    help="also the planner's own plan from rest (its duration, no settling) "
+                    "against the bound (needs --traj-plan)")
     args = ap.parse_args()
+    topt.SHARE = args.share
     b, e, rim, limits = robot(args.ini, key_defaults(args.config_keys))
     topt.LIMITS.update(limits)
     u_max = limits["supply"] - limits["margin"]
@@ -95,9 +102,15 @@ def main():
         if ok:
             worst["model"] = max(worst["model"], r_m)
             worst["fixed"] = max(worst["fixed"], r_f)
+        plan = f", plan {t0:.3f} s ({t0 / t_o:.3f}x)" if args.plans and args.traj_plan else ""
+        if ok and plan:
+            worst["plan"] = max(worst.get("plan", 0.0), t0 / t_o)
         print(f"goal {row['leg']}: bound {t_o:.3f} s, model {t_m:.3f} s ({r_m:.3f}x), "
-              f"fixed {t_f:.3f} s ({r_f:.3f}x){'' if ok else '  (no bound: ' + res.message + ')'}")
+              f"fixed {t_f:.3f} s ({r_f:.3f}x){plan}"
+              f"{'' if ok else '  (no bound: ' + res.message + ')'}")
     print(f"worst arrival / bound: model {worst['model']:.3f}x, fixed {worst['fixed']:.3f}x")
+    if "plan" in worst:
+        print(f"worst plan / bound: {worst['plan']:.3f}x")
     return 0
 
 

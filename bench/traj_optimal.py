@@ -26,6 +26,9 @@ the same limits and prints the planner's time, the bound and their ratio.
     python bench/traj_optimal.py build/bin/traj_plan           # the course, ratios
     python bench/traj_optimal.py --check build/bin/traj_plan   # the ctest: three moves,
                                                                # feasible and within 1.15x
+    python bench/traj_optimal.py --share feedforward build/bin/traj_plan
+        # the bound of this controller: the wheel forces shared as its feedforward shares a
+        # body force (least squares: nothing along the null direction of eq 2's rows)
 """
 import argparse
 import math
@@ -45,6 +48,15 @@ BAND = np.array([0.02, 0.02, 0.2])
 LIMITS = dict(supply=12.0, margin=2.0, mu=0.6, traction_margin=0.1, motor_max=600.0,
               com_height=0.0)
 P_WHEEL = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])  # p_j / d
+# "free": any voltage on each wheel (the bound of the robot). "feedforward": the wheel forces
+# shared as the controller's feedforward shares a body force (least squares, docs/model.md):
+# no push along the null direction of eq 2's rows (G^T n = 0), the bound of this controller.
+SHARE = "free"
+
+
+def null_direction():
+    """The unit n with G^T n = 0 (eq 2's rows; [1, -1, 1, -1] / 2 for the paper's)."""
+    return np.linalg.svd(G_WHEEL.T)[2][-1]
 
 # x0 y0 th0 vx0 vy0 w0 -> x y th
 COURSE = [
@@ -112,8 +124,11 @@ class Problem:
         return (z[1:] - z[:-1] - 0.5 * h * (f[1:] + f[:-1])).ravel()
 
     def eq(self, w):
-        z, _, _ = self.unpack(w)
-        return np.concatenate([self.defects(w), z[0] - self.z0, z[-1] - self.zf])
+        z, u, _ = self.unpack(w)
+        parts = [self.defects(w), z[0] - self.z0, z[-1] - self.zf]
+        if SHARE == "feedforward":
+            parts.append(wheel_terms(z, u)[1] @ null_direction())
+        return np.concatenate(parts)
 
     def ineq(self, w):
         z, u, _ = self.unpack(w)
@@ -156,6 +171,8 @@ class Problem:
                 m[nd:nd + 6] = 1
             if node == self.n:
                 m[nd + 6:nd + 12] = 1
+            if SHARE == "feedforward":
+                m[nd + 12 + node] = 1
         else:
             per = 4 * (self.n + 1)
             for q in range(4):
@@ -206,8 +223,16 @@ def main():
     ap.add_argument("--bound", type=float, default=1.15, help="largest planner/optimum ratio")
     ap.add_argument("--tol", type=float, default=0.03,
                     help="how much faster than the bound the planner may be (discretisation)")
+    ap.add_argument("--share", choices=("free", "feedforward"), default="free",
+                    help="the wheel forces: free (the robot's bound) or shared as the "
+                    "feedforward shares them (this controller's bound)")
+    ap.add_argument("--moves", help="comma-separated indices of the moves to run (default all)")
     args = ap.parse_args()
+    global SHARE
+    SHARE = args.share
     cases = [COURSE[i] for i in CHECK] if args.check else COURSE
+    if args.moves:
+        cases = [COURSE[int(i)] for i in args.moves.split(",")]
     bad = 0
     print("move                                  planner_s  optimum_s  ratio  (violation)")
     for start, goal in cases:
