@@ -560,12 +560,13 @@ static void test_plan_ahead_hands_over_without_a_jump(void **state)
 	assert_int_equal(traj_plan_ahead(&tr, 0.1f, bad, &next), -EINVAL);
 }
 
-/* A new goal while the reference turns fast (1.5 rad/s at 0.74 m/s, from the plan of a move
- * with a turn): the heading slows first and the new plan is as quick as from the same start
- * not turning, plus at most the time the heading takes to slow (a start turning at w needs w
- * over the heading's deceleration: < 0.2 s here), within the envelope. Before,
- * every such plan crawled (~17 s, flagged beyond the envelope: the turning body's force at
- * the start's rate over the whole plan). */
+/* A new goal while the reference turns fast (over 1.2 rad/s at over 0.6 m/s, where the plan of
+ * a move with a turn turns fastest): the plan does not crawl. It arrives within 0.75 s of the
+ * same start not turning (2026-11-29: at 1.5 rad/s and 1.0 m/s, +0.13 to +0.38 s: the heading
+ * slows while the translation brakes against the turning body's M w x v), within the envelope.
+ * Before, every such plan crawled: ~17 s flagged beyond the envelope (the turning body's force
+ * at the start's rate over the whole plan); and from 1.0 m/s, until the brake prelude, 1.9-5.9 s
+ * inside it. */
 static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
 {
 	(void)state;
@@ -578,7 +579,16 @@ static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
 	assert_int_equal(traj_init(&tr, &l), 0);
 	assert_int_equal(traj_reset(&tr, start), 0);
 	assert_int_equal(traj_replan(&tr, first), 0);
-	traj_eval(&tr, 0.6f, &at);
+	/* the new goal comes where the first plan turns fastest */
+	float t_fast = 0.0f, w_fast = 0.0f;
+	for (float t = 0.0f; t < tr.duration_s; t += 0.01f) {
+		traj_eval(&tr, t, &at);
+		if (fabsf(at.vel[2]) > w_fast) {
+			w_fast = fabsf(at.vel[2]);
+			t_fast = t;
+		}
+	}
+	traj_eval(&tr, t_fast, &at);
 	assert_true(at.vel[2] > 1.2f && hypotf(at.vel[0], at.vel[1]) > 0.6f);
 	still = tr;
 	for (size_t g = 0; g < sizeof(goals) / sizeof(goals[0]); g++) {
@@ -596,7 +606,7 @@ static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
 		    g, (double)tr.duration_s, (double)still.duration_s, (unsigned)tr.flags, w_all,
 		    w_tail);
 		assert_true(tr.flags == 0);
-		assert_true(tr.duration_s <= still.duration_s + 0.3f);
+		assert_true(tr.duration_s <= still.duration_s + 0.75f);
 		assert_true(w_all <= 1.0 + 1e-4);
 	}
 }

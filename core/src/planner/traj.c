@@ -12,10 +12,6 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-/* Headings sampled over a turn: one per this step at most (cos(step/2) = 0.98 of the budget),
- * TRAJ_HEADINGS_MAX at most (a turn of 2 pi: cos(pi/8) = 0.92). */
-#define HEADING_STEP_RAD (PI_F / 8.0f)
-#define ROWS_MAX (TRAJ_HEADINGS_MAX * 4 * 3)
 #define TURN_CAPS 3       /* heading rate caps tried when turning leaves the translation no room */
 #define TURN_CAP_CUT 0.3f /* each a share of the rate the one before reached */
 
@@ -110,6 +106,7 @@ int traj_reset(struct traj *tr, const float pose[3])
 	tr->alpha_rad = 0.0f;
 	tr->flags = 0;
 	tr->on_path = 0;
+	tr->pre_s = 0.0f;
 	return 0;
 }
 
@@ -129,25 +126,6 @@ static float plan_heading(struct traj *tr, const struct traj_ref *from, float go
 	const float t =
 	    traj_line_plan(r, n, 1.0f, 0.0f, from->pose[2], from->vel[2], goal, cap, &tr->axis[2]);
 	return t < INFINITY ? t : traj_box_limits(r, n, &ax, 1.0f, 0.0f, &tr->flags);
-}
-
-/* Headings sampled over [lo, hi] (a whole turn at most) and cos of half their spacing. */
-static int heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h)
-{
-	const float span = minf(hi - lo, 2.0f * PI_F);
-	int n = 1;
-
-	*cos_h = 1.0f;
-	phi[0] = lo;
-	if (span > 1e-4f) {
-		n = 1 + (int)ceilf(span / HEADING_STEP_RAD);
-		n = n > TRAJ_HEADINGS_MAX ? TRAJ_HEADINGS_MAX : n;
-		const float step = span / (float)(n - 1);
-		for (int k = 0; k < n; k++)
-			phi[k] = lo + step * (float)k;
-		*cos_h = cosf(0.5f * step);
-	}
-	return n;
 }
 
 /* The translation is a straight line: the start velocity along the line to the goal (either
@@ -196,10 +174,10 @@ static float plan_share_cap(struct traj *tr, const struct traj_ref *from, const 
 		traj_1d_hold(&tr->axis[1], goal[1]);
 		return t_rot;
 	}
-	struct row r[ROWS_MAX];
+	struct row r[TRAJ_ROWS_MAX];
 	float phi[TRAJ_HEADINGS_MAX], cos_h;
 	const float w_max = rows_turn_rate(&tr->axis[2], rot_idle, cap, settle);
-	const int nh = heading_samples(lo, hi, phi, &cos_h);
+	const int nh = traj_heading_samples(lo, hi, phi, &cos_h);
 	int n = 0;
 	for (int k = 0; k < nh; k++)
 		n += traj_rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, w_max, r + n);
@@ -305,6 +283,29 @@ static void swing(struct traj *tr, const struct traj_ref *from, const float goal
 		traj_line_paths_try(tr, from, goal, v0);
 }
 
+/* A moving start: the brake prelude, then the plan from rest where it stops, if that arrives
+ * sooner (inside the envelope first: traj_sooner). */
+static void brake_first(struct traj *tr, const struct traj_ref *from, const float goal[3])
+{
+	if (!(fabsf(from->vel[0]) >= TRAJ_IDLE_VEL || fabsf(from->vel[1]) >= TRAJ_IDLE_VEL ||
+	      fabsf(from->vel[2]) >= TRAJ_IDLE_VEL))
+		return;
+	struct traj_1d pre[3];
+	struct traj_ref rest = {.pose = {0}};
+	const float t_pre = traj_brake_prelude(tr, from, pre, rest.pose);
+	if (!(t_pre < tr->duration_s))
+		return;
+	struct traj cand = {.c = tr->c};
+	traj_plan(&cand, &rest, goal); /* from rest: no prelude of its own */
+	if (!traj_sooner(t_pre + cand.duration_s, cand.flags, tr->duration_s, tr->flags))
+		return;
+	*tr = cand;
+	for (int i = 0; i < 3; i++)
+		tr->pre[i] = pre[i];
+	tr->pre_s = t_pre;
+	tr->duration_s += t_pre;
+}
+
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
@@ -316,6 +317,7 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 	const float s = tr->c.rot_share;
 
 	tr->on_path = 0;
+	tr->pre_s = 0.0f;
 	if (rot_idle || tr_idle) {
 		tr->duration_s =
 		    plan_share(tr, from, goal, tr_idle ? 1.0f : 0.0f, rot_idle, tr_idle);
@@ -327,12 +329,19 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 			share_three(tr, from, goal, s);
 	}
 	swing(tr, from, goal, tr_idle);
+	brake_first(tr, from, goal);
 	tr->t_s = 0.0f;
 	return 0;
 }
 
 void traj_eval(const struct traj *tr, float t_s, struct traj_ref *out)
 {
+	if (t_s < tr->pre_s) {
+		for (int i = 0; i < 3; i++)
+			traj_1d_eval(&tr->pre[i], t_s, &out->pose[i], &out->vel[i], &out->acc[i]);
+		return;
+	}
+	t_s -= tr->pre_s;
 	if (tr->on_path) {
 		traj_path_eval(&tr->path, t_s, out);
 		return;
@@ -354,7 +363,8 @@ int traj_replan(struct traj *tr, const float goal[3])
 
 	if (!finite3(goal))
 		return -EINVAL;
-	if (tr->on_path && goal[0] == tr->path.goal[0] && goal[1] == tr->path.goal[1] &&
+	if (tr->on_path && !(tr->pre_s > 0.0f) && goal[0] == tr->path.goal[0] &&
+	    goal[1] == tr->path.goal[1] &&
 	    fabsf(model_wrap_pi_f32(goal[2] - tr->path.goal[2])) < 1e-5f)
 		return traj_path_retime(tr); /* the same path from where the reference is */
 	traj_eval(tr, tr->t_s, &now);

@@ -26,6 +26,9 @@ struct row {
 	float kc; /* M w x v of a turning body (eq 23's axes turn), per unit speed, either sign */
 	float sl[2]; /* traction rows: the bound an acceleration toward the wheel takes off it */
 	             /* (load transfer), signed; ka holds |sa| + |sl| (the worse sign) */
+	bool credit; /* its velocity terms (viscous, back-EMF, Coulomb) all oppose an acceleration
+	              * against the velocity: the wheel pushes along one body axis (the paper's
+	              * layout; the heading's rows). Else braking gets no credit (c, not c0). */
 };
 
 /* min and max of finite floats: a compare and a select (fminf and fmaxf are library calls
@@ -96,6 +99,13 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 /* Rotation rows with a share of each budget; 12 rows into r, returns 12. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);
 
+/* Translation rows at every sampled heading of a plan: at most this many. */
+#define TRAJ_ROWS_MAX (TRAJ_HEADINGS_MAX * 4 * 3)
+
+/* Headings sampled over [lo, hi] (a whole turn at most) into phi, and cos of half their
+ * spacing (the room every row keeps in between); returns how many. */
+int traj_heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h);
+
 /* ---- the x/y box (traj_box.c) ---- */
 
 struct axes {
@@ -124,6 +134,14 @@ float traj_box_plan(struct traj *tr, const struct row *r, int n, struct axes *ax
 float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,
                      float cap, struct traj_1d *o);
 
+/*
+ * traj_line_stop - a start at speed sp >= 0 along the unit direction (ex, ey) stopped in the
+ * braking steps with the rows' credit (its own top speed may be beyond the rows': only braking
+ * is asked of them). The profile from 0 at sp to rest at its end, o->goal the distance; returns
+ * the duration, or INFINITY if a step has no braking.
+ */
+float traj_line_stop(const struct row *r, int n, float ex, float ey, float sp, struct traj_1d *o);
+
 /* traj_line_project - axis `e` share of a line profile that starts at p0 and ends at goal. */
 void traj_line_project(const struct traj_1d *line, float e, float p0, float goal,
                        struct traj_1d *out);
@@ -135,6 +153,18 @@ void traj_line_project(const struct traj_1d *line, float e, float p0, float goal
  */
 float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
                          const float goal[2], float cap, struct traj_1d out[2]);
+
+/* ---- the brake prelude (traj_brake.c) ---- */
+
+/*
+ * traj_brake_prelude - a moving start brought to rest: the translation stops along its velocity
+ * and the heading's rate falls to 0, together, in the braking steps with the rows' credit; the
+ * translation's rows at the headings the stop passes and with the start's turn rate. When both
+ * move the heading's share of every wheel's budget is bisected until both stop together.
+ * pre[3] (x, y, theta) end at rest at stop[3]. Returns the duration, or INFINITY.
+ */
+float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, struct traj_1d pre[3],
+                         float stop[3]);
 
 /* ---- paths (traj_path.c, traj_topp.c) ---- */
 
@@ -154,10 +184,12 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
 void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb);
 
 /* One arc from start to goal (goal[2] unwrapped from start[2]) whose tangent turns k times the
- * heading's change, the heading turning with it (that share linear in s, the rest a
- * smoothstep): on eq 23's axes the body's velocity keeps its direction for that share.
- * -EINVAL if the move has no length or no turn. */
-int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k);
+ * heading's change (k = 0: the straight line), the heading turning lin times its change
+ * linearly in s and the rest as a smoothstep over the whole length. With lin = k the body's
+ * velocity keeps its direction (eq 23's axes) for that share; a heading linear in s turns at a
+ * rate that follows the speed. -EINVAL if the move has no length. */
+int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k,
+                  float lin);
 
 /* Times pa from arc length s0 at speed v0 >= 0 along it to rest at its end, inside the
  * envelope (checked); the duration, or INFINITY if none was found. */

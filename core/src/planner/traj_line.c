@@ -39,9 +39,14 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
 		const float pl = fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
-		const float pa = fabsf(r[k].sa[0] * ex + r[k].sa[1] * ey) + pl;
-		const float pv0 = fabsf(r[k].sv[0] * ex + r[k].sv[1] * ey);
+		const float sa = r[k].sa[0] * ex + r[k].sa[1] * ey;
+		const float sv = r[k].sv[0] * ex + r[k].sv[1] * ey;
+		const float pa = fabsf(sa) + pl, pv0 = fabsf(sv);
 		const float pv = pv0 + r[k].kc;
+		/* a wheel whose velocity terms do not oppose its braking (another layout's split
+		 * can give the force and the rim speed opposite signs along e) brakes without
+		 * credit */
+		const bool credit = r[k].credit && sa * sv >= 0.0f;
 		if (pv > 0.0f)
 			l->top = minf(l->top, r[k].c / pv);
 		else if (r[k].c < 0.0f)
@@ -49,8 +54,8 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 		if (pa > 0.0f) {
 			const float ia = 1.0f / pa;
 			l->cu[l->n] = r[k].c * ia;
-			l->cd[l->n] = r[k].c0 * ia;
-			l->kd[l->n] = (pv0 - r[k].kc) * ia;
+			l->cd[l->n] = (credit ? r[k].c0 : r[k].c) * ia;
+			l->kd[l->n] = credit ? (pv0 - r[k].kc) * ia : -pv * ia;
 			l->k[l->n++] = pv * ia;
 		}
 		if (pl > 0.0f) {
@@ -171,6 +176,32 @@ static bool line_steps(const struct line_rows *l, float vmax, struct steps *st)
 			return false;
 	}
 	return true;
+}
+
+float traj_line_stop(const struct row *r, int n, float ex, float ey, float sp, struct traj_1d *o)
+{
+	struct line_rows l;
+	struct steps st;
+	float t = 0.0f, p = 0.0f, v = sp, up;
+
+	*o = (struct traj_1d){.v0 = sp};
+	line_rows(r, n, ex, ey, &l);
+	for (int k = 0; k <= TRAJ_ACC_STEPS; k++) {
+		float dn;
+		st.s[k] = sp * (float)k / (float)TRAJ_ACC_STEPS;
+		line_acc(&l, st.s[k], &up, &dn);
+		if (!(dn > 0.0f))
+			return INFINITY;
+		if (k > 0) /* braking may be weakest at either end of a step */
+			st.dn[k - 1] = minf(st.dn[k - 1], dn);
+		if (k < TRAJ_ACC_STEPS)
+			st.dn[k] = dn;
+	}
+	if (sp > 0.0f)
+		brake_phases(o, &st, 1.0f, &t, &p, &v);
+	o->p1 = p;
+	o->goal = p;
+	return t;
 }
 
 float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,

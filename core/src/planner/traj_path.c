@@ -204,26 +204,29 @@ void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb)
 	pa->knot_th[pa->n_knots++] = th1;
 }
 
-int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k)
+int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k,
+                  float lin)
 {
 	const float c = dist2(start, goal), dth = goal[2] - start[2], phi = k * dth;
 
-	if (!(c >= TRAJ_IDLE_POS) || !(fabsf(phi) >= TURN_MIN_RAD) || !(fabsf(phi) < 1.9f * PI_F))
+	if (!(c >= TRAJ_IDLE_POS) || !(fabsf(phi) < 1.9f * PI_F) || !isfinite(lin))
 		return -EINVAL;
 	const float a = atan2f(goal[1] - start[1], goal[0] - start[0]);
-	const float len = c * 0.5f * phi / sin_f(0.5f * phi);
+	const float half = 0.5f * phi;
+	/* the arc's length over its chord, half / sin(half): 1 for a straight line */
+	const float len = fabsf(half) > TURN_MIN_RAD ? c * half / sin_f(half) : c;
 	const float curv = phi / len;
 	float m[2], ps[2], pss[2];
 
 	*pa = (struct traj_path){.n_poses = 1, .goal = {goal[0], goal[1], goal[2]}};
-	add_piece(pa, start, a - 0.5f * phi, curv, 0.5f * len);
+	add_piece(pa, start, a - half, curv, 0.5f * len);
 	piece_at(&pa->pc[0], 0.5f * len, m, ps, pss);
 	add_piece(pa, m, a, curv, 0.5f * len);
-	pa->th_slope = curv;
+	pa->th_slope = lin * dth / pa->len_m;
 	pa->knot_s[0] = 0.0f;
 	pa->knot_th[0] = start[2];
 	pa->knot_s[1] = pa->len_m;
-	pa->knot_th[1] = goal[2] - phi;
+	pa->knot_th[1] = goal[2] - lin * dth;
 	pa->n_knots = 2;
 	pa->pass_s[0] = pa->len_m;
 	return 0;

@@ -18,9 +18,14 @@
 #define SWING_FRACS 2
 static const float swing_frac[SWING_FRACS] = {0.25f, 0.45f};
 #define VIA_MIN_M 0.02f /* the start velocity's corner: at least this far ahead */
-/* Shares of a move's turn its arc's tangent takes (from rest; 0.25 to 1.5 scanned). */
-#define ARC_FRACS 2
-static const float arc_frac[ARC_FRACS] = {0.5f, 0.75f};
+/* The arc of a turning move from rest: its two shapes (the tangent's share k of the turn, the
+ * heading's share lin linear in s) by a compass search in [ARC_K_MIN, 1] x [0, 1], from
+ * (ARC_K0, 1) with steps ARC_STEP0 halved when no neighbour is sooner, ARC_EVALS timings in
+ * all (docs/trajectory.md "An arc for a turning move"). */
+#define ARC_EVALS 4
+#define ARC_K0 0.4f
+#define ARC_K_MIN (-0.2f)
+#define ARC_STEP0 0.2f
 /* A turn smaller than this is made over the first or the last SMALL_TURN_FRAC of a straight
  * move alone (no arc: one would hardly bend). */
 #define SMALL_TURN_RAD 0.2f
@@ -40,6 +45,7 @@ static void take_path(struct traj *tr, const struct traj_path *pa, float t)
 {
 	tr->path = *pa;
 	tr->on_path = 1;
+	tr->pre_s = 0.0f;
 	tr->duration_s = t;
 	tr->t_s = 0.0f;
 	tr->flags = 0;
@@ -63,6 +69,59 @@ static void try_path(const struct traj *tr, struct traj_path *cand, float v0,
 	}
 }
 
+static bool arc_in_box(float k, float lin)
+{
+	return k >= ARC_K_MIN && k <= 1.0f && lin >= 0.0f && lin <= 1.0f;
+}
+
+/* One arc shape timed (arc_search); INFINITY if it has none. */
+static float arc_time(const struct traj *tr, const float start[3], const float goal[3], float k,
+                      float lin, struct traj_path *cand)
+{
+	if (traj_path_arc(cand, start, goal, k, lin))
+		return INFINITY;
+	return traj_topp(&tr->c, cand, 0.0f, 0.0f);
+}
+
+/* The arc's shapes (k, lin) by a compass search of ARC_EVALS timings: each round moves to the
+ * first of the four neighbours at the step (inside the box) that is sooner, or halves the
+ * step. The soonest is kept in best if it wins (traj_sooner). */
+static void arc_search(const struct traj *tr, const float start[3], const float goal[3],
+                       struct traj_path *best, float *best_t, uint32_t *best_f, bool *found)
+{
+	struct traj_path cand, here;
+	float k = ARC_K0, lin = 1.0f, step = ARC_STEP0;
+	float t = arc_time(tr, start, goal, k, lin, &here);
+	int n = 1;
+
+	while (n < ARC_EVALS) {
+		const float nb[4][2] = {
+		    {k + step, lin}, {k - step, lin}, {k, lin + step}, {k, lin - step}};
+		bool moved = false;
+		for (int q = 0; q < 4 && n < ARC_EVALS && !moved; q++) {
+			if (!arc_in_box(nb[q][0], nb[q][1]))
+				continue;
+			n++;
+			const float tc = arc_time(tr, start, goal, nb[q][0], nb[q][1], &cand);
+			if (tc < t) {
+				t = tc;
+				k = nb[q][0];
+				lin = nb[q][1];
+				here = cand;
+				moved = true;
+			}
+		}
+		if (!moved)
+			step *= 0.5f;
+	}
+	if (traj_sooner(t, 0u, *best_t, *best_f)) {
+		*best_f = 0u;
+		*best_t = t;
+		*best = here;
+		*found = true;
+	}
+}
+
 float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const float goal[3],
                           float v0)
 {
@@ -77,7 +136,10 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 	const float dir = base.pc[base.n_pieces - 1].dir0_rad;
 	const float th0 = base.knot_th[0], th1 = base.knot_th[base.n_knots - 1];
 	const float mids[2] = {diagonal_heading(dir, th0), diagonal_heading(dir, th1)};
-	for (int m = 0; m < 2 * SWING_FRACS + 1; m++) {
+	const bool small = fabsf(th1 - th0) < SMALL_TURN_RAD;
+	/* a turning move from rest gets the arc's search, the others the heading swings */
+	const bool arcs = !small && !(v0 > TRAJ_IDLE_VEL);
+	for (int m = 0; !arcs && m < 2 * SWING_FRACS + 1; m++) {
 		const int which = m == 0 ? 0 : (m - 1) / SWING_FRACS;
 		const float f = m == 0 ? 0.0f : swing_frac[(m - 1) % SWING_FRACS];
 		if (which == 1 && fabsf(mids[1] - mids[0]) < 1e-4f)
@@ -103,7 +165,6 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 		try_path(tr, &cand, v0, &best, &best_t, &best_f, &found);
 	}
 	const float g3[3] = {goal[0], goal[1], th1};
-	const bool small = fabsf(th1 - th0) < SMALL_TURN_RAD;
 	for (int m = 0; small && th1 != th0 && m < 2; m++) {
 		/* a small turn (often the estimate's few mrad): at the end, or the start, alone; */
 		/* over the whole length it would pay the turn's Coulomb friction all the way */
@@ -112,11 +173,8 @@ float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const fl
 		                m ? 0.0f : SMALL_TURN_FRAC);
 		try_path(tr, &cand, v0, &best, &best_t, &best_f, &found);
 	}
-	for (int m = 0; !small && m < ARC_FRACS && !(v0 > TRAJ_IDLE_VEL); m++) {
-		if (traj_path_arc(&cand, from->pose, g3, arc_frac[m]))
-			break;
-		try_path(tr, &cand, 0.0f, &best, &best_t, &best_f, &found);
-	}
+	if (arcs)
+		arc_search(tr, from->pose, g3, &best, &best_t, &best_f, &found);
 	if (found)
 		take_path(tr, &best, best_t);
 	return best_t;

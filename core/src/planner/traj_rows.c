@@ -41,13 +41,12 @@ float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, f
 
 	for (int k = 0; k < n; k++) {
 		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
+		const float plain = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy - r[k].kc * speed;
 		if (per > 0.0f)
-			best = minf(best, (r[k].c0 - r[k].kc * speed) / per);
+			best = minf(best, (r[k].credit ? r[k].c0 - r[k].kc * speed : plain) / per);
 		const float lift = fabsf(r[k].sl[0]) * ca + fabsf(r[k].sl[1]) * sa;
 		if (lift > 0.0f)
-			best = minf(best,
-			            (r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy - r[k].kc * speed) /
-			                lift);
+			best = minf(best, plain / lift);
 	}
 	return best;
 }
@@ -96,6 +95,8 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 		                       share * c->rim_max[j]};
 		const float room0[3] = {share * c->f_max_n[j], share * c->u_max_v,
 		                        share * c->rim_max[j]};
+		const bool one_axis =
+		    fabsf(sh[0] * sh[1]) <= 1e-6f * (sh[0] * sh[0] + sh[1] * sh[1]);
 		for (int q = 0; q < 3; q++, n++) {
 			const float ax = ka[q] ? ka[q][0] * kscale[q] : 0.0f;
 			const float ay = ka[q] ? ka[q][1] * kscale[q] : 0.0f;
@@ -115,6 +116,7 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].kc = turn * kscale[q];
 			r[n].c = room[q] * cos_h;
 			r[n].c0 = room0[q] * cos_h;
+			r[n].credit = one_axis;
 		}
 	}
 	return n;
@@ -135,7 +137,8 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                        {0.0f, 0.0f},
 		                        {0.0f, 0.0f},
 		                        0.0f,
-		                        {0.0f, 0.0f}};
+		                        {0.0f, 0.0f},
+		                        true};
 		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
 		                            {(c->B[2] * q + c->e[j] * dj) * ib, 0.0f},
 		                            share * c->u_max_v - c->C[2] * q * ib,
@@ -143,7 +146,8 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                            {0.0f, 0.0f},
 		                            {0.0f, 0.0f},
 		                            0.0f,
-		                            {0.0f, 0.0f}};
+		                            {0.0f, 0.0f},
+		                            true};
 		r[3 * j + 2] = (struct row){{0.0f, 0.0f},
 		                            {dj, 0.0f},
 		                            share * c->rim_max[j],
@@ -151,7 +155,8 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 		                            {0.0f, 0.0f},
 		                            {0.0f, 0.0f},
 		                            0.0f,
-		                            {0.0f, 0.0f}};
+		                            {0.0f, 0.0f},
+		                            true};
 	}
 	for (int k = 0; k < n; k++) /* one axis, every coefficient >= 0: signed = box */
 		for (int i = 0; i < 2; i++) {
@@ -216,4 +221,27 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 	*acc_m_s2 = acc;
 	*speed_max_m_s = maxf(top, 0.0f);
 	return 0;
+}
+
+/* Headings sampled over a turn: one per this step at most (cos(step/2) = 0.98 of the budget),
+ * TRAJ_HEADINGS_MAX at most (a turn of 2 pi: cos(pi/8) = 0.92). */
+#define HEADING_STEP_RAD (PI_F / 8.0f)
+
+/* Headings sampled over [lo, hi] (a whole turn at most) and cos of half their spacing. */
+int traj_heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h)
+{
+	const float span = minf(hi - lo, 2.0f * PI_F);
+	int n = 1;
+
+	*cos_h = 1.0f;
+	phi[0] = lo;
+	if (span > 1e-4f) {
+		n = 1 + (int)ceilf(span / HEADING_STEP_RAD);
+		n = n > TRAJ_HEADINGS_MAX ? TRAJ_HEADINGS_MAX : n;
+		const float step = span / (float)(n - 1);
+		for (int k = 0; k < n; k++)
+			phi[k] = lo + step * (float)k;
+		*cos_h = cosf(0.5f * step);
+	}
+	return n;
 }

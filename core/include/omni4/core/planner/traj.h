@@ -157,6 +157,8 @@ struct traj {
 	struct traj_path path;  /* in use when on_path */
 	int on_path;            /* 1: the reference follows path; 0: the three axes */
 	struct traj_1d axis[3]; /* x, y, theta */
+	struct traj_1d pre[3];  /* the brake prelude (x, y, theta) before the rest of the plan */
+	float pre_s;            /* its duration (0: none); path and axes run from this time on */
 	float t_s;              /* time since the plan started */
 	float duration_s;       /* the plan's end (at rest at the goal) */
 	float alpha_rad;        /* x/y share of the translation's limits */
