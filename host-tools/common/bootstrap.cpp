@@ -13,12 +13,31 @@ namespace omni4
 namespace
 {
 
-// Groups of segment indices that are resampled together: one per (kind, direction).
+// The motors a segment drives (0.5 V or more at some sample, as the motor test counts them):
+// "0101" for motors 1 and 3.
+std::string driven_motors(const Segment &s)
+{
+	std::string bits = "0000";
+	for (size_t k = s.m0; k < s.m1 && s.log; ++k)
+		for (int j = 0; j < 4; ++j)
+			if (std::abs(s.log->motors[k].u[j]) >= 0.5f)
+				bits[j] = '1';
+	return bits;
+}
+
+// Groups of segment indices that are resampled together: one per (kind, direction), the
+// motor test's also per set of motors driven (a one-motor test's runs, direction "", are
+// resampled within each motor's own runs; an axis pattern's set follows from its direction).
 std::vector<std::vector<size_t>> strata(const std::vector<Segment> &segments)
 {
 	std::map<std::string, std::vector<size_t>> by_key;
-	for (size_t i = 0; i < segments.size(); ++i)
-		by_key[segments[i].kind + '/' + segments[i].direction].push_back(i);
+	for (size_t i = 0; i < segments.size(); ++i) {
+		const Segment &s = segments[i];
+		std::string key = s.kind + '/' + s.direction;
+		if (s.kind == "motor")
+			key += '/' + driven_motors(s);
+		by_key[key].push_back(i);
+	}
 	std::vector<std::vector<size_t>> out;
 	for (auto &[key, idx] : by_key)
 		out.push_back(std::move(idx));

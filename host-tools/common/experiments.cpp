@@ -70,6 +70,22 @@ void ramped_run(std::vector<Phase> &seq, const SequenceOptions &opt, const char 
 	settle(seq, opt.settle_s);
 }
 
+// One motor-test run: motor j alone at u [V] (ramped, held, then coasting to rest), the others
+// at 0 V with the bridges driven. It alone carries the robot's friction and the other motors'
+// back-EMF braking: the whole current is its own, so eq 22 sees a large current at each load.
+// Its direction is "" (one wheel drives no single robot axis; the voltages say which motor).
+void motor_run(std::vector<Phase> &seq, const SequenceOptions &opt, int j, double u)
+{
+	std::array<double, 4> volts{};
+	volts[j] = u;
+	Phase p = voltage_phase(opt.ramp_s + opt.hold_s, volts, opt.ramp_s);
+	p.mark_kind = "motor";
+	p.mark_direction = "";
+	p.mark_level = u;
+	seq.push_back(p);
+	settle(seq, opt.settle_s);
+}
+
 } // namespace
 
 std::vector<Phase> paper_sequence(const SequenceOptions &opt)
@@ -91,10 +107,11 @@ std::vector<Phase> paper_sequence(const SequenceOptions &opt)
 			settle(seq, 0.2);
 		}
 	}
-	// Motor test (eqs 21-22): constant voltage, different load per direction.
-	for (const char *dir : {"v", "vn", "w"})
+	// Motor test (eqs 21-22): constant voltage on one motor at a time, the other three at 0 V.
+	for (int j = 0; j < 4; ++j)
 		for (double level : opt.motor_levels)
-			ramped_run(seq, opt, "motor", dir, level);
+			for (double sign : {1.0, -1.0})
+				motor_run(seq, opt, j, sign * level);
 	// Experiment 3: step voltage with an initial acceleration ramp along v, vn, w.
 	for (const char *dir : {"v", "vn", "w"})
 		for (double level : opt.step_levels)

@@ -34,15 +34,16 @@ std::array<double, 4> drive_pattern(const std::string &direction);
 struct SequenceOptions {
 	std::vector<double> rotation_levels{3, 4, 5, 6, 7, 8}; // experiment 1 [V]
 	std::vector<double> coast_levels{6, 9};     // push-off voltage before coasting [V]
-	std::vector<double> motor_levels{4, 8, 11}; // motor test [V]
+	std::vector<double> motor_levels{4, 8, 11}; // motor test, each motor alone, +- [V]
 	std::vector<double> step_levels{4, 6, 8};   // experiment 3 ramped steps [V]
 	double ramp_s = 0.5;
 	double hold_s = 3.0;
 	double settle_s = 3.0; // coasting to rest between runs
 };
 
-// The whole sequence: steady rotation, null-traction coast-downs along v, vn, w, motor runs,
-// ramped steps along v, vn, w. Every measured segment is opened by a mark and closed by "end".
+// The whole sequence: steady rotation, null-traction coast-downs along v, vn, w, motor runs
+// (one motor at a time), ramped steps along v, vn, w. Every measured segment is opened by a mark
+// and closed by "end".
 std::vector<Phase> paper_sequence(const SequenceOptions &opt = {});
 
 double total_duration_s(const std::vector<Phase> &phases);

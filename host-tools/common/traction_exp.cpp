@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 
 #include "omni4/command_t.hpp"
@@ -114,6 +115,55 @@ double peak_force(const model_params &p, const std::array<double, 4> &u, double 
 	return peak;
 }
 
+// The largest factor (at most 1) on the voltages u whose run, ramped over ramp_s and held until
+// run_s, asks no wheel for more than hold_n [N] (bisection, to 0.1 %).
+double holding_scale(const model_params &p, const std::array<double, 4> &u, double ramp_s,
+                     double run_s, double hold_n)
+{
+	const auto times = [&](double s) {
+		std::array<double, 4> v = u;
+		for (double &x : v)
+			x *= s;
+		return v;
+	};
+	if (peak_force(p, u, ramp_s, run_s) <= hold_n)
+		return 1.0;
+	double lo = 0, hi = 1;
+	for (int k = 0; k < 10; ++k) {
+		const double mid = 0.5 * (lo + hi);
+		(peak_force(p, times(mid), ramp_s, run_s) <= hold_n ? lo : hi) = mid;
+	}
+	return lo;
+}
+
+// A motor-test run drives one wheel against the other three's back-EMF braking, and its
+// steady force alone may be more than the floor holds, however long the ramp. Then every
+// motor run is scaled down by the one factor that keeps the hardest under hold_n with the
+// longest ramp: the runs' loads stay apart (eq 22 needs different loads).
+void scale_motor_runs(std::vector<Phase> &phases, const model_params &p, double hold_n,
+                      double longest_ramp_s)
+{
+	double s = 1.0;
+	for (const Phase &ph : phases) {
+		if (ph.mark_kind != "motor" || ph.mode != command_t::MODE_VOLTAGE)
+			continue;
+		const double run_s = longest_ramp_s + std::min(ph.duration_s - ph.ramp_s, 1.0);
+		std::array<double, 4> u = ph.voltage;
+		for (double &x : u)
+			x *= s;
+		s *= holding_scale(p, u, longest_ramp_s, run_s, hold_n);
+	}
+	if (s >= 1.0)
+		return;
+	for (Phase &ph : phases) {
+		if (ph.mark_kind != "motor" || ph.mode != command_t::MODE_VOLTAGE)
+			continue;
+		for (double &x : ph.voltage)
+			x *= s;
+		ph.mark_level *= s;
+	}
+}
+
 } // namespace
 
 void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n)
@@ -121,6 +171,7 @@ void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_
 	static const double ramps[] = {0.5, 0.75, 1, 1.5, 2, 3, 4, 6};
 	if (!(hold_n > 0))
 		return;
+	scale_motor_runs(phases, p, hold_n, ramps[std::size(ramps) - 1]);
 	bool at_rest = true; // the sequence starts at rest; coasting to rest follows each run
 	for (Phase &ph : phases) {
 		const bool from_rest = at_rest;

@@ -65,7 +65,10 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt = {});
 // "this way wheel sleeping was avoided"): the shortest of 0.5, 0.75, 1, 1.5, 2, 3, 4, 6 s whose
 // peak wheel force, simulated on the model p (a gripping robot, eqs 12-13, 21, 23), stays
 // within it; the phase grows by what its ramp grew. Phases of the traction experiment are
-// left as they are. hold_n <= 0: nothing changes.
+// left as they are. The motor test's runs (one wheel driven against the other three's back-EMF
+// braking) whose force even the 6 s ramp does not keep within hold_n are first scaled down,
+// all by one factor (voltages and marks' levels), until the hardest holds. hold_n <= 0:
+// nothing changes.
 void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n);
 // (1 - margin) mu M g / 4 [N] ([limits] traction_mu, traction_margin); 0 when mu is 0.
 double traction_hold_n(const model_params &p, double mu, double margin);

@@ -584,7 +584,8 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
 {
 	std::printf(
 	    "\nbootstrap: %d replicates of the %zu runs, resampled within each experiment kind "
-	    "and direction (%d could not be identified and were skipped)\n",
+	    "and direction (motor test: and motors driven; %d could not be identified and were "
+	    "skipped)\n",
 	    b.replicates, runs, b.failed);
 	std::printf("%-5s %12s %12s %12s %25s\n", "param", "final", "SE analytic", "SE bootstrap",
 	            "95 % interval (bootstrap)");

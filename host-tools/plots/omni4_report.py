@@ -441,7 +441,8 @@ def bootstrap_section(boot):
     """The final values' analytic and bootstrap standard errors."""
     lines = ["## Uncertainty of the final values", "",
              "Analytic: from the regression residuals. Bootstrap: whole runs resampled "
-             "within each experiment kind and direction.", "",
+             "within each experiment kind and direction (the motor test's also within the "
+             "motors they drive).", "",
              "| param | final | SE analytic | SE bootstrap | 95 % interval (bootstrap) |",
              "|---|---|---|---|---|"]
     for r in boot:

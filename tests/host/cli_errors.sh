@@ -53,14 +53,15 @@ expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --rob
 expect 2 "out of range value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
-# Thin data are said: with the camera, Bv and Bvn rest on experiment 3 through Kv (SE 1.2-1.5 %
-# on this log), flagged THIN and named in a warning; with the encoders nothing is thin.
-expect 0 "warning: thin data: Bv ±1.[0-9] %, Bvn ±1.[0-9] %" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/cam.ini" --velocity camera "$T/full.lcmlog"
+# Thin data are said: with the camera, Bv and Bvn rest on experiment 3 through Kv (SE 1.5-2.0 %
+# on this log; 1.2-1.5 % when the motor test drove axis patterns), flagged THIN and named in a
+# warning; with the encoders nothing is thin.
+expect 0 "warning: thin data: Bv ±[12].[0-9] %, Bvn ±1.[0-9] %" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/cam.ini" --velocity camera "$T/full.lcmlog"
 thin_enc=$("$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/enc.ini" "$T/full.lcmlog" 2>&1)
 grep -q "thin data" <<<"$thin_enc" && { echo "FAIL: thin data reported with the encoders: $(grep 'thin data' <<<"$thin_enc")"; fail=$((fail + 1)); }
 # Marks but no motor samples (a run with no controller on the bus) is said as such.
 /usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/marksonly.lcmlog" --keep OMNI4_EXPERIMENT
-expect 1 "carry 61 OMNI4_EXPERIMENT marks but no OMNI4_MOTORS samples" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/marksonly.lcmlog"
+expect 1 "carry 91 OMNI4_EXPERIMENT marks but no OMNI4_MOTORS samples" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p1.ini" "$T/marksonly.lcmlog"
 # An axis without step runs is "no data" in the table and null in the JSON, never a perfect 0.
 /usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/now.lcmlog" --drop-steps w
 expect 0 "w     | no data" -- "$BIN/omni4-ident" validate --params "$T/good.ini" --json "$T/now.json" "$T/now.lcmlog"

@@ -9,8 +9,9 @@ all Table III with the default sensor noise:
      for a few ticks even there; its count is printed, not checked);
   2. a slippery floor (0.4) with the paper's experiments as they are (0.5 s ramps, no traction
      limit): the plant's truth (OMNI4_SIM_TRUTH flags) and the estimator (OMNI4_STATE SLIP)
-     show wheels slipping during the runs, and identification misses the bounds or
-     says its methods disagree;
+     show wheels slipping during the runs (its parameters are printed: since the motor test
+     drives one motor at a time its R, eq 22 on each motor's own current and speed, which
+     slip does not touch, pins R, and the slip no longer takes the others out of the bounds);
   3. the same floor measured first (omni4-sim --only traction, omni4-ident identify --robot
      with the model of 1.), its [limits] traction_mu given to the robot: the runs' ramps are
      kept under it (the runner's limit_ramps, the same for omni4-ident run --limits): no wheel
@@ -139,12 +140,9 @@ def main():
                       "(truth and SLIP)")
             elif name == "limited":
                 check(t == 0 and s == 0, f"{name}: no slip during the runs (truth and SLIP)")
-        # The slip shows in the old runs' fit: their parameters miss the bounds, or identify's
-        # methods disagree (it then keeps the better-determined estimate and says so).
-        print("old: " + ("; ".join(DISAGREE["old"]) or "no disagreement"))
-        check(misses(models["old (mu 0.4)"]) != [] or DISAGREE["old"] != [],
-              "the old experiments' identification misses the bounds or its methods disagree: "
-              + ", ".join(misses(models["old (mu 0.4)"])))
+        # The old runs' fit, shown (not bounded: the slip is there, the motor test's R holds).
+        print("old: " + ("; ".join(DISAGREE["old"]) or "no disagreement") + "; beyond the "
+              "bounds: " + (", ".join(misses(models["old (mu 0.4)"])) or "none"))
         for name in ("high (mu 1.0)", "limited (mu 0.4)"):
             check(misses(models[name]) == [], f"{name}: every parameter within the bounds "
                   + ", ".join(misses(models[name])))

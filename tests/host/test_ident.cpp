@@ -26,6 +26,7 @@
 #include "signals.hpp"
 #include "simexp.hpp"
 #include "testlog.hpp"
+#include "traction_exp.hpp"
 #include "validate.hpp"
 
 extern "C" {
@@ -126,6 +127,104 @@ TEST(StateSpace, DrivePatternsAccelerateOnlyTheirOwnAxis)
 		}
 	}
 	EXPECT_THROW(drive_pattern("x"), std::invalid_argument);
+}
+
+// The runner's motor test (docs/identification.md): each motor alone, the other three at 0 V in
+// VOLTAGE mode (bridges driven), at each of the motor levels 4, 8 and 11 V forwards and
+// backwards; every run marked "motor" with direction "" and the motor's voltage as level, then
+// closed by "end" while the robot coasts to rest.
+TEST(Experiments, TheMotorTestDrivesOneMotorAtATimeAtEachLevelBothWays)
+{
+	const std::vector<Phase> seq = paper_sequence();
+	std::map<int, std::vector<double>> driven; // motor -> its runs' voltages [V]
+	for (size_t k = 0; k < seq.size(); ++k) {
+		const Phase &ph = seq[k];
+		if (ph.mark_kind != "motor")
+			continue;
+		EXPECT_EQ(ph.mode, 2); // command_t::MODE_VOLTAGE
+		EXPECT_EQ(ph.mark_direction, "");
+		int n = 0, j = -1;
+		for (int m = 0; m < 4; ++m)
+			if (ph.voltage[m] != 0) {
+				++n;
+				j = m;
+			}
+		ASSERT_EQ(n, 1) << "motor run " << k << " drives " << n << " motors";
+		EXPECT_EQ(ph.mark_level, ph.voltage[j]);
+		driven[j].push_back(ph.voltage[j]);
+		ASSERT_LT(k + 1, seq.size());
+		EXPECT_TRUE(seq[k + 1].end_mark && seq[k + 1].mode == 3) << k; // MODE_COAST
+	}
+	ASSERT_EQ(driven.size(), 4u);
+	for (auto &[j, u] : driven) {
+		std::sort(u.begin(), u.end());
+		EXPECT_EQ(u, (std::vector<double>{-11, -8, -4, 4, 8, 11})) << "motor " << j;
+	}
+}
+
+namespace
+{
+
+// Steady force [N] of wheel j driven alone at u [V] with the other three motors shorted (0 V,
+// bridges driven), a gripping uniform robot p: eq 21 per wheel (f = k (u_j - e s_j), k = l Kt /
+// (r R), e = l Kv / r, s_j the wheel's ground speed) balanced against eq 16-19's friction
+// along the wheel's own axis (two wheels, the other pair's back-EMF cancels) and about w (all
+// four). Closed form, from the paper's equations alone.
+double one_wheel_steady_force(const model_params &p, int j, double u)
+{
+	const double k = p.l * p.Kt / (p.r * p.R), e = p.l * p.Kv / p.r, a = std::fabs(u);
+	const double B = j % 2 ? p.Bv : p.Bvn, C = j % 2 ? p.Cv : p.Cvn;
+	const double x = std::max(0.0, (k * a - C) / (2 * k * e + B));
+	const double w = std::max(0.0, (p.d * k * a - p.Cw) / (4 * k * e * p.d * p.d + p.Bw));
+	return k * (a - e * (x + p.d * w));
+}
+
+} // namespace
+
+// On a floor that cannot hold one wheel pushing the robot against the other three's braking
+// (mu 0.4: 2.25 N a wheel with the 2 % margin; 11 V alone needs 4.6 N steady), limit_ramps scales
+// every one-motor run by one factor (their loads stay apart for eq 22), no more than needed:
+// the hardest run's steady force is within 10 % under the limit, none above it.
+TEST(Experiments, OneMotorRunsAreScaledTogetherUnderTheFloorsLimit)
+{
+	const model_params &p = model_params_table3;
+	const std::vector<Phase> full = paper_sequence();
+	std::vector<Phase> seq = full;
+	const double hold_n = traction_hold_n(p, 0.4, 0.02);
+	limit_ramps(seq, p, hold_n);
+	ASSERT_EQ(seq.size(), full.size());
+	double factor = -1, hardest = 0;
+	for (size_t k = 0; k < seq.size(); ++k) {
+		if (seq[k].mark_kind != "motor")
+			continue;
+		for (int j = 0; j < 4; ++j) {
+			if (full[k].voltage[j] == 0) {
+				EXPECT_EQ(seq[k].voltage[j], 0);
+				continue;
+			}
+			const double s = seq[k].voltage[j] / full[k].voltage[j];
+			if (factor < 0)
+				factor = s;
+			EXPECT_NEAR(s, factor, 1e-12) << "run " << k;
+			EXPECT_NEAR(seq[k].mark_level, seq[k].voltage[j], 1e-12);
+			const double f = one_wheel_steady_force(p, j, seq[k].voltage[j]);
+			EXPECT_LE(f, hold_n) << "run " << k << " motor " << j;
+			hardest = std::max(hardest, f);
+		}
+	}
+	std::printf("one-motor runs scaled by %.4f: hardest steady force %.3f N, limit %.3f N\n",
+	            factor, hardest, hold_n);
+	EXPECT_GT(factor, 0);
+	EXPECT_LT(factor, 1);
+	EXPECT_GE(hardest, 0.9 * hold_n);
+	// Where the floor holds them (mu 1.0 with the 2 % margin: 5.6 N) nothing is scaled.
+	std::vector<Phase> firm = full;
+	limit_ramps(firm, p, traction_hold_n(p, 1.0, 0.02));
+	for (size_t k = 0; k < firm.size(); ++k) {
+		if (firm[k].mark_kind == "motor") {
+			EXPECT_EQ(firm[k].voltage, full[k].voltage) << "run " << k;
+		}
+	}
 }
 
 TEST(SavitzkyGolay, ExactOnQuadratics)

@@ -340,10 +340,15 @@ TEST(Offsets, IdentificationWithOffsetsIsAsGoodAsWithoutOnceCalibrated)
 	const IdentResult bad = identify(split_segments(raw), base_table3());
 	const double cw_bad = (bad.table.at("exp1").at("Cw").value - t.Cw) / t.Cw;
 	// Torque offset d l Kt / r x sum(offsets) = 0.3546 N m/A x 0.11 A = 0.039 N m: +28 % of Cw
-	// (the fit's intercept takes it whole). The offsets make the motors' eq 22 fits differ, so
-	// the F-test may take them as different motors: then the torque is d l / r sum Kt_j off_j
-	// with each motor's own (offset-biased) Kt_j.
-	double torque_off = 0.3546 * 0.11;
+	// (the fit's intercept takes it whole), with the Kt the motor test identified from the
+	// same offset currents: the one-motor runs' fits (no intercept) take the driven motor's
+	// offset into Kt (-2.8 % here), which scales experiment 1's torque, Cw with it:
+	// Cw' / Cw - 1 = Kt' / Kt - 1 + d l Kt' sum(offsets) / (r Cw) (measured +24.55 % against
+	// +24.59 %). The offsets make the motors' eq 22 fits differ, so the F-test may take them as
+	// different motors: then the torque is d l / r sum Kt_j off_j with each motor's own
+	// (offset-biased) Kt_j.
+	const double kt_bad = bad.table.at("motor").at("Kv").value;
+	double torque_off = t.d * t.l * kt_bad / t.r * 0.11 + (kt_bad / t.Kt - 1) * t.Cw;
 	if (bad.wheels.motors_differ) {
 		torque_off = 0;
 		for (int j = 0; j < 4; ++j)

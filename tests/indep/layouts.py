@@ -6,6 +6,11 @@ be identified. What differs is where, inside a segment, the drive is: marks befo
 rest, ramps down in VOLTAGE mode, pushes by hand with the bridges off, several levels per segment,
 subsets of motors, jittered marks and lost samples, other loop rates.
 
+The motor test is the runner's (docs/identification.md): one motor at a time, the other three at
+0 V with the bridges driven, each motor at three levels forwards then backwards. `subset` (and
+--motor-subset) keep motor tests that drive two motors at once or axis patterns, as logs
+recorded before the runner drove one motor at a time do.
+
 A timeline is open loop (voltages, bridge state and external push per tick, plus the marks). Waits
 that a person or a careful runner would time by watching the robot (hold until steady, wait until
 it stopped) are planned here from the robot's true parameters with closed forms, with margins;
@@ -198,6 +203,27 @@ def subset_motor_runs(subset, levels):
     return runs
 
 
+#: Motor-test levels [V] of the one-motor-at-a-time runs (each jittered per run).
+ONE_MOTOR_LEVELS = (4.2, 8.3, 10.8)
+
+
+def one_motor_runs(jit, multilevel=False):
+    """The runner's motor test: each motor alone (the other three at 0 V, bridges driven), at
+    each level forwards then backwards, one run each; with `multilevel` one segment per motor
+    and sign holding the levels one after the other. Direction "" (one wheel drives no single
+    robot axis); the level is the motor's signed voltage [V]."""
+    runs = []
+    for j in range(4):
+        single = np.eye(4)[j]
+        if multilevel:
+            runs += [Run("motor", "", single, [sign * jit(lv) for lv in ONE_MOTOR_LEVELS])
+                     for sign in (1.0, -1.0)]
+        else:
+            runs += [Run("motor", "", single, [sign * jit(lv)])
+                     for lv in ONE_MOTOR_LEVELS for sign in (1.0, -1.0)]
+    return runs
+
+
 def experiment_set(rng, multilevel=False, subset_layout=False, motor_subset=None):
     """The runs of one complete experiment set, levels jittered per robot by rng."""
     def jit(x):
@@ -228,12 +254,8 @@ def experiment_set(rng, multilevel=False, subset_layout=False, motor_subset=None
             ((0, 1, 0, 1), 10.0), ((1, 0, 0, 0), 7.0), ((0, 0, 0, 1), 4.5))]
     elif motor_subset:
         runs += subset_motor_runs(motor_subset, [jit(lv) for _, lv in motor])
-    elif multilevel:
-        runs += [Run("motor", "v", plant.PATTERNS["v"], [jit(5.2), jit(10.2)]),
-                 Run("motor", "vn", plant.PATTERNS["vn"], [jit(8.3)]),
-                 Run("motor", "w", plant.PATTERNS["w"], [jit(4.2), jit(10.8)])]
     else:
-        runs += [Run("motor", ax, plant.PATTERNS[ax], [jit(lv)]) for ax, lv in motor]
+        runs += one_motor_runs(jit, multilevel)
     step = {"v": (4.8, 9.2), "vn": (5.6, 10.1), "w": (3.9, 7.7)}
     for ax, lvls in step.items():
         if multilevel:
