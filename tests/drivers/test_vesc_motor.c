@@ -29,6 +29,15 @@ static struct vesc_motor_config config(enum vesc_mode mode)
 	return c;
 }
 
+/* The backend opened as the loop holds it. */
+static struct motor_hal open_backend(struct vesc_motor *m, enum vesc_mode mode)
+{
+	const struct vesc_motor_config c = config(mode);
+
+	assert_int_equal(vesc_motor_open(m, &c), 0);
+	return vesc_motor_hal(m);
+}
+
 static int reset(void **state)
 {
 	(void)state;
@@ -103,10 +112,8 @@ static void test_status_frames_become_the_sample(void **state)
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	assert_int_equal(hal_motor_read(&h, &s), -EAGAIN); /* nothing yet, within the timeout */
 	push_all_status();
@@ -127,13 +134,11 @@ static void test_duty_is_the_voltage_over_each_controllers_input_voltage(void **
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 	const float volts[4] = {6.0f, -12.0f, 30.0f, 4.7f};
 	const double want[4] = {0.25, -0.5, 0.95, 0.2}; /* 30 / 24: clamped; 4.7 / 23.5 */
 	enum vesc_cmd kind;
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	assert_int_equal(hal_motor_enable(&h, true), 0);
 	assert_int_equal(hal_motor_write(&h, volts), 0); /* no input voltage yet: released */
@@ -166,12 +171,10 @@ static void test_current_is_eq21_at_the_measured_speed(void **state)
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_CURRENT);
 	const float volts[4] = {6.0f, -3.0f, 12.0f, 0.0f};
 	enum vesc_cmd kind;
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_CURRENT);
 
 	push_all_status();
 	assert_int_equal(hal_motor_read(&h, &s), 0);
@@ -195,10 +198,8 @@ static void test_a_silent_controller_is_a_driver_timeout(void **state)
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	push_all_status();
 	assert_int_equal(hal_motor_read(&h, &s), 0);
@@ -220,10 +221,8 @@ static void test_never_reporting_times_out_with_a_full_sample(void **state)
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	mock_clock_us += 21000;
 	assert_int_equal(hal_motor_read(&h, &s), 0);
@@ -238,10 +237,8 @@ static void test_bus_off_is_a_bus_fault_until_cleared(void **state)
 	(void)state;
 	struct vesc_motor m;
 	struct motor_sample s;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	push_all_status();
 	mock_push_error(SC_ERR_BUSOFF);
@@ -259,11 +256,9 @@ static void test_close_stops_every_controller(void **state)
 {
 	(void)state;
 	struct vesc_motor m;
-	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
 	enum vesc_cmd kind;
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
 
 	hal_motor_close(&h);
 	assert_true(mock_closed);
@@ -279,12 +274,10 @@ static void test_halt_stops_and_drops_later_writes(void **state)
 {
 	(void)state;
 	struct vesc_motor m;
-	const struct vesc_motor_config c = config(VESC_MODE_CURRENT);
 	const float volts[4] = {6, 6, 6, 6};
 	enum vesc_cmd kind;
 
-	assert_int_equal(vesc_motor_open(&m, &c), 0);
-	const struct motor_hal h = vesc_motor_hal(&m);
+	const struct motor_hal h = open_backend(&m, VESC_MODE_CURRENT);
 
 	assert_int_equal(vesc_motor_halt(&m), 8);
 	for (int j = 0; j < 4; j++) {
