@@ -26,8 +26,6 @@
 #include "omni4/drivers/vesc_settings.h"
 
 #define VESC_DUTY_MAX 0.95f
-/* A controller silent this long: DRIVER_TIMEOUT (STATUS_1 at the loop rate, docs/vesc.md). */
-#define VESC_STATUS_TIMEOUT_MS 20
 /* Frames drained per read (4 controllers x 3 status frames a tick, with room for a backlog). */
 #define VESC_MAX_FRAMES_PER_READ 64
 

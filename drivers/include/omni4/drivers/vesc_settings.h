@@ -14,6 +14,7 @@ struct vesc_settings {
 	int id[4];      /* controller CAN id of wheel j (VESC Tool: App Settings, General) */
 	int pole_pairs; /* motor pole pairs: ERPM = mechanical RPM x pole_pairs */
 	int mode;       /* enum vesc_mode */
+	int status_timeout_ms; /* a controller silent this long: FAULT_DRIVER_TIMEOUT */
 };
 
 #endif /* OMNI4_VESC_SETTINGS_H */
