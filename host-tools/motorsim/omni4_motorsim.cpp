@@ -422,6 +422,18 @@ void publish_pose(lcm_t *lcm, const plant &pl)
 	omni4_pose_t_publish(lcm, "OMNI4_POSE", &p);
 }
 
+// With the camera on, the plant must be where the wall clock says when a pose is stamped: no
+// pose while the loop catches up 1 ms step after another (late by 2 ms or more), and a backlog
+// of 100 ms or more is dropped (the simulated world pauses while the process is starved; the
+// drives' reports and the camera stay on one clock). Returns true when a pose may be taken.
+bool camera_clock(int64_t &next_ns)
+{
+	const int64_t late_ns = omni4_monotonic_ns() - next_ns;
+	if (late_ns >= 100000000)
+		next_ns += late_ns;
+	return late_ns < 2000000;
+}
+
 // The periods until SIGINT, SIGTERM or --duration: the boards (dl null) or the drives, the
 // camera's poses when it is on.
 void run(Options &o, Sim &sim, motorsim::DriveLoop *dl, lcm_t *camera)
@@ -445,7 +457,7 @@ void run(Options &o, Sim &sim, motorsim::DriveLoop *dl, lcm_t *camera)
 			simulate_tick(sim, tick, now, o.no_noise);
 			inject_test_frames(sim.fd, t, o, sim.b);
 		}
-		if (camera && t >= next_pose_s) {
+		if (camera && camera_clock(next) && t >= next_pose_s) {
 			publish_pose(camera, sim.pl);
 			next_pose_s = t + 1.0 / o.camera_hz;
 		}
