@@ -7,7 +7,7 @@ controller logged over the same stretch (OMNI4_MOTORS of the lcm-logger log).
   (VESC duty: u / the drive's last input voltage, clamped to +-0.95; ODrive torque:
   Kt (u - Kv l w) / R at the tick's logged wheel speed w; disabled: the release command);
 - the wheel speeds and currents it logged are those of a report it had received: one of drive
-  j's STATUS_1 (VESC) / encoder estimate and Iq (ODrive) on the bus since the tick before.
+  j's STATUS_1 (VESC) / encoder estimate and Iq (ODrive) on the bus in the 3 ticks before.
 Within the DBC's resolution (VESC: one scale step, the encoder's float rounding can take it
 past half of one; ODrive floats: binary32 rounding).
 usage: check_drive_log.py vesc|odrive DBC CANDUMP LCMLOG INI CONFIG_KEYS_BINARY"""
@@ -27,6 +27,10 @@ from omni4 import motors_t
 EFF, RTR = 0x80000000, 0x40000000
 DUTY_MAX = 0.95  # docs/vesc.md: the VESC needs a margin below 100 %
 MAX_SKIP = 60  # logged ticks a bus tick may be ahead of the one before it
+WINDOW_TICKS = 3  # ticks back on the bus a report the controller used may be
+# The controller logs its currents less the current-sense offsets it measured at rest
+# (docs/faults.md); the simulated drives' are below 1 mA.
+OFFSET_A = 1e-3
 
 
 def f32(x):
@@ -125,12 +129,14 @@ class Bus:
         self.index = {key: [k for k, _ in rs] for key, rs in self.reports.items()}
 
     def candidates(self, kind, j, i):
-        """Reports of wheel j that tick i may have read: the last one before tick i - 1's
-        commands and every one after them, before tick i's. None when the log holds none
-        before tick i - 1's (what the controller held then is not on it: not judged)."""
-        if i == 0:
+        """Reports of wheel j that tick i may have read: the last one before tick i - W's
+        commands and every one after them, before tick i's (W = WINDOW_TICKS: a frame is on
+        candump's log when the kernel's receive backlog delivers it, which a starved VM does
+        after the controller's later sends and reads). None when the log holds none before
+        tick i - W's (what the controller held then is not on it: not judged)."""
+        if i < WINDOW_TICKS:
             return None
-        lo, hi = self.ticks[i - 1][0], self.ticks[i][0]
+        lo, hi = self.ticks[i - WINDOW_TICKS][0], self.ticks[i][0]
         rs = self.reports.get((kind, j), [])
         idx = self.index[(kind, j)] if rs else []
         a, b = bisect.bisect_left(idx, lo), bisect.bisect_left(idx, hi)
@@ -194,13 +200,13 @@ def reports_ok(bus, s, i, m):
             res = 2 * math.pi / 60 / pp / gear  # one ERPM at the wheel [rad/s]
             out.append(matches(bus.candidates("STATUS_1", j, i), lambda r: abs(
                 m.wheel_speed[j] - r["erpm"] / pp * 2 * math.pi / 60 / gear) <= res
-                and abs(m.current[j] - r["current"]) <= 0.1))
+                and abs(m.current[j] - r["current"]) <= 0.1 + OFFSET_A))
             continue
         out.append(matches(bus.candidates("Get_Encoder_Estimates", j, i), lambda r: abs(
             m.wheel_speed[j] - f32(r["vel_estimate"] * 2 * math.pi / gear))
             <= 1e-6 * abs(m.wheel_speed[j]) + 1e-9))
         out.append(matches(bus.candidates("Get_Iq", j, i),
-                           lambda r: m.current[j] == r["iq_measured"]))
+                           lambda r: abs(m.current[j] - r["iq_measured"]) <= OFFSET_A))
     return out
 
 
@@ -234,13 +240,17 @@ def pair(bus, samples, s, o):
     for step, rng in ((1, range(mid + 1, n - 1)), (-1, range(mid - 1, 0, -1))):
         q = o + mid
         for i in rng:
-            for k in range(1, MAX_SKIP + 1):
-                if q + step * k in samples and commands_ok(bus, s, i, samples[q + step * k]):
-                    q += step * k
-                    out[i] = q
-                    break
-            else:
-                out[i] = None  # no logged tick carries these commands
+            if bus.proto == "vesc" and any(bus.candidates("STATUS_5", j, i) is None
+                                           for j in range(4)):
+                continue  # the input voltage it divided by is not on the log: not judged
+            if sorted(bus.ticks[i][1]) != [0, 1, 2, 3]:
+                continue  # a tick whose frames are not all on candump's log: counted apart
+            near = [q + step * k for k in range(1, MAX_SKIP + 1) if q + step * k in samples]
+            if not near:
+                continue  # beyond the controller's log
+            hit = [r for r in near if commands_ok(bus, s, i, samples[r])]
+            out[i] = hit[0] if hit else None  # None: no logged tick carries these commands
+            q = hit[0] if hit else q
     return out
 
 
@@ -267,10 +277,15 @@ def main():
     r_bad = [paired[k] for k, r in enumerate(res) if False in r[1]]
     judged = sum(1 for r in res for x in r[1] if x is not None)
     skipped = sum(pairs[b] - pairs[a] - 1 for a, b in zip(paired, paired[1:]))
-    ok = c_judged >= 20 and not c_bad and not r_bad and judged >= 20
+    partial = sum(1 for _, cmds in bus.ticks[1:-1] if sorted(cmds) != [0, 1, 2, 3])
+    # a tick with a command missing from candump's log: a figure of the emulated bus, judged
+    # only by their share
+    ok = (c_judged >= 20 and not c_bad and not r_bad and judged >= 20
+          and partial <= 0.01 * len(bus.ticks))
     seqs = f"seq {pairs[paired[0]]}..{pairs[paired[-1]]}" if paired else "none"
     print(f"{'ok' if ok else 'FAIL'}: {proto} bus against the controller's log: {len(paired)} "
-          f"ticks paired ({seqs}; {skipped} logged ticks not on the bus or not logged): "
+          f"ticks paired ({seqs}; {skipped} logged ticks not on the bus or not logged; "
+          f"{partial} ticks with a command missing from candump's log): "
           f"{c_judged} ticks' commands judged, differing in {len(c_bad)}; {judged} wheel "
           f"reports judged, differing in {len(r_bad)} ticks"
           + (f" (first ticks {c_bad[:3]} {r_bad[:3]})" if c_bad or r_bad else ""))
