@@ -42,7 +42,7 @@ int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg)
 	m->mode = cfg->mode;
 	m->timeout_us = (int64_t)cfg->status_timeout_ms * 1000;
 	m->consts = cfg->consts;
-	m->opened_us = sc_os_now_us();
+	m->opened_us = m->last_read_us = sc_os_now_us();
 	return 0;
 }
 
@@ -175,14 +175,29 @@ static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_
 	}
 }
 
+/* Frames this read may take: VESC_MAX_FRAMES_PER_READ per millisecond since the previous read
+ * (at least 1 ms' worth, at most VESC_MAX_READ_CATCHUP ms'). */
+static int read_budget(struct vesc_motor *m, int64_t now)
+{
+	int64_t since_ms = (now - m->last_read_us) / 1000;
+
+	m->last_read_us = now;
+	if (since_ms < 1)
+		since_ms = 1;
+	if (since_ms > VESC_MAX_READ_CATCHUP)
+		since_ms = VESC_MAX_READ_CATCHUP;
+	return VESC_MAX_FRAMES_PER_READ * (int)since_ms;
+}
+
 static int drain_frames(struct vesc_motor *m, int64_t now)
 {
 	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
 	                              &m->bus_off};
+	const int budget = read_budget(m, now);
 	struct omni4_can_frame f;
 	int rc = 0;
 
-	for (int k = 0; k < VESC_MAX_FRAMES_PER_READ && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
+	for (int k = 0; k < budget && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
 		if (rc == 1)
 			handle(m, &f, now);
 	return rc < 0 ? rc : 0;
@@ -207,7 +222,8 @@ static bool fill_sample(const struct vesc_motor *m, struct motor_sample *out, in
 		out->wheel_rad_s[j] = wheel_speed(m, d);
 		out->current_a[j] = d->have_status1 ? d->s1.current_a : NAN;
 	}
-	out->supply_v = supply;
+	/* the most a VESC applies: the controller bounds its outputs by it (duty clamped) */
+	out->supply_v = VESC_DUTY_MAX * supply;
 	out->faults = faults;
 	return all;
 }

@@ -11,7 +11,7 @@ static int open_odrive(struct robot *r, const struct robot_spec *spec, char *why
 	const struct odrive_settings *os = spec->odrive;
 	struct odrive_motor_config cfg = {.iface = os->iface,
 	                                  .mode = (enum odrive_mode)os->mode,
-	                                  .status_timeout_ms = ODRIVE_STATUS_TIMEOUT_MS,
+	                                  .status_timeout_ms = os->status_timeout_ms,
 	                                  .consts = drive_consts_for(spec->ctl)};
 
 	for (int j = 0; j < 4; j++)

@@ -11,7 +11,7 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 	struct vesc_motor_config cfg = {.iface = vs->iface,
 	                                .pole_pairs = vs->pole_pairs,
 	                                .mode = (enum vesc_mode)vs->mode,
-	                                .status_timeout_ms = VESC_STATUS_TIMEOUT_MS,
+	                                .status_timeout_ms = vs->status_timeout_ms,
 	                                .consts = drive_consts_for(spec->ctl)};
 
 	for (int j = 0; j < 4; j++)

@@ -2,7 +2,8 @@
 // them. Receives CMD_VOLTAGE / CMD_CONTROL, steps the plant at 1 kHz, answers with STATUS
 // (every ms) and HEALTH (100 Hz), so the unmodified omni4-fw (socketcan backend) drives a
 // simulated robot. Works with candump / cansend by hand. With --protocol vesc or odrive, four
-// simulated VESCs or ODrives instead (drive_loop.hpp).
+// simulated VESCs or ODrives instead (drive_loop.hpp). With --camera-hz, a camera that sees the
+// plant's exact pose: OMNI4_POSE on LCM, so the controller's goal mode runs.
 #include <time.h>
 #include <unistd.h>
 
@@ -24,6 +25,8 @@ extern "C" {
 #include "omni4/model/plant.h"
 #include "omni4/model/rng.h"
 #include "omni4/drivers/sc_os.h"
+#include "omni4_pose_t.h"
+#include <lcm/lcm.h>
 }
 
 namespace
@@ -80,7 +83,9 @@ struct Options {
 	bool no_noise = false, quiet = false;
 	std::vector<int> ids{0, 1, 2, 3}, nodes{0, 1, 2, 3};
 	int pole_pairs = 7, fault_node = 0;
-	double supply_v = 0, supply_ohm = 0, watchdog_s = 0.2, fault_at_s = -1;
+	double supply_v = 0, supply_ohm = 0, watchdog_s = 0.2, fault_at_s = -1, timeout_s = 0.5;
+	double camera_hz = 0;
+	std::string lcm_url;
 };
 
 // The options of the simulated VESCs and ODrives (--protocol vesc|odrive).
@@ -116,6 +121,10 @@ void add_drive_options(CLI::App &app, Options &o)
 	    ->check(CLI::NonNegativeNumber)
 	    ->capture_default_str()
 	    ->group(g);
+	app.add_option("--timeout-s", o.timeout_s, "VESC: command timeout (the firmware's default)")
+	    ->check(CLI::PositiveNumber)
+	    ->capture_default_str()
+	    ->group(g);
 	app.add_option("--fault-at-s", o.fault_at_s,
 	               "fault at S seconds on --fault-node's drive (ODrive: axis error DRV_FAULT, "
 	               "IDLE; VESC: the drive goes silent and releases its motor)")
@@ -133,6 +142,10 @@ void add_options(CLI::App &app, Options &o)
 	app.add_option("--params", o.params_path, "robot INI ([model]; default Table III)");
 	app.add_option("--duration", o.duration_s, "stop after S seconds (default: until SIGINT)");
 	app.add_flag("--no-noise", o.no_noise, "exact current readings");
+	app.add_option("--camera-hz", o.camera_hz,
+	               "publish the plant's exact pose on OMNI4_POSE at HZ (a perfect camera)")
+	    ->check(CLI::Range(0.1, 1000.0));
+	app.add_option("--lcm", o.lcm_url, "LCM URL of the camera (default: LCM's default)");
 	// Test hooks: not in the user's help (group "").
 	app.add_option("--replay-at", o.replay_at,
 	               "test: at S seconds, send the last STATUS_0 again")
@@ -365,6 +378,7 @@ int setup_drives(const Options &o, Sim &sim, motorsim::DriveLoop &d)
 			}
 	}
 	vo.pole_pairs = o.pole_pairs;
+	vo.timeout_s = o.timeout_s;
 	oo.watchdog_s = o.watchdog_s;
 	vo.fault = oo.fault = motorsim::Fault{o.fault_at_s, o.fault_node};
 	const motorsim::Supply sup{o.supply_v > 0 ? o.supply_v : sim.cfg.ctl.limits.supply_v,
@@ -394,14 +408,71 @@ void drives_tick(int fd, double t, motorsim::DriveLoop &d, motorsim::Frames &in,
 		send_counted(fd, g, st);
 }
 
+// The camera: the plant's pose now, stamped with the controller's clock (CLOCK_REALTIME [us],
+// rtloop_clock_us).
+void publish_pose(lcm_t *lcm, const plant &pl)
+{
+	timespec now;
+	clock_gettime(CLOCK_REALTIME, &now);
+	omni4_pose_t p{};
+	p.utime = static_cast<int64_t>(now.tv_sec) * 1000000 + now.tv_nsec / 1000;
+	p.x = pl.pose[0];
+	p.y = pl.pose[1];
+	p.theta = std::remainder(pl.pose[2], 2 * M_PI);
+	omni4_pose_t_publish(lcm, "OMNI4_POSE", &p);
+}
+
+// With the camera on, the plant must be where the wall clock says when a pose is stamped: no
+// pose while the loop catches up 1 ms step after another (late by 2 ms or more), and a backlog
+// of 100 ms or more is dropped (the simulated world pauses while the process is starved; the
+// drives' reports and the camera stay on one clock). Returns true when a pose may be taken.
+bool camera_clock(int64_t &next_ns)
+{
+	const int64_t late_ns = omni4_monotonic_ns() - next_ns;
+	if (late_ns >= 100000000)
+		next_ns += late_ns;
+	return late_ns < 2000000;
+}
+
+// The periods until SIGINT, SIGTERM or --duration: the boards (dl null) or the drives, the
+// camera's poses when it is on.
+void run(Options &o, Sim &sim, motorsim::DriveLoop *dl, lcm_t *camera)
+{
+	motorsim::Frames in;
+	in.reserve(256);
+	std::signal(SIGINT, on_signal);
+	std::signal(SIGTERM, on_signal);
+	rng_seed(&sim.g, 7);
+	int64_t next = omni4_monotonic_ns();
+	const int64_t t0 = sc_os_now_us();
+	double next_pose_s = 0;
+	for (long tick = 0; !g_stop; ++tick) {
+		const int64_t now = sc_os_now_us();
+		const double t = (now - t0) * 1e-6;
+		if (o.duration_s > 0 && t >= o.duration_s)
+			break;
+		if (dl) {
+			drives_tick(sim.fd, t, *dl, in, sim.st);
+		} else {
+			simulate_tick(sim, tick, now, o.no_noise);
+			inject_test_frames(sim.fd, t, o, sim.b);
+		}
+		if (camera && camera_clock(next) && t >= next_pose_s) {
+			publish_pose(camera, sim.pl);
+			next_pose_s = t + 1.0 / o.camera_hz;
+		}
+		sleep_one_ms(next);
+	}
+}
+
 void print_summary(const Stats &st, const plant &pl)
 {
 	std::fprintf(
 	    stderr,
 	    "omni4-motorsim: rx %llu tx %llu tx_dropped %llu crc_errors %llu replayed %llu "
-	    "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f\n",
+	    "cmd_timeouts %llu; final v %.3f vn %.3f w %.3f, pose x %.4f y %.4f theta %.4f\n",
 	    st.rx, st.tx, st.tx_dropped, st.crc_errors, st.replayed, st.cmd_timeouts, pl.x[0],
-	    pl.x[1], pl.x[2]);
+	    pl.x[1], pl.x[2], pl.pose[0], pl.pose[1], pl.pose[2]);
 }
 
 } // namespace
@@ -425,11 +496,9 @@ int main(int argc, char **argv)
 		return status;
 	const bool drives = o.protocol != "omni4";
 	motorsim::DriveLoop dl;
-	motorsim::Frames in;
 	if (drives) {
 		if (int status = setup_drives(o, sim, dl))
 			return status;
-		in.reserve(256);
 	}
 	const uint32_t ids[] = {CAN_ID_CMD_VOLTAGE, CAN_ID_CMD_CONTROL};
 	if (int rc = sc_os_open(o.iface.c_str(), ids, drives ? 0 : 2, &sim.fd)) {
@@ -438,24 +507,16 @@ int main(int argc, char **argv)
 		             sc_os_strerror(rc, why, sizeof why));
 		return 1;
 	}
-	std::signal(SIGINT, on_signal);
-	std::signal(SIGTERM, on_signal);
-	rng_seed(&sim.g, 7);
-	int64_t next = omni4_monotonic_ns();
-	const int64_t t0 = sc_os_now_us();
-	for (long tick = 0; !g_stop; ++tick) {
-		const int64_t now = sc_os_now_us();
-		const double t = (now - t0) * 1e-6;
-		if (o.duration_s > 0 && t >= o.duration_s)
-			break;
-		if (drives) {
-			drives_tick(sim.fd, t, dl, in, sim.st);
-		} else {
-			simulate_tick(sim, tick, now, o.no_noise);
-			inject_test_frames(sim.fd, t, o, sim.b);
-		}
-		sleep_one_ms(next);
+	lcm_t *camera = nullptr;
+	if (o.camera_hz > 0 &&
+	    !(camera = lcm_create(o.lcm_url.empty() ? nullptr : o.lcm_url.c_str()))) {
+		std::fprintf(stderr, "omni4-motorsim: cannot open LCM for the camera\n");
+		sc_os_close(sim.fd);
+		return 1;
 	}
+	run(o, sim, drives ? &dl : nullptr, camera);
+	if (camera)
+		lcm_destroy(camera);
 	sc_os_close(sim.fd);
 	if (!o.quiet)
 		print_summary(sim.st, sim.pl);

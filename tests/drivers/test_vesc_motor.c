@@ -124,8 +124,32 @@ static void test_status_frames_become_the_sample(void **state)
 		assert_near(s.current_a[j], j + 0.5, 1e-6);
 	}
 	assert_near(s.wheel_rad_s[0], 20.943951, 1e-5); /* 1000 motor rpm / 5 */
-	assert_near(s.supply_v, 23.5, 1e-6);            /* the lowest */
+	/* the lowest input voltage times the duty limit: the most the drives apply (vesc.md) */
+	assert_near(s.supply_v, 0.95 * 23.5, 1e-5);
 	assert_int_equal(s.faults, 0);
+	hal_motor_close(&h);
+}
+
+/* A read 4 ms after the last takes the frames of those 4 ms and more (the reports of a late
+ * tick): 200 queued frames, the newest STATUS_1 last, reach the sample. */
+static void test_a_late_read_reaches_the_newest_reports(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	const struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_open(&m, &c), 0);
+	const struct motor_hal h = vesc_motor_hal(&m);
+
+	for (int k = 0; k < 24; k++) /* 192 frames of older reports */
+		for (int j = 0; j < 4; j++)
+			push_status(j, 100 * k, 0.0f, 24.0f);
+	push_all_status();
+	mock_clock_us += 4000;
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	for (int j = 0; j < 4; j++)
+		assert_near(s.wheel_rad_s[j], speed_of(j), 1e-4);
 	hal_motor_close(&h);
 }
 
@@ -296,6 +320,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test_setup(test_open_filters_admit_each_controllers_frames_only, reset),
 	    cmocka_unit_test_setup(test_status_frames_become_the_sample, reset),
+	    cmocka_unit_test_setup(test_a_late_read_reaches_the_newest_reports, reset),
 	    cmocka_unit_test_setup(test_duty_is_the_voltage_over_each_controllers_input_voltage,
 	                           reset),
 	    cmocka_unit_test_setup(test_current_is_eq21_at_the_measured_speed, reset),

@@ -213,6 +213,66 @@ static void test_duplicate_ids_are_refused_with_the_reason(void **state)
 	assert_false(mock_open);
 }
 
+/* Each drive reports once, at the mock's clock. */
+static void report_all(bool odrive)
+{
+	for (int j = 0; j < 4; j++) {
+		const struct vesc_status1 s1 = {.erpm = 700};
+		const struct odrive_encoder_estimates e = {.vel_turn_s = 1.0f};
+		const struct odrive_iq q = {0};
+		struct omni4_can_frame f;
+
+		if (odrive) {
+			assert_int_equal(
+			    odrive_encode_encoder_estimates((uint8_t)cfg.odrive.node[j], &e, &f),
+			    0);
+			mock_push(&f);
+			assert_int_equal(odrive_encode_iq((uint8_t)cfg.odrive.node[j], &q, &f), 0);
+		} else {
+			assert_int_equal(vesc_encode_status1((uint8_t)cfg.vesc.id[j], &s1, &f), 0);
+		}
+		mock_push(&f);
+	}
+}
+
+/* [vesc] / [odrive] status_timeout_ms: drives silent for less than it are no fault, for more
+ * they are DRIVER_TIMEOUT (the CAN test VM runs with 1500 ms, a robot with the default). */
+static void status_timeout_from_the_ini(enum omni4_motor_backend motor)
+{
+	const bool odrive = motor == OMNI4_MOTOR_ODRIVE;
+	struct motor_sample s;
+	char why[256];
+
+	cfg.fw.motor = motor;
+	cfg.vesc.status_timeout_ms = cfg.odrive.status_timeout_ms = 300;
+	const struct robot_spec spec = spec_of(motor);
+
+	mock_clock_us = 1000000;
+	assert_int_equal(robot_open(&robot, &spec, why, sizeof(why)), 0);
+	report_all(odrive);
+	assert_int_equal(hal_motor_read(&robot.motor, &s), 0);
+	assert_false(s.faults & HAL_FAULT_DRIVER_TIMEOUT);
+	mock_clock_us += 299000;
+	assert_int_equal(hal_motor_read(&robot.motor, &s), 0);
+	assert_false(s.faults & HAL_FAULT_DRIVER_TIMEOUT);
+	mock_clock_us += 2000;
+	assert_int_equal(hal_motor_read(&robot.motor, &s), 0);
+	assert_true(s.faults & HAL_FAULT_DRIVER_TIMEOUT);
+	robot_close(&robot);
+}
+
+static void test_vesc_status_timeout_is_the_ini_key(void **state)
+{
+	(void)state;
+	status_timeout_from_the_ini(OMNI4_MOTOR_VESC);
+}
+
+static void test_odrive_status_timeout_is_the_ini_key(void **state)
+{
+	(void)state;
+	status_timeout_from_the_ini(OMNI4_MOTOR_ODRIVE);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -222,6 +282,8 @@ int main(void)
 	    cmocka_unit_test_setup(test_odrive_error_latches_driver_and_a_clear_restarts_the_axes,
 	                           reset),
 	    cmocka_unit_test_setup(test_duplicate_ids_are_refused_with_the_reason, reset),
+	    cmocka_unit_test_setup(test_vesc_status_timeout_is_the_ini_key, reset),
+	    cmocka_unit_test_setup(test_odrive_status_timeout_is_the_ini_key, reset),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

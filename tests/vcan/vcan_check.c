@@ -24,6 +24,9 @@
  *                        OMNI4_CMD publish -> the first CMD_VOLTAGE frame on IFACE carrying the
  *                        new value (read on a raw CAN socket of our own); prints p50/p99/max
  *                        (a figure, not asserted); fails only if a command never shows
+ *   vcan_check drivestop IFACE vesc|odrive FW_PID S DRIVE_TIMEOUT_MS  the controller killed
+ *                        while driving simulated drives: each stops on its own (vcan_drives.c)
+ *   vcan_check goal DX DY DTHETA S  a goal from the simulated truth's pose (vcan_drives.c)
  *   vcan_check capture IFACE S  read the controller's frames until the marker frame 0x7FF
  *                        (at most S seconds); print their count, how many carry a non-zero
  *                        voltage and the data of the last CMD_VOLTAGE
@@ -48,6 +51,7 @@
 #include "omni4/drivers/can_proto.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
+#include "vcan_drives.h"
 
 #define R_WHEEL 0.0325
 #define TRACK_JUDGED_HZ 150.0 /* the loop rate from which tracking is held to 10 % */
@@ -470,6 +474,33 @@ int main(int argc, char **argv)
 		rc = junk_flood(l, n, max_s, argv[4], timeout_ms * 1e-3);
 		lcm_destroy(l);
 		return rc;
+	}
+	if (!strcmp(argv[1], "drivestop")) {
+		const bool proto_ok =
+		    argc > 6 && (!strcmp(argv[3], "vesc") || !strcmp(argv[3], "odrive"));
+		const int pid = argc > 6 ? atoi(argv[4]) : 0;
+		const double max_s = argc > 6 ? atof(argv[5]) : 0,
+		             timeout_ms = argc > 6 ? atof(argv[6]) : 0;
+
+		if (!proto_ok || pid <= 0 || !(max_s > 0) || !(timeout_ms > 0)) {
+			fprintf(stderr,
+			        "usage: vcan_check drivestop IFACE vesc|odrive FW_PID SECONDS "
+			        "DRIVE_TIMEOUT_MS\n");
+			return 2;
+		}
+		return vcan_drive_stop(argv[2], !strcmp(argv[3], "odrive"), pid, max_s,
+		                       timeout_ms * 1e-3);
+	}
+	if (!strcmp(argv[1], "goal")) {
+		const double off[3] = {argc > 5 ? atof(argv[2]) : 0, argc > 5 ? atof(argv[3]) : 0,
+		                       argc > 5 ? atof(argv[4]) : 0};
+		const double max_s = argc > 5 ? atof(argv[5]) : 0;
+
+		if (!(max_s > 0)) {
+			fprintf(stderr, "usage: vcan_check goal DX DY DTHETA SECONDS\n");
+			return 2;
+		}
+		return vcan_goal(off, max_s);
 	}
 	if (!strcmp(argv[1], "capture")) {
 		const double max_s = argc > 3 ? atof(argv[3]) : 0;

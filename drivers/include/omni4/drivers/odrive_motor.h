@@ -31,9 +31,6 @@
 #include "omni4/drivers/sc_os.h"
 #include "omni4/drivers/tx_gate.h"
 
-/* An axis without an encoder estimate this long: DRIVER_TIMEOUT (estimates at the loop rate,
- * docs/odrive.md). */
-#define ODRIVE_STATUS_TIMEOUT_MS 20
 #define ODRIVE_MAX_FRAMES_PER_READ 64
 
 struct odrive_counters {

@@ -10,9 +10,10 @@
 enum odrive_mode { ODRIVE_MODE_TORQUE = 0 };
 
 struct odrive_settings {
-	char iface[16]; /* a network interface name: IFNAMSIZ with its NUL */
-	int node[4];    /* CANSimple node id of wheel j's axis (axis.config.can.node_id) */
-	int mode;       /* enum odrive_mode */
+	char iface[16];        /* a network interface name: IFNAMSIZ with its NUL */
+	int node[4];           /* CANSimple node id of wheel j's axis (axis.config.can.node_id) */
+	int mode;              /* enum odrive_mode */
+	int status_timeout_ms; /* an axis silent this long: FAULT_DRIVER_TIMEOUT */
 };
 
 #endif /* OMNI4_ODRIVE_SETTINGS_H */

@@ -6,10 +6,11 @@
  * (mode current: drive_currents() at the wheel's measured speed). Disabled, or nothing measured
  * yet to compute it from: SET_CURRENT 0, which releases the motor (free-wheeling).
  * read: STATUS_1 gives the wheel speed (ERPM / pole_pairs / gear) and the motor current,
- * STATUS_5 the input voltage (the sample's supply: the lowest). A controller without a STATUS_1
- * for status_timeout_ms -> HAL_FAULT_DRIVER_TIMEOUT; bus-off -> HAL_FAULT_BUS. The status
- * frames carry no fault code (vesc_proto.h): a faulted VESC shows as a motor that does not
- * follow. Nothing to start: the VESC's own command timeout (0.5 s by default) stops a motor
+ * STATUS_5 the input voltage (the sample's supply: the lowest times VESC_DUTY_MAX, the most the
+ * controllers apply, so the controller never asks for a voltage a duty clamp cuts). A controller
+ * without a STATUS_1 for status_timeout_ms -> HAL_FAULT_DRIVER_TIMEOUT; bus-off -> HAL_FAULT_BUS.
+ * The status frames carry no fault code (vesc_proto.h): a faulted VESC shows as a motor that does
+ * not follow. Nothing to start: the VESC's own command timeout (0.5 s by default) stops a motor
  * whose commands stop. close and halt send the mode's zero (SET_DUTY 0 or SET_CURRENT 0) twice.
  */
 #ifndef OMNI4_VESC_MOTOR_H
@@ -26,10 +27,12 @@
 #include "omni4/drivers/vesc_settings.h"
 
 #define VESC_DUTY_MAX 0.95f
-/* A controller silent this long: DRIVER_TIMEOUT (STATUS_1 at the loop rate, docs/vesc.md). */
-#define VESC_STATUS_TIMEOUT_MS 20
-/* Frames drained per read (4 controllers x 3 status frames a tick, with room for a backlog). */
+/* Frames drained per read: 64 per millisecond since the previous read (4 controllers x 3 status
+ * frames at 1 kHz are 12 per ms), at most 4 ms' worth (256). A read after a late tick reaches the
+ * newest STATUS_1 behind the frames queued meanwhile: a fixed 64 a read left a loop slower than
+ * the reports (the CAN VM: 200-300 Hz against 12 frames per ms) acting on ever older speeds. */
 #define VESC_MAX_FRAMES_PER_READ 64
+#define VESC_MAX_READ_CATCHUP 4
 
 struct vesc_counters {
 	uint64_t rx_frames, tx_frames, tx_dropped;
@@ -59,7 +62,7 @@ struct vesc_motor {
 	uint8_t id[4];
 	int pole_pairs;
 	enum vesc_mode mode;
-	int64_t timeout_us, opened_us;
+	int64_t timeout_us, opened_us, last_read_us;
 	struct drive_consts consts;
 	bool enabled, bus_off;
 	struct vesc_drive d[4];
