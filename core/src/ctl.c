@@ -33,6 +33,7 @@ static void tune(struct ctl *c)
 	struct model_wheels w;
 
 	ctl_settings_wheels(cfg, &w);
+	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
 
 	c->t = (struct ctl_tuning){
 	    .dt = (float)dt,
@@ -111,6 +112,11 @@ void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q
 	c->ff = *ff;
 	c->inv_4d = inv_4d;
 	tune(c);
+}
+
+void ctl_set_resistance(struct ctl *c, int j, float R_ohm)
+{
+	ff_q16_wheels_set_resistance(&c->ff, &c->ff_ohm, j, R_ohm);
 }
 
 void ctl_set_slip(struct ctl *c, bool slipping)
@@ -382,15 +388,17 @@ static void track(struct ctl *c, const struct motor_sample *s)
 	float integ[4]; /* the PI integrals before this tick (the traction limit's anti-windup) */
 	const float lim = output_bound(c, s);
 
+	c->tracked = s != NULL;
+	c->track_e2 = 0.0f;
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
+		const float e =
+		    s ? q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j] : 0.0f;
 
+		c->track_e2 += e * e;
 		integ[j] = c->pi[j].integ;
 		c->pi[j].limit = lim;
 		if (c->t.feedback && s) {
-			const float e =
-			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
-
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
 		} else {
 			c->out[j] = ff > lim ? lim : (ff < -lim ? -lim : ff);
@@ -481,6 +489,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 	float cur[4];
 
 	calibrate(c, now_us, sample, read_rc, cur);
+	c->tracked = false;
 
 	c->reading_faults = check_sample(c, sample, cur, read_rc, now_us);
 	const int32_t now_faults =
