@@ -128,7 +128,9 @@ static bool may_take(const struct adapt *a, const struct adapt_input *in)
 {
 	if (in->faulted || !in->driven || !mode_drives(in->mode) || in->mode != a->mode_prev)
 		return false;
-	return !(in->est_flags & (EST_FLAG_SLIP | EST_FLAG_COLLISION));
+	if (in->est_flags & EST_FLAG_SLIP)
+		return false;                         /* a wheel's current does not turn it */
+	return !(in->est_flags & EST_FLAG_COLLISION); /* pushed or blocked */
 }
 
 static void take(struct adapt *a, const struct adapt_input *in)

@@ -128,6 +128,42 @@ static void test_an_r_step_is_estimated_and_accepted(void **state)
 	free(a);
 }
 
+/* An estimate is taken into use only once its relative variance is below variance_gate: not
+ * after 200 noisy samples of a 50 % higher R, but after 10 s of them. */
+static void test_only_a_certain_estimate_is_taken(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double R0 = s.model.R;
+	unsigned rng = 11;
+	struct adapt_report r;
+
+	adapt_init(a, &s);
+	for (int k = 0; k < 2000; k++) /* a window of tracking behind, nothing taken */
+		adapt_step(a, &(struct adapt_input){.reading = true,
+		                                    .driven = true,
+		                                    .mode = CTL_VELOCITY,
+		                                    .tracking = true,
+		                                    .track_e2 = 1e-4f});
+	for (int k = 0; k < 10000; k++) {
+		const double i = 0.6 + 0.3 * sin(k * 0.01);
+		const struct adapt_input in =
+		    tick_in((float)(1.5 * R0 * i + 0.4 * noise(&rng)), (float)i, 0.0f, 1e-4f);
+
+		adapt_step(a, &in);
+		if (k != 200)
+			continue;
+		adapt_report(a, &r);
+		printf("after 200 samples: estimate %.3f, relative variance %.2g\n", r.R_est[0],
+		       r.var[0] / (r.R_est[0] * r.R_est[0]));
+		assert_true(r.var[0] > s.adapt.variance_gate * r.R_est[0] * r.R_est[0]);
+		assert_true(adapt_r_in_use(a)[0] == (float)R0);
+	}
+	assert_true(fabs(adapt_r_in_use(a)[0] / (1.5 * R0) - 1.0) < 0.01);
+	free(a);
+}
+
 /* No sample is taken on a slip, a collision, a fault, a mode change, a motor that does not
  * drive, a small current, an output at the supply or a step of the output. */
 static void test_what_freezes_it(void **state)
@@ -370,6 +406,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_rls_matches_the_weighted_batch_least_squares),
 	    cmocka_unit_test(test_an_r_step_is_estimated_and_accepted),
+	    cmocka_unit_test(test_only_a_certain_estimate_is_taken),
 	    cmocka_unit_test(test_what_freezes_it),
 	    cmocka_unit_test(test_bounds_and_non_finite_values),
 	    cmocka_unit_test(test_a_wrong_acceptance_is_reverted_within_5_s),
