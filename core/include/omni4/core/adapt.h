@@ -8,9 +8,11 @@
  * Estimate, per motor j: recursive least squares with forgetting (factor lambda per sample
  * taken) on eq 21 with L neglected, u_j = R_j i_j + Kv_j w_mj, w_mj = l w_j the motor's speed:
  * the one unknown R_j, y = u_j - Kv_j l w_j = R_j i_j. Kv_j is the model's: the windings'
- * copper changes R by 0.39 %/K while a magnet's field changes Kv by about a quarter of that, and
- * in driving the current follows the speed (friction, the reference's acceleration) so closely
- * that a joint [R_j, Kv_j] fit trades one against the other. A sample is taken only when:
+ * copper changes R by 0.39 %/K while a magnet's field changes Kv by about a quarter of that
+ * (NdFeB, -0.1 %/K); a joint [R_j, Kv_j] fit is well conditioned only while speed and current
+ * vary independently (docs/hard-drive.csv: correlation 0.37, condition number 1.5), and at any
+ * steady cruise (i_j and w_j both constant) it is singular, where R_j alone still has its
+ * samples. A sample is taken only when:
  * the bridges were driven over the step in a mode that drives them (the same mode as the tick
  * before: a mode change freezes it), no fault is latched, the estimator flags no slip and no
  * collision (a push or a block), |i_j| > current_min_a (excitation), |u_j| below
