@@ -33,7 +33,6 @@ static void tune(struct ctl *c)
 	struct model_wheels w;
 
 	ctl_settings_wheels(cfg, &w);
-	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
 
 	c->t = (struct ctl_tuning){
 	    .dt = (float)dt,
@@ -86,6 +85,7 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 	ctl_settings_wheels(cfg, &w);
 	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
 		return -EINVAL;
+	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
@@ -106,10 +106,11 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 }
 
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                q16_t inv_4d)
+                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d)
 {
 	c->set = *cfg;
 	c->ff = *ff;
+	c->ff_ohm = *ff_ohm;
 	c->inv_4d = inv_4d;
 	tune(c);
 }

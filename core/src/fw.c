@@ -65,6 +65,7 @@ int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_on
 		return -EINVAL;
 	u->set = *cfg;
 	u->ff = scratch.ff;
+	u->ff_ohm = scratch.ff_ohm;
 	u->inv_4d = scratch.inv_4d;
 	u->idle_only = idle_only;
 	return 0;
@@ -105,7 +106,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 	if (u->idle_only && driving) {
 		rc = -EBUSY;
 	} else {
-		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
+		ctl_retune(&fw->ctl, &u->set, &u->ff, &u->ff_ohm, u->inv_4d);
 		struct model_wheels w;
 		struct est_settings es;
 

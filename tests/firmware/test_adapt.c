@@ -7,6 +7,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -239,7 +240,89 @@ static void test_bounds_and_non_finite_values(void **state)
 	free(a);
 }
 
+/* A wheel's gains for R from their parts per ohm are the double path's (ff_q16_wheels_prepare
+ * with that R_j) within a Q16.16 LSB, the other wheels' untouched. */
+static void test_gains_per_ohm_match_the_prepared_ones(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct model_wheels w;
+	struct ff_q16_wheels ff, want;
+	struct ff_wheels_per_ohm o;
+
+	ctl_settings_wheels(&s, &w);
+	assert_int_equal(ff_q16_wheels_prepare(&ff, &s.model, &w, 12.0), 0);
+	ff_wheels_per_ohm_prepare(&o, &s.model, &w);
+	for (int j = 0; j < 4; j++) {
+		const float R = (float)(s.model.R * (0.6 + 0.4 * j));
+		const struct ff_q16_wheels before = ff;
+
+		ff_q16_wheels_set_resistance(&ff, &o, j, R);
+		w.R[j] = R;
+		assert_int_equal(ff_q16_wheels_prepare(&want, &s.model, &w, 12.0), 0);
+		for (int k = 0; k < 3; k++) {
+			assert_true(abs(ff.k_acc[j][k] - want.k_acc[j][k]) <= 1);
+			assert_true(abs(ff.k_vel[j][k] - want.k_vel[j][k]) <= 1);
+			assert_true(abs(ff.k_coul[j][k] - want.k_coul[j][k]) <= 1);
+			for (int q = 0; q < 4; q++)
+				if (q != j)
+					assert_int_equal(ff.k_vel[q][k], before.k_vel[q][k]);
+		}
+	}
+}
+
 /* ---- through the loop with the simulated plant (sil/) -------------------------------------- */
+
+static struct simrun *sim(const char *ini, const char *log)
+{
+	struct omni4_config cfg = config_ini(ini);
+	char err[256];
+	struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, true, log, err, sizeof(err));
+
+	if (!sr)
+		fail_msg("%s", err);
+	return sr;
+}
+
+/* A parameter change through the loop (fw_param_prepare / offer): one that leaves the drives
+ * keeps the R in use and its gains; one that changes a drive's R starts again from it. */
+static void change(struct fw *fw, struct simrun *sr, const struct ctl_settings *cfg)
+{
+	static struct fw_param_update u;
+	struct fw_param_result r;
+	char why[128];
+
+	assert_int_equal(fw_param_prepare(fw, cfg, false, &u, why, sizeof(why)), 0);
+	fw_param_offer(fw, &u);
+	simrun_tick(sr);
+	assert_true(fw_param_done(fw, &u, &r) && r.rc == 0);
+}
+
+static void test_a_parameter_change_keeps_or_restarts_it(void **state)
+{
+	(void)state;
+	struct simrun *sr = sim("[sim]\nseed = 2\n", NULL);
+	struct fw *fw = simrun_fw(sr);
+	struct ctl_settings cfg = fw->ctl.set;
+	const float R = 1.1f * fw->adapt.R_id[0];
+	struct ff_q16_wheels want = fw->ctl.ff;
+
+	adapt_accept(&fw->adapt, (const float[4]){R, R, R, R});
+	for (int j = 0; j < 4; j++) {
+		ctl_set_resistance(&fw->ctl, j, R);
+		ff_q16_wheels_set_resistance(&want, &fw->ctl.ff_ohm, j, R);
+	}
+	cfg.control.kp = 25.0;
+	change(fw, sr, &cfg);
+	assert_true(adapt_r_in_use(&fw->adapt)[2] == R);
+	assert_memory_equal(fw->ctl.ff.k_vel, want.k_vel, sizeof(want.k_vel));
+	cfg.model.R = 5.0;
+	ctl_settings_wheels_follow(&cfg);
+	change(fw, sr, &cfg);
+	assert_true(adapt_r_in_use(&fw->adapt)[2] == 5.0f);
+	assert_true(fw->adapt.m[2].R == 5.0f && !fw->adapt.watch);
+	simrun_destroy(sr);
+}
 
 /* docs/hard-drive.csv's pattern, one row per second: +-1.2 m/s on v and vn, +-3 rad/s. */
 static void drive_row(struct simrun *sr, int row)
@@ -279,17 +362,6 @@ static double drive(struct simrun *sr, int *row, double seconds, double *worst_R
 	}
 	*row += ticks / 1000;
 	return e2 / ticks;
-}
-
-static struct simrun *sim(const char *ini, const char *log)
-{
-	struct omni4_config cfg = config_ini(ini);
-	char err[256];
-	struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, true, log, err, sizeof(err));
-
-	if (!sr)
-		fail_msg("%s", err);
-	return sr;
 }
 
 /* A wrong value planted into use (twice the identified R on every motor, the plant cold) is put
@@ -409,6 +481,8 @@ int main(void)
 	    cmocka_unit_test(test_only_a_certain_estimate_is_taken),
 	    cmocka_unit_test(test_what_freezes_it),
 	    cmocka_unit_test(test_bounds_and_non_finite_values),
+	    cmocka_unit_test(test_gains_per_ohm_match_the_prepared_ones),
+	    cmocka_unit_test(test_a_parameter_change_keeps_or_restarts_it),
 	    cmocka_unit_test(test_a_wrong_acceptance_is_reverted_within_5_s),
 	    cmocka_unit_test(test_warm_windings_followed_and_cold_ones_left_alone),
 	};

@@ -157,9 +157,10 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
               bool estop, struct ctl_output *out);
 
 /* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
- * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
+ * instance) and its precomputed feedforward (gains, and their parts per ohm); the PI integrals
+ * and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                q16_t inv_4d);
+                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d);
 
 /* Fast loop, between two ticks: wheel j's feedforward gains for its resistance R_ohm (an
  * accepted estimate, adapt.h; > 0 and finite, within the model's range), the rest as they are:
