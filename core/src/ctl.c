@@ -85,6 +85,7 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 	ctl_settings_wheels(cfg, &w);
 	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
 		return -EINVAL;
+	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
@@ -105,12 +106,18 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 }
 
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                q16_t inv_4d)
+                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d)
 {
 	c->set = *cfg;
 	c->ff = *ff;
+	c->ff_ohm = *ff_ohm;
 	c->inv_4d = inv_4d;
 	tune(c);
+}
+
+void ctl_set_resistance(struct ctl *c, int j, float R_ohm)
+{
+	ff_q16_wheels_set_resistance(&c->ff, &c->ff_ohm, j, R_ohm);
 }
 
 void ctl_set_slip(struct ctl *c, bool slipping)
@@ -382,15 +389,17 @@ static void track(struct ctl *c, const struct motor_sample *s)
 	float integ[4]; /* the PI integrals before this tick (the traction limit's anti-windup) */
 	const float lim = output_bound(c, s);
 
+	c->tracked = s != NULL;
+	c->track_e2 = 0.0f;
 	for (int j = 0; j < 4; j++) {
 		const float ff = q16_to_float(ff_q[j]);
+		const float e =
+		    s ? q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j] : 0.0f;
 
+		c->track_e2 += e * e;
 		integ[j] = c->pi[j].integ;
 		c->pi[j].limit = lim;
 		if (c->t.feedback && s) {
-			const float e =
-			    q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j];
-
 			c->out[j] = ctl_pi_step(&c->pi[j], ff, e);
 		} else {
 			c->out[j] = ff > lim ? lim : (ff < -lim ? -lim : ff);
@@ -481,6 +490,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
 	float cur[4];
 
 	calibrate(c, now_us, sample, read_rc, cur);
+	c->tracked = false;
 
 	c->reading_faults = check_sample(c, sample, cur, read_rc, now_us);
 	const int32_t now_faults =

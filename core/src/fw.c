@@ -15,6 +15,8 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	fw->lines = lines;
 	fw->late_us = llround(2e6 / cfg->rate_hz); /* [loop] rate_hz: restart only */
 	fw->state_every = (int)ceil(cfg->rate_hz / FW_STATE_HZ - 1e-9);
+	fw->adapt_every = (int)ceil(cfg->rate_hz / FW_ADAPT_HZ - 1e-9);
+	adapt_init(&fw->adapt, cfg);
 	struct est_settings es;
 	struct model_wheels w;
 
@@ -63,6 +65,7 @@ int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_on
 		return -EINVAL;
 	u->set = *cfg;
 	u->ff = scratch.ff;
+	u->ff_ohm = scratch.ff_ohm;
 	u->inv_4d = scratch.inv_4d;
 	u->idle_only = idle_only;
 	return 0;
@@ -103,7 +106,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 	if (u->idle_only && driving) {
 		rc = -EBUSY;
 	} else {
-		ctl_retune(&fw->ctl, &u->set, &u->ff, u->inv_4d);
+		ctl_retune(&fw->ctl, &u->set, &u->ff, &u->ff_ohm, u->inv_4d);
 		struct model_wheels w;
 		struct est_settings es;
 
@@ -112,6 +115,11 @@ static void take_params(struct fw *fw, int64_t now_us)
 		est_settings_from_keys(&u->set.est, &es);
 		est_set_settings(&fw->est, &es);
 		goal_init(&fw->goal, &u->set);
+		const uint32_t adapted = adapt_retune(&fw->adapt, &u->set);
+
+		for (int j = 0; j < 4; j++)
+			if (adapted & (1u << j))
+				ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
@@ -248,6 +256,67 @@ static void estimate(struct fw *fw, struct est_input *in)
 		fw->state_flags = o->flags;
 		log_push(fw, &e);
 	}
+}
+
+/* The adapted constants as a log entry (LOG_ADAPT, or LOG_ADAPT_CHANGE with R_before). */
+static void push_adapt(struct fw *fw, int64_t now_us, uint8_t kind, const float R_before[4])
+{
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = kind};
+	struct adapt_report r;
+	const struct model_params *p = &fw->ctl.set.model;
+	const uint32_t rep_n = fw->adapt.rep_n;
+
+	adapt_report(&fw->adapt, &r);
+	memcpy(e.adapt.R, r.R, sizeof(e.adapt.R));
+	memcpy(e.adapt.R_est, r.R_est, sizeof(e.adapt.R_est));
+	memcpy(e.adapt.R_var, r.var, sizeof(e.adapt.R_var));
+	memcpy(e.adapt.R_before, R_before ? R_before : r.R, sizeof(e.adapt.R_before));
+	e.adapt.supply_v = r.supply_v;
+	e.adapt.track_rms = r.track_rms;
+	e.adapt.C[0] = (float)p->Cv;
+	e.adapt.C[1] = (float)p->Cvn;
+	e.adapt.C[2] = (float)p->Cw;
+	e.adapt.flags = r.flags;
+	if (kind == LOG_ADAPT_CHANGE) { /* what is since the last LOG_ADAPT stays for the next */
+		fw->adapt.flags =
+		    r.flags & ~(ADAPT_FLAG_ON | ADAPT_FLAG_WATCH | ADAPT_FLAG_ADAPTED);
+		fw->adapt.rep_e2 = r.track_rms * r.track_rms * 4.0f * (float)rep_n;
+		fw->adapt.rep_n = rep_n;
+	}
+	log_push(fw, &e);
+}
+
+/* The resistances' estimation on this tick's reading (after the estimator, whose flags it
+ * reads); an acceptance or revert goes into the feedforward at once and to the log. */
+static void adapt(struct fw *fw, int64_t now_us, const struct est_input *in, const float cur[4],
+                  float supply_v)
+{
+	const struct ctl *c = &fw->ctl;
+	struct adapt_input a = {
+	    .reading = in->have_wheels,
+	    .driven = in->driven,
+	    .mode = (int8_t)c->mode,
+	    .faulted = c->latched != 0,
+	    .est_flags = fw->no_estimate ? 0u : est_get(&fw->est)->flags,
+	    .supply_v = supply_v,
+	    .tracking = c->tracked,
+	    .track_e2 = c->track_e2,
+	};
+	float before[4];
+
+	memcpy(a.volts, in->volts, sizeof(a.volts));
+	memcpy(a.current_a, cur, sizeof(a.current_a));
+	memcpy(a.wheel_rad_s, in->wheel_rad_s, sizeof(a.wheel_rad_s));
+	memcpy(before, adapt_r_in_use(&fw->adapt), sizeof(before));
+	const uint32_t changed = adapt_step(&fw->adapt, &a);
+
+	for (int j = 0; j < 4; j++)
+		if (changed & (1u << j))
+			ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
+	if (changed)
+		push_adapt(fw, now_us, LOG_ADAPT_CHANGE, before);
+	if (fw->seq % fw->adapt_every == 0)
+		push_adapt(fw, now_us, LOG_ADAPT, NULL);
 }
 
 bool fw_pop_log(struct fw *fw, struct log_entry *e)
@@ -387,6 +456,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	if (fw->ctl.cal.gen != fw->cal_gen) /* new offsets, subtracted from this tick on */
 		push_calibration(fw, now_us);
 	estimate(fw, &in);
+	adapt(fw, now_us, &in, out.current, rc == 0 ? s.supply_v : 0.0f);
 	ctl_set_slip(&fw->ctl, !fw->no_estimate && (est_get(&fw->est)->flags & EST_FLAG_SLIP));
 	push_sample(fw, now_us, &out);
 	fw->seq++;

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "omni4_adapt_t.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_param_changed_t.h"
@@ -27,6 +28,14 @@
 #define OMNI4_FAULT(name, ...) SAME(CTL_FAULT_##name, OMNI4_MOTORS_T_FAULT_##name)
 #define OMNI4_FLAG(name, ...) SAME(EST_FLAG_##name, OMNI4_STATE_T_FLAG_##name)
 #include "omni4/core/vocab.def"
+SAME(ADAPT_FLAG_ON, OMNI4_ADAPT_T_FLAG_ON)
+SAME(ADAPT_FLAG_FED, OMNI4_ADAPT_T_FLAG_FED)
+SAME(ADAPT_FLAG_FROZEN, OMNI4_ADAPT_T_FLAG_FROZEN)
+SAME(ADAPT_FLAG_ADAPTED, OMNI4_ADAPT_T_FLAG_ADAPTED)
+SAME(ADAPT_FLAG_WATCH, OMNI4_ADAPT_T_FLAG_WATCH)
+SAME(ADAPT_FLAG_ACCEPTED, OMNI4_ADAPT_T_FLAG_ACCEPTED)
+SAME(ADAPT_FLAG_REVERTED, OMNI4_ADAPT_T_FLAG_REVERTED)
+SAME(ADAPT_FLAG_RESTART, OMNI4_ADAPT_T_FLAG_RESTART)
 #undef WIRE_CMD
 #undef WIRE_STATE
 #undef WIRE_BOTH
@@ -109,6 +118,63 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
 }
 
+/* LOG_ADAPT_CHANGE -> param_changed_t (lcmio.h). */
+static int encode_adapt_change(const struct log_entry *e, void *buf, size_t cap)
+{
+	enum { KEYS = 5, VAL = 32 };
+	static const char *const names[KEYS] = {"adapt.R_0", "adapt.R_1", "adapt.R_2", "adapt.R_3",
+	                                        "adapt.event"};
+	char now[KEYS][VAL], before[KEYS][VAL];
+	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
+	const struct log_adapt *a = &e->adapt;
+
+	for (int j = 0; j < 4; j++) {
+		snprintf(now[j], VAL, "%.6f", (double)a->R[j]);
+		snprintf(before[j], VAL, "%.6f", (double)a->R_before[j]);
+	}
+	snprintf(now[4], VAL, "%s", a->flags & ADAPT_FLAG_REVERTED ? "reverted" : "accepted");
+	before[4][0] = '\0';
+	for (int k = 0; k < KEYS; k++) {
+		keys[k] = (char *)names[k];
+		values[k] = now[k];
+		old_values[k] = before[k];
+	}
+	const omni4_param_changed_t m = {.utime = e->utime,
+	                                 .seq = e->seq,
+	                                 .request_id = 0,
+	                                 .source = (char *)"adapt",
+	                                 .path = (char *)"",
+	                                 .n = KEYS,
+	                                 .keys = keys,
+	                                 .old_values = old_values,
+	                                 .values = values};
+
+	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
+		return -ENOSPC;
+	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
+}
+
+/* LOG_ADAPT -> adapt_t. */
+static int encode_adapt(const struct log_entry *e, void *buf, size_t cap)
+{
+	const struct log_adapt *a = &e->adapt;
+	omni4_adapt_t m = {.utime = e->utime,
+	                   .seq = e->seq,
+	                   .supply_v = a->supply_v,
+	                   .Cv = a->C[0],
+	                   .Cvn = a->C[1],
+	                   .Cw = a->C[2],
+	                   .track_rms = a->track_rms,
+	                   .flags = (int32_t)a->flags};
+
+	for (int j = 0; j < 4; j++) {
+		m.R[j] = a->R[j];
+		m.R_estimate[j] = a->R_est[j];
+		m.R_variance[j] = a->R_var[j];
+	}
+	return omni4_adapt_t_encode(buf, 0, (int)cap, &m);
+}
+
 /* The estimator's output as a state_t. */
 static int encode_state(const struct log_entry *e, void *buf, size_t cap)
 {
@@ -142,6 +208,12 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	} else if (e->kind == LOG_GOAL) {
 		*channel = OMNI4_CHANNEL_GOAL_STATUS;
 		n = lcmio_encode_goal_status(e, buf, cap);
+	} else if (e->kind == LOG_ADAPT) {
+		*channel = OMNI4_CHANNEL_ADAPT;
+		n = encode_adapt(e, buf, cap);
+	} else if (e->kind == LOG_ADAPT_CHANGE) {
+		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
+		n = encode_adapt_change(e, buf, cap);
 	} else if (e->kind == LOG_CALIBRATION) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_calibration(e, buf, cap);
@@ -184,7 +256,7 @@ size_t lcmio_drain(struct fw *fw, const struct lcmio_sink *sink, uint64_t *sink_
 	while (fw_pop_log(fw, &e)) {
 		const int len = lcmio_encode_log(&e, buf, sizeof(buf), &channel);
 
-		if (e.kind == LOG_CALIBRATION && sink->note)
+		if ((e.kind == LOG_CALIBRATION || e.kind == LOG_ADAPT_CHANGE) && sink->note)
 			sink->note(sink->note_ctx, &e);
 
 		if (len < 0 || sink->emit(sink->ctx, channel, e.utime, e.seq, buf, (size_t)len) < 0)

@@ -78,10 +78,33 @@ static void install_crash_handler(void)
 
 /* Logger thread: a new set of current-sense offsets (it also goes out on
  * OMNI4_PARAM_CHANGED); a channel beyond the limit is always said, the rest unless --quiet. */
+/* Logger thread: the feedforward's R_j changed online ([adapt]; also on OMNI4_PARAM_CHANGED):
+ * a revert is always said, an acceptance unless --quiet. */
+static void on_adapt_change(bool quiet, const struct log_entry *e)
+{
+	const struct log_adapt *a = &e->adapt;
+	const bool reverted = a->flags & ADAPT_FLAG_REVERTED;
+
+	if (quiet && !reverted)
+		return;
+	fprintf(stderr,
+	        "omni4-fw: adapt: R %.4f %.4f %.4f %.4f ohm %s at tick %lld (was %.4f %.4f %.4f "
+	        "%.4f)%s\n",
+	        (double)a->R[0], (double)a->R[1], (double)a->R[2], (double)a->R[3],
+	        reverted ? "put back" : "accepted", (long long)e->seq, (double)a->R_before[0],
+	        (double)a->R_before[1], (double)a->R_before[2], (double)a->R_before[3],
+	        reverted ? ": the tracking worsened after the last acceptance" : "");
+}
+
 static void on_calibration(void *ctx, const struct log_entry *e)
 {
 	const bool quiet = *(const int *)ctx;
 	const struct log_calibration *c = &e->cal;
+
+	if (e->kind == LOG_ADAPT_CHANGE) {
+		on_adapt_change(quiet, e);
+		return;
+	}
 	const float *a = c->offset;
 
 	if (c->over_limit) {

@@ -23,20 +23,37 @@ void ff_voltages(const struct model_params *p, const double vel[3], const double
 	ff_voltages_wheels(p, &w, vel, acc, u_max, u);
 }
 
+/* One drive's feedforward gains (R, r, Kt, Kv) in double, per axis: acc [V/(m/s^2)],
+ * [V/(rad/s^2)]; vel (viscous friction and back-EMF) [V/(m/s)], [V/(rad/s)]; coul [V]. The Q16.16
+ * gains (ff_q16_init, ff_q16_wheels_init) and their parts per ohm (ff_wheels_per_ohm_prepare)
+ * all come from these expressions. */
+static void ff_wheel_terms(const struct model_params *p, double R, double r, double Kt, double Kv,
+                           double acc[3], double vel[3], double coul[3])
+{
+	const double kf = R * r / (p->l * Kt); /* [V/N] */
+	const double k4d = kf / (4.0 * p->d);
+	const double kemf = Kv * p->l / r; /* [V/(m/s)] at the wheel rim */
+
+	acc[0] = kf * p->M / 2.0;
+	acc[1] = kf * p->M / 2.0;
+	acc[2] = k4d * p->J;
+	vel[0] = kf * p->Bv / 2.0 + kemf;
+	vel[1] = kf * p->Bvn / 2.0 + kemf;
+	vel[2] = k4d * p->Bw + kemf * p->d;
+	coul[0] = kf * p->Cv / 2.0;
+	coul[1] = kf * p->Cvn / 2.0;
+	coul[2] = k4d * p->Cw;
+}
+
 /* The Q16.16 gains of one drive's constants (R, r, Kt, Kv): the scalar model's (ff_q16_init)
  * and each wheel's (ff_q16_wheels_init) come from these expressions, so equal wheels give the
  * scalar bits. */
 static void ff_q16_wheel_gains(const struct model_params *p, double R, double r, double Kt,
                                double Kv, q16_t k_acc[3], q16_t k_vel[3], q16_t k_coul[3])
 {
-	const double kf = R * r / (p->l * Kt); /* [V/N] */
-	const double k4d = kf / (4.0 * p->d);
-	const double acc[3] = {kf * p->M / 2.0, kf * p->M / 2.0, k4d * p->J};
-	const double kemf = Kv * p->l / r; /* [V/(m/s)] at the wheel rim */
-	const double vel[3] = {kf * p->Bv / 2.0 + kemf, kf * p->Bvn / 2.0 + kemf,
-	                       k4d * p->Bw + kemf * p->d};
-	const double coul[3] = {kf * p->Cv / 2.0, kf * p->Cvn / 2.0, k4d * p->Cw};
+	double acc[3], vel[3], coul[3];
 
+	ff_wheel_terms(p, R, r, Kt, Kv, acc, vel, coul);
 	for (int k = 0; k < 3; k++) {
 		k_acc[k] = q16_from_double(acc[k]);
 		k_vel[k] = q16_from_double(vel[k]);
@@ -103,4 +120,31 @@ int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p
 		ff->sgn_gain[k] = (int32_t)lround(1.0 / band[k]);
 	ff->u_max = q16_from_double(u_max);
 	return 0;
+}
+
+void ff_wheels_per_ohm_prepare(struct ff_wheels_per_ohm *o, const struct model_params *p,
+                               const struct model_wheels *w)
+{
+	for (int j = 0; j < 4; j++) {
+		double acc[3], vel[3], coul[3], acc0[3], emf[3], coul0[3];
+
+		ff_wheel_terms(p, 1.0, w->r[j], w->Kt[j], w->Kv[j], acc, vel, coul);
+		ff_wheel_terms(p, 0.0, w->r[j], w->Kt[j], w->Kv[j], acc0, emf, coul0);
+		for (int k = 0; k < 3; k++) {
+			o->acc[j][k] = (float)acc[k];
+			o->vel[j][k] = (float)(vel[k] - emf[k]);
+			o->emf[j][k] = (float)emf[k];
+			o->coul[j][k] = (float)coul[k];
+		}
+	}
+}
+
+void ff_q16_wheels_set_resistance(struct ff_q16_wheels *ff, const struct ff_wheels_per_ohm *o,
+                                  int j, float R_ohm)
+{
+	for (int k = 0; k < 3; k++) {
+		ff->k_acc[j][k] = q16_from_float(R_ohm * o->acc[j][k]);
+		ff->k_vel[j][k] = q16_from_float(R_ohm * o->vel[j][k] + o->emf[j][k]);
+		ff->k_coul[j][k] = q16_from_float(R_ohm * o->coul[j][k]);
+	}
 }

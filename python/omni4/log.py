@@ -12,7 +12,8 @@ the channel name, the payload. The reader loads each file once, walks the header
 way host-tools/common/logdata.cpp does (an invalid header or a truncated event: skip to the next
 sync word, count the bytes; in C, _logwalk.c, which also names each event's channel and gathers
 the payloads; the same in numpy where that library is not built), and decodes the fixed-size
-types (motors_t, pose_t, command_t, state_t, sim_truth_t, sim_plant_t, goal_status_t) with
+types (motors_t, pose_t, command_t, state_t, sim_truth_t, sim_plant_t, goal_status_t,
+adapt_t) with
 one structured big-endian view over the gathered payloads (the dtype omni4._layout reads from
 the generated classes): no Python loop per message. Variable-size types (experiment_t) and
 any other type in omni4.TYPES go through the lcm-gen decoder, message by message. The

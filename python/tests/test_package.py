@@ -18,7 +18,7 @@ def test_every_lcm_struct_is_a_package_type():
                 names.update(re.findall(r"^struct\s+(\w+)", fh.read(), re.M))
     assert names == {"command_t", "experiment_t", "motors_t", "pose_t", "param_request_t",
                      "param_reply_t", "param_value_t", "param_changed_t", "state_t",
-                     "sim_truth_t", "goal_t", "goal_status_t", "sim_plant_t"}
+                     "sim_truth_t", "goal_t", "goal_status_t", "sim_plant_t", "adapt_t"}
     for n in names:
         assert hasattr(omni4, n), n
 

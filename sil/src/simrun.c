@@ -365,6 +365,19 @@ void simrun_set_estop(struct simrun *sr, bool pressed)
 	atomic_store(&sr->robot.sim_lines.estop, pressed);
 }
 
+struct fw *simrun_fw(struct simrun *sr)
+{
+	return &sr->robot.fw;
+}
+
+void simrun_plant_resistance(const struct simrun *sr, double R_ohm[4])
+{
+	struct sim_plant_state ps;
+
+	sim_motor_plant_state(&sr->robot.sim, &ps);
+	memcpy(R_ohm, ps.R_ohm, sizeof(ps.R_ohm));
+}
+
 struct sim_motor_faults *simrun_faults(struct simrun *sr)
 {
 	return &sr->robot.sim.inject;

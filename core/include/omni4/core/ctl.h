@@ -90,6 +90,8 @@ struct ctl {
 	struct ctl_settings set; /* the settings in force (read off the loop: reports, tests) */
 	/* the per-wheel feedforward of the wheels in force (ctl_settings_wheels) */
 	struct ff_q16_wheels ff;
+	struct ff_wheels_per_ohm
+	    ff_ohm; /* the same gains per ohm of each R_j (ctl_set_resistance) */
 	q16_t inv_4d;
 	int64_t period_us; /* loop period [us] */
 	struct ctl_tuning t;
@@ -109,6 +111,10 @@ struct ctl {
 	/* GOAL: the reference of this tick (ctl_goal_reference), robot frame */
 	float goal_vel[3]; /* [m/s, m/s, rad/s] */
 	float goal_acc[3]; /* [m/s^2, m/s^2, rad/s^2] */
+	/* The speed tracking of this tick (VELOCITY, GOAL with a reading): the wheels' rim speed
+	 * reference minus their reading, squared and summed [(m/s)^2] */
+	bool tracked;
+	float track_e2;
 	/* VOLTAGE ramp */
 	struct ctl_ramp ramp;
 	bool stopping; /* watchdog stop ramp in progress */
@@ -151,9 +157,15 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
               bool estop, struct ctl_output *out);
 
 /* Between two ticks: run from now on with cfg (already checked by ctl_init on a scratch
- * instance) and its precomputed feedforward; the PI integrals and the modes are kept. */
+ * instance) and its precomputed feedforward (gains, and their parts per ohm); the PI integrals
+ * and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                q16_t inv_4d);
+                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d);
+
+/* Fast loop, between two ticks: wheel j's feedforward gains for its resistance R_ohm (an
+ * accepted estimate, adapt.h; > 0 and finite, within the model's range), the rest as they are:
+ * nine float products (ff_q16_wheels_set_resistance). The next retune puts the settings' back. */
+void ctl_set_resistance(struct ctl *c, int j, float R_ohm);
 
 /* Between two ticks: the estimator's slip flag (the traction limit backs off while it is set). */
 void ctl_set_slip(struct ctl *c, bool slipping);

@@ -43,6 +43,13 @@ struct ctl_settings {
 		double traction_margin; /* share of mu N_j kept in reserve */
 		double com_height;      /* centre of mass above the floor [m] (load transfer) */
 	} limits;
+	struct {
+		bool enable;          /* online estimation of the motors' constants */
+		bool resistance;      /* each motor's R_j estimated and, once certain, in use */
+		double forget;        /* RLS forgetting factor per sample taken [-] */
+		double current_min_a; /* a motor is fed only beyond this |current| [A] */
+		double variance_gate; /* (sigma_R / R)^2 below which an estimate is taken [-] */
+	} adapt;                      /* core/ adapt.h */
 	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
 	struct {
 		int feedforward; /* enum ctl_goal_ff: the tracker's feedforward */

@@ -13,6 +13,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "omni4/core/adapt.h"
 #include "omni4/core/ctl.h"
 #include "omni4/core/ctl_settings.h"
 #include "omni4/core/est.h"
@@ -29,6 +30,7 @@
 #define FW_POSES_PER_TICK 4       /* backend camera poses the estimator takes in one tick */
 #define FW_POSE_POLLS_PER_TICK 16 /* backend camera poses read (and logged) in one tick */
 #define FW_STATE_HZ 100.0         /* OMNI4_STATE rate (and on every change of its flags) */
+#define FW_ADAPT_HZ 10.0          /* OMNI4_ADAPT rate */
 
 enum log_kind {
 	LOG_MOTORS = 1,
@@ -37,6 +39,22 @@ enum log_kind {
 	LOG_STATE = 4,
 	LOG_TRUTH = 5,
 	LOG_GOAL = 6,
+	LOG_ADAPT = 7,
+	LOG_ADAPT_CHANGE = 8,
+};
+
+/* LOG_ADAPT: the motors' constants in use (adapt_t); LOG_ADAPT_CHANGE: an acceptance or a
+ * revert of the R_j in use (a param_changed_t with source "adapt"), pushed at the tick that
+ * made it, before that tick's LOG_ADAPT. */
+struct log_adapt {
+	float R[4];        /* in use [ohm] */
+	float R_est[4];    /* the estimates [ohm] */
+	float R_var[4];    /* their variances [ohm^2] */
+	float R_before[4]; /* LOG_ADAPT_CHANGE: in use before [ohm] */
+	float supply_v;    /* the drives' supply as last read [V] */
+	float track_rms; /* the wheels' speed tracking error since the last LOG_ADAPT, RMS [m/s] */
+	float C[3];      /* Coulomb friction in use: Cv, Cvn [N], Cw [N m] */
+	uint32_t flags;  /* ADAPT_FLAG_* */
 };
 
 /* LOG_MOTORS: the tick's motors_t sample. */
@@ -89,6 +107,7 @@ struct log_entry {
 		struct log_calibration cal; /* LOG_CALIBRATION */
 		struct est_output state;    /* LOG_STATE */
 		struct goal_report goal;    /* LOG_GOAL */
+		struct log_adapt adapt;     /* LOG_ADAPT, LOG_ADAPT_CHANGE */
 	};
 };
 
@@ -118,6 +137,7 @@ struct fw_counters {
 struct fw_param_update {
 	struct ctl_settings set;
 	struct ff_q16_wheels ff;
+	struct ff_wheels_per_ohm ff_ohm; /* ff's parts per ohm of each R_j (ctl_set_resistance) */
 	q16_t inv_4d;
 	bool idle_only; /* the loop refuses it (-EBUSY) if the bridges are driven at that tick */
 	uint32_t gen;   /* set by fw_param_offer */
@@ -143,8 +163,10 @@ struct fw_param_result {
 
 struct fw {
 	struct ctl ctl;
-	struct est est;   /* the state estimate (est.h), stepped after the controller */
-	struct goal goal; /* position control (goal.h), stepped before the controller */
+	struct est est;     /* the state estimate (est.h), stepped after the controller */
+	struct goal goal;   /* position control (goal.h), stepped before the controller */
+	struct adapt adapt; /* the motors' resistances online (adapt.h), after the estimator */
+	int adapt_every;    /* ticks between two LOG_ADAPT entries */
 	struct motor_hal motor;
 	struct line_hal lines;
 	struct spsc_ring cmd_ring;

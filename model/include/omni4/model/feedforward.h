@@ -87,4 +87,29 @@ int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p
 void ff_voltages_q16_wheels(const struct ff_q16_wheels *ff, const q16_t vel[3], const q16_t acc[3],
                             q16_t u[4]);
 
+/*
+ * Each wheel's gains as affine functions of its resistance R_j (its online estimate: core/
+ * adapt.h): k_acc[j] = R_j acc[j], k_vel[j] = R_j vel[j] + emf[j], k_coul[j] = R_j coul[j], in
+ * single precision (the loop's arithmetic), from the expressions of ff_q16_wheels_init.
+ */
+struct ff_wheels_per_ohm {
+	float acc[4][3];  /* [V/(m/s^2)/ohm], [V/(rad/s^2)/ohm] */
+	float vel[4][3];  /* viscous friction [V/(m/s)/ohm], [V/(rad/s)/ohm] */
+	float emf[4][3];  /* back-EMF [V/(m/s)], [V/(rad/s)]: no R in it */
+	float coul[4][3]; /* [V/ohm] */
+};
+
+/* From a checked model (as ff_q16_wheels_prepare); w's R is not used. Off the fast loop. */
+void ff_wheels_per_ohm_prepare(struct ff_wheels_per_ohm *o, const struct model_params *p,
+                               const struct model_wheels *w);
+/*
+ * Fast loop: wheel j's nine Q16.16 gains of ff for its resistance R_ohm (> 0, finite, within
+ * the model's range: the caller's bounds), the other wheels untouched. Scaling and overflow:
+ * nine float products and sums, each rounded once to Q16.16 (q16_from_float saturates at the
+ * format's +-32768, far above any gain of a model within its ranges). The same gains as
+ * ff_q16_wheels_prepare with R_j = R_ohm to within float's rounding (a Q16.16 LSB).
+ */
+void ff_q16_wheels_set_resistance(struct ff_q16_wheels *ff, const struct ff_wheels_per_ohm *o,
+                                  int j, float R_ohm);
+
 #endif /* OMNI4_FEEDFORWARD_H */

@@ -106,6 +106,11 @@ void simrun_set_tap(struct simrun *sr, simrun_tap_fn fn, void *ctx);
 struct est_output;
 const struct est_output *simrun_estimate(const struct simrun *sr);
 struct sim_motor_faults *simrun_faults(struct simrun *sr);
+/* Test access: the firmware instance in the loop (between ticks), and the simulated plant's
+ * resistances now [ohm] (sim_plant_t.R). */
+struct fw;
+struct fw *simrun_fw(struct simrun *sr);
+void simrun_plant_resistance(const struct simrun *sr, double R_ohm[4]);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,491 @@
+/* The motors' resistances estimated online (core/ adapt.h): the RLS against a weighted batch
+ * least squares computed here in double on the same samples; a plant whose R steps, estimated
+ * and accepted; what freezes it; its bounds and NaN guard; and through the whole loop with the
+ * simulated plant (sil/): a wrong acceptance reverted within 5 s, warm windings followed, cold
+ * ones left alone. */
+#include "omni4_test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "config_ini.h"
+#include "hil_util.h"
+#include "omni4/core/adapt.h"
+#include "omni4/core/fw.h"
+#include "omni4/lcmtypes/channels.h"
+#include "omni4_param_changed_t.h"
+
+#define RATE_HZ 1000.0
+
+static struct ctl_settings settings(void)
+{
+	struct ctl_settings s;
+
+	ctl_settings_defaults(&s);
+	return s;
+}
+
+/* A driven VELOCITY tick of motor inputs u, i, w on every motor, tracking error e2. */
+static struct adapt_input tick_in(float u, float i, float w, float e2)
+{
+	struct adapt_input in = {.reading = true,
+	                         .driven = true,
+	                         .mode = CTL_VELOCITY,
+	                         .supply_v = 12.0f,
+	                         .tracking = true,
+	                         .track_e2 = e2};
+
+	for (int j = 0; j < 4; j++) {
+		in.volts[j] = u;
+		in.current_a[j] = i;
+		in.wheel_rad_s[j] = w;
+	}
+	return in;
+}
+
+/* Deterministic noise in [-1, 1]. */
+static double noise(unsigned *state)
+{
+	*state = *state * 1103515245u + 12345u;
+	return ((*state >> 8) & 0xffff) / 32767.5 - 1.0;
+}
+
+/* The RLS is the exponentially weighted least squares with the identified R as a prior worth
+ * 1 / ADAPT_P0 (closed form: (lambda^N R0 / P0 + sum lambda^(N-k) i y) / (lambda^N / P0 +
+ * sum lambda^(N-k) i^2)), and its variance that fit's for the residual's spread. */
+static void test_rls_matches_the_weighted_batch_least_squares(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double R0 = s.model.R, R_true = 1.2 * R0, kvl = s.model.Kv * s.model.l;
+	const double lambda = s.adapt.forget, sigma_v = 0.05;
+	double num = R0 / ADAPT_P0, den = 1.0 / ADAPT_P0, sw2x2 = 0.0;
+	unsigned rng = 7;
+	const int N = 6000;
+
+	adapt_init(a, &s);
+	/* the tick before: a mode change (not taken), the first sample's output */
+	adapt_step(a, &(struct adapt_input){.mode = CTL_IDLE});
+	const struct adapt_input first = tick_in((float)(R_true * 0.9), 0.9f, 0.0f, 0.0f);
+
+	adapt_step(a, &first);
+	for (int k = 0; k < N; k++) {
+		const double i = 0.9 + 0.5 * sin(k * 0.013), w = 20.0 * sin(k * 0.004);
+		const double y = R_true * i + sigma_v * noise(&rng);
+		const struct adapt_input in =
+		    tick_in((float)(y + kvl * w), (float)i, (float)w, 1e-4f);
+		const double yf =
+		    (double)in.volts[0] - (double)(float)kvl * (double)in.wheel_rad_s[0];
+
+		adapt_step(a, &in);
+		num = lambda * num + (double)in.current_a[0] * yf;
+		den = lambda * den + (double)in.current_a[0] * in.current_a[0];
+		sw2x2 = lambda * lambda * sw2x2 + i * i;
+	}
+	assert_int_equal(a->m[0].n, N); /* every sample taken */
+	const double batch = num / den;
+	/* uniform noise on [-sigma, sigma]: variance sigma^2 / 3 */
+	const double var = sigma_v * sigma_v / 3.0 * sw2x2 / (den * den);
+	struct adapt_report r;
+
+	adapt_report(a, &r);
+	printf("RLS %.6f batch %.6f (true %.6f); variance %.3g, batch %.3g\n", r.R_est[0], batch,
+	       R_true, r.var[0], var);
+	assert_true(fabs(r.R_est[0] - batch) < 2e-6 * batch); /* measured 4e-7 */
+	assert_true(r.var[0] > 0.5 * var && r.var[0] < 2.0 * var);
+	free(a);
+}
+
+/* A plant whose R steps by +30 % at 10 s: 10 s later the estimate and the R in use are within
+ * 1 % of it (the forgetting's time constant is about 2 s of samples). */
+static void test_an_r_step_is_estimated_and_accepted(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double R0 = s.model.R, kvl = s.model.Kv * s.model.l;
+	unsigned rng = 3, changed = 0;
+
+	adapt_init(a, &s);
+	for (int k = 0; k < 20000; k++) {
+		const double R = k < 10000 ? R0 : 1.3 * R0;
+		const double i = 0.8 + 0.4 * sin(k * 0.01), w = 30.0 * sin(k * 0.003);
+		const double u = R * i + kvl * w + 0.1 * noise(&rng);
+
+		const struct adapt_input in = tick_in((float)u, (float)i, (float)w, 1e-4f);
+
+		changed |= adapt_step(a, &in);
+	}
+	printf("R est %.4f in use %.4f, true %.4f\n", a->m[1].R, adapt_r_in_use(a)[1], 1.3 * R0);
+	assert_int_equal(changed, 0xf);
+	for (int j = 0; j < 4; j++) {
+		assert_true(fabs(a->m[j].R / (1.3 * R0) - 1.0) < 0.01);
+		assert_true(fabs(adapt_r_in_use(a)[j] / (1.3 * R0) - 1.0) < 0.01);
+	}
+	free(a);
+}
+
+/* An estimate is taken into use only once its relative variance is below variance_gate: not
+ * after 200 noisy samples of a 50 % higher R, but after 10 s of them. */
+static void test_only_a_certain_estimate_is_taken(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double R0 = s.model.R;
+	unsigned rng = 11;
+	struct adapt_report r;
+
+	adapt_init(a, &s);
+	for (int k = 0; k < 2000; k++) /* a window of tracking behind, nothing taken */
+		adapt_step(a, &(struct adapt_input){.reading = true,
+		                                    .driven = true,
+		                                    .mode = CTL_VELOCITY,
+		                                    .tracking = true,
+		                                    .track_e2 = 1e-4f});
+	for (int k = 0; k < 10000; k++) {
+		const double i = 0.6 + 0.3 * sin(k * 0.01);
+		const struct adapt_input in =
+		    tick_in((float)(1.5 * R0 * i + 0.4 * noise(&rng)), (float)i, 0.0f, 1e-4f);
+
+		adapt_step(a, &in);
+		if (k != 200)
+			continue;
+		adapt_report(a, &r);
+		printf("after 200 samples: estimate %.3f, relative variance %.2g\n", r.R_est[0],
+		       r.var[0] / (r.R_est[0] * r.R_est[0]));
+		assert_true(r.var[0] > s.adapt.variance_gate * r.R_est[0] * r.R_est[0]);
+		assert_true(adapt_r_in_use(a)[0] == (float)R0);
+	}
+	assert_true(fabs(adapt_r_in_use(a)[0] / (1.5 * R0) - 1.0) < 0.01);
+	free(a);
+}
+
+/* No sample is taken on a slip, a collision, a fault, a mode change, a motor that does not
+ * drive, a small current, an output at the supply or a step of the output. */
+static void test_what_freezes_it(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	struct adapt_input in = tick_in(5.0f, 1.0f, 10.0f, 0.0f);
+	struct adapt_report r;
+
+	adapt_init(a, &s);
+	adapt_step(a, &in);
+	adapt_step(a, &in);
+	assert_int_equal(a->m[0].n, 1); /* the first tick is a mode change (from none) */
+	const uint32_t before = a->m[0].n;
+	struct adapt_input bad[9];
+
+	for (int k = 0; k < 9; k++)
+		bad[k] = in;
+	bad[0].est_flags = EST_FLAG_SLIP | EST_FLAG_SLIP_2;
+	bad[1].est_flags = EST_FLAG_COLLISION;
+	bad[2].faulted = true;
+	bad[3].driven = false;
+	bad[4].current_a[0] = 0.1f;
+	bad[5].volts[0] = 11.5f;
+	bad[6].volts[0] = 6.5f; /* 1.5 V from the tick before */
+	bad[7].current_a[0] = NAN;
+	bad[8].mode = CTL_GOAL; /* a mode change */
+	for (int k = 0; k < 9; k++) {
+		adapt_step(a, &bad[k]);
+		adapt_step(a, &in); /* back to the mode and the output of the tick before */
+		adapt_step(a, &in);
+	}
+	/* the bad ticks none; after each, both good ticks, except after an output at the supply
+	 * or a step (the first good tick is a step back) and a mode change (the first is one) */
+	assert_int_equal(a->m[0].n - before, 6 * 2 + 3 * 1);
+	adapt_report(a, &r);
+	assert_true(r.flags & ADAPT_FLAG_FROZEN);
+	free(a);
+}
+
+/* Held within [0.5, 2] x the identified R; a sample that makes it non-finite restarts it from
+ * the R in use; off, nothing is taken. */
+static void test_bounds_and_non_finite_values(void **state)
+{
+	(void)state;
+	struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const float R0 = (float)s.model.R;
+	struct adapt_report r;
+
+	adapt_init(a, &s);
+	for (int k = 0; k < 3000; k++) {
+		struct adapt_input in = tick_in(10.0f, 0.5f, 0.0f, 0.0f);
+
+		adapt_step(a, &in); /* y = 20 R0 i */
+	}
+	assert_true(a->m[0].R <= 2.0f * R0 && a->m[0].R >= 2.0f * R0 * 0.999f);
+	struct adapt_input huge = tick_in(10.0f, 3e19f, 0.0f, 0.0f);
+
+	adapt_step(a, &huge);
+	adapt_report(a, &r);
+	assert_true(r.flags & ADAPT_FLAG_RESTART);
+	assert_true(isfinite(r.R_est[0]) && r.R_est[0] == r.R[0]);
+	s.adapt.enable = false;
+	assert_int_equal(adapt_retune(a, &s), 0);
+	for (int j = 0; j < 4; j++)
+		assert_true(adapt_r_in_use(a)[j] == R0);
+	const uint32_t n = a->m[1].n;
+
+	adapt_step(a, &(struct adapt_input){.reading = true, .driven = true, .mode = CTL_VELOCITY});
+	assert_int_equal(a->m[1].n, n);
+	free(a);
+}
+
+/* A wheel's gains for R from their parts per ohm are the double path's (ff_q16_wheels_prepare
+ * with that R_j) within a Q16.16 LSB, the other wheels' untouched. */
+static void test_gains_per_ohm_match_the_prepared_ones(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct model_wheels w;
+	struct ff_q16_wheels ff, want;
+	struct ff_wheels_per_ohm o;
+
+	ctl_settings_wheels(&s, &w);
+	assert_int_equal(ff_q16_wheels_prepare(&ff, &s.model, &w, 12.0), 0);
+	ff_wheels_per_ohm_prepare(&o, &s.model, &w);
+	for (int j = 0; j < 4; j++) {
+		const float R = (float)(s.model.R * (0.6 + 0.4 * j));
+		const struct ff_q16_wheels before = ff;
+
+		ff_q16_wheels_set_resistance(&ff, &o, j, R);
+		w.R[j] = R;
+		assert_int_equal(ff_q16_wheels_prepare(&want, &s.model, &w, 12.0), 0);
+		for (int k = 0; k < 3; k++) {
+			assert_true(abs(ff.k_acc[j][k] - want.k_acc[j][k]) <= 1);
+			assert_true(abs(ff.k_vel[j][k] - want.k_vel[j][k]) <= 1);
+			assert_true(abs(ff.k_coul[j][k] - want.k_coul[j][k]) <= 1);
+			for (int q = 0; q < 4; q++)
+				if (q != j)
+					assert_int_equal(ff.k_vel[q][k], before.k_vel[q][k]);
+		}
+	}
+}
+
+/* ---- through the loop with the simulated plant (sil/) -------------------------------------- */
+
+static struct simrun *sim(const char *ini, const char *log)
+{
+	struct omni4_config cfg = config_ini(ini);
+	char err[256];
+	struct simrun *sr = simrun_create(&cfg, &cfg.ctl.model, true, log, err, sizeof(err));
+
+	if (!sr)
+		fail_msg("%s", err);
+	return sr;
+}
+
+/* A parameter change through the loop (fw_param_prepare / offer): one that leaves the drives
+ * keeps the R in use and its gains; one that changes a drive's R starts again from it. */
+static void change(struct fw *fw, struct simrun *sr, const struct ctl_settings *cfg)
+{
+	static struct fw_param_update u;
+	struct fw_param_result r;
+	char why[128];
+
+	assert_int_equal(fw_param_prepare(fw, cfg, false, &u, why, sizeof(why)), 0);
+	fw_param_offer(fw, &u);
+	simrun_tick(sr);
+	assert_true(fw_param_done(fw, &u, &r) && r.rc == 0);
+}
+
+static void test_a_parameter_change_keeps_or_restarts_it(void **state)
+{
+	(void)state;
+	struct simrun *sr = sim("[sim]\nseed = 2\n", NULL);
+	struct fw *fw = simrun_fw(sr);
+	struct ctl_settings cfg = fw->ctl.set;
+	const float R = 1.1f * fw->adapt.R_id[0];
+	struct ff_q16_wheels want = fw->ctl.ff;
+
+	adapt_accept(&fw->adapt, (const float[4]){R, R, R, R});
+	for (int j = 0; j < 4; j++) {
+		ctl_set_resistance(&fw->ctl, j, R);
+		ff_q16_wheels_set_resistance(&want, &fw->ctl.ff_ohm, j, R);
+	}
+	cfg.control.kp = 25.0;
+	change(fw, sr, &cfg);
+	assert_true(adapt_r_in_use(&fw->adapt)[2] == R);
+	assert_memory_equal(fw->ctl.ff.k_vel, want.k_vel, sizeof(want.k_vel));
+	cfg.model.R = 5.0;
+	ctl_settings_wheels_follow(&cfg);
+	change(fw, sr, &cfg);
+	assert_true(adapt_r_in_use(&fw->adapt)[2] == 5.0f);
+	assert_true(fw->adapt.m[2].R == 5.0f && !fw->adapt.watch);
+	simrun_destroy(sr);
+}
+
+/* docs/hard-drive.csv's pattern, one row per second: +-1.2 m/s on v and vn, +-3 rad/s. */
+static void drive_row(struct simrun *sr, int row)
+{
+	const double v = row % 2 ? -1.2 : 1.2, w = (row / 2) % 2 ? -3.0 : 3.0;
+
+	hil_send(sr, CTL_VELOCITY, (const double[3]){v, v, w}, NULL, 0.0);
+}
+
+/* Runs the drive for seconds from row0 on (commands every 100 ms); the mean square of the
+ * robot's true velocity minus the controller's reference (v, vn, d w) over it, and the ticks. */
+static double drive(struct simrun *sr, int *row, double seconds, double *worst_R, bool plant_R)
+{
+	const int ticks = (int)lround(seconds * RATE_HZ);
+	const double d = simrun_fw(sr)->ctl.set.model.d;
+	double e2 = 0.0;
+
+	for (int k = 0; k < ticks; k++) {
+		if (k % 100 == 0)
+			drive_row(sr, *row + k / 1000);
+		simrun_tick(sr);
+		double x[3], pose[3], ref[3], R[4];
+
+		simrun_truth(sr, x, pose);
+		simrun_reference(sr, ref);
+		e2 += pow(x[0] - ref[0], 2) + pow(x[1] - ref[1], 2) + pow(d * (x[2] - ref[2]), 2);
+		if (!worst_R || k % 100)
+			continue;
+		if (plant_R)
+			simrun_plant_resistance(sr, R);
+		else
+			for (int j = 0; j < 4; j++)
+				R[j] = simrun_fw(sr)->adapt.R_id[j];
+		for (int j = 0; j < 4; j++)
+			*worst_R = fmax(
+			    *worst_R, fabs(adapt_r_in_use(&simrun_fw(sr)->adapt)[j] / R[j] - 1.0));
+	}
+	*row += ticks / 1000;
+	return e2 / ticks;
+}
+
+/* A wrong value planted into use (twice the identified R on every motor, the plant cold) is put
+ * back within 5 s, with REVERTED in the next adapt_t and a param_changed_t "adapt" "reverted"
+ * in the log; the right value planted stays. */
+static void test_a_wrong_acceptance_is_reverted_within_5_s(void **state)
+{
+	(void)state;
+	char path[] = "/tmp/omni4_adapt_XXXXXX";
+	const int fd = mkstemp(path);
+
+	assert_true(fd >= 0);
+	close(fd);
+	struct simrun *sr = sim("[sim]\nseed = 5\n", path);
+	struct fw *fw = simrun_fw(sr);
+	const float R0 = fw->adapt.R_id[0];
+	int row = 0;
+
+	drive(sr, &row, 4.0, NULL, false);
+	/* planted as adapt_step's acceptance is applied (fw.c) */
+	uint32_t m = adapt_accept(&fw->adapt, (const float[4]){2 * R0, 2 * R0, 2 * R0, 2 * R0});
+
+	for (int j = 0; j < 4; j++)
+		if (m & (1u << j))
+			ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
+	assert_int_equal(m, 0xf);
+	int t_ms = 0;
+
+	while (adapt_r_in_use(&fw->adapt)[0] != R0 && t_ms < 5000) {
+		drive(sr, &row, 0.001, NULL, false);
+		t_ms++;
+	}
+	printf("reverted after %d ms\n", t_ms);
+	assert_true(t_ms < 5000);
+	assert_int_equal(fw->adapt.reverted, 1);
+	drive(sr, &row, 0.2, NULL, false);
+	const float right = R0 * 1.001f;
+
+	m = adapt_accept(&fw->adapt, (const float[4]){right, right, right, right});
+	for (int j = 0; j < 4; j++)
+		ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
+	drive(sr, &row, 5.0, NULL, false);
+	assert_int_equal(fw->adapt.reverted, 1); /* the right one stays */
+	assert_true(adapt_r_in_use(&fw->adapt)[0] == right);
+	assert_int_equal(simrun_flush_log(sr), 0);
+	simrun_destroy(sr);
+
+	lcm_eventlog_t *log = lcm_eventlog_create(path, "r");
+	lcm_eventlog_event_t *ev;
+	int notices = 0;
+
+	while ((ev = lcm_eventlog_read_next_event(log))) {
+		omni4_param_changed_t p;
+
+		if (!strcmp(ev->channel, OMNI4_CHANNEL_PARAM_CHANGED) &&
+		    omni4_param_changed_t_decode(ev->data, 0, (int)ev->datalen, &p) > 0) {
+			if (!strcmp(p.source, "adapt") && !strcmp(p.values[4], "reverted")) {
+				notices++;
+				assert_true(fabs(atof(p.values[0]) - R0) < 1e-5);
+				assert_true(fabs(atof(p.old_values[0]) - 2.0 * R0) < 1e-5);
+			}
+			omni4_param_changed_t_decode_cleanup(&p);
+		}
+		lcm_eventlog_free_event(ev);
+	}
+	lcm_eventlog_destroy(log);
+	unlink(path);
+	assert_int_equal(notices, 1);
+}
+
+/* Warm windings (a small heat capacity: R +20 % within 60 s of the hard drive's pattern): the
+ * R in use within 3 % of the plant's after the first 20 s, and the velocity tracking's mean
+ * square over the last 10 s at most a quarter with [adapt] on of off (RMS at most half). Cold
+ * windings: every R in use within 1 % of the identified for the whole run. */
+static void test_warm_windings_followed_and_cold_ones_left_alone(void **state)
+{
+	(void)state;
+	static const char warm[] = "[sim]\nthermal = true\nthermal_capacity = 2\nseed = 9\n";
+	static const char warm_off[] =
+	    "[sim]\nthermal = true\nthermal_capacity = 2\nseed = 9\n[adapt]\nenable = false\n";
+	double ms[2], worst = 0.0, cold_worst = 0.0, R[4];
+
+	for (int on = 0; on < 2; on++) {
+		struct simrun *sr = sim(on ? warm : warm_off, NULL);
+		int row = 0;
+
+		drive(sr, &row, 20.0, NULL, true);
+		drive(sr, &row, 30.0, on ? &worst : NULL, true);
+		ms[on] = drive(sr, &row, 10.0, on ? &worst : NULL, true);
+		simrun_plant_resistance(sr, R);
+		printf("adapt %s: plant R_0 %.3f (identified %.3f), in use %.3f; tracking RMS "
+		       "%.4f m/s\n",
+		       on ? "on" : "off", R[0], (double)simrun_fw(sr)->adapt.R_id[0],
+		       (double)adapt_r_in_use(&simrun_fw(sr)->adapt)[0], sqrt(ms[on]));
+		assert_true(R[0] > 1.2 * simrun_fw(sr)->adapt.R_id[0]);
+		simrun_destroy(sr);
+	}
+	printf("worst R in use against the plant's after 20 s: %.4f; RMS on / off %.3f\n", worst,
+	       sqrt(ms[1] / ms[0]));
+	assert_true(worst < 0.03);
+	assert_true(ms[1] <= 0.25 * ms[0]);
+
+	struct simrun *sr = sim("[sim]\nseed = 9\n", NULL);
+	int row = 0;
+
+	drive(sr, &row, 60.0, &cold_worst, false);
+	printf("cold: worst R in use against the identified %.4f\n", cold_worst);
+	assert_true(cold_worst < 0.01);
+	simrun_destroy(sr);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+	    cmocka_unit_test(test_rls_matches_the_weighted_batch_least_squares),
+	    cmocka_unit_test(test_an_r_step_is_estimated_and_accepted),
+	    cmocka_unit_test(test_only_a_certain_estimate_is_taken),
+	    cmocka_unit_test(test_what_freezes_it),
+	    cmocka_unit_test(test_bounds_and_non_finite_values),
+	    cmocka_unit_test(test_gains_per_ohm_match_the_prepared_ones),
+	    cmocka_unit_test(test_a_parameter_change_keeps_or_restarts_it),
+	    cmocka_unit_test(test_a_wrong_acceptance_is_reverted_within_5_s),
+	    cmocka_unit_test(test_warm_windings_followed_and_cold_ones_left_alone),
+	};
+
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}
