@@ -25,3 +25,15 @@ int sc_rx_next(int fd, const struct sc_rx_tally *t, struct omni4_can_frame *f)
 	}
 	return 2;
 }
+
+int sc_rx_budget(int64_t *last_us, int64_t now_us, int per_ms, int max_ms)
+{
+	int64_t since_ms = (now_us - *last_us) / 1000;
+
+	*last_us = now_us;
+	if (since_ms < 1)
+		since_ms = 1;
+	if (since_ms > max_ms)
+		since_ms = max_ms;
+	return per_ms * (int)since_ms;
+}

@@ -374,14 +374,7 @@ static void handle(struct socketcan_motor *m, const struct omni4_can_frame *f, i
  * (at least 1 ms' worth, at most SC_MAX_READ_CATCHUP ms'). */
 static int read_budget(struct socketcan_motor *m, int64_t now)
 {
-	int64_t since_ms = (now - m->last_read_us) / 1000;
-
-	m->last_read_us = now;
-	if (since_ms < 1)
-		since_ms = 1;
-	if (since_ms > SC_MAX_READ_CATCHUP)
-		since_ms = SC_MAX_READ_CATCHUP;
-	return SC_MAX_FRAMES_PER_READ * (int)since_ms;
+	return sc_rx_budget(&m->last_read_us, now, SC_MAX_FRAMES_PER_READ, SC_MAX_READ_CATCHUP);
 }
 
 /* Takes what the kernel has queued, up to the read's frame budget. 0, or a receive error

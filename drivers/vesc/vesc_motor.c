@@ -179,14 +179,7 @@ static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_
  * (at least 1 ms' worth, at most VESC_MAX_READ_CATCHUP ms'). */
 static int read_budget(struct vesc_motor *m, int64_t now)
 {
-	int64_t since_ms = (now - m->last_read_us) / 1000;
-
-	m->last_read_us = now;
-	if (since_ms < 1)
-		since_ms = 1;
-	if (since_ms > VESC_MAX_READ_CATCHUP)
-		since_ms = VESC_MAX_READ_CATCHUP;
-	return VESC_MAX_FRAMES_PER_READ * (int)since_ms;
+	return sc_rx_budget(&m->last_read_us, now, VESC_MAX_FRAMES_PER_READ, VESC_MAX_READ_CATCHUP);
 }
 
 static int drain_frames(struct vesc_motor *m, int64_t now)

@@ -70,17 +70,45 @@ void lcmio_fault_channels(uint32_t mask, char out[8])
 	*p = '\0';
 }
 
+/* A change the controller made itself (source) as param_changed_t: n keys with their values
+ * now and before, VAL bytes each (lcmio.h). */
+enum { CHANGED_KEYS_MAX = 6, CHANGED_VAL = 32 };
+static int encode_changed(const struct log_entry *e, const char *source, const char *const *names,
+                          char (*now)[CHANGED_VAL], char (*before)[CHANGED_VAL], int n, void *buf,
+                          size_t cap)
+{
+	char *keys[CHANGED_KEYS_MAX], *values[CHANGED_KEYS_MAX], *old_values[CHANGED_KEYS_MAX];
+
+	for (int k = 0; k < n; k++) {
+		keys[k] = (char *)names[k];
+		values[k] = now[k];
+		old_values[k] = before[k];
+	}
+	const omni4_param_changed_t m = {.utime = e->utime,
+	                                 .seq = e->seq,
+	                                 .request_id = 0,
+	                                 .source = (char *)source,
+	                                 .path = (char *)"",
+	                                 .n = n,
+	                                 .keys = keys,
+	                                 .old_values = old_values,
+	                                 .values = values};
+
+	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
+		return -ENOSPC;
+	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
+}
+
 /* LOG_CALIBRATION -> param_changed_t (lcmio.h). */
 static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 {
-	enum { KEYS = 6, VAL = 32 };
+	enum { KEYS = 6, VAL = CHANGED_VAL };
 	static const char *const names[KEYS] = {
 	    "calibration.current_offset_a0", "calibration.current_offset_a1",
 	    "calibration.current_offset_a2", "calibration.current_offset_a3",
 	    "calibration.samples",           "calibration.fault_channels",
 	};
 	char now[KEYS][VAL], before[KEYS][VAL];
-	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
 	const struct log_calibration *c = &e->cal;
 	const bool first = c->prev_over_limit < 0;
 	const uint32_t prev_faults = first ? 0 : (uint32_t)c->prev_over_limit;
@@ -98,34 +126,16 @@ static int encode_calibration(const struct log_entry *e, void *buf, size_t cap)
 		lcmio_fault_channels(prev_faults, before[5]);
 		n = 6;
 	}
-	for (int k = 0; k < n; k++) {
-		keys[k] = (char *)names[k];
-		values[k] = now[k];
-		old_values[k] = before[k];
-	}
-	const omni4_param_changed_t m = {.utime = e->utime,
-	                                 .seq = e->seq,
-	                                 .request_id = 0,
-	                                 .source = (char *)"calibration",
-	                                 .path = (char *)"",
-	                                 .n = n,
-	                                 .keys = keys,
-	                                 .old_values = old_values,
-	                                 .values = values};
-
-	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
-		return -ENOSPC;
-	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
+	return encode_changed(e, "calibration", names, now, before, n, buf, cap);
 }
 
 /* LOG_ADAPT_CHANGE -> param_changed_t (lcmio.h). */
 static int encode_adapt_change(const struct log_entry *e, void *buf, size_t cap)
 {
-	enum { KEYS = 5, VAL = 32 };
+	enum { KEYS = 5, VAL = CHANGED_VAL };
 	static const char *const names[KEYS] = {"adapt.R_0", "adapt.R_1", "adapt.R_2", "adapt.R_3",
 	                                        "adapt.event"};
 	char now[KEYS][VAL], before[KEYS][VAL];
-	char *keys[KEYS], *values[KEYS], *old_values[KEYS];
 	const struct log_adapt *a = &e->adapt;
 
 	for (int j = 0; j < 4; j++) {
@@ -134,24 +144,7 @@ static int encode_adapt_change(const struct log_entry *e, void *buf, size_t cap)
 	}
 	snprintf(now[4], VAL, "%s", a->flags & ADAPT_FLAG_REVERTED ? "reverted" : "accepted");
 	before[4][0] = '\0';
-	for (int k = 0; k < KEYS; k++) {
-		keys[k] = (char *)names[k];
-		values[k] = now[k];
-		old_values[k] = before[k];
-	}
-	const omni4_param_changed_t m = {.utime = e->utime,
-	                                 .seq = e->seq,
-	                                 .request_id = 0,
-	                                 .source = (char *)"adapt",
-	                                 .path = (char *)"",
-	                                 .n = KEYS,
-	                                 .keys = keys,
-	                                 .old_values = old_values,
-	                                 .values = values};
-
-	if ((size_t)omni4_param_changed_t_encoded_size(&m) > cap)
-		return -ENOSPC;
-	return omni4_param_changed_t_encode(buf, 0, (int)cap, &m);
+	return encode_changed(e, "adapt", names, now, before, KEYS, buf, cap);
 }
 
 /* LOG_ADAPT -> adapt_t. */

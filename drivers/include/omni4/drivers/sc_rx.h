@@ -25,4 +25,9 @@ struct sc_rx_tally {
  * counted, so a reader's frame budget bounds a flood of either kind. */
 int sc_rx_next(int fd, const struct sc_rx_tally *t, struct omni4_can_frame *f);
 
+/* Frames a read may take: per_ms for every millisecond since the previous read (*last_us, set
+ * to now_us), at least 1 ms' worth and at most max_ms' (a late loop catches up its backlog,
+ * a flood cannot hold it). */
+int sc_rx_budget(int64_t *last_us, int64_t now_us, int per_ms, int max_ms);
+
 #endif /* OMNI4_SC_RX_H */
