@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -22,6 +21,7 @@ extern "C" {
 #include "omni4/drivers/can_proto.h"
 #include "omni4/base/clock.h"
 #include "omni4/config/config.h"
+#include "omni4/model/consts.h"
 #include "omni4/model/plant.h"
 #include "omni4/model/rng.h"
 #include "omni4/drivers/sc_os.h"
@@ -418,7 +418,7 @@ void publish_pose(lcm_t *lcm, const plant &pl)
 	p.utime = static_cast<int64_t>(now.tv_sec) * 1000000 + now.tv_nsec / 1000;
 	p.x = pl.pose[0];
 	p.y = pl.pose[1];
-	p.theta = std::remainder(pl.pose[2], 2 * M_PI);
+	p.theta = model_wrap_pi(pl.pose[2]);
 	omni4_pose_t_publish(lcm, "OMNI4_POSE", &p);
 }
 
