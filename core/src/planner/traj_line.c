@@ -158,8 +158,9 @@ static float steps_plan(const struct steps *st, float p0, float v0, float goal, 
 	return t;
 }
 
-/* The steps up to vmax: each level's accelerations from the rows; false if one is not > 0. */
-static bool line_steps(const struct line_rows *l, float vmax, struct steps *st)
+/* The steps up to vmax: each level's accelerations from the rows; false if one is not > 0
+ * (brake_only: only the braking ones are asked for, a stop from vmax). */
+static bool line_steps(const struct line_rows *l, float vmax, bool brake_only, struct steps *st)
 {
 	float up, dn;
 
@@ -172,7 +173,7 @@ static bool line_steps(const struct line_rows *l, float vmax, struct steps *st)
 			st->dn[k - 1] = minf(st->dn[k - 1], dn);
 		if (k < TRAJ_ACC_STEPS)
 			st->dn[k] = dn;
-		if ((k > 0 && !(up > 0.0f)) || !(dn > 0.0f))
+		if ((!brake_only && k > 0 && !(up > 0.0f)) || !(dn > 0.0f))
 			return false;
 	}
 	return true;
@@ -182,21 +183,12 @@ float traj_line_stop(const struct row *r, int n, float ex, float ey, float sp, s
 {
 	struct line_rows l;
 	struct steps st;
-	float t = 0.0f, p = 0.0f, v = sp, up;
+	float t = 0.0f, p = 0.0f, v = sp;
 
 	*o = (struct traj_1d){.v0 = sp};
 	line_rows(r, n, ex, ey, &l);
-	for (int k = 0; k <= TRAJ_ACC_STEPS; k++) {
-		float dn;
-		st.s[k] = sp * (float)k / (float)TRAJ_ACC_STEPS;
-		line_acc(&l, st.s[k], &up, &dn);
-		if (!(dn > 0.0f))
-			return INFINITY;
-		if (k > 0) /* braking may be weakest at either end of a step */
-			st.dn[k - 1] = minf(st.dn[k - 1], dn);
-		if (k < TRAJ_ACC_STEPS)
-			st.dn[k] = dn;
-	}
+	if (!line_steps(&l, sp, true, &st))
+		return INFINITY;
 	if (sp > 0.0f)
 		brake_phases(o, &st, 1.0f, &t, &p, &v);
 	o->p1 = p;
@@ -216,7 +208,7 @@ float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, f
 	for (int f = 0; f < LINE_FRACS; f++) {
 		const float vmax = maxf(top * line_frac[f], fabsf(v0));
 		struct steps st;
-		if (!(vmax <= top) || !line_steps(&l, vmax, &st))
+		if (!(vmax <= top) || !line_steps(&l, vmax, false, &st))
 			continue;
 		const float t = steps_plan(&st, p0, v0, goal, &cand);
 		if (t < best) {
@@ -269,7 +261,7 @@ float traj_line_brake_go(const struct row *r, int n, const float p0[2], const fl
 		return INFINITY;
 	const float ev[2] = {v0[0] / sp, v0[1] / sp};
 	line_rows(r, n, ev[0], ev[1], &l);
-	if (!(sp <= minf(l.top, cap)) || !line_steps(&l, sp, &st))
+	if (!(sp <= minf(l.top, cap)) || !line_steps(&l, sp, false, &st))
 		return INFINITY;
 	brake_phases(&a, &st, 1.0f, &t, &p, &v);
 	const float stop[2] = {p0[0] + ev[0] * p, p0[1] + ev[1] * p};
