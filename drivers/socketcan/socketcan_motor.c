@@ -164,10 +164,14 @@ static void wait_gate_empty(struct socketcan_motor *m, int own, int64_t limit_us
 }
 
 /* DISABLE, then 0 V with the bridges disabled twice; returns the frames sent. */
+#define SC_HALT_TX_US 200000 /* [us] */
+
 static int send_halt_frames(struct socketcan_motor *m)
 {
 	static const float zero[4] = {0, 0, 0, 0};
-	const int64_t deadline = omni4_monotonic_us() + 20000;
+	/* A full TX queue is retried this long: on a starved machine the kernel may take tens of
+	 * ms to drain it, and a halt frame given up leaves a driving frame the last on the bus. */
+	const int64_t deadline = omni4_monotonic_us() + SC_HALT_TX_US;
 	struct omni4_can_frame f;
 	int sent = 0;
 

@@ -76,8 +76,6 @@ static void install_crash_handler(void)
 		sigaction(sigs[i], &sa, NULL);
 }
 
-/* Logger thread: a new set of current-sense offsets (it also goes out on
- * OMNI4_PARAM_CHANGED); a channel beyond the limit is always said, the rest unless --quiet. */
 /* Logger thread: the feedforward's R_j changed online ([adapt]; also on OMNI4_PARAM_CHANGED):
  * a revert is always said, an acceptance unless --quiet. */
 static void on_adapt_change(bool quiet, const struct log_entry *e)
@@ -96,6 +94,9 @@ static void on_adapt_change(bool quiet, const struct log_entry *e)
 	        reverted ? ": the tracking worsened after the last acceptance" : "");
 }
 
+/* Logger thread: a new set of current-sense offsets (it also goes out on
+ * OMNI4_PARAM_CHANGED); a channel beyond the limit is always said, the rest unless --quiet.
+ * The controller's [adapt] changes come through the same log kind's callback. */
 static void on_calibration(void *ctx, const struct log_entry *e)
 {
 	const bool quiet = *(const int *)ctx;
