@@ -13,6 +13,7 @@
  * result line, the meter (NULL: none). */
 int scenario_start(void);
 uint32_t scenario_tick(void);
+uint32_t scenario_last_ctl_cost(void); /* that tick's cost less the sim plant's HAL part */
 struct robot *scenario_robot(void);
 int64_t scenario_now_us(void);
 void scenario_say(const char *name, bool ok, const char *figures);

@@ -1,5 +1,6 @@
 /* scenarios.c - the core's HIL scenarios (see scenarios.h). */
 #include "scenarios.h"
+#include "scenario_adapt.h"
 #include "scenario_goal.h"
 
 #include <math.h>
@@ -25,7 +26,8 @@ static const struct scenario_meter *g_meter;
 /* Per-tick cost: the whole fw_tick, and the part spent in the HAL (the plant's step, which a
  * real board does not run), measured by wrapping the sim backend's ops. */
 static struct {
-	uint32_t hal, n, tick_max, ctl_max, last; /* last: the latest tick's whole cost */
+	uint32_t hal, n, tick_max, ctl_max, last, last_ctl; /* the latest tick's whole cost, and
+	                                                     * less the HAL's */
 	uint64_t tick_sum, ctl_sum;
 } g_cost;
 
@@ -143,6 +145,7 @@ static struct log_entry tick(void)
 
 		g_cost.n++;
 		g_cost.last = all;
+		g_cost.last_ctl = ctl;
 		g_cost.tick_sum += all;
 		g_cost.ctl_sum += ctl;
 		g_cost.tick_max = all > g_cost.tick_max ? all : g_cost.tick_max;
@@ -457,6 +460,11 @@ uint32_t scenario_tick(void)
 	return g_cost.last;
 }
 
+uint32_t scenario_last_ctl_cost(void)
+{
+	return g_cost.last_ctl;
+}
+
 struct robot *scenario_robot(void)
 {
 	return &g_robot;
@@ -508,8 +516,9 @@ int scenarios_run(scenario_print_fn print, scenario_wait_fn wait_tick)
 	failed += overcurrent();
 	failed += stuck_encoder();
 	failed += scenario_goal();
+	failed += scenario_adapt();
 	estimator_cost();
-	snprintf(line, sizeof(line), "%d passed, %d failed", 6 - failed, failed);
+	snprintf(line, sizeof(line), "%d passed, %d failed", 7 - failed, failed);
 	print(line);
 	return failed;
 }
