@@ -119,6 +119,7 @@ void est_reset(struct est *e, const float pose[3], const float pose_var[3])
 	e->slip_run = e->collision_run = e->cam_gate_run = 0;
 	e->last_cam_us = 0;
 	e->have_cam = false;
+	e->job.on = false;
 	est_slip_reset(e);
 }
 
@@ -135,6 +136,7 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 		est_settings_defaults(&e->set);
 	e->dt = (float)(1.0 / rate_hz);
 	e->cal_forget = 1.0f - e->dt / EST_CAL_TAU_S;
+	e->replay_per_tick = EST_REPLAY_PER_TICK;
 	est_set_model(e, p);
 	static const float pose0[3] = {0.0f, 0.0f, 0.0f}, var0[3] = {1.0f, 1.0f, 10.0f};
 
@@ -471,6 +473,7 @@ static void step_one(struct est *e, const struct est_input *in)
 		t->volts[j] = t->driven ? in->volts[j] : 0.0f;
 		t->wheel[j] = t->have_wheels ? in->wheel_rad_s[j] * e->r[j] : 0.0f;
 	}
+	est_replay_advance(e, e->replay_per_tick);
 	est_replay_snap(e, n);
 	est_run_tick(e, t, true);
 	est_cal_step(e, t, n);

@@ -28,8 +28,11 @@ bool est_all_finite(const float *v, int n);
 /* est_replay.c: the snapshot before tick n, when n is one the ring keeps. */
 void est_replay_snap(struct est *e, uint32_t n);
 /* est_replay.c: ticks n0 .. seq - 1 re-run from the snapshot before n0 (n0 a multiple of
- * EST_SNAP_EVERY whose snapshot the ring keeps). */
+ * EST_SNAP_EVERY whose snapshot the ring keeps); a re-run under way is finished first. */
 void est_replay_from(struct est *e, uint32_t n0);
+/* est_replay.c: before the live tick seq: the re-run under way (e->job) goes on by up to
+ * max_ticks ticks (0: to the end); when it reaches seq its state becomes the live one. */
+void est_replay_advance(struct est *e, uint32_t max_ticks);
 
 /* est_cal.c: after the live tick n: a reading that fits a rigid body teaches the calibration;
  * every EST_CAL_EVERY ticks the scale errors in force are solved again. */

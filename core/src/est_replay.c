@@ -65,8 +65,38 @@ int est_replay_find(const struct est *e, int64_t capture_us, uint32_t *tick)
 	return 0;
 }
 
+/* Exchanges the live state with the re-run's. */
+static void swap_job(struct est *e)
+{
+	float s[6], P[6][6];
+
+	memcpy(s, e->s, sizeof(s));
+	memcpy(P, e->P, sizeof(P));
+	memcpy(e->s, e->job.s, sizeof(s));
+	memcpy(e->P, e->job.P, sizeof(P));
+	memcpy(e->job.s, s, sizeof(s));
+	memcpy(e->job.P, P, sizeof(P));
+}
+
+void est_replay_advance(struct est *e, uint32_t max_ticks)
+{
+	if (!e->job.on)
+		return;
+	const uint32_t left = e->seq - e->job.n;
+	const uint32_t to = e->job.n + (max_ticks == 0 || max_ticks > left ? left : max_ticks);
+
+	swap_job(e);
+	rerun(e, e->job.n, to);
+	e->job.n = to;
+	if (to == e->seq)
+		e->job.on = false; /* caught up: the corrected state is the live one */
+	else
+		swap_job(e);
+}
+
 int est_replay_at(struct est *e, uint32_t tick, uint8_t kind, const float z[3], est_late_fn apply)
 {
+	est_replay_advance(e, 0); /* a re-run under way first: its snapshots are needed */
 	const uint32_t n = e->seq, n0 = tick - tick % EST_SNAP_EVERY;
 	struct est_tick *tk = &e->hist[tick % EST_HISTORY];
 	const uint8_t had = tk->late;
@@ -86,15 +116,23 @@ int est_replay_at(struct est *e, uint32_t tick, uint8_t kind, const float z[3], 
 		memcpy(e->P, P_now, sizeof(P_now));
 		return rc;
 	}
-	/* ... updated, kept for later replays, and the ticks since re-run. */
+	/* ... updated, kept for later replays, and the ticks since re-run: spread over the next
+	 * live ticks (est_replay_advance), the live state going on meanwhile. */
 	tk->late = kind;
 	memcpy(tk->late_z, z, sizeof(tk->late_z));
-	rerun(e, tick + 1, n);
+	e->job.on = true;
+	e->job.n = tick + 1;
+	swap_job(e);
+	memcpy(e->s, s_now, sizeof(s_now));
+	memcpy(e->P, P_now, sizeof(P_now));
+	if (e->replay_per_tick == 0 || e->job.n == n)
+		est_replay_advance(e, 0);
 	return 0;
 }
 
 void est_replay_from(struct est *e, uint32_t n0)
 {
+	est_replay_advance(e, 0);
 	get_snap(e, n0);
 	rerun(e, n0, e->seq);
 }

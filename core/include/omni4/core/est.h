@@ -144,6 +144,10 @@ struct est_tick {
  * subnormals (1.2e-38), whose arithmetic costs about a hundred cycles an operation on many FPUs. */
 #define EST_COV_TINY 1e-15f
 #define EST_SNAP_EVERY 8 /* a state + covariance snapshot before every 8th tick */
+/* A late measurement's re-run of the ticks since it is spread over the following ticks, this
+ * many a tick (est_replay.h): about a seventh of the lag is made up each tick, and no tick pays
+ * the whole replay (40 ticks behind a 40 ms camera). */
+#define EST_REPLAY_PER_TICK 8
 
 /* Slip on every wheel (est_slip.c): the camera frames kept to compare the wheels' distance
  * with the body's, the oldest still in the ring of ticks taken as the baseline. */
@@ -188,8 +192,15 @@ struct est {
 	struct {
 		float s[6], P[21]; /* upper triangle, row by row */
 	} snap[EST_HISTORY / EST_SNAP_EVERY];
-	uint32_t seq;       /* ticks since init/reset: the next tick's number */
-	float innov_avg[3]; /* the velocity innovation averaged (EST_INNOV_AVG_TICKS) */
+	struct {
+		bool on;    /* a re-run is under way: s, P are the corrected state at tick n */
+		uint32_t n; /* the next tick it re-runs */
+		float s[6], P[6][6];
+	} job; /* est_replay.c */
+	uint32_t
+	    replay_per_tick; /* ticks re-run a live tick (EST_REPLAY_PER_TICK; 0: all at once) */
+	uint32_t seq;        /* ticks since init/reset: the next tick's number */
+	float innov_avg[3];  /* the velocity innovation averaged (EST_INNOV_AVG_TICKS) */
 	int slip_run, collision_run, cam_gate_run;
 	struct est_slip slip; /* est_slip.c */
 	int64_t last_cam_us;  /* capture time of the last camera pose taken */
