@@ -117,9 +117,12 @@ def test_velocity_moves_the_wheels_with_the_ik_signs(fw):
             # Measured |got - want| <= 0.0013 rad/s on a quiet machine (encoder noise 0.13-0.16
             # rad/s per sample); 0.027 rad/s of 9.23 (0.3 %) at a load average of 20, where
             # the loop is late again and again and the simulated robot moves on in between, as
-            # a real one would. Bound: 1 % of the wheel speed and 0.004 rad/s.
-            assert (np.abs(got - want) < 0.004 + 0.01 * np.abs(want)).all(), \
-                f"{cmd}: wheels {got}, IK {want}"
+            # a real one would; and 0.024 rad/s on the slowest wheel (0.34 rad/s) of
+            # (-0.2, 0.1, -1.0) at a load average of 13, the fastest 8.9: the late ticks' error
+            # is the whole body's, so it scales with the fastest wheel, not each wheel's own.
+            # Bound: 1 % of the fastest wheel's speed and 0.004 rad/s.
+            bound = 0.004 + 0.01 * np.abs(want).max()
+            assert (np.abs(got - want) < bound).all(), f"{cmd}: wheels {got}, IK {want}"
 
 
 def test_default_keepalive_is_a_quarter_of_the_default_watchdog():
