@@ -55,8 +55,6 @@ void take_packet(VescDrive &d, const omni4_can_frame &f)
 
 void take(VescDrive &d, uint8_t cmd, int32_t raw, double t_s)
 {
-	if (d.fault_code) // a latched fault: no command is taken
-		return;
 	switch (cmd) {
 	case VESC_SET_DUTY:
 		d.mode = VescMode::duty;
