@@ -47,6 +47,61 @@ void deliver(const motorsim::Frames &out)
 		sag_bus_deliver(&f);
 }
 
+// omni4-fw's robot on the simulated VESCs and plant, one 1 ms period at a time.
+class Lockstep
+{
+      public:
+	explicit Lockstep(const motorsim::VescOptions &vo)
+	{
+		model_params p{};
+		sag_robot_model(&p);
+		EXPECT_EQ(plant_init(&pl, &p), 0);
+		drive_loop_init(d, motorsim::Protocol::vesc, vo, motorsim::OdriveOptions{},
+		                motorsim::Supply{kSupplyV, 0.0}, &pl);
+		sag_bus_reset(clock_us);
+		drive_loop_advance(d, 0.0, kDt, {}); // the drives' first reports before the start
+		deliver(d.out);
+		char why[256];
+		EXPECT_EQ(sag_robot_open(why, sizeof(why)), 0) << why;
+	}
+	~Lockstep()
+	{
+		sag_robot_close();
+	}
+	Lockstep(const Lockstep &) = delete;
+	Lockstep &operator=(const Lockstep &) = delete;
+
+	// One period: the controller's tick with the command v (none if it was killed: no frame
+	// from it any more), then the drives and the plant. The tick's fault bits.
+	int32_t period(const double v[3], bool controller_alive = true)
+	{
+		++k;
+		t = static_cast<double>(k) * kDt;
+		clock_us += 1000;
+		int32_t faults = 0;
+		in_velocity = 0;
+		motorsim::Frames in(64);
+		if (controller_alive) {
+			sag_robot_tick(clock_us, k, v, &faults, &in_velocity);
+			const int sent = sag_bus_take_sent(in.data(), static_cast<int>(in.size()));
+			EXPECT_LE(sent, static_cast<int>(in.size()));
+			in.resize(
+			    static_cast<size_t>(std::min<int>(sent, static_cast<int>(in.size()))));
+		} else {
+			in.clear();
+		}
+		drive_loop_advance(d, t, kDt, in);
+		deliver(d.out);
+		return faults;
+	}
+
+	plant pl{};
+	motorsim::DriveLoop d;
+	int64_t clock_us = 1000000, k = 0;
+	double t = 0;
+	int in_velocity = 0;
+};
+
 struct RunResult {
 	double rms_m_s;       // translational tracking error, RMS [m/s]
 	double min_supply_v;  // the lowest supply the drives saw [V]
@@ -57,48 +112,23 @@ struct RunResult {
 // One run of the course; the tracking error from 0.2 s on (the first command's start-up).
 RunResult run(bool sag)
 {
-	model_params p{};
-	sag_robot_model(&p);
-	plant pl{};
-	EXPECT_EQ(plant_init(&pl, &p), 0);
-	motorsim::DriveLoop d;
-	motorsim::VescOptions vo;
-	drive_loop_init(d, motorsim::Protocol::vesc, vo, motorsim::OdriveOptions{},
-	                motorsim::Supply{kSupplyV, 0.0}, &pl);
-	int64_t clock_us = 1000000;
-	sag_bus_reset(clock_us);
-	drive_loop_advance(d, 0.0, kDt, {}); // the drives' first reports before the start
-	deliver(d.out);
-	char why[256];
-	EXPECT_EQ(sag_robot_open(why, sizeof(why)), 0) << why;
+	Lockstep ls{motorsim::VescOptions{}};
 	RunResult r{0, kSupplyV, 0, 0};
 	double sum2 = 0;
 	int64_t n = 0;
-	for (int64_t k = 1; k * kDt <= kCourseS; ++k) {
-		const double t = k * kDt;
+	while (ls.t + kDt / 2 < kCourseS) {
 		double v[3];
-		course(t, v);
-		clock_us += 1000;
-		int32_t faults = 0;
-		int in_velocity = 0;
-		sag_robot_tick(clock_us, k, v, &faults, &in_velocity);
-		r.faults |= faults;
-		r.driven_ticks += in_velocity;
-		d.supply.v = supply_at(t, sag);
-		motorsim::Frames in(64);
-		const int sent = sag_bus_take_sent(in.data(), static_cast<int>(in.size()));
-		EXPECT_LE(sent, static_cast<int>(in.size()));
-		in.resize(static_cast<size_t>(std::min<int>(sent, static_cast<int>(in.size()))));
-		drive_loop_advance(d, t, kDt, in);
-		deliver(d.out);
-		r.min_supply_v = std::fmin(r.min_supply_v, d.view.supply_v);
-		if (t >= 0.2) {
-			const double ex = pl.x[0] - v[0], ey = pl.x[1] - v[1];
+		course(ls.t + kDt, v);
+		ls.d.supply.v = supply_at(ls.t + kDt, sag);
+		r.faults |= ls.period(v);
+		r.driven_ticks += ls.in_velocity;
+		r.min_supply_v = std::fmin(r.min_supply_v, ls.d.view.supply_v);
+		if (ls.t >= 0.2) {
+			const double ex = ls.pl.x[0] - v[0], ey = ls.pl.x[1] - v[1];
 			sum2 += ex * ex + ey * ey;
 			++n;
 		}
 	}
-	sag_robot_close();
 	r.rms_m_s = std::sqrt(sum2 / static_cast<double>(n));
 	return r;
 }
@@ -120,6 +150,51 @@ TEST(VescSag, DutyFollowsTheMeasuredSupply)
 	EXPECT_NEAR(sag.min_supply_v, kSupplyV * (1.0 - kSag), 1e-9);
 	EXPECT_GT(stiff.rms_m_s, 0.0);
 	EXPECT_LE(sag.rms_m_s, 1.2 * stiff.rms_m_s); // the requirement: within 1.2x
+}
+
+// A VESC latches a fault (mc_fault_code 5, over_temp_fet) at 1 s while driving: the backend
+// asks each VESC for its code every 16 ticks, so the controller latches DRIVER within 16 ticks
+// and the reply's trip (bound: 20 ms), the motor of that VESC released; the code is named.
+TEST(VescLockstep, AVendorFaultCodeLatchesDriverAndIsNamed)
+{
+	motorsim::VescOptions vo;
+	vo.fault = motorsim::Fault{1.0, 2};
+	vo.fault_code = 5;
+	Lockstep ls{vo};
+	const double v[3] = {0.3, 0.0, 0.0};
+	double latched_s = -1;
+	while (ls.t + kDt / 2 < 1.5 && latched_s < 0)
+		if (ls.period(v) & sag_fault_driver)
+			latched_s = ls.t;
+	std::printf("vesc fault code 5 set at 1.000 s, DRIVER latched at %.3f s\n", latched_s);
+	EXPECT_GE(latched_s, 1.0);
+	EXPECT_LE(latched_s, 1.020);
+	char text[256];
+	EXPECT_STREQ(sag_robot_fault_text(text, sizeof(text)), "wheel 2 (id 2): over_temp_fet (5)");
+}
+
+// The controller killed while driving (no stop frame: it just stops sending): each simulated VESC
+// keeps its last duty for its command timeout (0.5 s) and then releases its motor.
+TEST(VescLockstep, AKilledControllerLeavesEachMotorReleasedAfterTheTimeout)
+{
+	Lockstep ls{motorsim::VescOptions{}};
+	const double v[3] = {0.3, 0.2, 0.0};
+	while (ls.t + kDt / 2 < 1.0)
+		ls.period(v);
+	const double killed_s = ls.t; // the drives took the last command in this period
+	double released_s = -1;
+	while (ls.t + kDt / 2 < 2.0 && released_s < 0) {
+		ls.period(v, false);
+		bool all = true;
+		for (const auto &drive : ls.d.vesc.d)
+			all &= drive.mode == motorsim::VescMode::released;
+		if (all)
+			released_s = ls.t;
+	}
+	std::printf("controller killed at %.3f s, every VESC released %.3f s later\n", killed_s,
+	            released_s - killed_s);
+	EXPECT_GT(released_s - killed_s, 0.5);
+	EXPECT_LE(released_s - killed_s, 0.5 + 2 * kDt);
 }
 
 } // namespace

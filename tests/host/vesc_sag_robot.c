@@ -24,6 +24,8 @@ static struct omni4_can_frame rxq[QUEUE], txq[QUEUE];
 static int rx_head, rx_tail, n_tx, tx_total;
 static int64_t clock_us;
 
+const int32_t sag_fault_driver = CTL_FAULT_DRIVER;
+
 static struct robot robot; /* large (the log ring) */
 static struct omni4_config cfg;
 
@@ -138,6 +140,11 @@ void sag_robot_tick(int64_t now_us, int64_t seq, const double v[3], int32_t *fau
 		if (e.kind == LOG_MOTORS)
 			*faults |= e.sample.faults;
 	*in_velocity = robot.fw.ctl.mode == CTL_VELOCITY;
+}
+
+const char *sag_robot_fault_text(char *buf, size_t n)
+{
+	return vesc_motor_fault_text(&robot.vesc, buf, n);
 }
 
 void sag_robot_close(void)

@@ -15,6 +15,9 @@
 extern "C" {
 #endif
 
+/* The controller's FAULT_DRIVER bit (motors_t.faults). */
+extern const int32_t sag_fault_driver;
+
 /* The queues emptied, the clock at now_us. */
 void sag_bus_reset(int64_t now_us);
 void sag_bus_set_clock(int64_t now_us);
@@ -32,6 +35,8 @@ int sag_robot_open(char *why, size_t n);
  * fault bits (motors_t.faults, OR over its samples) and whether the robot is in VELOCITY. */
 void sag_robot_tick(int64_t now_us, int64_t seq, const double v[3], int32_t *faults,
                     int *in_velocity);
+/* The backend's fault codes named (vesc_motor_fault_text); returns buf. */
+const char *sag_robot_fault_text(char *buf, size_t n);
 void sag_robot_close(void);
 
 #ifdef __cplusplus
