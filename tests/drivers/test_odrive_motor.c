@@ -419,6 +419,30 @@ static void test_an_axis_on_a_wrong_node_is_named_with_the_node_heard(void **sta
 	hal_motor_close(&h);
 }
 
+static void test_bus_off_is_a_bus_fault_until_cleared(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	struct motor_sample s;
+	const struct odrive_motor_config c = config();
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+
+	push_reports();
+	mock_push_error(SC_ERR_BUSOFF);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_BUS);
+	push_reports();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_BUS); /* latched until a clear */
+	assert_int_equal(hal_motor_clear_faults(&h), 0);
+	push_reports();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	hal_motor_close(&h);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -434,6 +458,7 @@ int main(void)
 	    cmocka_unit_test_setup(
 	        test_an_idle_axis_without_error_is_started_again_at_a_bounded_rate, reset),
 	    cmocka_unit_test_setup(test_driver_timeout_within_three_ticks_of_the_timeout, reset),
+	    cmocka_unit_test_setup(test_bus_off_is_a_bus_fault_until_cleared, reset),
 	    cmocka_unit_test_setup(test_an_axis_on_a_wrong_node_is_named_with_the_node_heard,
 	                           reset),
 	};

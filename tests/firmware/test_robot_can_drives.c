@@ -414,6 +414,44 @@ static void test_odrive_on_a_wrong_node_is_one_line_at_start(void **state)
 	                        "from node 3 (wheel 3); heard instead: node 13\n");
 }
 
+/* Bus-off on either drive bus: the controller latches FAULT_BUS (outputs off). */
+static void bus_off_latches_bus(enum omni4_motor_backend motor)
+{
+	int64_t now = mock_clock_us;
+	char why[256];
+
+	cfg.fw.motor = motor;
+	const struct robot_spec spec = spec_of(motor);
+
+	assert_int_equal(robot_open(&robot, &spec, why, sizeof(why)), 0);
+	for (int t = 0; t < 5; t++)
+		if (motor == OMNI4_MOTOR_VESC)
+			vesc_tick(&now, 12.0f);
+		else
+			odrive_tick(&now, -1, 0);
+	assert_false(robot.fw.ctl.latched & CTL_FAULT_BUS);
+	mock_push_error(SC_ERR_BUSOFF);
+	if (motor == OMNI4_MOTOR_VESC)
+		vesc_tick(&now, 12.0f);
+	else
+		odrive_tick(&now, -1, 0);
+	assert_true(robot.fw.ctl.latched & CTL_FAULT_BUS);
+	assert_true(mode_faulted(robot.fw.ctl.mode));
+	robot_close(&robot);
+}
+
+static void test_vesc_bus_off_is_fault_bus(void **state)
+{
+	(void)state;
+	bus_off_latches_bus(OMNI4_MOTOR_VESC);
+}
+
+static void test_odrive_bus_off_is_fault_bus(void **state)
+{
+	(void)state;
+	bus_off_latches_bus(OMNI4_MOTOR_ODRIVE);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -428,6 +466,8 @@ int main(void)
 	    cmocka_unit_test_setup(test_vesc_supply_below_the_minimum_is_fault_supply, reset),
 	    cmocka_unit_test_setup(test_odrive_supply_below_the_minimum_is_fault_supply, reset),
 	    cmocka_unit_test_setup(test_vesc_on_a_wrong_id_is_one_line_at_start, reset),
+	    cmocka_unit_test_setup(test_vesc_bus_off_is_fault_bus, reset),
+	    cmocka_unit_test_setup(test_odrive_bus_off_is_fault_bus, reset),
 	    cmocka_unit_test_setup(test_odrive_on_a_wrong_node_is_one_line_at_start, reset),
 	};
 
