@@ -24,7 +24,7 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 {
 	const struct vesc_settings *vs = spec->vesc;
 	struct vesc_motor_config cfg = {.iface = vs->iface,
-	                                .host_id = (uint8_t)vs->host_id,
+	                                .host_id = VESC_HOST_ID,
 	                                .pole_pairs = vs->pole_pairs,
 	                                .mode = (enum vesc_mode)vs->mode,
 	                                .status_timeout_ms = vs->status_timeout_ms,
@@ -35,7 +35,7 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 	const int rc = vesc_motor_open(&r->vesc, &cfg);
 
 	if (rc == -EINVAL) {
-		snprintf(why, n, "[vesc] id_0..id_3 and host_id must differ (and not be 255)");
+		snprintf(why, n, "[vesc] id_0..id_3 must differ (and not be 255, or 254: omni4's own id)");
 		return -1;
 	}
 	if (rc) {

@@ -31,6 +31,9 @@
 #include "omni4/drivers/vesc_settings.h"
 
 #define VESC_DUTY_MAX 0.95f
+/* omni4's own id on the VESC bus (the opener's host_id): the fault code replies come to it, so
+ * no VESC may have it. */
+#define VESC_HOST_ID 254u
 /* Frames drained per read: 64 per millisecond since the previous read (4 controllers x 3 status
  * frames at 1 kHz are 12 per ms), at most 4 ms' worth (256). A read after a late tick reaches the
  * newest STATUS_1 behind the frames queued meanwhile: a fixed 64 a read left a loop slower than

@@ -12,7 +12,6 @@ enum vesc_mode { VESC_MODE_DUTY = 0, VESC_MODE_CURRENT = 1 };
 struct vesc_settings {
 	char iface[16];        /* a network interface name: IFNAMSIZ with its NUL */
 	int id[4];             /* controller CAN id of wheel j (VESC Tool: App Settings, General) */
-	int host_id;           /* our CAN id on the bus: the controllers' replies come to it */
 	int pole_pairs;        /* motor pole pairs: ERPM = mechanical RPM x pole_pairs */
 	int mode;              /* enum vesc_mode */
 	int status_timeout_ms; /* a controller silent this long: FAULT_DRIVER_TIMEOUT */
