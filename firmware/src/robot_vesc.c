@@ -35,7 +35,8 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 	const int rc = vesc_motor_open(&r->vesc, &cfg);
 
 	if (rc == -EINVAL) {
-		snprintf(why, n, "[vesc] id_0..id_3 must differ (and not be 255, or 254: omni4's own id)");
+		snprintf(why, n,
+		         "[vesc] id_0..id_3 must differ (and not be 255, or 254: omni4's own id)");
 		return -1;
 	}
 	if (rc) {
