@@ -211,6 +211,32 @@ int vesc_decode_status5(const struct omni4_can_frame *f, uint8_t *controller,
 	return 0;
 }
 
+int vesc_encode_fault_request(uint8_t controller, uint8_t host, struct omni4_can_frame *f)
+{
+	if (controller == host || controller == VESC_ID_BROADCAST || host == VESC_ID_BROADCAST)
+		return -EINVAL;
+	start(VESC_CMD_PROCESS_SHORT_BUFFER, controller, 7, f);
+	f->data[0] = host;
+	f->data[1] = VESC_BUFFER_PROCESS;
+	f->data[2] = VESC_COMM_GET_VALUES_SELECTIVE;
+	put_be(f->data + 3, VESC_VALUES_FAULT_CODE, 4);
+	return 0;
+}
+
+int vesc_decode_fault_reply(const struct omni4_can_frame *f, uint8_t host, uint8_t *controller,
+                            uint8_t *code)
+{
+	uint8_t to;
+
+	if (check(f, VESC_CMD_PROCESS_SHORT_BUFFER, 8, &to) || to != host ||
+	    f->data[1] != VESC_BUFFER_REPLY || f->data[2] != VESC_COMM_GET_VALUES_SELECTIVE ||
+	    get_be(f->data + 3, 4) != VESC_VALUES_FAULT_CODE)
+		return -EINVAL;
+	*controller = f->data[0];
+	*code = f->data[7];
+	return 0;
+}
+
 const char *vesc_fault_name(uint32_t code)
 {
 #define VESC_FAULT_CASE(value, name)                                                               \

@@ -64,7 +64,7 @@ static int check_config(const struct odrive_motor_config *cfg)
 
 int odrive_motor_open(struct odrive_motor *m, const struct odrive_motor_config *cfg)
 {
-	struct sc_os_filter filt[4];
+	struct sc_os_filter filt[6];
 
 	memset(m, 0, sizeof(*m));
 	m->fd = -1;
@@ -78,7 +78,12 @@ int odrive_motor_open(struct odrive_motor *m, const struct odrive_motor_config *
 		m->node[j] = cfg->node[j];
 		m->a[j].iq_a = m->a[j].bus_v = NAN;
 	}
-	int rc = sc_os_open_filters(cfg->iface, filt, 4, &m->fd);
+	/* the estimates and heartbeats of any node (data frames) */
+	filt[4] = (struct sc_os_filter){.id = ODRIVE_CAN_ID(0, ODRIVE_CMD_GET_ENCODER_ESTIMATES),
+	                                .mask = OMNI4_CAN_EFF_FLAG | OMNI4_CAN_RTR_FLAG | 0x1Fu};
+	filt[5] = (struct sc_os_filter){.id = ODRIVE_CAN_ID(0, ODRIVE_CMD_HEARTBEAT),
+	                                .mask = OMNI4_CAN_EFF_FLAG | OMNI4_CAN_RTR_FLAG | 0x1Fu};
+	int rc = sc_os_open_filters(cfg->iface, filt, 6, &m->fd);
 
 	if (rc) {
 		m->fd = -1;
@@ -127,6 +132,36 @@ static int send_request(struct odrive_motor *m)
 	return send_frame(m, odrive_encode_request(m->node[k / 2u], cmd, &f), &f);
 }
 
+/* Torque control and closed loop again for each axis whose heartbeat says IDLE without an
+ * error, at most every ODRIVE_RESTART_PERIOD_US. 0 or the first send's error. */
+static int restart_idle_axes(struct odrive_motor *m, int64_t now)
+{
+	struct omni4_can_frame f;
+	int rc = 0;
+
+	for (int j = 0; j < 4; j++) {
+		struct odrive_axis *a = &m->a[j];
+
+		if (!a->have_hb || a->hb.axis_state != ODRIVE_AXIS_STATE_IDLE || a->hb.axis_error ||
+		    (a->restart_us && now - a->restart_us < ODRIVE_RESTART_PERIOD_US))
+			continue;
+		a->restart_us = now;
+		int s =
+		    send_frame(m,
+		               odrive_encode_set_controller_mode(m->node[j], ODRIVE_CONTROL_TORQUE,
+		                                                 ODRIVE_INPUT_PASSTHROUGH, &f),
+		               &f);
+		if (!s)
+			s = send_frame(m,
+			               odrive_encode_set_axis_state(
+			                   m->node[j], ODRIVE_AXIS_STATE_CLOSED_LOOP, &f),
+			               &f);
+		if (s && !rc)
+			rc = s;
+	}
+	return rc;
+}
+
 static int odrive_write(void *ctx, const float volts[4])
 {
 	struct odrive_motor *m = ctx;
@@ -148,9 +183,10 @@ static int odrive_write(void *ctx, const float volts[4])
 			rc = s;
 	}
 	const int s = send_request(m);
+	const int r = restart_idle_axes(m, sc_os_now_us());
 
 	tx_gate_leave(&m->gate);
-	return rc ? rc : s;
+	return rc ? rc : s ? s : r;
 }
 
 /* Set_Input_Torque 0, then Set_Axis_State IDLE, to each axis; the frames sent. */
@@ -195,7 +231,12 @@ static void handle(struct odrive_motor *m, const struct omni4_can_frame *f, int6
 	uint8_t node, cmd;
 	int j;
 
-	if (odrive_split_id(f, &node, &cmd) || (j = axis_index(m, node)) < 0) {
+	if (odrive_split_id(f, &node, &cmd)) {
+		m->n.other_frames++;
+		return;
+	}
+	if ((j = axis_index(m, node)) < 0) {
+		m->heard_other[node / 8u] |= (uint8_t)(1u << (node % 8u)); /* the filters' cmds */
 		m->n.other_frames++;
 		return;
 	}
@@ -370,3 +411,45 @@ const struct motor_hal_ops odrive_motor_ops = {
     .halt = odrive_halt,
     .close = odrive_close,
 };
+
+int odrive_motor_poll_missing(struct odrive_motor *m)
+{
+	int missing = 0;
+
+	drain_frames(m, sc_os_now_us());
+	for (int j = 0; j < 4; j++)
+		missing += !m->a[j].have_estimate;
+	return missing;
+}
+
+static size_t advance(size_t n, size_t at, int k)
+{
+	at += k > 0 ? (size_t)k : 0;
+	return at < n ? at : n - 1;
+}
+
+const char *odrive_motor_missing_text(const struct odrive_motor *m, char *buf, size_t n)
+{
+	size_t at = 0;
+	int others = 0;
+
+	if (n == 0)
+		return buf;
+	buf[0] = '\0';
+	for (int j = 0; j < 4; j++)
+		if (!m->a[j].have_estimate)
+			at = advance(n, at,
+			             snprintf(buf + at, n - at, "%s node %u (wheel %d)",
+			                      at ? "," : "no encoder estimate from",
+			                      (unsigned)m->node[j], j));
+	if (at == 0)
+		return buf;
+	for (unsigned node = 0; node <= ODRIVE_NODE_MAX; node++)
+		if (m->heard_other[node / 8u] & (1u << (node % 8u)))
+			at = advance(n, at,
+			             snprintf(buf + at, n - at, "%s %u",
+			                      others++ ? "," : "; heard instead: node", node));
+	if (!others)
+		snprintf(buf + at, n - at, "; no other node heard");
+	return buf;
+}

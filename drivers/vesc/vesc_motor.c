@@ -5,26 +5,37 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #define TWO_PI 6.28318530717958647692
 
-int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg)
+static int check_config(const struct vesc_motor_config *cfg)
 {
-	struct sc_os_filter filt[4];
-
-	memset(m, 0, sizeof(*m));
-	m->fd = -1;
-	tx_gate_init(&m->gate);
 	if (cfg->pole_pairs < 1 || cfg->status_timeout_ms <= 0 ||
-	    (cfg->mode != VESC_MODE_DUTY && cfg->mode != VESC_MODE_CURRENT))
+	    (cfg->mode != VESC_MODE_DUTY && cfg->mode != VESC_MODE_CURRENT) ||
+	    cfg->host_id == VESC_ID_BROADCAST)
 		return -EINVAL;
 	for (int j = 0; j < 4; j++) {
-		if (cfg->id[j] == VESC_ID_BROADCAST)
+		if (cfg->id[j] == VESC_ID_BROADCAST || cfg->id[j] == cfg->host_id)
 			return -EINVAL;
 		for (int k = 0; k < j; k++)
 			if (cfg->id[k] == cfg->id[j])
 				return -EINVAL;
+	}
+	return 0;
+}
+
+int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg)
+{
+	struct sc_os_filter filt[6];
+
+	memset(m, 0, sizeof(*m));
+	m->fd = -1;
+	tx_gate_init(&m->gate);
+	if (check_config(cfg))
+		return -EINVAL;
+	for (int j = 0; j < 4; j++) {
 		/* every frame of controller id[j]: extended, bits 28-16 zero, low byte the id */
 		filt[j] = (struct sc_os_filter){.id = OMNI4_CAN_EFF_FLAG | cfg->id[j],
 		                                .mask = OMNI4_CAN_EFF_FLAG | OMNI4_CAN_RTR_FLAG |
@@ -32,12 +43,20 @@ int vesc_motor_open(struct vesc_motor *m, const struct vesc_motor_config *cfg)
 		m->id[j] = cfg->id[j];
 		m->d[j].input_v = NAN;
 	}
-	const int rc = sc_os_open_filters(cfg->iface, filt, 4, &m->fd);
+	/* STATUS_1 of any id; the fault code replies addressed to us */
+	filt[4] =
+	    (struct sc_os_filter){.id = VESC_CAN_ID(VESC_CMD_STATUS_1, 0),
+	                          .mask = OMNI4_CAN_EFF_FLAG | OMNI4_CAN_RTR_FLAG | 0x1FFFFF00u};
+	filt[5] =
+	    (struct sc_os_filter){.id = VESC_CAN_ID(VESC_CMD_PROCESS_SHORT_BUFFER, cfg->host_id),
+	                          .mask = SC_OS_MASK_EXACT_EFF};
+	const int rc = sc_os_open_filters(cfg->iface, filt, 6, &m->fd);
 
 	if (rc) {
 		m->fd = -1;
 		return rc;
 	}
+	m->host_id = cfg->host_id;
 	m->pole_pairs = cfg->pole_pairs;
 	m->mode = cfg->mode;
 	m->timeout_us = (int64_t)cfg->status_timeout_ms * 1000;
@@ -98,6 +117,19 @@ static int encode_command(const struct vesc_motor *m, int j, float volts, float 
 	return vesc_encode_set_duty(m->id[j], duty, f);
 }
 
+/* Every VESC_FAULT_POLL_TICKS-th write: the fault code request to one controller in turn. */
+static int send_fault_request(struct vesc_motor *m)
+{
+	const uint32_t k = m->writes++;
+	struct omni4_can_frame f;
+
+	if (k % VESC_FAULT_POLL_TICKS)
+		return 0;
+	if (vesc_encode_fault_request(m->id[(k / VESC_FAULT_POLL_TICKS) % 4u], m->host_id, &f))
+		return -ERANGE;
+	return send_frame(m, &f);
+}
+
 static int vesc_write(void *ctx, const float volts[4])
 {
 	struct vesc_motor *m = ctx;
@@ -120,8 +152,10 @@ static int vesc_write(void *ctx, const float volts[4])
 		if (s && !rc)
 			rc = s;
 	}
+	const int s = send_fault_request(m);
+
 	tx_gate_leave(&m->gate);
-	return rc;
+	return rc ? rc : s;
 }
 
 /* The stop command of the mode, twice to each controller; the frames sent. */
@@ -157,19 +191,39 @@ static int drive_index(const struct vesc_motor *m, uint8_t id)
 	return -1;
 }
 
+/* A fault code reply of controller j: a code other than the one reported is news. */
+static void take_fault(struct vesc_drive *d, uint8_t code)
+{
+	d->fault_code = code;
+	if (code && code != d->reported_fault)
+		d->fault_pending = true;
+	if (!code)
+		d->reported_fault = 0;
+	else
+		d->last_fault = code;
+}
+
 static void handle(struct vesc_motor *m, const struct omni4_can_frame *f, int64_t now)
 {
 	struct vesc_status1 s1;
 	struct vesc_status5 s5;
-	uint8_t id;
+	uint8_t id, code;
 	int j;
 
-	if (vesc_decode_status1(f, &id, &s1) == 0 && (j = drive_index(m, id)) >= 0) {
+	if (vesc_decode_status1(f, &id, &s1) == 0) {
+		if ((j = drive_index(m, id)) < 0) {
+			m->heard_other[id / 8u] |= (uint8_t)(1u << (id % 8u));
+			m->n.other_frames++;
+			return;
+		}
 		m->d[j].s1 = s1;
 		m->d[j].last_status1_us = now;
 		m->d[j].have_status1 = true;
 	} else if (vesc_decode_status5(f, &id, &s5) == 0 && (j = drive_index(m, id)) >= 0) {
 		m->d[j].input_v = s5.input_v;
+	} else if (vesc_decode_fault_reply(f, m->host_id, &id, &code) == 0 &&
+	           (j = drive_index(m, id)) >= 0) {
+		take_fault(&m->d[j], code);
 	} else {
 		m->n.other_frames++; /* STATUS_4 and the rest: not used */
 	}
@@ -209,6 +263,8 @@ static bool fill_sample(const struct vesc_motor *m, struct motor_sample *out, in
 
 		if (now - since > m->timeout_us)
 			faults |= HAL_FAULT_DRIVER_TIMEOUT;
+		if (d->fault_pending)
+			faults |= HAL_FAULT_DRIVER;
 		all &= d->have_status1;
 		if (!isnan(d->input_v))
 			supply = isnan(supply) ? d->input_v : fminf(supply, d->input_v);
@@ -221,6 +277,16 @@ static bool fill_sample(const struct vesc_motor *m, struct motor_sample *out, in
 	return all;
 }
 
+/* A sample is handed out: the fault codes it carries are reported. */
+static void faults_reported(struct vesc_motor *m)
+{
+	for (int j = 0; j < 4; j++)
+		if (m->d[j].fault_pending) {
+			m->d[j].fault_pending = false;
+			m->d[j].reported_fault = m->d[j].fault_code;
+		}
+}
+
 static int vesc_read(void *ctx, struct motor_sample *out)
 {
 	struct vesc_motor *m = ctx;
@@ -229,8 +295,10 @@ static int vesc_read(void *ctx, struct motor_sample *out)
 
 	if (rc)
 		return rc;
-	if (fill_sample(m, out, now))
+	if (fill_sample(m, out, now)) {
+		faults_reported(m);
 		return 0;
+	}
 	if (!(out->faults & HAL_FAULT_DRIVER_TIMEOUT))
 		return -EAGAIN; /* still waiting for the first reports */
 	for (int j = 0; j < 4; j++) {
@@ -239,6 +307,7 @@ static int vesc_read(void *ctx, struct motor_sample *out)
 		if (isnan(out->current_a[j]))
 			out->current_a[j] = 0.0f;
 	}
+	faults_reported(m);
 	return 0;
 }
 
@@ -247,6 +316,10 @@ static int vesc_clear_faults(void *ctx)
 	struct vesc_motor *m = ctx;
 
 	m->bus_off = false;
+	for (int j = 0; j < 4; j++) {
+		m->d[j].reported_fault = 0; /* a code still there is reported again */
+		m->d[j].fault_pending = false;
+	}
 	return 0;
 }
 
@@ -278,3 +351,66 @@ const struct motor_hal_ops vesc_motor_ops = {
     .halt = vesc_halt,
     .close = vesc_close,
 };
+
+int vesc_motor_poll_missing(struct vesc_motor *m)
+{
+	int missing = 0;
+
+	drain_frames(m, sc_os_now_us());
+	for (int j = 0; j < 4; j++)
+		missing += !m->d[j].have_status1;
+	return missing;
+}
+
+static size_t advance(size_t n, size_t at, int k)
+{
+	at += k > 0 ? (size_t)k : 0;
+	return at < n ? at : n - 1;
+}
+
+const char *vesc_motor_missing_text(const struct vesc_motor *m, char *buf, size_t n)
+{
+	size_t at = 0;
+	int others = 0;
+
+	if (n == 0)
+		return buf;
+	buf[0] = '\0';
+	for (int j = 0; j < 4; j++)
+		if (!m->d[j].have_status1)
+			at =
+			    advance(n, at,
+			            snprintf(buf + at, n - at, "%s id %u (wheel %d)",
+			                     at ? "," : "no STATUS_1 from", (unsigned)m->id[j], j));
+	if (at == 0)
+		return buf;
+	for (unsigned id = 0; id < 256u; id++)
+		if (m->heard_other[id / 8u] & (1u << (id % 8u)))
+			at = advance(n, at,
+			             snprintf(buf + at, n - at, "%s %u",
+			                      others++ ? "," : "; heard instead: id", id));
+	if (!others)
+		snprintf(buf + at, n - at, "; no other VESC heard");
+	return buf;
+}
+
+const char *vesc_motor_fault_text(const struct vesc_motor *m, char *buf, size_t n)
+{
+	size_t at = 0;
+
+	if (n == 0)
+		return buf;
+	buf[0] = '\0';
+	for (int j = 0; j < 4; j++) {
+		const unsigned code = m->d[j].last_fault;
+
+		if (code)
+			at = advance(n, at,
+			             snprintf(buf + at, n - at, "%swheel %d (id %u): %s (%u)",
+			                      at ? "; " : "", j, (unsigned)m->id[j],
+			                      vesc_fault_name(code), code));
+	}
+	if (at == 0)
+		snprintf(buf, n, "none");
+	return buf;
+}

@@ -5,6 +5,21 @@
 #include "omni4/firmware/robot.h"
 
 #include <stdio.h>
+#include <time.h>
+
+/* Start-up: up to [odrive] status_timeout_ms (1 ms polls) for every axis's first encoder
+ * estimate; one line naming the ones that did not report and the nodes heard instead. */
+static void await_axes(struct odrive_motor *m, int timeout_ms)
+{
+	const struct timespec poll = {.tv_sec = 0, .tv_nsec = 1000000};
+	char text[512];
+
+	for (int k = 0; k < timeout_ms && odrive_motor_poll_missing(m); k++)
+		nanosleep(&poll, NULL);
+	if (odrive_motor_poll_missing(m))
+		fprintf(stderr, "omni4-fw: odrive: after %d ms at start-up: %s\n", timeout_ms,
+		        odrive_motor_missing_text(m, text, sizeof(text)));
+}
 
 static int open_odrive(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
@@ -29,6 +44,7 @@ static int open_odrive(struct robot *r, const struct robot_spec *spec, char *why
 		         sc_os_strerror(rc, text, sizeof(text)));
 		return -1;
 	}
+	await_axes(&r->odrive, os->status_timeout_ms);
 	r->motor = odrive_motor_hal(&r->odrive);
 	return 0;
 }

@@ -4,11 +4,27 @@
 #include "omni4/firmware/robot.h"
 
 #include <stdio.h>
+#include <time.h>
+
+/* Start-up: up to [vesc] status_timeout_ms (1 ms polls) for every controller's first STATUS_1;
+ * one line naming the ones that did not report and the ids heard instead. */
+static void await_controllers(struct vesc_motor *m, int timeout_ms)
+{
+	const struct timespec poll = {.tv_sec = 0, .tv_nsec = 1000000};
+	char text[512];
+
+	for (int k = 0; k < timeout_ms && vesc_motor_poll_missing(m); k++)
+		nanosleep(&poll, NULL);
+	if (vesc_motor_poll_missing(m))
+		fprintf(stderr, "omni4-fw: vesc: after %d ms at start-up: %s\n", timeout_ms,
+		        vesc_motor_missing_text(m, text, sizeof(text)));
+}
 
 static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct vesc_settings *vs = spec->vesc;
 	struct vesc_motor_config cfg = {.iface = vs->iface,
+	                                .host_id = VESC_HOST_ID,
 	                                .pole_pairs = vs->pole_pairs,
 	                                .mode = (enum vesc_mode)vs->mode,
 	                                .status_timeout_ms = vs->status_timeout_ms,
@@ -19,7 +35,8 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 	const int rc = vesc_motor_open(&r->vesc, &cfg);
 
 	if (rc == -EINVAL) {
-		snprintf(why, n, "[vesc] id_0..id_3 must differ (and not be 255)");
+		snprintf(why, n,
+		         "[vesc] id_0..id_3 must differ (and not be 255, or 254: omni4's own id)");
 		return -1;
 	}
 	if (rc) {
@@ -29,6 +46,7 @@ static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, 
 		         sc_os_strerror(rc, text, sizeof(text)));
 		return -1;
 	}
+	await_controllers(&r->vesc, vs->status_timeout_ms);
 	r->motor = vesc_motor_hal(&r->vesc);
 	return 0;
 }
@@ -52,13 +70,15 @@ static void vesc_started(struct robot *r, const struct robot_spec *spec)
 static void vesc_summary(const struct robot *r)
 {
 	const struct vesc_counters *c = &r->vesc.n;
+	char faults[512];
 
 	fprintf(stderr,
 	        "omni4-fw: vesc: rx %llu tx %llu tx_dropped %llu other_frames %llu "
-	        "error_frames %llu bus_off %llu\n",
+	        "error_frames %llu bus_off %llu; fault codes: %s\n",
 	        (unsigned long long)c->rx_frames, (unsigned long long)c->tx_frames,
 	        (unsigned long long)c->tx_dropped, (unsigned long long)c->other_frames,
-	        (unsigned long long)c->error_frames, (unsigned long long)c->bus_off);
+	        (unsigned long long)c->error_frames, (unsigned long long)c->bus_off,
+	        vesc_motor_fault_text(&r->vesc, faults, sizeof(faults)));
 }
 
 const struct robot_backend robot_backend_vesc = {

@@ -66,6 +66,7 @@ enum VescCmd : uint8_t {
 	VESC_SET_CURRENT = 1,
 	VESC_SET_CURRENT_BRAKE = 2,
 	VESC_SET_RPM = 3,
+	VESC_PROCESS_SHORT_BUFFER = 8, // a serial-protocol packet in one frame (commands.c)
 	VESC_STATUS_1 = 9,
 	VESC_STATUS_4 = 16,
 	VESC_STATUS_5 = 27,
@@ -76,6 +77,10 @@ struct VescOptions {
 	int pole_pairs = 7;
 	double timeout_s = 0.5; // the firmware's default CAN timeout
 	Fault fault;
+	// What the faulted drive does: 0 goes silent (a dead controller); else it latches this
+	// mc_fault_code (datatypes.h), releases its motor, takes no command and reports the code
+	// to COMM_GET_VALUES_SELECTIVE.
+	int fault_code = 0;
 };
 
 enum class VescMode { released, duty, current, brake };
@@ -87,6 +92,8 @@ struct VescDrive {
 	double tacho_steps = 0;   // 6 steps per electrical revolution
 	double duty = 0;          // applied in the last step
 	bool dead = false;        // injected fault: silent, ignores commands
+	int fault_code = 0;       // latched mc_fault_code (0: none); ignores commands while set
+	int reply_to = -1;        // a fault code request came from this id: reply at the next emit
 };
 
 struct VescSim {
@@ -101,8 +108,9 @@ void vesc_sim_init(VescSim &s, const VescOptions &o, const Motors &m);
 void vesc_sim_receive(VescSim &s, const omni4_can_frame &f, double t_s);
 // Timeouts and faults at t_s, then the voltages for the next step.
 DriveOut vesc_sim_step(VescSim &s, double t_s, const DriveView &v);
-// STATUS_1, STATUS_4 and STATUS_5 of every live drive, appended to out.
-void vesc_sim_emit(const VescSim &s, const DriveView &v, Frames &out);
+// STATUS_1, STATUS_4 and STATUS_5 of every live drive, and the replies to the fault code
+// requests received since the last emit, appended to out.
+void vesc_sim_emit(VescSim &s, const DriveView &v, Frames &out);
 // STATUS_1's ERPM for a motor speed: rad/s x pole pairs x 60 / 2 pi.
 double vesc_erpm(double motor_rad_s, int pole_pairs);
 

@@ -1,6 +1,7 @@
 // vesc_sim.cpp - four simulated VESCs (VESC CAN-Bus Communication, documentation/comm_can.md of
 // github.com/vedderb/bldc): SET_DUTY, SET_CURRENT, SET_CURRENT_BRAKE in; STATUS_1, STATUS_4,
-// STATUS_5 out; the 0.5 s command timeout that releases the motor.
+// STATUS_5 out; the 0.5 s command timeout that releases the motor; a fault code (mc_fault_code)
+// asked for with COMM_GET_VALUES_SELECTIVE in a PROCESS_SHORT_BUFFER (comm_can.c, commands.c).
 #include <cmath>
 
 #include "drive_sim.hpp"
@@ -11,7 +12,9 @@ namespace
 {
 
 constexpr double kTwoPi = 6.283185307179586;
-constexpr uint32_t kBroadcastId = 255; // every controller (the firmware's reading)
+constexpr uint32_t kBroadcastId = 255;        // every controller (the firmware's reading)
+constexpr uint8_t kGetValuesSelective = 50;   // COMM_GET_VALUES_SELECTIVE (datatypes.h)
+constexpr uint32_t kMaskFaultCode = 1u << 15; // its mask bit of the fault code (one byte)
 
 // comm_can.md: "signed 32-bit, big-endian" payloads; value = raw / scale.
 int32_t be_i32(const uint8_t *p)
@@ -39,6 +42,15 @@ omni4_can_frame status_frame(uint8_t cmd, int id)
 	f.id = OMNI4_CAN_EFF_FLAG | (uint32_t)cmd << 8 | static_cast<uint32_t>(id);
 	f.dlc = 8;
 	return f;
+}
+
+// PROCESS_SHORT_BUFFER: [sender id, 0 = process and reply, packet...]. The one packet simulated:
+// COMM_GET_VALUES_SELECTIVE with the fault code alone in its mask (big-endian uint32).
+void take_packet(VescDrive &d, const omni4_can_frame &f)
+{
+	if (f.dlc == 7 && f.data[1] == 0 && f.data[2] == kGetValuesSelective &&
+	    static_cast<uint32_t>(be_i32(f.data + 3)) == kMaskFaultCode)
+		d.reply_to = f.data[0];
 }
 
 void take(VescDrive &d, uint8_t cmd, int32_t raw, double t_s)
@@ -104,21 +116,30 @@ void vesc_sim_receive(VescSim &s, const omni4_can_frame &f, double t_s)
 		return;
 	const auto cmd = static_cast<uint8_t>(id >> 8);
 	const uint32_t to = id & 0xFF;
-	for (int j = 0; j < 4; ++j)
-		if (!s.d[j].dead && (to == static_cast<uint32_t>(s.o.ids[j]) || to == kBroadcastId))
+	for (int j = 0; j < 4; ++j) {
+		if (s.d[j].dead || (to != static_cast<uint32_t>(s.o.ids[j]) && to != kBroadcastId))
+			continue;
+		if (cmd == VESC_PROCESS_SHORT_BUFFER)
+			take_packet(s.d[j], f);
+		else
 			take(s.d[j], cmd, be_i32(f.data), t_s);
+	}
 }
 
 DriveOut vesc_sim_step(VescSim &s, double t_s, const DriveView &v)
 {
 	const double dt = s.last_step_s < 0 ? 0 : t_s - s.last_step_s;
 	s.last_step_s = t_s;
-	if (s.o.fault.at_s >= 0 && t_s >= s.o.fault.at_s)
-		s.d[s.o.fault.wheel].dead = true;
+	if (s.o.fault.at_s >= 0 && t_s >= s.o.fault.at_s) {
+		VescDrive &f = s.d[s.o.fault.wheel];
+		f.dead = s.o.fault_code == 0;
+		f.fault_code = s.o.fault_code;
+	}
 	DriveOut out{};
 	for (int j = 0; j < 4; ++j) {
 		VescDrive &d = s.d[j];
-		if (d.dead || (d.mode != VescMode::released && t_s - d.last_cmd_s > s.o.timeout_s))
+		if (d.dead || d.fault_code ||
+		    (d.mode != VescMode::released && t_s - d.last_cmd_s > s.o.timeout_s))
 			d.mode = VescMode::released; // duty 0: the motor coasts
 		out.u_v[j] = drive_voltage(s, j, v);
 		out.driven |= d.mode != VescMode::released;
@@ -131,12 +152,36 @@ DriveOut vesc_sim_step(VescSim &s, double t_s, const DriveView &v)
 	return out;
 }
 
-void vesc_sim_emit(const VescSim &s, const DriveView &v, Frames &out)
+namespace
+{
+
+// The reply to a fault code request: PROCESS_SHORT_BUFFER to the asker, [own id, 1 = a reply,
+// packet id, mask, the code].
+omni4_can_frame fault_reply(int own_id, int to, int code)
+{
+	omni4_can_frame f{};
+	f.id = OMNI4_CAN_EFF_FLAG | (uint32_t)VESC_PROCESS_SHORT_BUFFER << 8 |
+	       static_cast<uint32_t>(to);
+	f.dlc = 8;
+	f.data[0] = static_cast<uint8_t>(own_id);
+	f.data[1] = 1;
+	f.data[2] = kGetValuesSelective;
+	put_be(f.data + 3, kMaskFaultCode, 4);
+	f.data[7] = static_cast<uint8_t>(code);
+	return f;
+}
+
+} // namespace
+
+void vesc_sim_emit(VescSim &s, const DriveView &v, Frames &out)
 {
 	for (int j = 0; j < 4; ++j) {
-		const VescDrive &d = s.d[j];
+		VescDrive &d = s.d[j];
 		if (d.dead)
 			continue;
+		if (d.reply_to >= 0)
+			out.push_back(fault_reply(s.o.ids[j], d.reply_to, d.fault_code));
+		d.reply_to = -1;
 		const double i_motor = d.mode == VescMode::released ? 0.0 : v.current_a[j];
 		omni4_can_frame f = status_frame(VESC_STATUS_1, s.o.ids[j]);
 		put_be(f.data, scaled(vesc_erpm(v.motor_rad_s[j], s.o.pole_pairs), 1, INT32_MAX),

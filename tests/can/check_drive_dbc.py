@@ -29,6 +29,10 @@ HAND = [
      {"temp_fet": -5.5, "temp_motor": 40.0, "current_in": -1.0, "pid_pos": 90.0}),
     # STATUS_5 (27 = 0x1B) from ID 3: tachometer -6 = 0xFFFFFFFA, 24.0 V x 10 = 240 = 0x00F0.
     ("vesc", EFF | 0x1B03, "FFFFFFFA00F00000", 3, {"tacho": -6, "input_voltage": 24.0}),
+    # PROCESS_SHORT_BUFFER (8) to host id 254 from VESC 1, a reply (mode 1) to
+    # COMM_GET_VALUES_SELECTIVE (50 = 0x32) with mask bit 15 (0x00008000): fault code 5.
+    ("vesc", EFF | 0x08FE, "0101320000800005", 254,
+     {"sender": 1, "mode": 1, "packet_id": 50, "values_mask": 0x8000, "fault_code": 5}),
     # Set_Input_Vel (0x0D) to node 1: ID 1 << 5 | 0x0D = 0x2D; 1.0f = 0x3F800000 little-endian,
     # torque feed-forward 0.0f.
     ("odrive", 0x02D, "0000803F00000000", 1, {"input_vel": 1.0, "input_torque_ff": 0.0}),

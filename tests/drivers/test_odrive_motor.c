@@ -110,7 +110,12 @@ static void test_open_clears_sets_torque_control_and_closes_the_loop(void **stat
 		expect_start(3 * j, j);
 	for (int j = 0; j < 4; j++)
 		assert_true(mock_filter_passes(ODRIVE_CAN_ID(nodes[j], ODRIVE_CMD_HEARTBEAT)));
-	assert_false(mock_filter_passes(ODRIVE_CAN_ID(6, ODRIVE_CMD_HEARTBEAT)));
+	/* another node's heartbeat and estimates (to name a drive on a wrong node), not its rest */
+	assert_true(mock_filter_passes(ODRIVE_CAN_ID(6, ODRIVE_CMD_HEARTBEAT)));
+	assert_true(mock_filter_passes(ODRIVE_CAN_ID(6, ODRIVE_CMD_GET_ENCODER_ESTIMATES)));
+	assert_false(mock_filter_passes(ODRIVE_CAN_ID(6, ODRIVE_CMD_GET_BUS_VOLTAGE_CURRENT)));
+	assert_false(
+	    mock_filter_passes(ODRIVE_CAN_ID(6, ODRIVE_CMD_HEARTBEAT) | OMNI4_CAN_RTR_FLAG));
 	assert_false(mock_filter_passes(ODRIVE_CAN_ID(5, ODRIVE_CMD_GET_IQ) | OMNI4_CAN_RTR_FLAG));
 	hal_motor_close(&(struct motor_hal){&odrive_motor_ops, &m});
 }
@@ -309,6 +314,135 @@ static void test_halt_stops_and_drops_later_writes(void **state)
 	assert_int_equal(mock_n_sent, 12 + 8);
 }
 
+/* Set_Axis_State CLOSED_LOOP frames to nodes[j] in frames from..end. */
+static int closed_loop_requests(int from, int j)
+{
+	int n = 0;
+
+	for (int k = from; k < mock_n_sent; k++) {
+		uint8_t node;
+		uint32_t st;
+
+		n += odrive_decode_set_axis_state(&mock_sent[k], &node, &st) == 0 &&
+		     node == nodes[j] && st == ODRIVE_AXIS_STATE_CLOSED_LOOP;
+	}
+	return n;
+}
+
+/* An axis that came up after the start (heartbeat IDLE, no error) is started again: torque
+ * control and closed loop, at most every 100 ms while its heartbeat says IDLE; none for an axis
+ * in closed loop or one with an error (that waits for a clear). */
+static void test_an_idle_axis_without_error_is_started_again_at_a_bounded_rate(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	struct motor_sample s;
+	const float volts[4] = {0, 0, 0, 0};
+	const struct odrive_motor_config c = config();
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+	const int from = mock_n_sent;
+
+	for (int t = 0; t < 250; t++) { /* 250 ticks of 1 ms */
+		push_reports();
+		push_heartbeat(0, 0, ODRIVE_AXIS_STATE_CLOSED_LOOP);
+		push_heartbeat(1, 0, ODRIVE_AXIS_STATE_IDLE);
+		push_heartbeat(2, 0x00000200u, ODRIVE_AXIS_STATE_IDLE);
+		push_heartbeat(3, 0, ODRIVE_AXIS_STATE_CLOSED_LOOP);
+		assert_int_equal(hal_motor_read(&h, &s), 0);
+		assert_int_equal(hal_motor_write(&h, volts), 0);
+		mock_clock_us += 1000;
+	}
+	assert_int_equal(closed_loop_requests(from, 0), 0);
+	assert_int_equal(closed_loop_requests(from, 1), 3); /* at 0, 100, 200 ms */
+	assert_int_equal(closed_loop_requests(from, 2), 0);
+	assert_int_equal(closed_loop_requests(from, 3), 0);
+	hal_motor_close(&h);
+}
+
+/* An axis that stops reporting: no fault up to the timeout (20 ms), DRIVER_TIMEOUT within 3
+ * ticks (1 ms) after it. */
+static void test_driver_timeout_within_three_ticks_of_the_timeout(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	struct motor_sample s;
+	const struct odrive_motor_config c = config();
+	int fault_tick = -1;
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+
+	push_reports(); /* the last estimate of axis 3 */
+	for (int t = 1; t <= 30 && fault_tick < 0; t++) {
+		mock_clock_us += 1000;
+		for (int j = 0; j < 3; j++) {
+			const struct odrive_encoder_estimates e = {.pos_turn = 0,
+			                                           .vel_turn_s = 1.0f};
+			struct omni4_can_frame f;
+
+			assert_int_equal(odrive_encode_encoder_estimates(nodes[j], &e, &f), 0);
+			mock_push(&f);
+		}
+		assert_int_equal(hal_motor_read(&h, &s), 0);
+		if (s.faults & HAL_FAULT_DRIVER_TIMEOUT)
+			fault_tick = t;
+	}
+	assert_true(fault_tick > 20 && fault_tick <= 23);
+	hal_motor_close(&h);
+}
+
+/* Start-up with axis 2 on a wrong node (18): one missing, named with the node heard. */
+static void test_an_axis_on_a_wrong_node_is_named_with_the_node_heard(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	char text[256];
+	const struct odrive_motor_config c = config();
+	const struct odrive_encoder_estimates e = {.pos_turn = 0, .vel_turn_s = 0};
+	struct omni4_can_frame f;
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+
+	for (int j = 0; j < 4; j++)
+		if (j != 2) {
+			assert_int_equal(odrive_encode_encoder_estimates(nodes[j], &e, &f), 0);
+			mock_push(&f);
+		}
+	assert_int_equal(odrive_encode_encoder_estimates(18, &e, &f), 0);
+	mock_push(&f);
+	assert_int_equal(odrive_motor_poll_missing(&m), 1);
+	assert_string_equal(odrive_motor_missing_text(&m, text, sizeof(text)),
+	                    "no encoder estimate from node 17 (wheel 2); heard instead: node 18");
+	hal_motor_close(&h);
+}
+
+static void test_bus_off_is_a_bus_fault_until_cleared(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	struct motor_sample s;
+	const struct odrive_motor_config c = config();
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+
+	push_reports();
+	mock_push_error(SC_ERR_BUSOFF);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_BUS);
+	push_reports();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_BUS); /* latched until a clear */
+	assert_int_equal(hal_motor_clear_faults(&h), 0);
+	push_reports();
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	hal_motor_close(&h);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -321,6 +455,12 @@ int main(void)
 	    cmocka_unit_test_setup(test_a_silent_axis_is_a_driver_timeout, reset),
 	    cmocka_unit_test_setup(test_close_zeroes_the_torque_then_idles_every_axis, reset),
 	    cmocka_unit_test_setup(test_halt_stops_and_drops_later_writes, reset),
+	    cmocka_unit_test_setup(
+	        test_an_idle_axis_without_error_is_started_again_at_a_bounded_rate, reset),
+	    cmocka_unit_test_setup(test_driver_timeout_within_three_ticks_of_the_timeout, reset),
+	    cmocka_unit_test_setup(test_bus_off_is_a_bus_fault_until_cleared, reset),
+	    cmocka_unit_test_setup(test_an_axis_on_a_wrong_node_is_named_with_the_node_heard,
+	                           reset),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -9,11 +9,13 @@
 #define TWO_PI 6.28318530717958647692
 
 static const uint8_t ids[4] = {7, 3, 12, 200};
+#define HOST_ID 254
 
 /* Gear 5; wheel 2 has its own R (a per-wheel constant must be the wheel's). */
 static struct vesc_motor_config config(enum vesc_mode mode)
 {
 	struct vesc_motor_config c = {.iface = "vcan0",
+	                              .host_id = HOST_ID,
 	                              .pole_pairs = 7,
 	                              .mode = mode,
 	                              .status_timeout_ms = 20,
@@ -101,7 +103,12 @@ static void test_open_filters_admit_each_controllers_frames_only(void **state)
 		assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, ids[j])));
 		assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_5, ids[j])));
 	}
-	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, 8)));
+	/* another id's STATUS_1 (to name a controller on a wrong id), none of its other frames */
+	assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, 8)));
+	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_5, 8)));
+	/* the replies addressed to us, not those to another host */
+	assert_true(mock_filter_passes(VESC_CAN_ID(VESC_CMD_PROCESS_SHORT_BUFFER, HOST_ID)));
+	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_PROCESS_SHORT_BUFFER, 253)));
 	assert_false(mock_filter_passes(VESC_CMD_STATUS_1 << 8 | 7)); /* standard frame */
 	assert_false(mock_filter_passes(VESC_CAN_ID(VESC_CMD_STATUS_1, 7) | 0x10000u));
 	hal_motor_close(&(struct motor_hal){&vesc_motor_ops, &m});
@@ -315,6 +322,162 @@ static void test_halt_stops_and_drops_later_writes(void **state)
 	assert_true(mock_closed);
 }
 
+/* A reply to a fault code request as comm_can.c sends it, written here byte by byte:
+ * PROCESS_SHORT_BUFFER (8) to `to`, [sender, 1 (a reply), COMM_GET_VALUES_SELECTIVE (50),
+ * mask 0x00008000 (bit 15: the fault code) big-endian, the code]. */
+static void push_fault_reply(uint8_t from, uint8_t to, uint8_t code)
+{
+	const struct omni4_can_frame f = {.id = OMNI4_CAN_EFF_FLAG | 0x0800u | to,
+	                                  .dlc = 8,
+	                                  .data = {from, 1, 50, 0x00, 0x00, 0x80, 0x00, code}};
+
+	mock_push(&f);
+}
+
+/* Every 4th write asks one controller in turn: [host, 0 (process, reply to host), 50, mask
+ * 0x00008000], 7 bytes, PROCESS_SHORT_BUFFER to the controller. Each is asked every 16. */
+static void test_writes_ask_each_controller_for_its_fault_code_in_turn(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	const float volts[4] = {0, 0, 0, 0};
+	int asked[4] = {0};
+
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
+
+	for (int t = 0; t < 32; t++)
+		assert_int_equal(hal_motor_write(&h, volts), 0);
+	for (int k = 0; k < mock_n_sent; k++) {
+		const struct omni4_can_frame *f = &mock_sent[k];
+
+		if ((f->id & 0x1FFFFF00u) != 0x0800u)
+			continue;
+		assert_int_equal(f->id & ~0xFFu, OMNI4_CAN_EFF_FLAG | 0x0800u);
+		assert_int_equal(f->dlc, 7);
+		const uint8_t want[7] = {HOST_ID, 0, 50, 0x00, 0x00, 0x80, 0x00};
+
+		assert_memory_equal(f->data, want, 7);
+		for (int j = 0; j < 4; j++)
+			asked[j] += (f->id & 0xFFu) == ids[j];
+	}
+	for (int j = 0; j < 4; j++)
+		assert_int_equal(asked[j], 2); /* 32 writes: 8 requests, 2 to each */
+	hal_motor_close(&h);
+}
+
+/* A fault code in a reply: DRIVER in the next sample, once; the same code again is no news, a
+ * clear has it reported again; a code of 0 ends it; a reply to another host or with another
+ * mask is not ours. The code is named for the summary. */
+static void test_a_fault_code_is_a_driver_fault_reported_once_and_named(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	char text[256];
+
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
+
+	push_all_status();
+	push_fault_reply(ids[2], 253, 5); /* to another host */
+	struct omni4_can_frame other_mask = {.id = OMNI4_CAN_EFF_FLAG | 0x0800u | HOST_ID,
+	                                     .dlc = 8,
+	                                     .data = {ids[2], 1, 50, 0x00, 0x00, 0x40, 0x00, 5}};
+
+	mock_push(&other_mask);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0);
+	assert_string_equal(vesc_motor_fault_text(&m, text, sizeof(text)), "none");
+	push_all_status();
+	push_fault_reply(ids[2], HOST_ID, 5); /* FAULT_CODE_OVER_TEMP_FET */
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER);
+	push_all_status();
+	push_fault_reply(ids[2], HOST_ID, 5);
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, 0); /* reported once */
+	assert_int_equal(hal_motor_clear_faults(&h), 0);
+	push_all_status();
+	push_fault_reply(ids[2], HOST_ID, 5); /* still there after the clear */
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER);
+	push_all_status();
+	push_fault_reply(ids[2], HOST_ID, 0);
+	push_fault_reply(ids[0], HOST_ID, 2); /* FAULT_CODE_UNDER_VOLTAGE on wheel 0 */
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	assert_int_equal(s.faults, HAL_FAULT_DRIVER);
+	assert_string_equal(
+	    vesc_motor_fault_text(&m, text, sizeof(text)),
+	    "wheel 0 (id 7): under_voltage (2); wheel 2 (id 12): over_temp_fet (5)");
+	hal_motor_close(&h);
+}
+
+/* A controller that stops reporting: no fault up to the timeout (20 ms), DRIVER_TIMEOUT within
+ * 3 ticks (1 ms) after it. */
+static void test_driver_timeout_within_three_ticks_of_the_timeout(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct motor_sample s;
+	int fault_tick = -1;
+
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
+
+	push_all_status(); /* the last report of controller 1 */
+	for (int t = 1; t <= 30 && fault_tick < 0; t++) {
+		mock_clock_us += 1000;
+		for (int j = 0; j < 4; j++)
+			if (j != 1)
+				push_status(j, 7000, 1.0f, 24.0f);
+		assert_int_equal(hal_motor_read(&h, &s), 0);
+		if (s.faults & HAL_FAULT_DRIVER_TIMEOUT)
+			fault_tick = t;
+	}
+	assert_true(fault_tick > 20 && fault_tick <= 23);
+	hal_motor_close(&h);
+}
+
+/* Start-up with controller 3 on a wrong id (13): one missing, named with the id heard. */
+static void test_a_controller_on_a_wrong_id_is_named_with_the_id_heard(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	char text[256];
+	const struct vesc_status1 s1 = {.erpm = 0, .current_a = 0, .duty = 0};
+	struct omni4_can_frame f;
+
+	const struct motor_hal h = open_backend(&m, VESC_MODE_DUTY);
+
+	assert_int_equal(vesc_motor_poll_missing(&m), 4);
+	assert_string_equal(vesc_motor_missing_text(&m, text, sizeof(text)),
+	                    "no STATUS_1 from id 7 (wheel 0), id 3 (wheel 1), id 12 (wheel 2), "
+	                    "id 200 (wheel 3); no other VESC heard");
+	for (int j = 0; j < 3; j++)
+		push_status(j, 0, 0.0f, 24.0f);
+	assert_int_equal(vesc_encode_status1(13, &s1, &f), 0);
+	mock_push(&f);
+	assert_int_equal(vesc_motor_poll_missing(&m), 1);
+	assert_string_equal(vesc_motor_missing_text(&m, text, sizeof(text)),
+	                    "no STATUS_1 from id 200 (wheel 3); heard instead: id 13");
+	push_status(3, 0, 0.0f, 24.0f);
+	assert_int_equal(vesc_motor_poll_missing(&m), 0);
+	assert_string_equal(vesc_motor_missing_text(&m, text, sizeof(text)), "");
+	hal_motor_close(&h);
+}
+
+/* host_id must be none of the controllers' ids (their replies would go to a VESC). */
+static void test_a_host_id_equal_to_a_controller_id_is_refused(void **state)
+{
+	(void)state;
+	struct vesc_motor m;
+	struct vesc_motor_config c = config(VESC_MODE_DUTY);
+
+	c.host_id = ids[1];
+	assert_int_equal(vesc_motor_open(&m, &c), -EINVAL);
+	c.host_id = 255;
+	assert_int_equal(vesc_motor_open(&m, &c), -EINVAL);
+	assert_false(mock_open);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -329,6 +492,14 @@ int main(void)
 	    cmocka_unit_test_setup(test_bus_off_is_a_bus_fault_until_cleared, reset),
 	    cmocka_unit_test_setup(test_close_stops_every_controller, reset),
 	    cmocka_unit_test_setup(test_halt_stops_and_drops_later_writes, reset),
+	    cmocka_unit_test_setup(test_writes_ask_each_controller_for_its_fault_code_in_turn,
+	                           reset),
+	    cmocka_unit_test_setup(test_a_fault_code_is_a_driver_fault_reported_once_and_named,
+	                           reset),
+	    cmocka_unit_test_setup(test_driver_timeout_within_three_ticks_of_the_timeout, reset),
+	    cmocka_unit_test_setup(test_a_controller_on_a_wrong_id_is_named_with_the_id_heard,
+	                           reset),
+	    cmocka_unit_test_setup(test_a_host_id_equal_to_a_controller_id_is_refused, reset),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -191,6 +191,41 @@ TEST(VescSim, AFaultedDriveGoesSilentAndIgnoresCommands)
 		EXPECT_NE(f.id & 0xFF, 2u);
 }
 
+TEST(VescSim, ALatchedFaultCodeIsTheReplyToCommGetValuesSelective)
+{
+	// commands.c COMM_GET_VALUES_SELECTIVE (50) with mask bit 15 (the fault code) alone, in a
+	// PROCESS_SHORT_BUFFER (8) from id 254 to VESC 1: [254, 0 = process and reply, 50,
+	// 00 00 80 00]; the reply to 254: [1, 1 = a reply, 50, 00 00 80 00, code].
+	VescSim s;
+	VescOptions o;
+	o.fault = Fault{1.0, 1};
+	o.fault_code = 5; // FAULT_CODE_OVER_TEMP_FET
+	vesc_sim_init(s, o, test_motors());
+	const omni4_can_frame ask = frame(EFF | 0x0801, {254, 0, 50, 0x00, 0x00, 0x80, 0x00});
+	vesc_sim_receive(s, ask, 0.5);
+	vesc_sim_step(s, 0.5, view(0, 24));
+	Frames out;
+	vesc_sim_emit(s, view(0, 24), out);
+	expect_bytes(find(out, EFF | 0x08FE), {1, 1, 50, 0x00, 0x00, 0x80, 0x00, 0});
+	out.clear();
+	vesc_sim_emit(s, view(0, 24), out); // answered once
+	EXPECT_EQ(find(out, EFF | 0x08FE), nullptr);
+	vesc_sim_step(s, 1.0, view(0, 24));
+	// SET_DUTY 0.5 to VESC 1 after the fault: not taken, the motor stays released
+	vesc_sim_receive(s, frame(EFF | 0x0001, {0x00, 0x00, 0xC3, 0x50}), 1.0);
+	vesc_sim_receive(s, ask, 1.0);
+	EXPECT_FALSE(vesc_sim_step(s, 1.001, view(0, 24)).driven);
+	out.clear();
+	vesc_sim_emit(s, view(0, 24), out);
+	expect_bytes(find(out, EFF | 0x08FE), {1, 1, 50, 0x00, 0x00, 0x80, 0x00, 5});
+	EXPECT_NE(find(out, EFF | 0x0901), nullptr); // still reporting
+	// another mask (more values than one frame holds) is not simulated: no reply
+	vesc_sim_receive(s, frame(EFF | 0x0801, {254, 0, 50, 0x00, 0x00, 0x80, 0x01}), 1.0);
+	out.clear();
+	vesc_sim_emit(s, view(0, 24), out);
+	EXPECT_EQ(find(out, EFF | 0x08FE), nullptr);
+}
+
 TEST(VescSim, IgnoresStandardRemoteAndOtherControllersFrames)
 {
 	VescSim s = vesc();

@@ -93,6 +93,8 @@ def decode_all(proto, db, frames):
             assert msg.senders == ["ODRIVE"], f"{fid:X}: a remote frame of a command"
             out.append((msg.name + "?", node, {}))
             continue
+        if msg.name == "PROCESS_SHORT_BUFFER" and len(data) == 7:
+            data += b"\0"  # the fault code request: the reply's last byte absent
         assert len(data) == msg.length, f"{fid:X}: DLC {len(data)}, the DBC says {msg.length}"
         out.append((msg.name, node, msg.decode(data, decode_choices=False)))
     return out

@@ -6,7 +6,10 @@
  * write: one Set_Input_Torque per axis per tick, torque = Kt_j drive_currents() at the wheel's
  * measured speed; 0 Nm when disabled (an axis in closed loop at 0 Nm free-wheels) or before a
  * speed is measured. Then one remote frame (RTR) per tick, in turn for each axis's Get_Iq and
- * Get_Bus_Voltage_Current (the drive may also send them cyclically).
+ * Get_Bus_Voltage_Current (the drive may also send them cyclically). An axis whose heartbeat says
+ * IDLE without an error (an ODrive that came up after the controller and missed the start) is
+ * started again: Set_Controller_Mode and Set_Axis_State CLOSED_LOOP_CONTROL, at most every
+ * ODRIVE_RESTART_PERIOD_US per axis, for as long as its heartbeat says so.
  * read: Get_Encoder_Estimates gives the wheel speed (turn/s x 2 pi / gear), Get_Iq the motor
  * current (measured), Get_Bus_Voltage_Current the supply (the lowest), the Heartbeat the axis
  * error. An axis without an encoder estimate for status_timeout_ms -> HAL_FAULT_DRIVER_TIMEOUT;
@@ -32,6 +35,10 @@
 #include "omni4/drivers/tx_gate.h"
 
 #define ODRIVE_MAX_FRAMES_PER_READ 64
+/* An idle axis without an error is asked for closed loop again at most this often: the
+ * heartbeat's default period (100 ms), so an axis that is entering closed loop is not asked
+ * twice per heartbeat. */
+#define ODRIVE_RESTART_PERIOD_US 100000
 
 struct odrive_counters {
 	uint64_t rx_frames, tx_frames, tx_dropped;
@@ -48,6 +55,7 @@ struct odrive_axis {
 	uint32_t reported_errors; /* the bits already reported as HAL_FAULT_DRIVER */
 	bool fault_pending;       /* a new error bit: the next sample reports it */
 	int64_t last_estimate_us;
+	int64_t restart_us; /* the last closed-loop request after open's (0: none) */
 	bool have_estimate, have_hb;
 };
 
@@ -67,6 +75,7 @@ struct odrive_motor {
 	struct drive_consts consts;
 	bool enabled, bus_off;
 	unsigned request; /* the next remote frame: axis request / 2, Iq or bus by request % 2 */
+	uint8_t heard_other[8]; /* bit set of the nodes not ours that sent an estimate/heartbeat */
 	struct odrive_axis a[4];
 	struct odrive_counters n;
 	struct tx_gate gate; /* shut by odrive_motor_halt(): nothing more is sent */
@@ -74,15 +83,22 @@ struct odrive_motor {
 
 extern const struct motor_hal_ops odrive_motor_ops;
 
-/* Start-up: the socket with one receive filter per node, then each axis started (above).
- * -EINVAL for a bad config, else the socket layer's error (message: sc_os_strerror()); nothing
- * left open then. */
+/* Start-up: the socket with one receive filter per node (and one for the encoder estimates and
+ * heartbeats of any node: a drive on a node not configured is named), then each axis started
+ * (above). -EINVAL for a bad config, else the socket layer's error (message: sc_os_strerror());
+ * nothing left open then. */
 int odrive_motor_open(struct odrive_motor *m, const struct odrive_motor_config *cfg);
 /* Loop thread, between two ticks: the model's numbers in force (a parameter change). */
 void odrive_motor_set_consts(struct odrive_motor *m, const struct drive_consts *c);
 /* Crash path, async-signal-safe: every later write is dropped, then Set_Input_Torque 0 and
  * Set_Axis_State IDLE to each axis. Returns the frames sent. */
 int odrive_motor_halt(struct odrive_motor *m);
+/* Start-up, before the loop runs: takes the frames queued; the number of axes without an
+ * encoder estimate yet. */
+int odrive_motor_poll_missing(struct odrive_motor *m);
+/* Start-up or after the loop: the axes without an estimate and the nodes not configured that
+ * sent an estimate or a heartbeat, as one line in buf ("" if every axis reported); returns buf. */
+const char *odrive_motor_missing_text(const struct odrive_motor *m, char *buf, size_t n);
 /* The axis errors seen ("wheel 1 (node 5): dc_bus_under_voltage motor_over_temp; ..."), or
  * "none", in buf, which it returns. Not the fast loop. */
 const char *odrive_motor_fault_text(const struct odrive_motor *m, char *buf, size_t n);

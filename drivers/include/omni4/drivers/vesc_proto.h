@@ -20,9 +20,17 @@
  *                                      int16 input current x 10 [A], int16 PID pos x 50 [deg]
  *   cmd 27 STATUS_5           8 bytes  int32 tachometer [steps, 6 per electrical revolution],
  *                                      int16 input voltage x 10 [V], 2 bytes reserved (0)
+ *   cmd  8 PROCESS_SHORT_BUFFER a command packet of the firmware's serial protocol
+ *                              (commands.c) in one frame: byte 0 the sender's id (where a reply
+ *                              goes), byte 1 what to do with it (0: process and reply), then the
+ *                              packet (at most 6 bytes). The reply comes back the same way,
+ *                              addressed to that sender id, byte 1 = 1 (a reply: pass it on).
  * The controller stops the motor when no command came for its timeout (0.5 s by default):
- * commands are meant to be repeated at a fixed rate. None of these frames carries a fault code;
- * VESC_FAULTS below names mc_fault_code for the multi-frame replies that do (later work).
+ * commands are meant to be repeated at a fixed rate. No status frame carries the fault code
+ * (mc_fault_code): it is asked for with COMM_GET_VALUES_SELECTIVE (packet id 50, a big-endian
+ * uint32 mask of the values wanted; bit 15 the fault code, one byte) in a PROCESS_SHORT_BUFFER,
+ * whose reply is packet id, the mask, then the selected values in bit order: with bit 15 alone
+ * [50, 00 00 80 00, code], 6 bytes, one frame.
  *
  * Calling context: every function is pure and bounded (a few dozen instructions); safe in the
  * fast loop and in an interrupt handler, never blocks. Encoders reject a non-finite value with
@@ -44,6 +52,7 @@ enum vesc_cmd {
 	VESC_CMD_SET_CURRENT = 1,
 	VESC_CMD_SET_CURRENT_BRAKE = 2,
 	VESC_CMD_SET_RPM = 3,
+	VESC_CMD_PROCESS_SHORT_BUFFER = 8,
 	VESC_CMD_STATUS_1 = 9,
 	VESC_CMD_STATUS_4 = 16,
 	VESC_CMD_STATUS_5 = 27,
@@ -53,6 +62,14 @@ enum vesc_cmd {
 /* The frame ID (with OMNI4_CAN_EFF_FLAG) of a command for a controller. */
 #define VESC_CAN_ID(cmd, controller)                                                               \
 	(OMNI4_CAN_EFF_FLAG | ((uint32_t)(cmd) << 8) | ((uint32_t)(controller) & 0xFFu))
+
+/* PROCESS_SHORT_BUFFER's byte 1: process the packet and send the reply to the sender id; the
+ * mark of a reply. */
+#define VESC_BUFFER_PROCESS 0u
+#define VESC_BUFFER_REPLY 1u
+/* The serial protocol's packet COMM_GET_VALUES_SELECTIVE and its mask bit of the fault code. */
+#define VESC_COMM_GET_VALUES_SELECTIVE 50u
+#define VESC_VALUES_FAULT_CODE (1u << 15)
 
 /* Scales: physical value = raw / scale. */
 #define VESC_SCALE_DUTY 100000.0f
@@ -106,6 +123,16 @@ int vesc_decode_status4(const struct omni4_can_frame *f, uint8_t *controller,
                         struct vesc_status4 *s);
 int vesc_decode_status5(const struct omni4_can_frame *f, uint8_t *controller,
                         struct vesc_status5 *s);
+
+/* The fault code request (host -> controller): PROCESS_SHORT_BUFFER to `controller`, 7 bytes
+ * [host, VESC_BUFFER_PROCESS, 50, 00 00 80 00]; the reply goes to `host`. -EINVAL if the two
+ * are equal or either is the broadcast id. */
+int vesc_encode_fault_request(uint8_t controller, uint8_t host, struct omni4_can_frame *f);
+/* Its reply (controller -> host): PROCESS_SHORT_BUFFER to `host`, 8 bytes [controller,
+ * VESC_BUFFER_REPLY, 50, 00 00 80 00, code]. The controller that answered and its
+ * mc_fault_code; -EINVAL for any other frame (another address, length, packet or mask). */
+int vesc_decode_fault_reply(const struct omni4_can_frame *f, uint8_t host, uint8_t *controller,
+                            uint8_t *code);
 
 /* mc_fault_code (datatypes.h): value, our short name. */
 #define VESC_FAULTS(X)                                                                             \
