@@ -21,14 +21,16 @@ import omni4
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 FLOOR_S = 180.0
-# 0.2 Ah: the 5-minute drive with thermal draws the supply down by >= 15 % (printed below).
-CHANGING = ("[sim]\nthermal = true\nbattery = true\nbattery_capacity = 0.2\n"
+# 0.25 Ah: the 5-minute drive with thermal draws the supply down by >= 15 % (printed below).
+CHANGING = ("[sim]\nthermal = true\nbattery = true\nbattery_capacity = 0.25\n"
             f"floor_change_s = {FLOOR_S}\nfloor_friction_scale = 1.5\n")
 RUNS = {"on": "[sim]\nthermal = true\n",
         "off": "[sim]\nthermal = true\n[adapt]\nenable = false\n",
         "cold": "[sim]\nthermal = false\n",
         "change_on": CHANGING,
-        "change_off": CHANGING + "[adapt]\nenable = false\n"}
+        "change_off": CHANGING + "[adapt]\nenable = false\n",
+        "sag_on": "[sim]\nthermal = true\nbattery = true\n",
+        "sag_off": "[sim]\nthermal = true\nbattery = true\n[adapt]\nenable = false\n"}
 
 
 def simulate(bin_dir, ini_text, folder, name):
@@ -44,15 +46,21 @@ def simulate(bin_dir, ini_text, folder, name):
 
 
 def read(path):
-    """(adapt_t messages, {utime: sim_plant_t}) of a log."""
-    adapt, plant = [], {}
+    """(adapt_t messages, {utime: sim_plant_t}, the share of the last minute's motors_t whose
+    largest |voltage| is at 99 % of the plant's supply or more) of a log."""
+    adapt, plant, motors, supply = [], {}, [], 0.0
     for ev in lcm.EventLog(path, "r"):
         if ev.channel == omni4.CHANNEL_ADAPT:
             adapt.append(omni4.adapt_t.decode(ev.data))
         elif ev.channel == omni4.CHANNEL_SIM_PLANT:
             m = omni4.sim_plant_t.decode(ev.data)
             plant[m.utime] = m
-    return adapt, plant
+            supply = m.supply_v
+        elif ev.channel == omni4.CHANNEL_MOTORS:
+            m = omni4.motors_t.decode(ev.data)
+            motors.append((m.utime, max(abs(u) for u in m.voltage) >= 0.99 * supply))
+    last = [sat for t, sat in motors if t > motors[-1][0] - 60e6]
+    return adapt, plant, sum(last) / len(last)
 
 
 def coulomb(m):
@@ -134,6 +142,11 @@ def main():
     print(f"thermal off: Coulomb in use vs the identified, worst over the run: "
           f"{100 * cold_c:.3f} % (asked: within 1 %)")
     report_changing(logs["change_on"][0], logs["change_on"][1], logs["change_off"][0])
+    print(f"  bridges at the supply in the last minute: {100 * logs['change_on'][2]:.0f} % of the "
+          f"ticks on, {100 * logs['change_off'][2]:.0f} % off")
+    sag_on, sag_off = tracking_rms(logs["sag_on"][0], 60e6), tracking_rms(logs["sag_off"][0], 60e6)
+    print(f"thermal and battery, the floor unchanged: tracking RMS, last minute: on {sag_on:.5f} "
+          f"m/s, off {sag_off:.5f} m/s, ratio {sag_on / sag_off:.3f}")
 
 
 if __name__ == "__main__":
