@@ -39,9 +39,11 @@
  * (eqs 3-5: fk_robot_velocity_rates), both as 3x4 matrices built at init. The ticks are summed
  * in blocks of ADAPT_FRIC_BLOCK_S; a block's means are one sample of an axis when every tick of
  * it could be taken (as R's: driven, same mode, no fault, slip or collision), the axis moved
- * one way beyond ADAPT_FRIC_V_MIN_LIN / _ROT throughout, and its mean velocity changed from the
- * block before by less than ADAPT_FRIC_STEADY C_k / M_k per second (the inertia force M a
- * under that share of the Coulomb friction: steady). The fit of [B_k, C_k] is least squares
+ * one way beyond ADAPT_FRIC_V_MIN_LIN / _ROT through it and the ADAPT_FRIC_SPAN blocks before,
+ * and its mean velocity changed over that span by less than ADAPT_FRIC_STEADY C_k / M_k per
+ * second (the inertia force M a under that share of the Coulomb friction: steady; it is then
+ * taken out of F). One block is too short to see it: the encoders' counts step a block's mean.
+ * The fit of [B_k, C_k] is least squares
  * with forgetting (friction_forget per sample) kept in information form, I = lambda I + phi
  * phi^T + (1 - lambda) I0, b likewise with I0 theta_id: a direction the samples do not excite
  * (the drive's cruises all at one speed make v and sgn(v) collinear) returns to the prior
@@ -80,7 +82,7 @@
 #define ADAPT_FRIC_V_MIN_ROT 0.5f     /* |w| beyond this: moving [rad/s] */
 #define ADAPT_FRIC_STEADY 0.05f       /* M |a| below this share of C: steady */
 #define ADAPT_FRIC_SPAN 8             /* the acceleration over this many blocks before */
-#define ADAPT_FRIC_PRIOR 1.0f         /* the prior worth this many samples of force C_k */
+#define ADAPT_FRIC_PRIOR 1.0f         /* the prior's weight: I0 in units of C_k^2 */
 #define ADAPT_FRIC_EPS 0.01f          /* B and C apart: (10 %)^2 of the prior's variance */
 #define ADAPT_FRIC_ACCEPT_SHARE 0.02f /* a C_k this far from the C_k in use is taken */
 
@@ -91,7 +93,7 @@
 #define ADAPT_FLAG_ON 0x01       /* [adapt] enable and resistance */
 #define ADAPT_FLAG_FED 0x02      /* a sample was taken since the last report */
 #define ADAPT_FLAG_FROZEN 0x04   /* a fault, mode change, slip or collision froze it */
-#define ADAPT_FLAG_ADAPTED 0x08  /* an R_j in use differs from the identified */
+#define ADAPT_FLAG_ADAPTED 0x08  /* an R_j or friction in use differs from the identified */
 #define ADAPT_FLAG_WATCH 0x10    /* an acceptance under the revert check */
 #define ADAPT_FLAG_ACCEPTED 0x20 /* estimates were accepted since the last report */
 #define ADAPT_FLAG_REVERTED 0x40 /* an acceptance was reverted since the last report */
