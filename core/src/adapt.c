@@ -79,8 +79,7 @@ static void fric_init(struct adapt *a, const struct ctl_settings *cfg, const str
 		a->B_id[k] = a->B_use[k] = a->B_prev[k] = (float)B[k];
 		a->C_id[k] = a->C_use[k] = a->C_prev[k] = (float)C[k];
 		a->v_min[k] = k < 2 ? ADAPT_FRIC_V_MIN_LIN : ADAPT_FRIC_V_MIN_ROT;
-		/* a block's mean velocity steps by a dt_block between blocks */
-		/* over the span of ADAPT_FRIC_SPAN blocks */
+		/* the steady bound and the inertia force over the span of ADAPT_FRIC_SPAN blocks */
 		const double span_s = (double)ADAPT_FRIC_SPAN * a->blk_len / cfg->rate_hz;
 
 		a->dv_max[k] = (float)(ADAPT_FRIC_STEADY * C[k] / inertia[k] * span_s);
@@ -170,7 +169,7 @@ uint32_t adapt_retune(struct adapt *a, const struct ctl_settings *cfg)
 	    memcmp(fresh.B_id, a->B_id, sizeof(a->B_id)) ||
 	    memcmp(fresh.C_id, a->C_id, sizeof(a->C_id)) ||
 	    memcmp(fresh.Gi, a->Gi, sizeof(a->Gi)) || memcmp(fresh.Gw, a->Gw, sizeof(a->Gw)) ||
-	    fresh.blk_len != a->blk_len) {
+	    memcmp(fresh.m_dt, a->m_dt, sizeof(a->m_dt)) || fresh.blk_len != a->blk_len) {
 		*a = fresh;
 		return 0;
 	}

@@ -499,7 +499,8 @@ static struct simrun *sim(const char *ini, const char *log)
 }
 
 /* A parameter change through the loop (fw_param_prepare / offer): one that leaves the drives
- * keeps the R in use and its gains; one that changes a drive's R starts again from it. */
+ * keeps the R and the friction in use and their gains; one that changes a drive's R starts
+ * again from it. */
 static void change(struct fw *fw, struct simrun *sr, const struct ctl_settings *cfg)
 {
 	static struct fw_param_update u;
@@ -526,10 +527,17 @@ static void test_a_parameter_change_keeps_or_restarts_it(void **state)
 		ctl_set_resistance(&fw->ctl, j, R);
 		ff_q16_wheels_set_resistance(&want, &fw->ctl.ff_ohm, j, R);
 	}
+	const float B[3] = {0.6f, 0.8f, 0.02f}, C[3] = {2.4f, 2.6f, 0.2f};
+
+	adapt_accept_friction(&fw->adapt, B, C);
+	ctl_set_friction(&fw->ctl, B, C);
+	want = fw->ctl.ff;
 	cfg.control.kp = 25.0;
 	change(fw, sr, &cfg);
 	assert_true(adapt_r_in_use(&fw->adapt)[2] == R);
+	assert_true(adapt_c_in_use(&fw->adapt)[1] == C[1] && fw->ctl.trac.C[1] == C[1]);
 	assert_memory_equal(fw->ctl.ff.k_vel, want.k_vel, sizeof(want.k_vel));
+	assert_memory_equal(fw->ctl.ff.k_coul, want.k_coul, sizeof(want.k_coul));
 	cfg.model.R = 5.0;
 	ctl_settings_wheels_follow(&cfg);
 	change(fw, sr, &cfg);
