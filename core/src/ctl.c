@@ -86,6 +86,9 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
 		return -EINVAL;
 	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
+	c->ff_ohm_use = c->ff_ohm;
+	for (int j = 0; j < 4; j++)
+		c->R_use[j] = (float)w.R[j];
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);
 	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
@@ -111,13 +114,44 @@ void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q
 	c->set = *cfg;
 	c->ff = *ff;
 	c->ff_ohm = *ff_ohm;
+	c->ff_ohm_use = *ff_ohm;
 	c->inv_4d = inv_4d;
 	tune(c);
+	struct model_wheels w;
+
+	ctl_settings_wheels(cfg, &w);
+	for (int j = 0; j < 4; j++)
+		c->R_use[j] = (float)w.R[j];
 }
 
 void ctl_set_resistance(struct ctl *c, int j, float R_ohm)
 {
-	ff_q16_wheels_set_resistance(&c->ff, &c->ff_ohm, j, R_ohm);
+	c->R_use[j] = R_ohm;
+	ff_q16_wheels_set_resistance(&c->ff, &c->ff_ohm_use, j, R_ohm);
+}
+
+/* value / the settings' (1 where the settings' is 0: a zero gain stays 0) */
+static float ratio(float value, double settings)
+{
+	return settings > 0.0 ? value / (float)settings : 1.0f;
+}
+
+void ctl_set_friction(struct ctl *c, const float B[3], const float C[3])
+{
+	const struct model_params *p = &c->set.model;
+	/* the settings' gains are linear in B and C: scaled by the values over the settings' */
+	const float sb[3] = {ratio(B[0], p->Bv), ratio(B[1], p->Bvn), ratio(B[2], p->Bw)};
+	const float sc[3] = {ratio(C[0], p->Cv), ratio(C[1], p->Cvn), ratio(C[2], p->Cw)};
+
+	for (int j = 0; j < 4; j++) {
+		for (int k = 0; k < 3; k++) {
+			c->ff_ohm_use.vel[j][k] = sb[k] * c->ff_ohm.vel[j][k];
+			c->ff_ohm_use.coul[j][k] = sc[k] * c->ff_ohm.coul[j][k];
+		}
+		ff_q16_wheels_set_resistance(&c->ff, &c->ff_ohm_use, j, c->R_use[j]);
+	}
+	memcpy(c->trac.B, B, sizeof(c->trac.B));
+	memcpy(c->trac.C, C, sizeof(c->trac.C));
 }
 
 void ctl_set_slip(struct ctl *c, bool slipping)

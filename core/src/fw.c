@@ -120,6 +120,9 @@ static void take_params(struct fw *fw, int64_t now_us)
 		for (int j = 0; j < 4; j++)
 			if (adapted & (1u << j))
 				ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
+		if (adapted & ADAPT_CHANGED_FRICTION)
+			ctl_set_friction(&fw->ctl, adapt_b_in_use(&fw->adapt),
+			                 adapt_c_in_use(&fw->adapt));
 		if (fw->param_hooks.apply)
 			fw->param_hooks.apply(fw->param_hooks.ctx, &u->set);
 	}
@@ -263,7 +266,6 @@ static void push_adapt(struct fw *fw, int64_t now_us, uint8_t kind, const float 
 {
 	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = kind};
 	struct adapt_report r;
-	const struct model_params *p = &fw->ctl.set.model;
 	const uint32_t rep_n = fw->adapt.rep_n;
 
 	adapt_report(&fw->adapt, &r);
@@ -273,9 +275,7 @@ static void push_adapt(struct fw *fw, int64_t now_us, uint8_t kind, const float 
 	memcpy(e.adapt.R_before, R_before ? R_before : r.R, sizeof(e.adapt.R_before));
 	e.adapt.supply_v = r.supply_v;
 	e.adapt.track_rms = r.track_rms;
-	e.adapt.C[0] = (float)p->Cv;
-	e.adapt.C[1] = (float)p->Cvn;
-	e.adapt.C[2] = (float)p->Cw;
+	memcpy(e.adapt.C, r.C, sizeof(e.adapt.C));
 	e.adapt.flags = r.flags;
 	if (kind == LOG_ADAPT_CHANGE) { /* what is since the last LOG_ADAPT stays for the next */
 		fw->adapt.flags =
@@ -286,8 +286,8 @@ static void push_adapt(struct fw *fw, int64_t now_us, uint8_t kind, const float 
 	log_push(fw, &e);
 }
 
-/* The resistances' estimation on this tick's reading (after the estimator, whose flags it
- * reads); an acceptance or revert goes into the feedforward at once and to the log. */
+/* The resistances' and the friction's estimation on this tick's reading (after the estimator, whose
+ * flags it reads); an acceptance or revert goes into the feedforward at once and to the log. */
 static void adapt(struct fw *fw, int64_t now_us, const struct est_input *in, const float cur[4],
                   float supply_v)
 {
@@ -313,6 +313,8 @@ static void adapt(struct fw *fw, int64_t now_us, const struct est_input *in, con
 	for (int j = 0; j < 4; j++)
 		if (changed & (1u << j))
 			ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
+	if (changed & ADAPT_CHANGED_FRICTION)
+		ctl_set_friction(&fw->ctl, adapt_b_in_use(&fw->adapt), adapt_c_in_use(&fw->adapt));
 	if (changed)
 		push_adapt(fw, now_us, LOG_ADAPT_CHANGE, before);
 	if (fw->seq % fw->adapt_every == 0)

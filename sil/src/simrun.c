@@ -378,6 +378,14 @@ void simrun_plant_resistance(const struct simrun *sr, double R_ohm[4])
 	memcpy(R_ohm, ps.R_ohm, sizeof(ps.R_ohm));
 }
 
+double simrun_plant_friction_scale(const struct simrun *sr)
+{
+	struct sim_plant_state ps;
+
+	sim_motor_plant_state(&sr->robot.sim, &ps);
+	return ps.friction_scale;
+}
+
 struct sim_motor_faults *simrun_faults(struct simrun *sr)
 {
 	return &sr->robot.sim.inject;

@@ -271,6 +271,220 @@ static void test_gains_per_ohm_match_the_prepared_ones(void **state)
 	}
 }
 
+/* ---- friction (eq 23 at steady motion) ------------------------------------------------------ */
+
+/* A driven VELOCITY tick at body velocity x whose wheels' currents give body force F, by the
+ * paper's layout written out here (eqs 2, 9-13: rims v0 = vn + d w, v1 = -v + d w, v2 = -vn +
+ * d w, v3 = v + d w; Fv = f3 - f1, Fvn = f0 - f2, T = d (f0 + f1 + f2 + f3), f = l Kt i / r). */
+static struct adapt_input body_tick(const struct ctl_settings *s, const double x[3],
+                                    const double F[3])
+{
+	const struct model_params *p = &s->model;
+	const double d = p->d, k = p->l * p->Kt / p->r, t = F[2] / (4.0 * d);
+	const double rim[4] = {x[1] + d * x[2], -x[0] + d * x[2], -x[1] + d * x[2],
+	                       x[0] + d * x[2]};
+	const double f[4] = {F[1] / 2 + t, -F[0] / 2 + t, -F[1] / 2 + t, F[0] / 2 + t};
+	struct adapt_input in = tick_in(1.0f, 0.0f, 0.0f, 1e-4f);
+
+	for (int j = 0; j < 4; j++) {
+		in.current_a[j] = (float)(f[j] / k);
+		in.wheel_rad_s[j] = (float)(rim[j] / p->r);
+	}
+	return in;
+}
+
+/* Friction [B, C] of axis k of the model. */
+static void model_friction(const struct ctl_settings *s, int k, double *B, double *C)
+{
+	const struct model_params *p = &s->model;
+
+	*B = k == 0 ? p->Bv : k == 1 ? p->Bvn : p->Bw;
+	*C = k == 0 ? p->Cv : k == 1 ? p->Cvn : p->Cw;
+}
+
+/* Holds x for seconds on a floor whose friction is (scale_B, scale_C) x the model's: each
+ * axis's force F_k = B_k x_k + C_k sgn(x_k) (eq 23 at rest of the acceleration). Returns the
+ * step's mask, ORed. */
+static uint32_t hold(struct adapt *a, const struct ctl_settings *s, const double x[3],
+                     double scale_B, double scale_C, double seconds, uint32_t est_flags)
+{
+	uint32_t mask = 0;
+	double F[3];
+
+	for (int k = 0; k < 3; k++) {
+		double B, C;
+
+		model_friction(s, k, &B, &C);
+		F[k] = scale_B * B * x[k] + scale_C * C * (x[k] > 0 ? 1.0 : -1.0);
+	}
+	struct adapt_input in = body_tick(s, x, F);
+
+	in.est_flags = est_flags;
+	for (int n = 0; n < (int)lround(seconds * RATE_HZ); n++)
+		mask |= adapt_step(a, &in);
+	return mask;
+}
+
+/* Two speeds per axis make B and C apart observable: on a floor with B x 1.3, C x 1.6 (not one
+ * common scale) the fit is the exponentially weighted least squares with the prior (closed
+ * form, in double: (I0 + sum lambda^(N-k) phi phi^T)^-1 (I0 theta_id + sum lambda^(N-k) phi
+ * F), I0 = C^2 (theta theta^T + eps diag(theta^2))^-1); its C within 10 % of the floor's (the
+ * prior holds B near the common scale); it is taken into use. */
+static void test_friction_fit_matches_the_weighted_batch(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double lambda = s.adapt.friction_forget;
+	double S[3][3] = {{0}}, sy[3][2] = {{0}};
+	uint32_t mask = 0;
+
+	adapt_init(a, &s);
+	for (int n = 0; n < 40; n++) {
+		const double f = n % 2 ? 0.5 : 1.0, sg = (n / 2) % 2 ? -1.0 : 1.0;
+		const double x[3] = {sg * 1.2 * f, -sg * 0.9 * f, sg * 4.0 * f};
+		uint32_t before[3];
+
+		for (int k = 0; k < 3; k++)
+			before[k] = a->f[k].n;
+		mask |= hold(a, &s, x, 1.3, 1.6, 1.0, 0);
+		for (int k = 0; k < 3; k++) {
+			double B, C;
+
+			model_friction(&s, k, &B, &C);
+			const double sgn = x[k] > 0 ? 1.0 : -1.0,
+			             F = 1.3 * B * x[k] + 1.6 * C * sgn;
+
+			for (uint32_t q = before[k]; q < a->f[k].n; q++) {
+				S[k][0] = lambda * S[k][0] + x[k] * x[k];
+				S[k][1] = lambda * S[k][1] + x[k] * sgn;
+				S[k][2] = lambda * S[k][2] + 1.0;
+				sy[k][0] = lambda * sy[k][0] + x[k] * F;
+				sy[k][1] = lambda * sy[k][1] + sgn * F;
+			}
+		}
+	}
+	assert_true(mask & ADAPT_CHANGED_FRICTION);
+	for (int k = 0; k < 3; k++) {
+		double B, C;
+
+		model_friction(&s, k, &B, &C);
+		const double eps = ADAPT_FRIC_EPS, p00 = B * B * (1 + eps), p01 = B * C,
+		             p11 = C * C * (1 + eps), w = C * C / (p00 * p11 - p01 * p01);
+		const double i00 = w * p11 + S[k][0], i01 = -w * p01 + S[k][1],
+		             i11 = w * p00 + S[k][2];
+		const double b0 = w * (p11 * B - p01 * C) + sy[k][0],
+		             b1 = w * (p00 * C - p01 * B) + sy[k][1], det = i00 * i11 - i01 * i01;
+		const double Bb = (i11 * b0 - i01 * b1) / det, Cb = (i00 * b1 - i01 * b0) / det;
+
+		printf(
+		    "axis %d: B %.5f C %.5f, batch %.5f %.5f, floor %.5f %.5f; in use %.5f %.5f\n",
+		    k, (double)a->f[k].th[0], (double)a->f[k].th[1], Bb, Cb, 1.3 * B, 1.6 * C,
+		    (double)adapt_b_in_use(a)[k], (double)adapt_c_in_use(a)[k]);
+		assert_true(a->f[k].n > 1000);
+		assert_true(fabs(a->f[k].th[0] / Bb - 1.0) < 1e-3);
+		assert_true(fabs(a->f[k].th[1] / Cb - 1.0) < 1e-3);
+		/* C within the specification's 10 %; B apart from the common scale only as far as
+		 * the prior lets it (its 10 %) */
+		assert_true(fabs(Cb / (1.6 * C) - 1.0) < 0.10);
+		assert_true(fabs(adapt_c_in_use(a)[k] / Cb - 1.0) < 0.05);
+	}
+	free(a);
+}
+
+/* One speed per axis (the hard drive's cruises): B and C are not apart observable, and a floor
+ * that scales both by 1.5 is found along the prior's common scale: C within 10 % (the
+ * specification's bound) in 30 s. The same robot on its own floor keeps every value within 1 %. */
+static void test_one_speed_follows_a_common_scale(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+
+	for (int floor = 0; floor < 2; floor++) {
+		const double scale = floor ? 1.5 : 1.0;
+
+		adapt_init(a, &s);
+		for (int k = 0; k < 30; k++) {
+			const double sg = k % 2 ? -1.0 : 1.0;
+
+			hold(a, &s, (const double[3]){1.2 * sg, 1.2 * sg, 3.0 * sg}, scale, scale,
+			     1.0, 0);
+		}
+		for (int k = 0; k < 3; k++) {
+			double B, C;
+
+			model_friction(&s, k, &B, &C);
+			printf("scale %.1f axis %d: B %.4f C %.4f in use (floor's %.4f %.4f)\n",
+			       scale, k, (double)adapt_b_in_use(a)[k], (double)adapt_c_in_use(a)[k],
+			       scale * B, scale * C);
+			assert_true(fabs(adapt_c_in_use(a)[k] / (scale * C) - 1.0) <
+			            (floor ? 0.10 : 0.01));
+			if (!floor)
+				assert_true(fabs(adapt_b_in_use(a)[k] / B - 1.0) < 0.01);
+		}
+	}
+	free(a);
+}
+
+/* A slip or a collision flagged freezes the friction's estimation: no sample, nothing taken,
+ * while the floor's friction is twice the model's. */
+static void test_friction_frozen_on_slip_and_collision(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const uint32_t flags[2] = {EST_FLAG_SLIP, EST_FLAG_COLLISION};
+
+	for (int f = 0; f < 2; f++) {
+		adapt_init(a, &s);
+		assert_int_equal(
+		    hold(a, &s, (const double[3]){1.0, 0.8, 2.0}, 2.0, 2.0, 10.0, flags[f]), 0);
+		for (int k = 0; k < 3; k++)
+			assert_int_equal(a->f[k].n, 0);
+	}
+	/* the same ticks unflagged: sampled and taken */
+	adapt_init(a, &s);
+	assert_true(hold(a, &s, (const double[3]){1.0, 0.8, 2.0}, 2.0, 2.0, 10.0, 0) &
+	            ADAPT_CHANGED_FRICTION);
+	free(a);
+}
+
+/* The controller's gains for friction B, C (ctl_set_friction) are the double path's
+ * (ff_q16_wheels_prepare with the model's B, C so) within a Q16.16 LSB, with a wheel's R in use
+ * kept. */
+static void test_friction_gains_match_the_prepared_ones(void **state)
+{
+	(void)state;
+	struct ctl_settings s = settings();
+	struct ctl *c = calloc(1, sizeof(*c));
+	struct model_wheels w;
+	struct ff_q16_wheels want;
+	const float B[3] = {0.6f, 0.9f, 0.02f}, C[3] = {2.5f, 3.0f, 0.2f};
+	const float R1 = (float)(1.2 * s.model.R);
+
+	assert_int_equal(ctl_init(c, &s), 0);
+	ctl_set_resistance(c, 1, R1);
+	ctl_set_friction(c, B, C);
+	s.model.Bv = B[0];
+	s.model.Bvn = B[1];
+	s.model.Bw = B[2];
+	s.model.Cv = C[0];
+	s.model.Cvn = C[1];
+	s.model.Cw = C[2];
+	ctl_settings_wheels(&s, &w);
+	w.R[1] = R1;
+	assert_int_equal(ff_q16_wheels_prepare(&want, &s.model, &w, s.limits.supply_v), 0);
+	for (int j = 0; j < 4; j++)
+		for (int k = 0; k < 3; k++) {
+			assert_true(abs(c->ff.k_vel[j][k] - want.k_vel[j][k]) <= 1);
+			assert_true(abs(c->ff.k_coul[j][k] - want.k_coul[j][k]) <= 1);
+			assert_true(abs(c->ff.k_acc[j][k] - want.k_acc[j][k]) <= 1);
+		}
+	assert_true(c->trac.C[1] == C[1] && c->trac.B[2] == B[2]);
+	free(c);
+}
+
 /* ---- through the loop with the simulated plant (sil/) -------------------------------------- */
 
 static struct simrun *sim(const char *ini, const char *log)
@@ -285,7 +499,8 @@ static struct simrun *sim(const char *ini, const char *log)
 }
 
 /* A parameter change through the loop (fw_param_prepare / offer): one that leaves the drives
- * keeps the R in use and its gains; one that changes a drive's R starts again from it. */
+ * keeps the R and the friction in use and their gains; one that changes a drive's R starts
+ * again from it. */
 static void change(struct fw *fw, struct simrun *sr, const struct ctl_settings *cfg)
 {
 	static struct fw_param_update u;
@@ -312,10 +527,17 @@ static void test_a_parameter_change_keeps_or_restarts_it(void **state)
 		ctl_set_resistance(&fw->ctl, j, R);
 		ff_q16_wheels_set_resistance(&want, &fw->ctl.ff_ohm, j, R);
 	}
+	const float B[3] = {0.6f, 0.8f, 0.02f}, C[3] = {2.4f, 2.6f, 0.2f};
+
+	adapt_accept_friction(&fw->adapt, B, C);
+	ctl_set_friction(&fw->ctl, B, C);
+	want = fw->ctl.ff;
 	cfg.control.kp = 25.0;
 	change(fw, sr, &cfg);
 	assert_true(adapt_r_in_use(&fw->adapt)[2] == R);
+	assert_true(adapt_c_in_use(&fw->adapt)[1] == C[1] && fw->ctl.trac.C[1] == C[1]);
 	assert_memory_equal(fw->ctl.ff.k_vel, want.k_vel, sizeof(want.k_vel));
+	assert_memory_equal(fw->ctl.ff.k_coul, want.k_coul, sizeof(want.k_coul));
 	cfg.model.R = 5.0;
 	ctl_settings_wheels_follow(&cfg);
 	change(fw, sr, &cfg);
@@ -473,6 +695,96 @@ static void test_warm_windings_followed_and_cold_ones_left_alone(void **state)
 	simrun_destroy(sr);
 }
 
+/* The largest |C in use / plant's - 1| over the three axes (the plant's: the model's x its
+ * friction scale). */
+static double friction_error(struct simrun *sr)
+{
+	const struct fw *fw = simrun_fw(sr);
+	const double scale = simrun_plant_friction_scale(sr);
+	double worst = 0.0;
+
+	for (int k = 0; k < 3; k++) {
+		double B, C;
+
+		model_friction(&fw->ctl.set, k, &B, &C);
+		worst = fmax(worst, fabs(adapt_c_in_use(&fw->adapt)[k] / (scale * C) - 1.0));
+		/* and the controller's traction limit uses the same */
+		assert_true(fw->ctl.trac.C[k] == adapt_c_in_use(&fw->adapt)[k]);
+	}
+	return worst;
+}
+
+/* The floor's friction x 1.5 at 10 s of the hard drive's pattern: before, the friction in use
+ * within 1 % of the identified (a robot that does not change); after, all three Coulomb terms
+ * within 10 % of the plant's within 60 s and from then on (the specification's bounds). */
+static void test_a_new_floor_is_followed(void **state)
+{
+	(void)state;
+	struct simrun *sr =
+	    sim("[sim]\nfloor_change_s = 10\nfloor_friction_scale = 1.5\nseed = 4\n", NULL);
+	int row = 0;
+	double before = 0.0, settled = -1.0, after = 0.0;
+
+	for (int t = 0; t < 10; t++) {
+		drive(sr, &row, 1.0, NULL, false);
+		before = fmax(before, friction_error(sr));
+	}
+	for (int t = 1; t <= 70; t++) {
+		drive(sr, &row, 1.0, NULL, false);
+		const double e = friction_error(sr);
+
+		if (e > 0.10)
+			settled = -1.0;
+		else if (settled < 0.0)
+			settled = t;
+		if (t >= 60)
+			after = fmax(after, e);
+	}
+	printf("floor x 1.5: before it the Coulomb in use within %.4f of the identified; within "
+	       "10 %% of the plant's from %.0f s after it; %.4f from 60 s to 70 s\n",
+	       before, settled, after);
+	assert_true(before < 0.01);
+	assert_true(settled > 0.0 && settled <= 60.0);
+	assert_true(after < 0.10);
+	simrun_destroy(sr);
+}
+
+/* A wrong friction planted into use (three times the identified B and C, the floor the model's)
+ * is put back within 5 s, with the controller's gains and traction limit back on the
+ * identified. */
+static void test_a_wrong_friction_acceptance_is_reverted(void **state)
+{
+	(void)state;
+	struct simrun *sr = sim("[sim]\nseed = 6\n", NULL);
+	struct fw *fw = simrun_fw(sr);
+	const struct ff_q16_wheels ident = fw->ctl.ff;
+	float B[3], C[3];
+	int row = 0, t_ms = 0;
+
+	drive(sr, &row, 4.0, NULL, false);
+	for (int k = 0; k < 3; k++) {
+		B[k] = 3.0f * fw->adapt.B_id[k];
+		C[k] = 3.0f * fw->adapt.C_id[k];
+	}
+	/* planted as adapt_step's acceptance is applied (fw.c) */
+	assert_int_equal(adapt_accept_friction(&fw->adapt, B, C), ADAPT_CHANGED_FRICTION);
+	ctl_set_friction(&fw->ctl, adapt_b_in_use(&fw->adapt), adapt_c_in_use(&fw->adapt));
+	assert_true(fw->ctl.ff.k_coul[0][1] != ident.k_coul[0][1]);
+	while (adapt_c_in_use(&fw->adapt)[0] != fw->adapt.C_id[0] && t_ms < 5000) {
+		drive(sr, &row, 0.001, NULL, false);
+		t_ms++;
+	}
+	printf("friction reverted after %d ms\n", t_ms);
+	assert_true(t_ms < 5000);
+	assert_int_equal(fw->adapt.reverted, 1);
+	for (int k = 0; k < 3; k++)
+		assert_true(adapt_b_in_use(&fw->adapt)[k] == fw->adapt.B_id[k]);
+	assert_memory_equal(fw->ctl.ff.k_coul, ident.k_coul, sizeof(ident.k_coul));
+	assert_memory_equal(fw->ctl.ff.k_vel, ident.k_vel, sizeof(ident.k_vel));
+	assert_true(fw->ctl.trac.C[2] == fw->adapt.C_id[2]);
+	simrun_destroy(sr);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -485,6 +797,12 @@ int main(void)
 	    cmocka_unit_test(test_a_parameter_change_keeps_or_restarts_it),
 	    cmocka_unit_test(test_a_wrong_acceptance_is_reverted_within_5_s),
 	    cmocka_unit_test(test_warm_windings_followed_and_cold_ones_left_alone),
+	    cmocka_unit_test(test_friction_fit_matches_the_weighted_batch),
+	    cmocka_unit_test(test_one_speed_follows_a_common_scale),
+	    cmocka_unit_test(test_friction_frozen_on_slip_and_collision),
+	    cmocka_unit_test(test_friction_gains_match_the_prepared_ones),
+	    cmocka_unit_test(test_a_new_floor_is_followed),
+	    cmocka_unit_test(test_a_wrong_friction_acceptance_is_reverted),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

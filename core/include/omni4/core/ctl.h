@@ -92,6 +92,9 @@ struct ctl {
 	struct ff_q16_wheels ff;
 	struct ff_wheels_per_ohm
 	    ff_ohm; /* the same gains per ohm of each R_j (ctl_set_resistance) */
+	struct ff_wheels_per_ohm
+	    ff_ohm_use; /* ff_ohm with the friction in use (ctl_set_friction) */
+	float R_use[4]; /* each R_j in the gains [ohm] */
 	q16_t inv_4d;
 	int64_t period_us; /* loop period [us] */
 	struct ctl_tuning t;
@@ -166,6 +169,13 @@ void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q
  * accepted estimate, adapt.h; > 0 and finite, within the model's range), the rest as they are:
  * nine float products (ff_q16_wheels_set_resistance). The next retune puts the settings' back. */
 void ctl_set_resistance(struct ctl *c, int j, float R_ohm);
+
+/* Fast loop, between two ticks: the body's viscous friction B (Bv, Bvn [N/(m/s)], Bw
+ * [N m/(rad/s)]) and Coulomb friction C (Cv, Cvn [N], Cw [N m]) in the feedforward and the
+ * traction limit (an accepted estimate, adapt.h; each > 0 and finite: the caller's bounds), the
+ * wheels' R_j as they are: 24 products for the gains per ohm, then ctl_set_resistance's nine
+ * per wheel. The next retune puts the settings' back. */
+void ctl_set_friction(struct ctl *c, const float B[3], const float C[3]);
 
 /* Between two ticks: the estimator's slip flag (the traction limit backs off while it is set). */
 void ctl_set_slip(struct ctl *c, bool slipping);

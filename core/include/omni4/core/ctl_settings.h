@@ -49,7 +49,10 @@ struct ctl_settings {
 		double forget;        /* RLS forgetting factor per sample taken [-] */
 		double current_min_a; /* a motor is fed only beyond this |current| [A] */
 		double variance_gate; /* (sigma_R / R)^2 below which an estimate is taken [-] */
-	} adapt;                      /* core/ adapt.h */
+		bool friction; /* each body axis's B, C estimated and, once certain, in use */
+		double friction_forget;        /* forgetting factor per friction sample [-] */
+		double friction_variance_gate; /* (sigma_C / C)^2 below which it is taken [-] */
+	} adapt;                               /* core/ adapt.h */
 	struct est_keys est; /* the state estimator's noise figures and thresholds (est_keys.def) */
 	struct {
 		int feedforward; /* enum ctl_goal_ff: the tracker's feedforward */

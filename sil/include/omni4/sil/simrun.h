@@ -111,6 +111,8 @@ struct sim_motor_faults *simrun_faults(struct simrun *sr);
 struct fw;
 struct fw *simrun_fw(struct simrun *sr);
 void simrun_plant_resistance(const struct simrun *sr, double R_ohm[4]);
+/* The simulated plant's friction scale now (its B and C over the model's; sim_plant_t). */
+double simrun_plant_friction_scale(const struct simrun *sr);
 
 #ifdef __cplusplus
 }
