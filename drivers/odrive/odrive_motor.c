@@ -97,7 +97,7 @@ int odrive_motor_open(struct odrive_motor *m, const struct odrive_motor_config *
 		m->fd = -1;
 		return rc;
 	}
-	m->opened_us = sc_os_now_us();
+	m->opened_us = m->last_read_us = sc_os_now_us();
 	return 0;
 }
 
@@ -267,10 +267,12 @@ static int drain_frames(struct odrive_motor *m, int64_t now)
 {
 	const struct sc_rx_tally t = {&m->n.rx_frames, &m->n.error_frames, &m->n.bus_off,
 	                              &m->bus_off};
+	const int budget = sc_rx_budget(&m->last_read_us, now, ODRIVE_MAX_FRAMES_PER_READ,
+	                                ODRIVE_MAX_READ_CATCHUP);
 	struct omni4_can_frame f;
 	int rc = 0;
 
-	for (int k = 0; k < ODRIVE_MAX_FRAMES_PER_READ && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
+	for (int k = 0; k < budget && (rc = sc_rx_next(m->fd, &t, &f)) > 0; k++)
 		if (rc == 1)
 			handle(m, &f, now);
 	return rc < 0 ? rc : 0;

@@ -143,6 +143,35 @@ static void test_reports_become_the_sample(void **state)
 	hal_motor_close(&h);
 }
 
+/* A read 4 ms after the last takes the frames of those 4 ms and more (the reports of a late
+ * tick): 192 queued frames of older estimates, then the newest, reach the sample. */
+static void test_a_late_read_reaches_the_newest_reports(void **state)
+{
+	(void)state;
+	struct odrive_motor m;
+	struct motor_sample s;
+	const struct odrive_motor_config c = config();
+
+	assert_int_equal(odrive_motor_open(&m, &c), 0);
+	const struct motor_hal h = odrive_motor_hal(&m);
+
+	for (int k = 0; k < 48; k++) /* 192 frames of older estimates */
+		for (int j = 0; j < 4; j++) {
+			const struct odrive_encoder_estimates e = {.vel_turn_s = -10.0f - k};
+			struct omni4_can_frame f;
+
+			assert_int_equal(odrive_encode_encoder_estimates(nodes[j], &e, &f), 0);
+			mock_push(&f);
+		}
+	push_reports();
+	push_heartbeat(0, 0, ODRIVE_AXIS_STATE_CLOSED_LOOP);
+	mock_clock_us += 4000;
+	assert_int_equal(hal_motor_read(&h, &s), 0);
+	for (int j = 0; j < 4; j++)
+		assert_near(s.wheel_rad_s[j], (j + 1) * TWO_PI / 4.0, 1e-5);
+	hal_motor_close(&h);
+}
+
 static void test_torque_is_kt_times_eq21_current_and_one_request_a_tick(void **state)
 {
 	(void)state;
@@ -448,6 +477,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test_setup(test_open_clears_sets_torque_control_and_closes_the_loop, reset),
 	    cmocka_unit_test_setup(test_reports_become_the_sample, reset),
+	    cmocka_unit_test_setup(test_a_late_read_reaches_the_newest_reports, reset),
 	    cmocka_unit_test_setup(test_torque_is_kt_times_eq21_current_and_one_request_a_tick,
 	                           reset),
 	    cmocka_unit_test_setup(

@@ -34,7 +34,11 @@
 #include "omni4/drivers/sc_os.h"
 #include "omni4/drivers/tx_gate.h"
 
+/* Frames drained per read: 64 per millisecond since the previous read (4 axes x 2-3 reports
+ * at 1 kHz), at most 4 ms' worth (256), as the VESC backend: a fixed 64 a read left a loop late
+ * behind a starved machine's backlog acting on ever older estimates. */
 #define ODRIVE_MAX_FRAMES_PER_READ 64
+#define ODRIVE_MAX_READ_CATCHUP 4
 /* An idle axis without an error is asked for closed loop again at most this often: the
  * heartbeat's default period (100 ms), so an axis that is entering closed loop is not asked
  * twice per heartbeat. */
@@ -71,7 +75,7 @@ struct odrive_motor_config {
 struct odrive_motor {
 	int fd;
 	uint8_t node[4];
-	int64_t timeout_us, opened_us;
+	int64_t timeout_us, opened_us, last_read_us;
 	struct drive_consts consts;
 	bool enabled, bus_off;
 	unsigned request; /* the next remote frame: axis request / 2, Iq or bus by request % 2 */
