@@ -103,7 +103,7 @@ class Events:
 
 def _r_vs_identified(m, identified):
     pct = percent(m.R, identified) if identified else [None] * WHEELS
-    return " ".join(f"{r:.4f}" + (f" ({p:+.1f} %)" if p is not None else "")
+    return " ".join(f"{r:.4f}" + (f" ({round(p, 1) + 0.0:+.1f} %)" if p is not None else "")
                     for r, p in zip(m.R, pct))
 
 
