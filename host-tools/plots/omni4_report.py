@@ -14,7 +14,12 @@ experiment segments shaded) and what was read from it, through the omni4 Python 
 given as its parts or as FILE when only FILE.00, FILE.01, ... exist. A log with the
 controller's state estimate (OMNI4_STATE) also gets a figure of the paths: the estimate, the
 camera (OMNI4_POSE), wheel odometry (eqs 3-5 integrated, d and r of --params, default Table III)
-and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time.
+and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time. A log
+with the adapted motor constants (OMNI4_ADAPT) gets a drift section: per motor the identified
+R_j (the log's start notice on OMNI4_PARAM_CHANGED, else --params, else its first adapt_t when
+nothing was adapted yet), the last R_j in use, its change in %, the last estimate, and a figure
+of each R_j in use and its estimate over time; a log without OMNI4_ADAPT gets the report it got
+before (byte for byte).
 
 OUT_DIR is made if missing (an existing file there is refused); each file in it is written as
 every omni4 output is (omni4.outfile: a temporary beside it and a rename, a symbolic link's
