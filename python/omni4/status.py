@@ -8,8 +8,9 @@ answer in time), and the adapted motor constants (OMNI4_ADAPT: each R in use aga
 identified, the estimates, supply, C in use, flags by name, the last acceptance or revert seen
 on OMNI4_PARAM_CHANGED; "adapt: no OMNI4_ADAPT" without one). --watch repeats every second
 until Ctrl-C: on a terminal it redraws the block in place (cursor home, clear to the end of
-the screen), piped it writes one block after another. When no OMNI4_MOTORS has been heard for NO_ROBOT_S (1 s) it says so on stderr at once (within
-the listening window, not at its end), and says when the robot answers again.
+the screen), piped it writes one block after another. When no OMNI4_MOTORS has been heard for
+NO_ROBOT_S (1 s) it says so on stderr at once (within the listening window, not at its end),
+and says when the robot answers again.
 
 Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 usage error,
 141 when stdout is closed early (omni4-status | head -1: quiet).

@@ -232,8 +232,8 @@ def test_adapt_diagnostics_levels_values_and_last_event():
     assert [float(kv[f"R_{j} vs identified [%]"]) for j in range(4)] == \
         pytest.approx([10.0, 10.0, 0.0, 10.0], abs=1e-9)
     assert float(kv["R_1 in use [ohm]"]) == 4.4 and kv["flags"] == "ON ADAPTED ACCEPTED"
-    assert kv["last event"] == \
-        "accepted at tick 4321: R_0 4.0000 -> 4.4000, R_1 4.0000 -> 4.4000, R_3 4.0000 -> 4.4000 ohm"
+    assert kv["last event"] == ("accepted at tick 4321: R_0 4.0000 -> 4.4000, "
+                                "R_1 4.0000 -> 4.4000, R_3 4.0000 -> 4.4000 ohm")
     for bad in (F.FLAG_REVERTED, F.FLAG_RESTART):
         ad.reset()
         ad.take(_adapt([4.0, 4.0, 4.5, 4.0], F.FLAG_ON | bad))

@@ -19,6 +19,18 @@ COLORS = {"commanded": "#9e9e9e", "measured": "#1f77b4", "predicted": "#ff7f0e",
 WINDOW_S = 10.0  # [s] plots follow the last 10 s
 
 
+def resistance_plot(fl, series):
+    """Each motor's R in use (solid) and online estimate (dashed) from OMNI4_ADAPT, over the
+    whole run (a winding heats over minutes)."""
+    return fl.PlotPanel(title="motor R [ohm]: in use (solid), estimate (dashed)",
+                        config=fl.PlotConfig(
+        paths=[series(f"{omni4.CHANNEL_ADAPT}.{field}[{j}]", f"R_{j} {what}", c, **kw)
+               for field, what, kw in (("R", "in use", {}),
+                                       ("R_estimate", "estimate", {"line_style": "dashed"}))
+               for j, c in enumerate(("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"))],
+        show_legend=True, legend_display="floating", y_axis_label="R [ohm]"))
+
+
 def build():
     import foxglove.layouts as fl
 
@@ -49,13 +61,7 @@ def build():
                for j, c in enumerate(("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"))],
         show_legend=True, legend_display="floating", following_view_width=WINDOW_S,
         y_axis_label="voltage [V]"))
-    resistance = fl.PlotPanel(title="motor R [ohm]: in use (solid), estimate (dashed)",
-                              config=fl.PlotConfig(
-        paths=[series(f"{omni4.CHANNEL_ADAPT}.{field}[{j}]", f"R_{j} {what}", c, **kw)
-               for field, what, kw in (("R", "in use", {}),
-                                       ("R_estimate", "estimate", {"line_style": "dashed"}))
-               for j, c in enumerate(("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"))],
-        show_legend=True, legend_display="floating", y_axis_label="R [ohm]"))
+    resistance = resistance_plot(fl, series)
     states = fl.StateTransitionsPanel(title="mode and faults", config=fl.StateTransitionsConfig(
         paths=[fl.StateTransitionsSeries(value=f"{omni4.CHANNEL_MOTORS}.mode_name", label="mode",
                                          timestamp_method="receiveTime"),
