@@ -109,8 +109,12 @@ def test_validation_json_that_cannot_be_read_is_one_line(tmp_path, kind):
 
 
 DRIFT_SECONDS = 40               # of docs/hard-drive.csv
-SIM_INI = "[sim]\nthermal = true\nthermal_capacity = 0.5\ntruth = false\n"   # fast heating
-R_TABLE3 = 4.3111                # [ohm] the identified R of Table III (the sim's default model)
+# Table III with motor 1's own R (4.5 ohm), windings that heat fast
+R_IDENT = [4.3111, 4.5, 4.3111, 4.3111]   # [ohm] each motor's identified R
+SIM_INI = ("[model]\nd = 0.089\nr = 0.0325\nl = 5\nKv = 0.0259\nKt = 0.0259\nR = 4.3111\n"
+           "M = 2.34\nJ = 0.0228\nBv = 0.4978\nBvn = 0.6763\nBw = 0.0141\nCv = 1.8738\n"
+           "Cvn = 2.2198\nCw = 0.1385\nR_1 = 4.5\n"
+           "[sim]\nthermal = true\nthermal_capacity = 0.5\ntruth = false\n")
 
 
 def _drift_log(tmp_path, omni4_bin):
@@ -139,9 +143,10 @@ def _drift_log(tmp_path, omni4_bin):
 
 
 def test_drift_report_of_a_log_with_omni4_adapt(tmp_path, omni4_bin):
-    """Per motor: the identified R (of --params: Table III's 4.3111 ohm), the last R in use of
-    the log's last adapt_t (decoded here by lcm-gen's class), its change in % (computed here),
-    and the figure. The windings heated: every R in use moved up by more than 10 %."""
+    """Per motor: the identified R (of --params, the simulated robot's INI: motor 1 4.5 ohm,
+    the others Table III's 4.3111), the last R in use of the log's last adapt_t (decoded here by
+    lcm-gen's class), its change in % (computed here), and the figure. The windings heated:
+    every R in use moved up by more than 10 %."""
     import omni4
     log, _, last, ini = _drift_log(tmp_path, omni4_bin)
     csv = tmp_path / "csv"
@@ -158,9 +163,9 @@ def test_drift_report_of_a_log_with_omni4_adapt(tmp_path, omni4_bin):
     assert [int(x[0]) for x in rows] == [0, 1, 2, 3], md
     for j, ident, in_use, pct, est in rows:
         j = int(j)
-        assert float(ident) == R_TABLE3
+        assert float(ident) == R_IDENT[j]
         assert abs(float(in_use) - a.R[j]) <= 0.5e-4 and abs(float(est) - a.R_estimate[j]) <= 0.5e-4
-        assert abs(float(pct) - 100 * (a.R[j] / R_TABLE3 - 1)) <= 0.005 + 1e-9
+        assert abs(float(pct) - 100 * (a.R[j] / R_IDENT[j] - 1)) <= 0.005 + 1e-9
         assert float(pct) > 10.0, md
 
 
