@@ -108,13 +108,18 @@ def test_validation_json_that_cannot_be_read_is_one_line(tmp_path, kind):
     assert len(lines) == 1 and lines[0].startswith(f"omni4_report: {bad}: "), r.stderr
 
 
-DRIFT_SECONDS = 40               # of docs/hard-drive.csv
+DRIFT_SECONDS = 20               # of docs/hard-drive.csv (R +30 % in it with SIM_INI)
 # Table III with motor 1's own R (4.5 ohm), windings that heat fast
 R_IDENT = [4.3111, 4.5, 4.3111, 4.3111]   # [ohm] each motor's identified R
 SIM_INI = ("[model]\nd = 0.089\nr = 0.0325\nl = 5\nKv = 0.0259\nKt = 0.0259\nR = 4.3111\n"
            "M = 2.34\nJ = 0.0228\nBv = 0.4978\nBvn = 0.6763\nBw = 0.0141\nCv = 1.8738\n"
            "Cvn = 2.2198\nCw = 0.1385\nR_1 = 4.5\n"
            "[sim]\nthermal = true\nthermal_capacity = 0.5\ntruth = false\n")
+
+
+@pytest.fixture(scope="module")
+def drift_logs(tmp_path_factory, omni4_bin):
+    return _drift_log(tmp_path_factory.mktemp("drift"), omni4_bin)
 
 
 def _drift_log(tmp_path, omni4_bin):
@@ -142,13 +147,13 @@ def _drift_log(tmp_path, omni4_bin):
     return log, bare, last, ini
 
 
-def test_drift_report_of_a_log_with_omni4_adapt(tmp_path, omni4_bin):
+def test_drift_report_of_a_log_with_omni4_adapt(tmp_path, drift_logs):
     """Per motor: the identified R (of --params, the simulated robot's INI: motor 1 4.5 ohm,
     the others Table III's 4.3111), the last R in use of the log's last adapt_t (decoded here by
     lcm-gen's class), its change in % (computed here), and the figure. The windings heated:
     every R in use moved up by more than 10 %."""
     import omni4
-    log, _, last, ini = _drift_log(tmp_path, omni4_bin)
+    log, _, last, ini = drift_logs
     csv = tmp_path / "csv"
     csv.mkdir()
     r = report(csv, tmp_path / "out", "--log", log, "--params", ini)
@@ -169,10 +174,10 @@ def test_drift_report_of_a_log_with_omni4_adapt(tmp_path, omni4_bin):
         assert float(pct) > 10.0, md
 
 
-def test_no_drift_report_without_omni4_adapt(tmp_path, omni4_bin):
+def test_no_drift_report_without_omni4_adapt(tmp_path, drift_logs):
     """The same log without its OMNI4_ADAPT events: no drift section or figure; the report is
     the one the report makes with the drift step taken out (it adds nothing else)."""
-    _, bare, _, ini = _drift_log(tmp_path, omni4_bin)
+    _, bare, _, ini = drift_logs
     csv = tmp_path / "csv"
     csv.mkdir()
     r = report(csv, tmp_path / "out", "--log", bare, "--params", ini)
