@@ -14,7 +14,12 @@ experiment segments shaded) and what was read from it, through the omni4 Python 
 given as its parts or as FILE when only FILE.00, FILE.01, ... exist. A log with the
 controller's state estimate (OMNI4_STATE) also gets a figure of the paths: the estimate, the
 camera (OMNI4_POSE), wheel odometry (eqs 3-5 integrated, d and r of --params, default Table III)
-and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time.
+and, from a simulator, the true path (OMNI4_SIM_TRUTH), with each one's error over time. A log
+with the adapted motor constants (OMNI4_ADAPT) gets a drift section: per motor the identified
+R_j (the log's start notice on OMNI4_PARAM_CHANGED, else --params, else its first adapt_t when
+nothing was adapted yet), the last R_j in use, its change in %, the last estimate, and a figure
+of each R_j in use and its estimate over time; a log without OMNI4_ADAPT gets the report it got
+before (byte for byte).
 
 OUT_DIR is made if missing (an existing file there is refused); each file in it is written as
 every omni4 output is (omni4.outfile: a temporary beside it and a rename, a symbolic link's
@@ -354,6 +359,71 @@ def fig_paths(log, index, name_of_log, out, d, r):
                   + lines + [""] if lines else [])
 
 
+def identified_r(log, params_path):
+    """Each motor's identified R_j [ohm] and where it came from: the log's first
+    OMNI4_PARAM_CHANGED with source start (the [model] the controller started with), else the
+    --params INI, else the log's first adapt_t when nothing was adapted yet; (None, why not)."""
+    import omni4
+    from omni4 import adapt
+    for _, data in log.unknown.get(omni4.CHANNEL_PARAM_CHANGED, []):
+        try:
+            m = omni4.param_changed_t.decode(data)
+        except ValueError:
+            continue
+        if m.source == "start":
+            r = adapt.identified_r(dict(zip(m.keys, m.values)))
+            if r is not None:
+                return r, "the log's start notice (OMNI4_PARAM_CHANGED)"
+    if params_path:
+        from omni4.foxglove import model
+        p = model.params_or_exit("omni4_report", params_path)
+        return adapt.identified_r({k: repr(v) for k, v in p.items()}), f"--params {params_path}"
+    a = log.channels[omni4.CHANNEL_ADAPT]
+    if not a.flags[0] & omni4.adapt_t.FLAG_ADAPTED:
+        return [float(x) for x in a.R[0]], "the log's first OMNI4_ADAPT (nothing adapted yet)"
+    return None, "not known (no start notice, no --params, adapted from the first OMNI4_ADAPT)"
+
+
+def fig_drift(log, index, name_of_log, out, params_path):
+    """What the online estimation learned in one log with OMNI4_ADAPT: per motor the identified
+    R_j, the last R_j in use and its change in %, the estimate's last value and the acceptances
+    and reverts (flags); the figure of each R_j in use and its estimate over time. Returns
+    (figure name, lines)."""
+    import omni4
+    from omni4 import adapt
+    a = log.channels[omni4.CHANNEL_ADAPT]
+    ident, source = identified_r(log, params_path)
+    t = (a.utime - a.utime[0]) * 1e-6
+    fig, ax = plt.subplots(figsize=(10, 5))
+    for j in range(4):
+        ax.plot(t, a.R[:, j], "-", color=f"C{j}", lw=1.2, label=f"R_{j} in use")
+        ax.plot(t, a.R_estimate[:, j], "--", color=f"C{j}", lw=0.6, label=f"R_{j} estimate")
+        if ident is not None:
+            ax.axhline(ident[j], color=f"C{j}", lw=0.5, ls=":")
+    ax.set_xlabel(f"t since the first OMNI4_ADAPT [s] ({len(a)} reports)")
+    ax.set_ylabel("R [ohm] (dotted: identified)")
+    ax.grid(True, lw=0.3)
+    ax.legend(fontsize=7, ncol=4)
+    ax.set_title(f"Motor resistances learned online, {name_of_log}")
+    name = f"drift_{index}_{name_of_log.replace('.', '_')}.png"
+    save(fig, out, name)
+    last = a.R[-1]
+    pct = adapt.percent(last, ident) if ident is not None else [None] * 4
+    seen = int(np.bitwise_or.reduce(a.flags))
+    accepted = int(np.count_nonzero(a.flags & omni4.adapt_t.FLAG_ACCEPTED))
+    reverted = int(np.count_nonzero(a.flags & omni4.adapt_t.FLAG_REVERTED))
+    lines = [f"Drift of `{name_of_log}` ({t[-1]:.1f} s of OMNI4_ADAPT; identified R_j from "
+             f"{source}; {accepted} reports with an acceptance, {reverted} with a revert; "
+             f"flags seen: {' '.join(adapt.flag_names(seen)) or 'none'}):", "",
+             "| motor | identified R [ohm] | last R in use [ohm] | change [%] | "
+             "last estimate [ohm] |", "|---|---|---|---|---|"]
+    for j in range(4):
+        idv = "unknown" if ident is None else f"{ident[j]:.4f}"
+        pc = "unknown" if pct[j] is None else f"{pct[j]:+.2f}"
+        lines.append(f"| {j} | {idv} | {last[j]:.4f} | {pc} | {a.R_estimate[-1][j]:.4f} |")
+    return name, lines + [""]
+
+
 def robot_geometry(params_path):
     """d and r [m] of the robot INI's [model] (all 14 keys, as omni4-ident writes it), or of
     Table III."""
@@ -385,6 +455,10 @@ def draw_figures(a):
         if log is not None and len(log.state) and len(log.motors):
             d, r = robot_geometry(a.params)
             name, lines = fig_paths(log, k, os.path.basename(path), a.out_dir, d, r)
+            figs.append(name)
+            log_lines += lines
+        if log is not None and len(log.channels[omni4_channel_adapt()]):
+            name, lines = fig_drift(log, k, os.path.basename(path), a.out_dir, a.params)
             figs.append(name)
             log_lines += lines
     return [f for f in figs if f], log_lines, params, windows, boot
@@ -471,6 +545,11 @@ def validation_section(path):
         lines.append(f"| {k} | {e['e_max']:.4f} | {e['e_mean']:.4f} | {e['sigma']:.4f} | "
                      f"{p[0]} | {p[1]} | {p[2]} |")
     return lines + [""]
+
+
+def omni4_channel_adapt():
+    import omni4
+    return omni4.CHANNEL_ADAPT
 
 
 def main():

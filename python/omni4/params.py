@@ -323,6 +323,9 @@ commands:
   get KEY [KEY ...]             print KEY = VALUE
   set KEY VALUE [KEY VALUE ...] change them together between two loop ticks (or none)
   save                          write the values in force to the robot's INI (atomically)
+  save --adapted                the same with the motor constants in use from the latest
+                                OMNI4_ADAPT (R_0..R_3, their mean as R, Cv Cvn Cw) set first
+                                where they differ from the identified
   load PARAMS.ini               apply the keys of an INI file (e.g. omni4-ident identify --out)
   dump                          the values in force as INI text (> robot.ini; a wheel's
                                 own model key only where it differs from the scalar)
@@ -349,6 +352,8 @@ def _build_parser():
     p.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="wait for one answer [s] (default 1; 3 tries)")
     p.add_argument("--version", action="store_true", help="print the version and exit")
+    p.add_argument("--adapted", action="store_true",
+                   help="save only: the R_j and C in use (OMNI4_ADAPT) instead of the identified")
     p.add_argument("command", choices=["list", "get", "set", "save", "load", "dump",
                                        "clear-fault"], metavar="COMMAND")
     p.add_argument("args", nargs="*", metavar="ARG")
@@ -387,6 +392,8 @@ def _usage_error(args):
         return "load needs one PARAMS.ini"
     if not (args.timeout > 0):
         return "--timeout must be > 0"
+    if args.adapted and args.command != "save":
+        return "--adapted goes with save only"
     keys = args.args[0::2] if args.command == "set" else args.args
     for k in keys if args.command in ("get", "set") else ():
         if "." not in k:
@@ -430,6 +437,8 @@ def _main(argv=None):
             _print_applied(Applied(r.seq, tuple(Param._from_msg(m) for m in r.params), r.message,
                                    r.request_id), out)
         elif args.command == "save":
+            if args.adapted and not _set_adapted(client, args.lcm, out):
+                return 1
             t0 = time.monotonic()
             r = client._request(param_request_t.OP_SAVE)
             # "saved; previous kept as X.bak" (or in place, or a new file); "saved" from an
@@ -482,6 +491,72 @@ def _clear_fault(url, timeout_s, out):
     else:
         out.write(f"nothing to clear: {state(m)} (latched bits and warnings reset)\n")
     return 0
+
+
+ADAPTED_REL_TOL = 1e-6   # a constant in use this close to the identified (relative) is no change
+
+
+def latest_adapt(lc, timeout_s):
+    """The first adapt_t heard on OMNI4_ADAPT of lc within timeout_s [s] (the controller sends
+    one every 0.1 s, so the latest), or None."""
+    from . import CHANNEL_ADAPT
+    from .adapt_t import adapt_t
+    got = []
+
+    def on_adapt(_channel, data):
+        try:
+            got.append(adapt_t.decode(data))
+        except ValueError:          # another type on the channel
+            pass
+    sub = lc.subscribe(CHANNEL_ADAPT, on_adapt)
+    try:
+        end = time.monotonic() + timeout_s
+        while not got and time.monotonic() < end:
+            lc.handle_timeout(max(1, int(min(0.05, end - time.monotonic()) * 1000)))
+    finally:
+        lc.unsubscribe(sub)
+    return got[0] if got else None
+
+
+def adapted_changes(m, model):
+    """{key: text} to set for the constants in use of adapt_t m against the [model] in force
+    (model: {"model.R_0": text, ...}): when an R_j in use differs from the [model]'s by more
+    than ADAPTED_REL_TOL, every R_j in use (each wheel its own key, so that none follows the
+    scalar) and the scalar R as their mean; each of Cv, Cvn, Cw in use that differs."""
+    def differs(key, x):
+        ref = float(model[key])
+        return abs(x - ref) > ADAPTED_REL_TOL * abs(ref)
+    out = {}
+    if any(differs(f"model.R_{j}", m.R[j]) for j in range(4)):
+        out = {f"model.R_{j}": f"{m.R[j]:.6f}" for j in range(4)}
+        out["model.R"] = f"{sum(m.R) / 4:.6f}"
+    for key, x in (("Cv", m.Cv), ("Cvn", m.Cvn), ("Cw", m.Cw)):
+        if differs(f"model.{key}", x):
+            out[f"model.{key}"] = f"{x:.6f}"
+    return out
+
+
+def _set_adapted(client, url, out):
+    """save --adapted's first step: the constants in use of the latest OMNI4_ADAPT set where they
+    differ from the [model] in force (one set); each printed with the value it replaces. False
+    (said on stderr) when no adapt_t came."""
+    wait_s = client.timeout_s * (client.retries + 1)
+    m = latest_adapt(client._lc, wait_s)
+    if m is None:
+        sys.stderr.write(f"omni4-param: save --adapted: no OMNI4_ADAPT on {url} within "
+                         f"{wait_s:g} s (an omni4-fw without the online estimation?)\n")
+        return False
+    keys = [f"model.{k}" for k in ("R", "R_0", "R_1", "R_2", "R_3", "Cv", "Cvn", "Cw")]
+    model = {p.key: p.text for p in client.get_many(keys)}
+    changes = adapted_changes(m, model)
+    if not changes:
+        out.write("adapted: the constants in use are the identified\n")
+        return True
+    a = client.set(changes)
+    for key, text in changes.items():
+        out.write(f"adapted: {key} = {text} (was {model[key]})\n")
+    out.write(f"in force from tick {a.seq}\n")
+    return True
 
 
 def _print_applied(a, out):

@@ -4,10 +4,13 @@ Listens to OMNI4_MOTORS for a bounded time (--listen, default 1 s), then prints 
 mode, its latching faults and warnings by name, the measured loop rate and overruns, lost
 samples (gaps in seq), the last currents, voltages and wheel speeds, and the [model] in force
 (a LIST request to the controller's parameter service; "parameters: no answer" if it does not
-answer in time). --watch repeats every second until Ctrl-C: on a terminal it redraws the block
-in place (cursor home, clear to the end of the screen), piped it writes one block after another.
-When no OMNI4_MOTORS has been heard for NO_ROBOT_S (1 s) it says so on stderr at once (within
-the listening window, not at its end), and says when the robot answers again.
+answer in time), and the adapted motor constants (OMNI4_ADAPT: each R in use against the
+identified, the estimates, supply, C in use, flags by name, the last acceptance or revert seen
+on OMNI4_PARAM_CHANGED; "adapt: no OMNI4_ADAPT" without one). --watch repeats every second
+until Ctrl-C: on a terminal it redraws the block in place (cursor home, clear to the end of
+the screen), piped it writes one block after another. When no OMNI4_MOTORS has been heard for
+NO_ROBOT_S (1 s) it says so on stderr at once (within the listening window, not at its end),
+and says when the robot answers again.
 
 Exit status: 0 done, 1 no OMNI4_MOTORS on the URL within the listening time, 2 usage error,
 141 when stdout is closed early (omni4-status | head -1: quiet).
@@ -17,9 +20,11 @@ import time
 
 import lcm
 
-from . import CHANNEL_MOTORS, DEFAULT_LCM_URL, __version__, motors_t
+from . import (CHANNEL_ADAPT, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, DEFAULT_LCM_URL, __version__,
+               adapt_t, motors_t, param_changed_t)
+from . import adapt as adapt_words
 from ._cli import usage
-from ._keys import MODEL_KEYS
+from ._keys import MODEL_KEYS, MODEL_WHEEL_KEYS
 
 PROG = "omni4-status"
 RX_QUEUE_MESSAGES = 100000      # LCM's receive queue for OMNI4_MOTORS (100 s at 1 kHz)
@@ -66,6 +71,27 @@ class Window:
         return bits
 
 
+class AdaptSeen:
+    """The adapted constants heard so far: the last adapt_t (None before one) and the last
+    acceptance or revert (omni4.adapt.Events; kept over --watch's windows)."""
+
+    def __init__(self):
+        self.last = None
+        self.events = adapt_words.Events()
+
+    def on_adapt(self, _channel, data):
+        try:
+            self.last = adapt_t.decode(data)
+        except ValueError:          # another type on the channel
+            pass
+
+    def on_changed(self, _channel, data):
+        try:
+            self.events.take(param_changed_t.decode(data))
+        except ValueError:
+            pass
+
+
 class Silence:
     """Whether a stream is silent: check() returns "lost" once when nothing has been heard for
     timeout_s [s] (since the start, or since the last message), "back" once when a message is
@@ -105,9 +131,10 @@ def silence_line(prog, url, event, silence):
             f"{silence.gap_s:.1f} s of silence)")
 
 
-def listen(lc, seconds, poll=None):
+def listen(lc, seconds, poll=None, adapt=None):
     """The motors_t samples that arrive within `seconds` [s] on lc; poll(count so far) is
-    called at least every POLL_MS while it listens."""
+    called at least every POLL_MS while it listens; adapt (an AdaptSeen) notes OMNI4_ADAPT and
+    the acceptances and reverts on OMNI4_PARAM_CHANGED meanwhile."""
     got = []
 
     def on_motors(_channel, data):
@@ -118,6 +145,10 @@ def listen(lc, seconds, poll=None):
 
     sub = lc.subscribe(CHANNEL_MOTORS, on_motors)
     sub.set_queue_capacity(RX_QUEUE_MESSAGES)
+    subs = [sub]
+    if adapt is not None:
+        subs += [lc.subscribe(CHANNEL_ADAPT, adapt.on_adapt),
+                 lc.subscribe(CHANNEL_PARAM_CHANGED, adapt.on_changed)]
     try:
         end = time.monotonic() + seconds
         while True:
@@ -128,19 +159,21 @@ def listen(lc, seconds, poll=None):
             if poll is not None:
                 poll(len(got))
     finally:
-        lc.unsubscribe(sub)
+        for s in subs:
+            lc.unsubscribe(s)
     return Window(got, seconds)
 
 
 def read_model(url, timeout_s):
-    """The [model] in force as [(key, text, unit)], or None when the controller did not answer."""
+    """The [model] in force as [(key, text, unit)] of the scalar keys, then each drive's own key
+    (R_0, ...; not printed in the model line), or None when the controller did not answer."""
     from .params import ParamClient, ParamError
     try:
         client = ParamClient(url, timeout_s=timeout_s, retries=1)
     except ParamError:
         return None
     try:
-        params = client.get_many([f"model.{k}" for k in MODEL_KEYS])
+        params = client.get_many([f"model.{k}" for k in MODEL_KEYS + MODEL_WHEEL_KEYS])
     except ParamError:
         return None
     finally:
@@ -152,8 +185,19 @@ def _vec(values, fmt="{:+.3f}"):
     return " ".join(fmt.format(x) for x in values)
 
 
-def report(url, w, model):
-    """The status as text (lines)."""
+def adapt_lines(adapt, model):
+    """The adapted constants' lines (omni4.adapt.summary_lines), each R in use against the
+    identified R_j of the [model] asked for (none when it did not answer)."""
+    if adapt is None:
+        return []
+    if adapt.last is None:
+        return [f"adapt: no {CHANNEL_ADAPT} (an omni4-fw without the online estimation?)"]
+    identified = adapt_words.identified_r({k: t for k, t, _ in model}) if model else None
+    return adapt_words.summary_lines(adapt.last, identified, adapt.events)
+
+
+def report(url, w, model, adapt=None):
+    """The status as text (lines); adapt: an AdaptSeen (None: no adapt lines)."""
     m = w.last
     latched = m.faults & LATCHING
     warnings = w.seen_bits & ~LATCHING & ~motors_t.FAULT_OVERRUN
@@ -172,17 +216,20 @@ def report(url, w, model):
     elif model is None:
         lines.append("parameters: no answer")
     else:
+        scalars = [p for p in model if p[0] in MODEL_KEYS]
         lines.append("model: " + " ".join(
-            f"{k}={t}" + (f" {u}" if u else "") + ("," if i + 1 < len(model) else "")
-            for i, (k, t, u) in enumerate(model)))
-    return lines
+            f"{k}={t}" + (f" {u}" if u else "") + ("," if i + 1 < len(scalars) else "")
+            for i, (k, t, u) in enumerate(scalars)))
+    return lines + adapt_lines(adapt, model or None)
 
 
 EPILOG = f"""\
 Prints: mode; latching faults and (in the window) warnings by name; loop rate [Hz] from the
 controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
 currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
-(asked from the controller; "parameters: no answer" if it does not answer).
+(asked from the controller; "parameters: no answer" if it does not answer); the adapted motor
+constants (OMNI4_ADAPT): each R in use [ohm] and its change from the identified [%], the
+estimates, supply [V], Coulomb frictions in use, flags by name, the last acceptance or revert.
 --watch: redrawn in place on a terminal, one block after another when piped. No OMNI4_MOTORS
 for 1 s: "no robot answers" on stderr at once, and a line when it answers again.
 Exit status: 0 done, 1 no OMNI4_MOTORS within the listening time (is omni4-fw running?),
@@ -219,6 +266,7 @@ def _main(argv):
         return usage(PROG, f"cannot open LCM URL {args.lcm}: {e}")
     tty = args.watch and sys.stdout.isatty()
     silence = Silence()
+    adapt = AdaptSeen()
     seen = [0]
 
     def poll(n):
@@ -234,7 +282,7 @@ def _main(argv):
     while True:
         t0 = time.monotonic()
         seen[0] = 0
-        w = listen(lc, args.listen, poll)
+        w = listen(lc, args.listen, poll, adapt)
         if w.last is None:
             if not args.watch:
                 sys.stderr.write(f"{PROG}: no {CHANNEL_MOTORS} on {args.lcm} within "
@@ -244,7 +292,8 @@ def _main(argv):
             # A robot silent for half the time already is not asked: the unanswered request
             # would hold back the "no robot answers" line by up to 2 x --timeout.
             quiet = silence.clock() - silence.last >= NO_ROBOT_S / 2
-            lines = report(args.lcm, w, False if quiet else read_model(args.lcm, args.timeout))
+            lines = report(args.lcm, w, False if quiet else read_model(args.lcm, args.timeout),
+                           adapt)
             if tty and silence.lost_at is not None:
                 lines.append(f"last silence: {silence.gap_s:.1f} s without {CHANNEL_MOTORS}")
             block = time.strftime("%H:%M:%S ") + "\n".join(lines) + "\n"
@@ -256,7 +305,7 @@ def _main(argv):
         rest = 1.0 - (time.monotonic() - t0)
         if rest > 0:
             seen[0] = 0
-            listen(lc, rest, poll)               # the silence is watched in between too
+            listen(lc, rest, poll, adapt)        # the silence is watched in between too
 
 
 def main(argv=None):

@@ -185,9 +185,11 @@ def test_bridge_serves_motors_pose_and_prediction(tmp_path):
         port = read_port(br, 20)
         cl = FoxgloveClient(port, 10)
         want = [omni4.CHANNEL_MOTORS, omni4.CHANNEL_POSE, topics.TOPIC_VELOCITY, topics.TOPIC_TF,
-                topics.TOPIC_HEALTH, topics.TOPIC_SCENE, topics.TOPIC_ESTIMATE]
+                topics.TOPIC_HEALTH, topics.TOPIC_SCENE, topics.TOPIC_ESTIMATE,
+                omni4.CHANNEL_ADAPT]
         cl.wait_advertised(want, 10)
         assert cl.channels[omni4.CHANNEL_MOTORS]["schemaName"] == "omni4.motors_t"
+        assert cl.channels[omni4.CHANNEL_ADAPT]["schemaName"] == "omni4.adapt_t"
         assert cl.channels[topics.TOPIC_TF]["schemaName"] == "foxglove.FrameTransform"
         assert cl.channels[omni4.CHANNEL_MOTORS]["encoding"] == "json"
         cl.subscribe(want)
@@ -216,6 +218,11 @@ def test_bridge_serves_motors_pose_and_prediction(tmp_path):
     with side.lock:
         motors = dict(side.motors)
         poses = dict(side.poses)
+
+    # the controller's adapt_t at 10 Hz, not decimated: its flags by name ([adapt] on by default)
+    ad = [j for _, j in cl.msgs.get(omni4.CHANNEL_ADAPT, [])]
+    assert len(ad) >= 5, len(ad)
+    assert all(j["flag_names"][0] == "ON" and len(j["R_sigma"]) == 4 for j in ad), ad[-1]
 
     # motors: every 10th sample, equal to what LCM carried
     bm = [j for _, j in cl.msgs[omni4.CHANNEL_MOTORS]]

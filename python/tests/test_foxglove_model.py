@@ -218,9 +218,25 @@ def test_ini_missing_file(tmp_path):
 T0_US = 1_700_000_000_000_000
 
 
-def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=(), bad_motors=False):
+def synth_adapt(k, seq):
+    """The k-th sample's adapt_t of synth_log: R in use 4.3 ohm (1 + k / 1e5), an estimate
+    above it with variance 1e-4 ohm^2, ON and FED, ADAPTED from k = 1000 on."""
+    a = omni4.adapt_t()
+    a.utime, a.seq = k * 1000, seq
+    a.R = [4.3 * (1 + k / 1e5)] * 4
+    a.R_estimate = [4.3 * (1 + k / 1e5) + 0.01 * j for j in range(4)]
+    a.R_variance = [1e-4] * 4
+    a.supply_v, a.Cv, a.Cvn, a.Cw, a.track_rms = 12.0, 1.8738, 2.2198, 0.1385, 0.01
+    a.flags = omni4.adapt_t.FLAG_ON | omni4.adapt_t.FLAG_FED | \
+        (omni4.adapt_t.FLAG_ADAPTED if k >= 1000 else 0)
+    return a
+
+
+def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=(), bad_motors=False,
+              adapt=False):
     """A log of n motors samples at 1 kHz, a pose every 40, marks and commands, and one
-    channel no omni4 type decodes. Returns {channel: [(log_time_us, payload)]}."""
+    channel no omni4 type decodes; with adapt, an adapt_t every 100 samples (R in use rising
+    0.1 % per 100 samples). Returns {channel: [(log_time_us, payload)]}."""
     out = {}
     log = lcm.EventLog(path, "w", overwrite=True)
     rng = random.Random(7)
@@ -255,6 +271,8 @@ def synth_log(path, n=3000, gap_at=None, overruns=(), rejected=(), bad_motors=Fa
             c.utime, c.seq, c.mode, c.ramp_s = k * 1000, k, 1, 0.1
             c.velocity, c.voltage = [0.5, -0.25, 1.0], [0.0] * 4
             put(T0_US + k * 1000 + 3, omni4.CHANNEL_CMD, c.encode())
+        if adapt and k % 100 == 0:
+            put(T0_US + k * 1000 + 4, omni4.CHANNEL_ADAPT, synth_adapt(k, seq - 1).encode())
     put(T0_US + n * 1000, "OMNI4_SOMETHING_ELSE", b"\x00\x01not an omni4 type")
     if bad_motors:
         short = omni4.motors_t().encode()[:40]          # motors_t's fingerprint, cut short
@@ -569,7 +587,7 @@ def test_layout_file_is_the_generators_and_plots_existing_fields(tmp_path):
     assert len(refs) >= 20
     log = str(tmp_path / "s.lcmlog")
     out = str(tmp_path / "s.mcap")
-    synth_log(log, n=1500)
+    synth_log(log, n=1500, adapt=True)
     assert export.main([log, "--out", out, "-q"]) == 0
     got, _, _ = read_mcap_python(out)
     for ref in refs:
@@ -679,3 +697,25 @@ def test_prediction_drives_each_wheel_with_its_own_motor_and_radius():
     meas, _, _ = per_wheel.step(4_000_000, 0, 2, u, [0.0, -0.5 / own["r_1"], 0.0,
                                                      0.5 / T3["r"]])
     assert meas == pytest.approx([0.5, 0.0, 0.0], abs=1e-6)  # float32 speeds: 1.2e-8
+
+
+def test_adapt_channel_has_its_schema_flags_by_name_and_sigma(tmp_path):
+    """OMNI4_ADAPT in the MCAP: one message per adapt_t, schema omni4.adapt_t, the values of
+    the log, the flags by name as adapt_t.lcm defines the bits, and each estimate's standard
+    deviation the square root of its variance (1e-4 ohm^2: 0.01 ohm)."""
+    log, out = str(tmp_path / "a.lcmlog"), str(tmp_path / "a.mcap")
+    logged = synth_log(log, n=1500, adapt=True)
+    assert export.main([log, "--out", out, "-q"]) == 0
+    got, _, _ = read_mcap_python(out)
+    rows = got[omni4.CHANNEL_ADAPT]
+    assert len(rows) == len(logged[omni4.CHANNEL_ADAPT]) == 15
+    for (t, schema, j), (t_us, data) in zip(rows, logged[omni4.CHANNEL_ADAPT]):
+        m = omni4.adapt_t.decode(data)
+        assert t == t_us * 1000 and schema == "omni4.adapt_t"
+        assert j["R"] == list(m.R) and j["R_estimate"] == list(m.R_estimate)
+        assert j["R_sigma"] == pytest.approx([0.01] * 4, rel=1e-12)
+        assert (j["supply_v"], j["Cv"], j["flags"]) == (12.0, 1.8738, m.flags)
+        want = ["ON", "FED"] + (["ADAPTED"] if m.utime >= 1_000_000 else [])   # bits 1, 2, 8
+        assert j["flag_names"] == want
+    assert topics.event_messages(omni4.CHANNEL_ADAPT, synth_adapt(0, 0).encode(), 0,
+                                 topics.lcm_classes())[0][1] == "omni4.adapt_t"

@@ -123,3 +123,35 @@ def test_cli_usage_errors_exit_2(capsys, tmp_path):
 def test_cli_no_robot_exits_1(capsys):
     assert params.main(["--lcm", url(), "--timeout", "0.05", "get", "control.kp"]) == 1
     assert "no answer" in capsys.readouterr().err
+
+
+def test_save_adapted_usage_and_no_omni4_adapt(capsys):
+    """--adapted goes with save only (usage, 2); save --adapted with no OMNI4_ADAPT on the bus
+    (a robot that answers parameters only): one line, status 1, and no SAVE sent."""
+    assert params.main(["--adapted", "list"]) == 2
+    assert "--adapted goes with save only" in capsys.readouterr().err
+    u = url()
+    robot = FakeRobot(u)
+    try:
+        assert params.main(["--lcm", u, "--timeout", "0.1", "save", "--adapted"]) == 1
+    finally:
+        robot.close()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "save --adapted: no OMNI4_ADAPT on" in err[0], err
+    assert not any(q.op == omni4.param_request_t.OP_SAVE for q in robot.seen)
+
+
+def test_adapted_changes_set_every_wheel_and_the_mean():
+    """Nothing in use differs: no change. One R_j in use differs: every R_j (each wheel its own
+    key) and the scalar R as their mean (computed here); a C in use that differs is set."""
+    a = omni4.adapt_t()
+    a.R, a.Cv, a.Cvn, a.Cw = [4.3111, 4.3111, 4.3111, 4.3111], 1.8738, 2.2198, 0.1385
+    model = {"model.R": "4.3111", **{f"model.R_{j}": "4.3111" for j in range(4)},
+             "model.Cv": "1.8738", "model.Cvn": "2.2198", "model.Cw": "0.1385"}
+    assert params.adapted_changes(a, model) == {}
+    a.R = [5.0, 4.3111, 4.0, 4.3111]
+    a.Cw = 0.2
+    got = params.adapted_changes(a, model)
+    assert got == {"model.R_0": "5.000000", "model.R_1": "4.311100", "model.R_2": "4.000000",
+                   "model.R_3": "4.311100", "model.R": f"{(5.0 + 4.3111 * 2 + 4.0) / 4:.6f}",
+                   "model.Cw": "0.200000"}

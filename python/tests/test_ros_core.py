@@ -190,6 +190,75 @@ def test_diagnostics_name_faults_and_levels():
     assert rows[2][0] == 1, "an unknown model is a warning"
 
 
+def _adapt(R, flags, estimate=None):
+    a = omni4.adapt_t()
+    a.utime, a.seq, a.R = 1_000_000, 1000, list(R)
+    a.R_estimate = list(estimate or R)
+    a.R_variance = [1e-6] * 4
+    a.supply_v, a.Cv, a.Cvn, a.Cw, a.track_rms, a.flags = 12.0, 1.8738, 2.2198, 0.1385, 0.0, flags
+    return a
+
+
+def _changed(source, event, old, new):
+    m = omni4.param_changed_t()
+    m.utime, m.seq, m.request_id, m.source, m.path = 5, 4321, 0, source, ""
+    m.keys = [f"adapt.R_{j}" for j in range(4)] + ["adapt.event"]
+    m.old_values = [f"{x:.6f}" for x in old] + [""]
+    m.values = [f"{x:.6f}" for x in new] + [event]
+    m.n = len(m.keys)
+    return m
+
+
+def test_adapt_diagnostics_levels_values_and_last_event():
+    """"omni4: adapt": STALE without an adapt_t in the period; OK with acceptances; WARN when a
+    REVERTED or RESTART flag was in any of the period's reports (also one before the last);
+    each R in use against the identified R_j (wheel 2 its own 4.5 ohm, the others the scalar
+    4.0: R in use 4.4 is +10 %, 4.5 on wheel 2 is 0 %), the last acceptance or revert."""
+    w, g = core.MotorsWindow(), core.CmdGate()
+    w.take(Sample(0, 1, (0, 0, 0, 0), mode=0))
+    model = {"model.R": "4.0", "model.R_2": "4.5"}
+    ad = core.AdaptWindow()
+    rows = core.diagnostic_statuses(w, g, {}, model, "wheels", adapt=ad)
+    assert rows[-1][:2] == (3, "omni4: adapt")
+    assert core.diagnostic_statuses(w, g, {}, model, "wheels")[-1][1] == "omni4: odometry"
+    F = omni4.adapt_t
+    assert not ad.events.take(_changed("set", "accepted", [4.0] * 4, [4.4] * 4))
+    assert ad.events.take(_changed("adapt", "accepted", [4.0, 4.0, 4.5, 4.0],
+                                   [4.4, 4.4, 4.5, 4.4]))
+    ad.take(_adapt([4.4, 4.4, 4.5, 4.4], F.FLAG_ON | F.FLAG_ADAPTED | F.FLAG_ACCEPTED))
+    level, name, msg, values = core.diagnostic_statuses(w, g, {}, model, "wheels", adapt=ad)[-1]
+    kv = dict(values)
+    assert (level, name) == (0, "omni4: adapt") and "adapted" in msg
+    assert [float(kv[f"R_{j} vs identified [%]"]) for j in range(4)] == \
+        pytest.approx([10.0, 10.0, 0.0, 10.0], abs=1e-9)
+    assert float(kv["R_1 in use [ohm]"]) == 4.4 and kv["flags"] == "ON ADAPTED ACCEPTED"
+    assert kv["last event"] == ("accepted at tick 4321: R_0 4.0000 -> 4.4000, "
+                                "R_1 4.0000 -> 4.4000, R_3 4.0000 -> 4.4000 ohm")
+    for bad in (F.FLAG_REVERTED, F.FLAG_RESTART):
+        ad.reset()
+        ad.take(_adapt([4.0, 4.0, 4.5, 4.0], F.FLAG_ON | bad))
+        ad.take(_adapt([4.0, 4.0, 4.5, 4.0], F.FLAG_ON))      # the last one without it
+        level, _, msg, values = core.diagnostic_statuses(w, g, {}, model, "wheels",
+                                                         adapt=ad)[-1]
+        word = "REVERTED" if bad == F.FLAG_REVERTED else "RESTART"
+        assert level == 1 and word in msg and word in dict(values)["flags"]
+    ad.reset()
+    assert core.diagnostic_statuses(w, g, {}, model, "wheels", adapt=ad)[-1][0] == 3
+    assert core.diagnostic_statuses(w, g, {}, {}, "wheels", adapt=ad)[-1][0] == 3
+    ad.take(_adapt([4.4] * 4, F.FLAG_ON))
+    kv = dict(core.diagnostic_statuses(w, g, {}, {}, "wheels", adapt=ad)[-1][3])
+    assert kv["R_0 vs identified [%]"] == "unknown"       # the [model] not read yet
+
+
+def test_adapt_flag_names_follow_the_type():
+    F = omni4.adapt_t
+    from omni4 import adapt
+    assert adapt.flag_names(F.FLAG_ON | F.FLAG_WATCH | F.FLAG_RESTART | 0x400) == \
+        ["ON", "WATCH", "RESTART", "UNKNOWN_0x400"]
+    assert [n for _, n in adapt.FLAGS] == ["ON", "FED", "FROZEN", "ADAPTED", "WATCH",
+                                          "ACCEPTED", "REVERTED", "RESTART"]
+
+
 def test_urdf_has_the_four_wheels_of_table_iii():
     root = ET.parse(URDF).getroot()
     joints = {j.get("name"): j for j in root.iter("joint")}

@@ -603,6 +603,31 @@ def test_a_rejected_command_shows_in_diagnostics_by_name(stack):
     assert r.success, r.message
 
 
+def test_the_adapted_constants_are_in_diagnostics(stack):
+    """"omni4: adapt" from the controller's OMNI4_ADAPT: OK (no revert, no restart), each R in
+    use as the node's adapt_t listener would print it and against the identified R_j of the
+    [model] it read (the sim's motors are its model's: no acceptance, 0.0 %), the flags by name
+    (ON: [adapt] enabled by default)."""
+    import lcm
+    import omni4
+    got = []
+    lc = lcm.LCM(stack.url)
+    sub = lc.subscribe(omni4.CHANNEL_ADAPT, lambda _c, d: got.append(omni4.adapt_t.decode(d)))
+    end = time.monotonic() + 5
+    while not got and time.monotonic() < end:
+        lc.handle_timeout(100)
+    lc.unsubscribe(sub)
+    assert got, "no OMNI4_ADAPT from omni4-fw"
+    a = stack.ros.latest("diag", 2 * DIAG_PERIOD_S + 1, after=time.monotonic(),
+                         pred=lambda a: _diag_status(a, "omni4: adapt") is not None)
+    s = _diag_status(a, "omni4: adapt")
+    assert s.level == b"\x00", s
+    for j in range(4):
+        assert float(_value(s, f"R_{j} in use [ohm]")) == pytest.approx(got[0].R[j], abs=1e-6)
+        assert abs(float(_value(s, f"R_{j} vs identified [%]"))) < 0.01
+    assert _value(s, "flags").split()[0] == "ON"
+
+
 def test_the_recorded_drive_becomes_a_bag_with_every_event(stack, tmp_path):
     """The log omni4-record wrote during the tests above (VELOCITY commands from omni4-ros, the
     camera, every tick) -> omni4-rosbag -> read back with rosbags."""

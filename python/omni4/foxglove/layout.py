@@ -1,6 +1,7 @@
 """docs/foxglove-layout.json, built with foxglove-sdk's layout types: the robot in 3D (body and
 wheels on the camera pose), commanded vs measured (encoders) vs predicted (model) velocity per
-axis with the difference, currents per motor, mode and faults, and health.
+axis with the difference, currents per motor, each motor's resistance in use and its online
+estimate (OMNI4_ADAPT), mode and faults, and health.
 
     python -m omni4.foxglove.layout > docs/foxglove-layout.json
 (python/tests/test_foxglove_model.py checks that the file is this output and that every topic
@@ -16,6 +17,18 @@ AXES = (("v", 0, "m/s"), ("vn", 1, "m/s"), ("w", 2, "rad/s"))
 COLORS = {"commanded": "#9e9e9e", "measured": "#1f77b4", "predicted": "#ff7f0e",
           "difference": "#d62728"}
 WINDOW_S = 10.0  # [s] plots follow the last 10 s
+
+
+def resistance_plot(fl, series):
+    """Each motor's R in use (solid) and online estimate (dashed) from OMNI4_ADAPT, over the
+    whole run (a winding heats over minutes)."""
+    return fl.PlotPanel(title="motor R [ohm]: in use (solid), estimate (dashed)",
+                        config=fl.PlotConfig(
+        paths=[series(f"{omni4.CHANNEL_ADAPT}.{field}[{j}]", f"R_{j} {what}", c, **kw)
+               for field, what, kw in (("R", "in use", {}),
+                                       ("R_estimate", "estimate", {"line_style": "dashed"}))
+               for j, c in enumerate(("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"))],
+        show_legend=True, legend_display="floating", y_axis_label="R [ohm]"))
 
 
 def build():
@@ -48,6 +61,7 @@ def build():
                for j, c in enumerate(("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"))],
         show_legend=True, legend_display="floating", following_view_width=WINDOW_S,
         y_axis_label="voltage [V]"))
+    resistance = resistance_plot(fl, series)
     states = fl.StateTransitionsPanel(title="mode and faults", config=fl.StateTransitionsConfig(
         paths=[fl.StateTransitionsSeries(value=f"{omni4.CHANNEL_MOTORS}.mode_name", label="mode",
                                          timestamp_method="receiveTime"),
@@ -73,7 +87,7 @@ def build():
 
     top = split("row", (2, scene),
                 (3, split("column", *((1, velocity_plot(*a)) for a in AXES))))
-    bottom = split("row", (1, currents), (1, voltages), (1, states),
+    bottom = split("row", (1, currents), (1, voltages), (1, resistance), (1, states),
                    (1, split("column", (2, health), (1, faults))))
     return fl.Layout(content=split("column", (3, top), (2, bottom)))
 

@@ -6,6 +6,8 @@ schema encoding "jsonschema"). Topic list and fields: docs/design.md, "Foxglove 
   OMNI4_EXPERIMENT carry the fields of their type (docs/design.md) plus the names of mode and
   fault bits; any other channel with a type of the omni4 package carries that type's fields;
   a channel whose payload no omni4 type decodes carries {"fingerprint", "data_base64"}.
+- OMNI4_ADAPT (adapt_t, the motor constants in use and their online estimates) carries its
+  fields plus the flags by name and each estimate's standard deviation (plot-friendly arrays).
 - /omni4/velocity: encoder velocity (eqs 3-5), the model's prediction (model/'s plant from the
   logged voltages, see _predict.c for when it restarts) and their difference, per motors sample.
 - /omni4/health: loop rate, overruns, dropped samples, rejected commands, per window.
@@ -40,6 +42,7 @@ ESTIMATE_FRAME = "robot_estimate"
 # Mode names, fault bits, the modes that drive the bridges: core's vocab.def (omni4/_vocab.py).
 from .._vocab import DRIVEN_MODES, FAULT_BITS, MODE_NAMES, mode_name  # noqa: E402,F401
 from .._vocab import fault_names as _fault_names  # noqa: E402
+from ..adapt import flag_names as adapt_flag_names  # noqa: E402
 FAULT_OVERRUN = omni4.motors_t.FAULT_OVERRUN
 FAULT_CMD_REJECTED = omni4.motors_t.FAULT_CMD_REJECTED
 
@@ -98,6 +101,19 @@ SCHEMAS = {
     "omni4.experiment_t": _obj({"utime": _int("[us]"), "kind": {"type": "string"},
                                 "direction": {"type": "string"}, "level": _num("[V]")},
                                "experiment_t, segment marks"),
+    "omni4.adapt_t": _obj({
+        "utime": _int("controller clock [us]"), "seq": _int("loop tick (motors_t.seq)"),
+        "R": _arr(4, "each motor's resistance in use [ohm]"),
+        "R_estimate": _arr(4, "each motor's online estimate [ohm]"),
+        "R_variance": _arr(4, "its variance [ohm^2]"),
+        "R_sigma": _arr(4, "its standard deviation [ohm]"),
+        "supply_v": _num("supply the drives last reported [V] (0: none)"),
+        "Cv": _num("Coulomb friction in use along v [N]"), "Cvn": _num("along vn [N]"),
+        "Cw": _num("about w [N m]"),
+        "track_rms": _num("wheels' rim speed reference - reading, RMS since the last [m/s]"),
+        "flags": _int("FLAG_* bit set of adapt_t"),
+        "flag_names": {"type": "array", "items": {"type": "string"}}},
+        "adapt_t, the motor constants in use, 10 Hz"),
     "omni4.lcm_fields": {"type": "object", "description": "fields of an omni4 LCM type"},
     "omni4.lcm_raw": _obj({"fingerprint": {"type": "string"},
                            "data_base64": {"type": "string", "contentEncoding": "base64"}},
@@ -153,7 +169,8 @@ SCHEMAS = {
 # Schema per LCM channel of omni4's own types.
 CHANNEL_SCHEMA = {omni4.CHANNEL_MOTORS: "omni4.motors_t", omni4.CHANNEL_CMD: "omni4.command_t",
                   omni4.CHANNEL_POSE: "omni4.pose_t",
-                  omni4.CHANNEL_EXPERIMENT: "omni4.experiment_t"}
+                  omni4.CHANNEL_EXPERIMENT: "omni4.experiment_t",
+                  omni4.CHANNEL_ADAPT: "omni4.adapt_t"}
 DERIVED = {TOPIC_VELOCITY: "omni4.velocity", TOPIC_HEALTH: "omni4.health",
            TOPIC_TF: "foxglove.FrameTransform", TOPIC_POSE: "foxglove.PoseInFrame",
            TOPIC_SCENE: "foxglove.SceneUpdate", TOPIC_ESTIMATE: "foxglove.PoseInFrame",
@@ -194,6 +211,16 @@ def pose_json(m):
 def experiment_json(m):
     return orjson.dumps({"utime": m.utime, "kind": m.kind, "direction": m.direction,
                          "level": m.level})
+
+
+def adapt_json(m):
+    return orjson.dumps({"utime": m.utime, "seq": m.seq, "R": list(m.R),
+                         "R_estimate": list(m.R_estimate), "R_variance": list(m.R_variance),
+                         "R_sigma": [math.sqrt(x) if x >= 0 else float("nan")
+                                     for x in m.R_variance],
+                         "supply_v": m.supply_v, "Cv": m.Cv, "Cvn": m.Cvn, "Cw": m.Cw,
+                         "track_rms": m.track_rms, "flags": m.flags,
+                         "flag_names": adapt_flag_names(m.flags)})
 
 
 def _plain(v):
@@ -266,6 +293,8 @@ def event_messages(chname, data, t_ns, classes):
         return [(chname, "omni4.command_t", command_json(msg))]
     if isinstance(msg, omni4.experiment_t) and chname == omni4.CHANNEL_EXPERIMENT:
         return [(chname, "omni4.experiment_t", experiment_json(msg))]
+    if isinstance(msg, omni4.adapt_t) and chname == omni4.CHANNEL_ADAPT:
+        return [(chname, "omni4.adapt_t", adapt_json(msg))]
     if msg is not None:
         return [(chname, "omni4.lcm_fields", fields_json(msg))]
     return [(chname, "omni4.lcm_raw", raw_json(data))]

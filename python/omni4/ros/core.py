@@ -9,6 +9,7 @@ left, z up (REP 103). Wheel j sits at 90*j degrees from the v axis: 0 front, 1 l
 import math
 import time
 
+from .. import adapt as adapt_words
 from .. import motors_t
 
 JOINT_NAMES = ("wheel_0_front_joint", "wheel_1_left_joint", "wheel_2_rear_joint",
@@ -343,10 +344,37 @@ class MotorsWindow:
         return (b.seq - a.seq) / ((b.utime - a.utime) * 1e-6)
 
 
-def diagnostic_statuses(window, gate, counters, model, odom_source, prefix="omni4"):
+class AdaptWindow:
+    """What the adapt diagnostics report per period: the last adapt_t (kept over periods), the
+    OR of the flags of the period's, how many came, and the last acceptance or revert."""
+
+    def __init__(self):
+        self.last = None
+        self.events = adapt_words.Events()
+        self.reset()
+
+    def reset(self):
+        self.n = 0
+        self.flags = 0
+
+    def take(self, m):
+        self.last = m
+        self.n += 1
+        self.flags |= m.flags
+
+    def status(self, model, prefix):
+        """omni4.adapt.diagnostic of the period (STALE without an adapt_t in it), each R in use
+        against the identified R_j of model ({"model.R": text, ...})."""
+        return adapt_words.diagnostic(self.last if self.n else None,
+                                      adapt_words.identified_r(model), self.events, self.flags,
+                                      prefix)
+
+
+def diagnostic_statuses(window, gate, counters, model, odom_source, prefix="omni4", adapt=None):
     """The DiagnosticStatus contents as plain tuples: [(level, name, message, [(key, value)])].
     level: 0 OK, 1 WARN, 2 ERROR, 3 STALE (diagnostic_msgs/DiagnosticStatus). Names are
-    "PREFIX: controller", "PREFIX: commands", "PREFIX: model", "PREFIX: odometry"."""
+    "PREFIX: controller", "PREFIX: commands", "PREFIX: model", "PREFIX: odometry", and with
+    adapt (an AdaptWindow) "PREFIX: adapt"."""
     out = []
     last = window.last
     if last is None or window.n == 0:
@@ -389,4 +417,6 @@ def diagnostic_statuses(window, gate, counters, model, odom_source, prefix="omni
     else:
         out.append((1, f"{prefix}: model", "the [model] in force is not known (no answer)", []))
     out.append((0, f"{prefix}: odometry", f"from {odom_source}", [("source", odom_source)]))
+    if adapt is not None:
+        out.append(adapt.status(model, prefix))
     return out

@@ -16,8 +16,8 @@ import time
 
 import lcm
 
-from .. import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, command_t, motors_t,
-                param_changed_t)
+from .. import (CHANNEL_ADAPT, CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, adapt_t,
+                command_t, motors_t, param_changed_t)
 from . import core
 from .goals import GoalBridge
 
@@ -64,6 +64,7 @@ class Omni4Ros:
         self.gate = core.CmdGate()
         self.counters = {"commands sent": 0, "stale stops": 0, "state_t received": 0}
         self.model = {}
+        self.adapt = core.AdaptWindow()
         self._declared = set()
         self._param_types = {}
         # Commands: (v, vn, w) in force and when the last /cmd_vel for it came.
@@ -99,6 +100,7 @@ class Omni4Ros:
         sub = self.lc.subscribe(CHANNEL_MOTORS, self._on_motors)
         sub.set_queue_capacity(RX_QUEUE_MESSAGES)
         self.lc.subscribe(CHANNEL_PARAM_CHANGED, self._on_param_changed)
+        self.lc.subscribe(CHANNEL_ADAPT, self._on_adapt)
         self.state_cls, state_channel = core.state_type()
         if self.state_cls is not None and odom_source != "wheels":
             self.lc.subscribe(state_channel, self._on_state)
@@ -164,11 +166,22 @@ class Omni4Ros:
                 self._state_arrival = time.monotonic()
                 self.counters["state_t received"] += 1
 
+    def _on_adapt(self, _channel, data):
+        try:
+            m = adapt_t.decode(data)
+        except ValueError:
+            return
+        with self._lock:
+            self.adapt.take(m)
+
     def _on_param_changed(self, _channel, data):
         try:
             m = param_changed_t.decode(data)
         except ValueError:
             return
+        with self._lock:
+            if self.adapt.events.take(m):       # an acceptance or revert: no parameter of ours
+                return
         changed = dict(zip(m.keys, m.values))
         self._apply_robot_values(changed)
         from rclpy.parameter import Parameter
@@ -359,8 +372,9 @@ class Omni4Ros:
         with self._lock:
             rows = core.diagnostic_statuses(self.window, self.gate, dict(self.counters),
                                              dict(self.model), self._odom_source_name(),
-                                             self._diag_prefix)
+                                             self._diag_prefix, self.adapt)
             self.window.reset()
+            self.adapt.reset()
         a = self._DiagnosticArray()
         a.header.stamp = self.node.get_clock().now().to_msg()
         for level, name, message, values in rows:
