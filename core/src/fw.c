@@ -92,6 +92,34 @@ bool fw_param_withdraw(struct fw *fw, struct fw_param_update *u)
 	return atomic_compare_exchange_strong(&fw->param_pending, &expect, NULL);
 }
 
+/* The goal's planner under the settings' limits with the motor resistances and the friction in
+ * use ([adapt]: the identified ones until an estimate is accepted); between two ticks, after a
+ * parameter change (a goal in force is planned again beside the loop, goal_init_limits), and
+ * after an acceptance or revert once no goal is active (a goal's plan is not asked again for
+ * each small step of an estimate: the next goal's plan has them). */
+static void goal_follow(struct fw *fw, const struct ctl_settings *cfg)
+{
+	const struct adapt *a = &fw->adapt;
+	struct traj_limits lim;
+	double *B[3], *C[3];
+
+	goal_limits(cfg, &lim);
+	B[0] = &lim.p.Bv, B[1] = &lim.p.Bvn, B[2] = &lim.p.Bw;
+	C[0] = &lim.p.Cv, C[1] = &lim.p.Cvn, C[2] = &lim.p.Cw;
+	/* a value in use other than the identified one (those stay the settings' doubles) */
+	for (int j = 0; j < 4; j++)
+		if (adapt_r_in_use(a)[j] != a->R_id[j])
+			lim.w.R[j] = adapt_r_in_use(a)[j];
+	for (int k = 0; k < 3; k++) {
+		if (adapt_b_in_use(a)[k] != a->B_id[k])
+			*B[k] = adapt_b_in_use(a)[k];
+		if (adapt_c_in_use(a)[k] != a->C_id[k])
+			*C[k] = adapt_c_in_use(a)[k];
+	}
+	goal_init_limits(&fw->goal, cfg, &lim);
+	fw->goal_stale = false;
+}
+
 /* Loop thread, before a tick: take a pending parameter update whole, or refuse it whole. */
 static void take_params(struct fw *fw, int64_t now_us)
 {
@@ -114,8 +142,9 @@ static void take_params(struct fw *fw, int64_t now_us)
 		est_set_model_wheels(&fw->est, &u->set.model, &w);
 		est_settings_from_keys(&u->set.est, &es);
 		est_set_settings(&fw->est, &es);
-		goal_init(&fw->goal, &u->set);
 		const uint32_t adapted = adapt_retune(&fw->adapt, &u->set);
+
+		goal_follow(fw, &u->set);
 
 		for (int j = 0; j < 4; j++)
 			if (adapted & (1u << j))
@@ -315,6 +344,9 @@ static void adapt(struct fw *fw, int64_t now_us, const struct est_input *in, con
 			ctl_set_resistance(&fw->ctl, j, adapt_r_in_use(&fw->adapt)[j]);
 	if (changed & ADAPT_CHANGED_FRICTION)
 		ctl_set_friction(&fw->ctl, adapt_b_in_use(&fw->adapt), adapt_c_in_use(&fw->adapt));
+	fw->goal_stale = fw->goal_stale || changed;
+	if (fw->goal_stale && fw->goal.rep.status != GOAL_ACTIVE)
+		goal_follow(fw, &fw->ctl.set);
 	if (changed)
 		push_adapt(fw, now_us, LOG_ADAPT_CHANGE, before);
 	if (fw->seq % fw->adapt_every == 0)

@@ -1,8 +1,9 @@
 /* A robot that does not change keeps its identified constants while [adapt] runs (core/
  * adapt.h), through the whole loop with the simulated plant (sil/) and its real sensors
  * (current noise, encoder counts, the camera): ten minutes of hard driving; and a run with
- * slips, a collision and hand pushes. The bound is the specification's (docs/design.md,
- * "Adapted motor constants"): every adapted value within 1 % of the identified one. */
+ * slips, a collision and hand pushes; and an accepted value reaching the goal mode's planner. The
+ * bound is the specification's (docs/design.md, "Adapted motor constants"): every adapted value
+ * within 1 % of the identified one. */
 #include "omni4_test.h"
 
 #include <math.h>
@@ -13,6 +14,7 @@
 #include "omni4/core/adapt.h"
 #include "omni4/core/est.h"
 #include "omni4/core/fw.h"
+#include "omni4/core/goal.h"
 #include "omni4/drivers/sim_motor.h"
 
 #define RATE_HZ 1000.0
@@ -135,11 +137,56 @@ static void test_slips_a_collision_and_pushes_move_nothing(void **state)
 	simrun_destroy(sr);
 }
 
+/* An accepted R reaches the goal mode's planner: once no goal is active, its limits are the
+ * settings' with each R_j (and friction term) in use, not the identified (a robot whose motors 0
+ * and 2 run 20 % and 10 % above their model). */
+static void test_the_planner_takes_the_values_in_use(void **state)
+{
+	(void)state;
+	struct simrun *sr = sim("[sim]\nseed = 3\nmotor_R_error_0 = 0.2\nmotor_R_error_2 = 0.1\n");
+	struct fw *fw = simrun_fw(sr);
+	static struct traj want, ident;
+	struct traj_limits lim;
+	long k = 0;
+
+	for (; k < (long)(30.0 * RATE_HZ) && fw->adapt.accepted == 0; k++) {
+		if (k % 100 == 0)
+			drive_row(sr, (int)(k / 1000));
+		simrun_tick(sr);
+	}
+	simrun_tick(sr);
+	const struct adapt *a = &fw->adapt;
+
+	printf("accepted after %.1f s: R_0 %.4f (identified %.4f), R_2 %.4f (%.4f)\n",
+	       (double)k / RATE_HZ, (double)adapt_r_in_use(a)[0], (double)a->R_id[0],
+	       (double)adapt_r_in_use(a)[2], (double)a->R_id[2]);
+	assert_true(a->accepted > 0 && adapt_r_in_use(a)[0] > 1.1f * a->R_id[0]);
+	goal_limits(&fw->ctl.set, &lim);
+	assert_int_equal(traj_init(&ident, &lim), 0);
+	for (int j = 0; j < 4; j++)
+		if (adapt_r_in_use(a)[j] != a->R_id[j])
+			lim.w.R[j] = adapt_r_in_use(a)[j];
+	double *B[3] = {&lim.p.Bv, &lim.p.Bvn, &lim.p.Bw},
+	       *C[3] = {&lim.p.Cv, &lim.p.Cvn, &lim.p.Cw};
+
+	for (int c = 0; c < 3; c++) {
+		if (adapt_b_in_use(a)[c] != a->B_id[c])
+			*B[c] = adapt_b_in_use(a)[c];
+		if (adapt_c_in_use(a)[c] != a->C_id[c])
+			*C[c] = adapt_c_in_use(a)[c];
+	}
+	assert_int_equal(traj_init(&want, &lim), 0);
+	assert_memory_equal(&fw->goal.scratch.c, &want.c, sizeof(want.c));
+	assert_memory_not_equal(&fw->goal.scratch.c, &ident.c, sizeof(ident.c));
+	simrun_destroy(sr);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_ten_minutes_of_a_robot_that_does_not_change),
 	    cmocka_unit_test(test_slips_a_collision_and_pushes_move_nothing),
+	    cmocka_unit_test(test_the_planner_takes_the_values_in_use),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);

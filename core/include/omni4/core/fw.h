@@ -167,6 +167,7 @@ struct fw {
 	struct goal goal;   /* position control (goal.h), stepped before the controller */
 	struct adapt adapt; /* the motors' resistances online (adapt.h), after the estimator */
 	int adapt_every;    /* ticks between two LOG_ADAPT entries */
+	bool goal_stale;    /* the planner's limits wait for an adapted value (fw.c goal_follow) */
 	struct motor_hal motor;
 	struct line_hal lines;
 	struct spsc_ring cmd_ring;

@@ -204,6 +204,10 @@ struct goal {
  * as unreachable, and a goal in force is aborted (UNREACHABLE) at the next step. A goal in force is
  * re-planned from its reference under the new limits (no jump). Keeps the report. */
 void goal_init(struct goal *g, const struct ctl_settings *cfg);
+/* The same with the planner's limits given (goal_limits' with the motor constants and friction
+ * the controller adapted online, [adapt]); cfg for the goal's own keys. */
+void goal_init_limits(struct goal *g, const struct ctl_settings *cfg,
+                      const struct traj_limits *lim);
 
 /* The planner's limits from the settings (not the fast loop): the model and each drive's
  * constants, the supply less [goal] margin_v (at most a quarter of it) for the feedback, [goal]
