@@ -158,23 +158,21 @@ static uint32_t use_friction(struct adapt *a, const float B[3], const float C[3]
 	return mask;
 }
 
-uint32_t adapt_retune(struct adapt *a, const struct ctl_settings *cfg)
+uint32_t adapt_retune(struct adapt *a, const struct adapt *fresh)
 {
-	struct adapt fresh;
 	uint32_t mask = 0;
 
-	adapt_init(&fresh, cfg);
-	if (memcmp(fresh.R_id, a->R_id, sizeof(a->R_id)) ||
-	    memcmp(fresh.kvl, a->kvl, sizeof(a->kvl)) || fresh.bin_len != a->bin_len ||
-	    memcmp(fresh.B_id, a->B_id, sizeof(a->B_id)) ||
-	    memcmp(fresh.C_id, a->C_id, sizeof(a->C_id)) ||
-	    memcmp(fresh.Gi, a->Gi, sizeof(a->Gi)) || memcmp(fresh.Gw, a->Gw, sizeof(a->Gw)) ||
-	    memcmp(fresh.m_dt, a->m_dt, sizeof(a->m_dt)) || fresh.blk_len != a->blk_len) {
-		*a = fresh;
+	if (memcmp(fresh->R_id, a->R_id, sizeof(a->R_id)) ||
+	    memcmp(fresh->kvl, a->kvl, sizeof(a->kvl)) || fresh->bin_len != a->bin_len ||
+	    memcmp(fresh->B_id, a->B_id, sizeof(a->B_id)) ||
+	    memcmp(fresh->C_id, a->C_id, sizeof(a->C_id)) ||
+	    memcmp(fresh->Gi, a->Gi, sizeof(a->Gi)) || memcmp(fresh->Gw, a->Gw, sizeof(a->Gw)) ||
+	    memcmp(fresh->m_dt, a->m_dt, sizeof(a->m_dt)) || fresh->blk_len != a->blk_len) {
+		*a = *fresh;
 		return 0;
 	}
-	a->set = fresh.set;
-	a->holdoff_ticks = fresh.holdoff_ticks;
+	a->set = fresh->set;
+	a->holdoff_ticks = fresh->holdoff_ticks;
 	if (!a->set.on) {
 		a->watch = false;
 		(void)use(a, a->R_id);

@@ -67,6 +67,7 @@ int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_on
 	u->ff = scratch.ff;
 	u->ff_ohm = scratch.ff_ohm;
 	u->inv_4d = scratch.inv_4d;
+	adapt_init(&u->adapt, cfg);
 	u->idle_only = idle_only;
 	return 0;
 }
@@ -142,7 +143,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 		est_set_model_wheels(&fw->est, &u->set.model, &w);
 		est_settings_from_keys(&u->set.est, &es);
 		est_set_settings(&fw->est, &es);
-		const uint32_t adapted = adapt_retune(&fw->adapt, &u->set);
+		const uint32_t adapted = adapt_retune(&fw->adapt, &u->adapt);
 
 		goal_follow(fw, &u->set);
 

@@ -230,7 +230,11 @@ static void test_bounds_and_non_finite_values(void **state)
 	assert_true(r.flags & ADAPT_FLAG_RESTART);
 	assert_true(isfinite(r.R_est[0]) && r.R_est[0] == r.R[0]);
 	s.adapt.enable = false;
-	assert_int_equal(adapt_retune(a, &s), 0);
+	struct adapt *fresh = calloc(1, sizeof(*fresh));
+
+	adapt_init(fresh, &s);
+	assert_int_equal(adapt_retune(a, fresh), 0);
+	free(fresh);
 	for (int j = 0; j < 4; j++)
 		assert_true(adapt_r_in_use(a)[j] == R0);
 	const uint32_t n = a->m[1].n;

@@ -210,12 +210,14 @@ void adapt_settings_from_keys(const struct ctl_settings *cfg, struct adapt_setti
 /* Off the fast loop (start-up, a parameter change): the identified model (R_j, Kv_j, l from
  * cfg's wheels) and the settings; every estimate and R in use back to the identified. */
 void adapt_init(struct adapt *a, const struct ctl_settings *cfg);
-/* Between two ticks, after the controller took cfg (its feedforward the identified R_j's again):
- * a new identified model starts everything again (adapt_init); otherwise new [adapt] settings
- * only (off: the R in use back to the identified) and the estimates stay. Returns the wheels
- * (bit j) whose R in use is not the identified: their gains are to follow adapt_r_in_use; and
- * ADAPT_CHANGED_FRICTION if the friction in use is not the identified (adapt_b/c_in_use). */
-uint32_t adapt_retune(struct adapt *a, const struct ctl_settings *cfg);
+/* Between two ticks, after the controller took cfg (its feedforward the identified R_j's again);
+ * fresh: adapt_init of cfg, prepared beside the loop (fw_param_prepare: the friction's maps are
+ * double arithmetic). A new identified model starts everything again (a = fresh); otherwise new
+ * [adapt] settings only (off: the R in use back to the identified) and the estimates stay.
+ * Returns the wheels (bit j) whose R in use is not the identified: their gains are to follow
+ * adapt_r_in_use; and ADAPT_CHANGED_FRICTION if the friction in use is not the identified
+ * (adapt_b/c_in_use). */
+uint32_t adapt_retune(struct adapt *a, const struct adapt *fresh);
 
 /* Fast loop, once per tick after the controller's step. Returns a mask: bit j set, wheel j's R
  * in use changed (accepted or reverted): its feedforward gains are to follow adapt_r_in_use;
