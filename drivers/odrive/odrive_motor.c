@@ -424,34 +424,13 @@ int odrive_motor_poll_missing(struct odrive_motor *m)
 	return missing;
 }
 
-static size_t advance(size_t n, size_t at, int k)
-{
-	at += k > 0 ? (size_t)k : 0;
-	return at < n ? at : n - 1;
-}
-
 const char *odrive_motor_missing_text(const struct odrive_motor *m, char *buf, size_t n)
 {
-	size_t at = 0;
-	int others = 0;
+	static const struct sc_missing w = {"no encoder estimate from", "node",
+	                                    "; no other node heard", ODRIVE_NODE_MAX};
+	bool have[4];
 
-	if (n == 0)
-		return buf;
-	buf[0] = '\0';
 	for (int j = 0; j < 4; j++)
-		if (!m->a[j].have_estimate)
-			at = advance(n, at,
-			             snprintf(buf + at, n - at, "%s node %u (wheel %d)",
-			                      at ? "," : "no encoder estimate from",
-			                      (unsigned)m->node[j], j));
-	if (at == 0)
-		return buf;
-	for (unsigned node = 0; node <= ODRIVE_NODE_MAX; node++)
-		if (m->heard_other[node / 8u] & (1u << (node % 8u)))
-			at = advance(n, at,
-			             snprintf(buf + at, n - at, "%s %u",
-			                      others++ ? "," : "; heard instead: node", node));
-	if (!others)
-		snprintf(buf + at, n - at, "; no other node heard");
-	return buf;
+		have[j] = m->a[j].have_estimate;
+	return sc_missing_text(&w, m->node, have, m->heard_other, buf, n);
 }

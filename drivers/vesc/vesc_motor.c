@@ -362,36 +362,21 @@ int vesc_motor_poll_missing(struct vesc_motor *m)
 	return missing;
 }
 
+const char *vesc_motor_missing_text(const struct vesc_motor *m, char *buf, size_t n)
+{
+	static const struct sc_missing w = {"no STATUS_1 from", "id", "; no other VESC heard", 255};
+	bool have[4];
+
+	for (int j = 0; j < 4; j++)
+		have[j] = m->d[j].have_status1;
+	return sc_missing_text(&w, m->id, have, m->heard_other, buf, n);
+}
+
+/* at + k (a snprintf's count), within the buffer of n. */
 static size_t advance(size_t n, size_t at, int k)
 {
 	at += k > 0 ? (size_t)k : 0;
 	return at < n ? at : n - 1;
-}
-
-const char *vesc_motor_missing_text(const struct vesc_motor *m, char *buf, size_t n)
-{
-	size_t at = 0;
-	int others = 0;
-
-	if (n == 0)
-		return buf;
-	buf[0] = '\0';
-	for (int j = 0; j < 4; j++)
-		if (!m->d[j].have_status1)
-			at =
-			    advance(n, at,
-			            snprintf(buf + at, n - at, "%s id %u (wheel %d)",
-			                     at ? "," : "no STATUS_1 from", (unsigned)m->id[j], j));
-	if (at == 0)
-		return buf;
-	for (unsigned id = 0; id < 256u; id++)
-		if (m->heard_other[id / 8u] & (1u << (id % 8u)))
-			at = advance(n, at,
-			             snprintf(buf + at, n - at, "%s %u",
-			                      others++ ? "," : "; heard instead: id", id));
-	if (!others)
-		snprintf(buf + at, n - at, "; no other VESC heard");
-	return buf;
 }
 
 const char *vesc_motor_fault_text(const struct vesc_motor *m, char *buf, size_t n)

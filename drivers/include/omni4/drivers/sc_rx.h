@@ -8,6 +8,7 @@
 #define OMNI4_SC_RX_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "omni4/drivers/can_proto.h"
@@ -29,5 +30,17 @@ int sc_rx_next(int fd, const struct sc_rx_tally *t, struct omni4_can_frame *f);
  * to now_us), at least 1 ms' worth and at most max_ms' (a late loop catches up its backlog,
  * a flood cannot hold it). */
 int sc_rx_budget(int64_t *last_us, int64_t now_us, int per_ms, int max_ms);
+
+/* What a backend's drives did not say, as one line in buf: "<missing> <unit> a (wheel j), ...",
+ * then "; heard instead: <unit> x, y" for the ids set in heard (a bit set of ids 0..max_id) or
+ * none_heard; "" if every wheel reported (have[j]). Returns buf. */
+struct sc_missing {
+	const char *missing;    /* e.g. "no STATUS_1 from" */
+	const char *unit;       /* "id", "node" */
+	const char *none_heard; /* e.g. "; no other VESC heard" */
+	unsigned max_id;
+};
+const char *sc_missing_text(const struct sc_missing *w, const uint8_t id[4], const bool have[4],
+                            const uint8_t *heard, char *buf, size_t n);
 
 #endif /* OMNI4_SC_RX_H */
