@@ -84,6 +84,7 @@ static void fric_init(struct adapt *a, const struct ctl_settings *cfg, const str
 
 		a->dv_max[k] = (float)(ADAPT_FRIC_STEADY * C[k] / inertia[k] * span_s);
 		a->m_dt[k] = (float)(inertia[k] / span_s);
+		a->df_max[k] = (float)(ADAPT_FRIC_F_STEADY * C[k]);
 		fric_prior(&a->f[k], B[k], C[k]);
 		fric_restart(&a->f[k], a->B_id[k], a->C_id[k]);
 	}
@@ -285,22 +286,31 @@ static void fric_block(struct adapt *a)
 {
 	const float inv_n = 1.0f / (float)a->blk_n;
 	const int oldest = (a->blk_i + 1) % (ADAPT_FRIC_SPAN + 1);
+	bool steady = true; /* every axis's force and velocity held over the span */
 
 	for (int k = 0; k < 3; k++) {
-		const float x = a->blk_x[k] * inv_n;
+		const float F = a->blk_F[k] * inv_n, x = a->blk_x[k] * inv_n;
+
+		a->blk_hist[k][a->blk_i] = x;
+		a->blk_fhist[k][a->blk_i] = F;
+		steady = steady && fabsf(x - a->blk_hist[k][oldest]) < a->dv_max[k];
+		for (int i = 0; i <= ADAPT_FRIC_SPAN; i++)
+			steady = steady && fabsf(a->blk_fhist[k][i] - F) < a->df_max[k];
+	}
+	for (int k = 0; k < 3; k++) {
+		const float x = a->blk_hist[k][a->blk_i];
 		const bool moving = a->blk_ok && a->blk_sgn[k] != 0.0f &&
 		                    (a->blk_run[k] == 0 || a->blk_sgn[k] == a->blk_sgn_run[k]);
 
 		a->blk_run[k] = moving && a->blk_run[k] < 65535u ? a->blk_run[k] + 1u : 0u;
 		a->blk_sgn_run[k] = a->blk_sgn[k];
-		a->blk_hist[k][a->blk_i] = x;
-		if (a->blk_run[k] <= ADAPT_FRIC_SPAN || !(a->C_id[k] > 0.0f && a->B_id[k] > 0.0f))
+		if (!steady || a->blk_run[k] <= ADAPT_FRIC_SPAN ||
+		    !(a->C_id[k] > 0.0f && a->B_id[k] > 0.0f))
 			continue;
 		const float dx = x - a->blk_hist[k][oldest];
 
 		/* the inertia force M a left in is at most ADAPT_FRIC_STEADY of C; taken out */
-		if (fabsf(dx) < a->dv_max[k])
-			fric_sample(a, k, x, a->blk_sgn[k], a->blk_F[k] * inv_n - a->m_dt[k] * dx);
+		fric_sample(a, k, x, a->blk_sgn[k], a->blk_fhist[k][a->blk_i] - a->m_dt[k] * dx);
 	}
 	a->blk_i = oldest;
 }

@@ -40,9 +40,13 @@
  * in blocks of ADAPT_FRIC_BLOCK_S; a block's means are one sample of an axis when every tick of
  * it could be taken (as R's: driven, same mode, no fault, slip or collision), the axis moved
  * one way beyond ADAPT_FRIC_V_MIN_LIN / _ROT through it and the ADAPT_FRIC_SPAN blocks before,
- * and its mean velocity changed over that span by less than ADAPT_FRIC_STEADY C_k / M_k per
- * second (the inertia force M a under that share of the Coulomb friction: steady; it is then
- * taken out of F). One block is too short to see it: the encoders' counts step a block's mean.
+ * and the whole body was steady over that span: on every axis the mean velocity changed by less
+ * than ADAPT_FRIC_STEADY C / M per second (the inertia force M a under that share of the Coulomb
+ * friction; it is then taken out of F) and every block's mean force stayed within
+ * ADAPT_FRIC_F_STEADY C of this one's. One block is too short to see it: the encoders' counts
+ * step a block's mean. Steady on every axis, not just k's: a reversal on a slippery floor holds
+ * its force at the traction bound while the velocity changes, and the other axes' wheels, at the
+ * bound, bias k's force; a push's start and end step the force at a steady velocity.
  * The fit of [B_k, C_k] is least squares
  * with forgetting (friction_forget per sample) kept in information form, I = lambda I + phi
  * phi^T + (1 - lambda) I0, b likewise with I0 theta_id: a direction the samples do not excite
@@ -82,6 +86,7 @@
 #define ADAPT_FRIC_V_MIN_ROT 0.5f     /* |w| beyond this: moving [rad/s] */
 #define ADAPT_FRIC_STEADY 0.05f       /* M |a| below this share of C: steady */
 #define ADAPT_FRIC_SPAN 8             /* the acceleration over this many blocks before */
+#define ADAPT_FRIC_F_STEADY 0.2f      /* every block's force this share of C from the last's */
 #define ADAPT_FRIC_PRIOR 1.0f         /* the prior's weight: I0 in units of C_k^2 */
 #define ADAPT_FRIC_EPS 0.01f          /* B and C apart: (10 %)^2 of the prior's variance */
 #define ADAPT_FRIC_ACCEPT_SHARE 0.02f /* a C_k this far from the C_k in use is taken */
@@ -177,10 +182,12 @@ struct adapt {
 	float Gw[3][4];             /* body velocity per wheel speed [m/s / (rad/s)], [-] */
 	float v_min[3], dv_max[3];  /* moving; steady: the change of a block's mean velocity */
 	float m_dt[3];              /* M_k over the span's time: inertia force per dv [N/(m/s)] */
-	float blk_hist[3][ADAPT_FRIC_SPAN + 1]; /* the last blocks' mean velocities */
-	float blk_sgn_run[3];                   /* the direction of the run */
-	uint16_t blk_run[3];                    /* the blocks of the axis's run one way so far */
-	int blk_i;                              /* this block's place in blk_hist */
+	float df_max[3];            /* steady: a block's mean force this close to the span's */
+	float blk_hist[3][ADAPT_FRIC_SPAN + 1];  /* the last blocks' mean velocities */
+	float blk_fhist[3][ADAPT_FRIC_SPAN + 1]; /* and mean forces */
+	float blk_sgn_run[3];                    /* the direction of the run */
+	uint16_t blk_run[3];                     /* the blocks of the axis's run one way so far */
+	int blk_i;                               /* this block's place in blk_hist */
 	struct adapt_fric f[3];
 	float blk_F[3], blk_x[3]; /* the block's sums */
 	float blk_sgn[3];         /* the block's direction per axis (0: not moving) */
