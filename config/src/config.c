@@ -111,6 +111,23 @@ static int wheel_index(const struct config_key *k)
 	return (int)((k->offset - base) / sizeof(double));
 }
 
+/* Key k's wheel in ctl.layout.d (d_j), -1 if it is not one. */
+static int dist_index(const struct config_key *k)
+{
+	const size_t base = offsetof(struct omni4_config, ctl.layout.d);
+
+	if (k->offset < base || k->offset >= base + 4 * sizeof(double))
+		return -1;
+	return (int)((k->offset - base) / sizeof(double));
+}
+
+uint8_t config_dist_bit(const struct config_key *k)
+{
+	const int i = dist_index(k);
+
+	return i < 0 ? 0 : (uint8_t)(1u << i);
+}
+
 /* Key k's bit in ctl.wheel_keys, 0 if it is not a per-wheel key. */
 uint16_t config_wheel_bit(const struct config_key *k)
 {
@@ -124,6 +141,7 @@ uint16_t config_wheel_bit(const struct config_key *k)
 static void wheel_keys_after(struct omni4_config *cfg, const struct config_key *k)
 {
 	cfg->ctl.wheel_keys |= config_wheel_bit(k);
+	cfg->ctl.layout_keys |= config_dist_bit(k);
 	ctl_settings_wheels_follow(&cfg->ctl);
 }
 
@@ -372,6 +390,8 @@ static double key_double(const struct omni4_config *cfg, const struct config_key
 		memcpy(all, &w, sizeof(all));
 		v = all[wheel_index(k)];
 	}
+	if (dist_index(k) >= 0 && !(cfg->ctl.layout_keys & config_dist_bit(k)))
+		v = cfg->ctl.model.d;
 	return v;
 }
 

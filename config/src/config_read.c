@@ -129,9 +129,13 @@ static int after_parse(struct parse_state *st, int model_line)
 	bool any = false;
 
 	for (size_t i = 0; i < config_n_keys; i++) {
-		if (st->seen[i])
+		if (st->seen[i]) {
 			st->cfg->ctl.wheel_keys |= config_wheel_bit(&config_keys[i]);
-		any |= st->seen[i] && (i < MODEL_PARAMS_COUNT || config_wheel_bit(&config_keys[i]));
+			st->cfg->ctl.layout_keys |= config_dist_bit(&config_keys[i]);
+		}
+		any |=
+		    st->seen[i] && (i < MODEL_PARAMS_COUNT || config_wheel_bit(&config_keys[i]) ||
+		                    config_dist_bit(&config_keys[i]));
 	}
 	ctl_settings_wheels_follow(&st->cfg->ctl);
 	if (st->partial_model)

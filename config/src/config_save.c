@@ -48,7 +48,8 @@ static int write_section(FILE *f, const struct omni4_config *cfg, size_t i)
 
 		/* a wheel without its own key: it takes the scalar on reading */
 		if (strcmp(k->section, config_keys[i].section) ||
-		    (config_wheel_bit(k) && !(cfg->ctl.wheel_keys & config_wheel_bit(k))))
+		    (config_wheel_bit(k) && !(cfg->ctl.wheel_keys & config_wheel_bit(k))) ||
+		    (config_dist_bit(k) && !(cfg->ctl.layout_keys & config_dist_bit(k))))
 			continue;
 		if (config_key_format(cfg, (int)j, value, sizeof(value)))
 			return -EINVAL;

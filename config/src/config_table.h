@@ -15,6 +15,8 @@ extern const size_t config_n_keys;
 
 /* Key k's bit in ctl.wheel_keys, 0 if it is not a per-wheel [model] key. */
 uint16_t config_wheel_bit(const struct config_key *k);
+/* Key k's bit in ctl.layout_keys (d_j: bit j), 0 if it is not a wheel's distance. */
+uint8_t config_dist_bit(const struct config_key *k);
 /* Parse value into key k of cfg, range-checked. 0, or -EINVAL with what ("bad value", "out of
  * range value", "too long value") and detail ("" or why) filled in. */
 int config_key_parse(const struct config_key *k, const char *value, struct omni4_config *cfg,

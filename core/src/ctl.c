@@ -80,7 +80,11 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 {
 	struct model_wheels w;
 
+	const char *why;
+
 	memset(c, 0, sizeof(*c));
+	if (ctl_settings_supported(cfg, &why))
+		return -EINVAL;
 	traction_reset(&c->trac);
 	ctl_settings_wheels(cfg, &w);
 	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))

@@ -36,6 +36,39 @@ void ctl_settings_wheels_follow(struct ctl_settings *s)
 
 	ctl_settings_wheels(s, &w);
 	s->wheels = w;
+	for (int j = 0; j < 4; j++)
+		if (!(s->layout_keys & (1u << j)))
+			s->layout.d[j] = s->model.d;
+}
+
+int ctl_settings_supported(const struct ctl_settings *s, const char **why)
+{
+	bool paper = s->layout.wheels == 4;
+
+	for (int j = 0; j < 4; j++)
+		paper = paper && s->layout.angle_deg[j] == 90.0 * j &&
+		        (!(s->layout_keys & (1u << j)) || s->layout.d[j] == s->model.d);
+	*why =
+	    paper ? NULL
+	          : "[model] wheels, wheel_angle_j, d_j: this controller drives the paper's layout "
+	            "only (4 wheels at 0, 90, 180, 270 deg, all at d)";
+	return paper ? 0 : -ENOTSUP;
+}
+
+int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g)
+{
+	double d[4];
+	bool paper = s->layout.wheels == 4;
+
+	for (int j = 0; j < 4; j++) {
+		d[j] = s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
+		paper = paper && d[j] == s->model.d && s->layout.angle_deg[j] == 90.0 * j;
+	}
+	if (paper && s->model.d > 0.0) {
+		wheel_geom_paper(s->model.d, g);
+		return 0;
+	}
+	return wheel_geom_angles(s->layout.wheels, s->layout.angle_deg, d, g);
 }
 
 int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **why)
@@ -53,6 +86,15 @@ int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **
 	if (model_wheels_check(&w, &bad)) {
 		*bad_key = MODEL_PARAMS_COUNT + bad;
 		*why = "not finite or outside its scalar's physical range (docs/ini-keys.md)";
+		return -EINVAL;
+	}
+	struct wheel_geom g;
+
+	*bad_key = CTL_KEY_WHEELS;
+	if (ctl_settings_geom(s, &g)) {
+		*why = "[model] wheels, wheel_angle_j, d_j: 3 or 4 wheels whose rows drive v, vn "
+		       "and w "
+		       "(no two wheels along one line)";
 		return -EINVAL;
 	}
 	*bad_key = -1;

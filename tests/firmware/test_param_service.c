@@ -323,8 +323,9 @@ static void test_wheel_keys_validate_like_the_ini_parser(void **state)
 	for (int i = MODEL_PARAMS_COUNT; i < config_key_count(); i++) {
 		const struct config_key *k = config_key_at(i);
 
-		if (strcmp(k->section, "model"))
-			continue;
+		if (strcmp(k->section, "model") || !strcmp(k->name, "wheels") ||
+		    !strncmp(k->name, "wheel_angle_", 12) || !strncmp(k->name, "d_", 2))
+			continue; /* the layout's: test_layout_keys_validate_like_the_ini_parser */
 		wheel_keys++;
 		for (size_t j = 0; j < sizeof(vals) / sizeof(vals[0]); j++) {
 			struct omni4_config a, b;
@@ -1026,6 +1027,61 @@ static void expect_controller_wheels(double R, double R2, double R3)
 	assert_memory_equal(&want, &g_fw.ctl.ff, sizeof(want));
 }
 
+/* The layout's keys ([model] wheels, wheel_angle_j, d_j) are taken over the bus exactly when an
+ * INI with them is; a layout that cannot drive the body (two wheels on one line leave an axis
+ * undriven) is refused by both, naming [model] wheels. */
+static void test_layout_keys_validate_like_the_ini_parser(void **state)
+{
+	(void)state;
+	static const struct {
+		const char *text; /* [model] lines */
+		bool ok;
+	} cases[] = {
+	    {"wheels = 3\n", true},
+	    {"wheels = 5\n", false},
+	    {"wheels = 2\n", false},
+	    {"wheel_angle_1 = 135\n", true},
+	    {"wheel_angle_0 = 400\n", false},
+	    {"wheel_angle_1 = 0\nwheel_angle_2 = 0\nwheel_angle_3 = 0\n", false},
+	    {"wheels = 3\nwheel_angle_1 = 180\nwheel_angle_2 = 0\n", false},
+	    {"wheels = 3\nwheel_angle_1 = 120\nwheel_angle_2 = 240\n", true},
+	    {"wheel_angle_0 = nan\n", false},
+	};
+	int refused = 0;
+
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+		struct omni4_config a, b;
+		struct config_error err;
+		char text[512], line[128], why[320];
+
+		config_defaults(&a);
+		config_defaults(&b);
+		snprintf(text, sizeof(text), "[model]\n%s", cases[c].text);
+		const int ini = config_load_string(text, "t.ini", &a, &err);
+		int bus = 0;
+
+		for (const char *p = cases[c].text; *p && !bus;) {
+			const char *eol = strchr(p, '\n');
+			char key[64], value[64];
+
+			snprintf(line, sizeof(line), "%.*s", (int)(eol - p), p);
+			assert_int_equal(sscanf(line, "%63s = %63s", key, value), 2);
+			snprintf(line, sizeof(line), "model.%s", key);
+			bus = config_key_set(&b, config_key_find(line), value, why, sizeof(why));
+			p = eol + 1;
+		}
+		if (!bus)
+			bus = config_check(&b, why, sizeof(why));
+		if ((ini == 0) != cases[c].ok || (bus == 0) != cases[c].ok)
+			fail_msg("'%s': INI %d (%s), bus %d (%s), expected %s", cases[c].text, ini,
+			         err.msg, bus, why, cases[c].ok ? "taken" : "refused");
+		if (!cases[c].ok && !strstr(why, "model."))
+			fail_msg("reason '%s' names no [model] key", why);
+		refused += !cases[c].ok;
+	}
+	assert_int_equal(refused, 6);
+}
+
 /* The wheel keys over the bus: set (a wheel's own), GET, a scalar set moves only the wheels
  * without their own key, refusals name the key, and SAVE writes the own ones only. */
 static void test_wheel_keys_over_the_bus(void **state)
@@ -1111,6 +1167,7 @@ int main(void)
 	    cmocka_unit_test(test_secret_and_repeated_ids),
 	    cmocka_unit_test(test_save_writes_what_is_in_force),
 	    cmocka_unit_test(test_wheel_keys_validate_like_the_ini_parser),
+	    cmocka_unit_test(test_layout_keys_validate_like_the_ini_parser),
 	    cmocka_unit_test(test_wheel_keys_over_the_bus),
 	};
 

@@ -11,6 +11,7 @@
 
 #include "omni4/core/est_keys.h"
 #include "omni4/model/params.h"
+#include "omni4/model/wheels.h"
 
 struct ctl_settings {
 	struct model_params model;
@@ -19,6 +20,16 @@ struct ctl_settings {
 	 * key); elsewhere the scalar model.X does (ctl_settings_wheels). */
 	struct model_wheels wheels;
 	uint16_t wheel_keys;
+	/* The wheels' layout ([model] wheels, wheel_angle_j, d_j; docs/model.md "Layouts"): wheel j
+	 * at angle_deg[j] from the v axis, counter-clockwise, at d[j] from the centre, driving
+	 * perpendicular to its radius (eq 2's rows); d[j] counts where bit j of layout_keys is set,
+	 * elsewhere model.d does (ctl_settings_wheels_follow). Default: the paper's. */
+	struct {
+		int wheels;          /* 3 or 4 */
+		double angle_deg[4]; /* [deg] */
+		double d[4];         /* [m] */
+	} layout;
+	uint8_t layout_keys;
 	double rate_hz; /* loop rate [Hz] */
 	struct {
 		double kp; /* PI on wheel linear speed [V/(m/s)] */
@@ -76,6 +87,19 @@ void ctl_settings_defaults(struct ctl_settings *s);
 /* Bit of wheel_keys for quantity q (0 r, 1 Kv, 2 Kt, 3 R: struct model_wheels' order), wheel j. */
 #define CTL_WHEEL_KEY(q, j) ((uint16_t)(1u << (4 * (q) + (j))))
 #define CTL_WHEEL_KEYS 16
+/* The row of [model] wheels in ctl_keys.def (after the model's and the wheels' rows): what
+ * ctl_settings_check names for a layout that does not drive the body. */
+#define CTL_KEY_WHEELS (MODEL_PARAMS_COUNT + CTL_WHEEL_KEYS)
+
+/* The layout in force (each d_j its own or model.d) as eq 2's rows and their maps: the paper's
+ * closed forms (wheel_geom_paper) when it is the paper's layout, to the last bit. -EINVAL for a
+ * layout that does not drive v, vn and w. */
+int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g);
+
+/* 0 if the controller drives this layout; -ENOTSUP and *why (one line) if not: today the
+ * feedforward, the estimator and the simulated plant are the paper's eqs 2-23 in closed form,
+ * so only the paper's layout drives (the keys are read and checked all the same). */
+int ctl_settings_supported(const struct ctl_settings *s, const char **why);
 
 /* The drives in force: wheel j's own value where it has its own key, else the scalar. With no
  * wheel keys, model_wheels_from_params(&s->model) bit for bit. */
