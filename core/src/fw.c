@@ -5,6 +5,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "omni4/model/consts.h"
+
 int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal motor,
             struct line_hal lines)
 {
@@ -16,6 +18,7 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	fw->late_us = llround(2e6 / cfg->rate_hz); /* [loop] rate_hz: restart only */
 	fw->state_every = (int)ceil(cfg->rate_hz / FW_STATE_HZ - 1e-9);
 	fw->adapt_every = (int)ceil(cfg->rate_hz / FW_ADAPT_HZ - 1e-9);
+	fw->robot_every = (int)ceil(cfg->rate_hz / FW_ROBOT_HZ - 1e-9);
 	adapt_init(&fw->adapt, cfg);
 	struct est_settings es;
 	struct model_wheels w;
@@ -291,6 +294,22 @@ static void estimate(struct fw *fw, struct est_input *in)
 	}
 }
 
+/* The wheels' layout in force as a log entry (LOG_ROBOT): the first tick, then at FW_ROBOT_HZ. */
+static void push_robot(struct fw *fw, int64_t now_us)
+{
+	const struct ctl_settings *s = &fw->ctl.set;
+	struct log_entry e = {.utime = now_us, .seq = fw->seq, .kind = LOG_ROBOT};
+
+	e.robot.wheels = s->layout.wheels;
+	e.robot.l = s->model.l;
+	for (int j = 0; j < s->layout.wheels && j < 4; j++) {
+		e.robot.angle_rad[j] = s->layout.angle_deg[j] * (MODEL_PI / 180.0);
+		e.robot.dist_m[j] = s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
+		e.robot.radius_m[j] = s->wheels.r[j];
+	}
+	log_push(fw, &e);
+}
+
 /* The adapted constants as a log entry (LOG_ADAPT, or LOG_ADAPT_CHANGE with R_before). */
 static void push_adapt(struct fw *fw, int64_t now_us, uint8_t kind, const float R_before[4])
 {
@@ -493,6 +512,8 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	estimate(fw, &in);
 	adapt(fw, now_us, &in, out.current, rc == 0 ? s.supply_v : 0.0f);
 	ctl_set_slip(&fw->ctl, !fw->no_estimate && (est_get(&fw->est)->flags & EST_FLAG_SLIP));
+	if (fw->seq % fw->robot_every == 0)
+		push_robot(fw, now_us);
 	push_sample(fw, now_us, &out);
 	fw->seq++;
 	fw->n.ticks++;

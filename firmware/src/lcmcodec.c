@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "omni4_adapt_t.h"
+#include "omni4_robot_t.h"
 #include "omni4_command_t.h"
 #include "omni4_motors_t.h"
 #include "omni4_param_changed_t.h"
@@ -168,6 +169,17 @@ static int encode_adapt(const struct log_entry *e, void *buf, size_t cap)
 	return omni4_adapt_t_encode(buf, 0, (int)cap, &m);
 }
 
+/* LOG_ROBOT -> robot_t. */
+static int encode_robot(const struct log_entry *e, void *buf, size_t cap)
+{
+	omni4_robot_t m = {.utime = e->utime, .wheels = e->robot.wheels, .l = e->robot.l};
+
+	memcpy(m.wheel_angle, e->robot.angle_rad, sizeof(m.wheel_angle));
+	memcpy(m.wheel_distance, e->robot.dist_m, sizeof(m.wheel_distance));
+	memcpy(m.wheel_radius, e->robot.radius_m, sizeof(m.wheel_radius));
+	return omni4_robot_t_encode(buf, 0, (int)cap, &m);
+}
+
 /* The estimator's output as a state_t. */
 static int encode_state(const struct log_entry *e, void *buf, size_t cap)
 {
@@ -204,6 +216,9 @@ int lcmio_encode_log(const struct log_entry *e, void *buf, size_t cap, const cha
 	} else if (e->kind == LOG_ADAPT) {
 		*channel = OMNI4_CHANNEL_ADAPT;
 		n = encode_adapt(e, buf, cap);
+	} else if (e->kind == LOG_ROBOT) {
+		*channel = OMNI4_CHANNEL_ROBOT;
+		n = encode_robot(e, buf, cap);
 	} else if (e->kind == LOG_ADAPT_CHANGE) {
 		*channel = OMNI4_CHANNEL_PARAM_CHANGED;
 		n = encode_adapt_change(e, buf, cap);

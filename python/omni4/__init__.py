@@ -14,6 +14,7 @@ from .state_t import state_t
 from .sim_truth_t import sim_truth_t
 from .sim_plant_t import sim_plant_t
 from .adapt_t import adapt_t
+from .robot_t import robot_t
 from .goal_t import goal_t
 from .goal_status_t import goal_status_t
 
@@ -26,7 +27,7 @@ from ._channels import __all__ as _CHANNEL_NAMES  # noqa: E402
 from ._channels import (CHANNEL_CMD, CHANNEL_EXPERIMENT, CHANNEL_MOTORS,  # noqa: E402
                         CHANNEL_POSE, CHANNEL_STATE)
 from ._channels import CHANNEL_SIM_PLANT, CHANNEL_SIM_TRUTH  # noqa: E402
-from ._channels import CHANNEL_ADAPT  # noqa: E402
+from ._channels import CHANNEL_ADAPT, CHANNEL_ROBOT  # noqa: E402
 from ._channels import CHANNEL_GOAL, CHANNEL_GOAL_STATUS  # noqa: E402
 
 # Message class per channel, for decoding logs.
@@ -40,6 +41,7 @@ TYPES = {
     CHANNEL_SIM_PLANT: sim_plant_t,  # the simulated plant's R, heat, supply (omni4-sim only)
     CHANNEL_GOAL_STATUS: goal_status_t,  # the goal's progress
     CHANNEL_ADAPT: adapt_t,  # the motor constants in use, R_j estimated online ([adapt])
+    CHANNEL_ROBOT: robot_t,  # the wheels' layout, 1 Hz (logs before it: the paper's layout)
 }
 # goal_t (OMNI4_GOAL) has a variable number of poses: goal_t.decode(...).
 # The parameter channels carry variable-length types (not in TYPES, which read_log decodes into
@@ -56,7 +58,7 @@ from .params import ParamClient, ParamError, ParamRefused, ParamTimeout  # noqa:
 from . import ini  # noqa: E402
 
 __all__ = ["command_t", "experiment_t", "motors_t", "pose_t", "state_t", "sim_truth_t",
-           "sim_plant_t", "adapt_t", "TYPES",
+           "sim_plant_t", "adapt_t", "robot_t", "TYPES",
            "goal_t", "goal_status_t", "GoalFailed",
            "read_log", "Log", "LogError", "Robot", "CommandRejected",
            "param_request_t", "param_reply_t", "param_value_t", "param_changed_t",

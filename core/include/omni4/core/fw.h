@@ -31,6 +31,7 @@
 #define FW_POSE_POLLS_PER_TICK 16 /* backend camera poses read (and logged) in one tick */
 #define FW_STATE_HZ 100.0         /* OMNI4_STATE rate (and on every change of its flags) */
 #define FW_ADAPT_HZ 10.0          /* OMNI4_ADAPT rate */
+#define FW_ROBOT_HZ 1.0           /* OMNI4_ROBOT rate (and at the first tick) */
 
 enum log_kind {
 	LOG_MOTORS = 1,
@@ -41,6 +42,16 @@ enum log_kind {
 	LOG_GOAL = 6,
 	LOG_ADAPT = 7,
 	LOG_ADAPT_CHANGE = 8,
+	LOG_ROBOT = 9,
+};
+
+/* LOG_ROBOT: the wheels' layout in force (robot_t); slot 3 of a three-wheel robot holds 0. */
+struct log_robot {
+	int32_t wheels;
+	double angle_rad[4]; /* from the v axis, counter-clockwise [rad] */
+	double dist_m[4];    /* from the centre [m] */
+	double radius_m[4];  /* [m] */
+	double l;            /* gearbox reduction [-] */
 };
 
 /* LOG_ADAPT: the motors' constants in use (adapt_t); LOG_ADAPT_CHANGE: an acceptance or a
@@ -108,6 +119,7 @@ struct log_entry {
 		struct est_output state;    /* LOG_STATE */
 		struct goal_report goal;    /* LOG_GOAL */
 		struct log_adapt adapt;     /* LOG_ADAPT, LOG_ADAPT_CHANGE */
+		struct log_robot robot;     /* LOG_ROBOT */
 	};
 };
 
@@ -168,6 +180,7 @@ struct fw {
 	struct goal goal;   /* position control (goal.h), stepped before the controller */
 	struct adapt adapt; /* the motors' resistances online (adapt.h), after the estimator */
 	int adapt_every;    /* ticks between two LOG_ADAPT entries */
+	int robot_every;    /* ticks between two LOG_ROBOT entries */
 	bool goal_stale;    /* the planner's limits wait for an adapted value (fw.c goal_follow) */
 	struct motor_hal motor;
 	struct line_hal lines;

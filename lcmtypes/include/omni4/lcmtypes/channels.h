@@ -21,6 +21,7 @@
 #define OMNI4_CHANNEL_GOAL_STATUS "OMNI4_GOAL_STATUS" /* goal_status_t: the goal's progress */
 #define OMNI4_CHANNEL_SIM_PLANT "OMNI4_SIM_PLANT"     /* sim_plant_t: the plant's R, heat, supply */
 #define OMNI4_CHANNEL_ADAPT "OMNI4_ADAPT"             /* adapt_t: the motor constants in use */
+#define OMNI4_CHANNEL_ROBOT "OMNI4_ROBOT"             /* robot_t: the wheels' layout, 1 Hz */
 
 /* The robot's LCM URL unless its INI says otherwise: multicast that stays on the host (ttl=0). */
 #define OMNI4_DEFAULT_LCM_URL "udpm://239.255.76.67:7667?ttl=0"
