@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 double ff_sign(double x, double band)
 {
@@ -112,7 +113,12 @@ int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p
 		return -EINVAL;
 	const double band[3] = {FF_SIGN_BAND_LIN, FF_SIGN_BAND_LIN, FF_SIGN_BAND_ROT};
 
+	/* eq 2's pattern: wheel 0 = vn + w, 1 = w - v, 2 = w - vn, 3 = v + w */
+	static const int8_t paper_sign[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
+
 	ff->d = q16_from_double(p->d);
+	ff->n = 4;
+	memcpy(ff->sign, paper_sign, sizeof(ff->sign));
 	for (int j = 0; j < 4; j++)
 		ff_q16_wheel_gains(p, w->R[j], w->r[j], w->Kt[j], w->Kv[j], ff->k_acc[j],
 		                   ff->k_vel[j], ff->k_coul[j]);
@@ -146,5 +152,100 @@ void ff_q16_wheels_set_resistance(struct ff_q16_wheels *ff, const struct ff_whee
 		ff->k_acc[j][k] = q16_from_float(R_ohm * o->acc[j][k]);
 		ff->k_vel[j][k] = q16_from_float(R_ohm * o->vel[j][k] + o->emf[j][k]);
 		ff->k_coul[j][k] = q16_from_float(R_ohm * o->coul[j][k]);
+	}
+}
+
+/* Wheel j's gains per axis in any layout (ff_q16_wheels_prepare_layout's expressions), for the
+ * drive (R, r, Kt, Kv) and the layout's row g and split s of the wheel. */
+static void ff_layout_terms(const struct model_params *p, double R, double r, double Kt, double Kv,
+                            const double g[3], const double s[3], double acc[3], double vel[3],
+                            double coul[3])
+{
+	const double kf = R * r / (p->l * Kt); /* [V/N] */
+	const double kemf = Kv * p->l / r;     /* [V/(m/s)] at the rim */
+	const double I[3] = {p->M, p->M, p->J}, B[3] = {p->Bv, p->Bvn, p->Bw},
+	             C[3] = {p->Cv, p->Cvn, p->Cw};
+
+	for (int k = 0; k < 3; k++) {
+		acc[k] = kf * s[k] * I[k];
+		vel[k] = kf * s[k] * B[k] + kemf * g[k];
+		coul[k] = kf * s[k] * C[k];
+	}
+}
+
+int ff_q16_wheels_prepare_layout(struct ff_q16_wheels *ff, const struct model_params *p,
+                                 const struct model_wheels *w, const struct wheel_geom *g,
+                                 double u_max)
+{
+	struct wheel_phys ph;
+
+	if (!g)
+		return ff_q16_wheels_prepare(ff, p, w, u_max);
+	if (wheel_phys_layout(&ph, g) || ff_q16_wheels_prepare(ff, p, w, u_max))
+		return -EINVAL;
+	ff->n = ph.n;
+	memset(ff->k_acc, 0, sizeof(ff->k_acc));
+	memset(ff->k_vel, 0, sizeof(ff->k_vel));
+	memset(ff->k_coul, 0, sizeof(ff->k_coul));
+	memset(ff->sign, 0, sizeof(ff->sign));
+	for (int j = 0; j < ph.n; j++) {
+		double acc[3], vel[3], coul[3];
+
+		ff_layout_terms(p, w->R[j], w->r[j], w->Kt[j], w->Kv[j], ph.row[j], ph.split[j],
+		                acc, vel, coul);
+		for (int k = 0; k < 3; k++) {
+			ff->k_acc[j][k] = q16_from_double(acc[k]);
+			ff->k_vel[j][k] = q16_from_double(vel[k]);
+			ff->k_coul[j][k] = q16_from_double(coul[k]);
+			ff->sign[j][k] = 1;
+		}
+	}
+	return 0;
+}
+
+int ff_wheels_per_ohm_prepare_layout(struct ff_wheels_per_ohm *o, const struct model_params *p,
+                                     const struct model_wheels *w, const struct wheel_geom *g)
+{
+	struct wheel_phys ph;
+
+	if (!g) {
+		ff_wheels_per_ohm_prepare(o, p, w);
+		return 0;
+	}
+	if (wheel_phys_layout(&ph, g))
+		return -EINVAL;
+	memset(o, 0, sizeof(*o));
+	for (int j = 0; j < ph.n; j++) {
+		double acc[3], vel[3], coul[3], acc0[3], emf[3], coul0[3];
+
+		ff_layout_terms(p, 1.0, w->r[j], w->Kt[j], w->Kv[j], ph.row[j], ph.split[j], acc,
+		                vel, coul);
+		ff_layout_terms(p, 0.0, w->r[j], w->Kt[j], w->Kv[j], ph.row[j], ph.split[j], acc0,
+		                emf, coul0);
+		for (int k = 0; k < 3; k++) {
+			o->acc[j][k] = (float)acc[k];
+			o->vel[j][k] = (float)(vel[k] - emf[k]);
+			o->emf[j][k] = (float)emf[k];
+			o->coul[j][k] = (float)coul[k];
+		}
+	}
+	return 0;
+}
+
+void ff_voltages_layout(const struct model_params *p, const struct wheel_phys *ph,
+                        const double vel[3], const double acc[3], double u_max, double u[4])
+{
+	const double F[3] = {
+	    p->M * acc[0] + p->Bv * vel[0] + p->Cv * ff_sign(vel[0], FF_SIGN_BAND_LIN),
+	    p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * ff_sign(vel[1], FF_SIGN_BAND_LIN),
+	    p->J * acc[2] + p->Bw * vel[2] + p->Cw * ff_sign(vel[2], FF_SIGN_BAND_ROT)};
+	double f[4], rim[4];
+
+	wheel_split(ph, F, f);
+	wheel_rims(ph, vel, rim);
+	for (int j = 0; j < 4; j++) {
+		const double uj = j < ph->n ? ph->vpn[j] * f[j] + ph->kemf[j] * rim[j] : 0.0;
+
+		u[j] = uj > u_max ? u_max : (uj < -u_max ? -u_max : uj);
 	}
 }

@@ -57,18 +57,16 @@ void ff_voltages_q16_wheels(const struct ff_q16_wheels *ff, const q16_t vel[3], 
 {
 	const q16_t s[3] = {axis_sign(ff, 0, vel[0]), axis_sign(ff, 1, vel[1]),
 	                    axis_sign(ff, 2, vel[2])};
-	/* eq 2's pattern: wheel 0 = vn + w, 1 = w - v, 2 = w - vn, 3 = v + w. */
-	const int64_t u0 = wheel_axis_volts(ff, 0, 1, vel[1], acc[1], s[1]) +
-	                   wheel_axis_volts(ff, 0, 2, vel[2], acc[2], s[2]);
-	const int64_t u1 = wheel_axis_volts(ff, 1, 2, vel[2], acc[2], s[2]) -
-	                   wheel_axis_volts(ff, 1, 0, vel[0], acc[0], s[0]);
-	const int64_t u2 = wheel_axis_volts(ff, 2, 2, vel[2], acc[2], s[2]) -
-	                   wheel_axis_volts(ff, 2, 1, vel[1], acc[1], s[1]);
-	const int64_t u3 = wheel_axis_volts(ff, 3, 0, vel[0], acc[0], s[0]) +
-	                   wheel_axis_volts(ff, 3, 2, vel[2], acc[2], s[2]);
 
-	u[0] = clamp_volts(u0, ff->u_max);
-	u[1] = clamp_volts(u1, ff->u_max);
-	u[2] = clamp_volts(u2, ff->u_max);
-	u[3] = clamp_volts(u3, ff->u_max);
+	/* Each wheel's axis terms with their signs (the paper's layout: wheel 0 = vn + w,
+	 * 1 = w - v, 2 = w - vn, 3 = v + w); integer sums, exact in any order. */
+	for (int j = 0; j < 4; j++) {
+		int64_t uj = 0;
+
+		for (int k = 0; k < 3 && j < ff->n; k++)
+			if (ff->sign[j][k])
+				uj += ff->sign[j][k] *
+				      wheel_axis_volts(ff, j, k, vel[k], acc[k], s[k]);
+		u[j] = clamp_volts(uj, ff->u_max);
+	}
 }

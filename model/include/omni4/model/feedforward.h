@@ -14,6 +14,7 @@
 
 #include "omni4/model/params.h"
 #include "omni4/model/q16.h"
+#include "omni4/model/wheels.h"
 
 #define FF_SIGN_BAND_LIN 0.01 /* [m/s] */
 #define FF_SIGN_BAND_ROT 0.1  /* [rad/s] */
@@ -64,6 +65,8 @@ void ff_voltages_wheels(const struct model_params *p, const struct model_wheels 
  * R_j r_j / (l Kt_j) and Kv_j l / r_j (only the two axes that move wheel j are used). */
 struct ff_q16_wheels {
 	q16_t d;             /* [m] */
+	int n;               /* wheels driven: 3 or 4 (u[3] = 0 for 3) */
+	int8_t sign[4][3];   /* wheel j's term of axis k enters with this sign (0: not at all) */
 	q16_t k_acc[4][3];   /* [V/(m/s^2)], [V/(rad/s^2)] */
 	q16_t k_vel[4][3];   /* [V/(m/s)], [V/(rad/s)] */
 	q16_t k_coul[4][3];  /* [V] */
@@ -77,6 +80,24 @@ int ff_q16_wheels_init(struct ff_q16_wheels *ff, const struct model_params *p,
 /* The same for a model already checked (MODEL_ASSERT_CHECKED): -EINVAL only if u_max <= 0. */
 int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
                           const struct model_wheels *w, double u_max);
+
+/*
+ * Any layout (model/wheels.h; docs/model.md "Layouts"): wheel j's gains per axis k from its row
+ * g_j (eq 2) and its share of a body force (the least-norm split s_j):
+ *   k_acc[j][k] = R_j r_j / (l Kt_j) s_jk I_k, k_coul[j][k] = R_j r_j / (l Kt_j) s_jk C_k,
+ *   k_vel[j][k] = R_j r_j / (l Kt_j) s_jk B_k + Kv_j l / r_j g_jk  (I = M, M, J), sign +1,
+ * so u_j = sum_k (k_acc a_k + k_vel v_k + k_coul sgn(v_k)) is eqs 9-13 and 21 with the force
+ * split least norm. g NULL: the paper's layout, ff_q16_wheels_prepare's bits. -EINVAL for a
+ * layout that does not drive the body or u_max <= 0. The model is checked (as _prepare).
+ */
+int ff_q16_wheels_prepare_layout(struct ff_q16_wheels *ff, const struct model_params *p,
+                                 const struct model_wheels *w, const struct wheel_geom *g,
+                                 double u_max);
+/* The double twin: the body force F = I a + B v + C sgn(v) split least norm onto the wheels,
+ * u_j = R_j r_j / (l Kt_j) f_j + Kv_j l / r_j (g_j . v), clamped to +-u_max; u[j] = 0 for
+ * j >= ph->n. ph from wheel_phys_init with p and w. */
+void ff_voltages_layout(const struct model_params *p, const struct wheel_phys *ph,
+                        const double vel[3], const double acc[3], double u_max, double u[4]);
 
 /*
  * ff_voltages_q16_wheels - the per-wheel feedforward in Q16.16 (integer only; fast loop).
@@ -102,6 +123,10 @@ struct ff_wheels_per_ohm {
 /* From a checked model (as ff_q16_wheels_prepare); w's R is not used. Off the fast loop. */
 void ff_wheels_per_ohm_prepare(struct ff_wheels_per_ohm *o, const struct model_params *p,
                                const struct model_wheels *w);
+/* The same for any layout (g NULL: the paper's, ff_wheels_per_ohm_prepare's values); -EINVAL
+ * for a layout that does not drive the body. */
+int ff_wheels_per_ohm_prepare_layout(struct ff_wheels_per_ohm *o, const struct model_params *p,
+                                     const struct model_wheels *w, const struct wheel_geom *g);
 /*
  * Fast loop: wheel j's nine Q16.16 gains of ff for its resistance R_ohm (> 0, finite, within
  * the model's range: the caller's bounds), the other wheels untouched. Scaling and overflow:
