@@ -1,6 +1,11 @@
 /* kinematics_q16.c - eqs 2-5 in Q16.16 (integer only: this file is the fixed-point path). */
 #include "omni4/model/kinematics.h"
 
+#include <errno.h>
+#include <string.h>
+
+#include "omni4/model/wheels.h"
+
 void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4])
 {
 	/* d*w stays in int64_t (|.| <= 2^46): each wheel saturates once, and x is read once
@@ -56,4 +61,60 @@ void fk_robot_velocity_rates_q16(const struct kin_wheels_q16 *k, const q16_t whe
 		v[j] = (q16_t)(p >= 0 ? (p + half) >> 31 : -((-p + half) >> 31));
 	}
 	fk_robot_velocity_q16(k->inv_4d, v, x);
+}
+
+int kin_rows_q16_init(struct kin_rows_q16 *k, double d, const struct wheel_geom *g)
+{
+	struct wheel_geom paper;
+	struct wheel_phys ph;
+
+	memset(k, 0, sizeof(*k));
+	k->paper = g == NULL;
+	if (!g) {
+		if (!(d > 1.0 / 16384.0 && d < 32767.0))
+			return -EINVAL;
+		wheel_geom_paper(d, &paper);
+		g = &paper;
+		k->d = q16_from_double(d);
+		k->inv_4d = q16_from_double(1.0 / (4.0 * d));
+	}
+	if (wheel_phys_layout(&ph, g))
+		return -EINVAL;
+	k->n = ph.n;
+	for (int j = 0; j < ph.n; j++)
+		for (int m = 0; m < 3; m++) {
+			k->row[j][m] = q16_from_double(ph.row[j][m]);
+			k->fk[m][j] = q16_from_double(ph.fk[m][j]);
+		}
+	return 0;
+}
+
+void ik_rows_q16(const struct kin_rows_q16 *k, const q16_t x[3], q16_t v_wheel[4])
+{
+	if (k->paper) {
+		ik_wheel_speeds_q16(k->d, x, v_wheel);
+		return;
+	}
+	for (int j = 0; j < 4; j++) {
+		int64_t s = 0;
+
+		for (int m = 0; m < 3 && j < k->n; m++)
+			s += q16_mul_wide(k->row[j][m], x[m]);
+		v_wheel[j] = q16_sat(s);
+	}
+}
+
+void fk_rows_q16(const struct kin_rows_q16 *k, const q16_t v_wheel[4], q16_t x[3])
+{
+	if (k->paper) {
+		fk_robot_velocity_q16(k->inv_4d, v_wheel, x);
+		return;
+	}
+	for (int m = 0; m < 3; m++) {
+		int64_t s = 0;
+
+		for (int j = 0; j < k->n; j++)
+			s += q16_mul_wide(k->fk[m][j], v_wheel[j]);
+		x[m] = q16_sat(s);
+	}
 }

@@ -8,6 +8,8 @@
 
 #include "omni4/model/q16.h"
 
+struct wheel_geom; /* model/wheels.h */
+
 /* eq 2: v_j = IK(d) x, rows [0 1 d], [-1 0 d], [0 -1 d], [1 0 d]. */
 void ik_wheel_speeds(double d, const double x[3], double v_wheel[4]);
 
@@ -90,5 +92,29 @@ void ik_wheel_rates_q16(const struct kin_wheels_q16 *k, const q16_t x[3], q16_t 
  */
 void fk_robot_velocity_rates_q16(const struct kin_wheels_q16 *k, const q16_t wheel_rad_s[4],
                                  q16_t x[3]);
+
+/*
+ * Any layout (model/wheels.h; docs/model.md "Layouts"), in Q16.16: eq 2's rows and their
+ * least-squares inverse (eqs 3-5 for the layout) rounded once, prepared off the loop. The
+ * paper's layout (g NULL) keeps ik_wheel_speeds_q16 / fk_robot_velocity_q16 (closed forms).
+ */
+struct kin_rows_q16 {
+	int n;           /* 3 or 4 */
+	int paper;       /* 1: the paper's closed forms with d and inv_4d below */
+	q16_t d, inv_4d; /* the paper's [m], [1/m] */
+	q16_t row[4][3]; /* eq 2: rim j = row[j] . (v, vn, w) */
+	q16_t fk[3][4];  /* eqs 3-5: (v, vn, w) = fk . rims */
+};
+/* -EINVAL for a layout that does not drive the body, or (paper) d outside (2^-14, 32767) m. */
+int kin_rows_q16_init(struct kin_rows_q16 *k, double d, const struct wheel_geom *g);
+/*
+ * Rim speeds [m/s] of x: each a sum of three Q16.16 products rounded once each (q16_mul_wide)
+ * in int64_t, saturated once; the paper's: ik_wheel_speeds_q16's bits (a row's 0 and +-1
+ * terms are exact). A three-wheel layout's slot 3 is 0. v_wheel may not alias x.
+ */
+void ik_rows_q16(const struct kin_rows_q16 *k, const q16_t x[3], q16_t v_wheel[4]);
+/* Body velocity of the rims: sums of n rounded products, saturated once; the paper's:
+ * fk_robot_velocity_q16. */
+void fk_rows_q16(const struct kin_rows_q16 *k, const q16_t v_wheel[4], q16_t x[3]);
 
 #endif /* OMNI4_KINEMATICS_H */
