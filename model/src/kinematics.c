@@ -3,6 +3,9 @@
 
 #include <errno.h>
 #include <math.h>
+#include <string.h>
+
+#include "omni4/model/wheels.h"
 
 void ik_wheel_speeds(double d, const double x[3], double v_wheel[4])
 {
@@ -76,5 +79,33 @@ int kin_wheels_q16_init(struct kin_wheels_q16 *k, double d, const double r[4])
 		k->inv_r[j] = q16_from_double(1.0 / r[j]);
 		k->r_q31[j] = q >= 2147483647.0 ? INT32_MAX : (int32_t)q;
 	}
+	return 0;
+}
+
+/* The layout's Q16.16 rows and inverse (kinematics.h), off the loop: the integer-only
+ * evaluation is in kinematics_q16.c. */
+int kin_rows_q16_init(struct kin_rows_q16 *k, double d, const struct wheel_geom *g)
+{
+	struct wheel_geom paper;
+	struct wheel_phys ph;
+
+	memset(k, 0, sizeof(*k));
+	k->paper = g == NULL;
+	if (!g) {
+		if (!(d > 1.0 / 16384.0 && d < 32767.0))
+			return -EINVAL;
+		wheel_geom_paper(d, &paper);
+		g = &paper;
+		k->d = q16_from_double(d);
+		k->inv_4d = q16_from_double(1.0 / (4.0 * d));
+	}
+	if (wheel_phys_layout(&ph, g))
+		return -EINVAL;
+	k->n = ph.n;
+	for (int j = 0; j < ph.n; j++)
+		for (int m = 0; m < 3; m++) {
+			k->row[j][m] = q16_from_double(ph.row[j][m]);
+			k->fk[m][j] = q16_from_double(ph.fk[m][j]);
+		}
 	return 0;
 }

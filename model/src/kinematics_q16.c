@@ -1,11 +1,6 @@
 /* kinematics_q16.c - eqs 2-5 in Q16.16 (integer only: this file is the fixed-point path). */
 #include "omni4/model/kinematics.h"
 
-#include <errno.h>
-#include <string.h>
-
-#include "omni4/model/wheels.h"
-
 void ik_wheel_speeds_q16(q16_t d, const q16_t x[3], q16_t v_wheel[4])
 {
 	/* d*w stays in int64_t (|.| <= 2^46): each wheel saturates once, and x is read once
@@ -61,32 +56,6 @@ void fk_robot_velocity_rates_q16(const struct kin_wheels_q16 *k, const q16_t whe
 		v[j] = (q16_t)(p >= 0 ? (p + half) >> 31 : -((-p + half) >> 31));
 	}
 	fk_robot_velocity_q16(k->inv_4d, v, x);
-}
-
-int kin_rows_q16_init(struct kin_rows_q16 *k, double d, const struct wheel_geom *g)
-{
-	struct wheel_geom paper;
-	struct wheel_phys ph;
-
-	memset(k, 0, sizeof(*k));
-	k->paper = g == NULL;
-	if (!g) {
-		if (!(d > 1.0 / 16384.0 && d < 32767.0))
-			return -EINVAL;
-		wheel_geom_paper(d, &paper);
-		g = &paper;
-		k->d = q16_from_double(d);
-		k->inv_4d = q16_from_double(1.0 / (4.0 * d));
-	}
-	if (wheel_phys_layout(&ph, g))
-		return -EINVAL;
-	k->n = ph.n;
-	for (int j = 0; j < ph.n; j++)
-		for (int m = 0; m < 3; m++) {
-			k->row[j][m] = q16_from_double(ph.row[j][m]);
-			k->fk[m][j] = q16_from_double(ph.fk[m][j]);
-		}
-	return 0;
 }
 
 void ik_rows_q16(const struct kin_rows_q16 *k, const q16_t x[3], q16_t v_wheel[4])
