@@ -12,6 +12,10 @@ robot whatever --robots says.
 Real sensors (--sensors): offsets, eccentricity, jitter, latency, losses, all or none. Default:
 all for the `sensors` layout, none for the others.
 
+Wheel layouts (--wheels 3|4, --angles A0,A1,.. [deg], --dist D|D0,D1,.. [m], or --geometry INI):
+the robots have that layout (default the paper's, 0/90/180/270 deg at d); the truth INI gets
+wheels, wheel_angle_j and d_j, the base INI does not; a three-wheel robot's slot 3 reads 0.
+
 Needs the PyPI `lcm` package (lcm.EventLog) and the lcm-gen Python types of lcmtypes/ (package
 omni4, generated at build time into build/lcmtypes/gen/python).
 """
