@@ -332,7 +332,8 @@ def test_logs(lcm_python):
     with tempfile.TemporaryDirectory() as work:
         g3 = geometry(LAYOUTS[1])
         res = write_logs.generate("runner", 2, [0], work, omit, lcm_python=lcm_python,
-                                  progress=None, sensors=plant.SENSOR_EFFECTS, geometry=g3)[0]
+                                  progress=None, speed_noise=(0.3, 0.02),
+                                  sensors=plant.SENSOR_EFFECTS, geometry=g3)[0]
         V, I, S = read_motors(res["log"], lcm_python)
         truth, base = write_logs.read_ini(res["truth"]), write_logs.read_ini(res["base"])
         with open(res["sensors"]) as f:
@@ -346,7 +347,7 @@ def test_logs(lcm_python):
                   and "wheel_angle_3" not in truth and "d_3" not in truth
                   and abs(truth["d"] - np.mean([0.080, 0.089, 0.100])) < 1e-15
                   and sorted(base) == ["M", "d", "l", "r"])
-        check("3-wheel log with every real-sensor effect: slot 3 is +0 in voltage, current and "
+        check("3-wheel log with every real-sensor effect and speed noise: slot 3 is +0 in voltage, current and "
               "wheel speed of every message; slots 0-2 live; truth INI holds the layout, the "
               "base INI does not", all(slot3) and min(live) > 0.1 and ini_ok
               and side["current_offset_a"][3] == 0.0,
@@ -373,7 +374,14 @@ def test_options():
                 rc = write_logs.main(["--out", work, "--quiet", "--omit", "coast", "--omit",
                                       "step", "--omit", "steady_rotation"] + extra)
             lines.append((rc, err.getvalue()))
+        ini = os.path.join(work, "layout.ini")
+        with open(ini, "w") as f:
+            f.write("[model]\nwheels = 3\nwheel_angle_0 = 60\nwheel_angle_1 = 180\n"
+                    "wheel_angle_2 = 300\nd_0 = 0.08\nd_1 = 0.089\nd_2 = 0.1\n")
+        from_ini = write_logs.parse_geometry(ini=ini)
     ok = all(rc == 2 and text.count("\n") == 1 for rc, text in lines)
+    check("--geometry INI reads the layout keys", from_ini == geometry(LAYOUTS[1]),
+          str(from_ini))
     check("bad layout options: exit 2 with one line each", ok,
           " | ".join(text.strip() for _, text in lines))
 
