@@ -176,20 +176,21 @@ class Timeline:
 
 # ---- the experiment set ---------------------------------------------------------------------
 
-def pattern_direction(pattern, d=plant.TABLE_III["d"]):
-    """Direction label of a voltage pattern: the single robot axis it drives, else ""."""
-    F = plant.force_matrix(d) @ np.asarray(pattern, float)
-    nz = np.abs(F) > 1e-9
+def pattern_direction(pattern, d=plant.TABLE_III["d"], fm=None):
+    """Direction label of a voltage pattern: the single robot axis it drives, else "".
+    fm: the layout's force map (3x4, eqs 9-11), default the paper's at distance d."""
+    F = (plant.force_matrix(d) if fm is None else fm) @ np.asarray(pattern, float)
+    nz = np.abs(F) > 1e-9 * max(1.0, float(np.max(np.abs(F))))
     return plant.AXES[int(np.argmax(nz))] if nz.sum() == 1 else ""
 
 
-def subset_motor_runs(subset, levels):
-    """Motor-test runs that drive only the motors in `subset`: masked axis patterns, then the
-    all-positive pattern and single motors, as many runs as there are levels [V]."""
+def subset_motor_runs(subset, levels, patterns=plant.PATTERNS, fm=None):
+    """Motor-test runs that drive only the motors in `subset`: masked axis patterns (the
+    layout's, force map fm), then single motors, as many runs as there are levels [V]."""
     mask = np.array([1.0 if j in subset else 0.0 for j in range(4)])
     cands = []
     for name in ("v", "vn", "w"):
-        pat = np.array(plant.PATTERNS[name]) * mask
+        pat = np.array(patterns[name]) * mask
         if np.any(pat) and not any(np.array_equal(pat, c) for c in cands):
             cands.append(pat)
     for j in sorted(subset):
@@ -199,7 +200,7 @@ def subset_motor_runs(subset, levels):
     runs = []
     for k, level in enumerate(levels):
         pat = cands[k % len(cands)]
-        runs.append(Run("motor", pattern_direction(pat), pat, [level]))
+        runs.append(Run("motor", pattern_direction(pat, fm=fm), pat, [level]))
     return runs
 
 
@@ -207,13 +208,13 @@ def subset_motor_runs(subset, levels):
 ONE_MOTOR_LEVELS = (4.2, 8.3, 10.8)
 
 
-def one_motor_runs(jit, multilevel=False):
+def one_motor_runs(jit, multilevel=False, n_wheels=4):
     """The runner's motor test: each motor alone (the other three at 0 V, bridges driven), at
     each level forwards then backwards, one run each; with `multilevel` one segment per motor
     and sign holding the levels one after the other. Direction "" (one wheel drives no single
-    robot axis); the level is the motor's signed voltage [V]."""
+    robot axis); the level is the motor's signed voltage [V]. n_wheels motors (3 or 4)."""
     runs = []
-    for j in range(4):
+    for j in range(n_wheels):
         single = np.eye(4)[j]
         if multilevel:
             runs += [Run("motor", "", single, [sign * jit(lv) for lv in ONE_MOTOR_LEVELS])
@@ -224,8 +225,30 @@ def one_motor_runs(jit, multilevel=False):
     return runs
 
 
-def experiment_set(rng, multilevel=False, subset_layout=False, motor_subset=None):
-    """The runs of one complete experiment set, levels jittered per robot by rng."""
+#: The `subset` layout's motor test on the paper's layout: (pattern, level [V]).
+SUBSET_PAPER = (((1, 0, -1, 0), 5.0), ((0, -1, 0, 1), 9.0), ((1, 0, 1, 0), 6.5),
+                ((0, 1, 0, 1), 10.0), ((1, 0, 0, 0), 7.0), ((0, 0, 0, 1), 4.5))
+
+
+def subset_patterns(n_wheels):
+    """The `subset` layout's motor test on a layout of its own: pairs of motors against each
+    other and together, then single motors; (pattern, level [V])."""
+    e = np.eye(4)
+    last = n_wheels - 1
+    pats = (e[0] - e[1], e[1] - e[last], e[0] + e[2], e[1] + e[last] if n_wheels == 4
+            else e[0] + e[1], e[0], e[last])
+    return tuple((tuple(p), lv) for p, (_, lv) in zip(pats, SUBSET_PAPER))
+
+
+def experiment_set(rng, multilevel=False, subset_layout=False, motor_subset=None,
+                   layout=None):
+    """The runs of one complete experiment set, levels jittered per robot by rng.
+
+    layout: None (the paper's) or (axis patterns (plant.axis_patterns), n_wheels, force map
+    3x4) of a robot with its own layout: its least-norm patterns drive the experiments along
+    v, vn and w, its n_wheels motors the motor test."""
+    patterns, n_wheels, fm = (plant.PATTERNS, 4, None) if layout is None else layout
+
     def jit(x):
         return round(float(x + rng.uniform(-0.15, 0.15)), 2)
 
@@ -236,32 +259,34 @@ def experiment_set(rng, multilevel=False, subset_layout=False, motor_subset=None
     steady = [3.3, 4.6, 5.9, 7.2, 8.5, 9.6] if multilevel else [3.3, 4.6, 5.9, 7.2, 8.5]
     if multilevel:
         for a, b in ((0, 2), (1, 4), (3, 5)):
-            runs.append(Run("steady_rotation", "w", plant.PATTERNS["w"],
+            runs.append(Run("steady_rotation", "w", patterns["w"],
                             [jit(steady[a]), jit(steady[b])]))
     else:
         for lv in steady:
-            runs.append(Run("steady_rotation", "w", plant.PATTERNS["w"], [jit(lv)]))
+            runs.append(Run("steady_rotation", "w", patterns["w"], [jit(lv)]))
     coast = {"v": (6.0, 10.5), "vn": (6.5, 11.0), "w": (4.5, 9.5)}
     for ax, lvls in coast.items():
         if multilevel:
-            runs.append(Run("coast", ax, plant.PATTERNS[ax], [jit(x) for x in lvls]))
+            runs.append(Run("coast", ax, patterns[ax], [jit(x) for x in lvls]))
         else:
-            runs += [Run("coast", ax, plant.PATTERNS[ax], [jit(x)]) for x in lvls]
+            runs += [Run("coast", ax, patterns[ax], [jit(x)]) for x in lvls]
     motor = [("v", 5.2), ("v", 10.2), ("vn", 8.3), ("w", 4.2), ("w", 10.8)]
     if subset_layout:
-        runs += [Run("motor", pattern_direction(p), p, [jit(lv)]) for p, lv in (
-            ((1, 0, -1, 0), 5.0), ((0, -1, 0, 1), 9.0), ((1, 0, 1, 0), 6.5),
-            ((0, 1, 0, 1), 10.0), ((1, 0, 0, 0), 7.0), ((0, 0, 0, 1), 4.5))]
+        runs += [Run("motor", pattern_direction(p, fm=fm), p, [jit(lv)]) for p, lv in (
+            SUBSET_PAPER if layout is None else subset_patterns(n_wheels))]
     elif motor_subset:
-        runs += subset_motor_runs(motor_subset, [jit(lv) for _, lv in motor])
+        if max(motor_subset) >= n_wheels:
+            named = ",".join(map(str, motor_subset))
+            raise ValueError(f"--motor-subset {named}: the robot has motors 0..{n_wheels - 1}")
+        runs += subset_motor_runs(motor_subset, [jit(lv) for _, lv in motor], patterns, fm)
     else:
-        runs += one_motor_runs(jit, multilevel)
+        runs += one_motor_runs(jit, multilevel, n_wheels)
     step = {"v": (4.8, 9.2), "vn": (5.6, 10.1), "w": (3.9, 7.7)}
     for ax, lvls in step.items():
         if multilevel:
-            runs.append(Run("step", ax, plant.PATTERNS[ax], [jit(x) for x in lvls], ramp()))
+            runs.append(Run("step", ax, patterns[ax], [jit(x) for x in lvls], ramp()))
         else:
-            runs += [Run("step", ax, plant.PATTERNS[ax], [jit(x)], ramp()) for x in lvls]
+            runs += [Run("step", ax, patterns[ax], [jit(x)], ramp()) for x in lvls]
     return runs
 
 
@@ -430,8 +455,12 @@ def build(layout, model, i, seed, robot, omit=(), motor_subset=None):
     layout = base_layout(layout, robot)
     rng = np.random.default_rng([int(seed), int(robot), LAYOUTS.index(layout), 11])
     dt = 1.0 / loop_rate_hz(layout)
+    own = None
+    if model.get("has_layout") is not None and model["has_layout"][i]:
+        own = (model["patterns"][i], int(model["n_wheels"][i]), model["IK"][i].T)
     runs = experiment_set(rng, multilevel=layout == "multilevel",
-                          subset_layout=layout == "subset", motor_subset=motor_subset)
+                          subset_layout=layout == "subset", motor_subset=motor_subset,
+                          layout=own)
     runs = [r for r in runs if not omitted(r, omit)]
     tl = Timeline(dt, model, i)
     render(layout, tl, runs, rng)

@@ -8,7 +8,10 @@ Written from the paper's equations only (no code shared with the project's model
 * wheel forces f_j = l Kt i_j / r (eqs 12-13), robot forces Fv = f3 - f1, Fvn = f0 - f2,
   T = d (f0 + f1 + f2 + f3) (eqs 9-11);
 * dynamics (eqs 6-8) with viscous (B) and Coulomb (C) friction and stiction, plus an external
-  force / torque (a hand push).
+  force / torque (a hand push);
+* any wheel layout ([model] wheels 3 or 4, wheel_angle_j [deg], d_j [m]; ik_rows): eq 2's row j
+  is [-sin a_j, cos a_j, d_j], the force map its transpose; a three-wheel robot's slot 3 holds
+  no wheel (0 V, 0 A, 0 rad/s). An asymmetric layout couples the axes through the back-EMF.
 
 Integration: within one loop tick the voltage is held (zero-order hold, as the controller applies
 it) and the external force is taken at the tick's midpoint, so every axis obeys the linear ODE
@@ -24,6 +27,8 @@ that wake late (the plant integrates over the true intervals), camera frames tha
 
 Units: SI throughout (m, s, rad, V, A, N, N m, kg, kg m^2); utime in microseconds.
 """
+import itertools
+
 import numpy as np
 
 MODE_IDLE, MODE_VELOCITY, MODE_VOLTAGE, MODE_COAST = 0, 1, 2, 3
@@ -59,8 +64,13 @@ def wheel_key(q, j):
     return f"{q}_{j}"
 
 
-def robot_params(seed, k, spread=None):
+def robot_params(seed, k, spread=None, geometry=None):
     """Parameters of robot k for a seed: dict of floats (SI units), deterministic per (seed, k).
+
+    geometry (make_geometry; None = the paper's layout): the robot gets the keys wheels,
+    wheel_angle_j [deg] and d_j [m] (j < wheels; d_j only if the geometry gives distances, and
+    then d is their mean). With three wheels the per-wheel draws below are those of wheels 0-2
+    and the scalars their mean.
 
     spread (R, Kv, r) fractions, e.g. (0.05, 0.05, 0.01): each motor's R_j and Kv_j (= Kt_j)
     is the robot's value times its own U(1 - s, 1 + s) factor, each wheel's radius r_j the
@@ -74,20 +84,30 @@ def robot_params(seed, k, spread=None):
     for name, f in zip(SCALED, factors):
         p[name] = TABLE_III[name] * float(f)
     p["Kt"] = p["Kv"]
+    nw = 4
+    if geometry is not None:
+        nw = geometry["wheels"]
+        p["wheels"] = nw
+        for j in range(nw):
+            p[angle_key(j)] = float(geometry["angles_deg"][j])
+        if geometry.get("dists_m") is not None:
+            for j in range(nw):
+                p[dist_key(j)] = float(geometry["dists_m"][j])
+            p["d"] = float(np.mean(geometry["dists_m"]))
     if spread is None or not any(spread):
         return p
     sR, sK, sr = (float(s) for s in spread)
     wr = np.random.default_rng([int(seed), int(k), 7003])
     eR, eK, er = wr.uniform(-1.0, 1.0, 4) * sR, wr.uniform(-1.0, 1.0, 4) * sK, wr.uniform(-1, 1, 4)
-    er -= er.mean()
+    er = er[:nw] - er[:nw].mean()
     er *= sr / max(1.0, np.max(np.abs(er)))
-    for j in range(4):
+    for j in range(nw):
         p[wheel_key("R", j)] = p["R"] * (1.0 + float(eR[j]))
         p[wheel_key("Kv", j)] = p["Kv"] * (1.0 + float(eK[j]))
         p[wheel_key("Kt", j)] = p[wheel_key("Kv", j)]
         p[wheel_key("r", j)] = p["r"] * (1.0 + float(er[j]))
     for q in WHEEL_QUANTITIES:
-        p[q] = float(np.mean([p[wheel_key(q, j)] for j in range(4)]))
+        p[q] = float(np.mean([p[wheel_key(q, j)] for j in range(nw)]))
     return p
 
 
@@ -102,9 +122,10 @@ def has_wheels(p):
 
 
 def ini_keys(p):
-    """The [model] keys of a robot's truth INI: the 14 scalars, then the wheel keys it has."""
+    """The [model] keys of a robot's truth INI: the 14 scalars, the wheel keys it has, then its
+    layout keys (wheels, wheel_angle_j, d_j) if it has them."""
     return MODEL_KEYS + tuple(wheel_key(q, j) for q in WHEEL_QUANTITIES for j in range(4)
-                              if wheel_key(q, j) in p)
+                              if wheel_key(q, j) in p) + layout_keys(p)
 
 
 def stack_params(plist):
@@ -113,6 +134,11 @@ def stack_params(plist):
     out = {key: np.array([p[key] for p in plist], dtype=float) for key in MODEL_KEYS}
     for q in WHEEL_QUANTITIES:
         out[q + "_w"] = np.array([wheel_values(p, q) for p in plist])
+    lay = [layout_of(p) for p in plist]
+    out["n_wheels"] = np.array([n for n, _, _ in lay], dtype=int)
+    out["angle_w"] = np.array([a for _, a, _ in lay])
+    out["dist_w"] = np.array([dd for _, _, dd in lay])
+    out["has_layout"] = np.array([has_layout(p) for p in plist], dtype=bool)
     return out
 
 
@@ -126,17 +152,151 @@ def force_matrix(d):
     return np.array([[0.0, -1.0, 0.0, 1.0], [1.0, 0.0, -1.0, 0.0], [d, d, d, d]])
 
 
+# ---- wheel layouts ([model] wheels, wheel_angle_j [deg], d_j [m]) ----------------------------
+
+#: The paper's layout: wheel j at j x 90 deg from the v axis, counter-clockwise (eq 2's rows).
+PAPER_ANGLES_DEG = (0.0, 90.0, 180.0, 270.0)
+_EXACT_SIN_COS = {0.0: (0.0, 1.0), 90.0: (1.0, 0.0), 180.0: (0.0, -1.0), 270.0: (-1.0, 0.0)}
+
+
+def angle_key(j):
+    """INI key of wheel j's position angle [deg] ('wheel_angle_2')."""
+    return f"wheel_angle_{j}"
+
+
+def dist_key(j):
+    """INI key of wheel j's distance from the centre [m] ('d_2')."""
+    return f"d_{j}"
+
+
+def has_layout(p):
+    """True if a parameter dict carries layout keys (else it has the paper's layout)."""
+    return "wheels" in p or any(angle_key(j) in p or dist_key(j) in p for j in range(4))
+
+
+def layout_keys(p):
+    """The layout keys a parameter dict has, in INI order: wheels, wheel_angle_j, d_j."""
+    keys = ("wheels",) + tuple(angle_key(j) for j in range(4)) + tuple(dist_key(j)
+                                                                      for j in range(4))
+    return tuple(k for k in keys if k in p)
+
+
+def make_geometry(wheels=4, angles_deg=None, dists_m=None):
+    """A wheel layout: dict wheels (3 or 4), angles_deg (wheels,) [deg, from the v axis,
+    counter-clockwise], dists_m (wheels,) [m] or None (every wheel at the robot's d).
+    Raises ValueError (one line) for a layout that cannot drive v, vn and w independently."""
+    n = int(wheels)
+    if n not in (3, 4):
+        raise ValueError(f"wheels {wheels!r}: 3 or 4")
+    if angles_deg is None:
+        if n != 4:
+            raise ValueError("3 wheels need their angles (e.g. 0,120,240)")
+        angles_deg = PAPER_ANGLES_DEG
+    ang = [float(a) for a in angles_deg]
+    if len(ang) != n or not all(np.isfinite(ang)):
+        raise ValueError(f"angles {list(angles_deg)}: expected {n} finite angles [deg]")
+    norm = sorted(a % 360.0 for a in ang)
+    if any(b - a < 1.0 for a, b in zip(norm, norm[1:] + [norm[0] + 360.0])):
+        raise ValueError(f"angles {ang}: wheels closer than 1 deg")
+    dist = None
+    if dists_m is not None:
+        dist = [float(v) for v in dists_m]
+        if len(dist) == 1:
+            dist *= n
+        if len(dist) != n or not all(0.01 <= v <= 1.0 for v in dist):
+            raise ValueError(f"distances {list(dists_m)}: expected 1 or {n} values in "
+                             "0.01-1 m")
+    IK = ik_rows(n, ang + [0.0] * (4 - n), (dist or [TABLE_III["d"]] * n) + [0.0] * (4 - n))
+    sv = np.linalg.svd(IK, compute_uv=False)
+    if sv[-1] < 0.05 * sv[0]:
+        raise ValueError(f"angles {ang}: the wheels cannot drive v, vn and w independently")
+    return {"wheels": n, "angles_deg": tuple(ang), "dists_m": None if dist is None else
+            tuple(dist)}
+
+
+def sin_cos_deg(angle_deg):
+    """(sin, cos) of an angle [deg]; exact at multiples of 90 deg (the paper's rows, bit for
+    bit)."""
+    a = float(angle_deg) % 360.0
+    if a in _EXACT_SIN_COS:
+        return _EXACT_SIN_COS[a]
+    rad = np.deg2rad(a)
+    return float(np.sin(rad)), float(np.cos(rad))
+
+
+def ik_rows(n, angles_deg, dists_m):
+    """Eq 2 for any layout: 4x3, wheel j's rim speed [m/s] = row j @ [v, vn, w].
+
+    Wheel j sits at distance d_j, angle a_j from the v axis (counter-clockwise), at
+    d_j (cos a_j, sin a_j); it drives perpendicular to its radius, counter-clockwise positive,
+    along t_j = (-sin a_j, cos a_j). Its contact point moves at [v, vn] + w x (its position), whose
+    component along t_j is -sin a_j v + cos a_j vn + d_j w. Rows >= n (no wheel) are zero.
+    The force map (eqs 9-11) is the transpose: a wheel force f along t_j pushes the body by
+    f t_j and turns it by d_j f.
+    """
+    IK = np.zeros((4, 3))
+    for j in range(int(n)):
+        s, c = sin_cos_deg(angles_deg[j])
+        IK[j] = (-s if s else 0.0, c, dists_m[j])
+    return IK
+
+
+def layout_of(p):
+    """(wheels, angles [deg] (4,), distances [m] (4,)) of one robot's parameter dict: absent
+    keys = the paper's layout at distance d; slots without a wheel hold 0."""
+    n = int(p.get("wheels", 4))
+    ang, dist = np.zeros(4), np.zeros(4)
+    for j in range(n):
+        ang[j] = p.get(angle_key(j), PAPER_ANGLES_DEG[j])
+        dist[j] = p.get(dist_key(j), p["d"])
+    return n, ang, dist
+
+
+def robot_ik(p, i):
+    """Robot i's eq 2 rows (4x3) from stacked arrays (the paper's if they carry no layout)."""
+    if "n_wheels" not in p:
+        return ik_matrix(p["d"][i])
+    return ik_rows(p["n_wheels"][i], p["angle_w"][i], p["dist_w"][i])
+
+
+def wheel_mask(p):
+    """(n,4) bool: the slots that hold a wheel (slot 3 of a three-wheel robot does not)."""
+    n = len(p["d"])
+    if "n_wheels" not in p:
+        return np.ones((n, 4), bool)
+    return np.arange(4)[None, :] < np.asarray(p["n_wheels"])[:, None]
+
+
+def axis_patterns(IK):
+    """Voltage per volt of drive along each axis (4,) for the layout of eq 2 rows IK (4x3):
+    the least-norm wheel forces that push along that axis alone (pinv(IK^T) e_a; with equal
+    drives the voltages are proportional to the forces), scaled to a largest |entry| of 1
+    (a run's level is then its largest wheel voltage). The paper's layout: PATTERNS, exactly."""
+    if np.array_equal(IK[:, :2], ik_matrix(1.0)[:, :2]) and np.all(IK[:, 2] == IK[0, 2]):
+        return dict(PATTERNS)
+    P = np.linalg.pinv(IK.T)
+    out = {}
+    for a, ax in enumerate(AXES):
+        col = P[:, a] / np.max(np.abs(P[:, a]))
+        col[np.abs(col) < 1e-12] = 0.0
+        out[ax] = tuple(float(v) for v in col)
+    return out
+
+
 def axis_model(p):
     """Per-axis coefficients of the robot-frame dynamics, arrays with a leading robot axis.
 
     Returns dict: m (n,3) mass / inertia [kg, kg, kg m^2]; B (n,3) viscous friction; C (n,3)
     Coulomb friction [N, N, N m]; K (n,3) back-EMF damping added while driven (same units as B);
     Kc (n,3,3) the back-EMF coupling between axes while driven (zero diagonal); G (n,3,4) drive
-    gain [N/V, N/V, N m/V]; coupled (bool) any robot has a non-zero Kc.
+    gain [N/V, N/V, N m/V]; coupled (bool) any robot has a non-zero Kc; patterns (list of n
+    dicts) each robot's axis voltage patterns (axis_patterns); has_layout (n,) bool robots with
+    their own layout; n_wheels (n,) int; IK (n,4,3) eq 2's rows.
     Driven: F = G u - (diag(K) + Kc) x. Wheel j gives the force f_j = gain_j u_j - emf_j v_j
     (eq 21 in eqs 12-13, v_j = IK_j x), and FM sums them: the back-EMF matrix is
-    FM diag(emf) IK. With four equal wheels it is FM IK emf, diagonal (checked), and each axis
-    is solved on its own; with unequal wheels the off-diagonal part couples w with v and vn.
+    FM diag(emf) IK (FM = IK^T, eq 2's rows of the robot's layout). With four equal wheels on
+    the paper's layout it is FM IK emf, diagonal (checked), and each axis is solved on its own;
+    with unequal wheels or an asymmetric layout the off-diagonal part couples the axes.
     """
     n = len(p["d"])
     m = np.stack([p["M"], p["M"], p["J"]], axis=1)
@@ -145,36 +305,83 @@ def axis_model(p):
     K = np.empty((n, 3))
     Kc = np.zeros((n, 3, 3))
     G = np.empty((n, 3, 4))
+    patterns = []
     for i in range(n):
-        d, l = p["d"][i], p["l"][i]
+        l = p["l"][i]
         r, R, Kt, Kv = p["r_w"][i], p["R_w"][i], p["Kt_w"][i], p["Kv_w"][i]
-        FM, IK = force_matrix(d), ik_matrix(d)
+        IK = robot_ik(p, i)
+        FM = IK.T
         gain = l * Kt / (r * R)                 # wheel force per volt [N/V], per wheel
         emf = gain * Kv * l / r                 # wheel force per wheel speed [N s/m], per wheel
         if np.all(emf == emf[0]) and np.all(gain == gain[0]):
             D = FM @ IK * emf[0]
-            if np.max(np.abs(D - np.diag(np.diag(D)))) > 1e-12 * np.max(np.abs(D)):
-                raise ValueError("robot-frame dynamics do not decouple")
+            off = D - np.diag(np.diag(D))
+            if np.max(np.abs(off)) > 1e-12 * np.max(np.abs(D)):
+                if "has_layout" not in p or not p["has_layout"][i]:
+                    raise ValueError("robot-frame dynamics do not decouple")
+                # an asymmetric layout: eq 23's term couples (round-off left out)
+                Kc[i] = np.where(np.abs(off) > 1e-12 * np.max(np.abs(D)), off, 0.0)
         else:
             D = (FM * emf[None, :]) @ IK
             Kc[i] = D - np.diag(np.diag(D))
         K[i] = np.diag(D)
         G[i] = FM * gain[None, :]
-    return {"m": m, "B": B, "C": C, "K": K, "Kc": Kc, "G": G, "coupled": bool(np.any(Kc))}
+        patterns.append(axis_patterns(IK))
+    lay = np.asarray(p.get("has_layout", np.zeros(n, bool)), bool)
+    nw = np.asarray(p.get("n_wheels", np.full(n, 4)), int)
+    return {"m": m, "B": B, "C": C, "K": K, "Kc": Kc, "G": G, "coupled": bool(np.any(Kc)),
+            "patterns": patterns, "has_layout": lay, "n_wheels": nw,
+            "IK": np.array([robot_ik(p, i) for i in range(n)])}
 
 
 # ---- closed forms (planning the experiments and the self-test) ------------------------------
 
+def _layout_coupled(model, i):
+    """True if robot i has its own layout and its axes couple while driven."""
+    return bool(model.get("has_layout", np.zeros(i + 1, bool))[i]) and bool(
+        np.any(model["Kc"][i]))
+
+
 def steady_state(model, i, u):
-    """Steady robot velocity [v, vn, w] of robot i under constant voltages u (4,) [V]."""
+    """Steady robot velocity [v, vn, w] of robot i under constant voltages u (4,) [V].
+
+    A robot with its own layout whose axes couple: the rest point of the coupled balance
+    (coupled_steady_state); otherwise each axis on its own (the coupling of unequal drives on
+    the paper's layout is left out: a few per cent, planning only)."""
     F = model["G"][i] @ np.asarray(u, float)
     C, Beff = model["C"][i], model["B"][i] + model["K"][i]
+    if _layout_coupled(model, i):
+        return coupled_steady_state(np.diag(Beff) + model["Kc"][i], F, C)
     return np.where(np.abs(F) > C, (F - C * np.sign(F)) / Beff, 0.0)
 
 
+def coupled_steady_state(A, F, C):
+    """Rest point x (3,) of A x = F - C sgn(x) with stiction: an axis with a sign solves its
+    row, an axis at 0 needs |F - A x| <= C on its row. Tries the 27 sign patterns, the fewest
+    moving axes last; returns the first consistent one (zeros if none)."""
+    pats = sorted(itertools.product((-1, 0, 1), repeat=3), key=lambda s: -np.count_nonzero(s))
+    for sign in pats:
+        s = np.array(sign, float)
+        free = s != 0
+        x = np.zeros(3)
+        if free.any():
+            x[free] = np.linalg.solve(A[np.ix_(free, free)], (F - C * s)[free])
+        if np.all(np.sign(x[free]) == s[free]) and np.all(
+                np.abs((F - A @ x)[~free]) <= C[~free]):
+            return x
+    return np.zeros(3)
+
+
 def time_constant(model, i, driven):
-    """Time constants per axis (3,) [s] of robot i, driven (back-EMF damping) or coasting."""
-    return model["m"][i] / (model["B"][i] + (model["K"][i] if driven else 0.0))
+    """Time constants per axis (3,) [s] of robot i, driven (back-EMF damping) or coasting.
+
+    Driven, with its own layout whose axes couple: each axis's own or the coupled system's
+    slowest (1 / the smallest eigenvalue of m^-1 (B + K + Kc)), whichever is longer."""
+    tau = model["m"][i] / (model["B"][i] + (model["K"][i] if driven else 0.0))
+    if driven and _layout_coupled(model, i):
+        A = (np.diag(model["B"][i] + model["K"][i]) + model["Kc"][i]) / model["m"][i][:, None]
+        tau = np.maximum(tau, 1.0 / float(np.min(np.linalg.eigvals(A).real)))
+    return tau
 
 
 def stop_time(model, i, x0):
@@ -298,7 +505,7 @@ def _wheels(p, q, i):
 
 def motor_currents(p, u, driven, x, rng, offset_a=None):
     """Measured currents (T,n,4) [A]: eq 21 with each motor's own R_j, Kv_j and wheel radius
-    r_j while driven, 0 otherwise, + N(0, 0.02 A) noise.
+    r_j while driven, 0 otherwise, + N(0, 0.02 A) noise; 0 exactly in a slot without a wheel.
 
     u (T,n,4) [V], driven (T,n), x (T,n,3) robot velocity at the tick start (when sampled).
     offset_a (n,4) [A]: the current sense's constant offset per motor channel, added to every
@@ -307,13 +514,16 @@ def motor_currents(p, u, driven, x, rng, offset_a=None):
     T, n = driven.shape
     i_true = np.empty((T, n, 4))
     for i in range(n):
-        d, l = p["d"][i], p["l"][i]
-        wm = l * (x[:, i, :] @ ik_matrix(d).T) / _wheels(p, "r", i)      # motor speed [rad/s]
+        l = p["l"][i]
+        wm = l * (x[:, i, :] @ robot_ik(p, i).T) / _wheels(p, "r", i)    # motor speed [rad/s]
         i_true[:, i, :] = (u[:, i, :] - _wheels(p, "Kv", i) * wm) / _wheels(p, "R", i)
     i_true *= driven[:, :, None]
     reading = i_true + rng.normal(0.0, CURRENT_NOISE_A, size=i_true.shape)
     if offset_a is not None:
         reading += np.asarray(offset_a, float)[None]
+    mask = wheel_mask(p)
+    if not mask.all():                          # no motor in the slot: the channel reads 0
+        reading = np.where(mask[None], reading, 0.0)
     return reading
 
 
@@ -323,7 +533,7 @@ def wheel_angles(p, X):
     T, n, _ = X.shape
     ang = np.zeros((T + 1, n, 4))
     for i in range(n):
-        dang = X[:, i, :] @ ik_matrix(p["d"][i]).T / _wheels(p, "r", i)
+        dang = X[:, i, :] @ robot_ik(p, i).T / _wheels(p, "r", i)
         ang[1:, i, :] = np.cumsum(dang, axis=0)
     return ang
 

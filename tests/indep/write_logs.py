@@ -12,6 +12,10 @@ robot whatever --robots says.
 Real sensors (--sensors): offsets, eccentricity, jitter, latency, losses, all or none. Default:
 all for the `sensors` layout, none for the others.
 
+Wheel layouts (--wheels 3|4, --angles A0,A1,.. [deg], --dist D|D0,D1,.. [m], or --geometry INI):
+the robots have that layout (default the paper's, 0/90/180/270 deg at d); the truth INI gets
+wheels, wheel_angle_j and d_j, the base INI does not; a three-wheel robot's slot 3 reads 0.
+
 Needs the PyPI `lcm` package (lcm.EventLog) and the lcm-gen Python types of lcmtypes/ (package
 omni4, generated at build time into build/lcmtypes/gen/python).
 """
@@ -143,15 +147,18 @@ def simulate_timelines(tls, plist, dt, jitter=None):
             "tick_us": tick_us}
 
 
-def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=(), wheels=None):
+def simulate_layout(layout, seed, robots, omit=(), motor_subset=None, effects=(), wheels=None,
+                    geometry=None):
     """Build the timelines of `robots` in `layout` and simulate them in one vectorised pass.
 
     The robots must share one loop rate (generate() groups the `sensors` layout's robots by
-    rate). wheels: the per-wheel spread (R, Kv, r) fractions of plant.robot_params, None = equal. Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
+    rate). wheels: the per-wheel spread (R, Kv, r) fractions of plant.robot_params, None = equal;
+    geometry: the wheel layout (plant.make_geometry), None = the paper's.
+    Returns simulate_timelines' dict plus layout, robots, bases (base layout per robot)
     and cpr (encoder counts per wheel revolution per robot).
     Raises LogError if a layout's "robot at rest here" check fails.
     """
-    plist = [plant.robot_params(seed, k, wheels) for k in robots]
+    plist = [plant.robot_params(seed, k, wheels, geometry) for k in robots]
     model = plant.axis_model(plant.stack_params(plist))
     tls, dts, cprs, bases = [], set(), [], []
     for i, k in enumerate(robots):
@@ -224,6 +231,9 @@ def sensor_data(sim, i, robot, seed, layout, speed_noise=None, effects=()):
     if speed_noise:  # an effect the model lacks: correlated wheel-speed measurement noise
         speed = speed + colored_noise(np.random.default_rng([int(seed), int(robot), 33]),
                                       speed.shape, speed_noise[0], speed_noise[1], dt)
+    slots = plant.wheel_mask(p)[0]               # a three-wheel robot's slot 3 reads 0
+    if not slots.all():
+        speed = np.where(slots[None], speed, 0.0)
     pose0 = np.array([[rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-np.pi, np.pi)]])
     pose = plant.world_poses(X, pose0)[:, 0]
     period = int(round(1.0 / (plant.CAMERA_RATE_HZ * dt)))
@@ -255,8 +265,8 @@ def sensor_data(sim, i, robot, seed, layout, speed_noise=None, effects=()):
         "effects": list(effects),
         "loop_rate_hz": 1.0 / dt, "encoder_cpr_per_wheel_rev": int(cpr), "gear": float(p["l"][0]),
         # what the log holds (zero / empty where the effect is off)
-        "current_offset_a": [float(v) if "offsets" in on else 0.0
-                             for v in sp["current_offset_a"]],
+        "current_offset_a": [float(v) if "offsets" in on and s else 0.0
+                             for v, s in zip(sp["current_offset_a"], slots)],
         "encoder_eccentricity": [float(v) if "eccentricity" in on else 0.0
                                  for v in sp["eccentricity"]],
         "encoder_eccentricity_phase_rad": [float(v) for v in sp["eccentricity_phase_rad"]],
@@ -290,11 +300,13 @@ def rate_groups(layout, robots):
 
 
 def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print, speed_noise=None, sensors=None, wheels=None):
+             progress=print, speed_noise=None, sensors=None, wheels=None, geometry=None):
     """Simulate `robots` in `layout` and write their logs, INI files and sensor sidecars.
 
     sensors: tuple of real-sensor effects (parse_sensors), None = the layout's default.
     wheels: per-wheel spread (R, Kv, r) fractions (parse_wheels), None = four equal drives.
+    geometry: the wheel layout (parse_geometry), None = the paper's; its keys (wheels,
+    wheel_angle_j, d_j) go into the truth INI only.
     Returns a list of dicts (robot, log, base, truth, sensors (sidecar path), effects,
     base_layout, seconds, counts) in robot order.
     """
@@ -305,7 +317,8 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
     t_sim, out, rates, cprs = 0.0, [], set(), set()
     for group in rate_groups(layout, robots):
         t = time.time()
-        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects, wheels)
+        sim = simulate_layout(layout, seed, group, omit, motor_subset, effects, wheels,
+                              geometry)
         t_sim += time.time() - t
         rates.add(1.0 / sim["dt"])
         cprs.update(sim["cpr"])
@@ -346,6 +359,36 @@ def parse_wheels(text):
         raise ValueError(f"--wheel-spread {text!r}: expected R,KV,RADIUS in per cent, each "
                          "0-20, e.g. 5,5,1")
     return v if any(v) else None
+
+
+def parse_geometry(wheels=None, angles=None, dist=None, ini=None):
+    """The wheel layout from --wheels N, --angles A0,A1,.. [deg], --dist D or D0,D1,.. [m], or
+    an INI's [model] wheels / wheel_angle_j / d_j (--geometry); None if none is given (the
+    paper's layout). Raises ValueError with one line."""
+    if ini is not None:
+        if wheels is not None or angles is not None or dist is not None:
+            raise ValueError("--geometry excludes --wheels, --angles and --dist")
+        try:
+            m = read_ini(ini)
+        except (OSError, ValueError) as e:
+            raise ValueError(f"--geometry {ini}: {e}") from None
+        n = int(m.get("wheels", 4))
+        if n not in (3, 4) or m.get("wheels", 4) != n:
+            raise ValueError(f"--geometry {ini}: wheels must be 3 or 4")
+        angles = [m[plant.angle_key(j)] for j in range(n) if plant.angle_key(j) in m] or None
+        dists = [m[plant.dist_key(j)] for j in range(n) if plant.dist_key(j) in m] or None
+        return plant.make_geometry(n, angles, dists)
+    if wheels is None and angles is None and dist is None:
+        return None
+
+    def floats(text, opt):
+        try:
+            return [float(v) for v in str(text).split(",")]
+        except ValueError:
+            raise ValueError(f"{opt} {text!r}: expected comma-separated numbers") from None
+    n = 4 if wheels is None else wheels
+    return plant.make_geometry(n, None if angles is None else floats(angles, "--angles"),
+                               None if dist is None else floats(dist, "--dist"))
 
 
 def parse_subset(text):
@@ -400,6 +443,16 @@ def main(argv=None):
                     help="per-wheel drives: each motor's R and Kv off by up to +-R %%, +-KV %%, "
                          "each wheel's radius by up to +-RADIUS %% (mean unchanged); the truth "
                          "INI gets R_j Kv_j Kt_j r_j (default 0,0,0: four equal drives)")
+    ap.add_argument("--wheels", type=int, choices=(3, 4),
+                    help="wheel layout: number of wheels (default 4, the paper's layout)")
+    ap.add_argument("--angles", metavar="A0,A1,..",
+                    help="each wheel's position [deg] from the v axis, counter-clockwise "
+                         "(e.g. 0,120,240 or 60,135,225,300; default 0,90,180,270)")
+    ap.add_argument("--dist", metavar="D|D0,D1,..",
+                    help="each wheel's distance from the centre [m] (one value: all; default: "
+                         "the robot's d)")
+    ap.add_argument("--geometry", metavar="INI",
+                    help="the layout from an INI's [model] wheels, wheel_angle_j, d_j")
     ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
                     help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
                          "correlation time TAU [s], e.g. 0.3,0.02")
@@ -412,6 +465,7 @@ def main(argv=None):
             raise ValueError("--robots must be at least 1")
         sensors = None if a.sensors is None else parse_sensors(a.sensors)
         wheels = parse_wheels(a.wheel_spread)
+        geometry = parse_geometry(a.wheels, a.angles, a.dist, a.geometry)
         noise = None
         if a.speed_noise:
             try:
@@ -423,7 +477,8 @@ def main(argv=None):
                                  "SIGMA >= 0 [rad/s] and TAU > 0 [s]")
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
-                           a.lcm_python, None if a.quiet else print, noise, sensors, wheels)
+                           a.lcm_python, None if a.quiet else print, noise, sensors, wheels,
+                           geometry)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
