@@ -343,6 +343,35 @@ static void test_the_loads_carry_the_weight_and_the_tipping_moment(void **state)
 	loads_run(&h, &g, u3);
 }
 
+/* Three equal wheels at rest each carry M g / 3 (not the paper's quarter) and hold
+ * mu M g / 3: a wheel force of 95 % of it (b u at rest) grips, 120 % slips. (Just above the
+ * limit the excess spins the wheel's own inertia no faster than the body turns under it: the
+ * rim stays with the ground, as the floor's wheel inertia says; test_plant_load.c.) */
+static uint32_t three_wheels_pushed(double share)
+{
+	const double a[4] = {0, 120, 240, 0}, dist[4] = {0.1, 0.1, 0.1, 0};
+	const struct plant_floor f = {.traction_mu = 0.1, .wheel_inertia = 1e-4};
+	const double U = share * f.traction_mu * P->M * G_M_S2 / 3.0 / drive_gain();
+	const double u[4] = {U, U, U, U};
+	struct hand h;
+	struct wheel_geom g;
+	struct plant pl;
+
+	hand_layout(3, a, dist, &h, &g);
+	assert_int_equal(plant_init(&pl, P), 0);
+	assert_int_equal(plant_set_geom(&pl, &g), 0);
+	assert_int_equal(plant_set_floor(&pl, &f), 0);
+	plant_step(&pl, u, true, DT);
+	return plant_slip_flags(&pl);
+}
+
+static void test_three_wheels_hold_a_third_of_the_weight_times_mu(void **state)
+{
+	(void)state;
+	assert_int_equal(three_wheels_pushed(0.95), 0);
+	assert_int_equal(three_wheels_pushed(1.2), 7); /* wheels 0-2; slot 3 never */
+}
+
 /* Everything a caller reads, plant a against plant b within rel of each value (at least of 1;
  * the loads of M g: they take the acceleration by finite difference over a substep). */
 static void assert_same_plant(const struct plant *a, const struct plant *b, double rel)
@@ -448,6 +477,7 @@ int main(void)
 	    cmocka_unit_test(test_a_pure_v_pattern_on_an_asymmetric_four_moves_along_v_only),
 	    cmocka_unit_test(test_a_push_with_the_bridges_off_decays_as_the_papers),
 	    cmocka_unit_test(test_the_loads_carry_the_weight_and_the_tipping_moment),
+	    cmocka_unit_test(test_three_wheels_hold_a_third_of_the_weight_times_mu),
 	    cmocka_unit_test(test_the_papers_layout_given_is_the_plant_without_one),
 	    cmocka_unit_test(test_a_bad_layout_is_refused_and_null_restores_the_paper),
 	};
