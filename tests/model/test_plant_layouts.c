@@ -8,7 +8,8 @@
  * torque balances back-EMF, viscous and Coulomb friction (and an unequal three the coupled
  * steady state); a least-norm pure-v voltage pattern on an asymmetric four moves the body along
  * v only, on eq 23's v closed form; a push with the bridges off decays as the paper's
- * viscous/Coulomb closed form; the loads carry M g and the tipping moment; the paper's layout
+ * viscous/Coulomb closed form; the loads carry M g and the tipping moment, and three equal
+ * wheels each hold mu M g / 3; the paper's layout
  * given explicitly is the plant without a layout within 1e-12; a bad layout is refused.
  */
 #include "omni4_test.h"
