@@ -1,5 +1,6 @@
 /* plant.c - exact per-axis integration of eq 23 with Coulomb friction and stiction, and the
- * floor: traction limit, wheel inertia, radius errors, creep (plant.h). */
+ * floor: traction limit, wheel inertia, radius errors, creep; any three or four wheels
+ * (plant.h). */
 #include "omni4/model/plant.h"
 #include "omni4/model/consts.h"
 
@@ -68,12 +69,61 @@ int plant_init(struct plant *pl, const struct model_params *p)
 	dyn_state_space(p, &pl->ss);
 	pl->friction_scale = 1.0;
 	pl->floor = (struct plant_floor){0};
+	pl->has_geom = false;
+	pl->coupled = false;
 	for (int j = 0; j < 4; j++) {
 		pl->r_eff[j] = p->r;
 		pl->R_eff[j] = p->R;
 		pl->Kv_eff[j] = p->Kv;
 		pl->Kt_eff[j] = p->Kt;
 	}
+	plant_reset(pl);
+	return 0;
+}
+
+/* Eq 23 for the layout with the nominal drives (the floor's per-wheel errors take the
+ * substep path): A = A_coast - m^-1 G^T diag(e) G, B = m^-1 G^T diag(b), m = (M, M, J),
+ * e_j = b_j kemf_j; coupled unless A's off-diagonal entries vanish to rounding against its
+ * diagonal (then the exact per-axis step drops terms of 1e-12 of the diagonal's or less). */
+static void geom_state_space(struct plant *pl)
+{
+	const struct wheel_phys *ph = &pl->ph;
+	const double inertia[3] = {pl->p.M, pl->p.M, pl->p.J};
+	double E[3][3] = {{0}}; /* G^T diag(e) G [N/(m/s)], [N/(rad/s)], [N m/(rad/s)] */
+
+	for (int j = 0; j < ph->n; j++)
+		for (int k = 0; k < 3; k++)
+			for (int m = 0; m < 3; m++)
+				E[k][m] += ph->row[j][k] * ph->b[j] * ph->kemf[j] * ph->row[j][m];
+	pl->coupled = false;
+	for (int k = 0; k < 3; k++) {
+		pl->ss.A[k] = pl->ss.A_coast[k] - E[k][k] / inertia[k];
+		for (int j = 0; j < 4; j++) /* an absent wheel's row is 0 */
+			pl->ss.B[k][j] = ph->row[j][k] * ph->b[j] / inertia[k];
+		for (int m = 0; m < 3; m++)
+			if (m != k && fabs(E[k][m]) > 1e-12 * sqrt(E[k][k] * E[m][m]))
+				pl->coupled = true;
+	}
+}
+
+/* The layout's rows, drives and loads (the floor's com_height); ph untouched on -EINVAL. */
+static int geom_prepare(struct plant *pl, const struct wheel_geom *g)
+{
+	struct model_wheels w;
+
+	model_wheels_from_params(&pl->p, &w);
+	return wheel_phys_init(&pl->ph, g, &pl->p, &w, pl->floor.com_height);
+}
+
+int plant_set_geom(struct plant *pl, const struct wheel_geom *g)
+{
+	if (g && geom_prepare(pl, g))
+		return -EINVAL;
+	pl->has_geom = g != NULL;
+	pl->coupled = false;
+	if (g)
+		pl->geom = *g;
+	plant_set_friction_scale(pl, pl->friction_scale); /* eq 23: the paper's or the layout's */
 	plant_reset(pl);
 	return 0;
 }
@@ -96,6 +146,8 @@ int plant_set_floor(struct plant *pl, const struct plant_floor *f)
 		pl->Kv_eff[j] = pl->p.Kv * (1.0 + f->Kv_error[j]);
 		pl->Kt_eff[j] = pl->p.Kt * (1.0 + f->Kv_error[j]);
 	}
+	if (pl->has_geom)
+		(void)geom_prepare(pl, &pl->geom); /* the loads' com_height; the layout was taken */
 	plant_reset(pl);
 	return 0;
 }
@@ -140,6 +192,17 @@ void plant_set_friction_scale(struct plant *pl, double scale)
 	p.Cw *= scale;
 	pl->friction_scale = scale;
 	dyn_state_space(&p, &pl->ss);
+	if (pl->has_geom)
+		geom_state_space(pl);
+}
+
+/* Eq 2: the ground speed at each wheel [m/s] of robot velocity x (an absent wheel's 0). */
+static void rims_of(const struct plant *pl, const double x[3], double vg[4])
+{
+	if (pl->has_geom)
+		wheel_rims(&pl->ph, x, vg);
+	else
+		ik_wheel_speeds(pl->p.d, x, vg);
 }
 
 /* The paper's plant: every wheel grips (the whole step exact per axis). */
@@ -202,7 +265,7 @@ static void exact_step(struct plant *pl, const double u[4], bool driven, double 
 
 	double vw[4];
 
-	ik_wheel_speeds(pl->p.d, pl->x, vw);
+	rims_of(pl, pl->x, vw);
 	for (int j = 0; j < 4; j++) {
 		pl->voltage_v[j] = driven ? u[j] : 0.0;
 		pl->current_a[j] =
@@ -220,10 +283,20 @@ static double traction_limit(const struct plant *pl)
 
 /* Normal loads N_j with the load transfer of acceleration acc at velocity x (plant.h), and the
  * drive-direction force each holds, mu N_j. */
-static void wheel_loads(const struct plant *pl, const double x[3], const double acc[3],
-                        double normal[4], double hold[4])
+static void loads_at(const struct plant *pl, const double x[3], const double acc[3],
+                     double normal[4], double hold[4])
 {
 	const struct model_params *p = &pl->p;
+
+	if (pl->has_geom) { /* the layout's least-norm loads (wheels.h) */
+		double ac[2];
+
+		wheel_com_accel(x, acc, ac);
+		wheel_loads(&pl->ph, ac, normal);
+		for (int j = 0; j < 4; j++)
+			hold[j] = pl->floor.traction_mu * normal[j];
+		return;
+	}
 	const double quarter = p->M * MODEL_G_M_S2 / 4.0;
 	const double av = acc[0] - x[2] * x[1], avn = acc[1] + x[2] * x[0]; /* centre of mass */
 	const double ap[4] = {av, avn, -av, -avn};                          /* a . p_j / d */
@@ -237,7 +310,7 @@ static void wheel_loads(const struct plant *pl, const double x[3], const double 
 
 void plant_wheel_loads(const struct plant *pl, double normal_n[4], double hold_n[4])
 {
-	wheel_loads(pl, pl->x, pl->acc, normal_n, hold_n);
+	loads_at(pl, pl->x, pl->acc, normal_n, hold_n);
 }
 
 /* Traction force [N] a gripping wheel j needs at ground speed v [m/s] (massless wheel,
@@ -260,8 +333,8 @@ static bool beyond_limit(const struct plant *pl, const double u[4], bool driven,
 
 	if (!(pl->floor.traction_mu > 0.0))
 		return false;
-	wheel_loads(pl, x, acc, normal, lim);
-	ik_wheel_speeds(pl->p.d, x, vg);
+	loads_at(pl, x, acc, normal, lim);
+	rims_of(pl, x, vg);
 	for (int j = 0; j < 4; j++)
 		if (fabs(grip_force(pl, j, u[j], driven, vg[j])) > lim[j])
 			return true;
@@ -273,6 +346,8 @@ static double g_coef(const struct plant *pl, int k, int j)
 {
 	static const double G[3][4] = {{0, -1, 0, 1}, {1, 0, -1, 0}, {1, 1, 1, 1}};
 
+	if (pl->has_geom)
+		return pl->ph.row[j][k]; /* G^T of the layout's rows */
 	return k == 2 ? pl->p.d * G[2][j] : G[k][j];
 }
 
@@ -281,6 +356,8 @@ static double ik_coef(const struct plant *pl, int j, int k)
 {
 	static const double IK[4][3] = {{0, 1, 1}, {-1, 0, 1}, {0, -1, 1}, {1, 0, 1}};
 
+	if (pl->has_geom)
+		return pl->ph.row[j][k];
 	return k == 2 ? pl->p.d * IK[j][2] : IK[j][k];
 }
 
@@ -295,7 +372,7 @@ static void substep_forces(struct plant *pl, const double u[4], bool driven, con
 	const double inertia[3] = {p->M, p->M, p->J};
 	double vg[4];
 
-	ik_wheel_speeds(p->d, pl->x, vg);
+	rims_of(pl, pl->x, vg);
 	for (int k = 0; k < 3; k++) {
 		a[k] = pl->ss.A_coast[k]; /* viscous friction only: the motors come in per wheel */
 		b[k] = pl->ext_force[k] / inertia[k];
@@ -350,7 +427,7 @@ static void substep_wheels(struct plant *pl, const double u[4], bool driven, con
 	const double Jw = pl->floor.wheel_inertia;
 	double vg[4];
 
-	ik_wheel_speeds(p->d, pl->x, vg);
+	rims_of(pl, pl->x, vg);
 	for (int j = 0; j < 4; j++) {
 		if (!pl->slipping[j]) {
 			pl->rim[j] = vg[j];
@@ -380,7 +457,7 @@ static void floor_substep(struct plant *pl, const double u[4], bool driven, doub
 	double a[3], b[3], normal[4], lim[4];
 	int dir[4];
 
-	wheel_loads(pl, pl->x, pl->acc, normal, lim);
+	loads_at(pl, pl->x, pl->acc, normal, lim);
 	substep_forces(pl, u, driven, lim, a, b, dir);
 	if (pl->blocked) {
 		for (int k = 0; k < 3; k++) {
@@ -435,9 +512,12 @@ static void creep_step(struct plant *pl, double dt)
 		pl->creep[j] = phi * pl->creep[j] + rng_normal(&pl->rng, q);
 }
 
-void plant_step(struct plant *pl, const double u[4], bool driven, double dt)
+void plant_step(struct plant *pl, const double u_v[4], bool driven, double dt)
 {
-	bool general = pl->blocked;
+	const int n = pl->has_geom ? pl->ph.n : 4;
+	/* A three-wheel robot has no motor in slot 3: 0 V there (its row and load are 0 too). */
+	const double u[4] = {u_v[0], u_v[1], u_v[2], n > 3 ? u_v[3] : 0.0};
+	bool general = pl->blocked || (pl->coupled && driven); /* coupled: substeps (plant.h) */
 
 	for (int j = 0; j < 4; j++)
 		general = general || pl->slipping[j] || pl->floor.radius_error[j] != 0.0 ||
@@ -476,7 +556,7 @@ void plant_wheel_speeds(const struct plant *pl, double wheel_rad_s[4])
 			wheel_rad_s[j] = pl->rim[j] / pl->r_eff[j];
 		return;
 	}
-	ik_wheel_speeds(pl->p.d, pl->x, vg);
+	rims_of(pl, pl->x, vg);
 	creep_m_s(pl, vg, c);
 	for (int j = 0; j < 4; j++)
 		wheel_rad_s[j] = (pl->rim[j] + c[j]) / pl->r_eff[j];
@@ -486,7 +566,7 @@ void plant_wheel_slip(const struct plant *pl, double slip_m_s[4])
 {
 	double vg[4], c[4];
 
-	ik_wheel_speeds(pl->p.d, pl->x, vg);
+	rims_of(pl, pl->x, vg);
 	creep_m_s(pl, vg, c);
 	for (int j = 0; j < 4; j++)
 		slip_m_s[j] = pl->rim[j] + c[j] - vg[j];

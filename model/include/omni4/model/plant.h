@@ -47,6 +47,22 @@
  * - A robot that changes as it runs, set by the caller between steps: each motor's resistance
  *   (a warm winding: plant_set_resistance; then the per-wheel path) and the body's friction
  *   (a new floor: plant_set_friction_scale).
+ *
+ * The layout (plant_set_geom; none given: the paper's four at 0/90/180/270 deg at d, the closed
+ * forms above, to the last bit as without it). A layout given (struct wheel_geom: three or four
+ * wheels, any angles and distances) replaces eq 2's rows, eqs 9-11's G^T, the loads and eq 23
+ * with those of struct wheel_phys, prepared once (no trigonometry per step): rims G x, body
+ * force G^T f, loads load0 + load_a a_c, and A = A_coast - m^-1 G^T diag(e) G,
+ * B = m^-1 G^T diag(b), m = (M, M, J), e_j = b_j kemf_j. When A's off-diagonal entries vanish
+ * to rounding (the paper's rows; three or four equal wheels evenly spaced at one distance) the
+ * step stays exact per axis as above. Otherwise the back-EMF couples the axes, and x' = A x +
+ * B u + K sgn(x) with a full A and Coulomb friction has no closed form per axis: a driven step
+ * takes the substep path of the floor (substeps of at most PLANT_SUBSTEP_S, each exact in its
+ * own axis's back-EMF with the other axes' held from the substep's start: an error of order
+ * PLANT_SUBSTEP_S times the coupling, 1e-4 s x a few 1/s). With the H-bridges off there is no
+ * back-EMF: A_coast is diagonal and the exact path holds for every layout. A three-wheel robot
+ * has no motor in slot 3: its voltage is taken as 0, and it reports 0 V, 0 A, 0 rad/s, a load
+ * of 0 and never slips.
  */
 #ifndef OMNI4_PLANT_H
 #define OMNI4_PLANT_H
@@ -57,6 +73,7 @@
 #include "omni4/model/dynamics.h"
 #include "omni4/model/params.h"
 #include "omni4/model/rng.h"
+#include "omni4/model/wheels.h"
 
 #define PLANT_SUBSTEP_S 1e-4  /* longest substep while a wheel slips [s] */
 #define PLANT_CREEP_TAU_S 0.2 /* time constant of the creep process [s] */
@@ -94,6 +111,11 @@ struct plant {
 	double ext_force[3];   /* external force on the body [Fv N, Fvn N, T N m] */
 	bool blocked;          /* body held at rest (velocity 0, pose fixed) */
 	double friction_scale; /* Bv..Cw of p scaled by it in ss (plant_set_friction_scale) */
+	/* The layout (plant_set_geom); none: the paper's closed forms. */
+	bool has_geom;
+	bool coupled;           /* the layout's A not diagonal: driven steps take substeps */
+	struct wheel_geom geom; /* as given */
+	struct wheel_phys ph;   /* its rows, drives (nominal) and loads (floor's com_height) */
 };
 
 /* -EINVAL if p fails model_params_check. Starts at rest at the origin, the floor off. */
@@ -104,6 +126,10 @@ void plant_reset(struct plant *pl);
 /* The floor's settings (then plant_reset). -EINVAL if mu < 0, J_w <= 0 with mu > 0, an |e_j|
  * (radius, R or Kv error) >= 0.5, slip_noise < 0, com_height < 0 or anything not finite. */
 int plant_set_floor(struct plant *pl, const struct plant_floor *f);
+/* The wheels' layout from now on (then plant_reset); NULL: the paper's closed forms again, as
+ * after plant_init. -EINVAL (nothing changed) for a layout wheel_phys_init refuses; kept across
+ * plant_set_floor (which re-prepares its loads at the new com_height). */
+int plant_set_geom(struct plant *pl, const struct wheel_geom *g);
 
 /* Each motor + bridge resistance from now on [ohm] (R_eff; plant_set_floor sets them back to
  * R (1 + R_error_j)). Every R_j must be > 0 and finite (unchecked: the caller's model is). */
