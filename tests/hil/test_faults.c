@@ -277,13 +277,15 @@ static void test_logger_stalled_loop_keeps_its_rate_and_counts_the_loss(void **s
 		fw_tick(&fw, (int64_t)k * 1000);
 	assert_int_equal(fw.n.ticks, 20000);
 	/* 20000 samples, the one set of current offsets the idle robot calibrated at start, the
-	 * state estimate at FW_STATE_HZ (its flags never change here: no camera all along) and
-	 * the motor constants in use at FW_ADAPT_HZ. */
+	 * state estimate at FW_STATE_HZ (its flags never change here: no camera all along), the
+	 * motor constants in use at FW_ADAPT_HZ and the robot's layout at FW_ROBOT_HZ. */
 	assert_int_equal(fw.ctl.cal.gen, 1);
 	const int states = (int)(20000 / (1000.0 / FW_STATE_HZ));
 	const int adapts = (int)(20000 / (1000.0 / FW_ADAPT_HZ));
+	const int robots = (int)(20000 / (1000.0 / FW_ROBOT_HZ));
 
-	assert_int_equal(fw.n.log_dropped, 20000 + 1 + states + adapts - FW_LOG_RING_SLOTS);
+	assert_int_equal(fw.n.log_dropped,
+	                 20000 + 1 + states + adapts + robots - FW_LOG_RING_SLOTS);
 	assert_true(fw.last_out.faults & OMNI4_MOTORS_T_FAULT_LOG_OVERFLOW);
 	/* The ring still holds the oldest samples, in order. */
 	struct log_entry e;
