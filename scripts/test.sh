@@ -7,7 +7,7 @@
 #             the core's HIL scenarios under qemu-system-arm (compared with the host's)
 #   asan      unit + hil tiers under AddressSanitizer + UndefinedBehaviorSanitizer
 #   tsan      unit + hil tiers under ThreadSanitizer (loop, rings, LCM threads)
-#   fuzz      libFuzzer on the CAN decoder, INI parser, command handler, log reader (45 s each)
+#   fuzz      libFuzzer on the CAN decoder, INI parser, command handler, log reader (30 s each)
 # Extra arguments go to every ctest run (e.g. -L unit). Ends with one summary line.
 set -uo pipefail
 cd "$(dirname "$0")/.."
