@@ -607,7 +607,8 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
 	for (const char *p : kIdentParams) {
 		const auto it = b.final.find(p);
 		const Estimate e = find_estimate(r, "final", p);
-		if (!e.ok())
+		if (!e.ok() ||
+		    find_estimate(r, "drive", p).ok()) // the drive's: nothing to resample
 			continue;
 		if (it == b.final.end()) {
 			std::printf("%-5s %12.5g %12.2g %12s\n", p, e.value, e.se, "-");
