@@ -57,6 +57,7 @@ struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bo
 	                .battery_resistance_ohm = sim->battery_resistance,
 	                .floor_change_s = sim->floor_change_s,
 	                .floor_friction_scale = sim->floor_friction_scale},
+	    .drive = {.current = sim->current_drive, .R_ohm = plant->R, .Kv = plant->Kv},
 	};
 }
 
@@ -108,6 +109,9 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 	/* The queue holds latency x rate frames, plus the one captured at the delivery tick. */
 	if (!(cfg->camera_latency_s >= 0.0) ||
 	    !(cfg->camera_latency_s * cfg->camera_rate_hz < SIM_CAM_QUEUE - 1))
+		return -EINVAL;
+	if (cfg->drive.current && !(cfg->drive.R_ohm > 0.0 && isfinite(cfg->drive.R_ohm) &&
+	                            cfg->drive.Kv > 0.0 && isfinite(cfg->drive.Kv)))
 		return -EINVAL;
 	memset(s, 0, sizeof(*s));
 	struct plant_floor floor = cfg->floor;
@@ -330,6 +334,35 @@ static void changes_after_step(struct sim_motor *s, double dt)
 	}
 }
 
+/* A current drive's step: the currents it commands for the voltages written (eq 21 solved for
+ * i with the model's R and Kv at the last reported wheel speeds), held by its current loop over
+ * the step; their wheel forces (each motor's own Kt and radius, eqs 12-13, 9-11) push the
+ * body with the bridges off (no back-EMF braking). The plant's currents are then theirs, its
+ * voltages what the windings took at the step's end (R_j i_j + Kv_j l w_j). */
+static void current_drive_step(struct sim_motor *s, double dt)
+{
+	struct plant *pl = &s->plant;
+	const double l = s->cfg.params.l;
+	double i[4], f[4], body[3], w[4];
+
+	for (int j = 0; j < 4; j++) {
+		i[j] = s->enabled ? (s->volts[j] - s->cfg.drive.Kv * l * s->last_speed[j]) /
+		                        s->cfg.drive.R_ohm
+		                  : 0.0;
+		f[j] = l * pl->Kt_eff[j] * i[j] / pl->r_eff[j];
+	}
+	dyn_robot_forces(s->cfg.params.d, f, body);
+	for (int k = 0; k < 3; k++)
+		pl->ext_force[k] += body[k];
+	plant_step(pl, s->volts, false, dt);
+	plant_wheel_speeds(pl, w);
+	for (int j = 0; j < 4; j++) {
+		pl->current_a[j] = i[j];
+		pl->voltage_v[j] = pl->R_eff[j] * i[j] + pl->Kv_eff[j] * l * w[j];
+	}
+	pl->driven = s->enabled;
+}
+
 static int sim_read(void *ctx, struct motor_sample *out)
 {
 	struct sim_motor *s = ctx;
@@ -340,7 +373,10 @@ static int sim_read(void *ctx, struct motor_sample *out)
 	memcpy(s->plant.ext_force, s->inject.ext_force, sizeof(s->plant.ext_force));
 	s->plant.blocked = s->inject.blocked;
 	changes_before_step(s);
-	plant_step(&s->plant, s->volts, s->enabled, dt);
+	if (s->cfg.drive.current)
+		current_drive_step(s, dt);
+	else
+		plant_step(&s->plant, s->volts, s->enabled, dt);
 	changes_after_step(s, dt);
 	plant_wheel_speeds(&s->plant, w_after);
 	s->t_us += s->period_us;

@@ -9,9 +9,13 @@
 static int open_sim_motor(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct ctl_settings *c = spec->ctl;
-	const struct sim_motor_config sc = sim_motor_config_from(
-	    spec->sim, !spec->sim_exact, spec->plant ? spec->plant : &c->model, 1.0 / c->rate_hz,
-	    c->limits.supply_v);
+	struct sim_motor_config sc = sim_motor_config_from(spec->sim, !spec->sim_exact,
+	                                                   spec->plant ? spec->plant : &c->model,
+	                                                   1.0 / c->rate_hz, c->limits.supply_v);
+
+	/* A current drive turns voltages into currents with the controller's model. */
+	sc.drive.R_ohm = c->model.R;
+	sc.drive.Kv = c->model.Kv;
 
 	if (sim_motor_init(&r->sim, &sc)) {
 		snprintf(why, n, "invalid [sim] settings");

@@ -133,6 +133,20 @@ void finish_wheels(IdentResult &res)
 		                         res.final.r * res.wheels.rho[j].se};
 }
 
+// A current drive's M: experiment 3's IV estimate (force form), the base model's M kept where
+// there is none.
+void combine_mass(const Prepared &P, IdentResult &res)
+{
+	Agreement ag;
+	const Estimate e = combine_methods({find_estimate(res, "exp3_iv", "M")}, P.opt, &ag);
+	res.identified["M"] = e.ok();
+	if (!e.ok())
+		return;
+	res.table["final"]["M"] = e;
+	res.agreement["M"] = ag;
+	res.final.M = e.value;
+}
+
 // Each parameter's final value from the methods that give it (combine_methods), into
 // res.table["final"] and res.final. Returns how many were found.
 size_t combine_final(const Prepared &P, IdentResult &res)
@@ -144,7 +158,15 @@ size_t combine_final(const Prepared &P, IdentResult &res)
 	    {"Cv", {"exp2", "exp3_iv"}}, {"Cvn", {"exp2", "exp3_iv"}}, {"Cw", {"exp1", "exp3_iv"}}};
 	res.final = P.base;
 	size_t found = 0;
+	const bool current = P.opt.drive == DriveKind::Current;
 	for (const char *p : kIdentParams) {
+		if (current && (std::string(p) == "Kv" || std::string(p) == "R")) {
+			// The drive's: the base model's value, not a fit (nothing to combine).
+			fin[p] = res.table["drive"][p];
+			res.agreement[p] = Agreement{};
+			res.identified[p] = true;
+			continue;
+		}
 		std::vector<Estimate> est;
 		for (const char *m : sources.at(p))
 			est.push_back(find_estimate(res, m, p));
@@ -164,6 +186,10 @@ size_t combine_final(const Prepared &P, IdentResult &res)
 		for (int i = 0; i < MODEL_PARAMS_COUNT; ++i)
 			if (std::string(p) == model_params_names[i])
 				*model_params_field(&res.final, i) = e.value;
+	}
+	if (current) {
+		combine_mass(P, res);
+		return found;
 	}
 	if (res.identified["Kv"])
 		res.final.Kt = res.final.Kv;

@@ -30,8 +30,16 @@ namespace omni4
 
 enum class VelocitySource { Encoder, Camera };
 
+// What drove the motors. Voltage: H-bridges, the logged voltages reached the windings (eq 23 in
+// voltage form). Current: a drive with its own current loop (ODrive torque, VESC current); the
+// logged voltages are the controller's model voltages, so R and Kv are the drive's (the base
+// model's, not fitted) and experiment 3 fits eq 23 in force form on the measured currents,
+// which also gives M.
+enum class DriveKind { Voltage, Current };
+
 struct IdentOptions {
 	VelocitySource source = VelocitySource::Encoder;
+	DriveKind drive = DriveKind::Voltage;
 	WindowOptions windows;
 	// Methods agree on a parameter when the chi-square of their estimates about the weighted
 	// mean has a p-value of at least agree_p.
@@ -121,7 +129,8 @@ struct Agreement {
 
 struct IdentResult {
 	// Per method: parameter name -> estimate. Method names: "motor", "exp1", "exp2",
-	// "exp3_ls", "exp3_iv", "final".
+	// "exp3_ls", "exp3_iv", "final"; with a current drive also "drive" (Kv, R: the base
+	// model's, no SE) and M from "exp3_ls", "exp3_iv" into "final".
 	std::map<std::string, std::map<std::string, Estimate>> table;
 	std::array<Estimate, 4> R_motor{}, Kv_motor{}; // not ok() for a motor without data
 	model_params final{};                   // base with the identified values (see identified)

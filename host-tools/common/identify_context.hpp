@@ -91,6 +91,22 @@ struct Context {
 	}
 };
 
+inline bool current_drive(const Context &c)
+{
+	return c.P.opt.drive == DriveKind::Current;
+}
+
+// The motor constant the torque of the measured currents uses: Kt = Kv of the motor test
+// (voltage drive), the base model's Kt with no SE of its own (current drive: the drive's).
+// Not ok(): the motor test gave none.
+inline Estimate torque_constant(Context &c)
+{
+	if (current_drive(c))
+		return {c.P.base.Kt, 0.0};
+	const auto kv = c.res.table["motor"].find("Kv");
+	return kv == c.res.table["motor"].end() ? Estimate{} : kv->second;
+}
+
 // value with its own SE and the borrowed part added in quadrature.
 inline Estimate with_borrowed(double value, double se_own, double se_borrowed)
 {
@@ -115,6 +131,9 @@ template <typename F> double mean_over(const std::vector<MotorsSample> &m, size_
 		s += f(m[k]);
 	return s / static_cast<double>(b - a);
 }
+
+// eqs 12-13 with each wheel's drive (the scalar twin where the shape is uniform).
+void wheel_forces(const model_params &p, const WheelShape &s, const double i[4], double f[4]);
 
 // ---- the experiments, in the order identify() runs them ------------------------------------
 void motor_test(Context &c);  // identify_motor.cpp: eq 22, method "motor"

@@ -15,10 +15,6 @@ namespace omni4
 namespace ident
 {
 
-namespace
-{
-
-// eqs 12-13 with each wheel's drive (the scalar twin where the shape is uniform).
 void wheel_forces(const model_params &p, const WheelShape &s, const double i[4], double f[4])
 {
 	if (s.uniform()) {
@@ -28,6 +24,9 @@ void wheel_forces(const model_params &p, const WheelShape &s, const double i[4],
 	const model_wheels w = s.wheels(p);
 	dyn_wheel_forces_wheels(&p, &w, i, f);
 }
+
+namespace
+{
 
 // ---- experiment 1 (eq 16) ----------------------------------------------------------------
 
@@ -130,13 +129,14 @@ void experiment1(Context &c)
 		          record_hint("steady_rotation"));
 		return;
 	}
-	const auto kv = res.table["motor"].find("Kv");
-	if (kv == res.table["motor"].end() || !kv->second.ok()) {
+	const Estimate kt = torque_constant(c);
+	if (!kt.ok()) {
 		c.missing("Bw, Cw (experiment 1): the torque needs Kt = Kv from the motor test");
 		return;
 	}
-	model_params p = c.P.base; // geometry; Kt = Kv of the motor test
-	p.Kv = p.Kt = kv->second.value;
+	model_params p = c.P.base; // geometry; Kt = Kv of the motor test (or the drive's Kt)
+	if (!current_drive(c))
+		p.Kv = p.Kt = kt.value;
 	const bool cam = c.P.opt.source == VelocitySource::Camera;
 	for (const SegWindow &w : c.windows("steady_rotation", nullptr, &SegmentWindows::steady))
 		rotation_point(c, p, cam, w);
@@ -152,7 +152,7 @@ void experiment1(Context &c)
 		Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()),
 		                se(1 + off_se.size());
 		x0[0] = p.Kt;
-		se[0] = kv->second.se;
+		se[0] = kt.se;
 		se.tail(off_se.size()) = off_se;
 		const Eigen::VectorXd b = propagate_independent(
 		    [&](const Eigen::VectorXd &x) -> Eigen::VectorXd {

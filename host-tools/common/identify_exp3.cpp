@@ -7,6 +7,10 @@
 #include <functional>
 #include <future>
 
+extern "C" {
+#include "omni4/model/dynamics.h"
+}
+
 namespace omni4
 {
 
@@ -74,6 +78,17 @@ double input_of(const MotorsSample &m, int axis, const model_params &p, const Wh
 	return axis_input_wheels(p, s, u, x0, axis);
 }
 
+// Current drive: the body force along axis of one sample's measured currents (eqs 9-13; each
+// wheel's Kt and radius where the shape says they differ) [N, N m].
+double force_of(const MotorsSample &m, int axis, const model_params &p, const WheelShape &s)
+{
+	const double i[4] = {m.i[0], m.i[1], m.i[2], m.i[3]};
+	double f[4], body[3];
+	wheel_forces(p, s, i, f);
+	dyn_robot_forces(p.d, f, body);
+	return body[axis];
+}
+
 // Per wheel: the back-EMF coupling of the other axes at the filtered velocity x.
 double coupling_of(const std::array<double, 3> &x, int axis, const model_params &p,
                    const WheelShape &s)
@@ -88,10 +103,13 @@ double coupling_of(const std::array<double, 3> &x, int axis, const model_params 
 // stop speed. The filters of a row must not reach into a stretch where the robot stuck or
 // stopped (there x' = theta1 x + theta2 u + theta3 sign(x) does not hold: stiction), so the
 // first and last half-window of every moving stretch are dropped. A run of rows ends where
-// the speed falls below the threshold or data are missing.
+// the speed falls below the threshold or data are missing. With a current drive the input is
+// the body force of the measured currents: the current read at tick k flowed over the period
+// ending there (the voltage written at k - 1), and no back-EMF coupling.
 StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, int axis,
                          const model_params &p)
 {
+	const bool force = current_drive(c);
 	const WheelShape &shape = c.res.wheels.shape;
 	const double thr = kStopSpeed[axis];
 	std::vector<std::array<double, 4>> rows; // x, input, sign, y
@@ -127,8 +145,10 @@ StateSpaceData axis_data(const Context &c, const std::vector<SegWindow> &wins, i
 				double in = 0;
 				for (int j = -h; j <= h; ++j)
 					in += f.smooth[j + h] *
-					      input_of(m[q + j - 1], axis, p, shape);
-				in += coupling_of(enc.x[q], axis, p, shape);
+					      (force ? force_of(m[q + j], axis, p, shape)
+					             : input_of(m[q + j - 1], axis, p, shape));
+				if (!force)
+					in += coupling_of(enc.x[q], axis, p, shape);
 				const double x = enc.x[q][axis];
 				rows.push_back({x, in, sgn(x), enc.dx[q][axis]});
 				d.t.push_back(m[q].utime * 1e-6);
@@ -384,6 +404,48 @@ Eigen::MatrixXd instruments(const StateSpaceData &d, const Eigen::VectorXd &thet
 	return Z;
 }
 
+// Current drive, eq 23 in force form along one axis: x' = theta1 x + theta2 F + theta3 sgn x
+// with theta2 = 1 / M (1 / J along w), theta1 = -B / M, theta3 = -C / M: the inertia, B and C
+// from the axis's own fit alone (nothing borrowed; Kt and r are the base model's).
+void derive_force(std::map<std::string, Estimate> &t, const Fit &f, int axis)
+{
+	static const char *const B[3] = {"Bv", "Bvn", "Bw"}, *const C[3] = {"Cv", "Cvn", "Cw"};
+	t[axis == 2 ? "J" : (axis == 0 ? "M_v" : "M_vn")] =
+	    propagate([](const Eigen::VectorXd &x) { return 1.0 / x[1]; }, f.theta, f.cov);
+	t[B[axis]] =
+	    propagate([](const Eigen::VectorXd &x) { return -x[0] / x[1]; }, f.theta, f.cov);
+	t[C[axis]] =
+	    propagate([](const Eigen::VectorXd &x) { return -x[2] / x[1]; }, f.theta, f.cov);
+}
+
+// M of the two linear axes' fits combined (the chi-square rule of the final values).
+void combine_axes_mass(std::map<std::string, Estimate> &t, const IdentOptions &opt)
+{
+	std::vector<Estimate> m;
+	for (const char *k : {"M_v", "M_vn"})
+		if (t.count(k))
+			m.push_back(t[k]);
+	t.erase("M_v");
+	t.erase("M_vn");
+	if (!m.empty())
+		t["M"] = combine_methods(m, opt);
+}
+
+void experiment3_force(Context &c)
+{
+	model_params p = c.P.base; // geometry and Kt: the base model's
+	const Exp3Fits fits = fit_step_axes(c, p);
+	for (const auto &[name, axis_fits] :
+	     {std::pair<std::string, const std::array<Fit, 3> *>{"exp3_ls", &fits.ls},
+	      {"exp3_iv", &fits.iv}}) {
+		auto &t = c.res.table[name];
+		for (int axis = 0; axis < 3; ++axis)
+			if (fits.have[axis])
+				derive_force(t, (*axis_fits)[axis], axis);
+		combine_axes_mass(t, c.P.opt);
+	}
+}
+
 } // namespace
 
 void experiment3(Context &c)
@@ -393,6 +455,10 @@ void experiment3(Context &c)
 	if (c.segments_of("step", nullptr) == 0) {
 		c.missing("R, Bv, Bvn, Cv, Cvn, J, Bw, Cw (experiment 3): no 'step' segments; " +
 		          record_hint("step"));
+		return;
+	}
+	if (current_drive(c)) {
+		experiment3_force(c);
 		return;
 	}
 	if (kv == res.table["motor"].end() || !kv->second.ok()) {

@@ -175,6 +175,13 @@ void per_motor_kv(Context &c)
 void motor_test(Context &c)
 {
 	IdentResult &res = c.res;
+	if (current_drive(c)) {
+		// The logged voltages are the controller's model voltages: a fit of eq 22 on them
+		// returns the model's own R and Kv. They are the drive's.
+		res.table["drive"]["Kv"] = {c.P.base.Kv, NAN};
+		res.table["drive"]["R"] = {c.P.base.R, NAN};
+		return;
+	}
 	if (c.segments_of("motor", nullptr) == 0) {
 		c.missing("Kv, R (motor test, eq 22): no 'motor' segments; " +
 		          record_hint("motor"));

@@ -387,11 +387,18 @@ void print_estimates(const IdentResult &r, const model_params *truth)
 	if (truth)
 		std::printf(" %10s %8s", "true", "error");
 	std::printf("\n");
-	for (const char *p : kIdentParams) {
+	std::vector<const char *> rows(std::begin(kIdentParams), std::end(kIdentParams));
+	if (r.identified.count("M")) // a current drive's
+		rows.push_back("M");
+	for (const char *p : rows) {
 		std::printf("%-5s", p);
 		for (const char *m : kIdentMethods)
 			std::printf(" %22s", fmt(find_estimate(r, m, p)).c_str());
-		const Agreement &ag = r.agreement.at(p);
+		if (r.table.count("drive") && r.table.at("drive").count(p)) {
+			std::printf(" %-12s\n", "the drive's");
+			continue;
+		}
+		const Agreement &ag = r.agreement.count(p) ? r.agreement.at(p) : Agreement{};
 		char agree[32] = "";
 		if (ag.methods >= 2)
 			std::snprintf(agree, sizeof(agree), "%s p=%.2g",
@@ -453,6 +460,14 @@ void print_table(const IdentResult &r, const model_params *truth, const model_wh
 	std::printf(
 	    "units: Kv = Kt V s/rad (N m/A), R ohm, J kg m^2, Bv Bvn N s/m, Bw N m s/rad, Cv Cvn "
 	    "N, Cw N m\n");
+	if (r.table.count("drive"))
+		std::printf(
+		    "current drive: R = %.5g ohm and Kv = %.5g V s/rad are the drive's (the robot "
+		    "file's model, not fitted: the logged voltages are the controller's model "
+		    "voltages, on which eq 22 returns the model's own); Kt = %.5g N m/A from the "
+		    "robot file; J, Bv..Cw and M from the measured currents (eq 23 in force form; "
+		    "experiment 2's Bv..Cvn with the robot file's M)\n",
+		    r.final.R, r.final.Kv, r.final.Kt);
 	print_wheels(r, truth_w);
 	print_warnings(r);
 }
@@ -592,7 +607,8 @@ void print_bootstrap(const IdentResult &r, const BootstrapResult &b, size_t runs
 	for (const char *p : kIdentParams) {
 		const auto it = b.final.find(p);
 		const Estimate e = find_estimate(r, "final", p);
-		if (!e.ok())
+		if (!e.ok() ||
+		    find_estimate(r, "drive", p).ok()) // the drive's: nothing to resample
 			continue;
 		if (it == b.final.end()) {
 			std::printf("%-5s %12.5g %12.2g %12s\n", p, e.value, e.se, "-");
@@ -649,20 +665,25 @@ void export_bootstrap_csv(const std::string &dir, const IdentResult &r, const Bo
 }
 
 struct IdentifyArgs {
-	std::string robot, out, truth, csv, source = "encoder";
+	std::string robot, out, truth, csv, source = "encoder", drive = "voltage";
 	int boot_n = 0;
 	bool verbose = false;
 	double steady_tol_pct = 0.3;
 	std::vector<std::string> logs;
 };
 
-IdentOptions ident_options(const std::string &source, double steady_tol_pct)
+IdentOptions ident_options(const std::string &source, double steady_tol_pct,
+                           const std::string &drive = "voltage")
 {
 	IdentOptions opt;
 	if (source == "camera")
 		opt.source = VelocitySource::Camera;
 	else if (source != "encoder")
 		die("--velocity must be 'encoder' or 'camera'", 2);
+	if (drive == "current")
+		opt.drive = DriveKind::Current;
+	else if (drive != "voltage")
+		die("--drive must be 'voltage' or 'current'", 2);
 	opt.windows.steady_tol = steady_tol_pct / 100;
 	return opt;
 }
@@ -768,7 +789,7 @@ int cmd_identify(const IdentifyArgs &a)
 		truth = load_params(a.truth, false);
 		truth_w = load_wheels(a.truth, true);
 	}
-	const IdentOptions opt = ident_options(a.source, a.steady_tol_pct);
+	const IdentOptions opt = ident_options(a.source, a.steady_tol_pct, a.drive);
 	auto logs = load_logs(a.logs, base.l, true);
 	const auto segs = segments_of(logs);
 	const bool traction_only = std::all_of(segs.begin(), segs.end(), [](const Segment &s) {
@@ -780,7 +801,8 @@ int cmd_identify(const IdentifyArgs &a)
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
 		std::printf(" %s %zu", k.c_str(), n);
-	std::printf("; robot velocities from the %s\n", a.source.c_str());
+	std::printf("; robot velocities from the %s; %s drive\n", a.source.c_str(),
+	            a.drive.c_str());
 	print_windows(r, segs, a.verbose);
 	if (!traction_only)
 		print_table(r, a.truth.empty() ? nullptr : &truth,
@@ -959,6 +981,11 @@ CLI::App *add_identify(CLI::App &app, IdentifyArgs &ia)
 	               "export every segment, window and fit as CSV into this folder");
 	id->add_option("--velocity", ia.source,
 	               "robot velocity source: encoder (default) or camera");
+	id->add_option(
+	    "--drive", ia.drive,
+	    "what drove the motors: voltage (default: H-bridges, the logged voltages "
+	    "reached the windings) or current (ODrive torque, VESC current: J, B, C and M "
+	    "from the measured currents; R and Kv are the drive's)");
 	id->add_option("--bootstrap", ia.boot_n,
 	               "also estimate the uncertainty by resampling whole runs, "
 	               "N replicates (0: off)")

@@ -470,14 +470,16 @@ def params_section(params, agreement):
     present = [m for m in methods if any(m in params[p] for p in params)]
     lines = ["| param | " + " | ".join(present) + " | methods |",
              "|---" * (len(present) + 2) + "|"]
-    for p in PARAMS:
+    for p in PARAMS + (["M"] if "M" in params else []):  # M: a current drive's fit
         cells = []
         for m in present:
             v = params.get(p, {}).get(m)
             cells.append("" if v is None else f"{v[0]:.4g}")
         ag = agreement.get(p)
         note = ""
-        if ag and int(ag["methods"]) >= 2:
+        if "drive" in params.get(p, {}):  # identify --drive current: not fitted
+            note = "the drive's (the robot file's, not fitted)"
+        elif ag and int(ag["methods"]) >= 2:
             note = ("agree" if ag["agree"] == "1" else "**DISAGREE**") + \
                 f" (p = {float(ag['p']):.2g})"
             if ag["agree"] != "1":

@@ -20,6 +20,14 @@
  * follows its temperature (model/thermal.h), the bridges' supply is a battery's
  * (model/battery.h: the write clamp and the supply reading follow it), and the body's friction
  * changes at a set time (plant_set_friction_scale). sim_motor_plant_state reports them.
+ * A current drive ([sim] current_drive, off by default; struct sim_drive): the written voltages
+ * are the controller's model voltages, turned into the currents the drive commands with the
+ * model's R and Kv at the last reported wheel speeds (eq 21 solved for i, as the ODrive and VESC
+ * current backends do, drive_consts.h); an ideal current loop holds each winding at its current
+ * over the period, whatever the plant's own R and back-EMF, and the current readings are those
+ * currents with the sensor noise. The wheels' forces l Kt_j i_j / r_j (each motor's own Kt and
+ * radius) push the body with the bridges' back-EMF braking gone; the traction limit does not
+ * see them (the wheels grip).
  */
 #ifndef OMNI4_SIM_MOTOR_H
 #define OMNI4_SIM_MOTOR_H
@@ -49,6 +57,13 @@ struct sim_changes {
 	double floor_friction_scale;   /* the body's B and C times this from then on */
 };
 
+/* A current drive: the model constants it turns voltages into currents with. */
+struct sim_drive {
+	bool current; /* false: a voltage drive (H-bridges), the plant's own eq 21 */
+	double R_ohm; /* the model's motor + bridge resistance [ohm] */
+	double Kv;    /* the model's motor constant [V s/rad] */
+};
+
 struct sim_motor_config {
 	struct model_params params;
 	double period_s;        /* loop period: plant step per read() [s] */
@@ -66,6 +81,7 @@ struct sim_motor_config {
 	bool camera;                 /* a camera (read_pose); false: none, no frame captured */
 	bool truth;                  /* the true state after each read (read_truth) */
 	struct sim_changes changes;
+	struct sim_drive drive;
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */
@@ -140,7 +156,8 @@ extern const struct line_hal_ops sim_line_ops;
 
 /* The [sim] settings (sensor noise and faults, or exact sensors when noise is false; the camera
  * rate and the seed either way) with `plant` as the simulated robot, stepped every period_s
- * from a supply of supply_v. */
+ * from a supply of supply_v. A current drive takes plant's R and Kv as the model's (the caller
+ * sets drive.R_ohm, drive.Kv where the controller's model differs). */
 struct sim_motor_config sim_motor_config_from(const struct sim_settings *sim, bool noise,
                                               const struct model_params *plant, double period_s,
                                               double supply_v);

@@ -37,6 +37,7 @@ struct sim_settings {
 	double battery_resistance;   /* internal [ohm] */
 	double floor_change_s;       /* simulated time the floor changes [s]; 0 = never */
 	double floor_friction_scale; /* the body's B and C times this from then on */
+	bool current_drive;          /* the motors behind a current drive (sim_motor.h) */
 	/* The lockstep simulator only (sil/) */
 	bool truth;    /* log the plant's true state (OMNI4_SIM_TRUTH) */
 	bool estimate; /* run the state estimator (OMNI4_STATE) */
