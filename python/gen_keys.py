@@ -66,8 +66,13 @@ def python_module(root):
              "KEYS = ("]
     lines += [f"    ({s!r}, {k!r}, {t!r})," for s, k, t in keys]
     lines += [")", "# The scalar [model] keys (the paper's model), in model_params_names order.",
-              "MODEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' not in k)",
+              "# The layout's keys (wheels, wheel_angle_j, d_j; absent = the paper's layout).",
+              "MODEL_LAYOUT_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and "
+              "(k == 'wheels' or k.startswith(('wheel_angle_', 'd_'))))",
+              "MODEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' not in k and "
+              "k not in MODEL_LAYOUT_KEYS)",
               "# Each drive's own r, Kv, Kt, R (r_0 .. R_3; optional, absent = the scalar).",
-              "MODEL_WHEEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' in k)", "",
-              "__all__ = ['KEYS', 'MODEL_KEYS', 'MODEL_WHEEL_KEYS']"]
+              "MODEL_WHEEL_KEYS = tuple(k for s, k, _ in KEYS if s == 'model' and '_' in k and "
+              "k not in MODEL_LAYOUT_KEYS)", "",
+              "__all__ = ['KEYS', 'MODEL_KEYS', 'MODEL_WHEEL_KEYS', 'MODEL_LAYOUT_KEYS']"]
     return "\n".join(lines) + "\n"

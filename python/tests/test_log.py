@@ -291,7 +291,7 @@ def test_fixed_size_path_equals_message_by_message_decode(logs):
 def test_fixed_size_types_take_the_structured_view():
     assert set(omni4_log._FAST) == {omni4.motors_t, omni4.pose_t, omni4.command_t,
                                      omni4.state_t, omni4.sim_truth_t, omni4.goal_status_t,
-                                     omni4.sim_plant_t, omni4.adapt_t}
+                                     omni4.sim_plant_t, omni4.adapt_t, omni4.robot_t}
 
 
 def test_same_motors_as_eventlog_decode(logs):

@@ -18,7 +18,8 @@ def test_every_lcm_struct_is_a_package_type():
                 names.update(re.findall(r"^struct\s+(\w+)", fh.read(), re.M))
     assert names == {"command_t", "experiment_t", "motors_t", "pose_t", "param_request_t",
                      "param_reply_t", "param_value_t", "param_changed_t", "state_t",
-                     "sim_truth_t", "goal_t", "goal_status_t", "sim_plant_t", "adapt_t"}
+                     "sim_truth_t", "goal_t", "goal_status_t", "sim_plant_t", "adapt_t",
+                     "robot_t"}
     for n in names:
         assert hasattr(omni4, n), n
 
@@ -124,6 +125,8 @@ def test_key_list_is_generated_from_the_layers_key_lists():
                                 "Cv", "Cvn", "Cw")
     assert _keys.MODEL_WHEEL_KEYS == tuple(f"{q}_{j}" for q in ("r", "Kv", "Kt", "R")
                                            for j in range(4))
+    assert _keys.MODEL_LAYOUT_KEYS == ("wheels",) + tuple(f"wheel_angle_{j}" for j in range(4)) + \
+        tuple(f"d_{j}" for j in range(4))
 
 
 def test_key_generator_refuses_a_row_it_cannot_read():
