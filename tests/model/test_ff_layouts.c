@@ -10,6 +10,8 @@
  */
 #include "omni4_test.h"
 
+#include "layout_by_hand.h"
+
 #include <math.h>
 #include <stdio.h>
 
@@ -19,43 +21,17 @@
 #include "omni4/model/rng.h"
 #include "omni4/model/wheels.h"
 
-#define PI_T 3.14159265358979323846
 #define Q16_STEP (1.0 / 65536.0)
-
-struct layout {
-	int n;
-	double angle_deg[4], dist_m[4];
-};
 
 /* The test's own: u for a body velocity and acceleration with |v| beyond the sign's band. */
 static void ff_by_hand(const struct model_params *p, const struct model_wheels *w,
                        const struct layout *L, const double vel[3], const double acc[3],
                        double u[4])
 {
-	double G[4][3], A[3][3] = {{0}}, inv[3][3], F[3], y[3];
+	double G[4][3], inv[3][3], F[3], y[3];
 	const double sg[3] = {vel[0] > 0 ? 1 : -1, vel[1] > 0 ? 1 : -1, vel[2] > 0 ? 1 : -1};
 
-	for (int j = 0; j < L->n; j++) {
-		const double a = L->angle_deg[j] * PI_T / 180.0;
-
-		G[j][0] = -sin(a);
-		G[j][1] = cos(a);
-		G[j][2] = L->dist_m[j];
-		for (int r = 0; r < 3; r++)
-			for (int c = 0; c < 3; c++)
-				A[r][c] += G[j][r] * G[j][c];
-	}
-	const double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
-	                   A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
-	                   A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
-
-	for (int r = 0; r < 3; r++)
-		for (int c = 0; c < 3; c++) {
-			const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3,
-			          c2 = (r + 2) % 3;
-
-			inv[r][c] = (A[r1][c1] * A[r2][c2] - A[r1][c2] * A[r2][c1]) / det;
-		}
+	layout_by_hand(L, G, inv);
 	F[0] = p->M * acc[0] + p->Bv * vel[0] + p->Cv * sg[0];
 	F[1] = p->M * acc[1] + p->Bvn * vel[1] + p->Cvn * sg[1];
 	F[2] = p->J * acc[2] + p->Bw * vel[2] + p->Cw * sg[2];

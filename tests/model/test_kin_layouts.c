@@ -7,6 +7,8 @@
  */
 #include "omni4_test.h"
 
+#include "layout_by_hand.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -16,38 +18,14 @@
 #include "omni4/model/rng.h"
 #include "omni4/model/wheels.h"
 
-#define PI_T 3.14159265358979323846
 #define STEP (1.0 / 65536.0)
-
-struct layout {
-	int n;
-	double angle_deg[4], dist_m[4];
-};
 
 /* Rows and the least-squares inverse by hand. */
 static void by_hand(const struct layout *L, double G[4][3], double fk[3][4])
 {
-	double A[3][3] = {{0}}, inv[3][3];
+	double inv[3][3];
 
-	for (int j = 0; j < L->n; j++) {
-		const double a = L->angle_deg[j] * PI_T / 180.0;
-
-		G[j][0] = -sin(a);
-		G[j][1] = cos(a);
-		G[j][2] = L->dist_m[j];
-		for (int r = 0; r < 3; r++)
-			for (int c = 0; c < 3; c++)
-				A[r][c] += G[j][r] * G[j][c];
-	}
-	const double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
-	                   A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
-	                   A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
-
-	for (int r = 0; r < 3; r++)
-		for (int c = 0; c < 3; c++)
-			inv[r][c] = (A[(c + 1) % 3][(r + 1) % 3] * A[(c + 2) % 3][(r + 2) % 3] -
-			             A[(c + 1) % 3][(r + 2) % 3] * A[(c + 2) % 3][(r + 1) % 3]) /
-			            det;
+	layout_by_hand(L, G, inv);
 	for (int r = 0; r < 3; r++)
 		for (int j = 0; j < L->n; j++)
 			fk[r][j] = inv[r][0] * G[j][0] + inv[r][1] * G[j][1] + inv[r][2] * G[j][2];
