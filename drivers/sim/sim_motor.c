@@ -343,12 +343,13 @@ static void current_drive_step(struct sim_motor *s, double dt)
 {
 	struct plant *pl = &s->plant;
 	const double l = s->cfg.params.l;
+	struct model_params drive = s->cfg.params; /* the model's R and Kv: the drive's */
 	double i[4], f[4], body[3], w[4];
 
+	drive.Kv = s->cfg.drive.Kv;
+	drive.R = s->cfg.drive.R_ohm;
 	for (int j = 0; j < 4; j++) {
-		i[j] = s->enabled ? (s->volts[j] - s->cfg.drive.Kv * l * s->last_speed[j]) /
-		                        s->cfg.drive.R_ohm
-		                  : 0.0;
+		i[j] = s->enabled ? motor_current(&drive, s->volts[j], l * s->last_speed[j]) : 0.0;
 		f[j] = l * pl->Kt_eff[j] * i[j] / pl->r_eff[j];
 	}
 	dyn_robot_forces(s->cfg.params.d, f, body);
