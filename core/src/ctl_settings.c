@@ -41,13 +41,21 @@ void ctl_settings_wheels_follow(struct ctl_settings *s)
 			s->layout.d[j] = s->model.d;
 }
 
-int ctl_settings_supported(const struct ctl_settings *s, const char **why)
+/* The paper's layout: four wheels at 0, 90, 180, 270 deg, each at d. */
+static bool paper_layout(const struct ctl_settings *s)
 {
 	bool paper = s->layout.wheels == 4;
 
 	for (int j = 0; j < 4; j++)
 		paper = paper && s->layout.angle_deg[j] == 90.0 * j &&
-		        (!(s->layout_keys & (1u << j)) || s->layout.d[j] == s->model.d);
+		        ctl_settings_wheel_distance(s, j) == s->model.d;
+	return paper;
+}
+
+int ctl_settings_supported(const struct ctl_settings *s, const char **why)
+{
+	const bool paper = paper_layout(s);
+
 	*why =
 	    paper ? NULL
 	          : "[model] wheels, wheel_angle_j, d_j: this controller drives the paper's layout "
@@ -58,16 +66,13 @@ int ctl_settings_supported(const struct ctl_settings *s, const char **why)
 int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g)
 {
 	double d[4];
-	bool paper = s->layout.wheels == 4;
 
-	for (int j = 0; j < 4; j++) {
-		d[j] = s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
-		paper = paper && d[j] == s->model.d && s->layout.angle_deg[j] == 90.0 * j;
-	}
-	if (paper && s->model.d > 0.0) {
+	if (paper_layout(s) && s->model.d > 0.0) {
 		wheel_geom_paper(s->model.d, g);
 		return 0;
 	}
+	for (int j = 0; j < 4; j++)
+		d[j] = ctl_settings_wheel_distance(s, j);
 	return wheel_geom_angles(s->layout.wheels, s->layout.angle_deg, d, g);
 }
 

@@ -304,7 +304,7 @@ static void push_robot(struct fw *fw, int64_t now_us)
 	e.robot.l = s->model.l;
 	for (int j = 0; j < s->layout.wheels && j < 4; j++) {
 		e.robot.angle_rad[j] = s->layout.angle_deg[j] * (MODEL_PI / 180.0);
-		e.robot.dist_m[j] = s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
+		e.robot.dist_m[j] = ctl_settings_wheel_distance(s, j);
 		e.robot.radius_m[j] = s->wheels.r[j];
 	}
 	log_push(fw, &e);

@@ -96,6 +96,12 @@ void ctl_settings_defaults(struct ctl_settings *s);
  * layout that does not drive v, vn and w. */
 int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g);
 
+/* Wheel j's distance from the centre in force: its own d_j, else model.d [m]. */
+static inline double ctl_settings_wheel_distance(const struct ctl_settings *s, int j)
+{
+	return s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
+}
+
 /* 0 if the controller drives this layout; -ENOTSUP and *why (one line) if not: today the
  * feedforward, the estimator and the simulated plant are the paper's eqs 2-23 in closed form,
  * so only the paper's layout drives (the keys are read and checked all the same). */
