@@ -279,12 +279,16 @@ def test_motors_iterator_delivers_every_tick_then_times_out(tmp_path, omni4_bin)
             # given wall time depends on how fast the machine runs this process).
             assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "gaps in seq"
             assert seqs[0] > first.seq
-            # The controller's own stamps: no tick starts before its deadline, so 300 ticks span
-            # at least 298 periods of 1 ms (a loaded machine makes the loop late and skip ticks,
-            # which only lengthens the span: no upper bound holds there).
+            # The controller's own stamps. No tick starts before its deadline, deadlines are at
+            # least one period apart, and a tick stamped two periods or more past its deadline
+            # makes the loop re-align to a later deadline. So the first of these ticks is stamped
+            # less than one period before the second one's deadline, and the last one at least
+            # 298 periods after that deadline: 300 ticks span more than 297 periods of 1 ms,
+            # however loaded the machine (which only lengthens the span: no upper bound holds).
             span_us = got[-1].utime - got[0].utime
             print(f"300 ticks over {span_us / 1e3:.1f} ms of the controller's clock")
-            assert span_us >= 298 * 1000, f"{span_us} us for 300 ticks at 1 kHz"
+            # (less 1 us: the stamps are whole microseconds)
+            assert span_us > 297 * 1000 - 1, f"{span_us} us for 300 ticks at 1 kHz"
             with pytest.raises(TimeoutError, match="no OMNI4_MOTORS for 3.0 s"):
                 for _ in it:                         # ends when the controller has exited
                     pass
