@@ -272,3 +272,36 @@ void wheel_loads_f32(const struct wheel_phys_f32 *ph, const float ac[2], float l
 		load_n[j] =
 		    fmaxf(0.0f, ph->load0[j] + ph->load_a[j][0] * ac[0] + ph->load_a[j][1] * ac[1]);
 }
+
+/* 3 x 3 determinant of G's rows other than skip. */
+static double det_without(const struct wheel_phys *ph, int skip)
+{
+	const double *r[3];
+	int k = 0;
+
+	for (int j = 0; j < 4; j++)
+		if (j != skip)
+			r[k++] = ph->row[j];
+	return r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1]) -
+	       r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0]) +
+	       r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+}
+
+int wheel_null(const struct wheel_phys *ph, double null_m[4])
+{
+	double big = 0.0;
+
+	for (int j = 0; j < 4; j++)
+		null_m[j] = 0.0;
+	if (ph->n != 4)
+		return 0;
+	for (int j = 0; j < 4; j++) {
+		null_m[j] = (j & 1 ? -1.0 : 1.0) * det_without(ph, j);
+		big = fmax(big, fabs(null_m[j])); /* rank 3: some determinant is not 0 */
+	}
+	const double scale = null_m[0] < 0.0 ? -big : big;
+
+	for (int j = 0; j < 4; j++)
+		null_m[j] /= scale;
+	return 4;
+}

@@ -9,6 +9,7 @@
 #include "omni4_test.h"
 
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 #include "omni4/model/consts.h"
@@ -264,6 +265,48 @@ static void test_unequal_layout_properties(void **state)
 	}
 }
 
+/* The rigid-body check's vector: every body motion's rims are orthogonal to it, its largest
+ * entry is 1 and its first positive; the paper's is (1, -1, 1, -1) to the bit; three wheels
+ * have none. */
+static void test_null_vector_of_the_rims(void **state)
+{
+	(void)state;
+	static const double paper[4] = {1.0, -1.0, 1.0, -1.0};
+	const double a3[4] = {0, 120, 240, 0}, d3[4] = {0.09, 0.08, 0.1, 0};
+	struct wheel_geom g;
+	struct wheel_phys ph;
+	double nv[4];
+	struct rng r;
+
+	wheel_geom_paper(0.2, &g);
+	assert_int_equal(wheel_phys_layout(&ph, &g), 0);
+	assert_int_equal(wheel_null(&ph, nv), 4);
+	assert_memory_equal(nv, paper, sizeof(paper));
+	robocup_four(&g, &ph);
+	assert_int_equal(wheel_null(&ph, nv), 4);
+	double big = 0.0;
+
+	for (int j = 0; j < 4; j++)
+		big = fmax(big, fabs(nv[j]));
+	near(big, 1.0, 1e-15, "largest entry 1");
+	assert_true(nv[0] > 0.0);
+	rng_seed(&r, 7);
+	for (int n = 0; n < 100; n++) {
+		double x[3], v[4], dot = 0.0;
+
+		random_vec(&r, x, 3, 3.0);
+		wheel_rims(&ph, x, v);
+		for (int j = 0; j < 4; j++)
+			dot += nv[j] * v[j];
+		near(dot, 0.0, 1e-13, "rims of a body motion orthogonal to the null vector");
+	}
+	assert_int_equal(wheel_geom_angles(3, a3, d3, &g), 0);
+	assert_int_equal(wheel_phys_layout(&ph, &g), 0);
+	assert_int_equal(wheel_null(&ph, nv), 0);
+	for (int j = 0; j < 4; j++)
+		assert_true(nv[j] == 0.0);
+}
+
 /* The layout's part alone is the full one's, with no drive and no load. */
 static void test_layout_part_alone(void **state)
 {
@@ -366,6 +409,7 @@ int main(void)
 	    cmocka_unit_test(test_paper_angles_give_the_papers_rows),
 	    cmocka_unit_test(test_three_wheels_closed_form),
 	    cmocka_unit_test(test_unequal_layout_properties),
+	    cmocka_unit_test(test_null_vector_of_the_rims),
 	    cmocka_unit_test(test_layout_part_alone),
 	    cmocka_unit_test(test_float_twin),
 	    cmocka_unit_test(test_bad_layouts_refused),

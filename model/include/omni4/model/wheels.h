@@ -97,6 +97,13 @@ void wheel_body_force(const struct wheel_phys *ph, const double f_n[4], double F
 void wheel_com_accel(const double x[3], const double a[3], double ac[2]);
 /* Each wheel's load [N] at the centre of mass's acceleration ac, never below 0. */
 void wheel_loads(const struct wheel_phys *ph, const double ac[2], double load_n[4]);
+/*
+ * The rigid-body check of four wheels: the vector spanning the null space of G^T (the rims of
+ * every body motion are orthogonal to it), n_j = (-1)^j det(G without row j), scaled so its
+ * largest entry is 1 and n_0 > 0: the paper's layout gives (1, -1, 1, -1) exactly (eqs 2-5's
+ * v0 - v1 + v2 - v3 = 0). Three wheels have none: 0 and null_m = 0 [0, 0, 0, 0].
+ */
+int wheel_null(const struct wheel_phys *ph, double null_m[4]);
 
 /* The float twins. */
 void wheel_rims_f32(const struct wheel_phys_f32 *ph, const float x[3], float rim_m_s[4]);
