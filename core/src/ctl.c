@@ -8,7 +8,10 @@
 #include <math.h>
 #include <string.h>
 
-/* Rigid-body check of the redundant wheel (eqs 2-5): v0 - v1 + v2 - v3 = 0 without slip. */
+/* Rigid-body check of the redundant wheel (eqs 2-5): the rims' share along the layout's null
+ * vector (the paper's: v0 - v1 + v2 - v3) is 0 without slip. Three wheels have no redundant
+ * one: a stuck or jumping encoder is caught by the step check below alone (and the estimator's
+ * model check sees the wheel disagree with the motion the voltages drive). */
 #define ENCODER_RESIDUAL_MAX_M_S 0.5f
 #define ENCODER_BAD_TIME_S 0.05
 /* No wheel can change speed faster than this (about 10x what the motors can do): a larger
@@ -22,6 +25,34 @@ static int32_t from_hal_faults(uint32_t hal)
 	return ((hal & HAL_FAULT_DRIVER_TIMEOUT) ? CTL_FAULT_DRIVER_TIMEOUT : 0) |
 	       ((hal & HAL_FAULT_DRIVER) ? CTL_FAULT_DRIVER : 0) |
 	       ((hal & HAL_FAULT_BUS) ? CTL_FAULT_BUS : 0);
+}
+
+/* The layout for model/'s prepares: NULL for the paper's (their closed forms). */
+static const struct wheel_geom *layout_geom(const struct ctl_layout *L)
+{
+	return L->paper ? NULL : &L->geom;
+}
+
+/* The layout of cfg (checked at the door), off the loop. */
+static int layout_prepare(struct ctl_layout *L, const struct ctl_settings *cfg)
+{
+	const struct wheel_geom *g;
+	struct wheel_phys ph;
+	double nv[4];
+
+	memset(L, 0, sizeof(*L));
+	if (ctl_settings_layout(cfg, &L->geom, &g))
+		return -EINVAL;
+	L->paper = g == NULL;
+	if (L->paper)
+		wheel_geom_paper(cfg->model.d, &L->geom);
+	if (kin_rows_q16_init(&L->kin, cfg->model.d, g) || wheel_phys_layout(&ph, &L->geom))
+		return -EINVAL;
+	L->wheels = ph.n;
+	wheel_null(&ph, nv);
+	for (int j = 0; j < 4; j++)
+		L->null_m[j] = (float)nv[j];
+	return 0;
 }
 
 static void tune(struct ctl *c)
@@ -58,7 +89,7 @@ static void tune(struct ctl *c)
 	const struct ctl_shaper keep = c->shaper;
 
 	ctl_shaper_init(&c->shaper, acc_max, c->t.dt);
-	traction_set(&c->trac, &cfg->model, &w, cfg->limits.traction_mu,
+	traction_set(&c->trac, &cfg->model, &w, layout_geom(&c->lay), cfg->limits.traction_mu,
 	             cfg->limits.traction_margin, cfg->limits.com_height, c->t.dt);
 	memcpy(c->shaper.ref, keep.ref, sizeof(keep.ref));
 	memcpy(c->shaper.acc, keep.acc, sizeof(keep.acc));
@@ -80,22 +111,21 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 {
 	struct model_wheels w;
 
-	const char *why;
-
 	memset(c, 0, sizeof(*c));
-	if (ctl_settings_supported(cfg, &why))
-		return -EINVAL;
 	traction_reset(&c->trac);
 	ctl_settings_wheels(cfg, &w);
-	if (ff_q16_wheels_prepare(&c->ff, &cfg->model, &w, cfg->limits.supply_v))
+	if (layout_prepare(&c->lay, cfg))
 		return -EINVAL;
-	ff_wheels_per_ohm_prepare(&c->ff_ohm, &cfg->model, &w);
+	const struct wheel_geom *g = layout_geom(&c->lay);
+
+	if (ff_q16_wheels_prepare_layout(&c->ff, &cfg->model, &w, g, cfg->limits.supply_v) ||
+	    ff_wheels_per_ohm_prepare_layout(&c->ff_ohm, &cfg->model, &w, g))
+		return -EINVAL;
 	c->ff_ohm_use = c->ff_ohm;
 	for (int j = 0; j < 4; j++)
 		c->R_use[j] = (float)w.R[j];
 	c->set = *cfg;
 	c->period_us = llround(1e6 / cfg->rate_hz);
-	c->inv_4d = q16_from_double(1.0 / (4.0 * cfg->model.d));
 	tune(c);
 	ctl_ramp_reset(&c->ramp, c->out); /* outputs at 0 V, no ramp in progress */
 	c->mode = CTL_IDLE;
@@ -113,13 +143,13 @@ int ctl_init_checked(struct ctl *c, const struct ctl_settings *cfg)
 }
 
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d)
+                const struct ff_wheels_per_ohm *ff_ohm, const struct ctl_layout *lay)
 {
 	c->set = *cfg;
 	c->ff = *ff;
 	c->ff_ohm = *ff_ohm;
 	c->ff_ohm_use = *ff_ohm;
-	c->inv_4d = inv_4d;
+	c->lay = *lay;
 	tune(c);
 	struct model_wheels w;
 
@@ -196,8 +226,8 @@ static bool command_in_range(const struct ctl *c, const struct ctl_command *cmd)
 	    fabs(cmd->velocity[2]) > rot)
 		return false;
 	for (int j = 0; j < 4; j++)
-		if (fabs(cmd->voltage[j]) > u)
-			return false;
+		if (fabs(cmd->voltage[j]) > u || (j >= c->lay.wheels && cmd->voltage[j] != 0.0))
+			return false; /* (a three-wheel robot has no motor in slot 3) */
 	return true;
 }
 
@@ -274,12 +304,12 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 		return CTL_FAULT_DRIVER_TIMEOUT;
 	f |= from_hal_faults(s->faults);
 
-	float vw[4];
+	float vw[4] = {0, 0, 0, 0}, res = 0.0f;
 	bool speeds_ok = true;
 	const float since_s = fmaxf(c->t.dt, (float)(now_us - c->last_wheel_us) * 1e-6f);
 	const float max_step = ENCODER_MAX_ACCEL_RAD_S2 * since_s;
 
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < c->lay.wheels; j++) {
 		const float raw = s->current_a[j], i = cur[j], w = s->wheel_rad_s[j];
 
 		if (!isfinite(raw) || fabsf(raw) >= c->t.sensor_max)
@@ -294,7 +324,7 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 		}
 		vw[j] = w * c->t.r[j]; /* rim speed: wheel j's own radius */
 	}
-	for (int j = 0; j < 4 && speeds_ok; j++)
+	for (int j = 0; j < c->lay.wheels && speeds_ok; j++)
 		c->last_wheel[j] = s->wheel_rad_s[j];
 	if (speeds_ok)
 		c->last_wheel_us = now_us;
@@ -309,10 +339,12 @@ static int32_t check_sample(struct ctl *c, const struct motor_sample *s, const f
 
 	for (int j = 0; j < 4; j++)
 		vq[j] = q16_from_float(vw[j]);
-	fk_robot_velocity_q16(c->inv_4d, vq, xq);
+	fk_rows_q16(&c->lay.kin, vq, xq);
 	for (int k = 0; k < 3; k++)
 		c->x_est[k] = q16_to_float(xq[k]);
-	if (fabsf(vw[0] - vw[1] + vw[2] - vw[3]) > ENCODER_RESIDUAL_MAX_M_S)
+	for (int j = 0; j < 4; j++) /* (the paper's: v0 - v1 + v2 - v3, the same bits) */
+		res += c->lay.null_m[j] * vw[j];
+	if (fabsf(res) > ENCODER_RESIDUAL_MAX_M_S)
 		c->encoder_bad_ticks++;
 	else
 		c->encoder_bad_ticks = 0;
@@ -413,7 +445,7 @@ static void track(struct ctl *c, const struct motor_sample *s)
 		ref_q[k] = q16_from_float(c->shaper.ref[k]);
 		acc_q[k] = q16_from_float(c->shaper.acc[k]);
 	}
-	ik_wheel_speeds_q16(c->ff.d, ref_q, wheel_ref_q);
+	ik_rows_q16(&c->lay.kin, ref_q, wheel_ref_q);
 	/* Per-wheel feedforward (each drive's own R_j r_j / (l Kt_j) and Kv_j l / r_j, prepared
 	 * at init / retune). Scaling and overflow: ref and acc in Q16.16 from the shaper's floats
 	 * (within the command limits, far inside the format's +-32768); wheel j sums two axis terms
@@ -430,6 +462,10 @@ static void track(struct ctl *c, const struct motor_sample *s)
 	c->tracked = s != NULL;
 	c->track_e2 = 0.0f;
 	for (int j = 0; j < 4; j++) {
+		if (j >= c->lay.wheels) { /* no motor in slot 3 */
+			c->out[j] = 0.0f;
+			continue;
+		}
 		const float ff = q16_to_float(ff_q[j]);
 		const float e =
 		    s ? q16_to_float(wheel_ref_q[j]) - s->wheel_rad_s[j] * c->t.r[j] : 0.0f;
@@ -479,7 +515,7 @@ static bool cal_reading_ok(const struct ctl *c, const struct motor_sample *s)
 {
 	if (s->faults)
 		return false;
-	for (int j = 0; j < 4; j++)
+	for (int j = 0; j < c->lay.wheels; j++)
 		if (!isfinite(s->current_a[j]) || fabsf(s->current_a[j]) >= c->t.sensor_max)
 			return false;
 	return true;

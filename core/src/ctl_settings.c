@@ -42,7 +42,7 @@ void ctl_settings_wheels_follow(struct ctl_settings *s)
 }
 
 /* The paper's layout: four wheels at 0, 90, 180, 270 deg, each at d. */
-static bool paper_layout(const struct ctl_settings *s)
+bool ctl_settings_paper_layout(const struct ctl_settings *s)
 {
 	bool paper = s->layout.wheels == 4;
 
@@ -54,7 +54,7 @@ static bool paper_layout(const struct ctl_settings *s)
 
 int ctl_settings_supported(const struct ctl_settings *s, const char **why)
 {
-	const bool paper = paper_layout(s);
+	const bool paper = ctl_settings_paper_layout(s);
 
 	*why =
 	    paper ? NULL
@@ -67,13 +67,25 @@ int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g)
 {
 	double d[4];
 
-	if (paper_layout(s) && s->model.d > 0.0) {
+	if (ctl_settings_paper_layout(s) && s->model.d > 0.0) {
 		wheel_geom_paper(s->model.d, g);
 		return 0;
 	}
 	for (int j = 0; j < 4; j++)
 		d[j] = ctl_settings_wheel_distance(s, j);
 	return wheel_geom_angles(s->layout.wheels, s->layout.angle_deg, d, g);
+}
+
+int ctl_settings_layout(const struct ctl_settings *s, struct wheel_geom *g,
+                        const struct wheel_geom **use)
+{
+	*use = NULL;
+	if (ctl_settings_paper_layout(s))
+		return s->model.d > 0.0 ? 0 : -EINVAL;
+	if (ctl_settings_geom(s, g))
+		return -EINVAL;
+	*use = g;
+	return 0;
 }
 
 int ctl_settings_check(const struct ctl_settings *s, int *bad_key, const char **why)

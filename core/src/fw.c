@@ -69,7 +69,7 @@ int fw_param_prepare(struct fw *fw, const struct ctl_settings *cfg, bool idle_on
 	u->set = *cfg;
 	u->ff = scratch.ff;
 	u->ff_ohm = scratch.ff_ohm;
-	u->inv_4d = scratch.inv_4d;
+	u->lay = scratch.lay;
 	adapt_init(&u->adapt, cfg);
 	u->idle_only = idle_only;
 	return 0;
@@ -138,7 +138,7 @@ static void take_params(struct fw *fw, int64_t now_us)
 	if (u->idle_only && driving) {
 		rc = -EBUSY;
 	} else {
-		ctl_retune(&fw->ctl, &u->set, &u->ff, &u->ff_ohm, u->inv_4d);
+		ctl_retune(&fw->ctl, &u->set, &u->ff, &u->ff_ohm, &u->lay);
 		struct model_wheels w;
 		struct est_settings es;
 

@@ -15,14 +15,17 @@ void traction_reset(struct traction *t)
 }
 
 void traction_set(struct traction *t, const struct model_params *p, const struct model_wheels *w,
-                  double mu, double margin, double com_height, float dt)
+                  const struct wheel_geom *g, double mu, double margin, double com_height, float dt)
 {
 	const float keep_backoff = t->backoff > 0.0f ? t->backoff : 1.0f;
-	struct wheel_geom g;
+	struct wheel_geom paper;
 	struct wheel_phys ph;
 
-	wheel_geom_paper(p->d, &g);
-	const bool wheels_ok = wheel_phys_init(&ph, &g, p, w, com_height) == 0;
+	if (!g) {
+		wheel_geom_paper(p->d, &paper);
+		g = &paper;
+	}
+	const bool wheels_ok = wheel_phys_init(&ph, g, p, w, com_height) == 0;
 
 	if (wheels_ok) /* (the forces and holds asked of a limit that is off too) */
 		wheel_phys_to_f32(&ph, &t->ph);

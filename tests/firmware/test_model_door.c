@@ -20,12 +20,14 @@ static int n_params_check, n_wheels_check, n_ff_prepare;
 
 int __real_model_params_check(const struct model_params *p, int *bad);
 int __real_model_wheels_check(const struct model_wheels *w, int *bad);
-int __real_ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
-                                 const struct model_wheels *w, double u_max);
+int __real_ff_q16_wheels_prepare_layout(struct ff_q16_wheels *ff, const struct model_params *p,
+                                        const struct model_wheels *w, const struct wheel_geom *g,
+                                        double u_max);
 int __wrap_model_params_check(const struct model_params *p, int *bad);
 int __wrap_model_wheels_check(const struct model_wheels *w, int *bad);
-int __wrap_ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
-                                 const struct model_wheels *w, double u_max);
+int __wrap_ff_q16_wheels_prepare_layout(struct ff_q16_wheels *ff, const struct model_params *p,
+                                        const struct model_wheels *w, const struct wheel_geom *g,
+                                        double u_max);
 
 int __wrap_model_params_check(const struct model_params *p, int *bad)
 {
@@ -39,11 +41,12 @@ int __wrap_model_wheels_check(const struct model_wheels *w, int *bad)
 	return __real_model_wheels_check(w, bad);
 }
 
-int __wrap_ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p,
-                                 const struct model_wheels *w, double u_max)
+int __wrap_ff_q16_wheels_prepare_layout(struct ff_q16_wheels *ff, const struct model_params *p,
+                                        const struct model_wheels *w, const struct wheel_geom *g,
+                                        double u_max)
 {
 	n_ff_prepare++;
-	return __real_ff_q16_wheels_prepare(ff, p, w, u_max);
+	return __real_ff_q16_wheels_prepare_layout(ff, p, w, g, u_max);
 }
 
 static struct fw g_fw;

@@ -107,7 +107,7 @@ static void *loop_main(void *arg)
 		ctl_settings_wheels(&g_fw.ctl.set, &w);
 		ff_q16_wheels_init(&want, &g_fw.ctl.set.model, &w, g_fw.ctl.set.limits.supply_v);
 		if (memcmp(&want, &g_fw.ctl.ff, sizeof(want)) ||
-		    g_fw.ctl.inv_4d != q16_from_double(1.0 / (4.0 * g_fw.ctl.set.model.d)))
+		    g_fw.ctl.lay.kin.inv_4d != q16_from_double(1.0 / (4.0 * g_fw.ctl.set.model.d)))
 			atomic_fetch_add(&g_inconsistent, 1);
 		if (g_fw.ctl.set.model.R != last_R) {
 			atomic_fetch_add(&g_model_changes, 1);

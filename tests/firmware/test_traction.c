@@ -29,7 +29,7 @@ static void set(struct traction *t, double h)
 	model_wheels_from_params(P, &w);
 	memset(t, 0, sizeof(*t));
 	traction_reset(t);
-	traction_set(t, P, &w, MU, MARGIN, h, 1e-3f);
+	traction_set(t, P, &w, NULL, MU, MARGIN, h, 1e-3f);
 }
 
 /* The step taken from rest toward a[] (a huge acceleration): the acceleration kept. */

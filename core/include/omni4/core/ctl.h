@@ -15,6 +15,7 @@
 #include "omni4/core/ctl_blocks.h"
 #include "omni4/core/ctl_settings.h"
 #include "omni4/model/feedforward.h"
+#include "omni4/model/kinematics.h"
 #include "omni4/core/hal.h"
 #include "omni4/model/q16.h"
 #include "omni4/core/traction.h"
@@ -86,6 +87,16 @@ struct ctl_tuning {
 	double supply_v;
 };
 
+/* The wheels' layout in force ([model] wheels, wheel_angle_j, d_j), prepared off the loop
+ * (ctl_init): what the tick needs of it, no trigonometry per tick. */
+struct ctl_layout {
+	bool paper;              /* the paper's layout: model/'s closed forms, to the bit */
+	int wheels;              /* 3 or 4: slot 3 of a three-wheel robot is driven at 0 V */
+	struct wheel_geom geom;  /* its rows and maps (the paper's too) */
+	struct kin_rows_q16 kin; /* eq 2's rows and eqs 3-5, Q16.16 */
+	float null_m[4];         /* the rigid-body check's vector (wheel_null; 0 for 3 wheels) */
+};
+
 struct ctl {
 	struct ctl_settings set; /* the settings in force (read off the loop: reports, tests) */
 	/* the per-wheel feedforward of the wheels in force (ctl_settings_wheels) */
@@ -93,10 +104,10 @@ struct ctl {
 	struct ff_wheels_per_ohm
 	    ff_ohm; /* the same gains per ohm of each R_j (ctl_set_resistance) */
 	struct ff_wheels_per_ohm
-	    ff_ohm_use; /* ff_ohm with the friction in use (ctl_set_friction) */
-	float R_use[4]; /* each R_j in the gains [ohm] */
-	q16_t inv_4d;
-	int64_t period_us; /* loop period [us] */
+	    ff_ohm_use;        /* ff_ohm with the friction in use (ctl_set_friction) */
+	float R_use[4];        /* each R_j in the gains [ohm] */
+	struct ctl_layout lay; /* the wheels' layout in force */
+	int64_t period_us;     /* loop period [us] */
 	struct ctl_tuning t;
 	enum ctl_mode mode;
 	int32_t latched;        /* latching fault bits */
@@ -163,7 +174,7 @@ void ctl_step(struct ctl *c, int64_t now_us, const struct motor_sample *sample, 
  * instance) and its precomputed feedforward (gains, and their parts per ohm); the PI integrals
  * and the modes are kept. */
 void ctl_retune(struct ctl *c, const struct ctl_settings *cfg, const struct ff_q16_wheels *ff,
-                const struct ff_wheels_per_ohm *ff_ohm, q16_t inv_4d);
+                const struct ff_wheels_per_ohm *ff_ohm, const struct ctl_layout *lay);
 
 /* Fast loop, between two ticks: wheel j's feedforward gains for its resistance R_ohm (an
  * accepted estimate, adapt.h; > 0 and finite, within the model's range), the rest as they are:

@@ -95,6 +95,12 @@ void ctl_settings_defaults(struct ctl_settings *s);
  * closed forms (wheel_geom_paper) when it is the paper's layout, to the last bit. -EINVAL for a
  * layout that does not drive v, vn and w. */
 int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g);
+/* True for the paper's layout: four wheels at 0, 90, 180, 270 deg, all at d. */
+bool ctl_settings_paper_layout(const struct ctl_settings *s);
+/* The layout as model/'s prepares take it: *use NULL for the paper's (their closed forms, to
+ * the bit), else g filled and *use = g. -EINVAL as ctl_settings_geom. */
+int ctl_settings_layout(const struct ctl_settings *s, struct wheel_geom *g,
+                        const struct wheel_geom **use);
 
 /* Wheel j's distance from the centre in force: its own d_j, else model.d [m]. */
 static inline double ctl_settings_wheel_distance(const struct ctl_settings *s, int j)

@@ -150,7 +150,7 @@ struct fw_param_update {
 	struct ctl_settings set;
 	struct ff_q16_wheels ff;
 	struct ff_wheels_per_ohm ff_ohm; /* ff's parts per ohm of each R_j (ctl_set_resistance) */
-	q16_t inv_4d;
+	struct ctl_layout lay;
 	struct adapt adapt; /* adapt_init of set, for adapt_retune */
 	bool idle_only; /* the loop refuses it (-EBUSY) if the bridges are driven at that tick */
 	uint32_t gen;   /* set by fw_param_offer */

@@ -47,10 +47,12 @@ struct traction {
 };
 
 /* mu [-] (0 = off), margin in [0, 1), com_height [m] >= 0, dt [s] > 0; the model's M, J, d,
- * B, C, l and each drive's r_j, Kv_j, Kt_j, R_j. Keeps the back-off (a retune between ticks
- * does not forget a slip). */
+ * B, C, l, each drive's r_j, Kv_j, Kt_j, R_j and the layout g (NULL: the paper's at d; a
+ * three-wheel layout's slot 3 carries no force, holds nothing and is clamped to 0 V). Keeps the
+ * back-off (a retune between ticks does not forget a slip). */
 void traction_set(struct traction *t, const struct model_params *p, const struct model_wheels *w,
-                  double mu, double margin, double com_height, float dt);
+                  const struct wheel_geom *g, double mu, double margin, double com_height,
+                  float dt);
 /* Back-off at 1, nothing limited. */
 void traction_reset(struct traction *t);
 
