@@ -164,8 +164,8 @@ static void test_feedforward_is_the_layouts_model(void **state)
 }
 
 /* Closed loop on the plant of the same layout: the body's velocity within 0.25 mm/s and
- * 0.25 mrad/s of the command after 1.5 s (measured: 0.09), every output inside the supply, slot 3 of three wheels at
- * 0 V on every tick. */
+ * 0.25 mrad/s of the command after 1.5 s (measured: 0.09), every output inside the supply, slot 3
+ * of three wheels at 0 V on every tick. */
 static void check_closed_loop(const struct layout *L)
 {
 	struct ctl_settings s;
