@@ -52,13 +52,26 @@ static void fric_prior(struct adapt_fric *f, double B, double C)
  * to body velocity (eqs 3-5), column by column; off the fast loop. */
 static void fric_maps(struct adapt *a, const struct ctl_settings *cfg, const struct model_wheels *w)
 {
+	struct wheel_geom geom;
+	const struct wheel_geom *g = NULL;
+	struct wheel_phys ph;
+
+	/* (checked at the door: a layout that drives the body) */
+	if (ctl_settings_layout(cfg, &geom, &g) || (g && wheel_phys_layout(&ph, g)))
+		g = NULL;
 	for (int j = 0; j < 4; j++) {
-		double e[4] = {0.0, 0.0, 0.0, 0.0}, f[4], F[3], x[3];
+		double e[4] = {0.0, 0.0, 0.0, 0.0}, f[4], F[3], x[3], rim[4] = {0, 0, 0, 0};
 
 		e[j] = 1.0;
 		dyn_wheel_forces_wheels(&cfg->model, w, e, f);
-		dyn_robot_forces(cfg->model.d, f, F);
-		fk_robot_velocity_rates(cfg->model.d, w->r, e, x);
+		if (g) { /* the layout's G^T and eqs 3-5 (the paper's: their closed forms) */
+			wheel_body_force(&ph, f, F);
+			rim[j] = w->r[j];
+			wheel_body(&ph, rim, x);
+		} else {
+			dyn_robot_forces(cfg->model.d, f, F);
+			fk_robot_velocity_rates(cfg->model.d, w->r, e, x);
+		}
 		for (int k = 0; k < 3; k++) {
 			a->Gi[k][j] = (float)F[k];
 			a->Gw[k][j] = (float)x[k];

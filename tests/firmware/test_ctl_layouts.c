@@ -12,6 +12,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "omni4/core/adapt.h"
 #include "omni4/core/ctl.h"
 #include "omni4/model/params.h"
 #include "omni4/model/plant.h"
@@ -267,6 +268,33 @@ static void test_the_encoder_check_follows_the_null_space(void **state)
 	assert_int_equal(run_readings(&three, 1.0), 0);
 }
 
+/* The online estimator's maps from wheel currents to body force and wheel speeds to body
+ * velocity, for three equal-distance wheels at 0/120/240 deg by hand: G^T G = diag(3/2, 3/2,
+ * 3 d^2), so force column j = g_j l Kt / r and velocity column j = r g_jk / diag_k. */
+static void test_online_maps_follow_the_layout(void **state)
+{
+	(void)state;
+	const struct layout sym = {3, {0, 120, 240, 0}, {0.1, 0.1, 0.1, 0}};
+	static struct adapt a;
+	struct ctl_settings s;
+
+	settings_of(&sym, &s, true);
+	adapt_init(&a, &s);
+	const struct model_params *p = &s.model;
+	const double diag[3] = {1.5, 1.5, 3.0 * 0.1 * 0.1};
+
+	for (int j = 0; j < 4; j++) {
+		double g[3] = {0, 0, 0};
+
+		if (j < 3)
+			row_of(&sym, j, g);
+		for (int k = 0; k < 3; k++) {
+			assert_true(fabs(a.Gi[k][j] - g[k] * p->l * p->Kt / p->r) < 1e-5);
+			assert_true(fabs(a.Gw[k][j] - p->r * g[k] / diag[k]) < 1e-6);
+		}
+	}
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -274,6 +302,7 @@ int main(void)
 	    cmocka_unit_test(test_closed_loop_reaches_the_command_on_the_layouts_plant),
 	    cmocka_unit_test(test_three_wheels_refuse_a_voltage_on_slot_3),
 	    cmocka_unit_test(test_the_encoder_check_follows_the_null_space),
+	    cmocka_unit_test(test_online_maps_follow_the_layout),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
