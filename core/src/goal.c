@@ -88,10 +88,15 @@ void goal_init(struct goal *g, const struct ctl_settings *cfg)
 void goal_init_limits(struct goal *g, const struct ctl_settings *cfg, const struct traj_limits *lim)
 {
 	const bool again = active(g) && g->traj_ok;
+	struct traj_limits l = *lim;
+	struct wheel_geom geom;
+	const struct wheel_geom *use;
 
+	if (!l.geom && ctl_settings_layout(cfg, &geom, &use) == 0)
+		l.geom = use; /* the layout of cfg (NULL: the paper's) */
 	/* Into the scratch first: limits it refuses leave the goal in force its plan, to be
 	 * aborted at the next step (goal_step), never a reference at the origin. */
-	g->traj_ok = traj_init(&g->scratch, lim) == 0;
+	g->traj_ok = traj_init(&g->scratch, &l) == 0;
 	g->gen++; /* a plan asked for under the old limits is asked again */
 	g->lead_s = GOAL_PLAN_LEAD_S;
 	g->kp_pos = GOAL_KP_POS;

@@ -118,7 +118,8 @@ int sim_motor_init(struct sim_motor *s, const struct sim_motor_config *cfg)
 
 	/* The creep from a generator of its own: the sensor noise stream stays the same. */
 	floor.seed = cfg->seed ^ 0x5851f42d4c957f2dull;
-	if (plant_init(&s->plant, &cfg->params) || plant_set_floor(&s->plant, &floor))
+	if (plant_init(&s->plant, &cfg->params) || plant_set_floor(&s->plant, &floor) ||
+	    (cfg->has_geom && plant_set_geom(&s->plant, &cfg->geom)))
 		return -EINVAL;
 	s->cfg = *cfg;
 	if (changes_init(s, &cfg->changes))

@@ -16,6 +16,15 @@ static int open_sim_motor(struct robot *r, const struct robot_spec *spec, char *
 	/* A current drive turns voltages into currents with the controller's model. */
 	sc.drive.R_ohm = c->model.R;
 	sc.drive.Kv = c->model.Kv;
+	/* The simulated robot's wheels where the controller's settings put them. */
+	const struct wheel_geom *g;
+
+	if (ctl_settings_layout(c, &sc.geom, &g)) {
+		snprintf(why, n,
+		         "[model] wheels, wheel_angle_j, d_j: not a layout that drives the body");
+		return -1;
+	}
+	sc.has_geom = g != NULL;
 
 	if (sim_motor_init(&r->sim, &sc)) {
 		snprintf(why, n, "invalid [sim] settings");

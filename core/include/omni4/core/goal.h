@@ -205,7 +205,8 @@ struct goal {
  * re-planned from its reference under the new limits (no jump). Keeps the report. */
 void goal_init(struct goal *g, const struct ctl_settings *cfg);
 /* The same with the planner's limits given (goal_limits' with the motor constants and friction
- * the controller adapted online, [adapt]); cfg for the goal's own keys. */
+ * the controller adapted online, [adapt]); cfg for the goal's own keys and, where lim gives no
+ * layout (geom NULL), the wheels' layout. */
 void goal_init_limits(struct goal *g, const struct ctl_settings *cfg,
                       const struct traj_limits *lim);
 

@@ -82,6 +82,10 @@ struct sim_motor_config {
 	bool truth;                  /* the true state after each read (read_truth) */
 	struct sim_changes changes;
 	struct sim_drive drive;
+	/* The wheels' layout (plant_set_geom; model/wheels.h): has_geom false: the paper's four at
+	 * params.d. A three-wheel robot's slot 3 reads 0 A, 0 rad/s. */
+	bool has_geom;
+	struct wheel_geom geom;
 };
 
 #define SIM_CAM_QUEUE 32 /* camera frames in flight */
