@@ -52,17 +52,6 @@ bool ctl_settings_paper_layout(const struct ctl_settings *s)
 	return paper;
 }
 
-int ctl_settings_supported(const struct ctl_settings *s, const char **why)
-{
-	const bool paper = ctl_settings_paper_layout(s);
-
-	*why =
-	    paper ? NULL
-	          : "[model] wheels, wheel_angle_j, d_j: this controller drives the paper's layout "
-	            "only (4 wheels at 0, 90, 180, 270 deg, all at d)";
-	return paper ? 0 : -ENOTSUP;
-}
-
 int ctl_settings_geom(const struct ctl_settings *s, struct wheel_geom *g)
 {
 	double d[4];

@@ -32,12 +32,6 @@ static const struct robot_backend *find(const struct robot_backend *const *table
 static int start_controller(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct motor_hal motor = spec->wrap ? spec->wrap(spec->wrap_ctx, r->motor) : r->motor;
-	const char *unsupported;
-
-	if (ctl_settings_supported(spec->ctl, &unsupported)) {
-		snprintf(why, n, "%s", unsupported);
-		return -1;
-	}
 	if (fw_init(&r->fw, spec->ctl, motor, r->lines)) {
 		snprintf(why, n, "invalid controller settings");
 		return -1;

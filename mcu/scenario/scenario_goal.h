@@ -12,6 +12,13 @@
  * cost: fw_tick alone, not the wait for the tick; 0 without a meter), the clock [us], one
  * result line, the meter (NULL: none). */
 int scenario_start(void);
+/* The wheels' layout of a scenario: n wheels at angle_deg[j] from the v axis, at d_m[j]. */
+struct scenario_layout {
+	int wheels;
+	double angle_deg[4], d_m[4];
+};
+/* scenario_start with that layout in the controller's settings (and so in the sim's plant). */
+int scenario_start_layout(const struct scenario_layout *lay);
 uint32_t scenario_tick(void);
 uint32_t scenario_last_ctl_cost(void); /* that tick's cost less the sim plant's HAL part */
 struct robot *scenario_robot(void);

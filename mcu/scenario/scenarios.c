@@ -2,6 +2,7 @@
 #include "scenarios.h"
 #include "scenario_adapt.h"
 #include "scenario_goal.h"
+#include "scenario_layouts.h"
 
 #include <math.h>
 #include <stdbool.h>
@@ -98,11 +99,19 @@ static void say(const char *fmt_name, bool ok, const char *figures)
 	g_print(line);
 }
 
-static int start(void)
+static int start_with(const struct scenario_layout *lay)
 {
 	char why[128];
 
 	ctl_settings_defaults(&g_ctl);
+	if (lay) {
+		g_ctl.layout.wheels = lay->wheels;
+		for (int j = 0; j < 4; j++) {
+			g_ctl.layout.angle_deg[j] = lay->angle_deg[j];
+			g_ctl.layout.d[j] = lay->d_m[j];
+		}
+		g_ctl.layout_keys = (uint8_t)((1u << lay->wheels) - 1u);
+	}
 	sim_settings_defaults(&g_sim_set);
 	/* Exact sensors; the camera's poses go to the ring, where tick() passes over them. */
 	const struct robot_spec spec = {.ctl = &g_ctl,
@@ -118,6 +127,11 @@ static int start(void)
 	g_now_us = 0;
 	g_cmd_seq = 0;
 	return 0;
+}
+
+static int start(void)
+{
+	return start_with(NULL);
 }
 
 static void send(int8_t mode, const double vel[3])
@@ -456,6 +470,11 @@ int scenario_start(void)
 	return start();
 }
 
+int scenario_start_layout(const struct scenario_layout *lay)
+{
+	return start_with(lay);
+}
+
 uint32_t scenario_tick(void)
 {
 	tick();
@@ -519,8 +538,9 @@ int scenarios_run(scenario_print_fn print, scenario_wait_fn wait_tick)
 	failed += stuck_encoder();
 	failed += scenario_goal();
 	failed += scenario_adapt();
+	failed += scenario_layouts();
 	estimator_cost();
-	snprintf(line, sizeof(line), "%d passed, %d failed", 7 - failed, failed);
+	snprintf(line, sizeof(line), "%d passed, %d failed", 9 - failed, failed);
 	print(line);
 	return failed;
 }

@@ -108,11 +108,6 @@ static inline double ctl_settings_wheel_distance(const struct ctl_settings *s, i
 	return s->layout_keys & (1u << j) ? s->layout.d[j] : s->model.d;
 }
 
-/* 0 if the controller drives this layout; -ENOTSUP and *why (one line) if not: today the
- * feedforward, the estimator and the simulated plant are the paper's eqs 2-23 in closed form,
- * so only the paper's layout drives (the keys are read and checked all the same). */
-int ctl_settings_supported(const struct ctl_settings *s, const char **why);
-
 /* The drives in force: wheel j's own value where it has its own key, else the scalar. With no
  * wheel keys, model_wheels_from_params(&s->model) bit for bit. */
 void ctl_settings_wheels(const struct ctl_settings *s, struct model_wheels *w);
