@@ -21,8 +21,13 @@ usage: compare_check.py BIN_DIR
   - the planner's move times above the lower bound max(distance / the fastest heading's top
     speed, the bang-bang time speeding up at the envelope's largest point and slowing down at
     the most the floor can give, mu g plus the body friction at top speed over M; the same
-    about w with the envelope about w and mu sum N_j d_j) and below UPPER times it.
-Bad input: a missing robot file or a bad INI value is one line, exit status 2, no table.
+    about w with the envelope about w and mu sum N_j d_j) and below UPPER times it;
+  - the layout reaches the planner: the asymmetric four's 1 m along vn takes longer than its
+    drives on the paper's layout, by at least half the ratio the hand envelopes give;
+  - the table on stdout is compare.md, one column per robot; compare_plots.py writes both
+    figures and links them.
+Bad input: a missing robot file or a bad INI value is one line, exit status 2, no table;
+--out naming a file: one line, status 1, the file untouched.
 Prints one line per check; exit status 0 when all pass, 1 otherwise.
 """
 import argparse
@@ -64,6 +69,8 @@ class Robot:
                   "Cw"):
             setattr(self, k, get(k))
         self.n = int(m.get("wheels", "4"))
+        for k in ("r", "Kv", "Kt", "R"):  # each drive's own value, else the scalar
+            setattr(self, k, np.array([float(m.get(f"{k}_{j}", m[k])) for j in range(self.n)]))
         deg = [float(m.get(f"wheel_angle_{j}", str(90 * j))) for j in range(self.n)]
         dist = [float(m.get(f"d_{j}", m["d"])) for j in range(self.n)]
         a = np.radians(deg)
@@ -233,10 +240,12 @@ def check_moves(rb, out):
 
 
 def check_paper_closed_form(out):
-    """The paper's robot along v by hand in closed form (Table III from its INI)."""
+    """The paper's robot along v by hand in closed form (Table III from its INI): wheels 1 and
+    3 carry (Bv v + Cv) / 2 each."""
     rb = Robot(ROBOTS[0])
     s = {r["robot"]: r for r in rows(out, "summary.csv")}["paper"]
-    vpn, kemf = rb.R * rb.r / (rb.l * rb.Kt), rb.Kv * rb.l / rb.r
+    R, r, Kv, Kt = rb.R[0], rb.r[0], rb.Kv[0], rb.Kt[0]  # four equal drives
+    vpn, kemf = R * r / (rb.l * Kt), Kv * rb.l / r
     v_top = (rb.U - vpn * rb.Cv / 2) / (vpn * rb.Bv / 2 + kemf)
     check(close(float(s["top_v_m_s"]), v_top),
           f"paper: top speed along v {float(s['top_v_m_s']):.6f} = closed form {v_top:.6f} m/s")
@@ -246,6 +255,27 @@ def check_paper_closed_form(out):
     check(tool and close(tool[0], acc),
           f"paper: acceleration along v {tool[0] if tool else None} = closed form {acc:.6f} "
           "m/s^2 (wheels 1 and 3 at mu M g / 4)")
+
+
+def check_layout_reaches_planner(tool, out, tmp):
+    """The asymmetric four's drives on the paper's layout (its layout keys dropped) against the
+    asymmetric four: weaker sideways (hand envelope along vn), it must take longer for 1 m along
+    vn, by at least half of what an acceleration-bound move gives (time ~ a^-1/2)."""
+    with open(ROBOTS[2]) as f:
+        text = "".join(ln for ln in f if not ln.startswith(("wheel_angle_", "d_")))
+    square = os.path.join(tmp, "square.ini")
+    with open(square, "w") as f:
+        f.write(text)
+    p = subprocess.run([tool, square, "--out", os.path.join(tmp, "sq")], capture_output=True,
+                       text=True, timeout=60)
+    t = lambda d, robot: [float(r["time_s"]) for r in rows(d, "moves.csv")  # noqa: E731
+                          if r["robot"] == robot and r["move"] == "1 m along vn"][0]
+    vn = np.array([[0.0, 1.0, 0.0]])
+    expect = np.sqrt(envelope(Robot(square), vn)[0] / envelope(Robot(ROBOTS[2]), vn)[0])
+    ratio = t(out, "robocup") / t(os.path.join(tmp, "sq"), "square") if not p.returncode else 0
+    check(ratio >= 1.0 + 0.5 * (expect - 1.0), f"the layout reaches the planner: 1 m along vn "
+          f"takes {ratio:.3f} times as long on the asymmetric four as with its drives on the "
+          f"paper's layout (the envelopes' a^-1/2: {expect:.3f})")
 
 
 def check_outputs(tool, out, tmp):
@@ -316,6 +346,7 @@ def main():
         print(f"     worst relative difference to the hand: {max(worst):.2g}, margins "
               f"{worst_margin:.2g}; planner time "
               f"over its lower bound {min(ratios):.2f} .. {max(ratios):.2f}")
+        check_layout_reaches_planner(tool, out, tmp)
         check_outputs(tool, out, tmp)
         check_errors(tool, tmp)
     print("compare_check: " + ("all passed" if not failures else f"{len(failures)} FAILED"))
