@@ -70,6 +70,20 @@ Result compute(const std::string &path)
 	return o;
 }
 
+// Two files of one name (a/robot.ini, b/robot.ini): the later one's column "robot#2".
+void unique_name(std::vector<Result> &rs)
+{
+	const std::string base = rs.back().r.name;
+	for (int k = 2;; k++) {
+		bool taken = false;
+		for (size_t i = 0; i + 1 < rs.size(); i++)
+			taken = taken || rs[i].r.name == rs.back().r.name;
+		if (!taken)
+			return;
+		rs.back().r.name = base + "#" + std::to_string(k);
+	}
+}
+
 std::string fmt(const char *f, double v)
 {
 	char b[64];
@@ -255,8 +269,10 @@ int main(int argc, char **argv)
 	OMNI4_CLI_PARSE(app, argc, argv);
 	try {
 		std::vector<Result> rs;
-		for (const std::string &f : files)
+		for (const std::string &f : files) {
 			rs.push_back(compute(f));
+			unique_name(rs);
+		}
 		if (out.empty())
 			std::fputs(markdown(rs).c_str(), stdout);
 		else

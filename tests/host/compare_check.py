@@ -34,6 +34,7 @@ import argparse
 import configparser
 import csv
 import os
+import stat
 import subprocess
 import sys
 import tempfile
@@ -308,6 +309,27 @@ def check_outputs(tool, out, tmp):
         kept = f.read() == "kept\n"
     check(p.returncode == 1 and p.stderr.count("\n") == 1 and kept,
           f"--out naming a file: status 1, one line, the file untouched ({p.stderr.strip()})")
+    fifo = os.path.join(tmp, "a_fifo")
+    os.mkfifo(fifo)
+    p = subprocess.run([tool, ROBOTS[0], "--out", fifo], capture_output=True, text=True,
+                       timeout=60)
+    check(p.returncode == 1 and p.stderr.count("\n") == 1 and stat.S_ISFIFO(os.stat(fifo).st_mode),
+          f"--out naming a FIFO: status 1, one line, the FIFO kept ({p.stderr.strip()})")
+    real, link = os.path.join(tmp, "real"), os.path.join(tmp, "link")
+    os.makedirs(real)
+    os.symlink(real, link)
+    with open(os.path.join(real, "kept.md"), "w") as f:
+        f.write("old\n")
+    os.symlink("kept.md", os.path.join(real, "compare.md"))
+    p = subprocess.run([tool, ROBOTS[0], "--out", link], capture_output=True, text=True,
+                       timeout=60)
+    with open(os.path.join(real, "kept.md")) as f:
+        replaced = f.read().startswith("| quantity | paper |")
+    check(p.returncode == 0 and os.path.islink(link) and
+          os.path.islink(os.path.join(real, "compare.md")) and replaced and
+          os.path.exists(os.path.join(real, "summary.csv")),
+          "--out a link to a folder, compare.md a link there: both links kept, the table in "
+          "the linked file")
 
 
 def check_errors(tool, tmp):
