@@ -75,7 +75,8 @@ struct Move {
 const std::vector<Move> &moves();
 
 // The planner's duration [s] of each of moves() (traj_plan with the goal mode's limits of the
-// INI, goal_limits, and the robot's layout).
+// INI, goal_limits, and the robot's layout); all NaN when the planner refuses the limits (no
+// acceleration at rest: Coulomb friction beyond traction or voltage).
 std::vector<double> move_times(const Robot &r);
 
 } // namespace omni4::compare

@@ -153,8 +153,10 @@ std::string markdown(const std::vector<Result> &rs)
 	row(md, "energy at 1 m/s along vn [J/m]", rs,
 	    [](const Result &o) { return fmt("%.3f", o.energy[1]); });
 	for (size_t m = 0; m < moves().size(); m++)
-		row(md, std::string("time: ") + moves()[m].name + " [s]", rs,
-		    [m](const Result &o) { return fmt("%.3f", o.times[m]); });
+		row(md, std::string("time: ") + moves()[m].name + " [s]", rs, [m](const Result &o) {
+			return std::isnan(o.times[m]) ? std::string("none: no acceleration at rest")
+			                              : fmt("%.3f", o.times[m]);
+		});
 	for (int j = 0; j < 4; j++)
 		row(md,
 		    "traction margin at the weakest heading, wheel " + std::to_string(j) + " [-]",

@@ -26,6 +26,7 @@ usage: compare_check.py BIN_DIR
     drives on the paper's layout, by at least half the ratio the hand envelopes give;
   - the table on stdout is compare.md, one column per robot; compare_plots.py writes both
     figures and links them.
+A floor too slippery to start (mu 0.01): the figures, acceleration 0, no move planned.
 Bad input: a missing robot file or a bad INI value is one line, exit status 2, no table;
 --out naming a file: one line, status 1, the file untouched.
 Prints one line per check; exit status 0 when all pass, 1 otherwise.
@@ -332,6 +333,22 @@ def check_outputs(tool, out, tmp):
           "the linked file")
 
 
+def check_no_grip(tool, tmp):
+    """A floor that cannot overcome the Coulomb friction (mu 0.01): figures, no plans."""
+    with open(ROBOTS[0]) as f:
+        text = f.read().replace("traction_mu = 0.8", "traction_mu = 0.01")
+    ice = os.path.join(tmp, "ice.ini")
+    with open(ice, "w") as f:
+        f.write(text)
+    p = subprocess.run([tool, ice], capture_output=True, text=True, timeout=60)
+    times = [r for r in p.stdout.splitlines() if r.startswith("| time: ")]
+    weakest = [r for r in p.stdout.splitlines() if r.startswith("| weakest heading")]
+    check(p.returncode == 0 and len(times) == len(MOVES) and
+          all("none: no acceleration at rest" in r for r in times) and weakest and
+          ": 0.000 (traction" in weakest[0], "a floor of mu 0.01: no acceleration (traction), "
+          "every move 'none: no acceleration at rest', status 0")
+
+
 def check_errors(tool, tmp):
     p = subprocess.run([tool, os.path.join(tmp, "absent.ini")], capture_output=True, text=True)
     check(p.returncode == 2 and p.stderr.count("\n") == 1 and "absent.ini" in p.stderr
@@ -370,6 +387,7 @@ def main():
               f"over its lower bound {min(ratios):.2f} .. {max(ratios):.2f}")
         check_layout_reaches_planner(tool, out, tmp)
         check_outputs(tool, out, tmp)
+        check_no_grip(tool, tmp)
         check_errors(tool, tmp)
     print("compare_check: " + ("all passed" if not failures else f"{len(failures)} FAILED"))
     return 1 if failures else 0
