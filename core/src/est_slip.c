@@ -58,7 +58,13 @@ void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
 		const float sg = f > 0.0f ? 1.0f : (f < 0.0f ? -1.0f : 0.0f);
 
 		s->nu_avg[j] += (wh[j] - pred[j] - s->nu_avg[j]) * (1.0f / EST_INNOV_AVG_TICKS);
-		e->out.slip_model[j] = t->driven ? sg * s->nu_avg[j] : 0.0f;
+		/* another layout (no null space behind it on three wheels): a wheel flagged stays
+		 * flagged while its rim is off the ground either way (a spinning wheel that its
+		 * motor now brakes still slips) */
+		const bool held = e->layout && (t->untrusted >> j & 1);
+
+		e->out.slip_model[j] =
+		    t->driven ? (held ? fabsf(s->nu_avg[j]) : sg * s->nu_avg[j]) : 0.0f;
 		if (e->out.slip_model[j] > e->set.slip_model_threshold)
 			s->model_run[j]++;
 		else
