@@ -15,6 +15,7 @@
 #include "omni4_test.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -33,7 +34,10 @@
 #define CAM_POS 0.01   /* m */
 #define CAM_TH (3.0 * PI / 180.0)
 #define WHEEL_NOISE 0.2 /* rad/s, as the paper's robot's tests */
-#define VEL_TOL 2.5e-4  /* model-only prediction vs RK4 over 0.5 s [m/s]: measured 9.4e-5 */
+#define CAM_SLIP_MS 600 /* the camera names a wheel 1 m/s ahead [ms]: measured 209 */
+#define COV_TOL 1e-3    /* velocity variances vs F P F^T + Q by hand, relative: measured 5.0e-4 */
+#define WORST_SCALE 1.5e-4 /* learnt scale less the plant's (less its mean): measured 5.5e-5 */
+#define VEL_TOL 2.5e-4     /* model-only prediction vs RK4 over 0.5 s [m/s]: measured 9.4e-5 */
 
 static const struct model_params *P3 = &model_params_table3;
 static struct est E;
@@ -64,6 +68,44 @@ static void est_on(const struct layout *L, const struct est_settings *set)
 	geom_of(L, &g);
 	assert_int_equal(est_init(&E, set, P3, 1000.0), 0);
 	est_set_model_wheels(&E, P3, &w, &g);
+}
+
+/* exp(A h) by its Taylor series (h |A| about 0.01: 8 terms are exact to double). */
+static void expm_dt(const double A[3][3], double h, double F[3][3])
+{
+	double T[3][3];
+
+	for (int k = 0; k < 3; k++)
+		for (int c = 0; c < 3; c++)
+			F[k][c] = T[k][c] = k == c ? 1.0 : 0.0;
+	for (int i = 1; i <= 8; i++) {
+		double N[3][3];
+
+		for (int k = 0; k < 3; k++)
+			for (int c = 0; c < 3; c++)
+				N[k][c] =
+				    (T[k][0] * A[0][c] + T[k][1] * A[1][c] + T[k][2] * A[2][c]) *
+				    h / i;
+		for (int k = 0; k < 3; k++)
+			for (int c = 0; c < 3; c++) {
+				T[k][c] = N[k][c];
+				F[k][c] += N[k][c];
+			}
+	}
+}
+
+/* P <- F P F^T + diag(q). */
+static void lyap_step(const double F[3][3], const double q[3], double P[3][3])
+{
+	double FP[3][3];
+
+	for (int k = 0; k < 3; k++)
+		for (int c = 0; c < 3; c++)
+			FP[k][c] = F[k][0] * P[0][c] + F[k][1] * P[1][c] + F[k][2] * P[2][c];
+	for (int k = 0; k < 3; k++)
+		for (int c = 0; c < 3; c++)
+			P[k][c] = FP[k][0] * F[c][0] + FP[k][1] * F[c][1] + FP[k][2] * F[c][2] +
+			          (k == c ? q[k] : 0.0);
 }
 
 /* ---- the prediction against eq 23 written out -------------------------------------------- */
@@ -156,6 +198,69 @@ static void test_prediction_is_the_coupled_eq23(void **state)
 		assert_true(err <= VEL_TOL);
 		assert_true(fabs(x[0]) > 0.1 && fabs(x[1]) > 0.05 && fabs(x[2]) > 0.3);
 	}
+}
+
+/* eq 23's A for the layout by hand: -m^-1 (G^T diag(e) G + diag(Bv, Bvn, Bw)), e the back-EMF
+ * braking l^2 Kt Kv / (R r^2) of each (equal) wheel. */
+static void a_by_hand(const struct layout *L, double A[3][3])
+{
+	const struct model_params *p = P3;
+	const double e = p->l * p->l * p->Kt * p->Kv / (p->R * p->r * p->r);
+	const double m[3] = {p->M, p->M, p->J}, fr[3] = {p->Bv, p->Bvn, p->Bw};
+	double G[4][3] = {{0}}, inv[3][3];
+
+	layout_by_hand(L, G, inv);
+	for (int k = 0; k < 3; k++)
+		for (int c = 0; c < 3; c++) {
+			double geg = k == c ? fr[k] : 0.0;
+
+			for (int j = 0; j < L->n; j++)
+				geg += G[j][k] * e * G[j][c];
+			A[k][c] = -geg / m[k];
+		}
+}
+
+/* The velocities' covariance with no reading, driven at rest for 3 s: P+ = F P F^T + Q per
+ * tick with F = exp(A dt) (a Taylor series here) and Q = diag(q_v, q_v, q_w) (the settings'
+ * accel_noise_lin and _rot over a tick), from the estimator's start long forgotten (its factor
+ * decays as exp(2 a t)). The coupled A's terms in F show in the diagonal; the estimator's
+ * diagonal against this, and against the same with A's off-diagonal left out. */
+static void test_covariance_is_the_coupled_eq23(void **state)
+{
+	(void)state;
+	struct est_settings set;
+	double A[3][3], F[3][3], Fd[3][3], P[3][3] = {{0}}, Pd[3][3] = {{0}};
+	const double q[3] = {1e-6, 1e-6, 1e-4}; /* (1 m/s^2 1 ms)^2, (10 rad/s^2 1 ms)^2 */
+
+	est_settings_defaults(&set);
+	assert_true(set.accel_noise_lin == 1.0f && set.accel_noise_rot == 10.0f);
+	est_on(&FOUR, &set);
+	a_by_hand(&FOUR, A);
+	expm_dt(A, DT, F);
+	for (int k = 0; k < 3; k++)
+		for (int c = 0; c < 3; c++)
+			Fd[k][c] = k == c ? F[k][c] : 0.0;
+	for (int n = 0; n < 3000; n++) {
+		struct est_input in = {.utime = (int64_t)n * TICK_US, .driven = true};
+
+		est_step(&E, &in);
+		lyap_step(F, q, P);
+		lyap_step(Fd, q, Pd);
+	}
+	const float *c = &est_get(&E)->cov[3];
+	double worst = 0.0, apart = 0.0;
+
+	for (int k = 0; k < 3; k++) {
+		worst = fmax(worst, fabs(c[k] - P[k][k]) / P[k][k]);
+		apart = fmax(apart, fabs(Pd[k][k] - P[k][k]) / P[k][k]);
+	}
+	printf("asymmetric four, velocity variances at rest, driven: %.4g %.4g %.4g (by hand "
+	       "%.4g %.4g %.4g; A's diagonal alone %.4g %.4g %.4g): off by %.2e, the two apart "
+	       "%.2e (relative)\n",
+	       c[0], c[1], c[2], P[0][0], P[1][1], P[2][2], Pd[0][0], Pd[1][1], Pd[2][2], worst,
+	       apart);
+	assert_true(worst <= COV_TOL);
+	assert_true(apart > 5.0 * COV_TOL); /* the test tells the two apart */
 }
 
 /* ---- the null vector ------------------------------------------------------------------------ */
@@ -270,7 +375,8 @@ struct sim {
 	int cam_n;
 };
 
-static void sim_init(struct sim *S, const struct layout *L, uint64_t seed)
+static void sim_init_set(struct sim *S, const struct layout *L, uint64_t seed,
+                         const struct est_settings *set)
 {
 	struct wheel_geom g;
 
@@ -278,9 +384,14 @@ static void sim_init(struct sim *S, const struct layout *L, uint64_t seed)
 	geom_of(L, &g);
 	assert_int_equal(plant_init(&S->pl, P3), 0);
 	assert_int_equal(plant_set_geom(&S->pl, &g), 0);
-	est_on(L, NULL);
+	est_on(L, set);
 	rng_seed(&S->g, seed);
 	S->nwheels = L->n;
+}
+
+static void sim_init(struct sim *S, const struct layout *L, uint64_t seed)
+{
+	sim_init_set(S, L, seed, NULL);
 }
 
 /* Normal driving: slow sines on each wheel (up to ~0.6 m/s), now and then a coast or a stop. */
@@ -435,6 +546,7 @@ static int slip_run(const struct layout *L, int j, double *verr, uint32_t *other
 		sim_tick(&S, u, true);
 		const uint32_t f = est_get(&E)->flags;
 
+		assert_false(f & EST_FLAG_COLLISION); /* the wheels that fit: no collision */
 		if (at < 0 && (f & (EST_FLAG_SLIP_0 << j))) {
 			at = k + 1;
 			*null_at = est_get(&E)->null_residual;
@@ -544,15 +656,151 @@ static void test_three_wheels_slip_model(void **state)
 	}
 }
 
+/* The camera's witness alone (the model's check off: slip_model_threshold 1e3) on the
+ * three-wheel robot: wheel j's reading spins off by 30 rad/s (1 m/s) along its voltage for
+ * 600 ms, after a spin in place and a drive without a flag. The wheels' velocity (the layout's
+ * least squares) against the camera's names wheel j (the layout's rows: the wheel whose rim is off
+ * the ground the poses give it), and no other. */
+static void test_three_wheels_slip_camera(void **state)
+{
+	(void)state;
+	static struct sim S;
+	struct est_settings set;
+	const double u[4] = {3.0, -3.0, 2.0, 0.0}, spin[4] = {8.0, 8.0, 8.0, 0.0};
+
+	est_settings_defaults(&set);
+	set.slip_model_threshold = 1e3f;
+	for (int j = 0; j < 3; j++) {
+		int at = -1, n = 0;
+		uint32_t others = 0;
+		float worst = 0.0f;
+		double wmax = 0.0;
+
+		sim_init_set(&S, &THREE, 17, &set);
+		for (; n < 3000; n++) { /* a spin in place, then the drive */
+			sim_tick(&S, n < 1500 ? spin : u, true);
+			for (int a = 0; a < 3; a++)
+				worst = fmaxf(worst, fabsf(est_get(&E)->slip_camera[a]));
+			wmax = fmax(wmax, fabs(S.pl.x[2]));
+		}
+		assert_int_equal(est_get(&E)->flags & EST_FLAG_SLIP, 0);
+		S.slip_rad_s[j] = u[j] > 0.0 ? 30.0 : -30.0;
+		for (int k = 0; k < 600; k++, n++) {
+			sim_tick(&S, u, true);
+			const uint32_t f = est_get(&E)->flags;
+
+			if (at < 0 && (f & (EST_FLAG_SLIP_0 << j)))
+				at = k + 1;
+			others |= f & ((EST_FLAG_SLIP_0 | EST_FLAG_SLIP_1 | EST_FLAG_SLIP_2 |
+			                EST_FLAG_SLIP_3) &
+			               ~(EST_FLAG_SLIP_0 << j));
+		}
+		printf(
+		    "three wheels, camera alone, wheel %d 1 m/s ahead: SLIP_%d after %d ms, other "
+		    "wheels flagged 0x%x; before it (turning at up to %.1f rad/s) the comparison "
+		    "at most %.2f sigmas\n",
+		    j, j, at, (unsigned)others / EST_FLAG_SLIP_0, wmax, worst);
+		assert_true(at >= 1 && at <= CAM_SLIP_MS);
+		assert_int_equal(others, 0);
+		assert_true(worst < set.slip_camera_sigmas); /* measured 2.9: no false flag */
+	}
+}
+
+/* Wheel radius errors +1, -0.8, +0.6, -1 % (the plant: a rigid body on wheels of those radii),
+ * driven 60 s: the asymmetric four learns them less their mean from its null vector (the
+ * common scale has no equation, est.h); the three-wheel robot has no null space and learns
+ * nothing (its scales stay 0). */
+static void scales_after(const struct layout *L, double k[4])
+{
+	static struct sim S;
+	const struct plant_floor fl = {
+	    .radius_error = {0.01, -0.008, 0.006, L->n > 3 ? -0.01 : 0.0}};
+
+	sim_init(&S, L, 23);
+	assert_int_equal(plant_set_floor(&S.pl, &fl), 0);
+	for (int n = 0; n < 60000; n++) {
+		double u[4];
+		const bool drv = profile(&S, n, u);
+
+		sim_tick(&S, u, drv);
+	}
+	for (int j = 0; j < 4; j++)
+		k[j] = est_get(&E)->wheel_scale[j];
+}
+
+static void test_wheel_scales(void **state)
+{
+	(void)state;
+	const double e[4] = {0.01, -0.008, 0.006, -0.01};
+	const double mean = 0.25 * (e[0] + e[1] + e[2] + e[3]);
+	double k[4], k3[4], worst = 0.0;
+
+	scales_after(&FOUR, k);
+	for (int j = 0; j < 4; j++)
+		worst = fmax(worst, fabs(k[j] - (e[j] - mean)));
+	scales_after(&THREE, k3);
+	printf("asymmetric four, wheel scales learnt [%%]: %+.3f %+.3f %+.3f %+.3f (plant less its "
+	       "mean: %+.3f %+.3f %+.3f %+.3f), worst off by %.4f %%; three wheels: %g %g %g\n",
+	       100 * k[0], 100 * k[1], 100 * k[2], 100 * k[3], 100 * (e[0] - mean),
+	       100 * (e[1] - mean), 100 * (e[2] - mean), 100 * (e[3] - mean), 100 * worst, k3[0],
+	       k3[1], k3[2]);
+	assert_true(worst < WORST_SCALE);
+	for (int j = 0; j < 4; j++)
+		assert_true(k3[j] == 0.0);
+}
+
+/* The paper's rows given as a layout (from the angles 0/90/180/270 deg: wheel_geom_paper's
+ * rows, as ctl_settings_geom gives them) are the paper's code path: every tick's output the
+ * same bits as with no layout, over 5 s of the plant with one odd wheel, a camera and a slip. */
+static uint64_t paper_run(bool as_layout)
+{
+	static struct sim S;
+	const struct layout paper = {4, {0.0, 90.0, 180.0, 270.0}, {P3->d, P3->d, P3->d, P3->d}};
+	struct model_wheels w;
+	struct wheel_geom g;
+	uint64_t h = 1469598103934665603ull; /* FNV-1a of every tick's output */
+
+	model_wheels_from_params(P3, &w);
+	w.R[1] *= 0.95;
+	geom_of(&paper, &g);
+	sim_init(&S, &paper, 13);
+	est_set_model_wheels(&E, P3, &w, as_layout ? &g : NULL);
+	for (int n = 0; n < 5000; n++) {
+		double u[4];
+		const bool drv = profile(&S, n, u);
+		const unsigned char *b = (const unsigned char *)est_get(&E);
+
+		S.slip_rad_s[2] = n >= 3000 && n < 3200 ? 10.0 : 0.0;
+		sim_tick(&S, u, drv);
+		for (size_t k = 0; k < sizeof(struct est_output); k++)
+			h = (h ^ b[k]) * 1099511628211ull;
+	}
+	return h;
+}
+
+static void test_paper_rows_are_the_paper_bits(void **state)
+{
+	(void)state;
+	const uint64_t none = paper_run(false), rows = paper_run(true);
+
+	printf("the paper's rows as a layout: outputs' hash %016llx, with no layout %016llx\n",
+	       (unsigned long long)rows, (unsigned long long)none);
+	assert_true(rows == none);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_prediction_is_the_coupled_eq23),
+	    cmocka_unit_test(test_covariance_is_the_coupled_eq23),
 	    cmocka_unit_test(test_null_vector),
 	    cmocka_unit_test(test_three_wheels_track),
 	    cmocka_unit_test(test_asymmetric_four_tracks),
 	    cmocka_unit_test(test_asymmetric_four_slip_null_space),
 	    cmocka_unit_test(test_three_wheels_slip_model),
+	    cmocka_unit_test(test_three_wheels_slip_camera),
+	    cmocka_unit_test(test_wheel_scales),
+	    cmocka_unit_test(test_paper_rows_are_the_paper_bits),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
