@@ -12,6 +12,10 @@
  * so the four readings are exactly the least-squares velocity (eqs 3-5) with the diagonal
  * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
+ * Another layout (est_set_model_wheels' g; docs/estimator.md, "Other wheel layouts"): eq 23's
+ * full A (every off-diagonal term held over the tick, and in the covariance), one scalar update
+ * per wheel reading (exact: the readings' noise is independent), the layout's null vector n
+ * (residual n . v; three wheels: none, 0).
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.

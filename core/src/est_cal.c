@@ -2,6 +2,8 @@
  * est_cal.c - the wheels' scale errors from the null space (est.h, EST_CAL_*): every reading
  * that fits a rigid body gives one linear equation in them; the equations, exponentially
  * forgotten, are solved by least squares (normal equations, a ridge prior, Cholesky).
+ * Another four-wheel layout: the same with its null vector (e->nvec) for the signs; three
+ * wheels have no null space and no equation: off.
  */
 #include <math.h>
 

@@ -26,6 +26,9 @@
  *   voltages say otherwise); thresholds from the measured noise (est_settings,
  *   docs/estimator.md).
  * The model parameters in force follow the parameter service (est_set_model, between ticks).
+ * Another wheel layout (three wheels, an asymmetric four: est_set_model_wheels' g): the same
+ * with the layout's eq 23, rows and null vector; three wheels have no null space (the model's
+ * and the camera's witnesses name a slipping wheel; no scale calibration).
  */
 #ifndef OMNI4_EST_H
 #define OMNI4_EST_H
