@@ -65,14 +65,15 @@ int est_set_settings(struct est *e, const struct est_settings *s)
 	return 0;
 }
 
-/* The wheels that carry each body axis (bit j: wheel j's row has at least 0.5 on it; the paper's
- * v: 1 and 3, vn: 0 and 2, w: all four): est_slip.c's camera check names them. */
+/* The wheels that carry each body axis (v, vn: bit j when wheel j's row has at least 0.5 on it;
+ * w: every wheel; the paper's v: 1 and 3, vn: 0 and 2, w: all four): est_slip.c's camera check
+ * names them. */
 static void set_carry(struct est *e)
 {
 	for (int a = 0; a < 3; a++) {
 		e->carry[a] = 0;
 		for (int j = 0; j < e->wh.n; j++)
-			if (fabsf(e->wh.row[j][a]) >= 0.5f)
+			if (a == 2 || fabsf(e->wh.row[j][a]) >= 0.5f)
 				e->carry[a] |= (uint8_t)(1u << j);
 	}
 }

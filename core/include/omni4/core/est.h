@@ -192,7 +192,7 @@ struct est {
 	float Dv[3][3];   /* per tick: gam_k Ao[k][l], the velocity block of F less diag(phi) */
 	float nvec[4];    /* the null vector of G^T (four wheels; |n| = 2, the paper's
 	                   * (1, -1, 1, -1)); three wheels: 0 */
-	uint8_t carry[3]; /* the wheels that carry v, vn, w (bit j: |row_j| >= 0.5 on that axis) */
+	uint8_t carry[3]; /* the wheels that carry v, vn (bit j: |row_j| >= 0.5 on it), w (all) */
 	float d, dt;
 	float r[4]; /* each wheel's radius */
 	float s[6], P[6][6];
