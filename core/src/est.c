@@ -12,6 +12,10 @@
  * so the four readings are exactly the least-squares velocity (eqs 3-5) with the diagonal
  * variance wheel_noise^2 diag(1/2, 1/2, 1/(4 d^2)), plus the null-space residual
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
+ * Another layout (est_set_model_wheels' g; docs/estimator.md, "Other wheel layouts"): eq 23's
+ * full A (every off-diagonal term held over the tick, and in the covariance), one scalar update
+ * per wheel reading (exact: the readings' noise is independent), the layout's null vector n
+ * (residual n . v; three wheels: none, 0).
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
@@ -61,11 +65,105 @@ int est_set_settings(struct est *e, const struct est_settings *s)
 	return 0;
 }
 
-void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w)
+/* The wheels that carry each body axis (v, vn: bit j when wheel j's row has at least 0.5 on it;
+ * w: every wheel; the paper's v: 1 and 3, vn: 0 and 2, w: all four): est_slip.c's camera check
+ * names them. */
+static void set_carry(struct est *e)
+{
+	for (int a = 0; a < 3; a++) {
+		e->carry[a] = 0;
+		for (int j = 0; j < e->wh.n; j++)
+			if (a == 2 || fabsf(e->wh.row[j][a]) >= 0.5f)
+				e->carry[a] |= (uint8_t)(1u << j);
+	}
+}
+
+/* The null vector of G^T (four wheels): n_j = (-1)^j det(G less row j), scaled to |n| = 2 with
+ * its first non-zero entry > 0 (the paper's rows give (1, -1, 1, -1)). Three wheels: 0. */
+static void set_null_vector(struct est *e, const struct wheel_phys *ph)
+{
+	double n[4] = {0.0, 0.0, 0.0, 0.0}, norm = 0.0, sign = 0.0;
+
+	for (int j = 0; ph->n == 4 && j < 4; j++) {
+		const double *a = ph->row[j == 0 ? 1 : 0], *b = ph->row[j <= 1 ? 2 : 1],
+		             *c = ph->row[j <= 2 ? 3 : 2];
+		const double det = a[0] * (b[1] * c[2] - b[2] * c[1]) -
+		                   a[1] * (b[0] * c[2] - b[2] * c[0]) +
+		                   a[2] * (b[0] * c[1] - b[1] * c[0]);
+
+		n[j] = (j & 1) ? -det : det;
+		norm += n[j] * n[j];
+		if (sign == 0.0 && fabs(n[j]) > 1e-9)
+			sign = n[j] > 0.0 ? 1.0 : -1.0;
+	}
+	for (int j = 0; j < 4; j++)
+		e->nvec[j] = norm > 0.0 ? (float)(2.0 * sign * n[j] / sqrt(norm)) : 0.0f;
+}
+
+/* A layout other than the paper's: eq 23's full A (dyn_state_space_layout), the per-axis exact
+ * step with the off-diagonal terms held over the tick, the layout's rows. -EINVAL: refused. */
+static int set_layout(struct est *e, const struct model_params *p, const struct model_wheels *w,
+                      const struct wheel_geom *g)
+{
+	struct model_ss_wheels ss;
+	struct wheel_phys ph;
+
+	if (dyn_state_space_layout(p, w, g, &ss) || wheel_phys_init(&ph, g, p, w, 0.0))
+		return -EINVAL;
+	for (int k = 0; k < 3; k++) {
+		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
+		discretise(ss.A_coast[k], e->dt, &e->phic[k], &e->gamc[k]);
+		for (int j = 0; j < 4; j++)
+			e->B[k][j] = (float)ss.B[k][j];
+		e->C[k] = (float)-ss.K[k];
+		for (int l = 0; l < 3; l++) {
+			e->Ao[k][l] = k == l ? 0.0f : (float)ss.A[k][l];
+			e->Dv[k][l] = e->gam[k] * e->Ao[k][l];
+		}
+	}
+	memset(e->Ax, 0, sizeof(e->Ax));
+	e->coupled = false; /* the paper's coupling terms: Ao holds them all */
+	double dsum = 0.0;  /* the wheels' mean distance: w's scale as d w [m/s] */
+
+	for (int j = 0; j < ph.n; j++)
+		dsum += ph.row[j][2];
+	e->d = (float)(dsum / ph.n);
+	for (int j = 0; j < 4; j++)
+		e->r[j] = (float)w->r[j];
+	wheel_phys_to_f32(&ph, &e->wh);
+	set_null_vector(e, &ph);
+	set_carry(e);
+	e->layout = true;
+	set_noise(e);
+	return 0;
+}
+
+/* The paper's rows at d (wheel_geom_paper), compared by value. */
+static bool paper_rows(const struct wheel_geom *g, double d)
+{
+	struct wheel_geom paper;
+
+	wheel_geom_paper(d, &paper);
+	if (g->n != 4)
+		return false;
+	for (int j = 0; j < 4; j++)
+		for (int k = 0; k < 3; k++)
+			if (!(g->row[j][k] == paper.row[j][k]))
+				return false;
+	return true;
+}
+
+void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w,
+                          const struct wheel_geom *g)
 {
 	struct model_ss_wheels ss;
 
 	MODEL_ASSERT_CHECKED(p, w);
+	if (g && !paper_rows(g, p->d)) {
+		set_layout(e, p, w, g); /* refused: the model in force stays */
+		return;
+	}
+	e->layout = false;
 	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
 		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
@@ -82,12 +180,16 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 	e->d = (float)p->d;
 	for (int j = 0; j < 4; j++)
 		e->r[j] = (float)w->r[j];
-	struct wheel_geom g;
+	struct wheel_geom paper;
 	struct wheel_phys ph;
 
-	wheel_geom_paper(p->d, &g);
-	if (wheel_phys_init(&ph, &g, p, w, 0.0) == 0) /* (checked above: always) */
+	wheel_geom_paper(p->d, &paper);
+	if (wheel_phys_init(&ph, &paper, p, w, 0.0) == 0) /* (checked above: always) */
 		wheel_phys_to_f32(&ph, &e->wh);
+	static const float paper_null[4] = {1.0f, -1.0f, 1.0f, -1.0f};
+
+	memcpy(e->nvec, paper_null, sizeof(e->nvec));
+	set_carry(e);
 	set_noise(e);
 }
 
@@ -98,7 +200,7 @@ void est_set_model(struct est *e, const struct model_params *p)
 	model_wheels_from_params(p, &w);
 	if (model_params_check(p, NULL) || model_wheels_check(&w, NULL))
 		return; /* a bad model is ignored: the one in force stays */
-	est_set_model_wheels(e, p, &w);
+	est_set_model_wheels(e, p, &w, NULL);
 }
 
 void est_reset(struct est *e, const float pose[3], const float pose_var[3])
@@ -210,6 +312,30 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 			P[i][j] *= phi[j - 3];
 }
 
+/* A layout's coupled velocities (driven): P <- L P L^T with L = I + Dv on the velocity rows, so
+ * F's velocity block is diag(phi) + Dv diag(phi) (to dt^2: eq 23's exp(A dt)). P's upper
+ * triangle in, its upper triangle out. */
+static void predict_cov_coupled(struct est *e)
+{
+	float Y[6][6];
+
+	est_symmetrise(e);
+	for (int i = 0; i < 6; i++)
+		for (int j = 0; j < 6; j++) {
+			Y[i][j] = e->P[i][j];
+			if (i >= 3)
+				for (int l = 0; l < 3; l++)
+					Y[i][j] += e->Dv[i - 3][l] * e->P[3 + l][j];
+		}
+	for (int i = 0; i < 6; i++)
+		for (int j = i; j < 6; j++) {
+			e->P[i][j] = Y[i][j];
+			if (j >= 3)
+				for (int l = 0; l < 3; l++)
+					e->P[i][j] += e->Dv[j - 3][l] * Y[i][3 + l];
+		}
+}
+
 /* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w
  * from v and vn. */
 static float coupling(const struct est *e, int k, const float x[3])
@@ -242,6 +368,8 @@ static void predict(struct est *e, const struct est_tick *t)
 			    e->B[k][3] * u[3];
 		if (drv && e->coupled) /* the back-EMF of unequal wheels: held over the tick */
 			b += coupling(e, k, x0);
+		if (drv && e->layout) /* a layout's full A: every off-diagonal term, held */
+			b += e->Ao[k][0] * x0[0] + e->Ao[k][1] * x0[1] + e->Ao[k][2] * x0[2];
 		const float xn = axis(phi[k], gam[k], b, e->C[k], s[3 + k]);
 
 		xm[k] = 0.5f * (s[3 + k] + xn);
@@ -259,6 +387,8 @@ static void predict(struct est *e, const struct est_tick *t)
 	s[2] = model_wrap_pi_f32(s[2] + dt * xm[2]);
 
 	predict_cov(P, -dt * vy, dt * vx, dt * c, dt * sn, dt, phi);
+	if (drv && e->layout)
+		predict_cov_coupled(e);
 	P[3][3] += e->q[0];
 	P[4][4] += e->q[1];
 	P[5][5] += e->q[2];
@@ -298,6 +428,13 @@ static void scalar_update(struct est *e, int i, float nu, float r)
 /* The tick's wheel readings as a velocity (eqs 3-5) and the null-space residual. */
 static void wheel_velocity(const struct est *e, const float v[4], float z[3], float *null_res)
 {
+	if (e->layout) { /* the layout's least squares and null vector (0: three wheels) */
+		const float *n = e->nvec;
+
+		wheel_body_f32(&e->wh, v, z);
+		*null_res = n[0] * v[0] + n[1] * v[1] + n[2] * v[2] + n[3] * v[3];
+		return;
+	}
 	fk_robot_velocity_f32(e->d, v, z);
 	*null_res = v[0] - v[1] + v[2] - v[3];
 }
@@ -320,7 +457,10 @@ static int leave_out_worst(const struct est *e, const float wh[4], float nr, flo
 			jw = j;
 		}
 	}
-	v[jw] -= (jw & 1) ? -nr : nr;
+	if (!e->layout)
+		v[jw] -= (jw & 1) ? -nr : nr;
+	else if (fabsf(e->nvec[jw]) > 0.05f) /* its share of the residual (n_j v_j) */
+		v[jw] -= nr / e->nvec[jw];
 	wheel_velocity(e, v, z, &nr2);
 	return jw;
 }
@@ -352,6 +492,10 @@ static void wheel_update(struct est *e, const struct est_tick *t, bool live)
 		e->out.vel_innov = c;
 		e->slip_run = slip_now ? e->slip_run + 1 : 0;
 		e->collision_run = c > e->set.collision_threshold ? e->collision_run + 1 : 0;
+	}
+	if (e->layout) { /* one scalar update per wheel: the flagged and the worst left out */
+		est_slip_rows(e, wh, (uint8_t)(t->untrusted | (jw >= 0 ? 1u << jw : 0u)));
+		return;
 	}
 	if (t->untrusted) { /* wheels flagged at the tick before: the others only */
 		est_slip_update(e, t, wh);

@@ -2,6 +2,8 @@
  * est_cal.c - the wheels' scale errors from the null space (est.h, EST_CAL_*): every reading
  * that fits a rigid body gives one linear equation in them; the equations, exponentially
  * forgotten, are solved by least squares (normal equations, a ridge prior, Cholesky).
+ * Another four-wheel layout: the same with its null vector (e->nvec) for the signs; three
+ * wheels have no null space and no equation: off.
  */
 #include <math.h>
 
@@ -18,7 +20,10 @@ static const float cal_N[4][3] = {
  * s = +, -, +, -), in a, added to the forgotten normal equations. */
 static void cal_accumulate(struct est *e, const float g[4])
 {
-	const float phi[4] = {g[0], -g[1], g[2], -g[3]};
+	float phi[4] = {g[0], -g[1], g[2], -g[3]};
+
+	for (int j = 0; e->layout && j < 4; j++) /* the layout's null vector */
+		phi[j] = e->nvec[j] * g[j];
 	const float y = -(phi[0] + phi[1] + phi[2] + phi[3]);
 	const float lam = e->cal_forget;
 	float q[3];
@@ -51,8 +56,8 @@ static void cal_solve(struct est *e)
 
 void est_cal_step(struct est *e, const struct est_tick *t, uint32_t n)
 {
-	if (!e->set.calibrate)
-		return;
+	if (!e->set.calibrate || e->wh.n < 4)
+		return; /* three wheels: no null space, no equation (docs/estimator.md) */
 	/* a wheel flagged (the model's or the camera's witness) teaches nothing either (a slip
 	 * that the null space sees only in part, the diagonal's, would be learnt as a scale
 	 * error) */

@@ -58,7 +58,13 @@ void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
 		const float sg = f > 0.0f ? 1.0f : (f < 0.0f ? -1.0f : 0.0f);
 
 		s->nu_avg[j] += (wh[j] - pred[j] - s->nu_avg[j]) * (1.0f / EST_INNOV_AVG_TICKS);
-		e->out.slip_model[j] = t->driven ? sg * s->nu_avg[j] : 0.0f;
+		/* another layout (no null space behind it on three wheels): a wheel flagged stays
+		 * flagged while its rim is off the ground either way (a spinning wheel that its
+		 * motor now brakes still slips) */
+		const bool held = e->layout && (t->untrusted >> j & 1);
+
+		e->out.slip_model[j] =
+		    t->driven ? (held ? fabsf(s->nu_avg[j]) : sg * s->nu_avg[j]) : 0.0f;
 		if (e->out.slip_model[j] > e->set.slip_model_threshold)
 			s->model_run[j]++;
 		else
@@ -93,7 +99,12 @@ static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_
 
 	if (!rim_distance(e, k0, k1, g))
 		return false;
-	const float T = (float)(k1 - k0) * e->dt, wh_rot = 0.25f * (g[0] + g[1] + g[2] + g[3]);
+	float ground[4], wheels[3];
+
+	if (e->layout) /* the layout's least squares (eqs 3-5 for its rows) */
+		wheel_body_f32(&e->wh, g, wheels);
+	const float T = (float)(k1 - k0) * e->dt;
+	const float wh_rot = e->layout ? e->d * wheels[2] : 0.25f * (g[0] + g[1] + g[2] + g[3]);
 	/* the heading's change, unwrapped near the wheels' (a turn beyond pi between frames) */
 	const float dth = wh_rot / e->d + model_wrap_pi_f32(z1[2] - z0[2] - wh_rot / e->d);
 	const float dx = z1[0] - z0[0], dy = z1[1] - z0[1];
@@ -103,10 +114,13 @@ static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_
 	const float sr = 1.41421356f * e->set.cam_theta_noise * e->d / T;
 
 	const float body[3] = {c * dx + sn * dy, -sn * dx + c * dy, dth}; /* eq 1 */
-	float ground[4], wheels[3];
 
-	ik_wheel_speeds_f32(e->d, body, ground); /* eq 2 */
-	fk_robot_velocity_f32(e->d, g, wheels);  /* eqs 3-4 (the rotation from wh_rot) */
+	if (e->layout) {
+		wheel_rims_f32(&e->wh, body, ground); /* the layout's eq 2 */
+	} else {
+		ik_wheel_speeds_f32(e->d, body, ground); /* eq 2 */
+		fk_robot_velocity_f32(e->d, g, wheels);  /* eqs 3-4 (the rotation from wh_rot) */
+	}
 	res[0] = (wheels[0] - body[0]) / T / sl;
 	res[1] = (wheels[1] - body[1]) / T / sl;
 	res[2] = (wh_rot - e->d * dth) / T / sr;
@@ -116,11 +130,10 @@ static bool compare(const struct est *e, uint32_t k0, const float z0[3], uint32_
 }
 
 /* The wheels the camera names: of each axis beyond the threshold, the wheels carrying it
- * (v: 1 and 3, vn: 0 and 2, w: all four; eq 2) whose rim is off by at least half the most
- * any of them is (one wheel of a pair slipping names that wheel). */
-static uint8_t camera_wheels(const struct est_slip *s, const float rim[4])
+ * (carry: the paper's v: 1 and 3, vn: 0 and 2, w: all four; eq 2) whose rim is off by at least half
+ * the most any of them is (one wheel of a pair slipping names that wheel). */
+static uint8_t camera_wheels(const struct est_slip *s, const uint8_t carry[3], const float rim[4])
 {
-	static const uint8_t carry[3] = {0x0a, 0x05, 0x0f};
 	uint8_t bits = 0;
 
 	for (int a = 0; a < 3; a++) {
@@ -171,7 +184,7 @@ void est_slip_camera(struct est *e, uint32_t k, const float z[3], int64_t captur
 			        ? (uint8_t)(s->cam_run[a] < 255 ? s->cam_run[a] + 1 : 255)
 			        : 0;
 		}
-		s->cam_bits = camera_wheels(s, rim);
+		s->cam_bits = camera_wheels(s, e->carry, rim);
 		s->cam_us = capture_us;
 		break;
 	}
@@ -239,17 +252,22 @@ static void row_update(struct est *e, const float h[3], float nu, float r)
 	}
 }
 
-void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4])
+void est_slip_rows(struct est *e, const float wh[4], uint8_t skip)
 {
 	const float r = e->set.wheel_noise * e->set.wheel_noise;
 
-	for (int j = 0; j < 4; j++) {
+	for (int j = 0; j < e->wh.n; j++) {
 		const float *h = e->wh.row[j]; /* eq 2 */
 
-		if (t->untrusted >> j & 1)
+		if (skip >> j & 1)
 			continue;
 		row_update(e, h, wh[j] - (h[0] * e->s[3] + h[1] * e->s[4] + h[2] * e->s[5]), r);
 	}
+}
+
+void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4])
+{
+	est_slip_rows(e, wh, t->untrusted);
 }
 
 void est_slip_rewind(struct est *e, uint8_t fresh)

@@ -22,12 +22,13 @@ int fw_init(struct fw *fw, const struct ctl_settings *cfg, struct motor_hal moto
 	adapt_init(&fw->adapt, cfg);
 	struct est_settings es;
 	struct model_wheels w;
+	struct wheel_geom g;
 
 	est_settings_from_keys(&cfg->est, &es);
 	if (est_init(&fw->est, &es, &cfg->model, cfg->rate_hz))
 		return -EINVAL;
 	ctl_settings_wheels(cfg, &w);
-	est_set_model_wheels(&fw->est, &cfg->model, &w);
+	est_set_model_wheels(&fw->est, &cfg->model, &w, ctl_settings_geom(cfg, &g) ? NULL : &g);
 	spsc_init(&fw->pose_ring, fw->pose_buf, FW_POSE_RING_SLOTS, sizeof(fw->pose_buf[0]));
 	spsc_init(&fw->cmd_ring, fw->cmd_buf, FW_CMD_RING_SLOTS, sizeof(fw->cmd_buf[0]));
 	spsc_init(&fw->goal_ring, fw->goal_buf, FW_GOAL_RING_SLOTS, sizeof(fw->goal_buf[0]));
@@ -140,10 +141,12 @@ static void take_params(struct fw *fw, int64_t now_us)
 	} else {
 		ctl_retune(&fw->ctl, &u->set, &u->ff, &u->ff_ohm, &u->lay);
 		struct model_wheels w;
+		struct wheel_geom g;
 		struct est_settings es;
 
 		ctl_settings_wheels(&u->set, &w);
-		est_set_model_wheels(&fw->est, &u->set.model, &w);
+		est_set_model_wheels(&fw->est, &u->set.model, &w,
+		                     ctl_settings_geom(&u->set, &g) ? NULL : &g);
 		est_settings_from_keys(&u->set.est, &es);
 		est_set_settings(&fw->est, &es);
 		const uint32_t adapted = adapt_retune(&fw->adapt, &u->adapt);

@@ -2,6 +2,9 @@
 #include "omni4/model/dynamics.h"
 
 #include "omni4/model/kinematics.h"
+#include "omni4/model/wheels.h"
+
+#include <errno.h>
 
 #include <math.h>
 
@@ -144,4 +147,37 @@ void dyn_state_space_wheels(const struct model_params *p, const struct model_whe
 	ss->K[0] = -p->Cv / M; /* eq 27 */
 	ss->K[1] = -p->Cvn / M;
 	ss->K[2] = -p->Cw / J;
+}
+
+int dyn_state_space_layout(const struct model_params *p, const struct model_wheels *w,
+                           const struct wheel_geom *g, struct model_ss_wheels *ss)
+{
+	struct wheel_phys ph;
+
+	if (!g) {
+		dyn_state_space_wheels(p, w, ss);
+		return 0;
+	}
+	if (wheel_phys_init(&ph, g, p, w, 0.0))
+		return -EINVAL;
+	const double m[3] = {p->M, p->M, p->J};
+
+	ss->A_coast[0] = -p->Bv / p->M;
+	ss->A_coast[1] = -p->Bvn / p->M;
+	ss->A_coast[2] = -p->Bw / p->J;
+	for (int k = 0; k < 3; k++) {
+		for (int c = 0; c < 3; c++) {
+			double geg = 0.0; /* (G^T diag(e) G)[k][c] [N/(m/s)] */
+
+			for (int j = 0; j < ph.n; j++)
+				geg += ph.row[j][k] * ph.b[j] * ph.kemf[j] * ph.row[j][c];
+			ss->A[k][c] = (k == c ? ss->A_coast[k] : 0.0) - geg / m[k];
+		}
+		for (int j = 0; j < 4; j++)
+			ss->B[k][j] = j < ph.n ? ph.row[j][k] * ph.b[j] / m[k] : 0.0;
+	}
+	ss->K[0] = -p->Cv / p->M; /* eq 27 */
+	ss->K[1] = -p->Cvn / p->M;
+	ss->K[2] = -p->Cw / p->J;
+	return 0;
 }

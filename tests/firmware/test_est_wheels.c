@@ -119,7 +119,7 @@ static void test_prediction_follows_each_wheels_drive(void **state)
 
 	odd_robot(&p, &w);
 	assert_int_equal(est_init(&E, NULL, &p, 1000.0), 0);
-	est_set_model_wheels(&E, &p, &w);
+	est_set_model_wheels(&E, &p, &w, NULL);
 	const double per_wheel = drive_error(&p, &w);
 
 	assert_int_equal(est_init(&E, NULL, &p, 1000.0), 0); /* the paper's averaged model */
@@ -147,7 +147,7 @@ static void test_readings_use_each_wheels_radius(void **state)
 	est_settings_defaults(&set);
 	set.calibrate = false;
 	assert_int_equal(est_init(&E, &set, &p, 1000.0), 0);
-	est_set_model_wheels(&E, &p, &w);
+	est_set_model_wheels(&E, &p, &w, NULL);
 	rims(p.d, x, v);
 	double worst_nr = 0.0;
 

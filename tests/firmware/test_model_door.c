@@ -159,7 +159,7 @@ static void test_a_good_model_is_checked_at_the_door_only(void **state)
 	struct model_wheels w;
 
 	ctl_settings_wheels(&next.ctl, &w);
-	est_set_model_wheels(&g_fw.est, &next.ctl.model, &w);
+	est_set_model_wheels(&g_fw.est, &next.ctl.model, &w, NULL);
 #ifdef NDEBUG
 	assert_int_equal(n_params_check, 1);
 	assert_int_equal(n_wheels_check, 1);

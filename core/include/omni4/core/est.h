@@ -26,6 +26,9 @@
  *   voltages say otherwise); thresholds from the measured noise (est_settings,
  *   docs/estimator.md).
  * The model parameters in force follow the parameter service (est_set_model, between ticks).
+ * Another wheel layout (three wheels, an asymmetric four: est_set_model_wheels' g): the same
+ * with the layout's eq 23, rows and null vector; three wheels have no null space (the model's
+ * and the camera's witnesses name a slipping wheel; no scale calibration).
  */
 #ifndef OMNI4_EST_H
 #define OMNI4_EST_H
@@ -110,7 +113,8 @@ struct est_output {
 	float vel[3];           /* v, vn [m/s], w [rad/s] (robot frame) */
 	float cov[6];           /* diagonal of the covariance, state order */
 	uint32_t flags;         /* EST_FLAG_* */
-	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading [m/s] */
+	float null_residual;    /* v0 - v1 + v2 - v3 of the last reading (another layout: its
+	                         * null vector's n . v; three wheels: 0) [m/s] */
 	float vel_innov;        /* |wheel velocity - model prediction|, w as d w, averaged over
 	                         * the last readings (EST_INNOV_AVG_TICKS) [m/s] (what
 	                         * EST_FLAG_COLLISION looks at) */
@@ -181,6 +185,14 @@ struct est {
 	float
 	    Ax[4]; /* eq 23's off-diagonal A, unequal wheels: A[0][2], A[1][2], A[2][0], A[2][1] */
 	bool coupled; /* any Ax != 0 */
+	/* A layout other than the paper's (est_set_model_wheels' g; docs/estimator.md, "Other
+	 * wheel layouts"): the coupled prediction, one scalar update per wheel, its null vector. */
+	bool layout;
+	float Ao[3][3];   /* eq 23's A less its diagonal (dyn_state_space_layout) [1/s] */
+	float Dv[3][3];   /* per tick: gam_k Ao[k][l], the velocity block of F less diag(phi) */
+	float nvec[4];    /* the null vector of G^T (four wheels; |n| = 2, the paper's
+	                   * (1, -1, 1, -1)); three wheels: 0 */
+	uint8_t carry[3]; /* the wheels that carry v, vn (bit j: |row_j| >= 0.5 on it), w (all) */
 	float d, dt;
 	float r[4]; /* each wheel's radius */
 	float s[6], P[6][6];
@@ -224,9 +236,14 @@ int est_init(struct est *e, const struct est_settings *s, const struct model_par
 void est_set_model(struct est *e, const struct model_params *p);
 /* The same with each wheel's own r, Kv, Kt, R (w; dynamics.h): the prediction with each wheel's
  * gain and the back-EMF coupling of unequal wheels, each reading with its wheel's radius. p and w
- * are checked (MODEL_ASSERT_CHECKED: the caller's door, ctl_settings_check). */
-void est_set_model_wheels(struct est *e, const struct model_params *p,
-                          const struct model_wheels *w);
+ * are checked (MODEL_ASSERT_CHECKED: the caller's door, ctl_settings_check). g: the wheels'
+ * layout (wheels.h; ctl_settings_geom); NULL or the paper's rows (wheel_geom_paper at p's d):
+ * the paper's closed forms, to the last bit. Another layout (three or four wheels): eq 23's
+ * full coupled A and B, one scalar update per wheel reading, the layout's null vector
+ * (docs/estimator.md, "Other wheel layouts"); a layout wheel_phys_init refuses is ignored (the
+ * model in force stays). A three-wheel robot's slot 3 reads 0. */
+void est_set_model_wheels(struct est *e, const struct model_params *p, const struct model_wheels *w,
+                          const struct wheel_geom *g);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
 /* Fast loop, once per tick. A tick that comes two or more periods after the last (in->utime)

@@ -67,6 +67,21 @@ struct model_ss_wheels {
 void dyn_state_space_wheels(const struct model_params *p, const struct model_wheels *w,
                             struct model_ss_wheels *ss);
 
+/*
+ * eq 23 for any layout (struct wheel_geom: three or four wheels, eq 2's rows g_j; wheels.h),
+ * derived again from eqs 9-13, 21 with eq 2's rows as data: wheel j's force
+ * f_j = b_j u_j - e_j (g_j . x), e_j = b_j kemf_j (struct wheel_phys), the body force G^T f, so
+ *   A = A_coast - m^-1 G^T diag(e) G,   B = m^-1 G^T diag(b),   m = (M, M, J),
+ * a full 3 x 3 A whenever the layout or the drives are not symmetric (every off-diagonal term
+ * is the back-EMF of the wheels that move along both axes). K and A_coast as eq 27, the body's
+ * friction. A three-wheel robot's column 3 of B is 0. g NULL: exactly dyn_state_space_wheels
+ * (the paper's layout, its closed forms, the same bits). p and w checked as for
+ * wheel_phys_init; -EINVAL (ss untouched) for a layout wheel_phys_init refuses.
+ */
+struct wheel_geom;
+int dyn_state_space_layout(const struct model_params *p, const struct model_wheels *w,
+                           const struct wheel_geom *g, struct model_ss_wheels *ss);
+
 /* eqs 12-13 per wheel: f_j = l Kt_j i_j / r_j [N]. */
 void dyn_wheel_forces_wheels(const struct model_params *p, const struct model_wheels *w,
                              const double current_a[4], double force_n[4]);
