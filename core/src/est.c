@@ -78,26 +78,17 @@ static void set_carry(struct est *e)
 	}
 }
 
-/* The null vector of G^T (four wheels): n_j = (-1)^j det(G less row j), scaled to |n| = 2 with
- * its first non-zero entry > 0 (the paper's rows give (1, -1, 1, -1)). Three wheels: 0. */
+/* The null vector of G^T (four wheels; wheel_null), scaled to |n| = 2 (the paper's rows give
+ * (1, -1, 1, -1)). Three wheels: 0. */
 static void set_null_vector(struct est *e, const struct wheel_phys *ph)
 {
-	double n[4] = {0.0, 0.0, 0.0, 0.0}, norm = 0.0, sign = 0.0;
+	double n[4], norm = 0.0;
 
-	for (int j = 0; ph->n == 4 && j < 4; j++) {
-		const double *a = ph->row[j == 0 ? 1 : 0], *b = ph->row[j <= 1 ? 2 : 1],
-		             *c = ph->row[j <= 2 ? 3 : 2];
-		const double det = a[0] * (b[1] * c[2] - b[2] * c[1]) -
-		                   a[1] * (b[0] * c[2] - b[2] * c[0]) +
-		                   a[2] * (b[0] * c[1] - b[1] * c[0]);
-
-		n[j] = (j & 1) ? -det : det;
-		norm += n[j] * n[j];
-		if (sign == 0.0 && fabs(n[j]) > 1e-9)
-			sign = n[j] > 0.0 ? 1.0 : -1.0;
-	}
+	wheel_null(ph, n);
 	for (int j = 0; j < 4; j++)
-		e->nvec[j] = norm > 0.0 ? (float)(2.0 * sign * n[j] / sqrt(norm)) : 0.0f;
+		norm += n[j] * n[j];
+	for (int j = 0; j < 4; j++)
+		e->nvec[j] = norm > 0.0 ? (float)(2.0 * n[j] / sqrt(norm)) : 0.0f;
 }
 
 /* A layout other than the paper's: eq 23's full A (dyn_state_space_layout), the per-axis exact
