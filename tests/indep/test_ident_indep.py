@@ -62,14 +62,37 @@ OFFSET_TOL_SE, OFFSET_TOL_A = 3.0, 0.001
 OFFSETS_CSV = "current_offsets.csv"
 
 
-def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None, wheels=None):
+def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None, wheels=None,
+             geometry=None, layout_from="robot"):
     """Worker: write the logs of some robots of one layout; returns (layout, list of log
-    dicts, seconds)."""
+    dicts, seconds). geometry: the wheel layout (write_logs.parse_geometry), None the paper's;
+    layout_from "robot": each robot gets a robot file with it (robot_file), "log": the logs
+    carry OMNI4_ROBOT and identify gets the base INI alone."""
     t = time.time()
     res = write_logs.generate(layout, seed, robots, os.path.join(out_dir, layout),
                               lcm_python=lcm_python, progress=None, sensors=sensors,
-                              wheels=wheels)
+                              wheels=wheels, geometry=geometry, robot_msg=layout_from == "log")
+    if geometry is not None and layout_from == "robot":
+        for entry in res:
+            entry["base"] = robot_file(entry["base"], entry["truth"])
     return layout, res, time.time() - t
+
+
+#: the [model] keys of a wheel layout: the robot's geometry, measured as d, r, l and M are
+LAYOUT_KEYS = ("wheels", "wheel_angle_", "d_")
+
+
+def robot_file(base, truth):
+    """The robot file of a robot with its own wheel layout: the base INI (d r l M) and the
+    layout's keys (wheels, wheel_angle_j, d_j) as the truth INI gives them (the layout is the
+    robot's measured geometry; the body stays hidden). Returns its path (robotK_robot.ini)."""
+    path = base.replace("_base.ini", "_robot.ini")
+    with open(truth) as f:
+        keys = [ln for ln in f if ln.split("=")[0].strip().startswith(LAYOUT_KEYS)
+                and ln.split("=")[0].strip() != "d"]
+    with open(base) as f, open(path, "w") as out:
+        out.write(f.read().rstrip("\n") + "\n" + "".join(keys))
+    return path
 
 
 def gen_chunks(names, robots, jobs):
@@ -245,7 +268,7 @@ def run_all(a, work):
         for n, group in gen_chunks(order, robots, a.jobs):
             gen_left[n] += 1
             futs[pool.submit(gen_task, n, a.seed, group, work, a.pythonpath, a.sensors,
-                             a.wheels)] = "gen"
+                             a.wheels, a.geometry, a.layout_from)] = "gen"
         while futs:
             done, _ = cf.wait(futs, return_when=cf.FIRST_COMPLETED)
             for fut in done:
@@ -421,6 +444,17 @@ def main(argv=None):
     ap.add_argument("--wheel-tol", metavar="R,KV,RADIUS",
                     help="bounds [%%] of each R_j, Kv_j (= Kt_j) and r_j / mean r (default "
                          "1,1,0.3)")
+    ap.add_argument("--wheels", dest="wheels_n", type=int, choices=(3, 4),
+                    help="the robots' wheels (write_logs.py --wheels; default 4)")
+    ap.add_argument("--angles", metavar="A0,A1,..",
+                    help="the wheels' angles [deg] (write_logs.py --angles; default the paper's)")
+    ap.add_argument("--dist", metavar="D|D0,D1,..",
+                    help="the wheels' distances [m] (write_logs.py --dist; default d); with "
+                         "any of --wheels, --angles, --dist, identify gets the layout from a "
+                         "robot file (base INI + the layout's keys)")
+    ap.add_argument("--layout-from", choices=("robot", "log"), default="robot",
+                    help="where identify finds the wheel layout: a robot file (robot, default) "
+                         "or the log's OMNI4_ROBOT (log)")
     ap.add_argument("--camera-params", choices=("assert", "se", "report"), default="assert",
                     help="with --velocity camera, assert the 2 %% parameter bound (default), "
                          "2 %% or 3 reported SE (se), or only report the errors (validation "
@@ -434,6 +468,7 @@ def main(argv=None):
         a.layouts = write_logs.parse_layouts(a.layouts.split(","))
         a.sensors = None if a.sensors is None else write_logs.parse_sensors(a.sensors)
         a.wheels = write_logs.parse_wheels(a.wheel_spread)
+        a.geometry = write_logs.parse_geometry(a.wheels_n, a.angles, a.dist)
         a.wheel_tol = (wheel_checks.parse_tol(a.wheel_tol) if a.wheel_tol
                        else dict(wheel_checks.WHEEL_TOL_PCT))
         a.val_fraction = [float(x) for x in a.validation_fraction.split(",")]
@@ -460,6 +495,9 @@ def main(argv=None):
     if a.wheels:
         print("drives: each motor's R, Kv off by up to +-{:g} %, +-{:g} %, radii +-{:g} % (mean "
               "unchanged)".format(*(100 * v for v in a.wheels)))
+    if a.geometry is not None:
+        print(f"wheel layout: --wheels {a.wheels_n or 4} --angles {a.angles} --dist {a.dist}, "
+              f"given to identify by the {a.layout_from}")
     print_tables(results, a.layouts, a.wheel_tol)
     print_offsets(results)
     print_failures(results, a.quiet)
