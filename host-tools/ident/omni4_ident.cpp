@@ -1101,9 +1101,9 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 	               "that no wheel of its [model] needs more than the traction")
 	    ->excludes(hand);
 	ru->add_option("--robot", r.hand_robot,
-	               "BASE.ini: d and r for the robot velocity (eqs 3-5); "
-	               "Table III otherwise")
-	    ->needs(hand);
+	               "BASE.ini: d and r for the robot velocity (eqs 3-5, --hand); its wheel "
+	               "layout ([model] wheels, wheel_angle_j, d_j) for the runs' voltage patterns "
+	               "and the motor test's motors; Table III and the paper's layout otherwise");
 	ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
 	    ->check(CLI::Range(1, 100))
 	    ->capture_default_str()
@@ -1161,6 +1161,8 @@ int main(int argc, char **argv)
 		return cmd_validate(vargs);
 	if (ru->parsed() && *rargs.hand)
 		return cmd_run_hand(rargs.ropt, rargs.hopt, rargs.hand_robot);
+	if (ru->parsed() && !rargs.hand_robot.empty())
+		load_params(rargs.hand_robot, true, nullptr, nullptr, &rargs.ropt.layout);
 	if (ru->parsed() && !rargs.limits.empty()) {
 		omni4_config lc;
 		config_error err;
