@@ -26,6 +26,13 @@ Stricter bounds for real sensors (--validation-fraction ENC,CAM, e.g. 0.25,0.5):
 e_max and sigma must be within that fraction of Table IV. With the camera, the bound is never
 below what the TRUE parameters give on the same log times 1.1: validate runs with the truth too,
 and the camera's own noise (1 cm, 3 deg at 25 Hz) sets a floor no model can go under.
+--encoder-floor: the encoders' bound gets the same floor (a sample after a lost one, whose
+interval is not known, can set e_max with the true parameters too).
+
+Other wheel layouts (--wheels, --angles, --dist as write_logs.py): identify gets the layout from a
+robot file (the base INI and the truth's layout keys, --layout-from robot) or from the log's
+OMNI4_ROBOT (--layout-from log); validate from the identified parameters' layout keys (or the
+log's). The body stays hidden either way.
 --camera-params se: a camera-source parameter passes within 2 % or within 3 of the standard
 errors identify reports for it (params.csv, final): off by more than 2 % only where the tool
 says the data do not pin it that well.
@@ -187,7 +194,7 @@ def validation_of(tool, params, vjson, log, vel):
 
 
 def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=1.0,
-               wheel_tol=None):
+               wheel_tol=None, floor_sources=("camera",)):
     """Worker: identify + validate one log with one velocity source; returns a result dict.
 
     assert_params True: 2 % bound; "se": 2 % or 3 reported SE; False: the parameter errors are
@@ -239,7 +246,7 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
         out["fail"].append(msg)
         return out
     floor = None
-    if source == "camera" and val_fraction < 1.0:
+    if source in floor_sources and val_fraction < 1.0:
         floor, msg = validation_of(tool, entry["truth"], stem + "_truth_validate.json",
                                    entry["log"], vel)
         if msg:
@@ -289,7 +296,7 @@ def run_all(a, work):
                                 "assert": True, "report": False, "se": "se"}[a.camera_params]
                             frac = a.val_fraction[SOURCES.index(src)]
                             futs[pool.submit(ident_task, a.bin_dir, layout, entry, src, check,
-                                             frac, a.wheel_tol)] = entry
+                                             frac, a.wheel_tol, a.floor_sources)] = entry
                 else:
                     r = fut.result()
                     results.append(r)
@@ -452,6 +459,10 @@ def main(argv=None):
                     help="the wheels' distances [m] (write_logs.py --dist; default d); with "
                          "any of --wheels, --angles, --dist, identify gets the layout from a "
                          "robot file (base INI + the layout's keys)")
+    ap.add_argument("--encoder-floor", action="store_true",
+                    help="the encoder validation bound, like the camera's, never below 1.1 x "
+                         "the true parameters' figures on the same log (a lost sample's "
+                         "neighbour can set e_max whatever the model)")
     ap.add_argument("--layout-from", choices=("robot", "log"), default="robot",
                     help="where identify finds the wheel layout: a robot file (robot, default) "
                          "or the log's OMNI4_ROBOT (log)")
@@ -469,6 +480,7 @@ def main(argv=None):
         a.sensors = None if a.sensors is None else write_logs.parse_sensors(a.sensors)
         a.wheels = write_logs.parse_wheels(a.wheel_spread)
         a.geometry = write_logs.parse_geometry(a.wheels_n, a.angles, a.dist)
+        a.floor_sources = ("camera", "encoder") if a.encoder_floor else ("camera",)
         a.wheel_tol = (wheel_checks.parse_tol(a.wheel_tol) if a.wheel_tol
                        else dict(wheel_checks.WHEEL_TOL_PCT))
         a.val_fraction = [float(x) for x in a.validation_fraction.split(",")]
