@@ -811,6 +811,15 @@ static void export_model_csvs(const std::string &dir, const IdentResult &r,
 	auto wc = open_csv(dir, "wheels.csv");
 	wc << wheels_csv(r, truth_w);
 	wc.close();
+	const Layout &L = r.wheels.shape.layout;
+	if (L.paper)
+		return;
+	auto lc = open_csv(dir, "layout.csv"); // the report draws it
+	lc.precision(10);
+	lc << "wheel,angle_deg,d_m\n";
+	for (int j = 0; j < L.n; ++j)
+		lc << j << ',' << L.angle_deg[j] << ',' << L.dist_m[j] << '\n';
+	lc.close();
 }
 
 // The traction experiment's fit (ident_traction.hpp); a model it cannot take: one line, exit 1.

@@ -170,6 +170,26 @@ def _tool(cmd):
     return "ok", ""
 
 
+def check_layout_csv(csv_dir, truth_ini):
+    """identify's layout.csv (what the report draws) against the truth's layout keys: the same
+    wheels, angles and distances (to 1e-9); no file for the paper's layout. Failure lines."""
+    truth = write_logs.read_ini(truth_ini)
+    n = int(truth.get("wheels", 4))
+    want = [(j, truth.get(f"wheel_angle_{j}", 90.0 * j), truth.get(f"d_{j}", truth["d"]))
+            for j in range(n)]
+    paper = n == 4 and all(a == 90.0 * j and d == want[0][2] for j, a, d in want)
+    path = os.path.join(csv_dir, "layout.csv")
+    if not os.path.exists(path):
+        return [] if paper else ["identify wrote no layout.csv for a layout not the paper's"]
+    with open(path, newline="") as f:
+        got = [(int(r["wheel"]), float(r["angle_deg"]), float(r["d_m"]))
+               for r in csv.DictReader(f)]
+    ok = len(got) == len(want) and all(
+        g[0] == w[0] and abs(g[1] - w[1]) < 1e-9 and abs(g[2] - w[2]) < 1e-9
+        for g, w in zip(got, want))
+    return [] if ok and not paper else [f"layout.csv {got} is not the robot's layout {want}"]
+
+
 def final_se(csv_dir):
     """{param: final standard error} from identify's params.csv ({} if unreadable)."""
     try:
@@ -217,6 +237,7 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
     if status != "ok" or not os.path.exists(params):
         out["fail"].append(f"identify refused the log: {msg or 'no params file'}")
         return out
+    out["fail"] += check_layout_csv(csv_dir, entry["truth"])
     if "offsets" in entry["effects"]:
         out["offsets"] = check_offsets(csv_dir, entry)
         out["fail"] += out["offsets"]["fail"]
