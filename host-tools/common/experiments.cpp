@@ -2,6 +2,8 @@
 #include "experiments.hpp"
 #include "omni4/lcmtypes/channels.h"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "omni4/command_t.hpp"
@@ -21,12 +23,30 @@ std::array<double, 4> drive_pattern(const std::string &direction)
 	throw std::invalid_argument("unknown direction '" + direction + "' (v, vn or w)");
 }
 
+std::array<double, 4> drive_pattern(const std::string &direction, const Layout &layout)
+{
+	if (layout.paper)
+		return drive_pattern(direction);
+	const int axis = direction == "v" ? 0 : direction == "vn" ? 1 : direction == "w" ? 2 : -1;
+	if (axis < 0)
+		throw std::invalid_argument("unknown direction '" + direction + "' (v, vn or w)");
+	std::array<double, 4> p{};
+	double peak = 0;
+	for (int j = 0; j < layout.n; ++j) {
+		p[j] = layout.ph.split[j][axis];
+		peak = std::max(peak, std::fabs(p[j]));
+	}
+	for (double &x : p)
+		x /= peak;
+	return p;
+}
+
 namespace
 {
 
-std::array<double, 4> scaled(const std::string &dir, double level)
+std::array<double, 4> scaled(const std::string &dir, double level, const Layout &layout)
 {
-	auto p = drive_pattern(dir);
+	auto p = drive_pattern(dir, layout);
 	for (double &x : p)
 		x *= level;
 	return p;
@@ -62,7 +82,8 @@ void settle(std::vector<Phase> &seq, double settle_s)
 void ramped_run(std::vector<Phase> &seq, const SequenceOptions &opt, const char *kind,
                 const char *dir, double level)
 {
-	Phase p = voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level), opt.ramp_s);
+	Phase p =
+	    voltage_phase(opt.ramp_s + opt.hold_s, scaled(dir, level, opt.layout), opt.ramp_s);
 	p.mark_kind = kind;
 	p.mark_direction = dir;
 	p.mark_level = level;
@@ -97,8 +118,8 @@ std::vector<Phase> paper_sequence(const SequenceOptions &opt)
 	// Experiment 2: push off with the motors, then null traction (H-bridges off) and coast.
 	for (const char *dir : {"v", "vn", "w"}) {
 		for (double level : opt.coast_levels) {
-			seq.push_back(
-			    voltage_phase(opt.ramp_s + 1.5, scaled(dir, level), opt.ramp_s));
+			seq.push_back(voltage_phase(opt.ramp_s + 1.5,
+			                            scaled(dir, level, opt.layout), opt.ramp_s));
 			Phase c = coast_phase(opt.settle_s + 1.0);
 			c.mark_kind = "coast";
 			c.mark_direction = dir;
@@ -108,7 +129,7 @@ std::vector<Phase> paper_sequence(const SequenceOptions &opt)
 		}
 	}
 	// Motor test (eqs 21-22): constant voltage on one motor at a time, the other three at 0 V.
-	for (int j = 0; j < 4; ++j)
+	for (int j = 0; j < opt.layout.n; ++j)
 		for (double level : opt.motor_levels)
 			for (double sign : {1.0, -1.0})
 				motor_run(seq, opt, j, sign * level);

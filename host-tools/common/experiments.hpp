@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "layout.hpp"
+
 namespace omni4
 {
 
@@ -30,6 +32,11 @@ std::vector<uint8_t> encode_command(int64_t utime, int64_t seq, int8_t mode);
 
 // Channel voltage pattern per volt of drive along "v", "vn" or "w" (columns of eq 26).
 std::array<double, 4> drive_pattern(const std::string &direction);
+// The same for a layout: the least-norm wheel forces that push along that axis alone (the
+// layout's split column, model/wheels.h; with one drive for every wheel the voltages at rest
+// are proportional to them), scaled so that the largest |voltage| is 1 per volt; the paper's
+// layout: the pattern above, to the bit. A three-wheel robot's slot 3 holds 0.
+std::array<double, 4> drive_pattern(const std::string &direction, const Layout &layout);
 
 struct SequenceOptions {
 	std::vector<double> rotation_levels{3, 4, 5, 6, 7, 8}; // experiment 1 [V]
@@ -39,10 +46,12 @@ struct SequenceOptions {
 	double ramp_s = 0.5;
 	double hold_s = 3.0;
 	double settle_s = 3.0; // coasting to rest between runs
+	Layout layout;         // the axis runs' patterns (drive_pattern), motors in the motor test
 };
 
 // The whole sequence: steady rotation, null-traction coast-downs along v, vn, w, motor runs
-// (one motor at a time), ramped steps along v, vn, w. Every measured segment is opened by a mark
+// (one motor at a time, each of the layout's motors), ramped steps along v, vn, w (the
+// layout's patterns). Every measured segment is opened by a mark
 // and closed by "end".
 std::vector<Phase> paper_sequence(const SequenceOptions &opt = {});
 

@@ -63,12 +63,14 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
 		CameraTrack cam;
 		std::vector<std::pair<size_t, SegmentWindows>> windows; // by segment index
 	};
-	ident::estimate_radii(P);
+	P.radii.shape.layout = opt.layout;
+	if (opt.layout.paper)
+		ident::estimate_radii(P); // the left null space of the paper's eq 2
 	std::array<double, 4> radii;
 	for (int j = 0; j < 4; ++j)
 		radii[j] = base.r * P.radii.shape.r[j];
 	auto work = [&](const LogData *log) {
-		Tracks t{encoder_track(*log, base.d, radii), camera_track(*log), {}};
+		Tracks t{encoder_track(*log, opt.layout, base.d, radii), camera_track(*log), {}};
 		for (size_t i = 0; i < segments.size(); ++i)
 			if (segments[i].log == log)
 				t.windows.emplace_back(
@@ -93,7 +95,10 @@ Prepared prepare(const std::vector<Segment> &segments, const model_params &base,
 				P.offset_epochs.emplace_back(logs[k], e);
 		}
 	}
-	ident::camera_radius_scale(P);
+	if (opt.layout.paper)
+		ident::camera_radius_scale(P);
+	else
+		P.radii.r_scale_note = "not estimated for a layout other than the paper's";
 	return P;
 }
 

@@ -79,7 +79,7 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 	// The torque of the mean currents (eqs 11-13, linear in the currents): model/'s forces.
 	double f[4], robot_f[3];
 	wheel_forces(p, c.res.wheels.shape, imean, f);
-	dyn_robot_forces(p.d, f, robot_f);
+	c.P.opt.layout.body_force(p.d, f, robot_f);
 	const double torque = robot_f[2];
 	const double wcam =
 	    camera_rate(c.P.cam.at(w.s->log), m[w.w.m0].utime * 1e-6, m[w.w.m1 - 1].utime * 1e-6);
@@ -97,7 +97,7 @@ void rotation_point(Context &c, const model_params &p, bool cam, const SegWindow
 // T = Bw w + Cw, with the torque recomputed for a Kt and offsets moved by the inputs
 // x = [Kt, delta (4 per offset epoch)] (none: as measured): what experiment 1 borrows.
 Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p,
-                 const WheelShape &shape, bool cam, const Eigen::VectorXd *x)
+                 const WheelShape &shape, const Layout &layout, bool cam, const Eigen::VectorXd *x)
 {
 	model_params q = p;
 	if (x)
@@ -111,7 +111,7 @@ Fit fit_rotation(const std::vector<RotationPoint> &points, const model_params &p
 			i[j] =
 			    pt.imean[j] - (x && pt.epoch >= 0 ? (*x)[1 + 4 * pt.epoch + j] : 0.0);
 		wheel_forces(q, shape, i, f);
-		dyn_robot_forces(q.d, f, robot_f);
+		layout.body_force(q.d, f, robot_f);
 		X(k, 0) = cam ? pt.omega_cam : pt.omega_enc;
 		X(k, 1) = 1.0;
 		y[k] = robot_f[2];
@@ -147,7 +147,8 @@ void experiment1(Context &c)
 		return;
 	}
 	try {
-		const Fit f = fit_rotation(res.rotation_points, p, res.wheels.shape, cam, nullptr);
+		const Fit f = fit_rotation(res.rotation_points, p, res.wheels.shape, c.P.opt.layout,
+		                           cam, nullptr);
 		const Eigen::VectorXd off_se = c.offset_se();
 		Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1 + off_se.size()),
 		                se(1 + off_se.size());
@@ -156,7 +157,8 @@ void experiment1(Context &c)
 		se.tail(off_se.size()) = off_se;
 		const Eigen::VectorXd b = propagate_independent(
 		    [&](const Eigen::VectorXd &x) -> Eigen::VectorXd {
-			    return fit_rotation(res.rotation_points, p, res.wheels.shape, cam, &x)
+			    return fit_rotation(res.rotation_points, p, res.wheels.shape,
+			                        c.P.opt.layout, cam, &x)
 			        .theta;
 		    },
 		    x0, se);

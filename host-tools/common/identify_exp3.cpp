@@ -31,14 +31,20 @@ double axis_input(const double u_v[4], int axis)
 //   along w:     theta2 = b d / J,   theta1 = -(4 d^2 emf + Bw) / J,  theta3 = -Cw / J.
 // Per wheel (WheelShape): b and emf are the mean wheel's, theta2 carries axis_beta and theta1's
 // back-EMF term the axis's eps sum.
+// Any other layout (G its rows, one drive for every wheel): the axis input is (G^T u)_axis
+// less the back-EMF the other axes' velocities put on this one, Kv l / r sum_k (G^T G)[axis][k]
+// x_k (k != axis), so along every axis theta2 = b / m_axis, theta1 = -((G^T G)[axis][axis]
+// emf + B_axis) / m_axis, theta3 = -C_axis / m_axis (m = M, M, J).
 double R_from_theta2(const model_params &p, int axis, double theta2, const WheelShape &s)
 {
-	if (s.uniform())
+	if (s.uniform() || !s.layout.paper)
 		return p.l * p.Kt / (p.r * p.M * theta2);
 	return p.l * p.Kt * axis_beta(s, axis) / (p.r * p.M * theta2);
 }
 double J_from_theta2(const model_params &p, double theta2, const WheelShape &s)
 {
+	if (!s.layout.paper)
+		return p.l * p.Kt / (p.r * p.R * theta2);
 	if (s.uniform())
 		return p.l * p.Kt * p.d / (p.r * p.R * theta2);
 	return p.l * p.Kt * p.d * axis_beta(s, 2) / (p.r * p.R * theta2);
@@ -46,6 +52,8 @@ double J_from_theta2(const model_params &p, double theta2, const WheelShape &s)
 double B_from_theta1(const model_params &p, int axis, double theta1, const WheelShape &s)
 {
 	const double emf = p.Kt * p.Kv * p.l * p.l / (p.r * p.r * p.R);
+	if (!s.layout.paper)
+		return -(axis < 2 ? p.M : p.J) * theta1 - s.layout.gtg[axis][axis] * emf;
 	if (s.uniform())
 		return axis < 2 ? -p.M * theta1 - 2 * emf : -p.J * theta1 - 4 * p.d * p.d * emf;
 	const double e0 = s.eps(0), e1 = s.eps(1), e2 = s.eps(2), e3 = s.eps(3);
@@ -72,6 +80,12 @@ namespace
 double input_of(const MotorsSample &m, int axis, const model_params &p, const WheelShape &s)
 {
 	const double u[4] = {m.u[0], m.u[1], m.u[2], m.u[3]};
+	if (!s.layout.paper) {
+		double in = 0;
+		for (int j = 0; j < s.layout.n; ++j)
+			in += s.layout.ph.row[j][axis] * u[j];
+		return in;
+	}
 	if (s.uniform())
 		return axis_input(u, axis);
 	const double x0[3] = {0, 0, 0};
@@ -85,7 +99,7 @@ double force_of(const MotorsSample &m, int axis, const model_params &p, const Wh
 	const double i[4] = {m.i[0], m.i[1], m.i[2], m.i[3]};
 	double f[4], body[3];
 	wheel_forces(p, s, i, f);
-	dyn_robot_forces(p.d, f, body);
+	s.layout.body_force(p.d, f, body);
 	return body[axis];
 }
 
@@ -93,6 +107,12 @@ double force_of(const MotorsSample &m, int axis, const model_params &p, const Wh
 double coupling_of(const std::array<double, 3> &x, int axis, const model_params &p,
                    const WheelShape &s)
 {
+	if (!s.layout.paper) {
+		double emf = 0;
+		for (int k = 0; k < 3; ++k)
+			emf += k == axis ? 0.0 : s.layout.gtg[axis][k] * x[k];
+		return -p.Kv * p.l / p.r * emf;
+	}
 	if (s.uniform())
 		return 0.0;
 	const double u0[4] = {0, 0, 0, 0}, xv[3] = {x[0], x[1], x[2]};

@@ -190,10 +190,14 @@ void motor_test(Context &c)
 	collect_motor_points(c);
 	const Eigen::VectorXd off_se = c.offset_se();
 	RSum rs;
-	for (int j = 0; j < 4; ++j)
+	for (int j = 0; j < c.P.opt.layout.n; ++j)
 		fit_one_motor(c, j, off_se, rs);
 	motors_differ_test(res.motor_points, res.wheels, c.P.opt);
-	if (res.wheels.motors_differ)
+	if (res.wheels.motors_differ && !c.P.opt.layout.paper)
+		c.missing(
+		    "per-wheel drives: the motors differ, but a layout other than the paper's "
+		    "is fitted with one Kv and R for every motor");
+	if (res.wheels.motors_differ && c.P.opt.layout.paper)
 		per_motor_kv(c);
 	else
 		pooled_kv(c, off_se);

@@ -20,6 +20,7 @@
 #include "omni4/motors_t.hpp"
 #include "omni4/param_changed_t.hpp"
 #include "omni4/pose_t.hpp"
+#include "omni4/robot_t.hpp"
 
 namespace omni4
 {
@@ -304,6 +305,34 @@ void take_param_changed(const Event &ev, LogData &d)
 	d.calibrations.push_back(c);
 }
 
+// The first robot_t with a layout a robot can have; later ones are the same robot's repeats.
+void take_robot(const Event &ev, LogData &d)
+{
+	robot_t r{};
+	if (!decode(r, ev.data, ev.len)) {
+		++d.undecodable;
+		return;
+	}
+	bool ok = plausible_count(r.utime) && (r.wheels == 3 || r.wheels == 4);
+	for (int j = 0; ok && j < r.wheels; ++j)
+		ok = std::isfinite(r.wheel_angle[j]) && r.wheel_distance[j] > 0 &&
+		     r.wheel_distance[j] < 100 && std::isfinite(r.wheel_radius[j]);
+	if (!ok) {
+		++d.implausible;
+		return;
+	}
+	if (d.robot.present)
+		return;
+	d.robot.present = true;
+	d.robot.wheels = r.wheels;
+	d.robot.l = r.l;
+	for (int j = 0; j < 4; ++j) {
+		d.robot.wheel_angle_rad[j] = r.wheel_angle[j];
+		d.robot.wheel_distance_m[j] = r.wheel_distance[j];
+		d.robot.wheel_radius_m[j] = r.wheel_radius[j];
+	}
+}
+
 void take_event(const Event &ev, LogData &d)
 {
 	++d.events;
@@ -315,6 +344,8 @@ void take_event(const Event &ev, LogData &d)
 		take_mark(ev, d);
 	else if (ev.channel == OMNI4_CHANNEL_PARAM_CHANGED)
 		take_param_changed(ev, d);
+	else if (ev.channel == OMNI4_CHANNEL_ROBOT)
+		take_robot(ev, d);
 	else
 		++d.other_channels;
 }

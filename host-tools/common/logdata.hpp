@@ -63,8 +63,18 @@ struct OffsetEpoch {
 	bool subtracted = false;          // offset_a has been subtracted from motors[m0, m1)
 };
 
+// The robot's own description of its wheels: the log's first OMNI4_ROBOT (robot_t) that holds
+// a plausible layout (3 or 4 wheels, finite angles, distances > 0).
+struct RobotDescription {
+	bool present = false;
+	int wheels = 4;
+	std::array<double, 4> wheel_angle_rad{}, wheel_distance_m{}, wheel_radius_m{};
+	double l = 0;
+};
+
 struct LogData {
 	std::string path;
+	RobotDescription robot; // present: the log carries OMNI4_ROBOT
 	std::vector<MotorsSample> motors;
 	std::vector<PoseSample> pose;
 	std::vector<Mark> marks;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "layout.hpp"
 #include "omni4/lcmtypes/channels.h"
 
 extern "C" {
@@ -23,6 +24,7 @@ struct RunOptions {
 	double settle_s = 3.0;                    // coasting to rest between runs [s]
 	model_params model = model_params_table3; // for the ramps under the traction limit
 	double traction_hold_n = 0; // > 0: no run's ramp asks a wheel for more (limit_ramps)
+	Layout layout; // the wheels (--robot): the axis runs' patterns, the motor test's motors
 };
 
 // Returns the process exit status. SIGINT/SIGTERM: publish an IDLE command (safe stop), close

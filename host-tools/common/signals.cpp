@@ -70,8 +70,8 @@ namespace
 // The robot velocity of every sample (eqs 3-5), appended to out.raw (reserved), the filter's
 // time step and half width, and whether each sample joins the previous one (next seq, about
 // one step later).
-void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::array<double, 4> &r,
-                    double half_s, EncoderTrack &out)
+void raw_velocities(const std::vector<MotorsSample> &m, const Layout &layout, double d,
+                    const std::array<double, 4> &r, double half_s, EncoderTrack &out)
 {
 	const size_t n = m.size();
 	int64_t step_us = 1;
@@ -88,7 +88,7 @@ void raw_velocities(const std::vector<MotorsSample> &m, double d, const std::arr
 		double vw[4], x[3];
 		for (int j = 0; j < 4; ++j)
 			vw[j] = m[k].w[j] * r[j];
-		fk_robot_velocity(d, vw, x);
+		layout.body_velocity(d, vw, x);
 		out.raw.push_back({x[0], x[1], x[2]});
 		if (k > 0) {
 			const int64_t gap = m[k].utime - m[k - 1].utime;
@@ -200,6 +200,12 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
 EncoderTrack encoder_track(const LogData &log, double d, const std::array<double, 4> &r,
                            double half_s)
 {
+	return encoder_track(log, Layout{}, d, r, half_s);
+}
+
+EncoderTrack encoder_track(const LogData &log, const Layout &layout, double d,
+                           const std::array<double, 4> &r, double half_s)
+{
 	EncoderTrack out;
 	const auto &m = log.motors;
 	const size_t n = m.size();
@@ -215,7 +221,7 @@ EncoderTrack encoder_track(const LogData &log, double d, const std::array<double
 		append_nan(out, n);
 		return out;
 	}
-	raw_velocities(m, d, r, half_s, out);
+	raw_velocities(m, layout, d, r, half_s, out);
 	const size_t h = static_cast<size_t>(out.half);
 	const SgFilter f = savitzky_golay(out.half, 2);
 	// Contiguous blocks [a, b): the filter runs inside each, never across a gap.

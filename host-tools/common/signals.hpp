@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "layout.hpp"
 #include "logdata.hpp"
 
 namespace omni4
@@ -47,6 +48,9 @@ EncoderTrack encoder_track(const LogData &log, double d, double r, double half_s
 // bits of the scalar version.
 EncoderTrack encoder_track(const LogData &log, double d, const std::array<double, 4> &r,
                            double half_s = 0.020);
+// The same for a layout: its least-squares inverse of eq 2 (the paper's layout: the above).
+EncoderTrack encoder_track(const LogData &log, const Layout &layout, double d,
+                           const std::array<double, 4> &r, double half_s = 0.020);
 
 // Robot velocity from the camera poses of a whole log (index = index into log.pose).
 struct CameraTrack {

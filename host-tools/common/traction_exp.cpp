@@ -198,11 +198,12 @@ double traction_hold_n(const model_params &p, double mu, double margin)
 }
 
 std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,
-                                     double settle_s)
+                                     double settle_s, const Layout &layout)
 {
 	SequenceOptions full;
 	full.hold_s = hold_s;
 	full.settle_s = settle_s;
+	full.layout = layout;
 	if (only.empty())
 		return paper_sequence(full);
 	SequenceOptions pick = full;

@@ -77,6 +77,6 @@ double traction_hold_n(const model_params &p, double mu, double margin);
 // order, or the paper's whole sequence when `only` is empty; throws std::invalid_argument on an
 // unknown kind. hold_s, settle_s: the paper's runs'.
 std::vector<Phase> selected_sequence(const std::vector<std::string> &only, double hold_s,
-                                     double settle_s);
+                                     double settle_s, const Layout &layout = Layout{});
 
 } // namespace omni4

@@ -130,10 +130,13 @@ bool uniform_wheels(const model_params &p, const model_wheels &w)
 }
 
 // The plant of p with w's drives as its motor and radius errors (the floor otherwise off).
-void plant_of(plant &pl, const model_params &p, const model_wheels &w, bool uniform)
+void plant_of(plant &pl, const model_params &p, const model_wheels &w, bool uniform,
+              const Layout &layout)
 {
 	if (plant_init(&pl, &p))
 		throw IdentError("validate: parameters are not physical");
+	if (!layout.paper && plant_set_geom(&pl, &layout.geom))
+		throw IdentError("validate: the plant refuses the layout " + layout.describe());
 	if (uniform)
 		return;
 	plant_floor f{};
@@ -171,7 +174,7 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
 		if (s.kind != "step")
 			continue;
 		if (!encs.count(s.log))
-			encs.emplace(s.log, encoder_track(*s.log, p.d, radii));
+			encs.emplace(s.log, encoder_track(*s.log, opt.layout, p.d, radii));
 		const EncoderTrack &enc = encs.at(s.log);
 		const SegmentWindows wins = find_windows(s, enc, opt.windows);
 		for (const Rejection &r : wins.rejected)
@@ -193,7 +196,7 @@ Validation validate(const std::vector<Segment> &segments, const model_params &p,
 			}
 			++v.runs;
 			plant pl;
-			plant_of(pl, p, wh, uniform);
+			plant_of(pl, p, wh, uniform, opt.layout);
 			for (int a = 0; a < 3; ++a)
 				pl.x[a] = enc.x[k0][a];
 			if (cam)

@@ -219,7 +219,7 @@ struct WheelKeys {
 };
 
 model_params load_params(const std::string &path, bool partial, uint32_t *seen_out = nullptr,
-                         WheelKeys *wheels_out = nullptr)
+                         WheelKeys *wheels_out = nullptr, Layout *layout_out = nullptr)
 {
 	omni4_config cfg;
 	config_error err;
@@ -241,6 +241,17 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 	if (wheels_out) {
 		wheels_out->keys = cfg.ctl.wheel_keys;
 		wheels_out->values = cfg.ctl.wheels;
+	}
+	if (layout_out) {
+		double dist[4];
+		for (int j = 0; j < 4; ++j)
+			dist[j] = ctl_settings_wheel_distance(&cfg.ctl, j);
+		try {
+			*layout_out = make_layout(cfg.ctl.layout.wheels, cfg.ctl.layout.angle_deg,
+			                          dist, path);
+		} catch (const IdentError &e) {
+			die(path + ": " + e.what(), 2);
+		}
 	}
 	return cfg.ctl.model;
 }
@@ -290,6 +301,41 @@ std::string robot_wheel_keys_ini(const IdentResult &r, const WheelKeys &base)
 	return out.str();
 }
 
+// The layout's [model] keys (a layout other than the paper's: the robot runs on them).
+std::string layout_keys_ini(const Layout &L)
+{
+	if (L.paper)
+		return "";
+	std::string out =
+	    "; the wheels' layout (" + L.describe() + ")\nwheels = " + std::to_string(L.n) + "\n";
+	char v[40];
+	for (int j = 0; j < L.n; ++j) {
+		config_format_double(v, sizeof(v), L.angle_deg[j]);
+		out += "wheel_angle_" + std::to_string(j) + " = " + v + "\n";
+		config_format_double(v, sizeof(v), L.dist_m[j]);
+		out += "d_" + std::to_string(j) + " = " + v + "\n";
+	}
+	return out;
+}
+
+// The layout of the logs (their OMNI4_ROBOT), else the robot file's (its [model] wheels,
+// wheel_angle_j, d_j; none: the paper's), said in one line when it is not the paper's.
+Layout layout_or_die(const std::vector<LogData> &logs, const Layout &file)
+{
+	std::vector<const LogData *> ptrs;
+	for (const LogData &d : logs)
+		ptrs.push_back(&d);
+	try {
+		Layout L = layout_of_logs(ptrs, file);
+		if (!L.paper)
+			std::printf("layout: %s\n", L.describe().c_str());
+		return L;
+	} catch (const IdentError &e) {
+		die(e.what());
+	}
+	return {};
+}
+
 void write_params_to(FILE *f, const IdentResult &r, const model_params &base, uint32_t base_seen,
                      const WheelKeys &base_wheels, const std::string &comment,
                      const TractionResult *trac = nullptr)
@@ -326,6 +372,7 @@ void write_params_to(FILE *f, const IdentResult &r, const model_params &base, ui
 		}
 	}
 	ok = ok && std::fputs(robot_wheel_keys_ini(r, base_wheels).c_str(), f) >= 0;
+	ok = ok && std::fputs(layout_keys_ini(r.wheels.shape.layout).c_str(), f) >= 0;
 	if (trac)
 		ok = ok && write_traction_limits(f, *trac);
 	if (!ok && !std::ferror(f))
@@ -764,6 +811,15 @@ static void export_model_csvs(const std::string &dir, const IdentResult &r,
 	auto wc = open_csv(dir, "wheels.csv");
 	wc << wheels_csv(r, truth_w);
 	wc.close();
+	const Layout &L = r.wheels.shape.layout;
+	if (L.paper)
+		return;
+	auto lc = open_csv(dir, "layout.csv"); // the report draws it
+	lc.precision(10);
+	lc << "wheel,angle_deg,d_m\n";
+	for (int j = 0; j < L.n; ++j)
+		lc << j << ',' << L.angle_deg[j] << ',' << L.dist_m[j] << '\n';
+	lc.close();
 }
 
 // The traction experiment's fit (ident_traction.hpp); a model it cannot take: one line, exit 1.
@@ -782,15 +838,14 @@ int cmd_identify(const IdentifyArgs &a)
 	ensure_dir(a.csv);
 	uint32_t base_seen = 0;
 	WheelKeys base_wheels;
-	const model_params base = load_params(a.robot, true, &base_seen, &base_wheels);
-	model_params truth{};
-	model_wheels truth_w{};
-	if (!a.truth.empty()) {
-		truth = load_params(a.truth, false);
-		truth_w = load_wheels(a.truth, true);
-	}
-	const IdentOptions opt = ident_options(a.source, a.steady_tol_pct, a.drive);
+	Layout file_layout;
+	const model_params base =
+	    load_params(a.robot, true, &base_seen, &base_wheels, &file_layout);
+	const model_params truth = a.truth.empty() ? model_params{} : load_params(a.truth, false);
+	const model_wheels truth_w = a.truth.empty() ? model_wheels{} : load_wheels(a.truth, true);
+	IdentOptions opt = ident_options(a.source, a.steady_tol_pct, a.drive);
 	auto logs = load_logs(a.logs, base.l, true);
+	opt.layout = layout_or_die(logs, file_layout);
 	const auto segs = segments_of(logs);
 	const bool traction_only = std::all_of(segs.begin(), segs.end(), [](const Segment &s) {
 		return s.kind == "traction" || s.kind == OMNI4_MARK_END;
@@ -933,16 +988,18 @@ int cmd_validate(const ValidateArgs &va)
 {
 	check_writable(va.json);
 	ensure_dir(va.csv);
-	const IdentOptions opt = ident_options(va.source, 0.3);
+	IdentOptions opt = ident_options(va.source, 0.3);
 	if (va.params.empty() || va.params.size() > 2)
 		die("give --params once or twice", 2);
 	std::vector<model_params> sets;
 	std::vector<model_wheels> wheels;
+	Layout file_layout;
 	for (const auto &p : va.params) {
-		sets.push_back(load_params(p, false));
+		sets.push_back(load_params(p, false, nullptr, nullptr, &file_layout));
 		wheels.push_back(load_wheels(p, false));
 	}
 	const auto logs = load_logs(va.logs, sets[0].l, false);
+	opt.layout = layout_or_die(logs, file_layout);
 	const auto segs = segments_of(logs);
 	std::vector<Validation> vals;
 	try {
@@ -1053,9 +1110,9 @@ CLI::App *add_run(CLI::App &app, RunArgs &r)
 	               "that no wheel of its [model] needs more than the traction")
 	    ->excludes(hand);
 	ru->add_option("--robot", r.hand_robot,
-	               "BASE.ini: d and r for the robot velocity (eqs 3-5); "
-	               "Table III otherwise")
-	    ->needs(hand);
+	               "BASE.ini: d and r for the robot velocity (eqs 3-5, --hand); its wheel "
+	               "layout ([model] wheels, wheel_angle_j, d_j) for the runs' voltage patterns "
+	               "and the motor test's motors; Table III and the paper's layout otherwise");
 	ru->add_option("--pushes", hopt.pushes, "counted pushes per direction")
 	    ->check(CLI::Range(1, 100))
 	    ->capture_default_str()
@@ -1113,6 +1170,8 @@ int main(int argc, char **argv)
 		return cmd_validate(vargs);
 	if (ru->parsed() && *rargs.hand)
 		return cmd_run_hand(rargs.ropt, rargs.hopt, rargs.hand_robot);
+	if (ru->parsed() && !rargs.hand_robot.empty())
+		load_params(rargs.hand_robot, true, nullptr, nullptr, &rargs.ropt.layout);
 	if (ru->parsed() && !rargs.limits.empty()) {
 		omni4_config lc;
 		config_error err;

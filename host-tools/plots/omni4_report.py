@@ -38,6 +38,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_layout import layout_figure  # noqa: E402
 from report_traction import traction_figure  # noqa: E402
 from report_wheels import wheels_section  # noqa: E402
 
@@ -593,6 +594,9 @@ def write_report(a):
     lines = ["# omni4 identification report", ""]
     if params:
         lines += params_section(params, agreement)
+    layout_fig, layout_lines = layout_figure(plt, save, a.csv_dir, a.out_dir)
+    lines += layout_lines
+    figs += [layout_fig] if layout_fig else []
     lines += wheels_section(a.csv_dir)
     traction_fig, traction_lines = traction_figure(plt, save, a.csv_dir, a.out_dir)
     lines += traction_lines

@@ -129,6 +129,85 @@ TEST(StateSpace, DrivePatternsAccelerateOnlyTheirOwnAxis)
 	EXPECT_THROW(drive_pattern("x"), std::invalid_argument);
 }
 
+// Another layout's axis runs push along their axis alone with the least wheel forces; by hand
+// for three wheels at 0/120/240 deg at one distance d (rows [0 1 d], [-sqrt3/2 -1/2 d],
+// [sqrt3/2 -1/2 d], G^T G = diag(3/2, 3/2, 3 d^2), split G (G^T G)^-1): along v (0, -1, 1),
+// along vn (1, -1/2, -1/2), along w (1, 1, 1), the largest |voltage| 1 per volt; slot 3 0.
+TEST(Experiments, ThreeWheelPatternsAreTheHandComputedLeastNormPushes)
+{
+	const double ang[4] = {0, 120, 240, 0}, dist[4] = {0.11, 0.11, 0.11, 0};
+	const Layout L = make_layout(3, ang, dist, "test");
+	EXPECT_FALSE(L.paper);
+	const std::map<std::string, std::array<double, 4>> hand = {
+	    {"v", {0, -1, 1, 0}}, {"vn", {1, -0.5, -0.5, 0}}, {"w", {1, 1, 1, 0}}};
+	for (const auto &[dir, want] : hand) {
+		const std::array<double, 4> u = drive_pattern(dir, L);
+		for (int j = 0; j < 4; ++j)
+			EXPECT_NEAR(u[j], want[j], 1e-12) << dir << " wheel " << j;
+	}
+	EXPECT_THROW(drive_pattern("x", L), std::invalid_argument);
+}
+
+// The asymmetric four (60/135/225/300 deg, four distances): each axis's pattern pushes along
+// that axis alone (G^T u has no other component), is a least-norm force (in G's column space:
+// u = G c, checked by solving the normal equations here) and peaks at 1; the paper's layout
+// given by angles keeps the paper's patterns to the bit.
+TEST(Experiments, AsymmetricPatternsPushAlongTheirAxisAloneWithLeastNorm)
+{
+	const double ang[4] = {60, 135, 225, 300}, dist[4] = {0.082, 0.090, 0.095, 0.085};
+	const Layout L = make_layout(4, ang, dist, "test");
+	const char *dirs[3] = {"v", "vn", "w"};
+	for (int axis = 0; axis < 3; ++axis) {
+		const std::array<double, 4> u = drive_pattern(dirs[axis], L);
+		Eigen::Matrix<double, 4, 3> G;
+		for (int j = 0; j < 4; ++j) {
+			const double a = ang[j] * M_PI / 180;
+			G.row(j) << -std::sin(a), std::cos(a), dist[j];
+		}
+		const Eigen::Vector4d uv(u[0], u[1], u[2], u[3]);
+		const Eigen::Vector3d F = G.transpose() * uv;
+		for (int k = 0; k < 3; ++k) {
+			if (k != axis) {
+				EXPECT_NEAR(F[k] / std::fabs(F[axis]), 0, 1e-12) << dirs[axis];
+			}
+		}
+		EXPECT_GT(F[axis], 0) << dirs[axis];
+		const Eigen::Vector3d c = (G.transpose() * G).ldlt().solve(G.transpose() * uv);
+		EXPECT_LT((G * c - uv).norm(), 1e-12) << dirs[axis] << ": not least norm";
+		EXPECT_NEAR(uv.cwiseAbs().maxCoeff(), 1.0, 1e-15) << dirs[axis];
+	}
+	const double pa[4] = {0, 90, 180, 270}, pd[4] = {0.089, 0.089, 0.089, 0.089};
+	const Layout P = make_layout(4, pa, pd, "test");
+	EXPECT_TRUE(P.paper);
+	for (const char *dir : dirs)
+		EXPECT_EQ(drive_pattern(dir, P), drive_pattern(dir)) << dir;
+}
+
+// A three-wheel robot's sequence: the motor test drives motors 0-2 only, every phase holds 0 V
+// in slot 3, and each axis run's voltages are its level times the layout's pattern.
+TEST(Experiments, AThreeWheelSequenceDrivesThreeMotorsAndTheLayoutsPatterns)
+{
+	const double ang[4] = {60, 180, 300, 0}, dist[4] = {0.09, 0.1, 0.085, 0};
+	SequenceOptions opt;
+	opt.layout = make_layout(3, ang, dist, "test");
+	std::map<int, int> motor_runs;
+	for (const Phase &ph : paper_sequence(opt)) {
+		EXPECT_EQ(ph.voltage[3], 0.0);
+		if (ph.mark_kind == "motor")
+			for (int j = 0; j < 4; ++j)
+				motor_runs[j] += ph.voltage[j] != 0;
+		if (ph.mark_kind == "step" || ph.mark_kind == "steady_rotation") {
+			const std::array<double, 4> u =
+			    drive_pattern(ph.mark_direction, opt.layout);
+			for (int j = 0; j < 4; ++j)
+				EXPECT_EQ(ph.voltage[j], ph.mark_level * u[j]) << ph.mark_kind;
+		}
+	}
+	const int per_motor = static_cast<int>(2 * opt.motor_levels.size());
+	EXPECT_EQ(motor_runs,
+	          (std::map<int, int>{{0, per_motor}, {1, per_motor}, {2, per_motor}, {3, 0}}));
+}
+
 // The runner's motor test (docs/identification.md): each motor alone, the other three at 0 V in
 // VOLTAGE mode (bridges driven), at each of the motor levels 4, 8 and 11 V forwards and
 // backwards; every run marked "motor" with direction "" and the motor's voltage as level, then

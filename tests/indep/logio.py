@@ -7,6 +7,7 @@ import os
 import numpy as np
 
 CH_MOTORS, CH_POSE, CH_EXP = "OMNI4_MOTORS", "OMNI4_POSE", "OMNI4_EXPERIMENT"
+CH_ROBOT = "OMNI4_ROBOT"
 RECEIVE_DELAY_US = 300
 
 
@@ -53,6 +54,25 @@ def encode_mark(omni4, utime, kind, direction, level):
 
 # ---- files ----------------------------------------------------------------------------------
 
+def encode_robot(omni4, utime, params):
+    """The robot's description of its wheels (robot_t) from a truth parameter dict: wheels,
+    wheel_angle_j [deg] -> [rad], d_j (else d) [m], r_j (else r) [m], l; slot 3 of a
+    three-wheel robot 0."""
+    m = omni4.robot_t()
+    m.utime = int(utime)
+    n = int(params.get("wheels", 4))
+    m.wheels = n
+    paper = (0.0, 90.0, 180.0, 270.0)
+    m.wheel_angle = [float(np.deg2rad(params.get(f"wheel_angle_{j}", paper[j]))) if j < n
+                     else 0.0 for j in range(4)]
+    m.wheel_distance = [float(params.get(f"d_{j}", params["d"])) if j < n else 0.0
+                        for j in range(4)]
+    m.wheel_radius = [float(params.get(f"r_{j}", params["r"])) if j < n else 0.0
+                      for j in range(4)]
+    m.l = float(params["l"])
+    return m.encode()
+
+
 def write_ini(path, params, keys):
     """Write a [model] INI with `key = value` lines (atomically: temp file + rename)."""
     tmp = f"{path}.{os.getpid()}.tmp"
@@ -89,7 +109,11 @@ def write_log(lcm, omni4, path, data):
             encode_poses(omni4, ps["utime"], ps["pose"]),
             [encode_mark(omni4, *mk) for mk in data["marks"]]]
     utimes = [m["utime"], ps["utime"], np.array([mk[0] for mk in data["marks"]], np.int64)]
-    chans = (CH_MOTORS, CH_POSE, CH_EXP)
+    chans = (CH_MOTORS, CH_POSE, CH_EXP, CH_ROBOT)
+    if data.get("robot"):  # the controller's robot_t: its first tick, then 1 Hz
+        rt = np.arange(m["utime"][0], m["utime"][-1] + 1, 1_000_000, dtype=np.int64)
+        msgs.append([encode_robot(omni4, t, data["robot"]) for t in rt.tolist()])
+        utimes.append(rt)
     recvs = [ut + rng.integers(0, RECEIVE_DELAY_US + 1, len(ut)) for ut in utimes]
     if ps.get("recv_us") is not None:
         recvs[1] = np.asarray(ps["recv_us"], np.int64)

@@ -26,6 +26,13 @@ Stricter bounds for real sensors (--validation-fraction ENC,CAM, e.g. 0.25,0.5):
 e_max and sigma must be within that fraction of Table IV. With the camera, the bound is never
 below what the TRUE parameters give on the same log times 1.1: validate runs with the truth too,
 and the camera's own noise (1 cm, 3 deg at 25 Hz) sets a floor no model can go under.
+--encoder-floor: the encoders' bound gets the same floor (a sample after a lost one, whose
+interval is not known, can set e_max with the true parameters too).
+
+Other wheel layouts (--wheels, --angles, --dist as write_logs.py): identify gets the layout from a
+robot file (the base INI and the truth's layout keys, --layout-from robot) or from the log's
+OMNI4_ROBOT (--layout-from log); validate from the identified parameters' layout keys (or the
+log's). The body stays hidden either way.
 --camera-params se: a camera-source parameter passes within 2 % or within 3 of the standard
 errors identify reports for it (params.csv, final): off by more than 2 % only where the tool
 says the data do not pin it that well.
@@ -62,14 +69,37 @@ OFFSET_TOL_SE, OFFSET_TOL_A = 3.0, 0.001
 OFFSETS_CSV = "current_offsets.csv"
 
 
-def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None, wheels=None):
+def gen_task(layout, seed, robots, out_dir, lcm_python, sensors=None, wheels=None,
+             geometry=None, layout_from="robot"):
     """Worker: write the logs of some robots of one layout; returns (layout, list of log
-    dicts, seconds)."""
+    dicts, seconds). geometry: the wheel layout (write_logs.parse_geometry), None the paper's;
+    layout_from "robot": each robot gets a robot file with it (robot_file), "log": the logs
+    carry OMNI4_ROBOT and identify gets the base INI alone."""
     t = time.time()
     res = write_logs.generate(layout, seed, robots, os.path.join(out_dir, layout),
                               lcm_python=lcm_python, progress=None, sensors=sensors,
-                              wheels=wheels)
+                              wheels=wheels, geometry=geometry, robot_msg=layout_from == "log")
+    if geometry is not None and layout_from == "robot":
+        for entry in res:
+            entry["base"] = robot_file(entry["base"], entry["truth"])
     return layout, res, time.time() - t
+
+
+#: the [model] keys of a wheel layout: the robot's geometry, measured as d, r, l and M are
+LAYOUT_KEYS = ("wheels", "wheel_angle_", "d_")
+
+
+def robot_file(base, truth):
+    """The robot file of a robot with its own wheel layout: the base INI (d r l M) and the
+    layout's keys (wheels, wheel_angle_j, d_j) as the truth INI gives them (the layout is the
+    robot's measured geometry; the body stays hidden). Returns its path (robotK_robot.ini)."""
+    path = base.replace("_base.ini", "_robot.ini")
+    with open(truth) as f:
+        keys = [ln for ln in f if ln.split("=")[0].strip().startswith(LAYOUT_KEYS)
+                and ln.split("=")[0].strip() != "d"]
+    with open(base) as f, open(path, "w") as out:
+        out.write(f.read().rstrip("\n") + "\n" + "".join(keys))
+    return path
 
 
 def gen_chunks(names, robots, jobs):
@@ -140,6 +170,26 @@ def _tool(cmd):
     return "ok", ""
 
 
+def check_layout_csv(csv_dir, truth_ini):
+    """identify's layout.csv (what the report draws) against the truth's layout keys: the same
+    wheels, angles and distances (to 1e-9); no file for the paper's layout. Failure lines."""
+    truth = write_logs.read_ini(truth_ini)
+    n = int(truth.get("wheels", 4))
+    want = [(j, truth.get(f"wheel_angle_{j}", 90.0 * j), truth.get(f"d_{j}", truth["d"]))
+            for j in range(n)]
+    paper = n == 4 and all(a == 90.0 * j and d == want[0][2] for j, a, d in want)
+    path = os.path.join(csv_dir, "layout.csv")
+    if not os.path.exists(path):
+        return [] if paper else ["identify wrote no layout.csv for a layout not the paper's"]
+    with open(path, newline="") as f:
+        got = [(int(r["wheel"]), float(r["angle_deg"]), float(r["d_m"]))
+               for r in csv.DictReader(f)]
+    ok = len(got) == len(want) and all(
+        g[0] == w[0] and abs(g[1] - w[1]) < 1e-9 and abs(g[2] - w[2]) < 1e-9
+        for g, w in zip(got, want))
+    return [] if ok and not paper else [f"layout.csv {got} is not the robot's layout {want}"]
+
+
 def final_se(csv_dir):
     """{param: final standard error} from identify's params.csv ({} if unreadable)."""
     try:
@@ -164,7 +214,7 @@ def validation_of(tool, params, vjson, log, vel):
 
 
 def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=1.0,
-               wheel_tol=None):
+               wheel_tol=None, floor_sources=("camera",)):
     """Worker: identify + validate one log with one velocity source; returns a result dict.
 
     assert_params True: 2 % bound; "se": 2 % or 3 reported SE; False: the parameter errors are
@@ -187,6 +237,7 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
     if status != "ok" or not os.path.exists(params):
         out["fail"].append(f"identify refused the log: {msg or 'no params file'}")
         return out
+    out["fail"] += check_layout_csv(csv_dir, entry["truth"])
     if "offsets" in entry["effects"]:
         out["offsets"] = check_offsets(csv_dir, entry)
         out["fail"] += out["offsets"]["fail"]
@@ -216,7 +267,7 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
         out["fail"].append(msg)
         return out
     floor = None
-    if source == "camera" and val_fraction < 1.0:
+    if source in floor_sources and val_fraction < 1.0:
         floor, msg = validation_of(tool, entry["truth"], stem + "_truth_validate.json",
                                    entry["log"], vel)
         if msg:
@@ -245,7 +296,7 @@ def run_all(a, work):
         for n, group in gen_chunks(order, robots, a.jobs):
             gen_left[n] += 1
             futs[pool.submit(gen_task, n, a.seed, group, work, a.pythonpath, a.sensors,
-                             a.wheels)] = "gen"
+                             a.wheels, a.geometry, a.layout_from)] = "gen"
         while futs:
             done, _ = cf.wait(futs, return_when=cf.FIRST_COMPLETED)
             for fut in done:
@@ -266,7 +317,7 @@ def run_all(a, work):
                                 "assert": True, "report": False, "se": "se"}[a.camera_params]
                             frac = a.val_fraction[SOURCES.index(src)]
                             futs[pool.submit(ident_task, a.bin_dir, layout, entry, src, check,
-                                             frac, a.wheel_tol)] = entry
+                                             frac, a.wheel_tol, a.floor_sources)] = entry
                 else:
                     r = fut.result()
                     results.append(r)
@@ -421,6 +472,21 @@ def main(argv=None):
     ap.add_argument("--wheel-tol", metavar="R,KV,RADIUS",
                     help="bounds [%%] of each R_j, Kv_j (= Kt_j) and r_j / mean r (default "
                          "1,1,0.3)")
+    ap.add_argument("--wheels", dest="wheels_n", type=int, choices=(3, 4),
+                    help="the robots' wheels (write_logs.py --wheels; default 4)")
+    ap.add_argument("--angles", metavar="A0,A1,..",
+                    help="the wheels' angles [deg] (write_logs.py --angles; default the paper's)")
+    ap.add_argument("--dist", metavar="D|D0,D1,..",
+                    help="the wheels' distances [m] (write_logs.py --dist; default d); with "
+                         "any of --wheels, --angles, --dist, identify gets the layout from a "
+                         "robot file (base INI + the layout's keys)")
+    ap.add_argument("--encoder-floor", action="store_true",
+                    help="the encoder validation bound, like the camera's, never below 1.1 x "
+                         "the true parameters' figures on the same log (a lost sample's "
+                         "neighbour can set e_max whatever the model)")
+    ap.add_argument("--layout-from", choices=("robot", "log"), default="robot",
+                    help="where identify finds the wheel layout: a robot file (robot, default) "
+                         "or the log's OMNI4_ROBOT (log)")
     ap.add_argument("--camera-params", choices=("assert", "se", "report"), default="assert",
                     help="with --velocity camera, assert the 2 %% parameter bound (default), "
                          "2 %% or 3 reported SE (se), or only report the errors (validation "
@@ -434,6 +500,8 @@ def main(argv=None):
         a.layouts = write_logs.parse_layouts(a.layouts.split(","))
         a.sensors = None if a.sensors is None else write_logs.parse_sensors(a.sensors)
         a.wheels = write_logs.parse_wheels(a.wheel_spread)
+        a.geometry = write_logs.parse_geometry(a.wheels_n, a.angles, a.dist)
+        a.floor_sources = ("camera", "encoder") if a.encoder_floor else ("camera",)
         a.wheel_tol = (wheel_checks.parse_tol(a.wheel_tol) if a.wheel_tol
                        else dict(wheel_checks.WHEEL_TOL_PCT))
         a.val_fraction = [float(x) for x in a.validation_fraction.split(",")]
@@ -460,6 +528,9 @@ def main(argv=None):
     if a.wheels:
         print("drives: each motor's R, Kv off by up to +-{:g} %, +-{:g} %, radii +-{:g} % (mean "
               "unchanged)".format(*(100 * v for v in a.wheels)))
+    if a.geometry is not None:
+        print(f"wheel layout: --wheels {a.wheels_n or 4} --angles {a.angles} --dist {a.dist}, "
+              f"given to identify by the {a.layout_from}")
     print_tables(results, a.layouts, a.wheel_tol)
     print_offsets(results)
     print_failures(results, a.quiet)

@@ -300,13 +300,15 @@ def rate_groups(layout, robots):
 
 
 def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_python=None,
-             progress=print, speed_noise=None, sensors=None, wheels=None, geometry=None):
+             progress=print, speed_noise=None, sensors=None, wheels=None, geometry=None,
+             robot_msg=False):
     """Simulate `robots` in `layout` and write their logs, INI files and sensor sidecars.
 
     sensors: tuple of real-sensor effects (parse_sensors), None = the layout's default.
     wheels: per-wheel spread (R, Kv, r) fractions (parse_wheels), None = four equal drives.
     geometry: the wheel layout (parse_geometry), None = the paper's; its keys (wheels,
-    wheel_angle_j, d_j) go into the truth INI only.
+    wheel_angle_j, d_j) go into the truth INI only, and into the log's OMNI4_ROBOT (robot_t, the
+    controller's description of its wheels: first tick, then 1 Hz) with robot_msg.
     Returns a list of dicts (robot, log, base, truth, sensors (sidecar path), effects,
     base_layout, seconds, counts) in robot order.
     """
@@ -324,6 +326,8 @@ def generate(layout, seed, robots, out_dir, omit=(), motor_subset=None, lcm_pyth
         cprs.update(sim["cpr"])
         for i, k in enumerate(group):
             data = sensor_data(sim, i, k, seed, layout, speed_noise, effects)
+            if robot_msg:
+                data["robot"] = sim["params"][i]
             log = os.path.join(out_dir, f"robot{k}_{layout}.lcmlog")
             counts = write_log(lcm, omni4, log, data)
             base = os.path.join(out_dir, f"robot{k}_base.ini")
@@ -453,6 +457,9 @@ def main(argv=None):
                          "the robot's d)")
     ap.add_argument("--geometry", metavar="INI",
                     help="the layout from an INI's [model] wheels, wheel_angle_j, d_j")
+    ap.add_argument("--robot-msg", action="store_true",
+                    help="the log carries OMNI4_ROBOT (robot_t: the layout, radii, gear) as a "
+                         "controller writes it (first tick, then 1 Hz)")
     ap.add_argument("--speed-noise", metavar="SIGMA,TAU",
                     help="add correlated (AR(1)) noise to the wheel speeds: SIGMA [rad/s], "
                          "correlation time TAU [s], e.g. 0.3,0.02")
@@ -478,7 +485,7 @@ def main(argv=None):
         for name in names:
             res = generate(name, a.seed, list(range(a.robots)), a.out, omit, subset,
                            a.lcm_python, None if a.quiet else print, noise, sensors, wheels,
-                           geometry)
+                           geometry, a.robot_msg)
             if not a.quiet:
                 for r in res:
                     c = r["counts"]
