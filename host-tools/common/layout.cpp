@@ -93,6 +93,14 @@ Layout make_layout(int n, const double angle_deg[4], const double dist_m[4],
 	return L;
 }
 
+Layout layout_of_settings(const ctl_settings &s, const std::string &source)
+{
+	double dist[4];
+	for (int j = 0; j < 4; ++j)
+		dist[j] = ctl_settings_wheel_distance(&s, j);
+	return make_layout(s.layout.wheels, s.layout.angle_deg, dist, source);
+}
+
 Layout layout_of_log(const LogData &log, bool &found)
 {
 	found = log.robot.present;

@@ -14,6 +14,7 @@
 #include <vector>
 
 extern "C" {
+#include "omni4/core/ctl_settings.h"
 #include "omni4/model/wheels.h"
 }
 
@@ -46,6 +47,10 @@ struct Layout {
 // drive v, vn and w, or bad values.
 Layout make_layout(int n, const double angle_deg[4], const double dist_m[4],
                    const std::string &source);
+
+// The layout of a robot's settings ([model] wheels, wheel_angle_j, d_j; source names them in
+// messages). Throws IdentError as make_layout.
+Layout layout_of_settings(const ctl_settings &s, const std::string &source);
 
 // The layout a log describes (its first robot_t); found false when it carries none.
 Layout layout_of_log(const LogData &log, bool &found);

@@ -18,13 +18,19 @@ extern "C" {
 namespace omni4
 {
 
-std::array<double, 4> traction_pattern(const std::string &direction)
+std::array<double, 4> traction_pattern(const std::string &direction, const Layout &layout)
 {
 	if (direction == "diag") {
-		const auto v = drive_pattern("v"), vn = drive_pattern("vn");
-		return {v[0] + vn[0], v[1] + vn[1], v[2] + vn[2], v[3] + vn[3]};
+		const auto v = drive_pattern("v", layout), vn = drive_pattern("vn", layout);
+		std::array<double, 4> d{v[0] + vn[0], v[1] + vn[1], v[2] + vn[2], v[3] + vn[3]};
+		double peak = 0; // another layout's sum: scaled to 1 V at its largest wheel
+		for (double x : d)
+			peak = std::max(peak, std::fabs(x));
+		for (double &x : d)
+			x = layout.paper || peak == 0 ? x : x / peak;
+		return d;
 	}
-	return drive_pattern(direction);
+	return drive_pattern(direction, layout);
 }
 
 bool TractionWatch::step(SequencePlayer &player, int32_t est_flags)
@@ -62,7 +68,7 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt)
 	std::vector<Phase> seq;
 	const std::vector<double> levels = traction_levels(opt);
 	for (const std::string &dir : opt.directions) {
-		const auto pattern = traction_pattern(dir);
+		const auto pattern = traction_pattern(dir, opt.layout);
 		for (double level : levels) {
 			Phase p;
 			p.duration_s = opt.ramp_s + opt.hold_s;
@@ -228,7 +234,9 @@ std::vector<Phase> selected_sequence(const std::vector<std::string> &only, doubl
 	}
 	std::vector<Phase> seq = paper_sequence(pick); // ends with a short IDLE
 	if (traction) {
-		const std::vector<Phase> t = traction_sequence();
+		TractionSeqOptions topt;
+		topt.layout = layout;
+		const std::vector<Phase> t = traction_sequence(topt);
 		seq.insert(seq.end() - 1, t.begin(), t.end());
 	}
 	return seq;

@@ -30,10 +30,12 @@ struct TractionSeqOptions {
 	double ramp_s = 0.03;  // rise of each step (the paper's ramped steps)
 	double hold_s = 0.10;  // held after the ramp, then the bridges go off
 	double settle_s = 1.2; // coasting to rest
+	Layout layout;         // the wheels' layout: each direction's pattern (drive_pattern)
 };
 
-// Channel voltage pattern per volt along "v", "vn", "w" (drive_pattern) or "diag" (v + vn).
-std::array<double, 4> traction_pattern(const std::string &direction);
+// Channel voltage pattern per volt along "v", "vn", "w" (drive_pattern) or "diag" (v + vn), of
+// the paper's layout or of layout.
+std::array<double, 4> traction_pattern(const std::string &direction, const Layout &layout = {});
 
 // The runner's live watch on the estimator's flags (state_t.flags) while the sequence plays:
 // the first SLIP in a traction run (its step or the coast after it) notes that run's level,

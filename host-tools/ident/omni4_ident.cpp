@@ -243,12 +243,8 @@ model_params load_params(const std::string &path, bool partial, uint32_t *seen_o
 		wheels_out->values = cfg.ctl.wheels;
 	}
 	if (layout_out) {
-		double dist[4];
-		for (int j = 0; j < 4; ++j)
-			dist[j] = ctl_settings_wheel_distance(&cfg.ctl, j);
 		try {
-			*layout_out = make_layout(cfg.ctl.layout.wheels, cfg.ctl.layout.angle_deg,
-			                          dist, path);
+			*layout_out = layout_of_settings(cfg.ctl, path);
 		} catch (const IdentError &e) {
 			die(path + ": " + e.what(), 2);
 		}

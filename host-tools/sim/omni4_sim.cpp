@@ -307,9 +307,11 @@ int main(int argc, char **argv)
 		return scenario(a, cfg, *out, progress);
 	omni4::SimRunResult r;
 	try {
-		std::vector<omni4::Phase> phases = a.experiments || !a.only.empty()
-		                                       ? omni4::selected_sequence(a.only, 3.0, 3.0)
-		                                       : std::vector<omni4::Phase>{};
+		std::vector<omni4::Phase> phases =
+		    a.experiments || !a.only.empty()
+		        ? omni4::selected_sequence(a.only, 3.0, 3.0,
+		                                   omni4::layout_of_settings(cfg.ctl, "--params"))
+		        : std::vector<omni4::Phase>{};
 		// The robot's own traction limit ([limits] traction_mu) ramps the runs under it.
 		omni4::limit_ramps(phases, cfg.ctl.model,
 		                   omni4::traction_hold_n(cfg.ctl.model, cfg.ctl.limits.traction_mu,

@@ -50,8 +50,10 @@ SimRunResult run_simulation(const omni4_config &cfg, const model_params &plant, 
                             double rtf, const std::function<void(double, size_t, size_t)> &progress,
                             const std::function<bool()> &stop)
 {
+	SequenceOptions opt; // the axis runs' patterns and the motor test of the robot's layout
+	opt.layout = layout_of_settings(cfg.ctl, "the robot's settings");
 	return run_phases(cfg, plant, noise, log_path,
-	                  experiments ? paper_sequence() : std::vector<Phase>{}, idle_s, rtf,
+	                  experiments ? paper_sequence(opt) : std::vector<Phase>{}, idle_s, rtf,
 	                  progress, stop);
 }
 
