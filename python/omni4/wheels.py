@@ -46,6 +46,40 @@ class Wheels:
             return None, "robot_t: a wheel angle, distance or radius not finite or not positive"
         return cls(a, d, r, l=float(m.l)), None
 
+    @classmethod
+    def from_ini(cls, path):
+        """The layout of a robot INI's [model] (`wheels`, `wheel_angle_j` [deg], `d_j`, `r_j`,
+        absent: 4, 0/90/180/270, `d`, `r`, each of those absent: Table III), or None when it
+        has none of the layout keys (the paper's). Raises omni4.ini.ConfigError (one line
+        FILE:LINE) on a value that is not a number or a count other than 3 or 4."""
+        from . import ini
+        f = ini.read(path)
+        sec = f.section("model")
+        if not any(k == "wheels" or k.startswith(("wheel_angle_", "d_")) for k in sec):
+            return None
+
+        def num(key, default):
+            try:
+                x = float(sec.get(key, default))
+            except (TypeError, ValueError):
+                raise ini.ConfigError(f"{f.where('model', key)}: [model] {key} = "
+                                      f"'{sec[key]}' is not a number") from None
+            if not math.isfinite(x):
+                raise ini.ConfigError(f"{f.where('model', key)}: [model] {key} not finite")
+            return x
+        n = num("wheels", 4)
+        if n not in (3, 4):
+            raise ini.ConfigError(f"{f.where('model', 'wheels')}: [model] wheels = {n:g} "
+                                  "(3 or 4 expected)")
+        d, r = num("d", PAPER_D_M), num("r", PAPER_R_M)
+        out = cls([math.radians(num(f"wheel_angle_{j}", 90 * j)) for j in range(int(n))],
+                  [num(f"d_{j}", d) for j in range(int(n))],
+                  [num(f"r_{j}", r) for j in range(int(n))])
+        if min(out.distance_m + out.radius_m) <= 0:
+            raise ini.ConfigError(f"{f.where('model')}: [model] a wheel's distance d_j or "
+                                  "radius r_j is not positive")
+        return out
+
     def is_paper_geometry(self):
         """True when the wheels sit at 0/90/180/270 deg at one distance (the paper's axes)."""
         if self.count != 4:

@@ -812,3 +812,20 @@ def test_bridge_draws_the_latest_robot_t(monkeypatch):
     b.on_lcm(omni4.CHANNEL_ROBOT, bad.encode())
     b.tick(3, False, True)
     assert len(_wheels_drawn(json.loads(logged[-1][1]))) == 3
+
+
+def test_mcap_scene_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path, capsys):
+    log, out, ini = tmp_path / "old.lcmlog", str(tmp_path / "p.mcap"), tmp_path / "three.ini"
+    _layout_log(log, [], seconds=1)
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 90\nwheel_angle_1 = 210\n"
+                   "wheel_angle_2 = 330\nd_0 = 0.1\nd_1 = 0.1\nd_2 = 0.1\n")
+    assert export.main([str(log), "--out", out, "--params", str(ini), "-q"]) == 0
+    (_t, _s, scene), = read_mcap_python(out)[0]["/omni4/scene"]
+    drawn = _wheels_drawn(scene)
+    assert len(drawn) == 3 and drawn[0][0] == pytest.approx((0.0, 0.1), abs=1e-12)
+    assert drawn[1][2] == pytest.approx(T3["r"])         # r_j absent: Table III's r
+    ini.write_text("[model]\nwheels = 2\n")
+    with pytest.raises(SystemExit) as e:
+        export.main([str(log), "--out", out, "--params", str(ini), "-q"])
+    assert e.value.code == 2
+    assert capsys.readouterr().err == f"omni4-mcap: {ini}:2: [model] wheels = 2 (3 or 4 expected)\n"

@@ -580,3 +580,19 @@ def test_bag_takes_the_first_robot_t_even_after_motors_and_a_change_mid_log(tmp_
     bag.convert([str(path)], str(tmp_path / "late.bag"))
     names = [len(m.name) for m in _bag_joint_states(tmp_path / "late.bag")]
     assert names == [3] * 200 + [4] * 100
+
+
+def test_bag_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path):
+    from omni4.ros import bag
+    path = tmp_path / "old.lcmlog"
+    _write_log(path, [])
+    ini = tmp_path / "three.ini"
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 120\n"
+                   "wheel_angle_2 = 240\nd = 0.1\nr = 0.03\n")
+    bag.convert([str(path)], str(tmp_path / "p.bag"), params_path=str(ini))
+    js = _bag_joint_states(tmp_path / "p.bag")
+    assert list(js[-1].name) == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"]
+    ini.write_text("[model]\nwheels = 5\n")
+    assert bag.main([str(path), "--out", str(tmp_path / "bad.bag"), "--params", str(ini),
+                     "-q"]) == 2
+    assert not (tmp_path / "bad.bag").exists()

@@ -71,7 +71,7 @@ class Bridge:
         self.ch = topics.Channels(server_ctx)
         self.received = {}
         self.classes = topics.lcm_classes()
-        self.wheels = None      # the robot_t's layout; None: the paper's
+        self.wheels = params.get("layout")  # the robot_t's, else --params'; None: the paper's
         # advertised from the start, so a client sees them before the first message
         for topic, schema in (*topics.CHANNEL_SCHEMA.items(), *topics.DERIVED.items()):
             self.ch.get(topic, schema)

@@ -4,8 +4,8 @@ Every LCM event becomes one MCAP message with the event's log time, on a channel
 LCM channel (JSON, schema "omni4.<type>"), plus the derived topics of the bridge
 (/omni4/velocity: encoders, model prediction, difference; /omni4/health; /tf, /omni4/pose,
 /omni4/scene with Foxglove's schemas; the scene draws the wheels of the log's first OMNI4_ROBOT,
-a later robot_t with another layout from its event on, and the paper's four in a log without
-one). Chunked and compressed (zstd by default, or lz4) by the
+a later robot_t with another layout from its event on; in a log without one the layout of
+--params' [model], else the paper's four). Chunked and compressed (zstd by default, or lz4) by the
 foxglove-sdk MCAP writer. Exit status: 0 done; 1 run-time error (unreadable or non-LCM log, or
 data lost in a truncated/corrupt log: the complete events are still converted, see
 --partial-ok); 2 usage or configuration error (bad arguments, broken INI)."""
@@ -144,7 +144,7 @@ def convert(events, params, w, health_period_s):
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
-    next_scene, wheels = events[0][0], first_wheels(events)
+    next_scene, wheels = events[0][0], first_wheels(events) or params.get("layout")
     k = 0
     n = len(events)
     i = 0

@@ -11,8 +11,8 @@ Per source event, in log order, bag time = the event's log time (the logger's re
 The geometry (d, r, l, Kt) comes from the log's OMNI4_PARAM_CHANGED (the controller announces
 every parameter at start), else from --params ROBOT.ini, else Table III. The wheels (how many,
 where; /joint_states' names) come from the log's first OMNI4_ROBOT (robot_t, within the log's
-first ROBOT_SCAN_US of log time), else the paper's four; a later robot_t with another layout is
-taken from its event on.
+first ROBOT_SCAN_US of log time), else from --params' [model] (wheels, wheel_angle_j, d_j), else
+the paper's four; a later robot_t with another layout is taken from its event on.
 The logs are read a piece at a time and every message is written as its event is read, in log
 order: memory does not grow with the log. The share of the input read goes to stderr (in place
 on a terminal, else a line at most once a second; -q: none). The bag is written beside --out
@@ -314,7 +314,8 @@ def convert(paths, out, params_path=None, quiet=True):
     paths = _log_paths(paths)
     ts = get_typestore(getattr(Stores, TYPESTORE))
     stream = _Stream(_Messages(ts), _geometry(paths, params_path))
-    stream.odom.set_wheels(_first_wheels(paths))
+    stream.odom.set_wheels(_first_wheels(paths) or
+                           (Wheels.from_ini(params_path) if params_path else None))
     progress = _Progress([os.path.getsize(p) for p in paths], quiet)
     counts = {t: 0 for t in TOPICS}
     seen = _Count()
@@ -410,7 +411,8 @@ def _main(argv=None):
                    "symbolic link is followed); written beside it first, renamed when complete; "
                    "an existing file or non-empty folder is refused and left untouched")
     p.add_argument("--params", default=None, metavar="ROBOT.ini",
-                   help="geometry when the log has no OMNI4_PARAM_CHANGED")
+                   help="geometry when the log has no OMNI4_PARAM_CHANGED, the wheels' layout "
+                   "when it has no OMNI4_ROBOT")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress (else the share of the input read, on stderr, at most "
                    "once a second)")
