@@ -131,7 +131,7 @@ def test_status_shows_one_column_per_wheel_of_the_robot_t(robot):
     url = lcm_test_url()
     pub = Publisher(url, robot)
     try:
-        r = subprocess.run([sys.executable, "-m", "omni4.status", "--lcm", url, "--listen", "1",
+        r = subprocess.run([sys.executable, "-m", "omni4.status", "--lcm", url, "--listen", "0.5",
                             "--timeout", "0.2"], capture_output=True, text=True,
                            timeout=EXIT_TIMEOUT_S)
     finally:
