@@ -596,3 +596,14 @@ def test_bag_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path):
     assert bag.main([str(path), "--out", str(tmp_path / "bad.bag"), "--params", str(ini),
                      "-q"]) == 2
     assert not (tmp_path / "bad.bag").exists()
+
+
+def test_four_wheels_off_the_papers_distances_are_named_by_number():
+    """The paper's names say where its wheels are; four wheels at its angles but one at another
+    distance are not its robot: wheel_0_joint .. wheel_3_joint."""
+    from omni4.wheels import Wheels
+    m = _robot_t((0.0, 90.0, 180.0, 270.0), d=D, r=R)
+    m.wheel_distance = [D, 0.1, D, D]
+    wheels, _ = Wheels.from_robot(m)
+    assert wheels.joint_names() == tuple(f"wheel_{j}_joint" for j in range(4))
+    assert wheels.positions()[1] == pytest.approx((0.0, 0.1), abs=1e-12)
