@@ -607,3 +607,35 @@ def test_four_wheels_off_the_papers_distances_are_named_by_number():
     wheels, _ = Wheels.from_robot(m)
     assert wheels.joint_names() == tuple(f"wheel_{j}_joint" for j in range(4))
     assert wheels.positions()[1] == pytest.approx((0.0, 0.1), abs=1e-12)
+
+
+@pytest.mark.parametrize("angles", [(0.0, 120.0, 240.0), (60.0, 180.0, 300.0)])
+def test_urdf_of_a_three_wheel_robot_has_three_joints_at_its_wheels(angles):
+    from omni4.ros.urdf import urdf
+    from omni4.wheels import Wheels
+    wheels, _ = Wheels.from_robot(_robot_t(angles))
+    root = ET.fromstring(urdf(wheels))
+    joints = list(root.iter("joint"))
+    assert [j.get("name") for j in joints] == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"]
+    for j, deg in zip(joints, angles):
+        a = math.radians(deg)
+        xyz = [float(v) for v in j.find("origin").get("xyz").split()]
+        assert xyz == pytest.approx([THREE_D * math.cos(a), THREE_D * math.sin(a), THREE_R],
+                                    abs=1e-6)
+        yaw = float(j.find("origin").get("rpy").split()[2])
+        assert (math.cos(yaw), math.sin(yaw)) == pytest.approx((math.cos(a), math.sin(a)), abs=1e-6)
+        assert j.get("type") == "continuous" and j.find("axis").get("xyz") == "1 0 0"
+        assert root.find(f"link[@name='{j.find('child').get('link')}']") is not None
+
+
+def test_urdf_of_the_papers_layout_has_the_shipped_joints():
+    from omni4.ros.urdf import urdf
+    shipped = {j.get("name"): j for j in ET.parse(URDF).getroot().iter("joint")}
+    made = {j.get("name"): j for j in ET.fromstring(urdf()).iter("joint")}
+    assert sorted(made) == sorted(shipped)
+    for name, j in made.items():
+        for attr in ("xyz", "rpy"):
+            got = [float(v) for v in j.find("origin").get(attr).split()]
+            want = [float(v) for v in shipped[name].find("origin").get(attr).split()]
+            assert got == pytest.approx(want, abs=1e-6), (name, attr)
+        assert j.find("child").get("link") == shipped[name].find("child").get("link")
