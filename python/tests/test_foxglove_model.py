@@ -777,6 +777,8 @@ def test_mcap_scene_draws_three_wheels_at_their_angles_and_distances(tmp_path):
     later = [_wheels_drawn(s) for t, _, s in scenes if t >= t0 + 2_000_000_000 - 10_000_000]
     assert later and all(len(w) == 4 for w in later)
     assert later[0][1][0] == pytest.approx((0.0, T3["d"]), abs=1e-12)
+    # the paper's layout described by a robot_t is drawn exactly as without one
+    assert later[-1] == _wheels_drawn(json.loads(topics.scene_json(0, T3["d"], T3["r"])))
 
 
 def test_mcap_scene_of_a_log_without_robot_t_is_the_papers(tmp_path):

@@ -358,6 +358,8 @@ def scene_json(stamp_ns, d, r, wheels=None):
     the robot's robot_t): each of its wheels at its own angle, distance and radius."""
     t = _stamp(stamp_ns)
     ident = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+    if wheels is not None and wheels.is_paper_geometry() and len(set(wheels.radius_m)) == 1:
+        d, r, wheels = wheels.distance_m[0], wheels.radius_m[0], None   # drawn as always
     if wheels is not None:
         d, r = max(wheels.distance_m), max(wheels.radius_m)
     side = 1.2 * d

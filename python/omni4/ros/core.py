@@ -103,6 +103,7 @@ class WheelOdometry:
             self.wheel_vel = [0.0] * wheels.count
             self.effort = [0.0] * wheels.count
         self.wheels = wheels
+        self._paper = wheels.is_paper_geometry()
 
     def joint_names(self):
         return JOINT_NAMES if self.wheels is None else self.wheels.joint_names()
@@ -129,7 +130,7 @@ class WheelOdometry:
         self.last_seq = m.seq
         dt = None if self.last_utime is None else (m.utime - self.last_utime) * 1e-6
         self.last_utime = m.utime
-        if self.wheels is None:
+        if self.wheels is None or self._paper:   # the paper's axes: eqs 3-5 as always
             v, vn, w = forward_kinematics(ws, d, r)
         else:
             v, vn, w = self.wheels.forward(ws)
