@@ -92,6 +92,7 @@ class WheelOdometry:
         self.last_seq = None
         self.lost = 0            # seq gaps: samples the controller sent that never came
         self.wheels = None       # omni4.wheels.Wheels of a robot_t; None: the paper's four
+        self._paper = True       # the wheels sit on the paper's axes (eqs 3-5 apply)
 
     def set_wheels(self, wheels):
         """The robot's own layout (a Wheels from its robot_t): from the next sample on, its
