@@ -2,7 +2,9 @@
 
 Listens to OMNI4_MOTORS for a bounded time (--listen, default 1 s), then prints the controller's
 mode, its latching faults and warnings by name, the measured loop rate and overruns, lost
-samples (gaps in seq), the last currents, voltages and wheel speeds, and the [model] in force
+samples (gaps in seq), the last currents, voltages and wheel speeds (one column per wheel of the
+robot's latest robot_t on OMNI4_ROBOT, with a line on its layout; the paper's four without
+one), and the [model] in force
 (a LIST request to the controller's parameter service; "parameters: no answer" if it does not
 answer in time), and the adapted motor constants (OMNI4_ADAPT: each R in use against the
 identified, the estimates, supply, C in use, flags by name, the last acceptance or revert seen
@@ -20,8 +22,8 @@ import time
 
 import lcm
 
-from . import (CHANNEL_ADAPT, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, DEFAULT_LCM_URL, __version__,
-               adapt_t, motors_t, param_changed_t)
+from . import (CHANNEL_ADAPT, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, CHANNEL_ROBOT,
+               DEFAULT_LCM_URL, __version__, adapt_t, motors_t, param_changed_t, robot_t)
 from . import adapt as adapt_words
 from ._cli import usage
 from ._keys import MODEL_KEYS, MODEL_WHEEL_KEYS
@@ -92,6 +94,33 @@ class AdaptSeen:
             pass
 
 
+class RobotSeen:
+    """The robot's layout heard so far: the Wheels of the latest robot_t (None before one: the
+    paper's four; a robot_t that describes no robot is left out, its reason in `refused`)."""
+
+    def __init__(self):
+        self.wheels = None
+        self.refused = None
+
+    def on_robot(self, _channel, data):
+        from .wheels import Wheels
+        try:
+            wheels, why = Wheels.from_robot(robot_t.decode(data))
+        except ValueError:          # another type on the channel
+            return
+        if wheels is None:
+            self.refused = why
+        else:
+            self.wheels = wheels
+
+
+def layout_line(wheels):
+    """The robot's layout in one line: its wheels' angles [deg] and distances [m]."""
+    return (f"wheels: {wheels.count} at " + " ".join(
+        f"{round(a * 57.29577951308232, 1):g}" for a in wheels.angle_rad) + " deg, d " +
+        " ".join(f"{d:g}" for d in wheels.distance_m) + " m (OMNI4_ROBOT)")
+
+
 class Silence:
     """Whether a stream is silent: check() returns "lost" once when nothing has been heard for
     timeout_s [s] (since the start, or since the last message), "back" once when a message is
@@ -131,10 +160,11 @@ def silence_line(prog, url, event, silence):
             f"{silence.gap_s:.1f} s of silence)")
 
 
-def listen(lc, seconds, poll=None, adapt=None):
+def listen(lc, seconds, poll=None, adapt=None, robot=None):
     """The motors_t samples that arrive within `seconds` [s] on lc; poll(count so far) is
     called at least every POLL_MS while it listens; adapt (an AdaptSeen) notes OMNI4_ADAPT and
-    the acceptances and reverts on OMNI4_PARAM_CHANGED meanwhile."""
+    the acceptances and reverts on OMNI4_PARAM_CHANGED meanwhile, robot (a RobotSeen) the
+    robot_t on OMNI4_ROBOT."""
     got = []
 
     def on_motors(_channel, data):
@@ -149,6 +179,8 @@ def listen(lc, seconds, poll=None, adapt=None):
     if adapt is not None:
         subs += [lc.subscribe(CHANNEL_ADAPT, adapt.on_adapt),
                  lc.subscribe(CHANNEL_PARAM_CHANGED, adapt.on_changed)]
+    if robot is not None:
+        subs.append(lc.subscribe(CHANNEL_ROBOT, robot.on_robot))
     try:
         end = time.monotonic() + seconds
         while True:
@@ -196,9 +228,12 @@ def adapt_lines(adapt, model):
     return adapt_words.summary_lines(adapt.last, identified, adapt.events)
 
 
-def report(url, w, model, adapt=None):
-    """The status as text (lines); adapt: an AdaptSeen (None: no adapt lines)."""
+def report(url, w, model, adapt=None, wheels=None):
+    """The status as text (lines); adapt: an AdaptSeen (None: no adapt lines); wheels: the
+    robot_t's Wheels (the per-wheel lines show its wheels, after a line on its layout; None:
+    the paper's four, as before robot_t)."""
     m = w.last
+    per_wheel = (lambda a: a) if wheels is None else wheels.take
     latched = m.faults & LATCHING
     warnings = w.seen_bits & ~LATCHING & ~motors_t.FAULT_OVERRUN
     lines = [
@@ -207,9 +242,10 @@ def report(url, w, model, adapt=None):
         "faults: " + (" ".join(fault_names(latched)) or "none"),
         "warnings: " + (" ".join(fault_names(warnings)) or "none") + " (seen in the window)",
         f"loop: {w.rate_hz:.1f} Hz, overruns {w.overruns}, lost samples {w.lost}",
-        f"current [A]: {_vec(m.current)}",
-        f"voltage [V]: {_vec(m.voltage)}",
-        f"wheel speed [rad/s]: {_vec(m.wheel_speed)}",
+        *([] if wheels is None or wheels.is_paper_geometry() else [layout_line(wheels)]),
+        f"current [A]: {_vec(per_wheel(m.current))}",
+        f"voltage [V]: {_vec(per_wheel(m.voltage))}",
+        f"wheel speed [rad/s]: {_vec(per_wheel(m.wheel_speed))}",
     ]
     if model is False:
         lines.append("parameters: not asked (the robot fell silent)")
@@ -226,7 +262,9 @@ def report(url, w, model, adapt=None):
 EPILOG = f"""\
 Prints: mode; latching faults and (in the window) warnings by name; loop rate [Hz] from the
 controller's clock, OVERRUN ticks and lost samples (gaps in seq) in the window; the last
-currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3; the [model] in force
+currents [A], voltages [V] and wheel speeds [rad/s] of motors 0-3 (of a robot that describes
+another layout on OMNI4_ROBOT: a line "wheels: N at ANGLES deg, d DISTANCES m", then one value
+per wheel, the latest robot_t's); the [model] in force
 (asked from the controller; "parameters: no answer" if it does not answer); the adapted motor
 constants (OMNI4_ADAPT): each R in use [ohm] and its change from the identified [%], the
 estimates, supply [V], Coulomb frictions in use, flags by name, the last acceptance or revert.
@@ -267,6 +305,7 @@ def _main(argv):
     tty = args.watch and sys.stdout.isatty()
     silence = Silence()
     adapt = AdaptSeen()
+    robot = RobotSeen()
     seen = [0]
 
     def poll(n):
@@ -282,7 +321,10 @@ def _main(argv):
     while True:
         t0 = time.monotonic()
         seen[0] = 0
-        w = listen(lc, args.listen, poll, adapt)
+        w = listen(lc, args.listen, poll, adapt, robot)
+        if robot.refused:
+            sys.stderr.write(f"{PROG}: {CHANNEL_ROBOT} ignored: {robot.refused}\n")
+            robot.refused = None
         if w.last is None:
             if not args.watch:
                 sys.stderr.write(f"{PROG}: no {CHANNEL_MOTORS} on {args.lcm} within "
@@ -293,7 +335,7 @@ def _main(argv):
             # would hold back the "no robot answers" line by up to 2 x --timeout.
             quiet = silence.clock() - silence.last >= NO_ROBOT_S / 2
             lines = report(args.lcm, w, False if quiet else read_model(args.lcm, args.timeout),
-                           adapt)
+                           adapt, robot.wheels)
             if tty and silence.lost_at is not None:
                 lines.append(f"last silence: {silence.gap_s:.1f} s without {CHANNEL_MOTORS}")
             block = time.strftime("%H:%M:%S ") + "\n".join(lines) + "\n"
@@ -305,7 +347,7 @@ def _main(argv):
         rest = 1.0 - (time.monotonic() - t0)
         if rest > 0:
             seen[0] = 0
-            listen(lc, rest, poll, adapt)        # the silence is watched in between too
+            listen(lc, rest, poll, adapt, robot)  # the silence is watched in between too
 
 
 def main(argv=None):

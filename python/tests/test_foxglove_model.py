@@ -719,3 +719,115 @@ def test_adapt_channel_has_its_schema_flags_by_name_and_sigma(tmp_path):
         assert j["flag_names"] == want
     assert topics.event_messages(omni4.CHANNEL_ADAPT, synth_adapt(0, 0).encode(), 0,
                                  topics.lcm_classes())[0][1] == "omni4.adapt_t"
+
+
+# ---- the scene of another layout (robot_t on OMNI4_ROBOT) ------------------------------------
+
+def _robot_t(angles_deg, d, r):
+    m = omni4.robot_t()
+    n = len(angles_deg)
+    m.wheels, m.l = n, 5.0
+    m.wheel_angle = [math.radians(a) for a in angles_deg] + [0.0] * (4 - n)
+    m.wheel_distance = [d] * n + [0.0] * (4 - n)
+    m.wheel_radius = [r] * n + [0.0] * (4 - n)
+    return m
+
+
+def _layout_log(path, robots, seconds=3):
+    """motors_t at 100 Hz for `seconds` s of log time, robot_t (at sample index, message)."""
+    log = lcm.EventLog(str(path), "w", overwrite=True)
+    t0 = 1_700_000_000_000_000
+    for k in range(seconds * 100):
+        for at, r in robots:
+            if at == k:
+                log.write_event(t0 + k * 10000, omni4.CHANNEL_ROBOT, r.encode())
+        m = omni4.motors_t()
+        m.utime, m.seq, m.mode = t0 + k * 10000, k, 1
+        log.write_event(t0 + k * 10000 + 10, omni4.CHANNEL_MOTORS, m.encode())
+    log.close()
+
+
+def _axis(q):
+    """Where the quaternion q turns the z axis (the cylinder's axis)."""
+    x, y, z, w = q["x"], q["y"], q["z"], q["w"]
+    return (2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y))
+
+
+def _wheels_drawn(scene):
+    (ent,) = scene["entities"]
+    return [((c["pose"]["position"]["x"], c["pose"]["position"]["y"]),
+             _axis(c["pose"]["orientation"]), c["size"]["x"] / 2) for c in ent["cylinders"]]
+
+
+def test_mcap_scene_draws_three_wheels_at_their_angles_and_distances(tmp_path):
+    d, r = 0.12, 0.03
+    log, out = tmp_path / "three.lcmlog", str(tmp_path / "three.mcap")
+    # robot_t after the first motors samples; the paper's four from 2 s on (a layout change).
+    _layout_log(log, [(3, _robot_t((60.0, 180.0, 300.0), d, r)),
+                      (200, _robot_t((0.0, 90.0, 180.0, 270.0), T3["d"], T3["r"]))])
+    assert export.main([str(log), "--out", out, "-q"]) == 0
+    scenes = read_mcap_python(out)[0]["/omni4/scene"]
+    t0 = scenes[0][0]
+    first = [_wheels_drawn(s) for t, _, s in scenes if t < t0 + 2_000_000_000 - 10_000_000]
+    assert len(first) == 2 and all(len(w) == 3 for w in first)
+    for (pos, axis, radius), a in zip(first[0], (60.0, 180.0, 300.0)):
+        radial = (math.cos(math.radians(a)), math.sin(math.radians(a)))
+        assert pos == pytest.approx((d * radial[0], d * radial[1]), abs=1e-12)
+        assert axis == pytest.approx((*radial, 0.0), abs=1e-9) and radius == pytest.approx(r)
+    later = [_wheels_drawn(s) for t, _, s in scenes if t >= t0 + 2_000_000_000 - 10_000_000]
+    assert later and all(len(w) == 4 for w in later)
+    assert later[0][1][0] == pytest.approx((0.0, T3["d"]), abs=1e-12)
+    # the paper's layout described by a robot_t is drawn exactly as without one
+    assert later[-1] == _wheels_drawn(json.loads(topics.scene_json(0, T3["d"], T3["r"])))
+
+
+def test_mcap_scene_of_a_log_without_robot_t_is_the_papers(tmp_path):
+    log, out = tmp_path / "paper.lcmlog", str(tmp_path / "paper.mcap")
+    _layout_log(log, [], seconds=1)
+    assert export.main([str(log), "--out", out, "-q"]) == 0
+    (t, schema, scene), = read_mcap_python(out)[0]["/omni4/scene"]
+    assert schema == "foxglove.SceneUpdate"
+    drawn = _wheels_drawn(scene)
+    d = T3["d"]
+    assert [p for p, _, _ in drawn] == [(d, 0.0), (0.0, d), (-d, 0.0), (0.0, -d)]
+    axes = [c for _, a, _ in drawn for c in a]
+    assert axes == pytest.approx([1, 0, 0, 0, -1, 0, 1, 0, 0, 0, -1, 0], abs=1e-12)
+    # byte for byte the scene of the paper's layout as drawn without a robot_t
+    assert json.loads(topics.scene_json(t, d, T3["r"])) == scene
+
+
+def test_bridge_draws_the_latest_robot_t(monkeypatch):
+    import foxglove
+
+    from omni4.foxglove.bridge import Bridge
+    b = Bridge(T3, 10, 1.0, foxglove.Context())
+    logged = []
+    monkeypatch.setattr(b.ch, "log", lambda topic, schema, msg, t: logged.append((topic, msg)))
+    b.tick(1, False, True)
+    assert len(_wheels_drawn(json.loads(logged[-1][1]))) == 4
+    b.on_lcm(omni4.CHANNEL_ROBOT, _robot_t((0.0, 120.0, 240.0), 0.1, 0.03).encode())
+    b.tick(2, False, True)
+    drawn = _wheels_drawn(json.loads(logged[-1][1]))
+    assert len(drawn) == 3 and drawn[1][0] == pytest.approx((-0.05, 0.1 * math.sqrt(3) / 2))
+    bad = _robot_t((0.0, 120.0, 240.0), 0.1, 0.03)
+    bad.wheels = 7                # describes no robot: the last layout stays
+    b.on_lcm(omni4.CHANNEL_ROBOT, bad.encode())
+    b.tick(3, False, True)
+    assert len(_wheels_drawn(json.loads(logged[-1][1]))) == 3
+
+
+def test_mcap_scene_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path, capsys):
+    log, out, ini = tmp_path / "old.lcmlog", str(tmp_path / "p.mcap"), tmp_path / "three.ini"
+    _layout_log(log, [], seconds=1)
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 90\nwheel_angle_1 = 210\n"
+                   "wheel_angle_2 = 330\nd_0 = 0.1\nd_1 = 0.1\nd_2 = 0.1\n")
+    assert export.main([str(log), "--out", out, "--params", str(ini), "-q"]) == 0
+    (_t, _s, scene), = read_mcap_python(out)[0]["/omni4/scene"]
+    drawn = _wheels_drawn(scene)
+    assert len(drawn) == 3 and drawn[0][0] == pytest.approx((0.0, 0.1), abs=1e-12)
+    assert drawn[1][2] == pytest.approx(T3["r"])         # r_j absent: Table III's r
+    ini.write_text("[model]\nwheels = 2\n")
+    with pytest.raises(SystemExit) as e:
+        export.main([str(log), "--out", out, "--params", str(ini), "-q"])
+    assert e.value.code == 2
+    assert capsys.readouterr().err == f"omni4-mcap: {ini}:2: [model] wheels = 2 (3 or 4 expected)\n"

@@ -442,3 +442,200 @@ def test_goal_replaced_by_another_clients_goal_is_published_and_no_longer_kept_a
     assert v["status"] == "ABORTED" and v["goal_id"] == str(ours), v
     assert "goal 77" in got[1].message and "replaced" in got[1].message, got[1].message
     assert b._goal_msg is None
+
+
+# ---- another layout: three wheels (robot_t on OMNI4_ROBOT) ----
+THREE_DEG = (0.0, 120.0, 240.0)
+THREE_D, THREE_R = 0.1, 0.03
+
+
+def _robot_t(angles_deg, d=THREE_D, r=THREE_R):
+    m = omni4.robot_t()
+    n = len(angles_deg)
+    m.wheels = n
+    m.wheel_angle = [math.radians(a) for a in angles_deg] + [0.0] * (4 - n)
+    m.wheel_distance = [d] * n + [0.0] * (4 - n)
+    m.wheel_radius = [r] * n + [0.0] * (4 - n)
+    m.l = 5.0
+    return m
+
+
+def _three_wheel_speeds(v, vn, w):
+    """Eq 2 by hand for wheels at 0/120/240 deg: rim_j = -sin(a_j) v + cos(a_j) vn + d w, over
+    r; the fourth slot 0."""
+    s3 = math.sqrt(3.0) / 2.0
+    rims = (vn + THREE_D * w, -s3 * v - 0.5 * vn + THREE_D * w, s3 * v - 0.5 * vn + THREE_D * w)
+    return tuple(x / THREE_R for x in rims) + (0.0,)
+
+
+@pytest.mark.parametrize("vel", [(0.3, 0.0, 0.0), (0.0, -0.2, 0.0), (0.0, 0.0, 2.0),
+                                 (-0.2, 0.1, -1.0)])
+def test_three_wheel_odometry_inverts_eq2_and_names_three_joints(vel):
+    from omni4.wheels import Wheels
+    wheels, why = Wheels.from_robot(_robot_t(THREE_DEG))
+    assert why is None and wheels.count == 3
+    assert wheels.joint_names() == ("wheel_0_joint", "wheel_1_joint", "wheel_2_joint")
+    odo = core.WheelOdometry()
+    odo.set_wheels(wheels)
+    ws = _three_wheel_speeds(*vel)
+    for k in range(1001):          # 1 s at 1 kHz
+        odo.step(Sample(1_000_000_000 + k * 1000, k, ws, current=(1.0, 2.0, 3.0, 0.0)))
+    assert odo.vel == pytest.approx(vel, abs=1e-12)
+    assert odo.joint_names() == wheels.joint_names()
+    assert len(odo.wheel_pos) == len(odo.wheel_vel) == len(odo.effort) == 3
+    assert odo.wheel_pos == pytest.approx([w * 1.0 for w in ws[:3]], rel=1e-9)
+    assert odo.effort == pytest.approx([core.TABLE_III["model.l"] * core.TABLE_III["model.Kt"] * i
+                                        for i in (1.0, 2.0, 3.0)])
+    # Closed form of the symmetric three-wheel layout (the rows' sum of a_j^T a_j is
+    # diag(3/2, 3/2, 3 d^2)): v = -(2/3) sum sin(a_j) rim_j, w = sum rim_j / (3 d).
+    rims = [w * THREE_R for w in ws[:3]]
+    a = [math.radians(x) for x in THREE_DEG]
+    want = (-2 / 3 * sum(math.sin(aj) * u for aj, u in zip(a, rims)),
+            2 / 3 * sum(math.cos(aj) * u for aj, u in zip(a, rims)), sum(rims) / (3 * THREE_D))
+    assert odo.vel == pytest.approx(want, abs=1e-12)
+    if vel == (0.3, 0.0, 0.0):
+        assert (odo.x, odo.y, odo.theta) == pytest.approx((0.3, 0.0, 0.0), abs=1e-9)
+
+
+def test_paper_layout_keeps_its_joint_names_and_odometry():
+    from omni4.wheels import Wheels
+    odo = core.WheelOdometry()
+    assert odo.joint_names() == ("wheel_0_front_joint", "wheel_1_left_joint",
+                                 "wheel_2_rear_joint", "wheel_3_right_joint")
+    # The paper's layout described by a robot_t: the same names and the same velocity.
+    wheels, _ = Wheels.from_robot(_robot_t((0.0, 90.0, 180.0, 270.0), d=D, r=R))
+    described = core.WheelOdometry()
+    described.set_wheels(wheels)
+    assert described.joint_names() == odo.joint_names()
+    _run(odo, (-0.2, 0.1, -1.0), 0.5)
+    _run(described, (-0.2, 0.1, -1.0), 0.5)
+    assert described.vel == pytest.approx(odo.vel, abs=1e-12)
+    assert len(described.wheel_pos) == 4
+
+
+@pytest.mark.parametrize("wheels, angle, why", [(5, 0.0, "5 wheels"), (3, math.nan, "not finite")])
+def test_a_robot_t_that_describes_no_robot_is_refused_with_a_reason(wheels, angle, why):
+    from omni4.wheels import Wheels
+    m = _robot_t(THREE_DEG)
+    m.wheels = wheels
+    m.wheel_angle = [angle] + list(m.wheel_angle[1:])
+    got, reason = Wheels.from_robot(m)
+    assert got is None and why in reason
+    odo = core.WheelOdometry()
+    odo.set_wheels(got)           # nothing to take: the paper's four stay
+    assert len(odo.joint_names()) == 4
+
+
+def _write_log(path, robots, n=300):
+    """An LCM event log: the robot_t messages (list of (index, robot_t): written before motors
+    sample index), then n motors_t at 1 kHz driving (0.3, 0, 0) on three wheels."""
+    import lcm
+    log = lcm.EventLog(str(path), "w", overwrite=True)
+    ws = _three_wheel_speeds(0.3, 0.0, 0.0)
+    t0 = 1_700_000_000_000_000
+    for k in range(n):
+        for at, r in robots:
+            if at == k:
+                r.utime = t0 + k * 1000
+                log.write_event(t0 + k * 1000, omni4.CHANNEL_ROBOT, r.encode())
+        m = omni4.motors_t()
+        m.utime, m.seq, m.mode = t0 + k * 1000, k, 1
+        m.wheel_speed = list(ws)
+        log.write_event(t0 + k * 1000 + 50, omni4.CHANNEL_MOTORS, m.encode())
+    log.close()
+
+
+def _bag_joint_states(out):
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import Stores, get_typestore
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    with Reader(out) as bag:
+        return [ts.deserialize_cdr(raw, c.msgtype) for c, _t, raw in bag.messages()
+                if c.topic == "/joint_states"]
+
+
+def test_bag_of_a_three_wheel_log_has_three_joints_and_a_paper_log_four(tmp_path):
+    from omni4.ros import bag
+    three = tmp_path / "three.lcmlog"
+    _write_log(three, [(0, _robot_t(THREE_DEG))])
+    bag.convert([str(three)], str(tmp_path / "three.bag"))
+    js = _bag_joint_states(tmp_path / "three.bag")
+    assert len(js) == 300
+    assert all(list(m.name) == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"] for m in js)
+    assert list(js[-1].velocity) == pytest.approx(_three_wheel_speeds(0.3, 0.0, 0.0)[:3])
+    # A log without robot_t: the paper's four, named as always.
+    paper = tmp_path / "paper.lcmlog"
+    _write_log(paper, [])
+    bag.convert([str(paper)], str(tmp_path / "paper.bag"))
+    js = _bag_joint_states(tmp_path / "paper.bag")
+    assert list(js[0].name) == list(core.JOINT_NAMES) and len(js[0].velocity) == 4
+
+
+def test_bag_takes_the_first_robot_t_even_after_motors_and_a_change_mid_log(tmp_path):
+    from omni4.ros import bag
+    path = tmp_path / "late.lcmlog"
+    # robot_t after the first 5 samples (the logger's order of one tick), then the paper's four
+    # from sample 200 on.
+    _write_log(path, [(5, _robot_t(THREE_DEG)), (200, _robot_t((0.0, 90.0, 180.0, 270.0), D, R))])
+    bag.convert([str(path)], str(tmp_path / "late.bag"))
+    names = [len(m.name) for m in _bag_joint_states(tmp_path / "late.bag")]
+    assert names == [3] * 200 + [4] * 100
+
+
+def test_bag_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path):
+    from omni4.ros import bag
+    path = tmp_path / "old.lcmlog"
+    _write_log(path, [])
+    ini = tmp_path / "three.ini"
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 120\n"
+                   "wheel_angle_2 = 240\nd = 0.1\nr = 0.03\n")
+    bag.convert([str(path)], str(tmp_path / "p.bag"), params_path=str(ini))
+    js = _bag_joint_states(tmp_path / "p.bag")
+    assert list(js[-1].name) == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"]
+    ini.write_text("[model]\nwheels = 5\n")
+    assert bag.main([str(path), "--out", str(tmp_path / "bad.bag"), "--params", str(ini),
+                     "-q"]) == 2
+    assert not (tmp_path / "bad.bag").exists()
+
+
+def test_four_wheels_off_the_papers_distances_are_named_by_number():
+    """The paper's names say where its wheels are; four wheels at its angles but one at another
+    distance are not its robot: wheel_0_joint .. wheel_3_joint."""
+    from omni4.wheels import Wheels
+    m = _robot_t((0.0, 90.0, 180.0, 270.0), d=D, r=R)
+    m.wheel_distance = [D, 0.1, D, D]
+    wheels, _ = Wheels.from_robot(m)
+    assert wheels.joint_names() == tuple(f"wheel_{j}_joint" for j in range(4))
+    assert wheels.positions()[1] == pytest.approx((0.0, 0.1), abs=1e-12)
+
+
+@pytest.mark.parametrize("angles", [(0.0, 120.0, 240.0), (60.0, 180.0, 300.0)])
+def test_urdf_of_a_three_wheel_robot_has_three_joints_at_its_wheels(angles):
+    from omni4.ros.urdf import urdf
+    from omni4.wheels import Wheels
+    wheels, _ = Wheels.from_robot(_robot_t(angles))
+    root = ET.fromstring(urdf(wheels))
+    joints = list(root.iter("joint"))
+    assert [j.get("name") for j in joints] == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"]
+    for j, deg in zip(joints, angles):
+        a = math.radians(deg)
+        xyz = [float(v) for v in j.find("origin").get("xyz").split()]
+        assert xyz == pytest.approx([THREE_D * math.cos(a), THREE_D * math.sin(a), THREE_R],
+                                    abs=1e-6)
+        yaw = float(j.find("origin").get("rpy").split()[2])
+        assert (math.cos(yaw), math.sin(yaw)) == pytest.approx((math.cos(a), math.sin(a)), abs=1e-6)
+        assert j.get("type") == "continuous" and j.find("axis").get("xyz") == "1 0 0"
+        assert root.find(f"link[@name='{j.find('child').get('link')}']") is not None
+
+
+def test_urdf_of_the_papers_layout_has_the_shipped_joints():
+    from omni4.ros.urdf import urdf
+    shipped = {j.get("name"): j for j in ET.parse(URDF).getroot().iter("joint")}
+    made = {j.get("name"): j for j in ET.fromstring(urdf()).iter("joint")}
+    assert sorted(made) == sorted(shipped)
+    for name, j in made.items():
+        for attr in ("xyz", "rpy"):
+            got = [float(v) for v in j.find("origin").get(attr).split()]
+            want = [float(v) for v in shipped[name].find("origin").get(attr).split()]
+            assert got == pytest.approx(want, abs=1e-6), (name, attr)
+        assert j.find("child").get("link") == shipped[name].find("child").get("link")

@@ -757,3 +757,50 @@ def test_odometry_from_the_controllers_state_when_it_comes(stack, tmp_path):
     finally:
         out.close()
 
+
+
+def test_a_three_wheel_robot_has_three_joints(stack, tmp_path):
+    """omni4-ros on a bus of this test's own (no controller): the test sends motors_t and a
+    three-wheel robot_t (0/120/240 deg); /joint_states names three joints and carries three
+    values; the stack's omni4-ros (omni4-fw describes the paper's layout) keeps the paper's four
+    names."""
+    import lcm
+    from sensor_msgs.msg import JointState
+
+    import omni4
+    paper = stack.ros.latest("joints", 5)
+    assert list(paper.name) == ["wheel_0_front_joint", "wheel_1_left_joint",
+                                "wheel_2_rear_joint", "wheel_3_right_joint"]
+    url = lcm_test_url()
+    out = open(tmp_path / "omni4-ros-three.out", "w+")
+    node = subprocess.Popen([sys.executable, "-m", "omni4.ros.node", "--lcm", url,
+                             "--ros-args", "-r", "__ns:=/three"], stdout=out,
+                            stderr=subprocess.STDOUT)
+    got = []
+    sub = stack.ros.node.create_subscription(JointState, "/three/joint_states",
+                                             lambda m: got.append(m), 10)
+    lc = lcm.LCM(url)
+    robot = omni4.robot_t()
+    robot.wheels, robot.l = 3, 5.0
+    robot.wheel_angle = [0.0, 2 * math.pi / 3, 4 * math.pi / 3, 0.0]
+    robot.wheel_distance, robot.wheel_radius = [0.1] * 3 + [0.0], [0.03] * 3 + [0.0]
+    speeds = [1.0, -2.0, 3.0, 0.0]
+    try:
+        end, k = time.monotonic() + START_TIMEOUT_S * WAIT, 0
+        while time.monotonic() < end and not any(len(m.name) == 3 for m in list(got)):
+            if k % 50 == 0:
+                lc.publish(omni4.CHANNEL_ROBOT, robot.encode())
+            m = omni4.motors_t()
+            m.utime, m.seq, m.wheel_speed = _now_us(), k, speeds
+            lc.publish(omni4.CHANNEL_MOTORS, m.encode())
+            k += 1
+            time.sleep(0.005)
+        three = [m for m in list(got) if len(m.name) == 3]
+        assert three, f"no three-joint /joint_states; node said: " \
+            f"{(tmp_path / 'omni4-ros-three.out').read_text()}"
+        assert list(three[-1].name) == ["wheel_0_joint", "wheel_1_joint", "wheel_2_joint"]
+        assert list(three[-1].velocity) == speeds[:3] and len(three[-1].effort) == 3
+    finally:
+        stack.ros.node.destroy_subscription(sub)
+        _stop(node, "omni4-ros (three wheels)")
+        out.close()

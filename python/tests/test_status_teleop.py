@@ -15,6 +15,7 @@ import struct
 import subprocess
 import time
 
+import lcm
 import pytest
 from conftest import lcm_test_url
 from livefw import EXIT_TIMEOUT_S, SCALE, Firmware, Pty, tool
@@ -85,6 +86,85 @@ def test_fault_names():
 
 
 # ---- live ----------------------------------------------------------------------------------------
+
+class Publisher:
+    """motors_t (currents 1, 2, 3, then 0 or 4 [A]) at ~200 Hz, and robot_t every 0.1 s when
+    given, on a real LCM URL of the test's own, from a thread, until stop()."""
+
+    def __init__(self, url, robot=None):
+        import threading
+        self.lc, self.robot, self.done = lcm.LCM(url), robot, threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        k = 0
+        while not self.done.is_set():
+            m = omni4.motors_t()
+            m.utime, m.seq, m.mode = int(time.time() * 1e6), k, omni4.motors_t.MODE_IDLE
+            m.current = [1.0, 2.0, 3.0, 0.0 if self.robot else 4.0]
+            self.lc.publish(omni4.CHANNEL_MOTORS, m.encode())
+            if self.robot is not None and k % 20 == 0:
+                self.lc.publish(omni4.CHANNEL_ROBOT, self.robot.encode())
+            k += 1
+            self.done.wait(0.005)
+
+    def stop(self):
+        self.done.set()
+        self.thread.join()
+
+
+def _three_wheel_robot(angles_deg=(60.0, 180.0, 300.0)):
+    import math
+    m = omni4.robot_t()
+    m.wheels, m.l = 3, 5.0
+    m.wheel_angle = [math.radians(a) for a in angles_deg] + [0.0]
+    m.wheel_distance, m.wheel_radius = [0.1, 0.1, 0.1, 0.0], [0.03, 0.03, 0.03, 0.0]
+    return m
+
+
+@pytest.mark.parametrize("robot", [None, _three_wheel_robot()])
+def test_status_shows_one_column_per_wheel_of_the_robot_t(robot):
+    """A three-wheel robot_t: its layout in a line, three currents; none: the paper's four
+    columns as before robot_t, and no layout line."""
+    import sys
+    url = lcm_test_url()
+    pub = Publisher(url, robot)
+    try:
+        r = subprocess.run([sys.executable, "-m", "omni4.status", "--lcm", url, "--listen", "0.5",
+                            "--timeout", "0.2"], capture_output=True, text=True,
+                           timeout=EXIT_TIMEOUT_S)
+    finally:
+        pub.stop()
+    assert r.returncode == 0, r.stderr
+    if robot is None:
+        assert re.search(r"^current \[A\]: \+1\.000 \+2\.000 \+3\.000 \+4\.000$", r.stdout,
+                         re.M), r.stdout
+        assert "wheels:" not in r.stdout
+    else:
+        assert re.search(r"^wheels: 3 at 60 180 300 deg, d 0\.1 0\.1 0\.1 m \(OMNI4_ROBOT\)$",
+                         r.stdout, re.M), r.stdout
+        assert re.search(r"^current \[A\]: \+1\.000 \+2\.000 \+3\.000$", r.stdout, re.M), \
+            r.stdout
+        assert re.search(r"^wheel speed \[rad/s\]: \+0\.000 \+0\.000 \+0\.000$", r.stdout, re.M)
+
+
+def test_status_says_a_robot_t_that_describes_no_robot_in_one_line():
+    import sys
+    url = lcm_test_url()
+    bad = _three_wheel_robot()
+    bad.wheels = 2
+    pub = Publisher(url, bad)
+    try:
+        r = subprocess.run([sys.executable, "-m", "omni4.status", "--lcm", url, "--listen", "0.5",
+                            "--timeout", "0.2"], capture_output=True, text=True,
+                           timeout=EXIT_TIMEOUT_S)
+    finally:
+        pub.stop()
+    assert r.returncode == 0 and "Traceback" not in r.stderr
+    assert "omni4-status: OMNI4_ROBOT ignored: robot_t: 2 wheels (3 or 4 expected)\n" in r.stderr
+    assert re.search(r"^current \[A\]: \+1\.000 \+2\.000 \+3\.000 \+0\.000$", r.stdout, re.M)
+
 
 @pytest.mark.live
 def test_status_of_a_controller_at_rest(omni4_bin, tmp_path):

@@ -3,7 +3,9 @@ never publishes on LCM, so it cannot slow or steer the robot) and serves them on
 WebSocket server (foxglove-sdk) with JSON schemas, plus the encoder velocity, the model's
 prediction from the logged voltages and their difference (/omni4/velocity), health
 (/omni4/health), the camera pose as a transform and pose (/tf, /omni4/pose) and the robot's
-body and wheels (/omni4/scene). Topics: omni4/foxglove/topics.py, docs/design.md.
+body and wheels (/omni4/scene: the wheels of the latest robot_t on OMNI4_ROBOT, else the paper's
+four; a new robot_t with another layout is drawn from the next scene on). Topics:
+omni4/foxglove/topics.py, docs/design.md.
 
 Every motors sample goes through the model (the prediction integrates tick by tick); what is
 sent to Foxglove for OMNI4_MOTORS and /omni4/velocity is every N-th sample (--decimate N,
@@ -21,6 +23,7 @@ import lcm
 
 import omni4
 from omni4._cli import add_lcm_option
+from omni4.wheels import Wheels
 
 from . import model, topics
 from .model import Predictor
@@ -68,6 +71,7 @@ class Bridge:
         self.ch = topics.Channels(server_ctx)
         self.received = {}
         self.classes = topics.lcm_classes()
+        self.wheels = params.get("layout")  # the robot_t's, else --params'; None: the paper's
         # advertised from the start, so a client sees them before the first message
         for topic, schema in (*topics.CHANNEL_SCHEMA.items(), *topics.DERIVED.items()):
             self.ch.get(topic, schema)
@@ -82,6 +86,8 @@ class Bridge:
             except Exception:  # not a motors_t (lcm-gen raises ValueError, struct.error):
                 # OMNI4_MOTORS/undecodable, below
                 pass
+        elif chname == omni4.CHANNEL_ROBOT:
+            self.on_robot(data)
         for topic, schema, msg in topics.event_messages(chname, data, t_ns, self.classes):
             self.ch.log(topic, schema, msg, t_ns)
 
@@ -95,13 +101,23 @@ class Bridge:
             self.ch.log(topics.TOPIC_VELOCITY, "omni4.velocity",
                         topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
 
+    def on_robot(self, data):
+        """The latest robot_t's wheels (one that describes no robot is left out)."""
+        try:
+            wheels, _why = Wheels.from_robot(omni4.robot_t.decode(data))
+        except Exception:  # another type's payload: shown as undecodable by event_messages
+            return
+        if wheels is not None:
+            self.wheels = wheels
+
     def tick(self, t_ns, health_due, scene_due):
         if health_due and self.health.n:
             self.ch.log(topics.TOPIC_HEALTH, "omni4.health",
                         self.health.report(self.health_period_s), t_ns)
         if scene_due:
             self.ch.log(topics.TOPIC_SCENE, "foxglove.SceneUpdate",
-                        topics.scene_json(t_ns, self.params["d"], self.params["r"]), t_ns)
+                        topics.scene_json(t_ns, self.params["d"], self.params["r"], self.wheels),
+                        t_ns)
 
 
 def _pump(lc, bridge, a, stop, t_start):

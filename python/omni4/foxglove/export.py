@@ -3,7 +3,9 @@
 Every LCM event becomes one MCAP message with the event's log time, on a channel named as the
 LCM channel (JSON, schema "omni4.<type>"), plus the derived topics of the bridge
 (/omni4/velocity: encoders, model prediction, difference; /omni4/health; /tf, /omni4/pose,
-/omni4/scene with Foxglove's schemas). Chunked and compressed (zstd by default, or lz4) by the
+/omni4/scene with Foxglove's schemas; the scene draws the wheels of the log's first OMNI4_ROBOT,
+a later robot_t with another layout from its event on; in a log without one the layout of
+--params' [model], else the paper's four). Chunked and compressed (zstd by default, or lz4) by the
 foxglove-sdk MCAP writer. Exit status: 0 done; 1 run-time error (unreadable or non-LCM log, or
 data lost in a truncated/corrupt log: the complete events are still converted, see
 --partial-ok); 2 usage or configuration error (bad arguments, broken INI)."""
@@ -21,6 +23,7 @@ from omni4.outfile import OutError, OutFile
 
 from . import lcmlog, model, topics
 from .model import Predictor
+from ..wheels import Wheels
 
 PROG = "omni4-mcap"
 
@@ -102,6 +105,30 @@ def motors_events(events):
     return is_mot, decode_motors([d for (_, _, d), m in zip(events, is_mot) if m])
 
 
+def robot_wheels(data):
+    """The Wheels of a robot_t payload, or None (not one, or it describes no robot)."""
+    try:
+        return Wheels.from_robot(omni4.robot_t.decode(data))[0]
+    except Exception:  # another type's payload
+        return None
+
+
+def first_wheels(events):
+    """The wheels of the log's first robot_t that describes a robot; None: the paper's."""
+    for _t, ch, data in events:
+        if ch == omni4.CHANNEL_ROBOT:
+            wheels = robot_wheels(data)
+            if wheels is not None:
+                return wheels
+    return None
+
+
+def changed(data, wheels):
+    """True when the robot_t payload describes a robot other than wheels."""
+    new = robot_wheels(data)
+    return new is not None and not new.same(wheels)
+
+
 def convert(events, params, w, health_period_s):
     """Write all events (log order) and the derived topics into the Writer w."""
     classes = topics.lcm_classes()
@@ -117,7 +144,7 @@ def convert(events, params, w, health_period_s):
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
-    next_scene = events[0][0]
+    next_scene, wheels = events[0][0], first_wheels(events) or params.get("layout")
     k = 0
     n = len(events)
     i = 0
@@ -129,7 +156,7 @@ def convert(events, params, w, health_period_s):
         t_us, chname, data = events[i]
         if t_us >= next_scene:  # the robot's body, once a second of log time
             w.log(topics.TOPIC_SCENE, "foxglove.SceneUpdate",
-                  topics.scene_json(t_us * 1000, params["d"], params["r"]), t_us * 1000)
+                  topics.scene_json(t_us * 1000, params["d"], params["r"], wheels), t_us * 1000)
             next_scene = t_us + 1_000_000
         if is_mot[i]:
             # a run of motors events (~40 between two camera frames): a tight loop
@@ -152,6 +179,8 @@ def convert(events, params, w, health_period_s):
                     break
             continue
         i += 1
+        if chname == omni4.CHANNEL_ROBOT and changed(data, wheels):  # drawn at once
+            wheels, next_scene = robot_wheels(data), t_us
         for topic, schema, msg in topics.event_messages(chname, data, t_us * 1000, classes):
             w.log(topic, schema, msg, t_us * 1000)
     if any_mot:

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 
 from .. import ini
-from .._keys import MODEL_KEYS, MODEL_WHEEL_KEYS
+from .._keys import MODEL_KEYS, MODEL_LAYOUT_KEYS, MODEL_WHEEL_KEYS
 
 _LIB = None
 PARAM_NAMES = MODEL_KEYS  # the 14 [model] keys, in model_params_names order
@@ -155,6 +155,8 @@ def read_model(path):
     f = ini.read(path)
     found = {}
     for key, val in f.section("model").items():
+        if key in MODEL_LAYOUT_KEYS:    # the wheels' layout: omni4.wheels.Wheels.from_ini
+            continue
         where = f.where("model", key)
         if key not in PARAM_NAMES and key not in MODEL_WHEEL_KEYS:
             raise ini.ConfigError(f"{where}: unknown key '{key}' in [model] "
@@ -190,10 +192,17 @@ def read_model(path):
 
 
 def params_or_exit(prog, path):
-    """--params of a command-line tool: the [model] of path (Table III if None); on a broken
-    INI one line on stderr and exit status 2 (a configuration error)."""
+    """--params of a command-line tool: the [model] of path (Table III if None), with its
+    wheels' layout under "layout" when it has layout keys (omni4.wheels.Wheels: the scene's
+    wheels when no robot_t says otherwise); on a broken INI one line on stderr and exit
+    status 2 (a configuration error)."""
+    from ..wheels import Wheels
     try:
-        return read_model(path) if path else table3()
+        params = read_model(path) if path else table3()
+        layout = Wheels.from_ini(path) if path else None
+        if layout is not None:
+            params["layout"] = layout
+        return params
     except ini.ConfigError as e:
         print(f"{prog}: {e}", file=sys.stderr)
         raise SystemExit(2) from None

@@ -351,12 +351,17 @@ def pose_topics(stamp_ns, x, y, theta, child=ROBOT_FRAME):
     return tf, pose
 
 
-def scene_json(stamp_ns, d, r):
-    """The robot in frame "robot": a square body and four wheels at distance d [m] (radius
-    r [m]) on the axes of eq 2: wheel 0 at +v (drives along vn), 1 at +vn, 2 at -v, 3 at -vn."""
+def scene_json(stamp_ns, d, r, wheels=None):
+    """The robot in frame "robot": a square body and its wheels. wheels None (no robot_t: the
+    paper's layout): four wheels at distance d [m] (radius r [m]) on the axes of eq 2: wheel 0
+    at +v (drives along vn), 1 at +vn, 2 at -v, 3 at -vn. wheels (an omni4.wheels.Wheels of
+    the robot's robot_t): each of its wheels at its own angle, distance and radius."""
     t = _stamp(stamp_ns)
     ident = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
-    h = math.sqrt(0.5)  # quaternion component of a 90 degree turn
+    if wheels is not None and wheels.is_paper_geometry() and len(set(wheels.radius_m)) == 1:
+        d, r, wheels = wheels.distance_m[0], wheels.radius_m[0], None   # drawn as always
+    if wheels is not None:
+        d, r = max(wheels.distance_m), max(wheels.radius_m)
     side = 1.2 * d
     body = {"pose": {"position": {"x": 0.0, "y": 0.0, "z": r}, "orientation": ident},
             "size": {"x": side, "y": side, "z": 0.6 * r},
@@ -365,18 +370,40 @@ def scene_json(stamp_ns, d, r):
     nose = {"pose": {"position": {"x": 0.45 * side, "y": 0.0, "z": 1.4 * r}, "orientation": ident},
             "size": {"x": 0.3 * side, "y": 0.1 * side, "z": 0.2 * r},
             "color": {"r": 1.0, "g": 0.6, "b": 0.1, "a": 1.0}}
-    wheels = []
+    wheel_list = _paper_wheels(d, r) if wheels is None else _layout_wheels(wheels)
+    ent = {"timestamp": t, "frame_id": ROBOT_FRAME, "id": "omni4", "lifetime": _stamp(0),
+           "frame_locked": True, "metadata": [], "cubes": [body, nose], "cylinders": wheel_list}
+    return orjson.dumps({"deletions": [], "entities": [ent]})
+
+
+def _wheel(cx, cy, r, q):
+    return {"pose": {"position": {"x": cx, "y": cy, "z": r}, "orientation": q},
+            "size": {"x": 2 * r, "y": 2 * r, "z": 0.6 * r},
+            "bottom_scale": 1.0, "top_scale": 1.0,
+            "color": {"r": 0.15, "g": 0.15, "b": 0.15, "a": 1.0}}
+
+
+def _paper_wheels(d, r):
+    h = math.sqrt(0.5)  # quaternion component of a 90 degree turn
+    out = []
     for j, (cx, cy) in enumerate(((d, 0.0), (0.0, d), (-d, 0.0), (0.0, -d))):
         # cylinder axis (its z) along the wheel's radial direction: rotate z onto x or y
         q = ({"x": 0.0, "y": h, "z": 0.0, "w": h} if j % 2 == 0
              else {"x": h, "y": 0.0, "z": 0.0, "w": h})
-        wheels.append({"pose": {"position": {"x": cx, "y": cy, "z": r}, "orientation": q},
-                       "size": {"x": 2 * r, "y": 2 * r, "z": 0.6 * r},
-                       "bottom_scale": 1.0, "top_scale": 1.0,
-                       "color": {"r": 0.15, "g": 0.15, "b": 0.15, "a": 1.0}})
-    ent = {"timestamp": t, "frame_id": ROBOT_FRAME, "id": "omni4", "lifetime": _stamp(0),
-           "frame_locked": True, "metadata": [], "cubes": [body, nose], "cylinders": wheels}
-    return orjson.dumps({"deletions": [], "entities": [ent]})
+        out.append(_wheel(cx, cy, r, q))
+    return out
+
+
+def _layout_wheels(wheels):
+    """Each wheel at its angle a and distance; its cylinder's axis along its radius: a turn
+    of 90 deg about y (z onto x), then of a about z (quaternion product yaw(a) * y90)."""
+    h = math.sqrt(0.5)
+    out = []
+    for (cx, cy), a, r in zip(wheels.positions(), wheels.angle_rad, wheels.radius_m):
+        s, c = math.sin(a / 2), math.cos(a / 2)
+        q = {"x": -s * h, "y": c * h, "z": s * h, "w": c * h}
+        out.append(_wheel(cx, cy, r, q))
+    return out
 
 
 class Health:

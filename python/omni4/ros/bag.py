@@ -9,7 +9,10 @@ Per source event, in log order, bag time = the event's log time (the logger's re
   OMNI4_POSE    -> /camera/pose (geometry_msgs/PoseStamped, frame "world")
   each second of OMNI4_MOTORS log time -> /diagnostics (diagnostic_msgs/DiagnosticArray)
 The geometry (d, r, l, Kt) comes from the log's OMNI4_PARAM_CHANGED (the controller announces
-every parameter at start), else from --params ROBOT.ini, else Table III.
+every parameter at start), else from --params ROBOT.ini, else Table III. The wheels (how many,
+where; /joint_states' names) come from the log's first OMNI4_ROBOT (robot_t, within the log's
+first ROBOT_SCAN_US of log time), else from --params' [model] (wheels, wheel_angle_j, d_j), else
+the paper's four; a later robot_t with another layout is taken from its event on.
 The logs are read a piece at a time and every message is written as its event is read, in log
 order: memory does not grow with the log. The share of the input read goes to stderr (in place
 on a terminal, else a line at most once a second; -q: none). The bag is written beside --out
@@ -20,9 +23,12 @@ import os
 import shutil
 import sys
 
-from .. import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_POSE, command_t, motors_t, param_changed_t,
-                pose_t)
+from .. import (CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_POSE, CHANNEL_ROBOT, command_t, motors_t,
+                param_changed_t, pose_t, robot_t)
+from ..wheels import Wheels
 from . import core
+
+ROBOT_SCAN_US = 2_000_000     # robot_t comes at the controller's first tick, then at 1 Hz
 
 PROG = "omni4-rosbag"
 TYPESTORE = "ROS2_HUMBLE"     # the messages' definitions; the same in Jazzy and Kilted
@@ -64,6 +70,25 @@ def _geometry(paths, params_path):
     return geo
 
 
+def _first_wheels(paths):
+    """The wheels of the log's first robot_t (looked for in its first ROBOT_SCAN_US of log
+    time), or None (a log before robot_t: the paper's layout)."""
+    for path in paths:
+        t0 = None
+        for t_us, channel, data in _events(path, lambda n: None, set()):
+            t0 = t_us if t0 is None else t0
+            if t_us - t0 > ROBOT_SCAN_US:
+                return None
+            if channel == CHANNEL_ROBOT:
+                try:
+                    wheels, _why = Wheels.from_robot(robot_t.decode(data))
+                except Exception:
+                    continue
+                if wheels is not None:
+                    return wheels
+    return None
+
+
 class _Messages:
     """The ROS 2 messages of the bag, built with rosbags' type store."""
 
@@ -95,7 +120,7 @@ class _Messages:
     def joint_states(self, t_us, odom):
         import numpy as np
         return self.T["sensor_msgs/msg/JointState"](
-            header=self.header(t_us, ""), name=list(core.JOINT_NAMES),
+            header=self.header(t_us, ""), name=list(odom.joint_names()),
             position=np.array(odom.wheel_pos, dtype=np.float64),
             velocity=np.array(odom.wheel_vel, dtype=np.float64),
             effort=np.array(odom.effort, dtype=np.float64))
@@ -155,7 +180,8 @@ class _Stream:
     def event(self, t_us, channel, data):
         """(topic, message) of one LCM event (none for other channels or a payload that does
         not decode, counted)."""
-        cls = {CHANNEL_MOTORS: motors_t, CHANNEL_CMD: command_t, CHANNEL_POSE: pose_t}.get(channel)
+        cls = {CHANNEL_MOTORS: motors_t, CHANNEL_CMD: command_t, CHANNEL_POSE: pose_t,
+               CHANNEL_ROBOT: robot_t}.get(channel)
         if cls is None:
             return ()
         try:
@@ -165,6 +191,9 @@ class _Stream:
             return ()
         if cls is motors_t:
             return self.motors(t_us, m)
+        if cls is robot_t:          # a layout change mid-log: taken from here on
+            self.odom.set_wheels(Wheels.from_robot(m)[0])
+            return ()
         if cls is command_t:
             return (("/cmd_vel", self.msgs.twist(*(float(x) for x in m.velocity))),) \
                 if m.mode == command_t.MODE_VELOCITY else ()
@@ -285,6 +314,8 @@ def convert(paths, out, params_path=None, quiet=True):
     paths = _log_paths(paths)
     ts = get_typestore(getattr(Stores, TYPESTORE))
     stream = _Stream(_Messages(ts), _geometry(paths, params_path))
+    stream.odom.set_wheels(_first_wheels(paths) or
+                           (Wheels.from_ini(params_path) if params_path else None))
     progress = _Progress([os.path.getsize(p) for p in paths], quiet)
     counts = {t: 0 for t in TOPICS}
     seen = _Count()
@@ -380,7 +411,8 @@ def _main(argv=None):
                    "symbolic link is followed); written beside it first, renamed when complete; "
                    "an existing file or non-empty folder is refused and left untouched")
     p.add_argument("--params", default=None, metavar="ROBOT.ini",
-                   help="geometry when the log has no OMNI4_PARAM_CHANGED")
+                   help="geometry when the log has no OMNI4_PARAM_CHANGED, the wheels' layout "
+                   "when it has no OMNI4_ROBOT")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="no progress (else the share of the input read, on stderr, at most "
                    "once a second)")

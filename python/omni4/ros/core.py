@@ -5,15 +5,17 @@ the bag writer) without rclpy.
 
 Signs and numbering: docs/kinematics.md. Robot frame (base_link): x = v forward, y = vn to the
 left, z up (REP 103). Wheel j sits at 90*j degrees from the v axis: 0 front, 1 left, 2 rear,
-3 right; its positive rim speed points counter-clockwise."""
+3 right; its positive rim speed points counter-clockwise. A robot that describes another
+layout (robot_t on OMNI4_ROBOT: three wheels, other angles or distances) has its own wheels
+(omni4.wheels.Wheels): their joints are wheel_0_joint .. wheel_{n-1}_joint."""
 import math
 import time
 
 from .. import adapt as adapt_words
 from .. import motors_t
+from ..wheels import PAPER_JOINT_NAMES
 
-JOINT_NAMES = ("wheel_0_front_joint", "wheel_1_left_joint", "wheel_2_rear_joint",
-               "wheel_3_right_joint")
+JOINT_NAMES = PAPER_JOINT_NAMES
 # Table III of the paper (docs/ini-keys.md defaults): used until the robot's own are read.
 TABLE_III = {"model.d": 0.089, "model.r": 0.0325, "model.l": 5.0, "model.Kt": 0.0259}
 # Each wheel's own radius ([model] r_0 .. r_3, docs/configuration.md "Per-wheel drives"): a
@@ -89,6 +91,23 @@ class WheelOdometry:
         self.last_utime = None
         self.last_seq = None
         self.lost = 0            # seq gaps: samples the controller sent that never came
+        self.wheels = None       # omni4.wheels.Wheels of a robot_t; None: the paper's four
+        self._paper = True       # the wheels sit on the paper's axes (eqs 3-5 apply)
+
+    def set_wheels(self, wheels):
+        """The robot's own layout (a Wheels from its robot_t): from the next sample on, its
+        wheels' count, positions and radii. Another count restarts the wheel positions."""
+        if wheels is None or wheels.same(self.wheels):
+            return
+        if len(self.wheel_pos) != wheels.count:
+            self.wheel_pos = [0.0] * wheels.count
+            self.wheel_vel = [0.0] * wheels.count
+            self.effort = [0.0] * wheels.count
+        self.wheels = wheels
+        self._paper = wheels.is_paper_geometry()
+
+    def joint_names(self):
+        return JOINT_NAMES if self.wheels is None else self.wheels.joint_names()
 
     def set_geometry(self, **kv):
         for k, v in kv.items():
@@ -103,7 +122,8 @@ class WheelOdometry:
         """One motors_t (or anything with utime, seq, wheel_speed, current)."""
         d, r = self.geometry["model.d"], self.radii()
         torque_per_a = self.geometry["model.l"] * self.geometry["model.Kt"]
-        ws = [float(w) for w in m.wheel_speed]
+        n = 4 if self.wheels is None else self.wheels.count
+        ws = [float(w) for w in m.wheel_speed][:n]
         if not all(math.isfinite(w) for w in ws):
             return False
         if self.last_seq is not None and m.seq > self.last_seq + 1:
@@ -111,10 +131,14 @@ class WheelOdometry:
         self.last_seq = m.seq
         dt = None if self.last_utime is None else (m.utime - self.last_utime) * 1e-6
         self.last_utime = m.utime
-        v, vn, w = forward_kinematics(ws, d, r)
+        if self.wheels is None or self._paper:   # the paper's axes: eqs 3-5 as always
+            v, vn, w = forward_kinematics(ws, d, r)
+        else:
+            v, vn, w = self.wheels.forward(ws)
+            d = min(self.wheels.distance_m)
         self.vel = (v, vn, w)
         self.wheel_vel = ws
-        self.effort = [torque_per_a * float(i) for i in m.current]
+        self.effort = [torque_per_a * float(i) for i in m.current][:n]
         self.samples += 1
         if dt is None or dt <= 0 or dt > self.max_dt_s:
             if dt is not None:
@@ -127,7 +151,7 @@ class WheelOdometry:
         self.y += dy
         dth = w * dt
         self.theta = wrap(self.theta + dth)
-        for j in range(4):
+        for j in range(n):
             self.wheel_pos[j] += ws[j] * dt
         ds = math.hypot(dx, dy)
         self.var_xy += (SLIP_FRACTION * ds) ** 2

@@ -2,7 +2,8 @@
 
 Subscribes /cmd_vel (geometry_msgs/Twist in base_link: linear.x = v, linear.y = vn,
 angular.z = w) and sends VELOCITY commands on OMNI4_CMD while the input is fresh; publishes
-/odom (nav_msgs/Odometry, odom -> base_link), /joint_states (the four wheels), /diagnostics at
+/odom (nav_msgs/Odometry, odom -> base_link), /joint_states (the robot's wheels: the layout of
+the latest robot_t on OMNI4_ROBOT, else the paper's four), /diagnostics at
 1 Hz, and /tf when the installation has tf2_msgs; mirrors the controller's parameters as ROS
 parameters (set through omni4.ParamClient); services ~/clear_fault and ~/save (std_srvs/Trigger).
 Goals: /goal_pose (RViz's 2D Goal Pose, once) and follow_path (nav_msgs/Path), kept alive on the
@@ -16,8 +17,9 @@ import time
 
 import lcm
 
-from .. import (CHANNEL_ADAPT, CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED, adapt_t,
-                command_t, motors_t, param_changed_t)
+from .. import (CHANNEL_ADAPT, CHANNEL_CMD, CHANNEL_MOTORS, CHANNEL_PARAM_CHANGED,
+                CHANNEL_ROBOT, adapt_t, command_t, motors_t, param_changed_t, robot_t)
+from ..wheels import Wheels
 from . import core
 from .goals import GoalBridge
 
@@ -101,6 +103,7 @@ class Omni4Ros:
         sub.set_queue_capacity(RX_QUEUE_MESSAGES)
         self.lc.subscribe(CHANNEL_PARAM_CHANGED, self._on_param_changed)
         self.lc.subscribe(CHANNEL_ADAPT, self._on_adapt)
+        self.lc.subscribe(CHANNEL_ROBOT, self._on_robot)
         self.state_cls, state_channel = core.state_type()
         if self.state_cls is not None and odom_source != "wheels":
             self.lc.subscribe(state_channel, self._on_state)
@@ -165,6 +168,18 @@ class Omni4Ros:
             if self.state.take(m):
                 self._state_arrival = time.monotonic()
                 self.counters["state_t received"] += 1
+
+    def _on_robot(self, _channel, data):
+        """The robot's layout: the latest robot_t's wheels (a change mid-stream is taken)."""
+        try:
+            wheels, why = Wheels.from_robot(robot_t.decode(data))
+        except ValueError:
+            return
+        if wheels is None:
+            self.log.warning(f"{CHANNEL_ROBOT} ignored: {why}", throttle_duration_sec=10.0)
+            return
+        with self._lock:
+            self.odom.set_wheels(wheels)
 
     def _on_adapt(self, _channel, data):
         try:
@@ -340,6 +355,7 @@ class Omni4Ros:
             x, y, th, vel = src.x, src.y, src.theta, src.vel
             pcov, tcov = src.pose_covariance(), src.twist_covariance()
             pos, wvel, eff = list(self.odom.wheel_pos), list(self.odom.wheel_vel), list(self.odom.effort)
+            names = list(self.odom.joint_names())
         o = self._Odometry()
         o.header.stamp = stamp
         o.header.frame_id = self.frame_odom
@@ -355,7 +371,7 @@ class Omni4Ros:
         self.pub_odom.publish(o)
         j = self._JointState()
         j.header.stamp = stamp
-        j.name = list(core.JOINT_NAMES)
+        j.name = names
         j.position, j.velocity, j.effort = pos, wvel, eff
         self.pub_joints.publish(j)
         if self.pub_tf is not None:
