@@ -8,6 +8,7 @@
 #include "regression.hpp"
 
 extern "C" {
+#include "omni4/model/consts.h"
 #include "omni4/model/dynamics.h"
 #include "omni4/model/kinematics.h"
 }
@@ -108,7 +109,7 @@ Layout layout_of_log(const LogData &log, bool &found)
 		return Layout{};
 	double a[4], d[4];
 	for (int j = 0; j < 4; ++j) {
-		a[j] = log.robot.wheel_angle_rad[j] * 180.0 / M_PI;
+		a[j] = log.robot.wheel_angle_rad[j] * 180.0 / MODEL_PI;
 		d[j] = log.robot.wheel_distance_m[j];
 	}
 	return make_layout(log.robot.wheels, a, d, "the log " + log.path);

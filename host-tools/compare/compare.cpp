@@ -7,6 +7,7 @@
 
 extern "C" {
 #include "omni4/config/config.h"
+#include "omni4/model/consts.h"
 #include "plan_moves.h"
 }
 
@@ -16,7 +17,7 @@ namespace omni4::compare
 namespace
 {
 
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = MODEL_PI;
 
 // A direction's component this small counts as none (no Coulomb friction along that axis).
 double sgn(double x)
@@ -107,12 +108,12 @@ Bound top_speed(const Robot &r, const double e[3])
 	}
 	Bound b;
 	b.value = std::numeric_limits<double>::infinity();
+	double rim[4]; // each rim's speed at unit speed along e (eq 2)
+	wheel_rims(&r.ph, e, rim);
 	for (int j = 0; j < r.ph.n; j++) {
 		double k, c;
 		split_lin(r.ph, j, Fs, F0, &k, &c);
-		const double rim =
-		    r.ph.row[j][0] * e[0] + r.ph.row[j][1] * e[1] + r.ph.row[j][2] * e[2];
-		const double ku = r.ph.vpn[j] * k + r.ph.kemf[j] * rim, cu = r.ph.vpn[j] * c;
+		const double ku = r.ph.vpn[j] * k + r.ph.kemf[j] * rim[j], cu = r.ph.vpn[j] * c;
 		tighten(b, ku, cu, r.supply_v, j, "voltage"); // u_j <= supply_v
 		tighten(b, -ku, -cu, r.supply_v, j, "voltage");
 	}
