@@ -603,28 +603,53 @@ def test_a_rejected_command_shows_in_diagnostics_by_name(stack):
     assert r.success, r.message
 
 
-def test_the_adapted_constants_are_in_diagnostics(stack):
+def test_the_adapted_constants_are_in_diagnostics(stack, omni4_bin):
     """"omni4: adapt" from the controller's OMNI4_ADAPT: OK (no revert, no restart), each R in
     use as the node's adapt_t listener would print it and against the identified R_j of the
-    [model] it read (the sim's motors are its model's: no acceptance, 0.0 %), the flags by name
-    (ON: [adapt] enabled by default)."""
+    [model] it read, the flags by name (ON: [adapt] enabled by default).
+
+    The sim's motors are its model's, so an R in use is the identified one, or an accepted
+    estimate within 1 % of it (the bound for a robot that does not change). Which of the two
+    depends on the run (the earlier tests' commands reach the loop over LCM and ROS at ticks
+    that vary with the machine's load, and with them the excitation the estimates see), so the percentage is checked against its own computation from
+    the R in use and the [model]'s R_j (the robot.ini has no [model]: the key table's default)."""
+    import json
+
     import lcm
     import omni4
-    got = []
+    keys = [json.loads(line) for line in subprocess.run(
+        [omni4_bin("omni4-config-keys"), "--json"], capture_output=True, text=True,
+        check=True, timeout=30).stdout.splitlines()]
+    table = {k["key"]: float(k["default"]) for k in keys
+             if k["section"] == "model" and k["key"] in ("R_0", "R_1", "R_2", "R_3")}
     lc = lcm.LCM(stack.url)
-    sub = lc.subscribe(omni4.CHANNEL_ADAPT, lambda _c, d: got.append(omni4.adapt_t.decode(d)))
-    end = time.monotonic() + 5
-    while not got and time.monotonic() < end:
-        lc.handle_timeout(100)
-    lc.unsubscribe(sub)
-    assert got, "no OMNI4_ADAPT from omni4-fw"
+
+    def one_adapt():
+        got = []
+        sub = lc.subscribe(omni4.CHANNEL_ADAPT,
+                           lambda _c, d: got.append(omni4.adapt_t.decode(d)))
+        end = time.monotonic() + 5
+        while not got and time.monotonic() < end:
+            lc.handle_timeout(100)
+        lc.unsubscribe(sub)
+        assert got, "no OMNI4_ADAPT from omni4-fw"
+        return list(got[-1].R)
+
+    before = one_adapt()
     a = stack.ros.latest("diag", 2 * DIAG_PERIOD_S + 1, after=time.monotonic(),
                          pred=lambda a: _diag_status(a, "omni4: adapt") is not None)
+    after = one_adapt()
     s = _diag_status(a, "omni4: adapt")
     assert s.level == b"\x00", s
+    shown = [float(_value(s, f"R_{j} in use [ohm]")) for j in range(4)]
+    # An acceptance between the two adapt_t is the one way they differ: the diagnostic shows one.
+    assert (shown == pytest.approx(before, abs=1e-6)
+            or shown == pytest.approx(after, abs=1e-6)), (shown, before, after)
     for j in range(4):
-        assert float(_value(s, f"R_{j} in use [ohm]")) == pytest.approx(got[0].R[j], abs=1e-6)
-        assert abs(float(_value(s, f"R_{j} vs identified [%]"))) < 0.01
+        r_in_use = float(_value(s, f"R_{j} in use [ohm]"))
+        pct = float(_value(s, f"R_{j} vs identified [%]"))
+        assert pct == pytest.approx(100.0 * (r_in_use / table[f"R_{j}"] - 1.0), abs=0.006)
+        assert abs(pct) < 1.0
     assert _value(s, "flags").split()[0] == "ON"
 
 
