@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "omni4/core/vocab.h"
+#include "layout.hpp"
 #include "regression.hpp"
 #include "traction_exp.hpp"
 
@@ -25,12 +26,14 @@ namespace omni4
 namespace
 {
 
-constexpr double kSlipAbs = 0.02; // [m/s]: beyond the encoders' resolution, averaged
-constexpr double kSlipRel = 0.03; // share of the speed: beyond the model's error
-constexpr int kSlipMean = 10;     // samples in the running mean of the difference
-constexpr int kSmooth = 5;        // samples in the current's running mean
-constexpr int kSlopeN = 25;       // samples in each acceleration fit
-constexpr int kEnd = 20;          // last driven samples of a run: its kinetic force
+constexpr double kSlipAbs = 0.02;     // [m/s]: beyond the encoders' resolution, averaged
+constexpr double kSlipRel = 0.03;     // share of the speed: beyond the model's error
+constexpr int kSlipMean = 10;         // samples in the running mean of the difference
+constexpr int kSmooth = 5;            // samples in the current's running mean
+constexpr int kSlopeN = 25;           // samples in each acceleration fit
+constexpr int kEnd = 20;              // last driven samples of a run: its kinetic force
+constexpr double kComMinShare = 0.05; // least load transfer (rms share of the slipping wheels'
+                                      // force) another layout's com_height is taken from
 const char *const kDirections[] = {"v", "vn", "w", "diag"};
 
 bool driven(int8_t mode)
@@ -49,6 +52,71 @@ wheel_phys phys_of(const model_params &p)
 		throw IdentError("the traction fit: the wheel distance d = " + std::to_string(p.d) +
 		                 " m gives no layout");
 	return ph;
+}
+
+// What every step of the fit shares: the model, the layout's maps and each wheel's load at
+// rest (the paper's: a quarter of the weight on each; another layout's: model/wheels.h's
+// least-norm loads, which the plant's floor uses too).
+struct Ctx {
+	const model_params &p;
+	const Layout &L;
+	wheel_geom geom{};             // the rows and the loads' map
+	wheel_phys ph{};               // eqs 3-5 and 9-11 of the layout
+	std::array<double, 4> load0{}; // each wheel's load at rest [N] (0: no wheel)
+};
+
+Ctx ctx_of(const model_params &p, const Layout &L)
+{
+	Ctx c{p, L};
+	if (L.paper) {
+		wheel_geom_paper(p.d, &c.geom);
+		c.ph = phys_of(p);
+		c.load0.fill(p.M * MODEL_G_M_S2 / 4);
+		return c;
+	}
+	c.geom = L.geom;
+	c.ph = L.ph;
+	for (int j = 0; j < L.n; ++j)
+		c.load0[j] = L.geom.lmap[j][0] * p.M * MODEL_G_M_S2;
+	return c;
+}
+
+// The driven wheels' mean of force / load at rest (their forces f [N], the pattern pat): when
+// every driven wheel carries the same load (the paper's layout, equal distances), the mean
+// force over that load, as the paper's quarter of the weight.
+double load_share(const std::array<double, 4> &f, const std::array<double, 4> &pat, const Ctx &c)
+{
+	double sum = 0, ratio = 0, load = -1;
+	bool same = true;
+	int n = 0;
+	for (int j = 0; j < 4; ++j)
+		if (pat[j] != 0) {
+			sum += f[j];
+			ratio += f[j] / c.load0[j];
+			same = same && (load < 0 || c.load0[j] == load);
+			load = c.load0[j];
+			++n;
+		}
+	if (!n)
+		return 0.0;
+	return same ? sum / n / load : ratio / n;
+}
+
+// True when no driven wheel of the direction's pattern changes its load with the acceleration
+// the pattern gives (the centre of mass's acceleration along G^T u, or none for a rotation):
+// the paper's v, vn and w, any layout's w.
+bool no_transfer(const std::string &dir, const Ctx &c)
+{
+	const std::array<double, 4> pat = traction_pattern(dir, c.L);
+	double F[3];
+	wheel_body_force(&c.ph, pat.data(), F);
+	const double scale = std::hypot(F[0], F[1], F[2] / c.p.d); // [N]; lmap's [1/m] times d
+	for (int j = 0; j < 4; ++j)
+		if (pat[j] != 0 &&
+		    std::fabs(c.geom.lmap[j][1] * F[0] + c.geom.lmap[j][2] * F[1]) * c.p.d >
+		        1e-9 * scale)
+			return false;
+	return true;
 }
 
 // Robot velocity (v, vn, d w) [m/s] from the wheel speeds (eqs 3-5).
@@ -76,15 +144,32 @@ std::array<double, 4> forces(const MotorsSample &s, const model_params &p)
 // Largest distance between the encoders' velocity and the one the currents can give a
 // gripping robot (eqs 9-13 and 23, Euler from the segment's first sample), as a running mean
 // of kSlipMean samples, beyond the tolerance (> 0: slipped) and that distance.
-double runaway(const Segment &s, const model_params &p, double *dist_out, bool *at_end)
+// Each rim whose running mean off the gripping rim is beyond runaway's tolerance at speed.
+std::array<bool, 4> rims_off(const std::array<std::array<double, 4>, kSlipMean> &rim_diff,
+                             double speed)
 {
+	std::array<bool, 4> off{};
+	for (int j = 0; j < 4; ++j) {
+		double rim = 0;
+		for (int q = 0; q < kSlipMean; ++q)
+			rim += rim_diff[q][j] / kSlipMean;
+		off[j] = std::fabs(rim) > kSlipAbs + kSlipRel * speed;
+	}
+	return off;
+}
+
+double runaway(const Segment &s, const Ctx &c, double *dist_out, bool *at_end,
+               std::array<bool, 4> &wheel_at_end, std::array<double, 3> &body_end)
+{
+	const model_params &p = c.p;
 	const auto &m = s.log->motors;
 	const double inertia[3] = {p.M, p.M, p.J / (p.d * p.d)}; // the third axis as d w
 	const double B[3] = {p.Bv, p.Bvn, p.Bw / (p.d * p.d)}, C[3] = {p.Cv, p.Cvn, p.Cw / p.d};
-	const wheel_phys ph = phys_of(p);
+	const wheel_phys &ph = c.ph;
 	std::array<double, 3> x = robot_velocity(m[s.m0], p, ph);
 	double worst = 0, excess = -1e300;
 	std::array<std::array<double, 3>, kSlipMean> diff{};
+	std::array<std::array<double, 4>, kSlipMean> rim_diff{}; // each rim less its gripping speed
 	std::array<double, kSlipMean> spd{};
 	for (size_t k = s.m0; k + 1 < s.m1; ++k) {
 		const double dt = (m[k + 1].utime - m[k].utime) * 1e-6;
@@ -106,6 +191,11 @@ double runaway(const Segment &s, const model_params &p, double *dist_out, bool *
 		const size_t n = k - s.m0;
 		diff[n % kSlipMean] = {e[0] - x[0], e[1] - x[1], e[2] - x[2]};
 		spd[n % kSlipMean] = std::hypot(e[0], e[1], e[2]);
+		const double xb[3] = {x[0], x[1], x[2] / p.d};
+		double grip[4];
+		wheel_rims(&ph, xb, grip); // eq 2: the rims of the body the currents drive
+		for (int j = 0; j < 4; ++j)
+			rim_diff[n % kSlipMean][j] = p.r * m[k + 1].w[j] - grip[j];
 		if (n + 1 < kSlipMean)
 			continue;
 		std::array<double, 3> mean{};
@@ -118,20 +208,25 @@ double runaway(const Segment &s, const model_params &p, double *dist_out, bool *
 		const double d = std::hypot(mean[0], mean[1], mean[2]);
 		worst = std::max(worst, d);
 		excess = std::max(excess, d - kSlipAbs - kSlipRel * speed);
-		if (driven(m[k].mode))
-			*at_end = d > kSlipAbs + kSlipRel * speed;
+		if (!driven(m[k].mode))
+			continue;
+		*at_end = d > kSlipAbs + kSlipRel * speed;
+		body_end = {xb[0], xb[1], xb[2]};
+		wheel_at_end = rims_off(rim_diff, speed);
 	}
 	*dist_out = worst;
 	return excess;
 }
 
 // Peak wheel force [N]: the largest 5-sample mean of l Kt |i_j| / r per driven wheel, averaged
-// over the driven wheels.
-double peak_force(const Segment &s, const model_params &p, const std::array<double, 4> &pat)
+// over the driven wheels; each driven wheel's in peak (0 for the others).
+double peak_force(const Segment &s, const model_params &p, const std::array<double, 4> &pat,
+                  std::array<double, 4> &peak)
 {
 	const auto &m = s.log->motors;
 	double sum = 0;
 	int n = 0;
+	peak.fill(0.0);
 	for (int j = 0; j < 4; ++j) {
 		if (pat[j] == 0)
 			continue;
@@ -146,6 +241,7 @@ double peak_force(const Segment &s, const model_params &p, const std::array<doub
 		cur[j] = best;
 		dyn_wheel_forces(&p, cur, fb); // eqs 12-13
 		sum += fb[j];
+		peak[j] = fb[j];
 		++n;
 	}
 	return n ? sum / n : 0.0;
@@ -183,38 +279,47 @@ std::array<double, 4> window_forces(const Segment &s, const model_params &p, int
 	return f;
 }
 
-// The driven wheels' mean |force| / (M g / 4) and their rims' mean acceleration along it.
+// The driven wheels' mean |force| / load at rest (load_share) and their rims' mean
+// acceleration along it.
 void window_mu(const std::array<double, 4> &f, const std::array<double, 4> &acc,
-               const std::array<double, 4> &pat, const model_params &p, double *mu, double *rim_acc)
+               const std::array<double, 4> &pat, const Ctx &c, double *mu, double *rim_acc)
 {
-	double sum = 0, a = 0;
+	std::array<double, 4> mag{};
+	double a = 0;
 	int n = 0;
 	for (int j = 0; j < 4; ++j)
 		if (pat[j] != 0) {
-			sum += std::fabs(f[j]);
+			mag[j] = std::fabs(f[j]);
 			a += acc[j] * (f[j] < 0 ? -1 : 1);
 			++n;
 		}
-	*mu = sum / n / (p.M * MODEL_G_M_S2 / 4);
+	*mu = load_share(mag, pat, c);
 	*rim_acc = a / n;
 }
 
-// The velocity along the direction (m/s; rad/s along w).
-double along(const std::string &dir, const std::array<double, 3> &x, const model_params &p)
+// The velocity along the direction (m/s; rad/s along w): the diagonal of another layout along
+// the body force its pattern gives (the paper's: 45 deg).
+double along(const std::string &dir, const std::array<double, 3> &x, const Ctx &c)
 {
 	if (dir == "v")
 		return x[0];
 	if (dir == "vn")
 		return x[1];
 	if (dir == "w")
-		return x[2] / p.d;
-	return (x[0] + x[1]) / std::sqrt(2.0);
+		return x[2] / c.p.d;
+	if (c.L.paper)
+		return (x[0] + x[1]) / std::sqrt(2.0);
+	const std::array<double, 4> pat = traction_pattern(dir, c.L);
+	double F[3];
+	wheel_body_force(&c.ph, pat.data(), F);
+	return (F[0] * x[0] + F[1] * x[1]) / std::hypot(F[0], F[1]);
 }
 
 // Steepest kSlopeN-sample least-squares slope of the velocity along dir, and its SE.
-void steepest(const Segment &s, const model_params &p, double *acc, double *se)
+void steepest(const Segment &s, const Ctx &c, double *acc, double *se)
 {
-	const wheel_phys ph = phys_of(p);
+	const model_params &p = c.p;
+	const wheel_phys &ph = c.ph;
 	const auto &m = s.log->motors;
 	*acc = 0;
 	*se = 0;
@@ -223,7 +328,7 @@ void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 		const double t0 = m[k].utime * 1e-6;
 		for (int q = 0; q < kSlopeN; ++q) {
 			const double t = m[k + q].utime * 1e-6 - t0;
-			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), p);
+			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), c);
 			st += t, sy += y, stt += t * t, sty += t * y;
 		}
 		const double n = kSlopeN, den = n * stt - st * st;
@@ -235,7 +340,7 @@ void steepest(const Segment &s, const model_params &p, double *acc, double *se)
 		double rss = 0;
 		for (int q = 0; q < kSlopeN; ++q) {
 			const double t = m[k + q].utime * 1e-6 - t0;
-			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), p);
+			const double y = along(s.direction, robot_velocity(m[k + q], p, ph), c);
 			rss += (y - a - b * t) * (y - a - b * t);
 		}
 		*acc = b;
@@ -294,6 +399,61 @@ bool kinetic_fit(const std::vector<const TractionRun *> &runs, double *mu, doubl
 	*mu = coef[0];
 	*mu_se = std::sqrt(std::max(0.0, cov(0, 0)));
 	*share = coef[1];
+	return std::isfinite(*mu) && std::isfinite(*mu_se);
+}
+
+// Another layout's floor, per wheel: a slipping wheel pushes with l Kt i / r = mu N0_j + m_w s'
+// (N0_j its load at rest, in a direction whose driven wheels keep their load; m_w = J_w / r^2,
+// s' its rim's acceleration along the force), so mu and m_w by least squares over both windows
+// of each wheel still slipping at its run's end (a wheel that grips pushes with less; with
+// unequal loads the paper's mean over the wheels mixes them), the SE cluster-robust over the
+// runs. false: fewer than two runs or no such wheel.
+bool kinetic_fit_wheels(const std::vector<const TractionRun *> &runs, const Ctx &c, double *mu,
+                        double *mu_se, double *m_w)
+{
+	std::vector<std::array<double, 3>> rows; // N0, s', |f|
+	std::vector<size_t> first{0};
+	for (const TractionRun *r : runs) {
+		const std::array<double, 4> pat = traction_pattern(r->direction, c.L);
+		for (int j = 0; j < 4; ++j) {
+			if (pat[j] == 0 || !r->wheel_slip_at_end[j])
+				continue;
+			for (int w = 0; w < 2; ++w) {
+				const double f = w ? r->early_f[j] : r->end_f[j];
+				const double acc = w ? r->early_acc[j] : r->end_acc[j];
+				rows.push_back({c.load0[j], acc * (f < 0 ? -1 : 1), std::fabs(f)});
+			}
+		}
+		first.push_back(rows.size());
+	}
+	const size_t g = runs.size();
+	if (g < 2 || rows.empty())
+		return false;
+	Eigen::MatrixXd X(rows.size(), 2);
+	Eigen::VectorXd y(rows.size());
+	for (size_t k = 0; k < rows.size(); ++k) {
+		X.row(k) << rows[k][0], rows[k][1];
+		y[k] = rows[k][2];
+	}
+	const Eigen::Matrix2d A = X.transpose() * X;
+	const Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
+	if (ldlt.info() != Eigen::Success || !(std::abs(ldlt.rcond()) > 1e-12))
+		return false;
+	const Eigen::Vector2d coef = ldlt.solve(X.transpose() * y);
+	const Eigen::VectorXd u = y - X * coef;
+	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
+	for (size_t k = 0; k < g; ++k) {
+		const Eigen::Index a = static_cast<Eigen::Index>(first[k]);
+		const Eigen::Index n = static_cast<Eigen::Index>(first[k + 1] - first[k]);
+		const Eigen::Vector2d sc = X.middleRows(a, n).transpose() * u.segment(a, n);
+		omega += sc * sc.transpose();
+	}
+	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
+	const Eigen::Matrix2d cov =
+	    static_cast<double>(g) / static_cast<double>(g - 1) * ainv * omega * ainv;
+	*mu = coef[0];
+	*mu_se = std::sqrt(std::max(0.0, cov(0, 0)));
+	*m_w = coef[1];
 	return std::isfinite(*mu) && std::isfinite(*mu_se);
 }
 
@@ -379,29 +539,107 @@ bool com_from_diagonal(const std::vector<TractionRun> &runs, double level_slip, 
 	return true;
 }
 
-void combine(TractionResult &r, const model_params &p,
+// Another layout's centre of mass height, from the runs of the directions whose driven wheels
+// change load (shifted) with every driven wheel slipping (twice the direction's first slipped
+// level or more): a slipping wheel's floor force is mu N_j, N_j = N0_j - M h (lmap_j . a)
+// (model/wheels.h), so mu N0_j - |f_j| = h mu M (lmap_j . a), with f_j less the share that
+// spins the rim up and a = (G^T f - C) / M, the centre of mass's acceleration the floor forces
+// give (the body's Coulomb friction against it); h by least squares over those wheels.
+bool com_from_transfer(const std::vector<TractionRun> &runs,
+                       const std::vector<TractionDirection> &shifted, double mu, double m_w,
+                       const Ctx &c, double *h, double *transfer_share)
+{
+	const model_params &p = c.p;
+	double sky = 0, skk = 0, sff = 0;
+	for (const TractionRun &r : runs) {
+		const auto d =
+		    std::find_if(shifted.begin(), shifted.end(), [&](const TractionDirection &x) {
+			    return x.direction == r.direction;
+		    });
+		if (d == shifted.end() || !d->reached || !r.slip_at_end ||
+		    r.level < 2 * d->level_slip)
+			continue;
+		const std::array<double, 4> pat = traction_pattern(r.direction, c.L);
+		std::array<double, 4> f = r.end_f;
+		for (int j = 0; j < 4; ++j) // less what spins the rim up (kinetic_fit_wheels)
+			f[j] -= m_w * r.end_acc[j];
+		double F[3];
+		wheel_body_force(&c.ph, f.data(), F);
+		const double Cb[2] = {p.Cv, p.Cvn};
+		double a[3], ac[2];
+		for (int k = 0; k < 2; ++k)
+			a[k] = (F[k] - std::copysign(std::min(Cb[k], std::fabs(F[k])), F[k])) / p.M;
+		a[2] = 0;
+		wheel_com_accel(r.body_end.data(), a, ac); // with the turn's centripetal part
+		a[0] = ac[0];
+		a[1] = ac[1];
+		if (!(std::hypot(a[0], a[1]) > 0.1))
+			continue;
+		for (int j = 0; j < 4; ++j) {
+			if (pat[j] == 0 || !r.wheel_slip_at_end[j])
+				continue; // a wheel that grips pushes with less than mu N_j
+			const double k =
+			    mu * p.M * (c.geom.lmap[j][1] * a[0] + c.geom.lmap[j][2] * a[1]);
+			sky += k * (mu * c.load0[j] - std::fabs(f[j]));
+			sff += f[j] * f[j];
+			skk += k * k;
+		}
+	}
+	if (!(skk > 0))
+		return false;
+	*h = std::clamp(sky / skk, 0.0, 1.0);
+	*transfer_share = *h * std::sqrt(skk / sff);
+	return true;
+}
+
+// Another layout's com_height into r (com_from_transfer), kept only when the transfer seen is a
+// share of the force a 1 % error of the forces does not swamp: below kComMinShare h would be
+// off by tens of % (the asymmetric four: 3.6 %, h 0.056 m against 0.04 m).
+void layout_com(TractionResult &r, const std::vector<TractionDirection> &shifted, double m_w,
+                const Ctx &c)
+{
+	double share_seen = 0;
+	const bool got =
+	    com_from_transfer(r.runs, shifted, r.mu, m_w, c, &r.com_height, &share_seen);
+	r.have_com = got && share_seen >= kComMinShare;
+	r.com_share = got ? share_seen : 0.0;
+	r.com_from = "the runs whose wheels' loads shift:";
+	for (const TractionDirection &d : shifted)
+		r.com_from += " " + d.direction;
+}
+
+void combine(TractionResult &r, const Ctx &c,
              const std::map<std::string, std::vector<const TractionRun *>> &by_dir)
 {
-	// One fit over the settled kinetic runs of v, vn and w: one floor, one wheel inertia.
+	const model_params &p = c.p;
+	// One fit over the settled kinetic runs of the directions whose driven wheels keep their
+	// load (the paper's v, vn and w): one floor, one wheel inertia.
 	std::vector<const TractionRun *> pooled;
+	std::vector<TractionDirection> shifted;
 	for (const TractionDirection &d : r.directions) {
-		if (d.direction == "diag" || !d.reached || d.held == 0)
+		if (!no_transfer(d.direction, c)) {
+			shifted.push_back(d);
+			continue;
+		}
+		r.pooled += (r.pooled.empty() ? "" : ", ") + d.direction;
+		if (!d.reached || d.held == 0)
 			continue;
 		const auto k = settled(kinetic_runs(by_dir.at(d.direction)));
 		pooled.insert(pooled.end(), k.begin(), k.end());
 	}
-	double share = NAN;
-	if (kinetic_fit(pooled, &r.mu, &r.mu_se, &share)) {
+	double share = NAN, m_w = NAN; // the rim's inertia: per M g / 4 (paper), in kg (others)
+	if (c.L.paper ? kinetic_fit(pooled, &r.mu, &r.mu_se, &share)
+	              : kinetic_fit_wheels(pooled, c, &r.mu, &r.mu_se, &m_w)) {
 		r.ok = true;
 		r.runs_fitted = static_cast<int>(pooled.size());
 	}
 	double w = 0, wm = 0;
 	const TractionDirection *diag = nullptr;
 	for (const TractionDirection &d : r.directions) {
-		if (d.direction == "diag") {
+		if (d.direction == "diag")
 			diag = &d;
+		if (!no_transfer(d.direction, c))
 			continue;
-		}
 		if (!d.reached || d.held == 0 || !(d.mu_se > 0))
 			continue;
 		const double se = std::max(d.mu_se, 1e-3 * d.mu);
@@ -413,16 +651,22 @@ void combine(TractionResult &r, const model_params &p,
 		r.mu = wm / w;
 		r.mu_se = 1 / std::sqrt(w);
 	}
-	if (r.ok && diag && diag->reached)
+	if (r.ok && c.L.paper && diag && diag->reached) {
 		r.have_com = com_from_diagonal(r.runs, diag->level_slip, r.mu,
 		                               std::isfinite(share) ? share : diag->wheel_share, p,
 		                               &r.com_height);
+		r.com_from = "the diagonal: the wheels ahead unload";
+	} else if (r.ok && !c.L.paper && !shifted.empty()) {
+		layout_com(r, shifted, std::isfinite(m_w) ? m_w : 0.0, c);
+	}
 }
 
 } // namespace
 
-TractionResult identify_traction(const std::vector<Segment> &segs, const model_params &p)
+TractionResult identify_traction(const std::vector<Segment> &segs, const model_params &p,
+                                 const Layout &L)
 {
+	const Ctx c = ctx_of(p, L);
 	TractionResult r;
 	std::map<std::string, std::vector<const TractionRun *>> by_dir;
 	for (const Segment &s : segs) {
@@ -430,23 +674,24 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 			continue;
 		std::array<double, 4> pat;
 		try {
-			pat = traction_pattern(s.direction);
+			pat = traction_pattern(s.direction, L);
 		} catch (const std::invalid_argument &) {
 			continue; // not a direction of this experiment
 		}
 		TractionRun run;
 		run.direction = s.direction;
 		run.level = s.level;
-		run.slipped = runaway(s, p, &run.slip, &run.slip_at_end) > 0;
+		run.slipped = runaway(s, c, &run.slip, &run.slip_at_end, run.wheel_slip_at_end,
+		                      run.body_end) > 0;
 		run.slip_at_end = run.slip_at_end && run.slipped;
-		run.force = peak_force(s, p, pat);
+		std::array<double, 4> peak;
+		run.force = peak_force(s, p, pat, peak);
 		run.end_f = window_forces(s, p, 0, run.end_acc);
-		window_mu(run.end_f, run.end_acc, pat, p, &run.end_mu, &run.end_rim_acc);
-		std::array<double, 4> ef, ea;
-		ef = window_forces(s, p, kEnd, ea);
-		window_mu(ef, ea, pat, p, &run.early_mu, &run.early_rim_acc);
-		run.mu = run.force / (p.M * MODEL_G_M_S2 / 4);
-		steepest(s, p, &run.acc, &run.acc_se);
+		window_mu(run.end_f, run.end_acc, pat, c, &run.end_mu, &run.end_rim_acc);
+		run.early_f = window_forces(s, p, kEnd, run.early_acc);
+		window_mu(run.early_f, run.early_acc, pat, c, &run.early_mu, &run.early_rim_acc);
+		run.mu = load_share(peak, pat, c);
+		steepest(s, c, &run.acc, &run.acc_se);
 		r.runs.push_back(run);
 	}
 	for (const TractionRun &run : r.runs)
@@ -454,7 +699,7 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 	for (const char *dir : kDirections)
 		if (by_dir.count(dir))
 			r.directions.push_back(summarise(dir, by_dir[dir]));
-	combine(r, p, by_dir);
+	combine(r, c, by_dir);
 	return r;
 }
 
@@ -477,23 +722,26 @@ void print_traction(const TractionResult &r)
 		            d.direction == "w" ? "rad/s^2" : "m/s^2");
 	}
 	if (r.ok && r.runs_fitted > 0)
-		std::printf(
-		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
-		    "transfer; %d runs past their break-away, force against rim "
-		    "acceleration)\n",
-		    r.mu, r.mu_se, r.runs_fitted);
+		std::printf("  traction_mu %.4f ± %.4f (%s: their driving wheels carry no load "
+		            "transfer; %d runs past their break-away, force against rim "
+		            "acceleration)\n",
+		            r.mu, r.mu_se, r.pooled.c_str(), r.runs_fitted);
 	else if (r.ok)
-		std::printf(
-		    "  traction_mu %.4f ± %.4f (v, vn, w: their driving wheels carry no load "
-		    "transfer; too few runs past their break-away: the directions' mean)\n",
-		    r.mu, r.mu_se);
+		std::printf("  traction_mu %.4f ± %.4f (%s: their driving wheels carry no load "
+		            "transfer; too few runs past their break-away: the directions' mean)\n",
+		            r.mu, r.mu_se, r.pooled.c_str());
 	else
-		std::printf(
-		    "  traction_mu not measured: no slip along v, vn or w (raise the cap, or "
-		    "the floor holds more than the motors give)\n");
+		std::printf("  traction_mu not measured: no slip along %s (raise the cap, or "
+		            "the floor holds more than the motors give)\n",
+		            r.pooled.c_str());
 	if (r.have_com)
-		std::printf("  com_height %.4f m (from the diagonal: the wheels ahead unload)\n",
-		            r.com_height);
+		std::printf("  com_height %.4f m (from %s)\n", r.com_height, r.com_from.c_str());
+	else if (r.com_share > 0)
+		std::printf(
+		    "  com_height not measured: the load transfer seen (%s) is %.1f %% of "
+		    "the slipping wheels' force, under %.0f %% (a 1 %% force error would move "
+		    "it by tens of %%): give [limits] com_height measured\n",
+		    r.com_from.c_str(), 100 * r.com_share, 100 * kComMinShare);
 }
 
 void export_traction_csv(const std::string &dir, const TractionResult &r)

@@ -30,6 +30,12 @@
 // slipping (the runs at twice the first slipped level or more), the pair on the v
 // axis (wheels 0 ahead, 2 behind) differ by M h a_v / d in load, a_v = (|f_1| + |f_3| - Cv) / M,
 // so h = (|f_2| - |f_0|) d / (mu M a_v); the vn pair likewise; com_height is their mean.
+//
+// Another layout (docs/identification.md, "The traction experiment on another layout"): the
+// directions whose driven wheels keep their load (always w) give mu by a per-wheel fit of the
+// wheels still slipping at their run's end, each against its own load at rest (model/wheels.h);
+// com_height comes from the other directions' slipping wheels, written only when the load
+// transfer they saw is 5 % of their force or more.
 #pragma once
 
 #include <array>
@@ -37,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "layout.hpp"
 #include "logdata.hpp"
 
 extern "C" {
@@ -52,16 +59,19 @@ struct TractionRun {
 	bool slipped = false;
 	double slip = 0;  // largest |encoder velocity - current-driven prediction| [m/s]
 	double force = 0; // peak wheel force, mean over the driven wheels [N]
-	double mu = 0;    // force / (M g / 4)
+	double mu = 0;    // the driven wheels' peak force over their load at rest (M g / 4 each)
 	double acc = 0;   // steepest acceleration along the direction [m/s^2 or rad/s^2]
 	double acc_se = 0;
-	bool slip_at_end = false;        // still slipping when the bridges went off
+	bool slip_at_end = false;                // still slipping when the bridges went off
+	std::array<bool, 4> wheel_slip_at_end{}; // each rim then off the body's (eq 2) speed
+	std::array<double, 3> body_end{};        // the body's velocity the currents gave, then
 	std::array<double, 4> end_f{};   // each wheel's force over the last 20 driven samples [N]
-	double end_mu = 0;               // mean |end_f| of the driven wheels / (M g / 4)
+	double end_mu = 0;               // mean |end_f| / load at rest of the driven wheels
 	std::array<double, 4> end_acc{}; // each rim's acceleration over those samples [m/s^2]
 	double end_rim_acc = 0;          // the driven rims', along their force, mean [m/s^2]
 	// The same over the 20 driven samples before those (the rim nearer its break-away).
 	double early_mu = 0, early_rim_acc = 0;
+	std::array<double, 4> early_f{}, early_acc{};
 };
 
 struct TractionDirection {
@@ -78,14 +88,20 @@ struct TractionResult {
 	std::vector<TractionRun> runs;
 	std::vector<TractionDirection> directions;
 	bool ok = false;          // traction_mu measured
-	double mu = 0, mu_se = 0; // the floor's (v, vn, w)
+	double mu = 0, mu_se = 0; // the floor's (from the directions in pooled)
+	std::string pooled;       // the directions whose driven wheels keep their load: "v, vn, w"
 	int runs_fitted = 0;      // the settled kinetic runs it was fitted on (0: directions' mean)
 	bool have_com = false;
-	double com_height = 0; // [m], from the diagonal
+	double com_height = 0; // [m], from the diagonal (another layout: the runs in com_from)
+	std::string com_from;  // where com_height came from, in words
+	double com_share =
+	    0; // another layout: the load transfer seen, a share of the wheels' force
 };
 
-// The traction segments of segs with the robot's model p (M, J, d, r, l, Kt, B*, C*).
-TractionResult identify_traction(const std::vector<Segment> &segs, const model_params &p);
+// The traction segments of segs with the robot's model p (M, J, d, r, l, Kt, B*, C*) and its
+// wheel layout L (default: the paper's four at 0/90/180/270 deg at d).
+TractionResult identify_traction(const std::vector<Segment> &segs, const model_params &p,
+                                 const Layout &L = Layout{});
 
 // Table on stdout; CSV files traction_runs.csv and traction.csv in dir; the [limits] lines of
 // PARAMS.ini (traction_mu, com_height, the per-direction figures as comments). false: a write

@@ -329,10 +329,10 @@ bool stop_run(Recording &rec)
 // Plays the phases in real time: what is due published, the bus handled, the traction
 // experiment's watch told the estimator's flags. true: the robot stopped answering.
 bool play_sequence(Recording &rec, const std::vector<Phase> &phases, const double &last_motors_s,
-                   const int32_t &est_flags)
+                   const int32_t &est_flags, const Layout &layout)
 {
 	SequencePlayer player(phases);
-	TractionWatch watch;
+	TractionWatch watch(layout);
 	PercentLine progress(total_duration_s(phases));
 	const auto t0 = std::chrono::steady_clock::now();
 	while (!player.done() && !g_interrupted) {
@@ -380,7 +380,7 @@ int run_experiments(const RunOptions &opt)
 		             opt.url.c_str(), kFirstMotorsS);
 		return 1;
 	}
-	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags);
+	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags, opt.layout);
 	const bool ok = stop_run(rec);
 	std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
 	             g_interrupted ? "interrupted, robot stopped;"

@@ -45,11 +45,17 @@ bool TractionWatch::step(SequencePlayer &player, int32_t est_flags)
 	const auto f = first_slip_.find(p->group);
 	if (f == first_slip_.end())
 		return false;
-	const double factor = p->group == "traction/diag" ? kDiagonalFactor : 1.0;
-	if (level_ < factor * f->second * (1 - 1e-9))
+	if (level_ < factor(p->group.substr(9)) * f->second * (1 - 1e-9))
 		return false;
 	player.skip_rest();
 	return true;
+}
+
+double TractionWatch::factor(const std::string &direction) const
+{
+	if (direction == "diag")
+		return kDiagonalFactor;
+	return !paper_ && direction == "w" ? kRotationFactor : 1.0;
 }
 
 std::vector<double> traction_levels(const TractionSeqOptions &opt)

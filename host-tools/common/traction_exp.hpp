@@ -43,14 +43,24 @@ std::array<double, 4> traction_pattern(const std::string &direction, const Layou
 // load transfer needs all four wheels slipping: ident_traction.hpp), at once along v, vn and
 // w, the direction's remaining levels are skipped (SequencePlayer::skip_rest): the run that
 // slipped plays to its end (the bridges go off after its hold), the next direction follows.
+// Another layout's wheels shift load along v and vn as well (ident_traction.hpp): the floor's
+// mu comes from the rotation's runs alone, so along w the runs go on to kRotationFactor times
+// the first slipped level (about five more, each past its break-away).
 class TractionWatch
 {
       public:
 	static constexpr double kDiagonalFactor = 2.0;
+	static constexpr double kRotationFactor = 1.25;
+	explicit TractionWatch(const Layout &layout = {}) : paper_(layout.paper)
+	{
+	}
 	// Call once per tick (or per state message); true when it skipped.
 	bool step(SequencePlayer &player, int32_t est_flags);
+	// The multiple of the first slipped level a direction's runs go to.
+	double factor(const std::string &direction) const;
 
       private:
+	bool paper_ = true;
 	std::map<std::string, double> first_slip_; // group -> level [V]
 	double level_ = 0;                         // of the run playing
 };

@@ -819,10 +819,11 @@ static void export_model_csvs(const std::string &dir, const IdentResult &r,
 }
 
 // The traction experiment's fit (ident_traction.hpp); a model it cannot take: one line, exit 1.
-static TractionResult traction_or_die(const std::vector<Segment> &segs, const model_params &p)
+static TractionResult traction_or_die(const std::vector<Segment> &segs, const model_params &p,
+                                      const Layout &L)
 {
 	try {
-		return identify_traction(segs, p);
+		return identify_traction(segs, p, L);
 	} catch (const IdentError &e) {
 		die(e.what());
 	}
@@ -848,7 +849,7 @@ int cmd_identify(const IdentifyArgs &a)
 	});
 	const IdentResult r = traction_only ? model_from_robot_file(a.robot, base, base_seen)
 	                                    : identify_or_die(segs, base, opt);
-	const TractionResult trac = traction_or_die(segs, r.final);
+	const TractionResult trac = traction_or_die(segs, r.final, opt.layout);
 	std::printf("segments:");
 	for (const auto &[k, n] : r.segments_used)
 		std::printf(" %s %zu", k.c_str(), n);

@@ -74,7 +74,7 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 
 	const double total_s = experiments ? total_duration_s(phases) : idle_s;
 	SequencePlayer player(phases);
-	TractionWatch watch;
+	TractionWatch watch(layout_of_settings(cfg.ctl, "the robot's settings"));
 	const double dt = simrun_period_s(sr.get());
 	const long ticks = std::lround(total_s / dt);
 	LockstepClock clock(dt, rtf);
