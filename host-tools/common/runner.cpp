@@ -194,7 +194,7 @@ void Recording::close()
 std::vector<Phase> filtered(const RunOptions &opt)
 {
 	std::vector<Phase> seq = selected_sequence(opt.only, opt.hold_s, opt.settle_s, opt.layout);
-	limit_ramps(seq, opt.model, opt.traction_hold_n);
+	limit_ramps(seq, opt.model, opt.traction_hold_n, opt.layout);
 	return seq;
 }
 

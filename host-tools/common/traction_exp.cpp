@@ -106,13 +106,27 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt)
 namespace
 {
 
-// Peak |wheel force| [N] of a voltage ramp from rest to u over ramp_s, held until run_s.
-double peak_force(const model_params &p, const std::array<double, 4> &u, double ramp_s,
-                  double run_s)
+// Each wheel's load at rest over a quarter of the weight (the paper's layout: 1 each; another:
+// model/wheels.h's least-norm loads, as the plant's floor), so that a hold given for a
+// quarter-weight wheel is each wheel's hold times this.
+std::array<double, 4> load_shares(const Layout &L)
+{
+	std::array<double, 4> share{1, 1, 1, 1};
+	if (!L.paper)
+		for (int j = 0; j < 4; ++j)
+			share[j] = j < L.n ? 4 * L.geom.lmap[j][0] : 0.0;
+	return share;
+}
+
+// Peak |wheel force| [N] of a voltage ramp from rest to u over ramp_s, held until run_s, on the
+// layout's plant: each wheel's over its load's share of a quarter of the weight (load_shares).
+double peak_force(const model_params &p, const Layout &L, const std::array<double, 4> &u,
+                  double ramp_s, double run_s)
 {
 	struct plant pl;
-	if (plant_init(&pl, &p))
+	if (plant_init(&pl, &p) || (!L.paper && plant_set_geom(&pl, &L.geom)))
 		return 0;
+	const std::array<double, 4> share = load_shares(L);
 	const double dt = 1e-3;
 	double peak = 0;
 	for (double t = dt; t <= run_s + 1e-9; t += dt) {
@@ -122,15 +136,17 @@ double peak_force(const model_params &p, const std::array<double, 4> &u, double 
 		double f[4];
 		dyn_wheel_forces(&p, pl.current_a, f); // eqs 12-13
 		for (int j = 0; j < 4; ++j)
-			peak = std::max(peak, std::fabs(f[j]));
+			if (share[j] > 0)
+				peak = std::max(peak, L.paper ? std::fabs(f[j])
+				                              : std::fabs(f[j]) / share[j]);
 	}
 	return peak;
 }
 
 // The largest factor (at most 1) on the voltages u whose run, ramped over ramp_s and held until
 // run_s, asks no wheel for more than hold_n [N] (bisection, to 0.1 %).
-double holding_scale(const model_params &p, const std::array<double, 4> &u, double ramp_s,
-                     double run_s, double hold_n)
+double holding_scale(const model_params &p, const Layout &L, const std::array<double, 4> &u,
+                     double ramp_s, double run_s, double hold_n)
 {
 	const auto times = [&](double s) {
 		std::array<double, 4> v = u;
@@ -138,12 +154,12 @@ double holding_scale(const model_params &p, const std::array<double, 4> &u, doub
 			x *= s;
 		return v;
 	};
-	if (peak_force(p, u, ramp_s, run_s) <= hold_n)
+	if (peak_force(p, L, u, ramp_s, run_s) <= hold_n)
 		return 1.0;
 	double lo = 0, hi = 1;
 	for (int k = 0; k < 10; ++k) {
 		const double mid = 0.5 * (lo + hi);
-		(peak_force(p, times(mid), ramp_s, run_s) <= hold_n ? lo : hi) = mid;
+		(peak_force(p, L, times(mid), ramp_s, run_s) <= hold_n ? lo : hi) = mid;
 	}
 	return lo;
 }
@@ -152,8 +168,8 @@ double holding_scale(const model_params &p, const std::array<double, 4> &u, doub
 // steady force alone may be more than the floor holds, however long the ramp. Then every
 // motor run is scaled down by the one factor that keeps the hardest under hold_n with the
 // longest ramp: the runs' loads stay apart (eq 22 needs different loads).
-void scale_motor_runs(std::vector<Phase> &phases, const model_params &p, double hold_n,
-                      double longest_ramp_s)
+void scale_motor_runs(std::vector<Phase> &phases, const model_params &p, const Layout &L,
+                      double hold_n, double longest_ramp_s)
 {
 	double s = 1.0;
 	for (const Phase &ph : phases) {
@@ -163,7 +179,7 @@ void scale_motor_runs(std::vector<Phase> &phases, const model_params &p, double 
 		std::array<double, 4> u = ph.voltage;
 		for (double &x : u)
 			x *= s;
-		s *= holding_scale(p, u, longest_ramp_s, run_s, hold_n);
+		s *= holding_scale(p, L, u, longest_ramp_s, run_s, hold_n);
 	}
 	if (s >= 1.0)
 		return;
@@ -178,12 +194,13 @@ void scale_motor_runs(std::vector<Phase> &phases, const model_params &p, double 
 
 } // namespace
 
-void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n)
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n,
+                 const Layout &layout)
 {
 	static const double ramps[] = {0.5, 0.75, 1, 1.5, 2, 3, 4, 6};
 	if (!(hold_n > 0))
 		return;
-	scale_motor_runs(phases, p, hold_n, ramps[std::size(ramps) - 1]);
+	scale_motor_runs(phases, p, layout, hold_n, ramps[std::size(ramps) - 1]);
 	bool at_rest = true; // the sequence starts at rest; coasting to rest follows each run
 	for (Phase &ph : phases) {
 		const bool from_rest = at_rest;
@@ -198,7 +215,7 @@ void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_
 			const double grown = r - ph.ramp_s;
 			ph.ramp_s = r;
 			ph.duration_s += grown;
-			if (peak_force(p, ph.voltage, r, r + std::min(hold, 1.0)) <= hold_n)
+			if (peak_force(p, layout, ph.voltage, r, r + std::min(hold, 1.0)) <= hold_n)
 				break;
 		}
 	}

@@ -80,8 +80,11 @@ std::vector<Phase> traction_sequence(const TractionSeqOptions &opt = {});
 // left as they are. The motor test's runs (one wheel driven against the other three's back-EMF
 // braking) whose force even the 6 s ramp does not keep within hold_n are first scaled down,
 // all by one factor (voltages and marks' levels), until the hardest holds. hold_n <= 0:
-// nothing changes.
-void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n);
+// nothing changes. hold_n is a wheel's carrying a quarter of the weight: on another layout
+// (the plant of layout) each wheel's hold is hold_n times its load at rest over M g / 4
+// (model/wheels.h's least-norm loads; a three-wheel robot's at 0/120/240 deg: 4/3).
+void limit_ramps(std::vector<Phase> &phases, const model_params &p, double hold_n,
+                 const Layout &layout = {});
 // (1 - margin) mu M g / 4 [N] ([limits] traction_mu, traction_margin); 0 when mu is 0.
 double traction_hold_n(const model_params &p, double mu, double margin);
 

@@ -307,15 +307,16 @@ int main(int argc, char **argv)
 		return scenario(a, cfg, *out, progress);
 	omni4::SimRunResult r;
 	try {
+		const omni4::Layout layout = omni4::layout_of_settings(cfg.ctl, "--params");
 		std::vector<omni4::Phase> phases =
 		    a.experiments || !a.only.empty()
-		        ? omni4::selected_sequence(a.only, 3.0, 3.0,
-		                                   omni4::layout_of_settings(cfg.ctl, "--params"))
+		        ? omni4::selected_sequence(a.only, 3.0, 3.0, layout)
 		        : std::vector<omni4::Phase>{};
 		// The robot's own traction limit ([limits] traction_mu) ramps the runs under it.
 		omni4::limit_ramps(phases, cfg.ctl.model,
 		                   omni4::traction_hold_n(cfg.ctl.model, cfg.ctl.limits.traction_mu,
-		                                          cfg.ctl.limits.traction_margin));
+		                                          cfg.ctl.limits.traction_margin),
+		                   layout);
 		r = omni4::run_phases(cfg, cfg.ctl.model, !a.no_noise, out->write_path(), phases,
 		                      a.duration_s, a.rtf, progress, [] { return g_stop != 0; });
 	} catch (const std::exception &e) {

@@ -12,9 +12,13 @@
 //   ahead of the other axis' acceleration, mu (M g / 4 - M h a_other / (2 d)).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <string>
+
+#include <Eigen/Dense>
 
 #include "ident_traction.hpp"
 #include "identify.hpp"
@@ -28,6 +32,8 @@
 extern "C" {
 #include "omni4/lcmtypes/channels.h"
 #include "omni4/core/est.h"
+#include "omni4/model/dynamics.h"
+#include "omni4/model/plant.h"
 }
 
 using namespace omni4;
@@ -193,4 +199,92 @@ TEST(TractionSim, IdentificationOnALowTractionFloorWithTheRampsKeptUnderTheLimit
 		            100 * (got / want - 1));
 		EXPECT_NEAR(got, want, 0.01 * want) << name;
 	}
+}
+
+namespace
+{
+
+// Each wheel's load at rest [N] of wheels at angle_deg, dist_m from the centre: the least-norm
+// loads with the weight carried and no moment (N = P^T (P P^T)^-1 (M g, 0, 0), P the rows 1,
+// p_v, p_vn), written here from the angles, not from model/wheels.h.
+std::array<double, 4> loads_at_rest(const double angle_deg[4], const double dist_m[4], int n)
+{
+	Eigen::MatrixXd Pm(3, n);
+	for (int j = 0; j < n; ++j) {
+		const double a = angle_deg[j] * M_PI / 180;
+		Pm(0, j) = 1;
+		Pm(1, j) = dist_m[j] * std::cos(a);
+		Pm(2, j) = dist_m[j] * std::sin(a);
+	}
+	const Eigen::VectorXd N =
+	    Pm.transpose() * (Pm * Pm.transpose()).ldlt().solve(Eigen::Vector3d(P.M * kG, 0, 0));
+	std::array<double, 4> out{};
+	for (int j = 0; j < n; ++j)
+		out[j] = N[j];
+	return out;
+}
+
+// limit_ramps's longest ramp [s] (traction_exp.hpp): a run it leaves there asks more than the
+// hold whatever its ramp (its steady force: the motor runs alone are scaled down).
+constexpr double kLongestRampS = 6.0;
+
+// Each wheel's largest |force| [N] over the phases limit_ramps ramps (voltage phases from
+// rest, not the traction experiment's) to less than its longest ramp, each run from rest on
+// the layout's plant for its ramp and up to 1 s of its hold, as limit_ramps judges them.
+std::array<double, 4> worst_from_rest(const std::vector<Phase> &phases, const wheel_geom &g)
+{
+	std::array<double, 4> worst{};
+	bool at_rest = true;
+	for (const Phase &ph : phases) {
+		const bool from_rest = at_rest;
+		at_rest = ph.mode != command_t::MODE_VOLTAGE && (at_rest || ph.duration_s >= 0.2);
+		if (ph.mode != command_t::MODE_VOLTAGE || !from_rest ||
+		    ph.mark_kind == "traction" || ph.ramp_s <= 0 || ph.ramp_s >= kLongestRampS)
+			continue;
+		struct plant pl;
+		EXPECT_EQ(plant_init(&pl, &P), 0);
+		EXPECT_EQ(plant_set_geom(&pl, &g), 0);
+		const double run_s = ph.ramp_s + std::min(ph.duration_s - ph.ramp_s, 1.0);
+		for (double t = 1e-3; t <= run_s + 1e-9; t += 1e-3) {
+			const double k = std::min(1.0, t / ph.ramp_s),
+			             u[4] = {k * ph.voltage[0], k * ph.voltage[1],
+				             k * ph.voltage[2], k * ph.voltage[3]};
+			plant_step(&pl, u, true, 1e-3);
+			double f[4];
+			dyn_wheel_forces(&P, pl.current_a, f);
+			for (int j = 0; j < 4; ++j)
+				worst[j] = std::max(worst[j], std::fabs(f[j]));
+		}
+	}
+	return worst;
+}
+
+} // namespace
+
+// limit_ramps on another layout (the asymmetric four of ident_independent_robocup): every
+// phase it ramps asks no wheel for more than the floor holds under that wheel's own load,
+// (1 - margin) mu N0_j; the paper's quarter-weight hold, used for this layout, would ask the
+// lightest wheel for more.
+TEST(TractionSim, RampsOnAnotherLayoutKeepEachWheelUnderItsOwnLoad)
+{
+	const double angle[4] = {60, 135, 225, 300}, dist[4] = {0.082, 0.090, 0.095, 0.085};
+	const Layout L = make_layout(4, angle, dist, "the test");
+	const double mu = 0.4, margin = 0.02, hold = traction_hold_n(P, mu, margin);
+	const std::array<double, 4> N0 = loads_at_rest(angle, dist, 4);
+	std::vector<Phase> fitted = selected_sequence({}, 3.0, 3.0, L), paper = fitted;
+	limit_ramps(fitted, P, hold, L);
+	limit_ramps(paper, P, hold);
+	const std::array<double, 4> got = worst_from_rest(fitted, L.geom),
+	                            old = worst_from_rest(paper, L.geom);
+	bool over = false;
+	for (int j = 0; j < 4; ++j) {
+		const double allowed = (1 - margin) * mu * N0[j];
+		std::printf("  wheel %d: load %.3f N, holds %.3f N; ramped for it %.3f N, for the "
+		            "paper's quarter weight %.3f N\n",
+		            j, N0[j], allowed, got[j], old[j]);
+		EXPECT_LE(got[j], allowed * (1 + 1e-3)) << "wheel " << j;
+		over = over || old[j] > allowed * (1 + 1e-3);
+	}
+	EXPECT_TRUE(over) << "the quarter-weight hold keeps every wheel of this layout too: the "
+	                     "test would not tell the layout's loads from it";
 }
