@@ -102,17 +102,33 @@ Layout layout_of_settings(const ctl_settings &s, const std::string &source)
 	return make_layout(s.layout.wheels, s.layout.angle_deg, dist, source);
 }
 
+Layout layout_of_description(int wheels, const double angle_rad[4], const double dist_m[4],
+                             const std::string &source)
+{
+	double a[4];
+	for (int j = 0; j < 4; ++j)
+		a[j] = angle_rad[j] * 180.0 / MODEL_PI;
+	return make_layout(wheels, a, dist_m, source);
+}
+
+bool same_layout(const Layout &a, const Layout &b)
+{
+	if (a.n != b.n)
+		return false;
+	for (int j = 0; j < a.n; ++j)
+		if (std::fabs(std::remainder(a.angle_deg[j] - b.angle_deg[j], 360.0)) > 1e-3 ||
+		    std::fabs(a.dist_m[j] - b.dist_m[j]) > 1e-6)
+			return false;
+	return true;
+}
+
 Layout layout_of_log(const LogData &log, bool &found)
 {
 	found = log.robot.present;
 	if (!found)
 		return Layout{};
-	double a[4], d[4];
-	for (int j = 0; j < 4; ++j) {
-		a[j] = log.robot.wheel_angle_rad[j] * 180.0 / MODEL_PI;
-		d[j] = log.robot.wheel_distance_m[j];
-	}
-	return make_layout(log.robot.wheels, a, d, "the log " + log.path);
+	return layout_of_description(log.robot.wheels, log.robot.wheel_angle_rad.data(),
+	                             log.robot.wheel_distance_m.data(), "the log " + log.path);
 }
 
 Layout layout_of_logs(const std::vector<const LogData *> &logs, const Layout &fallback)

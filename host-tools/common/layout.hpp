@@ -52,6 +52,14 @@ Layout make_layout(int n, const double angle_deg[4], const double dist_m[4],
 // messages). Throws IdentError as make_layout.
 Layout layout_of_settings(const ctl_settings &s, const std::string &source);
 
+// The layout a robot_t describes (wheels, wheel_angle [rad], wheel_distance [m]); source names
+// it in messages. Throws IdentError as make_layout.
+Layout layout_of_description(int wheels, const double angle_rad[4], const double dist_m[4],
+                             const std::string &source);
+
+// The same wheels at the same angles and distances (to rounding: robot_t carries floats).
+bool same_layout(const Layout &a, const Layout &b);
+
 // The layout a log describes (its first robot_t); found false when it carries none.
 Layout layout_of_log(const LogData &log, bool &found);
 

@@ -25,14 +25,15 @@
 
 #include "experiments.hpp"
 #include "hand.hpp"
+#include "regression.hpp"
 #include "traction_exp.hpp"
 #include "omni4/command_t.hpp"
 #include "omni4/experiment_t.hpp"
 #include "omni4/motors_t.hpp"
+#include "omni4/robot_t.hpp"
 #include "omni4/state_t.hpp"
 
 extern "C" {
-#include "omni4/model/kinematics.h"
 }
 
 namespace omni4
@@ -305,11 +306,55 @@ class PercentLine
 // for kMotorsWaitS during a run means it stopped [s].
 constexpr double kFirstMotorsS = 5.0;
 constexpr double kMotorsWaitS = 2.0;
+// The controller describes its wheels (OMNI4_ROBOT) at its first tick and at 1 Hz: a run waits
+// this long after the first OMNI4_MOTORS for one [s] (a controller without it: --robot's).
+constexpr double kRobotWaitS = 1.5;
 
 namespace
 {
 
 // The estimator's flags of an OMNI4_STATE message (the traction experiment's watch).
+// The first OMNI4_ROBOT's layout into *layout (seen set); a description no robot can have is
+// left unseen (the run then keeps --robot's).
+void take_robot(const char *channel, const lcm_recv_buf_t *rbuf, bool *seen, Layout *layout)
+{
+	robot_t r;
+	if (*seen || std::strcmp(channel, OMNI4_CHANNEL_ROBOT) != 0 ||
+	    r.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0)
+		return;
+	const double a[4] = {r.wheel_angle[0], r.wheel_angle[1], r.wheel_angle[2],
+	                     r.wheel_angle[3]};
+	const double d[4] = {r.wheel_distance[0], r.wheel_distance[1], r.wheel_distance[2],
+	                     r.wheel_distance[3]};
+	try {
+		*layout = layout_of_description(r.wheels, a, d, "the controller's OMNI4_ROBOT");
+		*seen = true;
+	} catch (const IdentError &) {
+	}
+}
+
+// The phases for the layout the controller runs (seen: its OMNI4_ROBOT), else for opt's. A
+// --robot layout the controller does not run: one line, false.
+bool phases_for_controller(const RunOptions &opt, bool seen, const Layout &ctl,
+                           std::vector<Phase> &phases)
+{
+	if (!seen)
+		return true;
+	if (opt.layout.source != "paper" && !same_layout(ctl, opt.layout)) {
+		std::fprintf(stderr,
+		             "omni4-ident run: the controller runs %s; --robot gives %s: give the "
+		             "robot file of the robot on this bus\n",
+		             ctl.describe().c_str(), opt.layout.describe().c_str());
+		return false;
+	}
+	RunOptions o = opt;
+	o.layout = ctl;
+	if (!phases_to_run(o, phases))
+		return false;
+	std::fprintf(stderr, "omni4-ident run: %s\n", ctl.describe().c_str());
+	return true;
+}
+
 void take_state_flags(const char *channel, const lcm_recv_buf_t *rbuf, int32_t *flags)
 {
 	state_t st;
@@ -359,10 +404,13 @@ int run_experiments(const RunOptions &opt)
 	uint64_t motors = 0;
 	double last_motors_s = 0;
 	int32_t est_flags = 0; // the last OMNI4_STATE's
+	bool robot_seen = false;
+	Layout ctl_layout;
 	if (!rec.open(opt, [&](const char *channel, const lcm_recv_buf_t *rbuf) {
 		    if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) == 0)
 			    ++motors, last_motors_s = steady_s();
 		    take_state_flags(channel, rbuf, &est_flags);
+		    take_robot(channel, rbuf, &robot_seen, &ctl_layout);
 	    }))
 		return 1;
 	// Nothing is driven before a controller answers: no robot, no run and no log.
@@ -380,7 +428,16 @@ int run_experiments(const RunOptions &opt)
 		             opt.url.c_str(), kFirstMotorsS);
 		return 1;
 	}
-	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags, opt.layout);
+	const double robot_deadline = steady_s() + kRobotWaitS;
+	while (!robot_seen && !g_interrupted && steady_s() < robot_deadline)
+		rec.handle(20);
+	if (!phases_for_controller(opt, robot_seen, ctl_layout, phases)) {
+		rec.finish(SequencePlayer::stop_command(wall_us(), 1 << 30), nullptr);
+		rec.discard();
+		return 2;
+	}
+	const bool lost = play_sequence(rec, phases, last_motors_s, est_flags,
+	                                robot_seen ? ctl_layout : opt.layout);
 	const bool ok = stop_run(rec);
 	std::fprintf(stderr, "\nomni4-ident run: %s %s: %llu messages logged%s\n",
 	             g_interrupted ? "interrupted, robot stopped;"
@@ -479,12 +536,15 @@ class HandRun
 	int64_t clock_offset_us_ = 0; // motors_t utime - wall clock at receipt [us]
 	uint64_t motors_ = 0;
 	bool warned_driven_ = false, segment_open_ = false, motors_lost_ = false;
+	bool robot_seen_ = false; // the controller's OMNI4_ROBOT arrived: ctl_layout_
+	Layout ctl_layout_;
 	int slots_done_ = 0, slots_total_ = 0, cur_axis_ = 0, cur_k_ = 0, last_pct_ = -1;
 	int counted_[3] = {0, 0, 0}, wanted_[3] = {0, 0, 0}, wrong_ = 0, missed_ = 0;
 };
 
 void HandRun::on_message(const char *channel, const lcm_recv_buf_t *rbuf)
 {
+	take_robot(channel, rbuf, &robot_seen_, &ctl_layout_);
 	if (std::strcmp(channel, OMNI4_CHANNEL_MOTORS) != 0)
 		return;
 	motors_t m;
@@ -497,7 +557,8 @@ void HandRun::on_message(const char *channel, const lcm_recv_buf_t *rbuf)
 	for (int j = 0; j < 4; ++j)
 		v_wheel[j] = hand_.r_m * m.wheel_speed[j];
 	Sample s{m.utime, {}};
-	fk_robot_velocity(hand_.d_m, v_wheel, s.x.data());
+	// eqs 3-5 of the wheels the controller describes, else --robot's
+	(robot_seen_ ? ctl_layout_ : hand_.layout).body_velocity(hand_.d_m, v_wheel, s.x.data());
 	pending_.push_back(s);
 	if ((m.mode == motors_t::MODE_VOLTAGE || m.mode == motors_t::MODE_VELOCITY) &&
 	    !warned_driven_) {

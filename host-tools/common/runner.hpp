@@ -37,6 +37,7 @@ struct HandRunOptions {
 	double push_timeout_s = 30;         // wait for each push (and its stop) [s]
 	double d_m = model_params_table3.d; // eqs 3-5 (BASE.ini; Table III otherwise)
 	double r_m = model_params_table3.r;
+	Layout layout; // eqs 3-5's wheels (--robot) until the controller's OMNI4_ROBOT says
 };
 
 // Experiment 2 by hand: only MODE_COAST keep-alives (never VOLTAGE or VELOCITY), a "coast" mark

@@ -1015,7 +1015,9 @@ int cmd_validate(const ValidateArgs &va)
 
 int cmd_run_hand(const RunOptions &ropt, HandRunOptions hopt, const std::string &robot)
 {
-	const model_params base = robot.empty() ? model_params_table3 : load_params(robot, true);
+	const model_params base = robot.empty()
+	                              ? model_params_table3
+	                              : load_params(robot, true, nullptr, nullptr, &hopt.layout);
 	hopt.d_m = base.d;
 	hopt.r_m = base.r;
 	return run_hand(ropt, hopt);
