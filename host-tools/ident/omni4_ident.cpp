@@ -990,13 +990,24 @@ int cmd_validate(const ValidateArgs &va)
 		die("give --params once or twice", 2);
 	std::vector<model_params> sets;
 	std::vector<model_wheels> wheels;
-	Layout file_layout;
+	std::vector<Layout> file_layouts;
 	for (const auto &p : va.params) {
-		sets.push_back(load_params(p, false, nullptr, nullptr, &file_layout));
+		file_layouts.emplace_back();
+		sets.push_back(load_params(p, false, nullptr, nullptr, &file_layouts.back()));
 		wheels.push_back(load_wheels(p, false));
 	}
 	const auto logs = load_logs(va.logs, sets[0].l, false);
-	opt.layout = layout_or_die(logs, file_layout);
+	// The logs' layout decides; without one the files must agree on theirs.
+	const bool logs_say =
+	    std::any_of(logs.begin(), logs.end(), [](const LogData &d) { return d.robot.present; });
+	if (!logs_say && file_layouts.size() == 2 && !same_layout(file_layouts[0], file_layouts[1]))
+		die("--params " + va.params[0] + " (" + file_layouts[0].describe() + ") and " +
+		        va.params[1] + " (" + file_layouts[1].describe() +
+		        ") describe different wheel layouts and the log describes none: validate "
+		        "each "
+		        "against its own robot's logs",
+		    2);
+	opt.layout = layout_or_die(logs, file_layouts.back());
 	const auto segs = segments_of(logs);
 	std::vector<Validation> vals;
 	try {

@@ -52,6 +52,12 @@ expect 1 "No such file" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --o
 expect 2 "bootstrap: Value -3 not in range" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/p4.ini" --bootstrap -3 "$T/full.lcmlog"
 expect 2 "out of range value for 'R'" -- "$BIN/omni4-ident" validate --params "$T/negR.ini" --json "$T/v.json" "$T/full.lcmlog"
 expect 1 "no experiment segments" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json "$T/v2.json" "$T/nomarks.lcmlog"
+# Two robot files of different wheel layouts and a log that describes none (written before
+# OMNI4_ROBOT): which robot the log is of cannot be told.
+/usr/bin/python3 "$(dirname "$0")/lcmlog_edit.py" "$T/full.lcmlog" "$T/prerobot.lcmlog" --drop OMNI4_ROBOT
+printf '[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 120\nwheel_angle_2 = 240\n' > "$T/three.ini"
+expect 2 "describe different wheel layouts and the log describes none" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --params "$T/three.ini" --json "$T/v3.json" "$T/prerobot.lcmlog"
+[ ! -e "$T/v3.json" ] || { echo "FAIL: v3.json written"; fail=$((fail + 1)); }
 expect 0 "wrote" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out "$T/good.ini" "$T/full.lcmlog"
 # Thin data are said: with the camera, Bv and Bvn rest on experiment 3 through Kv (SE 1.5-2.0 %
 # on this log; 1.2-1.5 % when the motor test drove axis patterns), flagged THIN and named in a

@@ -2,6 +2,7 @@
 """Edit an LCM event log at the byte level (no lcm module needed), for the CLI tests.
 
   lcmlog_edit.py IN OUT --keep CHANNEL[,CHANNEL]   keep only the events of these channels
+  lcmlog_edit.py IN OUT --drop CHANNEL[,CHANNEL]   leave out the events of these channels
   lcmlog_edit.py IN OUT --drop-steps DIR           turn the 'step' marks along DIR into 'hold'
                                                    marks (a kind nothing uses): no steps there
 
@@ -36,15 +37,17 @@ def main():
     ap.add_argument("src")
     ap.add_argument("dst")
     ap.add_argument("--keep")
+    ap.add_argument("--drop")
     ap.add_argument("--drop-steps", metavar="DIR")
     a = ap.parse_args()
     with open(a.src, "rb") as f:
         data = f.read()
     keep = set(a.keep.split(",")) if a.keep else None
+    drop = set(a.drop.split(",")) if a.drop else set()
     step = lcm_string("step") + lcm_string(a.drop_steps) if a.drop_steps else None
     out = bytearray()
     for num, ts, channel, body in events(data):
-        if keep is not None and channel not in keep:
+        if (keep is not None and channel not in keep) or channel in drop:
             continue
         if step and channel == "OMNI4_EXPERIMENT":  # experiment_t: fingerprint, utime, kind, ...
             if body[16:16 + len(step)] == step:
