@@ -65,6 +65,17 @@ rm -rf "$src"
 mkdir -p "$src"
 git archive HEAD | tar -x -C "$src"
 [ -e .venv ] && ln -s "$root/.venv" "$src/.venv"
+# The Python tests import the installed package (.venv): a copy of it, its modules replaced by
+# the committed tree's, goes first on PYTHONPATH, and a mutation of python/omni4/ is made in
+# that copy as well (its compiled and generated modules stay the installed ones).
+pyover=$work/pyover
+rm -rf "$pyover"
+mkdir -p "$pyover"
+if site=$(.venv/bin/python -c 'import omni4, os; print(os.path.dirname(omni4.__path__[0]))' 2>/dev/null); then
+  cp -r "$site/omni4" "$pyover/"
+  (cd "$src/python" && find omni4 -name '*.py' -exec cp --parents {} "$pyover/" \;)
+  export PYTHONPATH=$pyover${PYTHONPATH:+:$PYTHONPATH}
+fi
 echo "mutate.sh: ${#ids[@]} mutations of $(git rev-parse --short HEAD) in $src"
 build=$src/build
 if ! { cmake --preset default -S "$src" -B "$build" >"$work/configure.log" 2>&1 &&
@@ -84,12 +95,17 @@ for i in "${!ids[@]}"; do
     continue
   fi
   cp "$f" "$work/orig"
-  python3 - "$f" "$text" "$repl" <<'EOF'
+  over=
+  case ${files[$i]} in python/omni4/*) over=$pyover/${files[$i]#python/} ;; esac
+  if [ -n "$over" ] && [ -e "$over" ]; then cp "$over" "$work/orig.over"; else over=; fi
+  for g in "$f" $over; do
+    python3 - "$g" "$text" "$repl" <<'EOF'
 import sys
 path, old, new = sys.argv[1:]
 s = open(path).read()
 open(path, "w").write(s.replace(old, new, 1))
 EOF
+  done
   t0=$SECONDS
   if ! cmake --build "$build" >"$work/$id.build.log" 2>&1; then
     verdict="CAUGHT    $id: the build fails"
@@ -105,6 +121,7 @@ EOF
   fi
   echo "$verdict ($((SECONDS - t0)) s)"
   cp "$work/orig" "$f"
+  [ -z "$over" ] || cp "$work/orig.over" "$over"
 done
 cmake --build "$build" >/dev/null 2>&1 || true
 echo
