@@ -303,28 +303,42 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 			P[i][j] *= phi[j - 3];
 }
 
+/* y = (I + Dv) x for a velocity vector x (Dv's diagonal is 0: its terms left out). */
+static void couple3(const float D[3][3], const float x[3], float y[3])
+{
+	y[0] = x[0] + D[0][1] * x[1] + D[0][2] * x[2];
+	y[1] = x[1] + D[1][0] * x[0] + D[1][2] * x[2];
+	y[2] = x[2] + D[2][0] * x[0] + D[2][1] * x[1];
+}
+
 /* A layout's coupled velocities (driven): P <- L P L^T with L = I + Dv on the velocity rows, so
  * F's velocity block is diag(phi) + Dv diag(phi) (to dt^2: eq 23's exp(A dt)). P's upper
- * triangle in, its upper triangle out. */
+ * triangle in, its upper triangle out: L leaves the pose block alone, mixes the pose-velocity
+ * block's columns (P_pv L^T) and takes the velocity block to L P_vv L^T. */
 static void predict_cov_coupled(struct est *e)
 {
-	float Y[6][6];
+	float (*P)[6] = e->P;
+	const float (*D)[3] = (const float (*)[3])e->Dv;
+	float col[3], Y[3][3], y[3];
 
-	est_symmetrise(e);
-	for (int i = 0; i < 6; i++)
-		for (int j = 0; j < 6; j++) {
-			Y[i][j] = e->P[i][j];
-			if (i >= 3)
-				for (int l = 0; l < 3; l++)
-					Y[i][j] += e->Dv[i - 3][l] * e->P[3 + l][j];
-		}
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++) {
-			e->P[i][j] = Y[i][j];
-			if (j >= 3)
-				for (int l = 0; l < 3; l++)
-					e->P[i][j] += e->Dv[j - 3][l] * Y[i][3 + l];
-		}
+	for (int m = 0; m < 3; m++) { /* (L P_vv)'s column m from P_vv's (symmetric) */
+		for (int k = 0; k < 3; k++)
+			col[k] = k <= m ? P[3 + k][3 + m] : P[3 + m][3 + k];
+		couple3(D, col, y);
+		for (int k = 0; k < 3; k++)
+			Y[k][m] = y[k];
+	}
+	for (int i = 0; i < 3; i++) { /* P_pv L^T */
+		couple3(D, &P[i][3], y);
+		P[i][3] = y[0];
+		P[i][4] = y[1];
+		P[i][5] = y[2];
+	}
+	for (int k = 0; k < 3; k++) { /* (L P_vv) L^T, its upper triangle */
+		couple3(D, Y[k], y);
+		for (int m = k; m < 3; m++)
+			P[3 + k][3 + m] = y[m];
+	}
 }
 
 /* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w

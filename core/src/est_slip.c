@@ -226,19 +226,17 @@ void est_slip_volts(const struct est *e, const struct est_tick *t, const float x
 	}
 }
 
-/* P's element (i, l) from the upper triangle. */
-static float upper(const struct est *e, int i, int l)
-{
-	return i <= l ? e->P[i][l] : e->P[l][i];
-}
-
 /* One reading h . (v, vn, w) of innovation nu and variance r (the upper triangle). */
 static void row_update(struct est *e, const float h[3], float nu, float r)
 {
+	float (*P)[6] = e->P;
 	float ph[6];
 
-	for (int i = 0; i < 6; i++)
-		ph[i] = upper(e, i, 3) * h[0] + upper(e, i, 4) * h[1] + upper(e, i, 5) * h[2];
+	for (int i = 0; i < 3; i++) /* P's velocity columns: the pose rows' upper part */
+		ph[i] = P[i][3] * h[0] + P[i][4] * h[1] + P[i][5] * h[2];
+	ph[3] = P[3][3] * h[0] + P[3][4] * h[1] + P[3][5] * h[2];
+	ph[4] = P[3][4] * h[0] + P[4][4] * h[1] + P[4][5] * h[2];
+	ph[5] = P[3][5] * h[0] + P[4][5] * h[1] + P[5][5] * h[2];
 	const float S = h[0] * ph[3] + h[1] * ph[4] + h[2] * ph[5] + r;
 
 	if (!(S > 0.0f))
@@ -246,9 +244,11 @@ static void row_update(struct est *e, const float h[3], float nu, float r)
 	const float inv = 1.0f / S;
 
 	for (int i = 0; i < 6; i++) {
-		e->s[i] += ph[i] * inv * nu;
+		const float ki = ph[i] * inv;
+
+		e->s[i] += ki * nu;
 		for (int l = i; l < 6; l++)
-			e->P[i][l] -= ph[i] * inv * ph[l];
+			P[i][l] -= ki * ph[l];
 	}
 }
 
