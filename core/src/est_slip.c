@@ -76,16 +76,25 @@ void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
  * reading. */
 static bool rim_distance(const struct est *e, uint32_t k0, uint32_t k1, float dist[4])
 {
-	memset(dist, 0, 4 * sizeof(float));
-	for (uint32_t n = k0 + 1; n <= k1; n++) {
+	const float c0 = 1.0f + e->cal[0], c1 = 1.0f + e->cal[1], c2 = 1.0f + e->cal[2],
+	            c3 = 1.0f + e->cal[3], dt = e->dt;
+	float d0 = 0.0f, d1 = 0.0f, d2 = 0.0f, d3 = 0.0f; /* in registers, not through dist */
+	bool all = true;
+
+	for (uint32_t n = k0 + 1; n <= k1 && all; n++) {
 		const struct est_tick *t = &e->hist[n % EST_HISTORY];
 
-		if (!t->have_wheels)
-			return false;
-		for (int j = 0; j < 4; j++)
-			dist[j] += t->wheel[j] * (1.0f + e->cal[j]) * e->dt;
+		all = t->have_wheels;
+		d0 += t->wheel[0] * c0 * dt;
+		d1 += t->wheel[1] * c1 * dt;
+		d2 += t->wheel[2] * c2 * dt;
+		d3 += t->wheel[3] * c3 * dt;
 	}
-	return true;
+	dist[0] = d0;
+	dist[1] = d1;
+	dist[2] = d2;
+	dist[3] = d3;
+	return all;
 }
 
 /* The wheels' velocity minus the camera's over ticks k0 .. k1 (poses z0, z1), per axis v, vn,
