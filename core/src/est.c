@@ -303,42 +303,39 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 			P[i][j] *= phi[j - 3];
 }
 
-/* y = (I + Dv) x for a velocity vector x (Dv's diagonal is 0: its terms left out). */
-static void couple3(const float D[3][3], const float x[3], float y[3])
-{
-	y[0] = x[0] + D[0][1] * x[1] + D[0][2] * x[2];
-	y[1] = x[1] + D[1][0] * x[0] + D[1][2] * x[2];
-	y[2] = x[2] + D[2][0] * x[0] + D[2][1] * x[1];
-}
-
 /* A layout's coupled velocities (driven): P <- L P L^T with L = I + Dv on the velocity rows, so
  * F's velocity block is diag(phi) + Dv diag(phi) (to dt^2: eq 23's exp(A dt)). P's upper
  * triangle in, its upper triangle out: L leaves the pose block alone, mixes the pose-velocity
- * block's columns (P_pv L^T) and takes the velocity block to L P_vv L^T. */
+ * block's columns (P_pv L^T) and takes the velocity block V to (L V) L^T. Dv's diagonal is 0:
+ * (L x)_k = x_k + Dv[k][a] x_a + Dv[k][b] x_b, a < b the other two. */
 static void predict_cov_coupled(struct est *e)
 {
 	float (*P)[6] = e->P;
-	const float (*D)[3] = (const float (*)[3])e->Dv;
-	float col[3], Y[3][3], y[3];
+	const float d01 = e->Dv[0][1], d02 = e->Dv[0][2], d10 = e->Dv[1][0], d12 = e->Dv[1][2],
+	            d20 = e->Dv[2][0], d21 = e->Dv[2][1];
 
-	for (int m = 0; m < 3; m++) { /* (L P_vv)'s column m from P_vv's (symmetric) */
-		for (int k = 0; k < 3; k++)
-			col[k] = k <= m ? P[3 + k][3 + m] : P[3 + m][3 + k];
-		couple3(D, col, y);
-		for (int k = 0; k < 3; k++)
-			Y[k][m] = y[k];
-	}
 	for (int i = 0; i < 3; i++) { /* P_pv L^T */
-		couple3(D, &P[i][3], y);
-		P[i][3] = y[0];
-		P[i][4] = y[1];
-		P[i][5] = y[2];
+		const float x0 = P[i][3], x1 = P[i][4], x2 = P[i][5];
+
+		P[i][3] = x0 + d01 * x1 + d02 * x2;
+		P[i][4] = x1 + d10 * x0 + d12 * x2;
+		P[i][5] = x2 + d20 * x0 + d21 * x1;
 	}
-	for (int k = 0; k < 3; k++) { /* (L P_vv) L^T, its upper triangle */
-		couple3(D, Y[k], y);
-		for (int m = k; m < 3; m++)
-			P[3 + k][3 + m] = y[m];
-	}
+	const float a = P[3][3], b = P[3][4], c = P[3][5], d = P[4][4], f = P[4][5], g = P[5][5];
+	/* L V, V = [[a, b, c], [b, d, f], [c, f, g]] */
+	const float y00 = a + d01 * b + d02 * c, y01 = b + d01 * d + d02 * f,
+	            y02 = c + d01 * f + d02 * g;
+	const float y10 = b + d10 * a + d12 * c, y11 = d + d10 * b + d12 * f,
+	            y12 = f + d10 * c + d12 * g;
+	const float y20 = c + d20 * a + d21 * b, y21 = f + d20 * b + d21 * d,
+	            y22 = g + d20 * c + d21 * f;
+
+	P[3][3] = y00 + d01 * y01 + d02 * y02; /* (L V) L^T, its upper triangle */
+	P[3][4] = y01 + d10 * y00 + d12 * y02;
+	P[3][5] = y02 + d20 * y00 + d21 * y01;
+	P[4][4] = y11 + d10 * y10 + d12 * y12;
+	P[4][5] = y12 + d20 * y10 + d21 * y11;
+	P[5][5] = y22 + d20 * y20 + d21 * y21;
 }
 
 /* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w
