@@ -14,8 +14,9 @@
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
  * Another layout (est_set_model_wheels' g; docs/estimator.md, "Other wheel layouts"): eq 23's
  * full A (every off-diagonal term held over the tick, and in the covariance), one scalar update
- * per wheel reading (exact: the readings' noise is independent), the layout's null vector n
- * (residual n . v; three wheels: none, 0).
+ * per wheel reading (exact: the readings' noise is independent; four wheels all read: the
+ * readings whitened, three updates for the four), the layout's null vector n (residual n . v;
+ * three wheels: none, 0).
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
@@ -91,6 +92,51 @@ static void set_null_vector(struct est *e, const struct wheel_phys *ph)
 		e->nvec[j] = norm > 0.0 ? (float)(2.0 * n[j] / sqrt(norm)) : 0.0f;
 }
 
+/* Four wheels' rows G (e->white, e->wu, e->ww): G^T G = U^T U, W = U^-T G^T, in double. */
+static void set_white(struct est *e, const struct wheel_phys *ph)
+{
+	double g[3][3] = {{0}}, u[3][3] = {{0}};
+
+	e->white = false;
+	if (ph->n != 4)
+		return;
+	for (int a = 0; a < 3; a++)
+		for (int b = 0; b < 3; b++)
+			for (int j = 0; j < 4; j++)
+				g[a][b] += ph->row[j][a] * ph->row[j][b];
+	for (int k = 0; k < 3; k++) { /* Cholesky, row k of U */
+		double p = g[k][k];
+
+		for (int m = 0; m < k; m++)
+			p -= u[m][k] * u[m][k];
+		if (!(p > 0.0))
+			return;
+		u[k][k] = sqrt(p);
+		for (int l = k + 1; l < 3; l++) {
+			double q = g[k][l];
+
+			for (int m = 0; m < k; m++)
+				q -= u[m][k] * u[m][l];
+			u[k][l] = q / u[k][k];
+		}
+	}
+	for (int j = 0; j < 4; j++) { /* U^T w_j = G's row j (forward substitution) */
+		double w[3];
+
+		for (int k = 0; k < 3; k++) {
+			w[k] = ph->row[j][k];
+			for (int m = 0; m < k; m++)
+				w[k] -= u[m][k] * w[m];
+			w[k] /= u[k][k];
+			e->ww[k][j] = (float)w[k];
+		}
+	}
+	for (int k = 0; k < 3; k++)
+		for (int l = 0; l < 3; l++)
+			e->wu[k][l] = (float)u[k][l];
+	e->white = true;
+}
+
 /* A layout other than the paper's: eq 23's full A (dyn_state_space_layout), the per-axis exact
  * step with the off-diagonal terms held over the tick, the layout's rows. -EINVAL: refused. */
 static int set_layout(struct est *e, const struct model_params *p, const struct model_wheels *w,
@@ -123,6 +169,7 @@ static int set_layout(struct est *e, const struct model_params *p, const struct 
 		e->r[j] = (float)w->r[j];
 	wheel_phys_to_f32(&ph, &e->wh);
 	set_null_vector(e, &ph);
+	set_white(e, &ph);
 	set_carry(e);
 	e->layout = true;
 	set_noise(e);
@@ -155,6 +202,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 		return;
 	}
 	e->layout = false;
+	e->white = false;
 	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
 		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);

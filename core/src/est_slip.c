@@ -265,6 +265,16 @@ void est_slip_rows(struct est *e, const float wh[4], uint8_t skip)
 {
 	const float r = e->set.wheel_noise * e->set.wheel_noise;
 
+	if (e->white && !skip) { /* all four: the three whitened readings y = W wh = U x */
+		for (int k = 0; k < 3; k++) {
+			const float *w = e->ww[k], *u = e->wu[k];
+			const float y = w[0] * wh[0] + w[1] * wh[1] + w[2] * wh[2] + w[3] * wh[3];
+
+			row_update(e, u, y - (u[0] * e->s[3] + u[1] * e->s[4] + u[2] * e->s[5]), r);
+		}
+		return;
+	}
+
 	for (int j = 0; j < e->wh.n; j++) {
 		const float *h = e->wh.row[j]; /* eq 2 */
 
