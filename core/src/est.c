@@ -14,8 +14,9 @@
  * v0 - v1 + v2 - v3 that says nothing about the state: three scalar updates.
  * Another layout (est_set_model_wheels' g; docs/estimator.md, "Other wheel layouts"): eq 23's
  * full A (every off-diagonal term held over the tick, and in the covariance), one scalar update
- * per wheel reading (exact: the readings' noise is independent), the layout's null vector n
- * (residual n . v; three wheels: none, 0).
+ * per wheel reading (exact: the readings' noise is independent; four wheels all read: the
+ * readings whitened, three updates for the four), the layout's null vector n (residual n . v;
+ * three wheels: none, 0).
  * Camera: gated on the Mahalanobis distance of the pose innovation, then three scalar updates
  * at the frame's tick, and the ticks since re-run from the ring (est_camera.c, est_replay.c).
  * The wheels' scale calibration: est_cal.c.
@@ -91,6 +92,51 @@ static void set_null_vector(struct est *e, const struct wheel_phys *ph)
 		e->nvec[j] = norm > 0.0 ? (float)(2.0 * n[j] / sqrt(norm)) : 0.0f;
 }
 
+/* Four wheels' rows G (e->white, e->wu, e->ww): G^T G = U^T U, W = U^-T G^T, in double. */
+static void set_white(struct est *e, const struct wheel_phys *ph)
+{
+	double g[3][3] = {{0}}, u[3][3] = {{0}};
+
+	e->white = false;
+	if (ph->n != 4)
+		return;
+	for (int a = 0; a < 3; a++)
+		for (int b = 0; b < 3; b++)
+			for (int j = 0; j < 4; j++)
+				g[a][b] += ph->row[j][a] * ph->row[j][b];
+	for (int k = 0; k < 3; k++) { /* Cholesky, row k of U */
+		double p = g[k][k];
+
+		for (int m = 0; m < k; m++)
+			p -= u[m][k] * u[m][k];
+		if (!(p > 0.0))
+			return;
+		u[k][k] = sqrt(p);
+		for (int l = k + 1; l < 3; l++) {
+			double q = g[k][l];
+
+			for (int m = 0; m < k; m++)
+				q -= u[m][k] * u[m][l];
+			u[k][l] = q / u[k][k];
+		}
+	}
+	for (int j = 0; j < 4; j++) { /* U^T w_j = G's row j (forward substitution) */
+		double w[3];
+
+		for (int k = 0; k < 3; k++) {
+			w[k] = ph->row[j][k];
+			for (int m = 0; m < k; m++)
+				w[k] -= u[m][k] * w[m];
+			w[k] /= u[k][k];
+			e->ww[k][j] = (float)w[k];
+		}
+	}
+	for (int k = 0; k < 3; k++)
+		for (int l = 0; l < 3; l++)
+			e->wu[k][l] = (float)u[k][l];
+	e->white = true;
+}
+
 /* A layout other than the paper's: eq 23's full A (dyn_state_space_layout), the per-axis exact
  * step with the off-diagonal terms held over the tick, the layout's rows. -EINVAL: refused. */
 static int set_layout(struct est *e, const struct model_params *p, const struct model_wheels *w,
@@ -123,6 +169,7 @@ static int set_layout(struct est *e, const struct model_params *p, const struct 
 		e->r[j] = (float)w->r[j];
 	wheel_phys_to_f32(&ph, &e->wh);
 	set_null_vector(e, &ph);
+	set_white(e, &ph);
 	set_carry(e);
 	e->layout = true;
 	set_noise(e);
@@ -155,6 +202,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 		return;
 	}
 	e->layout = false;
+	e->white = false;
 	dyn_state_space_wheels(p, w, &ss);
 	for (int k = 0; k < 3; k++) {
 		discretise(ss.A[k][k], e->dt, &e->phi[k], &e->gam[k]);
@@ -305,26 +353,37 @@ static void predict_cov(float P[6][6], float u0, float u1, float gc, float gs, f
 
 /* A layout's coupled velocities (driven): P <- L P L^T with L = I + Dv on the velocity rows, so
  * F's velocity block is diag(phi) + Dv diag(phi) (to dt^2: eq 23's exp(A dt)). P's upper
- * triangle in, its upper triangle out. */
+ * triangle in, its upper triangle out: L leaves the pose block alone, mixes the pose-velocity
+ * block's columns (P_pv L^T) and takes the velocity block V to (L V) L^T. Dv's diagonal is 0:
+ * (L x)_k = x_k + Dv[k][a] x_a + Dv[k][b] x_b, a < b the other two. */
 static void predict_cov_coupled(struct est *e)
 {
-	float Y[6][6];
+	float (*P)[6] = e->P;
+	const float d01 = e->Dv[0][1], d02 = e->Dv[0][2], d10 = e->Dv[1][0], d12 = e->Dv[1][2],
+	            d20 = e->Dv[2][0], d21 = e->Dv[2][1];
 
-	est_symmetrise(e);
-	for (int i = 0; i < 6; i++)
-		for (int j = 0; j < 6; j++) {
-			Y[i][j] = e->P[i][j];
-			if (i >= 3)
-				for (int l = 0; l < 3; l++)
-					Y[i][j] += e->Dv[i - 3][l] * e->P[3 + l][j];
-		}
-	for (int i = 0; i < 6; i++)
-		for (int j = i; j < 6; j++) {
-			e->P[i][j] = Y[i][j];
-			if (j >= 3)
-				for (int l = 0; l < 3; l++)
-					e->P[i][j] += e->Dv[j - 3][l] * Y[i][3 + l];
-		}
+	for (int i = 0; i < 3; i++) { /* P_pv L^T */
+		const float x0 = P[i][3], x1 = P[i][4], x2 = P[i][5];
+
+		P[i][3] = x0 + d01 * x1 + d02 * x2;
+		P[i][4] = x1 + d10 * x0 + d12 * x2;
+		P[i][5] = x2 + d20 * x0 + d21 * x1;
+	}
+	const float a = P[3][3], b = P[3][4], c = P[3][5], d = P[4][4], f = P[4][5], g = P[5][5];
+	/* L V, V = [[a, b, c], [b, d, f], [c, f, g]] */
+	const float y00 = a + d01 * b + d02 * c, y01 = b + d01 * d + d02 * f,
+	            y02 = c + d01 * f + d02 * g;
+	const float y10 = b + d10 * a + d12 * c, y11 = d + d10 * b + d12 * f,
+	            y12 = f + d10 * c + d12 * g;
+	const float y20 = c + d20 * a + d21 * b, y21 = f + d20 * b + d21 * d,
+	            y22 = g + d20 * c + d21 * f;
+
+	P[3][3] = y00 + d01 * y01 + d02 * y02; /* (L V) L^T, its upper triangle */
+	P[3][4] = y01 + d10 * y00 + d12 * y02;
+	P[3][5] = y02 + d20 * y00 + d21 * y01;
+	P[4][4] = y11 + d10 * y10 + d12 * y12;
+	P[4][5] = y12 + d20 * y10 + d21 * y11;
+	P[5][5] = y22 + d20 * y20 + d21 * y21;
 }
 
 /* Axis k's share of eq 23's off-diagonal A (unequal wheels; dynamics.h): v and vn from w, w

@@ -59,7 +59,9 @@ void est_slip_volts(const struct est *e, const struct est_tick *t, const float x
 void est_slip_update(struct est *e, const struct est_tick *t, const float wh[4]);
 /* The wheel update as one scalar update per wheel reading (eq 2's row, wheel_noise^2), the
  * wheels in skip (bit j: wheel j) left out: the readings' noise is independent, so the
- * sequence is the batch least-squares update exactly (a layout's H^T H is not diagonal). */
+ * sequence is the batch least-squares update exactly (a layout's H^T H is not diagonal).
+ * Another layout's four wheels, none left out (e->white): the same update as three scalar
+ * updates of the whitened readings y = W wh (rows U, H^T H = U^T U). */
 void est_slip_rows(struct est *e, const float wh[4], uint8_t skip);
 /* After the live tick, the wheels fresh (bit j: wheel j) newly flagged: the ticks since the
  * witnesses' onset (their averaging and run, EST_INNOV_AVG_TICKS and slip_ticks, twice over)

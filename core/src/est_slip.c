@@ -76,16 +76,25 @@ void est_slip_model(struct est *e, const struct est_tick *t, const float wh[4])
  * reading. */
 static bool rim_distance(const struct est *e, uint32_t k0, uint32_t k1, float dist[4])
 {
-	memset(dist, 0, 4 * sizeof(float));
-	for (uint32_t n = k0 + 1; n <= k1; n++) {
+	const float c0 = 1.0f + e->cal[0], c1 = 1.0f + e->cal[1], c2 = 1.0f + e->cal[2],
+	            c3 = 1.0f + e->cal[3], dt = e->dt;
+	float d0 = 0.0f, d1 = 0.0f, d2 = 0.0f, d3 = 0.0f; /* in registers, not through dist */
+	bool all = true;
+
+	for (uint32_t n = k0 + 1; n <= k1 && all; n++) {
 		const struct est_tick *t = &e->hist[n % EST_HISTORY];
 
-		if (!t->have_wheels)
-			return false;
-		for (int j = 0; j < 4; j++)
-			dist[j] += t->wheel[j] * (1.0f + e->cal[j]) * e->dt;
+		all = t->have_wheels;
+		d0 += t->wheel[0] * c0 * dt;
+		d1 += t->wheel[1] * c1 * dt;
+		d2 += t->wheel[2] * c2 * dt;
+		d3 += t->wheel[3] * c3 * dt;
 	}
-	return true;
+	dist[0] = d0;
+	dist[1] = d1;
+	dist[2] = d2;
+	dist[3] = d3;
+	return all;
 }
 
 /* The wheels' velocity minus the camera's over ticks k0 .. k1 (poses z0, z1), per axis v, vn,
@@ -226,19 +235,17 @@ void est_slip_volts(const struct est *e, const struct est_tick *t, const float x
 	}
 }
 
-/* P's element (i, l) from the upper triangle. */
-static float upper(const struct est *e, int i, int l)
-{
-	return i <= l ? e->P[i][l] : e->P[l][i];
-}
-
 /* One reading h . (v, vn, w) of innovation nu and variance r (the upper triangle). */
 static void row_update(struct est *e, const float h[3], float nu, float r)
 {
+	float (*P)[6] = e->P;
 	float ph[6];
 
-	for (int i = 0; i < 6; i++)
-		ph[i] = upper(e, i, 3) * h[0] + upper(e, i, 4) * h[1] + upper(e, i, 5) * h[2];
+	for (int i = 0; i < 3; i++) /* P's velocity columns: the pose rows' upper part */
+		ph[i] = P[i][3] * h[0] + P[i][4] * h[1] + P[i][5] * h[2];
+	ph[3] = P[3][3] * h[0] + P[3][4] * h[1] + P[3][5] * h[2];
+	ph[4] = P[3][4] * h[0] + P[4][4] * h[1] + P[4][5] * h[2];
+	ph[5] = P[3][5] * h[0] + P[4][5] * h[1] + P[5][5] * h[2];
 	const float S = h[0] * ph[3] + h[1] * ph[4] + h[2] * ph[5] + r;
 
 	if (!(S > 0.0f))
@@ -246,15 +253,27 @@ static void row_update(struct est *e, const float h[3], float nu, float r)
 	const float inv = 1.0f / S;
 
 	for (int i = 0; i < 6; i++) {
-		e->s[i] += ph[i] * inv * nu;
+		const float ki = ph[i] * inv;
+
+		e->s[i] += ki * nu;
 		for (int l = i; l < 6; l++)
-			e->P[i][l] -= ph[i] * inv * ph[l];
+			P[i][l] -= ki * ph[l];
 	}
 }
 
 void est_slip_rows(struct est *e, const float wh[4], uint8_t skip)
 {
 	const float r = e->set.wheel_noise * e->set.wheel_noise;
+
+	if (e->white && !skip) { /* all four: the three whitened readings y = W wh = U x */
+		for (int k = 0; k < 3; k++) {
+			const float *w = e->ww[k], *u = e->wu[k];
+			const float y = w[0] * wh[0] + w[1] * wh[1] + w[2] * wh[2] + w[3] * wh[3];
+
+			row_update(e, u, y - (u[0] * e->s[3] + u[1] * e->s[4] + u[2] * e->s[5]), r);
+		}
+		return;
+	}
 
 	for (int j = 0; j < e->wh.n; j++) {
 		const float *h = e->wh.row[j]; /* eq 2 */

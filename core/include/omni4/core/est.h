@@ -217,6 +217,13 @@ struct est {
 	struct est_slip slip; /* est_slip.c */
 	int64_t last_cam_us;  /* capture time of the last camera pose taken */
 	bool have_cam;
+	/* Another layout's four wheels (est_slip_rows): the readings whitened, three scalar updates
+	 * for four. G^T G = U^T U (Cholesky, U upper triangular [1, 1, m]), y = W wheels with
+	 * W = U^-T G^T: y = U (v, vn, w) + noise of variance wheel_noise^2 on each. white: U (wu)
+	 * and W (ww) hold them. Last in the struct: the fields the tick reads most keep their
+	 * short offsets. */
+	bool white;
+	float wu[3][3], ww[3][4];
 };
 
 /* The default noise and thresholds (the paper's camera, 1 kHz wheels). */
