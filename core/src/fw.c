@@ -482,6 +482,20 @@ static void push_sample(struct fw *fw, int64_t now_us, const struct ctl_output *
 	log_push(fw, &e);
 }
 
+/* The backend's reading, the slots of no motor (slot 3 of a three-wheel robot) read as 0:
+ * whatever an unconnected channel reports (noise, an offset, NaN) never reaches the
+ * calibration, the controller, the estimator or the motors_t sample. */
+static int read_motors(struct fw *fw, struct motor_sample *s)
+{
+	const int rc = hal_motor_read(&fw->motor, s);
+
+	for (int j = fw->ctl.lay.wheels; j < 4 && rc == 0; j++) {
+		s->current_a[j] = 0.0f;
+		s->wheel_rad_s[j] = 0.0f;
+	}
+	return rc;
+}
+
 void fw_tick(struct fw *fw, int64_t now_us)
 {
 	struct motor_sample s;
@@ -494,7 +508,7 @@ void fw_tick(struct fw *fw, int64_t now_us)
 	if (hal_line_read_estop(&fw->lines, &estop) < 0)
 		estop = true; /* an unreadable e-stop line is a pressed e-stop */
 
-	const int rc = hal_motor_read(&fw->motor, &s);
+	const int rc = read_motors(fw, &s);
 
 	take_backend_sensors(fw);
 	if (rc == 0)

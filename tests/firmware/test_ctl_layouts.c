@@ -5,7 +5,7 @@
  * from its angle, the least-norm split of the body force solved here, eqs 12-13, 21); with the
  * plant of the same layout it reaches the commanded velocity; slot 3 of a three-wheel robot is
  * never driven; the rigid-body encoder check follows the layout's null space (none for three
- * wheels).
+ * wheels); the loop reads slot 3 of a three-wheel robot as 0, whatever its channel reports.
  */
 #include "omni4_test.h"
 
@@ -14,6 +14,7 @@
 
 #include "omni4/core/adapt.h"
 #include "omni4/core/ctl.h"
+#include "omni4/core/fw.h"
 #include "omni4/model/params.h"
 #include "omni4/model/plant.h"
 
@@ -295,6 +296,80 @@ static void test_online_maps_follow_the_layout(void **state)
 	}
 }
 
+/* A motor backend of three wheels whose fourth channel reports what an unconnected one may:
+ * a current offset beyond the calibration's 0.25 A limit (docs/faults.md) with +-20 mA of
+ * noise, a wheel speed, and every 7th reading NaN in both. Slots 0-2 read 0 A at rest. */
+struct slot3_motor {
+	int reads;
+};
+
+static int slot3_enable(void *ctx, bool on)
+{
+	(void)ctx;
+	(void)on;
+	return 0;
+}
+
+static int slot3_write(void *ctx, const float volts[4])
+{
+	(void)ctx;
+	(void)volts;
+	return 0;
+}
+
+static int slot3_read(void *ctx, struct motor_sample *out)
+{
+	struct slot3_motor *m = ctx;
+	const int k = m->reads++;
+
+	memset(out, 0, sizeof(*out));
+	out->supply_v = 12.0f;
+	out->current_a[3] = k % 7 == 6 ? NAN : 0.3f + (k % 2 ? 0.02f : -0.02f);
+	out->wheel_rad_s[3] = k % 7 == 6 ? NAN : 5.0f;
+	return 0;
+}
+
+static const struct motor_hal_ops slot3_ops = {
+    .enable = slot3_enable, .write = slot3_write, .read = slot3_read};
+
+/* Every motors_t sample of the loop (idle through the current calibration, then VELOCITY)
+ * holds 0 in slot 3: voltage, current and wheel speed (robot_t: "a three-wheel robot's fourth
+ * slot holds 0, as in every per-wheel array"); the fourth channel's offset latches no
+ * CURRENT_SENSOR fault (no motor there) and the robot drives. */
+static void test_the_loop_reads_slot_3_of_three_wheels_as_0(void **state)
+{
+	(void)state;
+	static struct fw fw;
+	struct slot3_motor m = {0};
+	struct ctl_settings s;
+	struct log_entry e;
+	int samples = 0;
+	float driven = 0.0f;
+
+	settings_of(&three, &s, true);
+	assert_int_equal(fw_init(&fw, &s, (struct motor_hal){.ops = &slot3_ops, .ctx = &m},
+	                         (struct line_hal){.ops = &line_none_ops}),
+	                 0);
+	for (int n = 0; n < 1500; n++) {
+		if (n >= 1000 && n % 100 == 0)
+			assert_true(fw_post_command(&fw, &g_cmd));
+		fw_tick(&fw, (int64_t)(n + 1) * TICK_US);
+		while (fw_pop_log(&fw, &e)) {
+			if (e.kind != LOG_MOTORS)
+				continue;
+			samples++;
+			assert_true(e.sample.voltage[3] == 0.0f);
+			assert_true(e.sample.current[3] == 0.0f);
+			assert_true(e.sample.wheel_speed[3] == 0.0f);
+			assert_int_equal(e.sample.faults & CTL_FAULTS_LATCHING, 0);
+			driven = fmaxf(driven, fabsf(e.sample.voltage[0]));
+		}
+	}
+	assert_int_equal(samples, 1500);
+	assert_int_equal(fw.last_out.mode, CTL_VELOCITY);
+	assert_true(driven > 1.0f);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -303,6 +378,7 @@ int main(void)
 	    cmocka_unit_test(test_three_wheels_refuse_a_voltage_on_slot_3),
 	    cmocka_unit_test(test_the_encoder_check_follows_the_null_space),
 	    cmocka_unit_test(test_online_maps_follow_the_layout),
+	    cmocka_unit_test(test_the_loop_reads_slot_3_of_three_wheels_as_0),
 	};
 
 	return cmocka_run_group_tests(tests, NULL, NULL);
