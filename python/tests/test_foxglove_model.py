@@ -1012,3 +1012,20 @@ def test_bridge_predicts_the_layout_of_the_latest_robot_t():
     line = _robot_t((0.0, 180.0, 0.0), T3["d"], T3["r"])           # drives no body: left out
     b.on_lcm(omni4.CHANNEL_ROBOT, line.encode())
     assert encoder(4) == (pytest.approx(three, abs=1e-12), False)
+
+
+def test_bridge_predicts_the_layout_of_params_before_any_robot_t():
+    """--params' [model] layout (params_or_exit's "layout") until a robot_t says otherwise."""
+    import foxglove
+
+    from omni4.foxglove.bridge import Bridge
+    b = Bridge({**T3, "layout": _three()}, 1, 1.0, foxglove.Context())
+    sent = []
+    b.ch.log = lambda topic, schema, msg, t: sent.append((topic, msg))
+    m = omni4.motors_t()
+    m.mode, m.wheel_speed = 2, [10.0, -20.0, 30.0, 0.0]
+    b.on_lcm(omni4.CHANNEL_MOTORS, m.encode())
+    msg = json.loads([x for t, x in sent if t == topics.TOPIC_VELOCITY][-1])
+    s = [x * T3["r"] for x in m.wheel_speed[:3]]
+    assert msg["encoder"]["w"] == pytest.approx(sum(s) / (3 * T3["d"]), abs=1e-12)
+    assert msg["encoder"]["v"] == pytest.approx((s[2] - s[1]) / math.sqrt(3), abs=1e-12)

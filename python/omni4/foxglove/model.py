@@ -146,7 +146,7 @@ def layout_drives(wheels):
     try:
         set_layout(buf, wheels)
     except ValueError:
-        return False
+        return False  # its rows do not drive v, vn and w
     return True
 
 
