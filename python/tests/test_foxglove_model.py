@@ -1029,3 +1029,16 @@ def test_bridge_predicts_the_layout_of_params_before_any_robot_t():
     s = [x * T3["r"] for x in m.wheel_speed[:3]]
     assert msg["encoder"]["w"] == pytest.approx(sum(s) / (3 * T3["d"]), abs=1e-12)
     assert msg["encoder"]["v"] == pytest.approx((s[2] - s[1]) / math.sqrt(3), abs=1e-12)
+
+
+def test_params_layout_that_does_not_drive_is_one_line(tmp_path, capsys):
+    log, out, ini = tmp_path / "old.lcmlog", str(tmp_path / "p.mcap"), tmp_path / "line.ini"
+    _layout_log(log, [], seconds=1)
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 180\n"
+                   "wheel_angle_2 = 360\n")
+    with pytest.raises(SystemExit) as e:
+        export.main([str(log), "--out", out, "--params", str(ini), "-q"])
+    assert e.value.code == 2 and not os.path.exists(out)
+    assert capsys.readouterr().err == (
+        f"omni4-mcap: {ini}:2: [model] wheels, wheel_angle_j, d_j: not a layout that drives "
+        "v, vn and w (no two wheels along one line)\n")

@@ -241,12 +241,17 @@ def read_model(path):
 def params_or_exit(prog, path):
     """--params of a command-line tool: the [model] of path (Table III if None), with its
     wheels' layout under "layout" when it has layout keys (omni4.wheels.Wheels: the scene's
-    wheels when no robot_t says otherwise); on a broken INI one line on stderr and exit
-    status 2 (a configuration error)."""
+    wheels and the prediction's when no robot_t says otherwise); on a broken INI (or a layout
+    that does not drive v, vn and w) one line on stderr and exit status 2 (a configuration
+    error)."""
     from ..wheels import Wheels
     try:
         params = read_model(path) if path else table3()
         layout = Wheels.from_ini(path) if path else None
+        if layout is not None and not layout_drives(layout):
+            raise ini.ConfigError(f"{ini.read(path).where('model', 'wheels')}: [model] wheels, "
+                                  "wheel_angle_j, d_j: not a layout that drives v, vn and w "
+                                  "(no two wheels along one line)")
         if layout is not None:
             params["layout"] = layout
         return params
