@@ -43,7 +43,8 @@ def parse_args(argv):
     ap.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765; 0 = "
                     "any free port, printed at start)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
-                    "prediction runs (default: the paper's Table III)")
+                    "prediction runs, on its wheel layout when no robot_t describes one "
+                    "(default: the paper's Table III and four wheels)")
     ap.add_argument("--decimate", type=int, default=10, metavar="N",
                     help="send every N-th motors sample and velocity to Foxglove (default 10; "
                     "1 = all). The model still runs on every sample.")

@@ -59,7 +59,8 @@ def parse_args(argv):
                     "target is replaced, the link kept; a FIFO or device gets the finished "
                     "file; a directory is refused)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
-                    "prediction runs (default: the paper's Table III)")
+                    "prediction runs, on its wheel layout when no robot_t describes one "
+                    "(default: the paper's Table III and four wheels)")
     ap.add_argument("--compression", choices=("zstd", "lz4"), default="zstd",
                     help="chunk compression (default zstd)")
     ap.add_argument("--chunk-kib", type=int, default=1024, metavar="KiB",
