@@ -4,6 +4,7 @@ TypeScript @mcap/core from npm (tests/foxglove/read_mcap.mjs, CRCs validated). C
 channel equal the LCM log's (read with LCM's own EventLog), values equal within float
 precision; the model's prediction tracks the simulated robot, and a wrong model shows."""
 import json
+import math
 import os
 import resource
 import shutil
@@ -199,3 +200,114 @@ def test_conversion_time_per_minute_of_1khz_log(sim_log, tmp_path):
           f"{cpu / minutes:.2f} s CPU per minute (wall {wall / minutes:.2f} s per minute; "
           "process start included)")
     assert os.path.getsize(out) > 0
+
+
+# The simulator's encoders (docs/ini-keys.md, [sim] encoder_cpr default): 10240 counts per wheel
+# turn, read once per 1 ms tick ([loop] rate_hz 1000): a wheel's speed is off by less than one
+# count per tick from its mean over the tick, a rim speed quantum of r 2 pi / 10240 / 1 ms.
+ENCODER_CPR = 10240
+TICK_S = 1e-3
+THREE_WINDOW_S = (41.0, 89.0)  # of the three-wheel experiments: the coasts in v and vn, two
+#                               motor tests (one wheel driven: every axis moves)
+
+
+@pytest.fixture(scope="module")
+def three_log(tmp_path_factory):
+    """omni4-sim's experiments on three wheels at 0/120/240 deg (Table III otherwise), the
+    events of THREE_WINDOW_S -> (path of that log, its events)."""
+    d = tmp_path_factory.mktemp("three")
+    ini = d / "three.ini"
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 120\n"
+                   "wheel_angle_2 = 240\n")
+    full = str(d / "full.lcmlog")
+    r = run([os.path.join(bindir(), "omni4-sim"), "--params", str(ini), "--experiments",
+             "--speed", "max", "--out", full, "-q"], 60)
+    assert r.returncode == 0, r.stderr
+    part = str(d / "part.lcmlog")
+    src = lcm.EventLog(full, "r")
+    dst = lcm.EventLog(part, "w", overwrite=True)
+    t0, kept = None, []
+    for ev in src:
+        t0 = t0 or ev.timestamp
+        if THREE_WINDOW_S[0] <= (ev.timestamp - t0) * 1e-6 < THREE_WINDOW_S[1]:
+            dst.write_event(ev.timestamp, ev.channel, ev.data)
+            kept.append((ev.timestamp, ev.channel, ev.data))
+    src.close()
+    dst.close()
+    return part, kept, d
+
+
+def test_three_wheel_velocity_matches_the_simulators_truth(three_log):
+    """/omni4/velocity of a three-wheel log (its robot_t says so; no --params) against the
+    simulated robot's true velocity (OMNI4_SIM_TRUTH, same seq). Encoders: within the
+    quantisation of eqs 3-5 of the layout, by hand for 0/120/240 deg: v = (s2 - s1) / sqrt(3),
+    vn = (2 s0 - s1 - s2) / 3, w = (s0 + s1 + s2) / (3 d), so a rim quantum q moves them by at
+    most 2 q / sqrt(3), 4 q / 3, q / d (against the truth's mean over the tick). Prediction:
+    the model is the simulator's own, so a drive from rest matches to the truth's float32
+    rounding (one ulp); a coast-down starts from the encoders and stays within their bound
+    (the coast is contractive). The paper's four on the same samples are far off."""
+    from omni4.foxglove.model import Predictor
+    from omni4.foxglove.export import motors_events
+    from omni4.wheels import Wheels
+    log, events, d = three_log
+    out = str(d / "three.mcap")
+    convert(log, out, "-q")
+    vel = read_mcap_python(out)[0][topics.TOPIC_VELOCITY]
+    truth = {}
+    for _, ch, data in events:
+        if ch == omni4.CHANNEL_SIM_TRUTH:
+            m = omni4.sim_truth_t.decode(data)
+            truth[m.seq] = m.vel
+    axes = ("v", "vn", "w")
+    seq = np.array([j["seq"] for _, _, j in vel])
+    assert len(vel) > 0.9 * (THREE_WINDOW_S[1] - THREE_WINDOW_S[0]) / TICK_S
+    assert (np.diff(seq) == 1).all()
+    enc = np.array([[j["encoder"][a] for a in axes] for _, _, j in vel])
+    prd = np.array([[j["predicted"][a] for a in axes] for _, _, j in vel])
+    driven = np.array([j["mode_name"] in ("VOLTAGE", "VELOCITY") for _, _, j in vel])
+    t32 = np.array([truth[s] for s in seq], dtype=np.float32)
+    tv = t32.astype(np.float64)
+    assert np.abs(tv).max(axis=0).min() > 0.3 and driven.any() and (~driven).any()
+    q = T3["r"] * 2 * math.pi / ENCODER_CPR / TICK_S
+    bound = q * np.array([2 / math.sqrt(3), 4 / 3, 1 / T3["d"]])
+    mean = (tv[1:] + tv[:-1]) / 2          # the truth's mean over each tick (linear in a tick)
+    e_enc = np.abs(enc[1:] - mean).max(axis=0)
+    e_drv = np.abs(prd - tv)[driven]
+    e_cst = np.abs(prd - tv)[~driven].max(axis=0)
+    rms = np.sqrt(np.mean(np.square(prd - tv), axis=0))
+    ulp = np.spacing(np.abs(t32)).astype(np.float64)[driven]
+    print(f"three wheels, {len(vel)} samples: encoder - truth max {e_enc.round(4).tolist()} "
+          f"(bound {bound.round(4).tolist()}); predicted - truth max driven "
+          f"{e_drv.max(axis=0).tolist()}, coasting {e_cst.round(4).tolist()}, RMS "
+          f"{rms.round(5).tolist()}")
+    assert (e_enc <= 1.01 * bound).all()
+    assert (e_drv <= ulp).all()
+    assert (e_cst <= 1.01 * bound).all()
+    # the paper's four on the same samples: what the velocity was before the layout counted
+    _, mot = motors_events(events)
+    args = [mot[f] for f in ("utime", "seq", "mode", "voltage", "wheel_speed")]
+    meas4, pred4, _ = Predictor(T3, wheels=Wheels.paper_layout()).run(*args)
+    e4 = np.abs(meas4 - tv).max(axis=0)
+    print(f"the paper's four on the three-wheel log: encoder - truth max {e4.round(3).tolist()}")
+    assert (e4 > 10 * bound).any()
+
+
+def test_paper_layout_of_robot_t_predicts_as_a_log_without_one(sim_log, tmp_path):
+    """The simulated paper robot's log describes its layout (robot_t): /omni4/velocity is the
+    same, byte for byte, as that of the same log without OMNI4_ROBOT (the paper's closed
+    forms, as before robot_t counted)."""
+    log, logged, ini, d = sim_log
+    bare = str(tmp_path / "bare.lcmlog")
+    src, dst = lcm.EventLog(log, "r"), lcm.EventLog(bare, "w", overwrite=True)
+    for ev in src:
+        if ev.channel != omni4.CHANNEL_ROBOT:
+            dst.write_event(ev.timestamp, ev.channel, ev.data)
+    src.close()
+    dst.close()
+    assert len(logged[omni4.CHANNEL_ROBOT]) > 0
+    with_robot, without = str(tmp_path / "with.mcap"), str(tmp_path / "without.mcap")
+    convert(log, with_robot, "-q")
+    convert(bare, without, "-q")
+    a = [j for _, _, j in read_mcap_python(with_robot)[0][topics.TOPIC_VELOCITY]]
+    b = [j for _, _, j in read_mcap_python(without)[0][topics.TOPIC_VELOCITY]]
+    assert len(a) == len(logged[omni4.CHANNEL_MOTORS]) and a == b

@@ -831,3 +831,214 @@ def test_mcap_scene_of_a_log_without_robot_t_takes_the_layout_of_params(tmp_path
         export.main([str(log), "--out", out, "--params", str(ini), "-q"])
     assert e.value.code == 2
     assert capsys.readouterr().err == f"omni4-mcap: {ini}:2: [model] wheels = 2 (3 or 4 expected)\n"
+
+
+# ---- the prediction of another layout --------------------------------------------------------
+
+def _three(d=T3["d"], angles=(0.0, 120.0, 240.0)):
+    from omni4.wheels import Wheels
+    return Wheels([math.radians(a) for a in angles], [d] * len(angles), [T3["r"]] * len(angles))
+
+
+def test_three_wheel_encoder_velocity_is_the_inverse_of_eq_2():
+    """Three wheels at 0/120/240 deg at d, worked out by hand from eq 2's rows [-sin a, cos a,
+    d]: v = (s2 - s1) / sqrt(3), vn = (2 s0 - s1 - s2) / 3, w = (s0 + s1 + s2) / (3 d), s_j the
+    rim speeds; slot 3 is not a wheel (whatever it holds)."""
+    pr = Predictor(T3, wheels=_three())
+    rng = random.Random(5)
+    for k in range(50):
+        w = np.float32([rng.uniform(-40, 40) for _ in range(4)]).tolist()
+        meas, _, _ = pr.step(k * 1000, k, 0, [0.0] * 4, w)
+        s = [x * T3["r"] for x in w[:3]]
+        assert meas[0] == pytest.approx((s[2] - s[1]) / math.sqrt(3), abs=1e-12)
+        assert meas[1] == pytest.approx((2 * s[0] - s[1] - s[2]) / 3, abs=1e-12)
+        assert meas[2] == pytest.approx(sum(s) / (3 * T3["d"]), abs=1e-12)
+
+
+@pytest.mark.parametrize("axis,u", [(0, [0.0, -6.0, 6.0, 0.0]), (2, [3.0, 3.0, 3.0, 0.0])])
+def test_three_wheel_prediction_is_the_closed_form_of_a_voltage_step(axis, u):
+    """Three equal wheels evenly spaced keep eq 23's axes apart. By hand (f_j = b u_j - e s_j,
+    b = l Kt / (R r), e = b Kv l / r; rows as above): along v, u = (0, -U, U) pushes
+    Fv = sqrt(3) b U against the back-EMF (3/2) e v; about w, u = (U, U, U) turns
+    T = 3 d b U against 3 d^2 e w. x' = a x + b' - c sgn(x) from rest."""
+    p = T3
+    g = p["l"] * p["Kt"] / (p["r"] * p["R"])
+    emf = g * p["Kv"] * p["l"] / p["r"]
+    if axis == 0:
+        a, b, c = -(1.5 * emf + p["Bv"]) / p["M"], math.sqrt(3) * g * u[2] / p["M"], \
+            p["Cv"] / p["M"]
+    else:
+        d = p["d"]
+        a, b, c = -(3 * d * d * emf + p["Bw"]) / p["J"], 3 * d * g * u[0] / p["J"], \
+            p["Cw"] / p["J"]
+    xss = -(b - c) / a
+    pr = Predictor(T3, wheels=_three())
+    worst = 0.0
+    for k in range(2001):
+        _, pred, _ = pr.step(k * 1000, k, 2, u, [0.0] * 4)
+        worst = max(worst, abs(pred[axis] - xss * (1 - math.exp(a * k * 1e-3))))
+        assert all(abs(pred[o]) < 1e-12 * abs(xss) for o in range(3) if o != axis)
+    print(f"three wheels, axis {axis}: steady {xss:.6f}, worst error {worst:.3g}")
+    assert worst < 1e-9 * abs(xss)
+    # the paper's four would drive another speed from these voltages: the test tells them apart
+    four = Predictor(T3)
+    for k in range(2001):
+        _, paper, _ = four.step(k * 1000, k, 2, u, [0.0] * 4)
+    assert abs(paper[axis] - xss) > 0.05 * abs(xss)
+
+
+def test_paper_layout_described_predicts_to_the_bit_as_without_one():
+    """The paper's layout as a robot_t describes it (angles in rad, the model's d) keeps the
+    closed forms: the same bits as a Predictor without a layout; the paper's angles at another
+    distance are another robot."""
+    from omni4.wheels import Wheels
+    rng = np.random.default_rng(11)
+    n = 3000
+    ut, sq = np.arange(n, dtype=np.int64) * 1000, np.arange(n, dtype=np.int64)
+    md = np.where((np.arange(n) // 500) % 2 == 0, 2, 3).astype(np.int8)
+    u = rng.uniform(-8, 8, (n, 4)).astype(np.float32)
+    w = rng.uniform(-30, 30, (n, 4)).astype(np.float32)
+    described, _ = Wheels.from_robot(_robot_t((0.0, 90.0, 180.0, 270.0), T3["d"], T3["r"]))
+    base = Predictor(T3).run(ut, sq, md, u, w)
+    same = Predictor(T3, wheels=described).run(ut, sq, md, u, w)
+    for x, y in zip(base, same):
+        assert np.array_equal(x, y)
+    wider = Predictor(T3, wheels=Wheels.paper_layout(d=0.1)).run(ut, sq, md, u, w)
+    assert np.abs(wider[0][:, 2] - base[0][:, 2]).max() > 0.1  # w = sum s / (4 d)
+
+
+def test_a_layout_that_does_not_drive_is_refused():
+    from omni4.foxglove import model
+    line = _three(angles=(0.0, 180.0, 0.0))   # all rows along one line: v is not driven
+    assert not model.layout_drives(line) and model.layout_drives(_three())
+    with pytest.raises(ValueError, match="does not drive v, vn and w"):
+        Predictor(T3, wheels=line)
+
+
+def _moving_layout_log(path, robots, n=3000):
+    """motors_t at 1 kHz with random voltages and wheel speeds (driven, then coasting every
+    other 700 samples), robot_t (at sample index, message). -> the motors arrays."""
+    log = lcm.EventLog(str(path), "w", overwrite=True)
+    rng = random.Random(9)
+    rows = {f: [] for f in ("utime", "seq", "mode", "voltage", "wheel_speed")}
+    for k in range(n):
+        for at, r in robots:
+            if at == k:
+                log.write_event(T0_US + k * 1000, omni4.CHANNEL_ROBOT, r.encode())
+        m = omni4.motors_t()
+        m.utime, m.seq, m.mode = k * 1000, k, 2 if (k // 700) % 2 == 0 else 3
+        m.voltage = np.float32([rng.uniform(-12, 12) for _ in range(3)] + [0.0]).tolist()
+        m.wheel_speed = np.float32([rng.uniform(-40, 40) for _ in range(4)]).tolist()
+        log.write_event(T0_US + k * 1000 + 10, omni4.CHANNEL_MOTORS, m.encode())
+        for f in rows:
+            rows[f].append(getattr(m, f))
+    log.close()
+    return {f: np.array(v) for f, v in rows.items()}
+
+
+def _velocity(out):
+    vel = read_mcap_python(out)[0][topics.TOPIC_VELOCITY]
+    axes = ("v", "vn", "w")
+    return (np.array([[j["encoder"][a] for a in axes] for _, _, j in vel]),
+            np.array([[j["predicted"][a] for a in axes] for _, _, j in vel]),
+            np.array([j["restarted"] for _, _, j in vel]))
+
+
+def test_mcap_predicts_the_layout_of_the_logs_robot_t(tmp_path):
+    """/omni4/velocity of a log whose robot_t says three wheels (after the first samples) and,
+    from sample 2000 on, the paper's four: the three-wheel model from the start (the first
+    robot_t's layout, as the scene), the paper's from the change on (restarted there)."""
+    log, out = tmp_path / "lay.lcmlog", str(tmp_path / "lay.mcap")
+    three = _robot_t((0.0, 120.0, 240.0), T3["d"], T3["r"])
+    mot = _moving_layout_log(log, [(3, three), (2000, _robot_t((0.0, 90.0, 180.0, 270.0),
+                                                                T3["d"], T3["r"]))])
+    assert export.main([str(log), "--out", out, "-q"]) == 0
+    enc, prd, rst = _velocity(out)
+    args = [mot[f] for f in ("utime", "seq", "mode", "voltage", "wheel_speed")]
+    want3 = Predictor(T3, wheels=_three()).run(*[a[:2000] for a in args])
+    want4 = Predictor(T3).run(*[a[2000:] for a in args])
+    for got, w3, w4 in zip((enc, prd, rst), want3, want4):
+        assert np.array_equal(got[:2000], w3) and np.array_equal(got[2000:], w4)
+    assert rst[2000] and not rst[1999] and not rst[2001]
+    s = mot["wheel_speed"][:2000, :3].astype(np.float64) * T3["r"]   # by hand, as above
+    assert enc[:2000, 2] == pytest.approx(s.sum(axis=1) / (3 * T3["d"]), abs=1e-12)
+
+
+def test_mcap_of_a_log_without_robot_t_predicts_the_layout_of_params(tmp_path):
+    log, out, ini = tmp_path / "old.lcmlog", str(tmp_path / "p.mcap"), tmp_path / "three.ini"
+    mot = _moving_layout_log(log, [], n=1500)
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 120\n"
+                   "wheel_angle_2 = 240\n")
+    assert export.main([str(log), "--out", out, "--params", str(ini), "-q"]) == 0
+    enc, prd, _ = _velocity(out)
+    s = mot["wheel_speed"][:, :3].astype(np.float64) * T3["r"]
+    assert enc[:, 0] == pytest.approx((s[:, 2] - s[:, 1]) / math.sqrt(3), abs=1e-12)
+    want = Predictor(T3, wheels=_three()).run(
+        *[mot[f] for f in ("utime", "seq", "mode", "voltage", "wheel_speed")])
+    assert np.array_equal(prd, want[1])
+    # the same log without --params: the paper's four, as before
+    assert export.main([str(log), "--out", out, "-q"]) == 0
+    enc4, prd4, _ = _velocity(out)
+    base = Predictor(T3).run(*[mot[f] for f in ("utime", "seq", "mode", "voltage",
+                                                 "wheel_speed")])
+    assert np.array_equal(enc4, base[0]) and np.array_equal(prd4, base[1])
+
+
+def test_bridge_predicts_the_layout_of_the_latest_robot_t():
+    import foxglove
+
+    from omni4.foxglove.bridge import Bridge
+    b = Bridge(T3, 1, 1.0, foxglove.Context())
+    sent = []
+    b.ch.log = lambda topic, schema, msg, t: sent.append((topic, msg))
+    m = omni4.motors_t()
+    m.mode, m.wheel_speed = 2, [10.0, -20.0, 30.0, 40.0]
+
+    def encoder(seq):
+        m.utime, m.seq = seq * 1000, seq
+        b.on_lcm(omni4.CHANNEL_MOTORS, m.encode())
+        msg = json.loads([x for t, x in sent if t == topics.TOPIC_VELOCITY][-1])
+        return [msg["encoder"][a] for a in ("v", "vn", "w")], msg["restarted"]
+
+    s = [x * T3["r"] for x in m.wheel_speed]
+    paper = [(s[3] - s[1]) / 2, (s[0] - s[2]) / 2, sum(s) / (4 * T3["d"])]
+    three = [(s[2] - s[1]) / math.sqrt(3), (2 * s[0] - s[1] - s[2]) / 3, sum(s[:3]) / (3 * T3["d"])]
+    assert encoder(0) == (pytest.approx(paper, abs=1e-12), True)
+    assert encoder(1)[1] is False
+    b.on_lcm(omni4.CHANNEL_ROBOT, _robot_t((0.0, 120.0, 240.0), T3["d"], T3["r"]).encode())
+    assert encoder(2) == (pytest.approx(three, abs=1e-12), True)   # a new robot: restarted
+    b.on_lcm(omni4.CHANNEL_ROBOT, _robot_t((0.0, 120.0, 240.0), T3["d"], T3["r"]).encode())
+    assert encoder(3)[1] is False                                   # the same robot again
+    line = _robot_t((0.0, 180.0, 0.0), T3["d"], T3["r"])           # drives no body: left out
+    b.on_lcm(omni4.CHANNEL_ROBOT, line.encode())
+    assert encoder(4) == (pytest.approx(three, abs=1e-12), False)
+
+
+def test_bridge_predicts_the_layout_of_params_before_any_robot_t():
+    """--params' [model] layout (params_or_exit's "layout") until a robot_t says otherwise."""
+    import foxglove
+
+    from omni4.foxglove.bridge import Bridge
+    b = Bridge({**T3, "layout": _three()}, 1, 1.0, foxglove.Context())
+    sent = []
+    b.ch.log = lambda topic, schema, msg, t: sent.append((topic, msg))
+    m = omni4.motors_t()
+    m.mode, m.wheel_speed = 2, [10.0, -20.0, 30.0, 0.0]
+    b.on_lcm(omni4.CHANNEL_MOTORS, m.encode())
+    msg = json.loads([x for t, x in sent if t == topics.TOPIC_VELOCITY][-1])
+    s = [x * T3["r"] for x in m.wheel_speed[:3]]
+    assert msg["encoder"]["w"] == pytest.approx(sum(s) / (3 * T3["d"]), abs=1e-12)
+    assert msg["encoder"]["v"] == pytest.approx((s[2] - s[1]) / math.sqrt(3), abs=1e-12)
+
+
+def test_params_layout_that_does_not_drive_is_one_line(tmp_path, capsys):
+    log, out, ini = tmp_path / "old.lcmlog", str(tmp_path / "p.mcap"), tmp_path / "line.ini"
+    _layout_log(log, [], seconds=1)
+    ini.write_text("[model]\nwheels = 3\nwheel_angle_0 = 0\nwheel_angle_1 = 180\n"
+                   "wheel_angle_2 = 360\n")
+    with pytest.raises(SystemExit) as e:
+        export.main([str(log), "--out", out, "--params", str(ini), "-q"])
+    assert e.value.code == 2 and not os.path.exists(out)
+    assert capsys.readouterr().err == (
+        f"omni4-mcap: {ini}:2: [model] wheels, wheel_angle_j, d_j: not a layout that drives "
+        "v, vn and w (no two wheels along one line)\n")

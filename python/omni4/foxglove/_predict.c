@@ -13,8 +13,13 @@
  *   - when the bridges switch on or off (a mode change between driven and not driven,
  *     mode_drives of core's vocab.h): each drive and each coast-down is predicted from
  *     its start, so the difference shows the model's error over that run, not an old one.
+ * The wheels' layout (omni4_predictor_set_layout): the paper's four by default, in the closed
+ * forms of eqs 3-5 and 23 with d; any other (three wheels, or four at other angles or
+ * distances) is given to the plant (plant_set_geom) and the encoder velocity is the layout's
+ * least-squares inverse of eq 2 (wheel_body of its struct wheel_phys).
  */
 #include <errno.h>
+#include <math.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -22,6 +27,7 @@
 #include "omni4/model/kinematics.h"
 #include "omni4/model/params.h"
 #include "omni4/model/plant.h"
+#include "omni4/model/wheels.h"
 #include "omni4/core/vocab.h"
 
 #define OMNI4_PRED_MAX_GAP_US 50000 /* a step longer than 50 ms is a jump in time */
@@ -83,6 +89,45 @@ int omni4_predictor_init_wheels(struct omni4_predictor *p, const double params[M
 	return 0;
 }
 
+/* True when angle a [deg] is k quarter turns (mod 360 deg), to 1e-9 deg. */
+static int at_quarter(double a, int k)
+{
+	return fabs(remainder(a - 90.0 * k, 360.0)) < 1e-9;
+}
+
+/* True for the paper's layout: four wheels at 0, 90, 180, 270 deg, all at one distance. */
+static int paper_layout(int n, const double angle_deg[4], const double dist_m[4])
+{
+	int paper = n == 4;
+
+	for (int j = 0; paper && j < 4; j++)
+		paper = at_quarter(angle_deg[j], j) && dist_m[j] == dist_m[0];
+	return paper;
+}
+
+/*
+ * The wheels' layout from now on (after omni4_predictor_init or _init_wheels, which leave the
+ * paper's): n (3 or 4) wheels at angle_deg[j] [deg] from the v axis, counter-clockwise, at
+ * dist_m[j] [m] from the centre (docs/model.md "Layouts"). The paper's layout (four at 0, 90,
+ * 180, 270 deg to 1e-9 deg, all at the model's d) keeps the closed forms, to the last bit as
+ * without a layout; the paper's angles at another common distance are another layout. The
+ * prediction restarts at the next sample. 0, or -EINVAL (not a layout that drives v, vn and
+ * w; nothing changed).
+ */
+int omni4_predictor_set_layout(struct omni4_predictor *p, int n, const double angle_deg[4],
+			       const double dist_m[4])
+{
+	struct wheel_geom g;
+	const int paper = paper_layout(n, angle_deg, dist_m) && dist_m[0] == p->pl.p.d;
+
+	if (!paper && wheel_geom_angles(n, angle_deg, dist_m, &g))
+		return -EINVAL;
+	if (plant_set_geom(&p->pl, paper ? NULL : &g))
+		return -EINVAL;
+	p->have = 0;
+	return 0;
+}
+
 /*
  * The controller's door for a model (model_params_check, model_wheels_check): params the 14
  * values, wheels NULL or r_0..r_3, Kv_0..Kv_3, Kt_0..Kt_3, R_0..R_3. -1 if the model is
@@ -121,9 +166,10 @@ const char *omni4_predictor_param_name(int i)
 }
 
 /*
- * One motors_t sample: measured[3] gets the encoder velocity (eqs 3-5, wheel speeds [rad/s]
- * times each wheel's r_j), predicted[3] the model's velocity at this sample's time. Returns 1 if the model
- * restarted from the encoders at this sample, 0 otherwise.
+ * One motors_t sample: measured[3] gets the encoder velocity (eqs 3-5 of the layout, wheel
+ * speeds [rad/s] times each wheel's r_j; a three-wheel robot's slot 3 unused), predicted[3]
+ * the model's velocity at this sample's time. Returns 1 if the model restarted from the
+ * encoders at this sample, 0 otherwise.
  */
 int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, int mode,
 			 const float voltage[4], const float wheel_speed[4], double measured[3],
@@ -135,7 +181,10 @@ int omni4_predictor_step(struct omni4_predictor *p, int64_t utime, int64_t seq, 
 
 	for (int j = 0; j < 4; j++)
 		vw[j] = (double)wheel_speed[j] * p->pl.r_eff[j]; /* each wheel's own radius */
-	fk_robot_velocity(p->pl.p.d, vw, measured);
+	if (p->pl.has_geom) /* the layout's rows (the plant's struct wheel_phys) */
+		wheel_body(&p->pl.ph, vw, measured);
+	else
+		fk_robot_velocity(p->pl.p.d, vw, measured);
 
 	restart = !p->have || seq != p->seq + 1 || utime <= p->utime ||
 		  utime - p->utime > OMNI4_PRED_MAX_GAP_US || driven != p->driven;

@@ -1,7 +1,8 @@
 """omni4-bridge: the robot live in Foxglove. Listens to the OMNI4_* channels on an LCM URL (it
 never publishes on LCM, so it cannot slow or steer the robot) and serves them on a Foxglove
 WebSocket server (foxglove-sdk) with JSON schemas, plus the encoder velocity, the model's
-prediction from the logged voltages and their difference (/omni4/velocity), health
+prediction from the logged voltages and their difference (/omni4/velocity: of the layout of
+the latest robot_t, else --params' [model] layout, else the paper's four), health
 (/omni4/health), the camera pose as a transform and pose (/tf, /omni4/pose) and the robot's
 body and wheels (/omni4/scene: the wheels of the latest robot_t on OMNI4_ROBOT, else the paper's
 four; a new robot_t with another layout is drawn from the next scene on). Topics:
@@ -42,7 +43,8 @@ def parse_args(argv):
     ap.add_argument("--port", type=int, default=8765, help="WebSocket port (default 8765; 0 = "
                     "any free port, printed at start)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
-                    "prediction runs (default: the paper's Table III)")
+                    "prediction runs, on its wheel layout when no robot_t describes one "
+                    "(default: the paper's Table III and four wheels)")
     ap.add_argument("--decimate", type=int, default=10, metavar="N",
                     help="send every N-th motors sample and velocity to Foxglove (default 10; "
                     "1 = all). The model still runs on every sample.")
@@ -72,6 +74,7 @@ class Bridge:
         self.received = {}
         self.classes = topics.lcm_classes()
         self.wheels = params.get("layout")  # the robot_t's, else --params'; None: the paper's
+        # (the prediction's too: Predictor takes params' "layout")
         # advertised from the start, so a client sees them before the first message
         for topic, schema in (*topics.CHANNEL_SCHEMA.items(), *topics.DERIVED.items()):
             self.ch.get(topic, schema)
@@ -102,13 +105,18 @@ class Bridge:
                         topics.velocity_json(m.utime, m.seq, m.mode, meas, pred, restarted), t_ns)
 
     def on_robot(self, data):
-        """The latest robot_t's wheels (one that describes no robot is left out)."""
+        """The latest robot_t's wheels (one that describes no robot, or a layout that does not
+        drive v, vn and w, is left out): the scene's, and the prediction's from the next motors
+        sample on (a new layout restarts it)."""
         try:
             wheels, _why = Wheels.from_robot(omni4.robot_t.decode(data))
         except Exception:  # another type's payload: shown as undecodable by event_messages
             return
-        if wheels is not None:
-            self.wheels = wheels
+        if wheels is None or not model.layout_drives(wheels):
+            return
+        self.wheels = wheels
+        if not model.same_layout(wheels, self.pred.wheels):
+            self.pred = Predictor(self.params, wheels=wheels)
 
     def tick(self, t_ns, health_due, scene_due):
         if health_due and self.health.n:

@@ -2,7 +2,8 @@
 
 Every LCM event becomes one MCAP message with the event's log time, on a channel named as the
 LCM channel (JSON, schema "omni4.<type>"), plus the derived topics of the bridge
-(/omni4/velocity: encoders, model prediction, difference; /omni4/health; /tf, /omni4/pose,
+(/omni4/velocity: encoders, model prediction, difference, of the same layout as the scene;
+/omni4/health; /tf, /omni4/pose,
 /omni4/scene with Foxglove's schemas; the scene draws the wheels of the log's first OMNI4_ROBOT,
 a later robot_t with another layout from its event on; in a log without one the layout of
 --params' [model], else the paper's four). Chunked and compressed (zstd by default, or lz4) by the
@@ -58,7 +59,8 @@ def parse_args(argv):
                     "target is replaced, the link kept; a FIFO or device gets the finished "
                     "file; a directory is refused)")
     ap.add_argument("--params", metavar="ROBOT.ini", help="robot INI whose [model] the "
-                    "prediction runs (default: the paper's Table III)")
+                    "prediction runs, on its wheel layout when no robot_t describes one "
+                    "(default: the paper's Table III and four wheels)")
     ap.add_argument("--compression", choices=("zstd", "lz4"), default="zstd",
                     help="chunk compression (default zstd)")
     ap.add_argument("--chunk-kib", type=int, default=1024, metavar="KiB",
@@ -106,11 +108,37 @@ def motors_events(events):
 
 
 def robot_wheels(data):
-    """The Wheels of a robot_t payload, or None (not one, or it describes no robot)."""
+    """The Wheels of a robot_t payload, or None (not one, or it describes no robot: not 3 or 4
+    wheels, a value not finite or not positive, or a layout that does not drive v, vn, w)."""
     try:
-        return Wheels.from_robot(omni4.robot_t.decode(data))[0]
+        wheels = Wheels.from_robot(omni4.robot_t.decode(data))[0]
     except Exception:  # another type's payload
         return None
+    return wheels if wheels is not None and model.layout_drives(wheels) else None
+
+
+def predict(events, is_mot, mot, params, wheels):
+    """The encoder velocity and the prediction of every motors sample (arrays of n x 3, n x 3,
+    n): the layout wheels (the first robot_t's, else --params', else the paper's) from the
+    start, each later robot_t of another layout from its event on (the prediction restarts
+    there)."""
+    starts, layouts, k = [0], [wheels], 0
+    for (_t, ch, data), m in zip(events, is_mot):
+        if m:
+            k += 1
+        elif ch == omni4.CHANNEL_ROBOT:
+            new = robot_wheels(data)
+            if new is not None and not model.same_layout(new, layouts[-1]):
+                starts.append(k)
+                layouts.append(new)
+    out = [np.empty((len(mot["utime"]), 3)), np.empty((len(mot["utime"]), 3)),
+           np.empty(len(mot["utime"]), dtype=bool)]
+    for a, b, lay in zip(starts, starts[1:] + [len(mot["utime"])], layouts):
+        part = Predictor(params, wheels=lay).run(*(mot[f][a:b] for f in (
+            "utime", "seq", "mode", "voltage", "wheel_speed")))
+        for whole, piece in zip(out, part):
+            whole[a:b] = piece
+    return out
 
 
 def first_wheels(events):
@@ -134,9 +162,8 @@ def convert(events, params, w, health_period_s):
     classes = topics.lcm_classes()
     is_mot, mot = motors_events(events)
     any_mot = len(mot["utime"]) > 0
-    pred = Predictor(params)
-    meas, predicted, restarted = pred.run(mot["utime"], mot["seq"], mot["mode"],
-                                          mot["voltage"], mot["wheel_speed"])
+    first = first_wheels(events) or params.get("layout")
+    meas, predicted, restarted = predict(events, is_mot, mot, params, first)
     pairs = zip(topics.motors_json_blocks(mot),
                 topics.velocity_json_blocks(mot, meas, predicted, restarted))
     ch_mot = w.get(omni4.CHANNEL_MOTORS, "omni4.motors_t") if any_mot else None
@@ -144,7 +171,7 @@ def convert(events, params, w, health_period_s):
     health = topics.Health()
     period_us = int(health_period_s * 1e6)
     next_health = events[0][0] + period_us
-    next_scene, wheels = events[0][0], first_wheels(events) or params.get("layout")
+    next_scene, wheels = events[0][0], first
     k = 0
     n = len(events)
     i = 0

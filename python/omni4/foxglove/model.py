@@ -1,6 +1,7 @@
 """The project's model (model/src/*.c) through ctypes: encoder velocity (eqs 3-5) and the model's
-prediction from the logged voltages (plant_step, eq 23), sample by sample or for a whole log;
-and its parameters, from the [model] of a robot INI (omni4.ini reads the file) or Table III.
+prediction from the logged voltages (plant_step, eq 23), sample by sample or for a whole log, for
+the robot's wheel layout (the paper's four, three wheels, or four at other angles); and its
+parameters, from the [model] of a robot INI (omni4.ini reads the file) or Table III.
 
 The shared library is built by python/setup.py from model/src/*.c and _predict.c (see there for
 when the prediction restarts from the encoders)."""
@@ -36,6 +37,10 @@ def lib():
         L.omni4_predictor_init_wheels.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_double),
                                                   ctypes.POINTER(ctypes.c_double)]
         L.omni4_predictor_init_wheels.restype = ctypes.c_int
+        L.omni4_predictor_set_layout.argtypes = [ctypes.c_void_p, ctypes.c_int,
+                                                 ctypes.POINTER(ctypes.c_double),
+                                                 ctypes.POINTER(ctypes.c_double)]
+        L.omni4_predictor_set_layout.restype = ctypes.c_int
         L.omni4_model_check.argtypes = [ctypes.POINTER(ctypes.c_double),
                                         ctypes.POINTER(ctypes.c_double)]
         L.omni4_model_check.restype = ctypes.c_int
@@ -66,9 +71,14 @@ class Predictor:
 
     params: dict with the 14 [model] keys (SI units), and optionally a drive's own r_j, Kv_j,
     Kt_j, R_j (MODEL_WHEEL_KEYS; a wheel without its key takes the scalar): the plant then has
-    each wheel's radius and motor, and the encoder velocity each wheel's radius."""
+    each wheel's radius and motor, and the encoder velocity each wheel's radius.
+    wheels: the wheels' layout (omni4.wheels.Wheels: count, angle_rad, distance_m; the robot_t
+    of the log or the bus), else params' "layout" (params_or_exit: the --params file's), else
+    the paper's four at d. The plant simulates that layout and the encoder velocity is its
+    least-squares inverse of eq 2; the paper's layout (four at 0/90/180/270 deg, all at d) keeps
+    the closed forms, to the last bit as with no layout. The radii and drives stay params'."""
 
-    def __init__(self, params):
+    def __init__(self, params, wheels=None):
         L = lib()
         self._buf = ctypes.create_string_buffer(L.omni4_predictor_size())
         vals = (ctypes.c_double * len(PARAM_NAMES))(*[float(params[k]) for k in PARAM_NAMES])
@@ -80,6 +90,9 @@ class Predictor:
         if rc != 0:
             raise ValueError("model parameters are not physical (model_params_check, or a "
                              "wheel's own value 50 % or more off its scalar)")
+        self.wheels = wheels if wheels is not None else params.get("layout")
+        if self.wheels is not None:
+            set_layout(self._buf, self.wheels)
         self._u = (ctypes.c_float * 4)()
         self._w = (ctypes.c_float * 4)()
         self._meas = (ctypes.c_double * 3)()
@@ -109,6 +122,40 @@ class Predictor:
                                   u.ctypes.data, w.ctypes.data, meas.ctypes.data,
                                   pred.ctypes.data, rst.ctypes.data)
         return meas, pred, rst.astype(bool)
+
+
+def set_layout(buf, wheels):
+    """The layout of wheels (omni4.wheels.Wheels) on the predictor in buf; ValueError when it
+    does not drive v, vn and w."""
+    n = wheels.count
+    deg = [a * 180.0 / math.pi for a in wheels.angle_rad] + [0.0] * (4 - n)
+    dist = list(wheels.distance_m) + [0.0] * (4 - n)
+    if n not in (3, 4) or lib().omni4_predictor_set_layout(
+            buf, n, (ctypes.c_double * 4)(*deg), (ctypes.c_double * 4)(*dist)) != 0:
+        raise ValueError(f"the wheel layout ({n} wheels at {[round(a, 3) for a in deg[:n]]} "
+                         f"deg, {list(dist[:n])} m) does not drive v, vn and w")
+
+
+def layout_drives(wheels):
+    """True when the layout (Wheels) drives v, vn and w (the rows of full rank): one that does
+    not is no robot the model can predict."""
+    buf = ctypes.create_string_buffer(lib().omni4_predictor_size())
+    vals = (ctypes.c_double * len(PARAM_NAMES))(*table3().values())
+    if lib().omni4_predictor_init(buf, vals) != 0:
+        raise RuntimeError("omni4: Table III refused by the model library")
+    try:
+        set_layout(buf, wheels)
+    except ValueError:
+        return False  # its rows do not drive v, vn and w
+    return True
+
+
+def same_layout(a, b):
+    """True when two layouts (Wheels or None: the paper's) give the same prediction: the same
+    count, angles and distances (the radii are the model's)."""
+    def key(w):
+        return None if w is None else (w.count, w.angle_rad, w.distance_m)
+    return key(a) == key(b)
 
 
 def table3():
@@ -194,12 +241,17 @@ def read_model(path):
 def params_or_exit(prog, path):
     """--params of a command-line tool: the [model] of path (Table III if None), with its
     wheels' layout under "layout" when it has layout keys (omni4.wheels.Wheels: the scene's
-    wheels when no robot_t says otherwise); on a broken INI one line on stderr and exit
-    status 2 (a configuration error)."""
+    wheels and the prediction's when no robot_t says otherwise); on a broken INI (or a layout
+    that does not drive v, vn and w) one line on stderr and exit status 2 (a configuration
+    error)."""
     from ..wheels import Wheels
     try:
         params = read_model(path) if path else table3()
         layout = Wheels.from_ini(path) if path else None
+        if layout is not None and not layout_drives(layout):
+            raise ini.ConfigError(f"{ini.read(path).where('model', 'wheels')}: [model] wheels, "
+                                  "wheel_angle_j, d_j: not a layout that drives v, vn and w "
+                                  "(no two wheels along one line)")
         if layout is not None:
             params["layout"] = layout
         return params
