@@ -368,6 +368,34 @@ std::vector<const TractionRun *> settled(const std::vector<const TractionRun *> 
 // the end windows alone taken as mu (the m_w s' term left in: +1-2 % on the simulated floors)
 // and their samples as independent, the SE was 5-13 times too small. false: fewer than two
 // runs.
+// Least squares y = X coef with the SE of coef[0] cluster-robust over the runs (rows
+// first[k] to first[k + 1] are run k's: the run is the observation; G / (G - 1)). false: the
+// normal equations' rcond at most rcond_min, or a result not finite.
+bool cluster_fit(const Eigen::MatrixXd &X, const Eigen::VectorXd &y,
+                 const std::vector<size_t> &first, double rcond_min, Eigen::Vector2d *coef,
+                 double *se0)
+{
+	const size_t g = first.size() - 1;
+	const Eigen::Matrix2d A = X.transpose() * X;
+	const Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
+	if (ldlt.info() != Eigen::Success || !(std::abs(ldlt.rcond()) > rcond_min))
+		return false;
+	*coef = ldlt.solve(X.transpose() * y);
+	const Eigen::VectorXd u = y - X * *coef;
+	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
+	for (size_t k = 0; k < g; ++k) {
+		const Eigen::Index a = static_cast<Eigen::Index>(first[k]);
+		const Eigen::Index n = static_cast<Eigen::Index>(first[k + 1] - first[k]);
+		const Eigen::Vector2d sc = X.middleRows(a, n).transpose() * u.segment(a, n);
+		omega += sc * sc.transpose();
+	}
+	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
+	const Eigen::Matrix2d cov =
+	    static_cast<double>(g) / static_cast<double>(g - 1) * ainv * omega * ainv;
+	*se0 = std::sqrt(std::max(0.0, cov(0, 0)));
+	return std::isfinite((*coef)[0]) && std::isfinite(*se0);
+}
+
 bool kinetic_fit(const std::vector<const TractionRun *> &runs, double *mu, double *mu_se,
                  double *share)
 {
@@ -382,24 +410,15 @@ bool kinetic_fit(const std::vector<const TractionRun *> &runs, double *mu, doubl
 		y[2 * k] = runs[k]->end_mu;
 		y[2 * k + 1] = runs[k]->early_mu;
 	}
-	const Eigen::Matrix2d A = X.transpose() * X;
-	const Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
-	if (ldlt.info() != Eigen::Success || !(std::abs(ldlt.rcond()) > 1e-9))
+	std::vector<size_t> first;
+	for (size_t k = 0; k <= g; ++k)
+		first.push_back(2 * k);
+	Eigen::Vector2d coef;
+	if (!cluster_fit(X, y, first, 1e-9, &coef, mu_se))
 		return false;
-	const Eigen::Vector2d coef = ldlt.solve(X.transpose() * y);
-	const Eigen::VectorXd u = y - X * coef;
-	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
-	for (size_t k = 0; k < g; ++k) {
-		const Eigen::Vector2d sc = X.middleRows(2 * k, 2).transpose() * u.segment(2 * k, 2);
-		omega += sc * sc.transpose();
-	}
-	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
-	const Eigen::Matrix2d cov =
-	    static_cast<double>(g) / static_cast<double>(g - 1) * ainv * omega * ainv;
 	*mu = coef[0];
-	*mu_se = std::sqrt(std::max(0.0, cov(0, 0)));
 	*share = coef[1];
-	return std::isfinite(*mu) && std::isfinite(*mu_se);
+	return true;
 }
 
 // Another layout's floor, per wheel: a slipping wheel pushes with l Kt i / r = mu N0_j + m_w s'
@@ -414,7 +433,7 @@ bool kinetic_fit_wheels(const std::vector<const TractionRun *> &runs, const Ctx 
 	std::vector<std::array<double, 3>> rows; // N0, s', |f|
 	std::vector<size_t> first{0};
 	for (const TractionRun *r : runs) {
-		const std::array<double, 4> pat = traction_pattern(r->direction, c.L);
+		const std::array<double, 4> &pat = r->pattern;
 		for (int j = 0; j < 4; ++j) {
 			if (pat[j] == 0 || !r->wheel_slip_at_end[j])
 				continue;
@@ -435,26 +454,12 @@ bool kinetic_fit_wheels(const std::vector<const TractionRun *> &runs, const Ctx 
 		X.row(k) << rows[k][0], rows[k][1];
 		y[k] = rows[k][2];
 	}
-	const Eigen::Matrix2d A = X.transpose() * X;
-	const Eigen::LDLT<Eigen::Matrix2d> ldlt(A);
-	if (ldlt.info() != Eigen::Success || !(std::abs(ldlt.rcond()) > 1e-12))
+	Eigen::Vector2d coef;
+	if (!cluster_fit(X, y, first, 1e-12, &coef, mu_se))
 		return false;
-	const Eigen::Vector2d coef = ldlt.solve(X.transpose() * y);
-	const Eigen::VectorXd u = y - X * coef;
-	Eigen::Matrix2d omega = Eigen::Matrix2d::Zero();
-	for (size_t k = 0; k < g; ++k) {
-		const Eigen::Index a = static_cast<Eigen::Index>(first[k]);
-		const Eigen::Index n = static_cast<Eigen::Index>(first[k + 1] - first[k]);
-		const Eigen::Vector2d sc = X.middleRows(a, n).transpose() * u.segment(a, n);
-		omega += sc * sc.transpose();
-	}
-	const Eigen::Matrix2d ainv = ldlt.solve(Eigen::Matrix2d::Identity());
-	const Eigen::Matrix2d cov =
-	    static_cast<double>(g) / static_cast<double>(g - 1) * ainv * omega * ainv;
 	*mu = coef[0];
-	*mu_se = std::sqrt(std::max(0.0, cov(0, 0)));
 	*m_w = coef[1];
-	return std::isfinite(*mu) && std::isfinite(*mu_se);
+	return true;
 }
 
 // The top half by level of the runs slipping at their end (lower levels may grip again).
@@ -559,7 +564,7 @@ bool com_from_transfer(const std::vector<TractionRun> &runs,
 		if (d == shifted.end() || !d->reached || !r.slip_at_end ||
 		    r.level < 2 * d->level_slip)
 			continue;
-		const std::array<double, 4> pat = traction_pattern(r.direction, c.L);
+		const std::array<double, 4> &pat = r.pattern;
 		std::array<double, 4> f = r.end_f;
 		for (int j = 0; j < 4; ++j) // less what spins the rim up (kinetic_fit_wheels)
 			f[j] -= m_w * r.end_acc[j];
@@ -680,6 +685,7 @@ TractionResult identify_traction(const std::vector<Segment> &segs, const model_p
 		}
 		TractionRun run;
 		run.direction = s.direction;
+		run.pattern = pat;
 		run.level = s.level;
 		run.slipped = runaway(s, c, &run.slip, &run.slip_at_end, run.wheel_slip_at_end,
 		                      run.body_end) > 0;

@@ -55,7 +55,8 @@ namespace omni4
 
 struct TractionRun {
 	std::string direction;
-	double level = 0; // [V]
+	std::array<double, 4> pattern{}; // the channels' voltages per volt of level (the layout's)
+	double level = 0;                // [V]
 	bool slipped = false;
 	double slip = 0;  // largest |encoder velocity - current-driven prediction| [m/s]
 	double force = 0; // peak wheel force, mean over the driven wheels [N]
