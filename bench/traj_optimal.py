@@ -199,9 +199,9 @@ class Problem:
         return res.x[-1], viol, res
 
 
-def planner(tool, start, goal, n):
+def planner(tool, start, goal, n, extra_opts=()):
     """The planner's duration and its reference at n + 1 evenly spaced times."""
-    opts = [f"--mu={LIMITS['mu']}", f"--supply={LIMITS['supply']}",
+    opts = [*extra_opts, f"--mu={LIMITS['mu']}", f"--supply={LIMITS['supply']}",
             f"--margin={LIMITS['margin']}", f"--traction-margin={LIMITS['traction_margin']}",
             f"--motor-max={LIMITS['motor_max']}", f"--com-height={LIMITS['com_height']}"]
     run = lambda extra: subprocess.run([tool, *opts, *extra, *map(str, start), *map(str, goal)],
@@ -227,6 +227,8 @@ def main():
                     help="the wheel forces: free (the robot's bound) or shared as the "
                     "feedforward shares them (this controller's bound)")
     ap.add_argument("--moves", help="comma-separated indices of the moves to run (default all)")
+    ap.add_argument("--plan-arg", action="append", default=[],
+                    help="an option for the planner's CLI (repeatable), e.g. --plan-arg=--curve=40")
     args = ap.parse_args()
     global SHARE
     SHARE = args.share
@@ -236,7 +238,7 @@ def main():
     bad = 0
     print("move                                  planner_s  optimum_s  ratio  (violation)")
     for start, goal in cases:
-        t_c, ref = planner(args.traj_plan, start, goal, args.nodes)
+        t_c, ref = planner(args.traj_plan, start, goal, args.nodes, args.plan_arg)
         t_o, viol, res = Problem(start, goal, args.nodes).solve(t_c, ref)
         ratio = t_c / t_o
         ok = res.success and viol < 1e-4 and 1.0 - args.tol <= ratio <= args.bound

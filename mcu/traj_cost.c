@@ -4,7 +4,9 @@
  * rest, turns while translating, moving starts), each followed at 1 kHz with traj_step and a
  * re-plan toward its goal every RE_PLAN_EVERY ticks, and a goal that moves (every re-plan from
  * a velocity off the line to the goal: the bisection over the x/y share, the dearest case).
- * Prints one line of figures: a cost, not a result (left out of the host comparison).
+ * Then the same goals planned as one curve (traj_plan_curve, CURVE_EVALS timings in its search:
+ * docs/trajectory.md "One curve"). Prints two lines of figures: a cost, not a result (left out
+ * of the host comparison).
  */
 #include "traj_cost.h"
 
@@ -17,6 +19,7 @@
 
 #define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
 #define MOVING_GOAL_PLANS 40
+#define CURVE_EVALS 40 /* the one-curve plan's search, as bench/traj_optimal.py runs it */
 
 struct meter_sum {
 	uint64_t sum;
@@ -101,5 +104,19 @@ void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const cha
 	         (unsigned long)moving.max, (unsigned long)moving.n,
 	         (unsigned long)(step.sum / step.n), (unsigned long)step.max, unit,
 	         (unsigned long)sizeof(struct traj));
+	print(line);
+	struct meter_sum curve = {0};
+	for (unsigned i = 0; i < sizeof(course) / sizeof(course[0]); i++) {
+		const float *m = course[i];
+		const struct traj_ref from = {.pose = {m[0], m[1], m[2]}};
+		const uint32_t t0 = read();
+		traj_plan_curve(&g_tr, &from, m + 3, CURVE_EVALS);
+		meter_add(&curve, read() - t0);
+	}
+	snprintf(line, sizeof(line),
+	         "curve cost: traj_plan_curve (%d timings) from rest mean %lu max %lu over %lu "
+	         "goals %s",
+	         CURVE_EVALS, (unsigned long)(curve.sum / curve.n), (unsigned long)curve.max,
+	         (unsigned long)curve.n, unit);
 	print(line);
 }

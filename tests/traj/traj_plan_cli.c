@@ -6,8 +6,10 @@
  *
  *   traj_plan [--mu=MU] [--supply=V] [--margin=V] [--traction-margin=K]
  *             [--motor-max=RAD_S] [--rot-share=K] [--com-height=M] [--samples=DT]
- *             X0 Y0 TH0 VX0 VY0 W0 X Y TH
+ *             [--curve=EVALS] X0 Y0 TH0 VX0 VY0 W0 X Y TH
  *
+ * --curve=EVALS plans one curve (traj_plan_curve, EVALS timings in its search) instead of the
+ * goal mode's plan.
  * Prints "duration_s D alpha_rad A flags F"; with --samples=DT also one line per DT seconds:
  * "t x y theta vx vy w ax ay aw" (world frame, SI). Exit 2 with one line on stderr for bad
  * arguments or limits the generator refuses.
@@ -25,11 +27,12 @@
 static const char usage[] =
     "usage: traj_plan [--mu=MU] [--supply=V] [--margin=V] [--traction-margin=K]\n"
     "                 [--motor-max=RAD_S] [--rot-share=K] [--com-height=M]\n"
-    "                 [--samples=DT]\n"
+    "                 [--samples=DT] [--curve=EVALS]\n"
     "                 X0 Y0 TH0 VX0 VY0 W0 X Y TH\n"
     "defaults: the goal mode's limits from the INI keys' defaults ([goal] floor_mu,\n"
     "margin_v, motor_speed_max, rot_share; [limits] supply_v, traction_margin,\n"
-    "com_height), no speed caps\n"
+    "com_height), no speed caps; --curve=EVALS: one curve searched in EVALS\n"
+    "timings (traj_plan_curve) instead of the goal mode's plan\n"
     "example: traj_plan --samples=0.1 0 0 0 0 0 0 1 0.5 1.57\n";
 
 static int number(const char *s, double *out)
@@ -41,11 +44,12 @@ static int number(const char *s, double *out)
 	return errno || end == s || *end || !isfinite(*out) ? -1 : 0;
 }
 
-static int option(const char *arg, struct traj_limits *l, double *samples)
+static int option(const char *arg, struct traj_limits *l, double *samples, double *curve)
 {
 	static const char *const names[] = {
 	    "--mu=",        "--supply=",    "--margin=",     "--traction-margin=",
-	    "--motor-max=", "--rot-share=", "--com-height=", "--samples="};
+	    "--motor-max=", "--rot-share=", "--com-height=", "--samples=",
+	    "--curve="};
 	double *const fields[] = {&l->mu,
 	                          &l->supply_v,
 	                          &l->margin_v,
@@ -53,7 +57,8 @@ static int option(const char *arg, struct traj_limits *l, double *samples)
 	                          &l->motor_speed_max_rad_s,
 	                          &l->rot_share,
 	                          &l->com_height_m,
-	                          samples};
+	                          samples,
+	                          curve};
 
 	for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
 		if (!strncmp(arg, names[i], strlen(names[i])))
@@ -81,7 +86,7 @@ int main(int argc, char **argv)
 	goal_limits(&s, &l);       /* without its speed caps */
 	l.speed_cap_m_s = INFINITY;
 	l.omega_cap_rad_s = INFINITY;
-	double samples = 0.0, v[9];
+	double samples = 0.0, curve = 0.0, v[9];
 	int n = 0;
 
 	model_wheels_from_params(&l.p, &l.w);
@@ -90,7 +95,7 @@ int main(int argc, char **argv)
 			fputs(usage, stdout);
 			return 0;
 		}
-		const int bad = !strncmp(argv[i], "--", 2) ? option(argv[i], &l, &samples)
+		const int bad = !strncmp(argv[i], "--", 2) ? option(argv[i], &l, &samples, &curve)
 		                : n < 9                    ? number(argv[i], &v[n++])
 		                                           : -1;
 		if (bad) {
@@ -110,7 +115,17 @@ int main(int argc, char **argv)
 	const struct traj_ref from = {.pose = {(float)v[0], (float)v[1], (float)v[2]},
 	                              .vel = {(float)v[3], (float)v[4], (float)v[5]}};
 	const float goal[3] = {(float)v[6], (float)v[7], (float)v[8]};
-	traj_plan(&tr, &from, goal);
+	if (curve > 0.0) {
+		const int rc = traj_plan_curve(&tr, &from, goal, (int)curve);
+		if (rc) {
+			fprintf(stderr, "traj_plan: traj_plan_curve: %s\n",
+			        rc == -EINVAL ? "-EINVAL (--curve out of range?)"
+			                      : "-ERANGE (no curve)");
+			return 1;
+		}
+	} else {
+		traj_plan(&tr, &from, goal);
+	}
 	printf("duration_s %.6f alpha_rad %.5f flags %u\n", (double)tr.duration_s,
 	       (double)tr.alpha_rad, (unsigned)tr.flags);
 	if (samples > 0.0)

@@ -68,10 +68,47 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
+/* A curve's point and derivatives by s at s (u = s / len_m on the Bezier). */
+static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],
+                     float th[3])
+{
+	const float (*b)[3] = pa->bez;
+	const float L = pa->len_m;
+	float u = s / L;
+	u = u < 0.0f ? 0.0f : (u > 1.0f ? 1.0f : u);
+	const float v = 1.0f - u;
+	const float w0 = v * v * v, w1 = 3.0f * v * v * u, w2 = 3.0f * v * u * u, w3 = u * u * u;
+	const float d0 = 3.0f * v * v / L, d1 = 6.0f * v * u / L, d2 = 3.0f * u * u / L;
+	const float e0 = 6.0f * v / (L * L), e1 = 6.0f * u / (L * L);
+	float q[3], qs[3], qss[3];
+
+	for (int i = 0; i < 3; i++) {
+		q[i] = w0 * b[0][i] + w1 * b[1][i] + w2 * b[2][i] + w3 * b[3][i];
+		qs[i] =
+		    d0 * (b[1][i] - b[0][i]) + d1 * (b[2][i] - b[1][i]) + d2 * (b[3][i] - b[2][i]);
+		qss[i] = e0 * (b[2][i] - 2.0f * b[1][i] + b[0][i]) +
+		         e1 * (b[3][i] - 2.0f * b[2][i] + b[1][i]);
+	}
+	p[0] = q[0];
+	p[1] = q[1];
+	ps[0] = qs[0];
+	ps[1] = qs[1];
+	pss[0] = qss[0];
+	pss[1] = qss[1];
+	th[0] = q[2];
+	th[1] = qs[2];
+	th[2] = qss[2];
+}
+
 void traj_path_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],
                   float th[3])
 {
 	int k = 0;
+
+	if (pa->curve) {
+		curve_at(pa, s, p, ps, pss, th);
+		return;
+	}
 
 	while (k < pa->n_pieces - 1 && !(s < pa->pc[k + 1].s0_m))
 		k++;

@@ -23,6 +23,7 @@
 struct geo {
 	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */
 	float a[2];                  /* the centre of mass's acceleration per s'^2, body frame */
+	float qn;                    /* |q|: the speed per s' (1 on a path by arc length) */
 };
 
 /* Wheel j's force A s'' + Q s'^2 + L s' + Coulomb (dlo..dhi), rim speed K s'; its traction
@@ -52,6 +53,7 @@ static void geo_at(const struct traj_path *pa, float s, struct geo *g)
 	g->thss = th[2];
 	g->a[0] = g->c[0];
 	g->a[1] = g->c[1];
+	g->qn = pa->curve ? sqrtf(g->q[0] * g->q[0] + g->q[1] * g->q[1]) : 1.0f;
 	/* the body-frame velocity q s' turns at w = ths s': the model's axes (eq 23) need
 	 * M w x v more, quadratic in s' as the curvature is (the feedforward's w vn, -w v) */
 	g->c[0] += g->ths * g->q[1];
@@ -143,7 +145,10 @@ static void rows_at(const struct traj_coef *c, const struct geo *g, const signed
 /* The speed the caps and rims allow at a point, as s'. */
 static float speed_top(const struct traj_coef *c, const struct geo *g, const struct topp_rows *r)
 {
-	float v = minf(c->speed_cap_m_s, SPEED_BIG);
+	float v = SPEED_BIG;
+
+	if (g->qn > 0.0f) /* a curve's s' is not its speed */
+		v = minf(v, c->speed_cap_m_s / g->qn);
 
 	if (fabsf(g->ths) > 0.0f)
 		v = minf(v, c->omega_cap_rad_s / fabsf(g->ths));
@@ -194,7 +199,7 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
                    float x, float u)
 {
 	const float sd = sqrtf(x);
-	float w = sd / c->speed_cap_m_s;
+	float w = g->qn * sd / c->speed_cap_m_s;
 
 	w = maxf(w, fabsf(g->ths) * sd / c->omega_cap_rad_s);
 	for (int j = 0; j < c->wh.n; j++) {

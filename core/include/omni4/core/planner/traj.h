@@ -148,8 +148,10 @@ struct traj_path {
 	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
 	float goal[3];               /* the end, at rest */
 	float len_m;
-	float th_slope; /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
+	float th_slope;  /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
+	float bez[4][3]; /* a curve's control points [m, m, rad] (curve: 1) */
 	int n_pieces, n_knots, n_grid, n_poses;
+	int curve; /* 1: the path is the cubic Bezier bez in (x, y, theta) by s in [0, len_m] */
 };
 
 struct traj {
@@ -223,6 +225,20 @@ int traj_take_over(struct traj *tr, const struct traj *next);
  */
 int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*poses)[3], int n,
                    float radius_m);
+
+/*
+ * traj_plan_curve - a plan along one curve (docs/trajectory.md, "One curve"): a cubic Bezier in
+ * (x, y, theta) from `from` to goal, at rest there, whose first tangent follows the start's
+ * velocity (world, with its turn rate), its free control points chosen by a bounded Nelder-Mead
+ * search of at most evals path timings (each checked inside the envelope); a moving start is
+ * also tried as the brake prelude and the curve from where it stops, the sooner kept. Not the
+ * goal mode's plan yet: it costs about ten times the goal mode's (docs/trajectory.md, "One
+ * curve"). Not for the fast loop. -EINVAL (plan unchanged) for NaN or infinite input or evals
+ * outside [CURVE_EVALS_MIN, CURVE_EVALS_MAX]; -ERANGE (unchanged) if no curve was timed.
+ */
+#define CURVE_EVALS_MIN 8
+#define CURVE_EVALS_MAX 1000
+int traj_plan_curve(struct traj *tr, const struct traj_ref *from, const float goal[3], int evals);
 
 /* traj_eval - the reference at time t_s of the plan (t_s < 0: the start; beyond the end: at
  * rest at the goal). Fast loop; pure. */
