@@ -47,13 +47,19 @@ void drive_loop_advance(DriveLoop &d, double t_s, double dt_s, const Frames &in)
 	}
 	const DriveOut u =
 	    vesc ? vesc_sim_step(d.vesc, t_s, d.view) : odrive_sim_step(d.odrive, t_s, d.view);
-	plant_step(d.pl, u.u_v, u.driven, dt_s);
+	if (d.step)
+		d.step(u, dt_s);
+	else
+		plant_step(d.pl, u.u_v, u.driven, dt_s);
 	look(d);
 	d.out.clear();
+	DriveView seen = d.view;
+	if (d.sense)
+		d.sense(seen);
 	if (vesc)
-		vesc_sim_emit(d.vesc, d.view, d.out);
+		vesc_sim_emit(d.vesc, seen, d.out);
 	else
-		odrive_sim_emit(d.odrive, t_s + dt_s, d.view, d.out);
+		odrive_sim_emit(d.odrive, t_s + dt_s, seen, d.out);
 }
 
 } // namespace motorsim

@@ -3,6 +3,8 @@
 // socket here: omni4_motorsim.cpp moves the frames, motorsim_vectors prints them.
 #pragma once
 
+#include <functional>
+
 #include "odrive_sim.hpp"
 
 extern "C" {
@@ -27,6 +29,13 @@ struct DriveLoop {
 	Supply supply{};
 	DriveView view{};
 	Frames out;
+	// Who steps pl under the drives' voltages over dt_s (empty: plant_step): e.g. a simulated
+	// robot that keeps its own sensors (a camera, the truth) on the same plant.
+	std::function<void(const DriveOut &u, double dt_s)> step;
+	// What the drives measure of the plant after the step (empty: look's exact view), e.g. a
+	// simulated robot's sensors (current noise, encoder counts): their reports carry it, what
+	// they apply does not.
+	std::function<void(DriveView &view)> sense;
 };
 
 // The drives of proto on the plant pl (the caller keeps it), at rest.

@@ -212,6 +212,10 @@ void odrive_sim_emit(OdriveSim &s, double t_s, const DriveView &v, Frames &out)
 			out.push_back(answer(s, j, ODRIVE_GET_ENCODER_ESTIMATES, v));
 			a.next_encoder_s = next_due(a.next_encoder_s, s.o.encoder_s, t_s);
 		}
+		if (s.o.iq_s > 0 && t_s >= a.next_iq_s) {
+			out.push_back(answer(s, j, ODRIVE_GET_IQ, v));
+			a.next_iq_s = next_due(a.next_iq_s, s.o.iq_s, t_s);
+		}
 	}
 }
 

@@ -36,6 +36,7 @@ struct OdriveOptions {
 	double watchdog_s = 0.2;  // 0: off
 	double heartbeat_s = 0.1; // the drive's default rates
 	double encoder_s = 0.01;
+	double iq_s = 0; // Get_Iq sent cyclically (iq_msg_rate_ms); 0: on request only, the default
 	double vel_gain = 1.0 / 6; // velocity control's P gain [Nm/(turn/s)], the drive's default
 	Fault fault;
 };
@@ -50,7 +51,7 @@ struct OdriveAxis {
 	double iq_set_a = 0; // current set-point of the last step
 	double u_v = 0;      // motor voltage of the last step
 	uint32_t rtr = 0;    // bit c: a remote request for command c to answer
-	double next_heartbeat_s = 0, next_encoder_s = 0;
+	double next_heartbeat_s = 0, next_encoder_s = 0, next_iq_s = 0;
 };
 
 struct OdriveSim {

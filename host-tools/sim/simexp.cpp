@@ -63,7 +63,6 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
                         const std::function<void(double, size_t, size_t)> &progress,
                         const std::function<bool()> &stop)
 {
-	const bool experiments = !phases.empty();
 	char err[256];
 	std::unique_ptr<simrun, void (*)(simrun *)> sr(
 	    simrun_create(&cfg, &plant, noise, log_path.empty() ? nullptr : log_path.c_str(), err,
@@ -71,26 +70,33 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 	    simrun_destroy);
 	if (!sr)
 		throw std::runtime_error(err);
+	return play_phases(sr.get(), cfg, phases, idle_s, rtf, progress, stop);
+}
 
+SimRunResult play_phases(simrun *sr, const omni4_config &cfg, const std::vector<Phase> &phases,
+                         double idle_s, double rtf,
+                         const std::function<void(double, size_t, size_t)> &progress,
+                         const std::function<bool()> &stop)
+{
+	const bool experiments = !phases.empty();
 	const double total_s = experiments ? total_duration_s(phases) : idle_s;
 	SequencePlayer player(phases);
 	TractionWatch watch(layout_of_settings(cfg.ctl, "the robot's settings"));
-	const double dt = simrun_period_s(sr.get());
+	const double dt = simrun_period_s(sr);
 	const long ticks = std::lround(total_s / dt);
 	LockstepClock clock(dt, rtf);
 	const long k = lockstep(
-	    sr.get(), ticks, clock,
+	    sr, ticks, clock,
 	    [&](long tick) {
 		    if (experiments && player.done())
 			    return false; // the watch skipped runs: the sequence ended early
 		    if (experiments)
-			    play_tick(sr.get(), player, tick, dt);
+			    play_tick(sr, player, tick, dt);
 		    return true;
 	    },
 	    [&](long) { // a traction direction stops at its first slip
 		    if (experiments)
-			    watch.step(player,
-			               static_cast<int32_t>(simrun_estimate(sr.get())->flags));
+			    watch.step(player, static_cast<int32_t>(simrun_estimate(sr)->flags));
 	    },
 	    [&](double frac) {
 		    if (progress)
@@ -99,13 +105,12 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
 	    stop);
 	const bool interrupted = clock.interrupted;
 	if (experiments) { // close the last segment
-		const std::vector<uint8_t> end =
-		    encode_mark(simrun_now_us(sr.get()), OMNI4_MARK_END);
-		simrun_publish(sr.get(), OMNI4_CHANNEL_EXPERIMENT, end.data(), end.size());
+		const std::vector<uint8_t> end = encode_mark(simrun_now_us(sr), OMNI4_MARK_END);
+		simrun_publish(sr, OMNI4_CHANNEL_EXPERIMENT, end.data(), end.size());
 	}
 	if (progress && !interrupted)
 		progress(1.0, phases.size(), phases.size());
-	return finish_run(sr.get(), clock, k);
+	return finish_run(sr, clock, k);
 }
 
 long lockstep(simrun *sr, long ticks, LockstepClock &clock, const std::function<bool(long)> &before,

@@ -45,6 +45,13 @@ SimRunResult run_phases(const omni4_config &cfg, const model_params &plant, bool
                         const std::function<void(double, size_t, size_t)> &progress = {},
                         const std::function<bool()> &stop = {});
 
+// The same on a simulator already made (simrun_create_wrapped: e.g. drives in front of its
+// plant); the caller keeps sr. cfg: the settings sr was made from.
+SimRunResult play_phases(simrun *sr, const omni4_config &cfg, const std::vector<Phase> &phases,
+                         double idle_s, double rtf,
+                         const std::function<void(double, size_t, size_t)> &progress = {},
+                         const std::function<bool()> &stop = {});
+
 // The wall clock of a lockstep run: its start, the period and the pace (rtf <= 0: as fast as
 // possible), and whether stop() ended it.
 struct LockstepClock {

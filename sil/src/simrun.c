@@ -189,6 +189,15 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
                              const struct model_params *plant_params, bool noise,
                              const char *log_path, char *err, size_t errlen)
 {
+	return simrun_create_wrapped(cfg, plant_params, noise, log_path, NULL, NULL, err, errlen);
+}
+
+struct simrun *simrun_create_wrapped(const struct omni4_config *cfg,
+                                     const struct model_params *plant_params, bool noise,
+                                     const char *log_path,
+                                     struct motor_hal (*wrap)(void *ctx, struct motor_hal sim),
+                                     void *wrap_ctx, char *err, size_t errlen)
+{
 	struct simrun *sr = calloc(1, sizeof(*sr));
 	struct timespec now;
 
@@ -207,6 +216,8 @@ struct simrun *simrun_create(const struct omni4_config *cfg,
 	    .sim_exact = !noise,
 	    .plant = plant_params,
 	    .utime0 = sr->utime0,
+	    .wrap = wrap,
+	    .wrap_ctx = wrap_ctx,
 	};
 
 	if (robot_open(&sr->robot, &spec, err, errlen))

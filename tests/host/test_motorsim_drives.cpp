@@ -389,6 +389,28 @@ TEST(OdriveSim, HeartbeatAndEncoderEstimatesAreCyclic)
 	EXPECT_EQ(estimates, 100);
 }
 
+// iq_msg_rate_ms: off by default (Get_Iq answers requests only), else Get_Iq every period.
+TEST(OdriveSim, IqIsCyclicOnlyWhenARateIsSet)
+{
+	for (const double iq_s : {0.0, 0.001}) {
+		OdriveSim s;
+		OdriveOptions o;
+		o.iq_s = iq_s;
+		odrive_sim_init(s, o, test_motors());
+		int iqs = 0;
+		Frames out;
+		for (int k = 1; k <= 100; ++k) {
+			out.clear();
+			odrive_sim_emit(s, k * 1e-3, view(0, 24), out);
+			iqs += find(out, 0x34) != nullptr; // Get_Iq (0x14) of node 1
+		}
+		if (iq_s > 0)
+			EXPECT_NEAR(iqs, 100, 1); // one a period (a tick on the boundary may slip)
+		else
+			EXPECT_EQ(iqs, 0);
+	}
+}
+
 TEST(OdriveSim, AnInjectedFaultIsAnAxisErrorAndIdle)
 {
 	OdriveSim s;
@@ -424,4 +446,31 @@ TEST(DriveLoop, OdriveTorqueBecomesThePlantsMotorCurrent)
 	for (double c : pl.current_a)
 		sum += std::fabs(c);
 	EXPECT_NEAR(d.view.supply_v, 24 - 0.1 * sum, 1e-9);
+}
+
+// The hooks: step moves the plant in plant_step's place with the drives' voltages, sense
+// changes what the drives report (STATUS_1's current) and not what they apply.
+TEST(DriveLoop, StepAndSenseHooksTakeThePlantAndTheReports)
+{
+	plant pl;
+	ASSERT_EQ(plant_init(&pl, &model_params_table3), 0);
+	DriveLoop d;
+	drive_loop_init(d, Protocol::vesc, VescOptions{}, OdriveOptions{}, Supply{12, 0}, &pl);
+	int steps = 0;
+	double applied = 0;
+	d.step = [&](const DriveOut &u, double dt_s) {
+		++steps;
+		applied = u.u_v[0];
+		plant_step(&pl, u.u_v, u.driven, dt_s);
+	};
+	d.sense = [](DriveView &v) { v.current_a[0] = 1.5; };
+	// SET_DUTY (0) 0.5 x 100000 = 50000 = 0x0000C350 to controller 0
+	const omni4_can_frame duty = frame(EFF | 0x0000, {0, 0, 0xC3, 0x50});
+	drive_loop_advance(d, 0.0, 1e-3, {duty});
+	EXPECT_EQ(steps, 1);
+	EXPECT_DOUBLE_EQ(applied, 6.0); // 0.5 x 12 V
+	EXPECT_NE(pl.current_a[0], 1.5);
+	const omni4_can_frame *s1 = find(d.out, EFF | 0x0900); // STATUS_1 (9) of controller 0
+	ASSERT_NE(s1, nullptr);
+	EXPECT_EQ(s1->data[4] << 8 | s1->data[5], 15); // 1.5 A x 10
 }

@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #include "omni4/config/config.h"
+#include "omni4/core/hal.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -56,6 +57,15 @@ struct simrun_stats {
 struct simrun *simrun_create(const struct omni4_config *cfg,
                              const struct model_params *plant_params, bool noise,
                              const char *log_path, char *err, size_t errlen);
+/* The same with the controller's motor HAL handed to wrap first (robot_spec.wrap): wrap gets
+ * the sim backend (the plant, its camera and truth) once, at start-up, and returns the HAL the
+ * controller drives, e.g. a drive's protocol in front of that plant (tests/host/drive_lockstep).
+ * wrap NULL: simrun_create. */
+struct simrun *simrun_create_wrapped(const struct omni4_config *cfg,
+                                     const struct model_params *plant_params, bool noise,
+                                     const char *log_path,
+                                     struct motor_hal (*wrap)(void *ctx, struct motor_hal sim),
+                                     void *wrap_ctx, char *err, size_t errlen);
 void simrun_destroy(struct simrun *sr);
 /* Writes out what the log holds in memory (before reading the stats, at the end of a run): 0, or
  * a negative errno, counted as a log error. */
