@@ -12,21 +12,7 @@
 #include "omni4/drivers/vesc_motor.h"
 #include "omni4/firmware/drive_consts_for.h"
 
-int __wrap_sc_os_open_filters(const char *iface, const struct sc_os_filter *filt, int n_filt,
-                              int *fd);
-void __wrap_sc_os_close(int fd);
-int __wrap_sc_os_send(int fd, const struct omni4_can_frame *f);
-int __wrap_sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class);
-int64_t __wrap_sc_os_now_us(void);
-
-#define QUEUE 1024
-
-/* The socket: the frames sent since the drives' last period, the frames received not yet read,
- * the filters set at open. */
-static struct sc_os_filter filters[SC_OS_MAX_FILTERS];
-static int n_filters;
-static struct omni4_can_frame rxq[QUEUE], txq[QUEUE];
-static int rx_head, rx_tail, n_tx;
+#include "can_queue.h"
 
 static struct {
 	enum omni4_motor_backend kind;
@@ -42,43 +28,6 @@ static struct {
 	char error[256];
 } b;
 
-int __wrap_sc_os_open_filters(const char *iface, const struct sc_os_filter *filt, int n_filt,
-                              int *fd)
-{
-	(void)iface;
-	if (n_filt > SC_OS_MAX_FILTERS)
-		return -EINVAL;
-	memcpy(filters, filt, (size_t)n_filt * sizeof(*filt));
-	n_filters = n_filt;
-	*fd = 3;
-	return 0;
-}
-
-void __wrap_sc_os_close(int fd)
-{
-	(void)fd;
-}
-
-/* A full queue drops the frame (as a full socket buffer does): the drives' summary counts. */
-int __wrap_sc_os_send(int fd, const struct omni4_can_frame *f)
-{
-	(void)fd;
-	if (n_tx == QUEUE)
-		return -ENOBUFS;
-	txq[n_tx++] = *f;
-	return 0;
-}
-
-int __wrap_sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
-{
-	(void)fd;
-	(void)err_class;
-	if (rx_head == rx_tail)
-		return -EAGAIN;
-	*f = rxq[rx_head++];
-	return 1;
-}
-
 /* The controller's clock: the simulated robot's (the tick's time once its plant has stepped). */
 int64_t __wrap_sc_os_now_us(void)
 {
@@ -87,23 +36,14 @@ int64_t __wrap_sc_os_now_us(void)
 
 void drive_bridge_deliver(const struct omni4_can_frame *f)
 {
-	bool pass = n_filters == 0;
-
-	for (int i = 0; i < n_filters; i++)
-		pass |= (f->id & filters[i].mask) == (filters[i].id & filters[i].mask);
-	if (!pass)
-		return;
-	if (rx_head == rx_tail)
-		rx_head = rx_tail = 0;
-	if (rx_tail < QUEUE)
-		rxq[rx_tail++] = *f;
+	can_queue_deliver(f);
 }
 
 int drive_bridge_setup(const struct omni4_config *cfg, drive_bridge_advance_fn advance, void *ctx,
                        char *why, size_t n)
 {
 	memset(&b, 0, sizeof(b));
-	n_filters = rx_head = rx_tail = n_tx = 0;
+	can_queue_reset();
 	b.kind = cfg->fw.motor;
 	b.advance = advance;
 	b.ctx = ctx;
@@ -152,11 +92,12 @@ static int bridge_write(void *ctx, const float volts[4])
 static int bridge_read(void *ctx, struct motor_sample *out)
 {
 	const struct sim_motor *s = b.plant_sim;
-	const int n = n_tx;
+	int n;
+	const struct omni4_can_frame *sent = can_queue_sent(&n);
 
 	(void)ctx;
-	n_tx = 0;
-	b.advance(b.ctx, (double)s->t_us * 1e-6, (double)s->period_us * 1e-6, txq, n);
+	b.advance(b.ctx, (double)s->t_us * 1e-6, (double)s->period_us * 1e-6, sent, n);
+	can_queue_clear_sent();
 	return hal_motor_read(&b.backend, out);
 }
 

@@ -17,14 +17,12 @@ above the model's (motor_R_error_j): omni4-sim --experiments runs the paper's ex
 Exit status 0 when every check passes, 1 otherwise.
 """
 import argparse
-import configparser
 import csv
 import os
 import subprocess
 import sys
-import tempfile
 
-from script_checks import check, failures, run  # (this script's folder)
+from script_checks import check, failures, run, read_ini, workdir, write  # (this script's folder)
 
 # The simulated robot: Table III's geometry and motors, its own body.
 MODEL = {"d": 0.089, "r": 0.0325, "l": 5, "Kv": 0.0259, "Kt": 0.0259, "R": 4.3111, "M": 3.1,
@@ -37,16 +35,6 @@ TOL = {"M": 0.0025, "J": 0.005, "Bv": 0.0015, "Bvn": 0.001, "Bw": 0.01, "Cv": 0.
 SEED = 1
 
 
-def read_ini(path, section):
-    c = configparser.ConfigParser(inline_comment_prefixes=(";",))
-    c.optionxform = str
-    c.read(path)
-    return {k: float(v) for k, v in c[section].items()}
-
-
-def write(d, name, text):
-    with open(os.path.join(d, name), "w") as f:
-        f.write(text)
 
 
 def robot_ini():
@@ -109,9 +97,7 @@ def main():
     ap.add_argument("--keep", help="work in this folder and keep it")
     a = ap.parse_args()
     bin_dir = os.path.abspath(a.bin_dir)
-    with tempfile.TemporaryDirectory() as tmp:
-        d = os.path.abspath(a.keep) if a.keep else tmp
-        os.makedirs(d, exist_ok=True)
+    with workdir(a.keep) as d:
         write(d, "robot.ini", robot_ini())
         write(d, "base.ini", "[model]\nd = 0.089\nr = 0.0325\nl = 5\nM = 3.1\n")
         run([os.path.join(bin_dir, "omni4-sim"), "--params", "robot.ini", "--experiments",

@@ -22,12 +22,10 @@ simulated robot behind them, in simulated time; the drives measure with the simu
 Exit status 0 when every check passes, 1 otherwise.
 """
 import argparse
-import configparser
 import os
 import sys
-import tempfile
 
-from script_checks import check, failures, run  # (this script's folder)
+from script_checks import check, failures, run, read_ini, workdir, write  # (this script's folder)
 
 # The simulated robots: Table III's geometry and motors, a body of its own (as
 # ident_current.py's); and Table III's (model/src/params.c).
@@ -52,16 +50,6 @@ BW_COARSE = 0.08  # Table III's Bw through STATUS_1's 0.1 A steps at 0.02 A of n
 SECTION = {"vesc": "[vesc]\nmode = duty\n", "odrive": "[odrive]\nmode = torque\n"}
 
 
-def read_ini(path, section):
-    c = configparser.ConfigParser(inline_comment_prefixes=(";",))
-    c.optionxform = str
-    c.read(path)
-    return {k: float(v) for k, v in c[section].items()}
-
-
-def write(d, name, text):
-    with open(os.path.join(d, name), "w") as f:
-        f.write(text)
 
 
 def robot_ini(proto, robot, seed, current_noise_a):
@@ -124,9 +112,7 @@ def main():
     ap.add_argument("--keep", help="work in this folder and keep it")
     a = ap.parse_args()
     bin_dir = os.path.abspath(a.bin_dir)
-    with tempfile.TemporaryDirectory() as tmp:
-        d = os.path.abspath(a.keep) if a.keep else tmp
-        os.makedirs(d, exist_ok=True)
+    with workdir(a.keep) as d:
         (vesc if a.protocol == "vesc" else odrive)(bin_dir, d, a.seed)
     print(f"ident_drives {a.protocol}: {len(failures)} failed")
     return 1 if failures else 0

@@ -21,15 +21,13 @@ Bounds (the project's identification bounds, as ident_wheels): J Bv Bvn Bw Cv Cv
 Prints both floors' tables; exit status 0 when every check passes, 1 otherwise.
 """
 import argparse
-import configparser
 import os
 import sys
-import tempfile
 
 import numpy as np
 
 import omni4
-from script_checks import check, failures, run  # (this script's folder)
+from script_checks import check, failures, run, read_ini, workdir, write  # (this script's folder)
 
 TABLE3 = {"Kv": 0.0259, "R": 4.3111, "J": 0.0228, "Bv": 0.4978, "Bvn": 0.6763, "Bw": 0.0141,
           "Cv": 1.8738, "Cvn": 2.2198, "Cw": 0.1385}
@@ -42,12 +40,6 @@ EST_SLIP = omni4.state_t.FLAG_SLIP
 
 DISAGREE = {}  # run name -> identify's "methods disagree" warnings
 
-
-def read_ini(path, section):
-    c = configparser.ConfigParser(inline_comment_prefixes=(";",))
-    c.optionxform = str
-    c.read(path)
-    return {k: float(v) for k, v in c[section].items()} if c.has_section(section) else {}
 
 
 def slip_during_runs(log_path):
@@ -114,9 +106,7 @@ def main():
     ap.add_argument("--keep", help="work in this folder and keep it")
     a = ap.parse_args()
     bin_dir = os.path.abspath(a.bin_dir)
-    with tempfile.TemporaryDirectory() as tmp:
-        d = os.path.abspath(a.keep) if a.keep else tmp
-        os.makedirs(d, exist_ok=True)
+    with workdir(a.keep) as d:
         with open(os.path.join(d, "base.ini"), "w") as f:
             f.write(BASE)
         floor = f"[sim]\ntraction_mu = {SLIPPERY}\nseed = 2\n"

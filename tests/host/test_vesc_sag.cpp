@@ -14,6 +14,7 @@
 #include <cstdio>
 
 #include "drive_loop.hpp"
+#include "can_queue.h"
 #include "vesc_sag_robot.h"
 
 namespace
@@ -44,7 +45,7 @@ double supply_at(double t, bool sag)
 void deliver(const motorsim::Frames &out)
 {
 	for (const auto &f : out)
-		sag_bus_deliver(&f);
+		can_queue_deliver(&f);
 }
 
 // omni4-fw's robot on the simulated VESCs and plant, one 1 ms period at a time.
@@ -83,7 +84,8 @@ class Lockstep
 		motorsim::Frames in(64);
 		if (controller_alive) {
 			sag_robot_tick(clock_us, k, v, &faults, &in_velocity);
-			const int sent = sag_bus_take_sent(in.data(), static_cast<int>(in.size()));
+			const int sent =
+			    can_queue_take_sent(in.data(), static_cast<int>(in.size()));
 			EXPECT_LE(sent, static_cast<int>(in.size()));
 			in.resize(
 			    static_cast<size_t>(std::min<int>(sent, static_cast<int>(in.size()))));

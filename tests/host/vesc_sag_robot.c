@@ -9,19 +9,8 @@
 #include "omni4/drivers/sc_os.h"
 #include "omni4/firmware/robot.h"
 
-int __wrap_sc_os_open_filters(const char *iface, const struct sc_os_filter *filt, int n_filt,
-                              int *fd);
-void __wrap_sc_os_close(int fd);
-int __wrap_sc_os_send(int fd, const struct omni4_can_frame *f);
-int __wrap_sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class);
-int64_t __wrap_sc_os_now_us(void);
+#include "can_queue.h"
 
-#define QUEUE 1024
-
-static struct sc_os_filter filters[SC_OS_MAX_FILTERS];
-static int n_filters;
-static struct omni4_can_frame rxq[QUEUE], txq[QUEUE];
-static int rx_head, rx_tail, n_tx, tx_total;
 static int64_t clock_us;
 
 const int32_t sag_fault_driver = CTL_FAULT_DRIVER;
@@ -31,71 +20,13 @@ static struct omni4_config cfg;
 
 void sag_bus_reset(int64_t now_us)
 {
-	n_filters = rx_head = rx_tail = n_tx = tx_total = 0;
+	can_queue_reset();
 	clock_us = now_us;
 }
 
 void sag_bus_set_clock(int64_t now_us)
 {
 	clock_us = now_us;
-}
-
-void sag_bus_deliver(const struct omni4_can_frame *f)
-{
-	bool pass = n_filters == 0;
-
-	for (int i = 0; i < n_filters; i++)
-		pass |= (f->id & filters[i].mask) == (filters[i].id & filters[i].mask);
-	if (!pass)
-		return;
-	if (rx_head == rx_tail)
-		rx_head = rx_tail = 0;
-	if (rx_tail < QUEUE)
-		rxq[rx_tail++] = *f;
-}
-
-int sag_bus_take_sent(struct omni4_can_frame *out, int max)
-{
-	const int n = n_tx < max ? n_tx : max;
-	const int total = tx_total;
-
-	memcpy(out, txq, (size_t)n * sizeof(*out));
-	n_tx = tx_total = 0;
-	return n < total ? total : n;
-}
-
-int __wrap_sc_os_open_filters(const char *iface, const struct sc_os_filter *filt, int n_filt,
-                              int *fd)
-{
-	(void)iface;
-	memcpy(filters, filt, (size_t)n_filt * sizeof(*filt));
-	n_filters = n_filt;
-	*fd = 3;
-	return 0;
-}
-
-void __wrap_sc_os_close(int fd)
-{
-	(void)fd;
-}
-
-int __wrap_sc_os_send(int fd, const struct omni4_can_frame *f)
-{
-	(void)fd;
-	if (n_tx < QUEUE)
-		txq[n_tx++] = *f;
-	tx_total++;
-	return 0;
-}
-
-int __wrap_sc_os_recv(int fd, struct omni4_can_frame *f, uint32_t *err_class)
-{
-	(void)fd;
-	(void)err_class;
-	if (rx_head == rx_tail)
-		return -EAGAIN;
-	*f = rxq[rx_head++];
-	return 1;
 }
 
 int64_t __wrap_sc_os_now_us(void)

@@ -18,14 +18,9 @@ extern "C" {
 /* The controller's FAULT_DRIVER bit (motors_t.faults). */
 extern const int32_t sag_fault_driver;
 
-/* The queues emptied, the clock at now_us. */
+/* The bus's queues emptied (can_queue.h: the frames each way), the clock at now_us. */
 void sag_bus_reset(int64_t now_us);
 void sag_bus_set_clock(int64_t now_us);
-/* A drive's frame for the controller, if the socket's filters pass it. */
-void sag_bus_deliver(const struct omni4_can_frame *f);
-/* The frames the controller sent since the last call (at most max, the rest dropped: counted in
- * the return value, which is the number sent). */
-int sag_bus_take_sent(struct omni4_can_frame *out, int max);
 
 /* The controller's model (the defaults) for the plant. */
 void sag_robot_model(struct model_params *out);
