@@ -84,6 +84,7 @@ struct Options {
 	std::vector<int> ids{0, 1, 2, 3}, nodes{0, 1, 2, 3};
 	int pole_pairs = 7, fault_node = 0;
 	double supply_v = 0, supply_ohm = 0, watchdog_s = 0.2, fault_at_s = -1, timeout_s = 0.5;
+	int encoder_ms = 10, iq_ms = 0; // the ODrive's message rates [ms] (its defaults)
 	double camera_hz = 0;
 	std::string lcm_url;
 };
@@ -119,6 +120,18 @@ void add_drive_options(CLI::App &app, Options &o)
 	    ->group(g);
 	app.add_option("--watchdog-s", o.watchdog_s, "ODrive: watchdog timeout (0: off)")
 	    ->check(CLI::NonNegativeNumber)
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option(
+	       "--encoder-ms", o.encoder_ms,
+	       "ODrive: encoder estimates every MS (encoder_msg_rate_ms; the drive's default)")
+	    ->check(CLI::Range(1, 1000))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--iq-ms", o.iq_ms,
+	               "ODrive: Get_Iq sent every MS (iq_msg_rate_ms; 0: on request only, the "
+	               "drive's default)")
+	    ->check(CLI::Range(0, 1000))
 	    ->capture_default_str()
 	    ->group(g);
 	app.add_option("--timeout-s", o.timeout_s, "VESC: command timeout (the firmware's default)")
@@ -380,6 +393,8 @@ int setup_drives(const Options &o, Sim &sim, motorsim::DriveLoop &d)
 	vo.pole_pairs = o.pole_pairs;
 	vo.timeout_s = o.timeout_s;
 	oo.watchdog_s = o.watchdog_s;
+	oo.encoder_s = o.encoder_ms * 1e-3;
+	oo.iq_s = o.iq_ms * 1e-3;
 	vo.fault = oo.fault = motorsim::Fault{o.fault_at_s, o.fault_node};
 	const motorsim::Supply sup{o.supply_v > 0 ? o.supply_v : sim.cfg.ctl.limits.supply_v,
 	                           o.supply_ohm};

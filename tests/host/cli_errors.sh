@@ -91,6 +91,8 @@ expect 2 "^omni4-motorsim: --protocol: canopen not in {omni4,vesc,odrive} (see o
 expect 2 "^omni4-motorsim: --ids: At least 4 required" -- "$BIN/omni4-motorsim" --protocol vesc --ids 1,2,3
 expect 2 "^omni4-motorsim: --ids and --nodes must be four different numbers$" -- "$BIN/omni4-motorsim" --protocol odrive --nodes 1,2,2,3
 expect 2 "^omni4-motorsim: --fault-node: Value 4 not in range 0 to 3" -- "$BIN/omni4-motorsim" --protocol vesc --fault-at-s 1 --fault-node 4
+expect 2 "^omni4-motorsim: --iq-ms: Value -1 not in range 0 to 1000 (see omni4-motorsim --help)$" -- "$BIN/omni4-motorsim" --protocol odrive --iq-ms -1
+expect 2 "^omni4-motorsim: --encoder-ms: Value 0 not in range 1 to 1000 (see omni4-motorsim --help)$" -- "$BIN/omni4-motorsim" --protocol odrive --encoder-ms 0
 # An output that cannot be written is refused before any log is read.
 expect 1 "^omni4-ident: /nonexistent/x.ini: /nonexistent: No such file or directory$" -- "$BIN/omni4-ident" identify --robot "$T/base.ini" --out /nonexistent/x.ini "$T/full.lcmlog"
 expect 1 "^omni4-ident: /nonexistent/v.json: /nonexistent: No such file or directory$" -- "$BIN/omni4-ident" validate --params "$T/t3.ini" --json /nonexistent/v.json "$T/full.lcmlog"
