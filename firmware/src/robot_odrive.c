@@ -24,13 +24,7 @@ static void await_axes(struct odrive_motor *m, int timeout_ms)
 static int open_odrive(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct odrive_settings *os = spec->odrive;
-	struct odrive_motor_config cfg = {.iface = os->iface,
-	                                  .mode = (enum odrive_mode)os->mode,
-	                                  .status_timeout_ms = os->status_timeout_ms,
-	                                  .consts = drive_consts_for(spec->ctl)};
-
-	for (int j = 0; j < 4; j++)
-		cfg.node[j] = (uint8_t)os->node[j];
+	const struct odrive_motor_config cfg = odrive_config_for(os, spec->ctl);
 	const int rc = odrive_motor_open(&r->odrive, &cfg);
 
 	if (rc == -EINVAL) {

@@ -23,15 +23,7 @@ static void await_controllers(struct vesc_motor *m, int timeout_ms)
 static int open_vesc(struct robot *r, const struct robot_spec *spec, char *why, size_t n)
 {
 	const struct vesc_settings *vs = spec->vesc;
-	struct vesc_motor_config cfg = {.iface = vs->iface,
-	                                .host_id = VESC_HOST_ID,
-	                                .pole_pairs = vs->pole_pairs,
-	                                .mode = (enum vesc_mode)vs->mode,
-	                                .status_timeout_ms = vs->status_timeout_ms,
-	                                .consts = drive_consts_for(spec->ctl)};
-
-	for (int j = 0; j < 4; j++)
-		cfg.id[j] = (uint8_t)vs->id[j];
+	const struct vesc_motor_config cfg = vesc_config_for(vs, spec->ctl);
 	const int rc = vesc_motor_open(&r->vesc, &cfg);
 
 	if (rc == -EINVAL) {

@@ -47,28 +47,12 @@ int drive_bridge_setup(const struct omni4_config *cfg, drive_bridge_advance_fn a
 	b.kind = cfg->fw.motor;
 	b.advance = advance;
 	b.ctx = ctx;
-	const struct drive_consts consts = drive_consts_for(&cfg->ctl);
-
-	switch (b.kind) { /* the openers' settings, as firmware/src/robot_vesc.c, robot_odrive.c */
+	switch (b.kind) { /* the openers' configurations (drive_consts_for.h) */
 	case OMNI4_MOTOR_VESC:
-		b.vesc_cfg =
-		    (struct vesc_motor_config){.iface = cfg->vesc.iface,
-		                               .host_id = VESC_HOST_ID,
-		                               .pole_pairs = cfg->vesc.pole_pairs,
-		                               .mode = (enum vesc_mode)cfg->vesc.mode,
-		                               .status_timeout_ms = cfg->vesc.status_timeout_ms,
-		                               .consts = consts};
-		for (int j = 0; j < 4; j++)
-			b.vesc_cfg.id[j] = (uint8_t)cfg->vesc.id[j];
+		b.vesc_cfg = vesc_config_for(&cfg->vesc, &cfg->ctl);
 		return 0;
 	case OMNI4_MOTOR_ODRIVE:
-		b.odrive_cfg =
-		    (struct odrive_motor_config){.iface = cfg->odrive.iface,
-		                                 .mode = (enum odrive_mode)cfg->odrive.mode,
-		                                 .status_timeout_ms = cfg->odrive.status_timeout_ms,
-		                                 .consts = consts};
-		for (int j = 0; j < 4; j++)
-			b.odrive_cfg.node[j] = (uint8_t)cfg->odrive.node[j];
+		b.odrive_cfg = odrive_config_for(&cfg->odrive, &cfg->ctl);
 		return 0;
 	default:
 		snprintf(why, n, "[hal] motor must be vesc or odrive (the drives simulated here)");
