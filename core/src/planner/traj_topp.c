@@ -32,9 +32,24 @@ struct topp_rows {
 	float A[4], Q[4], L[4], K[4], dlo[4], dhi[4], NA[4], NQ[4];
 };
 
+/* Every row at a point in the form that the timing asks (limits scaled by k): s'' at most
+ * c0 + cx s'^2 + cs s' (the first nu rows), at least that (the next nl), or 0 at most that
+ * (the rest, n in all: a row that s'' does not enter). Built once per timing, so the many
+ * questions a timing asks of a point cost a few multiply-adds each. */
+#define LIN_ROWS 16 /* four rows per wheel */
+struct topp_lin {
+	float c[LIN_ROWS][3];
+	unsigned char nu, nl, n;
+};
+
 struct topp_work {
 	struct geo g[2][TRAJ_GRID + 1]; /* [0]: the segment after point i, [1]: before it */
 	signed char sg[TRAJ_GRID + 1][3];
+	struct topp_rows r[2][TRAJ_GRID + 1];  /* each point's rows, sides as g */
+	struct geo gm[TRAJ_GRID];              /* each segment's midpoint (checked) */
+	struct topp_rows rm[TRAJ_GRID];        /* and its rows (the signs of both ends) */
+	struct topp_lin lin[2][TRAJ_GRID + 1]; /* the rows at the timing's k, sides as g */
+	float top[2][TRAJ_GRID + 1];           /* the caps' and rims' largest s', sides as g */
 	float xmax[TRAJ_GRID + 1], xf[TRAJ_GRID + 1], xb[TRAJ_GRID + 1];
 	int n;
 };
@@ -158,40 +173,69 @@ static float speed_top(const struct traj_coef *c, const struct geo *g, const str
 	return v;
 }
 
-/* a s'' <= b into [lo, hi]; false if no s'' meets it. */
-static inline bool one_side(float a, float b, float *lo, float *hi)
+/* Row a s'' <= b0 + bx s'^2 + bs s' into l (sorted by its kind: upper, lower, free). */
+static void lin_add(struct topp_lin *l, float a, float b0, float bx, float bs, float (*tmp)[3],
+                    unsigned char kind[LIN_ROWS], int *m)
 {
-	if (a > 1e-6f)
-		*hi = minf(*hi, b / a);
-	else if (a < -1e-6f)
-		*lo = maxf(*lo, b / a);
-	else
-		return b >= 0.0f;
-	return true;
+	const float inv = (a > 1e-6f || a < -1e-6f) ? 1.0f / a : 1.0f;
+
+	tmp[*m][0] = b0 * inv;
+	tmp[*m][1] = bx * inv;
+	tmp[*m][2] = bs * inv;
+	kind[*m] = a > 1e-6f ? 0 : (a < -1e-6f ? 1 : 2);
+	l->nu += kind[*m] == 0;
+	l->nl += kind[*m] == 1;
+	++*m;
 }
 
-/* The s'' every row allows at s'^2 = x with the limits scaled by k; false if none: the
- * traction -k hold <= f <= k hold, hold = f_max_n - NA s'' - NQ s'^2 (two one-sided rows),
- * the voltage |f + e K s'| <= k u_max b. */
-static bool interval(const struct traj_coef *c, const struct topp_rows *r, float x, float k,
-                     float *lo, float *hi)
+/* The rows at a point with the limits scaled by k: the traction -k hold <= f <= k hold, hold =
+ * f_max_n - NA s'' - NQ s'^2 (two one-sided rows), the voltage |f + e K s'| <= k u_max b. */
+static void lin_build(const struct traj_coef *c, const struct topp_rows *r, float k,
+                      struct topp_lin *l)
+{
+	float tmp[LIN_ROWS][3];
+	unsigned char kind[LIN_ROWS];
+	int m = 0;
+
+	l->nu = l->nl = 0;
+	for (int j = 0; j < c->wh.n; j++) {
+		const float A = r->A[j], na = k * r->NA[j], kf = k * c->f_max_n[j];
+		const float kq = k * r->NQ[j], ku = k * c->u_max_v * c->wh.b[j];
+		const float Lu = r->L[j] + c->e[j] * r->K[j];
+		lin_add(l, A + na, kf - r->dhi[j], -kq - r->Q[j], -r->L[j], tmp, kind, &m);
+		lin_add(l, na - A, kf + r->dlo[j], r->Q[j] - kq, r->L[j], tmp, kind, &m);
+		lin_add(l, A, ku - r->dhi[j], -r->Q[j], -Lu, tmp, kind, &m);
+		lin_add(l, -A, ku + r->dlo[j], r->Q[j], Lu, tmp, kind, &m);
+	}
+	l->n = (unsigned char)m;
+	int q = 0;
+	for (int want = 0; want < 3; want++)
+		for (int i = 0; i < m; i++)
+			if (kind[i] == want) {
+				l->c[q][0] = tmp[i][0];
+				l->c[q][1] = tmp[i][1];
+				l->c[q][2] = tmp[i][2];
+				q++;
+			}
+}
+
+/* The s'' every row of l allows at s'^2 = x into [lo, hi]; false if none. */
+static bool interval(const struct topp_lin *l, float x, float *lo, float *hi)
 {
 	const float sd = sqrtf(x);
+	const int nu = l->nu, nul = l->nu + l->nl;
+	float a = -INFINITY, b = INFINITY;
 
-	*lo = -INFINITY;
-	*hi = INFINITY;
-	for (int j = 0; j < c->wh.n; j++) {
-		const float P = r->Q[j] * x + r->L[j] * sd, A = r->A[j];
-		const float na = k * r->NA[j], hold = k * (c->f_max_n[j] - r->NQ[j] * x);
-		if (!one_side(A + na, hold - P - r->dhi[j], lo, hi) ||
-		    !one_side(na - A, hold + P + r->dlo[j], lo, hi))
+	for (int i = nul; i < l->n; i++)
+		if (l->c[i][0] + l->c[i][1] * x + l->c[i][2] * sd < 0.0f)
 			return false;
-		const float bound = k * c->u_max_v * c->wh.b[j], Pu = P + c->e[j] * r->K[j] * sd;
-		if (!one_side(A, bound - Pu - r->dhi[j], lo, hi) ||
-		    !one_side(-A, bound + Pu + r->dlo[j], lo, hi))
-			return false;
-	}
-	return *lo <= *hi;
+	for (int i = 0; i < nu; i++)
+		b = minf(b, l->c[i][0] + l->c[i][1] * x + l->c[i][2] * sd);
+	for (int i = nu; i < nul; i++)
+		a = maxf(a, l->c[i][0] + l->c[i][1] * x + l->c[i][2] * sd);
+	*lo = a;
+	*hi = b;
+	return a <= b;
 }
 
 /* The largest use of a limit (1: at it) at s'^2 = x, s'' = u. */
@@ -217,31 +261,21 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 	return w;
 }
 
-/* Rows at point i on the side of segment i (side 0) or of segment i - 1 (side 1): the
- * curvature and the heading's second slope jump at a piece's or knot's end. */
-static void rows_i(const struct traj_coef *c, const struct topp_work *w, int i, int side,
-                   struct topp_rows *r)
-{
-	rows_at(c, &w->g[side][i], w->sg[i], r);
-}
-
-/* The largest s'^2 with room for some s'' at point i on one side (limits scaled by k); -1 if
+/* The largest s'^2 with room for some s'' at point i on one side (the timing's rows); -1 if
  * none at 0. */
-static float max_x_side(const struct traj_coef *c, const struct topp_work *w, int i, int side,
-                        float k)
+static float max_x_side(const struct topp_work *w, int i, int side)
 {
-	struct topp_rows r;
+	const struct topp_lin *l = &w->lin[side][i];
 	float lo, hi, a = 0.0f;
 
-	rows_i(c, w, i, side, &r);
-	if (!interval(c, &r, 0.0f, k, &lo, &hi))
+	if (!interval(l, 0.0f, &lo, &hi))
 		return -1.0f;
-	float b = speed_top(c, &w->g[side][i], &r);
-	if (interval(c, &r, b * b, k, &lo, &hi))
+	float b = w->top[side][i];
+	if (interval(l, b * b, &lo, &hi))
 		return b * b;
 	for (int it = 0; it < TOPP_BISECT; it++) {
 		const float m = 0.5f * (a + b);
-		if (interval(c, &r, m * m, k, &lo, &hi))
+		if (interval(l, m * m, &lo, &hi))
 			a = m;
 		else
 			b = m;
@@ -249,99 +283,132 @@ static float max_x_side(const struct traj_coef *c, const struct topp_work *w, in
 	return a * a;
 }
 
-static float max_x(const struct traj_coef *c, const struct topp_work *w, int i, float k)
+static float max_x(const struct topp_work *w, int i)
 {
-	const float x0 = i < w->n ? max_x_side(c, w, i, 0, k) : INFINITY;
-	const float x1 = i > 0 ? max_x_side(c, w, i, 1, k) : INFINITY;
+	const float x0 = i < w->n ? max_x_side(w, i, 0) : INFINITY;
+	const float x1 = i > 0 ? max_x_side(w, i, 1) : INFINITY;
 
 	return minf(x0, x1);
 }
 
-/* Steps of the bisection for a segment's end speed when its end cannot take the acceleration
- * its start can (a long segment speeding up toward the top speed): the largest s'^2 there
- * whose constant s'' both ends allow, within 2^-SOLVE_STEPS of the first guess. */
+/* x within the largest s'^2 at point i: x itself if the caps and every row there allow it, else
+ * the largest (bisected when first asked, then kept; xmax[i] < 0: not yet). */
+static float cap_x(struct topp_work *w, int i, float x)
+{
+	float lo, hi;
+
+	if (w->xmax[i] >= 0.0f)
+		return minf(x, w->xmax[i]);
+	if (!(x > 0.0f))
+		return x;
+	bool ok = true;
+	for (int side = 0; side < 2 && ok; side++)
+		if (side ? i > 0 : i < w->n)
+			ok = x <= w->top[side][i] * w->top[side][i] &&
+			     interval(&w->lin[side][i], x, &lo, &hi);
+	if (ok)
+		return x;
+	w->xmax[i] = max_x(w, i);
+	return minf(x, w->xmax[i]);
+}
+
+/* Steps of the bisection for a segment's end speed when a row's closed form does not hold
+ * (below): within 2^-SOLVE_STEPS of the first guess. */
 #define SOLVE_STEPS 10
 
-/* Forward: the largest x1 in [x, x1_hi] with x1 <= x + 2 ds min(hi, hi(x1)), hi(x1) the end's
- * largest s'' at s'^2 = x1 (r: the end's rows). x itself holds (hi >= 0, and the end's rows
- * allow x with hi(x) >= 0), else the single correction of before. */
-static float forward_end(const struct traj_coef *c, const struct topp_rows *r, float k, float x,
-                         float ds, float hi, float x1_hi, float hi1)
+/* The largest y >= 0 with a y^2 + b y + c <= 0 (a > 0, and some y >= 0 meets it). */
+static float root_hi(float a, float b, float c)
 {
-	float lo, h, a = x, b = x1_hi;
+	const float d = sqrtf(maxf(b * b - 4.0f * a * c, 0.0f));
 
-	if (!(hi >= 0.0f) || !interval(c, r, x, k, &lo, &h) || !(h >= 0.0f))
-		return x + 2.0f * ds * hi1;
-	for (int it = 0; it < SOLVE_STEPS; it++) {
-		const float m = 0.5f * (a + b);
+	return b > 0.0f ? -2.0f * c / (b + d) : (d - b) / (2.0f * a);
+}
 
-		if (interval(c, r, m, k, &lo, &h) && m <= x + 2.0f * ds * minf(hi, h))
-			a = m;
-		else
-			b = m;
+/* A segment of length ds from s'^2 = x at a constant s'' to s'^2 = x1 at its end, where the
+ * end's rows l allow that s'' (dir 1: forward, s'' at most the upper rows: x1 <= x + 2 ds
+ * hi(x1); dir -1: backward from the end at x to the start at x1 >= x, s'' at least the lower
+ * rows: x1 <= x - 2 ds lo(x1)), and within x1_hi: the largest such x1. Each row is a
+ * quadratic in s' there, so its bound is a root; a row whose s'^2 term outgrows the segment's
+ * own (a segment too long for its curvature) is bisected instead. */
+static float segment_end(const struct topp_lin *l, int dir, float x, float ds, float x1_hi)
+{
+	const int r0 = dir > 0 ? 0 : l->nu, r1 = dir > 0 ? l->nu : l->nu + l->nl;
+	const float h = 2.0f * ds * (float)dir;
+	float y = sqrtf(x1_hi);
+
+	for (int i = r0; i < r1; i++) {
+		const float a = 1.0f - h * l->c[i][1];
+		if (!(a > 1e-3f)) {
+			float lo, hi, u = x, v = x1_hi;
+			for (int it = 0; it < SOLVE_STEPS; it++) {
+				const float m = 0.5f * (u + v);
+				const bool ok = interval(l, m, &lo, &hi) && m <= x + h * (dir > 0 ? hi : lo);
+				u = ok ? m : u;
+				v = ok ? v : m;
+			}
+			return u;
+		}
+		y = minf(y, root_hi(a, -h * l->c[i][2], -(x + h * l->c[i][0])));
 	}
-	return a;
+	return maxf(y * y, x);
+}
+
+/* Forward: the largest x1 in [x, x1_hi] with x1 <= x + 2 ds min(hi, hi(x1)), hi(x1) the end's
+ * largest s'' at s'^2 = x1 (l: the end's rows). x itself holds (hi >= 0, and the end's rows
+ * allow x with hi(x) >= 0), else the single correction of before. */
+static float forward_end(const struct topp_lin *l, float x, float ds, float hi, float x1_hi,
+                         float hi1)
+{
+	float lo, h;
+
+	if (!(hi >= 0.0f) || !interval(l, x, &lo, &h) || !(h >= 0.0f))
+		return x + 2.0f * ds * hi1;
+	return segment_end(l, 1, x, ds, x1_hi);
 }
 
 /* Forward at the largest s'' (checked at the segment's end too), within the largest s'. */
-static void forward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
-                    float k)
+static void forward(const struct traj_path *pa, struct topp_work *w)
 {
-	struct topp_rows r;
 	float lo, hi, hi1;
 
 	for (int i = 0; i < w->n; i++) {
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xf[i];
-		rows_i(c, w, i, 0, &r);
-		if (!interval(c, &r, x, k, &lo, &hi))
+		if (!interval(&w->lin[0][i], x, &lo, &hi))
 			hi = 0.0f;
-		float x1 = minf(x + 2.0f * ds * hi, w->xmax[i + 1]);
-		rows_i(c, w, i + 1, 1, &r);
-		if (interval(c, &r, maxf(x1, 0.0f), k, &lo, &hi1) && hi1 < hi)
-			x1 = minf(forward_end(c, &r, k, x, ds, hi, maxf(x1, 0.0f), hi1),
-			          w->xmax[i + 1]);
+		float x1 = cap_x(w, i + 1, x + 2.0f * ds * hi);
+		const struct topp_lin *end = &w->lin[1][i + 1];
+		if (interval(end, maxf(x1, 0.0f), &lo, &hi1) && hi1 < hi)
+			x1 = cap_x(w, i + 1, forward_end(end, x, ds, hi, maxf(x1, 0.0f), hi1));
 		w->xf[i + 1] = maxf(x1, 0.0f);
 	}
 }
 
 /* Backward, the mirror of forward_end: the largest x0 in [x, x0_hi] with x0 <= x - 2 ds
  * max(lo, lo(x0)), lo(x0) the start's smallest s'' at s'^2 = x0. */
-static float backward_start(const struct traj_coef *c, const struct topp_rows *r, float k, float x,
-                            float ds, float lo, float x0_hi, float lo0)
+static float backward_start(const struct topp_lin *l, float x, float ds, float lo, float x0_hi,
+                            float lo0)
 {
-	float l, h, a = x, b = x0_hi;
+	float lw, h;
 
-	if (!(lo <= 0.0f) || !interval(c, r, x, k, &l, &h) || !(l <= 0.0f))
+	if (!(lo <= 0.0f) || !interval(l, x, &lw, &h) || !(lw <= 0.0f))
 		return x - 2.0f * ds * maxf(lo0, lo);
-	for (int it = 0; it < SOLVE_STEPS; it++) {
-		const float m = 0.5f * (a + b);
-
-		if (interval(c, r, m, k, &l, &h) && m <= x - 2.0f * ds * maxf(lo, l))
-			a = m;
-		else
-			b = m;
-	}
-	return a;
+	return segment_end(l, -1, x, ds, x0_hi);
 }
 
 /* Backward from rest at the end at the smallest s'' (checked at both ends). */
-static void backward(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
-                     float k)
+static void backward(const struct traj_path *pa, struct topp_work *w)
 {
-	struct topp_rows r;
 	float lo, hi, lo0;
 
 	w->xb[w->n] = 0.0f;
 	for (int i = w->n - 1; i >= 0; i--) {
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], x = w->xb[i + 1];
-		rows_i(c, w, i + 1, 1, &r);
-		if (!interval(c, &r, x, k, &lo, &hi))
+		if (!interval(&w->lin[1][i + 1], x, &lo, &hi))
 			lo = 0.0f;
-		float x0 = minf(x - 2.0f * ds * lo, w->xmax[i]);
-		rows_i(c, w, i, 0, &r);
-		if (interval(c, &r, maxf(x0, 0.0f), k, &lo0, &hi) && lo0 > lo)
-			x0 = minf(backward_start(c, &r, k, x, ds, lo, maxf(x0, 0.0f), lo0),
-			          w->xmax[i]);
+		float x0 = cap_x(w, i, x - 2.0f * ds * lo);
+		const struct topp_lin *start = &w->lin[0][i];
+		if (interval(start, maxf(x0, 0.0f), &lo0, &hi) && lo0 > lo)
+			x0 = cap_x(w, i, backward_start(start, x, ds, lo, maxf(x0, 0.0f), lo0));
 		w->xb[i] = maxf(x0, 0.0f);
 	}
 }
@@ -349,29 +416,19 @@ static void backward(const struct traj_coef *c, const struct traj_path *pa, stru
 /* The largest use of a limit over the grid points and the segments' midpoints. */
 static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w)
 {
-	struct topp_rows r;
-	struct geo g;
 	float worst = 0.0f;
 
 	for (int i = 0; i <= w->n; i++) {
 		const float x = pa->grid_v[i] * pa->grid_v[i];
-		if (i < w->n) {
-			rows_i(c, w, i, 0, &r);
-			worst = maxf(worst, usage(c, &w->g[0][i], &r, x, pa->grid_a[i]));
-		}
-		if (i > 0) {
-			rows_i(c, w, i, 1, &r);
-			worst = maxf(worst, usage(c, &w->g[1][i], &r, x, pa->grid_a[i - 1]));
-		}
+		if (i < w->n)
+			worst = maxf(worst, usage(c, &w->g[0][i], &w->r[0][i], x, pa->grid_a[i]));
+		if (i > 0)
+			worst = maxf(worst, usage(c, &w->g[1][i], &w->r[1][i], x, pa->grid_a[i - 1]));
 		if (i == w->n)
 			break;
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
-		signed char sg[3];
-		for (int q = 0; q < 3; q++)
-			sg[q] = (signed char)(w->sg[i][q] | w->sg[i + 1][q]);
-		geo_at(pa, pa->grid_s[i] + 0.5f * ds, &g);
-		rows_at(c, &g, sg, &r);
-		worst = maxf(worst, usage(c, &g, &r, x + ds * pa->grid_a[i], pa->grid_a[i]));
+		worst = maxf(worst, usage(c, &w->gm[i], &w->rm[i], x + ds * pa->grid_a[i],
+		                          pa->grid_a[i]));
 	}
 	return worst;
 }
@@ -380,14 +437,20 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, const 
 static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp_work *w, float v0,
                     float k)
 {
+	float lo, hi;
+
 	for (int i = 0; i <= w->n; i++) {
-		w->xmax[i] = max_x(c, w, i, k);
-		if (w->xmax[i] < 0.0f)
-			return INFINITY;
+		w->xmax[i] = -1.0f; /* bisected when the passes first go beyond what a point allows */
+		for (int side = 0; side < 2; side++)
+			if (side ? i > 0 : i < w->n) {
+				lin_build(c, &w->r[side][i], k, &w->lin[side][i]);
+				if (!interval(&w->lin[side][i], 0.0f, &lo, &hi))
+					return INFINITY; /* no room at rest */
+			}
 	}
 	w->xf[0] = v0 * v0;
-	forward(c, pa, w, k);
-	backward(c, pa, w, k);
+	forward(pa, w);
+	backward(pa, w);
 	if (w->xb[0] < v0 * v0 * (1.0f - 1e-3f) - 1e-6f)
 		return INFINITY; /* too fast to stay on the path */
 	float t = 0.0f;
@@ -469,12 +532,29 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 
 	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
 		return INFINITY;
-	w.n = pa->n_grid = make_grid(pa, s0);
+	const int n = make_grid(pa, s0);
+	if (n < 1 || n > TRAJ_GRID)
+		return INFINITY;
+	w.n = pa->n_grid = n;
 	for (int i = 0; i <= w.n; i++)
 		geo_both(pa, pa->grid_s[i], w.g, i);
 	signs(&w);
 	for (int q = 0; q < 3; q++) /* at rest at the end: the brake without friction's help */
-		w.sg[w.n][q] |= S_ZERO;
+		w.sg[n][q] |= S_ZERO;
+	for (int i = 0; i <= w.n; i++) {
+		for (int side = 0; side < 2; side++)
+			if (side ? i > 0 : i < w.n) {
+				rows_at(c, &w.g[side][i], w.sg[i], &w.r[side][i]);
+				w.top[side][i] = speed_top(c, &w.g[side][i], &w.r[side][i]);
+			}
+		if (i == w.n)
+			break;
+		signed char sg[3];
+		for (int q = 0; q < 3; q++)
+			sg[q] = (signed char)(w.sg[i][q] | w.sg[i + 1][q]);
+		geo_at(pa, 0.5f * (pa->grid_s[i] + pa->grid_s[i + 1]), &w.gm[i]);
+		rows_at(c, &w.gm[i], sg, &w.rm[i]);
+	}
 	for (int tr = 0; tr < TOPP_TRIES; tr++) {
 		const float t = timing(c, pa, &w, v0, k);
 		if (!(t < INFINITY))
