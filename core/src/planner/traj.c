@@ -336,8 +336,10 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 
 void traj_eval(const struct traj *tr, float t_s, struct traj_ref *out)
 {
-	if (!(t_s < tr->duration_s)) /* at rest at the goal (the prelude's and the rest's sum may */
-		t_s = INFINITY;          /* round short of the parts' ends) */
+	/* at the end at rest at the goal (the prelude's and the rest's sum may round short of the
+	 * parts' own ends) */
+	if (!(t_s < tr->duration_s))
+		t_s = INFINITY;
 	if (t_s < tr->pre_s) {
 		for (int i = 0; i < 3; i++)
 			traj_1d_eval(&tr->pre[i], t_s, &out->pose[i], &out->vel[i], &out->acc[i]);

@@ -342,7 +342,8 @@ static float segment_end(const struct topp_lin *l, int dir, float x, float ds, f
 			float lo, hi, u = x, v = x1_hi;
 			for (int it = 0; it < SOLVE_STEPS; it++) {
 				const float m = 0.5f * (u + v);
-				const bool ok = interval(l, m, &lo, &hi) && m <= x + h * (dir > 0 ? hi : lo);
+				const bool ok =
+				    interval(l, m, &lo, &hi) && m <= x + h * (dir > 0 ? hi : lo);
 				u = ok ? m : u;
 				v = ok ? v : m;
 			}
@@ -423,12 +424,13 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, const 
 		if (i < w->n)
 			worst = maxf(worst, usage(c, &w->g[0][i], &w->r[0][i], x, pa->grid_a[i]));
 		if (i > 0)
-			worst = maxf(worst, usage(c, &w->g[1][i], &w->r[1][i], x, pa->grid_a[i - 1]));
+			worst =
+			    maxf(worst, usage(c, &w->g[1][i], &w->r[1][i], x, pa->grid_a[i - 1]));
 		if (i == w->n)
 			break;
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
-		worst = maxf(worst, usage(c, &w->gm[i], &w->rm[i], x + ds * pa->grid_a[i],
-		                          pa->grid_a[i]));
+		worst = maxf(worst,
+		             usage(c, &w->gm[i], &w->rm[i], x + ds * pa->grid_a[i], pa->grid_a[i]));
 	}
 	return worst;
 }
@@ -440,7 +442,8 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 	float lo, hi;
 
 	for (int i = 0; i <= w->n; i++) {
-		w->xmax[i] = -1.0f; /* bisected when the passes first go beyond what a point allows */
+		w->xmax[i] =
+		    -1.0f; /* bisected when the passes first go beyond what a point allows */
 		for (int side = 0; side < 2; side++)
 			if (side ? i > 0 : i < w->n) {
 				lin_build(c, &w->r[side][i], k, &w->lin[side][i]);
