@@ -195,6 +195,12 @@ int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3
  * envelope (checked); the duration, or INFINITY if none was found. */
 float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);
 
+/* traj_topp on a grid of at most grid segments (<= TRAJ_GRID), a timing whose largest use of
+ * a limit is at most 1 + over taken as it is (a search's estimate: the shape it keeps is timed
+ * by traj_topp). */
+float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
+                       float over, int grid);
+
 /* The reference at time t of a timed path (after its end: at rest at the goal). */
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
 

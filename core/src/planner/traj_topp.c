@@ -50,6 +50,7 @@ struct topp_work {
 	struct topp_rows rm[TRAJ_GRID];        /* and its rows (the signs of both ends) */
 	struct topp_lin lin[2][TRAJ_GRID + 1]; /* the rows at the timing's k, sides as g */
 	float top[2][TRAJ_GRID + 1];           /* the caps' and rims' largest s', sides as g */
+	float k;                               /* the timing's scale of the limits */
 	float xmax[TRAJ_GRID + 1], xf[TRAJ_GRID + 1], xb[TRAJ_GRID + 1];
 	int n;
 };
@@ -270,7 +271,7 @@ static float max_x_side(const struct topp_work *w, int i, int side)
 
 	if (!interval(l, 0.0f, &lo, &hi))
 		return -1.0f;
-	float b = w->top[side][i];
+	float b = w->k * w->top[side][i];
 	if (interval(l, b * b, &lo, &hi))
 		return b * b;
 	for (int it = 0; it < TOPP_BISECT; it++) {
@@ -304,7 +305,7 @@ static float cap_x(struct topp_work *w, int i, float x)
 	bool ok = true;
 	for (int side = 0; side < 2 && ok; side++)
 		if (side ? i > 0 : i < w->n)
-			ok = x <= w->top[side][i] * w->top[side][i] &&
+			ok = x <= w->k * w->k * w->top[side][i] * w->top[side][i] &&
 			     interval(&w->lin[side][i], x, &lo, &hi);
 	if (ok)
 		return x;
@@ -441,9 +442,9 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 {
 	float lo, hi;
 
+	w->k = k;
 	for (int i = 0; i <= w->n; i++) {
-		w->xmax[i] =
-		    -1.0f; /* bisected when the passes first go beyond what a point allows */
+		w->xmax[i] = -1.0f; /* bisected when a pass first goes beyond what it allows */
 		for (int side = 0; side < 2; side++)
 			if (side ? i > 0 : i < w->n) {
 				lin_build(c, &w->r[side][i], k, &w->lin[side][i]);
@@ -508,11 +509,11 @@ static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX])
 
 /* The grid over [s0, len]: every piece's and knot's end a point, each interval between them
  * at least one segment, the rest by length. */
-static int make_grid(struct traj_path *pa, float s0)
+static int make_grid(struct traj_path *pa, float s0, int grid)
 {
 	float b[BREAKS_MAX];
 	const int nb = breaks(pa, s0, b);
-	const int spare = TRAJ_GRID - nb;
+	const int spare = grid - nb;
 	const float total = pa->len_m - s0;
 	float a = s0;
 	int n = 0;
@@ -520,7 +521,7 @@ static int make_grid(struct traj_path *pa, float s0)
 	pa->grid_s[0] = s0;
 	for (int k = 0; k < nb; k++) {
 		const int m = 1 + (spare > 0 ? (int)((float)spare * (b[k] - a) / total) : 0);
-		for (int q = 1; q <= m && n < TRAJ_GRID; q++)
+		for (int q = 1; q <= m && n < grid; q++)
 			pa->grid_s[++n] = q == m ? b[k] : a + (b[k] - a) * (float)q / (float)m;
 		a = b[k];
 	}
@@ -530,12 +531,18 @@ static int make_grid(struct traj_path *pa, float s0)
 
 float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0)
 {
+	return traj_topp_within(c, pa, s0, v0, 1e-5f, TRAJ_GRID);
+}
+
+float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
+                       float over, int grid)
+{
 	struct topp_work w;
 	float k = 1.0f;
 
 	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
 		return INFINITY;
-	const int n = make_grid(pa, s0);
+	const int n = grid >= 1 && grid <= TRAJ_GRID ? make_grid(pa, s0, grid) : 0;
 	if (n < 1 || n > TRAJ_GRID)
 		return INFINITY;
 	w.n = pa->n_grid = n;
@@ -563,7 +570,7 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 		if (!(t < INFINITY))
 			return INFINITY;
 		const float worst = check(c, pa, &w);
-		if (worst <= 1.0f + 1e-5f)
+		if (worst <= 1.0f + over)
 			return t;
 		k *= 0.997f / worst;
 	}
