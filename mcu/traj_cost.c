@@ -5,12 +5,13 @@
  * re-plan toward its goal every RE_PLAN_EVERY ticks, and a goal that moves (every re-plan from
  * a velocity off the line to the goal: the bisection over the x/y share, the dearest case).
  * Then the same goals planned as one curve (traj_plan_curve, CURVE_EVALS timings in its search:
- * docs/trajectory.md "One curve"). Prints two lines of figures: a cost, not a result (left out
- * of the host comparison).
+ * docs/trajectory.md "One curve"), from rest and from a moving start. Prints two lines of figures:
+ * a cost, not a result (left out of the host comparison).
  */
 #include "traj_cost.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 
 #include "omni4/core/ctl_settings.h"
@@ -105,18 +106,22 @@ void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const cha
 	         (unsigned long)(step.sum / step.n), (unsigned long)step.max, unit,
 	         (unsigned long)sizeof(struct traj));
 	print(line);
-	struct meter_sum curve = {0};
-	for (unsigned i = 0; i < sizeof(course) / sizeof(course[0]); i++) {
-		const float *m = course[i];
-		const struct traj_ref from = {.pose = {m[0], m[1], m[2]}};
+	struct meter_sum curve = {0}, curve_moving = {0};
+	for (unsigned i = 0; i < 2 * sizeof(course) / sizeof(course[0]); i++) {
+		const unsigned n = sizeof(course) / sizeof(course[0]);
+		const float *m = course[i % n];
+		const bool go = i >= n; /* then at 0.85 m/s, askew to most goals */
+		const struct traj_ref from = {.pose = {m[0], m[1], m[2]},
+		                              .vel = {go ? 0.8f : 0.0f, go ? -0.3f : 0.0f}};
 		const uint32_t t0 = read();
 		traj_plan_curve(&g_tr, &from, m + 3, CURVE_EVALS);
-		meter_add(&curve, read() - t0);
+		meter_add(go ? &curve_moving : &curve, read() - t0);
 	}
 	snprintf(line, sizeof(line),
 	         "curve cost: traj_plan_curve (%d timings) from rest mean %lu max %lu over %lu "
-	         "goals %s",
+	         "goals; moving (0.8, -0.3 m/s) mean %lu max %lu %s",
 	         CURVE_EVALS, (unsigned long)(curve.sum / curve.n), (unsigned long)curve.max,
-	         (unsigned long)curve.n, unit);
+	         (unsigned long)curve.n, (unsigned long)(curve_moving.sum / curve_moving.n),
+	         (unsigned long)curve_moving.max, unit);
 	print(line);
 }
