@@ -12,15 +12,21 @@
 
 #include "traj_int.h"
 
-#define DIMS_MAX 6      /* free parameters: from rest 6, moving 4 */
+#define DIMS_MAX 8      /* a shape's parameters (decode) */
 #define SPEED_MIN 1e-4f /* [m/s] (the turn rate at the wheels' distance): a slower start rests */
-#define OFFSET_MAX 0.6f
+#define OFFSET_MAX 0.6f /* a control point's offset across the chord, in chord lengths */
 /* The search's estimates: a timing on a grid of SEARCH_GRID segments, over a limit by at most
  * SEARCH_OVER taken as it is; the shape kept is timed on the full grid and checked (over 100
  * random moves from rest with 40 timings: 2.5 times cheaper than the full checked timing for
  * plans 0.3 % later on average; moving starts 1.2 % later). */
 #define SEARCH_GRID 32
-#define SEARCH_OVER 0.01f /* a control point's offset across the chord, in chord lengths */
+#define SEARCH_OVER 0.01f
+/* Then the heading's turn over a part of the way only (held otherwise, where its Coulomb
+ * friction would cost the whole way: a start a few mrad off the goal's heading), at the start
+ * or at the end, over these shares; timed on the full grid (the coarse one misjudges a short
+ * turn) */
+#define SPANS 4
+static const float spans[SPANS][2] = {{0.0f, 0.1f}, {1.0f, 0.1f}, {0.0f, 0.3f}, {1.0f, 0.3f}};
 
 /* The search's problem: the start, the goal, and the parameters' box. */
 struct curve_prob {
@@ -29,71 +35,101 @@ struct curve_prob {
 	float d[2], n[2];         /* the chord and its normal (the chord's length) */
 	float dm;                 /* the wheels' mean distance from the centre [m] */
 	bool moving;              /* the first control point follows the start velocity */
-	int dims;
+	bool turning;             /* moving with a turn rate: the heading turns from the start */
+	int dims, keep[DIMS_MAX]; /* the searched parameters: the shape's entries keep[0..dims) */
+	float base[DIMS_MAX];     /* the shape's other entries */
 	float lo[DIMS_MAX], hi[DIMS_MAX];
 };
 
-/*
- * The control points of parameters x. From rest, x = (f1, f2, o1, o2, a1, a2): P1 = P0 + f1 d +
- * o1 n with the heading P0's + a1, P2 = G - f2 d + o2 n with the heading G's - a2. Moving,
- * x = (k, f2, o2, a2): P1 = P0 + k v0 (k [s]: the first tangent along the start velocity, its
- * turn rate included).
- */
-static void points(const struct curve_prob *pr, const float *x, float P[4][3])
-{
-	const float f2 = x[1], o2 = pr->moving ? x[2] : x[3], a2 = pr->moving ? x[3] : x[5];
+/* A curve's shape: its control points in (x, y), the heading's (a cubic Bezier in the share
+ * of its turn's span) and that span, ua to ub shares of the progress. */
+struct shape {
+	float P[4][2], H[4];
+	float ua, ub;
+	float k; /* moving: P1 = P0 + k v0 [s] */
+};
 
-	for (int i = 0; i < 3; i++) {
-		P[0][i] = pr->p0[i];
-		P[3][i] = pr->g[i];
-		if (pr->moving)
-			P[1][i] = pr->p0[i] + x[0] * pr->v0[i];
+/*
+ * The shape of parameters x: [k moving | f1], f2, o1, o2, a1, a2, pos, wd. From rest P1 = P0
+ * + f1 d + o1 n; moving P1 = P0 + k v0 (the first tangent along the start velocity, k [s]);
+ * P2 = G - f2 d + o2 n. The heading turns over a share wd of the progress starting at (1 - wd)
+ * pos, its control points theta0, theta0 + a1, theta_goal - a2, theta_goal; a1 (a2) counts
+ * only where the span starts at the start (ends at the end): inside the path the heading
+ * starts (ends) its turn at rate 0. A turning start's span starts at the start, its a1 the
+ * start's rate: d theta / du = 3 a1 / wd there, and du/dt = 1 / (3 k).
+ */
+static void decode(const struct curve_prob *pr, const float *x, struct shape *sh)
+{
+	const float a = x[0], f2 = x[1], o1 = x[2], o2 = x[3], a1 = x[4], a2 = x[5];
+	const float pos = pr->turning ? 0.0f : x[6], wd = x[7];
+
+	sh->k = pr->moving ? a : 0.0f;
+	for (int q = 0; q < 2; q++) {
+		sh->P[0][q] = pr->p0[q];
+		sh->P[1][q] = pr->moving ? pr->p0[q] + a * pr->v0[q]
+		                         : pr->p0[q] + a * pr->d[q] + o1 * pr->n[q];
+		sh->P[2][q] = pr->g[q] - f2 * pr->d[q] + o2 * pr->n[q];
+		sh->P[3][q] = pr->g[q];
 	}
-	if (!pr->moving) {
-		for (int i = 0; i < 2; i++)
-			P[1][i] = pr->p0[i] + x[0] * pr->d[i] + x[2] * pr->n[i];
-		P[1][2] = pr->p0[2] + x[4];
-	}
-	for (int i = 0; i < 2; i++)
-		P[2][i] = pr->g[i] - f2 * pr->d[i] + o2 * pr->n[i];
-	P[2][2] = pr->g[2] - a2;
+	sh->ua = (1.0f - wd) * pos;
+	sh->ub = sh->ua + wd;
+	const float e1 = pr->turning ? sh->k * wd * pr->v0[2] : (sh->ua > 0.0f ? 0.0f : a1);
+	sh->H[0] = pr->p0[2];
+	sh->H[1] = pr->p0[2] + e1;
+	sh->H[2] = pr->g[2] - (sh->ub < 1.0f ? 0.0f : a2);
+	sh->H[3] = pr->g[2];
 }
 
-/* The path of control points P into pa, its progress s over the control polygon's length with
- * the heading weighted by the wheels' distance (about the wheels' travel); false if none. */
-static bool curve_path(struct traj_path *pa, const float P[4][3], float dm)
+/* The path of shape sh into pa, its progress s over the length of the control polygon in (x,
+ * y, theta), the heading weighted by the wheels' distance (about the wheels' travel); false
+ * if none. */
+static bool curve_path(struct traj_path *pa, const struct curve_prob *pr, const struct shape *sh)
 {
 	float L = 0.0f;
 
 	for (int k = 0; k < 3; k++) {
-		const float dx = P[k + 1][0] - P[k][0], dy = P[k + 1][1] - P[k][1];
-		const float dt = dm * (P[k + 1][2] - P[k][2]);
+		const float dx = sh->P[k + 1][0] - sh->P[k][0], dy = sh->P[k + 1][1] - sh->P[k][1];
+		const float dt = pr->dm * (sh->H[k + 1] - sh->H[k]);
 		L += sqrtf(dx * dx + dy * dy + dt * dt);
 	}
 	if (!(L > TRAJ_IDLE_POS))
 		return false;
-	*pa = (struct traj_path){.curve = 1, .len_m = L, .n_poses = 1, .pass_s = {L}};
+	*pa = (struct traj_path){.curve = 1,
+	                         .len_m = L,
+	                         .n_poses = 1,
+	                         .pass_s = {L},
+	                         .n_knots = 2,
+	                         .knot_s = {sh->ua * L, sh->ub * L},
+	                         .head = {sh->H[0], sh->H[1], sh->H[2], sh->H[3]},
+	                         .goal = {pr->g[0], pr->g[1], pr->g[2]}};
 	for (int k = 0; k < 4; k++)
-		for (int i = 0; i < 3; i++)
-			pa->bez[k][i] = P[k][i];
-	for (int i = 0; i < 3; i++)
-		pa->goal[i] = P[3][i];
+		for (int i = 0; i < 2; i++)
+			pa->bez[k][i] = sh->P[k][i];
 	return true;
 }
 
-/* The duration of parameters x (INFINITY: none), pa its timed path (checked inside the
- * envelope). */
+/* The duration of shape x (INFINITY: none), pa its timed path, a timing over a limit by at
+ * most over taken as it is, on a grid of grid segments. */
 static float cost(const struct curve_prob *pr, const float *x, struct traj_path *pa, float over,
                   int grid)
 {
-	float P[4][3];
+	struct shape sh;
 
-	points(pr, x, P);
-	if (!curve_path(pa, P, pr->dm))
+	decode(pr, x, &sh);
+	if (!curve_path(pa, pr, &sh))
 		return INFINITY;
 	/* moving: B'(0) = 3 k v0 per unit of u = s / L, so s'(0) = L / (3 k) */
-	const float v = pr->moving ? pa->len_m / (3.0f * x[0]) : 0.0f;
+	const float v = pr->moving ? pa->len_m / (3.0f * sh.k) : 0.0f;
 	return traj_topp_within(&pr->tr->c, pa, 0.0f, v, over, grid);
+}
+
+/* The shape of the searched parameters x into full. */
+static void unpack(const struct curve_prob *pr, const float *x, float *full)
+{
+	for (int i = 0; i < DIMS_MAX; i++)
+		full[i] = pr->base[i];
+	for (int i = 0; i < pr->dims; i++)
+		full[pr->keep[i]] = x[i];
 }
 
 /* One evaluation inside the box: its duration into *f. (The timing's first pass alone, as an
@@ -103,10 +139,12 @@ static float cost(const struct curve_prob *pr, const float *x, struct traj_path 
 static void eval(const struct curve_prob *pr, float *x, float *f, int *used)
 {
 	struct traj_path pa;
+	float full[DIMS_MAX];
 
 	for (int i = 0; i < pr->dims; i++)
 		x[i] = x[i] < pr->lo[i] ? pr->lo[i] : (x[i] > pr->hi[i] ? pr->hi[i] : x[i]);
-	*f = cost(pr, x, &pa, SEARCH_OVER, SEARCH_GRID);
+	unpack(pr, x, full);
+	*f = cost(pr, full, &pa, SEARCH_OVER, SEARCH_GRID);
 	++*used;
 }
 
@@ -192,7 +230,6 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
                         int evals, struct traj_path *pa)
 {
 	struct curve_prob pr = {.tr = tr};
-	float x[DIMS_MAX], step[DIMS_MAX];
 
 	for (int i = 0; i < 3; i++) {
 		pr.p0[i] = from->pose[i];
@@ -210,35 +247,55 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	const float speed =
 	    sqrtf(pr.v0[0] * pr.v0[0] + pr.v0[1] * pr.v0[1] + dm * dm * pr.v0[2] * pr.v0[2]);
 	pr.moving = speed > SPEED_MIN;
-	/* the start: a third of the way each (the straight line, the heading linear) */
-	if (pr.moving) {
-		const float k0 = span / (3.0f * speed);
-		const float x0[4] = {k0, 1.0f / 3.0f, 0.0f, dth / 3.0f};
-		const float st[4] = {0.5f * k0, 0.2f, 0.2f, 0.3f};
-		const float lo[4] = {1e-3f * k0, 0.0f, -OFFSET_MAX, -PI_F};
-		const float hi[4] = {10.0f * k0, 1.0f, OFFSET_MAX, PI_F};
-		pr.dims = 4;
-		for (int i = 0; i < 4; i++) {
-			x[i] = x0[i], step[i] = st[i], pr.lo[i] = lo[i], pr.hi[i] = hi[i];
-		}
-	} else {
-		const float x0[6] = {1.0f / 3.0f, 1.0f / 3.0f, 0.0f, 0.0f, dth / 3.0f, dth / 3.0f};
-		const float st[6] = {0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
-		const float lo[6] = {0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
-		const float hi[6] = {1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F};
-		pr.dims = 6;
-		for (int i = 0; i < 6; i++) {
-			x[i] = x0[i], step[i] = st[i], pr.lo[i] = lo[i], pr.hi[i] = hi[i];
-		}
+	pr.turning = pr.moving && fabsf(pr.v0[2]) >= TRAJ_IDLE_VEL;
+	/* the start: a third of the way each (the straight line), the heading linear over the
+	 * whole way (pos, wd: held in the search) */
+	const float k0 = span / (3.0f * maxf(speed, SPEED_MIN));
+	const float x0[DIMS_MAX] = {pr.moving ? k0 : 1.0f / 3.0f,
+	                            1.0f / 3.0f,
+	                            0.0f,
+	                            0.0f,
+	                            dth / 3.0f,
+	                            dth / 3.0f,
+	                            0.0f,
+	                            1.0f};
+	const float st[DIMS_MAX] = {pr.moving ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
+	const float lo[DIMS_MAX] = {
+	    pr.moving ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
+	const float hi[DIMS_MAX] = {
+	    pr.moving ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F};
+	float x[DIMS_MAX], step[DIMS_MAX];
+	pr.dims = 0;
+	for (int i = 0; i < DIMS_MAX; i++) {
+		pr.base[i] = x0[i];
+		/* searched: the points, the heading's slopes (o1 from rest, a1 unless turning) */
+		if (i >= 6 || (i == 2 && pr.moving) || (i == 4 && pr.turning))
+			continue;
+		x[pr.dims] = x0[i], step[pr.dims] = st[i];
+		pr.lo[pr.dims] = lo[i], pr.hi[pr.dims] = hi[i];
+		pr.keep[pr.dims++] = i;
 	}
 	float xs[DIMS_MAX + 1][DIMS_MAX];
-	search(&pr, x, step, evals, xs);
-	for (int k = 0; k <= pr.dims; k++) { /* the best vertex that the full timing takes */
-		const float t = cost(&pr, xs[k], pa, 1e-5f, TRAJ_GRID);
-		if (t < INFINITY)
-			return t;
+	search(&pr, x, step, evals - SPANS, xs);
+	float best = INFINITY, full[DIMS_MAX];
+	for (int k = 0; k <= pr.dims && !(best < INFINITY); k++) {
+		/* the best vertex that the full timing takes */
+		unpack(&pr, xs[k], full);
+		best = cost(&pr, full, pa, 1e-5f, TRAJ_GRID);
 	}
-	return INFINITY;
+	if (!(best < INFINITY))
+		return INFINITY;
+	for (int q = 0; q < SPANS; q++) { /* the heading's turn over a part of the way */
+		struct traj_path pb;
+		full[6] = spans[q][0];
+		full[7] = spans[q][1];
+		const float t = cost(&pr, full, &pb, 1e-5f, TRAJ_GRID);
+		if (t < best) {
+			best = t;
+			*pa = pb;
+		}
+	}
+	return best;
 }
 
 static bool finite3(const float v[3])

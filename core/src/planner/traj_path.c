@@ -7,6 +7,7 @@
  */
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
 
 #include "traj_int.h"
 #include "omni4/model/consts.h"
@@ -68,11 +69,35 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
+/* A curve's heading and its derivatives by s at s: the cubic Bezier head[0..3] in tau, tau
+ * running 0..1 from knot_s[0] to knot_s[1], held outside (traj_curve.c gives it a slope of 0
+ * at an end of that span inside the path). */
+static void curve_heading(const struct traj_path *pa, float s, float th[3])
+{
+	const float *h = pa->head, w = pa->knot_s[1] - pa->knot_s[0];
+	float t = w > 0.0f ? (s - pa->knot_s[0]) / w : 1.0f;
+	const bool in = t >= 0.0f && t < 1.0f;
+
+	t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
+	const float v = 1.0f - t;
+	th[0] =
+	    v * v * v * h[0] + 3.0f * v * v * t * h[1] + 3.0f * v * t * t * h[2] + t * t * t * h[3];
+	if (!in) {
+		th[1] = th[2] = 0.0f;
+		return;
+	}
+	th[1] = (3.0f * v * v * (h[1] - h[0]) + 6.0f * v * t * (h[2] - h[1]) +
+	         3.0f * t * t * (h[3] - h[2])) /
+	        w;
+	th[2] = (6.0f * v * (h[2] - 2.0f * h[1] + h[0]) + 6.0f * t * (h[3] - 2.0f * h[2] + h[1])) /
+	        (w * w);
+}
+
 /* A curve's point and derivatives by s at s (u = s / len_m on the Bezier). */
 static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],
                      float th[3])
 {
-	const float (*b)[3] = pa->bez;
+	const float (*b)[2] = pa->bez;
 	const float L = pa->len_m;
 	float u = s / L;
 	u = u < 0.0f ? 0.0f : (u > 1.0f ? 1.0f : u);
@@ -80,24 +105,15 @@ static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2
 	const float w0 = v * v * v, w1 = 3.0f * v * v * u, w2 = 3.0f * v * u * u, w3 = u * u * u;
 	const float d0 = 3.0f * v * v / L, d1 = 6.0f * v * u / L, d2 = 3.0f * u * u / L;
 	const float e0 = 6.0f * v / (L * L), e1 = 6.0f * u / (L * L);
-	float q[3], qs[3], qss[3];
 
-	for (int i = 0; i < 3; i++) {
-		q[i] = w0 * b[0][i] + w1 * b[1][i] + w2 * b[2][i] + w3 * b[3][i];
-		qs[i] =
+	for (int i = 0; i < 2; i++) {
+		p[i] = w0 * b[0][i] + w1 * b[1][i] + w2 * b[2][i] + w3 * b[3][i];
+		ps[i] =
 		    d0 * (b[1][i] - b[0][i]) + d1 * (b[2][i] - b[1][i]) + d2 * (b[3][i] - b[2][i]);
-		qss[i] = e0 * (b[2][i] - 2.0f * b[1][i] + b[0][i]) +
+		pss[i] = e0 * (b[2][i] - 2.0f * b[1][i] + b[0][i]) +
 		         e1 * (b[3][i] - 2.0f * b[2][i] + b[1][i]);
 	}
-	p[0] = q[0];
-	p[1] = q[1];
-	ps[0] = qs[0];
-	ps[1] = qs[1];
-	pss[0] = qss[0];
-	pss[1] = qss[1];
-	th[0] = q[2];
-	th[1] = qs[2];
-	th[2] = qss[2];
+	curve_heading(pa, s, th);
 }
 
 void traj_path_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],

@@ -149,9 +149,11 @@ struct traj_path {
 	float goal[3];               /* the end, at rest */
 	float len_m;
 	float th_slope;  /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
-	float bez[4][3]; /* a curve's control points [m, m, rad] (curve: 1) */
+	float bez[4][2]; /* a curve's control points [m] (curve: 1) */
+	float head[4];   /* its heading's control points [rad], from knot_s[0] to knot_s[1] */
 	int n_pieces, n_knots, n_grid, n_poses;
-	int curve; /* 1: the path is the cubic Bezier bez in (x, y, theta) by s in [0, len_m] */
+	int curve; /* 1: the path is the cubic Bezier bez in (x, y) by s in [0, len_m], its heading
+	            * the cubic Bezier head over [knot_s[0], knot_s[1]], held outside */
 };
 
 struct traj {
