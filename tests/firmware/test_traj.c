@@ -378,7 +378,8 @@ static void test_plans_stay_within_the_envelope_with_odd_drives(void **state)
 	check_moves(&l);
 }
 
-/* A move along x from rest at heading 0 is timed on its path: on every segment that speeds up,
+/* A straight path along x from rest at heading 0 (traj_plan_path to one pose): on every segment
+ * that speeds up,
  * s'' is the envelope's acceleration (traj_envelope, the hand-derived one) at the segment's end
  * speed, within 2 % of it and never above; it cruises below the top speed. */
 static void test_straight_move_speeds_up_at_the_envelope(void **state)
@@ -393,7 +394,7 @@ static void test_straight_move_speeds_up_at_the_envelope(void **state)
 		float acc, top, vmax = 0;
 		int up = 0;
 		assert_int_equal(traj_init(&tr, &ls[i]), 0);
-		assert_int_equal(traj_plan(&tr, &from, goal), 0);
+		assert_int_equal(traj_plan_path(&tr, &from, &goal, 1, 0.1f), 0);
 		assert_int_equal(tr.on_path, 1);
 		const struct traj_path *pa = &tr.path;
 		for (int k = 0; k < pa->n_grid; k++) {
@@ -490,8 +491,10 @@ static void test_replanning_while_moving_keeps_the_reference_continuous(void **s
 			assert_int_equal(traj_replan(&tr, goal), 0);
 			struct traj_ref n;
 			traj_eval(&tr, 0.0f, &n);
-			for (int i = 0; i < 3; i++)
-				assert_true(n.pose[i] == r.pose[i] && n.vel[i] == r.vel[i]);
+			for (int i = 0; i < 3; i++) { /* the velocity to its rounding */
+				assert_true(n.pose[i] == r.pose[i]);
+				near(n.vel[i], r.vel[i], 1e-5);
+			}
 			assert_true(plan_worst_ratio(&tr, &l) <= 1.0 + 1e-4);
 		}
 		traj_step(&tr, (float)dt, &r);
@@ -533,8 +536,10 @@ static void test_plan_ahead_hands_over_without_a_jump(void **state)
 	assert_int_equal(traj_plan_ahead(&tr, 0.02f, goal2, &next), 0);
 	traj_eval(&tr, tr.t_s + 0.02f, &at);
 	traj_eval(&next, 0.0f, &r);
-	for (int i = 0; i < 3; i++)
-		assert_true(r.pose[i] == at.pose[i] && r.vel[i] == at.vel[i]);
+	for (int i = 0; i < 3; i++) { /* the velocity to its rounding */
+		assert_true(r.pose[i] == at.pose[i]);
+		near(r.vel[i], at.vel[i], 1e-5);
+	}
 	for (int k = 0; k < 4000; k++) {
 		if (!handed)
 			handed = traj_take_over(&tr, &next);
@@ -560,7 +565,7 @@ static void test_plan_ahead_hands_over_without_a_jump(void **state)
 	assert_int_equal(traj_plan_ahead(&tr, 0.1f, bad, &next), -EINVAL);
 }
 
-/* A new goal while the reference turns fast (over 1.2 rad/s at over 0.6 m/s, where the plan of
+/* A new goal while the reference turns fast (over 1.0 rad/s at over 0.6 m/s, where the plan of
  * a move with a turn turns fastest): the plan does not crawl. It arrives within 0.75 s of the
  * same start not turning (2026-11-29: at 1.5 rad/s and 1.0 m/s, +0.13 to +0.38 s: the heading
  * slows while the translation brakes against the turning body's M w x v), within the envelope.
@@ -589,7 +594,7 @@ static void test_new_goal_from_a_fast_turn_does_not_crawl(void **state)
 		}
 	}
 	traj_eval(&tr, t_fast, &at);
-	assert_true(at.vel[2] > 1.2f && hypotf(at.vel[0], at.vel[1]) > 0.6f);
+	assert_true(at.vel[2] > 1.0f && hypotf(at.vel[0], at.vel[1]) > 0.6f);
 	still = tr;
 	for (size_t g = 0; g < sizeof(goals) / sizeof(goals[0]); g++) {
 		struct traj_ref calm = at;

@@ -306,6 +306,8 @@ static void brake_first(struct traj *tr, const struct traj_ref *from, const floa
 	tr->duration_s += t_pre;
 }
 
+#define TRAJ_PLAN_EVALS 40
+
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
@@ -316,6 +318,8 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 	                     traj_1d_idle(from->pose[1], from->vel[1], goal[1]);
 	const float s = tr->c.rot_share;
 
+	if (traj_plan_curve(tr, from, goal, TRAJ_PLAN_EVALS) == 0)
+		return 0;
 	tr->on_path = 0;
 	tr->pre_s = 0.0f;
 	if (rot_idle || tr_idle) {

@@ -12,7 +12,7 @@
 
 #include "traj_int.h"
 
-#define DIMS_MAX 8      /* a shape's parameters (decode) */
+#define DIMS_MAX 10     /* a shape's parameters (decode) */
 #define SPEED_MIN 1e-4f /* [m/s] (the turn rate at the wheels' distance): a slower start rests */
 #define OFFSET_MAX 0.6f /* a control point's offset across the chord, in chord lengths */
 /* The search's estimates: a timing on a grid of SEARCH_GRID segments, over a limit by at most
@@ -25,8 +25,16 @@
  * friction would cost the whole way: a start a few mrad off the goal's heading), at the start
  * or at the end, over these shares; timed on the full grid (the coarse one misjudges a short
  * turn) */
-#define SPANS 4
-static const float spans[SPANS][2] = {{0.0f, 0.1f}, {1.0f, 0.1f}, {0.0f, 0.3f}, {1.0f, 0.3f}};
+#define CRUISE_SHARES 2 /* and a cruise at the two fastest headings, turning over these shares */
+static const float cruise_share[CRUISE_SHARES] = {0.03f, 0.1f};
+#define SWINGS (2 * CRUISE_SHARES)
+#define TOP_TIE 1.001f    /* top speeds this close are one */
+#define CRUISE_REFINE 8   /* golden sections of the cruise's heading */
+#define SWING_HEADINGS 16 /* headings a turn whose top speeds along the chord are compared */
+#define SPAN_BREAKS 3     /* grid points inside the heading's span (a short one has sharp turns) */
+#define SPANS 6
+static const float spans[SPANS][2] = {{0.0f, 0.03f}, {1.0f, 0.03f}, {0.0f, 0.1f},
+                                      {1.0f, 0.1f},  {0.0f, 0.3f},  {1.0f, 0.3f}};
 
 /* The search's problem: the start, the goal, and the parameters' box. */
 struct curve_prob {
@@ -41,27 +49,31 @@ struct curve_prob {
 	float lo[DIMS_MAX], hi[DIMS_MAX];
 };
 
-/* A curve's shape: its control points in (x, y), the heading's (a cubic Bezier in the share
- * of its turn's span) and that span, ua to ub shares of the progress. */
+/* A curve's shape: its control points in (x, y), its heading's two turns (cubic Beziers in
+ * the share of their spans, span[q] from and to as shares of the progress; held outside). */
 struct shape {
-	float P[4][2], H[4];
-	float ua, ub;
+	float P[4][2], H[2][4];
+	float span[2][2];
 	float k; /* moving: P1 = P0 + k v0 [s] */
 };
 
 /*
- * The shape of parameters x: [k moving | f1], f2, o1, o2, a1, a2, pos, wd. From rest P1 = P0
- * + f1 d + o1 n; moving P1 = P0 + k v0 (the first tangent along the start velocity, k [s]);
- * P2 = G - f2 d + o2 n. The heading turns over a share wd of the progress starting at (1 - wd)
- * pos, its control points theta0, theta0 + a1, theta_goal - a2, theta_goal; a1 (a2) counts
- * only where the span starts at the start (ends at the end): inside the path the heading
- * starts (ends) its turn at rate 0. A turning start's span starts at the start, its a1 the
- * start's rate: d theta / du = 3 a1 / wd there, and du/dt = 1 / (3 k).
+ * The shape of parameters x: [k moving | f1], f2, o1, o2, a1, a2, pos, wd, psi, w. From rest
+ * P1 = P0 + f1 d + o1 n; moving P1 = P0 + k v0 (the first tangent along the start velocity,
+ * k [s]); P2 = G - f2 d + o2 n. The heading (psi NaN) turns once, over a share wd of the
+ * progress starting at (1 - wd) pos, its control points theta0, theta0 + a1, theta_goal - a2,
+ * theta_goal; a1 (a2) counts only where the span starts at the start (ends at the end):
+ * inside the path the heading starts (ends) its turn at rate 0. Or it turns to psi over the
+ * first share w, holds it, and turns to theta_goal over the last w (a cruise at a heading
+ * where the robot is faster). Moving, a1 is the start's rate: d theta / du = 3 a1 / w there,
+ * du/dt = 1 / (3 k) (a turning start's span starts at the start).
  */
 static void decode(const struct curve_prob *pr, const float *x, struct shape *sh)
 {
 	const float a = x[0], f2 = x[1], o1 = x[2], o2 = x[3], a1 = x[4], a2 = x[5];
-	const float pos = pr->turning ? 0.0f : x[6], wd = x[7];
+	const float pos = pr->turning ? 0.0f : x[6], psi = x[8];
+	const bool cruise = isfinite(psi);
+	const float wd = cruise ? x[9] : x[7], th0 = pr->p0[2], thg = pr->g[2];
 
 	sh->k = pr->moving ? a : 0.0f;
 	for (int q = 0; q < 2; q++) {
@@ -71,13 +83,18 @@ static void decode(const struct curve_prob *pr, const float *x, struct shape *sh
 		sh->P[2][q] = pr->g[q] - f2 * pr->d[q] + o2 * pr->n[q];
 		sh->P[3][q] = pr->g[q];
 	}
-	sh->ua = (1.0f - wd) * pos;
-	sh->ub = sh->ua + wd;
-	const float e1 = pr->turning ? sh->k * wd * pr->v0[2] : (sh->ua > 0.0f ? 0.0f : a1);
-	sh->H[0] = pr->p0[2];
-	sh->H[1] = pr->p0[2] + e1;
-	sh->H[2] = pr->g[2] - (sh->ub < 1.0f ? 0.0f : a2);
-	sh->H[3] = pr->g[2];
+	const float ua = cruise ? 0.0f : (1.0f - wd) * pos, ub = ua + wd;
+	const float e1 = pr->moving ? sh->k * wd * pr->v0[2] : (ua > 0.0f ? 0.0f : a1);
+	const float mid = cruise ? psi : thg, e2 = cruise || ub >= 1.0f ? a2 : 0.0f;
+	const float H[2][4] = {{th0, th0 + e1, cruise ? psi : thg - e2, mid},
+	                       {mid, mid, thg - (cruise ? e2 : 0.0f), thg}};
+	for (int q = 0; q < 2; q++)
+		for (int i = 0; i < 4; i++)
+			sh->H[q][i] = H[q][i];
+	sh->span[0][0] = ua;
+	sh->span[0][1] = ub;
+	sh->span[1][0] = cruise ? 1.0f - wd : 1.0f;
+	sh->span[1][1] = 1.0f;
 }
 
 /* The path of shape sh into pa, its progress s over the length of the control polygon in (x,
@@ -89,8 +106,9 @@ static bool curve_path(struct traj_path *pa, const struct curve_prob *pr, const 
 
 	for (int k = 0; k < 3; k++) {
 		const float dx = sh->P[k + 1][0] - sh->P[k][0], dy = sh->P[k + 1][1] - sh->P[k][1];
-		const float dt = pr->dm * (sh->H[k + 1] - sh->H[k]);
-		L += sqrtf(dx * dx + dy * dy + dt * dt);
+		const float ta = pr->dm * (sh->H[0][k + 1] - sh->H[0][k]);
+		const float tb = pr->dm * (sh->H[1][k + 1] - sh->H[1][k]);
+		L += sqrtf(dx * dx + dy * dy + ta * ta + tb * tb);
 	}
 	if (!(L > TRAJ_IDLE_POS))
 		return false;
@@ -98,13 +116,21 @@ static bool curve_path(struct traj_path *pa, const struct curve_prob *pr, const 
 	                         .len_m = L,
 	                         .n_poses = 1,
 	                         .pass_s = {L},
-	                         .n_knots = 2,
-	                         .knot_s = {sh->ua * L, sh->ub * L},
-	                         .head = {sh->H[0], sh->H[1], sh->H[2], sh->H[3]},
+	                         .n_knots = 4 + 2 * SPAN_BREAKS,
 	                         .goal = {pr->g[0], pr->g[1], pr->g[2]}};
 	for (int k = 0; k < 4; k++)
 		for (int i = 0; i < 2; i++)
 			pa->bez[k][i] = sh->P[k][i];
+	for (int q = 0; q < 2; q++) {
+		for (int i = 0; i < 4; i++)
+			pa->head[q][i] = sh->H[q][i];
+		const float a = sh->span[q][0], b = sh->span[q][1];
+		pa->knot_s[2 * q] = a * L;
+		pa->knot_s[2 * q + 1] = b * L;
+		for (int k = 1; k <= SPAN_BREAKS; k++) /* grid points inside the turns */
+			pa->knot_s[3 + q * SPAN_BREAKS + k] =
+			    (a + (b - a) * (float)k / (SPAN_BREAKS + 1)) * L;
+	}
 	return true;
 }
 
@@ -224,6 +250,61 @@ static void search(const struct curve_prob *pr, const float *x, const float *ste
 	sort_simplex(n, xs, fs);
 }
 
+/* The top speed along the chord at heading th (traj_envelope's; -1 if none). */
+static float top_at(const struct curve_prob *pr, float chord, float th)
+{
+	const float rel = chord - th, dir[2] = {cosf(rel), cosf(rel - 0.5f * PI_F)};
+	float acc, top;
+
+	return traj_envelope(pr->tr, dir, 0.0f, &acc, &top) ? -1.0f : top;
+}
+
+/* The headings at which the robot is fastest along the chord (out[0]) and next fastest
+ * (out[1]): traj_envelope's top speed at SWING_HEADINGS headings a turn from the middle one,
+ * the nearest of equal ones, then refined by golden sections between its neighbours (the
+ * peak is sharp: Table III's robot 2.86 m/s along its diagonal, 2.89 at 0.6 deg off it, 2.76
+ * at 5 deg). */
+static void cruise_headings(const struct curve_prob *pr, float out[2])
+{
+	const float chord = atan2f(pr->d[1], pr->d[0]), mid = 0.5f * (pr->p0[2] + pr->g[2]);
+	const float step = 2.0f * PI_F / SWING_HEADINGS;
+	float top_best[2] = {-1.0f, -1.0f}, psi[2] = {mid, mid};
+
+	for (int k = 0; k < SWING_HEADINGS; k++) {
+		/* headings from the middle one, nearest first, alternately either way */
+		const float th = mid + (float)((k + 1) / 2) * step * (k % 2 ? 1.0f : -1.0f);
+		const float top = top_at(pr, chord, th);
+		const int q =
+		    top > TOP_TIE * top_best[0] ? 0 : (top > TOP_TIE * top_best[1] ? 1 : -1);
+		if (q < 0)
+			continue;
+		if (q == 0) {
+			top_best[1] = top_best[0];
+			psi[1] = psi[0];
+		}
+		top_best[q] = top;
+		psi[q] = th;
+	}
+	for (int side = 0; side < 2; side++) {
+		const float gr = 0.618034f;
+		float a = psi[side] - step, b = psi[side] + step;
+		float c = b - gr * (b - a), d = a + gr * (b - a);
+		float fc = top_at(pr, chord, c), fd = top_at(pr, chord, d);
+		for (int it = 0; it < CRUISE_REFINE; it++) {
+			if (fc > fd) {
+				b = d, d = c, fd = fc;
+				c = b - gr * (b - a);
+				fc = top_at(pr, chord, c);
+			} else {
+				a = c, c = d, fc = fd;
+				d = a + gr * (b - a);
+				fd = top_at(pr, chord, d);
+			}
+		}
+		out[side] = maxf(fc, fd) > top_best[side] ? (fc > fd ? c : d) : psi[side];
+	}
+}
+
 /* The curve from `from` to goal (heading unwrapped from the start's), searched, then timed
  * and checked into pa; its duration or INFINITY. */
 static float curve_from(const struct traj *tr, const struct traj_ref *from, const float goal[3],
@@ -258,7 +339,9 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	                            dth / 3.0f,
 	                            dth / 3.0f,
 	                            0.0f,
-	                            1.0f};
+	                            1.0f,
+	                            NAN,
+	                            0.0f};
 	const float st[DIMS_MAX] = {pr.moving ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
 	const float lo[DIMS_MAX] = {
 	    pr.moving ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
@@ -268,8 +351,8 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	pr.dims = 0;
 	for (int i = 0; i < DIMS_MAX; i++) {
 		pr.base[i] = x0[i];
-		/* searched: the points, the heading's slopes (o1 from rest, a1 unless turning) */
-		if (i >= 6 || (i == 2 && pr.moving) || (i == 4 && pr.turning))
+		/* searched: the points, the heading's slopes (o1 and a1 from rest) */
+		if (i >= 6 || ((i == 2 || i == 4) && pr.moving)) /* pos, wd, psi, w held */
 			continue;
 		x[pr.dims] = x0[i], step[pr.dims] = st[i];
 		pr.lo[pr.dims] = lo[i], pr.hi[pr.dims] = hi[i];
@@ -285,10 +368,24 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	}
 	if (!(best < INFINITY))
 		return INFINITY;
-	for (int q = 0; q < SPANS; q++) { /* the heading's turn over a part of the way */
+	float kept[DIMS_MAX];
+	for (int i = 0; i < DIMS_MAX; i++)
+		kept[i] = full[i];
+	float cruise[2];
+	cruise_headings(&pr, cruise);
+	for (int q = 0; q < SPANS + SWINGS; q++) {
 		struct traj_path pb;
-		full[6] = spans[q][0];
-		full[7] = spans[q][1];
+		for (int i = 0; i < DIMS_MAX; i++)
+			full[i] = kept[i];
+		if (q < SPANS) { /* the heading's turn over a part of the way */
+			full[6] = spans[q][0];
+			full[7] = spans[q][1];
+		} else { /* or a cruise at a heading where the robot is fastest along the chord */
+			for (int i = 0; i < 6; i++) /* on the start's shape */
+				full[i] = pr.base[i];
+			full[8] = cruise[(q - SPANS) / CRUISE_SHARES];
+			full[9] = cruise_share[(q - SPANS) % CRUISE_SHARES];
+		}
 		const float t = cost(&pr, full, &pb, 1e-5f, TRAJ_GRID);
 		if (t < best) {
 			best = t;

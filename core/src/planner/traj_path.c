@@ -69,28 +69,30 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
-/* A curve's heading and its derivatives by s at s: the cubic Bezier head[0..3] in tau, tau
- * running 0..1 from knot_s[0] to knot_s[1], held outside (traj_curve.c gives it a slope of 0
- * at an end of that span inside the path). */
+/* A curve's heading and its derivatives by s at s: inside a turn q (knot_s[2q] to
+ * knot_s[2q + 1]) the cubic Bezier head[q] in its share tau, else held: the first turn's
+ * start before it, its end up to the second's start, the second's end after it. */
 static void curve_heading(const struct traj_path *pa, float s, float th[3])
 {
-	const float *h = pa->head, w = pa->knot_s[1] - pa->knot_s[0];
-	float t = w > 0.0f ? (s - pa->knot_s[0]) / w : 1.0f;
-	const bool in = t >= 0.0f && t < 1.0f;
-
-	t = t < 0.0f ? 0.0f : (t > 1.0f ? 1.0f : t);
-	const float v = 1.0f - t;
-	th[0] =
-	    v * v * v * h[0] + 3.0f * v * v * t * h[1] + 3.0f * v * t * t * h[2] + t * t * t * h[3];
-	if (!in) {
-		th[1] = th[2] = 0.0f;
+	for (int q = 1; q >= 0; q--) {
+		const float *h = pa->head[q], a = pa->knot_s[2 * q], w = pa->knot_s[2 * q + 1] - a;
+		if (!(w > 0.0f) || !(s >= a) || !(s < a + w))
+			continue;
+		const float t = (s - a) / w, v = 1.0f - t;
+		th[0] = v * v * v * h[0] + 3.0f * v * v * t * h[1] + 3.0f * v * t * t * h[2] +
+		        t * t * t * h[3];
+		th[1] = (3.0f * v * v * (h[1] - h[0]) + 6.0f * v * t * (h[2] - h[1]) +
+		         3.0f * t * t * (h[3] - h[2])) /
+		        w;
+		th[2] = (6.0f * v * (h[2] - 2.0f * h[1] + h[0]) +
+		         6.0f * t * (h[3] - 2.0f * h[2] + h[1])) /
+		        (w * w);
 		return;
 	}
-	th[1] = (3.0f * v * v * (h[1] - h[0]) + 6.0f * v * t * (h[2] - h[1]) +
-	         3.0f * t * t * (h[3] - h[2])) /
-	        w;
-	th[2] = (6.0f * v * (h[2] - 2.0f * h[1] + h[0]) + 6.0f * t * (h[3] - 2.0f * h[2] + h[1])) /
-	        (w * w);
+	th[0] = s < pa->knot_s[0]   ? pa->head[0][0]
+	        : s < pa->knot_s[2] ? pa->head[0][3]
+	                            : pa->head[1][3];
+	th[1] = th[2] = 0.0f;
 }
 
 /* A curve's point and derivatives by s at s (u = s / len_m on the Bezier). */

@@ -13,12 +13,15 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 10  /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6    /* timings with limits scaled down until the check passes */
-#define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
-#define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
-#define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
-#define USAGE_LIFT 1e6f /* a wheel the acceleration lifts off the floor: no scaling saves it */
+#define TOPP_BISECT 10    /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 6      /* timings with limits scaled down until the check passes */
+#define TOPP_SCALE 1.0f /* the limits' scale of the first timing */
+#define FINE_OVER 1e-3f   /* a timing held closer than this to the limits: a curve's checked finer \
+                           */
+#define SIGN_MIN 1e-3f    /* a body velocity component below this (per unit s') has no sign */
+#define SPEED_BIG 20.0f   /* [m/s] above any speed the drives allow */
+#define SIDE_M 1e-5f      /* [m] short of a point: the piece and knot before it */
+#define USAGE_LIFT 1e6f   /* a wheel the acceleration lifts off the floor: no scaling saves it */
 
 struct geo {
 	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */
@@ -415,8 +418,10 @@ static void backward(const struct traj_path *pa, struct topp_work *w)
 	}
 }
 
-/* The largest use of a limit over the grid points and the segments' midpoints. */
-static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w)
+/* The largest use of a limit over the grid points and the segments' midpoints; fine: also at
+ * their quarters (a curve's force can peak between, where its tangent turns fast). */
+static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w,
+                   bool fine)
 {
 	float worst = 0.0f;
 
@@ -429,9 +434,18 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, const 
 			    maxf(worst, usage(c, &w->g[1][i], &w->r[1][i], x, pa->grid_a[i - 1]));
 		if (i == w->n)
 			break;
-		const float ds = pa->grid_s[i + 1] - pa->grid_s[i];
-		worst = maxf(worst,
-		             usage(c, &w->gm[i], &w->rm[i], x + ds * pa->grid_a[i], pa->grid_a[i]));
+		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], a = pa->grid_a[i];
+		worst = maxf(worst, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
+		for (int q = 1; fine && q <= 3; q += 2) {
+			struct geo g;
+			struct topp_rows r;
+			signed char sg[3];
+			for (int k = 0; k < 3; k++)
+				sg[k] = (signed char)(w->sg[i][k] | w->sg[i + 1][k]);
+			geo_at(pa, pa->grid_s[i] + 0.25f * (float)q * ds, &g);
+			rows_at(c, &g, sg, &r);
+			worst = maxf(worst, usage(c, &g, &r, x + 0.5f * (float)q * ds * a, a));
+		}
 	}
 	return worst;
 }
@@ -477,8 +491,8 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 
 /* Grid points at these distances from the start and from the end [m]: a long path's speed-up
  * and brake (a metre or two) on segments short enough to hold them, whatever the length. */
-#define RAMP_BREAKS 5
-static const float ramp_m[RAMP_BREAKS] = {0.25f, 0.5f, 1.0f, 2.0f, 4.0f};
+#define RAMP_BREAKS 7
+static const float ramp_m[RAMP_BREAKS] = {0.02f, 0.07f, 0.25f, 0.5f, 1.0f, 2.0f, 4.0f};
 #define BREAKS_MAX (TRAJ_PIECES + TRAJ_KNOTS + 2 * RAMP_BREAKS + 1)
 
 /* Where a piece or a heading knot ends after s0, sorted, each once; returns how many. */
@@ -538,7 +552,7 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
                        float over, int grid)
 {
 	struct topp_work w;
-	float k = 1.0f;
+	float k = TOPP_SCALE; /* between the checked points a curve was sampled at 1.0007 */
 
 	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
 		return INFINITY;
@@ -569,7 +583,7 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
 		const float t = timing(c, pa, &w, v0, k);
 		if (!(t < INFINITY))
 			return INFINITY;
-		const float worst = check(c, pa, &w);
+		const float worst = check(c, pa, &w, pa->curve && over < FINE_OVER);
 		if (worst <= 1.0f + over)
 			return t;
 		k *= 0.997f / worst;

@@ -150,10 +150,11 @@ struct traj_path {
 	float len_m;
 	float th_slope;  /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
 	float bez[4][2]; /* a curve's control points [m] (curve: 1) */
-	float head[4];   /* its heading's control points [rad], from knot_s[0] to knot_s[1] */
+	float head[2][4]; /* its heading's turns' control points [rad], over knot_s[0..1], [2..3] */
 	int n_pieces, n_knots, n_grid, n_poses;
 	int curve; /* 1: the path is the cubic Bezier bez in (x, y) by s in [0, len_m], its heading
-	            * the cubic Bezier head over [knot_s[0], knot_s[1]], held outside */
+	            * the cubic Beziers head[0], head[1] over [knot_s[0], knot_s[1]] and
+	            * [knot_s[2], knot_s[3]], held outside them */
 };
 
 struct traj {
