@@ -306,7 +306,7 @@ static void brake_first(struct traj *tr, const struct traj_ref *from, const floa
 	tr->duration_s += t_pre;
 }
 
-#define TRAJ_PLAN_EVALS 40
+#define TRAJ_PLAN_EVALS 48
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {

@@ -30,11 +30,11 @@ static const float cruise_share[CRUISE_SHARES] = {0.03f, 0.1f};
 #define SWINGS (2 * CRUISE_SHARES)
 #define TOP_TIE 1.001f    /* top speeds this close are one */
 #define CRUISE_REFINE 8   /* golden sections of the cruise's heading */
+#define CRUISE_GAIN 1.02f /* a cruise only at a heading this much faster than the ends' */
 #define SWING_HEADINGS 16 /* headings a turn whose top speeds along the chord are compared */
 #define SPAN_BREAKS 3     /* grid points inside the heading's span (a short one has sharp turns) */
-#define SPANS 6
-static const float spans[SPANS][2] = {{0.0f, 0.03f}, {1.0f, 0.03f}, {0.0f, 0.1f},
-                                      {1.0f, 0.1f},  {0.0f, 0.3f},  {1.0f, 0.3f}};
+#define SPANS 4
+static const float spans[SPANS][2] = {{0.0f, 0.05f}, {1.0f, 0.05f}, {0.0f, 0.2f}, {1.0f, 0.2f}};
 
 /* The search's problem: the start, the goal, and the parameters' box. */
 struct curve_prob {
@@ -260,10 +260,10 @@ static float top_at(const struct curve_prob *pr, float chord, float th)
 }
 
 /* The headings at which the robot is fastest along the chord (out[0]) and next fastest
- * (out[1]): traj_envelope's top speed at SWING_HEADINGS headings a turn from the middle one,
- * the nearest of equal ones, then refined by golden sections between its neighbours (the
- * peak is sharp: Table III's robot 2.86 m/s along its diagonal, 2.89 at 0.6 deg off it, 2.76
- * at 5 deg). */
+ * (out[1]), NaN where hardly faster than at the start's or the goal's heading: traj_envelope's top
+ * speed at SWING_HEADINGS headings a turn from the middle one, the nearest of equal ones, then
+ * refined by golden sections between its neighbours (the peak is sharp: Table III's robot 2.86 m/s
+ * along its diagonal, 2.89 at 0.6 deg off it, 2.76 at 5 deg). */
 static void cruise_headings(const struct curve_prob *pr, float out[2])
 {
 	const float chord = atan2f(pr->d[1], pr->d[0]), mid = 0.5f * (pr->p0[2] + pr->g[2]);
@@ -302,37 +302,43 @@ static void cruise_headings(const struct curve_prob *pr, float out[2])
 			}
 		}
 		out[side] = maxf(fc, fd) > top_best[side] ? (fc > fd ? c : d) : psi[side];
+		top_best[side] = maxf(top_best[side], maxf(fc, fd));
 	}
+	/* no cruise where the robot is hardly faster than at the start's or the goal's heading */
+	const float top_ends = maxf(top_at(pr, chord, pr->p0[2]), top_at(pr, chord, pr->g[2]));
+	for (int side = 0; side < 2; side++)
+		if (!(top_best[side] > CRUISE_GAIN * top_ends))
+			out[side] = NAN;
 }
 
-/* The curve from `from` to goal (heading unwrapped from the start's), searched, then timed
- * and checked into pa; its duration or INFINITY. */
-static float curve_from(const struct traj *tr, const struct traj_ref *from, const float goal[3],
-                        int evals, struct traj_path *pa)
+/* The problem of the curve from `from` to goal (heading unwrapped from the start's) into pr,
+ * the search's start x and first steps step. */
+static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, const float goal[3],
+                        float *x, float *step)
 {
-	struct curve_prob pr = {.tr = tr};
+	const int nw = pr->tr->c.wh.n;
 
 	for (int i = 0; i < 3; i++) {
-		pr.p0[i] = from->pose[i];
-		pr.v0[i] = from->vel[i];
-		pr.g[i] = goal[i];
+		pr->p0[i] = from->pose[i];
+		pr->v0[i] = from->vel[i];
+		pr->g[i] = goal[i];
 	}
 	for (int i = 0; i < 2; i++)
-		pr.d[i] = pr.g[i] - pr.p0[i];
-	pr.n[0] = -pr.d[1];
-	pr.n[1] = pr.d[0];
-	for (int j = 0; j < tr->c.wh.n; j++)
-		pr.dm += fabsf(tr->c.wh.row[j][2]) / (float)tr->c.wh.n; /* eq 2's d_j */
-	const float dth = pr.g[2] - pr.p0[2], dm = pr.dm;
-	const float span = sqrtf(pr.d[0] * pr.d[0] + pr.d[1] * pr.d[1] + dm * dm * dth * dth);
-	const float speed =
-	    sqrtf(pr.v0[0] * pr.v0[0] + pr.v0[1] * pr.v0[1] + dm * dm * pr.v0[2] * pr.v0[2]);
-	pr.moving = speed > SPEED_MIN;
-	pr.turning = pr.moving && fabsf(pr.v0[2]) >= TRAJ_IDLE_VEL;
+		pr->d[i] = pr->g[i] - pr->p0[i];
+	pr->n[0] = -pr->d[1];
+	pr->n[1] = pr->d[0];
+	for (int j = 0; j < nw; j++)
+		pr->dm += fabsf(pr->tr->c.wh.row[j][2]) / (float)nw; /* eq 2's d_j */
+	const float dth = pr->g[2] - pr->p0[2], dm = pr->dm, *d = pr->d, *v = pr->v0;
+	const float span = sqrtf(d[0] * d[0] + d[1] * d[1] + dm * dm * dth * dth);
+	const float speed = sqrtf(v[0] * v[0] + v[1] * v[1] + dm * dm * v[2] * v[2]);
+	pr->moving = speed > SPEED_MIN;
+	pr->turning = pr->moving && fabsf(v[2]) >= TRAJ_IDLE_VEL;
 	/* the start: a third of the way each (the straight line), the heading linear over the
 	 * whole way (pos, wd: held in the search) */
 	const float k0 = span / (3.0f * maxf(speed, SPEED_MIN));
-	const float x0[DIMS_MAX] = {pr.moving ? k0 : 1.0f / 3.0f,
+	const bool mv = pr->moving;
+	const float x0[DIMS_MAX] = {mv ? k0 : 1.0f / 3.0f,
 	                            1.0f / 3.0f,
 	                            0.0f,
 	                            0.0f,
@@ -342,57 +348,83 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	                            1.0f,
 	                            NAN,
 	                            0.0f};
-	const float st[DIMS_MAX] = {pr.moving ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
+	const float st[DIMS_MAX] = {mv ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
 	const float lo[DIMS_MAX] = {
-	    pr.moving ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
+	    mv ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
 	const float hi[DIMS_MAX] = {
-	    pr.moving ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F};
-	float x[DIMS_MAX], step[DIMS_MAX];
-	pr.dims = 0;
+	    mv ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F};
+	pr->dims = 0;
 	for (int i = 0; i < DIMS_MAX; i++) {
-		pr.base[i] = x0[i];
+		pr->base[i] = x0[i];
 		/* searched: the points, the heading's slopes (o1 and a1 from rest) */
-		if (i >= 6 || ((i == 2 || i == 4) && pr.moving)) /* pos, wd, psi, w held */
+		if (i >= 6 || ((i == 2 || i == 4) && mv)) /* pos, wd, psi, w held */
 			continue;
-		x[pr.dims] = x0[i], step[pr.dims] = st[i];
-		pr.lo[pr.dims] = lo[i], pr.hi[pr.dims] = hi[i];
-		pr.keep[pr.dims++] = i;
+		x[pr->dims] = x0[i], step[pr->dims] = st[i];
+		pr->lo[pr->dims] = lo[i], pr->hi[pr->dims] = hi[i];
+		pr->keep[pr->dims++] = i;
 	}
-	float xs[DIMS_MAX + 1][DIMS_MAX];
-	search(&pr, x, step, evals - SPANS, xs);
-	float best = INFINITY, full[DIMS_MAX];
-	for (int k = 0; k <= pr.dims && !(best < INFINITY); k++) {
-		/* the best vertex that the full timing takes */
-		unpack(&pr, xs[k], full);
-		best = cost(&pr, full, pa, 1e-5f, TRAJ_GRID);
+}
+
+/* After the search (its simplex xs, the best first): the best vertex the full timing takes,
+ * or, if estimated sooner, its heading over a part of the way only or cruising at a heading
+ * where the robot is fastest along the chord, the soonest in full into pa; its duration or
+ * INFINITY. */
+static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DIMS_MAX],
+                          struct traj_path *pa)
+{
+	float best = INFINITY, kept[DIMS_MAX], cruise[2], pick[DIMS_MAX];
+	struct traj_path pb;
+
+	for (int k = 0; k <= pr->dims && !(best < INFINITY); k++) {
+		unpack(pr, xs[k], kept);
+		best = cost(pr, kept, pa, 1e-5f, TRAJ_GRID);
 	}
 	if (!(best < INFINITY))
 		return INFINITY;
-	float kept[DIMS_MAX];
-	for (int i = 0; i < DIMS_MAX; i++)
-		kept[i] = full[i];
-	float cruise[2];
-	cruise_headings(&pr, cruise);
+	cruise_headings(pr, cruise);
+	/* the candidates estimated as the search does, the soonest then timed in full */
+	float est = cost(pr, kept, &pb, SEARCH_OVER, SEARCH_GRID), pick_est = est;
 	for (int q = 0; q < SPANS + SWINGS; q++) {
-		struct traj_path pb;
-		for (int i = 0; i < DIMS_MAX; i++)
-			full[i] = kept[i];
-		if (q < SPANS) { /* the heading's turn over a part of the way */
+		float full[DIMS_MAX];
+		for (int i = 0; i < DIMS_MAX; i++) /* a cruise on the start's shape */
+			full[i] = q < SPANS || i >= 6 ? kept[i] : pr->base[i];
+		if (q < SPANS) {
 			full[6] = spans[q][0];
 			full[7] = spans[q][1];
-		} else { /* or a cruise at a heading where the robot is fastest along the chord */
-			for (int i = 0; i < 6; i++) /* on the start's shape */
-				full[i] = pr.base[i];
+		} else {
 			full[8] = cruise[(q - SPANS) / CRUISE_SHARES];
 			full[9] = cruise_share[(q - SPANS) % CRUISE_SHARES];
 		}
-		const float t = cost(&pr, full, &pb, 1e-5f, TRAJ_GRID);
+		if (q >= SPANS && !isfinite(full[8]))
+			continue;
+		const float t = cost(pr, full, &pb, SEARCH_OVER, SEARCH_GRID);
+		if (t < pick_est) {
+			pick_est = t;
+			for (int i = 0; i < DIMS_MAX; i++)
+				pick[i] = full[i];
+		}
+	}
+	if (pick_est < est) {
+		const float t = cost(pr, pick, &pb, 1e-5f, TRAJ_GRID);
 		if (t < best) {
 			best = t;
 			*pa = pb;
 		}
 	}
 	return best;
+}
+
+/* The curve from `from` to goal (heading unwrapped from the start's), searched with evals
+ * timings in all, then timed and checked into pa; its duration or INFINITY. */
+static float curve_from(const struct traj *tr, const struct traj_ref *from, const float goal[3],
+                        int evals, struct traj_path *pa)
+{
+	struct curve_prob pr = {.tr = tr};
+	float x[DIMS_MAX], step[DIMS_MAX], xs[DIMS_MAX + 1][DIMS_MAX];
+
+	curve_setup(&pr, from, goal, x, step);
+	search(&pr, x, step, evals - (SPANS + SWINGS + 2), xs);
+	return curve_finish(&pr, xs, pa);
 }
 
 static bool finite3(const float v[3])

@@ -13,15 +13,16 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 10    /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6      /* timings with limits scaled down until the check passes */
+#define TOPP_BISECT 10  /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 6    /* timings with limits scaled down until the check passes */
 #define TOPP_SCALE 1.0f /* the limits' scale of the first timing */
-#define FINE_OVER 1e-3f   /* a timing held closer than this to the limits: a curve's checked finer \
-                           */
-#define SIGN_MIN 1e-3f    /* a body velocity component below this (per unit s') has no sign */
-#define SPEED_BIG 20.0f   /* [m/s] above any speed the drives allow */
-#define SIDE_M 1e-5f      /* [m] short of a point: the piece and knot before it */
-#define USAGE_LIFT 1e6f   /* a wheel the acceleration lifts off the floor: no scaling saves it */
+#define FINE_OVER                                                                                  \
+	1e-3f           /* a timing held closer than this to the limits: a curve's checked finer   \
+	                 */
+#define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
+#define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
+#define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
+#define USAGE_LIFT 1e6f /* a wheel the acceleration lifts off the floor: no scaling saves it */
 
 struct geo {
 	float q[2], c[2], ths, thss; /* body tangent and curvature vector, heading's slopes */

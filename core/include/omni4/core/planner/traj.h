@@ -148,8 +148,8 @@ struct traj_path {
 	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
 	float goal[3];               /* the end, at rest */
 	float len_m;
-	float th_slope;  /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
-	float bez[4][2]; /* a curve's control points [m] (curve: 1) */
+	float th_slope;   /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
+	float bez[4][2];  /* a curve's control points [m] (curve: 1) */
 	float head[2][4]; /* its heading's turns' control points [rad], over knot_s[0..1], [2..3] */
 	int n_pieces, n_knots, n_grid, n_poses;
 	int curve; /* 1: the path is the cubic Bezier bez in (x, y) by s in [0, len_m], its heading
