@@ -306,6 +306,7 @@ static void brake_first(struct traj *tr, const struct traj_ref *from, const floa
 	tr->duration_s += t_pre;
 }
 
+/* The one curve's timings (traj_curve.c): 48 fit the Cortex-M4's lead (docs/trajectory.md) */
 #define TRAJ_PLAN_EVALS 48
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
@@ -320,6 +321,8 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 
 	if (traj_plan_curve(tr, from, goal, TRAJ_PLAN_EVALS) == 0)
 		return 0;
+	/* no curve timed (a floor too slippery to turn and move at once, a start far outside the
+	 * envelope): the stepped plans, each axis in its own profile */
 	tr->on_path = 0;
 	tr->pre_s = 0.0f;
 	if (rot_idle || tr_idle) {
