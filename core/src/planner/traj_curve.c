@@ -1,10 +1,11 @@
 /*
- * traj_curve.c - a move as one curve in (x, y, theta) (docs/trajectory.md, "One curve"): a
- * cubic Bezier from the start to the goal whose first tangent follows the start's velocity,
- * timed by the path timing (traj_topp.c: every wheel's rows at each grid point), its free
- * control points chosen by a bounded Nelder-Mead search on the timed duration; a moving
- * start also as the brake prelude and the curve from rest where it stops. Single precision,
- * fixed sizes, no allocation.
+ * traj_curve.c - a move as one curve (docs/trajectory.md, "One curve"): a cubic Bezier in (x,
+ * y) from the start to the goal whose first tangent follows the start's velocity, the heading
+ * a cubic Bezier over a span of the way (held outside it) or a cruise at the heading where the
+ * robot is fastest along the chord; timed by the path timing (traj_topp.c: every wheel's rows
+ * at each grid point), its free parameters chosen by a bounded Nelder-Mead search on estimated
+ * timings, the shape kept timed in full and checked; a moving start also as the brake prelude
+ * and the curve from rest where it stops. Single precision, fixed sizes, no allocation.
  */
 #include <errno.h>
 #include <math.h>

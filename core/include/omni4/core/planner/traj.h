@@ -4,18 +4,17 @@
  * the drives (docs/trajectory.md). Portable like the rest of the core: C11, single precision,
  * fixed sizes, no allocation, no OS; an instance with init / reset / plan / step (CMSIS style).
  *
- * Candidates, the soonest kept (docs/trajectory.md, "How a plan is made"):
- * - timed on a path (traj_topp.c: each wheel's rows linear in s'' at each grid point), the
- *   plan most moves get: the line to the goal (from rest, or moving toward it) with the
- *   heading swung toward the robot's diagonal and back, or a small turn at one end, or (from
- *   rest) an arc whose tangent turns with the heading (traj_pathplan.c); paths through several
- *   poses (traj_plan_path) likewise, their corners rounded;
- * - stepped: along the line in TRAJ_ACC_STEPS speed steps, each with the acceleration the
- *   wheels allow at the step's worst speed (traj_line.c); off the line, two 1D bang-bang
- *   profiles (x, y) sharing the acceleration by an angle found by bisection (traj_box.c), or
- *   a stop along the velocity and then a straight move (traj_line_brake_go); the heading its own
- * profile the short way round with a share of each wheel's budget (TRAJ_SHARES, bisected on a
- * straight move).
+ * A move is one curve (traj_curve.c, docs/trajectory.md "One curve"): a cubic Bezier in (x, y)
+ * whose first tangent follows the start's velocity, the heading a cubic Bezier over a span of
+ * the way or a cruise at the heading where the robot is fastest along the chord, its few
+ * parameters chosen by a bounded search on the duration that the path timing gives
+ * (traj_topp.c: each wheel's rows linear in s'' and s'^2 at each grid point, checked); a
+ * moving start also as the brake prelude (traj_brake.c) and the curve from rest, the sooner
+ * kept. Paths through several poses (traj_plan_path): lines and rounded corners on the same
+ * timing. Only where no curve is timed (a floor too slippery to turn and move at once, a start
+ * far outside the envelope) the stepped plans: along the line in TRAJ_ACC_STEPS speed steps
+ * (traj_line.c), off it two 1D profiles sharing the acceleration (traj_box.c), the heading its
+ * own profile with a share of each wheel's budget.
  * - Limits: every wheel's voltage (back-EMF included), traction on its own load and rim speed,
  *   from the wheels' physics (model/wheels.h), Coulomb friction with its worst sign. A plan is
  *   feasible by construction or by its checked timing (bound: docs/trajectory.md); it is not
@@ -184,9 +183,11 @@ int traj_reset(struct traj *tr, const float pose[3]);
 
 /*
  * traj_plan - a new plan from the state `from` (pose and world velocity used; acc ignored) to
- * goal [x m, y m, theta rad], at rest there; the plan's clock restarts at 0.
- * Fast loop: bounded time (fixed iteration counts, no blocking). -EINVAL (plan unchanged) if
- * any input is NaN or infinite.
+ * goal [x m, y m, theta rad], at rest there; the plan's clock restarts at 0: the one curve
+ * (traj_plan_curve, 48 timings), else the stepped plans.
+ * Bounded time (fixed iteration counts, no blocking), but not for the fast loop: up to ~30 M
+ * instructions on the Cortex-M4 (beside the loop: traj_plan_ahead). -EINVAL (plan unchanged)
+ * if any input is NaN or infinite.
  */
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
 
@@ -231,15 +232,17 @@ int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*p
 
 /*
  * traj_plan_curve - a plan along one curve (docs/trajectory.md, "One curve"): a cubic Bezier in
- * (x, y, theta) from `from` to goal, at rest there, whose first tangent follows the start's
- * velocity (world, with its turn rate), its free control points chosen by a bounded Nelder-Mead
- * search of at most evals path timings (each checked inside the envelope); a moving start is
- * also tried as the brake prelude and the curve from where it stops, the sooner kept. Not the
- * goal mode's plan yet: it costs about ten times the goal mode's (docs/trajectory.md, "One
- * curve"). Not for the fast loop. -EINVAL (plan unchanged) for NaN or infinite input or evals
- * outside [CURVE_EVALS_MIN, CURVE_EVALS_MAX]; -ERANGE (unchanged) if no curve was timed.
+ * (x, y) from `from` to goal, at rest there, whose first tangent follows the start's velocity
+ * (world), the heading a cubic Bezier over a span of the way (its start rate the start's), or
+ * a cruise at the heading where the robot is fastest along the chord; its free parameters
+ * chosen by a bounded Nelder-Mead search on estimated timings, the shape kept timed in full
+ * and checked inside the envelope; about evals timings in all (a moving start: half of them
+ * for the curve from it, half for the brake prelude and the curve from where it stops, the
+ * sooner kept). The goal mode's plan (traj_plan, 48 timings). Not for the fast loop. -EINVAL
+ * (plan unchanged) for NaN or infinite input or evals outside [CURVE_EVALS_MIN,
+ * CURVE_EVALS_MAX]; -ERANGE (unchanged) if no curve was timed.
  */
-#define CURVE_EVALS_MIN 8
+#define CURVE_EVALS_MIN 24
 #define CURVE_EVALS_MAX 1000
 int traj_plan_curve(struct traj *tr, const struct traj_ref *from, const float goal[3], int evals);
 
