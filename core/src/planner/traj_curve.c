@@ -22,20 +22,22 @@
  * plans 0.3 % later on average; moving starts 1.2 % later). */
 #define SEARCH_GRID 32
 #define SEARCH_OVER 0.01f
-/* Then the heading's turn over a part of the way only (held otherwise, where its Coulomb
- * friction would cost the whole way: a start a few mrad off the goal's heading), at the start
- * or at the end, over these shares; timed on the full grid (the coarse one misjudges a short
- * turn) */
-#define CRUISE_SHARES 2 /* and a cruise at the two fastest headings, turning over these shares */
-static const float cruise_share[CRUISE_SHARES] = {0.03f, 0.1f};
-#define SWINGS (2 * CRUISE_SHARES)
-#define TOP_TIE 1.001f    /* top speeds this close are one */
-#define CRUISE_REFINE 8   /* golden sections of the cruise's heading */
-#define CRUISE_GAIN 1.02f /* a cruise only at a heading this much faster than the ends' */
-#define SWING_HEADINGS 16 /* headings a turn whose top speeds along the chord are compared */
-#define SPAN_BREAKS 3     /* grid points inside the heading's span (a short one has sharp turns) */
+/* Then the finish (estimated as the search does, the soonest timed in full): the heading's
+ * turn over a part of the way only, at the start or at the end, over these shares (held
+ * otherwise, where its Coulomb friction would cost the whole way: a start a few mrad off the
+ * goal's heading) ... */
 #define SPANS 4
 static const float spans[SPANS][2] = {{0.0f, 0.05f}, {1.0f, 0.05f}, {0.0f, 0.2f}, {1.0f, 0.2f}};
+#define SPAN_BREAKS 3 /* grid points inside each of the heading's turns (a short one is sharp) */
+/* ... and a cruise at the two fastest headings along the chord, turning to it and back over
+ * these shares of the way */
+#define CRUISE_SHARES 2
+static const float cruise_share[CRUISE_SHARES] = {0.03f, 0.1f};
+#define CRUISES (2 * CRUISE_SHARES)
+#define CRUISE_HEADINGS 16 /* headings a turn whose top speeds along the chord are compared */
+#define CRUISE_REFINE 8    /* golden sections of the cruise's heading */
+#define CRUISE_GAIN 1.02f  /* a cruise only at a heading this much faster than the ends' */
+#define TOP_TIE 1.001f     /* top speeds this close are one */
 
 /* The search's problem: the start, the goal, and the parameters' box. */
 struct curve_prob {
@@ -262,16 +264,16 @@ static float top_at(const struct curve_prob *pr, float chord, float th)
 
 /* The headings at which the robot is fastest along the chord (out[0]) and next fastest
  * (out[1]), NaN where hardly faster than at the start's or the goal's heading: traj_envelope's top
- * speed at SWING_HEADINGS headings a turn from the middle one, the nearest of equal ones, then
+ * speed at CRUISE_HEADINGS headings a turn from the middle one, the nearest of equal ones, then
  * refined by golden sections between its neighbours (the peak is sharp: Table III's robot 2.86 m/s
  * along its diagonal, 2.89 at 0.6 deg off it, 2.76 at 5 deg). */
 static void cruise_headings(const struct curve_prob *pr, float out[2])
 {
 	const float chord = atan2f(pr->d[1], pr->d[0]), mid = 0.5f * (pr->p0[2] + pr->g[2]);
-	const float step = 2.0f * PI_F / SWING_HEADINGS;
+	const float step = 2.0f * PI_F / CRUISE_HEADINGS;
 	float top_best[2] = {-1.0f, -1.0f}, psi[2] = {mid, mid};
 
-	for (int k = 0; k < SWING_HEADINGS; k++) {
+	for (int k = 0; k < CRUISE_HEADINGS; k++) {
 		/* headings from the middle one, nearest first, alternately either way */
 		const float th = mid + (float)((k + 1) / 2) * step * (k % 2 ? 1.0f : -1.0f);
 		const float top = top_at(pr, chord, th);
@@ -385,7 +387,7 @@ static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DI
 	cruise_headings(pr, cruise);
 	/* the candidates estimated as the search does, the soonest then timed in full */
 	float est = cost(pr, kept, &pb, SEARCH_OVER, SEARCH_GRID), pick_est = est;
-	for (int q = 0; q < SPANS + SWINGS; q++) {
+	for (int q = 0; q < SPANS + CRUISES; q++) {
 		float full[DIMS_MAX];
 		for (int i = 0; i < DIMS_MAX; i++) /* a cruise on the start's shape */
 			full[i] = q < SPANS || i >= 6 ? kept[i] : pr->base[i];
@@ -424,7 +426,7 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	float x[DIMS_MAX], step[DIMS_MAX], xs[DIMS_MAX + 1][DIMS_MAX];
 
 	curve_setup(&pr, from, goal, x, step);
-	search(&pr, x, step, evals - (SPANS + SWINGS + 2), xs);
+	search(&pr, x, step, evals - (SPANS + CRUISES + 2), xs);
 	return curve_finish(&pr, xs, pa);
 }
 
