@@ -313,16 +313,16 @@ int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
 		return -EINVAL;
+	if (traj_plan_curve(tr, from, goal, TRAJ_PLAN_EVALS) == 0)
+		return 0;
+	/* no curve timed (a floor too slippery to turn and move at once, a start far outside the
+	 * envelope): the stepped plans, each axis in its own profile */
 	const float th_goal = from->pose[2] + model_wrap_pi_f32(goal[2] - from->pose[2]);
 	const bool rot_idle = traj_1d_idle(from->pose[2], from->vel[2], th_goal);
 	const bool tr_idle = traj_1d_idle(from->pose[0], from->vel[0], goal[0]) &&
 	                     traj_1d_idle(from->pose[1], from->vel[1], goal[1]);
 	const float s = tr->c.rot_share;
 
-	if (traj_plan_curve(tr, from, goal, TRAJ_PLAN_EVALS) == 0)
-		return 0;
-	/* no curve timed (a floor too slippery to turn and move at once, a start far outside the
-	 * envelope): the stepped plans, each axis in its own profile */
 	tr->on_path = 0;
 	tr->pre_s = 0.0f;
 	if (rot_idle || tr_idle) {

@@ -69,6 +69,19 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
+/* The cubic Bezier of control points c0..c3 at t in [0, 1], scaled to a parameter running
+ * len per unit of t: its value, first and second derivatives into out. */
+static void bezier_at(float c0, float c1, float c2, float c3, float t, float len, float out[3])
+{
+	const float v = 1.0f - t;
+
+	out[0] = v * v * v * c0 + 3.0f * v * v * t * c1 + 3.0f * v * t * t * c2 + t * t * t * c3;
+	out[1] =
+	    (3.0f * v * v * (c1 - c0) + 6.0f * v * t * (c2 - c1) + 3.0f * t * t * (c3 - c2)) / len;
+	out[2] =
+	    (6.0f * v * (c2 - 2.0f * c1 + c0) + 6.0f * t * (c3 - 2.0f * c2 + c1)) / (len * len);
+}
+
 /* A curve's heading and its derivatives by s at s: inside a turn q (knot_s[2q] to
  * knot_s[2q + 1]) the cubic Bezier head[q] in its share tau, else held: the first turn's
  * start before it, its end up to the second's start, the second's end after it. */
@@ -78,15 +91,7 @@ static void curve_heading(const struct traj_path *pa, float s, float th[3])
 		const float *h = pa->head[q], a = pa->knot_s[2 * q], w = pa->knot_s[2 * q + 1] - a;
 		if (!(w > 0.0f) || !(s >= a) || !(s < a + w))
 			continue;
-		const float t = (s - a) / w, v = 1.0f - t;
-		th[0] = v * v * v * h[0] + 3.0f * v * v * t * h[1] + 3.0f * v * t * t * h[2] +
-		        t * t * t * h[3];
-		th[1] = (3.0f * v * v * (h[1] - h[0]) + 6.0f * v * t * (h[2] - h[1]) +
-		         3.0f * t * t * (h[3] - h[2])) /
-		        w;
-		th[2] = (6.0f * v * (h[2] - 2.0f * h[1] + h[0]) +
-		         6.0f * t * (h[3] - 2.0f * h[2] + h[1])) /
-		        (w * w);
+		bezier_at(h[0], h[1], h[2], h[3], (s - a) / w, w, th);
 		return;
 	}
 	th[0] = s < pa->knot_s[0]   ? pa->head[0][0]
@@ -101,19 +106,14 @@ static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2
 {
 	const float (*b)[2] = pa->bez;
 	const float L = pa->len_m;
-	float u = s / L;
+	float u = s / L, q[3];
 	u = u < 0.0f ? 0.0f : (u > 1.0f ? 1.0f : u);
-	const float v = 1.0f - u;
-	const float w0 = v * v * v, w1 = 3.0f * v * v * u, w2 = 3.0f * v * u * u, w3 = u * u * u;
-	const float d0 = 3.0f * v * v / L, d1 = 6.0f * v * u / L, d2 = 3.0f * u * u / L;
-	const float e0 = 6.0f * v / (L * L), e1 = 6.0f * u / (L * L);
 
 	for (int i = 0; i < 2; i++) {
-		p[i] = w0 * b[0][i] + w1 * b[1][i] + w2 * b[2][i] + w3 * b[3][i];
-		ps[i] =
-		    d0 * (b[1][i] - b[0][i]) + d1 * (b[2][i] - b[1][i]) + d2 * (b[3][i] - b[2][i]);
-		pss[i] = e0 * (b[2][i] - 2.0f * b[1][i] + b[0][i]) +
-		         e1 * (b[3][i] - 2.0f * b[2][i] + b[1][i]);
+		bezier_at(b[0][i], b[1][i], b[2][i], b[3][i], u, L, q);
+		p[i] = q[0];
+		ps[i] = q[1];
+		pss[i] = q[2];
 	}
 	curve_heading(pa, s, th);
 }

@@ -13,12 +13,11 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 10  /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6    /* timings with limits scaled down until the check passes */
-#define TOPP_SCALE 1.0f /* the limits' scale of the first timing */
-#define FINE_OVER                                                                                  \
-	1e-3f           /* a timing held closer than this to the limits: a curve's checked finer   \
-	                 */
+#define TOPP_BISECT 10 /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 6   /* timings with limits scaled down until the check passes */
+/* A timing held closer than this to the limits (not a search's estimate): a curve's checked at
+ * its segments' quarters too */
+#define FINE_OVER 1e-3f
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
 #define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
@@ -419,6 +418,13 @@ static void backward(const struct traj_path *pa, struct topp_work *w)
 	}
 }
 
+/* The signs on segment i: those of both its ends. */
+static void segment_signs(const struct topp_work *w, int i, signed char sg[3])
+{
+	for (int k = 0; k < 3; k++)
+		sg[k] = (signed char)(w->sg[i][k] | w->sg[i + 1][k]);
+}
+
 /* The largest use of a limit over the grid points and the segments' midpoints; fine: also at
  * their quarters (a curve's force can peak between, where its tangent turns fast). */
 static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w,
@@ -437,12 +443,11 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, const 
 			break;
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], a = pa->grid_a[i];
 		worst = maxf(worst, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
+		signed char sg[3];
+		segment_signs(w, i, sg);
 		for (int q = 1; fine && q <= 3; q += 2) {
 			struct geo g;
 			struct topp_rows r;
-			signed char sg[3];
-			for (int k = 0; k < 3; k++)
-				sg[k] = (signed char)(w->sg[i][k] | w->sg[i + 1][k]);
 			geo_at(pa, pa->grid_s[i] + 0.25f * (float)q * ds, &g);
 			rows_at(c, &g, sg, &r);
 			worst = maxf(worst, usage(c, &g, &r, x + 0.5f * (float)q * ds * a, a));
@@ -553,7 +558,7 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
                        float over, int grid)
 {
 	struct topp_work w;
-	float k = TOPP_SCALE; /* between the checked points a curve was sampled at 1.0007 */
+	float k = 1.0f;
 
 	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
 		return INFINITY;
@@ -575,8 +580,7 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
 		if (i == w.n)
 			break;
 		signed char sg[3];
-		for (int q = 0; q < 3; q++)
-			sg[q] = (signed char)(w.sg[i][q] | w.sg[i + 1][q]);
+		segment_signs(&w, i, sg);
 		geo_at(pa, 0.5f * (pa->grid_s[i] + pa->grid_s[i + 1]), &w.gm[i]);
 		rows_at(c, &w.gm[i], sg, &w.rm[i]);
 	}
