@@ -135,7 +135,5 @@ int goal_fixed_plan(const struct goal_fixed *fx, struct traj *tr, const struct t
 
 	tr->duration_s = fmaxf(t_xy, t_w);
 	tr->t_s = 0.0f;
-	tr->alpha_rad = 0.0f;
-	tr->flags = 0;
 	return 0;
 }

@@ -10,7 +10,7 @@
  *
  * --curve=EVALS plans one curve (traj_plan_curve, EVALS timings in its search) instead of the
  * goal mode's plan.
- * Prints "duration_s D alpha_rad A flags F"; with --samples=DT also one line per DT seconds:
+ * Prints "duration_s D"; with --samples=DT also one line per DT seconds:
  * "t x y theta vx vy w ax ay aw" (world frame, SI). Exit 2 with one line on stderr for bad
  * arguments or limits the generator refuses.
  */
@@ -126,8 +126,7 @@ int main(int argc, char **argv)
 	} else {
 		traj_plan(&tr, &from, goal);
 	}
-	printf("duration_s %.6f alpha_rad %.5f flags %u\n", (double)tr.duration_s,
-	       (double)tr.alpha_rad, (unsigned)tr.flags);
+	printf("duration_s %.6f\n", (double)tr.duration_s);
 	if (samples > 0.0)
 		print_samples(&tr, samples);
 	return 0;

@@ -101,3 +101,32 @@ float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, str
 	}
 	return best;
 }
+
+float traj_turn_in_place(const struct traj *tr, struct traj_1d pre[3], float t_pre, float th_goal)
+{
+	struct row r[12];
+	struct traj_1d turn;
+	const int n = traj_rows_rotation(&tr->c, 1.0f, r);
+	const float th0 = pre[2].goal;
+
+	if (traj_1d_idle(th0, 0.0f, th_goal))
+		return t_pre;
+	const float t_turn =
+	    traj_line_plan(r, n, 1.0f, 0.0f, th0, 0.0f, th_goal, tr->c.omega_cap_rad_s, &turn);
+	if (!(t_turn < INFINITY))
+		return INFINITY;
+	/* after the stop (a wait while the heading is at rest and the translation still stops) */
+	float t = traj_1d_duration(&pre[2]), p = th0, v = 0.0f;
+	if (pre[2].n == 0)
+		pre[2] = (struct traj_1d){.p0 = th0, .p1 = th0};
+	if (t < t_pre)
+		traj_ph_add(&pre[2], &t, &p, &v, 0.0f, t_pre - t);
+	t = t_pre;
+	for (int k = 0; k < turn.n; k++) {
+		const float dt = turn.t_end_s[k] - (k ? turn.t_end_s[k - 1] : 0.0f);
+		traj_ph_add(&pre[2], &t, &p, &v, turn.acc[k], dt);
+	}
+	pre[2].v1 = turn.v1;
+	pre[2].goal = th_goal;
+	return t;
+}

@@ -481,7 +481,5 @@ int traj_plan_curve(struct traj *tr, const struct traj_ref *from, const float go
 	}
 	tr->duration_s = braked ? t_b : t_a;
 	tr->t_s = 0.0f;
-	tr->flags = 0;
-	tr->alpha_rad = 0.0f;
 	return 0;
 }

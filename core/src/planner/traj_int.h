@@ -1,6 +1,7 @@
 /*
- * traj_int.h - what traj.c and traj_line.c share inside the trajectory generator: the drive
- * envelope as linear rows and the phases of a 1D profile. Not part of the core's API.
+ * traj_int.h - what the trajectory generator's files share: the drive envelope as linear rows
+ * (the brake prelude's), the phases of a 1D profile, the path and its timing. Not part of the
+ * core's API.
  */
 #ifndef OMNI4_TRAJ_INT_H
 #define OMNI4_TRAJ_INT_H
@@ -45,19 +46,6 @@ static inline float maxf(float a, float b)
 
 #define PI_F MODEL_PI_F
 
-/* The one comparator of candidate plans (t [s] and TRAJ_F_* flags of each): a plan that keeps
- * inside the envelope comes first, then the earliest arrival; a candidate that found no plan
- * (t not finite) never wins. */
-static inline bool traj_sooner(float t_cand, uint32_t f_cand, float t_best, uint32_t f_best)
-{
-	const bool out_c = f_cand & TRAJ_F_BEYOND_ENVELOPE;
-	const bool out_b = f_best & TRAJ_F_BEYOND_ENVELOPE;
-
-	if (!(t_cand < INFINITY))
-		return false;
-	return out_c == out_b ? t_cand < t_best : out_b;
-}
-
 /* ---- one axis (traj_1d.c) ---- */
 
 /* The duration of a profile [s] (0 when at rest at the goal). */
@@ -84,13 +72,6 @@ float traj_1d_speed_max(const struct traj_1d *o);
  * row fails. */
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy);
 
-/* Largest stopping acceleration over the velocity box (wx, wy) (the rows without their
- * velocity and Coulomb terms, less the turning body's term). */
-float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, float wy);
-
-/* Largest V with the velocity box (V ca, V sa) meeting every row at zero acceleration. */
-float traj_rows_top(const struct row *r, int n, float ca, float sa);
-
 /* Translation rows at heading phi with a share of each budget, the room scaled by cos_h,
  * the heading turning at w_max [rad/s] at most; 12 rows into r, returns 12. */
 int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
@@ -106,30 +87,14 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);
  * spacing (the room every row keeps in between); returns how many. */
 int traj_heading_samples(float lo, float hi, float phi[TRAJ_HEADINGS_MAX], float *cos_h);
 
-/* ---- the x/y box (traj_box.c) ---- */
-
-struct axes {
-	int n;     /* 1 (heading) or 2 (x, y) */
-	bool stop; /* stopping opposes the velocity in every wheel: traj_rows_stop applies */
-	float p0[2], v0[2], goal[2];
-	float cap; /* on V */
-	struct traj_1d *out[2];
-};
-
-/* For the share (ca, sa): the top speed with the earliest arrival, planned into ax->out;
- * returns the arrival time. */
-float traj_box_limits(const struct row *r, int n, const struct axes *ax, float ca, float sa,
-                      uint32_t *flags);
-
-/* x and y: the straight line's share from rest, else alpha by bisection; into tr->axis[0..1]
- * (tr->alpha_rad, tr->flags); returns the arrival time. */
-float traj_box_plan(struct traj *tr, const struct row *r, int n, struct axes *ax);
+/* ---- a straight profile in speed steps (traj_line.c) ---- */
 
 /*
  * traj_line_plan - the fastest profile along the unit direction (ex, ey) (world frame; for the
  * heading (1, 0)) from p0 at v0 to rest at goal, with the acceleration in TRAJ_ACC_STEPS speed
- * steps, each the rows' at the step's worst speed, the top speed among fractions of the
- * largest. Returns the duration, or INFINITY if |v0| is beyond the rows' top speed.
+ * steps, each the rows' at the step's worst speed, the top speed by golden sections between
+ * |v0| and the largest. Returns the duration, or INFINITY if |v0| is beyond the rows' top
+ * speed.
  */
 float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,
                      float cap, struct traj_1d *o);
@@ -146,14 +111,6 @@ float traj_line_stop(const struct row *r, int n, float ex, float ey, float sp, s
 void traj_line_project(const struct traj_1d *line, float e, float p0, float goal,
                        struct traj_1d *out);
 
-/*
- * traj_line_brake_go - a start moving off the line to the goal: stop along the velocity (the
- * stopping credit, in steps), then a straight profile from rest to the goal; into out[0..1]
- * (x, y). Returns the duration, or INFINITY if the start is beyond the rows' top speed.
- */
-float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
-                         const float goal[2], float cap, struct traj_1d out[2]);
-
 /* ---- the brake prelude (traj_brake.c) ---- */
 
 /*
@@ -165,6 +122,14 @@ float traj_line_brake_go(const struct row *r, int n, const float p0[2], const fl
  */
 float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, struct traj_1d pre[3],
                          float stop[3]);
+
+/*
+ * traj_turn_in_place - after a prelude at rest at pre's ends (t_pre [s]: when the last axis
+ * stops), the heading turns in place to th_goal with the whole of each wheel's budget (in the
+ * speed steps of traj_line_plan), appended to pre[2]. Returns the prelude's new duration, or
+ * INFINITY.
+ */
+float traj_turn_in_place(const struct traj *tr, struct traj_1d pre[3], float t_pre, float th_goal);
 
 /* ---- paths (traj_path.c, traj_topp.c) ---- */
 
@@ -179,18 +144,6 @@ void traj_path_at(const struct traj_path *pa, float s, float p[2], float ps[2], 
 int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp)[3], int n,
                     float radius, const float via[2]);
 
-/* A straight path's heading: to th_mid over the first fa of the length, held, to the end's
- * over the last fb (fa = fb = 0: from the start's to the end's over the whole length). */
-void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb);
-
-/* One arc from start to goal (goal[2] unwrapped from start[2]) whose tangent turns k times the
- * heading's change (k = 0: the straight line), the heading turning lin times its change
- * linearly in s and the rest as a smoothstep over the whole length. With lin = k the body's
- * velocity keeps its direction (eq 23's axes) for that share; a heading linear in s turns at a
- * rate that follows the speed. -EINVAL if the move has no length. */
-int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k,
-                  float lin);
-
 /* Times pa from arc length s0 at speed v0 >= 0 along it to rest at its end, inside the
  * envelope (checked); the duration, or INFINITY if none was found. */
 float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);
@@ -203,13 +156,6 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
 
 /* The reference at time t of a timed path (after its end: at rest at the goal). */
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
-
-/* A straight move (from rest or moving toward the goal at v0 >= 0, heading still) timed on
- * paths: the line with the heading swung toward the robot's diagonal and back, a small turn at
- * one end alone, and (from rest) arcs whose tangent turns with the heading. The soonest is taken
- * into tr if sooner than tr's plan; returns the duration kept. */
-float traj_line_paths_try(struct traj *tr, const struct traj_ref *from, const float goal[3],
-                          float v0);
 
 /* A path plan re-timed from its reference now (the same geometry: no jump): 0; -ERANGE
  * (unchanged) if the timing fails. */

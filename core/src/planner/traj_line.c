@@ -10,9 +10,9 @@
 
 #include "traj_int.h"
 
-/* Top speeds tried, as fractions of the largest the rows allow (acceleration 0 there). */
-#define LINE_FRACS 6
-static const float line_frac[LINE_FRACS] = {0.5f, 0.7f, 0.82f, 0.9f, 0.95f, 0.98f};
+/* Golden sections of the top speed between 0 and the largest the rows allow (acceleration 0
+ * there): a lower top leaves larger steps of acceleration below it. */
+#define LINE_TOP_SECTIONS 12
 
 /* The rows along a line, divided by their acceleration coefficient: speeding up at speed s
  * a <= cu - k s, braking |a| <= cd + k s (the velocity terms oppose the acceleration); the
@@ -196,27 +196,60 @@ float traj_line_stop(const struct row *r, int n, float ex, float ey, float sp, s
 	return t;
 }
 
+/* A search of the top speed: the profile with top speed vmax, the soonest kept in o. */
+struct line_search {
+	const struct line_rows *l;
+	float p0, v0, goal;
+	float best;
+	struct traj_1d *o;
+};
+
+static float line_try(struct line_search *ls, float vmax)
+{
+	struct steps st;
+	struct traj_1d cand;
+	float t = INFINITY;
+
+	if (line_steps(ls->l, vmax, false, &st))
+		t = steps_plan(&st, ls->p0, ls->v0, ls->goal, &cand);
+	if (t < ls->best) {
+		ls->best = t;
+		*ls->o = cand;
+	}
+	return t;
+}
+
 float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, float v0, float goal,
                      float cap, struct traj_1d *o)
 {
+	const float gr = 0.618034f; /* (sqrt(5) - 1) / 2 */
 	struct line_rows l;
-	struct traj_1d cand;
-	float best = INFINITY;
+	struct line_search ls = {
+	    .l = &l, .p0 = p0, .v0 = v0, .goal = goal, .best = INFINITY, .o = o};
 
 	line_rows(r, n, ex, ey, &l);
-	const float top = minf(l.top, cap);
-	for (int f = 0; f < LINE_FRACS; f++) {
-		const float vmax = maxf(top * line_frac[f], fabsf(v0));
-		struct steps st;
-		if (!(vmax <= top) || !line_steps(&l, vmax, false, &st))
-			continue;
-		const float t = steps_plan(&st, p0, v0, goal, &cand);
-		if (t < best) {
-			best = t;
-			*o = cand;
+	float a = fabsf(v0), b = minf(l.top, cap);
+	if (!(a <= b))
+		return INFINITY;
+	/* the duration falls, then rises, with the top speed (no time) where a step has no room */
+	float x1 = b - gr * (b - a), x2 = a + gr * (b - a);
+	float f1 = line_try(&ls, x1), f2 = line_try(&ls, x2);
+	for (int it = 0; it < LINE_TOP_SECTIONS; it++) {
+		if (f1 <= f2) {
+			b = x2;
+			x2 = x1;
+			f2 = f1;
+			x1 = b - gr * (b - a);
+			f1 = line_try(&ls, x1);
+		} else {
+			a = x1;
+			x1 = x2;
+			f1 = f2;
+			x2 = a + gr * (b - a);
+			f2 = line_try(&ls, x2);
 		}
 	}
-	return best;
+	return ls.best;
 }
 
 void traj_line_project(const struct traj_1d *line, float e, float p0, float goal,
@@ -234,52 +267,4 @@ void traj_line_project(const struct traj_1d *line, float e, float p0, float goal
 		out->ps[k] = p0 + e * line->ps[k];
 		out->vs[k] = e * line->vs[k];
 	}
-}
-
-/* Appends line's phases projected on an axis (share e, from p0), shifted by t0 [s]. */
-static void append_projected(struct traj_1d *out, const struct traj_1d *line, float e, float p0,
-                             float t0)
-{
-	for (int k = 0; k < line->n && out->n < TRAJ_PHASES; k++, out->n++) {
-		out->t_end_s[out->n] = t0 + line->t_end_s[k];
-		out->acc[out->n] = e * line->acc[k];
-		out->ps[out->n] = p0 + e * line->ps[k];
-		out->vs[out->n] = e * line->vs[k];
-	}
-}
-
-float traj_line_brake_go(const struct row *r, int n, const float p0[2], const float v0[2],
-                         const float goal[2], float cap, struct traj_1d out[2])
-{
-	const float sp = sqrtf(v0[0] * v0[0] + v0[1] * v0[1]);
-	struct line_rows l;
-	struct steps st;
-	struct traj_1d a = {.v0 = sp}, b = {.n = 0};
-	float t = 0.0f, p = 0.0f, v = sp, t2 = 0.0f;
-
-	if (!(sp > 0.0f))
-		return INFINITY;
-	const float ev[2] = {v0[0] / sp, v0[1] / sp};
-	line_rows(r, n, ev[0], ev[1], &l);
-	if (!(sp <= minf(l.top, cap)) || !line_steps(&l, sp, false, &st))
-		return INFINITY;
-	brake_phases(&a, &st, 1.0f, &t, &p, &v);
-	const float stop[2] = {p0[0] + ev[0] * p, p0[1] + ev[1] * p};
-	const float dx = goal[0] - stop[0], dy = goal[1] - stop[1];
-	const float D = sqrtf(dx * dx + dy * dy);
-	const float eg[2] = {D > 0.0f ? dx / D : 0.0f, D > 0.0f ? dy / D : 0.0f};
-	if (D >= TRAJ_IDLE_POS)
-		t2 = traj_line_plan(r, n, eg[0], eg[1], 0.0f, 0.0f, D, cap, &b);
-	if (!(t2 < INFINITY) || a.n + b.n > TRAJ_PHASES)
-		return INFINITY;
-	for (int i = 0; i < 2; i++) {
-		out[i] = (struct traj_1d){.p0 = p0[i],
-		                          .v0 = v0[i],
-		                          .p1 = stop[i] + eg[i] * b.p1,
-		                          .v1 = eg[i] * b.v1,
-		                          .goal = goal[i]};
-		append_projected(&out[i], &a, ev[i], p0[i], 0.0f);
-		append_projected(&out[i], &b, eg[i], stop[i], t);
-	}
-	return t + t2;
 }

@@ -1,9 +1,9 @@
 /*
  * traj_path.c - the geometry of a path plan (traj.h struct traj_path, docs/trajectory.md
- * "Paths"): lines joined by arcs that pass each intermediate pose within a radius, or one arc
- * for a turning move, by arc length s, and the heading as a function of s (smoothstep between
- * knots, so its slope is 0 at each knot and its rate continuous, plus an arc's part linear in
- * s). Single precision, fixed sizes.
+ * "Paths"): lines joined by arcs that pass each intermediate pose within a radius, by arc
+ * length s, and the heading as a function of s (smoothstep between knots, so its slope is 0 at
+ * each knot and its rate continuous); or one curve (traj_curve.c): a cubic Bezier in (x, y)
+ * and its heading's cubic Beziers. Single precision, fixed sizes.
  */
 #include <errno.h>
 #include <math.h>
@@ -55,17 +55,16 @@ static void heading_at(const struct traj_path *pa, float s, float th[3])
 		k++;
 	const float len = pa->knot_s[k + 1] - pa->knot_s[k];
 	const float dth = pa->knot_th[k + 1] - pa->knot_th[k];
-	const float sc = s < 0.0f ? 0.0f : (s > pa->len_m ? pa->len_m : s);
 	if (!(len > 0.0f)) {
-		th[0] = pa->knot_th[k + 1] + pa->th_slope * sc;
-		th[1] = pa->th_slope;
+		th[0] = pa->knot_th[k + 1];
+		th[1] = 0.0f;
 		th[2] = 0.0f;
 		return;
 	}
 	float x = (s - pa->knot_s[k]) / len;
 	x = x < 0.0f ? 0.0f : (x > 1.0f ? 1.0f : x);
-	th[0] = pa->knot_th[k] + dth * x * x * (3.0f - 2.0f * x) + pa->th_slope * sc;
-	th[1] = dth * 6.0f * x * (1.0f - x) / len + pa->th_slope;
+	th[0] = pa->knot_th[k] + dth * x * x * (3.0f - 2.0f * x);
+	th[1] = dth * 6.0f * x * (1.0f - x) / len;
 	th[2] = dth * (6.0f - 12.0f * x) / (len * len);
 }
 
@@ -238,51 +237,5 @@ int traj_path_build(struct traj_path *pa, const float start[3], const float (*wp
 	pa->knot_s[pa->n_knots] = pa->len_m;
 	pa->knot_th[pa->n_knots++] = th;
 	pa->goal[2] = th;
-	return 0;
-}
-
-void traj_path_swing(struct traj_path *pa, float th_mid, float fa, float fb)
-{
-	const float L = pa->len_m, th0 = pa->knot_th[0], th1 = pa->knot_th[pa->n_knots - 1];
-
-	pa->n_knots = 1;
-	if (fa > 0.0f) {
-		pa->knot_s[pa->n_knots] = fa * L;
-		pa->knot_th[pa->n_knots++] = th_mid;
-	}
-	if (fb > 0.0f && fa + fb < 1.0f) {
-		pa->knot_s[pa->n_knots] = (1.0f - fb) * L;
-		pa->knot_th[pa->n_knots++] = th_mid;
-	}
-	pa->knot_th[0] = th0;
-	pa->knot_s[pa->n_knots] = L;
-	pa->knot_th[pa->n_knots++] = th1;
-}
-
-int traj_path_arc(struct traj_path *pa, const float start[3], const float goal[3], float k,
-                  float lin)
-{
-	const float c = dist2(start, goal), dth = goal[2] - start[2], phi = k * dth;
-
-	if (!(c >= TRAJ_IDLE_POS) || !(fabsf(phi) < 1.9f * PI_F) || !isfinite(lin))
-		return -EINVAL;
-	const float a = atan2f(goal[1] - start[1], goal[0] - start[0]);
-	const float half = 0.5f * phi;
-	/* the arc's length over its chord, half / sin(half): 1 for a straight line */
-	const float len = fabsf(half) > TURN_MIN_RAD ? c * half / sin_f(half) : c;
-	const float curv = phi / len;
-	float m[2], ps[2], pss[2];
-
-	*pa = (struct traj_path){.n_poses = 1, .goal = {goal[0], goal[1], goal[2]}};
-	add_piece(pa, start, a - half, curv, 0.5f * len);
-	piece_at(&pa->pc[0], 0.5f * len, m, ps, pss);
-	add_piece(pa, m, a, curv, 0.5f * len);
-	pa->th_slope = lin * dth / pa->len_m;
-	pa->knot_s[0] = 0.0f;
-	pa->knot_th[0] = start[2];
-	pa->knot_s[1] = pa->len_m;
-	pa->knot_th[1] = goal[2] - lin * dth;
-	pa->n_knots = 2;
-	pa->pass_s[0] = pa->len_m;
 	return 0;
 }

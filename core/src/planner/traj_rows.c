@@ -1,7 +1,8 @@
 /*
  * traj_rows.c - the drive envelope of the trajectory generator (docs/trajectory.md): each wheel's
- * voltage, traction and rim speed as linear rows in the world frame at a heading, the limits they
- * put on a box of accelerations and velocities, and traj_envelope along a direction.
+ * voltage, traction and rim speed as linear rows in the world frame at a heading (the brake
+ * prelude's and the turn in place's), the acceleration they leave at rest, and traj_envelope
+ * along a direction.
  */
 #include <errno.h>
 #include <math.h>
@@ -25,46 +26,6 @@ float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, fl
 			return -1.0f;
 	}
 	return best;
-}
-
-/*
- * Largest stopping acceleration: while a wheel's acceleration term opposes its velocity terms
- * (friction, back-EMF: both along the velocity), |a + v| <= max(|a|, |v|), so the acceleration
- * alone must fit (c0, less the turning body's term of either sign over the box (wx, wy)) and
- * the velocity alone (traj_rows_acc >= 0 at that speed), the velocity alone within what the
- * braking's load transfer leaves of the traction (sl: the bound the acceleration takes off).
- */
-float traj_rows_stop(const struct row *r, int n, float ca, float sa, float wx, float wy)
-{
-	const float speed = sqrtf(wx * wx + wy * wy);
-	float best = INFINITY;
-
-	for (int k = 0; k < n; k++) {
-		const float per = r[k].ka[0] * ca + r[k].ka[1] * sa;
-		const float plain = r[k].c - r[k].kv[0] * wx - r[k].kv[1] * wy - r[k].kc * speed;
-		if (per > 0.0f)
-			best = minf(best, (r[k].credit ? r[k].c0 - r[k].kc * speed : plain) / per);
-		const float lift = fabsf(r[k].sl[0]) * ca + fabsf(r[k].sl[1]) * sa;
-		if (lift > 0.0f)
-			best = minf(best, plain / lift);
-	}
-	return best;
-}
-
-/* Largest V with a velocity box (V ca, V sa) meeting every row at zero acceleration. */
-float traj_rows_top(const struct row *r, int n, float ca, float sa)
-{
-	float best = INFINITY;
-
-	for (int k = 0; k < n; k++) {
-		const float per =
-		    r[k].kv[0] * ca + r[k].kv[1] * sa + r[k].kc * sqrtf(ca * ca + sa * sa);
-		if (per > 0.0f)
-			best = minf(best, r[k].c / per);
-		else if (r[k].c < 0.0f)
-			return 0.0f;
-	}
-	return maxf(best, 0.0f);
 }
 
 /*

@@ -11,10 +11,10 @@
  * (traj_topp.c: each wheel's rows linear in s'' and s'^2 at each grid point, checked); a
  * moving start also as the brake prelude (traj_brake.c) and the curve from rest, the sooner
  * kept. Paths through several poses (traj_plan_path): lines and rounded corners on the same
- * timing. Only where no curve is timed (a floor too slippery to turn and move at once, a start
- * far outside the envelope) the stepped plans: along the line in TRAJ_ACC_STEPS speed steps
- * (traj_line.c), off it two 1D profiles sharing the acceleration (traj_box.c), the heading its
- * own profile with a share of each wheel's budget.
+ * timing. Only where no curve is timed (a floor too slippery to turn and move at once: a
+ * turn's Coulomb friction and a translation's together beyond traction) the prelude also turns
+ * in place to the goal's heading (in TRAJ_ACC_STEPS speed steps, traj_line.c) and the curve
+ * holds the heading.
  * - Limits: every wheel's voltage (back-EMF included), traction on its own load and rim speed,
  *   from the wheels' physics (model/wheels.h), Coulomb friction with its worst sign. A plan is
  *   feasible by construction or by its checked timing (bound: docs/trajectory.md); it is not
@@ -32,11 +32,9 @@
 #include "omni4/model/wheels.h"
 
 #define TRAJ_ACC_STEPS 6 /* speed steps of a straight profile, each with its own acceleration */
-#define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 1) /* stop first, speed up, cruise, stop: in steps */
-#define TRAJ_ALPHA_ITERS 16                  /* bisection steps of the x/y share */
-#define TRAJ_SPEED_STEPS 8        /* top speeds tried per share (fractions of the largest) */
-#define TRAJ_SHARES 3             /* heading shares tried when both position and heading move */
-#define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share on a straight move */
+#define TRAJ_PHASES (3 * TRAJ_ACC_STEPS + 2) /* a prelude's heading: stop, wait, speed up, */
+                                             /* cruise and stop, in steps */
+#define TRAJ_SHARE_ITERS 8        /* bisection steps of the heading's share in the brake prelude */
 #define TRAJ_HEADINGS_MAX 9       /* headings at which the envelope is checked over a turn */
 #define TRAJ_HANDOVER_TOL_S 1e-4f /* a clock this close to a hand-over has reached it (a */
                                   /* clock summed from 1 ms ticks drifts by ~1e-5 s) */
@@ -46,10 +44,6 @@
 #define TRAJ_PIECES (3 * TRAJ_PATH_MAX + 3) /* lines and half arcs of a path */
 #define TRAJ_KNOTS (TRAJ_PATH_MAX + 4)      /* heading knots along a path */
 #define TRAJ_GRID 64                        /* segments of the progress grid a path is timed on */
-
-/* Flags of a plan (traj.flags). */
-#define TRAJ_F_BEYOND_ENVELOPE 0x01u /* the start velocity leaves (almost) no acceleration: */
-                                     /* planned with a floor, the envelope may be exceeded */
 
 /*
  * The limits in force. The model is the per-wheel one (struct model_wheels for r, Kv, Kt, R;
@@ -70,8 +64,8 @@ struct traj_limits {
 	const struct wheel_geom *geom; /* the wheels' layout (model/wheels.h: 3 or 4 wheels at */
 	                               /* any angles); NULL: the paper's, at p.d */
 	double rot_share;              /* share of each wheel's budget the heading gets when both */
-	                               /* the heading and the position move, 0 < . < 1; the plan */
-	                               /* also tries half of it and half-way to 1 (TRAJ_SHARES) */
+	                               /* the heading and the position move, 0 < . < 1: in the */
+	                               /* fixed-limits peer (goal_fixed.h) only */
 };
 
 /* One axis: phase k (0 <= k < n) starts at ps[k], vs[k] and runs at acc[k] until t_end_s[k];
@@ -147,7 +141,6 @@ struct traj_path {
 	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
 	float goal[3];               /* the end, at rest */
 	float len_m;
-	float th_slope;   /* the heading's part linear in s [rad/m] (an arc's: its curvature) */
 	float bez[4][2];  /* a curve's control points [m] (curve: 1) */
 	float head[2][4]; /* its heading's turns' control points [rad], over knot_s[0..1], [2..3] */
 	int n_pieces, n_knots, n_grid, n_poses;
@@ -165,8 +158,6 @@ struct traj {
 	float pre_s;            /* its duration (0: none); path and axes run from this time on */
 	float t_s;              /* time since the plan started */
 	float duration_s;       /* the plan's end (at rest at the goal) */
-	float alpha_rad;        /* x/y share of the translation's limits */
-	uint32_t flags;         /* TRAJ_F_* of the last plan */
 	float handover_s;       /* traj_plan_ahead: when (on the active plan's clock) it starts */
 };
 
@@ -184,10 +175,12 @@ int traj_reset(struct traj *tr, const float pose[3]);
 /*
  * traj_plan - a new plan from the state `from` (pose and world velocity used; acc ignored) to
  * goal [x m, y m, theta rad], at rest there; the plan's clock restarts at 0: the one curve
- * (traj_plan_curve, 48 timings), else the stepped plans.
+ * (traj_plan_curve, 48 timings), else the brake prelude, a turn in place and the curve with the
+ * heading held.
  * Bounded time (fixed iteration counts, no blocking), but not for the fast loop: up to ~30 M
  * instructions on the Cortex-M4 (beside the loop: traj_plan_ahead). -EINVAL (plan unchanged)
- * if any input is NaN or infinite.
+ * if any input is NaN or infinite; -ERANGE (plan unchanged) if neither is timed (no braking
+ * from a start far outside the envelope).
  */
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
 
