@@ -105,12 +105,21 @@ static double use_of_limits(const struct traj_ref *r, const struct traj_limits *
 static double plan_worst_use(const struct traj *tr, const struct traj_limits *l,
                              const struct layout *lay, const float goal[3])
 {
-	struct traj_ref r;
+	struct traj_ref r, prev;
 	double worst = 0.0;
 
+	traj_eval(tr, 0.0f, &prev);
 	for (double t = 0.0; t < tr->duration_s + 1e-3; t += 1e-3) {
 		traj_eval(tr, (float)t, &r);
 		worst = fmax(worst, use_of_limits(&r, l, lay));
+		/* no jump: each axis moves as far as its speeds and accelerations take it */
+		for (int i = 0; i < 3; i++) {
+			const double v = fmax(fabs(r.vel[i]), fabs(prev.vel[i]));
+			const double a = fmax(fabs(r.acc[i]), fabs(prev.acc[i]));
+			assert_true(fabs(r.pose[i] - prev.pose[i]) <= (v + a * 1e-3) * 1e-3 + 1e-5);
+			assert_true(fabs(r.vel[i] - prev.vel[i]) <= 1.5 * a * 1e-3 + 1e-4);
+		}
+		prev = r;
 	}
 	traj_eval(tr, tr->duration_s + 0.01f, &r);
 	for (int i = 0; i < 2; i++) {

@@ -46,25 +46,31 @@ static const float moves[][9] = {
     {0, 0, 0, 0.8f, 0, 0, 2.0f, 0, 0},      {0, 0, 0.5f, 0.5f, 0.3f, 0, 0, 1.0f, -0.5f},
     {0, 0, 0, 0, 0, 2.0f, 0.5f, 0.5f, 0.5f}};
 
-/* Every plan of every move: every wheel within its limits all the way, at the goal at rest at
- * the end. */
-static void plans_stay_within_every_wheel(const struct layout *lay)
+#define N_MOVES (sizeof(moves) / sizeof(moves[0]))
+
+/* Every plan of every move on a floor of friction mu: every wheel within its limits all the
+ * way, the reference without a jump, at the goal at rest at the end. */
+static void plans_stay_within_every_wheel(const struct layout *lay, double mu, const float (*ms)[9],
+                                          size_t n_moves)
 {
 	struct wheel_geom g;
-	const struct traj_limits l = limits(lay, &g);
+	struct traj_limits l = limits(lay, &g);
 	static struct traj tr;
 
+	l.mu = mu;
+
 	assert_int_equal(traj_init(&tr, &l), 0);
-	for (size_t m = 0; m < sizeof(moves) / sizeof(moves[0]); m++) {
-		const float *k = moves[m];
+	for (size_t m = 0; m < n_moves; m++) {
+		const float *k = ms[m];
 		const struct traj_ref from = {{k[0], k[1], k[2]}, {k[3], k[4], k[5]}, {0, 0, 0}};
 
 		assert_int_equal(traj_reset(&tr, from.pose), 0);
 		assert_int_equal(traj_plan(&tr, &from, k + 6), 0);
 		assert_true(tr.duration_s > 0.0f && tr.duration_s < 30.0f);
 		const double worst = plan_worst_use(&tr, &l, lay, k + 6);
-		printf("%s, move %zu: %.3f s, largest use of a wheel's limit %.4f\n", lay->name, m,
-		       tr.duration_s, worst);
+		printf("%s, mu %.2f, move %zu: %.3f s (%.3f s to rest first), largest use of a "
+		       "wheel's limit %.4f\n",
+		       lay->name, mu, m, tr.duration_s, tr.pre_s, worst);
 		assert_true(worst <= 1.01);
 	}
 }
@@ -72,13 +78,32 @@ static void plans_stay_within_every_wheel(const struct layout *lay)
 static void test_three_wheels_plan_within_every_wheel(void **state)
 {
 	(void)state;
-	plans_stay_within_every_wheel(&three);
+	plans_stay_within_every_wheel(&three, test_traj_limits().mu, moves, N_MOVES);
 }
 
 static void test_asymmetric_four_plan_within_every_wheel(void **state)
 {
 	(void)state;
-	plans_stay_within_every_wheel(&robocup);
+	plans_stay_within_every_wheel(&robocup, test_traj_limits().mu, moves, N_MOVES);
+}
+
+/* A floor too slippery to turn and move at once (a turn's and a translation's Coulomb friction
+ * together beyond traction: mu 0.25 for the three wheels, 0.35 for the asymmetric four, which
+ * cannot start in every direction at 0.3), on both layouts: moves from rest with and without a
+ * turn, a start moving and one turning (each inside what the floor allows), each inside
+ * every wheel's limits all the way. */
+static const float slippery_moves[][9] = {
+    {0, 0, 0, 0, 0, 0, 1.0f, 0, 0},          {0, 0, 0, 0, 0, 0, 1.5f, 0.5f, 2.0f},
+    {0, 0, 0, 0, 0, 0, 0.3f, 0.1f, 0.4f},    {0, 0, 0, 0, 0, 0, 0, 0, 3.0f},
+    {0, 0, 0, 0.3f, 0, 0, 0.5f, 0.5f, 1.0f}, {0, 0, 0.5f, 0, 0, -1.0f, 0, 1.0f, -0.5f}};
+
+static void test_a_slippery_floor_plans_within_every_wheel(void **state)
+{
+	(void)state;
+	const size_t n = sizeof(slippery_moves) / sizeof(slippery_moves[0]);
+
+	plans_stay_within_every_wheel(&three, 0.25, slippery_moves, n);
+	plans_stay_within_every_wheel(&robocup, 0.35, slippery_moves, n);
 }
 
 /* The paper's layout given as angles (0/90/180/270 deg at d) plans what no layout plans. */
@@ -110,6 +135,7 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 	    cmocka_unit_test(test_three_wheels_plan_within_every_wheel),
 	    cmocka_unit_test(test_asymmetric_four_plan_within_every_wheel),
+	    cmocka_unit_test(test_a_slippery_floor_plans_within_every_wheel),
 	    cmocka_unit_test(test_paper_layout_as_angles_plans_the_same),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);

@@ -13,6 +13,7 @@
 /* Golden sections of the top speed between 0 and the largest the rows allow (acceleration 0
  * there): a lower top leaves larger steps of acceleration below it. */
 #define LINE_TOP_SECTIONS 12
+#define LINE_AXIS_ZERO 2e-7f /* a unit direction's component below this is 0 (its rounding) */
 
 /* The rows along a line, divided by their acceleration coefficient: speeding up at speed s
  * a <= cu - k s, braking |a| <= cd + k s (the velocity terms oppose the acceleration); the
@@ -33,11 +34,27 @@ struct steps {
 	float up[TRAJ_ACC_STEPS], dn[TRAJ_ACC_STEPS]; /* accelerations between them */
 };
 
+/* A row's room along the unit direction (ex, ey): at a fixed heading the Coulomb friction of a
+ * body axis the line does not move along is not taken off (its velocity there is 0). */
+static float line_room(const struct row *r, float ex, float ey)
+{
+	float c = r->c;
+
+	if (r->fixed) {
+		const float b[2] = {r->ph[0] * ex + r->ph[1] * ey, -r->ph[1] * ex + r->ph[0] * ey};
+		for (int i = 0; i < 2; i++)
+			if (fabsf(b[i]) <= LINE_AXIS_ZERO)
+				c += r->cb[i];
+	}
+	return c;
+}
+
 static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
 {
 	l->n = l->nl = 0;
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
+		const float c = line_room(&r[k], ex, ey);
 		const float pl = fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
 		const float sa = r[k].sa[0] * ex + r[k].sa[1] * ey;
 		const float sv = r[k].sv[0] * ex + r[k].sv[1] * ey;
@@ -48,18 +65,18 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 		 * credit */
 		const bool credit = r[k].credit && sa * sv >= 0.0f;
 		if (pv > 0.0f)
-			l->top = minf(l->top, r[k].c / pv);
-		else if (r[k].c < 0.0f)
+			l->top = minf(l->top, c / pv);
+		else if (c < 0.0f)
 			l->top = 0.0f;
 		if (pa > 0.0f) {
 			const float ia = 1.0f / pa;
-			l->cu[l->n] = r[k].c * ia;
-			l->cd[l->n] = (credit ? r[k].c0 : r[k].c) * ia;
+			l->cu[l->n] = c * ia;
+			l->cd[l->n] = (credit ? r[k].c0 : c) * ia;
 			l->kd[l->n] = credit ? (pv0 - r[k].kc) * ia : -pv * ia;
 			l->k[l->n++] = pv * ia;
 		}
 		if (pl > 0.0f) {
-			l->cl[l->nl] = r[k].c / pl;
+			l->cl[l->nl] = c / pl;
 			l->kl[l->nl++] = pv / pl;
 		}
 	}

@@ -78,53 +78,42 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].c = room[q] * cos_h;
 			r[n].c0 = room0[q] * cos_h;
 			r[n].credit = one_axis;
+			r[n].cb[0] = fabsf(sh[0]) * c->C[0] * kscale[q] * cos_h;
+			r[n].cb[1] = fabsf(sh[1]) * c->C[1] * kscale[q] * cos_h;
+			r[n].ph[0] = cp;
+			r[n].ph[1] = sp;
+			r[n].fixed = w_max == 0.0f && cos_h == 1.0f;
 		}
 	}
 	return n;
+}
+
+/* One rotation row: ka a + kv w <= c (c0 without the Coulomb term), one axis, every coefficient
+ * >= 0 (signed = box), the velocity terms opposing a braking acceleration. */
+static struct row rotation_row(float ka, float kv, float c, float c0)
+{
+	return (struct row){.ka = {ka, 0.0f},
+	                    .kv = {kv, 0.0f},
+	                    .c = c,
+	                    .c0 = c0,
+	                    .sa = {ka, 0.0f},
+	                    .sv = {kv, 0.0f},
+	                    .credit = true};
 }
 
 /* Rotation rows: T = J a + Bw w + Cw sgn w, wheel j's share q_j T (wheels.h: 1 / (4 d) for the
  * paper's layout), plus back-EMF e_j d_j w. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 {
-	const int n = 3 * c->wh.n;
-
 	for (int j = 0; j < c->wh.n; j++) {
 		const float ib = 1.0f / c->wh.b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
-		r[3 * j] = (struct row){{c->J * q, 0.0f},
-		                        {c->B[2] * q, 0.0f},
-		                        share * c->f_max_n[j] - c->C[2] * q,
-		                        share * c->f_max_n[j],
-		                        {0.0f, 0.0f},
-		                        {0.0f, 0.0f},
-		                        0.0f,
-		                        {0.0f, 0.0f},
-		                        true};
-		r[3 * j + 1] = (struct row){{c->J * q * ib, 0.0f},
-		                            {(c->B[2] * q + c->e[j] * dj) * ib, 0.0f},
-		                            share * c->u_max_v - c->C[2] * q * ib,
-		                            share * c->u_max_v,
-		                            {0.0f, 0.0f},
-		                            {0.0f, 0.0f},
-		                            0.0f,
-		                            {0.0f, 0.0f},
-		                            true};
-		r[3 * j + 2] = (struct row){{0.0f, 0.0f},
-		                            {dj, 0.0f},
-		                            share * c->rim_max[j],
-		                            share * c->rim_max[j],
-		                            {0.0f, 0.0f},
-		                            {0.0f, 0.0f},
-		                            0.0f,
-		                            {0.0f, 0.0f},
-		                            true};
+		const float f = share * c->f_max_n[j], u = share * c->u_max_v;
+		r[3 * j] = rotation_row(c->J * q, c->B[2] * q, f - c->C[2] * q, f);
+		r[3 * j + 1] = rotation_row(c->J * q * ib, (c->B[2] * q + c->e[j] * dj) * ib,
+		                            u - c->C[2] * q * ib, u);
+		r[3 * j + 2] = rotation_row(0.0f, dj, share * c->rim_max[j], share * c->rim_max[j]);
 	}
-	for (int k = 0; k < n; k++) /* one axis, every coefficient >= 0: signed = box */
-		for (int i = 0; i < 2; i++) {
-			r[k].sa[i] = r[k].ka[i];
-			r[k].sv[i] = r[k].kv[i];
-		}
-	return n;
+	return 3 * c->wh.n;
 }
 
 /* Largest a >= 0 with k a <= b. */

@@ -19,6 +19,7 @@
  * its segments' quarters too */
 #define FINE_OVER 1e-3f
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
+#define SIGN_ZERO 2e-7f /* ... and below this is 0: a unit vector's rounding, rotated */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
 #define SIDE_M 1e-5f    /* [m] short of a point: the piece and knot before it */
 #define USAGE_LIFT 1e6f /* a wheel the acceleration lifts off the floor: no scaling saves it */
@@ -79,8 +80,10 @@ static void geo_at(const struct traj_path *pa, float s, struct geo *g)
 	g->c[1] -= g->ths * g->q[0];
 }
 
-/* The signs a velocity component may take, as a set: NEG | ZERO | POS. A component exactly 0
- * (the heading held) has no Coulomb friction; one too small to trust may take any sign. */
+/* The signs a velocity component may take, as a set: NEG | ZERO | POS. A component 0 to
+ * float rounding (the heading held; a body axis along the path, whose rotation by a heading
+ * leaves ~4e-8 of a unit across it) has no Coulomb friction; one too small to trust may take
+ * any sign. */
 #define S_NEG 1
 #define S_ZERO 2
 #define S_POS 4
@@ -98,7 +101,7 @@ static signed char sign_set(float v)
 		return S_POS;
 	if (v < -SIGN_MIN)
 		return S_NEG;
-	return v == 0.0f ? S_ZERO : S_NEG | S_ZERO | S_POS;
+	return fabsf(v) <= SIGN_ZERO ? S_ZERO : S_NEG | S_ZERO | S_POS;
 }
 
 /* The signs at point i: those of i and its neighbours (a segment takes the signs of its
