@@ -441,6 +441,16 @@ static void test_a_tall_robot_brakes_within_its_load(void **state)
 		print_message("h %.2f m: worst use %.4f\n", height[k], use);
 		assert_true(use <= 1.0 + 1e-4);
 	}
+	/* on a floor too slippery to turn and move at once: the start brakes to rest first */
+	static const float stop_first[2][7] = {{0, 0, 0, 0.8f, 2.0f, 0.5f, 1.5f},
+	                                       {0, 0, 0, -0.6f, -1.0f, 1.0f, -1.0f}};
+	l.mu = 0.3;
+	for (int k = 0; k < 2; k++) {
+		l.com_height_m = height[k];
+		const double use = transfer_move(stop_first[k], &l, &l);
+		print_message("h %.2f m, mu 0.3, braking first: worst use %.4f\n", height[k], use);
+		assert_true(use <= 1.0 + 1e-4);
+	}
 }
 
 /* NaN, n or radius out of range, two poses at one place: -EINVAL, the plan unchanged; a
