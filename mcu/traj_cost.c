@@ -1,12 +1,14 @@
 /*
  * traj_cost.c - the trajectory generator's cost on the Cortex-M4 (core/ traj.h), metered like
  * the controller's tick (main.c's instruction meter): a course of goals (straight moves from
- * rest, turns while translating, moving starts), each followed at 1 kHz with traj_step and a
- * re-plan toward its goal every RE_PLAN_EVERY ticks, and a goal that moves (every re-plan from
- * a velocity off the line to the goal: the bisection over the x/y share, the dearest case).
- * Then the same goals planned as one curve (traj_plan_curve, CURVE_EVALS timings in its search:
- * docs/trajectory.md "One curve"), from rest and from a moving start. Prints two lines of figures:
- * a cost, not a result (left out of the host comparison).
+ * rest, turns while translating), each followed at 1 kHz with traj_step and a re-plan toward
+ * its goal every RE_PLAN_EVERY ticks, and a goal that moves (every re-plan from a velocity off
+ * the line to the goal: the curve from it and the brake prelude's, the dearest case). Then the
+ * same goals planned as one curve (traj_plan_curve, CURVE_EVALS timings in its search:
+ * docs/trajectory.md "One curve"), from rest and from a moving start, and with traj_plan on a
+ * floor too slippery to turn and move at once (no curve is timed: the search's timings, the
+ * prelude, the turn in place and the translation's curve). Prints three lines of figures: a
+ * cost, not a result (left out of the host comparison).
  */
 #include "traj_cost.h"
 
@@ -20,7 +22,8 @@
 
 #define RE_PLAN_EVERY 10 /* ticks between re-plans while a goal is followed */
 #define MOVING_GOAL_PLANS 40
-#define CURVE_EVALS 40 /* the one-curve plan's search, as bench/traj_optimal.py runs it */
+#define CURVE_EVALS 40    /* the one-curve plan's search, as bench/traj_optimal.py runs it */
+#define SLIPPERY_MU 0.25f /* Table III's robot turns or moves there, not both at once */
 
 struct meter_sum {
 	uint64_t sum;
@@ -63,6 +66,34 @@ static void follow(const float *m, uint32_t (*read)(void), struct meter_sum *pla
 		traj_step(&g_tr, 1e-3f, &r);
 		meter_add(step, read() - t0);
 	}
+}
+
+/* traj_plan of the course's goals from rest and moving at 0.3 m/s on a floor too slippery to
+ * turn and move at once (mu 0.25): one line. */
+static void slippery_cost(struct traj_limits *l, uint32_t (*read)(void), const char *unit,
+                          void (*print)(const char *line))
+{
+	const unsigned n = sizeof(course) / sizeof(course[0]);
+	struct meter_sum slip = {0};
+	char line[200];
+
+	l->mu = SLIPPERY_MU;
+	if (traj_init(&g_tr, l))
+		return;
+	for (unsigned i = 0; i < 2 * n; i++) {
+		const float *m = course[i % n];
+		const struct traj_ref from = {.pose = {m[0], m[1], m[2]},
+		                              .vel = {i >= n ? 0.3f : 0.0f, 0.0f}};
+		const uint32_t t0 = read();
+		traj_plan(&g_tr, &from, m + 3);
+		meter_add(&slip, read() - t0);
+	}
+	snprintf(line, sizeof(line),
+	         "slippery cost: traj_plan at mu %.2f (a turn in place first) mean %lu max %lu "
+	         "over %lu plans %s",
+	         (double)SLIPPERY_MU, (unsigned long)(slip.sum / slip.n), (unsigned long)slip.max,
+	         (unsigned long)slip.n, unit);
+	print(line);
 }
 
 void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const char *line))
@@ -124,4 +155,5 @@ void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const cha
 	         (unsigned long)curve.n, (unsigned long)(curve_moving.sum / curve_moving.n),
 	         (unsigned long)curve_moving.max, unit);
 	print(line);
+	slippery_cost(&l, read, unit, print);
 }
