@@ -45,8 +45,10 @@ int traj_path_retime(struct traj *tr)
 	return 0;
 }
 
-/* The start velocity's corner: ahead along it, about its stopping distance at 1.5 m/s^2. */
-static bool via_point(const struct traj_ref *from, const float first[3], float via[2])
+/* The start velocity's corner: ahead along it by about its stopping distance at the
+ * envelope's acceleration against it from rest (traj_envelope, robot frame). */
+static bool via_point(const struct traj *tr, const struct traj_ref *from, const float first[3],
+                      float via[2])
 {
 	const float vx = from->vel[0], vy = from->vel[1];
 	const float sp = sqrtf(vx * vx + vy * vy);
@@ -57,7 +59,12 @@ static bool via_point(const struct traj_ref *from, const float first[3], float v
 		return false;
 	if (fabsf(vx * dy - vy * dx) < 1e-3f * sp * len && vx * dx + vy * dy > 0.0f)
 		return false; /* along the first leg already */
-	float k = sp * sp / 3.0f;
+	const float c = cosf(from->pose[2]), s = cosf(from->pose[2] - 0.5f * PI_F);
+	const float back[2] = {-(c * vx + s * vy) / sp, -(-s * vx + c * vy) / sp};
+	float acc = 0.0f, top;
+	if (traj_envelope(tr, back, 0.0f, &acc, &top) || !(acc > 0.0f))
+		return false;
+	float k = sp * sp / (2.0f * acc);
 	k = minf(maxf(k, VIA_MIN_M), 0.5f * len);
 	via[0] = from->pose[0] + vx / sp * k;
 	via[1] = from->pose[1] + vy / sp * k;
@@ -81,7 +88,7 @@ int traj_plan_path(struct traj *tr, const struct traj_ref *from, const float (*p
 				return -EINVAL;
 	if (fabsf(from->vel[2]) > TRAJ_IDLE_VEL)
 		return -ERANGE; /* the heading's rate at the start: a path starts with none */
-	const bool has_via = via_point(from, poses[0], via);
+	const bool has_via = via_point(tr, from, poses[0], via);
 	if (traj_path_build(&pa, from->pose, poses, n, radius_m, has_via ? via : NULL))
 		return -EINVAL;
 	const float v0 = sqrtf(from->vel[0] * from->vel[0] + from->vel[1] * from->vel[1]);
