@@ -90,12 +90,17 @@ static void test_asymmetric_four_plan_within_every_wheel(void **state)
 /* A floor too slippery to turn and move at once (a turn's and a translation's Coulomb friction
  * together beyond traction: mu 0.25 for the three wheels, 0.35 for the asymmetric four, which
  * cannot start in every direction at 0.3), on both layouts: moves from rest with and without a
- * turn, a start moving and one turning (each inside what the floor allows), each inside
- * every wheel's limits all the way. */
-static const float slippery_moves[][9] = {
-    {0, 0, 0, 0, 0, 0, 1.0f, 0, 0},          {0, 0, 0, 0, 0, 0, 1.5f, 0.5f, 2.0f},
-    {0, 0, 0, 0, 0, 0, 0.3f, 0.1f, 0.4f},    {0, 0, 0, 0, 0, 0, 0, 0, 3.0f},
-    {0, 0, 0, 0.3f, 0, 0, 0.5f, 0.5f, 1.0f}, {0, 0, 0.5f, 0, 0, -1.0f, 0, 1.0f, -0.5f}};
+ * turn, starts moving along several directions and one turning (each inside what the floor
+ * allows), each inside every wheel's limits all the way. */
+static const float slippery_moves[][9] = {{0, 0, 0, 0, 0, 0, 1.0f, 0, 0},
+                                          {0, 0, 0, 0, 0, 0, 1.5f, 0.5f, 2.0f},
+                                          {0, 0, 0, 0, 0, 0, 0.3f, 0.1f, 0.4f},
+                                          {0, 0, 0, 0, 0, 0, 0, 0, 3.0f},
+                                          {0, 0, 0, 0.3f, 0, 0, 0.5f, 0.5f, 1.0f},
+                                          {0, 0, 0.5f, 0, 0, -1.0f, 0, 1.0f, -0.5f},
+                                          {0, 0, 0, 0, 0.3f, 0, 1.0f, 0.5f, 1.0f},
+                                          {0, 0, 0, -0.08f, 0.08f, 0, 0.5f, 1.0f, -1.0f},
+                                          {0, 0, 0.3f, 0.06f, -0.08f, 0, 1.0f, -1.0f, 1.5f}};
 
 static void test_a_slippery_floor_plans_within_every_wheel(void **state)
 {

@@ -30,9 +30,11 @@ struct row {
 	bool credit; /* its velocity terms (viscous, back-EMF, Coulomb) all oppose an acceleration
 	              * against the velocity: the wheel pushes along one body axis (the paper's
 	              * layout; the heading's rows). Else braking gets no credit (c, not c0). */
-	float cb[2]; /* the Coulomb friction of each body axis c takes off (worst sign), ... */
-	float ph[2]; /* ... and the heading's cos, sin where it is fixed (a line that does not */
-	bool fixed;  /* move along a body axis pays none of its friction), else fixed false */
+	/* at a fixed heading (fixed; cos_h 1), along a line its Coulomb friction and its
+	 * braking credit are exact: each body axis' Coulomb term, signed (cs: the row's value for
+	 * a positive velocity along that axis), and the heading's cos, sin (ph) */
+	float cs[2], ph[2];
+	bool fixed;
 };
 
 /* min and max of finite floats: a compare and a select (fminf and fmaxf are library calls

@@ -34,19 +34,24 @@ struct steps {
 	float up[TRAJ_ACC_STEPS], dn[TRAJ_ACC_STEPS]; /* accelerations between them */
 };
 
-/* A row's room along the unit direction (ex, ey): at a fixed heading the Coulomb friction of a
- * body axis the line does not move along is not taken off (its velocity there is 0). */
-static float line_room(const struct row *r, float ex, float ey)
+/* A row's room along the unit direction (ex, ey) and whether braking along it gets the
+ * velocity terms' credit. At a fixed heading both are exact: the Coulomb friction of each body
+ * axis with the sign the line gives it (none where the line does not move along the axis),
+ * and the credit where the acceleration term, the velocity terms and that friction all have
+ * one sign along the line. Else the row's own: the worst sign, its credit flag. */
+static float line_room(const struct row *r, float ex, float ey, float sa, float sv, bool *credit)
 {
-	float c = r->c;
-
-	if (r->fixed) {
-		const float b[2] = {r->ph[0] * ex + r->ph[1] * ey, -r->ph[1] * ex + r->ph[0] * ey};
-		for (int i = 0; i < 2; i++)
-			if (fabsf(b[i]) <= LINE_AXIS_ZERO)
-				c += r->cb[i];
-	}
-	return c;
+	*credit = r->credit && sa * sv >= 0.0f;
+	if (!r->fixed)
+		return r->c;
+	const float b[2] = {r->ph[0] * ex + r->ph[1] * ey, -r->ph[1] * ex + r->ph[0] * ey};
+	float ce = 0.0f;
+	for (int i = 0; i < 2; i++)
+		if (fabsf(b[i]) > LINE_AXIS_ZERO)
+			ce += b[i] > 0.0f ? r->cs[i] : -r->cs[i];
+	*credit =
+	    (sa >= 0.0f && sv >= 0.0f && ce >= 0.0f) || (sa <= 0.0f && sv <= 0.0f && ce <= 0.0f);
+	return r->c0 - fabsf(ce);
 }
 
 static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
@@ -54,16 +59,15 @@ static void line_rows(const struct row *r, int n, float ex, float ey, struct lin
 	l->n = l->nl = 0;
 	l->top = INFINITY;
 	for (int k = 0; k < n; k++) {
-		const float c = line_room(&r[k], ex, ey);
 		const float pl = fabsf(r[k].sl[0] * ex + r[k].sl[1] * ey);
 		const float sa = r[k].sa[0] * ex + r[k].sa[1] * ey;
 		const float sv = r[k].sv[0] * ex + r[k].sv[1] * ey;
+		bool credit; /* a wheel whose velocity terms do not oppose its braking (another
+		              * layout's split can give the force and the rim speed opposite signs
+		              * along e) brakes without credit */
+		const float c = line_room(&r[k], ex, ey, sa, sv, &credit);
 		const float pa = fabsf(sa) + pl, pv0 = fabsf(sv);
 		const float pv = pv0 + r[k].kc;
-		/* a wheel whose velocity terms do not oppose its braking (another layout's split
-		 * can give the force and the rim speed opposite signs along e) brakes without
-		 * credit */
-		const bool credit = r[k].credit && sa * sv >= 0.0f;
 		if (pv > 0.0f)
 			l->top = minf(l->top, c / pv);
 		else if (c < 0.0f)

@@ -78,8 +78,8 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].c = room[q] * cos_h;
 			r[n].c0 = room0[q] * cos_h;
 			r[n].credit = one_axis;
-			r[n].cb[0] = fabsf(sh[0]) * c->C[0] * kscale[q] * cos_h;
-			r[n].cb[1] = fabsf(sh[1]) * c->C[1] * kscale[q] * cos_h;
+			r[n].cs[0] = sh[0] * c->C[0] * kscale[q];
+			r[n].cs[1] = sh[1] * c->C[1] * kscale[q];
 			r[n].ph[0] = cp;
 			r[n].ph[1] = sp;
 			r[n].fixed = w_max == 0.0f && cos_h == 1.0f;
