@@ -68,6 +68,30 @@ static void follow(const float *m, uint32_t (*read)(void), struct meter_sum *pla
 	}
 }
 
+/* The course's goals planned as one curve, from rest and moving: one line. */
+static void curve_cost(uint32_t (*read)(void), const char *unit, void (*print)(const char *line))
+{
+	char line[320];
+	struct meter_sum curve = {0}, curve_moving = {0};
+	for (unsigned i = 0; i < 2 * sizeof(course) / sizeof(course[0]); i++) {
+		const unsigned n = sizeof(course) / sizeof(course[0]);
+		const float *m = course[i % n];
+		const bool go = i >= n; /* then at 0.85 m/s, askew to most goals */
+		const struct traj_ref from = {.pose = {m[0], m[1], m[2]},
+		                              .vel = {go ? 0.8f : 0.0f, go ? -0.3f : 0.0f}};
+		const uint32_t t0 = read();
+		traj_plan_curve(&g_tr, &from, m + 3, CURVE_EVALS);
+		meter_add(go ? &curve_moving : &curve, read() - t0);
+	}
+	snprintf(line, sizeof(line),
+	         "curve cost: traj_plan_curve (%d timings) from rest mean %lu max %lu over %lu "
+	         "goals; moving (0.8, -0.3 m/s) mean %lu max %lu %s",
+	         CURVE_EVALS, (unsigned long)(curve.sum / curve.n), (unsigned long)curve.max,
+	         (unsigned long)curve.n, (unsigned long)(curve_moving.sum / curve_moving.n),
+	         (unsigned long)curve_moving.max, unit);
+	print(line);
+}
+
 /* traj_plan of the course's goals from rest and moving at 0.3 m/s on a floor too slippery to
  * turn and move at once (mu 0.25): one line. */
 static void slippery_cost(struct traj_limits *l, uint32_t (*read)(void), const char *unit,
@@ -137,23 +161,6 @@ void traj_cost(uint32_t (*read)(void), const char *unit, void (*print)(const cha
 	         (unsigned long)(step.sum / step.n), (unsigned long)step.max, unit,
 	         (unsigned long)sizeof(struct traj));
 	print(line);
-	struct meter_sum curve = {0}, curve_moving = {0};
-	for (unsigned i = 0; i < 2 * sizeof(course) / sizeof(course[0]); i++) {
-		const unsigned n = sizeof(course) / sizeof(course[0]);
-		const float *m = course[i % n];
-		const bool go = i >= n; /* then at 0.85 m/s, askew to most goals */
-		const struct traj_ref from = {.pose = {m[0], m[1], m[2]},
-		                              .vel = {go ? 0.8f : 0.0f, go ? -0.3f : 0.0f}};
-		const uint32_t t0 = read();
-		traj_plan_curve(&g_tr, &from, m + 3, CURVE_EVALS);
-		meter_add(go ? &curve_moving : &curve, read() - t0);
-	}
-	snprintf(line, sizeof(line),
-	         "curve cost: traj_plan_curve (%d timings) from rest mean %lu max %lu over %lu "
-	         "goals; moving (0.8, -0.3 m/s) mean %lu max %lu %s",
-	         CURVE_EVALS, (unsigned long)(curve.sum / curve.n), (unsigned long)curve.max,
-	         (unsigned long)curve.n, (unsigned long)(curve_moving.sum / curve_moving.n),
-	         (unsigned long)curve_moving.max, unit);
-	print(line);
+	curve_cost(read, unit, print);
 	slippery_cost(&l, read, unit, print);
 }
