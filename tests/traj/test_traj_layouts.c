@@ -48,8 +48,52 @@ static const float moves[][9] = {
 
 #define N_MOVES (sizeof(moves) / sizeof(moves[0]))
 
+/* The stop of a start moving at (vx, vy) without turning at a constant deceleration, the
+ * largest that keeps every wheel within its limits at every speed on the way (the model of
+ * wheel_use.h, bisected here): its duration [s]. */
+static double constant_stop_s(const struct layout *lay, const struct traj_limits *l,
+                              const float pose[3], double vx, double vy)
+{
+	const double sp = hypot(vx, vy), e[2] = {vx / sp, vy / sp};
+	double lo = 0.0, hi = 20.0;
+
+	for (int it = 0; it < 30; it++) {
+		const double A = 0.5 * (lo + hi);
+		bool ok = true;
+		for (int q = 0; q <= 200 && ok; q++) {
+			const double t = sp / A * q / 200.0, v = sp - A * t;
+			const struct traj_ref r = {
+			    {pose[0] + (float)(e[0] * (sp * t - 0.5 * A * t * t)),
+			     pose[1] + (float)(e[1] * (sp * t - 0.5 * A * t * t)), pose[2]},
+			    {(float)(e[0] * v), (float)(e[1] * v), 0.0f},
+			    {(float)(-e[0] * A), (float)(-e[1] * A), 0.0f}};
+			ok = use_of_limits(&r, l, lay) <= 1.0;
+		}
+		if (ok)
+			lo = A;
+		else
+			hi = A;
+	}
+	return sp / lo;
+}
+
+/* When the reference's translation first comes to rest (the brake prelude's stop) [s]. */
+static double first_rest_s(const struct traj *tr)
+{
+	struct traj_ref r;
+
+	for (double t = 0.0; t < tr->duration_s; t += 1e-3) {
+		traj_eval(tr, (float)t, &r);
+		if (hypot(r.vel[0], r.vel[1]) < 1e-6)
+			return t;
+	}
+	return tr->duration_s;
+}
+
 /* Every plan of every move on a floor of friction mu: every wheel within its limits all the
- * way, the reference without a jump, at the goal at rest at the end. */
+ * way, the reference without a jump, at the goal at rest at the end; a start that moves
+ * without turning and brakes first stops no later than 1.25 times the stop at the largest
+ * constant deceleration every wheel allows (speed steps may stop sooner). */
 static void plans_stay_within_every_wheel(const struct layout *lay, double mu, const float (*ms)[9],
                                           size_t n_moves)
 {
@@ -72,6 +116,14 @@ static void plans_stay_within_every_wheel(const struct layout *lay, double mu, c
 		       "wheel's limit %.4f\n",
 		       lay->name, mu, m, tr.duration_s, tr.pre_s, worst);
 		assert_true(worst <= 1.01);
+		if (tr.pre_s > 0.0f && k[5] == 0.0f && hypot(k[3], k[4]) > 0.0) {
+			const double t_stop = first_rest_s(&tr),
+			             t_const = constant_stop_s(lay, &l, from.pose, k[3], k[4]);
+			printf(
+			    "  at rest after %.3f s, at the largest constant deceleration %.3f s\n",
+			    t_stop, t_const);
+			assert_true(t_stop <= 1.25 * t_const);
+		}
 	}
 }
 
