@@ -110,7 +110,8 @@ static void test_curve_reference_is_continuous(void **state)
 	}
 }
 
-/* The optional caps on speed and turn rate hold on a curve (its progress is not its speed). */
+/* The optional caps on speed and turn rate hold on a curve (its progress is not its speed), and
+ * the speed cap is reached, not undercut. */
 static void test_curve_holds_the_caps(void **state)
 {
 	(void)state;
@@ -138,6 +139,31 @@ static void test_curve_holds_the_caps(void **state)
 	const float dist = hypotf(goal[0], goal[1]);
 	assert_true(tr.duration_s >= dist / 0.5f);
 	assert_true(tr.duration_s <= dist / 0.5f + 0.5f / 1.0f);
+	/* from rest and moving across, toward three goals: within the caps, and at the speed cap
+	 * over the middle half of the move (its progress s' is not the speed: held at cap /
+	 * |dp/ds|) */
+	const float goals[3][3] = {{1.5f, 0.5f, 2.0f}, {2.0f, 0.0f, 0.0f}, {0.5f, 1.5f, -1.0f}};
+	const struct traj_ref across = {{0, 0, 0}, {0, 0.4f, 0}, {0, 0, 0}};
+	for (int k = 0; k < 6; k++) {
+		assert_int_equal(traj_plan_curve(&tr, k < 3 ? &from : &across, goals[k % 3], EVALS),
+		                 0);
+		double slow = INFINITY;
+		v_max = w_max = 0.0;
+		for (double t = 0.0; t < tr.duration_s + DT; t += DT) {
+			traj_eval(&tr, (float)t, &r);
+			const double v = hypot(r.vel[0], r.vel[1]);
+			v_max = fmax(v_max, v);
+			w_max = fmax(w_max, fabs(r.vel[2]));
+			if (t > 0.25 * tr.duration_s && t < 0.75 * tr.duration_s)
+				slow = fmin(slow, v);
+		}
+		printf("  %s to goal %d: %.3f s, speed %.4f to %.4f m/s over its middle half, turn "
+		       "rate %.4f rad/s at most\n",
+		       k < 3 ? "from rest" : "moving across", k % 3, (double)tr.duration_s, slow,
+		       v_max, w_max);
+		assert_true(v_max <= 0.5 * 1.001 && w_max <= 1.0 * 1.001);
+		assert_true(slow >= 0.98 * 0.5);
+	}
 }
 
 static void test_curve_bad_input_is_refused(void **state)
