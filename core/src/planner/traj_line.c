@@ -250,8 +250,8 @@ float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, f
 
 	line_rows(r, n, ex, ey, &l);
 	float a = fabsf(v0), b = minf(l.top, cap);
-	if (!(a <= b))
-		return INFINITY;
+	if (!(a <= b) || !(b > 0.0f))
+		return INFINITY; /* beyond the top speed, or no speed at all */
 	/* the duration falls, then rises, with the top speed (no time) where a step has no room */
 	float x1 = b - gr * (b - a), x2 = a + gr * (b - a);
 	float f1 = line_try(&ls, x1), f2 = line_try(&ls, x2);
