@@ -7,8 +7,9 @@
  * same goals planned as one curve (traj_plan_curve, CURVE_EVALS timings in its search:
  * docs/trajectory.md "One curve"), from rest and from a moving start, and with traj_plan on a
  * floor too slippery to turn and move at once (no curve is timed: the search's timings, the
- * prelude, the turn in place and the translation's curve). Prints three lines of figures: a
- * cost, not a result (left out of the host comparison).
+ * prelude, the turn in place and the translation's curve). Prints three lines of figures (a
+ * line is left out if its limits do not initialise): a cost, not a result (left out of the host
+ * comparison).
  */
 #include "traj_cost.h"
 

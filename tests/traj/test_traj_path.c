@@ -441,7 +441,8 @@ static void test_a_tall_robot_brakes_within_its_load(void **state)
 		print_message("h %.2f m: worst use %.4f\n", height[k], use);
 		assert_true(use <= 1.0 + 1e-4);
 	}
-	/* on a floor too slippery to turn and move at once: the start brakes to rest first */
+	/* on a floor too slippery to turn and move at once (the plan brakes to rest and turns in
+	 * place first: test_traj) */
 	static const float stop_first[2][7] = {{0, 0, 0, 0.8f, 2.0f, 0.5f, 1.5f},
 	                                       {0, 0, 0, -0.6f, -1.0f, 1.0f, -1.0f}};
 	l.mu = 0.3;

@@ -122,6 +122,7 @@ static int turn_first(struct traj *tr, const struct traj_ref *from, const float 
 	rest.pose[2] += model_wrap_pi_f32(goal[2] - rest.pose[2]);
 	if (t_pre < INFINITY)
 		t_pre = traj_turn_in_place(tr, pre, t_pre, rest.pose[2]);
+	rest.pose[2] = pre[2].goal; /* where the prelude ends (no turn under TRAJ_IDLE_POS) */
 	struct traj cand = {.c = tr->c};
 	const float held[3] = {goal[0], goal[1], rest.pose[2]}; /* unwrapped: no turn at all */
 	if (!(t_pre < INFINITY) || traj_plan_curve(&cand, &rest, held, CURVE_EVALS_MIN))

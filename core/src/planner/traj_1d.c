@@ -110,37 +110,3 @@ void traj_1d_eval(const struct traj_1d *o, float t, float *p, float *v, float *a
 	*v = o->vs[k] + o->acc[k] * tau;
 	*a = o->acc[k];
 }
-
-/* Smallest and largest position the profile passes through (phase ends and turning points). */
-void traj_1d_range(const struct traj_1d *o, float *lo, float *hi)
-{
-	*lo = minf(o->goal, o->p0);
-	*hi = maxf(o->goal, o->p0);
-	for (int k = 0; k < o->n; k++) {
-		float q = o->ps[k];
-		*lo = minf(*lo, q);
-		*hi = maxf(*hi, q);
-		if (o->acc[k] != 0.0f) {
-			const float tz = -o->vs[k] / o->acc[k];
-			const float len = o->t_end_s[k] - (k ? o->t_end_s[k - 1] : 0.0f);
-			if (tz > 0.0f && tz < len) {
-				q = o->ps[k] - o->vs[k] * o->vs[k] / (2.0f * o->acc[k]);
-				*lo = minf(*lo, q);
-				*hi = maxf(*hi, q);
-			}
-		}
-	}
-}
-
-/* Largest |v| the profile reaches (at a phase's ends: v is linear in each phase). */
-float traj_1d_speed_max(const struct traj_1d *o)
-{
-	float w = maxf(fabsf(o->v0), fabsf(o->v1));
-
-	for (int k = 0; k < o->n; k++) {
-		const float len = o->t_end_s[k] - (k ? o->t_end_s[k - 1] : 0.0f);
-		w = maxf(w, fabsf(o->vs[k]));
-		w = maxf(w, fabsf(o->vs[k] + o->acc[k] * len));
-	}
-	return w;
-}

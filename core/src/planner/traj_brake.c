@@ -60,7 +60,8 @@ static float prelude_share(const struct traj *tr, const struct traj_ref *from, f
 		                                    maxf(from->pose[2], stop[2]), phi, &cos_h);
 		int n = 0;
 		for (int k = 0; k < nh; k++)
-			n += traj_rows_translation(&tr->c, phi[k], 1.0f - share, cos_h, fabsf(w0),
+			n += traj_rows_translation(&tr->c, phi[k], 1.0f - share, cos_h,
+			                           fabsf(w0) >= TRAJ_IDLE_VEL ? fabsf(w0) : 0.0f,
 			                           r + n);
 		t_xy = traj_line_stop(r, n, e[0], e[1], sp, &o);
 		if (!(t_xy < INFINITY))
@@ -113,8 +114,9 @@ float traj_turn_in_place(const struct traj *tr, struct traj_1d pre[3], float t_p
 		return t_pre;
 	const float t_turn =
 	    traj_line_plan(r, n, 1.0f, 0.0f, th0, 0.0f, th_goal, tr->c.omega_cap_rad_s, &turn);
-	if (!(t_turn < INFINITY))
-		return INFINITY;
+	if (!(t_turn < INFINITY) || pre[2].n + 1 + turn.n > TRAJ_PHASES)
+		return INFINITY; /* (the stop, a wait and the turn fit TRAJ_PHASES by construction)
+		                  */
 	/* after the stop (a wait while the heading is at rest and the translation still stops) */
 	float t = traj_1d_duration(&pre[2]), p = th0, v = 0.0f;
 	if (pre[2].n == 0)

@@ -17,8 +17,9 @@
  * One wheel constraint in the world frame at one heading. On a symmetric box of accelerations
  * (half widths A ca, A sa) and velocities (half widths wx, wy): ka . (A ca, A sa) + kv . (wx, wy)
  * <= c, every k >= 0 (the largest value of |L z| over a box centred at 0 is the sum of |L_i|
- * times the half widths). On a straight line (unit e): |(sa . e) a + (sv . e) s| <= c, where
- * sa . e and sv . e have the same sign (one axis of the robot per wheel).
+ * times the half widths; traj_init's check of the acceleration at rest). On a straight line
+ * (unit e): |(sa . e) a + (sv . e) s + Coulomb| <= c (traj_line.c, whose braking takes the
+ * credit where the terms have one sign along e).
  */
 struct row {
 	float ka[2], kv[2], c;
@@ -65,12 +66,6 @@ void traj_1d_hold(struct traj_1d *o, float p);
 /* Closer than TRAJ_IDLE_POS to goal and slower than TRAJ_IDLE_VEL: nothing to plan. */
 bool traj_1d_idle(float p0, float v0, float goal);
 
-/* Smallest and largest position the profile passes through. */
-void traj_1d_range(const struct traj_1d *o, float *lo, float *hi);
-
-/* Largest speed the profile reaches [m/s or rad/s]. */
-float traj_1d_speed_max(const struct traj_1d *o);
-
 /* ---- the envelope as rows (traj_rows.c) ---- */
 
 /* Largest A with every row met over the box (A ca, A sa) x (wx, wy); -1 if a velocity-only
@@ -78,11 +73,11 @@ float traj_1d_speed_max(const struct traj_1d *o);
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy);
 
 /* Translation rows at heading phi with a share of each budget, the room scaled by cos_h,
- * the heading turning at w_max [rad/s] at most; 12 rows into r, returns 12. */
+ * the heading turning at w_max [rad/s] at most; 3 rows a wheel into r, returns how many. */
 int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
                           float w_max, struct row *r);
 
-/* Rotation rows with a share of each budget; 12 rows into r, returns 12. */
+/* Rotation rows with a share of each budget; 3 rows a wheel into r, returns how many. */
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);
 
 /* Translation rows at every sampled heading of a plan: at most this many. */

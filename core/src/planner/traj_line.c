@@ -10,10 +10,12 @@
 
 #include "traj_int.h"
 
-/* Golden sections of the top speed between 0 and the largest the rows allow (acceleration 0
- * there): a lower top leaves larger steps of acceleration below it. */
+/* Golden sections of the top speed between the start's speed and the largest the rows allow
+ * (acceleration 0 there; the cap tried as it is): a lower top leaves larger steps of
+ * acceleration below it. */
 #define LINE_TOP_SECTIONS 12
-#define LINE_AXIS_ZERO 2e-7f /* a unit direction's component below this is 0 (its rounding) */
+#define LINE_AXIS_ZERO 2e-7f /* a unit direction's component below this is 0 (its rounding), */
+#define LINE_AXIS_SURE 1e-3f /* below this of either sign (as the path timing's SIGN_MIN) */
 
 /* The rows along a line, divided by their acceleration coefficient: speeding up at speed s
  * a <= cu - k s, braking |a| <= cd + k s (the velocity terms oppose the acceleration); the
@@ -45,13 +47,16 @@ static float line_room(const struct row *r, float ex, float ey, float sa, float 
 	if (!r->fixed)
 		return r->c;
 	const float b[2] = {r->ph[0] * ex + r->ph[1] * ey, -r->ph[1] * ex + r->ph[0] * ey};
-	float ce = 0.0f;
-	for (int i = 0; i < 2; i++)
-		if (fabsf(b[i]) > LINE_AXIS_ZERO)
+	float ce = 0.0f, unsure = 0.0f;
+	for (int i = 0; i < 2; i++) {
+		if (fabsf(b[i]) >= LINE_AXIS_SURE)
 			ce += b[i] > 0.0f ? r->cs[i] : -r->cs[i];
-	*credit =
-	    (sa >= 0.0f && sv >= 0.0f && ce >= 0.0f) || (sa <= 0.0f && sv <= 0.0f && ce <= 0.0f);
-	return r->c0 - fabsf(ce);
+		else if (fabsf(b[i]) > LINE_AXIS_ZERO) /* too small to trust its sign: either */
+			unsure += fabsf(r->cs[i]);
+	}
+	*credit = unsure == 0.0f && ((sa >= 0.0f && sv >= 0.0f && ce >= 0.0f) ||
+	                             (sa <= 0.0f && sv <= 0.0f && ce <= 0.0f));
+	return r->c0 - fabsf(ce) - unsure;
 }
 
 static void line_rows(const struct row *r, int n, float ex, float ey, struct line_rows *l)
@@ -253,6 +258,8 @@ float traj_line_plan(const struct row *r, int n, float ex, float ey, float p0, f
 	if (!(a <= b) || !(b > 0.0f))
 		return INFINITY; /* beyond the top speed, or no speed at all */
 	/* the duration falls, then rises, with the top speed (no time) where a step has no room */
+	if (cap < l.top) /* the cap itself (the search only comes near it) */
+		line_try(&ls, b);
 	float x1 = b - gr * (b - a), x2 = a + gr * (b - a);
 	float f1 = line_try(&ls, x1), f2 = line_try(&ls, x2);
 	for (int it = 0; it < LINE_TOP_SECTIONS; it++) {

@@ -127,9 +127,9 @@ struct traj_piece {
 };
 
 /*
- * A plan along a path (traj_plan_path, and a straight move whose heading swings): the geometry
- * by arc length s (lines and arcs), the heading as a function of s (smoothstep between knots),
- * and its timing: on each grid segment s'' is constant (docs/trajectory.md, "Paths").
+ * A plan along a path (traj_plan_path: lines and arcs by arc length s, the heading a smoothstep
+ * between knots; or one curve, traj_plan_curve: see `curve`) and its timing: on each grid
+ * segment s'' is constant (docs/trajectory.md, "Paths", "One curve").
  */
 struct traj_path {
 	struct traj_piece pc[TRAJ_PIECES];
@@ -180,7 +180,7 @@ int traj_reset(struct traj *tr, const float pose[3]);
  * Bounded time (fixed iteration counts, no blocking), but not for the fast loop: up to ~30 M
  * instructions on the Cortex-M4 (beside the loop: traj_plan_ahead). -EINVAL (plan unchanged)
  * if any input is NaN or infinite; -ERANGE (plan unchanged) if neither is timed (no braking
- * from a start far outside the envelope).
+ * from a start far outside the envelope, or no curve after the turn in place).
  */
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3]);
 
