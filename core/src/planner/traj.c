@@ -116,8 +116,7 @@ static int turn_first(struct traj *tr, const struct traj_ref *from, const float 
 
 	for (int i = 0; i < 3; i++)
 		traj_1d_hold(&pre[i], from->pose[i]);
-	if (fabsf(from->vel[0]) >= TRAJ_IDLE_VEL || fabsf(from->vel[1]) >= TRAJ_IDLE_VEL ||
-	    fabsf(from->vel[2]) >= TRAJ_IDLE_VEL)
+	if (traj_ref_moving(from))
 		t_pre = traj_brake_prelude(tr, from, pre, rest.pose);
 	rest.pose[2] += model_wrap_pi_f32(goal[2] - rest.pose[2]);
 	if (t_pre < INFINITY)

@@ -452,9 +452,7 @@ int traj_plan_curve(struct traj *tr, const struct traj_ref *from, const float go
 		return 0;
 	}
 	/* moving: half the timings each to the curve from the start and to the brake's */
-	const bool moving = fabsf(from->vel[0]) >= TRAJ_IDLE_VEL ||
-	                    fabsf(from->vel[1]) >= TRAJ_IDLE_VEL ||
-	                    fabsf(from->vel[2]) >= TRAJ_IDLE_VEL;
+	const bool moving = traj_ref_moving(from);
 	struct traj_path pa, pb;
 	const float t_a = curve_from(tr, from, g, moving ? evals / 2 : evals, &pa);
 	float t_pre = INFINITY, t_b = INFINITY;

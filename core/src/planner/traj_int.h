@@ -52,6 +52,13 @@ static inline float maxf(float a, float b)
 
 #define PI_F MODEL_PI_F
 
+/* The state moves: translates or turns at TRAJ_IDLE_VEL or more. */
+static inline bool traj_ref_moving(const struct traj_ref *r)
+{
+	return fabsf(r->vel[0]) >= TRAJ_IDLE_VEL || fabsf(r->vel[1]) >= TRAJ_IDLE_VEL ||
+	       fabsf(r->vel[2]) >= TRAJ_IDLE_VEL;
+}
+
 /* ---- one axis (traj_1d.c) ---- */
 
 /* The duration of a profile [s] (0 when at rest at the goal). */
