@@ -212,6 +212,7 @@ struct est {
 	uint32_t
 	    replay_per_tick; /* ticks re-run a live tick (EST_REPLAY_PER_TICK; 0: all at once) */
 	uint32_t seq;        /* ticks since init/reset: the next tick's number */
+	int64_t clock_ns;    /* the periods predicted so far, as a time [ns]: a period a step */
 	float innov_avg[3];  /* the velocity innovation averaged (EST_INNOV_AVG_TICKS) */
 	int slip_run, collision_run, cam_gate_run;
 	struct est_slip slip; /* est_slip.c */
@@ -253,8 +254,9 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
                           const struct wheel_geom *g);
 /* Start again at pose (x, y, theta) with the pose's covariance diag (m^2, m^2, rad^2). */
 void est_reset(struct est *e, const float pose[3], const float pose_var[3]);
-/* Fast loop, once per tick. A tick that comes two or more periods after the last (in->utime)
- * first predicts the periods missed, without a reading (up to EST_CATCH_UP). */
+/* Fast loop, once per tick. A tick that comes two or more periods after the periods predicted
+ * so far (in->utime; a wake-up's jitter is not a missed period) first predicts the periods
+ * missed, without a reading (up to EST_CATCH_UP). */
 void est_step(struct est *e, const struct est_input *in);
 /* Fast loop, between ticks: a camera pose captured at capture_us, now_us = the current tick's
  * time. 0 taken; -ERANGE older than the history (counted); -EINVAL gated or not finite
