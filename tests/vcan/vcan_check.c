@@ -26,7 +26,8 @@
  *                        (a figure, not asserted); fails only if a command never shows
  *   vcan_check drivestop IFACE vesc|odrive FW_PID S DRIVE_TIMEOUT_MS  the controller killed
  *                        while driving simulated drives: each stops on its own (vcan_drives.c)
- *   vcan_check goal DX DY DTHETA S  a goal from the simulated truth's pose (vcan_drives.c)
+ *   vcan_check goal DX DY DTHETA S [MOTORSIM_LOG]  a goal from the simulated truth's pose
+ *       (vcan_drives.c)
  *   vcan_check capture IFACE S  read the controller's frames until the marker frame 0x7FF
  *                        (at most S seconds); print their count, how many carry a non-zero
  *                        voltage and the data of the last CMD_VOLTAGE
@@ -497,10 +498,11 @@ int main(int argc, char **argv)
 		const double max_s = argc > 5 ? atof(argv[5]) : 0;
 
 		if (!(max_s > 0)) {
-			fprintf(stderr, "usage: vcan_check goal DX DY DTHETA SECONDS\n");
+			fprintf(stderr,
+			        "usage: vcan_check goal DX DY DTHETA SECONDS [MOTORSIM_LOG]\n");
 			return 2;
 		}
-		return vcan_goal(off, max_s);
+		return vcan_goal(off, max_s, argc > 6 ? argv[6] : NULL);
 	}
 	if (!strcmp(argv[1], "capture")) {
 		const double max_s = argc > 3 ? atof(argv[3]) : 0;

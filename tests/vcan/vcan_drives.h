@@ -9,7 +9,9 @@
 int vcan_drive_stop(const char *iface, bool odrive, int fw_pid, double max_s, double timeout_s);
 
 /* goal: a goal offset (x m, y m, theta rad) from the simulated truth's pose; 0 when REACHED
- * within max_s seconds and the truth is then within 1 cm and 1 deg of it. */
-int vcan_goal(const double offset[3], double max_s);
+ * within max_s seconds and the truth is then within 1 cm and 1 deg of it, or when the goal
+ * cannot be judged: the emulated controller starved, or the simulated world paused during it
+ * (motorsim_log, omni4-motorsim's stderr, says so; NULL: not watched). */
+int vcan_goal(const double offset[3], double max_s, const char *motorsim_log);
 
 #endif /* OMNI4_VCAN_DRIVES_H */

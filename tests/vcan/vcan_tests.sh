@@ -198,7 +198,7 @@ drive_backend() {
   echo "$name: the kernel's receive backlog dropped $drops frames so far"
   emit_file "$name.candump"
   emit_file "$name.lcmlog"
-  out=$(vcan_check goal 0.3 0.2 0.5 60)
+  out=$(vcan_check goal 0.3 0.2 0.5 60 "/tmp/ms_$name.log")
   rc=$?
   echo "$name: $out"
   if [ $rc -eq 0 ]; then pass=$((pass + 1)); else fail=$((fail + 1)); fi
