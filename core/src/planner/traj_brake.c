@@ -30,9 +30,8 @@ static void start_exact(struct traj_1d pre[3], const struct traj_ref *from)
 	}
 }
 
-/* The prelude with the heading's share of every budget; *t_rot its heading's stop [s]. */
-static float prelude_share(const struct traj *tr, const struct traj_ref *from, float share,
-                           struct traj_1d pre[3], float stop[3], float *t_rot)
+float traj_brake_share(const struct traj *tr, const struct traj_ref *from, float share,
+                       struct traj_1d pre[3], float stop[3], float *t_rot)
 {
 	const float vx = from->vel[0], vy = from->vel[1], w0 = from->vel[2];
 	const float sp = sqrtf(vx * vx + vy * vy);
@@ -82,12 +81,12 @@ float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, str
 	float lo = 0.0f, hi = 1.0f, best = INFINITY, at[3], t_rot;
 
 	if (!(turns && moves))
-		return prelude_share(tr, from, turns ? 1.0f : 0.0f, pre, stop, &t_rot);
+		return traj_brake_share(tr, from, turns ? 1.0f : 0.0f, pre, stop, &t_rot);
 	/* both: the heading's share by bisection until both stop together (the heading's stop
 	 * falls with its share, the translation's rises), the soonest kept */
 	for (int it = 0; it < TRAJ_SHARE_ITERS; it++) {
 		const float share = 0.5f * (lo + hi);
-		const float t = prelude_share(tr, from, share, cand, at, &t_rot);
+		const float t = traj_brake_share(tr, from, share, cand, at, &t_rot);
 		if (t < best) {
 			best = t;
 			for (int i = 0; i < 3; i++) {

@@ -129,6 +129,10 @@ void traj_line_project(const struct traj_1d *line, float e, float p0, float goal
  */
 float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, struct traj_1d pre[3],
                          float stop[3]);
+/* The prelude with the heading's share (0..1) of every wheel's budget, the translation's the
+ * rest; *t_rot its heading's stop [s]. Returns the later stop [s], or INFINITY. */
+float traj_brake_share(const struct traj *tr, const struct traj_ref *from, float share,
+                       struct traj_1d pre[3], float stop[3], float *t_rot);
 
 /*
  * traj_turn_in_place - after a prelude at rest at pre's ends (t_pre [s]: when the last axis
