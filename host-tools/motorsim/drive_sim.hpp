@@ -76,6 +76,7 @@ struct VescOptions {
 	int ids[4] = {0, 1, 2, 3};
 	int pole_pairs = 7;
 	double timeout_s = 0.5; // the firmware's default CAN timeout
+	int status_every = 1;   // periods between status messages (the app's CAN status rate)
 	Fault fault;
 	// What the faulted drive does: 0 goes silent (a dead controller); else it latches this
 	// mc_fault_code (datatypes.h), releases its motor, takes no command and reports the code
@@ -101,6 +102,7 @@ struct VescSim {
 	Motors m;
 	VescDrive d[4];
 	double last_step_s = -1;
+	long periods = 0; // vesc_sim_emit's calls: the status messages every o.status_every
 };
 
 void vesc_sim_init(VescSim &s, const VescOptions &o, const Motors &m);

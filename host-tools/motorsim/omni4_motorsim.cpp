@@ -85,6 +85,7 @@ struct Options {
 	int pole_pairs = 7, fault_node = 0;
 	double supply_v = 0, supply_ohm = 0, watchdog_s = 0.2, fault_at_s = -1, timeout_s = 0.5;
 	int encoder_ms = 10, iq_ms = 0; // the ODrive's message rates [ms] (its defaults)
+	int status_ms = 1;              // the VESC's status messages [ms]
 	double camera_hz = 0;
 	std::string lcm_url;
 };
@@ -132,6 +133,12 @@ void add_drive_options(CLI::App &app, Options &o)
 	               "ODrive: Get_Iq sent every MS (iq_msg_rate_ms; 0: on request only, the "
 	               "drive's default)")
 	    ->check(CLI::Range(0, 1000))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--status-ms", o.status_ms,
+	               "VESC: STATUS_1, 4 and 5 every MS (the app's CAN status rate, set in VESC "
+	               "Tool)")
+	    ->check(CLI::Range(1, 1000))
 	    ->capture_default_str()
 	    ->group(g);
 	app.add_option("--timeout-s", o.timeout_s, "VESC: command timeout (the firmware's default)")
@@ -392,6 +399,7 @@ int setup_drives(const Options &o, Sim &sim, motorsim::DriveLoop &d)
 	}
 	vo.pole_pairs = o.pole_pairs;
 	vo.timeout_s = o.timeout_s;
+	vo.status_every = o.status_ms;
 	oo.watchdog_s = o.watchdog_s;
 	oo.encoder_s = o.encoder_ms * 1e-3;
 	oo.iq_s = o.iq_ms * 1e-3;

@@ -2,6 +2,7 @@
 // github.com/vedderb/bldc): SET_DUTY, SET_CURRENT, SET_CURRENT_BRAKE in; STATUS_1, STATUS_4,
 // STATUS_5 out; the 0.5 s command timeout that releases the motor; a fault code (mc_fault_code)
 // asked for with COMM_GET_VALUES_SELECTIVE in a PROCESS_SHORT_BUFFER (comm_can.c, commands.c).
+#include <algorithm>
 #include <cmath>
 
 #include "drive_sim.hpp"
@@ -175,6 +176,7 @@ omni4_can_frame fault_reply(int own_id, int to, int code)
 
 void vesc_sim_emit(VescSim &s, const DriveView &v, Frames &out)
 {
+	const bool status = s.periods++ % std::max(1, s.o.status_every) == 0;
 	for (int j = 0; j < 4; ++j) {
 		VescDrive &d = s.d[j];
 		if (d.dead)
@@ -182,6 +184,8 @@ void vesc_sim_emit(VescSim &s, const DriveView &v, Frames &out)
 		if (d.reply_to >= 0)
 			out.push_back(fault_reply(s.o.ids[j], d.reply_to, d.fault_code));
 		d.reply_to = -1;
+		if (!status)
+			continue;
 		const double i_motor = d.mode == VescMode::released ? 0.0 : v.current_a[j];
 		omni4_can_frame f = status_frame(VESC_STATUS_1, s.o.ids[j]);
 		put_be(f.data, scaled(vesc_erpm(v.motor_rad_s[j], s.o.pole_pairs), 1, INT32_MAX),

@@ -158,6 +158,27 @@ TEST(VescSim, StatusFramesCarryErpmCurrentDutyAndInputVoltage)
 	expect_bytes(find(out, EFF | 0x1017), {0x01, 0x2C, 0x01, 0x2C, 0x00, 0x08, 0, 0});
 }
 
+// The app's CAN status rate: STATUS_1, 4 and 5 of every drive each status_every periods,
+// starting at the first; a fault code's reply is not held back by it.
+TEST(VescSim, StatusFramesComeAtTheStatusRate)
+{
+	VescSim s = vesc();
+	s.o.status_every = 5;
+	int with_status = 0;
+	for (int k = 0; k < 1000; ++k) {
+		Frames out;
+		vesc_sim_emit(s, view(100, 24), out);
+		if (find(out, EFF | 0x0917) != nullptr) {
+			EXPECT_EQ(k % 5, 0) << "period " << k;
+			EXPECT_EQ(out.size(), 12u);
+			++with_status;
+		} else {
+			EXPECT_TRUE(out.empty());
+		}
+	}
+	EXPECT_EQ(with_status, 200);
+}
+
 TEST(VescSim, TachometerCountsSixStepsPerElectricalRevolution)
 {
 	VescSim s = vesc();

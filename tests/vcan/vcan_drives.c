@@ -14,7 +14,8 @@
  *     within 1 cm and 1 deg of the goal (docs/goal.md's arrival); the controller's estimate and
  *     its difference from the truth printed. A goal during which the simulated world paused
  *     (omni4-motorsim's log says so: its process starved 100 ms or more, while the controller's
- *     odometry ran on) is said, not judged.
+ *     odometry ran on) or its truth was silent for STARVED_US (omni4-motorsim 2 ms or more
+ *     behind the clock on end: it sends no pose then) is said, not judged.
  * The frames are decoded with the controller's codecs (vesc_proto.h, odrive_proto.h); the
  * simulated drives have their own frame code, written from the same documents.
  */
@@ -275,6 +276,7 @@ struct goal_watch {
 	omni4_state_t state;                             /* the last, for its camera counters */
 	double start_off[3], reach_off[3], reach_sd_deg; /* the estimate minus the truth */
 	int paused; /* the simulated world's pauses during the goal (omni4-motorsim's log) */
+	int64_t last_pose_us, max_pose_gap_us; /* the truth's longest silence during the goal */
 };
 
 /* The pauses omni4-motorsim has said in its log so far (0 without a log). */
@@ -331,6 +333,9 @@ static void on_pose(const lcm_recv_buf_t *rb, const char *ch, const omni4_pose_t
 	g->truth[0] = m->x;
 	g->truth[1] = m->y;
 	g->truth[2] = m->theta;
+	if (g->have_truth && m->utime - g->last_pose_us > g->max_pose_gap_us)
+		g->max_pose_gap_us = m->utime - g->last_pose_us;
+	g->last_pose_us = m->utime;
 	g->have_truth = true;
 }
 
@@ -378,9 +383,11 @@ static int goal_report(const struct goal_watch *g, const double p[3], double t_s
 	const bool reached = g->last.status == OMNI4_GOAL_STATUS_T_STATUS_REACHED;
 	const bool ok = reached && e < 0.01 && a < 1.0;
 	const bool starved = !reached && g->max_gap_us >= STARVED_US;
-	/* A world that paused while the controller's odometry ran on: the estimate and the truth
-	 * part by the motion of the pause, which no controller can know of (a starved VM). */
-	const bool paused = !ok && g->paused > 0;
+	/* A world that paused, or fell 2 ms or more behind the clock for STARVED_US on end (its
+	 * camera, the truth, is silent meanwhile), while the controller's odometry ran on: the
+	 * estimate and the truth part by what the late plant did in a burst, which no controller
+	 * can know of (a starved VM). */
+	const bool paused = !ok && (g->paused > 0 || g->max_pose_gap_us >= STARVED_US);
 
 	printf("%s: goal (%.3f, %.3f, %.3f) %s after %.1f s: the simulated truth off by %.2f mm, "
 	       "%.3f deg (bounds 10 mm, 1 deg); the controller's estimate by %.2f mm, %.3f deg\n",
@@ -390,11 +397,13 @@ static int goal_report(const struct goal_watch *g, const double p[3], double t_s
 	       p[0], p[1], p[2], reached ? "REACHED" : "NOT reached", t_s, e * 1e3, a, ee * 1e3,
 	       ae);
 	printf(
-	    "  %ld controller samples (%.0f Hz), the longest gap %.0f ms; camera poses taken %d, "
-	    "gated %d, too old %d, last latency %.0f ms, innovation %.1f mm %.1f mm\n",
-	    g->samples, g->samples / t_s, g->max_gap_us * 1e-3, g->state.camera_taken,
-	    g->state.camera_gated, g->state.camera_too_old, g->state.camera_latency_us * 1e-3,
-	    g->state.camera_innovation[0] * 1e3, g->state.camera_innovation[1] * 1e3);
+	    "  %ld controller samples (%.0f Hz), the longest gap %.0f ms; the truth's longest "
+	    "silence %.0f ms; camera poses taken %d, gated %d, too old %d, last latency %.0f ms, "
+	    "innovation %.1f mm %.1f mm\n",
+	    g->samples, g->samples / t_s, g->max_gap_us * 1e-3, g->max_pose_gap_us * 1e-3,
+	    g->state.camera_taken, g->state.camera_gated, g->state.camera_too_old,
+	    g->state.camera_latency_us * 1e-3, g->state.camera_innovation[0] * 1e3,
+	    g->state.camera_innovation[1] * 1e3);
 	printf("  the estimate minus the truth: at the start %.2f mm %.2f mm %.3f deg, at REACHED "
 	       "%.2f mm %.2f mm %.3f deg (its heading's standard deviation %.3f deg); wheel scales "
 	       "%.4f %.4f %.4f %.4f\n",
@@ -404,8 +413,9 @@ static int goal_report(const struct goal_watch *g, const double p[3], double t_s
 	       g->state.wheel_scale[2], g->state.wheel_scale[3]);
 	if (paused) {
 		printf("  the simulated world paused %d time(s) during the goal (omni4-motorsim "
-		       "starved, 100 ms or more each): not judged\n",
-		       g->paused);
+		       "starved, 100 ms or more each), its truth silent for up to %.0f ms (%.0f ms "
+		       "or more: late on end): not judged\n",
+		       g->paused, g->max_pose_gap_us * 1e-3, STARVED_US * 1e-3);
 		return 0;
 	}
 	if (reached)
@@ -447,6 +457,8 @@ int vcan_goal(const double offset[3], double max_s, const char *motorsim_log)
 		p[k] = g.truth[k] + offset[k];
 	est_minus_truth(&g, g.start_off);
 	const int pauses0 = world_pauses(motorsim_log);
+
+	g.max_pose_gap_us = 0; /* from the goal on */
 
 	while (mono_s() - t0 < max_s &&
 	       !(g.last.goal_id == id && g.last.status == OMNI4_GOAL_STATUS_T_STATUS_REACHED)) {

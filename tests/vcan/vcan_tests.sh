@@ -225,7 +225,7 @@ drive_backend() {
   bounded_wait $MS 10 "omni4-motorsim ($name) at the end"
 }
 t_drives=$(date +%s)
-drive_backend vesc "--timeout-s 1.5" "" 500
+drive_backend vesc "--timeout-s 1.5 --status-ms 5" "" 500
 drive_backend odrive "--watchdog-s 1.5" "--watchdog-s 1.5" 1500
 echo "VESC and ODrive sections: $(($(date +%s) - t_drives)) s in the VM"
 echo "VCAN: $pass passed, $fail failed"
