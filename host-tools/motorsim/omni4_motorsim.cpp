@@ -90,6 +90,37 @@ struct Options {
 	std::string lcm_url;
 };
 
+// The drives' message rates and timeouts (group g).
+void add_drive_rates(CLI::App &app, Options &o, const char *g)
+{
+	app.add_option("--watchdog-s", o.watchdog_s, "ODrive: watchdog timeout (0: off)")
+	    ->check(CLI::NonNegativeNumber)
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option(
+	       "--encoder-ms", o.encoder_ms,
+	       "ODrive: encoder estimates every MS (encoder_msg_rate_ms; the drive's default)")
+	    ->check(CLI::Range(1, 1000))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--iq-ms", o.iq_ms,
+	               "ODrive: Get_Iq sent every MS (iq_msg_rate_ms; 0: on request only, the "
+	               "drive's default)")
+	    ->check(CLI::Range(0, 1000))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--status-ms", o.status_ms,
+	               "VESC: STATUS_1, 4 and 5 every MS (the app's CAN status rate, set in VESC "
+	               "Tool)")
+	    ->check(CLI::Range(1, 1000))
+	    ->capture_default_str()
+	    ->group(g);
+	app.add_option("--timeout-s", o.timeout_s, "VESC: command timeout (the firmware's default)")
+	    ->check(CLI::PositiveNumber)
+	    ->capture_default_str()
+	    ->group(g);
+}
+
 // The options of the simulated VESCs and ODrives (--protocol vesc|odrive).
 void add_drive_options(CLI::App &app, Options &o)
 {
@@ -119,32 +150,7 @@ void add_drive_options(CLI::App &app, Options &o)
 	    ->check(CLI::NonNegativeNumber)
 	    ->capture_default_str()
 	    ->group(g);
-	app.add_option("--watchdog-s", o.watchdog_s, "ODrive: watchdog timeout (0: off)")
-	    ->check(CLI::NonNegativeNumber)
-	    ->capture_default_str()
-	    ->group(g);
-	app.add_option(
-	       "--encoder-ms", o.encoder_ms,
-	       "ODrive: encoder estimates every MS (encoder_msg_rate_ms; the drive's default)")
-	    ->check(CLI::Range(1, 1000))
-	    ->capture_default_str()
-	    ->group(g);
-	app.add_option("--iq-ms", o.iq_ms,
-	               "ODrive: Get_Iq sent every MS (iq_msg_rate_ms; 0: on request only, the "
-	               "drive's default)")
-	    ->check(CLI::Range(0, 1000))
-	    ->capture_default_str()
-	    ->group(g);
-	app.add_option("--status-ms", o.status_ms,
-	               "VESC: STATUS_1, 4 and 5 every MS (the app's CAN status rate, set in VESC "
-	               "Tool)")
-	    ->check(CLI::Range(1, 1000))
-	    ->capture_default_str()
-	    ->group(g);
-	app.add_option("--timeout-s", o.timeout_s, "VESC: command timeout (the firmware's default)")
-	    ->check(CLI::PositiveNumber)
-	    ->capture_default_str()
-	    ->group(g);
+	add_drive_rates(app, o, g);
 	app.add_option("--fault-at-s", o.fault_at_s,
 	               "fault at S seconds on --fault-node's drive (ODrive: axis error DRV_FAULT, "
 	               "IDLE; VESC: the drive goes silent and releases its motor)")
