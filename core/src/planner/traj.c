@@ -79,9 +79,10 @@ int traj_init(struct traj *tr, const struct traj_limits *l)
 		c.f_max_n[j] = hold * c.wh.load0[j];
 		c.f_load[j][0] = -hold * c.wh.load_a[j][0];
 		c.f_load[j][1] = -hold * c.wh.load_a[j][1];
+		c.lift_max[j] = (1.0f - f.tmargin) * c.f_max_n[j];
 	}
 	/* at rest, each axis and the heading alone must have room to accelerate */
-	struct row r[3 * 4];
+	struct row r[4 * 4];
 	const int nt = traj_rows_translation(&c, 0.0f, 1.0f, 1.0f, 0.0f, r);
 	if (!(traj_rows_acc(r, nt, 1.0f, 0.0f, 0.0f, 0.0f) > 0.0f) ||
 	    !(traj_rows_acc(r, nt, 0.0f, 1.0f, 0.0f, 0.0f) > 0.0f) ||

@@ -80,7 +80,8 @@ bool traj_1d_idle(float p0, float v0, float goal);
 float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, float wy);
 
 /* Translation rows at heading phi with a share of each budget, the room scaled by cos_h,
- * the heading turning at w_max [rad/s] at most; 3 rows a wheel into r, returns how many. */
+ * the heading turning at w_max [rad/s] at most; 3 rows a wheel into r (4 with a load
+ * transfer: the load's floor, lift_max, whatever the share), returns how many. */
 int traj_rows_translation(const struct traj_coef *c, float phi, float share, float cos_h,
                           float w_max, struct row *r);
 
@@ -88,7 +89,7 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r);
 
 /* Translation rows at every sampled heading of a plan: at most this many. */
-#define TRAJ_ROWS_MAX (TRAJ_HEADINGS_MAX * 4 * 3)
+#define TRAJ_ROWS_MAX (TRAJ_HEADINGS_MAX * 4 * 4)
 
 /* Headings sampled over [lo, hi] (a whole turn at most) into phi, and cos of half their
  * spacing (the room every row keeps in between); returns how many. */

@@ -20,7 +20,7 @@
 /* The rows along a line, divided by their acceleration coefficient: speeding up at speed s
  * a <= cu - k s, braking |a| <= cd + k s (the velocity terms oppose the acceleration); the
  * rows without an acceleration term (rim speed) only bound the top speed. */
-#define LINE_ROWS_MAX (TRAJ_HEADINGS_MAX * 12)
+#define LINE_ROWS_MAX TRAJ_ROWS_MAX
 struct line_rows {
 	int n;
 	float cu[LINE_ROWS_MAX], cd[LINE_ROWS_MAX], k[LINE_ROWS_MAX];

@@ -28,6 +28,24 @@ float traj_rows_acc(const struct row *r, int n, float ca, float sa, float wx, fl
 	return best;
 }
 
+/* Wheel j's load floor at heading (cos cp, sin sp): the load an acceleration takes off it (the
+ * traction rows' sl, either sign) within lift_max, so the wheel keeps the traction margin's share
+ * of its static load (a wheel that pushes nothing would otherwise be unloaded to 0: a tall
+ * robot's braking on a grippy floor lifting it). No velocity terms. */
+static struct row load_row(const struct traj_coef *c, int j, float cp, float sp, float cos_h)
+{
+	const float lx = c->f_load[j][0], ly = c->f_load[j][1];
+	struct row r = {.sl = {cp * lx - sp * ly, sp * lx + cp * ly},
+	                .c = c->lift_max[j] * cos_h,
+	                .c0 = c->lift_max[j] * cos_h,
+	                .credit = true,
+	                .ph = {cp, sp}};
+
+	r.ka[0] = fabsf(r.sl[0]);
+	r.ka[1] = fabsf(r.sl[1]);
+	return r;
+}
+
 /*
  * Translation rows at heading phi: wheel j's force, voltage and rim speed in the world frame
  * (k_w = R(phi) k_robot), a share `share` of the budgets, Coulomb friction with its worst
@@ -84,6 +102,8 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 			r[n].ph[1] = sp;
 			r[n].fixed = w_max == 0.0f && cos_h == 1.0f;
 		}
+		if (c->f_load[j][0] != 0.0f || c->f_load[j][1] != 0.0f)
+			r[n++] = load_row(c, j, cp, sp, cos_h);
 	}
 	return n;
 }
@@ -155,6 +175,7 @@ int traj_envelope(const struct traj *tr, const float dir[2], float speed_m_s, fl
 		const float s = speed_m_s;
 		const float lift = fl[0] * dir[0] + fl[1] * dir[1]; /* the load it takes off */
 		acc = minf(acc, acc_room(p, q0 + q1 * s, c->f_max_n[j], lift));
+		acc = minf(acc, room_up(lift, c->lift_max[j])); /* the load's floor */
 		acc = minf(
 		    acc, acc_room(p, q0 + (q1 + c->e[j] * ge) * s, c->u_max_v * c->wh.b[j], 0.0f));
 		/* top speed: where the room reaches 0 (room falls linearly with s) */

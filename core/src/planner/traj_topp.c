@@ -40,7 +40,7 @@ struct topp_rows {
  * c0 + cx s'^2 + cs s' (the first nu rows), at least that (the next nl), or 0 at most that
  * (the rest, n in all: a row that s'' does not enter). Built once per timing, so the many
  * questions a timing asks of a point cost a few multiply-adds each. */
-#define LIN_ROWS 16 /* four rows per wheel */
+#define LIN_ROWS 20 /* four rows per wheel, five with a load transfer (its floor) */
 struct topp_lin {
 	float c[LIN_ROWS][3];
 	unsigned char nu, nl, n;
@@ -213,6 +213,8 @@ static void lin_build(const struct traj_coef *c, const struct topp_rows *r, floa
 		lin_add(l, na - A, kf + r->dlo[j], r->Q[j] - kq, r->L[j], tmp, kind, &m);
 		lin_add(l, A, ku - r->dhi[j], -r->Q[j], -Lu, tmp, kind, &m);
 		lin_add(l, -A, ku + r->dlo[j], r->Q[j], Lu, tmp, kind, &m);
+		if (na != 0.0f || kq != 0.0f) /* the load's floor: NA s'' + NQ s'^2 <= lift_max */
+			lin_add(l, na, k * c->lift_max[j], -kq, 0.0f, tmp, kind, &m);
 	}
 	l->n = (unsigned char)m;
 	int q = 0;
@@ -264,6 +266,9 @@ static float usage(const struct traj_coef *c, const struct geo *g, const struct 
 			/* no load: only a wheel that pushes is over */
 			w = maxf(w, hold > 1e-6f ? f / hold : (f > 1e-6f ? USAGE_LIFT : 0.0f));
 		}
+		const float lift = r->NA[j] * u + r->NQ[j] * x; /* the load's floor */
+		if (lift > 0.0f)
+			w = maxf(w, c->lift_max[j] > 0.0f ? lift / c->lift_max[j] : USAGE_LIFT);
 	}
 	return w;
 }

@@ -113,8 +113,10 @@ struct traj_coef {
 	float u_max_v;    /* supply_v - margin_v */
 	float f_max_n[4]; /* wheel j's traction at rest, mu N_j (1 - traction_margin) [N] */
 	float f_load[4]
-	            [2]; /* its fall per m/s^2 of the centre of mass's acceleration (a_v, a_vn) */
-	                 /* in the robot frame: -mu (1 - traction_margin) dN_j/da [kg] */
+	            [2];   /* its fall per m/s^2 of the centre of mass's acceleration (a_v, a_vn) */
+	                   /* in the robot frame: -mu (1 - traction_margin) dN_j/da [kg] */
+	float lift_max[4]; /* the most of f_max_n[j] an acceleration may take off: the load keeps */
+	                   /* traction_margin's share of its static value [N] */
 	float speed_cap_m_s, omega_cap_rad_s, rot_share;
 };
 
