@@ -175,6 +175,30 @@ static void test_envelope_along_v_is_the_hand_derivation(void **state)
 	near(acc, (2 * f_max(&l) - l.p.Cv) / M, 1e-5);
 }
 
+/* A tall robot (centre of mass h = 16 cm up, d = 8.9 cm) on a grippy floor (mu 1.2): along v
+ * the wheel ahead (wheel 0, at +d on v) pushes nothing and loses M h a / (2 d) of its load
+ * M g / 4, and must keep the traction margin's share m of it: a <= (1 - m) g d / (2 h), 2.32
+ * m/s^2 (the wheels that push have room for more); its lift-off, g d / (2 h), is 2.73 m/s^2. */
+static void test_envelope_keeps_a_load_on_every_wheel(void **state)
+{
+	(void)state;
+	struct traj_limits l = limits();
+	struct traj tr;
+	const float dir[2] = {1.0f, 0.0f};
+	float acc, top;
+
+	l.com_height_m = 0.16;
+	l.mu = 1.2;
+	l.traction_margin = 0.15;
+	assert_int_equal(traj_init(&tr, &l), 0);
+	assert_int_equal(traj_envelope(&tr, dir, 0.0f, &acc, &top), 0);
+	const double floor_acc =
+	    (1.0 - l.traction_margin) * 9.80665 * l.p.d / (2.0 * l.com_height_m);
+	print_message("tall robot along v: %.4f m/s^2, the load's floor %.4f\n", (double)acc,
+	              floor_acc);
+	near(acc, floor_acc, 1e-3 * floor_acc);
+}
+
 /*
  * The largest acceleration along dir (robot frame) at speed s, by brute force over wheel
  * voltages: two wheels' voltages on a grid, the other two solved so that the body does not
@@ -820,6 +844,7 @@ int main(void)
 	    cmocka_unit_test(test_bang_bang_with_initial_velocity_matches_closed_forms),
 	    cmocka_unit_test(test_bang_bang_is_continuous_and_arrives),
 	    cmocka_unit_test(test_envelope_along_v_is_the_hand_derivation),
+	    cmocka_unit_test(test_envelope_keeps_a_load_on_every_wheel),
 	    cmocka_unit_test(test_envelope_matches_brute_force_with_equal_drives),
 	    cmocka_unit_test(test_envelope_is_below_brute_force_with_odd_drives),
 	    cmocka_unit_test(test_plans_stay_within_the_envelope),
