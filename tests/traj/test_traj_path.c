@@ -34,17 +34,26 @@ static double sgn(double x)
 	return (x > 1e-6) - (x < -1e-6);
 }
 
+/* Wheel j's load N_j = M g / 4 - M h (a . p_j) / (2 d^2) under the reference r [N], a the
+ * centre of mass's acceleration (the world's, in the body frame), p_j the wheel's place. */
+static double wheel_load(const struct traj_ref *r, const struct traj_limits *l, int j)
+{
+	const double d = l->p.d, M = l->p.M, c = cos(r->pose[2]), s = sin(r->pose[2]);
+	const double a_com[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
+	const double p[4][2] = {{d, 0}, {0, d}, {-d, 0}, {0, -d}};
+
+	return M * 9.80665 / 4.0 -
+	       M * l->com_height_m * (a_com[0] * p[j][0] + a_com[1] * p[j][1]) / (2.0 * d * d);
+}
+
 /* The largest use of a wheel's voltage, traction or rim speed by the reference r: Newton in
  * the world frame, the feedforward's sharing f = IK [Fv/2, Fvn/2, T/(4 d^2)]; wheel j's
- * traction mu (1 - margin) N_j on its load N_j = M g / 4 - M h (a . p_j) / (2 d^2), a the
- * centre of mass's acceleration (the world's, in the body frame), p_j the wheel's place. */
+ * traction mu (1 - margin) N_j on its load (wheel_load). */
 static double use_of_limits(const struct traj_ref *r, const struct traj_limits *l)
 {
 	const double d = l->p.d, M = l->p.M, J = l->p.J;
 	const double U = l->supply_v - l->margin_v;
 	const double c = cos(r->pose[2]), s = sin(r->pose[2]);
-	const double a_com[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
-	const double p[4][2] = {{d, 0}, {0, d}, {-d, 0}, {0, -d}};
 	const double x[3] = {c * r->vel[0] + s * r->vel[1], -s * r->vel[0] + c * r->vel[1],
 	                     r->vel[2]};
 	/* eq 23's axes turn with the body: d/dt of the body velocity is R^T a - w x v */
@@ -62,10 +71,7 @@ static double use_of_limits(const struct traj_ref *r, const struct traj_limits *
 		const double f = gw[j][0] * F[0] / 2 + gw[j][1] * F[1] / 2 + F[2] / (4 * d);
 		const double v = gw[j][0] * x[0] + gw[j][1] * x[1] + d * x[2];
 		const double rim = l->motor_speed_max_rad_s * l->w.r[j] / l->p.l;
-		const double N = M * 9.80665 / 4.0 - M * l->com_height_m *
-		                                         (a_com[0] * p[j][0] + a_com[1] * p[j][1]) /
-		                                         (2.0 * d * d);
-		const double F_max = l->mu * (1.0 - l->traction_margin) * N;
+		const double F_max = l->mu * (1.0 - l->traction_margin) * wheel_load(r, l, j);
 		worst = fmax(worst, fabs((f + e * v) / b) / U);
 		worst = fmax(worst, F_max > 0 ? fabs(f) / F_max : INFINITY);
 		worst = fmax(worst, fabs(v) / rim);
@@ -454,19 +460,13 @@ static void test_a_tall_robot_brakes_within_its_load(void **state)
 	}
 }
 
-/* The smallest load of any wheel by the reference r, a share of its static load M g / 4 (the
- * load model of use_of_limits). */
+/* The smallest load of any wheel by the reference r, a share of its static load M g / 4. */
 static double smallest_load(const struct traj_ref *r, const struct traj_limits *l)
 {
-	const double d = l->p.d, M = l->p.M, c = cos(r->pose[2]), s = sin(r->pose[2]);
-	const double a_com[2] = {c * r->acc[0] + s * r->acc[1], -s * r->acc[0] + c * r->acc[1]};
-	const double p[4][2] = {{d, 0}, {0, d}, {-d, 0}, {0, -d}}, N0 = M * 9.80665 / 4.0;
 	double lo = INFINITY;
 
 	for (int j = 0; j < 4; j++)
-		lo =
-		    fmin(lo, 1.0 - M * l->com_height_m * (a_com[0] * p[j][0] + a_com[1] * p[j][1]) /
-		                       (2.0 * d * d) / N0);
+		lo = fmin(lo, wheel_load(r, l, j) / (l->p.M * 9.80665 / 4.0));
 	return lo;
 }
 
