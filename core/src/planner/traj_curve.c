@@ -13,7 +13,7 @@
 
 #include "traj_int.h"
 
-#define DIMS_MAX 10     /* a shape's parameters (decode) */
+#define DIMS_MAX 12     /* a shape's parameters (decode) */
 #define SPEED_MIN 1e-4f /* [m/s] (the turn rate at the wheels' distance): a slower start rests */
 #define OFFSET_MAX 0.6f /* a control point's offset across the chord, in chord lengths */
 /* The search's estimates: a timing on a grid of SEARCH_GRID segments, over a limit by at most
@@ -57,7 +57,8 @@ struct curve_prob {
 struct shape {
 	float P[4][2], H[2][4];
 	float span[2][2];
-	float k; /* moving: P1 = P0 + k v0 [s] */
+	float xspan[2]; /* the way's span: shares of the progress */
+	float k;        /* moving: P1 = P0 + k v0 [s] */
 };
 
 /*
@@ -78,12 +79,17 @@ static void decode(const struct curve_prob *pr, const float *x, struct shape *sh
 	const bool cruise = isfinite(psi);
 	const float wd = cruise ? x[9] : x[7], th0 = pr->p0[2], thg = pr->g[2];
 
+	const float xa = pr->moving ? 0.0f : x[10], xb = pr->moving ? 1.0f : x[11];
+	const float in1 = xa > 0.0f ? 0.0f : 1.0f, in2 = xb < 1.0f ? 0.0f : 1.0f;
+
 	sh->k = pr->moving ? a : 0.0f;
+	sh->xspan[0] = xa;
+	sh->xspan[1] = xb;
 	for (int q = 0; q < 2; q++) {
 		sh->P[0][q] = pr->p0[q];
 		sh->P[1][q] = pr->moving ? pr->p0[q] + a * pr->v0[q]
-		                         : pr->p0[q] + a * pr->d[q] + o1 * pr->n[q];
-		sh->P[2][q] = pr->g[q] - f2 * pr->d[q] + o2 * pr->n[q];
+		                         : pr->p0[q] + in1 * (a * pr->d[q] + o1 * pr->n[q]);
+		sh->P[2][q] = pr->g[q] + in2 * (-f2 * pr->d[q] + o2 * pr->n[q]);
 		sh->P[3][q] = pr->g[q];
 	}
 	const float ua = cruise ? 0.0f : (1.0f - wd) * pos, ub = ua + wd;
@@ -119,7 +125,8 @@ static bool curve_path(struct traj_path *pa, const struct curve_prob *pr, const 
 	                         .len_m = L,
 	                         .n_poses = 1,
 	                         .pass_s = {L},
-	                         .n_knots = 4 + 2 * SPAN_BREAKS,
+	                         .n_knots = 6 + 2 * SPAN_BREAKS,
+	                         .bez_span = {sh->xspan[0], sh->xspan[1]},
 	                         .goal = {pr->g[0], pr->g[1], pr->g[2]}};
 	for (int k = 0; k < 4; k++)
 		for (int i = 0; i < 2; i++)
@@ -134,6 +141,8 @@ static bool curve_path(struct traj_path *pa, const struct curve_prob *pr, const 
 			pa->knot_s[3 + q * SPAN_BREAKS + k] =
 			    (a + (b - a) * (float)k / (SPAN_BREAKS + 1)) * L;
 	}
+	pa->knot_s[4 + 2 * SPAN_BREAKS] = sh->xspan[0] * L;
+	pa->knot_s[5 + 2 * SPAN_BREAKS] = sh->xspan[1] * L;
 	return true;
 }
 
@@ -350,7 +359,9 @@ static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, cons
 	                            0.0f,
 	                            1.0f,
 	                            NAN,
-	                            0.0f};
+	                            0.0f,
+	                            0.0f,
+	                            1.0f};
 	const float st[DIMS_MAX] = {mv ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
 	const float lo[DIMS_MAX] = {
 	    mv ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};

@@ -99,20 +99,23 @@ static void curve_heading(const struct traj_path *pa, float s, float th[3])
 	th[1] = th[2] = 0.0f;
 }
 
-/* A curve's point and derivatives by s at s (u = s / len_m on the Bezier). */
+/* A curve's point and derivatives by s at s: the Bezier over its span of the progress (u =
+ * (s / len_m - a) / (b - a)), still outside it. */
 static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2], float pss[2],
                      float th[3])
 {
 	const float (*b)[2] = pa->bez;
-	const float L = pa->len_m;
-	float u = s / L, q[3];
+	const float a = pa->bez_span[0] * pa->len_m, w = (pa->bez_span[1] - pa->bez_span[0]) * pa->len_m;
+	/* the ends of the way keep the Bezier's tangent (a grid point's side beyond them too) */
+	const bool in = (s >= a || !(a > 0.0f)) && (s < a + w || pa->bez_span[1] >= 1.0f);
+	float u = (s - a) / w, q[3];
 	u = u < 0.0f ? 0.0f : (u > 1.0f ? 1.0f : u);
 
 	for (int i = 0; i < 2; i++) {
-		bezier_at(b[0][i], b[1][i], b[2][i], b[3][i], u, L, q);
+		bezier_at(b[0][i], b[1][i], b[2][i], b[3][i], u, w, q);
 		p[i] = q[0];
-		ps[i] = q[1];
-		pss[i] = q[2];
+		ps[i] = in ? q[1] : 0.0f;
+		pss[i] = in ? q[2] : 0.0f;
 	}
 	curve_heading(pa, s, th);
 }

@@ -144,9 +144,11 @@ struct traj_path {
 	float goal[3];               /* the end, at rest */
 	float len_m;
 	float bez[4][2];  /* a curve's control points [m] (curve: 1) */
+	float bez_span[2]; /* the shares of the progress over which it runs (held outside) */
 	float head[2][4]; /* its heading's turns' control points [rad], over knot_s[0..1], [2..3] */
 	int n_pieces, n_knots, n_grid, n_poses;
-	int curve; /* 1: the path is the cubic Bezier bez in (x, y) by s in [0, len_m], its heading
+	int curve; /* 1: the path is the cubic Bezier bez in (x, y) over the shares bez_span of
+	            * [0, len_m] (still before and after), its heading
 	            * the cubic Beziers head[0], head[1] over [knot_s[0], knot_s[1]] and
 	            * [knot_s[2], knot_s[3]], held outside them */
 };
