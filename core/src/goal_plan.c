@@ -5,6 +5,13 @@
 #include <errno.h>
 #include <math.h>
 
+/* The brake's stop point this much beyond v^2 / (2 a): a curve from the moving start brakes
+ * straight to it (the path timing's braking ends without friction's help and keeps a little
+ * under the traction bound). From 1.53 m/s, at 1.1 no curve got there and the plan braked
+ * first, 0.41 m on (0.48 m turning at 0.37 rad/s), and came back; at 1.2 it braked straight,
+ * 0.38 m on. */
+#define BRAKE_ROOM 1.2f
+
 int goal_plan_to(bool fixed, const struct goal_fixed *fx, struct traj *tr,
                  const struct traj_ref *from, const float to[3])
 {
@@ -41,10 +48,10 @@ static bool replan_path(struct goal_job *j)
 }
 
 /* A cancelled goal's brake: a plan from the reference to where it can stop, ahead along its
- * velocity by v^2 / (2 a), a the acceleration the envelope gives from rest against the motion
- * plus twice the Coulomb friction's share along it (from rest it opposes that acceleration,
- * braking it helps; the back-EMF and the viscous friction help besides), the heading turning
- * on at half its rate meanwhile. -EINVAL if there is none. */
+ * velocity by BRAKE_ROOM v^2 / (2 a), a the acceleration the envelope gives from rest against
+ * the motion plus twice the Coulomb friction's share along it (from rest it opposes that
+ * acceleration, braking it helps; the back-EMF and the viscous friction help besides), the
+ * heading turning on at half its rate meanwhile. -EINVAL if there is none. */
 static int plan_brake(struct goal_job *j)
 {
 	const struct traj_ref *f = &j->from;
@@ -63,7 +70,7 @@ static int plan_brake(struct goal_job *j)
 			return -EINVAL;
 		acc += 2.0f * (j->tr.c.C[0] * fabsf(back[0]) + j->tr.c.C[1] * fabsf(back[1])) /
 		       j->tr.c.M;
-		const float d = speed * speed / (2.0f * acc);
+		const float d = BRAKE_ROOM * speed * speed / (2.0f * acc);
 
 		to[0] += ux * d;
 		to[1] += uy * d;

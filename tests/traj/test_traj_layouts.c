@@ -77,14 +77,15 @@ static double constant_stop_s(const struct layout *lay, const struct traj_limits
 	return sp / lo;
 }
 
-/* When the reference's translation first comes to rest (the brake prelude's stop) [s]. */
+/* When the reference's translation first comes to rest (the brake prelude's stop: below 5 mm/s,
+ * sampled every 0.1 ms) [s]. */
 static double first_rest_s(const struct traj *tr)
 {
 	struct traj_ref r;
 
-	for (double t = 0.0; t < tr->duration_s; t += 1e-3) {
+	for (double t = 0.0; t < tr->duration_s; t += 1e-4) {
 		traj_eval(tr, (float)t, &r);
-		if (hypot(r.vel[0], r.vel[1]) < 1e-6)
+		if (hypot(r.vel[0], r.vel[1]) < 5e-3)
 			return t;
 	}
 	return tr->duration_s;

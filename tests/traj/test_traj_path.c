@@ -229,7 +229,7 @@ static void test_turning_move_from_rest_curves_inside_the_envelope(void **state)
 	static double xy[20000][2];
 	struct traj tr;
 	struct traj_ref r, prev;
-	double worst = 0, dv = 0, dp = 0;
+	double worst = 0, dv = 0, dw = 0, dp = 0;
 	int n = 0;
 
 	assert_int_equal(traj_init(&tr, &l), 0);
@@ -248,7 +248,7 @@ static void test_turning_move_from_rest_curves_inside_the_envelope(void **state)
 		traj_step(&tr, (float)DT, &r);
 		worst = fmax(worst, use_of_limits(&r, &l));
 		for (int i = 0; i < 3; i++) {
-			dv = fmax(dv, fabs(r.vel[i] - prev.vel[i]));
+			*(i < 2 ? &dv : &dw) = fmax(i < 2 ? dv : dw, fabs(r.vel[i] - prev.vel[i]));
 			dp = fmax(dp, fabs(r.pose[i] - prev.pose[i]) -
 			                  fmax(fabs(r.vel[i]), fabs(prev.vel[i])) * DT);
 		}
@@ -266,11 +266,16 @@ static void test_turning_move_from_rest_curves_inside_the_envelope(void **state)
 	struct traj line;
 	assert_int_equal(traj_init(&line, &l), 0);
 	assert_int_equal(traj_plan_path(&line, &from, &goal, 1, 0.1f), 0);
+	/* a step's change of the turn rate: at most from the largest angular acceleration traction
+	 * allows (all four wheels at mu (1 - margin) M g / 4, at d) to its opposite */
+	const double alpha =
+	    4.0 * l.p.d * l.mu * (1.0 - l.traction_margin) * l.p.M * 9.80665 / 4.0 / l.p.J;
 	print_message("curve: %.3f s (the straight line %.3f s), off the chord %.3f m, worst use "
-	              "%.4f, dv %.2e, dp %.2e\n",
-	              (double)end, (double)line.duration_s, chord_side, worst, dv, dp);
+	              "%.4f, dv %.2e m/s, dw %.2e rad/s (bound %.2e), dp %.2e\n",
+	              (double)end, (double)line.duration_s, chord_side, worst, dv, dw,
+	              2.0 * alpha * DT, dp);
 	assert_true(worst <= 1.0 + 1e-4 && worst >= 0.7);
-	assert_true(dv <= 4.0 * l.mu * 9.80665 * DT && dp <= 1e-5);
+	assert_true(dv <= 4.0 * l.mu * 9.80665 * DT && dw <= 2.0 * alpha * DT && dp <= 1e-5);
 	assert_true(end < line.duration_s);
 	/* the heading turns counter-clockwise: the tangent starts right of the chord and turns
 	 * left, so the path bulges to the chord's right (negative side) */

@@ -22,12 +22,20 @@
  * plans 0.3 % later on average; moving starts 1.2 % later). */
 #define SEARCH_GRID 32
 #define SEARCH_OVER 0.01f
+/* From rest with a turn (over SEED_TURN), the search starts at the soonest of SEEDS shapes (the
+ * heading turning early, late or at both ends; the way bulging either side), and the way may
+ * start after the heading has turned a share of up to WAY_LATE_MAX of the progress (a turn in
+ * place first: the translation's Coulomb friction not paid while it turns). */
+#define SEEDS 6
+#define SEED_TURN 0.05f /* [rad] */
+#define WAY_LATE_MAX 0.5f
 /* Then the finish (estimated as the search does, the soonest timed in full): the heading's
  * turn over a part of the way only, at the start or at the end, over these shares (held
  * otherwise, where its Coulomb friction would cost the whole way: a start a few mrad off the
  * goal's heading) ... */
 #define SPANS 4
 static const float spans[SPANS][2] = {{0.0f, 0.05f}, {1.0f, 0.05f}, {0.0f, 0.2f}, {1.0f, 0.2f}};
+#define SPAN_SHORT_M 1.0f /* [m] the short ones at most this long: a long move turns while slow */
 #define SPAN_BREAKS 3 /* grid points inside each of the heading's turns (a short one is sharp) */
 /* ... and a cruise at the two fastest headings along the chord, turning to it and back over
  * these shares of the way */
@@ -45,11 +53,13 @@ struct curve_prob {
 	float p0[3], g[3], v0[3]; /* start pose, goal (heading unwrapped), start velocity */
 	float d[2], n[2];         /* the chord and its normal (the chord's length) */
 	float dm;                 /* the wheels' mean distance from the centre [m] */
+	float reach;              /* the chord and the turn at dm: |(d, dm dtheta)| [m] */
 	bool moving;              /* the first control point follows the start velocity */
 	bool turning;             /* moving with a turn rate: the heading turns from the start */
 	int dims, keep[DIMS_MAX]; /* the searched parameters: the shape's entries keep[0..dims) */
 	float base[DIMS_MAX];     /* the shape's other entries */
 	float lo[DIMS_MAX], hi[DIMS_MAX];
+	float cruise[2]; /* the headings fastest along the chord (NaN: none) */
 };
 
 /* A curve's shape: its control points in (x, y), its heading's two turns (cubic Beziers in
@@ -208,7 +218,7 @@ static void search(const struct curve_prob *pr, const float *x, const float *ste
                    float xs[DIMS_MAX + 1][DIMS_MAX])
 {
 	const int n = pr->dims;
-	float fs[DIMS_MAX + 1], xr[DIMS_MAX], xe[DIMS_MAX], c[DIMS_MAX];
+	float fs[DIMS_MAX + 1], xr[DIMS_MAX], xe[DIMS_MAX], c[DIMS_MAX] = {0};
 	int used = 0;
 
 	for (int k = 0; k <= n; k++) {
@@ -323,10 +333,8 @@ static void cruise_headings(const struct curve_prob *pr, float out[2])
 			out[side] = NAN;
 }
 
-/* The problem of the curve from `from` to goal (heading unwrapped from the start's) into pr,
- * the search's start x and first steps step. */
-static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, const float goal[3],
-                        float *x, float *step)
+/* The problem's start, goal, chord and the wheels' mean distance into pr. */
+static void curve_geometry(struct curve_prob *pr, const struct traj_ref *from, const float goal[3])
 {
 	const int nw = pr->tr->c.wh.n;
 
@@ -341,14 +349,23 @@ static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, cons
 	pr->n[1] = pr->d[0];
 	for (int j = 0; j < nw; j++)
 		pr->dm += fabsf(pr->tr->c.wh.row[j][2]) / (float)nw; /* eq 2's d_j */
-	const float dth = pr->g[2] - pr->p0[2], dm = pr->dm, *d = pr->d, *v = pr->v0;
-	const float span = sqrtf(d[0] * d[0] + d[1] * d[1] + dm * dm * dth * dth);
+	const float dth = pr->g[2] - pr->p0[2], dm = pr->dm, *d = pr->d;
+	pr->reach = sqrtf(d[0] * d[0] + d[1] * d[1] + dm * dm * dth * dth);
+}
+
+/* The problem of the curve from `from` to goal (heading unwrapped from the start's) into pr,
+ * the search's start x and first steps step. */
+static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, const float goal[3],
+                        float *x, float *step)
+{
+	curve_geometry(pr, from, goal);
+	const float dth = pr->g[2] - pr->p0[2], dm = pr->dm, *v = pr->v0;
 	const float speed = sqrtf(v[0] * v[0] + v[1] * v[1] + dm * dm * v[2] * v[2]);
 	pr->moving = speed > SPEED_MIN;
 	pr->turning = pr->moving && fabsf(v[2]) >= TRAJ_IDLE_VEL;
 	/* the start: a third of the way each (the straight line), the heading linear over the
-	 * whole way (pos, wd: held in the search) */
-	const float k0 = span / (3.0f * maxf(speed, SPEED_MIN));
+	 * whole way (pos, wd: held in the search), the way over all of it */
+	const float k0 = pr->reach / (3.0f * maxf(speed, SPEED_MIN));
 	const bool mv = pr->moving;
 	const float x0[DIMS_MAX] = {mv ? k0 : 1.0f / 3.0f,
 	                            1.0f / 3.0f,
@@ -362,16 +379,19 @@ static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, cons
 	                            0.0f,
 	                            0.0f,
 	                            1.0f};
-	const float st[DIMS_MAX] = {mv ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f};
+	const float st[DIMS_MAX] = {mv ? 0.5f * k0 : 0.2f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f,
+	                            [10] = 0.15f};
 	const float lo[DIMS_MAX] = {
 	    mv ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
 	const float hi[DIMS_MAX] = {
-	    mv ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F};
+	    mv ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F, [10] = WAY_LATE_MAX};
+	/* searched: the points, the heading's slopes (o1 and a1 from rest), from rest with a
+	 * turn where the way starts */
+	const bool late = !mv && fabsf(dth) > SEED_TURN;
 	pr->dims = 0;
 	for (int i = 0; i < DIMS_MAX; i++) {
 		pr->base[i] = x0[i];
-		/* searched: the points, the heading's slopes (o1 and a1 from rest) */
-		if (i >= 6 || ((i == 2 || i == 4) && mv)) /* pos, wd, psi, w held */
+		if ((i >= 6 && !(i == 10 && late)) || ((i == 2 || i == 4) && mv))
 			continue;
 		x[pr->dims] = x0[i], step[pr->dims] = st[i];
 		pr->lo[pr->dims] = lo[i], pr->hi[pr->dims] = hi[i];
@@ -386,7 +406,8 @@ static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, cons
 static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DIMS_MAX],
                           struct traj_path *pa)
 {
-	float best = INFINITY, kept[DIMS_MAX], cruise[2], pick[DIMS_MAX];
+	float best = INFINITY, kept[DIMS_MAX], pick[DIMS_MAX];
+	const float *cruise = pr->cruise;
 	struct traj_path pb;
 
 	for (int k = 0; k <= pr->dims && !(best < INFINITY); k++) {
@@ -395,7 +416,6 @@ static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DI
 	}
 	if (!(best < INFINITY))
 		return INFINITY;
-	cruise_headings(pr, cruise);
 	/* the candidates estimated as the search does, the soonest then timed in full */
 	float est = cost(pr, kept, &pb, SEARCH_OVER, SEARCH_GRID), pick_est = est;
 	for (int q = 0; q < SPANS + CRUISES; q++) {
@@ -404,7 +424,7 @@ static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DI
 			full[i] = q < SPANS || i >= 6 ? kept[i] : pr->base[i];
 		if (q < SPANS) {
 			full[6] = spans[q][0];
-			full[7] = spans[q][1];
+			full[7] = q < 2 ? minf(spans[q][1], SPAN_SHORT_M / pr->reach) : spans[q][1];
 		} else {
 			full[8] = cruise[(q - SPANS) / CRUISE_SHARES];
 			full[9] = cruise_share[(q - SPANS) % CRUISE_SHARES];
@@ -428,6 +448,40 @@ static float curve_finish(const struct curve_prob *pr, float xs[DIMS_MAX + 1][DI
 	return best;
 }
 
+/* The search's start: the soonest of a few shapes (estimated), into x; the timings used. */
+static int seed(const struct curve_prob *pr, float *x)
+{
+	const float dth = pr->g[2] - pr->p0[2];
+	/* the heading's slopes a1, a2 (shares of the turn) and the offsets o1 = o2 */
+	static const float sd[SEEDS][3] = {
+	    {1.0f / 3, 1.0f / 3, 0.0f}, {0.8f, 0.05f, 0.0f},         {0.05f, 0.8f, 0.0f},
+	    {0.9f, 0.9f, 0.0f},         {1.0f / 3, 1.0f / 3, 0.25f}, {1.0f / 3, 1.0f / 3, -0.25f}};
+	float best = INFINITY, keep[DIMS_MAX];
+	int used = 0;
+
+	if (!(fabsf(dth) > SEED_TURN))
+		return 0;
+	for (int q = 0; q < SEEDS; q++) {
+		float y[DIMS_MAX], f;
+		for (int i = 0; i < pr->dims; i++) {
+			const int k = pr->keep[i];
+			y[i] = k == 4             ? sd[q][0] * dth
+			       : k == 5           ? sd[q][1] * dth
+			       : k == 2 || k == 3 ? sd[q][2]
+			                          : x[i];
+		}
+		eval(pr, y, &f, &used);
+		if (f < best) {
+			best = f;
+			for (int i = 0; i < pr->dims; i++)
+				keep[i] = y[i];
+		}
+	}
+	for (int i = 0; i < pr->dims; i++)
+		x[i] = keep[i];
+	return used;
+}
+
 /* The curve from `from` to goal (heading unwrapped from the start's), searched with evals
  * timings in all, then timed and checked into pa; its duration or INFINITY. */
 static float curve_from(const struct traj *tr, const struct traj_ref *from, const float goal[3],
@@ -437,7 +491,9 @@ static float curve_from(const struct traj *tr, const struct traj_ref *from, cons
 	float x[DIMS_MAX], step[DIMS_MAX], xs[DIMS_MAX + 1][DIMS_MAX];
 
 	curve_setup(&pr, from, goal, x, step);
-	search(&pr, x, step, evals - (SPANS + CRUISES + 2), xs);
+	cruise_headings(&pr, pr.cruise);
+	const int used = pr.moving ? 0 : seed(&pr, x);
+	search(&pr, x, step, evals - (SPANS + CRUISES + 2) - used, xs);
 	return curve_finish(&pr, xs, pa);
 }
 

@@ -166,6 +166,10 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
                        float over, int grid);
 
+/* traj_topp of a timed path from s0 on its own grid (s0, then its points beyond s0): a plan
+ * re-timed where its reference is keeps its end but for what the new first segment changes. */
+float traj_topp_retime(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);
+
 /* The reference at time t of a timed path (after its end: at rest at the goal). */
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
 

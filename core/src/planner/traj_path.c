@@ -105,7 +105,8 @@ static void curve_at(const struct traj_path *pa, float s, float p[2], float ps[2
                      float th[3])
 {
 	const float (*b)[2] = pa->bez;
-	const float a = pa->bez_span[0] * pa->len_m, w = (pa->bez_span[1] - pa->bez_span[0]) * pa->len_m;
+	const float a = pa->bez_span[0] * pa->len_m,
+	            w = (pa->bez_span[1] - pa->bez_span[0]) * pa->len_m;
 	/* the ends of the way keep the Bezier's tangent (a grid point's side beyond them too) */
 	const bool in = (s >= a || !(a > 0.0f)) && (s < a + w || pa->bez_span[1] >= 1.0f);
 	float u = (s - a) / w, q[3];

@@ -38,7 +38,7 @@ int traj_path_retime(struct traj *tr)
 	const float tau = tr->t_s - cand.grid_t[lo], a = cand.grid_a[lo];
 	const float s = cand.grid_s[lo] + (cand.grid_v[lo] + 0.5f * a * tau) * tau;
 	const float v = maxf(cand.grid_v[lo] + a * tau, 0.0f);
-	const float t = traj_topp(&tr->c, &cand, minf(s, cand.grid_s[lo + 1]), v);
+	const float t = traj_topp_retime(&tr->c, &cand, minf(s, cand.grid_s[lo + 1]), v);
 	if (!(t < INFINITY))
 		return -ERANGE; /* e.g. faster there than new limits allow: the caller plans anew */
 	take_path(tr, &cand, t);

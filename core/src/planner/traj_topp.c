@@ -14,10 +14,19 @@
 #include "traj_int.h"
 
 #define TOPP_BISECT 10 /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6   /* timings with limits scaled down until the check passes */
-/* A timing held closer than this to the limits (not a search's estimate): a curve's checked at
- * its segments' quarters too */
+#define TOPP_TRIES 6   /* timings with limits scaled down until the check passes, */
+#define TOPP_LOCAL 3   /* the first of them only where a segment is over (then all of them) */
+/* The traction bound the timing keeps to: a little under the limit, for the load's changes
+ * between the checked points (measured up to 0.1 % of it inside a 0.5 m segment of a turn) */
+#define TRACTION_HELD 0.999f
+
+/* A timing held closer than this to the limits (not a search's estimate) is checked inside
+ * each segment too: at a quarter and three quarters of its time, a segment longer than
+ * FINE_LONG_M at FINE_LONG_PARTS points (the usage can peak between them: up to 0.1 % of a
+ * limit near a segment's start, seen in a long turning move) */
 #define FINE_OVER 1e-3f
+#define FINE_LONG_M 0.1f /* [m] */
+#define FINE_LONG_PARTS 16
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SIGN_ZERO 2e-7f /* ... and below this is 0: a unit vector's rounding, rotated */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
@@ -54,7 +63,8 @@ struct topp_work {
 	struct topp_rows rm[TRAJ_GRID];        /* and its rows (the signs of both ends) */
 	struct topp_lin lin[2][TRAJ_GRID + 1]; /* the rows at the timing's k, sides as g */
 	float top[2][TRAJ_GRID + 1];           /* the caps' and rims' largest s', sides as g */
-	float k;                               /* the timing's scale of the limits */
+	float k[TRAJ_GRID + 1];                /* the timing's scale of the limits at each point */
+	float seg[TRAJ_GRID];                  /* the check's largest use on each segment */
 	float xmax[TRAJ_GRID + 1], xf[TRAJ_GRID + 1], xb[TRAJ_GRID + 1];
 	int n;
 };
@@ -206,7 +216,7 @@ static void lin_build(const struct traj_coef *c, const struct topp_rows *r, floa
 
 	l->nu = l->nl = 0;
 	for (int j = 0; j < c->wh.n; j++) {
-		const float A = r->A[j], na = k * r->NA[j], kf = k * c->f_max_n[j];
+		const float A = r->A[j], na = k * r->NA[j], kf = TRACTION_HELD * k * c->f_max_n[j];
 		const float kq = k * r->NQ[j], ku = k * c->u_max_v * c->wh.b[j];
 		const float Lu = r->L[j] + c->e[j] * r->K[j];
 		lin_add(l, A + na, kf - r->dhi[j], -kq - r->Q[j], -r->L[j], tmp, kind, &m);
@@ -282,7 +292,7 @@ static float max_x_side(const struct topp_work *w, int i, int side)
 
 	if (!interval(l, 0.0f, &lo, &hi))
 		return -1.0f;
-	float b = w->k * w->top[side][i];
+	float b = w->k[i] * w->top[side][i];
 	if (interval(l, b * b, &lo, &hi))
 		return b * b;
 	for (int it = 0; it < TOPP_BISECT; it++) {
@@ -316,7 +326,7 @@ static float cap_x(struct topp_work *w, int i, float x)
 	bool ok = true;
 	for (int side = 0; side < 2 && ok; side++)
 		if (side ? i > 0 : i < w->n)
-			ok = x <= w->k * w->k * w->top[side][i] * w->top[side][i] &&
+			ok = x <= w->k[i] * w->k[i] * w->top[side][i] * w->top[side][i] &&
 			     interval(&w->lin[side][i], x, &lo, &hi);
 	if (ok)
 		return x;
@@ -433,49 +443,55 @@ static void segment_signs(const struct topp_work *w, int i, signed char sg[3])
 		sg[k] = (signed char)(w->sg[i][k] | w->sg[i + 1][k]);
 }
 
-/* The largest use of a limit over the grid points and the segments' midpoints; fine: also at
- * their quarters (a curve's force can peak between, where its tangent turns fast). */
-static float check(const struct traj_coef *c, const struct traj_path *pa, const struct topp_work *w,
+/* The largest use of a limit over the grid points and the segments' midpoints; fine: also
+ * inside them (a curve's force can peak between, where its tangent turns fast). Each
+ * segment's own (its ends' sides and the points inside it) into w->seg. */
+static float check(const struct traj_coef *c, const struct traj_path *pa, struct topp_work *w,
                    bool fine)
 {
 	float worst = 0.0f;
 
-	for (int i = 0; i <= w->n; i++) {
-		const float x = pa->grid_v[i] * pa->grid_v[i];
-		if (i < w->n)
-			worst = maxf(worst, usage(c, &w->g[0][i], &w->r[0][i], x, pa->grid_a[i]));
-		if (i > 0)
-			worst =
-			    maxf(worst, usage(c, &w->g[1][i], &w->r[1][i], x, pa->grid_a[i - 1]));
-		if (i == w->n)
-			break;
+	for (int i = 0; i < w->n; i++) {
+		const float x = pa->grid_v[i] * pa->grid_v[i],
+		            x1 = pa->grid_v[i + 1] * pa->grid_v[i + 1];
 		const float ds = pa->grid_s[i + 1] - pa->grid_s[i], a = pa->grid_a[i];
-		worst = maxf(worst, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
+		float u = usage(c, &w->g[0][i], &w->r[0][i], x, a);
+		u = maxf(u, usage(c, &w->g[1][i + 1], &w->r[1][i + 1], x1, a));
+		u = maxf(u, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
 		signed char sg[3];
 		segment_signs(w, i, sg);
-		for (int q = 1; fine && q <= 3; q += 2) {
+		const float dt = pa->grid_t[i + 1] - pa->grid_t[i], v = pa->grid_v[i];
+		/* fine: at a quarter and three of its time (a long one's at FINE_LONG_PARTS) */
+		const int parts = ds > FINE_LONG_M ? FINE_LONG_PARTS : 4;
+		for (int q = 1; fine && q < parts; q++) {
+			if (2 * q == parts) /* the midpoint's (by s) above */
+				continue;
 			struct geo g;
 			struct topp_rows r;
-			geo_at(pa, pa->grid_s[i] + 0.25f * (float)q * ds, &g);
+			const float tau = (float)q / (float)parts * dt,
+			            sd = maxf(v + a * tau, 0.0f);
+			geo_at(pa,
+			       minf(pa->grid_s[i] + (v + 0.5f * a * tau) * tau, pa->grid_s[i + 1]),
+			       &g);
 			rows_at(c, &g, sg, &r);
-			worst = maxf(worst, usage(c, &g, &r, x + 0.5f * (float)q * ds * a, a));
+			u = maxf(u, usage(c, &g, &r, sd * sd, a));
 		}
+		w->seg[i] = u;
+		worst = maxf(worst, u);
 	}
 	return worst;
 }
 
-/* One timing with the limits scaled by k into pa's grid; its duration or INFINITY. */
-static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp_work *w, float v0,
-                    float k)
+/* One timing with the limits scaled by w->k into pa's grid; its duration or INFINITY. */
+static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp_work *w, float v0)
 {
 	float lo, hi;
 
-	w->k = k;
 	for (int i = 0; i <= w->n; i++) {
 		w->xmax[i] = -1.0f; /* bisected when a pass first goes beyond what it allows */
 		for (int side = 0; side < 2; side++)
 			if (side ? i > 0 : i < w->n) {
-				lin_build(c, &w->r[side][i], k, &w->lin[side][i]);
+				lin_build(c, &w->r[side][i], w->k[i], &w->lin[side][i]);
 				if (!interval(&w->lin[side][i], 0.0f, &lo, &hi))
 					return INFINITY; /* no room at rest */
 			}
@@ -562,15 +578,41 @@ float traj_topp(const struct traj_coef *c, struct traj_path *pa, float s0, float
 	return traj_topp_within(c, pa, s0, v0, 1e-5f, TRAJ_GRID);
 }
 
-float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
-                       float over, int grid)
+/* The path's own grid from s0 on: s0, then its points beyond it; the segments. */
+static int keep_grid(struct traj_path *pa, float s0)
+{
+	int n = 0;
+
+	for (int i = 0; i <= pa->n_grid; i++)
+		if (pa->grid_s[i] > s0 + SIDE_M)
+			pa->grid_s[++n] = pa->grid_s[i]; /* in place: n + 1 <= i */
+	pa->grid_s[0] = s0;
+	return n;
+}
+
+/* The limits scaled down where the check found a segment over: at the points within one
+ * of it, by what it is over; not local: all of them by the worst. */
+static void scale_down(struct topp_work *w, float over, float worst, bool local)
+{
+	float f[TRAJ_GRID + 1];
+
+	for (int i = 0; i <= w->n; i++)
+		f[i] = local ? 1.0f : 0.997f / worst;
+	for (int i = 0; i < w->n && local; i++) {
+		if (!(w->seg[i] > 1.0f + over))
+			continue;
+		for (int q = i; q <= i + 1; q++)
+			f[q] = minf(f[q], 0.997f / w->seg[i]);
+	}
+	for (int i = 0; i <= w->n; i++)
+		w->k[i] *= f[i];
+}
+
+/* The timing on pa's grid of n segments from v0 (limits over by at most over taken). */
+static float topp_grid(const struct traj_coef *c, struct traj_path *pa, float v0, float over, int n)
 {
 	struct topp_work w;
-	float k = 1.0f;
 
-	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
-		return INFINITY;
-	const int n = grid >= 1 && grid <= TRAJ_GRID ? make_grid(pa, s0, grid) : 0;
 	if (n < 1 || n > TRAJ_GRID)
 		return INFINITY;
 	w.n = pa->n_grid = n;
@@ -592,16 +634,34 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
 		geo_at(pa, 0.5f * (pa->grid_s[i] + pa->grid_s[i + 1]), &w.gm[i]);
 		rows_at(c, &w.gm[i], sg, &w.rm[i]);
 	}
+	for (int i = 0; i <= n; i++)
+		w.k[i] = 1.0f;
 	for (int tr = 0; tr < TOPP_TRIES; tr++) {
-		const float t = timing(c, pa, &w, v0, k);
+		const float t = timing(c, pa, &w, v0);
 		if (!(t < INFINITY))
 			return INFINITY;
-		const float worst = check(c, pa, &w, pa->curve && over < FINE_OVER);
+		const float worst = check(c, pa, &w, over < FINE_OVER);
 		if (worst <= 1.0f + over)
 			return t;
-		k *= 0.997f / worst;
+		scale_down(&w, over, worst, tr < TOPP_LOCAL);
 	}
 	return INFINITY;
+}
+
+float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
+                       float over, int grid)
+{
+	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
+		return INFINITY;
+	const int n = grid >= 1 && grid <= TRAJ_GRID ? make_grid(pa, s0, grid) : 0;
+	return topp_grid(c, pa, v0, over, n);
+}
+
+float traj_topp_retime(const struct traj_coef *c, struct traj_path *pa, float s0, float v0)
+{
+	if (!(pa->len_m - s0 > TRAJ_IDLE_POS) || !(s0 >= pa->grid_s[0]))
+		return INFINITY;
+	return topp_grid(c, pa, v0, 1e-5f, keep_grid(pa, s0));
 }
 
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out)

@@ -143,7 +143,7 @@ struct traj_path {
 	float grid_a[TRAJ_GRID];     /* s'' on each segment [m/s^2] */
 	float goal[3];               /* the end, at rest */
 	float len_m;
-	float bez[4][2];  /* a curve's control points [m] (curve: 1) */
+	float bez[4][2];   /* a curve's control points [m] (curve: 1) */
 	float bez_span[2]; /* the shares of the progress over which it runs (held outside) */
 	float head[2][4]; /* its heading's turns' control points [rad], over knot_s[0..1], [2..3] */
 	int n_pieces, n_knots, n_grid, n_poses;
