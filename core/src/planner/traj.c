@@ -135,14 +135,17 @@ static int turn_first(struct traj *tr, const struct traj_ref *from, const float 
 	return 0;
 }
 
-/* The one curve's timings (traj_curve.c): 48 fit the Cortex-M4's lead (docs/trajectory.md) */
+/* The one curve's timings (traj_curve.c) from rest and from a moving start (half of them for
+ * the curve after the brake prelude): each fits the Cortex-M4's lead (docs/trajectory.md) */
 #define TRAJ_PLAN_EVALS 48
+#define TRAJ_PLAN_EVALS_MOVING 40
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
 	if (!finite3(from->pose) || !finite3(from->vel) || !finite3(goal))
 		return -EINVAL;
-	if (traj_plan_curve(tr, from, goal, TRAJ_PLAN_EVALS) == 0)
+	const int evals = traj_ref_moving(from) ? TRAJ_PLAN_EVALS_MOVING : TRAJ_PLAN_EVALS;
+	if (traj_plan_curve(tr, from, goal, evals) == 0)
 		return 0;
 	return turn_first(tr, from, goal);
 }
