@@ -72,11 +72,14 @@ struct shape {
 };
 
 /*
- * The shape of parameters x: [k moving | f1], f2, o1, o2, a1, a2, pos, wd, psi, w. From rest
- * P1 = P0 + f1 d + o1 n; moving P1 = P0 + k v0 (the first tangent along the start velocity,
- * k [s]); P2 = G - f2 d + o2 n. The heading (psi NaN) turns once, over a share wd of the
- * progress starting at (1 - wd) pos, its control points theta0, theta0 + a1, theta_goal - a2,
- * theta_goal; a1 (a2) counts only where the span starts at the start (ends at the end):
+ * The shape of parameters x: [k moving | f1], f2, o1, o2, a1, a2, pos, wd, psi, w, xa, xb. From
+ * rest P1 = P0 + f1 d + o1 n; moving P1 = P0 + k v0 (the first tangent along the start
+ * velocity, k [s]); P2 = G - f2 d + o2 n. The way runs over the shares [xa, xb] of the progress
+ * (from rest; moving: all of it), still outside; where it starts after the start (ends before
+ * the end) P1 = P0 (P2 = G): its tangent starts (ends) at 0. The heading (psi NaN) turns once,
+ * over a share wd of the progress starting at (1 - wd) pos, its control points theta0,
+ * theta0 + a1, theta_goal - a2, theta_goal; a1 (a2) counts only where the span starts at the
+ * start (ends at the end):
  * inside the path the heading starts (ends) its turn at rate 0. Or it turns to psi over the
  * first share w, holds it, and turns to theta_goal over the last w (a cruise at a heading
  * where the robot is faster). Moving, a1 is the start's rate: d theta / du = 3 a1 / w there,

@@ -4,9 +4,10 @@
  * terms in s' (Newton in the world frame, the feedforward's sharing, Coulomb friction with its
  * sign where the motion fixes it, else the worse one). A forward pass at the largest s'' and a
  * backward pass at the smallest (phase plane, as Bobrow's method), each step checked at both
- * ends of its segment, then a checked pass over the grid points and the segments' midpoints
- * against the unscaled limits: if a wheel is over, the limits are scaled down and the timing
- * redone. Single precision, fixed sizes, no allocation.
+ * ends of its segment, then a checked pass over the grid points, the segments' midpoints and
+ * points inside them against the unscaled limits: where a wheel is over, the limits are scaled
+ * down at that segment's ends (after a few tries, everywhere) and the timing redone. Single
+ * precision, fixed sizes, no allocation.
  */
 #include <math.h>
 #include <stdbool.h>
