@@ -83,9 +83,11 @@ float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, str
 	if (!(turns && moves))
 		return traj_brake_share(tr, from, turns ? 1.0f : 0.0f, pre, stop, &t_rot);
 	/* both: the heading's share by bisection until both stop together (the heading's stop
-	 * falls with its share, the translation's rises), the soonest kept */
-	for (int it = 0; it < TRAJ_SHARE_ITERS; it++) {
-		const float share = 0.5f * (lo + hi);
+	 * falls with its share, the translation's rises), the soonest kept; first none (the turn
+	 * braked by its own friction, where that stops it: the translation's stop rises steeply
+	 * with the share there, 7.5 s at 5 % against 2.9 s at 0 for a slow turn) */
+	for (int it = -1; it < TRAJ_SHARE_ITERS; it++) {
+		const float share = it < 0 ? 0.0f : 0.5f * (lo + hi);
 		const float t = traj_brake_share(tr, from, share, cand, at, &t_rot);
 		if (t < best) {
 			best = t;
@@ -94,6 +96,8 @@ float traj_brake_prelude(const struct traj *tr, const struct traj_ref *from, str
 				stop[i] = at[i];
 			}
 		}
+		if (it < 0)
+			continue;
 		if (!(t_rot < t)) /* the heading's stop is the longer (or has none) */
 			lo = share;
 		else

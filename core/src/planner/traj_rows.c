@@ -108,8 +108,11 @@ int traj_rows_translation(const struct traj_coef *c, float phi, float share, flo
 	return n;
 }
 
-/* One rotation row: ka a + kv w <= c (c0 without the Coulomb term), one axis, every coefficient
- * >= 0 (signed = box), the velocity terms opposing a braking acceleration. */
+/* One rotation row: ka a + kv w <= c, one axis, every coefficient >= 0 (signed = box), the
+ * velocity terms opposing a braking acceleration; c0 the room braking (the stop), where the
+ * Coulomb term, which opposes the turn, helps: without it a stop at a small share of the
+ * budget braked slower than the friction alone and the wheels pushed against it beyond their
+ * share (1.086 of a wheel's traction braking a turning start). */
 static struct row rotation_row(float ka, float kv, float c, float c0)
 {
 	return (struct row){.ka = {ka, 0.0f},
@@ -128,9 +131,9 @@ int traj_rows_rotation(const struct traj_coef *c, float share, struct row *r)
 	for (int j = 0; j < c->wh.n; j++) {
 		const float ib = 1.0f / c->wh.b[j], q = c->wh.split[j][2], dj = c->wh.row[j][2];
 		const float f = share * c->f_max_n[j], u = share * c->u_max_v;
-		r[3 * j] = rotation_row(c->J * q, c->B[2] * q, f - c->C[2] * q, f);
+		r[3 * j] = rotation_row(c->J * q, c->B[2] * q, f - c->C[2] * q, f + c->C[2] * q);
 		r[3 * j + 1] = rotation_row(c->J * q * ib, (c->B[2] * q + c->e[j] * dj) * ib,
-		                            u - c->C[2] * q * ib, u);
+		                            u - c->C[2] * q * ib, u + c->C[2] * q * ib);
 		r[3 * j + 2] = rotation_row(0.0f, dj, share * c->rim_max[j], share * c->rim_max[j]);
 	}
 	return 3 * c->wh.n;
