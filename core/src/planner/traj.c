@@ -138,7 +138,7 @@ static int turn_first(struct traj *tr, const struct traj_ref *from, const float 
 /* The one curve's timings (traj_curve.c) from rest and from a moving start (half of them for
  * the curve after the brake prelude): each fits the Cortex-M4's lead (docs/trajectory.md) */
 #define TRAJ_PLAN_EVALS 48
-#define TRAJ_PLAN_EVALS_MOVING 40
+#define TRAJ_PLAN_EVALS_MOVING 36
 
 int traj_plan(struct traj *tr, const struct traj_ref *from, const float goal[3])
 {
