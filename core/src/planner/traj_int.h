@@ -170,6 +170,9 @@ float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0
  * re-timed where its reference is keeps its end but for what the new first segment changes. */
 float traj_topp_retime(const struct traj_coef *c, struct traj_path *pa, float s0, float v0);
 
+/* Segment i of a timed path tau [s] after its start: the progress s and its rate sd. */
+void traj_grid_at(const struct traj_path *pa, int i, float tau, float *s, float *sd);
+
 /* The reference at time t of a timed path (after its end: at rest at the goal). */
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out);
 

@@ -35,10 +35,9 @@ int traj_path_retime(struct traj *tr)
 	int lo = 0;
 	while (lo < cand.n_grid - 1 && !(tr->t_s < cand.grid_t[lo + 1]))
 		lo++;
-	const float tau = tr->t_s - cand.grid_t[lo], a = cand.grid_a[lo];
-	const float s = cand.grid_s[lo] + (cand.grid_v[lo] + 0.5f * a * tau) * tau;
-	const float v = maxf(cand.grid_v[lo] + a * tau, 0.0f);
-	const float t = traj_topp_retime(&tr->c, &cand, minf(s, cand.grid_s[lo + 1]), v);
+	float s, v;
+	traj_grid_at(&cand, lo, tr->t_s - cand.grid_t[lo], &s, &v);
+	const float t = traj_topp_retime(&tr->c, &cand, s, v);
 	if (!(t < INFINITY))
 		return -ERANGE; /* e.g. faster there than new limits allow: the caller plans anew */
 	take_path(tr, &cand, t);

@@ -461,7 +461,7 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, struct
 		u = maxf(u, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
 		signed char sg[3];
 		segment_signs(w, i, sg);
-		const float dt = pa->grid_t[i + 1] - pa->grid_t[i], v = pa->grid_v[i];
+		const float dt = pa->grid_t[i + 1] - pa->grid_t[i];
 		/* fine: at a quarter and three of its time (a long one's at FINE_LONG_PARTS) */
 		const int parts = ds > FINE_LONG_M ? FINE_LONG_PARTS : 4;
 		for (int q = 1; fine && q < parts; q++) {
@@ -469,11 +469,9 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, struct
 				continue;
 			struct geo g;
 			struct topp_rows r;
-			const float tau = (float)q / (float)parts * dt,
-			            sd = maxf(v + a * tau, 0.0f);
-			geo_at(pa,
-			       minf(pa->grid_s[i] + (v + 0.5f * a * tau) * tau, pa->grid_s[i + 1]),
-			       &g);
+			float sq, sd;
+			traj_grid_at(pa, i, (float)q / (float)parts * dt, &sq, &sd);
+			geo_at(pa, sq, &g);
 			rows_at(c, &g, sg, &r);
 			u = maxf(u, usage(c, &g, &r, sd * sd, a));
 		}
@@ -591,8 +589,8 @@ static int keep_grid(struct traj_path *pa, float s0)
 	return n;
 }
 
-/* The limits scaled down where the check found a segment over: at the points within one
- * of it, by what it is over; not local: all of them by the worst. */
+/* The limits scaled down where the check found a segment over: at its two ends, by what it
+ * is over; not local: all of them by the worst. */
 static void scale_down(struct topp_work *w, float over, float worst, bool local)
 {
 	float f[TRAJ_GRID + 1];
@@ -665,6 +663,14 @@ float traj_topp_retime(const struct traj_coef *c, struct traj_path *pa, float s0
 	return topp_grid(c, pa, v0, 1e-5f, keep_grid(pa, s0));
 }
 
+void traj_grid_at(const struct traj_path *pa, int i, float tau, float *s, float *sd)
+{
+	const float a = pa->grid_a[i], v = pa->grid_v[i];
+
+	*sd = maxf(v + a * tau, 0.0f);
+	*s = minf(pa->grid_s[i] + (v + 0.5f * a * tau) * tau, pa->grid_s[i + 1]);
+}
+
 void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out)
 {
 	const int n = pa->n_grid;
@@ -682,10 +688,9 @@ void traj_path_eval(const struct traj_path *pa, float t, struct traj_ref *out)
 		else
 			lo = m;
 	}
-	const float tau = t - pa->grid_t[lo], a = pa->grid_a[lo];
-	const float sd = maxf(pa->grid_v[lo] + a * tau, 0.0f);
-	const float s =
-	    minf(pa->grid_s[lo] + (pa->grid_v[lo] + 0.5f * a * tau) * tau, pa->grid_s[lo + 1]);
+	const float a = pa->grid_a[lo];
+	float s, sd;
+	traj_grid_at(pa, lo, t - pa->grid_t[lo], &s, &sd);
 	float p[2], ps[2], pss[2], th[3];
 	traj_path_at(pa, s, p, ps, pss, th);
 	*out = (struct traj_ref){
