@@ -114,7 +114,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 			         PARAM_MAX_KEYS);
 			atomic_fetch_add(&ps->n.bad, 1);
 			param_simple_reply(ps, q->request_id, q->op,
-			                   OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, false);
+			                   OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why, true);
 			return;
 		}
 		for (int i = 0; i < q->n; i++) {
@@ -126,7 +126,7 @@ static void do_list(struct param_service *ps, const omni4_param_request_t *q)
 				atomic_fetch_add(&ps->n.bad, 1);
 				param_simple_reply(ps, q->request_id, q->op,
 				                   OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST, why,
-				                   false);
+				                   true);
 				return;
 			}
 			fill_entry(ps, s, n++, key);
@@ -439,7 +439,7 @@ void param_service_handle(struct param_service *ps, const void *data, size_t len
 	if (dispatch(ps, s, &q, why, sizeof(why))) {
 		atomic_fetch_add(&ps->n.bad, 1);
 		param_simple_reply(ps, q.request_id, q.op, OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST,
-		                   why, false);
+		                   why, true);
 	}
 out:
 	omni4_param_request_t_decode_cleanup(&q);

@@ -133,7 +133,8 @@ class ParamClient:
 
     lcm_url_or_lcm_instance: an LCM URL (the robot's [lcm] url) or an lcm.LCM; None = the
     default URL. secret: the robot's [params] secret, needed by set / load / save when the robot
-    has one. timeout_s: wait for one reply [s]; retries: resends with the same request id.
+    has one. timeout_s: wait for one reply [s]; retries: resends with the same request id (`sent`
+    counts every request published, resends included).
     pump: handle the LCM instance while waiting (True); pass False when another thread already
     runs lc.handle() on an instance you pass in (replies then arrive through that thread).
     """
@@ -156,6 +157,7 @@ class ParamClient:
         self.timeout_s = float(timeout_s)
         self.retries = int(retries)
         self.pump = pump
+        self.sent = 0  # requests published, resends included
         self._replies = {}
         self._cond = threading.Condition()
         self._lock = threading.Lock()
@@ -215,6 +217,7 @@ class ParamClient:
                 for attempt in range(self.retries + 1):
                     q.utime = int(time.time() * 1e6)
                     self._lc.publish(CHANNEL_PARAM_REQ, q.encode())
+                    self.sent += 1
                     r = self._wait(q.request_id, time.monotonic() + self.timeout_s)
                     if r is not None and r.result == param_reply_t.RESULT_BUSY:
                         with self._cond:

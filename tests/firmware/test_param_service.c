@@ -951,6 +951,25 @@ static void test_secret_and_repeated_ids(void **state)
 	expect_result(OMNI4_PARAM_REPLY_T_RESULT_OK);
 	assert_true(atomic_load(&g_ps.n.applied) == 1);
 	assert_near(g_ps.running.ctl.control.kp, 31.0, 0);
+	/* a bad request sent twice (its reply lost): the same answer, counted bad once */
+	static const char *const nope[] = {"control.nope"};
+	char *kn[1] = {(char *)nope[0]};
+
+	q.request_id = 9002;
+	q.op = OMNI4_PARAM_REQUEST_T_OP_GET;
+	q.keys = kn;
+	q.values = v;
+	const int len_bad = omni4_param_request_t_encode(buf, 0, sizeof(buf), &q);
+	const uint64_t bad_before = atomic_load(&g_ps.n.bad);
+
+	clear_out();
+	param_service_handle(&g_ps, buf, (size_t)len_bad);
+	param_service_handle(&g_ps, buf, (size_t)len_bad);
+	assert_int_equal(count_channel(OMNI4_CHANNEL_PARAM_REPLY), 2);
+	assert_memory_equal(g_out[g_n_out - 1].data, g_out[g_n_out - 2].data,
+	                    g_out[g_n_out - 1].len);
+	expect_result(OMNI4_PARAM_REPLY_T_RESULT_BAD_REQUEST);
+	assert_true(atomic_load(&g_ps.n.bad) == bad_before + 1);
 	teardown_fw(true);
 }
 
