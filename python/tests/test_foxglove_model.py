@@ -1042,3 +1042,22 @@ def test_params_layout_that_does_not_drive_is_one_line(tmp_path, capsys):
     assert capsys.readouterr().err == (
         f"omni4-mcap: {ini}:2: [model] wheels, wheel_angle_j, d_j: not a layout that drives "
         "v, vn and w (no two wheels along one line)\n")
+
+
+def test_bridge_says_restarted_on_the_decimated_message_after_a_restart():
+    """omni4-bridge sends every N-th sample: a restart of the prediction at a sample it does not
+    send (a gap in seq: samples it missed) is said on the next one it sends, and only there."""
+    import foxglove
+
+    from omni4.foxglove.bridge import Bridge
+    b = Bridge(T3, 10, 1.0, foxglove.Context())
+    sent = []
+    b.ch.log = lambda topic, schema, msg, t: sent.append((topic, msg))
+    m = omni4.motors_t()
+    m.mode, m.voltage, m.wheel_speed = 3, [0.0, -6.0, 0.0, 6.0], [0.0] * 4
+    for seq in [*range(0, 12), *range(14, 41)]:       # 12 and 13 missed: restarted at 14
+        m.utime, m.seq = seq * 1000, seq
+        b.on_lcm(omni4.CHANNEL_MOTORS, m.encode())
+    said = {j["seq"]: j["restarted"] for j in (json.loads(x) for t, x in sent
+                                                if t == topics.TOPIC_VELOCITY)}
+    assert said == {0: True, 10: False, 20: True, 30: False, 40: False}

@@ -69,6 +69,7 @@ class Bridge:
         self.decimate = decimate
         self.health_period_s = health_period_s
         self.pred = Predictor(params)
+        self.restarted = False  # the prediction restarted since the last velocity sent
         self.health = topics.Health()
         self.ch = topics.Channels(server_ctx)
         self.received = {}
@@ -96,8 +97,11 @@ class Bridge:
 
     def on_motors(self, m, t_ns):
         meas, pred, restarted = self.pred.step(m.utime, m.seq, m.mode, m.voltage, m.wheel_speed)
+        self.restarted |= restarted
         self.health.add(m.utime, m.seq, m.mode, m.faults)
         if m.seq % self.decimate == 0:
+            # (decimated: "restarted" at this sample or at one since the last one sent)
+            restarted, self.restarted = self.restarted, False
             self.ch.log(omni4.CHANNEL_MOTORS, "omni4.motors_t",
                         topics.motors_json(m.utime, m.seq, m.mode, m.faults, list(m.voltage),
                                            list(m.current), list(m.wheel_speed)), t_ns)

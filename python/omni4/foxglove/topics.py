@@ -122,7 +122,8 @@ SCHEMAS = {
         "utime": _int("motors_t utime [us]"), "seq": _int("motors_t seq"),
         "mode_name": {"type": "string"},
         "restarted": {"type": "boolean",
-                      "description": "the prediction restarted from the encoders here"},
+                      "description": "the prediction restarted from the encoders here (the "
+                                     "bridge, decimating: here or since its last message)"},
         "encoder": _obj(_XYZ, "robot velocity from the wheel encoders, eqs 3-5"),
         "predicted": _obj(_XYZ, "the model driven by the logged voltages"),
         "difference": _obj(_XYZ, "encoder - predicted")}, "encoder velocity vs the model"),
