@@ -137,6 +137,13 @@ static void set_white(struct est *e, const struct wheel_phys *ph)
 	e->white = true;
 }
 
+/* Each wheel's radius [m]: the wheel speeds' scale to rim speeds. */
+static void set_radii(struct est *e, const struct model_wheels *w)
+{
+	for (int j = 0; j < 4; j++)
+		e->r[j] = (float)w->r[j];
+}
+
 /* A layout other than the paper's: eq 23's full A (dyn_state_space_layout), the per-axis exact
  * step with the off-diagonal terms held over the tick, the layout's rows. -EINVAL: refused. */
 static int set_layout(struct est *e, const struct model_params *p, const struct model_wheels *w,
@@ -165,8 +172,7 @@ static int set_layout(struct est *e, const struct model_params *p, const struct 
 	for (int j = 0; j < ph.n; j++)
 		dsum += ph.row[j][2];
 	e->d = (float)(dsum / ph.n);
-	for (int j = 0; j < 4; j++)
-		e->r[j] = (float)w->r[j];
+	set_radii(e, w);
 	wheel_phys_to_f32(&ph, &e->wh);
 	set_null_vector(e, &ph);
 	set_white(e, &ph);
@@ -217,8 +223,7 @@ void est_set_model_wheels(struct est *e, const struct model_params *p, const str
 	e->Ax[3] = (float)ss.A[2][1];
 	e->coupled = e->Ax[0] != 0.0f || e->Ax[1] != 0.0f || e->Ax[2] != 0.0f || e->Ax[3] != 0.0f;
 	e->d = (float)p->d;
-	for (int j = 0; j < 4; j++)
-		e->r[j] = (float)w->r[j];
+	set_radii(e, w);
 	struct wheel_geom paper;
 	struct wheel_phys ph;
 

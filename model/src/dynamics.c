@@ -8,6 +8,14 @@
 
 #include <math.h>
 
+/* Eq 27's Coulomb terms of the state space: the friction's deceleration [m/s^2], [rad/s^2]. */
+static void coulomb_terms(const struct model_params *p, double K[3])
+{
+	K[0] = -p->Cv / p->M;
+	K[1] = -p->Cvn / p->M;
+	K[2] = -p->Cw / p->J;
+}
+
 void dyn_wheel_forces(const struct model_params *p, const double current_a[4], double force_n[4])
 {
 	const double k = p->l * p->Kt / p->r; /* eqs 12-13 */
@@ -60,9 +68,7 @@ void dyn_state_space(const struct model_params *p, struct model_ss *ss)
 		for (int j = 0; j < 4; j++)
 			ss->B[k][j] = B[k][j];
 
-	ss->K[0] = -p->Cv / p->M; /* eq 27 */
-	ss->K[1] = -p->Cvn / p->M;
-	ss->K[2] = -p->Cw / p->J;
+	coulomb_terms(p, ss->K);
 }
 
 void dyn_steady_velocity(const struct model_ss *ss, const double u[4], double x[3])
@@ -144,9 +150,7 @@ void dyn_state_space_wheels(const struct model_params *p, const struct model_whe
 		for (int j = 0; j < 4; j++)
 			ss->B[k][j] = B[k][j];
 
-	ss->K[0] = -p->Cv / M; /* eq 27 */
-	ss->K[1] = -p->Cvn / M;
-	ss->K[2] = -p->Cw / J;
+	coulomb_terms(p, ss->K);
 }
 
 int dyn_state_space_layout(const struct model_params *p, const struct model_wheels *w,
@@ -176,8 +180,6 @@ int dyn_state_space_layout(const struct model_params *p, const struct model_whee
 		for (int j = 0; j < 4; j++)
 			ss->B[k][j] = j < ph.n ? ph.row[j][k] * ph.b[j] / m[k] : 0.0;
 	}
-	ss->K[0] = -p->Cv / p->M; /* eq 27 */
-	ss->K[1] = -p->Cvn / p->M;
-	ss->K[2] = -p->Cw / p->J;
+	coulomb_terms(p, ss->K);
 	return 0;
 }

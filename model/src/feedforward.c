@@ -128,6 +128,18 @@ int ff_q16_wheels_prepare(struct ff_q16_wheels *ff, const struct model_params *p
 	return 0;
 }
 
+/* Wheel j's per-ohm terms from its terms at 1 ohm (acc, vel, coul) and at 0 ohm (emf). */
+static void per_ohm_put(struct ff_wheels_per_ohm *o, int j, const double acc[3],
+                        const double vel[3], const double emf[3], const double coul[3])
+{
+	for (int k = 0; k < 3; k++) {
+		o->acc[j][k] = (float)acc[k];
+		o->vel[j][k] = (float)(vel[k] - emf[k]);
+		o->emf[j][k] = (float)emf[k];
+		o->coul[j][k] = (float)coul[k];
+	}
+}
+
 void ff_wheels_per_ohm_prepare(struct ff_wheels_per_ohm *o, const struct model_params *p,
                                const struct model_wheels *w)
 {
@@ -136,12 +148,7 @@ void ff_wheels_per_ohm_prepare(struct ff_wheels_per_ohm *o, const struct model_p
 
 		ff_wheel_terms(p, 1.0, w->r[j], w->Kt[j], w->Kv[j], acc, vel, coul);
 		ff_wheel_terms(p, 0.0, w->r[j], w->Kt[j], w->Kv[j], acc0, emf, coul0);
-		for (int k = 0; k < 3; k++) {
-			o->acc[j][k] = (float)acc[k];
-			o->vel[j][k] = (float)(vel[k] - emf[k]);
-			o->emf[j][k] = (float)emf[k];
-			o->coul[j][k] = (float)coul[k];
-		}
+		per_ohm_put(o, j, acc, vel, emf, coul);
 	}
 }
 
@@ -222,12 +229,7 @@ int ff_wheels_per_ohm_prepare_layout(struct ff_wheels_per_ohm *o, const struct m
 		                vel, coul);
 		ff_layout_terms(p, 0.0, w->r[j], w->Kt[j], w->Kv[j], ph.row[j], ph.split[j], acc0,
 		                emf, coul0);
-		for (int k = 0; k < 3; k++) {
-			o->acc[j][k] = (float)acc[k];
-			o->vel[j][k] = (float)(vel[k] - emf[k]);
-			o->emf[j][k] = (float)emf[k];
-			o->coul[j][k] = (float)coul[k];
-		}
+		per_ohm_put(o, j, acc, vel, emf, coul);
 	}
 	return 0;
 }
