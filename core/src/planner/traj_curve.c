@@ -388,13 +388,15 @@ static void curve_setup(struct curve_prob *pr, const struct traj_ref *from, cons
 	    mv ? 1e-3f * k0 : 0.0f, 0.0f, -OFFSET_MAX, -OFFSET_MAX, -PI_F, -PI_F};
 	const float hi[DIMS_MAX] = {
 	    mv ? 10.0f * k0 : 1.0f, 1.0f, OFFSET_MAX, OFFSET_MAX, PI_F, PI_F, [10] = WAY_LATE_MAX};
-	/* searched: the points, the heading's slopes (o1 and a1 from rest), from rest with a
-	 * turn where the way starts */
+	/* searched: the points, the heading's slopes (o1 and a1 from rest; from rest with a
+	 * turn of at most SEED_TURN none: the heading linear), from rest with a turn where the
+	 * way starts */
 	const bool late = !mv && fabsf(dth) > SEED_TURN;
 	pr->dims = 0;
 	for (int i = 0; i < DIMS_MAX; i++) {
 		pr->base[i] = x0[i];
-		if ((i >= 6 && !(i == 10 && late)) || ((i == 2 || i == 4) && mv))
+		if ((i >= 6 && !(i == 10 && late)) || ((i == 2 || i == 4) && mv) ||
+		    ((i == 4 || i == 5) && !mv && !late))
 			continue;
 		x[pr->dims] = x0[i], step[pr->dims] = st[i];
 		pr->lo[pr->dims] = lo[i], pr->hi[pr->dims] = hi[i];

@@ -16,7 +16,9 @@
 
 #define TOPP_BISECT 10 /* bisection steps of the largest s' at a point */
 #define TOPP_TRIES 6   /* timings with limits scaled down until the check passes, */
-#define TOPP_LOCAL 3   /* the first of them only where a segment is over (then all of them) */
+#define TOPP_LOCAL 3   /* the first of them only where a segment is over (then all of them); */
+#define TOPP_TRIES_FINE 8 /* a timing held to the limits (below): more of them, */
+#define TOPP_LOCAL_FINE 5 /* and more of them local (a corner's arc took five) */
 /* The traction bound the timing keeps to: a little under the limit, for the load's changes
  * between the checked points (measured up to 0.1 % of it inside a 0.5 m segment of a turn) */
 #define TRACTION_HELD 0.999f
@@ -27,6 +29,9 @@
  * limit near a segment's start, seen in a long turning move) */
 #define FINE_OVER 1e-3f
 #define FINE_LONG_M 0.1f /* [m] */
+/* Such a timing is first made on a grid of half the segments, taken up to this over a limit:
+ * its times place the grid of the timing itself (below) */
+#define COARSE_OVER 0.01f
 #define FINE_LONG_PARTS 16
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SIGN_ZERO 2e-7f /* ... and below this is 0: a unit vector's rounding, rotated */
@@ -524,12 +529,14 @@ static float timing(const struct traj_coef *c, struct traj_path *pa, struct topp
 static const float ramp_m[RAMP_BREAKS] = {0.02f, 0.07f, 0.25f, 0.5f, 1.0f, 2.0f, 4.0f};
 #define BREAKS_MAX (TRAJ_PIECES + TRAJ_KNOTS + 2 * RAMP_BREAKS + 1)
 
-/* Where a piece or a heading knot ends after s0, sorted, each once; returns how many. */
-static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX])
+/* Where a piece or a heading knot ends after s0 (ramps: and the ramps' points), sorted, each
+ * once; returns how many. */
+static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX], bool ramps)
 {
+	const int nk = pa->n_pieces + pa->n_knots + (ramps ? 2 * RAMP_BREAKS : 0);
 	int n = 0;
 
-	for (int k = 0; k < pa->n_pieces + pa->n_knots + 2 * RAMP_BREAKS && n < BREAKS_MAX; k++) {
+	for (int k = 0; k < nk && n < BREAKS_MAX; k++) {
 		const int e = k - pa->n_pieces - pa->n_knots; /* the ramps' points, then */
 		float v = k < pa->n_pieces  ? pa->pc[k].s0_m + pa->pc[k].len_m
 		          : e < 0           ? pa->knot_s[k - pa->n_pieces]
@@ -555,7 +562,7 @@ static int breaks(const struct traj_path *pa, float s0, float b[BREAKS_MAX])
 static int make_grid(struct traj_path *pa, float s0, int grid)
 {
 	float b[BREAKS_MAX];
-	const int nb = breaks(pa, s0, b);
+	const int nb = breaks(pa, s0, b, true);
 	const int spare = grid - nb;
 	const float total = pa->len_m - s0;
 	float a = s0;
@@ -635,25 +642,63 @@ static float topp_grid(const struct traj_coef *c, struct traj_path *pa, float v0
 	}
 	for (int i = 0; i <= n; i++)
 		w.k[i] = 1.0f;
-	for (int tr = 0; tr < TOPP_TRIES; tr++) {
+	const bool fine = over < FINE_OVER;
+	const int tries = fine ? TOPP_TRIES_FINE : TOPP_TRIES;
+	for (int tr = 0; tr < tries; tr++) {
 		const float t = timing(c, pa, &w, v0);
 		if (!(t < INFINITY))
 			return INFINITY;
-		const float worst = check(c, pa, &w, over < FINE_OVER);
+		const float worst = check(c, pa, &w, fine);
 		if (worst <= 1.0f + over)
 			return t;
-		scale_down(&w, over, worst, tr < TOPP_LOCAL);
+		scale_down(&w, over, worst, tr < (fine ? TOPP_LOCAL_FINE : TOPP_LOCAL));
 	}
 	return INFINITY;
+}
+
+/* A grid of at most grid segments from s0 at equal times of pa's timing (its grid and times),
+ * every piece's and knot's end a point too; returns the segments. Where the speed is low a
+ * segment is short: each one's s'' is held at its ends' limits, which change with the speed
+ * (the back-EMF's share of the voltage as the robot speeds up from rest), and a segment of the
+ * grid by length that starts from rest takes 8 % of a 2 s move. */
+static int time_grid(struct traj_path *pa, float s0, int grid)
+{
+	float b[BREAKS_MAX], q[TRAJ_GRID];
+	const int nb = breaks(pa, s0, b, false), n_old = pa->n_grid, m = grid - nb + 1;
+	const float T = pa->grid_t[n_old];
+	int i = 0, nq = 0;
+
+	for (int k = 1; k < m; k++) { /* the progress at the equal times */
+		const float t = T * (float)k / (float)m;
+		while (i < n_old - 1 && !(t < pa->grid_t[i + 1]))
+			i++;
+		float sd;
+		traj_grid_at(pa, i, t - pa->grid_t[i], &q[nq++], &sd);
+	}
+	int n = 0, a = 0, e = 0; /* merged with the breaks (the last: len_m), sorted */
+	pa->grid_s[0] = s0;
+	while ((a < nq || e < nb) && n < grid) {
+		const float v = e >= nb || (a < nq && q[a] < b[e]) ? q[a++] : b[e++];
+		if (v > pa->grid_s[n] + SIDE_M && (v < pa->len_m - SIDE_M || e == nb))
+			pa->grid_s[++n] = v;
+	}
+	pa->grid_s[n] = pa->len_m;
+	return n;
 }
 
 float traj_topp_within(const struct traj_coef *c, struct traj_path *pa, float s0, float v0,
                        float over, int grid)
 {
-	if (!(pa->len_m - s0 > TRAJ_IDLE_POS))
+	if (!(pa->len_m - s0 > TRAJ_IDLE_POS) || !(grid >= 1 && grid <= TRAJ_GRID))
 		return INFINITY;
-	const int n = grid >= 1 && grid <= TRAJ_GRID ? make_grid(pa, s0, grid) : 0;
-	return topp_grid(c, pa, v0, over, n);
+	if (over < FINE_OVER && grid >= 2) { /* held to the limits: on a grid of its times */
+		const float t = topp_grid(c, pa, v0, COARSE_OVER, make_grid(pa, s0, grid / 2));
+		const float t_fine =
+		    t < INFINITY ? topp_grid(c, pa, v0, over, time_grid(pa, s0, grid)) : INFINITY;
+		if (t_fine < INFINITY)
+			return t_fine;
+	}
+	return topp_grid(c, pa, v0, over, make_grid(pa, s0, grid));
 }
 
 float traj_topp_retime(const struct traj_coef *c, struct traj_path *pa, float s0, float v0)
