@@ -738,8 +738,8 @@ static double dense_optimum(const struct traj_path *pa, const struct traj_limits
 static void test_path_timing_is_near_the_optimum_of_its_path(void **state)
 {
 	(void)state;
-	static const float goals[][3] = {{1.5f, 1.5f, 1.57f}, {1.0f, -1.0f, 3.0f},
-	                                 {0.3f, 0.0f, 1.0f},  {2.0f, 0.5f, -2.0f}};
+	static const float goals[][3] = {
+	    {1.5f, 1.5f, 1.57f}, {1.0f, -1.0f, 3.0f}, {0.3f, 0.0f, 1.0f}, {2.0f, 0.5f, -2.0f}};
 	const float start[3] = {0, 0, 0};
 	const struct traj_limits l = limits();
 	static struct traj tr;

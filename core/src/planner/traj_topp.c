@@ -14,9 +14,9 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 10 /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6   /* timings with limits scaled down until the check passes, */
-#define TOPP_LOCAL 3   /* the first of them only where a segment is over (then all of them); */
+#define TOPP_BISECT 10    /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 6      /* timings with limits scaled down until the check passes, */
+#define TOPP_LOCAL 3      /* the first of them only where a segment is over (then all of them); */
 #define TOPP_TRIES_FINE 8 /* a timing held to the limits (below): more of them, */
 #define TOPP_LOCAL_FINE 5 /* and more of them local (a corner's arc took five) */
 /* The traction bound the timing keeps to: a little under the limit, for the load's changes
