@@ -29,10 +29,18 @@ static struct traj_limits limits(void)
 	return test_traj_limits();
 }
 
-/* A velocity component below 1e-6 (m/s, rad/s) is a zero one's float noise: no Coulomb. */
-static double sgn(double x)
+/* The Coulomb friction's sign on each axis of the body velocity x [m/s, m/s, rad/s]: none for
+ * a component below 1e-6 of the largest (its rim speed d w for the turn), a zero one's float
+ * noise (a body axis along the path, rotated, keeps ~4e-8 of the speed across it). Relative: at
+ * a plan's first sample from rest (a speed of 3e-6 m/s, turning at 8e-7 rad/s) the turn is no
+ * less real than the translation. */
+static void coulomb_signs(const double x[3], double d, double sg[3])
 {
-	return (x > 1e-6) - (x < -1e-6);
+	const double c[3] = {x[0], x[1], d * x[2]};
+	const double big = fmax(fmax(fabs(c[0]), fabs(c[1])), fabs(c[2]));
+
+	for (int k = 0; k < 3; k++)
+		sg[k] = (c[k] > 1e-6 * big) - (c[k] < -1e-6 * big);
 }
 
 /* Wheel j's load N_j = M g / 4 - M h (a . p_j) / (2 d^2) under the reference r [N], a the
@@ -60,9 +68,12 @@ static double use_of_limits(const struct traj_ref *r, const struct traj_limits *
 	/* eq 23's axes turn with the body: d/dt of the body velocity is R^T a - w x v */
 	const double ab[2] = {c * r->acc[0] + s * r->acc[1] + x[2] * x[1],
 	                      -s * r->acc[0] + c * r->acc[1] - x[2] * x[0]};
-	const double F[3] = {M * ab[0] + l->p.Bv * x[0] + l->p.Cv * sgn(x[0]),
-	                     M * ab[1] + l->p.Bvn * x[1] + l->p.Cvn * sgn(x[1]),
-	                     J * r->acc[2] + l->p.Bw * x[2] + l->p.Cw * sgn(x[2])};
+	double sg[3];
+
+	coulomb_signs(x, d, sg);
+	const double F[3] = {M * ab[0] + l->p.Bv * x[0] + l->p.Cv * sg[0],
+	                     M * ab[1] + l->p.Bvn * x[1] + l->p.Cvn * sg[1],
+	                     J * r->acc[2] + l->p.Bw * x[2] + l->p.Cw * sg[2]};
 	double worst = 0;
 
 	for (int j = 0; j < 4; j++) {

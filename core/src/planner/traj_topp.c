@@ -62,8 +62,8 @@ struct topp_lin {
 };
 
 struct topp_work {
-	struct geo g[2][TRAJ_GRID + 1]; /* [0]: the segment after point i, [1]: before it */
-	signed char sg[TRAJ_GRID + 1][3];
+	struct geo g[2][TRAJ_GRID + 1];        /* [0]: the segment after point i, [1]: before it */
+	signed char sg[TRAJ_GRID][3];          /* the signs on each segment (signs) */
 	struct topp_rows r[2][TRAJ_GRID + 1];  /* each point's rows, sides as g */
 	struct geo gm[TRAJ_GRID];              /* each segment's midpoint (checked) */
 	struct topp_rows rm[TRAJ_GRID];        /* and its rows (the signs of both ends) */
@@ -120,21 +120,29 @@ static signed char sign_set(float v)
 	return fabsf(v) <= SIGN_ZERO ? S_ZERO : S_NEG | S_ZERO | S_POS;
 }
 
-/* The signs at point i: those of i and its neighbours (a segment takes the signs of its
- * ends: a component changes sign only at a grid point or where it is small). */
+/* The signs a velocity component of geometry g may take. */
+static void geo_signs(const struct geo *g, signed char sg[3])
+{
+	sg[0] |= sign_set(g->q[0]);
+	sg[1] |= sign_set(g->q[1]);
+	sg[2] |= sign_set(g->ths);
+}
+
+/* The signs on each segment: those at its ends and its midpoint (a component changes sign
+ * only where one of them sees it, or where it is small); at rest at the end, the last
+ * segment's brake without friction's help too. */
 static void signs(struct topp_work *w)
 {
-	signed char raw[TRAJ_GRID + 1][3];
+	for (int i = 0; i < w->n; i++) {
+		signed char *sg = w->sg[i];
 
-	for (int i = 0; i <= w->n; i++) {
-		raw[i][0] = sign_set(w->g[0][i].q[0]) | sign_set(w->g[1][i].q[0]);
-		raw[i][1] = sign_set(w->g[0][i].q[1]) | sign_set(w->g[1][i].q[1]);
-		raw[i][2] = sign_set(w->g[0][i].ths) | sign_set(w->g[1][i].ths);
+		sg[0] = sg[1] = sg[2] = 0;
+		geo_signs(&w->g[0][i], sg);
+		geo_signs(&w->gm[i], sg);
+		geo_signs(&w->g[1][i + 1], sg);
 	}
-	for (int i = 0; i <= w->n; i++)
-		for (int k = 0; k < 3; k++)
-			w->sg[i][k] = (signed char)(raw[i][k] | (i > 0 ? raw[i - 1][k] : 0) |
-			                            (i < w->n ? raw[i + 1][k] : 0));
+	for (int k = 0; k < 3; k++)
+		w->sg[w->n - 1][k] |= S_ZERO;
 }
 
 /* Smallest and largest of t sigma over the signs in set. */
@@ -442,13 +450,6 @@ static void backward(const struct traj_path *pa, struct topp_work *w)
 	}
 }
 
-/* The signs on segment i: those of both its ends. */
-static void segment_signs(const struct topp_work *w, int i, signed char sg[3])
-{
-	for (int k = 0; k < 3; k++)
-		sg[k] = (signed char)(w->sg[i][k] | w->sg[i + 1][k]);
-}
-
 /* The largest use of a limit over the grid points and the segments' midpoints; fine: also
  * inside them (a curve's force can peak between, where its tangent turns fast). Each
  * segment's own (its ends' sides and the points inside it) into w->seg. */
@@ -464,8 +465,6 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, struct
 		float u = usage(c, &w->g[0][i], &w->r[0][i], x, a);
 		u = maxf(u, usage(c, &w->g[1][i + 1], &w->r[1][i + 1], x1, a));
 		u = maxf(u, usage(c, &w->gm[i], &w->rm[i], x + ds * a, a));
-		signed char sg[3];
-		segment_signs(w, i, sg);
 		const float dt = pa->grid_t[i + 1] - pa->grid_t[i];
 		/* fine: at a quarter and three of its time (a long one's at FINE_LONG_PARTS) */
 		const int parts = ds > FINE_LONG_M ? FINE_LONG_PARTS : 4;
@@ -477,7 +476,7 @@ static float check(const struct traj_coef *c, const struct traj_path *pa, struct
 			float sq, sd;
 			traj_grid_at(pa, i, (float)q / (float)parts * dt, &sq, &sd);
 			geo_at(pa, sq, &g);
-			rows_at(c, &g, sg, &r);
+			rows_at(c, &g, w->sg[i], &r);
 			u = maxf(u, usage(c, &g, &r, sd * sd, a));
 		}
 		w->seg[i] = u;
@@ -622,23 +621,20 @@ static float topp_grid(const struct traj_coef *c, struct traj_path *pa, float v0
 	if (n < 1 || n > TRAJ_GRID)
 		return INFINITY;
 	w.n = pa->n_grid = n;
-	for (int i = 0; i <= w.n; i++)
-		geo_both(pa, pa->grid_s[i], w.g, i);
-	signs(&w);
-	for (int q = 0; q < 3; q++) /* at rest at the end: the brake without friction's help */
-		w.sg[n][q] |= S_ZERO;
 	for (int i = 0; i <= w.n; i++) {
+		geo_both(pa, pa->grid_s[i], w.g, i);
+		if (i < w.n)
+			geo_at(pa, 0.5f * (pa->grid_s[i] + pa->grid_s[i + 1]), &w.gm[i]);
+	}
+	signs(&w);
+	for (int i = 0; i <= w.n; i++) { /* each side's rows with its segment's signs */
 		for (int side = 0; side < 2; side++)
 			if (side ? i > 0 : i < w.n) {
-				rows_at(c, &w.g[side][i], w.sg[i], &w.r[side][i]);
+				rows_at(c, &w.g[side][i], w.sg[side ? i - 1 : i], &w.r[side][i]);
 				w.top[side][i] = speed_top(c, &w.g[side][i], &w.r[side][i]);
 			}
-		if (i == w.n)
-			break;
-		signed char sg[3];
-		segment_signs(&w, i, sg);
-		geo_at(pa, 0.5f * (pa->grid_s[i] + pa->grid_s[i + 1]), &w.gm[i]);
-		rows_at(c, &w.gm[i], sg, &w.rm[i]);
+		if (i < w.n)
+			rows_at(c, &w.gm[i], w.sg[i], &w.rm[i]);
 	}
 	for (int i = 0; i <= n; i++)
 		w.k[i] = 1.0f;
