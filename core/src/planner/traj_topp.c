@@ -14,11 +14,9 @@
 
 #include "traj_int.h"
 
-#define TOPP_BISECT 10    /* bisection steps of the largest s' at a point */
-#define TOPP_TRIES 6      /* timings with limits scaled down until the check passes, */
-#define TOPP_LOCAL 3      /* the first of them only where a segment is over (then all of them); */
-#define TOPP_TRIES_FINE 8 /* a timing held to the limits (below): more of them, */
-#define TOPP_LOCAL_FINE 5 /* and more of them local (a corner's arc took five) */
+#define TOPP_BISECT 10 /* bisection steps of the largest s' at a point */
+#define TOPP_TRIES 6   /* timings with limits scaled down until the check passes, */
+#define TOPP_LOCAL 3   /* the first of them only where a segment is over (then all of them) */
 /* The traction bound the timing keeps to: a little under the limit, for the load's changes
  * between the checked points (measured up to 0.1 % of it inside a 0.5 m segment of a turn) */
 #define TRACTION_HELD 0.999f
@@ -29,10 +27,10 @@
  * limit near a segment's start, seen in a long turning move) */
 #define FINE_OVER 1e-3f
 #define FINE_LONG_M 0.1f /* [m] */
-/* Such a timing is first made on a grid of half the segments, taken up to this over a limit:
- * its times place the grid of the timing itself (below) */
-#define COARSE_OVER 0.01f
 #define FINE_LONG_PARTS 16
+/* Such a timing is first made on a grid of half the segments, taken up to this over a limit:
+ * its times place the grid of the timing itself (time_grid) */
+#define COARSE_OVER 0.01f
 #define SIGN_MIN 1e-3f  /* a body velocity component below this (per unit s') has no sign */
 #define SIGN_ZERO 2e-7f /* ... and below this is 0: a unit vector's rounding, rotated */
 #define SPEED_BIG 20.0f /* [m/s] above any speed the drives allow */
@@ -639,15 +637,14 @@ static float topp_grid(const struct traj_coef *c, struct traj_path *pa, float v0
 	for (int i = 0; i <= n; i++)
 		w.k[i] = 1.0f;
 	const bool fine = over < FINE_OVER;
-	const int tries = fine ? TOPP_TRIES_FINE : TOPP_TRIES;
-	for (int tr = 0; tr < tries; tr++) {
+	for (int tr = 0; tr < TOPP_TRIES; tr++) {
 		const float t = timing(c, pa, &w, v0);
 		if (!(t < INFINITY))
 			return INFINITY;
 		const float worst = check(c, pa, &w, fine);
 		if (worst <= 1.0f + over)
 			return t;
-		scale_down(&w, over, worst, tr < (fine ? TOPP_LOCAL_FINE : TOPP_LOCAL));
+		scale_down(&w, over, worst, tr < TOPP_LOCAL);
 	}
 	return INFINITY;
 }
