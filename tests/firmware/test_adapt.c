@@ -454,6 +454,41 @@ static void test_friction_frozen_on_slip_and_collision(void **state)
 	free(a);
 }
 
+/* Steady means the whole body's velocity changed by less than ADAPT_FRIC_STEADY C / M per
+ * second (adapt.h): axis v ramped at 3x that rate under a steady force gives no axis a sample,
+ * at a third of it every axis its samples. */
+static void test_friction_sampled_only_while_steady(void **state)
+{
+	(void)state;
+	const struct ctl_settings s = settings();
+	struct adapt *a = calloc(1, sizeof(*a));
+	const double bound = ADAPT_FRIC_STEADY * s.model.Cv / s.model.M; /* [m/s^2] */
+
+	for (int q = 0; q < 2; q++) {
+		const double rate = q ? bound / 3.0 : 3.0 * bound, x0[3] = {0.8, 0.6, 2.0};
+		double F[3];
+
+		for (int k = 0; k < 3; k++) {
+			double B, C;
+
+			model_friction(&s, k, &B, &C);
+			F[k] = B * x0[k] + C;
+		}
+		adapt_init(a, &s);
+		for (int n = 0; n < (int)lround(5.0 * RATE_HZ); n++) {
+			const double x[3] = {x0[0] + rate * n / RATE_HZ, x0[1], x0[2]};
+			struct adapt_input in = body_tick(&s, x, F);
+
+			adapt_step(a, &in);
+		}
+		printf("v ramped at %.4f m/s^2 (the steady bound %.4f): samples %u %u %u\n", rate,
+		       bound, a->f[0].n, a->f[1].n, a->f[2].n);
+		for (int k = 0; k < 3; k++)
+			assert_true(q ? a->f[k].n > 100 : a->f[k].n == 0);
+	}
+	free(a);
+}
+
 /* The controller's gains for friction B, C (ctl_set_friction) are the double path's
  * (ff_q16_wheels_prepare with the model's B, C so) within a Q16.16 LSB, with a wheel's R in use
  * kept. */
@@ -804,6 +839,7 @@ int main(void)
 	    cmocka_unit_test(test_friction_fit_matches_the_weighted_batch),
 	    cmocka_unit_test(test_one_speed_follows_a_common_scale),
 	    cmocka_unit_test(test_friction_frozen_on_slip_and_collision),
+	    cmocka_unit_test(test_friction_sampled_only_while_steady),
 	    cmocka_unit_test(test_friction_gains_match_the_prepared_ones),
 	    cmocka_unit_test(test_a_new_floor_is_followed),
 	    cmocka_unit_test(test_a_wrong_friction_acceptance_is_reverted),
