@@ -65,7 +65,7 @@ struct topp_work {
 	signed char sg[TRAJ_GRID][3];          /* the signs on each segment (signs) */
 	struct topp_rows r[2][TRAJ_GRID + 1];  /* each point's rows, sides as g */
 	struct geo gm[TRAJ_GRID];              /* each segment's midpoint (checked) */
-	struct topp_rows rm[TRAJ_GRID];        /* and its rows (the signs of both ends) */
+	struct topp_rows rm[TRAJ_GRID];        /* and its rows (its segment's signs) */
 	struct topp_lin lin[2][TRAJ_GRID + 1]; /* the rows at the timing's k, sides as g */
 	float top[2][TRAJ_GRID + 1];           /* the caps' and rims' largest s', sides as g */
 	float k[TRAJ_GRID + 1];                /* the timing's scale of the limits at each point */
