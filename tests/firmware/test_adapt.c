@@ -454,6 +454,36 @@ static void test_friction_frozen_on_slip_and_collision(void **state)
 	free(a);
 }
 
+/* An estimate is taken only below [adapt] friction_variance_gate: on a floor of twice the
+ * model's friction, each 1 s hold's Coulomb friction 10 % off it either way (a floor that is not
+ * one), the default gate (1e-4) takes it, the smallest the key allows (1e-9) never. */
+static void test_friction_taken_only_below_its_variance_gate(void **state)
+{
+	(void)state;
+	struct adapt *a = calloc(1, sizeof(*a));
+
+	for (int q = 0; q < 2; q++) {
+		struct ctl_settings s = settings();
+		uint32_t mask = 0;
+
+		if (q)
+			s.adapt.friction_variance_gate = 1e-9;
+		adapt_init(a, &s);
+		for (int n = 0; n < 40; n++) {
+			const double f = n % 2 ? 0.5 : 1.0, sg = (n / 2) % 2 ? -1.0 : 1.0;
+			const double off = 0.1 * (((n * 7) % 5) - 2) / 2.0; /* -10 .. +10 % */
+
+			mask |= hold(a, &s,
+			             (const double[3]){sg * 1.2 * f, -sg * 0.9 * f, sg * 4.0 * f},
+			             2.0, 2.0 * (1.0 + off), 1.0, 0);
+		}
+		printf("gate %g: friction %s\n", s.adapt.friction_variance_gate,
+		       mask & ADAPT_CHANGED_FRICTION ? "taken" : "not taken");
+		assert_int_equal(!!(mask & ADAPT_CHANGED_FRICTION), !q);
+	}
+	free(a);
+}
+
 /* Steady means the whole body's velocity changed by less than ADAPT_FRIC_STEADY C / M per
  * second (adapt.h): axis v ramped at 3x that rate under a steady force gives no axis a sample,
  * at a third of it every axis its samples. */
@@ -840,6 +870,7 @@ int main(void)
 	    cmocka_unit_test(test_one_speed_follows_a_common_scale),
 	    cmocka_unit_test(test_friction_frozen_on_slip_and_collision),
 	    cmocka_unit_test(test_friction_sampled_only_while_steady),
+	    cmocka_unit_test(test_friction_taken_only_below_its_variance_gate),
 	    cmocka_unit_test(test_friction_gains_match_the_prepared_ones),
 	    cmocka_unit_test(test_a_new_floor_is_followed),
 	    cmocka_unit_test(test_a_wrong_friction_acceptance_is_reverted),
