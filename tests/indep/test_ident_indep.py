@@ -27,7 +27,10 @@ e_max and sigma must be within that fraction of Table IV. With the camera, the b
 below what the TRUE parameters give on the same log times 1.1: validate runs with the truth too,
 and the camera's own noise (1 cm, 3 deg at 25 Hz) sets a floor no model can go under.
 --encoder-floor: the encoders' bound gets the same floor (a sample after a lost one, whose
-interval is not known, can set e_max with the true parameters too).
+interval is not known, can set e_max with the true parameters too). The floor itself, the true
+parameters' validation, must be within Table IV: an exact model reproduces the log at least as
+well as the paper's final one (a validation that ran its plant on the wrong layout gave 2.4 m/s,
+and with the floor beside it passed).
 
 Other wheel layouts (--wheels, --angles, --dist as write_logs.py): identify gets the layout from a
 robot file (the base INI and the truth's layout keys, --layout-from robot) or from the log's
@@ -274,6 +277,11 @@ def ident_task(bin_dir, layout, entry, source, assert_params=True, val_fraction=
             out["fail"].append("validation with the true parameters: " + msg)
             return out
         out["validation_truth"] = floor
+        for ax, (emax, sig) in floor.items():  # the true parameters reproduce the log
+            if not (emax <= TABLE_IV[ax][0] and sig <= TABLE_IV[ax][1]):
+                out["fail"].append(f"validate with the true parameters {ax}: e_max {emax:.4g}, "
+                                   f"sigma {sig:.4g} beyond Table IV's {TABLE_IV[ax][0]:.4g}, "
+                                   f"{TABLE_IV[ax][1]:.4g}")
     for ax, (emax, sig) in out["validation"].items():
         bmax, bsig = (val_fraction * b for b in TABLE_IV[ax])
         if floor:
