@@ -84,6 +84,15 @@ if ! { cmake --preset default -S "$src" -B "$build" >"$work/configure.log" 2>&1 
   exit 2
 fi
 
+# The package's compiled modules (python/setup.py's extensions) built from $src/python into the
+# copy on PYTHONPATH; the installed ones kept in so.orig to put back.
+mkdir -p "$work/so.orig"
+(cd "$pyover" && find . -name '*.so' -exec cp --parents {} "$work/so.orig/" \;)
+build_ext() {
+  (cd "$src/python" && "$root/.venv/bin/python" setup.py -q build_ext --inplace) >"$1" 2>&1 &&
+    (cd "$src/python" && find omni4 -name '_omni4*.so' -exec cp --parents {} "$pyover/" \;)
+}
+
 caught=0 survived=0 stale=0
 survivors=()
 for i in "${!ids[@]}"; do
@@ -107,7 +116,14 @@ open(path, "w").write(s.replace(old, new, 1))
 EOF
   done
   t0=$SECONDS
-  if ! cmake --build "$build" >"$work/$id.build.log" 2>&1; then
+  # the package's C (python/**/*.c) is compiled into its modules: rebuilt from the mutated tree
+  # and put in the copy on PYTHONPATH (the installed ones put back after)
+  ext=
+  case ${files[$i]} in python/*.c) ext=1 ;; esac
+  if [ -n "$ext" ] && ! build_ext "$work/$id.ext.log"; then
+    verdict="CAUGHT    $id: the package's modules do not build"
+    caught=$((caught + 1))
+  elif ! cmake --build "$build" >"$work/$id.build.log" 2>&1; then
     verdict="CAUGHT    $id: the build fails"
     caught=$((caught + 1))
   elif ctest --test-dir "$build" -R "$regex" -j2 --timeout 900 >"$work/$id.test.log" 2>&1; then
@@ -122,6 +138,7 @@ EOF
   echo "$verdict ($((SECONDS - t0)) s)"
   cp "$work/orig" "$f"
   [ -z "$over" ] || cp "$work/orig.over" "$over"
+  [ -z "$ext" ] || (cd "$work/so.orig" && find . -name '*.so' -exec cp --parents {} "$pyover/" \;)
 done
 cmake --build "$build" >/dev/null 2>&1 || true
 echo
